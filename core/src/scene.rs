@@ -1,0 +1,368 @@
+//! The scene as plain data: what the delegate hands the core. Nothing here knows USD; every
+//! array is already flattened (triangulated, primvars expanded per vertex), every transform is
+//! a world matrix. [`SceneDesc::validate`] rejects bad input with a message naming the item.
+
+use glam::{Mat4, Vec2, Vec3};
+
+/// An RGB triple in the scene's working colour space (linear).
+pub type Rgb = [f32; 3];
+
+/// A spectrum as the scene states it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SpectrumDesc {
+    /// Reflectance-like (bounded) or coefficient RGB, uplifted to a smooth spectrum.
+    Rgb(Rgb),
+    /// Tabulated samples (nm, value), linearly interpolated, clamped at the ends.
+    Tabulated { lambda: Vec<f32>, value: Vec<f32> },
+}
+
+/// A texture's pixels, already decoded (the bridge reads files with OpenImageIO).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureDesc {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// 1, 3 or 4 channels, row-major, first row at the top of the image (v = 1).
+    pub channels: u32,
+    /// Linear values (colour textures are linearised by the bridge).
+    pub pixels: Vec<f32>,
+    pub wrap_s: Wrap,
+    pub wrap_t: Wrap,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Wrap {
+    #[default]
+    Repeat,
+    Mirror,
+    Clamp,
+    /// Outside [0,1] the texture reads the fallback value.
+    Black,
+}
+
+/// Which part of a texture feeds an input.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Channel {
+    Rgb,
+    R,
+    G,
+    B,
+    A,
+}
+
+/// A texture lookup as UsdUVTexture + UsdTransform2d + UsdPrimvarReader describe it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TexLookup {
+    pub texture: usize,
+    pub channel: Channel,
+    /// UsdTransform2d: uv' = R(rotation°)·(S·uv) + translation, applied as USD orders it.
+    pub scale: Vec2,
+    pub rotation_deg: f32,
+    pub translation: Vec2,
+    /// value = texel · tex_scale + bias (UsdUVTexture `scale`, `bias`; the first 3 of rgba).
+    pub tex_scale: [f32; 4],
+    pub bias: [f32; 4],
+    /// Value outside the texture for `Wrap::Black` and when the file could not be read.
+    pub fallback: [f32; 4],
+}
+
+/// A colour input: constant or textured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ColorInput {
+    Const(Rgb),
+    Texture(TexLookup),
+}
+
+/// A scalar input: constant or textured.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FloatInput {
+    Const(f32),
+    Texture(TexLookup),
+}
+
+/// UsdPreviewSurface, every input.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PreviewSurfaceDesc {
+    pub diffuse_color: ColorInput,
+    pub emissive_color: ColorInput,
+    pub use_specular_workflow: bool,
+    pub specular_color: ColorInput,
+    pub metallic: FloatInput,
+    pub roughness: FloatInput,
+    pub clearcoat: FloatInput,
+    pub clearcoat_roughness: FloatInput,
+    pub opacity: FloatInput,
+    /// > 0: cut-out (opacity below it is fully transparent, above fully opaque).
+    pub opacity_threshold: f32,
+    pub ior: f32,
+    /// Tangent-space normal map (values in [0,1] remapped to [-1,1] by scale/bias upstream).
+    pub normal: Option<TexLookup>,
+}
+
+impl Default for PreviewSurfaceDesc {
+    fn default() -> Self {
+        PreviewSurfaceDesc {
+            diffuse_color: ColorInput::Const([0.18; 3]),
+            emissive_color: ColorInput::Const([0.0; 3]),
+            use_specular_workflow: false,
+            specular_color: ColorInput::Const([0.0; 3]),
+            metallic: FloatInput::Const(0.0),
+            roughness: FloatInput::Const(0.5),
+            clearcoat: FloatInput::Const(0.0),
+            clearcoat_roughness: FloatInput::Const(0.01),
+            opacity: FloatInput::Const(1.0),
+            opacity_threshold: 0.0,
+            ior: 1.5,
+            normal: None,
+        }
+    }
+}
+
+/// Surface model of a TideWater interface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum SurfaceModel {
+    #[default]
+    Dielectric,
+    Sea,
+}
+
+/// TideWater (contract §3): a dielectric interface, optionally dispersive.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WaterDesc {
+    pub ior: f32,
+    pub dispersion: bool,
+    pub temperature: f32,
+    pub salinity: f32,
+    pub roughness: f32,
+    pub surface_model: SurfaceModel,
+    pub wind_speed: f32,
+    pub wind_direction: f32,
+    pub priority: i32,
+}
+
+impl Default for WaterDesc {
+    fn default() -> Self {
+        WaterDesc {
+            ior: 1.333,
+            dispersion: false,
+            temperature: 20.0,
+            salinity: 0.0,
+            roughness: 0.0,
+            surface_model: SurfaceModel::Dielectric,
+            wind_speed: 5.0,
+            wind_direction: 0.0,
+            priority: 0,
+        }
+    }
+}
+
+/// What a surface does to light.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SurfaceDesc {
+    /// Lambertian reflector.
+    Diffuse { color: ColorInput },
+    /// UsdPreviewSurface.
+    Preview(PreviewSurfaceDesc),
+    /// TideWater, or any clear dielectric.
+    Water(WaterDesc),
+    /// GGX conductor with complex IOR (per RGB, uplifted).
+    Conductor { eta: Rgb, k: Rgb, roughness: f32 },
+    /// Emits `radiance` (RGB, uplifted as an illuminant) on the front side, black otherwise.
+    Emissive { radiance: Rgb, two_sided: bool },
+}
+
+/// A material: a surface plus the medium inside the closed object it is bound to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialDesc {
+    pub name: String,
+    pub surface: SurfaceDesc,
+    /// Index into `SceneDesc::media`: what fills the object's interior.
+    pub interior_medium: Option<usize>,
+}
+
+/// Phase function of a medium.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PhaseDesc {
+    Isotropic,
+    HenyeyGreenstein { g: f32 },
+    /// w·HG(g1) + (1−w)·HG(g2).
+    DualHg { g1: f32, g2: f32, w: f32 },
+}
+
+/// A homogeneous participating medium (coefficients in 1/m, i.e. per scene unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MediumDesc {
+    pub name: String,
+    pub sigma_a: SpectrumDesc,
+    pub sigma_s: SpectrumDesc,
+    pub scale: f32,
+    pub phase: PhaseDesc,
+}
+
+/// A triangle mesh, already triangulated and with primvars expanded per vertex.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshDesc {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Three indices per triangle, counter-clockwise seen from the front (right-handed).
+    pub indices: Vec<u32>,
+    /// Per-vertex shading normals (same length as `positions`), or none for flat shading.
+    pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates.
+    pub uvs: Option<Vec<Vec2>>,
+    /// Rendered from both sides (affects only the facing test of one-sided emitters/culling).
+    pub double_sided: bool,
+}
+
+/// A set of spheres (UsdGeomPoints), optionally moving linearly over the shutter.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SpheresDesc {
+    pub name: String,
+    pub centers: Vec<Vec3>,
+    pub radii: Vec<f32>,
+    /// Object-space velocity per point (units per second of shutter time), or none.
+    pub velocities: Option<Vec<Vec3>>,
+}
+
+/// What an instance places.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GeometryRef {
+    Mesh(usize),
+    Spheres(usize),
+}
+
+/// One placement of a geometry in the world.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InstanceDesc {
+    /// Name (prim path) used in messages.
+    pub name: String,
+    pub geometry: GeometryRef,
+    /// Object-to-world transforms at `times`, one or more (transform motion blur).
+    pub transforms: Vec<Mat4>,
+    /// Times (seconds, in shutter time) of `transforms`; same length, increasing.
+    pub times: Vec<f32>,
+    pub material: usize,
+    /// Identifier written to the `primId` AOV.
+    pub id: u32,
+    pub visible_to_camera: bool,
+    pub casts_shadows: bool,
+}
+
+/// Kind of light and its shape (in the light's local frame; USD conventions).
+#[derive(Clone, Debug, PartialEq)]
+pub enum LightShape {
+    /// Shines along local −Z; `angle_deg` is the angular diameter.
+    Distant { angle_deg: f32 },
+    /// Infinite environment; lat-long texture oriented as UsdLuxDomeLight (+Y up).
+    Dome { texture: Option<usize> },
+    Sphere { radius: f32, treat_as_point: bool },
+    /// In the local XY plane, emitting towards −Z.
+    Rect { width: f32, height: f32, texture: Option<usize> },
+    /// In the local XY plane, emitting towards −Z.
+    Disk { radius: f32 },
+    /// Along the local X axis.
+    Cylinder { radius: f32, length: f32, treat_as_line: bool },
+}
+
+/// A light as UsdLux states it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightDesc {
+    pub name: String,
+    pub shape: LightShape,
+    /// Light-to-world transform.
+    pub transform: Mat4,
+    pub color: Rgb,
+    pub intensity: f32,
+    pub exposure: f32,
+    pub normalize: bool,
+    /// Kelvin, when `enableColorTemperature` is on.
+    pub color_temperature: Option<f32>,
+    /// Whether camera rays see the light itself.
+    pub visible_to_camera: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Projection {
+    #[default]
+    Perspective,
+    Orthographic,
+}
+
+/// A camera as UsdGeomCamera states it (lengths in scene units; apertures and focal length
+/// in the same "tenths of a scene unit" USD uses: mm for metre scenes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraDesc {
+    pub name: String,
+    /// Camera-to-world at `times` (looks down local −Z, +Y up).
+    pub transforms: Vec<Mat4>,
+    pub times: Vec<f32>,
+    pub projection: Projection,
+    pub focal_length: f32,
+    pub horizontal_aperture: f32,
+    pub vertical_aperture: f32,
+    pub horizontal_aperture_offset: f32,
+    pub vertical_aperture_offset: f32,
+    pub clipping_range: [f32; 2],
+    /// 0 = pinhole.
+    pub f_stop: f32,
+    pub focus_distance: f32,
+    pub shutter_open: f32,
+    pub shutter_close: f32,
+    /// Exposure in stops (multiplies by 2^exposure).
+    pub exposure: f32,
+    pub exposure_f_stop: f32,
+    pub exposure_time: f32,
+    pub exposure_iso: f32,
+    pub exposure_responsivity: f32,
+    /// Index into `SceneDesc::media`: the medium the camera sits in (underwater camera).
+    pub medium: Option<usize>,
+}
+
+impl Default for CameraDesc {
+    fn default() -> Self {
+        CameraDesc {
+            name: "/camera".into(),
+            transforms: vec![Mat4::IDENTITY],
+            times: vec![0.0],
+            projection: Projection::Perspective,
+            focal_length: 50.0,
+            horizontal_aperture: 20.955,
+            vertical_aperture: 15.2908,
+            horizontal_aperture_offset: 0.0,
+            vertical_aperture_offset: 0.0,
+            clipping_range: [1.0, 1_000_000.0],
+            f_stop: 0.0,
+            focus_distance: 0.0,
+            shutter_open: 0.0,
+            shutter_close: 0.0,
+            exposure: 0.0,
+            exposure_f_stop: 1.0,
+            exposure_time: 1.0,
+            exposure_iso: 100.0,
+            exposure_responsivity: 1.0,
+            medium: None,
+        }
+    }
+}
+
+/// Working colour space of RGB inputs and the `color` output.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ColorSpace {
+    #[default]
+    LinearRec709,
+    AcesCg,
+}
+
+/// Everything the renderer needs.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SceneDesc {
+    pub meshes: Vec<MeshDesc>,
+    pub spheres: Vec<SpheresDesc>,
+    pub instances: Vec<InstanceDesc>,
+    pub materials: Vec<MaterialDesc>,
+    pub media: Vec<MediumDesc>,
+    pub textures: Vec<TextureDesc>,
+    pub lights: Vec<LightDesc>,
+    pub camera: CameraDesc,
+    pub color_space: ColorSpace,
+}
