@@ -3,8 +3,10 @@
 //! Tide's renderer: a spectral, volumetric path tracer for water. It knows nothing of USD:
 //! plain data goes in ([`scene::SceneDesc`]), images come out.
 
+pub mod accel;
 pub mod math;
 pub mod render;
+pub mod sampler;
 pub mod scene;
 pub mod spectrum;
 pub mod testing;

@@ -1,0 +1,420 @@
+//! The BVH: Tide's two-level acceleration structure. One compressed-wide BVH (obvhs `CwBvh`)
+//! per geometry (a mesh's triangles, or a points set's spheres, intersected by callback), and
+//! one over the instances that place them. Instances may move (transform motion blur with any
+//! number of samples, rotations interpolated on the sphere), spheres may move by velocity.
+
+pub mod motion;
+
+use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
+use glam::{Mat4, Vec3, Vec3A};
+use motion::MotionTransform;
+use obvhs::{
+    aabb::Aabb,
+    cwbvh::{builder::build_cwbvh, builder::build_cwbvh_from_tris, CwBvh},
+    ray::{Ray as BvhRay, RayHit},
+    triangle::Triangle,
+    Boundable, BvhBuildParams,
+};
+use std::time::Duration;
+
+/// A ray with a time (seconds of shutter time) and a maximum distance.
+#[derive(Clone, Copy, Debug)]
+pub struct Ray {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub t_max: f32,
+    pub time: f32,
+}
+
+/// The closest intersection found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Index into the instances the accelerator was built from.
+    pub instance: u32,
+    /// Triangle index in the mesh, or point index in the points set.
+    pub prim: u32,
+    /// Barycentrics (triangles: weights of vertices 1 and 2).
+    pub u: f32,
+    pub v: f32,
+}
+
+/// A triangle prepared for intersection: a vertex and two edges.
+#[derive(Clone, Copy, Debug)]
+struct TriPre {
+    v0: Vec3A,
+    e1: Vec3A,
+    e2: Vec3A,
+}
+
+impl TriPre {
+    /// Möller–Trumbore; returns (t, u, v) with u, v the weights of vertices 1 and 2.
+    #[inline(always)]
+    fn intersect(&self, o: Vec3A, d: Vec3A, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
+        let p = d.cross(self.e2);
+        let det = self.e1.dot(p);
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let inv = 1.0 / det;
+        let s = o - self.v0;
+        let u = s.dot(p) * inv;
+        if !(0.0..=1.0).contains(&u) {
+            return None;
+        }
+        let q = s.cross(self.e1);
+        let v = d.dot(q) * inv;
+        if v < 0.0 || u + v > 1.0 {
+            return None;
+        }
+        let t = self.e2.dot(q) * inv;
+        if t > t_min && t < t_max {
+            Some((t, u, v))
+        } else {
+            None
+        }
+    }
+}
+
+struct TriBlas {
+    bvh: CwBvh,
+    /// Triangles in BVH leaf order (a triangle may repeat when spatial splits are used).
+    tris: Vec<TriPre>,
+    /// Original triangle index of each entry of `tris`.
+    ids: Vec<u32>,
+}
+
+#[derive(Clone, Copy)]
+struct SphereBound(Aabb);
+
+impl Boundable for SphereBound {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
+struct SphereBlas {
+    bvh: CwBvh,
+    centers: Vec<Vec3>,
+    radii: Vec<f32>,
+    velocities: Option<Vec<Vec3>>,
+}
+
+enum Blas {
+    Tri(TriBlas),
+    Sphere(SphereBlas),
+    Empty,
+}
+
+struct InstanceRec {
+    blas: usize,
+    xf: MotionTransform,
+}
+
+/// Bytes and timings of a build, for reports.
+#[derive(Clone, Debug, Default)]
+pub struct BuildStats {
+    pub triangles: usize,
+    pub spheres: usize,
+    pub instances: usize,
+    pub bytes: usize,
+    pub seconds: f64,
+}
+
+/// The scene's acceleration structure.
+pub struct Accel {
+    tlas: Option<CwBvh>,
+    blas: Vec<Blas>,
+    instances: Vec<InstanceRec>,
+    bounds: (Vec3, Vec3),
+    pub stats: BuildStats,
+}
+
+/// Intersects a sphere; returns the nearest t in (t_min, t_max).
+#[inline(always)]
+fn intersect_sphere(c: Vec3A, r: f32, o: Vec3A, d: Vec3A, t_min: f32, t_max: f32) -> Option<f32> {
+    // Numerically robust form (Haines et al., Ray Tracing Gems ch. 7)
+    let f = o - c;
+    let a = d.dot(d);
+    let b = -f.dot(d);
+    let l = f + (b / a) * d;
+    let disc = r * r - l.dot(l);
+    if disc < 0.0 {
+        return None;
+    }
+    let c2 = f.dot(f) - r * r;
+    let q = b + b.signum() * (a * disc).sqrt();
+    if q == 0.0 {
+        return None;
+    }
+    let t0 = c2 / q;
+    let t1 = q / a;
+    let (t0, t1) = if t0 < t1 { (t0, t1) } else { (t1, t0) };
+    if t0 > t_min && t0 < t_max {
+        Some(t0)
+    } else if t1 > t_min && t1 < t_max {
+        Some(t1)
+    } else {
+        None
+    }
+}
+
+/// The traversal's ray. Negative zeros in the direction are made positive: the traversal picks
+/// a ray octant from the sign test `d < 0` while the reciprocal keeps the sign of −0, and the two
+/// must agree (an axis-aligned ray such as −Y would otherwise miss everything).
+#[inline(always)]
+fn bvh_ray(o: Vec3A, d: Vec3A, t_max: f32) -> BvhRay {
+    BvhRay::new(o, d + Vec3A::ZERO, 0.0, t_max)
+}
+
+/// A CwBvh over a single primitive is a lone leaf that traversal never enters: give such a
+/// build a duplicate (indices are taken modulo the true count).
+fn pad_single<T: Clone>(v: &mut Vec<T>) {
+    if v.len() == 1 {
+        v.push(v[0].clone());
+    }
+}
+
+fn bvh_params(n: usize) -> BvhBuildParams {
+    // Higher-quality builds pay off for big meshes traced by many rays.
+    if n > 200_000 {
+        BvhBuildParams::medium_build()
+    } else {
+        BvhBuildParams::slow_build()
+    }
+}
+
+fn build_tri_blas(mesh: &MeshDesc) -> Blas {
+    let ntri = mesh.indices.len() / 3;
+    if ntri == 0 {
+        return Blas::Empty;
+    }
+    let mut tris: Vec<Triangle> = (0..ntri)
+        .map(|i| {
+            let v = |k: usize| Vec3A::from(mesh.positions[mesh.indices[3 * i + k] as usize]);
+            Triangle { v0: v(0), v1: v(1), v2: v(2) }
+        })
+        .collect();
+    pad_single(&mut tris);
+    let bvh = build_cwbvh_from_tris(&tris, bvh_params(ntri), &mut Duration::default());
+    let ids: Vec<u32> = bvh.primitive_indices.iter().map(|&i| i % ntri as u32).collect();
+    let pre = ids
+        .iter()
+        .map(|&i| {
+            let t = &tris[i as usize];
+            TriPre { v0: t.v0, e1: t.v1 - t.v0, e2: t.v2 - t.v0 }
+        })
+        .collect();
+    Blas::Tri(TriBlas { bvh, tris: pre, ids })
+}
+
+fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
+    if s.centers.is_empty() {
+        return Blas::Empty;
+    }
+    let mut bounds: Vec<SphereBound> = s
+        .centers
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| {
+            let r = Vec3A::splat(s.radii[i]);
+            let mut bb = Aabb::new(Vec3A::from(c) - r, Vec3A::from(c) + r);
+            if let Some(v) = &s.velocities {
+                for t in [shutter.0, shutter.1] {
+                    let cc = Vec3A::from(c + v[i] * t);
+                    bb = bb.union(&Aabb::new(cc - r, cc + r));
+                }
+            }
+            SphereBound(bb)
+        })
+        .collect();
+    pad_single(&mut bounds);
+    let bvh = build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
+    Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone() })
+}
+
+#[derive(Clone, Copy)]
+struct InstBound(Aabb);
+impl Boundable for InstBound {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
+fn transform_aabb(m: &Mat4, bb: &Aabb) -> Aabb {
+    let mut out = Aabb::empty();
+    for k in 0..8 {
+        let p = Vec3::new(
+            if k & 1 == 0 { bb.min.x } else { bb.max.x },
+            if k & 2 == 0 { bb.min.y } else { bb.max.y },
+            if k & 4 == 0 { bb.min.z } else { bb.max.z },
+        );
+        out.extend(Vec3A::from(m.transform_point3(p)));
+    }
+    out
+}
+
+impl Accel {
+    /// Builds the structure. `shutter` is the time interval rays will sample.
+    /// Inputs must be validated (finite, well-indexed): see `SceneDesc::validate`.
+    pub fn build(meshes: &[MeshDesc], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
+        let start = std::time::Instant::now();
+        let mut blas = Vec::with_capacity(meshes.len() + spheres.len());
+        let mut stats = BuildStats::default();
+        for m in meshes {
+            stats.triangles += m.indices.len() / 3;
+            blas.push(build_tri_blas(m));
+        }
+        for s in spheres {
+            stats.spheres += s.centers.len();
+            blas.push(build_sphere_blas(s, shutter));
+        }
+        let mut recs = Vec::with_capacity(instances.len());
+        let mut ibounds = Vec::with_capacity(instances.len());
+        for inst in instances {
+            let b = match inst.geometry {
+                GeometryRef::Mesh(i) => i,
+                GeometryRef::Spheres(i) => meshes.len() + i,
+            };
+            let xf = MotionTransform::new(&inst.transforms, &inst.times);
+            let local = match &blas[b] {
+                Blas::Tri(t) => t.bvh.total_aabb,
+                Blas::Sphere(s) => s.bvh.total_aabb,
+                Blas::Empty => Aabb::empty(),
+            };
+            let mut wb = Aabb::empty();
+            if local.valid() {
+                for m in xf.bounding_matrices(shutter) {
+                    wb = wb.union(&transform_aabb(&m, &local));
+                }
+            }
+            recs.push(InstanceRec { blas: b, xf });
+            ibounds.push(InstBound(wb));
+        }
+        let tlas = if ibounds.iter().any(|b| b.0.valid()) {
+            let mut ibounds = ibounds.clone();
+            pad_single(&mut ibounds);
+            Some(build_cwbvh(&ibounds, BvhBuildParams::slow_build(), &mut Duration::default()))
+        } else {
+            None
+        };
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for b in &ibounds {
+            if b.0.valid() {
+                lo = lo.min(b.0.min.into());
+                hi = hi.max(b.0.max.into());
+            }
+        }
+        if !(lo.x <= hi.x) {
+            lo = Vec3::ZERO;
+            hi = Vec3::ZERO;
+        }
+        stats.instances = recs.len();
+        stats.bytes = blas
+            .iter()
+            .map(|b| match b {
+                Blas::Tri(t) => t.bvh.nodes.len() * 80 + t.tris.len() * (48 + 4) + t.bvh.primitive_indices.len() * 4,
+                Blas::Sphere(s) => s.bvh.nodes.len() * 80 + s.centers.len() * 16 + s.bvh.primitive_indices.len() * 4,
+                Blas::Empty => 0,
+            })
+            .sum::<usize>()
+            + tlas.as_ref().map_or(0, |t| t.nodes.len() * 80);
+        stats.seconds = start.elapsed().as_secs_f64();
+        Accel { tlas, blas, instances: recs, bounds: (lo, hi), stats }
+    }
+
+    /// World bounds of everything (over the shutter).
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// Object-to-world matrix of an instance at a time.
+    pub fn instance_transform(&self, instance: u32, time: f32) -> Mat4 {
+        self.instances[instance as usize].xf.at(time)
+    }
+
+    /// Closest hit in (0, ray.t_max).
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let tlas = self.tlas.as_ref()?;
+        let mut best = Hit { t: ray.t_max, instance: u32::MAX, prim: 0, u: 0.0, v: 0.0 };
+        let wray = bvh_ray(ray.o.into(), ray.d.into(), ray.t_max);
+        let mut rh = RayHit::none();
+        tlas.ray_traverse(wray, &mut rh, |r, id| {
+            let inst_idx = tlas.primitive_indices[id] as usize % self.instances.len();
+            let inst = &self.instances[inst_idx];
+            let (o, d) = inst.xf.ray_to_local(ray.o, ray.d, ray.time);
+            match self.intersect_blas(inst.blas, o.into(), d.into(), r.tmax, ray.time) {
+                Some((t, prim, u, v)) if t < best.t => {
+                    best = Hit { t, instance: inst_idx as u32, prim, u, v };
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        if best.instance == u32::MAX {
+            None
+        } else {
+            Some(best)
+        }
+    }
+
+    #[inline]
+    fn intersect_blas(&self, b: usize, o: Vec3A, d: Vec3A, t_max: f32, time: f32) -> Option<(f32, u32, f32, f32)> {
+        match &self.blas[b] {
+            Blas::Tri(tb) => {
+                let mut best: Option<(f32, u32, f32, f32)> = None;
+                let r = bvh_ray(o, d, t_max);
+                let mut rh = RayHit::none();
+                tb.bvh.ray_traverse(r, &mut rh, |r, id| match tb.tris[id].intersect(o, d, 0.0, r.tmax) {
+                    Some((t, u, v)) => {
+                        best = Some((t, tb.ids[id], u, v));
+                        t
+                    }
+                    None => f32::INFINITY,
+                });
+                best
+            }
+            Blas::Sphere(sb) => {
+                let mut best: Option<(f32, u32, f32, f32)> = None;
+                let r = bvh_ray(o, d, t_max);
+                let mut rh = RayHit::none();
+                sb.bvh.ray_traverse(r, &mut rh, |r, id| {
+                    let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
+                    let mut c = sb.centers[i];
+                    if let Some(v) = &sb.velocities {
+                        c += v[i] * time;
+                    }
+                    match intersect_sphere(c.into(), sb.radii[i], o, d, 0.0, r.tmax) {
+                        Some(t) => {
+                            best = Some((t, i as u32, 0.0, 0.0));
+                            t
+                        }
+                        None => f32::INFINITY,
+                    }
+                });
+                best
+            }
+            Blas::Empty => None,
+        }
+    }
+
+    /// Centre of a sphere at a time (object space).
+    pub fn sphere_center(&self, instance: u32, prim: u32, time: f32) -> Option<(Vec3, f32)> {
+        let inst = &self.instances[instance as usize];
+        match &self.blas[inst.blas] {
+            Blas::Sphere(sb) => {
+                let i = prim as usize;
+                let mut c = sb.centers[i];
+                if let Some(v) = &sb.velocities {
+                    c += v[i] * time;
+                }
+                Some((c, sb.radii[i]))
+            }
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

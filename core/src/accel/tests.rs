@@ -1,0 +1,116 @@
+use super::*;
+use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
+use glam::{Mat4, Quat, Vec3};
+
+fn quad() -> MeshDesc {
+    MeshDesc {
+        name: "quad".into(),
+        positions: vec![Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)],
+        indices: vec![0, 2, 1, 0, 3, 2],
+        ..Default::default()
+    }
+}
+
+fn inst(g: GeometryRef, m: Vec<Mat4>, times: Vec<f32>) -> InstanceDesc {
+    InstanceDesc { name: "i".into(), geometry: g, transforms: m, times, material: 0, id: 0, visible_to_camera: true, casts_shadows: true }
+}
+
+#[test]
+fn hits_a_translated_quad_and_a_sphere_in_order() {
+    let meshes = vec![quad()];
+    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None }];
+    let instances = vec![
+        inst(GeometryRef::Mesh(0), vec![Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0))], vec![0.0]),
+        inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0]),
+    ];
+    let a = Accel::build(&meshes, &spheres, &instances, (0.0, 0.0));
+    let down = Ray { o: Vec3::new(0.1, 10.0, 0.2), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 };
+    let h = a.intersect(&down).unwrap();
+    assert_eq!(h.instance, 1);
+    // sphere top at y = 3.5 (sphere centre offset by (0.1, 0.2) in xz)
+    let expect = 10.0 - (3.0 + (0.25f32 - 0.05).sqrt());
+    assert!((h.t - expect).abs() < 1e-4, "{} vs {}", h.t, expect);
+    let beside = Ray { o: Vec3::new(0.9, 10.0, 0.9), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 };
+    let h = a.intersect(&beside).unwrap();
+    assert_eq!(h.instance, 0);
+    assert!((h.t - 9.0).abs() < 1e-5);
+    // t_max limits the search
+    assert!(a.intersect(&Ray { t_max: 8.0, ..beside }).is_none());
+}
+
+#[test]
+fn ocean_scale_quads_are_hit_exactly() {
+    // a 10 km quad hit far from the origin: t must be accurate to well below a millimetre
+    let mut m = quad();
+    for p in &mut m.positions {
+        *p *= 5000.0;
+    }
+    let a = Accel::build(&[m], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
+    let r = Ray { o: Vec3::new(3000.0, 2.0, -2500.0), d: Vec3::new(0.0, -1.0, 0.0), t_max: f32::INFINITY, time: 0.0 };
+    let h = a.intersect(&r).unwrap();
+    assert!((h.t - 2.0).abs() < 1e-3);
+}
+
+#[test]
+fn moving_instance_is_hit_where_it_is_at_the_ray_time() {
+    let m0 = Mat4::from_translation(Vec3::new(-5.0, 0.0, 0.0));
+    let m1 = Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0));
+    let a = Accel::build(&[quad()], &[], &[inst(GeometryRef::Mesh(0), vec![m0, m1], vec![0.0, 1.0])], (0.0, 1.0));
+    let r = |time| Ray { o: Vec3::new(0.0, 1.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
+    assert!(a.intersect(&r(0.0)).is_none());
+    assert!(a.intersect(&r(0.5)).is_some());
+    assert!(a.intersect(&r(1.0)).is_none());
+}
+
+#[test]
+fn rotation_is_interpolated_on_an_arc() {
+    // quad rotated 90° about Y over the shutter: halfway it is at 45°, not a sheared lerp
+    let m0 = Mat4::IDENTITY;
+    let m1 = Mat4::from_quat(Quat::from_rotation_y(std::f32::consts::FRAC_PI_2));
+    let xf = motion::MotionTransform::new(&[m0, m1], &[0.0, 1.0]);
+    let mid = xf.at(0.5);
+    let x = mid.transform_vector3(Vec3::X);
+    assert!((x.length() - 1.0).abs() < 1e-5);
+    assert!((x - Vec3::new(0.5f32.sqrt(), 0.0, -(0.5f32.sqrt()))).length() < 1e-5);
+}
+
+#[test]
+fn moving_spheres_follow_their_velocity() {
+    let s = SpheresDesc { name: "s".into(), centers: vec![Vec3::ZERO], radii: vec![0.1], velocities: Some(vec![Vec3::new(2.0, 0.0, 0.0)]) };
+    let a = Accel::build(&[], &[s], &[inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.5));
+    let r = |x: f32, time| Ray { o: Vec3::new(x, 5.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
+    assert!(a.intersect(&r(0.0, 0.0)).is_some());
+    assert!(a.intersect(&r(1.0, 0.0)).is_none());
+    assert!(a.intersect(&r(1.0, 0.5)).is_some());
+}
+
+#[test]
+fn brute_force_agrees_on_random_rays() {
+    // random triangle soup vs brute force over all triangles
+    let mut rng = crate::testing::chi2::TestRng::new(5);
+    let mut m = MeshDesc { name: "soup".into(), ..Default::default() };
+    for i in 0..300u32 {
+        let c = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 10.0;
+        for _ in 0..3 {
+            m.positions.push(c + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5);
+        }
+        m.indices.extend([3 * i, 3 * i + 1, 3 * i + 2]);
+    }
+    let a = Accel::build(&[m.clone()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
+    for _ in 0..500 {
+        let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 14.0 - 2.0;
+        let d = crate::math::sample_uniform_sphere(glam::Vec2::new(rng.next_f32(), rng.next_f32()));
+        let mut best = f32::INFINITY;
+        for i in 0..300usize {
+            let p = |k: usize| m.positions[m.indices[3 * i + k] as usize];
+            let t = TriPre { v0: p(0).into(), e1: (p(1) - p(0)).into(), e2: (p(2) - p(0)).into() };
+            if let Some((t, _, _)) = t.intersect(o.into(), d.into(), 0.0, best) {
+                best = t;
+            }
+        }
+        let h = a.intersect(&Ray { o, d, t_max: f32::INFINITY, time: 0.0 });
+        assert_eq!(h.map(|h| h.t), if best.is_finite() { Some(best) } else { None });
+    }
+}
+
+

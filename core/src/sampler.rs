@@ -1,0 +1,236 @@
+//! Low-discrepancy sampling: Owen-scrambled Sobol points (Burley 2020, "Practical Hash-based
+//! Owen Scrambling"), shuffled per pixel and padded in groups of four dimensions.
+//!
+//! Every sample value is a pure function of (seed, pixel, sample index, dimension): no sampler
+//! state crosses pixels or threads, so an image is bit-identical for any thread count or tile
+//! order.
+
+/// Direction numbers of the first four Sobol dimensions (Joe & Kuo): column k of dimension d.
+const fn sobol_directions() -> [[u32; 32]; 4] {
+    let mut v = [[0u32; 32]; 4];
+    // dimension 0: van der Corput
+    let mut k = 0;
+    while k < 32 {
+        v[0][k] = 1u32 << (31 - k);
+        k += 1;
+    }
+    // dimensions 1..3: (degree s, polynomial coefficients a, initial m)
+    let s = [1usize, 2, 3];
+    let a = [0u32, 1, 1];
+    let m: [[u32; 3]; 3] = [[1, 0, 0], [1, 3, 0], [1, 3, 1]];
+    let mut d = 0;
+    while d < 3 {
+        let sd = s[d];
+        let mut mm = [0u32; 32];
+        let mut i = 0;
+        while i < sd {
+            mm[i] = m[d][i];
+            i += 1;
+        }
+        let mut i = sd;
+        while i < 32 {
+            let mut val = mm[i - sd] ^ (mm[i - sd] << sd);
+            let mut j = 1;
+            while j < sd {
+                let bit = (a[d] >> (sd - 1 - j)) & 1;
+                if bit == 1 {
+                    val ^= mm[i - j] << j;
+                }
+                j += 1;
+            }
+            mm[i] = val;
+            i += 1;
+        }
+        let mut k = 0;
+        while k < 32 {
+            v[d + 1][k] = mm[k] << (31 - k);
+            k += 1;
+        }
+        d += 1;
+    }
+    v
+}
+
+static DIRECTIONS: [[u32; 32]; 4] = sobol_directions();
+
+/// The index-th point of Sobol dimension `dim` (0..4) as a 32-bit fixed-point fraction.
+#[inline]
+pub fn sobol_u32(mut index: u32, dim: usize) -> u32 {
+    let dirs = &DIRECTIONS[dim];
+    let mut x = 0u32;
+    let mut k = 0;
+    while index != 0 {
+        if index & 1 != 0 {
+            x ^= dirs[k];
+        }
+        index >>= 1;
+        k += 1;
+    }
+    x
+}
+
+/// 32-bit integer hash (Wellons' lowbias32).
+#[inline]
+pub fn hash_u32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x21f0_aaad);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x735a_2d97);
+    x ^= x >> 15;
+    x
+}
+
+/// Combines a seed with a value.
+#[inline]
+pub fn hash_combine(seed: u32, v: u32) -> u32 {
+    seed ^ (hash_u32(v).wrapping_add(0x9e37_79b9).wrapping_add(seed << 6).wrapping_add(seed >> 2))
+}
+
+/// Laine–Karras style permutation: a nested uniform scramble of the bit-reversed value.
+#[inline]
+fn laine_karras(mut x: u32, seed: u32) -> u32 {
+    x = x.wrapping_add(seed);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// Owen scrambling of a 32-bit fraction (nested uniform scramble).
+#[inline]
+pub fn nested_uniform_scramble(x: u32, seed: u32) -> u32 {
+    laine_karras(x.reverse_bits(), seed).reverse_bits()
+}
+
+#[inline]
+fn to_unit_float(x: u32) -> f32 {
+    // top 24 bits, so the result is strictly below 1
+    (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+/// Four dimensions of the shuffled, Owen-scrambled Sobol sequence for one (pixel, group).
+#[inline]
+pub fn sobol4(index: u32, seed: u32) -> [f32; 4] {
+    let i = nested_uniform_scramble(index, seed);
+    std::array::from_fn(|d| to_unit_float(nested_uniform_scramble(sobol_u32(i, d), hash_combine(seed, d as u32 + 1))))
+}
+
+/// The sample stream of one pixel sample: dimensions are drawn in order; each group of four
+/// consecutive dimensions is a 4D Owen-scrambled Sobol point decorrelated by its own hash.
+#[derive(Clone, Debug)]
+pub struct PixelSampler {
+    pixel_seed: u32,
+    index: u32,
+    group: u32,
+    buf: [f32; 4],
+    used: usize,
+}
+
+impl PixelSampler {
+    /// `seed` is the render's seed, `(x, y)` the pixel, `index` the sample number in the pixel.
+    pub fn new(seed: u64, x: u32, y: u32, index: u32) -> Self {
+        let s = hash_combine(hash_combine(hash_u32(seed as u32) ^ hash_u32((seed >> 32) as u32), x), y);
+        PixelSampler { pixel_seed: s, index, group: 0, buf: [0.0; 4], used: 4 }
+    }
+
+    #[inline]
+    fn refill(&mut self) {
+        self.buf = sobol4(self.index, hash_combine(self.pixel_seed, self.group));
+        self.group += 1;
+        self.used = 0;
+    }
+
+    /// Next 1D sample in [0, 1).
+    #[inline]
+    pub fn get1d(&mut self) -> f32 {
+        if self.used >= 4 {
+            self.refill();
+        }
+        let v = self.buf[self.used];
+        self.used += 1;
+        v
+    }
+
+    /// Next 2D sample; both values come from the same 4D point (stratified jointly).
+    #[inline]
+    pub fn get2d(&mut self) -> glam::Vec2 {
+        if self.used > 2 {
+            self.refill();
+        }
+        let v = glam::Vec2::new(self.buf[self.used], self.buf[self.used + 1]);
+        self.used += 2;
+        v
+    }
+
+    /// Starts the dimensions of a new path vertex on a fresh 4D point, so that the dimension
+    /// layout of a vertex does not depend on how many values earlier vertices used.
+    #[inline]
+    pub fn start_vertex(&mut self, depth: u32) {
+        self.group = 1 + depth * 4;
+        self.used = 4;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sobol_first_points_are_the_known_sequence() {
+        // Dimension 0 is van der Corput: 0, 1/2, 1/4, 3/4, ...
+        let f = |i, d| sobol_u32(i, d) as f64 / 4294967296.0;
+        assert_eq!([f(0, 0), f(1, 0), f(2, 0), f(3, 0)], [0.0, 0.5, 0.25, 0.75]);
+        // Dimension 1 (x + 1): 0, 1/2, 3/4, 1/4
+        assert_eq!([f(0, 1), f(1, 1), f(2, 1), f(3, 1)], [0.0, 0.5, 0.75, 0.25]);
+    }
+
+    #[test]
+    fn every_2d_projection_of_the_first_256_points_is_stratified() {
+        // (0, m, 2)-net property: 256 points, each of the 16×16 square elementary boxes holds
+        // one point. Dimensions (0,1) are a (0,2)-sequence by construction; the other pairs
+        // listed also have this property for these direction numbers ((1,3) and (2,3) do not).
+        for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2)] {
+            let mut seen = [false; 256];
+            for i in 0..256u32 {
+                let x = (sobol_u32(i, a) >> 28) as usize;
+                let y = (sobol_u32(i, b) >> 28) as usize;
+                assert!(!seen[x * 16 + y], "dims ({a},{b}) point {i}");
+                seen[x * 16 + y] = true;
+            }
+        }
+    }
+
+    #[test]
+    fn owen_scrambling_keeps_stratification_and_is_deterministic() {
+        let seed = 12345;
+        let mut seen = [false; 64];
+        for i in 0..64 {
+            let p = sobol4(i, seed);
+            assert_eq!(p, sobol4(i, seed));
+            let x = (p[0] * 8.0) as usize;
+            let y = (p[1] * 8.0) as usize;
+            assert!(!seen[x * 8 + y]);
+            seen[x * 8 + y] = true;
+        }
+    }
+
+    #[test]
+    fn scrambled_samples_have_uniform_mean_and_variance() {
+        let mut s = PixelSampler::new(3, 10, 20, 0);
+        let (mut m, mut m2, n) = (0.0f64, 0.0f64, 4096);
+        for i in 0..n {
+            s = PixelSampler::new(3, 10, 20, i);
+            for _ in 0..3 {
+                let v = s.get1d() as f64;
+                m += v;
+                m2 += v * v;
+            }
+        }
+        let cnt = (n * 3) as f64;
+        // QMC: errors far below the MC 3σ of 1/sqrt(12·cnt) ≈ 0.0026
+        assert!((m / cnt - 0.5).abs() < 0.003);
+        assert!((m2 / cnt - 1.0 / 3.0).abs() < 0.003);
+        let _ = s;
+    }
+}
