@@ -1,0 +1,239 @@
+//! The camera as UsdGeomCamera defines it: perspective (thin lens with `fStop` and
+//! `focusDistance`) or orthographic, film-back apertures and offsets, clipping range, shutter,
+//! and exposure (including the physical exposure attributes).
+//!
+//! Units follow USD: focal length and apertures are in tenths of a scene unit (millimetres
+//! for a centimetre scene), `focusDistance` in scene units. The aperture is conformed to the
+//! image's aspect by expanding it (UsdRenderSettings' default `expandAperture`).
+
+use crate::accel::motion::MotionTransform;
+use crate::math::sample_concentric_disk;
+use crate::scene::{CameraDesc, Projection};
+use glam::{Vec2, Vec3};
+
+/// USD's aperture and focal-length unit in scene units.
+pub const LENS_UNIT: f32 = 0.1;
+
+#[derive(Clone, Debug)]
+pub struct Camera {
+    xf: MotionTransform,
+    projection: Projection,
+    focal: f32,
+    /// Conformed aperture (film units).
+    aperture: Vec2,
+    offset: Vec2,
+    near: f32,
+    far: f32,
+    lens_radius: f32,
+    focus_distance: f32,
+    pub shutter: (f32, f32),
+    /// Multiplier applied to radiance: 2^exposure × physical exposure.
+    pub exposure_scale: f32,
+    pub width: u32,
+    pub height: u32,
+    pub medium: Option<usize>,
+}
+
+/// A camera ray in world space; `t_min..t_max` is the clipped interval.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRay {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub t_max: f32,
+    pub time: f32,
+    /// Distance along the camera's view axis per unit t (depth = t · depth_per_t).
+    pub depth_per_t: f32,
+}
+
+impl Camera {
+    /// Builds the camera for an image of `width`×`height` pixels with the given pixel aspect.
+    /// The description must be validated.
+    pub fn new(desc: &CameraDesc, width: u32, height: u32, pixel_aspect: f32, disable_dof: bool, disable_motion: bool) -> Camera {
+        let image_aspect = width as f32 * pixel_aspect.max(1e-6) / height.max(1) as f32;
+        let mut ap = Vec2::new(desc.horizontal_aperture, desc.vertical_aperture);
+        let ap_aspect = ap.x / ap.y;
+        if image_aspect > ap_aspect {
+            ap.x = ap.y * image_aspect;
+        } else {
+            ap.y = ap.x / image_aspect;
+        }
+        let lens_radius = if disable_dof || desc.f_stop <= 0.0 || desc.projection == Projection::Orthographic {
+            0.0
+        } else {
+            0.5 * desc.focal_length * LENS_UNIT / desc.f_stop
+        };
+        let shutter = if disable_motion { (0.0, 0.0) } else { (desc.shutter_open, desc.shutter_close.max(desc.shutter_open)) };
+        let physical = desc.exposure_responsivity * desc.exposure_time * desc.exposure_iso / 100.0
+            / (desc.exposure_f_stop * desc.exposure_f_stop).max(1e-12);
+        Camera {
+            xf: MotionTransform::new(&desc.transforms, &desc.times),
+            projection: desc.projection,
+            focal: desc.focal_length,
+            aperture: ap,
+            offset: Vec2::new(desc.horizontal_aperture_offset, desc.vertical_aperture_offset),
+            near: desc.clipping_range[0].max(0.0),
+            far: desc.clipping_range[1],
+            lens_radius,
+            focus_distance: desc.focus_distance,
+            shutter,
+            exposure_scale: 2f32.powf(desc.exposure) * physical,
+            width,
+            height,
+            medium: desc.medium,
+        }
+    }
+
+    /// Film position (film units) of an image position in pixels (x right, y down).
+    #[inline]
+    fn film(&self, raster: Vec2) -> Vec2 {
+        let ndc = Vec2::new(raster.x / self.width as f32, raster.y / self.height as f32);
+        Vec2::new(self.offset.x + (ndc.x - 0.5) * self.aperture.x, self.offset.y + (0.5 - ndc.y) * self.aperture.y)
+    }
+
+    /// Generates a ray through `raster` (pixels) using the lens sample `u_lens` and time sample.
+    pub fn generate_ray(&self, raster: Vec2, u_lens: Vec2, u_time: f32) -> CameraRay {
+        let f = self.film(raster);
+        let time = self.shutter.0 + (self.shutter.1 - self.shutter.0) * u_time;
+        let (o_cam, d_cam) = match self.projection {
+            Projection::Perspective => {
+                let d = Vec3::new(f.x, f.y, -self.focal).normalize();
+                if self.lens_radius > 0.0 && self.focus_distance > 0.0 {
+                    let p_focus = d * (self.focus_distance / -d.z);
+                    let l = sample_concentric_disk(u_lens) * self.lens_radius;
+                    let o = Vec3::new(l.x, l.y, 0.0);
+                    (o, (p_focus - o).normalize())
+                } else {
+                    (Vec3::ZERO, d)
+                }
+            }
+            Projection::Orthographic => (Vec3::new(f.x * LENS_UNIT, f.y * LENS_UNIT, 0.0), Vec3::new(0.0, 0.0, -1.0)),
+        };
+        // clip: start on the near plane, stop on the far plane
+        let dz = -d_cam.z;
+        let t_near = self.near / dz;
+        let t_far = self.far / dz;
+        let o_cam = o_cam + d_cam * t_near;
+        let m = self.xf.at(time);
+        let d = m.transform_vector3(d_cam);
+        let len = d.length();
+        CameraRay {
+            o: m.transform_point3(o_cam),
+            d: d / len,
+            t_max: (t_far - t_near) * len,
+            time,
+            depth_per_t: dz / len,
+        }
+    }
+
+    /// Camera-space distance of the near plane (added to depth along the clipped ray).
+    pub fn near(&self) -> f32 {
+        self.near
+    }
+
+    /// Pixel position (x right, y down) where a world point projects at `time` (pinhole), or
+    /// None when it is behind the camera.
+    pub fn project(&self, p: Vec3, time: f32) -> Option<Vec2> {
+        let q = self.xf.at(time).inverse().transform_point3(p);
+        let f = match self.projection {
+            Projection::Perspective => {
+                if q.z >= 0.0 {
+                    return None;
+                }
+                Vec2::new(q.x, q.y) * (self.focal / -q.z)
+            }
+            Projection::Orthographic => Vec2::new(q.x, q.y) / LENS_UNIT,
+        };
+        let ndc = Vec2::new((f.x - self.offset.x) / self.aperture.x + 0.5, 0.5 - (f.y - self.offset.y) / self.aperture.y);
+        Some(Vec2::new(ndc.x * self.width as f32, ndc.y * self.height as f32))
+    }
+
+    /// Camera position at a time.
+    pub fn position(&self, time: f32) -> Vec3 {
+        self.xf.at(time).transform_point3(Vec3::ZERO)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat4;
+
+    fn desc() -> CameraDesc {
+        CameraDesc { focal_length: 50.0, horizontal_aperture: 36.0, vertical_aperture: 24.0, clipping_range: [0.1, 1000.0], ..Default::default() }
+    }
+
+    #[test]
+    fn known_points_project_to_the_expected_pixels() {
+        // camera at (0,0,10) looking down -Z; a point 10 units ahead at (x, y) lands at
+        // film = (x, y)·50/10 in mm-units, i.e. pixel = (0.5 + film_x/36)·W, (0.5 − film_y/24)·H
+        let mut d = desc();
+        d.transforms = vec![Mat4::from_translation(Vec3::new(0.0, 0.0, 10.0))];
+        let cam = Camera::new(&d, 360, 240, 1.0, false, false);
+        let p = cam.project(Vec3::new(1.8, -1.2, 0.0), 0.0).unwrap();
+        let expect = Vec2::new((0.5 + 1.8 * 5.0 / 36.0) * 360.0, (0.5 + 1.2 * 5.0 / 24.0) * 240.0);
+        assert!((p - expect).length() < 1e-3, "{p} vs {expect}");
+        // and the ray through that pixel passes through the point
+        let r = cam.generate_ray(expect, Vec2::splat(0.5), 0.0);
+        let t = (0.0 - r.o.z) / r.d.z;
+        assert!((r.o + r.d * t - Vec3::new(1.8, -1.2, 0.0)).length() < 1e-4);
+    }
+
+    #[test]
+    fn aperture_offsets_and_non_square_apertures_shift_the_image() {
+        let mut d = desc();
+        d.horizontal_aperture = 20.0;
+        d.vertical_aperture = 10.0;
+        d.horizontal_aperture_offset = 2.0; // film units: the window moves right
+        d.vertical_aperture_offset = -1.0;
+        let cam = Camera::new(&d, 200, 100, 1.0, false, false);
+        // the optical axis point now lands left of centre by 2/20 of the width, and below... 
+        let p = cam.project(Vec3::new(0.0, 0.0, -5.0), 0.0).unwrap();
+        assert!((p - Vec2::new(100.0 - 0.1 * 200.0, 50.0 - 0.1 * 100.0)).length() < 1e-3, "{p}");
+        // image aspect 2:1 equal to the aperture's: no conform; a 4:1 image expands horizontally
+        let wide = Camera::new(&d, 400, 100, 1.0, false, false);
+        assert!((wide.aperture - Vec2::new(40.0, 10.0)).length() < 1e-5);
+        let tall = Camera::new(&d, 100, 100, 1.0, false, false);
+        assert!((tall.aperture - Vec2::new(20.0, 20.0)).length() < 1e-5);
+    }
+
+    #[test]
+    fn thin_lens_rays_converge_on_the_focus_plane() {
+        let mut d = desc();
+        d.f_stop = 2.0;
+        d.focus_distance = 7.0;
+        let cam = Camera::new(&d, 100, 100, 1.0, false, false);
+        assert!((cam.lens_radius - 0.5 * 5.0 / 2.0).abs() < 1e-6);
+        let raster = Vec2::new(30.0, 70.0);
+        let hit = |u: Vec2| {
+            let r = cam.generate_ray(raster, u, 0.0);
+            let t = (-7.0 - r.o.z) / r.d.z;
+            r.o + r.d * t
+        };
+        let a = hit(Vec2::new(0.1, 0.2));
+        let b = hit(Vec2::new(0.9, 0.6));
+        assert!((a - b).length() < 1e-4, "{a} {b}");
+        // off-focus plane (z = -3.5): the blur circle diameter is lens_diameter × |1 − 3.5/7|
+        let at = |u: Vec2| {
+            let r = cam.generate_ray(raster, u, 0.0);
+            let t = (-3.5 - r.o.z) / r.d.z;
+            r.o + r.d * t
+        };
+        let spread = (at(Vec2::new(0.0, 0.5)) - at(Vec2::new(1.0, 0.5))).length();
+        assert!((spread - 2.0 * cam.lens_radius * 0.5).abs() < 1e-3, "{spread}");
+    }
+
+    #[test]
+    fn clipping_and_exposure() {
+        let mut d = desc();
+        d.clipping_range = [2.0, 5.0];
+        d.exposure = 1.0;
+        d.exposure_f_stop = 2.0;
+        d.exposure_time = 0.5;
+        d.exposure_iso = 400.0;
+        let cam = Camera::new(&d, 10, 10, 1.0, false, false);
+        let r = cam.generate_ray(Vec2::new(5.0, 5.0), Vec2::ZERO, 0.0);
+        assert!((r.o.z + 2.0).abs() < 1e-3 && (r.t_max - 3.0).abs() < 1e-3);
+        // 2^1 × (0.5 · 400/100) / 2² = 1
+        assert!((cam.exposure_scale - 1.0).abs() < 1e-6);
+    }
+}
