@@ -5,6 +5,7 @@
 
 pub mod accel;
 pub mod camera;
+pub mod film;
 pub mod math;
 pub mod render;
 pub mod sampler;

@@ -1,0 +1,249 @@
+//! The film: per-pixel accumulation of every AOV, resolving to images, and atomic OpenEXR
+//! output (channel names per the USD contract §6: `R G B A` for colour, `<aov>.R/G/B`,
+//! `depth.Z`, `normal.X/Y/Z`, `primId.R`).
+
+use crate::render::Aov;
+use std::path::Path;
+
+/// The light-path categories of the split AOVs, in `SampleValue::split` order.
+pub const SPLIT_AOVS: [Aov; 5] = [Aov::Diffuse, Aov::Specular, Aov::Transmission, Aov::Volume, Aov::Emission];
+
+/// What one camera sample contributes to its pixel.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampleValue {
+    pub color: [f32; 3],
+    pub alpha: f32,
+    /// View-axis depth of the first hit (∞ for none).
+    pub depth: f32,
+    pub normal: [f32; 3],
+    pub albedo: [f32; 3],
+    /// Instance id of the first hit, −1 for none.
+    pub prim_id: f32,
+    /// `color` split by light path, in `SPLIT_AOVS` order; sums to `color`.
+    pub split: [[f32; 3]; 5],
+}
+
+/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 15.
+const ACC: usize = 25;
+
+/// Accumulated samples of a rectangle of pixels.
+#[derive(Clone, Debug)]
+pub struct FilmTile {
+    pub x0: u32,
+    pub y0: u32,
+    pub w: u32,
+    pub h: u32,
+    sums: Vec<f32>,
+    /// depth and primId of each pixel's first sample (not averageable).
+    first: Vec<[f32; 2]>,
+    has_first: bool,
+}
+
+impl FilmTile {
+    pub fn new(x0: u32, y0: u32, w: u32, h: u32, has_first: bool) -> Self {
+        let n = (w * h) as usize;
+        FilmTile { x0, y0, w, h, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], has_first }
+    }
+
+    /// Adds one sample to pixel (x, y) (image coordinates inside the tile).
+    #[inline]
+    pub fn add(&mut self, x: u32, y: u32, s: &SampleValue, first_sample: bool) {
+        let i = ((y - self.y0) * self.w + (x - self.x0)) as usize;
+        let a = &mut self.sums[i * ACC..(i + 1) * ACC];
+        a[0] += s.color[0];
+        a[1] += s.color[1];
+        a[2] += s.color[2];
+        a[3] += s.alpha;
+        for k in 0..3 {
+            a[4 + k] += s.normal[k];
+            a[7 + k] += s.albedo[k];
+        }
+        for (c, v) in s.split.iter().enumerate() {
+            for k in 0..3 {
+                a[10 + 3 * c + k] += v[k];
+            }
+        }
+        if first_sample && self.has_first {
+            self.first[i] = [s.depth, s.prim_id];
+        }
+    }
+}
+
+/// The whole image's accumulators.
+#[derive(Clone, Debug)]
+pub struct Film {
+    pub width: u32,
+    pub height: u32,
+    sums: Vec<f64>,
+    first: Vec<[f32; 2]>,
+    /// Samples per pixel accumulated.
+    pub spp: u32,
+    /// Multiplier applied when resolving colour AOVs (camera exposure).
+    pub scale: f32,
+    /// Pixels outside this window [x0, y0, x1, y1) are not rendered (data window).
+    pub window: [u32; 4],
+}
+
+impl Film {
+    pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
+        let n = (width * height) as usize;
+        Film { width, height, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window }
+    }
+
+    /// Merges a finished tile of a pass.
+    pub fn merge(&mut self, t: &FilmTile) {
+        for y in 0..t.h {
+            for x in 0..t.w {
+                let src = (y * t.w + x) as usize;
+                let dst = ((t.y0 + y) * self.width + t.x0 + x) as usize;
+                for k in 0..ACC {
+                    self.sums[dst * ACC + k] += t.sums[src * ACC + k] as f64;
+                }
+                if t.has_first {
+                    self.first[dst] = t.first[src];
+                }
+            }
+        }
+    }
+
+    pub fn clear(&mut self) {
+        self.sums.iter_mut().for_each(|v| *v = 0.0);
+        self.first.iter_mut().for_each(|v| *v = [f32::INFINITY, -1.0]);
+        self.spp = 0;
+    }
+
+    /// Resolved pixels of an AOV, row-major from the top, `aov.channels()` per pixel.
+    pub fn resolve(&self, aov: Aov) -> Vec<f32> {
+        let n = (self.width * self.height) as usize;
+        let ch = aov.channels();
+        let mut out = vec![0.0f32; n * ch];
+        let inv = if self.spp > 0 { 1.0 / self.spp as f64 } else { 0.0 };
+        let s = self.scale as f64;
+        for i in 0..n {
+            let a = &self.sums[i * ACC..(i + 1) * ACC];
+            let o = &mut out[i * ch..(i + 1) * ch];
+            match aov {
+                Aov::Color => {
+                    for k in 0..3 {
+                        o[k] = (a[k] * inv * s) as f32;
+                    }
+                    o[3] = (a[3] * inv) as f32;
+                }
+                Aov::Depth => o[0] = self.first[i][0],
+                Aov::PrimId => o[0] = self.first[i][1],
+                Aov::Normal => {
+                    let v = glam::DVec3::new(a[4], a[5], a[6]);
+                    let v = if v.length() > 0.0 { v.normalize() } else { v };
+                    o.copy_from_slice(&[v.x as f32, v.y as f32, v.z as f32]);
+                }
+                Aov::Albedo => {
+                    for k in 0..3 {
+                        o[k] = (a[7 + k] * inv) as f32;
+                    }
+                }
+                _ => {
+                    let c = SPLIT_AOVS.iter().position(|&x| x == aov).unwrap_or(0);
+                    for k in 0..3 {
+                        o[k] = (a[10 + 3 * c + k] * inv * s) as f32;
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// EXR channel names of an AOV.
+    pub fn channel_names(aov: Aov) -> Vec<String> {
+        let suffix: &[&str] = match aov {
+            Aov::Color => return vec!["R".into(), "G".into(), "B".into(), "A".into()],
+            Aov::Depth => &["Z"],
+            Aov::Normal => &["X", "Y", "Z"],
+            Aov::PrimId => &["R"],
+            _ => &["R", "G", "B"],
+        };
+        suffix.iter().map(|s| format!("{}.{}", aov.source_name(), s)).collect()
+    }
+
+    /// Writes AOVs to `path` atomically: a temporary file beside it, then a rename.
+    /// `aovs` pairs an output name (the channel prefix) with the AOV it holds.
+    pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
+        use exr::prelude::*;
+        let (w, h) = (self.width as usize, self.height as usize);
+        let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
+        for (name, aov) in aovs {
+            let px = self.resolve(*aov);
+            let ch = aov.channels();
+            let names: Vec<String> = if *aov == Aov::Color && name == "color" {
+                Self::channel_names(*aov)
+            } else {
+                Self::channel_names(*aov)
+                    .into_iter()
+                    .map(|n| match n.split_once('.') {
+                        Some((_, s)) => format!("{name}.{s}"),
+                        None => format!("{name}.{n}"),
+                    })
+                    .collect()
+            };
+            for (k, cname) in names.iter().enumerate() {
+                let data: Vec<f32> = (0..w * h).map(|i| px[i * ch + k]).collect();
+                channels.push(AnyChannel::new(cname.as_str(), FlatSamples::F32(data)));
+            }
+        }
+        if channels.is_empty() {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, "no AOV to write"));
+        }
+        let mut attrs = LayerAttributes::default();
+        for (k, v) in header {
+            attrs.other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
+        }
+        let layer = Layer::new((w, h), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
+        let image = Image::from_layer(layer);
+        let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        let fname = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
+        let tmp = dir.join(format!(".{fname}.tmp{}.exr", std::process::id()));
+        let res = image.write().to_file(&tmp).map_err(|e| std::io::Error::other(e.to_string()));
+        if let Err(e) = res {
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
+        std::fs::rename(&tmp, path).inspect_err(|_| {
+            let _ = std::fs::remove_file(&tmp);
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn accumulates_resolves_and_writes_named_channels() {
+        let mut f = Film::new(4, 3, [0, 0, 4, 3]);
+        let mut t = FilmTile::new(0, 0, 4, 3, true);
+        let s = SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, depth: 5.0, prim_id: 7.0, split: [[1.0, 2.0, 3.0], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]], ..Default::default() };
+        t.add(1, 2, &s, true);
+        t.add(1, 2, &SampleValue { depth: 9.0, ..s }, false);
+        f.merge(&t);
+        f.spp = 2;
+        let c = f.resolve(Aov::Color);
+        let i = (2 * 4 + 1) * 4;
+        assert_eq!(&c[i..i + 4], &[1.0, 2.0, 3.0, 1.0]);
+        assert_eq!(f.resolve(Aov::Depth)[9], 5.0);
+        assert_eq!(f.resolve(Aov::PrimId)[9], 7.0);
+        assert_eq!(f.resolve(Aov::Diffuse)[27..30], [1.0, 2.0, 3.0]);
+        let dir = std::env::temp_dir().join(format!("tide-film-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("t.exr");
+        let aovs: Vec<(String, Aov)> = [Aov::Color, Aov::Depth, Aov::Normal, Aov::Diffuse].iter().map(|a| (a.source_name().to_string(), *a)).collect();
+        f.write_exr(&p, &aovs, &[("tide:spp".into(), "2".into())]).unwrap();
+        let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
+        let names: Vec<String> = img.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
+        for n in ["R", "G", "B", "A", "depth.Z", "normal.X", "normal.Y", "normal.Z", "tide:diffuse.R", "tide:diffuse.B"] {
+            assert!(names.contains(&n.to_string()), "{n} missing from {names:?}");
+        }
+        assert!(img.layer_data[0].attributes.other.contains_key(&exr::prelude::Text::from("tide:spp")));
+        // nothing but the final file is left in the directory
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
