@@ -1,0 +1,429 @@
+//! Input validation where data enters the core: everything wrong is reported as a
+//! [`Problem`] naming the item and attribute, and replaced by something renderable (dropped,
+//! or a documented default). Never a panic.
+
+use crate::render::Problem;
+use crate::scene::*;
+use glam::{Mat4, Vec3};
+
+fn problem(out: &mut Vec<Problem>, item: &str, attribute: &str, message: impl Into<String>) {
+    out.push(Problem { item: item.to_string(), attribute: attribute.to_string(), message: message.into() });
+}
+
+fn finite3(v: Vec3) -> bool {
+    v.is_finite()
+}
+
+fn mat_ok(m: &Mat4) -> bool {
+    m.is_finite() && m.determinant().abs() > 1e-30
+}
+
+/// Returns a cleaned copy of the scene and the problems found.
+pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
+    let mut p = Vec::new();
+    let mut s = scene.clone();
+
+    // meshes: drop triangles with bad indices, non-finite vertices or zero area
+    for m in &mut s.meshes {
+        let nv = m.positions.len();
+        if m.indices.len() % 3 != 0 {
+            problem(&mut p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
+            m.indices.truncate(m.indices.len() / 3 * 3);
+        }
+        if let Some(n) = &m.normals {
+            if n.len() != nv {
+                problem(&mut p, &m.name, "normals", format!("{} normals for {} points; normals ignored", n.len(), nv));
+                m.normals = None;
+            }
+        }
+        if let Some(uv) = &m.uvs {
+            if uv.len() != nv {
+                problem(&mut p, &m.name, "primvars:st", format!("{} uvs for {} points; uvs ignored", uv.len(), nv));
+                m.uvs = None;
+            }
+        }
+        let (mut bad_index, mut bad_point, mut degenerate) = (0usize, 0usize, 0usize);
+        let mut kept = Vec::with_capacity(m.indices.len());
+        for t in m.indices.chunks_exact(3) {
+            if t.iter().any(|&i| i as usize >= nv) {
+                bad_index += 1;
+                continue;
+            }
+            let v = [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]];
+            if !v.iter().all(|&x| finite3(x)) {
+                bad_point += 1;
+                continue;
+            }
+            let area2 = (v[1] - v[0]).cross(v[2] - v[0]).length();
+            if !(area2 > 0.0) {
+                degenerate += 1;
+                continue;
+            }
+            kept.extend_from_slice(t);
+        }
+        if bad_index > 0 {
+            problem(&mut p, &m.name, "faceVertexIndices", format!("{bad_index} triangles index points out of range; dropped"));
+        }
+        if bad_point > 0 {
+            problem(&mut p, &m.name, "points", format!("{bad_point} triangles use NaN/inf points; dropped"));
+        }
+        if degenerate > 0 {
+            // degenerate triangles are common in production meshes: dropped quietly but counted
+            problem(&mut p, &m.name, "points", format!("{degenerate} degenerate (zero-area) triangles dropped"));
+        }
+        m.indices = kept;
+        if let Some(n) = &mut m.normals {
+            for v in n.iter_mut() {
+                if !finite3(*v) || v.length_squared() == 0.0 {
+                    *v = Vec3::ZERO; // marks "use the geometric normal"
+                } else {
+                    *v = v.normalize();
+                }
+            }
+        }
+    }
+
+    // spheres: drop non-finite or non-positive radii
+    for sp in &mut s.spheres {
+        let n = sp.centers.len();
+        if sp.radii.len() != n {
+            problem(&mut p, &sp.name, "widths", format!("{} widths for {} points; missing ones use the first or 1", sp.radii.len(), n));
+            let r0 = sp.radii.first().copied().unwrap_or(0.5);
+            sp.radii.resize(n, r0);
+        }
+        if let Some(v) = &sp.velocities {
+            if v.len() != n || v.iter().any(|x| !finite3(*x)) {
+                problem(&mut p, &sp.name, "velocities", "wrong count or non-finite velocities; motion ignored");
+                sp.velocities = None;
+            }
+        }
+        let mut keep = vec![true; n];
+        let (mut bad_c, mut bad_r) = (0, 0);
+        for i in 0..n {
+            if !finite3(sp.centers[i]) {
+                keep[i] = false;
+                bad_c += 1;
+            } else if !(sp.radii[i] > 0.0 && sp.radii[i].is_finite()) {
+                keep[i] = false;
+                bad_r += 1;
+            }
+        }
+        if bad_c > 0 {
+            problem(&mut p, &sp.name, "points", format!("{bad_c} NaN/inf points dropped"));
+        }
+        if bad_r > 0 {
+            problem(&mut p, &sp.name, "widths", format!("{bad_r} points with zero, negative or non-finite width dropped"));
+        }
+        if bad_c + bad_r > 0 {
+            let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+            sp.centers = idx.iter().map(|&i| sp.centers[i]).collect();
+            sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
+            if let Some(v) = &sp.velocities {
+                sp.velocities = Some(idx.iter().map(|&i| v[i]).collect());
+            }
+        }
+    }
+
+    // textures
+    for t in &mut s.textures {
+        let need = (t.width as usize) * (t.height as usize) * (t.channels as usize);
+        if !(1..=4).contains(&t.channels) || t.pixels.len() != need || t.width == 0 || t.height == 0 {
+            problem(&mut p, &t.name, "pixels", "texture size does not match its data; replaced by a 1×1 grey texture");
+            *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18], wrap_s: t.wrap_s, wrap_t: t.wrap_t };
+        } else if t.pixels.iter().any(|v| !v.is_finite()) {
+            problem(&mut p, &t.name, "pixels", "NaN/inf texels replaced by 0");
+            t.pixels.iter_mut().for_each(|v| {
+                if !v.is_finite() {
+                    *v = 0.0
+                }
+            });
+        }
+    }
+
+    // media
+    for m in &mut s.media {
+        let check = |d: &mut SpectrumDesc, attr: &str, p: &mut Vec<Problem>| {
+            let bad = match d {
+                SpectrumDesc::Rgb(c) => c.iter().any(|v| !v.is_finite() || *v < 0.0),
+                SpectrumDesc::Tabulated { lambda, value } => {
+                    lambda.len() != value.len() || lambda.is_empty() || value.iter().chain(lambda.iter()).any(|v| !v.is_finite() || *v < 0.0) || lambda.windows(2).any(|w| w[1] <= w[0])
+                }
+            };
+            if bad {
+                problem(p, &m.name, attr, "negative, non-finite or malformed coefficients; replaced by 0");
+                *d = SpectrumDesc::Rgb([0.0; 3]);
+            }
+        };
+        check(&mut m.sigma_a, "absorption", &mut p);
+        check(&mut m.sigma_s, "scattering", &mut p);
+        if !(m.scale.is_finite() && m.scale >= 0.0) {
+            problem(&mut p, &m.name, "densityScale", "must be finite and ≥ 0; using 1");
+            m.scale = 1.0;
+        }
+        let fix_g = |g: &mut f32, attr: &str, p: &mut Vec<Problem>| {
+            if !g.is_finite() || g.abs() >= 1.0 {
+                problem(p, &m.name, attr, format!("g = {g} outside (−1, 1); clamped"));
+                *g = if g.is_finite() { g.clamp(-0.999, 0.999) } else { 0.0 };
+            }
+        };
+        match &mut m.phase {
+            PhaseDesc::Isotropic => {}
+            PhaseDesc::HenyeyGreenstein { g } => fix_g(g, "g", &mut p),
+            PhaseDesc::DualHg { g1, g2, w } => {
+                fix_g(g1, "g", &mut p);
+                fix_g(g2, "g2", &mut p);
+                if !(w.is_finite() && (0.0..=1.0).contains(w)) {
+                    problem(&mut p, &m.name, "lobeMix", "outside [0, 1]; clamped");
+                    *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.9 };
+                }
+            }
+        }
+    }
+
+    // materials: references and parameters
+    if s.materials.is_empty() {
+        s.materials.push(MaterialDesc { name: "/tide/default".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None });
+    }
+    let n_media = s.media.len();
+    let n_tex = s.textures.len();
+    for m in &mut s.materials {
+        if let Some(i) = m.interior_medium {
+            if i >= n_media {
+                problem(&mut p, &m.name, "outputs:volume", "refers to a medium that does not exist; ignored");
+                m.interior_medium = None;
+            }
+        }
+        let tex_ok = |l: &TexLookup| l.texture < n_tex;
+        let fix_color = |c: &mut ColorInput, attr: &str, p: &mut Vec<Problem>, fallback: Rgb| match c {
+            ColorInput::Const(v) => {
+                if v.iter().any(|x| !x.is_finite()) {
+                    problem(p, &m.name, attr, "non-finite colour; default used");
+                    *v = fallback;
+                }
+            }
+            ColorInput::Texture(l) => {
+                if !tex_ok(l) {
+                    problem(p, &m.name, attr, "texture missing; fallback used");
+                    *c = ColorInput::Const([l.fallback[0], l.fallback[1], l.fallback[2]]);
+                }
+            }
+        };
+        let fix_float = |c: &mut FloatInput, attr: &str, p: &mut Vec<Problem>, fallback: f32| match c {
+            FloatInput::Const(v) => {
+                if !v.is_finite() {
+                    problem(p, &m.name, attr, "non-finite value; default used");
+                    *v = fallback;
+                }
+            }
+            FloatInput::Texture(l) => {
+                if !tex_ok(l) {
+                    problem(p, &m.name, attr, "texture missing; fallback used");
+                    *c = FloatInput::Const(l.fallback[0]);
+                }
+            }
+        };
+        match &mut m.surface {
+            SurfaceDesc::Diffuse { color } => fix_color(color, "inputs:diffuseColor", &mut p, [0.18; 3]),
+            SurfaceDesc::Preview(ps) => {
+                fix_color(&mut ps.diffuse_color, "inputs:diffuseColor", &mut p, [0.18; 3]);
+                fix_color(&mut ps.emissive_color, "inputs:emissiveColor", &mut p, [0.0; 3]);
+                fix_color(&mut ps.specular_color, "inputs:specularColor", &mut p, [0.0; 3]);
+                fix_float(&mut ps.metallic, "inputs:metallic", &mut p, 0.0);
+                fix_float(&mut ps.roughness, "inputs:roughness", &mut p, 0.5);
+                fix_float(&mut ps.clearcoat, "inputs:clearcoat", &mut p, 0.0);
+                fix_float(&mut ps.clearcoat_roughness, "inputs:clearcoatRoughness", &mut p, 0.01);
+                fix_float(&mut ps.opacity, "inputs:opacity", &mut p, 1.0);
+                if !(ps.ior.is_finite() && ps.ior > 0.0) {
+                    problem(&mut p, &m.name, "inputs:ior", "must be > 0; using 1.5");
+                    ps.ior = 1.5;
+                }
+                if let Some(l) = &ps.normal {
+                    if !tex_ok(l) {
+                        problem(&mut p, &m.name, "inputs:normal", "texture missing; normal map ignored");
+                        ps.normal = None;
+                    }
+                }
+            }
+            SurfaceDesc::Water(w) => {
+                if !(w.ior.is_finite() && w.ior >= 1.0 && w.ior < 10.0) {
+                    problem(&mut p, &m.name, "inputs:ior", format!("ior {} not in [1, 10); using 1.333", w.ior));
+                    w.ior = 1.333;
+                }
+                if !(w.roughness.is_finite() && (0.0..=1.0).contains(&w.roughness)) {
+                    problem(&mut p, &m.name, "inputs:roughness", "outside [0, 1]; clamped");
+                    w.roughness = if w.roughness.is_finite() { w.roughness.clamp(0.0, 1.0) } else { 0.0 };
+                }
+            }
+            SurfaceDesc::Conductor { eta, k, roughness } => {
+                if eta.iter().chain(k.iter()).any(|v| !v.is_finite() || *v < 0.0) || !roughness.is_finite() {
+                    problem(&mut p, &m.name, "inputs", "invalid conductor parameters; using a grey diffuse");
+                    m.surface = SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) };
+                }
+            }
+            SurfaceDesc::Emissive { radiance, .. } => {
+                if radiance.iter().any(|v| !v.is_finite() || *v < 0.0) {
+                    problem(&mut p, &m.name, "inputs:emissiveColor", "negative or non-finite emission; black");
+                    *radiance = [0.0; 3];
+                }
+            }
+        }
+    }
+
+    // instances
+    let n_mat = s.materials.len();
+    let (n_mesh, n_sph) = (s.meshes.len(), s.spheres.len());
+    s.instances.retain_mut(|inst| {
+        let ok_geom = match inst.geometry {
+            GeometryRef::Mesh(i) => i < n_mesh,
+            GeometryRef::Spheres(i) => i < n_sph,
+        };
+        if !ok_geom {
+            problem(&mut p, &inst.name, "geometry", "refers to geometry that does not exist; dropped");
+            return false;
+        }
+        if inst.material >= n_mat {
+            problem(&mut p, &inst.name, "material:binding", "refers to a material that does not exist; default used");
+            inst.material = 0;
+        }
+        if inst.transforms.is_empty() {
+            inst.transforms = vec![Mat4::IDENTITY];
+            inst.times = vec![0.0];
+        }
+        if inst.times.len() != inst.transforms.len() || inst.times.windows(2).any(|w| !(w[1] > w[0])) || inst.times.iter().any(|t| !t.is_finite()) {
+            problem(&mut p, &inst.name, "xformOp", "motion samples have bad times; only the first sample is used");
+            inst.transforms.truncate(1);
+            inst.times = vec![0.0];
+        }
+        if !inst.transforms.iter().all(mat_ok) {
+            problem(&mut p, &inst.name, "xformOp", "singular or non-finite transform; prim dropped");
+            return false;
+        }
+        true
+    });
+
+    // lights
+    s.lights.retain_mut(|l| {
+        if !mat_ok(&l.transform) {
+            problem(&mut p, &l.name, "xformOp", "singular or non-finite transform; light dropped");
+            return false;
+        }
+        if !(l.intensity.is_finite() && l.exposure.is_finite()) || l.color.iter().any(|c| !c.is_finite()) {
+            problem(&mut p, &l.name, "inputs:intensity", "non-finite intensity, exposure or colour; light dropped");
+            return false;
+        }
+        let area_bad = match &l.shape {
+            LightShape::Sphere { radius, treat_as_point } => !treat_as_point && !(*radius >= 0.0 && radius.is_finite()),
+            LightShape::Rect { width, height, .. } => !(*width > 0.0 && *height > 0.0 && width.is_finite() && height.is_finite()),
+            LightShape::Disk { radius } => !(*radius > 0.0 && radius.is_finite()),
+            LightShape::Cylinder { radius, length, treat_as_line } => !(*length > 0.0 && length.is_finite()) || (!treat_as_line && !(*radius > 0.0 && radius.is_finite())),
+            LightShape::Distant { angle_deg } => !(angle_deg.is_finite() && *angle_deg >= 0.0 && *angle_deg < 180.0),
+            LightShape::Dome { texture } => texture.is_some_and(|t| t >= n_tex),
+        };
+        if area_bad {
+            let attr = match &l.shape {
+                LightShape::Sphere { .. } | LightShape::Disk { .. } => "inputs:radius",
+                LightShape::Rect { .. } => "inputs:width",
+                LightShape::Cylinder { .. } => "inputs:length",
+                LightShape::Distant { .. } => "inputs:angle",
+                LightShape::Dome { .. } => "inputs:texture:file",
+            };
+            problem(&mut p, &l.name, attr, "zero-area or invalid light shape; light dropped");
+            return false;
+        }
+        true
+    });
+
+    // camera
+    let c = &mut s.camera;
+    let cam_name = c.name.clone();
+    if !(c.horizontal_aperture > 0.0 && c.horizontal_aperture.is_finite()) {
+        problem(&mut p, &cam_name, "horizontalAperture", "zero or invalid aperture; using 20.955");
+        c.horizontal_aperture = 20.955;
+    }
+    if !(c.vertical_aperture > 0.0 && c.vertical_aperture.is_finite()) {
+        problem(&mut p, &cam_name, "verticalAperture", "zero or invalid aperture; using 15.2908");
+        c.vertical_aperture = 15.2908;
+    }
+    if !(c.focal_length > 0.0 && c.focal_length.is_finite()) {
+        problem(&mut p, &cam_name, "focalLength", "zero or invalid focal length; using 50");
+        c.focal_length = 50.0;
+    }
+    if !(c.clipping_range[0] >= 0.0 && c.clipping_range[1] > c.clipping_range[0]) {
+        problem(&mut p, &cam_name, "clippingRange", "invalid range; using (1, 1e6)");
+        c.clipping_range = [1.0, 1e6];
+    }
+    if !(c.f_stop >= 0.0 && c.f_stop.is_finite()) || !(c.focus_distance >= 0.0 && c.focus_distance.is_finite()) {
+        problem(&mut p, &cam_name, "fStop", "invalid depth of field; pinhole used");
+        c.f_stop = 0.0;
+    }
+    if !(c.shutter_open.is_finite() && c.shutter_close.is_finite()) || c.shutter_close < c.shutter_open {
+        problem(&mut p, &cam_name, "shutter:close", "shutter closes before it opens; motion blur off");
+        c.shutter_close = c.shutter_open;
+    }
+    for (v, attr, d) in [
+        (&mut c.exposure_f_stop, "exposure:fStop", 1.0),
+        (&mut c.exposure_time, "exposure:time", 1.0),
+        (&mut c.exposure_iso, "exposure:iso", 100.0),
+        (&mut c.exposure_responsivity, "exposure:responsivity", 1.0),
+    ] {
+        if !(*v > 0.0 && v.is_finite()) {
+            problem(&mut p, &cam_name, attr, format!("must be > 0; using {d}"));
+            *v = d;
+        }
+    }
+    if !c.exposure.is_finite() {
+        problem(&mut p, &cam_name, "exposure", "non-finite; using 0");
+        c.exposure = 0.0;
+    }
+    if c.transforms.is_empty() || !c.transforms.iter().all(mat_ok) || c.times.len() != c.transforms.len() {
+        problem(&mut p, &cam_name, "xformOp", "invalid camera transform; identity used");
+        c.transforms = vec![Mat4::IDENTITY];
+        c.times = vec![0.0];
+    }
+    if c.medium.is_some_and(|m| m >= n_media) {
+        problem(&mut p, &cam_name, "tide:medium", "refers to a medium that does not exist; ignored");
+        c.medium = None;
+    }
+    (s, p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_input_is_reported_by_item_and_attribute_and_the_rest_kept() {
+        let mut s = SceneDesc::default();
+        s.meshes.push(MeshDesc {
+            name: "/World/Mesh".into(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X * 2.0],
+            indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 9, 0, 1, 4],
+            ..Default::default()
+        });
+        s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None });
+        s.lights.push(LightDesc {
+            name: "/World/Rect".into(),
+            shape: LightShape::Rect { width: 0.0, height: 1.0, texture: None },
+            transform: Mat4::IDENTITY,
+            color: [1.0; 3],
+            intensity: 1.0,
+            exposure: 0.0,
+            normalize: false,
+            color_temperature: None,
+            visible_to_camera: true,
+        });
+        s.camera.horizontal_aperture = 0.0;
+        let (clean, probs) = validate(&s);
+        let has = |item: &str, attr: &str| probs.iter().any(|p| p.item == item && p.attribute == attr);
+        assert!(has("/World/Mesh", "points"), "{probs:?}");
+        assert!(has("/World/Mesh", "faceVertexIndices"));
+        assert!(has("/World/Points", "widths"));
+        assert!(has("/World/Rect", "inputs:width"));
+        assert!(has("/camera", "horizontalAperture"));
+        // only the good triangle survives; the degenerate (collinear) one is dropped too
+        assert_eq!(clean.meshes[0].indices, vec![0, 1, 2]);
+        assert_eq!(clean.spheres[0].centers, vec![Vec3::ONE]);
+        assert!(clean.lights.is_empty());
+        assert_eq!(clean.camera.horizontal_aperture, 20.955);
+    }
+}
