@@ -4,6 +4,7 @@
 //! plain data goes in ([`scene::SceneDesc`]), images come out.
 
 pub mod math;
+pub mod medium;
 pub mod render;
 pub mod scene;
 pub mod spectrum;
