@@ -7,6 +7,7 @@ pub mod accel;
 pub mod camera;
 pub mod film;
 pub mod math;
+pub mod medium;
 pub mod render;
 pub mod sampler;
 pub mod scene;
