@@ -13,6 +13,7 @@ pub mod sampler;
 pub mod scene;
 pub mod spectrum;
 pub mod testing;
+pub mod texture;
 pub mod validate;
 
 pub use render::{Aov, IntegratorKind, Problem, RenderError, RenderSettings, RenderStats, Renderer};

@@ -1,0 +1,143 @@
+//! Texture evaluation for material inputs: UsdUVTexture (bilinear lookup, wrap modes, scale,
+//! bias, fallback, channel selection) after a UsdTransform2d of the st coordinates.
+
+use crate::scene::{Channel, TexLookup, TextureDesc, Wrap};
+use glam::Vec2;
+
+#[inline]
+fn wrap_coord(i: i64, n: i64, wrap: Wrap) -> Option<i64> {
+    match wrap {
+        Wrap::Repeat => Some(i.rem_euclid(n)),
+        Wrap::Clamp => Some(i.clamp(0, n - 1)),
+        Wrap::Mirror => {
+            let p = i.rem_euclid(2 * n);
+            Some(if p < n { p } else { 2 * n - 1 - p })
+        }
+        Wrap::Black => (0..n).contains(&i).then_some(i),
+    }
+}
+
+/// UsdTransform2d: scale, then rotate (degrees, counter-clockwise), then translate.
+#[inline]
+pub fn transform_st(l: &TexLookup, st: Vec2) -> Vec2 {
+    let s = st * l.scale;
+    let (sn, cs) = l.rotation_deg.to_radians().sin_cos();
+    Vec2::new(s.x * cs - s.y * sn, s.x * sn + s.y * cs) + l.translation
+}
+
+/// The texel values (4 channels; missing ones filled: grey → RGB, alpha → 1) at (x, y).
+#[inline]
+fn texel(t: &TextureDesc, x: i64, y: i64, fallback: &[f32; 4]) -> [f32; 4] {
+    let (w, h) = (t.width as i64, t.height as i64);
+    let (Some(x), Some(y)) = (wrap_coord(x, w, t.wrap_s), wrap_coord(y, h, t.wrap_t)) else {
+        return *fallback;
+    };
+    let c = t.channels as usize;
+    let i = (y as usize * t.width as usize + x as usize) * c;
+    let p = &t.pixels[i..i + c];
+    match c {
+        1 => [p[0], p[0], p[0], 1.0],
+        2 => [p[0], p[0], p[0], p[1]],
+        3 => [p[0], p[1], p[2], 1.0],
+        _ => [p[0], p[1], p[2], p[3]],
+    }
+}
+
+/// Bilinearly filtered, scaled and biased RGBA at texture coordinates `st` (before transform).
+pub fn lookup_rgba(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> [f32; 4] {
+    let Some(t) = textures.get(l.texture) else {
+        return l.fallback;
+    };
+    let uv = transform_st(l, st);
+    // st (0,0) is the bottom-left of the image; rows are stored from the top
+    let x = uv.x * t.width as f32 - 0.5;
+    let y = (1.0 - uv.y) * t.height as f32 - 0.5;
+    if !(x.is_finite() && y.is_finite()) {
+        return l.fallback;
+    }
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let (xi, yi) = (x0 as i64, y0 as i64);
+    let a = texel(t, xi, yi, &l.fallback);
+    let b = texel(t, xi + 1, yi, &l.fallback);
+    let c = texel(t, xi, yi + 1, &l.fallback);
+    let d = texel(t, xi + 1, yi + 1, &l.fallback);
+    std::array::from_fn(|k| {
+        let v = (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
+        v * l.tex_scale[k] + l.bias[k]
+    })
+}
+
+/// An RGB value of a lookup (single-channel outputs are replicated).
+pub fn lookup_rgb(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> [f32; 3] {
+    let v = lookup_rgba(textures, l, st);
+    match l.channel {
+        Channel::Rgb => [v[0], v[1], v[2]],
+        Channel::R => [v[0]; 3],
+        Channel::G => [v[1]; 3],
+        Channel::B => [v[2]; 3],
+        Channel::A => [v[3]; 3],
+    }
+}
+
+/// A scalar value of a lookup (`Rgb` reads the red channel, as UsdPreviewSurface float
+/// inputs connected to `outputs:rgb` do).
+pub fn lookup_float(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> f32 {
+    let v = lookup_rgba(textures, l, st);
+    match l.channel {
+        Channel::Rgb | Channel::R => v[0],
+        Channel::G => v[1],
+        Channel::B => v[2],
+        Channel::A => v[3],
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tex(wrap: Wrap) -> TextureDesc {
+        // 2×2 RGB: top row red, green; bottom row blue, white
+        TextureDesc {
+            name: "t".into(),
+            width: 2,
+            height: 2,
+            channels: 3,
+            pixels: vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.],
+            wrap_s: wrap,
+            wrap_t: wrap,
+        }
+    }
+
+    fn lookup() -> TexLookup {
+        TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.5, 0.5, 0.5, 1.0] }
+    }
+
+    #[test]
+    fn texel_centres_orientation_and_wrapping() {
+        let t = [tex(Wrap::Repeat)];
+        let l = lookup();
+        // st (0.25, 0.75) is the top-left texel centre (red); (0.25, 0.25) bottom-left (blue)
+        assert_eq!(lookup_rgb(&t, &l, Vec2::new(0.25, 0.75)), [1.0, 0.0, 0.0]);
+        assert_eq!(lookup_rgb(&t, &l, Vec2::new(0.25, 0.25)), [0.0, 0.0, 1.0]);
+        // repeat: one period further is the same texel
+        assert_eq!(lookup_rgb(&t, &l, Vec2::new(1.25, -0.75)), [0.0, 0.0, 1.0]);
+        // black wrap reads the fallback outside [0, 1]
+        let tb = [tex(Wrap::Black)];
+        assert_eq!(lookup_rgb(&tb, &l, Vec2::new(-3.0, 0.5)), [0.5, 0.5, 0.5]);
+        // midway between red and green: bilinear average
+        let m = lookup_rgb(&t, &l, Vec2::new(0.5, 0.75));
+        assert!((m[0] - 0.5).abs() < 1e-6 && (m[1] - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn transform2d_scale_rotate_translate() {
+        let mut l = lookup();
+        l.scale = Vec2::new(2.0, 1.0);
+        l.rotation_deg = 90.0;
+        l.translation = Vec2::new(0.5, 0.0);
+        // (0.25, 0.1) → scale (0.5, 0.1) → rotate 90° (−0.1, 0.5) → translate (0.4, 0.5)
+        let r = transform_st(&l, Vec2::new(0.25, 0.1));
+        assert!((r - Vec2::new(0.4, 0.5)).length() < 1e-6);
+    }
+}
