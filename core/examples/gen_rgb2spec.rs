@@ -24,7 +24,13 @@ fn main() {
         .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data"));
     for (cs, name) in [(ColorSpace::LinearRec709, "rgb2spec_rec709.bin"), (ColorSpace::AcesCg, "rgb2spec_acescg.bin")] {
         let t0 = std::time::Instant::now();
-        let table = Rgb2SpecTable::build(cs, res);
+        let table = match Rgb2SpecTable::build(cs, res) {
+            Ok(t) => t,
+            Err(e) => {
+                eprintln!("gen_rgb2spec: {e}");
+                std::process::exit(2);
+            }
+        };
         let path = dir.join(name);
         if let Err(e) = std::fs::write(&path, table.to_bytes()) {
             eprintln!("gen_rgb2spec: cannot write {}: {e}", path.display());

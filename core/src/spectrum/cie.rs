@@ -164,9 +164,10 @@ fn build() -> Cie {
 
     let xyz_of = |w: &dyn Fn(usize) -> f64| -> [f64; 3] {
         let mut s = [0.0; 3];
-        for i in 0..N_DENSE {
+        for (i, m) in cmf.iter().enumerate() {
+            let k = quad_weight(i) * w(i);
             for c in 0..3 {
-                s[c] += quad_weight(i) * w(i) * cmf[i][c] as f64;
+                s[c] += k * m[c] as f64;
             }
         }
         s

@@ -252,7 +252,7 @@ mod tests {
         // sphere harness bins wavelengths in equal 10 nm cells (47 θ cells, 1 φ cell). The
         // solid-angle density is p(λ)·|dλ/dz|/(2π). Each of the four outputs (hero and its
         // rotations) must have the same marginal density.
-        let range = (LAMBDA_MAX - LAMBDA_MIN) as f32;
+        let range = LAMBDA_MAX - LAMBDA_MIN;
         let to_dir = |l: f32, v: f32| {
             let z = 1.0 - 2.0 * (l - LAMBDA_MIN) / range;
             let r = (1.0 - z * z).max(0.0).sqrt();

@@ -9,4 +9,4 @@ pub mod spectra;
 pub mod uplift;
 
 pub use sampled::*;
-pub use spectra::Spectrum;
+pub use spectra::{Spectrum, SpectrumError, SpectrumKind};

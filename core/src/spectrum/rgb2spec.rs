@@ -29,8 +29,10 @@ pub fn sigmoid(x: f32) -> f32 {
     0.5 + x / (2.0 * (1.0 + x * x).sqrt())
 }
 
-/// Bound on |a|, |b|, |c|: beyond it the sigmoid is within 1e-8 of 0 or 1 over a band wider
-/// than the quadrature step, so larger values only chase targets no smooth spectrum reaches.
+/// Bound on |a|, |b|, |c| during a fit. Targets that no sigmoid spectrum reaches (the
+/// gamut edges, much of the bright ACEScg cube) drive Gauss–Newton towards infinite
+/// coefficients; the bound stops them at a finite, nearly box-shaped spectrum, so the table
+/// stays finite in f32 and can be interpolated.
 pub const COEFF_MAX: f64 = 1.0e4;
 
 /// Quadrature nodes of the fit: the 1 nm grid, each with t and its RGB weight vector
@@ -168,7 +170,10 @@ pub fn entry_rgb(m: usize, z: f64, x: f64, y: f64) -> [f64; 3] {
 /// generator uses: from the node nearest z = 0.2 upwards, then from it downwards, each fit
 /// starting from its neighbour's result. Entry 0 (black) copies entry 1. Returns (a, b, c)
 /// per z node.
+/// `res` must be at least 2 and `m` < 3, `yi`, `xi` < `res`.
 pub fn solve_column(fitter: &Fitter, res: usize, m: usize, yi: usize, xi: usize) -> Vec<[f64; 3]> {
+    let res = res.max(2);
+    let m = m.min(2);
     let z = z_nodes(res);
     let x = xi as f64 / (res - 1) as f64;
     let y = yi as f64 / (res - 1) as f64;
@@ -203,9 +208,12 @@ impl Rgb2SpecTable {
         ((m * self.res + zi) * self.res + yi) * self.res + xi
     }
 
-    /// Fits every entry (columns in parallel).
-    pub fn build(cs: ColorSpace, res: usize) -> Self {
+    /// Fits every entry (columns in parallel). `res` must be in 2..=256.
+    pub fn build(cs: ColorSpace, res: usize) -> Result<Self, String> {
         use rayon::prelude::*;
+        if !(2..=256).contains(&res) {
+            return Err(format!("rgb2spec table: resolution {res} outside 2..=256"));
+        }
         let fitter = Fitter::new(cs);
         let cols: Vec<(usize, usize, usize)> =
             (0..3).flat_map(|m| (0..res).flat_map(move |yi| (0..res).map(move |xi| (m, yi, xi)))).collect();
@@ -217,7 +225,7 @@ impl Rgb2SpecTable {
                 t.coeffs[i] = c.map(|v| v as f32);
             }
         }
-        t
+        Ok(t)
     }
 
     /// The binary file (format in `core/data/README.md`).
@@ -382,6 +390,7 @@ mod tests {
 
     #[test]
     fn bad_table_bytes_are_rejected_with_a_reason() {
+        assert!(Rgb2SpecTable::build(ColorSpace::LinearRec709, 1).unwrap_err().contains("resolution 1"));
         assert!(Rgb2SpecTable::from_bytes(b"nonsense").unwrap_err().contains("magic"));
         let mut b = table(ColorSpace::LinearRec709).to_bytes();
         b.pop();

@@ -27,15 +27,33 @@ pub enum Spectrum {
     Blackbody { kelvin: f32 },
 }
 
-/// Samples of a [`Spectrum::Tabulated`].
+/// Samples of a [`Spectrum::Tabulated`] (shared: cloning a spectrum copies a pointer).
 #[derive(Clone, Debug, PartialEq)]
-pub struct Tabulated {
-    lambda: Arc<[f32]>,
-    value: Arc<[f32]>,
+pub struct Tabulated(Arc<TabulatedData>);
+
+#[derive(Debug, PartialEq)]
+struct TabulatedData {
+    lambda: Box<[f32]>,
+    value: Box<[f32]>,
     max: f32,
 }
 
 impl Tabulated {
+    #[inline]
+    fn eval(&self, l: f32) -> f32 {
+        self.0.eval(l)
+    }
+    /// The sample wavelengths (nm), strictly increasing.
+    pub fn lambda(&self) -> &[f32] {
+        &self.0.lambda
+    }
+    /// The sample values.
+    pub fn value(&self) -> &[f32] {
+        &self.0.value
+    }
+}
+
+impl TabulatedData {
     #[inline]
     fn eval(&self, l: f32) -> f32 {
         let (xs, ys) = (&*self.lambda, &*self.value);
@@ -189,7 +207,7 @@ impl Spectrum {
             Spectrum::Illuminant { c0, c1, c2, scale, illuminant } => {
                 scale * sigmoid_max(*c0, *c1, *c2) * illuminant.max_value()
             }
-            Spectrum::Tabulated(t) => t.max,
+            Spectrum::Tabulated(t) => t.0.max,
             Spectrum::Blackbody { kelvin } => {
                 let peak = WIEN_B / kelvin;
                 if (LAMBDA_MIN..=LAMBDA_MAX).contains(&peak) {
@@ -224,14 +242,15 @@ impl Spectrum {
             return Ok(Spectrum::Constant(value[0]));
         }
         // the maximum over [360, 830]: interior samples plus the curve at the two ends
-        let t = Tabulated { lambda: lambda.into(), value: value.into(), max: 0.0 };
+        let mut t = TabulatedData { lambda: lambda.into(), value: value.into(), max: 0.0 };
         let mut max = t.eval(LAMBDA_MIN).max(t.eval(LAMBDA_MAX));
         for (&l, &v) in lambda.iter().zip(value) {
             if (LAMBDA_MIN..=LAMBDA_MAX).contains(&l) {
                 max = max.max(v);
             }
         }
-        Ok(Spectrum::Tabulated(Tabulated { max, ..t }))
+        t.max = max;
+        Ok(Spectrum::Tabulated(Tabulated(Arc::new(t))))
     }
 
     /// Planck's law at `kelvin` ∈ [[`Self::BLACKBODY_MIN_K`], [`Self::BLACKBODY_MAX_K`]],
@@ -279,6 +298,12 @@ impl Spectrum {
 mod tests {
     use super::*;
     use crate::spectrum::color::sample_wavelengths;
+
+    #[test]
+    fn spectrum_is_small() {
+        // four f32 and a pointer, plus the tag: materials store many of these
+        assert!(std::mem::size_of::<Spectrum>() <= 32);
+    }
 
     #[test]
     fn tabulated_interpolates_and_clamps() {
