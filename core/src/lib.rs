@@ -6,6 +6,7 @@
 pub mod accel;
 pub mod camera;
 pub mod film;
+pub mod light;
 pub mod math;
 pub mod medium;
 pub mod render;

@@ -1,0 +1,980 @@
+//! Tide's lights: every UsdLux light of the USD contract (distant, dome, sphere, rect, disk,
+//! cylinder), point lights, and emissive mesh triangles, with their sampling for next-event
+//! estimation and power-proportional light selection ([`LightSampler`]).
+//!
+//! Units follow UsdLux: emitted radiance = `color` × `intensity` × 2^`exposure` (× the
+//! normalised blackbody RGB of `colorTemperature` when enabled), uplifted as an illuminant.
+//! `normalize` divides area lights by their world-space area (so their power does not change
+//! with size) and makes a distant light's `intensity` the irradiance it delivers to a surface
+//! facing it.
+//!
+//! Conventions:
+//! - Every pdf returned by [`Light::sample_li`] and [`Light::pdf_li`] is a solid-angle density at
+//!   the receiving point; delta lights (point, distant with angle 0) report pdf 1 for their
+//!   single direction and `pdf_li` 0.
+//! - Area lights emit one-sided: rect and disk towards their local −Z, sphere and cylinder
+//!   outwards (the cylinder from its side only), triangles towards their counter-clockwise
+//!   front unless two-sided. `intersect` returns the emitting-side normal; `l` tests the side.
+//! - A light sample whose radiance is zero because the receiver sees the back of the light is
+//!   not returned (`None`), and `pdf_li` is 0 for such directions, so the two always agree.
+//!
+//! Approximations: a sphere light under a non-uniform scale stays a sphere whose radius is
+//! scaled by the mean of the axis scales; a cylinder's cross-section likewise stays circular
+//! (mean of the Y and Z scales); a dome's transform is used for its rotation only. A rect
+//! light's texture and a cylinder's `treatAsLine` are ignored (rendered as uniform rect and
+//! true cylinder). Dome textures are looked up nearest-texel so that radiance and sampling
+//! density are both piecewise constant over the same cells.
+
+pub mod distrib;
+pub mod sampler;
+
+#[cfg(test)]
+mod tests;
+
+pub use sampler::LightSampler;
+
+use glam::{Mat3, Vec2, Vec3};
+
+use crate::math::{sample_concentric_disk, sample_uniform_sphere, Frame, INV_4PI, PI};
+use crate::scene::{ColorSpace, LightDesc, LightShape, TextureDesc};
+use crate::spectrum::{color, uplift, SampledSpectrum, SampledWavelengths, Spectrum};
+use distrib::Distribution2D;
+
+/// Where a light is sampled from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSampleContext {
+    pub p: Vec3,
+    /// Surface normal at `p`, or `Vec3::ZERO` inside a medium (currently informative only).
+    pub n: Vec3,
+}
+
+impl LightSampleContext {
+    pub fn new(p: Vec3, n: Vec3) -> Self {
+        LightSampleContext { p, n }
+    }
+}
+
+/// A sampled direction towards a light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightLiSample {
+    /// Radiance arriving at the receiver along `-wi` (for delta lights: irradiance-like
+    /// contribution, to be divided by nothing but the light's selection probability).
+    pub l: SampledSpectrum,
+    /// Unit direction from the receiver towards the light.
+    pub wi: Vec3,
+    /// Distance to `p_light`; `f32::INFINITY` for infinite lights.
+    pub dist: f32,
+    /// Solid-angle density of `wi`; 1 for delta lights.
+    pub pdf: f32,
+    pub is_delta: bool,
+    /// Point on the light (for infinite lights: a point beyond the scene bounds along `wi`).
+    pub p_light: Vec3,
+    /// Emitting-side normal at `p_light` (for point and infinite lights: `-wi`).
+    pub n_light: Vec3,
+}
+
+/// What a light emits: a spectrum shape and a scalar scale (intensity, exposure and
+/// normalisation folded in).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Emission {
+    pub spectrum: Spectrum,
+    pub scale: f32,
+    /// Luminance of `spectrum` (CIE Y relative to an equal-energy spectrum of value 1).
+    pub luminance: f32,
+}
+
+impl Emission {
+    pub fn new(spectrum: Spectrum, scale: f32) -> Self {
+        let luminance = spectrum_luminance(&spectrum);
+        Emission { spectrum, scale, luminance }
+    }
+    #[inline]
+    pub fn sample(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
+        self.spectrum.sample(lambda) * self.scale
+    }
+}
+
+/// A distant (directional) light, optionally with an angular extent (a sun disk).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DistantLight {
+    /// Unit direction from the scene towards the light (the light shines along `-to_light`).
+    pub to_light: Vec3,
+    frame: Frame,
+    /// 1 − cos of the cone's half-angle (0 for a delta light), kept separately for precision.
+    one_minus_cos: f32,
+    /// Radiance of the disk, or for a delta light the irradiance on a facing surface.
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+    scene_radius: f32,
+}
+
+/// Lat-long environment map of a dome light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DomeMap {
+    width: usize,
+    height: usize,
+    /// Texel RGB × the light's colour, row-major from the top row (+Y).
+    rgb: Vec<[f32; 3]>,
+    distrib: Distribution2D,
+    cs: ColorSpace,
+    /// Solid-angle mean of the texels' luminance.
+    mean_luminance: f32,
+}
+
+/// An infinitely distant environment.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DomeLight {
+    /// Light-to-world rotation.
+    rot: Mat3,
+    /// Constant colour (no map), or the map's scale (with a map: spectrum unused, scale used).
+    pub emission: Emission,
+    pub map: Option<Box<DomeMap>>,
+    pub visible_to_camera: bool,
+    scene_center: Vec3,
+    scene_radius: f32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct SphereLight {
+    pub center: Vec3,
+    pub radius: f32,
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLight {
+    pub p: Vec3,
+    /// Radiant intensity (per steradian).
+    pub emission: Emission,
+}
+
+/// A parallelogram (rect) or ellipse (disk) spanned by `a`, `b` about `origin`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Planar {
+    /// Rect: a corner; disk: the centre.
+    pub origin: Vec3,
+    pub a: Vec3,
+    pub b: Vec3,
+    /// Unit normal of the emitting side.
+    pub n: Vec3,
+    /// Dual basis: `da·a = 1, da·b = 0`, `db·b = 1, db·a = 0`.
+    da: Vec3,
+    db: Vec3,
+    pub area: f32,
+}
+
+impl Planar {
+    fn new(origin: Vec3, a: Vec3, b: Vec3, front: Vec3, ellipse: bool) -> Option<Planar> {
+        let c = a.cross(b);
+        let c2 = c.length_squared();
+        let area = c2.sqrt() * if ellipse { PI } else { 1.0 };
+        if !(area > 0.0) || !area.is_finite() || !c2.is_normal() {
+            return None;
+        }
+        let n = c / c2.sqrt();
+        let d = front.dot(n);
+        let n = if d < 0.0 { -n } else { n };
+        Some(Planar { origin, a, b, n, da: b.cross(c) / c2, db: c.cross(a) / c2, area })
+    }
+
+    #[inline]
+    fn hit(&self, o: Vec3, d: Vec3, t_max: f32, ellipse: bool) -> Option<(f32, Vec3, Vec3)> {
+        let denom = d.dot(self.n);
+        if denom == 0.0 {
+            return None;
+        }
+        let t = (self.origin - o).dot(self.n) / denom;
+        if !(t > 0.0 && t < t_max) {
+            return None;
+        }
+        let p = o + d * t;
+        let q = p - self.origin;
+        let (s, u) = (self.da.dot(q), self.db.dot(q));
+        // EDGE_EPS: rays towards points sampled on the rim must not miss by rounding
+        let inside = if ellipse {
+            s * s + u * u <= 1.0 + 2.0 * EDGE_EPS
+        } else {
+            (-EDGE_EPS..=1.0 + EDGE_EPS).contains(&s) && (-EDGE_EPS..=1.0 + EDGE_EPS).contains(&u)
+        };
+        inside.then_some((t, p, self.n))
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RectLight {
+    pub shape: Planar,
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiskLight {
+    pub shape: Planar,
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+}
+
+/// An open cylinder (no caps) emitting outwards from its side.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CylinderLight {
+    pub center: Vec3,
+    /// Frame whose `n` is the cylinder's axis.
+    frame: Frame,
+    pub half_length: f32,
+    pub radius: f32,
+    pub area: f32,
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+}
+
+/// An emissive mesh triangle (world space).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriangleLight {
+    pub p: [Vec3; 3],
+    /// Unit normal of the counter-clockwise front.
+    pub n: Vec3,
+    pub area: f32,
+    pub two_sided: bool,
+    pub emission: Emission,
+}
+
+/// Any light. Enum dispatch: no virtual calls in the sampling loop.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Light {
+    Distant(DistantLight),
+    Dome(DomeLight),
+    Sphere(SphereLight),
+    Rect(RectLight),
+    Disk(DiskLight),
+    Cylinder(CylinderLight),
+    Triangle(TriangleLight),
+    Point(PointLight),
+}
+
+fn err(attr: &str, what: impl std::fmt::Display) -> String {
+    format!("{attr}: {what}")
+}
+
+fn check_finite(attr: &str, v: f32) -> Result<f32, String> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(err(attr, format!("not finite ({v})")))
+    }
+}
+
+fn check_length(attr: &str, v: f32) -> Result<f32, String> {
+    let v = check_finite(attr, v)?;
+    if v < 0.0 {
+        return Err(err(attr, format!("negative ({v})")));
+    }
+    Ok(v)
+}
+
+/// Direction of the lat-long coordinates (u, t) in the dome's frame, where u is
+/// the image column fraction (longitude +π at u = 0, −π at u = 1) and t the row fraction from
+/// the top (+Y at t = 0). Longitude 0 is +Z, longitude π/2 is +X (OpenEXR lat-long).
+#[inline]
+fn latlong_direction(u: f32, t: f32) -> Vec3 {
+    let theta = t * PI;
+    let lon = PI - 2.0 * PI * u;
+    let (st, ct) = theta.sin_cos();
+    let (sl, cl) = lon.sin_cos();
+    Vec3::new(st * sl, ct, st * cl)
+}
+
+/// Inverse of [`latlong_direction`]: (u, t, sin θ).
+#[inline]
+fn latlong_coords(d: Vec3) -> (f32, f32, f32) {
+    let lon = d.x.atan2(d.z);
+    let u = (PI - lon) * (0.5 / PI);
+    let t = d.y.clamp(-1.0, 1.0).acos() / PI;
+    let sin_theta = (d.x * d.x + d.z * d.z).sqrt();
+    (u.clamp(0.0, 1.0), t.clamp(0.0, 1.0), sin_theta)
+}
+
+/// Direction in the cone about +Z with 1 − cosθ uniform in [0, one_minus_cos]
+/// (`math::sample_uniform_cone` parameterised by 1 − cos, which keeps a 0.5° sun disk exact in f32).
+#[inline]
+fn sample_cone(u: Vec2, one_minus_cos: f32) -> Vec3 {
+    let x = u.x * one_minus_cos;
+    let cos_t = 1.0 - x;
+    let sin_t = (x * (2.0 - x)).max(0.0).sqrt();
+    let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+    Vec3::new(sin_t * cp, sin_t * sp, cos_t)
+}
+
+/// Whether unit `w` lies in the cone of unit axis `axis` with the given 1 − cos half-angle.
+/// Uses the chord length (|w − axis|² = 2(1 − cos)), which is exact for tiny cones; the relative
+/// slack of 1e-4 covers the rounding of sampled directions on the rim.
+#[inline]
+fn in_cone(w: Vec3, axis: Vec3, one_minus_cos: f32) -> bool {
+    (w - axis).length_squared() <= 2.0 * one_minus_cos * (1.0 + 1e-4)
+}
+
+/// CIE 1931 ȳ by the multi-lobe Gaussian fit of Wyman, Sloan and Shirley (2013).
+fn cie_y_fit(lambda: f32) -> f32 {
+    let g = |mu: f32, s1: f32, s2: f32| {
+        let t = (lambda - mu) / if lambda < mu { s1 } else { s2 };
+        (-0.5 * t * t).exp()
+    };
+    0.821 * g(568.8, 46.9, 40.5) + 0.286 * g(530.9, 16.3, 31.1)
+}
+
+/// Luminance of a spectrum relative to an equal-energy spectrum of value 1 (∫Sȳ / ∫ȳ), used to
+/// weigh light powers against each other.
+pub fn spectrum_luminance(s: &Spectrum) -> f32 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    let mut l = 360.0f32;
+    while l <= 830.0 {
+        let y = cie_y_fit(l) as f64;
+        num += s.eval(l).max(0.0) as f64 * y;
+        den += y;
+        l += 5.0;
+    }
+    (num / den) as f32
+}
+
+/// Smaller root first; None without real roots.
+#[inline]
+fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    if a == 0.0 {
+        if b == 0.0 {
+            return None;
+        }
+        let t = -c / b;
+        return Some((t, t));
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let q = -0.5 * (b + disc.sqrt().copysign(b));
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+
+impl DomeMap {
+    fn new(tex: &TextureDesc, tint: [f32; 3], cs: ColorSpace) -> Result<DomeMap, String> {
+        let (w, h, ch) = (tex.width as usize, tex.height as usize, tex.channels as usize);
+        if w == 0 || h == 0 {
+            return Err(err("texture", format!("'{}' has no pixels ({w}×{h})", tex.name)));
+        }
+        if !matches!(ch, 1 | 3 | 4) {
+            return Err(err("texture", format!("'{}' has {ch} channels (1, 3 or 4 expected)", tex.name)));
+        }
+        if tex.pixels.len() != w * h * ch {
+            return Err(err("texture", format!("'{}' holds {} values, {w}×{h}×{ch} expected", tex.name, tex.pixels.len())));
+        }
+        let mut rgb = Vec::with_capacity(w * h);
+        let mut func = Vec::with_capacity(w * h);
+        let mut mean = 0.0f64;
+        for y in 0..h {
+            let sin_row = (PI * (y as f32 + 0.5) / h as f32).sin();
+            for x in 0..w {
+                let px = &tex.pixels[(y * w + x) * ch..(y * w + x + 1) * ch];
+                if let Some(bad) = px.iter().find(|v| !v.is_finite()) {
+                    return Err(err("texture", format!("'{}' has a non-finite value ({bad}) at pixel ({x}, {y})", tex.name)));
+                }
+                // negative texels (ringing of resampled HDRs) emit nothing
+                let c = if ch == 1 { [px[0]; 3] } else { [px[0], px[1], px[2]] };
+                let c = [c[0].max(0.0) * tint[0], c[1].max(0.0) * tint[1], c[2].max(0.0) * tint[2]];
+                let lum = color::luminance(c, cs).max(0.0);
+                rgb.push(c);
+                func.push(lum * sin_row);
+                mean += (lum * sin_row) as f64;
+            }
+        }
+        // ∫ lum dω / 4π with dω = 2π² sinθ du dt
+        let mean_luminance = (mean / (w * h) as f64 * 2.0 * (PI as f64).powi(2) / (4.0 * PI as f64)) as f32;
+        Ok(DomeMap { width: w, height: h, rgb, distrib: Distribution2D::new(&func, w, h), cs, mean_luminance })
+    }
+
+    #[inline]
+    fn texel(&self, u: f32, t: f32) -> [f32; 3] {
+        let x = ((u * self.width as f32) as usize).min(self.width - 1);
+        let y = ((t * self.height as f32) as usize).min(self.height - 1);
+        self.rgb[y * self.width + x]
+    }
+}
+
+impl DomeLight {
+    #[inline]
+    fn to_local(&self, w: Vec3) -> Vec3 {
+        self.rot.transpose() * w
+    }
+
+    fn le(&self, w: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match &self.map {
+            None => self.emission.sample(lambda),
+            Some(m) => {
+                let (u, t, _) = latlong_coords(self.to_local(w));
+                let c = m.texel(u, t);
+                if c == [0.0; 3] {
+                    return SampledSpectrum::ZERO;
+                }
+                uplift::illuminant(c, m.cs).sample(lambda) * self.emission.scale
+            }
+        }
+    }
+
+    fn pdf(&self, w: Vec3) -> f32 {
+        match &self.map {
+            None => INV_4PI,
+            Some(m) => {
+                if !(m.distrib.integral() > 0.0) {
+                    return 0.0;
+                }
+                let (u, t, sin_theta) = latlong_coords(self.to_local(w));
+                if sin_theta <= 0.0 {
+                    return 0.0;
+                }
+                m.distrib.pdf([u, t]) / (2.0 * PI * PI * sin_theta)
+            }
+        }
+    }
+}
+
+impl Light {
+    /// Builds a light from its UsdLux description. `textures` is the scene's texture table
+    /// (the dome's lat-long map indexes into it). Errors name the attribute: "radius: ...".
+    pub fn from_desc(desc: &LightDesc, textures: &[TextureDesc], cs: ColorSpace) -> Result<Light, String> {
+        let m = desc.transform;
+        if !m.is_finite() {
+            return Err(err("transform", "not finite"));
+        }
+        let intensity = check_finite("intensity", desc.intensity)?;
+        let exposure = check_finite("exposure", desc.exposure)?;
+        for (i, &c) in desc.color.iter().enumerate() {
+            check_finite("color", c)?;
+            if c < 0.0 {
+                return Err(err("color", format!("component {i} is negative ({c})")));
+            }
+        }
+        let mut rgb = desc.color;
+        if let Some(k) = desc.color_temperature {
+            if !(k.is_finite() && k > 0.0) {
+                return Err(err("colorTemperature", format!("must be a positive number of kelvin ({k})")));
+            }
+            let bb = color::blackbody_rgb(k, cs);
+            rgb = [rgb[0] * bb[0], rgb[1] * bb[1], rgb[2] * bb[2]];
+        }
+        let scale = intensity * exposure.exp2();
+        if !scale.is_finite() {
+            return Err(err("exposure", format!("intensity × 2^exposure overflows ({intensity} × 2^{exposure})")));
+        }
+        let m3 = Mat3::from_mat4(m);
+        let origin = m.transform_point3(Vec3::ZERO);
+        let vis = desc.visible_to_camera;
+        let emission = |s: f32| Emission::new(uplift::illuminant(rgb, cs), s);
+        // front of a planar light: where its local −Z goes (falls back to the plane normal)
+        let front = -(m3 * Vec3::Z);
+
+        let light = match &desc.shape {
+            LightShape::Distant { angle_deg } => {
+                let angle = check_finite("angle", *angle_deg)?;
+                if !(0.0..=360.0).contains(&angle) {
+                    return Err(err("angle", format!("must lie in [0, 360] degrees ({angle})")));
+                }
+                let to_light = m3 * Vec3::Z;
+                if !(to_light.length_squared() > 0.0) {
+                    return Err(err("transform", "collapses the light's direction"));
+                }
+                let to_light = to_light.normalize();
+                let half = 0.5 * angle.to_radians();
+                let omc = 2.0 * (0.5 * half).sin().powi(2);
+                let s = if omc == 0.0 {
+                    // delta light: intensity is the irradiance on a facing surface either way
+                    scale
+                } else if desc.normalize {
+                    // ∫_cone cos dω = π sin²(half) (π beyond a hemisphere)
+                    let sin2 = if half >= 0.5 * PI { 1.0 } else { half.sin().powi(2) };
+                    scale / (PI * sin2)
+                } else {
+                    scale
+                };
+                Light::Distant(DistantLight {
+                    to_light,
+                    frame: Frame::from_normal(to_light),
+                    one_minus_cos: omc,
+                    emission: emission(s),
+                    visible_to_camera: vis,
+                    scene_radius: 1.0,
+                })
+            }
+            LightShape::Dome { texture } => {
+                let x = (m3 * Vec3::X).normalize_or_zero();
+                let y = m3 * Vec3::Y;
+                let y = (y - x * x.dot(y)).normalize_or_zero();
+                if x == Vec3::ZERO || y == Vec3::ZERO {
+                    return Err(err("transform", "collapses the dome's orientation"));
+                }
+                let rot = Mat3::from_cols(x, y, x.cross(y));
+                let map = match texture {
+                    None => None,
+                    Some(i) => {
+                        let tex = textures.get(*i).ok_or_else(|| err("texture:file", format!("texture index {i} out of range ({} textures)", textures.len())))?;
+                        Some(Box::new(DomeMap::new(tex, rgb, cs)?))
+                    }
+                };
+                let mut em = emission(scale);
+                if let Some(mp) = &map {
+                    em.luminance = mp.mean_luminance;
+                }
+                Light::Dome(DomeLight { rot, emission: em, map, visible_to_camera: vis, scene_center: Vec3::ZERO, scene_radius: 1.0 })
+            }
+            LightShape::Sphere { radius, treat_as_point } => {
+                let r = check_length("radius", *radius)?;
+                let s = (m3.x_axis.length() + m3.y_axis.length() + m3.z_axis.length()) / 3.0;
+                let rw = r * s;
+                if !rw.is_finite() {
+                    return Err(err("radius", "not finite in world space"));
+                }
+                let area = 4.0 * PI * rw * rw;
+                if *treat_as_point || !(area > 0.0) {
+                    // same power as the sphere: I = L π r²; for r → 0 only the normalised
+                    // limit (I = intensity / 4) is finite, and it is used for any zero radius
+                    let i = if desc.normalize || !(area > 0.0) { 0.25 * scale } else { scale * PI * rw * rw };
+                    Light::Point(PointLight { p: origin, emission: emission(i) })
+                } else {
+                    let s = if desc.normalize { scale / area } else { scale };
+                    Light::Sphere(SphereLight { center: origin, radius: rw, emission: emission(s), visible_to_camera: vis })
+                }
+            }
+            LightShape::Rect { width, height, texture: _ } => {
+                let w = check_length("width", *width)?;
+                let h = check_length("height", *height)?;
+                if w == 0.0 {
+                    return Err(err("width", "zero-area light"));
+                }
+                if h == 0.0 {
+                    return Err(err("height", "zero-area light"));
+                }
+                let a = m3 * Vec3::X * w;
+                let b = m3 * Vec3::Y * h;
+                let corner = origin - 0.5 * (a + b);
+                let shape = Planar::new(corner, a, b, front, false).ok_or_else(|| err("transform", "zero-area light (the transform collapses the rect)"))?;
+                let s = if desc.normalize { scale / shape.area } else { scale };
+                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis })
+            }
+            LightShape::Disk { radius } => {
+                let r = check_length("radius", *radius)?;
+                if r == 0.0 {
+                    return Err(err("radius", "zero-area light"));
+                }
+                let shape = Planar::new(origin, m3 * Vec3::X * r, m3 * Vec3::Y * r, front, true)
+                    .ok_or_else(|| err("transform", "zero-area light (the transform collapses the disk)"))?;
+                let s = if desc.normalize { scale / shape.area } else { scale };
+                Light::Disk(DiskLight { shape, emission: emission(s), visible_to_camera: vis })
+            }
+            LightShape::Cylinder { radius, length, treat_as_line: _ } => {
+                let r = check_length("radius", *radius)?;
+                let l = check_length("length", *length)?;
+                if r == 0.0 {
+                    return Err(err("radius", "zero-area light"));
+                }
+                if l == 0.0 {
+                    return Err(err("length", "zero-area light"));
+                }
+                let axis = m3 * Vec3::X;
+                let half_length = 0.5 * l * axis.length();
+                let radius = r * 0.5 * (m3.y_axis.length() + m3.z_axis.length());
+                let area = 2.0 * PI * radius * 2.0 * half_length;
+                if !(area > 0.0 && area.is_finite()) {
+                    return Err(err("transform", "zero-area light (the transform collapses the cylinder)"));
+                }
+                let s = if desc.normalize { scale / area } else { scale };
+                Light::Cylinder(CylinderLight {
+                    center: origin,
+                    frame: Frame::from_normal(axis.normalize()),
+                    half_length,
+                    radius,
+                    area,
+                    emission: emission(s),
+                    visible_to_camera: vis,
+                })
+            }
+        };
+        Ok(light)
+    }
+
+    /// An emissive mesh triangle in world space; `emission` is its radiance. None when the
+    /// triangle is degenerate or not finite.
+    pub fn triangle(p: [Vec3; 3], emission: Spectrum, two_sided: bool) -> Option<Light> {
+        if !p.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let c = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = c.length();
+        if !(len > 0.0) || !len.is_finite() || !c.length_squared().is_normal() {
+            return None;
+        }
+        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0) }))
+    }
+
+    /// A point light of radiant intensity `intensity` × `spectrum` (per steradian).
+    pub fn point(p: Vec3, spectrum: Spectrum, intensity: f32) -> Light {
+        Light::Point(PointLight { p, emission: Emission::new(spectrum, intensity) })
+    }
+
+    /// Gives infinite lights the scene's bounding sphere (for power and for placing their
+    /// sample points beyond the scene).
+    pub fn preprocess(&mut self, scene_center: Vec3, scene_radius: f32) {
+        let r = if scene_radius.is_finite() && scene_radius > 0.0 { scene_radius } else { 1.0 };
+        match self {
+            Light::Distant(d) => d.scene_radius = r,
+            Light::Dome(d) => {
+                d.scene_center = if scene_center.is_finite() { scene_center } else { Vec3::ZERO };
+                d.scene_radius = r;
+            }
+            _ => {}
+        }
+    }
+
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Distant(_) | Light::Dome(_))
+    }
+
+    pub fn is_delta(&self) -> bool {
+        match self {
+            Light::Point(_) => true,
+            Light::Distant(d) => d.one_minus_cos == 0.0,
+            _ => false,
+        }
+    }
+
+    /// Whether camera rays see the light itself (emissive triangles: always).
+    pub fn visible_to_camera(&self) -> bool {
+        match self {
+            Light::Distant(l) => l.visible_to_camera,
+            Light::Dome(l) => l.visible_to_camera,
+            Light::Sphere(l) => l.visible_to_camera,
+            Light::Rect(l) => l.visible_to_camera,
+            Light::Disk(l) => l.visible_to_camera,
+            Light::Cylinder(l) => l.visible_to_camera,
+            Light::Triangle(_) => true,
+            Light::Point(_) => false,
+        }
+    }
+
+    pub fn emission(&self) -> &Emission {
+        match self {
+            Light::Distant(l) => &l.emission,
+            Light::Dome(l) => &l.emission,
+            Light::Sphere(l) => &l.emission,
+            Light::Rect(l) => &l.emission,
+            Light::Disk(l) => &l.emission,
+            Light::Cylinder(l) => &l.emission,
+            Light::Triangle(l) => &l.emission,
+            Light::Point(l) => &l.emission,
+        }
+    }
+
+    /// Emitting area in world space (0 for non-area lights).
+    pub fn area(&self) -> f32 {
+        match self {
+            Light::Sphere(l) => 4.0 * PI * l.radius * l.radius,
+            Light::Rect(l) => l.shape.area,
+            Light::Disk(l) => l.shape.area,
+            Light::Cylinder(l) => l.area,
+            Light::Triangle(l) => l.area,
+            _ => 0.0,
+        }
+    }
+
+    /// Estimate of the emitted power, luminance-weighted (infinite lights: through a disk of
+    /// the scene's radius), for light selection.
+    pub fn power(&self) -> f32 {
+        let e = self.emission();
+        let base = e.luminance * e.scale;
+        let p = match self {
+            Light::Point(_) => 4.0 * PI * base,
+            Light::Distant(d) => {
+                let irradiance = if d.one_minus_cos == 0.0 {
+                    base
+                } else {
+                    // π sin²(half) = π (1 − cos²) for half ≤ 90°, π beyond
+                    let c = 1.0 - d.one_minus_cos;
+                    base * PI * if c > 0.0 { 1.0 - c * c } else { 1.0 }
+                };
+                irradiance * PI * d.scene_radius * d.scene_radius
+            }
+            Light::Dome(d) => base * 4.0 * PI * PI * d.scene_radius * d.scene_radius,
+            Light::Triangle(t) => base * PI * t.area * if t.two_sided { 2.0 } else { 1.0 },
+            _ => base * PI * self.area(),
+        };
+        if p.is_finite() {
+            p.max(0.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Radiance leaving an area light at `p` (normal `n`, the emitting side as `intersect`
+    /// returns it) towards `w`.
+    #[inline]
+    pub fn l(&self, p: Vec3, n: Vec3, w: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let _ = p;
+        let c = n.dot(w);
+        match self {
+            Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda),
+            Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => t.emission.sample(lambda),
+            _ => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// Radiance of infinite lights along a ray of direction `dir` that left the scene.
+    #[inline]
+    pub fn le(&self, dir: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Dome(d) => d.le(dir.normalize(), lambda),
+            Light::Distant(d) if d.one_minus_cos > 0.0 && in_cone(dir.normalize(), d.to_light, d.one_minus_cos) => d.emission.sample(lambda),
+            _ => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// Nearest intersection of the ray `o + t d` (0 < t < t_max) with the light's surface:
+    /// (t, point, emitting-side normal). Back faces are reported too (`l` gives them zero).
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec3, Vec3)> {
+        match self {
+            Light::Sphere(s) => {
+                let oc = (o - s.center).as_dvec3();
+                let dd = d.as_dvec3();
+                let r = s.radius as f64;
+                let (t0, t1) = solve_quadratic(dd.length_squared(), 2.0 * oc.dot(dd), oc.length_squared() - r * r)?;
+                let t = if t0 > 0.0 { t0 } else { t1 };
+                let tf = t as f32;
+                if !(t > 0.0 && tf < t_max) {
+                    return None;
+                }
+                let p = o + d * tf;
+                Some((tf, p, ((oc + dd * t) / r).as_vec3().normalize()))
+            }
+            Light::Rect(r) => r.shape.hit(o, d, t_max, false),
+            Light::Disk(r) => r.shape.hit(o, d, t_max, true),
+            Light::Cylinder(c) => {
+                let f = &c.frame;
+                let ol = f.to_local(o - c.center).as_dvec3();
+                let dl = f.to_local(d).as_dvec3();
+                let r = c.radius as f64;
+                let (t0, t1) = solve_quadratic(dl.x * dl.x + dl.y * dl.y, 2.0 * (ol.x * dl.x + ol.y * dl.y), ol.x * ol.x + ol.y * ol.y - r * r)?;
+                for t in [t0, t1] {
+                    let tf = t as f32;
+                    if !(t > 0.0 && tf < t_max) {
+                        continue;
+                    }
+                    let q = ol + dl * t;
+                    if q.z.abs() > c.half_length as f64 * (1.0 + EDGE_EPS as f64) {
+                        continue;
+                    }
+                    let n = f.to_world(Vec3::new((q.x / r) as f32, (q.y / r) as f32, 0.0)).normalize();
+                    return Some((tf, o + d * tf, n));
+                }
+                None
+            }
+            Light::Triangle(tr) => {
+                // Möller–Trumbore
+                let e1 = tr.p[1] - tr.p[0];
+                let e2 = tr.p[2] - tr.p[0];
+                let pv = d.cross(e2);
+                let det = e1.dot(pv);
+                if det == 0.0 {
+                    return None;
+                }
+                let inv = 1.0 / det;
+                let tv = o - tr.p[0];
+                let b1 = tv.dot(pv) * inv;
+                if !(-EDGE_EPS..=1.0 + EDGE_EPS).contains(&b1) {
+                    return None;
+                }
+                let qv = tv.cross(e1);
+                let b2 = d.dot(qv) * inv;
+                if b2 < -EDGE_EPS || b1 + b2 > 1.0 + EDGE_EPS {
+                    return None;
+                }
+                let t = e2.dot(qv) * inv;
+                (t > 0.0 && t < t_max).then(|| (t, o + d * t, tr.n))
+            }
+            _ => None,
+        }
+    }
+
+    /// Samples a direction towards the light from `ctx.p`. None when the light sends nothing
+    /// there (receiver behind a one-sided light, inside a sphere light, black texel, ...).
+    pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
+        match self {
+            Light::Point(pl) => {
+                let v = pl.p - ctx.p;
+                let d2 = v.length_squared();
+                if !(d2 > 0.0) {
+                    return None;
+                }
+                let dist = d2.sqrt();
+                let wi = v / dist;
+                Some(LightLiSample { l: pl.emission.sample(lambda) / d2, wi, dist, pdf: 1.0, is_delta: true, p_light: pl.p, n_light: -wi })
+            }
+            Light::Distant(d) => {
+                let (wi, l, pdf, is_delta) = if d.one_minus_cos == 0.0 {
+                    (d.to_light, d.emission.sample(lambda), 1.0, true)
+                } else {
+                    let wi = d.frame.to_world(sample_cone(u, d.one_minus_cos)).normalize();
+                    (wi, d.emission.sample(lambda), 1.0 / (2.0 * PI * d.one_minus_cos), false)
+                };
+                Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta, p_light: ctx.p + wi * (2.0 * d.scene_radius), n_light: -wi })
+            }
+            Light::Dome(d) => {
+                let wi = match &d.map {
+                    None => sample_uniform_sphere(u),
+                    Some(m) => {
+                        if !(m.distrib.integral() > 0.0) {
+                            return None;
+                        }
+                        let (uv, _) = m.distrib.sample([u.x, u.y]);
+                        (d.rot * latlong_direction(uv[0], uv[1])).normalize()
+                    }
+                };
+                // radiance and density from the direction itself, exactly as `le` and `pdf_li` see it
+                let pdf = d.pdf(wi);
+                if !(pdf > 0.0) {
+                    return None;
+                }
+                let l = d.le(wi, lambda);
+                let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
+                Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
+            }
+            Light::Sphere(s) => {
+                let v = s.center - ctx.p;
+                let d2 = v.length_squared();
+                let r2 = s.radius * s.radius;
+                if !(d2 > r2) {
+                    return None;
+                }
+                let sin2 = r2 / d2;
+                let cos_max = (1.0 - sin2).max(0.0).sqrt();
+                let omc = sin2 / (1.0 + cos_max);
+                let axis = v / d2.sqrt();
+                let wi = Frame::from_normal(axis).to_world(sample_cone(u, omc)).normalize();
+                // nearest point of the sphere along wi (tangent point on the rim)
+                let dist_c = d2.sqrt() as f64;
+                let cos_t = wi.dot(axis) as f64;
+                let disc = (s.radius as f64).powi(2) - dist_c * dist_c * (1.0 - cos_t * cos_t).max(0.0);
+                let dist = (dist_c * cos_t - disc.max(0.0).sqrt()) as f32;
+                let p_light = ctx.p + wi * dist;
+                let n_light = (p_light - s.center).normalize();
+                Some(LightLiSample { l: s.emission.sample(lambda), wi, dist, pdf: 1.0 / (2.0 * PI * omc), is_delta: false, p_light, n_light })
+            }
+            Light::Rect(r) => {
+                let p = r.shape.origin + r.shape.a * u.x + r.shape.b * u.y;
+                area_sample(ctx.p, p, r.shape.n, r.shape.area, false, &r.emission, lambda)
+            }
+            Light::Disk(dl) => {
+                let q = sample_concentric_disk(u);
+                let p = dl.shape.origin + dl.shape.a * q.x + dl.shape.b * q.y;
+                area_sample(ctx.p, p, dl.shape.n, dl.shape.area, false, &dl.emission, lambda)
+            }
+            Light::Cylinder(c) => {
+                let z = (2.0 * u.x - 1.0) * c.half_length;
+                let (sp, cp) = (2.0 * PI * u.y).sin_cos();
+                let n = c.frame.to_world(Vec3::new(cp, sp, 0.0));
+                let p = c.center + c.frame.n * z + n * c.radius;
+                area_sample(ctx.p, p, n, c.area, false, &c.emission, lambda)
+            }
+            Light::Triangle(t) => {
+                let su = u.x.sqrt();
+                let (b1, b2) = (su * (1.0 - u.y), su * u.y);
+                let p = t.p[0] * (1.0 - b1 - b2) + t.p[1] * b1 + t.p[2] * b2;
+                area_sample(ctx.p, p, t.n, t.area, t.two_sided, &t.emission, lambda)
+            }
+        }
+    }
+
+    /// Solid-angle density with which `sample_li` from `ctx.p` produces `wi`. `hit` is the
+    /// point and normal where the ray along `wi` meets the light, when the caller knows it
+    /// (emissive triangles found by the scene BVH); otherwise it is found by `intersect`.
+    pub fn pdf_li(&self, ctx: &LightSampleContext, wi: Vec3, hit: Option<(Vec3, Vec3)>) -> f32 {
+        match self {
+            Light::Point(_) => 0.0,
+            Light::Distant(d) => {
+                if d.one_minus_cos > 0.0 && in_cone(wi.normalize(), d.to_light, d.one_minus_cos) {
+                    1.0 / (2.0 * PI * d.one_minus_cos)
+                } else {
+                    0.0
+                }
+            }
+            Light::Dome(d) => d.pdf(wi.normalize()),
+            Light::Sphere(s) => {
+                let v = s.center - ctx.p;
+                let d2 = v.length_squared();
+                let r2 = s.radius * s.radius;
+                if !(d2 > r2) {
+                    return 0.0;
+                }
+                let sin2 = r2 / d2;
+                let omc = sin2 / (1.0 + (1.0 - sin2).max(0.0).sqrt());
+                if in_cone(wi.normalize(), v / d2.sqrt(), omc) {
+                    1.0 / (2.0 * PI * omc)
+                } else {
+                    0.0
+                }
+            }
+            _ => {
+                let (p, n) = match hit {
+                    Some(h) => h,
+                    None => match self.intersect(ctx.p, wi, f32::INFINITY) {
+                        Some((_, p, n)) => (p, n),
+                        None => return 0.0,
+                    },
+                };
+                let two_sided = matches!(self, Light::Triangle(t) if t.two_sided);
+                let v = p - ctx.p;
+                let d2 = v.length_squared();
+                let cos_l = -n.dot(v) / d2.sqrt();
+                let cos_l = if two_sided { cos_l.abs() } else { cos_l };
+                if !(cos_l >= MIN_LIGHT_COS && d2 > 0.0) {
+                    return 0.0;
+                }
+                let pdf = d2 / (cos_l * self.area());
+                if pdf.is_finite() {
+                    pdf
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+}
+
+/// Relative tolerance of the edge tests in `intersect`: a sample drawn on the very edge of a
+/// light must be found again by the ray towards it despite f32 rounding (≈ 1e-7); 1e-5 of the
+/// light's size is invisible in an image.
+const EDGE_EPS: f32 = 1e-5;
+
+/// Area-light points seen more grazing than this (cos < 0.005, beyond 89.7°) are neither
+/// sampled nor given a density: there the f32 ray towards the point can miss a curved light
+/// by rounding, and their share of the irradiance (∝ cos²) is ~1e-5. `pdf_li` returns 0 for
+/// them too, so MIS leaves them to BSDF sampling and stays unbiased.
+const MIN_LIGHT_COS: f32 = 5e-3;
+
+/// Converts a uniform area sample `p` (normal `n`) into a solid-angle sample seen from `from`.
+#[inline]
+fn area_sample(from: Vec3, p: Vec3, n: Vec3, area: f32, two_sided: bool, em: &Emission, lambda: &SampledWavelengths) -> Option<LightLiSample> {
+    let v = p - from;
+    let d2 = v.length_squared();
+    if !(d2 > 0.0) {
+        return None;
+    }
+    let dist = d2.sqrt();
+    let wi = v / dist;
+    let cos_l = -n.dot(wi);
+    let cos_abs = if two_sided { cos_l.abs() } else { cos_l };
+    if !(cos_abs >= MIN_LIGHT_COS) {
+        return None;
+    }
+    let pdf = d2 / (cos_abs * area);
+    if !pdf.is_finite() {
+        return None;
+    }
+    let n_light = if cos_l < 0.0 { -n } else { n };
+    Some(LightLiSample { l: em.sample(lambda), wi, dist, pdf, is_delta: false, p_light: p, n_light })
+}
