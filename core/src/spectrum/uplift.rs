@@ -148,7 +148,14 @@ mod tests {
         let mut rng = TestRng::new(8);
         for cs in SPACES {
             let mut rgbs = colours(9, 500, 0.0);
-            rgbs.extend([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 1.0, 0.0], [1e-7, 0.0, 1e-6], [1.0, 0.999, 1.0]]);
+            rgbs.extend([
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 1.0, 0.0],
+                [1e-7, 0.0, 1e-6],
+                [1.0, 0.999, 1.0],
+            ]);
             for rgb in rgbs {
                 let s = albedo(rgb, cs);
                 assert!(s.max_value() <= 1.0, "{rgb:?}");
