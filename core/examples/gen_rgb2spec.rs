@@ -18,10 +18,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let dir = args
-        .get(2)
-        .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data"));
+    let dir = args.get(2).map(PathBuf::from).unwrap_or_else(|| PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("data"));
     for (cs, name) in [(ColorSpace::LinearRec709, "rgb2spec_rec709.bin"), (ColorSpace::AcesCg, "rgb2spec_acescg.bin")] {
         let t0 = std::time::Instant::now();
         let table = match Rgb2SpecTable::build(cs, res) {
@@ -37,6 +34,10 @@ fn main() {
             std::process::exit(1);
         }
         let big = table.coeffs.iter().flatten().fold(0.0f32, |m, v| m.max(v.abs()));
-        println!("{}: {res}³×3 entries in {:.1} s (largest |coefficient| {big:.1})", path.display(), t0.elapsed().as_secs_f64());
+        println!(
+            "{}: {res}³×3 entries in {:.1} s (largest |coefficient| {big:.1})",
+            path.display(),
+            t0.elapsed().as_secs_f64()
+        );
     }
 }

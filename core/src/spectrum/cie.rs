@@ -17,10 +17,23 @@ const D65_CSV: &str = include_str!("../../data/cie_d65.csv");
 pub const ACES_WHITE_XY: [f64; 2] = [0.32168, 0.33767];
 
 /// A spectrum sampled every nm over [360, 830] nm, linearly interpolated, clamped at the ends.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct DenseSpectrum {
     values: [f32; N_DENSE],
     max: f32,
+}
+
+impl std::fmt::Debug for DenseSpectrum {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "DenseSpectrum {{ 360 nm: {}, 560 nm: {}, 830 nm: {}, max: {} }}",
+            self.values[0],
+            self.values[200],
+            self.values[N_DENSE - 1],
+            self.max
+        )
+    }
 }
 
 impl DenseSpectrum {
@@ -203,12 +216,7 @@ fn build() -> Cie {
         b -= (-j[1][0] * e[0] + j[0][0] * e[1]) / det;
     }
 
-    Cie {
-        cmf,
-        y_integral,
-        d65: normalise(&|i| d65_raw[i]),
-        aces_white: normalise(&|i| tilt(a, b, i)),
-    }
+    Cie { cmf, y_integral, d65: normalise(&|i| d65_raw[i]), aces_white: normalise(&|i| tilt(a, b, i)) }
 }
 
 /// Chromaticity (x, y) of an XYZ.

@@ -143,9 +143,8 @@ impl ColorSpaceData {
         let s = p.inverse() * DVec3::from(white_xyz);
         let rgb_to_xyz = p * DMat3::from_diagonal(s);
         let xyz_to_rgb = rgb_to_xyz.inverse();
-        let rows = |m: &DMat3| -> [[f32; 3]; 3] {
-            std::array::from_fn(|r| std::array::from_fn(|k| m.col(k)[r] as f32))
-        };
+        let rows =
+            |m: &DMat3| -> [[f32; 3]; 3] { std::array::from_fn(|r| std::array::from_fn(|k| m.col(k)[r] as f32)) };
         ColorSpaceData {
             primaries,
             white_xyz,
@@ -261,7 +260,8 @@ mod tests {
         };
         let from_dir = |d: Vec3| LAMBDA_MIN + (1.0 - d.z) * 0.5 * range;
         for k in 0..N_SPECTRUM {
-            let cfg = Chi2Config { theta_res: 47, phi_res: 1, samples: 100_000, seed: 11 + k as u64, ..Default::default() };
+            let cfg =
+                Chi2Config { theta_res: 47, phi_res: 1, samples: 100_000, seed: 11 + k as u64, ..Default::default() };
             let res = chi2_sphere(
                 cfg,
                 |rng: &mut TestRng| {
@@ -375,7 +375,11 @@ mod tests {
         for k in 0..3 {
             assert!((back[k] - w[k]).abs() < 1e-5);
         }
-        let y = [luminance([1.0, 0.0, 0.0], ColorSpace::LinearRec709), luminance([0.0, 1.0, 0.0], ColorSpace::LinearRec709), luminance([0.0, 0.0, 1.0], ColorSpace::LinearRec709)];
+        let y = [
+            luminance([1.0, 0.0, 0.0], ColorSpace::LinearRec709),
+            luminance([0.0, 1.0, 0.0], ColorSpace::LinearRec709),
+            luminance([0.0, 0.0, 1.0], ColorSpace::LinearRec709),
+        ];
         for (a, b) in y.iter().zip([0.2126, 0.7152, 0.0722]) {
             assert!((a - b).abs() < 1e-3, "{y:?}");
         }
@@ -386,10 +390,17 @@ mod tests {
         let xyz = rgb_to_xyz([1.0; 3], ColorSpace::AcesCg);
         let xy = xyz_to_xy(xyz);
         // f32 matrices: 1e-5.
-        assert!((xy[0] as f64 - cie::ACES_WHITE_XY[0]).abs() < 1e-5 && (xy[1] as f64 - cie::ACES_WHITE_XY[1]).abs() < 1e-5, "{xy:?}");
+        assert!(
+            (xy[0] as f64 - cie::ACES_WHITE_XY[0]).abs() < 1e-5 && (xy[1] as f64 - cie::ACES_WHITE_XY[1]).abs() < 1e-5,
+            "{xy:?}"
+        );
         assert!((xyz[1] - 1.0).abs() < 1e-5);
         // AP1 → XYZ published matrix (S-2014-004) row Y: 0.2722287, 0.6740818, 0.0536895.
-        let y = [luminance([1.0, 0.0, 0.0], ColorSpace::AcesCg), luminance([0.0, 1.0, 0.0], ColorSpace::AcesCg), luminance([0.0, 0.0, 1.0], ColorSpace::AcesCg)];
+        let y = [
+            luminance([1.0, 0.0, 0.0], ColorSpace::AcesCg),
+            luminance([0.0, 1.0, 0.0], ColorSpace::AcesCg),
+            luminance([0.0, 0.0, 1.0], ColorSpace::AcesCg),
+        ];
         for (a, b) in y.iter().zip([0.2722287, 0.6740818, 0.0536895]) {
             assert!((a - b).abs() < 1e-5, "{y:?}");
         }

@@ -217,7 +217,8 @@ impl Rgb2SpecTable {
         let fitter = Fitter::new(cs);
         let cols: Vec<(usize, usize, usize)> =
             (0..3).flat_map(|m| (0..res).flat_map(move |yi| (0..res).map(move |xi| (m, yi, xi)))).collect();
-        let solved: Vec<Vec<[f64; 3]>> = cols.par_iter().map(|&(m, yi, xi)| solve_column(&fitter, res, m, yi, xi)).collect();
+        let solved: Vec<Vec<[f64; 3]>> =
+            cols.par_iter().map(|&(m, yi, xi)| solve_column(&fitter, res, m, yi, xi)).collect();
         let mut t = Rgb2SpecTable { res, z: z_nodes(res), coeffs: vec![[0.0; 3]; 3 * res * res * res] };
         for (&(m, yi, xi), col) in cols.iter().zip(&solved) {
             for (zi, c) in col.iter().enumerate() {
@@ -336,7 +337,9 @@ pub fn table(cs: ColorSpace) -> &'static Rgb2SpecTable {
         ColorSpace::AcesCg => (&ACESCG, ACESCG_BIN),
     };
     cell.get_or_init(|| {
-        Rgb2SpecTable::from_bytes(bytes).unwrap_or_else(|e| panic!("embedded {cs:?} table is corrupt (regenerate it with examples/gen_rgb2spec.rs): {e}"))
+        Rgb2SpecTable::from_bytes(bytes).unwrap_or_else(|e| {
+            panic!("embedded {cs:?} table is corrupt (regenerate it with examples/gen_rgb2spec.rs): {e}")
+        })
     })
 }
 

@@ -109,10 +109,9 @@ impl fmt::Display for SpectrumError {
                 write!(f, "tabulated spectrum has {lambda} wavelengths but {value} values")
             }
             SpectrumError::TabulatedEmpty => write!(f, "tabulated spectrum has no samples"),
-            SpectrumError::TabulatedWavelength { index, lambda } => write!(
-                f,
-                "tabulated spectrum wavelength #{index} ({lambda} nm) is not finite or not increasing"
-            ),
+            SpectrumError::TabulatedWavelength { index, lambda } => {
+                write!(f, "tabulated spectrum wavelength #{index} ({lambda} nm) is not finite or not increasing")
+            }
             SpectrumError::TabulatedValue { index, value } => {
                 write!(f, "tabulated spectrum value #{index} ({value}) is not finite and non-negative")
             }
@@ -300,6 +299,30 @@ mod tests {
     use crate::spectrum::color::sample_wavelengths;
 
     #[test]
+    fn sample_agrees_with_eval_for_every_variant() {
+        let cs = ColorSpace::AcesCg;
+        let all = [
+            Spectrum::Constant(0.3),
+            uplift::albedo([0.7, 0.2, 0.1], cs),
+            uplift::unbounded([0.05, 3.0, 1.0], cs),
+            uplift::illuminant([2.0, 1.0, 0.5], cs),
+            Spectrum::tabulated(&[380.0, 520.0, 700.0], &[0.1, 0.9, 0.4]).unwrap(),
+            Spectrum::blackbody(3200.0).unwrap(),
+        ];
+        let mut rng = crate::testing::chi2::TestRng::new(4);
+        for s in &all {
+            for _ in 0..100 {
+                let w = sample_wavelengths(rng.next_f32());
+                let v = s.sample(&w);
+                for i in 0..4 {
+                    assert_eq!(v[i], s.eval(w.lambda[i]), "{s:?}");
+                    assert!(v[i] >= 0.0 && v[i] <= s.max_value(), "{s:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
     fn spectrum_is_small() {
         // four f32 and a pointer, plus the tag: materials store many of these
         assert!(std::mem::size_of::<Spectrum>() <= 32);
@@ -340,8 +363,14 @@ mod tests {
         let cs = ColorSpace::LinearRec709;
         let d = SpectrumDesc::Rgb([0.2, 0.4, 0.6]);
         assert_eq!(Spectrum::from_desc(&d, SpectrumKind::Albedo, cs).unwrap(), uplift::albedo([0.2, 0.4, 0.6], cs));
-        assert_eq!(Spectrum::from_desc(&d, SpectrumKind::Unbounded, cs).unwrap(), uplift::unbounded([0.2, 0.4, 0.6], cs));
-        assert_eq!(Spectrum::from_desc(&d, SpectrumKind::Illuminant, cs).unwrap(), uplift::illuminant([0.2, 0.4, 0.6], cs));
+        assert_eq!(
+            Spectrum::from_desc(&d, SpectrumKind::Unbounded, cs).unwrap(),
+            uplift::unbounded([0.2, 0.4, 0.6], cs)
+        );
+        assert_eq!(
+            Spectrum::from_desc(&d, SpectrumKind::Illuminant, cs).unwrap(),
+            uplift::illuminant([0.2, 0.4, 0.6], cs)
+        );
         let bad = SpectrumDesc::Rgb([0.2, f32::INFINITY, 0.6]);
         assert!(matches!(Spectrum::from_desc(&bad, SpectrumKind::Albedo, cs), Err(SpectrumError::NonFiniteRgb(_))));
         let neg = SpectrumDesc::Rgb([0.2, -0.1, 0.6]);
