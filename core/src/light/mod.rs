@@ -18,12 +18,20 @@
 //! - A light sample whose radiance is zero because the receiver sees the back of the light is
 //!   not returned (`None`), and `pdf_li` is 0 for such directions, so the two always agree.
 //!
+//! Sampling: sphere lights by the cone they subtend; rect lights uniformly in solid angle
+//! (spherical rectangles; by area when sheared or when they subtend under 1e-3 sr); disks,
+//! cylinders and triangles by area; distant lights uniformly in their cone; domes by a 2D
+//! piecewise-constant distribution of texel luminance × sin θ (uniformly without a texture).
+//!
 //! Approximations: a sphere light under a non-uniform scale stays a sphere whose radius is
 //! scaled by the mean of the axis scales; a cylinder's cross-section likewise stays circular
 //! (mean of the Y and Z scales); a dome's transform is used for its rotation only. A rect
 //! light's texture and a cylinder's `treatAsLine` are ignored (rendered as uniform rect and
 //! true cylinder). Dome textures are looked up nearest-texel so that radiance and sampling
 //! density are both piecewise constant over the same cells.
+
+// `!(x > 0.0)` is used on purpose throughout: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod distrib;
 pub mod sampler;
@@ -201,11 +209,107 @@ impl Planar {
     }
 }
 
+/// A rect light. Sampled uniformly in the solid angle it subtends (spherical rectangles,
+/// Ureña, Fajardo and King 2013) when it is a true rectangle that subtends at least
+/// [`MIN_SPHERICAL_RECT`] sr, otherwise by area.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RectLight {
     pub shape: Planar,
     pub emission: Emission,
     pub visible_to_camera: bool,
+    /// The edges are orthogonal (no shear in the transform).
+    rectangular: bool,
+}
+
+/// Below this solid angle (sr) a rect is area-sampled: its spherical rectangle would lose
+/// precision to cancellation, and area sampling is then nearly uniform in solid angle anyway.
+pub const MIN_SPHERICAL_RECT: f32 = 1e-3;
+
+/// A rectangle as seen from a point, in the rectangle's frame centred on that point.
+struct SphericalRect {
+    p: glam::DVec3,
+    x: glam::DVec3,
+    y: glam::DVec3,
+    z: glam::DVec3,
+    x0: f64,
+    x1: f64,
+    y0: f64,
+    y1: f64,
+    z0: f64,
+    b0: f64,
+    b1: f64,
+    k: f64,
+    /// Solid angle.
+    s: f64,
+}
+
+impl SphericalRect {
+    fn new(p: Vec3, corner: Vec3, a: Vec3, b: Vec3) -> Option<SphericalRect> {
+        let (a, b, p) = (a.as_dvec3(), b.as_dvec3(), p.as_dvec3());
+        let (la, lb) = (a.length(), b.length());
+        let (x, y) = (a / la, b / lb);
+        let mut z = x.cross(y);
+        let d = corner.as_dvec3() - p;
+        let (x0, y0, mut z0) = (d.dot(x), d.dot(y), d.dot(z));
+        if z0 > 0.0 {
+            z = -z;
+            z0 = -z0;
+        }
+        if !(z0 < 0.0) {
+            return None;
+        }
+        let (x1, y1) = (x0 + la, y0 + lb);
+        let v00 = glam::DVec3::new(x0, y0, z0);
+        let v01 = glam::DVec3::new(x0, y1, z0);
+        let v10 = glam::DVec3::new(x1, y0, z0);
+        let v11 = glam::DVec3::new(x1, y1, z0);
+        // normals of the planes through p and each edge
+        let n0 = v00.cross(v10).normalize();
+        let n1 = v10.cross(v11).normalize();
+        let n2 = v11.cross(v01).normalize();
+        let n3 = v01.cross(v00).normalize();
+        let angle = |m: glam::DVec3, n: glam::DVec3| (-m.dot(n)).clamp(-1.0, 1.0).acos();
+        let (g0, g1, g2, g3) = (angle(n0, n1), angle(n1, n2), angle(n2, n3), angle(n3, n0));
+        let k = 2.0 * std::f64::consts::PI - g2 - g3;
+        let s = g0 + g1 - k;
+        if !(s >= MIN_SPHERICAL_RECT as f64) || !s.is_finite() {
+            return None;
+        }
+        Some(SphericalRect { p, x, y, z, x0, x1, y0, y1, z0, b0: n0.z, b1: n2.z, k, s })
+    }
+
+    /// Uniform point of the rectangle in solid angle.
+    fn sample(&self, u: Vec2) -> Option<Vec3> {
+        let au = u.x as f64 * self.s + self.k;
+        let (sa, ca) = au.sin_cos();
+        let fu = (ca * self.b0 - self.b1) / sa;
+        let cu = (1.0 / (fu * fu + self.b0 * self.b0).sqrt()).copysign(fu).clamp(-1.0, 1.0);
+        let xu = (-(cu * self.z0) / (1.0 - cu * cu).max(1e-300).sqrt()).clamp(self.x0, self.x1);
+        let d = (xu * xu + self.z0 * self.z0).sqrt();
+        let h0 = self.y0 / (d * d + self.y0 * self.y0).sqrt();
+        let h1 = self.y1 / (d * d + self.y1 * self.y1).sqrt();
+        let hv = h0 + u.y as f64 * (h1 - h0);
+        let hv2 = hv * hv;
+        let yv = if hv2 < 1.0 - 1e-12 { (hv * d / (1.0 - hv2).sqrt()).clamp(self.y0, self.y1) } else { self.y1 };
+        let q = self.p + self.x * xu + self.y * yv + self.z * self.z0;
+        q.is_finite().then(|| q.as_vec3())
+    }
+}
+
+impl RectLight {
+    #[inline]
+    fn spherical(&self, p: Vec3) -> Option<SphericalRect> {
+        if !self.rectangular {
+            return None;
+        }
+        SphericalRect::new(p, self.shape.origin, self.shape.a, self.shape.b)
+    }
+
+    /// Whether `p` is on the emitting side.
+    #[inline]
+    fn faces(&self, p: Vec3) -> bool {
+        (p - self.shape.origin).dot(self.shape.n) > 0.0
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -556,7 +660,8 @@ impl Light {
                 let corner = origin - 0.5 * (a + b);
                 let shape = Planar::new(corner, a, b, front, false).ok_or_else(|| err("transform", "zero-area light (the transform collapses the rect)"))?;
                 let s = if desc.normalize { scale / shape.area } else { scale };
-                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis })
+                let rectangular = a.dot(b).abs() <= 1e-5 * a.length() * b.length();
+                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis, rectangular })
             }
             LightShape::Disk { radius } => {
                 let r = check_length("radius", *radius)?;
@@ -865,6 +970,19 @@ impl Light {
                 Some(LightLiSample { l: s.emission.sample(lambda), wi, dist, pdf: 1.0 / (2.0 * PI * omc), is_delta: false, p_light, n_light })
             }
             Light::Rect(r) => {
+                if !r.faces(ctx.p) {
+                    return None;
+                }
+                if let Some(sr) = r.spherical(ctx.p) {
+                    let p = sr.sample(u)?;
+                    let v = p - ctx.p;
+                    let dist = v.length();
+                    if !(dist > 0.0) {
+                        return None;
+                    }
+                    let pdf = (1.0 / sr.s) as f32;
+                    return Some(LightLiSample { l: r.emission.sample(lambda), wi: v / dist, dist, pdf, is_delta: false, p_light: p, n_light: r.shape.n });
+                }
                 let p = r.shape.origin + r.shape.a * u.x + r.shape.b * u.y;
                 area_sample(ctx.p, p, r.shape.n, r.shape.area, false, &r.emission, lambda)
             }
@@ -918,29 +1036,46 @@ impl Light {
                     0.0
                 }
             }
-            _ => {
-                let (p, n) = match hit {
+            Light::Rect(r) if !r.faces(ctx.p) => 0.0,
+            Light::Rect(r) if r.rectangular => {
+                let hit = match hit {
                     Some(h) => h,
                     None => match self.intersect(ctx.p, wi, f32::INFINITY) {
                         Some((_, p, n)) => (p, n),
                         None => return 0.0,
                     },
                 };
-                let two_sided = matches!(self, Light::Triangle(t) if t.two_sided);
-                let v = p - ctx.p;
-                let d2 = v.length_squared();
-                let cos_l = -n.dot(v) / d2.sqrt();
-                let cos_l = if two_sided { cos_l.abs() } else { cos_l };
-                if !(cos_l >= MIN_LIGHT_COS && d2 > 0.0) {
-                    return 0.0;
-                }
-                let pdf = d2 / (cos_l * self.area());
-                if pdf.is_finite() {
-                    pdf
-                } else {
-                    0.0
+                match r.spherical(ctx.p) {
+                    Some(sr) => (1.0 / sr.s) as f32,
+                    None => self.pdf_li_area(ctx, wi, Some(hit)),
                 }
             }
+            _ => self.pdf_li_area(ctx, wi, hit),
+        }
+    }
+
+    /// `pdf_li` of the lights sampled by area.
+    fn pdf_li_area(&self, ctx: &LightSampleContext, wi: Vec3, hit: Option<(Vec3, Vec3)>) -> f32 {
+        let (p, n) = match hit {
+            Some(h) => h,
+            None => match self.intersect(ctx.p, wi, f32::INFINITY) {
+                Some((_, p, n)) => (p, n),
+                None => return 0.0,
+            },
+        };
+        let two_sided = matches!(self, Light::Triangle(t) if t.two_sided);
+        let v = p - ctx.p;
+        let d2 = v.length_squared();
+        let cos_l = -n.dot(v) / d2.sqrt();
+        let cos_l = if two_sided { cos_l.abs() } else { cos_l };
+        if !(cos_l >= MIN_LIGHT_COS && d2 > 0.0) {
+            return 0.0;
+        }
+        let pdf = d2 / (cos_l * self.area());
+        if pdf.is_finite() {
+            pdf
+        } else {
+            0.0
         }
     }
 }
