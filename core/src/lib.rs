@@ -3,6 +3,7 @@
 //! Tide's renderer: a spectral, volumetric path tracer for water. It knows nothing of USD:
 //! plain data goes in ([`scene::SceneDesc`]), images come out.
 
+pub mod bsdf;
 pub mod math;
 pub mod render;
 pub mod scene;
