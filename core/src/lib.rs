@@ -4,6 +4,7 @@
 //! plain data goes in ([`scene::SceneDesc`]), images come out.
 
 pub mod accel;
+pub mod bsdf;
 pub mod camera;
 pub mod film;
 pub mod light;

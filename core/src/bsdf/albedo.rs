@@ -1,0 +1,254 @@
+//! Directional-albedo tables of the single-scattering GGX lobes, used for multiple-scattering
+//! energy compensation (Kulla & Conty 2017) and for energy-conserving layering. They are built
+//! once, at first use, by deterministic quasi-Monte Carlo (a Fibonacci lattice over the
+//! visible-normal sampler), so no generated data is committed.
+//!
+//! Tables, on grids in μ = |cosθo| ∈ [0, 1] and perceptual roughness r = √α ∈ [0, 1] (and η),
+//! interpolated (bi/tri)linearly.
+//! The μ axis is uniform in √μ (denser at grazing angles).
+//!
+//! * conductor, `E1(μ, r)`: albedo with F = 1; `S(μ, r)`: albedo weighted by (1 − ωo·ωm)⁵, so
+//!   that a Schlick lobe has albedo F0·E1 + (1 − F0)·S exactly;
+//! * dielectric, `E(μ, r, η)` for light arriving from the less dense side (η ≥ 1) and from the
+//!   denser side (relative IOR 1/η), reflection plus transmission, exact Fresnel, transmission
+//!   counted without the 1/η² radiance scaling (so that a smooth interface has albedo 1).
+//!
+//! Hemispherical averages 2∫E(μ)μ dμ are the exact integrals of the piecewise-linear
+//! interpolants, so a compensation lobe built from them integrates exactly to the missing energy.
+
+use super::fresnel::fresnel_dielectric;
+use super::microfacet::{reflect, refract, TrowbridgeReitz};
+use glam::{Vec2, Vec3};
+use std::sync::OnceLock;
+
+const COND_MU: usize = 32;
+const COND_R: usize = 32;
+const DIEL_MU: usize = 24;
+const DIEL_R: usize = 16;
+const DIEL_ETA: usize = 16;
+/// Largest tabulated relative IOR (larger values are clamped to it).
+pub const DIEL_ETA_MAX: f32 = 3.0;
+/// Fibonacci lattices (F_k, F_(k−1)) used as sample sets.
+const COND_LATTICE: (usize, usize) = (233, 144);
+const DIEL_LATTICE: (usize, usize) = (89, 55);
+
+pub struct AlbedoTables {
+    cond_e1: Vec<f32>,
+    cond_s: Vec<f32>,
+    cond_e1_avg: Vec<f32>,
+    cond_s_avg: Vec<f32>,
+    /// [side][(eta * DIEL_R + r) * DIEL_MU + mu]; side 0: from the less dense side.
+    diel: [Vec<f32>; 2],
+    /// [side][eta * DIEL_R + r]
+    diel_avg: [Vec<f32>; 2],
+}
+
+static TABLES: OnceLock<AlbedoTables> = OnceLock::new();
+
+/// The tables, built on first call.
+pub fn tables() -> &'static AlbedoTables {
+    TABLES.get_or_init(AlbedoTables::build)
+}
+
+/// μ of node i: nodes are uniform in x = √μ, denser at grazing angles where the albedo of a
+/// rough lobe changes fastest.
+#[inline]
+fn grid_mu(i: usize, n: usize) -> f32 {
+    let x = i as f32 / (n - 1) as f32;
+    (x * x).max(1e-4)
+}
+
+#[inline]
+fn grid_alpha(j: usize, n: usize) -> f32 {
+    let r = j as f32 / (n - 1) as f32;
+    (r * r).max(1e-4)
+}
+
+#[inline]
+fn grid_eta(k: usize) -> f32 {
+    1.0 + (DIEL_ETA_MAX - 1.0) * k as f32 / (DIEL_ETA - 1) as f32
+}
+
+#[inline]
+fn lattice(i: usize, (n, g): (usize, usize)) -> Vec2 {
+    Vec2::new((i as f32 + 0.5) / n as f32, (((i * g) % n) as f32 + 0.5) / n as f32)
+}
+
+/// Exact ∫₀¹ 2μ E(μ) dμ of the interpolant of `e`, which is linear in x = √μ between nodes
+/// uniform in x: ∫₀¹ 4x³ E(x) dx, a degree-4 polynomial per interval integrated exactly by
+/// Gauss–Legendre quadrature.
+fn hemispherical_integral(e: &[f32]) -> f32 {
+    let h = 1.0 / (e.len() - 1) as f64;
+    let mut acc = 0.0f64;
+    for i in 0..e.len() - 1 {
+        let (a, b) = (e[i] as f64, e[i + 1] as f64);
+        for &(s, w) in GL3.iter() {
+            let x = (i as f64 + s) * h;
+            acc += w * h * 4.0 * x * x * x * (a + (b - a) * s);
+        }
+    }
+    acc as f32
+}
+
+/// 3-point Gauss–Legendre on [0, 1] (exact to degree 5).
+const GL3: [(f64, f64); 3] = [
+    (0.5 - 0.387_298_334_620_741_7, 5.0 / 18.0),
+    (0.5, 8.0 / 18.0),
+    (0.5 + 0.387_298_334_620_741_7, 5.0 / 18.0),
+];
+
+/// Single-scattering albedos (F = 1, Schlick weight) of a GGX reflection lobe.
+fn conductor_albedo(mu: f32, alpha: f32) -> (f32, f32) {
+    let d = TrowbridgeReitz::new(alpha, alpha);
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let g1 = d.g1(wo);
+    let (mut e, mut s) = (0.0f64, 0.0f64);
+    for i in 0..COND_LATTICE.0 {
+        let wm = d.sample_wm(wo, lattice(i, COND_LATTICE));
+        let wi = reflect(wo, wm);
+        if wi.z <= 0.0 {
+            continue;
+        }
+        let w = d.g2(wo, wi) / g1;
+        e += w as f64;
+        s += (w * (1.0 - wo.dot(wm).clamp(0.0, 1.0)).powi(5)) as f64;
+    }
+    let n = COND_LATTICE.0 as f64;
+    ((e / n) as f32, (s / n) as f32)
+}
+
+/// Single-scattering albedo (reflection + transmission, no η² scaling) of a rough dielectric
+/// seen from above, `eta` = n_below / n_above.
+pub(crate) fn dielectric_albedo(mu: f32, alpha: f32, eta: f32) -> f32 {
+    let d = TrowbridgeReitz::new(alpha, alpha);
+    let wo = Vec3::new((1.0 - mu * mu).max(0.0).sqrt(), 0.0, mu);
+    let g1 = d.g1(wo);
+    let mut e = 0.0f64;
+    for i in 0..DIEL_LATTICE.0 {
+        let wm = d.sample_wm(wo, lattice(i, DIEL_LATTICE));
+        let c = wo.dot(wm);
+        if c <= 0.0 {
+            continue;
+        }
+        let f = fresnel_dielectric(c, eta);
+        let wr = reflect(wo, wm);
+        if wr.z > 0.0 {
+            e += (f * d.g2(wo, wr) / g1) as f64;
+        }
+        if f < 1.0 {
+            if let Some((wt, _)) = refract(wo, wm, eta) {
+                if wt.z < 0.0 {
+                    e += ((1.0 - f) * d.g2(wo, wt) / g1) as f64;
+                }
+            }
+        }
+    }
+    (e / DIEL_LATTICE.0 as f64) as f32
+}
+
+impl AlbedoTables {
+    fn build() -> Self {
+        let mut cond_e1 = vec![0.0; COND_R * COND_MU];
+        let mut cond_s = vec![0.0; COND_R * COND_MU];
+        let mut cond_e1_avg = vec![0.0; COND_R];
+        let mut cond_s_avg = vec![0.0; COND_R];
+        for j in 0..COND_R {
+            let alpha = grid_alpha(j, COND_R);
+            for i in 0..COND_MU {
+                let (e, s) = conductor_albedo(grid_mu(i, COND_MU), alpha);
+                cond_e1[j * COND_MU + i] = e.min(1.0);
+                cond_s[j * COND_MU + i] = s.min(1.0);
+            }
+            cond_e1_avg[j] = hemispherical_integral(&cond_e1[j * COND_MU..(j + 1) * COND_MU]);
+            cond_s_avg[j] = hemispherical_integral(&cond_s[j * COND_MU..(j + 1) * COND_MU]);
+        }
+        let mut diel = [vec![0.0; DIEL_ETA * DIEL_R * DIEL_MU], vec![0.0; DIEL_ETA * DIEL_R * DIEL_MU]];
+        let mut diel_avg = [vec![0.0; DIEL_ETA * DIEL_R], vec![0.0; DIEL_ETA * DIEL_R]];
+        for side in 0..2 {
+            for k in 0..DIEL_ETA {
+                let eta = if side == 0 { grid_eta(k) } else { 1.0 / grid_eta(k) };
+                for j in 0..DIEL_R {
+                    let alpha = grid_alpha(j, DIEL_R);
+                    let row = (k * DIEL_R + j) * DIEL_MU;
+                    for i in 0..DIEL_MU {
+                        diel[side][row + i] = dielectric_albedo(grid_mu(i, DIEL_MU), alpha, eta).min(1.0);
+                    }
+                    diel_avg[side][k * DIEL_R + j] = hemispherical_integral(&diel[side][row..row + DIEL_MU]);
+                }
+            }
+        }
+        AlbedoTables { cond_e1, cond_s, cond_e1_avg, cond_s_avg, diel, diel_avg }
+    }
+
+    /// Conductor albedos (E1, S) at μ = |cosθo| and perceptual roughness r.
+    #[inline]
+    pub fn conductor(&self, mu: f32, r: f32) -> (f32, f32) {
+        let (i0, i1, ti) = coord(mu.max(0.0).sqrt(), COND_MU);
+        let (j0, j1, tj) = coord(r, COND_R);
+        let at = |t: &[f32]| {
+            let a = lerp(ti, t[j0 * COND_MU + i0], t[j0 * COND_MU + i1]);
+            let b = lerp(ti, t[j1 * COND_MU + i0], t[j1 * COND_MU + i1]);
+            lerp(tj, a, b)
+        };
+        (at(&self.cond_e1), at(&self.cond_s))
+    }
+
+    /// Hemispherical averages (E1_avg, S_avg) at perceptual roughness r.
+    #[inline]
+    pub fn conductor_avg(&self, r: f32) -> (f32, f32) {
+        let (j0, j1, tj) = coord(r, COND_R);
+        (lerp(tj, self.cond_e1_avg[j0], self.cond_e1_avg[j1]), lerp(tj, self.cond_s_avg[j0], self.cond_s_avg[j1]))
+    }
+
+    #[inline]
+    fn diel_side(eta: f32) -> (usize, f32) {
+        if eta >= 1.0 {
+            (0, eta)
+        } else {
+            (1, 1.0 / eta)
+        }
+    }
+
+    /// Dielectric albedo for light arriving at μ on the side where the relative IOR across the
+    /// interface is `eta` (n_other / n_this).
+    #[inline]
+    pub fn dielectric(&self, mu: f32, r: f32, eta: f32) -> f32 {
+        let (side, e) = Self::diel_side(eta);
+        let t = &self.diel[side];
+        let (i0, i1, ti) = coord(mu.max(0.0).sqrt(), DIEL_MU);
+        let (j0, j1, tj) = coord(r, DIEL_R);
+        let (k0, k1, tk) = coord((e - 1.0) / (DIEL_ETA_MAX - 1.0), DIEL_ETA);
+        let at = |k: usize, j: usize| {
+            let row = (k * DIEL_R + j) * DIEL_MU;
+            lerp(ti, t[row + i0], t[row + i1])
+        };
+        let a = lerp(tj, at(k0, j0), at(k0, j1));
+        let b = lerp(tj, at(k1, j0), at(k1, j1));
+        lerp(tk, a, b)
+    }
+
+    /// Hemispherical average of [`Self::dielectric`].
+    #[inline]
+    pub fn dielectric_avg(&self, r: f32, eta: f32) -> f32 {
+        let (side, e) = Self::diel_side(eta);
+        let t = &self.diel_avg[side];
+        let (j0, j1, tj) = coord(r, DIEL_R);
+        let (k0, k1, tk) = coord((e - 1.0) / (DIEL_ETA_MAX - 1.0), DIEL_ETA);
+        let a = lerp(tj, t[k0 * DIEL_R + j0], t[k0 * DIEL_R + j1]);
+        let b = lerp(tj, t[k1 * DIEL_R + j0], t[k1 * DIEL_R + j1]);
+        lerp(tk, a, b)
+    }
+}
+
+#[inline]
+fn lerp(t: f32, a: f32, b: f32) -> f32 {
+    a + (b - a) * t
+}
+
+/// Cell indices and weight of x ∈ [0, 1] on a uniform grid of n nodes.
+#[inline]
+fn coord(x: f32, n: usize) -> (usize, usize, f32) {
+    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 } * (n - 1) as f32;
+    let i0 = (x as usize).min(n - 2);
+    (i0, i0 + 1, x - i0 as f32)
+}

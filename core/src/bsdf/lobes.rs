@@ -1,0 +1,503 @@
+//! The individual scattering lobes behind [`super::Bsdf`]: Lambertian diffuse, GGX microfacet
+//! reflection (conductor or Schlick Fresnel) and the smooth/rough dielectric, each rough lobe
+//! with its multiple-scattering compensation term (Kulla & Conty 2017).
+//!
+//! Reflection-only lobes are written for ωo in the upper hemisphere (the caller mirrors both
+//! directions otherwise); the dielectric handles both sides itself.
+
+use super::albedo::tables;
+use super::fresnel::{
+    fresnel_complex_spectrum, fresnel_dielectric, fresnel_schlick, hemispherical_average, schlick_average,
+};
+use super::microfacet::{reflect, refract, TrowbridgeReitz};
+use super::{flags, BsdfSample, TransportMode};
+use crate::math::{sample_cosine_hemisphere, INV_PI};
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+/// Lambertian reflection.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lambert {
+    pub reflectance: SampledSpectrum,
+}
+
+impl Lambert {
+    #[inline]
+    pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if wo.z > 0.0 && wi.z > 0.0 {
+            self.reflectance * INV_PI
+        } else {
+            SampledSpectrum::ZERO
+        }
+    }
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z > 0.0 && wi.z > 0.0 {
+            wi.z * INV_PI
+        } else {
+            0.0
+        }
+    }
+    pub fn sample_f(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        let wi = sample_cosine_hemisphere(u);
+        let pdf = self.pdf(wo, wi);
+        if pdf == 0.0 {
+            return None;
+        }
+        Some(BsdfSample { f: self.f(wo, wi), wi, pdf, flags: flags::DIFFUSE_REFLECTION, eta: 1.0 })
+    }
+}
+
+/// Fresnel term of a microfacet reflection lobe.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum ReflFresnel {
+    /// Conductor with complex relative IOR η + ik.
+    Complex { eta: SampledSpectrum, k: SampledSpectrum },
+    /// Schlick: F0 at normal incidence, 1 at grazing.
+    Schlick { f0: SampledSpectrum },
+}
+
+impl ReflFresnel {
+    #[inline]
+    pub fn eval(&self, cos: f32) -> SampledSpectrum {
+        match *self {
+            ReflFresnel::Complex { eta, k } => fresnel_complex_spectrum(cos, eta, k),
+            ReflFresnel::Schlick { f0 } => fresnel_schlick(cos, f0),
+        }
+    }
+    /// Hemispherical average 2∫F(μ)μ dμ.
+    pub fn average(&self) -> SampledSpectrum {
+        match *self {
+            ReflFresnel::Complex { eta, k } => SampledSpectrum::from_fn(|i| {
+                hemispherical_average(|mu| super::fresnel::fresnel_complex(mu, eta[i], k[i]))
+            }),
+            ReflFresnel::Schlick { f0 } => schlick_average(f0),
+        }
+    }
+}
+
+/// GGX microfacet reflection with multiple-scattering compensation.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct MicrofacetReflection {
+    pub distrib: TrowbridgeReitz,
+    pub fresnel: ReflFresnel,
+    /// Perceptual roughness used to index the albedo tables.
+    r: f32,
+    /// F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)): energy fraction of the multiple-scattering
+    /// lobe relative to its F = 1 value.
+    f_ms: SampledSpectrum,
+    /// 1 − E_avg of the F = 1 lobe (0 when no compensation applies).
+    one_minus_e_avg: f32,
+}
+
+impl MicrofacetReflection {
+    pub fn new(distrib: TrowbridgeReitz, fresnel: ReflFresnel) -> Self {
+        let r = distrib.alpha_iso().sqrt();
+        let mut lobe = MicrofacetReflection { distrib, fresnel, r, f_ms: SampledSpectrum::ZERO, one_minus_e_avg: 0.0 };
+        if !distrib.is_smooth() {
+            let e_avg = tables().conductor_avg(r).0;
+            if 1.0 - e_avg > 1e-6 {
+                let favg = fresnel.average();
+                lobe.f_ms = SampledSpectrum::from_fn(|i| {
+                    favg[i] * favg[i] * e_avg / (1.0 - favg[i] * (1.0 - e_avg))
+                });
+                lobe.one_minus_e_avg = 1.0 - e_avg;
+            }
+        }
+        lobe
+    }
+
+    #[inline]
+    pub fn is_smooth(&self) -> bool {
+        self.distrib.is_smooth()
+    }
+
+    #[inline]
+    pub fn lobe_flags(&self) -> u8 {
+        if self.is_smooth() {
+            flags::SPECULAR_REFLECTION
+        } else {
+            flags::GLOSSY_REFLECTION
+        }
+    }
+
+    #[inline]
+    fn e1(&self, mu: f32) -> f32 {
+        tables().conductor(mu, self.r).0
+    }
+
+    /// Directional albedo at μo (exact up to table accuracy for Schlick, F(μo)·E1 + compensation
+    /// for a conductor).
+    pub fn albedo(&self, mu: f32) -> SampledSpectrum {
+        if self.is_smooth() {
+            return self.fresnel.eval(mu);
+        }
+        let (e1, s) = tables().conductor(mu, self.r);
+        let ss = match self.fresnel {
+            ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
+            ReflFresnel::Complex { .. } => self.fresnel.eval(mu) * e1,
+        };
+        ss + self.f_ms * (1.0 - e1) * self.ms_on()
+    }
+
+    /// Hemispherical average of [`Self::albedo`].
+    pub fn albedo_avg(&self) -> SampledSpectrum {
+        if self.is_smooth() {
+            return self.fresnel.average();
+        }
+        let (e1, s) = tables().conductor_avg(self.r);
+        let ss = match self.fresnel {
+            ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
+            ReflFresnel::Complex { .. } => self.fresnel.average() * e1,
+        };
+        ss + self.f_ms * (1.0 - e1) * self.ms_on()
+    }
+
+    #[inline]
+    fn ms_on(&self) -> f32 {
+        if self.one_minus_e_avg > 0.0 {
+            1.0
+        } else {
+            0.0
+        }
+    }
+
+    /// Probability of sampling the multiple-scattering lobe for ωo at μo.
+    #[inline]
+    fn p_ms(&self, mu_o: f32) -> f32 {
+        if self.one_minus_e_avg == 0.0 {
+            return 0.0;
+        }
+        let e = self.e1(mu_o);
+        let ms = (1.0 - e) * self.f_ms.average();
+        let ss = e * self.fresnel.eval(mu_o).average();
+        if ms + ss > 0.0 {
+            ms / (ms + ss)
+        } else {
+            0.0
+        }
+    }
+
+    pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if self.is_smooth() || wo.z <= 0.0 || wi.z <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let wm = wo + wi;
+        if wm.length_squared() == 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let wm = wm.normalize();
+        let ss = self.fresnel.eval(wo.dot(wm))
+            * (self.distrib.d(wm) * self.distrib.g2(wo, wi) / (4.0 * wo.z * wi.z));
+        if self.one_minus_e_avg == 0.0 {
+            return ss;
+        }
+        let ms = (1.0 - self.e1(wo.z)) * (1.0 - self.e1(wi.z)) * INV_PI / self.one_minus_e_avg;
+        ss + self.f_ms * ms
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.is_smooth() || wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let wm = wo + wi;
+        if wm.length_squared() == 0.0 {
+            return 0.0;
+        }
+        let wm = wm.normalize();
+        let p_ms = self.p_ms(wo.z);
+        let p_ss = self.distrib.pdf_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
+        (1.0 - p_ms) * p_ss + p_ms * wi.z * INV_PI
+    }
+
+    pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        if self.is_smooth() {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            let f = self.fresnel.eval(wo.z) / wo.z;
+            return Some(BsdfSample { f, wi, pdf: 1.0, flags: flags::SPECULAR_REFLECTION, eta: 1.0 });
+        }
+        let wi = if uc < self.p_ms(wo.z) {
+            sample_cosine_hemisphere(u)
+        } else {
+            reflect(wo, self.distrib.sample_wm(wo, u))
+        };
+        if wi.z <= 0.0 {
+            return None;
+        }
+        let pdf = self.pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample { f: self.f(wo, wi), wi, pdf, flags: flags::GLOSSY_REFLECTION, eta: 1.0 })
+    }
+}
+
+/// Multiple-scattering compensation of a rough dielectric: a diffuse-like lobe on each side
+/// carrying the energy the single-scattering lobe loses, split into reflection and transmission
+/// so that the transmission part obeys the generalised reciprocity of refraction.
+#[derive(Clone, Copy, Debug)]
+struct DielectricMs {
+    /// Fractions of the missing energy that are transmitted, from above and from below.
+    t_above: f32,
+    t_below: f32,
+    /// 1 − E_avg on each side.
+    loss_above: f32,
+    loss_below: f32,
+}
+
+/// Smooth or rough dielectric interface; `eta` = n_below / n_above.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Dielectric {
+    pub eta: f32,
+    pub distrib: TrowbridgeReitz,
+    r: f32,
+    ms: Option<DielectricMs>,
+}
+
+impl Dielectric {
+    pub fn new(eta: f32, distrib: TrowbridgeReitz) -> Self {
+        let r = distrib.alpha_iso().sqrt();
+        let mut d = Dielectric { eta, distrib, r, ms: None };
+        if !d.is_smooth() {
+            let t = tables();
+            let loss_above = 1.0 - t.dielectric_avg(r, eta);
+            let loss_below = 1.0 - t.dielectric_avg(r, 1.0 / eta);
+            if loss_above > 1e-5 && loss_below > 1e-5 {
+                // Reciprocity of the transmitted part (with the symmetric kernel f·n_o²):
+                // t_above / loss_below = t_below · η² / loss_above.
+                let ratio = loss_above / (eta * eta * loss_below); // t_below = t_above · ratio
+                let (mut t_above, mut t_below);
+                if eta >= 1.0 {
+                    t_above = 1.0 - hemispherical_average(|mu| fresnel_dielectric(mu, eta));
+                    t_below = t_above * ratio;
+                } else {
+                    t_below = 1.0 - hemispherical_average(|mu| fresnel_dielectric(mu, 1.0 / eta));
+                    t_above = t_below / ratio;
+                }
+                if t_below > 1.0 {
+                    t_below = 1.0;
+                    t_above = 1.0 / ratio;
+                }
+                if t_above > 1.0 {
+                    t_above = 1.0;
+                    t_below = ratio;
+                }
+                d.ms = Some(DielectricMs { t_above, t_below, loss_above, loss_below });
+            }
+        }
+        d
+    }
+
+    #[inline]
+    pub fn is_smooth(&self) -> bool {
+        self.distrib.is_smooth() || (self.eta - 1.0).abs() < 1e-4
+    }
+
+    #[inline]
+    pub fn lobe_flags(&self) -> u8 {
+        if self.is_smooth() {
+            flags::REFLECTION | flags::TRANSMISSION | flags::SPECULAR
+        } else {
+            flags::REFLECTION | flags::TRANSMISSION | flags::GLOSSY
+        }
+    }
+
+    /// Single-scattering albedo (no η² scaling) for a direction on the given side.
+    #[inline]
+    fn e_side(&self, mu: f32, above: bool) -> f32 {
+        tables().dielectric(mu, self.r, if above { self.eta } else { 1.0 / self.eta })
+    }
+
+    /// Generalised half vector and the relative IOR crossed; None for degenerate or
+    /// back-facing configurations.
+    #[inline]
+    fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
+        let (co, ci) = (wo.z, wi.z);
+        if co == 0.0 || ci == 0.0 {
+            return None;
+        }
+        let reflect = co * ci > 0.0;
+        let etap = if reflect {
+            1.0
+        } else if co > 0.0 {
+            self.eta
+        } else {
+            1.0 / self.eta
+        };
+        let wm = wi * etap + wo;
+        if wm.length_squared() == 0.0 {
+            return None;
+        }
+        let mut wm = wm.normalize();
+        if wm.z < 0.0 {
+            wm = -wm;
+        }
+        if wm.dot(wi) * ci < 0.0 || wm.dot(wo) * co < 0.0 {
+            return None;
+        }
+        Some((wm, etap, reflect))
+    }
+
+    fn f_ss(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
+        let fr = fresnel_dielectric(wo.dot(wm), self.eta);
+        let dg = self.distrib.d(wm) * self.distrib.g2(wo, wi);
+        if reflect {
+            dg * fr / (4.0 * wo.z * wi.z).abs()
+        } else {
+            let denom = wi.dot(wm) + wo.dot(wm) / etap;
+            let ft = dg * (1.0 - fr) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
+            match mode {
+                TransportMode::Radiance => ft / (etap * etap),
+                TransportMode::Importance => ft,
+            }
+        }
+    }
+
+    fn pdf_ss(&self, wo: Vec3, wi: Vec3) -> f32 {
+        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
+        let r = fresnel_dielectric(wo.dot(wm), self.eta);
+        let pv = self.distrib.pdf_visible(wo, wm);
+        if reflect {
+            pv / (4.0 * wo.dot(wm).abs()) * r
+        } else {
+            let denom = wi.dot(wm) + wo.dot(wm) / etap;
+            pv * wi.dot(wm).abs() / (denom * denom) * (1.0 - r)
+        }
+    }
+
+    /// (reflected fraction, transmitted fraction) of the compensation lobe for ωo's side.
+    #[inline]
+    fn ms_split(ms: &DielectricMs, above: bool) -> (f32, f32) {
+        let t = if above { ms.t_above } else { ms.t_below };
+        (1.0 - t, t)
+    }
+
+    fn f_ms(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+        let Some(ms) = self.ms else { return 0.0 };
+        if wo.z == 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        let above_o = wo.z > 0.0;
+        let above_i = wi.z > 0.0;
+        let (rf, tf) = Self::ms_split(&ms, above_o);
+        let lo = 1.0 - self.e_side(wo.z.abs(), above_o);
+        let li = 1.0 - self.e_side(wi.z.abs(), above_i);
+        let loss_i = if above_i { ms.loss_above } else { ms.loss_below };
+        if above_o == above_i {
+            rf * lo * li * INV_PI / loss_i
+        } else {
+            let f = tf * lo * li * INV_PI / loss_i;
+            let etap = if above_o { self.eta } else { 1.0 / self.eta };
+            match mode {
+                TransportMode::Radiance => f / (etap * etap),
+                TransportMode::Importance => f,
+            }
+        }
+    }
+
+    #[inline]
+    fn p_ms(&self, wo: Vec3) -> f32 {
+        if self.ms.is_none() {
+            return 0.0;
+        }
+        (1.0 - self.e_side(wo.z.abs(), wo.z > 0.0)).clamp(0.0, 1.0)
+    }
+
+    pub fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> SampledSpectrum {
+        if self.is_smooth() {
+            return SampledSpectrum::ZERO;
+        }
+        SampledSpectrum::splat(self.f_ss(wo, wi, mode) + self.f_ms(wo, wi, mode))
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.is_smooth() || wo.z == 0.0 || wi.z == 0.0 {
+            return 0.0;
+        }
+        let p_ms = self.p_ms(wo);
+        let mut pdf = (1.0 - p_ms) * self.pdf_ss(wo, wi);
+        if let Some(ms) = self.ms {
+            let (rf, tf) = Self::ms_split(&ms, wo.z > 0.0);
+            let side = if wo.z * wi.z > 0.0 { rf } else { tf };
+            pdf += p_ms * side * wi.z.abs() * INV_PI;
+        }
+        pdf
+    }
+
+    pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        if wo.z == 0.0 {
+            return None;
+        }
+        if self.is_smooth() {
+            return self.sample_smooth(wo, uc, mode);
+        }
+        let p_ms = self.p_ms(wo);
+        let wi = if uc < p_ms {
+            let ms = self.ms?;
+            let (rf, _) = Self::ms_split(&ms, wo.z > 0.0);
+            let d = sample_cosine_hemisphere(u);
+            let same_side = uc / p_ms < rf;
+            let z = if same_side == (wo.z > 0.0) { d.z } else { -d.z };
+            Vec3::new(d.x, d.y, z)
+        } else {
+            let uc = ((uc - p_ms) / (1.0 - p_ms)).min(1.0 - f32::EPSILON);
+            let wm = self.distrib.sample_wm(wo, u);
+            let r = fresnel_dielectric(wo.dot(wm), self.eta);
+            if uc < r {
+                let wi = reflect(wo, wm);
+                if wi.z * wo.z <= 0.0 {
+                    return None;
+                }
+                wi
+            } else {
+                let (wi, _) = refract(wo, wm, self.eta)?;
+                if wi.z * wo.z >= 0.0 {
+                    return None;
+                }
+                wi
+            }
+        };
+        let pdf = self.pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let f = self.f(wo, wi, mode);
+        let (fl, eta) = if wi.z * wo.z > 0.0 {
+            (flags::GLOSSY_REFLECTION, 1.0)
+        } else {
+            (flags::GLOSSY_TRANSMISSION, if wo.z > 0.0 { self.eta } else { 1.0 / self.eta })
+        };
+        Some(BsdfSample { f, wi, pdf, flags: fl, eta })
+    }
+
+    fn sample_smooth(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
+        let r = fresnel_dielectric(wo.z, self.eta);
+        let t = 1.0 - r;
+        if uc < r / (r + t) {
+            let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+            let f = SampledSpectrum::splat(r / wi.z.abs());
+            Some(BsdfSample { f, wi, pdf: r / (r + t), flags: flags::SPECULAR_REFLECTION, eta: 1.0 })
+        } else {
+            let n = Vec3::Z;
+            let (wi, etap) = refract(wo, n, self.eta)?;
+            if wi.z == 0.0 {
+                return None;
+            }
+            let mut ft = t / wi.z.abs();
+            if mode == TransportMode::Radiance {
+                ft /= etap * etap;
+            }
+            Some(BsdfSample {
+                f: SampledSpectrum::splat(ft),
+                wi,
+                pdf: t / (r + t),
+                flags: flags::SPECULAR_TRANSMISSION,
+                eta: etap,
+            })
+        }
+    }
+}

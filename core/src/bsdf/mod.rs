@@ -1,0 +1,286 @@
+//! Bidirectional scattering distribution functions in the local shading frame (normal = +Z;
+//! [`crate::math::Frame`] converts). Conventions follow pbrt-v4: `f` excludes the cosine (the
+//! integrator multiplies |cosθi|), ωo and ωi both point away from the surface, and the 1/η²
+//! scaling of transmitted radiance applies in [`TransportMode::Radiance`] only.
+//!
+//! One enum-typed model per [`Bsdf`] (no dynamic dispatch). Constructors take parameters the
+//! integrator already evaluated at the path's wavelengths and return a [`BsdfError`] naming the
+//! offending input instead of panicking.
+//!
+//! Reflection-only models (Lambert, conductor, preview surface) are two-sided: for ωo below the
+//! surface both directions are mirrored through the tangent plane.
+
+pub mod albedo;
+pub mod fresnel;
+pub mod lobes;
+pub mod microfacet;
+pub mod preview;
+#[cfg(test)]
+mod tests;
+
+pub use fresnel::{fresnel_complex, fresnel_dielectric, fresnel_dielectric_polarized, fresnel_schlick};
+pub use microfacet::{roughness_to_alpha, TrowbridgeReitz, SMOOTH_ALPHA};
+pub use preview::PreviewParams;
+
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+use lobes::{Dielectric, Lambert, MicrofacetReflection, ReflFresnel};
+use preview::Preview;
+
+/// Lobe classification bits.
+pub mod flags {
+    pub const REFLECTION: u8 = 1;
+    pub const TRANSMISSION: u8 = 2;
+    pub const DIFFUSE: u8 = 4;
+    pub const GLOSSY: u8 = 8;
+    pub const SPECULAR: u8 = 16;
+    pub const DIFFUSE_REFLECTION: u8 = DIFFUSE | REFLECTION;
+    pub const GLOSSY_REFLECTION: u8 = GLOSSY | REFLECTION;
+    pub const GLOSSY_TRANSMISSION: u8 = GLOSSY | TRANSMISSION;
+    pub const SPECULAR_REFLECTION: u8 = SPECULAR | REFLECTION;
+    pub const SPECULAR_TRANSMISSION: u8 = SPECULAR | TRANSMISSION;
+}
+
+/// Which quantity the path carries: radiance (camera paths) or importance (light paths).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
+}
+
+/// Result of [`Bsdf::sample_f`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// BSDF value (for specular samples: the delta's weight divided by |cosθi|).
+    pub f: SampledSpectrum,
+    pub wi: Vec3,
+    /// Solid-angle density (for specular samples: the discrete probability of the choice).
+    pub pdf: f32,
+    /// The sampled lobe's [`flags`].
+    pub flags: u8,
+    /// Relative IOR crossed (n_wi side / n_wo side); 1 for reflection.
+    pub eta: f32,
+}
+
+impl BsdfSample {
+    #[inline]
+    pub fn is_specular(&self) -> bool {
+        self.flags & flags::SPECULAR != 0
+    }
+    #[inline]
+    pub fn is_transmission(&self) -> bool {
+        self.flags & flags::TRANSMISSION != 0
+    }
+}
+
+/// Microfacet roughness in perceptual units ([0, 1], α = roughness²), per tangent axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Roughness {
+    pub u: f32,
+    pub v: f32,
+}
+
+impl From<f32> for Roughness {
+    fn from(r: f32) -> Self {
+        Roughness { u: r, v: r }
+    }
+}
+
+impl Roughness {
+    fn distribution(self) -> Result<TrowbridgeReitz, BsdfError> {
+        check_finite("roughness", self.u)?;
+        check_finite("roughness", self.v)?;
+        Ok(TrowbridgeReitz::new(roughness_to_alpha(self.u), roughness_to_alpha(self.v)))
+    }
+}
+
+/// Invalid constructor input.
+#[derive(Clone, Debug, PartialEq)]
+pub enum BsdfError {
+    /// A parameter is NaN or infinite.
+    NotFinite { parameter: &'static str },
+    /// A parameter lies outside its valid range.
+    OutOfRange { parameter: &'static str, value: f32, expected: &'static str },
+}
+
+impl std::fmt::Display for BsdfError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            BsdfError::NotFinite { parameter } => write!(f, "BSDF parameter `{parameter}` is not finite"),
+            BsdfError::OutOfRange { parameter, value, expected } => {
+                write!(f, "BSDF parameter `{parameter}` = {value} is out of range (expected {expected})")
+            }
+        }
+    }
+}
+
+impl std::error::Error for BsdfError {}
+
+fn check_finite(parameter: &'static str, v: f32) -> Result<f32, BsdfError> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(BsdfError::NotFinite { parameter })
+    }
+}
+
+fn check_spectrum(parameter: &'static str, s: SampledSpectrum) -> Result<SampledSpectrum, BsdfError> {
+    if s.is_finite() {
+        Ok(s)
+    } else {
+        Err(BsdfError::NotFinite { parameter })
+    }
+}
+
+fn check_positive(parameter: &'static str, v: f32) -> Result<f32, BsdfError> {
+    check_finite(parameter, v)?;
+    if v > 0.0 {
+        Ok(v)
+    } else {
+        Err(BsdfError::OutOfRange { parameter, value: v, expected: "> 0" })
+    }
+}
+
+/// Reflectances are clamped to [0, 1] (spectral uplifting may overshoot slightly).
+fn reflectance(parameter: &'static str, s: SampledSpectrum) -> Result<SampledSpectrum, BsdfError> {
+    Ok(check_spectrum(parameter, s)?.map(|v| v.clamp(0.0, 1.0)))
+}
+
+#[derive(Clone, Copy, Debug)]
+enum Model {
+    Lambert(Lambert),
+    Microfacet(MicrofacetReflection),
+    Dielectric(Dielectric),
+    Preview(Preview),
+}
+
+/// A surface's scattering function at one shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    model: Model,
+}
+
+/// Mirrors ω through the tangent plane.
+#[inline]
+fn flip(w: Vec3) -> Vec3 {
+    Vec3::new(w.x, w.y, -w.z)
+}
+
+impl Bsdf {
+    /// Lambertian diffuse reflection.
+    pub fn lambert(reflectance_: SampledSpectrum) -> Result<Bsdf, BsdfError> {
+        Ok(Bsdf { model: Model::Lambert(Lambert { reflectance: reflectance("reflectance", reflectance_)? }) })
+    }
+
+    /// Conductor with complex relative IOR η + ik (exact Fresnel), GGX roughness.
+    pub fn conductor(eta: SampledSpectrum, k: SampledSpectrum, roughness: impl Into<Roughness>) -> Result<Bsdf, BsdfError> {
+        let eta = check_spectrum("eta", eta)?;
+        let k = check_spectrum("k", k)?;
+        if let Some(&v) = eta.0.iter().find(|&&v| v <= 0.0) {
+            return Err(BsdfError::OutOfRange { parameter: "eta", value: v, expected: "> 0" });
+        }
+        if let Some(&v) = k.0.iter().find(|&&v| v < 0.0) {
+            return Err(BsdfError::OutOfRange { parameter: "k", value: v, expected: ">= 0" });
+        }
+        let d = roughness.into().distribution()?;
+        Ok(Bsdf { model: Model::Microfacet(MicrofacetReflection::new(d, ReflFresnel::Complex { eta, k })) })
+    }
+
+    /// Artist-friendly metal: Schlick Fresnel from the normal-incidence reflectance `f0` (F0 = 1
+    /// is a perfect white mirror at every angle).
+    pub fn conductor_schlick(f0: SampledSpectrum, roughness: impl Into<Roughness>) -> Result<Bsdf, BsdfError> {
+        let f0 = reflectance("f0", f0)?;
+        let d = roughness.into().distribution()?;
+        Ok(Bsdf { model: Model::Microfacet(MicrofacetReflection::new(d, ReflFresnel::Schlick { f0 })) })
+    }
+
+    /// Dielectric interface, `eta` = n_inside / n_outside (inside is −Z) at the hero wavelength.
+    pub fn dielectric(eta: f32, roughness: impl Into<Roughness>) -> Result<Bsdf, BsdfError> {
+        let eta = check_positive("eta", eta)?;
+        let d = roughness.into().distribution()?;
+        Ok(Bsdf { model: Model::Dielectric(Dielectric::new(eta, d)) })
+    }
+
+    /// UsdPreviewSurface (see [`PreviewParams`]).
+    pub fn preview(p: PreviewParams) -> Result<Bsdf, BsdfError> {
+        let p = PreviewParams {
+            diffuse: reflectance("diffuseColor", p.diffuse)?,
+            specular_f0: reflectance("specularColor", p.specular_f0)?,
+            metallic: check_finite("metallic", p.metallic)?.clamp(0.0, 1.0),
+            base_for_metal: reflectance("base_for_metal", p.base_for_metal)?,
+            roughness: check_finite("roughness", p.roughness)?,
+            clearcoat: check_finite("clearcoat", p.clearcoat)?.clamp(0.0, 1.0),
+            clearcoat_roughness: check_finite("clearcoatRoughness", p.clearcoat_roughness)?,
+            ior: check_positive("ior", p.ior)?,
+            use_specular_workflow: p.use_specular_workflow,
+        };
+        Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
+    }
+
+    /// BSDF value (cosine excluded); zero for delta lobes.
+    pub fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> SampledSpectrum {
+        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        match &self.model {
+            Model::Dielectric(d) => d.f(wo, wi, mode),
+            Model::Lambert(l) => l.f(wo2, wi2),
+            Model::Microfacet(m) => m.f(wo2, wi2),
+            Model::Preview(p) => p.f(wo2, wi2),
+        }
+    }
+
+    /// Solid-angle density with which [`Self::sample_f`] produces ωi (delta lobes excluded).
+    pub fn pdf(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        match &self.model {
+            Model::Dielectric(d) => d.pdf(wo, wi),
+            Model::Lambert(l) => l.pdf(wo2, wi2),
+            Model::Microfacet(m) => m.pdf(wo2, wi2),
+            Model::Preview(p) => p.pdf(wo2, wi2),
+        }
+    }
+
+    /// Samples ωi given ωo; `uc` chooses among lobes, `u` the direction within one.
+    pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2, mode: TransportMode) -> Option<BsdfSample> {
+        if let Model::Dielectric(d) = &self.model {
+            return d.sample_f(wo, uc, u, mode);
+        }
+        let flipped = wo.z < 0.0;
+        let wo2 = if flipped { flip(wo) } else { wo };
+        let mut s = match &self.model {
+            Model::Lambert(l) => l.sample_f(wo2, u),
+            Model::Microfacet(m) => m.sample_f(wo2, uc, u),
+            Model::Preview(p) => p.sample_f(wo2, uc, u),
+            Model::Dielectric(_) => None,
+        }?;
+        if flipped {
+            s.wi = flip(s.wi);
+        }
+        Some(s)
+    }
+
+    /// Union of the lobes' [`flags`].
+    pub fn flags(&self) -> u8 {
+        match &self.model {
+            Model::Lambert(_) => flags::DIFFUSE_REFLECTION,
+            Model::Microfacet(m) => m.lobe_flags(),
+            Model::Dielectric(d) => d.lobe_flags(),
+            Model::Preview(p) => p.lobe_flags(),
+        }
+    }
+
+    /// Rough reflectance (at normal incidence) for the albedo AOV and denoisers.
+    pub fn albedo_hint(&self) -> SampledSpectrum {
+        match &self.model {
+            Model::Lambert(l) => l.reflectance,
+            Model::Microfacet(m) => m.albedo(1.0),
+            Model::Dielectric(_) => SampledSpectrum::ONE,
+            Model::Preview(p) => p.albedo_hint(),
+        }
+    }
+
+    /// True when every lobe is a delta (no `f`/`pdf` to evaluate, no light sampling).
+    pub fn is_specular(&self) -> bool {
+        let fl = self.flags();
+        fl & flags::SPECULAR != 0 && fl & (flags::DIFFUSE | flags::GLOSSY) == 0
+    }
+}

@@ -1,0 +1,201 @@
+//! UsdPreviewSurface as a layered multi-lobe BSDF: a white GGX clearcoat (IOR 1.5) over a GGX
+//! specular layer over a Lambertian base. Each layer attenuates what lies beneath it by the
+//! upper layer's directional albedo on the way in and on the way out, so the stack never
+//! creates energy; the diffuse base under the specular layer is renormalised (Kulla & Conty
+//! 2017) so that a white base under any specular layer reflects exactly what the specular
+//! layer lets through.
+
+use super::fresnel::f0_from_ior;
+use super::lobes::{Lambert, MicrofacetReflection, ReflFresnel};
+use super::microfacet::{roughness_to_alpha, TrowbridgeReitz};
+use super::{flags, BsdfSample};
+use crate::math::INV_PI;
+use crate::spectrum::SampledSpectrum;
+use glam::{Vec2, Vec3};
+
+/// Already-evaluated UsdPreviewSurface inputs at the path's wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreviewParams {
+    /// diffuseColor.
+    pub diffuse: SampledSpectrum,
+    /// specularColor (specular workflow only).
+    pub specular_f0: SampledSpectrum,
+    /// metallic in [0, 1] (metallic workflow only).
+    pub metallic: f32,
+    /// The colour a fully metallic surface reflects at normal incidence (normally diffuseColor).
+    pub base_for_metal: SampledSpectrum,
+    /// Perceptual roughness in [0, 1].
+    pub roughness: f32,
+    /// clearcoat weight in [0, 1].
+    pub clearcoat: f32,
+    /// clearcoatRoughness in [0, 1].
+    pub clearcoat_roughness: f32,
+    /// ior of the dielectric specular layer (metallic workflow).
+    pub ior: f32,
+    pub use_specular_workflow: bool,
+}
+
+/// IOR of the clearcoat layer.
+pub const CLEARCOAT_IOR: f32 = 1.5;
+
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Preview {
+    /// (weight, lobe) of the clearcoat, absent when its weight is 0.
+    coat: Option<(f32, MicrofacetReflection)>,
+    spec: MicrofacetReflection,
+    /// Diffuse reflectance including the (1 − metallic) weight.
+    diffuse: SampledSpectrum,
+    /// 1 − hemispherical average albedo of the specular layer.
+    spec_loss_avg: SampledSpectrum,
+}
+
+/// Lobe indices for selection.
+const COAT: usize = 0;
+const SPEC: usize = 1;
+const DIFF: usize = 2;
+
+impl Preview {
+    /// Builds the stack from validated parameters (finite, clamped).
+    pub fn new(p: &PreviewParams) -> Self {
+        let alpha = roughness_to_alpha(p.roughness);
+        let (f0, diffuse) = if p.use_specular_workflow {
+            (p.specular_f0, p.diffuse)
+        } else {
+            let m = p.metallic;
+            let f0_d = f0_from_ior(p.ior);
+            (SampledSpectrum::splat(f0_d) * (1.0 - m) + p.base_for_metal * m, p.diffuse * (1.0 - m))
+        };
+        let spec = MicrofacetReflection::new(TrowbridgeReitz::new(alpha, alpha), ReflFresnel::Schlick { f0 });
+        let coat = (p.clearcoat > 0.0).then(|| {
+            let a = roughness_to_alpha(p.clearcoat_roughness);
+            let f0 = SampledSpectrum::splat(f0_from_ior(CLEARCOAT_IOR));
+            (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(a, a), ReflFresnel::Schlick { f0 }))
+        });
+        let spec_loss_avg = (SampledSpectrum::ONE - spec.albedo_avg()).map(|v| v.max(0.0));
+        Preview { coat, spec, diffuse, spec_loss_avg }
+    }
+
+    pub fn lobe_flags(&self) -> u8 {
+        let mut fl = self.spec.lobe_flags();
+        if let Some((_, c)) = &self.coat {
+            fl |= c.lobe_flags();
+        }
+        if !self.diffuse.is_black() {
+            fl |= flags::DIFFUSE_REFLECTION;
+        }
+        fl
+    }
+
+    /// Transmittance of the clearcoat for a direction at μ.
+    #[inline]
+    fn coat_transmittance(&self, mu: f32) -> f32 {
+        match &self.coat {
+            Some((w, c)) => (1.0 - w * c.albedo(mu).average()).max(0.0),
+            None => 1.0,
+        }
+    }
+
+    #[inline]
+    fn spec_loss(&self, mu: f32) -> SampledSpectrum {
+        (SampledSpectrum::ONE - self.spec.albedo(mu)).map(|v| v.max(0.0))
+    }
+
+    fn f_diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if self.diffuse.is_black() || wo.z <= 0.0 || wi.z <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        (self.diffuse * INV_PI * self.spec_loss(wo.z) * self.spec_loss(wi.z)).safe_div(self.spec_loss_avg)
+    }
+
+    /// Selection probabilities of (coat, spec, diffuse) for ωo, proportional to estimated albedo.
+    fn probabilities(&self, mu_o: f32) -> [f32; 3] {
+        let a = self.coat_transmittance(mu_o);
+        let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average());
+        let ps = a * a * self.spec.albedo(mu_o).average();
+        let pd = a * a * (self.diffuse * self.spec_loss(mu_o)).average();
+        let sum = pc + ps + pd;
+        if !(sum > 0.0) {
+            return [0.0; 3];
+        }
+        [pc / sum, ps / sum, pd / sum]
+    }
+
+    pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let under = self.coat_transmittance(wo.z) * self.coat_transmittance(wi.z);
+        let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * under;
+        if let Some((w, c)) = &self.coat {
+            f += c.f(wo, wi) * *w;
+        }
+        f
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let p = self.probabilities(wo.z);
+        let mut pdf = p[SPEC] * self.spec.pdf(wo, wi);
+        if !self.diffuse.is_black() {
+            pdf += p[DIFF] * wi.z * INV_PI;
+        }
+        if let Some((_, c)) = &self.coat {
+            pdf += p[COAT] * c.pdf(wo, wi);
+        }
+        pdf
+    }
+
+    pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let p = self.probabilities(wo.z);
+        let (lobe, uc) = if uc < p[COAT] {
+            (COAT, uc / p[COAT])
+        } else if uc < p[COAT] + p[SPEC] {
+            (SPEC, (uc - p[COAT]) / p[SPEC])
+        } else if p[DIFF] > 0.0 {
+            (DIFF, ((uc - p[COAT] - p[SPEC]) / p[DIFF]).min(1.0))
+        } else {
+            return None;
+        };
+        let uc = uc.clamp(0.0, 1.0 - f32::EPSILON);
+        let sampled = match lobe {
+            COAT => self.coat.as_ref()?.1.sample_f(wo, uc, u)?,
+            SPEC => self.spec.sample_f(wo, uc, u)?,
+            _ => Lambert { reflectance: self.diffuse }.sample_f(wo, u)?,
+        };
+        if sampled.flags & flags::SPECULAR != 0 {
+            // every delta lobe of the stack reflects into the same mirror direction
+            let a = self.coat_transmittance(wo.z);
+            let mut f = SampledSpectrum::ZERO;
+            let mut pdf = 0.0;
+            if self.spec.is_smooth() {
+                f += self.spec.fresnel.eval(wo.z) / wo.z * (a * a);
+                pdf += p[SPEC];
+            }
+            if let Some((w, c)) = &self.coat {
+                if c.is_smooth() {
+                    f += c.fresnel.eval(wo.z) / wo.z * *w;
+                    pdf += p[COAT];
+                }
+            }
+            return Some(BsdfSample { f, pdf, ..sampled });
+        }
+        let wi = sampled.wi;
+        let pdf = self.pdf(wo, wi);
+        if !(pdf > 0.0) {
+            return None;
+        }
+        Some(BsdfSample { f: self.f(wo, wi), wi, pdf, flags: sampled.flags, eta: 1.0 })
+    }
+
+    /// Rough reflectance at normal incidence for the albedo AOV.
+    pub fn albedo_hint(&self) -> SampledSpectrum {
+        let a = self.coat_transmittance(1.0);
+        let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(1.0) * *w);
+        coat + (self.spec.albedo(1.0) + self.diffuse * self.spec_loss(1.0)) * (a * a)
+    }
+}

@@ -1,0 +1,571 @@
+//! Statistical and physical tests of the BSDFs: χ² of every sampler against its pdf, pdf
+//! normalisation, sample/eval consistency, reciprocity, white-furnace energy balance and
+//! Fresnel identities.
+
+use super::fresnel::{fresnel_complex, hemispherical_average, schlick_average};
+use super::microfacet::TrowbridgeReitz;
+use super::*;
+use crate::math;
+use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
+
+/// Number of χ² tests in this suite, for the Šidák correction of the significance level.
+const N_CHI2: usize = 80;
+/// Family-wise significance of the χ² suite.
+const ALPHA: f64 = 0.01;
+
+fn dir(theta_deg: f32, phi_deg: f32) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
+}
+
+fn rng_u(rng: &mut TestRng) -> (f32, Vec2) {
+    (rng.next_f32(), Vec2::new(rng.next_f32(), rng.next_f32()))
+}
+
+fn grey(v: f32) -> SampledSpectrum {
+    SampledSpectrum::splat(v)
+}
+
+/// χ² of the non-specular part of `b`'s sampler against `b.pdf`, plus ∫pdf = success rate.
+fn check_chi2(name: &str, b: &Bsdf, wo: Vec3, mode: TransportMode) {
+    check_chi2_quad(name, b, wo, mode, 24)
+}
+
+/// [`check_chi2`] with `quad_res`² quadrature points per cell, for pdfs with features narrower
+/// than the default quadrature resolves (refraction through a rough interface compresses the
+/// transmitted lobe by up to (η−1)/η).
+fn check_chi2_quad(name: &str, b: &Bsdf, wo: Vec3, mode: TransportMode, quad_res: usize) {
+    let cfg = Chi2Config { samples: 100_000, quad_res, ..Chi2Config::default() };
+    let r = chi2_sphere(
+        cfg,
+        |rng| {
+            let (uc, u) = rng_u(rng);
+            b.sample_f(wo, uc, u, mode).filter(|s| !s.is_specular()).map(|s| s.wi)
+        },
+        |wi| b.pdf(wo, wi, mode),
+    );
+    assert!(r.passed(ALPHA, N_CHI2), "{name}: wo {wo:?}: {r:?}");
+    // The success rate is a binomial proportion over 1e5 trials (σ ≤ 1.6e-3); the cell
+    // quadrature of a smooth pdf is accurate to a few 1e-4: 6e-3 is about 4σ.
+    assert!(
+        (r.pdf_integral - r.success_rate).abs() < 6e-3,
+        "{name}: wo {wo:?}: ∫pdf = {} but success rate = {}",
+        r.pdf_integral,
+        r.success_rate
+    );
+}
+
+/// Sampled non-specular directions return exactly what f() and pdf() give.
+fn check_consistency(name: &str, b: &Bsdf, wo: Vec3, mode: TransportMode) {
+    let mut rng = TestRng::new(11);
+    for _ in 0..2000 {
+        let (uc, u) = rng_u(&mut rng);
+        let Some(s) = b.sample_f(wo, uc, u, mode) else { continue };
+        assert!(s.f.is_finite() && s.pdf.is_finite() && s.pdf > 0.0, "{name}: {s:?}");
+        if s.is_specular() {
+            continue;
+        }
+        let (f, pdf) = (b.f(wo, s.wi, mode), b.pdf(wo, s.wi, mode));
+        // both sides are computed by the same code up to the order of float operations
+        assert!((pdf - s.pdf).abs() <= 1e-4 * pdf.max(1.0), "{name}: pdf {pdf} vs sampled {}", s.pdf);
+        for i in 0..4 {
+            assert!((f[i] - s.f[i]).abs() <= 1e-4 * f[i].max(1.0), "{name}: f {f:?} vs sampled {:?}", s.f);
+        }
+    }
+}
+
+/// Monte Carlo directional albedo ∫ f |cosθi| dωi (mean over wavelengths) and its standard
+/// error. With `undo_eta2`, transmitted radiance-mode samples are multiplied by η² so that a
+/// lossless interface gives 1.
+fn furnace(b: &Bsdf, wo: Vec3, mode: TransportMode, n: usize, undo_eta2: bool) -> (f64, f64) {
+    let mut rng = TestRng::new(1234);
+    let (mut sum, mut sum2) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let (uc, u) = rng_u(&mut rng);
+        let w = match b.sample_f(wo, uc, u, mode) {
+            Some(s) => {
+                let mut w = (s.f.average() * s.wi.z.abs() / s.pdf) as f64;
+                if undo_eta2 && s.is_transmission() {
+                    w *= (s.eta * s.eta) as f64;
+                }
+                w
+            }
+            None => 0.0,
+        };
+        sum += w;
+        sum2 += w * w;
+    }
+    let mean = sum / n as f64;
+    let var = (sum2 / n as f64 - mean * mean).max(0.0);
+    (mean, (var / n as f64).sqrt())
+}
+
+fn gold() -> Bsdf {
+    let eta = SampledSpectrum([0.27, 0.35, 0.6, 1.1]);
+    let k = SampledSpectrum([3.4, 2.9, 2.4, 1.9]);
+    Bsdf::conductor(eta, k, 0.5).unwrap()
+}
+
+fn conductor(r: impl Into<Roughness>) -> Bsdf {
+    let eta = SampledSpectrum([0.27, 0.35, 0.6, 1.1]);
+    let k = SampledSpectrum([3.4, 2.9, 2.4, 1.9]);
+    Bsdf::conductor(eta, k, r).unwrap()
+}
+
+fn preview_params() -> PreviewParams {
+    PreviewParams {
+        diffuse: SampledSpectrum([0.8, 0.5, 0.3, 0.9]),
+        specular_f0: grey(0.04),
+        metallic: 0.0,
+        base_for_metal: SampledSpectrum([0.8, 0.5, 0.3, 0.9]),
+        roughness: 0.5,
+        clearcoat: 0.0,
+        clearcoat_roughness: 0.1,
+        ior: 1.5,
+        use_specular_workflow: false,
+    }
+}
+
+// ---------------------------------------------------------------- Fresnel
+
+#[test]
+fn fresnel_normal_incidence() {
+    for &eta in &[1.333f32, 1.5, 2.4, 0.75, 1.0] {
+        let expect = ((1.0 - eta) / (1.0 + eta)).powi(2);
+        assert!((fresnel_dielectric(1.0, eta) - expect).abs() < 1e-6, "eta {eta}");
+        // same from the other side
+        assert!((fresnel_dielectric(-1.0, 1.0 / eta) - expect).abs() < 1e-6, "eta {eta}");
+    }
+}
+
+#[test]
+fn fresnel_brewster_angle_has_no_p_reflection() {
+    for &eta in &[1.333f32, 1.5, 1.0 / 1.333] {
+        let cos_b = eta.atan().cos();
+        let (s, p) = fresnel_dielectric_polarized(cos_b, eta);
+        assert!(p < 1e-7, "eta {eta}: R_p = {p}");
+        assert!(s > 0.01);
+        // the unpolarised value is half the s reflectance there
+        assert!((fresnel_dielectric(cos_b, eta) - 0.5 * s).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn fresnel_total_internal_reflection_beyond_critical_angle() {
+    let eta = 1.0 / 1.333; // from water into air
+    let crit = (1.0f32 / 1.333).asin();
+    assert_eq!(fresnel_dielectric((crit + 0.01).cos(), eta), 1.0);
+    assert_eq!(fresnel_dielectric(-(crit + 0.01).cos(), 1.333), 1.0);
+    assert!(fresnel_dielectric((crit - 0.01).cos(), eta) < 1.0);
+    assert!(fresnel_dielectric((crit - 0.01).cos(), eta) > 0.3);
+}
+
+#[test]
+fn fresnel_water_glass_interface_matches_analytic() {
+    let (n1, n2) = (1.333f64, 1.5f64);
+    let eta = (n2 / n1) as f32;
+    for k in 0..=18 {
+        let ti = (k as f64 * 5.0).min(89.9).to_radians();
+        let tt = (n1 / n2 * ti.sin()).asin();
+        let rs = ((n1 * ti.cos() - n2 * tt.cos()) / (n1 * ti.cos() + n2 * tt.cos())).powi(2);
+        let rp = ((n2 * ti.cos() - n1 * tt.cos()) / (n2 * ti.cos() + n1 * tt.cos())).powi(2);
+        let expect = 0.5 * (rs + rp);
+        let got = fresnel_dielectric(ti.cos() as f32, eta) as f64;
+        // f32 evaluation of a smooth expression: ~1e-6 relative, 1e-5 absolute near grazing
+        assert!((got - expect).abs() < 1e-5, "θ {k}: {got} vs {expect}");
+    }
+    let r0 = ((n1 - n2) / (n1 + n2)).powi(2) as f32;
+    assert!((fresnel_dielectric(1.0, eta) - r0).abs() < 1e-7);
+}
+
+#[test]
+fn fresnel_complex_reduces_to_dielectric_and_matches_normal_incidence() {
+    for k in 0..=20 {
+        let c = k as f32 / 20.0;
+        for &eta in &[1.333f32, 1.5, 2.4] {
+            assert!((fresnel_complex(c, eta, 0.0) - fresnel_dielectric(c, eta)).abs() < 1e-5, "cos {c} eta {eta}");
+        }
+    }
+    for &(n, k) in &[(0.2f32, 3.0f32), (1.1, 1.9), (2.9, 3.0)] {
+        let expect = ((n - 1.0).powi(2) + k * k) / ((n + 1.0).powi(2) + k * k);
+        assert!((fresnel_complex(1.0, n, k) - expect).abs() < 1e-5);
+        assert!((fresnel_complex(0.0, n, k) - 1.0).abs() < 1e-5);
+    }
+}
+
+#[test]
+fn hemispherical_average_is_exact_for_schlick() {
+    for &f0 in &[0.0f32, 0.04, 0.5, 1.0] {
+        let q = hemispherical_average(|mu| fresnel_schlick(mu, grey(f0))[0]);
+        assert!((q - schlick_average(grey(f0))[0]).abs() < 1e-5, "f0 {f0}: {q}");
+    }
+}
+
+// ---------------------------------------------------------------- microfacet distribution
+
+#[test]
+fn visible_normal_sampling_matches_its_pdf() {
+    for &(ax, ay) in &[(0.25f32, 0.25f32), (0.6, 0.6), (1.0, 1.0), (0.2, 0.7)] {
+        let d = TrowbridgeReitz::new(ax, ay);
+        for &wo in &[dir(0.0, 0.0), dir(50.0, 30.0), dir(85.0, 200.0), dir(130.0, 10.0)] {
+            let r = chi2_sphere(
+                Chi2Config { samples: 100_000, quad_res: 48, ..Chi2Config::default() },
+                |rng| Some(d.sample_wm(wo, Vec2::new(rng.next_f32(), rng.next_f32()))),
+                |wm| d.pdf_visible(wo, wm),
+            );
+            assert!(r.passed(ALPHA, N_CHI2), "α ({ax}, {ay}) wo {wo:?}: {r:?}");
+            // ∫ D_ωo(ωm) dωm = 1 checks D and G1 together; the quadrature (48² points per
+            // cell) resolves the peak of α = 0.2 to about 1e-3
+            assert!((r.pdf_integral - 1.0).abs() < 2e-3, "α ({ax}, {ay}) wo {wo:?}: ∫ = {}", r.pdf_integral);
+        }
+    }
+}
+
+#[test]
+fn roughness_maps_to_alpha_squared() {
+    assert_eq!(roughness_to_alpha(0.5), 0.25);
+    assert_eq!(roughness_to_alpha(2.0), 1.0);
+    assert_eq!(roughness_to_alpha(-1.0), 0.0);
+    assert!(TrowbridgeReitz::new(roughness_to_alpha(0.03), roughness_to_alpha(0.03)).is_smooth());
+    assert!(!TrowbridgeReitz::new(roughness_to_alpha(0.04), roughness_to_alpha(0.04)).is_smooth());
+}
+
+// ---------------------------------------------------------------- χ² per lobe
+
+#[test]
+fn chi2_lambert() {
+    let b = Bsdf::lambert(SampledSpectrum([0.2, 0.5, 0.7, 1.0])).unwrap();
+    for wo in [dir(30.0, 10.0), dir(89.0, 0.0), dir(120.0, 45.0)] {
+        check_chi2("lambert", &b, wo, TransportMode::Radiance);
+        check_consistency("lambert", &b, wo, TransportMode::Radiance);
+    }
+}
+
+#[test]
+fn chi2_rough_conductor() {
+    for r in [Roughness::from(0.5), Roughness::from(0.8), Roughness::from(1.0), Roughness { u: 0.45, v: 0.9 }] {
+        let b = conductor(r);
+        for wo in [dir(0.0, 0.0), dir(45.0, 20.0), dir(85.0, 100.0), dir(140.0, 0.0)] {
+            check_chi2("conductor", &b, wo, TransportMode::Radiance);
+            check_consistency("conductor", &b, wo, TransportMode::Radiance);
+        }
+    }
+    let mirror = Bsdf::conductor_schlick(grey(1.0), 0.6).unwrap();
+    check_chi2("white schlick conductor", &mirror, dir(60.0, 0.0), TransportMode::Radiance);
+}
+
+fn chi2_dielectric(eta: f32) {
+    for r in [Roughness::from(0.5), Roughness::from(1.0), Roughness { u: 0.5, v: 0.8 }] {
+        let b = Bsdf::dielectric(eta, r).unwrap();
+        for wo in [dir(10.0, 0.0), dir(60.0, 40.0), dir(87.0, 0.0), dir(170.0, 0.0), dir(120.0, 70.0), dir(93.0, 0.0)] {
+            // the pdf does not depend on the transport mode, f does (checked by consistency)
+            check_chi2_quad("dielectric", &b, wo, TransportMode::Radiance, 64);
+            check_consistency("dielectric", &b, wo, TransportMode::Radiance);
+            check_consistency("dielectric", &b, wo, TransportMode::Importance);
+        }
+    }
+}
+
+#[test]
+fn chi2_rough_dielectric_glass() {
+    chi2_dielectric(1.5);
+}
+
+#[test]
+fn chi2_rough_dielectric_water() {
+    chi2_dielectric(1.333);
+}
+
+#[test]
+fn chi2_rough_dielectric_air_bubble_in_water() {
+    chi2_dielectric(1.0 / 1.333);
+}
+
+#[test]
+fn chi2_preview_surface() {
+    let base = preview_params();
+    let configs = [
+        base,
+        PreviewParams { metallic: 1.0, roughness: 0.7, ..base },
+        PreviewParams { clearcoat: 0.8, clearcoat_roughness: 0.4, metallic: 0.3, ..base },
+        PreviewParams { use_specular_workflow: true, specular_f0: SampledSpectrum([0.9, 0.6, 0.2, 0.1]), roughness: 0.9, ..base },
+        // delta specular layer and delta coat over diffuse: χ² on the diffuse part
+        PreviewParams { roughness: 0.0, clearcoat: 1.0, clearcoat_roughness: 0.0, ..base },
+    ];
+    for (i, p) in configs.iter().enumerate() {
+        let b = Bsdf::preview(*p).unwrap();
+        for wo in [dir(5.0, 0.0), dir(70.0, 30.0), dir(135.0, 10.0)] {
+            check_chi2(&format!("preview #{i}"), &b, wo, TransportMode::Radiance);
+            check_consistency(&format!("preview #{i}"), &b, wo, TransportMode::Radiance);
+        }
+    }
+}
+
+// ---------------------------------------------------------------- specular lobes
+
+/// Frequencies of the discrete choices of a smooth dielectric equal the Fresnel terms, and
+/// each returned pdf is the probability of its choice.
+#[test]
+fn smooth_dielectric_choice_probabilities() {
+    for &eta in &[1.5f32, 1.333, 1.0 / 1.333] {
+        let b = Bsdf::dielectric(eta, 0.0).unwrap();
+        assert!(b.is_specular());
+        for wo in [dir(0.0, 0.0), dir(45.0, 0.0), dir(80.0, 30.0), dir(135.0, 0.0), dir(175.0, 0.0)] {
+            let fr = fresnel_dielectric(wo.z, eta);
+            let n = 100_000;
+            let mut rng = TestRng::new(5);
+            let mut refl = 0usize;
+            for _ in 0..n {
+                let (uc, u) = rng_u(&mut rng);
+                let s = b.sample_f(wo, uc, u, TransportMode::Radiance).unwrap();
+                assert!(s.is_specular());
+                if s.is_transmission() {
+                    assert!((s.pdf - (1.0 - fr)).abs() < 1e-6);
+                    assert!(s.wi.z * wo.z < 0.0);
+                    // Snell's law
+                    let sin_i = (1.0 - wo.z * wo.z).sqrt();
+                    let sin_t = (1.0 - s.wi.z * s.wi.z).sqrt();
+                    assert!((sin_i - s.eta * sin_t).abs() < 1e-5);
+                } else {
+                    refl += 1;
+                    assert!((s.pdf - fr).abs() < 1e-6 && s.eta == 1.0);
+                    assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+                }
+            }
+            let p = refl as f64 / n as f64;
+            let sigma = (fr as f64 * (1.0 - fr as f64) / n as f64).sqrt();
+            // binomial proportion: 5σ (plus float slack for F ∈ {0, 1})
+            assert!((p - fr as f64).abs() <= 5.0 * sigma + 1e-6, "eta {eta} wo {wo:?}: {p} vs {fr}");
+        }
+    }
+}
+
+#[test]
+fn smooth_conductor_is_a_mirror_with_fresnel_weight() {
+    let eta = SampledSpectrum([0.27, 0.35, 0.6, 1.1]);
+    let k = SampledSpectrum([3.4, 2.9, 2.4, 1.9]);
+    let b = Bsdf::conductor(eta, k, 0.01).unwrap();
+    assert!(b.is_specular());
+    for wo in [dir(20.0, 40.0), dir(85.0, 0.0), dir(160.0, 0.0)] {
+        let s = b.sample_f(wo, 0.3, Vec2::new(0.2, 0.9), TransportMode::Radiance).unwrap();
+        assert_eq!(s.pdf, 1.0);
+        assert!((s.wi - Vec3::new(-wo.x, -wo.y, wo.z)).length() < 1e-6);
+        for i in 0..4 {
+            let fr = fresnel_complex(wo.z.abs(), eta[i], k[i]);
+            assert!((s.f[i] * s.wi.z.abs() - fr).abs() < 1e-5);
+        }
+        assert_eq!(b.f(wo, s.wi, TransportMode::Radiance), SampledSpectrum::ZERO);
+        assert_eq!(b.pdf(wo, s.wi, TransportMode::Radiance), 0.0);
+    }
+}
+
+/// Mixed delta/non-delta stacks: the specular choice is made with the probability reported.
+#[test]
+fn preview_specular_choice_probability() {
+    let p = PreviewParams { roughness: 0.0, clearcoat: 0.6, clearcoat_roughness: 0.0, ..preview_params() };
+    let b = Bsdf::preview(p).unwrap();
+    assert!(!b.is_specular());
+    for wo in [dir(10.0, 0.0), dir(75.0, 0.0)] {
+        let n = 100_000;
+        let mut rng = TestRng::new(9);
+        let (mut count, mut pdf) = (0usize, 0.0f32);
+        for _ in 0..n {
+            let (uc, u) = rng_u(&mut rng);
+            if let Some(s) = b.sample_f(wo, uc, u, TransportMode::Radiance) {
+                if s.is_specular() {
+                    count += 1;
+                    pdf = s.pdf;
+                }
+            }
+        }
+        let q = count as f64 / n as f64;
+        let sigma = (pdf as f64 * (1.0 - pdf as f64) / n as f64).sqrt();
+        assert!(pdf > 0.0 && (q - pdf as f64).abs() < 5.0 * sigma, "{q} vs {pdf}");
+    }
+}
+
+// ---------------------------------------------------------------- reciprocity
+
+#[test]
+fn reflection_is_reciprocal() {
+    let bsdfs = [
+        ("lambert", Bsdf::lambert(grey(0.7)).unwrap()),
+        ("conductor", conductor(0.6)),
+        ("anisotropic conductor", conductor(Roughness { u: 0.3, v: 0.9 })),
+        ("dielectric", Bsdf::dielectric(1.5, 0.6).unwrap()),
+        ("preview", Bsdf::preview(PreviewParams { clearcoat: 0.7, clearcoat_roughness: 0.3, ..preview_params() }).unwrap()),
+    ];
+    let mut rng = TestRng::new(3);
+    for (name, b) in &bsdfs {
+        for _ in 0..500 {
+            let wo = math::sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let mut wi = math::sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            wi.z = wi.z.abs().copysign(wo.z);
+            let a = b.f(wo, wi, TransportMode::Radiance);
+            let c = b.f(wi, wo, TransportMode::Radiance);
+            for i in 0..4 {
+                // same expression with arguments swapped: float rounding only
+                assert!((a[i] - c[i]).abs() <= 1e-4 * a[i].abs().max(1e-3), "{name}: {a:?} vs {c:?}");
+            }
+        }
+    }
+}
+
+/// Transmission obeys the adjoint relation f_radiance(ωo, ωi) = f_importance(ωi, ωo).
+#[test]
+fn transmission_is_adjoint_reciprocal() {
+    let mut rng = TestRng::new(4);
+    for &eta in &[1.5f32, 1.0 / 1.333] {
+        let b = Bsdf::dielectric(eta, 0.7).unwrap();
+        let mut checked = 0;
+        for _ in 0..2000 {
+            let wo = math::sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            let mut wi = math::sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            wi.z = -wi.z.abs().copysign(wo.z);
+            let a = b.f(wo, wi, TransportMode::Radiance)[0];
+            let c = b.f(wi, wo, TransportMode::Importance)[0];
+            // the two sides use different (cancelling) half-vector denominators: relative
+            // rounding up to 3e-4 was observed at grazing angles
+            assert!((a - c).abs() <= 1e-3 * a.abs().max(1e-3), "{a} vs {c}");
+            checked += (a > 0.0) as usize;
+        }
+        assert!(checked > 500);
+    }
+}
+
+// ---------------------------------------------------------------- white furnace
+
+/// Angles of ωo for furnace tests, grazing included.
+const FURNACE_THETAS: [f32; 6] = [0.0, 30.0, 60.0, 75.0, 85.0, 89.0];
+
+/// Tolerance of energy compensation: the albedo tables are built with a lattice of 89–233
+/// points and interpolated linearly on a 16–32 node grid; their combined error was measured
+/// below 1% and 2% is asserted so that a lost lobe (typically 5–60% at these roughnesses)
+/// cannot pass.
+const COMPENSATION_TOL: f64 = 0.02;
+
+#[test]
+fn furnace_lambert_white_is_exactly_one() {
+    let b = Bsdf::lambert(grey(1.0)).unwrap();
+    for t in FURNACE_THETAS {
+        let (m, _) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 10_000, false);
+        assert!((m - 1.0).abs() < 1e-5, "θ {t}: {m}");
+    }
+}
+
+#[test]
+fn furnace_rough_conductor_with_unit_fresnel_conserves_energy() {
+    for r in [0.2f32, 0.5, 0.8, 1.0] {
+        let b = Bsdf::conductor_schlick(grey(1.0), r).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 30.0), TransportMode::Radiance, 20_000, false);
+            assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "roughness {r} θ {t}: {m} ± {s}");
+        }
+    }
+}
+
+#[test]
+fn furnace_conductor_never_exceeds_one() {
+    for r in [0.05f32, 0.3, 0.7, 1.0] {
+        let b = conductor(r);
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            assert!(m <= 1.0 + 3.0 * s, "roughness {r} θ {t}: {m} ± {s}");
+        }
+    }
+}
+
+#[test]
+fn furnace_rough_dielectric_conserves_energy_on_both_sides() {
+    for &eta in &[1.333f32, 1.5, 1.0 / 1.333, 1.5 / 1.333] {
+        for r in [0.2f32, 0.5, 1.0] {
+            let b = Bsdf::dielectric(eta, r).unwrap();
+            for t in FURNACE_THETAS {
+                for wo in [dir(t, 10.0), dir(180.0 - t, 10.0)] {
+                    let (m, s) = furnace(&b, wo, TransportMode::Importance, 20_000, false);
+                    assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "eta {eta} r {r} wo {wo:?}: {m} ± {s}");
+                    let (m, s) = furnace(&b, wo, TransportMode::Radiance, 20_000, true);
+                    assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "radiance: eta {eta} r {r} wo {wo:?}: {m} ± {s}");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn furnace_smooth_dielectric_is_exactly_lossless() {
+    let b = Bsdf::dielectric(1.333, 0.0).unwrap();
+    for t in FURNACE_THETAS {
+        for wo in [dir(t, 0.0), dir(180.0 - t, 0.0)] {
+            let (m, _) = furnace(&b, wo, TransportMode::Importance, 5_000, false);
+            assert!((m - 1.0).abs() < 1e-5, "wo {wo:?}: {m}");
+        }
+    }
+}
+
+#[test]
+fn furnace_preview_surface() {
+    let white = grey(1.0);
+    let base = PreviewParams { diffuse: white, base_for_metal: white, ..preview_params() };
+    // a white base under a specular layer reflects everything the layer lets through
+    for p in [base, PreviewParams { roughness: 0.9, ..base }, PreviewParams { roughness: 0.0, ..base }] {
+        let b = Bsdf::preview(p).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "{p:?} θ {t}: {m} ± {s}");
+        }
+    }
+    // a white metal: compensated conductor-like lobe
+    let metal = Bsdf::preview(PreviewParams { metallic: 1.0, roughness: 0.8, ..base }).unwrap();
+    for t in FURNACE_THETAS {
+        let (m, s) = furnace(&metal, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+        assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "metal θ {t}: {m} ± {s}");
+    }
+    // clearcoat stacks never create energy
+    for p in [
+        PreviewParams { clearcoat: 1.0, clearcoat_roughness: 0.3, ..base },
+        PreviewParams { clearcoat: 0.5, clearcoat_roughness: 0.0, metallic: 0.5, roughness: 0.2, ..base },
+        PreviewParams { clearcoat: 1.0, clearcoat_roughness: 1.0, use_specular_workflow: true, specular_f0: white, ..base },
+    ] {
+        let b = Bsdf::preview(p).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            // the stack's own albedo bookkeeping is table-based: allow the table error
+            assert!(m <= 1.0 + 3.0 * s + 5e-3, "{p:?} θ {t}: {m} ± {s}");
+            assert!(m > 0.5, "{p:?} θ {t}: {m}");
+        }
+    }
+}
+
+// ---------------------------------------------------------------- inputs and misc
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    assert!(matches!(Bsdf::dielectric(f32::NAN, 0.1), Err(BsdfError::NotFinite { parameter: "eta" })));
+    assert!(matches!(Bsdf::dielectric(-1.0, 0.1), Err(BsdfError::OutOfRange { parameter: "eta", .. })));
+    assert!(matches!(Bsdf::dielectric(1.5, f32::INFINITY), Err(BsdfError::NotFinite { parameter: "roughness" })));
+    assert!(Bsdf::lambert(grey(f32::NAN)).is_err());
+    assert!(Bsdf::conductor(grey(0.0), grey(1.0), 0.2).is_err());
+    assert!(Bsdf::conductor(grey(1.0), grey(-1.0), 0.2).is_err());
+    assert!(Bsdf::preview(PreviewParams { ior: 0.0, ..preview_params() }).is_err());
+    assert!(Bsdf::preview(PreviewParams { metallic: f32::NAN, ..preview_params() }).is_err());
+    let e = Bsdf::dielectric(-1.0, 0.1).unwrap_err().to_string();
+    assert!(e.contains("eta"), "{e}");
+}
+
+#[test]
+fn flags_classify_lobes() {
+    assert_eq!(Bsdf::lambert(grey(0.5)).unwrap().flags(), flags::DIFFUSE_REFLECTION);
+    let d = Bsdf::dielectric(1.5, 0.4).unwrap();
+    assert_eq!(d.flags(), flags::REFLECTION | flags::TRANSMISSION | flags::GLOSSY);
+    assert!(!d.is_specular());
+    assert!(Bsdf::dielectric(1.0, 0.5).unwrap().is_specular()); // index-matched: pass-through
+    assert!(gold().albedo_hint().max_component() > 0.5);
+}
+
+#[test]
+fn albedo_tables_build_quickly() {
+    let t = std::time::Instant::now();
+    let _ = super::albedo::tables();
+    eprintln!("albedo tables ready after {:?}", t.elapsed());
+}

@@ -1,0 +1,386 @@
+//! The prepared scene the integrator traces: the BVH, materials with their spectra uplifted,
+//! media, lights (including emissive triangles) with their sampler, the camera, and the
+//! surface-interaction and material evaluation at a hit.
+
+use crate::accel::{Accel, Hit, Ray};
+use crate::bsdf::{Bsdf, PreviewParams};
+use crate::camera::Camera;
+use crate::light::{Light, LightSampler};
+use crate::math::Frame;
+use crate::medium::Medium;
+use crate::render::{Problem, RenderSettings};
+use crate::scene::*;
+use crate::spectrum::{uplift, SampledSpectrum, SampledWavelengths, Spectrum};
+use crate::texture;
+use glam::{Mat3, Vec2, Vec3};
+use std::collections::HashMap;
+
+/// A colour input with its constant spectrum uplifted once.
+#[derive(Clone, Debug)]
+pub enum ColorParam {
+    Const(Spectrum),
+    Tex(TexLookup),
+}
+
+/// A scalar input.
+#[derive(Clone, Debug)]
+pub enum FloatParam {
+    Const(f32),
+    Tex(TexLookup),
+}
+
+/// A clear dielectric interface (TideWater or any glass).
+#[derive(Clone, Debug)]
+pub struct DielectricMat {
+    pub ior: f32,
+    pub roughness: f32,
+    pub priority: i32,
+}
+
+/// What a surface does, ready to evaluate.
+#[derive(Clone, Debug)]
+pub enum SurfaceKind {
+    Diffuse(ColorParam),
+    Preview {
+        diffuse: ColorParam,
+        emissive: Option<ColorParam>,
+        specular: ColorParam,
+        use_specular_workflow: bool,
+        metallic: FloatParam,
+        roughness: FloatParam,
+        clearcoat: FloatParam,
+        clearcoat_roughness: FloatParam,
+        opacity: FloatParam,
+        opacity_threshold: f32,
+        ior: f32,
+    },
+    Dielectric(DielectricMat),
+    Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
+    Emissive { radiance: Spectrum, two_sided: bool },
+}
+
+#[derive(Clone, Debug)]
+pub struct Material {
+    pub name: String,
+    pub kind: SurfaceKind,
+    pub interior_medium: Option<usize>,
+}
+
+impl Material {
+    pub fn dielectric(&self) -> Option<&DielectricMat> {
+        match &self.kind {
+            SurfaceKind::Dielectric(d) => Some(d),
+            _ => None,
+        }
+    }
+}
+
+/// Per-instance data the integrator needs.
+#[derive(Clone, Debug)]
+pub struct InstanceInfo {
+    pub geometry: GeometryRef,
+    pub material: usize,
+    pub id: u32,
+    pub visible_to_camera: bool,
+    pub casts_shadows: bool,
+}
+
+/// Geometry at a hit point (world space).
+#[derive(Clone, Copy, Debug)]
+pub struct SurfaceHit {
+    pub p: Vec3,
+    /// Geometric normal on the object's outside (the side its winding/authored normals face).
+    pub ng: Vec3,
+    /// Shading normal, on the same side as `ng`.
+    pub ns: Vec3,
+    pub uv: Vec2,
+    pub dpdu: Vec3,
+    pub instance: u32,
+    pub prim: u32,
+    pub t: f32,
+}
+
+/// The prepared scene.
+pub struct World {
+    pub accel: Accel,
+    pub instances: Vec<InstanceInfo>,
+    pub meshes: Vec<MeshDesc>,
+    pub materials: Vec<Material>,
+    pub media: Vec<Medium>,
+    pub textures: Vec<TextureDesc>,
+    pub lights: Vec<Light>,
+    pub light_sampler: LightSampler,
+    /// Lights with a shape of their own that rays can hit (not triangles: those are in the BVH).
+    pub hittable_lights: Vec<usize>,
+    pub infinite_lights: Vec<usize>,
+    /// (instance, triangle) → light index of emissive triangles.
+    pub triangle_lights: HashMap<(u32, u32), usize>,
+    pub camera: Camera,
+    pub cs: ColorSpace,
+    pub max_depth: u32,
+}
+
+fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
+    match c {
+        ColorInput::Const(rgb) => ColorParam::Const(uplift::albedo(*rgb, cs)),
+        ColorInput::Texture(l) => ColorParam::Tex(l.clone()),
+    }
+}
+
+fn float_param(c: &FloatInput) -> FloatParam {
+    match c {
+        FloatInput::Const(v) => FloatParam::Const(*v),
+        FloatInput::Texture(l) => FloatParam::Tex(l.clone()),
+    }
+}
+
+impl World {
+    /// Builds the world from a validated scene. Problems met here are appended to `problems`.
+    pub fn build(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>) -> World {
+        let cs = scene.color_space;
+        let camera = Camera::new(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.disable_depth_of_field, settings.disable_motion_blur);
+        let accel = Accel::build(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter);
+        let materials: Vec<Material> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let kind = match &m.surface {
+                    SurfaceDesc::Diffuse { color } => SurfaceKind::Diffuse(color_param(color, cs)),
+                    SurfaceDesc::Preview(p) => {
+                        let emissive = match &p.emissive_color {
+                            ColorInput::Const(c) if c.iter().all(|v| *v <= 0.0) => None,
+                            ColorInput::Const(c) => Some(ColorParam::Const(uplift::illuminant(*c, cs))),
+                            ColorInput::Texture(l) => Some(ColorParam::Tex(l.clone())),
+                        };
+                        SurfaceKind::Preview {
+                            diffuse: color_param(&p.diffuse_color, cs),
+                            emissive,
+                            specular: color_param(&p.specular_color, cs),
+                            use_specular_workflow: p.use_specular_workflow,
+                            metallic: float_param(&p.metallic),
+                            roughness: float_param(&p.roughness),
+                            clearcoat: float_param(&p.clearcoat),
+                            clearcoat_roughness: float_param(&p.clearcoat_roughness),
+                            opacity: float_param(&p.opacity),
+                            opacity_threshold: p.opacity_threshold,
+                            ior: p.ior,
+                        }
+                    }
+                    SurfaceDesc::Water(w) => {
+                        if w.dispersion || w.surface_model == SurfaceModel::Sea {
+                            problems.push(Problem {
+                                item: m.name.clone(),
+                                attribute: if w.dispersion { "inputs:dispersion".into() } else { "inputs:surfaceModel".into() },
+                                message: "not supported yet; rendered as a dielectric with constant ior and GGX roughness".into(),
+                            });
+                        }
+                        SurfaceKind::Dielectric(DielectricMat { ior: w.ior, roughness: w.roughness, priority: w.priority })
+                    }
+                    SurfaceDesc::Conductor { eta, k, roughness } => SurfaceKind::Conductor { eta: uplift::unbounded(*eta, cs), k: uplift::unbounded(*k, cs), roughness: *roughness },
+                    SurfaceDesc::Emissive { radiance, two_sided } => SurfaceKind::Emissive { radiance: uplift::illuminant(*radiance, cs), two_sided: *two_sided },
+                };
+                Material { name: m.name.clone(), kind, interior_medium: m.interior_medium }
+            })
+            .collect();
+        let media = scene
+            .media
+            .iter()
+            .map(|m| match Medium::from_desc(m, cs) {
+                Ok(med) => med,
+                Err(e) => {
+                    problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
+                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic }, cs).expect("empty medium")
+                }
+            })
+            .collect();
+
+        let mut lights = Vec::new();
+        for l in &scene.lights {
+            match Light::from_desc(l, &scene.textures, cs) {
+                Ok(light) => lights.push(light),
+                Err(e) => {
+                    let (attr, msg) = e.split_once(": ").map(|(a, m)| (a.to_string(), m.to_string())).unwrap_or(("inputs".into(), e.clone()));
+                    problems.push(Problem { item: l.name.clone(), attribute: attr, message: format!("{msg}; light dropped") });
+                }
+            }
+        }
+        // emissive triangles of meshes whose material emits a constant colour
+        let mut triangle_lights = HashMap::new();
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let GeometryRef::Mesh(mi) = inst.geometry else { continue };
+            let (emission, two_sided) = match &materials[inst.material].kind {
+                SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided),
+                SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false),
+                _ => continue,
+            };
+            let m = &scene.meshes[mi];
+            let xf = accel.instance_transform(ii as u32, 0.0);
+            for (ti, t) in m.indices.chunks_exact(3).enumerate() {
+                let p = [0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize]));
+                if let Some(l) = Light::triangle(p, emission.clone(), two_sided || m.double_sided) {
+                    triangle_lights.insert((ii as u32, ti as u32), lights.len());
+                    lights.push(l);
+                }
+            }
+        }
+        let (lo, hi) = accel.bounds();
+        let center = (lo + hi) * 0.5;
+        let radius = ((hi - lo).length() * 0.5).max(1e-3);
+        for l in &mut lights {
+            l.preprocess(center, radius);
+        }
+        let light_sampler = LightSampler::new(&lights);
+        let hittable_lights = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i], Light::Triangle(_))).collect();
+        let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
+        let instances = scene
+            .instances
+            .iter()
+            .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows })
+            .collect();
+        World {
+            accel,
+            instances,
+            meshes: scene.meshes.clone(),
+            materials,
+            media,
+            textures: scene.textures.clone(),
+            lights,
+            light_sampler,
+            hittable_lights,
+            infinite_lights,
+            triangle_lights,
+            camera,
+            cs,
+            max_depth: settings.max_depth,
+        }
+    }
+
+    /// Geometry at a hit.
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfaceHit {
+        let info = &self.instances[hit.instance as usize];
+        let m = self.accel.instance_transform(hit.instance, ray.time);
+        let nm = Mat3::from_mat4(m).inverse().transpose();
+        match info.geometry {
+            GeometryRef::Mesh(mi) => {
+                let mesh = &self.meshes[mi];
+                let i = 3 * hit.prim as usize;
+                let idx = [mesh.indices[i] as usize, mesh.indices[i + 1] as usize, mesh.indices[i + 2] as usize];
+                let (b1, b2) = (hit.u, hit.v);
+                let b0 = 1.0 - b1 - b2;
+                let v = idx.map(|k| mesh.positions[k]);
+                let p_obj = v[0] * b0 + v[1] * b1 + v[2] * b2;
+                let ng_obj = (v[1] - v[0]).cross(v[2] - v[0]);
+                let ng = (nm * ng_obj).normalize();
+                let mut ns = ng;
+                if let Some(n) = &mesh.normals {
+                    let ni = n[idx[0]] * b0 + n[idx[1]] * b1 + n[idx[2]] * b2;
+                    if ni.length_squared() > 1e-12 {
+                        let w = (nm * ni).normalize();
+                        ns = if w.dot(ng) < 0.0 { -w } else { w };
+                    }
+                }
+                let (uv, dpdu) = match &mesh.uvs {
+                    Some(uvs) => {
+                        let t = idx.map(|k| uvs[k]);
+                        let uv = t[0] * b0 + t[1] * b1 + t[2] * b2;
+                        let (du1, du2) = (t[1] - t[0], t[2] - t[0]);
+                        let det = du1.x * du2.y - du1.y * du2.x;
+                        let dpdu = if det.abs() > 1e-12 { ((v[1] - v[0]) * du2.y - (v[2] - v[0]) * du1.y) / det } else { v[1] - v[0] };
+                        (uv, m.transform_vector3(dpdu))
+                    }
+                    None => (Vec2::new(b1, b2), m.transform_vector3(v[1] - v[0])),
+                };
+                SurfaceHit { p: m.transform_point3(p_obj), ng, ns, uv, dpdu, instance: hit.instance, prim: hit.prim, t: hit.t }
+            }
+            GeometryRef::Spheres(_) => {
+                let (c, r) = self.accel.sphere_center(hit.instance, hit.prim, ray.time).unwrap_or((Vec3::ZERO, 1.0));
+                let inv = m.inverse();
+                let p_obj_ray = inv.transform_point3(ray.o + ray.d * hit.t);
+                let n_obj = (p_obj_ray - c).normalize_or_zero();
+                let p_obj = c + n_obj * r; // reproject onto the surface
+                let ng = (nm * n_obj).normalize();
+                let phi = n_obj.z.atan2(n_obj.x);
+                let uv = Vec2::new(0.5 + phi / (2.0 * std::f32::consts::PI), 1.0 - n_obj.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
+                let dpdu = m.transform_vector3(Vec3::new(-n_obj.z, 0.0, n_obj.x));
+                SurfaceHit { p: m.transform_point3(p_obj), ng, ns: ng, uv, dpdu, instance: hit.instance, prim: hit.prim, t: hit.t }
+            }
+        }
+    }
+
+    fn color(&self, c: &ColorParam, uv: Vec2, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match c {
+            ColorParam::Const(s) => s.sample(lambda),
+            ColorParam::Tex(l) => {
+                let rgb = texture::lookup_rgb(&self.textures, l, uv);
+                uplift::albedo(rgb, self.cs).sample(lambda)
+            }
+        }
+    }
+
+    fn float(&self, c: &FloatParam, uv: Vec2) -> f32 {
+        match c {
+            FloatParam::Const(v) => *v,
+            FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, uv),
+        }
+    }
+
+    /// Opacity of a surface at `uv` (1 for everything but a translucent preview surface).
+    pub fn opacity(&self, material: usize, uv: Vec2) -> f32 {
+        match &self.materials[material].kind {
+            SurfaceKind::Preview { opacity, opacity_threshold, .. } => {
+                let o = self.float(opacity, uv).clamp(0.0, 1.0);
+                if *opacity_threshold > 0.0 {
+                    if o < *opacity_threshold {
+                        0.0
+                    } else {
+                        1.0
+                    }
+                } else {
+                    o
+                }
+            }
+            _ => 1.0,
+        }
+    }
+
+    /// Emitted radiance of a surface towards `wo` (world), for emissive materials.
+    pub fn emitted(&self, material: usize, s: &SurfaceHit, wo: Vec3, lambda: &SampledWavelengths, double_sided: bool) -> SampledSpectrum {
+        let front = wo.dot(s.ng) > 0.0;
+        match &self.materials[material].kind {
+            SurfaceKind::Emissive { radiance, two_sided } if front || *two_sided || double_sided => radiance.sample(lambda),
+            SurfaceKind::Preview { emissive: Some(e), .. } if front || double_sided => match e {
+                ColorParam::Const(sp) => sp.sample(lambda),
+                ColorParam::Tex(l) => uplift::illuminant(texture::lookup_rgb(&self.textures, l, s.uv), self.cs).sample(lambda),
+            },
+            _ => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// The BSDF at a hit, in the shading frame. `outside_ior` is the IOR of the medium the
+    /// surface sits in (for preview surfaces inside water), `eta` the relative IOR for
+    /// dielectrics (inside over outside).
+    pub fn bsdf(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, eta: f32) -> (Bsdf, Frame) {
+        let frame = Frame::from_normal_tangent(s.ns, s.dpdu);
+        let bsdf = match &self.materials[material].kind {
+            SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s.uv, lambda).map(|v| v.clamp(0.0, 1.0))),
+            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, .. } => {
+                let d = self.color(diffuse, s.uv, lambda).map(|v| v.clamp(0.0, 1.0));
+                Bsdf::preview(PreviewParams {
+                    diffuse: d,
+                    specular_f0: self.color(specular, s.uv, lambda).map(|v| v.clamp(0.0, 1.0)),
+                    metallic: self.float(metallic, s.uv).clamp(0.0, 1.0),
+                    base_for_metal: d,
+                    roughness: self.float(roughness, s.uv).clamp(0.0, 1.0),
+                    clearcoat: self.float(clearcoat, s.uv).clamp(0.0, 1.0),
+                    clearcoat_roughness: self.float(clearcoat_roughness, s.uv).clamp(0.0, 1.0),
+                    ior: (*ior / outside_ior).max(1.0 + 1e-4),
+                    use_specular_workflow: *use_specular_workflow,
+                })
+            }
+            SurfaceKind::Dielectric(dm) => Bsdf::dielectric(eta, dm.roughness),
+            SurfaceKind::Conductor { eta: e, k, roughness } => Bsdf::conductor(e.sample(lambda) / outside_ior, k.sample(lambda) / outside_ior, *roughness),
+            SurfaceKind::Emissive { .. } => Bsdf::lambert(SampledSpectrum::ZERO),
+        };
+        (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
+    }
+}
