@@ -17,7 +17,7 @@
 use super::phase::{PhaseFunction, ONE_MINUS_EPSILON};
 use super::MediumError;
 use crate::scene::{ColorSpace, MediumDesc, SpectrumDesc};
-use crate::spectrum::{uplift, SampledSpectrum, SampledWavelengths, Spectrum, N_SPECTRUM};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, SpectrumKind, N_SPECTRUM};
 
 /// Outcome of free-flight sampling along a segment of length `t_max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -175,16 +175,10 @@ impl HomogeneousMedium {
         Ok(HomogeneousMedium { sigma_a, sigma_s, phase })
     }
 
-    /// [`HomogeneousMedium::from_desc`] with RGB coefficients uplifted by
-    /// [`uplift::unbounded`] in `cs`. Tabulated coefficients need a converter from the
-    /// spectrum module and are reported as an error here.
+    /// [`HomogeneousMedium::from_desc`] with RGB coefficients uplifted as unbounded spectra
+    /// in `cs` and tabulated ones interpolated.
     pub fn from_desc_in(desc: &MediumDesc, cs: ColorSpace) -> Result<Self, MediumError> {
-        Self::from_desc(desc, |s| match s {
-            SpectrumDesc::Rgb(rgb) => Ok(uplift::unbounded(*rgb, cs)),
-            SpectrumDesc::Tabulated { .. } => {
-                Err("tabulated spectra need a converter (HomogeneousMedium::from_desc)".to_string())
-            }
-        })
+        Self::from_desc(desc, |s| Spectrum::from_desc(s, SpectrumKind::Unbounded, cs).map_err(|e| e.to_string()))
     }
 
     /// (σa, σs) at the path's wavelengths, clamped to ≥ 0. Call once per segment.

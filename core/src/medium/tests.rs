@@ -647,8 +647,6 @@ fn bad_medium_input_names_the_medium_and_field() {
         desc(SpectrumDesc::Tabulated { lambda: vec![500.0, 400.0], value: vec![1.0, 1.0] }, ok.clone(), 1.0, PhaseDesc::Isotropic),
         desc(ok.clone(), SpectrumDesc::Tabulated { lambda: vec![400.0], value: vec![-1.0] }, 1.0, PhaseDesc::Isotropic),
         desc(ok.clone(), ok.clone(), 1.0, PhaseDesc::DualHg { g1: 0.9, g2: 0.0, w: -0.5 }),
-        // valid, but tabulated coefficients need a converter
-        desc(SpectrumDesc::Tabulated { lambda: vec![400.0], value: vec![1.0] }, ok.clone(), 1.0, PhaseDesc::Isotropic),
     ];
     for d in &cases {
         let e = HomogeneousMedium::from_desc_in(d, ColorSpace::LinearRec709).unwrap_err();
@@ -656,6 +654,10 @@ fn bad_medium_input_names_the_medium_and_field() {
         assert!(msg.contains("/water/medium"), "{msg}");
         assert!(matches!(e, MediumError::BadMedium { .. }));
     }
+    // a valid tabulated coefficient is accepted and interpolated
+    let tab = desc(SpectrumDesc::Tabulated { lambda: vec![400.0, 700.0], value: vec![1.0, 4.0] }, ok.clone(), 1.0, PhaseDesc::Isotropic);
+    let m = HomogeneousMedium::from_desc_in(&tab, ColorSpace::LinearRec709).unwrap();
+    assert!((m.sigma_a.eval(500.0) - 2.0).abs() < 1e-5);
     let e = HomogeneousMedium::from_desc(&cases[0], |_| Ok(Spectrum::Constant(1.0))).unwrap_err();
     assert!(e.to_string().contains("scale"));
     // a converter's own error is passed on with the field
