@@ -7,6 +7,7 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 pub mod film;
+pub mod integrator;
 pub mod light;
 pub mod math;
 pub mod medium;

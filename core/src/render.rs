@@ -150,50 +150,223 @@ pub struct RenderStats {
     pub samples_per_second: f64,
 }
 
+/// Inverse of the standard normal CDF (Acklam's rational approximation, relative error
+/// below 1.2e-9 in f64).
+fn inv_normal_cdf(p: f64) -> f64 {
+    const A: [f64; 6] = [-3.969683028665376e1, 2.209460984245205e2, -2.759285104469687e2, 1.383577518672690e2, -3.066479806614716e1, 2.506628277459239];
+    const B: [f64; 5] = [-5.447609879822406e1, 1.615858368580409e2, -1.556989798598866e2, 6.680131188771972e1, -1.328068155288572e1];
+    const C: [f64; 6] = [-7.784894002430293e-3, -3.223964580411365e-1, -2.400758277161838, -2.549732539343734, 4.374664141464968, 2.938163982698783];
+    const D: [f64; 4] = [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
+    let p = p.clamp(1e-300, 1.0 - 1e-16);
+    let pl = 0.02425;
+    if p < pl {
+        let q = (-2.0 * p.ln()).sqrt();
+        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5]) / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
+    } else if p <= 1.0 - pl {
+        let q = p - 0.5;
+        let r = q * q;
+        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
+    } else {
+        -inv_normal_cdf(1.0 - p)
+    }
+}
+
+/// The pixel filter: a Gaussian of σ = 0.5 px truncated at 1.5 px (3σ), importance-sampled
+/// exactly per axis so every sample has weight 1 (filter importance sampling).
+pub const FILTER_SIGMA: f32 = 0.5;
+/// Φ(−3): the Gaussian's mass below −3σ.
+const PHI_MINUS_3: f64 = 0.001_349_898_031_630_094_6;
+
+/// Offset (pixels) of a filter sample from the pixel centre.
+pub fn sample_filter(u: f32) -> f32 {
+    let p = PHI_MINUS_3 + u as f64 * (1.0 - 2.0 * PHI_MINUS_3);
+    (FILTER_SIGMA as f64 * inv_normal_cdf(p)) as f32
+}
+
+const TILE: u32 = 16;
+
 /// A prepared scene plus its film.
 pub struct Renderer {
-    _scene: SceneDesc,
+    world: crate::world::World,
+    film: crate::film::Film,
+    settings: RenderSettings,
+    problems: Vec<Problem>,
+    pool: rayon::ThreadPool,
+    camera_stack: crate::integrator::InteriorStack,
+    stats: RenderStats,
 }
 
 impl Renderer {
     /// Validates the scene (problems are kept, see [`Renderer::problems`]) and builds the
     /// acceleration structures.
     pub fn new(scene: &SceneDesc, settings: RenderSettings) -> Result<Renderer, RenderError> {
-        let _ = settings;
-        Ok(Renderer { _scene: scene.clone() })
+        let start = std::time::Instant::now();
+        if settings.width == 0 || settings.height == 0 || settings.width > 65_536 || settings.height > 65_536 {
+            return Err(RenderError(format!("resolution {}×{} is not renderable", settings.width, settings.height)));
+        }
+        if !(settings.pixel_aspect_ratio > 0.0 && settings.pixel_aspect_ratio.is_finite()) {
+            return Err(RenderError(format!("pixelAspectRatio {} must be > 0", settings.pixel_aspect_ratio)));
+        }
+        let (clean, mut problems) = crate::validate::validate(scene);
+        let world = crate::world::World::build(&clean, &settings, &mut problems);
+        let w = settings.width;
+        let h = settings.height;
+        let dw = settings.data_window_ndc;
+        let win = if dw.iter().all(|v| v.is_finite()) && dw[2] > dw[0] && dw[3] > dw[1] {
+            // dataWindowNDC has y up (0 at the bottom); the film's rows go down
+            let x0 = ((dw[0].clamp(0.0, 1.0) * w as f32).floor() as u32).min(w);
+            let x1 = ((dw[2].clamp(0.0, 1.0) * w as f32).ceil() as u32).min(w);
+            let y0 = (((1.0 - dw[3].clamp(0.0, 1.0)) * h as f32).floor() as u32).min(h);
+            let y1 = (((1.0 - dw[1].clamp(0.0, 1.0)) * h as f32).ceil() as u32).min(h);
+            [x0, y0, x1, y1]
+        } else {
+            problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "empty or invalid window; the whole image is rendered".into() });
+            [0, 0, w, h]
+        };
+        let mut film = crate::film::Film::new(w, h, win);
+        film.scale = world.camera.exposure_scale;
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(settings.threads)
+            .thread_name(|i| format!("tide-render-{i}"))
+            .build()
+            .map_err(|e| RenderError(format!("cannot start render threads: {e}")))?;
+        let camera_stack = crate::integrator::initial_stack(&world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
+        let stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
+        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats })
     }
 
     /// Problems found in the input.
     pub fn problems(&self) -> &[Problem] {
-        &[]
+        &self.problems
+    }
+
+    /// Acceleration-structure statistics.
+    pub fn build_stats(&self) -> &crate::accel::BuildStats {
+        &self.world.accel.stats
     }
 
     /// Renders `spp` more samples per pixel; returns false if cancelled part way (the film
     /// then holds only whole passes).
     pub fn render_pass(&mut self, spp: u32, cancel: Option<&AtomicBool>) -> bool {
-        let _ = (spp, cancel);
-        todo!("integrator")
+        use crate::film::{FilmTile, SampleValue};
+        use crate::spectrum::color;
+        use rayon::prelude::*;
+        use std::sync::atomic::Ordering;
+        if spp == 0 {
+            return true;
+        }
+        let start = std::time::Instant::now();
+        let [x0, y0, x1, y1] = self.film.window;
+        let mut tiles = Vec::new();
+        let mut ty = y0;
+        while ty < y1 {
+            let mut tx = x0;
+            while tx < x1 {
+                tiles.push((tx, ty, TILE.min(x1 - tx), TILE.min(y1 - ty)));
+                tx += TILE;
+            }
+            ty += TILE;
+        }
+        let base = self.film.spp;
+        let seed = self.settings.seed;
+        let world = &self.world;
+        let cs = world.cs;
+        let stack = self.camera_stack;
+        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
+        let results: Vec<Option<FilmTile>> = self.pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|&(tx, ty, tw, th)| {
+                    if cancelled() {
+                        return None;
+                    }
+                    let mut tile = FilmTile::new(tx, ty, tw, th, base == 0);
+                    for y in ty..ty + th {
+                        for x in tx..tx + tw {
+                            for s in base..base + spp {
+                                let mut sampler = crate::sampler::PixelSampler::new(seed, x, y, s);
+                                let f = sampler.get2d();
+                                let raster = glam::Vec2::new(x as f32 + 0.5 + sample_filter(f.x), y as f32 + 0.5 + sample_filter(f.y));
+                                let mut lambda = color::sample_wavelengths(sampler.get1d());
+                                let (l, split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack);
+                                let to_rgb = |x: crate::spectrum::SampledSpectrum| {
+                                    let rgb = color::xyz_to_rgb(color::to_xyz(x, &lambda), cs);
+                                    if rgb.iter().all(|c| c.is_finite()) {
+                                        rgb
+                                    } else {
+                                        [0.0; 3]
+                                    }
+                                };
+                                let _ = l;
+                                let mut total = [0.0f32; 3];
+                                for (k, sp) in split.iter().enumerate() {
+                                    v.split[k] = to_rgb(*sp);
+                                    for c in 0..3 {
+                                        total[c] += v.split[k][c];
+                                    }
+                                }
+                                // colour is the sum of the split, so the split AOVs add up exactly
+                                v.color = total;
+                                let sv: SampleValue = v;
+                                tile.add(x, y, &sv, s == 0);
+                            }
+                        }
+                    }
+                    Some(tile)
+                })
+                .collect()
+        });
+        if results.iter().any(|r| r.is_none()) {
+            return false;
+        }
+        for t in results.iter().flatten() {
+            self.film.merge(t);
+        }
+        self.film.spp += spp;
+        let secs = start.elapsed().as_secs_f64();
+        self.stats.render_seconds += secs;
+        self.stats.samples_per_pixel = self.film.spp;
+        let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
+        self.stats.samples_per_second = px * self.film.spp as f64 / self.stats.render_seconds.max(1e-9);
+        true
     }
 
     /// Samples per pixel accumulated so far.
     pub fn samples_per_pixel(&self) -> u32 {
-        0
+        self.film.spp
+    }
+
+    /// Discards everything rendered so far.
+    pub fn reset(&mut self) {
+        self.film.clear();
+        self.stats.render_seconds = 0.0;
+        self.stats.samples_per_pixel = 0;
     }
 
     /// Resolved pixels of an AOV, row-major from the top row, `aov.channels()` per pixel.
     pub fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
-        let _ = aov;
-        Vec::new()
+        self.film.resolve(aov)
     }
 
     /// Writes the chosen AOVs to an OpenEXR file atomically (temporary name, then rename).
-    /// `header` entries are stored as string attributes.
+    /// Each AOV is named by its source name; `header` entries are stored as string attributes.
     pub fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
-        let _ = (path, aovs, header);
-        todo!("film")
+        let named: Vec<(String, Aov)> = aovs.iter().map(|a| (a.source_name().to_string(), *a)).collect();
+        self.write_exr_named(path, &named, header)
+    }
+
+    /// Like [`Renderer::write_exr`] with an output name per AOV (UsdRenderVar names).
+    pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
+        let mut h: Vec<(String, String)> = header.to_vec();
+        h.push(("tide:spp".into(), self.film.spp.to_string()));
+        h.push(("tide:seed".into(), self.settings.seed.to_string()));
+        h.push(("tide:renderSeconds".into(), format!("{:.3}", self.stats.render_seconds)));
+        h.push(("tide:buildSeconds".into(), format!("{:.3}", self.stats.build_seconds)));
+        h.push(("tide:integrator".into(), "path".into()));
+        self.film.write_exr(path, aovs, &h)
     }
 
     pub fn stats(&self) -> RenderStats {
-        RenderStats::default()
+        self.stats.clone()
     }
 }

@@ -163,11 +163,13 @@ impl PixelSampler {
         v
     }
 
-    /// Starts the dimensions of a new path vertex on a fresh 4D point, so that the dimension
-    /// layout of a vertex does not depend on how many values earlier vertices used.
+    /// Starts the dimensions of path vertex `vertex` on a fresh 4D point, so that the
+    /// dimension layout of a vertex does not depend on how many values earlier vertices used.
+    /// Groups 0..4 belong to the camera sample (pixel, wavelength, lens, time); each vertex
+    /// owns four groups (16 dimensions).
     #[inline]
-    pub fn start_vertex(&mut self, depth: u32) {
-        self.group = 1 + depth * 4;
+    pub fn start_vertex(&mut self, vertex: u32) {
+        self.group = 4 + vertex * 4;
         self.used = 4;
     }
 }

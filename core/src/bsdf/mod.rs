@@ -278,6 +278,17 @@ impl Bsdf {
         }
     }
 
+    /// The diffuse lobes' share of [`Self::f`] (radiance mode), for splitting a contribution
+    /// into the diffuse and specular light-path AOVs.
+    pub fn f_diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        match &self.model {
+            Model::Lambert(l) => l.f(wo2, wi2),
+            Model::Preview(p) => p.f_diffuse_share(wo2, wi2),
+            Model::Microfacet(_) | Model::Dielectric(_) => SampledSpectrum::ZERO,
+        }
+    }
+
     /// True when every lobe is a delta (no `f`/`pdf` to evaluate, no light sampling).
     pub fn is_specular(&self) -> bool {
         let fl = self.flags();

@@ -120,6 +120,14 @@ impl Preview {
         [pc / sum, ps / sum, pd / sum]
     }
 
+    /// The diffuse base's share of [`Self::f`] (for the light-path AOVs).
+    pub fn f_diffuse_share(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        self.f_diffuse(wo, wi) * self.coat_transmittance(wo.z) * self.coat_transmittance(wi.z)
+    }
+
     pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;

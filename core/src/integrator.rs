@@ -1,0 +1,562 @@
+//! The unidirectional volumetric path tracer: next-event estimation with multiple importance
+//! sampling (power heuristic) at surfaces and in media, spectral free-flight sampling in
+//! homogeneous media, nested dielectrics resolved by priority, stochastic opacity, Russian
+//! roulette, and the AOVs of the first vertex (depth, normal, albedo, primId) and the
+//! light-path split (`tide:diffuse`, `tide:specular`, `tide:transmission`, `tide:volume`,
+//! `tide:emission`), which sums to `color`.
+
+use crate::accel::Ray;
+use crate::bsdf::{flags, Bsdf, TransportMode};
+use crate::film::SampleValue;
+use crate::light::LightSampleContext;
+use crate::math::{offset_ray_origin, power_heuristic, Frame};
+use crate::sampler::PixelSampler;
+use crate::spectrum::{color, SampledSpectrum, SampledWavelengths};
+use crate::medium::DistanceSample;
+use crate::world::{SurfaceHit, World};
+use glam::{Vec2, Vec3};
+
+/// Index of each light-path category in `SampleValue::split`.
+const DIFFUSE: usize = 0;
+const SPECULAR: usize = 1;
+const TRANSMISSION: usize = 2;
+const VOLUME: usize = 3;
+const EMISSION: usize = 4;
+
+const MAX_NESTING: usize = 8;
+/// Surfaces a path may pass through without scattering (opacity cut-outs, overlapped
+/// dielectric boundaries) before it is stopped.
+const MAX_NULL_EVENTS: u32 = 128;
+
+/// One closed dielectric object a path is inside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interior {
+    pub instance: u32,
+    pub priority: i32,
+    pub ior: f32,
+    pub medium: Option<usize>,
+}
+
+/// The objects a path is inside, for nested dielectrics with priorities (Schmidt & Budge
+/// 2002): the highest priority wins (ties: the most recently entered); a boundary of an
+/// object that does not win is a false interface the path passes straight through.
+#[derive(Clone, Copy, Debug)]
+pub struct InteriorStack {
+    items: [Interior; MAX_NESTING],
+    len: usize,
+}
+
+impl Default for InteriorStack {
+    fn default() -> Self {
+        InteriorStack { items: [Interior { instance: u32::MAX, priority: i32::MIN, ior: 1.0, medium: None }; MAX_NESTING], len: 0 }
+    }
+}
+
+impl InteriorStack {
+    /// The winning object (highest priority, latest among equals).
+    pub fn top(&self) -> Option<&Interior> {
+        let mut best: Option<&Interior> = None;
+        for it in &self.items[..self.len] {
+            if best.is_none_or(|b| it.priority >= b.priority) {
+                best = Some(it);
+            }
+        }
+        best
+    }
+    pub fn ior(&self) -> f32 {
+        self.top().map_or(1.0, |t| t.ior)
+    }
+    pub fn medium(&self) -> Option<usize> {
+        self.top().and_then(|t| t.medium)
+    }
+    pub fn contains(&self, instance: u32) -> bool {
+        self.items[..self.len].iter().any(|i| i.instance == instance)
+    }
+    pub fn push(&mut self, it: Interior) {
+        if self.len < MAX_NESTING {
+            self.items[self.len] = it;
+            self.len += 1;
+        }
+    }
+    pub fn remove(&mut self, instance: u32) {
+        if let Some(k) = self.items[..self.len].iter().rposition(|i| i.instance == instance) {
+            self.items.copy_within(k + 1..self.len, k);
+            self.len -= 1;
+        }
+    }
+    /// The stack as it would be after removing `instance`.
+    pub fn without(&self, instance: u32) -> InteriorStack {
+        let mut s = *self;
+        s.remove(instance);
+        s
+    }
+    pub fn len(&self) -> usize {
+        self.len
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+}
+
+/// How a dielectric boundary hit acts on a path.
+enum Boundary {
+    /// Not a dielectric: an ordinary surface in the current medium.
+    Opaque,
+    /// A boundary the path passes through unchanged (the stack is updated).
+    False,
+    /// A real interface: relative IOR (inside over outside) and the media on each side.
+    Real { eta: f32, medium_front: Option<usize>, medium_back: Option<usize>, enter: Interior },
+}
+
+fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack) -> Boundary {
+    let info = &world.instances[s.instance as usize];
+    let mat = &world.materials[info.material];
+    let Some(d) = mat.dielectric() else { return Boundary::Opaque };
+    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior, medium: mat.interior_medium };
+    if front {
+        // entering
+        if let Some(top) = stack.top() {
+            if top.priority > d.priority {
+                return Boundary::False;
+            }
+        }
+        Boundary::Real { eta: d.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
+    } else {
+        // leaving
+        if stack.contains(s.instance) {
+            if stack.top().is_some_and(|t| t.instance != s.instance) {
+                return Boundary::False;
+            }
+            let after = stack.without(s.instance);
+            Boundary::Real { eta: d.ior / after.ior(), medium_front: after.medium(), medium_back: me.medium, enter: me }
+        } else {
+            // leaving an object the path was not known to be inside (an open surface seen
+            // from behind, or a camera placed inside without a medium): treat the back as
+            // this object and the front as the current surroundings
+            Boundary::Real { eta: d.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
+        }
+    }
+}
+
+/// Transmittance along a shadow ray from `o` (already offset) in direction `d` over `dist`,
+/// starting in `medium`. Opaque and dielectric surfaces block; translucent preview surfaces
+/// attenuate by their opacity; surfaces that cast no shadows are skipped.
+fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths) -> SampledSpectrum {
+    let mut tr = SampledSpectrum::ONE;
+    let mut origin = o;
+    let mut remaining = dist;
+    for _ in 0..MAX_NULL_EVENTS {
+        let ray = Ray { o: origin, d, t_max: remaining, time };
+        let Some(hit) = world.accel.intersect(&ray) else {
+            break;
+        };
+        let info = &world.instances[hit.instance as usize];
+        let s = world.surface(&ray, &hit);
+        let pass = if !info.casts_shadows {
+            1.0
+        } else if world.materials[info.material].dielectric().is_some() {
+            0.0
+        } else {
+            1.0 - world.opacity(info.material, s.uv)
+        };
+        if pass <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        tr *= pass;
+        origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        remaining -= hit.t;
+        if remaining <= 0.0 {
+            break;
+        }
+    }
+    if let Some(m) = medium {
+        let mut never = || 0.5;
+        tr *= world.media[m].transmittance(o, d, dist.min(1e30), &mut never, lambda);
+    }
+    tr
+}
+
+/// Splits an NEE contribution at the first vertex into light-path categories by the BSDF's
+/// lobes: transmission by the side of `wi`; reflection by the diffuse and glossy parts.
+fn split_reflection(bsdf: &Bsdf, wo: Vec3, wi: Vec3, contrib: SampledSpectrum) -> [(usize, SampledSpectrum); 2] {
+    if wo.z * wi.z < 0.0 {
+        return [(TRANSMISSION, contrib), (SPECULAR, SampledSpectrum::ZERO)];
+    }
+    let fl = bsdf.flags();
+    if fl & flags::DIFFUSE == 0 {
+        return [(SPECULAR, contrib), (DIFFUSE, SampledSpectrum::ZERO)];
+    }
+    if fl & (flags::GLOSSY | flags::SPECULAR) == 0 {
+        return [(DIFFUSE, contrib), (SPECULAR, SampledSpectrum::ZERO)];
+    }
+    let fd = bsdf.f_diffuse(wo, wi);
+    let ft = bsdf.f(wo, wi, TransportMode::Radiance);
+    let ratio = fd.safe_div(ft).map(|v| v.clamp(0.0, 1.0));
+    [(DIFFUSE, contrib * ratio), (SPECULAR, contrib * (SampledSpectrum::ONE - ratio))]
+}
+
+/// Finds the dielectric objects that contain point `p` (by the side of each object's first
+/// hit along a fixed direction), outermost first.
+pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
+    let d = Vec3::new(0.301_511_35, 0.904_534, 0.301_511_35);
+    let mut stack = InteriorStack::default();
+    let mut seen: Vec<u32> = Vec::new();
+    let mut found: Vec<(f32, Interior)> = Vec::new();
+    let mut origin = p;
+    let mut travelled = 0.0;
+    for _ in 0..256 {
+        let ray = Ray { o: origin, d, t_max: f32::INFINITY, time };
+        let Some(hit) = world.accel.intersect(&ray) else { break };
+        let s = world.surface(&ray, &hit);
+        travelled += hit.t;
+        if !seen.contains(&hit.instance) {
+            seen.push(hit.instance);
+            let info = &world.instances[hit.instance as usize];
+            let mat = &world.materials[info.material];
+            if let Some(di) = mat.dielectric() {
+                if d.dot(s.ng) > 0.0 {
+                    found.push((travelled, Interior { instance: hit.instance, priority: di.priority, ior: di.ior, medium: mat.interior_medium }));
+                }
+            }
+        }
+        origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+    }
+    found.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap_or(std::cmp::Ordering::Equal));
+    for (_, it) in found {
+        stack.push(it);
+    }
+    if stack.is_empty() {
+        if let Some(m) = world.camera.medium {
+            // a camera declared to sit in a medium with no enclosing object: water around it
+            stack.push(Interior { instance: u32::MAX - 1, priority: i32::MIN, ior: 1.333, medium: Some(m) });
+        }
+    }
+    stack
+}
+
+/// Radiance (and AOVs) of one camera sample through `raster` with wavelengths `lambda`.
+pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack) -> (SampledSpectrum, [SampledSpectrum; 5], SampleValue) {
+    let u_lens = sampler.get2d();
+    let u_time = sampler.get1d();
+    let cr = world.camera.generate_ray(raster, u_lens, u_time);
+    let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
+    let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1.0, ..Default::default() };
+    let mut l = SampledSpectrum::ZERO;
+    let mut split = [SampledSpectrum::ZERO; 5];
+    let mut beta = SampledSpectrum::ONE;
+    let mut stack = *camera_stack;
+    let mut depth = 0u32;
+    let mut null_events = 0u32;
+    let mut specular_bounce = false;
+    let mut eta_scale = 1.0f32;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO);
+    // light-path category of everything after the first scattering event
+    let mut category = EMISSION;
+    let mut first_surface = true;
+    let n_light = world.lights.len();
+
+    macro_rules! add {
+        ($c:expr) => {{
+            let c: SampledSpectrum = $c;
+            l += c;
+            split[category] += c;
+        }};
+    }
+
+    let mut vertex = 0u32;
+    loop {
+        sampler.start_vertex(vertex);
+        vertex += 1;
+        let hit = world.accel.intersect(&ray);
+        let t_hit = hit.map_or(ray.t_max, |h| h.t);
+        // analytic area lights along the ray
+        let mut light_hit: Option<(usize, f32, Vec3, Vec3)> = None;
+        for &li in &world.hittable_lights {
+            if let Some((t, p, n)) = world.lights[li].intersect(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1)) {
+                light_hit = Some((li, t, p, n));
+            }
+        }
+        let t_surface = light_hit.map_or(t_hit, |h| h.1);
+
+        // the medium the ray travels in
+        if let Some(mi) = stack.medium() {
+            let u = sampler.get1d();
+            let mut uu = Some(u);
+            let mut rng = || uu.take().unwrap_or(0.5);
+            match world.media[mi].sample_distance(ray.o, ray.d, t_surface.min(1e30), &mut rng, lambda) {
+                DistanceSample::Scatter { t, weight } => {
+                    beta *= weight;
+                    if beta.is_black() {
+                        break;
+                    }
+                    if depth == 0 {
+                        category = VOLUME;
+                        aov.alpha = 1.0;
+                    }
+                    depth += 1;
+                    if depth > world.max_depth {
+                        break;
+                    }
+                    let p = ray.o + ray.d * t;
+                    let wo = -ray.d;
+                    let phase = world.media[mi].phase(p);
+                    // NEE from the medium
+                    if n_light > 0 {
+                        let ul = sampler.get1d();
+                        let u2 = sampler.get2d();
+                        if let Some((li, pmf)) = world.light_sampler.sample(ul) {
+                            let ctx = LightSampleContext::new(p, Vec3::ZERO);
+                            if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
+                                if ls.pdf > 0.0 && !ls.l.is_black() {
+                                    let fp = phase.eval(wo, ls.wi);
+                                    let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
+                                    let tr = shadow_transmittance(world, p, ls.wi, dist, ray.time, Some(mi), lambda);
+                                    if !tr.is_black() {
+                                        let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
+                                        add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    let (wi, val, pdf) = phase.sample(wo, sampler.get2d());
+                    if !(pdf > 0.0) {
+                        break;
+                    }
+                    beta *= val / pdf;
+                    prev_pdf = pdf;
+                    specular_bounce = false;
+                    prev_ctx = LightSampleContext::new(p, Vec3::ZERO);
+                    ray = Ray { o: p, d: wi, t_max: f32::INFINITY, time: ray.time };
+                    continue;
+                }
+                DistanceSample::Pass { weight } => {
+                    beta *= weight;
+                    if beta.is_black() {
+                        break;
+                    }
+                }
+            }
+        }
+
+        // an area light in front of every surface
+        if let Some((li, t, p, n)) = light_hit {
+            let light = &world.lights[li];
+            if depth > 0 || light.visible_to_camera() {
+                let le = light.l(p, n, -ray.d, lambda);
+                if !le.is_black() {
+                    let w = if depth == 0 || specular_bounce {
+                        1.0
+                    } else {
+                        let lp = light.pdf_li(&prev_ctx, ray.d, Some((p, n))) * world.light_sampler.pmf(li);
+                        power_heuristic(1.0, prev_pdf, 1.0, lp)
+                    };
+                    add!(beta * le * w);
+                }
+            }
+            if depth == 0 {
+                aov.depth = t * cr.depth_per_t + world.camera.near();
+            }
+            break;
+        }
+
+        let Some(hit) = hit else {
+            // escaped: infinite lights
+            for &li in &world.infinite_lights {
+                let light = &world.lights[li];
+                if depth == 0 && !light.visible_to_camera() {
+                    continue;
+                }
+                let le = light.le(ray.d, lambda);
+                if le.is_black() {
+                    continue;
+                }
+                let w = if depth == 0 || specular_bounce {
+                    1.0
+                } else {
+                    let lp = light.pdf_li(&prev_ctx, ray.d, None) * world.light_sampler.pmf(li);
+                    power_heuristic(1.0, prev_pdf, 1.0, lp)
+                };
+                add!(beta * le * w);
+            }
+            break;
+        };
+
+        let s = world.surface(&ray, &hit);
+        let info = &world.instances[hit.instance as usize];
+        let mat_i = info.material;
+        let wo_w = -ray.d;
+        let front = wo_w.dot(s.ng) > 0.0;
+        if depth == 0 && null_events == 0 && !info.visible_to_camera {
+            // invisible to the camera: continue as if it were not there
+            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+            ray.t_max -= hit.t;
+            null_events += 1;
+            if null_events > MAX_NULL_EVENTS {
+                break;
+            }
+            continue;
+        }
+
+        // stochastic opacity
+        let opacity = world.opacity(mat_i, s.uv);
+        if opacity < 1.0 && sampler.get1d() >= opacity {
+            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+            ray.t_max -= hit.t;
+            null_events += 1;
+            if null_events > MAX_NULL_EVENTS {
+                break;
+            }
+            continue;
+        }
+
+        let boundary = classify_boundary(world, &s, front, &stack);
+        if let Boundary::False = boundary {
+            if front {
+                if let Some(mat) = world.materials[mat_i].dielectric() {
+                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior, medium: world.materials[mat_i].interior_medium });
+                }
+            } else {
+                stack.remove(s.instance);
+            }
+            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+            ray.t_max = f32::INFINITY;
+            null_events += 1;
+            if null_events > MAX_NULL_EVENTS {
+                break;
+            }
+            continue;
+        }
+
+        // first-hit AOVs
+        if first_surface {
+            first_surface = false;
+            if depth == 0 {
+                aov.alpha = 1.0;
+                aov.depth = hit.t * cr.depth_per_t + world.camera.near();
+                aov.prim_id = info.id as f32;
+                aov.normal = s.ns.to_array();
+            }
+        }
+
+        // emission of emissive surfaces
+        let le = world.emitted(mat_i, &s, wo_w, lambda, world.meshes.get(match info.geometry {
+            crate::scene::GeometryRef::Mesh(m) => m,
+            _ => usize::MAX,
+        }).is_some_and(|m| m.double_sided));
+        if !le.is_black() {
+            let w = if depth == 0 || specular_bounce {
+                1.0
+            } else if let Some(&li) = world.triangle_lights.get(&(hit.instance, hit.prim)) {
+                let lp = world.lights[li].pdf_li(&prev_ctx, ray.d, Some((s.p, s.ng))) * world.light_sampler.pmf(li);
+                power_heuristic(1.0, prev_pdf, 1.0, lp)
+            } else {
+                1.0
+            };
+            add!(beta * le * w);
+        }
+
+        let (eta, medium_front, medium_back) = match &boundary {
+            Boundary::Real { eta, medium_front, medium_back, .. } => (*eta, *medium_front, *medium_back),
+            _ => (1.0, stack.medium(), stack.medium()),
+        };
+        let (bsdf, frame) = world.bsdf(mat_i, &s, lambda, stack.ior(), eta);
+        let flip = if s.ns.dot(s.ng) < 0.0 { -1.0 } else { 1.0 };
+        let frame = if flip < 0.0 { Frame::from_normal(-s.ns) } else { frame };
+        let wo = frame.to_local(wo_w);
+        if depth == 0 {
+            aov.albedo = color::xyz_to_rgb(color::to_xyz(bsdf.albedo_hint(), lambda), world.cs);
+        }
+
+        // next-event estimation
+        if !bsdf.is_specular() && n_light > 0 {
+            let ul = sampler.get1d();
+            let u2 = sampler.get2d();
+            if let Some((li, pmf)) = world.light_sampler.sample(ul) {
+                let ctx = LightSampleContext::new(s.p, s.ns);
+                if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
+                    let wi = frame.to_local(ls.wi);
+                    if ls.pdf > 0.0 && !ls.l.is_black() {
+                        let f = bsdf.f(wo, wi, TransportMode::Radiance) * wi.z.abs();
+                        // geometric side check: no light leaks through the true surface
+                        let same_side = (ls.wi.dot(s.ng) > 0.0) == (wi.z > 0.0);
+                        if !f.is_black() && same_side {
+                            let out_front = ls.wi.dot(s.ng) > 0.0;
+                            let med = if out_front { medium_front } else { medium_back };
+                            let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
+                            let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
+                            let tr = shadow_transmittance(world, o, ls.wi, dist, ray.time, med, lambda);
+                            if !tr.is_black() {
+                                let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
+                                let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));
+                                if depth == 0 {
+                                    for (cat, v) in split_reflection(&bsdf, wo, wi, c) {
+                                        l += v;
+                                        split[cat] += v;
+                                    }
+                                } else {
+                                    add!(c);
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+
+        // continue the path
+        let uc = sampler.get1d();
+        let u2 = sampler.get2d();
+        let Some(bs) = bsdf.sample_f(wo, uc, u2, TransportMode::Radiance) else { break };
+        if !(bs.pdf > 0.0) || bs.f.is_black() {
+            break;
+        }
+        let wi_w = frame.to_world(bs.wi);
+        let out_front = wi_w.dot(s.ng) > 0.0;
+        // reject samples that cross the true surface on the wrong side of the shading normal
+        if (bs.wi.z > 0.0) != out_front {
+            break;
+        }
+        beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if depth == 0 {
+            category = if bs.is_transmission() {
+                TRANSMISSION
+            } else if bs.flags & flags::DIFFUSE != 0 {
+                DIFFUSE
+            } else {
+                SPECULAR
+            };
+        }
+        specular_bounce = bs.is_specular();
+        prev_pdf = bs.pdf;
+        prev_ctx = LightSampleContext::new(s.p, s.ns);
+        if bs.is_transmission() {
+            eta_scale *= bs.eta * bs.eta;
+            if let Boundary::Real { enter, .. } = boundary {
+                if front {
+                    stack.push(enter);
+                } else {
+                    stack.remove(s.instance);
+                }
+            }
+        }
+        ray = Ray { o: offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng }), d: wi_w, t_max: f32::INFINITY, time: ray.time };
+        depth += 1;
+        if depth > world.max_depth {
+            break;
+        }
+        // Russian roulette
+        if depth > 3 {
+            let rr = (beta * eta_scale).max_component();
+            if rr < 1.0 {
+                let q = (1.0 - rr).max(0.0);
+                if sampler.get1d() < q {
+                    break;
+                }
+                beta /= 1.0 - q;
+            }
+        }
+    }
+    (l, split, aov)
+}
