@@ -3,9 +3,9 @@
 //! once, at first use, by deterministic quasi-Monte Carlo (a Fibonacci lattice over the
 //! visible-normal sampler), so no generated data is committed.
 //!
-//! Tables, on grids in μ = |cosθo| ∈ [0, 1] and perceptual roughness r = √α ∈ [0, 1] (and η),
-//! interpolated (bi/tri)linearly.
-//! The μ axis is uniform in √μ (denser at grazing angles).
+//! The tables live on grids over μ = |cosθo| ∈ [0, 1] (uniform in √μ, denser at grazing
+//! angles), perceptual roughness r = √α ∈ [0, 1] and, for the dielectric, relative IOR η ∈
+//! [1, 3] (uniform in √(η − 1)); they are interpolated (bi/tri)linearly:
 //!
 //! * conductor, `E1(μ, r)`: albedo with F = 1; `S(μ, r)`: albedo weighted by (1 − ωo·ωm)⁵, so
 //!   that a Schlick lobe has albedo F0·E1 + (1 − F0)·S exactly;
@@ -13,8 +13,8 @@
 //!   denser side (relative IOR 1/η), reflection plus transmission, exact Fresnel, transmission
 //!   counted without the 1/η² radiance scaling (so that a smooth interface has albedo 1).
 //!
-//! Hemispherical averages 2∫E(μ)μ dμ are the exact integrals of the piecewise-linear
-//! interpolants, so a compensation lobe built from them integrates exactly to the missing energy.
+//! Hemispherical averages 2∫E(μ)μ dμ are the exact integrals of the interpolants, so a
+//! compensation lobe built from them integrates exactly to the missing energy.
 
 use super::fresnel::fresnel_dielectric;
 use super::microfacet::{reflect, refract, TrowbridgeReitz};
@@ -25,13 +25,14 @@ const COND_MU: usize = 32;
 const COND_R: usize = 32;
 const DIEL_MU: usize = 24;
 const DIEL_R: usize = 16;
-const DIEL_ETA: usize = 16;
+const DIEL_ETA: usize = 24;
 /// Largest tabulated relative IOR (larger values are clamped to it).
 pub const DIEL_ETA_MAX: f32 = 3.0;
 /// Fibonacci lattices (F_k, F_(k−1)) used as sample sets.
 const COND_LATTICE: (usize, usize) = (233, 144);
 const DIEL_LATTICE: (usize, usize) = (89, 55);
 
+#[derive(PartialEq)]
 pub struct AlbedoTables {
     cond_e1: Vec<f32>,
     cond_s: Vec<f32>,
@@ -64,9 +65,18 @@ fn grid_alpha(j: usize, n: usize) -> f32 {
     (r * r).max(1e-4)
 }
 
+/// η of node k: nodes are uniform in y = √((η − 1)/(η_max − 1)), denser near η = 1 where the
+/// grazing-angle albedo changes fastest.
 #[inline]
 fn grid_eta(k: usize) -> f32 {
-    1.0 + (DIEL_ETA_MAX - 1.0) * k as f32 / (DIEL_ETA - 1) as f32
+    let y = k as f32 / (DIEL_ETA - 1) as f32;
+    1.0 + (DIEL_ETA_MAX - 1.0) * y * y
+}
+
+/// Grid coordinate y ∈ [0, 1] of a relative IOR ≥ 1.
+#[inline]
+fn eta_coord(eta: f32) -> f32 {
+    ((eta - 1.0) / (DIEL_ETA_MAX - 1.0)).max(0.0).sqrt()
 }
 
 #[inline]
@@ -147,7 +157,7 @@ pub(crate) fn dielectric_albedo(mu: f32, alpha: f32, eta: f32) -> f32 {
 }
 
 impl AlbedoTables {
-    fn build() -> Self {
+    pub(crate) fn build() -> Self {
         let mut cond_e1 = vec![0.0; COND_R * COND_MU];
         let mut cond_s = vec![0.0; COND_R * COND_MU];
         let mut cond_e1_avg = vec![0.0; COND_R];
@@ -217,7 +227,7 @@ impl AlbedoTables {
         let t = &self.diel[side];
         let (i0, i1, ti) = coord(mu.max(0.0).sqrt(), DIEL_MU);
         let (j0, j1, tj) = coord(r, DIEL_R);
-        let (k0, k1, tk) = coord((e - 1.0) / (DIEL_ETA_MAX - 1.0), DIEL_ETA);
+        let (k0, k1, tk) = coord(eta_coord(e), DIEL_ETA);
         let at = |k: usize, j: usize| {
             let row = (k * DIEL_R + j) * DIEL_MU;
             lerp(ti, t[row + i0], t[row + i1])
@@ -233,7 +243,7 @@ impl AlbedoTables {
         let (side, e) = Self::diel_side(eta);
         let t = &self.diel_avg[side];
         let (j0, j1, tj) = coord(r, DIEL_R);
-        let (k0, k1, tk) = coord((e - 1.0) / (DIEL_ETA_MAX - 1.0), DIEL_ETA);
+        let (k0, k1, tk) = coord(eta_coord(e), DIEL_ETA);
         let a = lerp(tj, t[k0 * DIEL_R + j0], t[k0 * DIEL_R + j1]);
         let b = lerp(tj, t[k1 * DIEL_R + j0], t[k1 * DIEL_R + j1]);
         lerp(tk, a, b)

@@ -84,7 +84,7 @@ pub(crate) struct MicrofacetReflection {
     /// Perceptual roughness used to index the albedo tables.
     r: f32,
     /// F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg)): energy fraction of the multiple-scattering
-    /// lobe relative to its F = 1 value.
+    /// lobe relative to its F = 1 value (zero when no compensation applies).
     f_ms: SampledSpectrum,
     /// 1 − E_avg of the F = 1 lobe (0 when no compensation applies).
     one_minus_e_avg: f32,
@@ -137,7 +137,7 @@ impl MicrofacetReflection {
             ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
             ReflFresnel::Complex { .. } => self.fresnel.eval(mu) * e1,
         };
-        ss + self.f_ms * (1.0 - e1) * self.ms_on()
+        ss + self.f_ms * (1.0 - e1)
     }
 
     /// Hemispherical average of [`Self::albedo`].
@@ -150,16 +150,7 @@ impl MicrofacetReflection {
             ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
             ReflFresnel::Complex { .. } => self.fresnel.average() * e1,
         };
-        ss + self.f_ms * (1.0 - e1) * self.ms_on()
-    }
-
-    #[inline]
-    fn ms_on(&self) -> f32 {
-        if self.one_minus_e_avg > 0.0 {
-            1.0
-        } else {
-            0.0
-        }
+        ss + self.f_ms * (1.0 - e1)
     }
 
     /// Probability of sampling the multiple-scattering lobe for ωo at μo.

@@ -12,7 +12,7 @@
 
 pub mod albedo;
 pub mod fresnel;
-pub mod lobes;
+mod lobes;
 pub mod microfacet;
 pub mod preview;
 #[cfg(test)]

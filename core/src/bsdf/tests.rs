@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 80;
+const N_CHI2: usize = 105;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -438,11 +438,16 @@ fn transmission_is_adjoint_reciprocal() {
 /// Angles of ωo for furnace tests, grazing included.
 const FURNACE_THETAS: [f32; 6] = [0.0, 30.0, 60.0, 75.0, 85.0, 89.0];
 
-/// Tolerance of energy compensation: the albedo tables are built with a lattice of 89–233
-/// points and interpolated linearly on a 16–32 node grid; their combined error was measured
-/// below 1% and 2% is asserted so that a lost lobe (typically 5–60% at these roughnesses)
-/// cannot pass.
-const COMPENSATION_TOL: f64 = 0.02;
+/// Tolerance of energy compensation for reflection lobes (conductor, preview stack): the
+/// albedo tables come from a 233-point lattice interpolated on a 32×32 grid; the largest
+/// deviation measured over these cases with 2·10⁵ samples was 0.3% (conductor) and 0.5%
+/// (preview). 1% is asserted; without compensation the loss is up to 60% at roughness 1.
+const COMPENSATION_TOL: f64 = 0.01;
+
+/// Same for the dielectric, whose tables are coarser (89-point lattice, 24×16×24 grid over
+/// μ, roughness, η): largest deviation measured 1.1%, 2% asserted (without compensation the
+/// loss reaches 55% inside an air bubble at roughness 1).
+const DIELECTRIC_COMPENSATION_TOL: f64 = 0.02;
 
 #[test]
 fn furnace_lambert_white_is_exactly_one() {
@@ -483,9 +488,9 @@ fn furnace_rough_dielectric_conserves_energy_on_both_sides() {
             for t in FURNACE_THETAS {
                 for wo in [dir(t, 10.0), dir(180.0 - t, 10.0)] {
                     let (m, s) = furnace(&b, wo, TransportMode::Importance, 20_000, false);
-                    assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "eta {eta} r {r} wo {wo:?}: {m} ± {s}");
+                    assert!((m - 1.0).abs() < DIELECTRIC_COMPENSATION_TOL + 3.0 * s, "eta {eta} r {r} wo {wo:?}: {m} ± {s}");
                     let (m, s) = furnace(&b, wo, TransportMode::Radiance, 20_000, true);
-                    assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "radiance: eta {eta} r {r} wo {wo:?}: {m} ± {s}");
+                    assert!((m - 1.0).abs() < DIELECTRIC_COMPENSATION_TOL + 3.0 * s, "radiance: eta {eta} r {r} wo {wo:?}: {m} ± {s}");
                 }
             }
         }
@@ -563,9 +568,43 @@ fn flags_classify_lobes() {
     assert!(gold().albedo_hint().max_component() > 0.5);
 }
 
+/// The tables are deterministic (a rebuild reproduces the shared copy bit for bit); the build
+/// time is reported (about 0.1 s single-threaded in the test profile).
 #[test]
-fn albedo_tables_build_quickly() {
+fn albedo_tables_are_deterministic() {
+    let shared = super::albedo::tables();
     let t = std::time::Instant::now();
-    let _ = super::albedo::tables();
-    eprintln!("albedo tables ready after {:?}", t.elapsed());
+    let fresh = super::albedo::AlbedoTables::build();
+    eprintln!("albedo tables built in {:?}", t.elapsed());
+    assert!(fresh == *shared);
+}
+/// The conductor albedo table (built with visible-normal sampling) agrees with a brute-force
+/// uniform-sphere integral of D·G2/(4 cosθo), an estimator that shares nothing with it but D
+/// and G2.
+#[test]
+fn conductor_albedo_table_matches_brute_force() {
+    let t = super::albedo::tables();
+    for &(mu, r) in &[(0.1f32, 1.0f32), (0.5, 1.0), (1.0, 1.0), (0.3, 0.6), (0.8, 0.45)] {
+        let a = roughness_to_alpha(r);
+        let d = TrowbridgeReitz::new(a, a);
+        let wo = Vec3::new((1.0 - mu * mu).sqrt(), 0.0, mu);
+        let mut rng = TestRng::new(21);
+        let n = 400_000;
+        let (mut acc, mut acc2) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let wi = math::sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+            if wi.z <= 0.0 {
+                continue;
+            }
+            let wm = (wo + wi).normalize();
+            let v = (d.d(wm) * d.g2(wo, wi) / (4.0 * wo.z) * 4.0 * math::PI) as f64;
+            acc += v;
+            acc2 += v * v;
+        }
+        let m = acc / n as f64;
+        let sigma = ((acc2 / n as f64 - m * m) / n as f64).sqrt();
+        let e = t.conductor(mu, r).0 as f64;
+        // 4σ of the brute-force estimate plus 0.5% for lattice and interpolation error
+        assert!((m - e).abs() < 4.0 * sigma + 5e-3, "μ {mu} r {r}: brute {m} ± {sigma}, table {e}");
+    }
 }
