@@ -1,0 +1,11 @@
+//! # tide-delegate
+//!
+//! The Rust side of Tide's render delegate: prim state keyed by SdfPath with Hydra-like
+//! create / set / dirty / sync / destroy, conversion into the core's plain-data scene
+//! ([`tide_core::scene::SceneDesc`]), render passes on a background thread and render buffers.
+//! The protocol is described in `README.md`.
+
+pub mod mesh;
+pub mod value;
+
+pub use value::{Interpolation, Primvar, Value};
