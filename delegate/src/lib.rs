@@ -6,6 +6,7 @@
 //! The protocol is described in `README.md`.
 
 pub mod implicit;
+pub mod material;
 pub mod mesh;
 pub mod value;
 
