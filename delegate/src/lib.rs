@@ -7,6 +7,7 @@
 
 pub mod implicit;
 pub mod material;
+pub mod lux;
 pub mod mesh;
 pub mod value;
 
