@@ -9,6 +9,7 @@ pub mod implicit;
 pub mod material;
 pub mod lux;
 pub mod mesh;
+pub mod render_pass;
 pub mod value;
 
 pub use value::{Interpolation, Primvar, Value};
