@@ -5,11 +5,15 @@
 //! ([`tide_core::scene::SceneDesc`]), render passes on a background thread and render buffers.
 //! The protocol is described in `README.md`.
 
+pub mod delegate;
 pub mod implicit;
-pub mod material;
 pub mod lux;
+pub mod material;
 pub mod mesh;
 pub mod render_pass;
 pub mod value;
 
+pub use delegate::{Delegate, PrimClass, PrimType};
+pub use render_pass::{Engine, EngineFactory, MappedBuffer, PassStatus, RenderBuffer, RenderPass};
+pub use tide_core::Problem;
 pub use value::{Interpolation, Primvar, Value};
