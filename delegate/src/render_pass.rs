@@ -367,7 +367,12 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         done += n;
         let (w, h) = (job.settings.width, job.settings.height);
         for (aov, buf) in &job.bindings {
-            buf.publish(w, h, aov.channels() as u32, e.aov_pixels(*aov), e.samples_per_pixel());
+            let px = e.aov_pixels(*aov);
+            // A film that does not match the job's size is not published (the buffer keeps
+            // its last consistent pixels).
+            if px.len() == (w * h) as usize * aov.channels() {
+                buf.publish(w, h, aov.channels() as u32, px, e.samples_per_pixel());
+            }
         }
         {
             let mut st = shared.lock();
