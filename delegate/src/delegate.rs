@@ -128,6 +128,9 @@ enum Piece {
     Buffer,
 }
 
+/// (scene generation, AOV bindings, settings) of a started job.
+type JobKey = (u64, Vec<(Aov, String)>, RenderSettings);
+
 struct Cached {
     piece: Piece,
     problems: Vec<Problem>,
@@ -153,7 +156,7 @@ pub struct Delegate {
     factory: EngineFactory,
     pass: Option<RenderPass>,
     /// What the running job was started from: (scene generation, bindings, settings).
-    job_key: Option<(u64, Vec<(Aov, String)>, RenderSettings)>,
+    job_key: Option<JobKey>,
 }
 
 impl Default for Delegate {
@@ -607,7 +610,7 @@ impl Delegate {
         let mut color_mats: HashMap<[u32; 3], usize> = HashMap::new();
         for (path, c) in &self.cache {
             let Piece::Rprim(r) = &c.piece else { continue };
-            if !r.visible || (r.purpose != "default" && !included.iter().any(|i| *i == r.purpose)) {
+            if !r.visible || (r.purpose != "default" && !included.contains(&r.purpose)) {
                 continue;
             }
             let geometry = match &r.geometry {

@@ -145,7 +145,7 @@ impl Ctx<'_> {
     fn input_token<'s>(&mut self, node: &str, name: &str, allowed: &[&'s str], default: &'s str) -> &'s str {
         match self.nodes[node].inputs.get(name).and_then(|v| v.as_str()) {
             None => default,
-            Some(s) if s.is_empty() => default,
+            Some("") => default,
             Some(s) => match allowed.iter().find(|a| **a == s) {
                 Some(a) => a,
                 None => {

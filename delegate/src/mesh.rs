@@ -35,7 +35,7 @@ pub fn triangulate_polygon(poly: &[Vec3], out: &mut Vec<[u32; 3]>) {
         normal += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
     }
     let len = normal.length();
-    if !(len > 0.0) || !len.is_finite() {
+    if len <= 0.0 || !len.is_finite() {
         fan(n, out);
         return;
     }

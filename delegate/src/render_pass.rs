@@ -119,6 +119,8 @@ pub struct Job {
 }
 
 type ExrReply = std::sync::mpsc::Sender<std::io::Result<()>>;
+/// A queued EXR write: path, AOVs, header, where to send the result.
+type ExrRequest = (std::path::PathBuf, Vec<Aov>, Vec<(String, String)>, ExrReply);
 
 struct State {
     job: Option<Job>,
@@ -129,7 +131,7 @@ struct State {
     spp_done: u32,
     spp_target: u32,
     shutdown: bool,
-    exr: Vec<(std::path::PathBuf, Vec<Aov>, Vec<(String, String)>, ExrReply)>,
+    exr: Vec<ExrRequest>,
 }
 
 struct Shared {

@@ -203,7 +203,7 @@ impl Primvar {
     /// the first bad index / bad data length.
     pub fn flatten(&self) -> Result<Vec<f32>, String> {
         let t = self.tuple.max(1) as usize;
-        if self.data.len() % t != 0 {
+        if !self.data.len().is_multiple_of(t) {
             return Err(format!("data length {} is not a multiple of tuple size {}", self.data.len(), t));
         }
         let n = self.data.len() / t;
@@ -352,7 +352,7 @@ impl AttrStore {
         match self.get(name) {
             None => default,
             Some(v) => match v.as_str() {
-                Some(s) if s.is_empty() => default,
+                Some("") => default,
                 Some(s) if allowed.contains(&s) => s,
                 Some(s) => {
                     p.add(name, format!("unknown token '{}' (expected one of {}); using '{}'", s, allowed.join(", "), default));
