@@ -49,21 +49,30 @@ pub fn triangulate_polygon(poly: &[Vec3], out: &mut Vec<[u32; 3]>) {
     let eps = 1e-6 * scale * scale;
 
     let cross = |a: Vec2, b: Vec2, c: Vec2| (b - a).perp_dot(c - a);
+    // Only reflex (or flat) corners can lie inside an ear, and clipping ears never turns a
+    // convex corner reflex, so the initial reflex set is a sufficient list of blockers.
+    let blockers: Vec<usize> = (0..n).filter(|&i| cross(p2[(i + n - 1) % n], p2[i], p2[(i + 1) % n]) <= eps).collect();
+    if blockers.is_empty() {
+        fan(n, out); // convex
+        return;
+    }
+    let mut alive = vec![true; n];
     let mut remaining: Vec<usize> = (0..n).collect();
-    let mut guard = 0usize;
+    let mut k = 0usize;
     while remaining.len() > 3 {
         let m = remaining.len();
         let mut clipped = false;
-        for k in 0..m {
-            let ia = remaining[(k + m - 1) % m];
-            let ib = remaining[k];
-            let ic = remaining[(k + 1) % m];
+        for step in 0..m {
+            let kk = (k + step) % m;
+            let ia = remaining[(kk + m - 1) % m];
+            let ib = remaining[kk];
+            let ic = remaining[(kk + 1) % m];
             let (a, b, c) = (p2[ia], p2[ib], p2[ic]);
             if cross(a, b, c) <= eps {
                 continue; // reflex or degenerate corner
             }
-            let blocked = remaining.iter().any(|&j| {
-                if j == ia || j == ib || j == ic {
+            let blocked = blockers.iter().any(|&j| {
+                if !alive[j] || j == ia || j == ib || j == ic {
                     return false;
                 }
                 let p = p2[j];
@@ -76,31 +85,24 @@ pub fn triangulate_polygon(poly: &[Vec3], out: &mut Vec<[u32; 3]>) {
                 continue;
             }
             out.push([ia as u32, ib as u32, ic as u32]);
-            remaining.remove(k);
+            remaining.remove(kk);
+            alive[ib] = false;
+            k = if kk == 0 { 0 } else { kk - 1 };
             clipped = true;
             break;
         }
         if !clipped {
-            // Self-intersecting or numerically degenerate remainder: drop the flattest corner
-            // (smallest |area|) as a sliver triangle so the loop always progresses.
-            let k = (0..m)
-                .min_by(|&x, &y| {
-                    let ax = cross(p2[remaining[(x + m - 1) % m]], p2[remaining[x]], p2[remaining[(x + 1) % m]]).abs();
-                    let ay = cross(p2[remaining[(y + m - 1) % m]], p2[remaining[y]], p2[remaining[(y + 1) % m]]).abs();
-                    ax.partial_cmp(&ay).unwrap_or(std::cmp::Ordering::Equal)
-                })
-                .unwrap_or(0);
-            out.push([remaining[(k + m - 1) % m] as u32, remaining[k] as u32, remaining[(k + 1) % m] as u32]);
-            remaining.remove(k);
-        }
-        guard += 1;
-        if guard > n {
-            break;
+            // Self-intersecting or numerically degenerate remainder: cut off the flattest
+            // corner (smallest |area|) as a sliver triangle so the loop always progresses.
+            let area = |x: usize| cross(p2[remaining[(x + m - 1) % m]], p2[remaining[x]], p2[remaining[(x + 1) % m]]).abs();
+            let kk = (0..m).min_by(|&x, &y| area(x).partial_cmp(&area(y)).unwrap_or(std::cmp::Ordering::Equal)).unwrap_or(0);
+            out.push([remaining[(kk + m - 1) % m] as u32, remaining[kk] as u32, remaining[(kk + 1) % m] as u32]);
+            alive[remaining[kk]] = false;
+            remaining.remove(kk);
+            k = kk.saturating_sub(1);
         }
     }
-    if remaining.len() == 3 {
-        out.push([remaining[0] as u32, remaining[1] as u32, remaining[2] as u32]);
-    }
+    out.push([remaining[0] as u32, remaining[1] as u32, remaining[2] as u32]);
 }
 
 fn fan(n: usize, out: &mut Vec<[u32; 3]>) {
@@ -371,6 +373,49 @@ mod tests {
             let c = t.map(|k| l2[k as usize]);
             let centroid = ((c[0].0 + c[1].0 + c[2].0) / 3.0, (c[0].1 + c[1].1 + c[2].1) / 3.0);
             assert!(!(centroid.0 > 1.0 && centroid.1 > 1.0), "triangle outside the L: {:?}", t);
+        }
+    }
+
+    #[test]
+    fn assorted_polygons_triangulate_to_their_area() {
+        // Shoelace area of each outline vs the sum of its triangles (all counter-clockwise).
+        let star: Vec<(f32, f32)> = (0..10)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 10.0;
+                let r = if i % 2 == 0 { 1.0 } else { 0.4 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let comb = vec![(0., 0.), (5., 0.), (5., 3.), (4., 3.), (4., 1.), (3., 1.), (3., 3.), (2., 3.), (2., 1.), (1., 1.), (1., 3.), (0., 3.)];
+        let collinear = vec![(0., 0.), (1., 0.), (2., 0.), (2., 2.), (1., 1.), (0., 2.)];
+        let big: Vec<(f32, f32)> = (0..2000)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 2000.0;
+                let r = if i % 2 == 0 { 1.0 } else { 0.9 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        for outline in [star, comb, collinear, big] {
+            let n = outline.len();
+            let shoelace: f32 = (0..n).map(|i| {
+                let (a, b) = (outline[i], outline[(i + 1) % n]);
+                0.5 * (a.0 * b.1 - b.0 * a.1)
+            }).sum();
+            let poly: Vec<Vec3> = outline.iter().map(|&(x, y)| Vec3::new(x, 0.0, -y)).collect();
+            let mut tris = Vec::new();
+            triangulate_polygon(&poly, &mut tris);
+            assert_eq!(tris.len(), n - 2);
+            let mut area = 0.0;
+            for t in &tris {
+                let [a, b, c] = t.map(|k| poly[k as usize]);
+                let cr = (b - a).cross(c - a);
+                // Polygon in the XZ plane wound counter-clockwise about +Y; flat triangles
+                // (collinear corners) may have zero area but never negative.
+                assert!(cr.y >= -1e-6, "{:?}", t);
+                area += 0.5 * cr.y;
+            }
+            // f32 sums over up to 2000 triangles of unit-size coordinates: 1e-4 relative.
+            assert!((area - shoelace).abs() < 1e-4 * shoelace.abs().max(1.0), "{} vs {}", area, shoelace);
         }
     }
 
