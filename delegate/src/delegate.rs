@@ -1,0 +1,1040 @@
+//! The delegate: prims keyed by SdfPath with Hydra-like create / set / dirty / sync / destroy.
+//!
+//! Every prim keeps its attributes ([`AttrStore`]); edits mark it dirty. [`Delegate::commit_resources`]
+//! re-converts only the dirty prims into cached pieces (a mesh, a material, a light, ...) and
+//! then assembles the [`SceneDesc`] from all caches. Cross-prim references (material bindings,
+//! the camera's medium, textures) are resolved at assembly by path, so destroying or
+//! re-creating one prim never forces another to re-convert: a mesh whose material is gone falls
+//! back to its `displayColor` or the default material, and re-binds when the material returns.
+//!
+//! Times: transform samples and the camera shutter are authored in frames (offsets from the
+//! current frame); the assembly turns them into seconds with the settings' `timeCodesPerSecond`.
+//! Without motion blur (`disableMotionBlur`, or an instantaneous shutter) every transform is
+//! evaluated at the current frame.
+
+use crate::implicit::{self, PointsData};
+use crate::lux::{self, CameraPiece, LightKind, LightPiece, SettingsPiece};
+use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
+use crate::mesh;
+use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, RenderBuffer, RenderPass};
+use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
+use glam::{Mat4, Vec3};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::Arc;
+use std::time::Duration;
+use tide_core::scene::{GeometryRef, InstanceDesc, LightShape, MeshDesc, SpheresDesc, TextureDesc};
+use tide_core::{Aov, Problem, RenderSettings, SceneDesc};
+
+/// Which Hydra prim family a type belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimClass {
+    Rprim,
+    Sprim,
+    Bprim,
+}
+
+/// The prim types of the protocol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PrimType {
+    Mesh,
+    Points,
+    Sphere,
+    Cube,
+    Cylinder,
+    Cone,
+    Capsule,
+    Plane,
+    TideOcean,
+    Volume,
+    Camera,
+    Material,
+    Light(LightKind),
+    RenderSettings,
+    RenderBuffer,
+}
+
+impl PrimType {
+    pub fn parse(s: &str) -> Option<PrimType> {
+        Some(match s {
+            "mesh" => PrimType::Mesh,
+            "points" => PrimType::Points,
+            "sphere" => PrimType::Sphere,
+            "cube" => PrimType::Cube,
+            "cylinder" => PrimType::Cylinder,
+            "cone" => PrimType::Cone,
+            "capsule" => PrimType::Capsule,
+            "plane" => PrimType::Plane,
+            "tideOcean" => PrimType::TideOcean,
+            "volume" => PrimType::Volume,
+            "camera" => PrimType::Camera,
+            "material" => PrimType::Material,
+            "distantLight" => PrimType::Light(LightKind::Distant),
+            "domeLight" => PrimType::Light(LightKind::Dome),
+            "sphereLight" => PrimType::Light(LightKind::Sphere),
+            "rectLight" => PrimType::Light(LightKind::Rect),
+            "diskLight" => PrimType::Light(LightKind::Disk),
+            "cylinderLight" => PrimType::Light(LightKind::Cylinder),
+            "renderSettings" => PrimType::RenderSettings,
+            "renderBuffer" => PrimType::RenderBuffer,
+            _ => return None,
+        })
+    }
+
+    pub fn class(self) -> PrimClass {
+        match self {
+            PrimType::Camera | PrimType::Material | PrimType::Light(_) | PrimType::RenderSettings => PrimClass::Sprim,
+            PrimType::RenderBuffer => PrimClass::Bprim,
+            _ => PrimClass::Rprim,
+        }
+    }
+}
+
+struct Prim {
+    ty: PrimType,
+    store: AttrStore,
+    /// Stable id for the `primId` AOV when `primId` is not authored.
+    id: u32,
+}
+
+/// Geometry of a converted rprim.
+#[derive(Clone, Debug, PartialEq)]
+enum Geometry {
+    None,
+    Mesh(MeshDesc),
+    Spheres(SpheresDesc),
+    Points(PointsData),
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct RprimPiece {
+    geometry: Geometry,
+    /// (frame offset, object-to-world).
+    transforms: Vec<(f64, Mat4)>,
+    instance_transforms: Vec<Mat4>,
+    material: Option<String>,
+    display_color: Option<[f32; 3]>,
+    visible: bool,
+    purpose: String,
+    id: u32,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+enum Piece {
+    Rprim(RprimPiece),
+    Material(MaterialPiece),
+    Light(Option<LightPiece>),
+    Camera(CameraPiece),
+    Settings(SettingsPiece),
+    Buffer,
+}
+
+/// (scene generation, AOV bindings, settings) of a started job.
+type JobKey = (u64, Vec<(Aov, String)>, RenderSettings);
+
+struct Cached {
+    piece: Piece,
+    problems: Vec<Problem>,
+}
+
+/// The Rust side of the render delegate. See the crate's README for the protocol.
+pub struct Delegate {
+    prims: BTreeMap<String, Prim>,
+    cache: BTreeMap<String, Cached>,
+    dirty: BTreeSet<String>,
+    structure_changed: bool,
+    textures: HashMap<String, TexState>,
+    pending: Vec<Problem>,
+    assembly_problems: Vec<Problem>,
+    last_synced: Vec<String>,
+    next_id: u32,
+    scene: Arc<SceneDesc>,
+    scene_generation: u64,
+    settings: SettingsPiece,
+    active_camera: Option<String>,
+    active_settings: Option<String>,
+    buffers: BTreeMap<String, RenderBuffer>,
+    factory: EngineFactory,
+    pass: Option<RenderPass>,
+    /// What the running job was started from: (scene generation, bindings, settings).
+    job_key: Option<JobKey>,
+}
+
+impl Default for Delegate {
+    fn default() -> Self {
+        Delegate::new()
+    }
+}
+
+fn problem(item: &str, attribute: &str, message: impl Into<String>) -> Problem {
+    Problem { item: item.into(), attribute: attribute.into(), message: message.into() }
+}
+
+/// sRGB decoding curve.
+fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Matrix at frame `t` from sorted samples (element-wise linear between neighbours).
+fn matrix_at(samples: &[(f64, Mat4)], t: f64) -> Mat4 {
+    let Some(i) = samples.iter().position(|s| s.0 >= t) else { return samples.last().map_or(Mat4::IDENTITY, |s| s.1) };
+    if i == 0 || samples[i].0 == t {
+        return samples[i].1;
+    }
+    let (a, b) = (samples[i - 1], samples[i]);
+    let w = ((t - a.0) / (b.0 - a.0)) as f32;
+    a.1 * (1.0 - w) + b.1 * w
+}
+
+impl Delegate {
+    /// A delegate rendering with the core renderer.
+    pub fn new() -> Delegate {
+        Delegate::with_engine(core_factory())
+    }
+
+    /// A delegate rendering with another engine (tests, previews).
+    pub fn with_engine(factory: EngineFactory) -> Delegate {
+        Delegate {
+            prims: BTreeMap::new(),
+            cache: BTreeMap::new(),
+            dirty: BTreeSet::new(),
+            structure_changed: false,
+            textures: HashMap::new(),
+            pending: Vec::new(),
+            assembly_problems: Vec::new(),
+            last_synced: Vec::new(),
+            next_id: 0,
+            scene: Arc::new(SceneDesc::default()),
+            scene_generation: 0,
+            settings: SettingsPiece::default(),
+            active_camera: None,
+            active_settings: None,
+            buffers: BTreeMap::new(),
+            factory,
+            pass: None,
+            job_key: None,
+        }
+    }
+
+    /// Creates (or re-creates, clearing its attributes) a prim. Unknown type → false + problem.
+    pub fn create_prim(&mut self, type_name: &str, path: &str) -> bool {
+        let Some(ty) = PrimType::parse(type_name) else {
+            self.pending.push(problem(path, "type", format!("unknown prim type '{}'; the prim is ignored", type_name)));
+            return false;
+        };
+        let id = self.next_id;
+        self.next_id += 1;
+        self.prims.insert(path.to_string(), Prim { ty, store: AttrStore::default(), id });
+        if ty == PrimType::RenderBuffer {
+            self.buffers.entry(path.to_string()).or_default();
+        }
+        self.dirty.insert(path.to_string());
+        true
+    }
+
+    /// Removes a prim (any order). False if it did not exist.
+    pub fn destroy_prim(&mut self, path: &str) -> bool {
+        let existed = self.prims.remove(path).is_some();
+        self.cache.remove(path);
+        self.dirty.remove(path);
+        self.buffers.remove(path);
+        if existed {
+            self.structure_changed = true;
+        }
+        existed
+    }
+
+    pub fn has_prim(&self, path: &str) -> bool {
+        self.prims.contains_key(path)
+    }
+
+    pub fn prim_type(&self, path: &str) -> Option<PrimType> {
+        self.prims.get(path).map(|p| p.ty)
+    }
+
+    fn prim_mut(&mut self, path: &str, attr: &str) -> Option<&mut Prim> {
+        if !self.prims.contains_key(path) {
+            self.pending.push(problem(path, attr, "no such prim; the value is ignored"));
+            return None;
+        }
+        self.dirty.insert(path.to_string());
+        self.prims.get_mut(path)
+    }
+
+    /// Sets an attribute (`time` = frame offset of a time sample, `None` = the value).
+    pub fn set_attribute(&mut self, path: &str, name: &str, value: Value, time: Option<f64>) -> bool {
+        let Some(prim) = self.prim_mut(path, name) else { return false };
+        prim.store.attrs.entry(normalize_name(name).to_string()).or_default().set(time, value);
+        true
+    }
+
+    /// Removes an attribute (back to its default).
+    pub fn clear_attribute(&mut self, path: &str, name: &str) -> bool {
+        let Some(prim) = self.prim_mut(path, name) else { return false };
+        prim.store.attrs.remove(normalize_name(name)).is_some()
+    }
+
+    /// Sets a primvar (`primvars:` prefix optional).
+    pub fn set_primvar(&mut self, path: &str, name: &str, interpolation: &str, data: Vec<f32>, tuple: u32, indices: Option<Vec<i32>>) -> bool {
+        let name = name.strip_prefix("primvars:").unwrap_or(name);
+        let Some(interp) = Interpolation::parse(interpolation) else {
+            self.pending.push(problem(path, name, format!("unknown interpolation '{}'; the primvar is ignored", interpolation)));
+            return false;
+        };
+        if tuple == 0 {
+            self.pending.push(problem(path, name, "tuple size 0; the primvar is ignored"));
+            return false;
+        }
+        let Some(prim) = self.prim_mut(path, name) else { return false };
+        prim.store.primvars.insert(name.to_string(), Primvar { interpolation: interp, data, tuple, indices });
+        true
+    }
+
+    /// Marks a prim for re-sync without changing it.
+    pub fn mark_dirty(&mut self, path: &str) {
+        if self.prims.contains_key(path) {
+            self.dirty.insert(path.to_string());
+        }
+    }
+
+    /// Dirties every material and light that mentions `asset`.
+    fn dirty_users_of(&mut self, asset: &str) {
+        for (path, prim) in &self.prims {
+            if matches!(prim.ty, PrimType::Material | PrimType::Light(_))
+                && prim.store.attrs.values().any(|a| a.current().and_then(|v| v.as_str()) == Some(asset))
+            {
+                self.dirty.insert(path.clone());
+            }
+        }
+    }
+
+    /// Provides a texture's decoded pixels (row-major from the top row). `is_srgb`: the file's
+    /// colour space is sRGB (used when a UsdUVTexture's `sourceColorSpace` is `auto`).
+    /// 2-channel (grey, alpha) images are expanded to RGBA. Bad sizes → false + problem.
+    pub fn add_texture(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Vec<f32>, is_srgb: bool) -> bool {
+        let n = width as usize * height as usize;
+        let state = if !(1..=4).contains(&channels) || n == 0 || pixels.len() != n * channels as usize {
+            let msg = format!("{}x{} with {} channels does not match {} values", width, height, channels, pixels.len());
+            self.pending.push(problem(asset, "pixels", msg.clone()));
+            TexState::Failed(msg)
+        } else {
+            let (channels, pixels) = if channels == 2 {
+                (4, pixels.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect())
+            } else {
+                (channels, pixels)
+            };
+            TexState::Loaded { width, height, channels, pixels: Arc::new(pixels), is_srgb }
+        };
+        let ok = matches!(state, TexState::Loaded { .. });
+        self.textures.insert(asset.to_string(), state);
+        self.dirty_users_of(asset);
+        ok
+    }
+
+    /// Records that a texture file could not be read.
+    pub fn texture_failed(&mut self, asset: &str, message: &str) {
+        self.textures.insert(asset.to_string(), TexState::Failed(message.to_string()));
+        self.dirty_users_of(asset);
+    }
+
+    fn convert(&self, path: &str, prim: &Prim) -> Cached {
+        let mut p = Problems::new(path);
+        let s = &prim.store;
+        let piece = match prim.ty {
+            PrimType::Material => {
+                let textures = |a: &str| self.textures.get(a).cloned();
+                Piece::Material(material::convert_material(path, s, &textures, &mut p))
+            }
+            PrimType::Light(k) => Piece::Light(lux::convert_light(path, k, s, &mut p)),
+            PrimType::Camera => Piece::Camera(lux::convert_camera(path, s, &mut p)),
+            PrimType::RenderSettings => Piece::Settings(lux::convert_settings(s, &mut p)),
+            PrimType::RenderBuffer => {
+                let dims = s.get("dimensions").and_then(|v| v.to_ints());
+                let buf = self.buffers.get(path);
+                match dims {
+                    Some(d) if d.len() == 2 && d[0] > 0 && d[1] > 0 => {
+                        if let Some(b) = buf {
+                            if b.dimensions() != (d[0] as u32, d[1] as u32) {
+                                b.resize(d[0] as u32, d[1] as u32, 4);
+                            }
+                        }
+                    }
+                    None => {}
+                    Some(d) => p.add("dimensions", format!("expected two positive ints, got {:?}", d)),
+                }
+                Piece::Buffer
+            }
+            _ => Piece::Rprim(self.convert_rprim(path, prim, &mut p)),
+        };
+        Cached { piece, problems: p.list }
+    }
+
+    fn convert_rprim(&self, path: &str, prim: &Prim, p: &mut Problems) -> RprimPiece {
+        let s = &prim.store;
+        let geometry = match prim.ty {
+            PrimType::Mesh => Geometry::Mesh(mesh::convert_mesh(path, s, p)),
+            PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
+            PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
+            PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p)),
+            PrimType::Cylinder => Geometry::Mesh(implicit::cylinder(path, s, p)),
+            PrimType::Cone => Geometry::Mesh(implicit::cone(path, s, p)),
+            PrimType::Capsule => Geometry::Mesh(implicit::capsule(path, s, p)),
+            PrimType::Plane => Geometry::Mesh(implicit::plane(path, s, p)),
+            PrimType::TideOcean => {
+                p.add("windSpeed", "ocean wave synthesis is not yet supported; the mean sea level (y = 0) is rendered as a flat plane of size `extent`");
+                let e = 0.5 * s.f32_or("extent", 1000.0, p).abs();
+                let positions = vec![Vec3::new(-e, 0.0, -e), Vec3::new(-e, 0.0, e), Vec3::new(e, 0.0, e), Vec3::new(e, 0.0, -e)];
+                Geometry::Mesh(MeshDesc {
+                    name: path.into(),
+                    positions,
+                    indices: vec![0, 1, 2, 0, 2, 3],
+                    normals: Some(vec![Vec3::Y; 4]),
+                    uvs: None,
+                    double_sided: true,
+                })
+            }
+            _ => {
+                p.add("field", "volume prims (OpenVDB fields) are not yet supported; the volume is skipped");
+                Geometry::None
+            }
+        };
+        if s.has("velocities") && prim.ty == PrimType::Mesh {
+            // Deforming-mesh motion has no counterpart in the core yet.
+            p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
+        }
+        let mut instance_transforms = Vec::new();
+        if let Some(v) = s.get("instanceTransforms") {
+            match v.to_f32s() {
+                Some(d) if d.len() % 16 == 0 => {
+                    for c in d.chunks_exact(16) {
+                        let m = Mat4::from_cols_slice(c);
+                        if m.is_finite() {
+                            instance_transforms.push(m);
+                        } else {
+                            p.add("instanceTransforms", "a matrix is not finite; that instance is dropped");
+                        }
+                    }
+                }
+                _ => p.add("instanceTransforms", "expected Doubles with 16 per matrix; ignored"),
+            }
+            if instance_transforms.is_empty() {
+                // An authored empty list draws nothing; keep one invisible marker by visibility.
+                p.add("instanceTransforms", "no usable instance matrices; the prim is not drawn");
+            }
+        }
+        let display_color = s.primvar("displayColor", Interpolation::Constant).and_then(|pv| match pv.flatten() {
+            Ok(d) if pv.tuple == 3 && d.len() >= 3 && d.iter().all(|x| x.is_finite()) => {
+                // The core has no vertex colours: non-constant displayColor is averaged.
+                let n = (d.len() / 3) as f32;
+                let sum = d.chunks_exact(3).fold([0.0f32; 3], |a, c| [a[0] + c[0], a[1] + c[1], a[2] + c[2]]);
+                Some(sum.map(|x| x / n))
+            }
+            _ => {
+                p.add("displayColor", "expected finite colour3 data; ignored");
+                None
+            }
+        });
+        let id = match s.get("primId") {
+            None => prim.id,
+            Some(v) => match v.as_f64() {
+                Some(x) if x >= 0.0 && x <= u32::MAX as f64 => x as u32,
+                _ => {
+                    p.add("primId", format!("expected a non-negative int; using {}", prim.id));
+                    prim.id
+                }
+            },
+        };
+        RprimPiece {
+            geometry,
+            transforms: s.matrix_samples("transform", p),
+            instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![Mat4::IDENTITY] },
+            material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
+            display_color,
+            visible: s.token_or("visibility", &["inherited", "invisible", "visible"], "inherited", p) != "invisible",
+            purpose: s.token_or("purpose", &["default", "render", "proxy", "guide"], "default", p).to_string(),
+            id,
+        }
+    }
+
+    /// Syncs the dirty prims (only those) and re-assembles the scene; returns the problems
+    /// found by this commit (each once). Restarts a running render if anything changed.
+    pub fn commit_resources(&mut self) -> Vec<Problem> {
+        let dirty: Vec<String> = std::mem::take(&mut self.dirty).into_iter().filter(|p| self.prims.contains_key(p)).collect();
+        let mut problems = std::mem::take(&mut self.pending);
+        for path in &dirty {
+            let cached = self.convert(path, &self.prims[path]);
+            problems.extend(cached.problems.iter().cloned());
+            self.cache.insert(path.clone(), cached);
+        }
+        let changed = !dirty.is_empty() || self.structure_changed;
+        self.structure_changed = false;
+        self.last_synced = dirty;
+        if changed {
+            self.assemble();
+            problems.extend(self.assembly_problems.iter().cloned());
+            self.restart_if_running();
+        }
+        let mut seen = Vec::with_capacity(problems.len());
+        for p in problems {
+            if !seen.contains(&p) {
+                seen.push(p);
+            }
+        }
+        seen
+    }
+
+    /// Prims synced by the last commit, sorted by path.
+    pub fn last_synced(&self) -> &[String] {
+        &self.last_synced
+    }
+
+    /// The scene as last assembled.
+    pub fn scene(&self) -> &SceneDesc {
+        &self.scene
+    }
+
+    /// The render settings in effect (of the active settings prim), with resolved size.
+    pub fn settings(&self) -> &SettingsPiece {
+        &self.settings
+    }
+
+    /// Every problem of the current state (all synced prims), each once.
+    pub fn problems(&self) -> Vec<Problem> {
+        let mut out: Vec<Problem> = self.cache.values().flat_map(|c| c.problems.iter().cloned()).collect();
+        out.extend(self.assembly_problems.iter().cloned());
+        out
+    }
+
+    fn settings_path(&self) -> Option<String> {
+        if let Some(s) = &self.active_settings {
+            if matches!(self.cache.get(s), Some(Cached { piece: Piece::Settings(_), .. })) {
+                return Some(s.clone());
+            }
+        }
+        self.cache.iter().find(|(_, c)| matches!(c.piece, Piece::Settings(_))).map(|(p, _)| p.clone())
+    }
+
+    fn assemble(&mut self) {
+        let mut ap: Vec<Problem> = Vec::new();
+        let sp = match self.settings_path().and_then(|p| self.cache.get(&p)) {
+            Some(Cached { piece: Piece::Settings(s), .. }) => s.clone(),
+            _ => SettingsPiece::default(),
+        };
+        let tcps = sp.time_codes_per_second;
+        let cam_path = [self.active_camera.clone(), sp.camera.clone()]
+            .into_iter()
+            .flatten()
+            .find(|c| {
+                let ok = matches!(self.cache.get(c), Some(Cached { piece: Piece::Camera(_), .. }));
+                if !ok {
+                    ap.push(problem(c, "camera", "no such camera; using another"));
+                }
+                ok
+            })
+            .or_else(|| self.cache.iter().find(|(_, c)| matches!(c.piece, Piece::Camera(_))).map(|(p, _)| p.clone()));
+        let cam = cam_path.as_ref().and_then(|p| match self.cache.get(p) {
+            Some(Cached { piece: Piece::Camera(c), .. }) => Some(c.clone()),
+            _ => None,
+        });
+        let (open, close) = cam.as_ref().map_or((0.0, 0.0), |c| (c.desc.shutter_open as f64, c.desc.shutter_close as f64));
+        let motion = !sp.settings.disable_motion_blur && close > open;
+        let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
+        // Transform samples: inside the shutter plus one on either side, or the value now.
+        let place = |samples: &[(f64, Mat4)]| -> (Vec<Mat4>, Vec<f32>) {
+            if !motion || samples.len() < 2 {
+                return (vec![matrix_at(samples, 0.0)], vec![0.0]);
+            }
+            let lo = samples.iter().rposition(|s| s.0 <= open).unwrap_or(0);
+            let hi = samples.iter().position(|s| s.0 >= close).unwrap_or(samples.len() - 1);
+            let kept = &samples[lo..=hi.max(lo)];
+            (kept.iter().map(|s| s.1).collect(), kept.iter().map(|s| (s.0 / tcps) as f32).collect())
+        };
+
+        let mut scene = SceneDesc { color_space: sp.color_space, ..Default::default() };
+        scene.materials.push(default_material("default"));
+        let mut tex_index: BTreeMap<TexKey, usize> = BTreeMap::new();
+        let textures = &self.textures;
+        let mut texture = |key: &TexKey, scene: &mut SceneDesc| -> Option<usize> {
+            if let Some(&i) = tex_index.get(key) {
+                return Some(i);
+            }
+            let Some(TexState::Loaded { width, height, channels, pixels, .. }) = textures.get(&key.asset) else { return None };
+            let mut px: Vec<f32> = pixels.as_ref().clone();
+            if key.linearize {
+                let ch = *channels as usize;
+                for texel in px.chunks_exact_mut(ch) {
+                    for c in texel.iter_mut().take(ch.min(3)) {
+                        *c = srgb_to_linear(*c);
+                    }
+                }
+            }
+            scene.textures.push(TextureDesc {
+                name: key.asset.clone(),
+                width: *width,
+                height: *height,
+                channels: *channels,
+                pixels: px,
+                wrap_s: key.wrap_s.wrap(),
+                wrap_t: key.wrap_t.wrap(),
+            });
+            tex_index.insert(key.clone(), scene.textures.len() - 1);
+            Some(scene.textures.len() - 1)
+        };
+
+        let mut mat_index: HashMap<&str, usize> = HashMap::new();
+        let mut medium_of: HashMap<&str, usize> = HashMap::new();
+        for (path, c) in &self.cache {
+            let Piece::Material(m) = &c.piece else { continue };
+            let map: Option<Vec<usize>> = m.textures.iter().map(|k| texture(k, &mut scene)).collect();
+            let mut desc = match map {
+                Some(map) => {
+                    let mut d = m.desc.clone();
+                    material::remap_textures(&mut d, &map);
+                    d
+                }
+                None => default_material(path),
+            };
+            if let Some(med) = &m.medium {
+                scene.media.push(med.clone());
+                desc.interior_medium = Some(scene.media.len() - 1);
+                medium_of.insert(path, scene.media.len() - 1);
+            }
+            scene.materials.push(desc);
+            mat_index.insert(path, scene.materials.len() - 1);
+        }
+
+        let included = &sp.included_purposes;
+        let mut color_mats: HashMap<[u32; 3], usize> = HashMap::new();
+        for (path, c) in &self.cache {
+            let Piece::Rprim(r) = &c.piece else { continue };
+            if !r.visible || (r.purpose != "default" && !included.contains(&r.purpose)) {
+                continue;
+            }
+            let geometry = match &r.geometry {
+                Geometry::Mesh(m) if !m.indices.is_empty() => {
+                    scene.meshes.push(m.clone());
+                    GeometryRef::Mesh(scene.meshes.len() - 1)
+                }
+                Geometry::Spheres(s) if !s.centers.is_empty() => {
+                    scene.spheres.push(s.clone());
+                    GeometryRef::Spheres(scene.spheres.len() - 1)
+                }
+                Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
+                    let mut s = implicit::fold_acceleration(pd, t0, t1);
+                    if !motion {
+                        s.velocities = None;
+                    }
+                    scene.spheres.push(s);
+                    GeometryRef::Spheres(scene.spheres.len() - 1)
+                }
+                _ => continue,
+            };
+            let bound = r.material.as_deref().and_then(|m| {
+                let i = mat_index.get(m).copied();
+                if i.is_none() {
+                    ap.push(problem(path, "material", format!("bound material '{}' does not exist; using the fallback", m)));
+                }
+                i
+            });
+            let material = bound.unwrap_or_else(|| match r.display_color {
+                Some(col) => *color_mats.entry(col.map(f32::to_bits)).or_insert_with(|| {
+                    let mut m = default_material(&format!("displayColor{:?}", col));
+                    m.surface = tide_core::scene::SurfaceDesc::Diffuse { color: tide_core::scene::ColorInput::Const(col) };
+                    scene.materials.push(m);
+                    scene.materials.len() - 1
+                }),
+                None => 0,
+            });
+            let (xf, times) = place(&r.transforms);
+            let many = r.instance_transforms.len() > 1;
+            for (k, inst) in r.instance_transforms.iter().enumerate() {
+                scene.instances.push(InstanceDesc {
+                    name: if many { format!("{}[{}]", path, k) } else { path.clone() },
+                    geometry,
+                    transforms: xf.iter().map(|m| *inst * *m).collect(),
+                    times: times.clone(),
+                    material,
+                    id: r.id,
+                    visible_to_camera: true,
+                    casts_shadows: true,
+                });
+            }
+        }
+
+        for c in self.cache.values() {
+            let Piece::Light(Some(l)) = &c.piece else { continue };
+            let mut desc = l.desc.clone();
+            let t = l.texture.as_ref().and_then(|k| {
+                let i = texture(k, &mut scene);
+                if i.is_none() {
+                    let state = match textures.get(&k.asset) {
+                        Some(TexState::Failed(m)) => format!("could not be read ({})", m),
+                        _ => "was not provided".into(),
+                    };
+                    ap.push(problem(&desc.name, "texture:file", format!("texture '{}' {}; the light is untextured", k.asset, state)));
+                }
+                i
+            });
+            match &mut desc.shape {
+                LightShape::Dome { texture } | LightShape::Rect { texture, .. } => *texture = t,
+                _ => {}
+            }
+            scene.lights.push(desc);
+        }
+
+        if let (Some(path), Some(c)) = (&cam_path, cam) {
+            let mut d = c.desc.clone();
+            let (xf, times) = place(&c.transforms);
+            d.transforms = xf;
+            d.times = times;
+            d.shutter_open = t0;
+            d.shutter_close = t1;
+            if let Some(m) = &c.medium {
+                d.medium = medium_of.get(m.as_str()).copied();
+                if d.medium.is_none() {
+                    ap.push(problem(path, "tide:medium", format!("'{}' is not a material with a volume; the camera starts in vacuum", m)));
+                }
+            }
+            scene.camera = d;
+        }
+        self.assembly_problems = ap;
+        self.settings = sp;
+        self.scene = Arc::new(scene);
+        self.scene_generation += 1;
+    }
+
+    /// The settings of a job: resolution from the settings prim, else the first bound buffer.
+    fn job_settings(&self, bindings: &[(Aov, String)]) -> RenderSettings {
+        let mut s = self.settings.settings.clone();
+        if !self.settings.resolution_authored {
+            if let Some((w, h)) = bindings.iter().filter_map(|(_, b)| self.buffers.get(b)).map(|b| b.dimensions()).find(|d| d.0 > 0 && d.1 > 0) {
+                s.width = w;
+                s.height = h;
+            }
+        }
+        s
+    }
+
+    fn start_job(&mut self, bindings: Vec<(Aov, String)>) {
+        let settings = self.job_settings(&bindings);
+        let key = (self.scene_generation, bindings.clone(), settings.clone());
+        if self.job_key.as_ref() == Some(&key) {
+            return;
+        }
+        let job = Job {
+            scene: self.scene.clone(),
+            settings,
+            bindings: bindings.iter().filter_map(|(a, b)| self.buffers.get(b).map(|buf| (*a, buf.clone()))).collect(),
+        };
+        let factory = self.factory.clone();
+        self.pass.get_or_insert_with(|| RenderPass::new(factory)).start(job);
+        self.job_key = Some(key);
+    }
+
+    fn restart_if_running(&mut self) {
+        if let Some((_, bindings, _)) = self.job_key.clone() {
+            self.start_job(bindings);
+        }
+    }
+
+    /// Renders progressively into the bound buffers (`aovs`: (AOV sourceName, buffer path)).
+    /// `camera` / `settings` pick the camera and settings prims (else the settings' camera /
+    /// the first of each). Calling it again with nothing changed keeps the running render.
+    /// Returns problems with the bindings (unknown AOVs or buffers are skipped).
+    pub fn execute(&mut self, camera: Option<&str>, aovs: &[(String, String)], settings: Option<&str>) -> Vec<Problem> {
+        let mut problems = Vec::new();
+        let cam = camera.filter(|c| !c.is_empty()).map(String::from);
+        let set = settings.filter(|c| !c.is_empty()).map(String::from);
+        if cam != self.active_camera || set != self.active_settings || self.scene_generation == 0 {
+            self.active_camera = cam;
+            self.active_settings = set;
+            self.assemble();
+            problems.extend(self.assembly_problems.iter().cloned());
+        }
+        let mut bindings = Vec::new();
+        for (name, buf) in aovs {
+            match (Aov::from_source_name(name), self.buffers.contains_key(buf)) {
+                (Some(a), true) => bindings.push((a, buf.clone())),
+                (None, _) => problems.push(problem(buf, "aov", format!("unknown AOV '{}'; not rendered", name))),
+                (_, false) => problems.push(problem(buf, "aov", format!("'{}' is not a render buffer; AOV '{}' not rendered", buf, name))),
+            }
+        }
+        self.start_job(bindings);
+        problems
+    }
+
+    pub fn render_status(&self) -> PassStatus {
+        self.pass.as_ref().map_or(PassStatus::Idle, |p| p.status())
+    }
+
+    /// True once the running render reached its sample target or time budget.
+    pub fn is_converged(&self) -> bool {
+        self.pass.as_ref().is_some_and(|p| p.is_converged())
+    }
+
+    pub fn progress(&self) -> f32 {
+        self.pass.as_ref().map_or(0.0, |p| p.progress())
+    }
+
+    /// Waits for convergence (true) or failure / timeout (false).
+    pub fn wait(&self, timeout: Duration) -> bool {
+        self.pass.as_ref().is_some_and(|p| p.wait(timeout))
+    }
+
+    /// Stops rendering (buffers keep their pixels).
+    pub fn cancel(&mut self) {
+        if let Some(p) = &self.pass {
+            p.cancel();
+        }
+        self.job_key = None;
+    }
+
+    pub fn render_buffer(&self, path: &str) -> Option<RenderBuffer> {
+        self.buffers.get(path).cloned()
+    }
+
+    /// A copy of a buffer's current pixels with width, height and channel count.
+    pub fn map_buffer(&self, path: &str) -> Option<MappedBuffer> {
+        self.buffers.get(path).map(|b| b.map())
+    }
+
+    /// Writes AOVs (`(name, sourceName)`) of the current render to EXR through the core,
+    /// atomically. The names are recorded in the header as `tide:aov:<name>`.
+    pub fn write_exr(&self, path: &std::path::Path, aovs: &[(String, String)], header: &[(String, String)]) -> std::io::Result<()> {
+        let mut list = Vec::new();
+        let mut hdr = header.to_vec();
+        for (name, src) in aovs {
+            let a = Aov::from_source_name(src).ok_or_else(|| std::io::Error::other(format!("unknown AOV '{}' for '{}'", src, name)))?;
+            list.push(a);
+            hdr.push((format!("tide:aov:{}", name), src.clone()));
+        }
+        match &self.pass {
+            Some(p) => p.write_exr(path, &list, &hdr),
+            None => Err(std::io::Error::other("no render to write: execute a render pass first")),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render_pass::tests::fake_factory;
+    use std::sync::atomic::{AtomicU32, Ordering};
+    use std::sync::Mutex;
+    use tide_core::scene::{ColorInput, LightShape, SurfaceDesc};
+
+    fn floats(d: &[f32], tuple: u32) -> Value {
+        Value::Floats { data: d.to_vec(), tuple }
+    }
+    fn tok(s: &str) -> Value {
+        Value::Token(s.into())
+    }
+    fn translate(x: f64, y: f64, z: f64) -> Value {
+        let mut m = [0.0; 16];
+        for i in 0..4 {
+            m[5 * i] = 1.0;
+        }
+        m[12] = x;
+        m[13] = y;
+        m[14] = z;
+        Value::Matrix(m)
+    }
+
+    fn quad(d: &mut Delegate, path: &str) {
+        d.create_prim("mesh", path);
+        d.set_attribute(path, "points", floats(&[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.], 3), None);
+        d.set_attribute(path, "faceVertexCounts", Value::Ints(vec![4]), None);
+        d.set_attribute(path, "faceVertexIndices", Value::Ints(vec![0, 1, 2, 3]), None);
+    }
+
+    fn red_material(d: &mut Delegate, path: &str) {
+        d.create_prim("material", path);
+        d.set_attribute(path, "surface", Value::Path(format!("{}/S", path)), None);
+        d.set_attribute(path, &format!("{}/S.info:id", path), tok("UsdPreviewSurface"), None);
+        d.set_attribute(path, &format!("{}/S.inputs:diffuseColor", path), floats(&[1., 0., 0.], 3), None);
+    }
+
+    fn material_of<'a>(d: &'a Delegate, inst: &str) -> &'a tide_core::scene::MaterialDesc {
+        let i = d.scene().instances.iter().find(|i| i.name == inst).unwrap();
+        &d.scene().materials[i.material]
+    }
+
+    #[test]
+    fn unknown_type_is_refused_with_a_problem() {
+        let mut d = Delegate::new();
+        assert!(!d.create_prim("nurbsPatch", "/N"));
+        assert!(!d.set_attribute("/N", "points", floats(&[], 3), None));
+        let p = d.commit_resources();
+        assert_eq!(p.len(), 2);
+        assert!(p.iter().all(|q| q.item == "/N"));
+        assert_eq!(PrimType::parse("rectLight").unwrap().class(), PrimClass::Sprim);
+        assert_eq!(PrimType::parse("renderBuffer").unwrap().class(), PrimClass::Bprim);
+        assert_eq!(PrimType::parse("tideOcean").unwrap().class(), PrimClass::Rprim);
+    }
+
+    #[test]
+    fn dirty_tracking_resyncs_only_edited_prims() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        quad(&mut d, "/B");
+        red_material(&mut d, "/M");
+        d.create_prim("sphereLight", "/L");
+        d.commit_resources();
+        assert_eq!(d.last_synced(), ["/A", "/B", "/L", "/M"]);
+        let before = d.scene().meshes.clone();
+        d.set_attribute("/B", "transform", translate(0., 0., 5.), None);
+        d.commit_resources();
+        assert_eq!(d.last_synced(), ["/B"]);
+        assert_eq!(d.scene().meshes, before);
+        let b = d.scene().instances.iter().find(|i| i.name == "/B").unwrap();
+        assert_eq!(b.transforms[0].w_axis.z, 5.0);
+        d.commit_resources();
+        assert!(d.last_synced().is_empty());
+    }
+
+    #[test]
+    fn destroy_in_any_order_and_material_rebinding() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        d.set_attribute("/A", "material", Value::Path("/M".into()), None);
+        red_material(&mut d, "/M");
+        d.commit_resources();
+        assert!(matches!(&material_of(&d, "/A").surface, SurfaceDesc::Preview(p) if p.diffuse_color == ColorInput::Const([1., 0., 0.])));
+        // Material first: the mesh falls back to the default material (not re-synced).
+        assert!(d.destroy_prim("/M"));
+        let p = d.commit_resources();
+        assert!(d.last_synced().is_empty());
+        assert_eq!(material_of(&d, "/A"), &default_material("default"));
+        assert!(p.iter().any(|q| q.item == "/A" && q.attribute == "material"));
+        // Re-created later: re-binds.
+        red_material(&mut d, "/M");
+        d.commit_resources();
+        assert_eq!(d.last_synced(), ["/M"]);
+        assert!(matches!(&material_of(&d, "/A").surface, SurfaceDesc::Preview(_)));
+        // displayColor is the fallback of an unbound gprim.
+        d.set_primvar("/A", "primvars:displayColor", "constant", vec![0.2, 0.4, 0.6], 3, None);
+        d.set_attribute("/A", "material", Value::Path(String::new()), None);
+        d.commit_resources();
+        assert_eq!(material_of(&d, "/A").surface, SurfaceDesc::Diffuse { color: ColorInput::Const([0.2, 0.4, 0.6]) });
+        // Mesh first, then its material, then a prim that never existed.
+        assert!(d.destroy_prim("/A"));
+        assert!(d.destroy_prim("/M"));
+        assert!(!d.destroy_prim("/nope"));
+        d.commit_resources();
+        assert!(d.scene().instances.is_empty() && d.scene().materials.len() == 1);
+    }
+
+    #[test]
+    fn textures_added_after_the_material_resync_it() {
+        let mut d = Delegate::new();
+        red_material(&mut d, "/M");
+        d.set_attribute("/M", "/M/S.inputs:diffuseColor.connect", tok("/M/T.outputs:rgb"), None);
+        d.set_attribute("/M", "/M/T.info:id", tok("UsdUVTexture"), None);
+        d.set_attribute("/M", "/M/T.inputs:file", Value::Asset("/t.png".into()), None);
+        let p = d.commit_resources();
+        assert_eq!(p[0].attribute, "/M/T.inputs:file");
+        assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], true));
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{:?}", p);
+        assert_eq!(d.last_synced(), ["/M"]);
+        let t = &d.scene().textures[0];
+        // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
+        assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
+        assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
+    }
+
+    #[test]
+    fn motion_samples_instances_and_shutter() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        d.set_attribute("/A", "transform", translate(0., 0., 0.), Some(-1.0));
+        d.set_attribute("/A", "transform", translate(1., 0., 0.), Some(0.0));
+        d.set_attribute("/A", "transform", translate(2., 0., 0.), Some(1.0));
+        d.set_attribute("/A", "transform", translate(3., 0., 0.), Some(2.0));
+        let mut inst = Vec::new();
+        for k in 0..2 {
+            let Value::Matrix(m) = translate(0., 10. * k as f64, 0.) else { unreachable!() };
+            inst.extend_from_slice(&m);
+        }
+        d.set_attribute("/A", "instanceTransforms", Value::Doubles { data: inst, tuple: 16 }, None);
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "shutter:open", Value::Float(0.0), None);
+        d.set_attribute("/cam", "shutter:close", Value::Float(0.5), None);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "timeCodesPerSecond", Value::Float(25.0), None);
+        d.commit_resources();
+        let s = d.scene();
+        assert_eq!(s.instances.len(), 2);
+        let i1 = &s.instances[1];
+        assert_eq!(i1.name, "/A[1]");
+        // Samples at frames 0 and 1 bracket the shutter [0, 0.5]; seconds = frames / 25.
+        assert_eq!(i1.times, vec![0.0, 0.04]);
+        assert_eq!(i1.transforms[1].w_axis.truncate(), Vec3::new(2.0, 10.0, 0.0));
+        assert_eq!((s.camera.shutter_open, s.camera.shutter_close), (0.0, 0.02));
+        assert_eq!(s.camera.name, "/cam");
+        d.set_attribute("/S", "disableMotionBlur", Value::Bool(true), None);
+        d.commit_resources();
+        let i0 = &d.scene().instances[0];
+        assert_eq!((i0.transforms.len(), i0.times.clone()), (1, vec![0.0]));
+        assert_eq!(i0.transforms[0].w_axis.x, 1.0);
+    }
+
+    #[test]
+    fn lights_camera_medium_and_purpose() {
+        let mut d = Delegate::new();
+        d.create_prim("domeLight", "/Dome");
+        d.set_attribute("/Dome", "inputs:texture:file", Value::Asset("/sky.exr".into()), None);
+        d.add_texture("/sky.exr", 2, 1, 3, vec![1.0; 6], false);
+        d.create_prim("material", "/Sea");
+        d.set_attribute("/Sea", "volume", Value::Path("/Sea/V".into()), None);
+        d.set_attribute("/Sea", "/Sea/V.info:id", tok("TideMedium"), None);
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "tide:medium", Value::Path("/Sea".into()), None);
+        quad(&mut d, "/Proxy");
+        d.set_attribute("/Proxy", "purpose", tok("proxy"), None);
+        quad(&mut d, "/Hidden");
+        d.set_attribute("/Hidden", "visibility", tok("invisible"), None);
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{:?}", p);
+        let s = d.scene();
+        assert_eq!(s.lights[0].shape, LightShape::Dome { texture: Some(0) });
+        assert_eq!((s.textures[0].wrap_s, s.textures[0].wrap_t), (tide_core::scene::Wrap::Repeat, tide_core::scene::Wrap::Clamp));
+        assert_eq!(s.camera.medium, Some(0));
+        assert!(s.instances.is_empty());
+    }
+
+    #[test]
+    fn render_pass_lifecycle_through_the_delegate() {
+        let builds = Arc::new(AtomicU32::new(0));
+        let passes = Arc::new(Mutex::new(Vec::new()));
+        let mut d = Delegate::with_engine(fake_factory(Duration::ZERO, None, builds.clone(), passes));
+        quad(&mut d, "/A");
+        d.create_prim("renderBuffer", "/buf");
+        d.set_attribute("/buf", "dimensions", Value::Ints(vec![8, 4]), None);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "tide:samples", Value::Int(4), None);
+        d.commit_resources();
+        assert!(d.map_buffer("/buf").unwrap().pixels.len() == 8 * 4 * 4);
+        let p = d.execute(None, &[("color".into(), "/buf".into()), ("bogus".into(), "/buf".into())], Some("/S"));
+        assert_eq!(p.len(), 1);
+        assert!(d.wait(Duration::from_secs(5)) && d.is_converged());
+        let m = d.map_buffer("/buf").unwrap();
+        assert_eq!((m.width, m.height, m.channels, m.samples), (8, 4, 4, 4));
+        // Same execute again: no restart.
+        d.execute(None, &[("color".into(), "/buf".into())], Some("/S"));
+        assert_eq!(builds.load(Ordering::SeqCst), 1);
+        // A commit that changes something restarts; one that changes nothing does not.
+        d.commit_resources();
+        assert_eq!(builds.load(Ordering::SeqCst), 1);
+        d.set_attribute("/S", "tide:samples", Value::Int(2), None);
+        d.commit_resources();
+        assert!(d.wait(Duration::from_secs(5)));
+        assert_eq!(builds.load(Ordering::SeqCst), 2);
+        assert_eq!(d.map_buffer("/buf").unwrap().samples, 2);
+        assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into())], &[]).is_ok());
+        drop(d);
+    }
+}

@@ -1,0 +1,433 @@
+//! Implicit gprims (USD dimensions and `axis`) and UsdGeomPoints.
+//!
+//! `Sphere` becomes an exact [`SpheresDesc`]; `Cube`, `Cylinder`, `Cone`, `Capsule` and `Plane`
+//! are tessellated into meshes with analytic normals and uvs (cylinders and cones capped).
+//! Shapes are built around +Z and then turned to their `axis` by a cyclic permutation of the
+//! coordinates (a rotation), so the winding stays counter-clockwise seen from outside.
+//!
+//! Points become spheres of radius `widths / 2` (constant or per vertex, default width 1).
+//! Velocities are units per second. The core moves spheres linearly only, so accelerations
+//! are folded in over the shutter interval [t0, t1] (seconds): each point moves on the chord of
+//! its parabola, v' = v + a·(t0 + t1)/2 and c' = c − a·t0·t1/2, which is exact at the shutter's
+//! open and close and off by at most |a|·(t1 − t0)²/8 in between (see [`fold_acceleration`]).
+
+use crate::mesh::read_points;
+use crate::value::{AttrStore, Interpolation, Problems};
+use glam::{Vec2, Vec3};
+use std::f32::consts::{PI, TAU};
+use tide_core::scene::{MeshDesc, SpheresDesc};
+
+/// Angular segments of tessellated round shapes.
+pub const SEGMENTS: u32 = 64;
+/// Latitude rings of each capsule hemisphere.
+pub const CAP_RINGS: u32 = 16;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    pub(crate) fn read(store: &AttrStore, p: &mut Problems) -> Axis {
+        match store.token_or("axis", &["X", "Y", "Z"], "Z", p) {
+            "X" => Axis::X,
+            "Y" => Axis::Y,
+            _ => Axis::Z,
+        }
+    }
+
+    /// Maps a +Z-built point (a, b, h) so that h lies along this axis (a rotation).
+    pub fn map(self, v: Vec3) -> Vec3 {
+        match self {
+            Axis::Z => v,
+            Axis::X => Vec3::new(v.z, v.x, v.y),
+            Axis::Y => Vec3::new(v.y, v.z, v.x),
+        }
+    }
+}
+
+/// Mesh under construction.
+#[derive(Default)]
+struct Builder {
+    p: Vec<Vec3>,
+    n: Vec<Vec3>,
+    uv: Vec<Vec2>,
+    idx: Vec<u32>,
+}
+
+impl Builder {
+    fn vert(&mut self, p: Vec3, n: Vec3, uv: Vec2) -> u32 {
+        self.p.push(p);
+        self.n.push(n);
+        self.uv.push(uv);
+        self.p.len() as u32 - 1
+    }
+
+    /// A grid of (rows+1)×(cols+1) vertices from `f(u, v)` with u, v in [0,1]; quads wound
+    /// counter-clockwise in (u, v) order (u then v).
+    fn grid(&mut self, rows: u32, cols: u32, f: impl Fn(f32, f32) -> (Vec3, Vec3)) {
+        let base = self.p.len() as u32;
+        for r in 0..=rows {
+            for c in 0..=cols {
+                let (u, v) = (c as f32 / cols as f32, r as f32 / rows as f32);
+                let (p, n) = f(u, v);
+                self.vert(p, n, Vec2::new(u, v));
+            }
+        }
+        let w = cols + 1;
+        for r in 0..rows {
+            for c in 0..cols {
+                let a = base + r * w + c;
+                self.idx.extend_from_slice(&[a, a + 1, a + w + 1, a, a + w + 1, a + w]);
+            }
+        }
+    }
+
+    /// A disk at height `h` facing `+Z` (up = true) or `−Z`, radius `r`.
+    fn disk(&mut self, r: f32, h: f32, up: bool) {
+        let n = if up { Vec3::Z } else { Vec3::NEG_Z };
+        let c = self.vert(Vec3::new(0.0, 0.0, h), n, Vec2::splat(0.5));
+        let first = self.p.len() as u32;
+        for s in 0..=SEGMENTS {
+            let phi = TAU * s as f32 / SEGMENTS as f32;
+            let (sn, cs) = phi.sin_cos();
+            self.vert(Vec3::new(r * cs, r * sn, h), n, Vec2::new(0.5 + 0.5 * cs, 0.5 + 0.5 * sn));
+        }
+        for s in 0..SEGMENTS {
+            let (a, b) = (first + s, first + s + 1);
+            self.idx.extend_from_slice(&if up { [c, a, b] } else { [c, b, a] });
+        }
+    }
+
+    fn finish(self, name: &str, axis: Axis, double_sided: bool) -> MeshDesc {
+        MeshDesc {
+            name: name.to_string(),
+            positions: self.p.into_iter().map(|p| axis.map(p)).collect(),
+            indices: self.idx,
+            normals: Some(self.n.into_iter().map(|n| axis.map(n)).collect()),
+            uvs: Some(self.uv),
+            double_sided,
+        }
+    }
+}
+
+fn positive(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
+    let v = store.f32_or(name, default, p);
+    if v > 0.0 {
+        v
+    } else {
+        p.add(name, format!("must be positive, got {}; using {}", v, default));
+        default
+    }
+}
+
+/// UsdGeomSphere: one exact sphere.
+pub fn sphere(name: &str, store: &AttrStore, p: &mut Problems) -> SpheresDesc {
+    let r = positive(store, "radius", 1.0, p);
+    SpheresDesc { name: name.into(), centers: vec![Vec3::ZERO], radii: vec![r], velocities: None }
+}
+
+/// UsdGeomCube: edge `size` (default 2), centred at the origin; 4 vertices per face.
+pub fn cube(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let h = positive(store, "size", 2.0, p) * 0.5;
+    let ds = store.bool_or("doubleSided", false, p);
+    let mut b = Builder::default();
+    for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+        for n in [axis, -axis] {
+            // (t, s, n) right-handed so corners go counter-clockwise seen from outside.
+            let t = if axis == Vec3::X { Vec3::Y } else if axis == Vec3::Y { Vec3::Z } else { Vec3::X };
+            let s = n.cross(t);
+            b.grid(1, 1, |u, v| (n * h + t * h * (2.0 * u - 1.0) + s * h * (2.0 * v - 1.0), n));
+        }
+    }
+    b.finish(name, Axis::Z, ds)
+}
+
+/// UsdGeomCylinder: `radius` 1, `height` 2 along `axis`, centred, both ends capped.
+pub fn cylinder(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let r = positive(store, "radius", 1.0, p);
+    let hh = positive(store, "height", 2.0, p) * 0.5;
+    let axis = Axis::read(store, p);
+    let ds = store.bool_or("doubleSided", false, p);
+    let mut b = Builder::default();
+    b.grid(1, SEGMENTS, |u, v| {
+        let (s, c) = (TAU * u).sin_cos();
+        (Vec3::new(r * c, r * s, hh * (2.0 * v - 1.0)), Vec3::new(c, s, 0.0))
+    });
+    b.disk(r, hh, true);
+    b.disk(r, -hh, false);
+    b.finish(name, axis, ds)
+}
+
+/// UsdGeomCone: `radius` 1 at −height/2, apex at +height/2 (`height` 2) along `axis`; capped.
+pub fn cone(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let r = positive(store, "radius", 1.0, p);
+    let h = positive(store, "height", 2.0, p);
+    let axis = Axis::read(store, p);
+    let ds = store.bool_or("doubleSided", false, p);
+    let mut b = Builder::default();
+    // Side normal ∝ (h·cosφ, h·sinφ, r); the apex row gets the normal of its column so the
+    // shading stays smooth around and correct along each generator line.
+    b.grid(1, SEGMENTS, |u, v| {
+        let (s, c) = (TAU * u).sin_cos();
+        let rad = r * (1.0 - v);
+        (Vec3::new(rad * c, rad * s, h * (v - 0.5)), Vec3::new(h * c, h * s, r).normalize())
+    });
+    b.disk(r, -0.5 * h, false);
+    b.finish(name, axis, ds)
+}
+
+/// UsdGeomCapsule: a cylinder of `height` (default 1) with hemispherical ends of `radius`
+/// (default 0.5) along `axis`; total extent height + 2·radius.
+pub fn capsule(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let r = positive(store, "radius", 0.5, p);
+    let hh = store.f32_or("height", 1.0, p).max(0.0) * 0.5;
+    let axis = Axis::read(store, p);
+    let ds = store.bool_or("doubleSided", false, p);
+    let rings = 2 * CAP_RINGS + 1;
+    let mut b = Builder::default();
+    // Latitude θ from −π/2 to π/2; the middle ring band is the cylinder (θ = 0 at both ends).
+    b.grid(rings, SEGMENTS, |u, v| {
+        let (s, c) = (TAU * u).sin_cos();
+        let k = (v * rings as f32).round() as u32;
+        let (theta, z0) = if k <= CAP_RINGS {
+            (-0.5 * PI * (1.0 - k as f32 / CAP_RINGS as f32), -hh)
+        } else {
+            (0.5 * PI * ((k - CAP_RINGS - 1) as f32 / CAP_RINGS as f32), hh)
+        };
+        let (st, ct) = theta.sin_cos();
+        let n = Vec3::new(ct * c, ct * s, st);
+        (Vec3::new(0.0, 0.0, z0) + r * n, n)
+    });
+    b.finish(name, axis, ds)
+}
+
+/// UsdGeomPlane: `width` (default 2) × `length` (default 2), normal along `axis`. Width runs
+/// along X for axis Z or Y and along Z for axis X; length along Y for axis Z or X and along Z
+/// for axis Y (USD's definition). `doubleSided` defaults to false as for any gprim.
+pub fn plane(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let w = positive(store, "width", 2.0, p) * 0.5;
+    let l = positive(store, "length", 2.0, p) * 0.5;
+    let axis = Axis::read(store, p);
+    let ds = store.bool_or("doubleSided", false, p);
+    let (wd, ld, n) = match axis {
+        Axis::Z => (Vec3::X, Vec3::Y, Vec3::Z),
+        Axis::Y => (Vec3::X, Vec3::Z, Vec3::Y),
+        Axis::X => (Vec3::Z, Vec3::Y, Vec3::X),
+    };
+    let mut b = Builder::default();
+    b.grid(1, 1, |u, v| (wd * w * (2.0 * u - 1.0) + ld * l * (2.0 * v - 1.0), n));
+    // The grid winds counter-clockwise around wd × ld; flip where that is −n.
+    if wd.cross(ld).dot(n) < 0.0 {
+        for t in b.idx.chunks_exact_mut(3) {
+            t.swap(1, 2);
+        }
+    }
+    b.finish(name, Axis::Z, ds)
+}
+
+/// Per-point data of UsdGeomPoints before the shutter is known.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointsData {
+    pub spheres: SpheresDesc,
+    pub accelerations: Option<Vec<Vec3>>,
+}
+
+fn per_point_vec3(store: &AttrStore, name: &str, n: usize, p: &mut Problems) -> Option<Vec<Vec3>> {
+    let pv = store.primvar(name, Interpolation::Vertex)?;
+    let data = match pv.flatten() {
+        Ok(d) => d,
+        Err(e) => {
+            p.add(name, format!("{}; ignored", e));
+            return None;
+        }
+    };
+    if pv.tuple != 3 || data.len() / 3 < n || data.iter().any(|x| !x.is_finite()) {
+        p.add(name, format!("expected {} finite 3-vectors (one per point); ignored", n));
+        return None;
+    }
+    Some(data.chunks_exact(3).take(n).map(|c| Vec3::new(c[0], c[1], c[2])).collect())
+}
+
+/// UsdGeomPoints → spheres. Points that are not finite, or whose width is not positive and
+/// finite, are dropped with a problem.
+pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
+    let (pts, bad) = read_points(store, p);
+    let n = pts.len();
+    let widths: Vec<f32> = match store.primvar("widths", Interpolation::Vertex) {
+        None => vec![1.0; n],
+        Some(pv) => match pv.flatten() {
+            Ok(d) if d.len() == 1 || pv.interpolation == Interpolation::Constant && !d.is_empty() => vec![d[0]; n],
+            Ok(d) if d.len() >= n => d[..n].to_vec(),
+            Ok(d) => {
+                p.add("widths", format!("{} widths for {} points; using width 1", d.len(), n));
+                vec![1.0; n]
+            }
+            Err(e) => {
+                p.add("widths", format!("{}; using width 1", e));
+                vec![1.0; n]
+            }
+        },
+    };
+    let vel = per_point_vec3(store, "velocities", n, p);
+    let acc = per_point_vec3(store, "accelerations", n, p);
+    let mut out = PointsData { spheres: SpheresDesc { name: name.into(), ..Default::default() }, accelerations: None };
+    let mut n_bad_w = 0;
+    let (mut vs, mut as_) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        if bad[i] {
+            continue;
+        }
+        if !(widths[i] > 0.0 && widths[i].is_finite()) {
+            n_bad_w += 1;
+            continue;
+        }
+        out.spheres.centers.push(pts[i]);
+        out.spheres.radii.push(0.5 * widths[i]);
+        if let Some(v) = &vel {
+            vs.push(v[i]);
+        }
+        if let Some(a) = &acc {
+            as_.push(a[i]);
+        }
+    }
+    if n_bad_w > 0 {
+        p.add("widths", format!("{} point(s) have a width that is not positive and finite; dropped", n_bad_w));
+    }
+    out.spheres.velocities = vel.map(|_| vs);
+    out.accelerations = acc.map(|_| as_);
+    out
+}
+
+/// Folds accelerations into linear motion over the shutter [t0, t1] (seconds): the chord of
+/// each point's parabola p(t) = c + v·t + a·t²/2.
+pub fn fold_acceleration(data: &PointsData, t0: f32, t1: f32) -> SpheresDesc {
+    let mut s = data.spheres.clone();
+    if let Some(acc) = &data.accelerations {
+        let vel = s.velocities.get_or_insert_with(|| vec![Vec3::ZERO; s.centers.len()]);
+        for ((c, v), a) in s.centers.iter_mut().zip(vel.iter_mut()).zip(acc) {
+            *v += *a * (0.5 * (t0 + t1));
+            *c -= *a * (0.5 * t0 * t1);
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::{Attr, Primvar, Value};
+
+    fn st(pairs: &[(&str, Value)]) -> AttrStore {
+        let mut s = AttrStore::default();
+        for (n, v) in pairs {
+            s.attrs.insert(n.to_string(), Attr { value: Some(v.clone()), samples: vec![] });
+        }
+        s
+    }
+
+    fn bounds(m: &MeshDesc) -> (Vec3, Vec3) {
+        m.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| (lo.min(p), hi.max(p)))
+    }
+
+    /// Every triangle's geometric normal points away from the centroid of the (convex) shape
+    /// and agrees with the shading normals at its corners.
+    fn check_outward(m: &MeshDesc) {
+        let c = m.positions.iter().copied().sum::<Vec3>() / m.positions.len() as f32;
+        let ns = m.normals.as_ref().unwrap();
+        for t in m.indices.chunks_exact(3) {
+            let [a, b, d] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+            let g = (b - a).cross(d - a);
+            if g.length() < 1e-9 {
+                continue; // apex slivers of the capsule poles
+            }
+            let mid = (a + b + d) / 3.0;
+            assert!(g.dot(mid - c) > 0.0, "{} inward triangle {:?}", m.name, t);
+            for k in 0..3 {
+                assert!(ns[t[k] as usize].dot(g) > 0.0, "{} normal disagrees", m.name);
+            }
+        }
+        assert_eq!(m.uvs.as_ref().unwrap().len(), m.positions.len());
+    }
+
+    fn close(a: Vec3, b: Vec3) -> bool {
+        // Tessellation vertices are evaluated with f32 sin/cos: 1e-5 covers their round-off.
+        (a - b).abs().max_element() < 1e-5
+    }
+
+    #[test]
+    fn implicit_gprims_have_usd_dimensions_axis_and_outward_normals() {
+        let mut p = Problems::new("/g");
+        let c = cube("/c", &st(&[("size", Value::Float(3.0))]), &mut p);
+        assert!(close(bounds(&c).1, Vec3::splat(1.5)) && close(bounds(&c).0, Vec3::splat(-1.5)));
+        check_outward(&c);
+
+        let cyl = cylinder("/cyl", &st(&[("radius", Value::Float(0.5)), ("height", Value::Float(4.0)), ("axis", Value::Token("X".into()))]), &mut p);
+        assert!(close(bounds(&cyl).1, Vec3::new(2.0, 0.5, 0.5)), "{:?}", bounds(&cyl));
+        check_outward(&cyl);
+
+        let cn = cone("/cone", &st(&[("height", Value::Float(2.0)), ("axis", Value::Token("Y".into()))]), &mut p);
+        assert!(close(bounds(&cn).0, Vec3::new(-1.0, -1.0, -1.0)) && close(bounds(&cn).1, Vec3::new(1.0, 1.0, 1.0)));
+        // The apex is on +axis.
+        assert!(cn.positions.iter().any(|q| close(*q, Vec3::new(0.0, 1.0, 0.0))));
+        check_outward(&cn);
+
+        let cap = capsule("/cap", &st(&[("radius", Value::Float(0.25)), ("height", Value::Float(1.0))]), &mut p);
+        assert!(close(bounds(&cap).1, Vec3::new(0.25, 0.25, 0.75)), "{:?}", bounds(&cap));
+        check_outward(&cap);
+        for (q, n) in cap.positions.iter().zip(cap.normals.as_ref().unwrap()) {
+            assert!((n.length() - 1.0).abs() < 1e-5);
+            let axis_pt = Vec3::new(0.0, 0.0, q.z.clamp(-0.5, 0.5));
+            assert!(close(axis_pt + 0.25 * *n, *q));
+        }
+
+        for (axis, n, ext) in [("Z", Vec3::Z, Vec3::new(1.0, 2.0, 0.0)), ("Y", Vec3::Y, Vec3::new(1.0, 0.0, 2.0)), ("X", Vec3::X, Vec3::new(0.0, 2.0, 1.0))] {
+            let pl = plane("/pl", &st(&[("width", Value::Float(2.0)), ("length", Value::Float(4.0)), ("axis", Value::Token(axis.into()))]), &mut p);
+            assert!(close(bounds(&pl).1, ext), "{} {:?}", axis, bounds(&pl));
+            for t in pl.indices.chunks_exact(3) {
+                let [a, b, d] = [0, 1, 2].map(|k| pl.positions[t[k] as usize]);
+                assert!((b - a).cross(d - a).normalize().dot(n) > 0.999);
+            }
+        }
+        let sp = sphere("/s", &st(&[("radius", Value::Float(2.5))]), &mut p);
+        assert_eq!(sp.radii, vec![2.5]);
+        assert!(p.list.is_empty(), "{:?}", p.list);
+    }
+
+    #[test]
+    fn bad_dimensions_fall_back_with_a_problem() {
+        let mut p = Problems::new("/s");
+        assert_eq!(sphere("/s", &st(&[("radius", Value::Float(-1.0))]), &mut p).radii, vec![1.0]);
+        cylinder("/s", &st(&[("axis", Value::Token("W".into()))]), &mut p);
+        let attrs: Vec<_> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, vec!["radius", "axis"]);
+    }
+
+    #[test]
+    fn points_become_spheres_of_half_width() {
+        let pts = Value::Floats { data: vec![0., 0., 0., 1., 0., 0., f32::NAN, 0., 0.], tuple: 3 };
+        let mut p = Problems::new("/p");
+        let d = points("/p", &st(&[("points", pts.clone())]), &mut p);
+        assert_eq!(d.spheres.radii, vec![0.5, 0.5]);
+        assert_eq!(p.list.len(), 1);
+        let mut s = st(&[("points", pts)]);
+        s.primvars.insert("widths".into(), Primvar { interpolation: Interpolation::Vertex, data: vec![2.0, 4.0, 1.0], tuple: 1, indices: None });
+        s.primvars.insert("velocities".into(), Primvar { interpolation: Interpolation::Vertex, data: vec![1.0; 9], tuple: 3, indices: None });
+        s.primvars.insert(
+            "accelerations".into(),
+            Primvar { interpolation: Interpolation::Vertex, data: vec![0., -10., 0., 0., 0., 0., 0., 0., 0.], tuple: 3, indices: None },
+        );
+        let d = points("/p", &s, &mut Problems::new("/p"));
+        assert_eq!(d.spheres.radii, vec![1.0, 2.0]);
+        // Folding: the chord matches the parabola at both shutter ends.
+        let (t0, t1) = (-0.02f32, 0.03f32);
+        let f = fold_acceleration(&d, t0, t1);
+        for t in [t0, t1] {
+            let exact = d.spheres.centers[0] + d.spheres.velocities.as_ref().unwrap()[0] * t + Vec3::new(0., -10., 0.) * (0.5 * t * t);
+            let lin = f.centers[0] + f.velocities.as_ref().unwrap()[0] * t;
+            assert!(close(exact, lin), "{:?} {:?}", exact, lin);
+        }
+    }
+}

@@ -1,0 +1,468 @@
+//! UsdLux lights → [`LightDesc`], UsdGeomCamera → [`CameraDesc`], UsdRenderSettings → the
+//! core's [`RenderSettings`] plus the render products and vars as plain data.
+//!
+//! Camera lengths stay in USD's units (apertures and focal length in tenths of a scene unit),
+//! which is the core's convention. Shutter times stay in frames here; the scene assembly turns
+//! them (and transform sample times) into seconds with `timeCodesPerSecond`.
+
+use crate::material::{TexKey, WrapKey};
+use crate::value::{AttrStore, Problems};
+use glam::{Mat4, Vec3};
+use tide_core::scene::{CameraDesc, ColorSpace, LightDesc, LightShape, Projection};
+use tide_core::{IntegratorKind, RenderSettings};
+
+/// Light prim types of the protocol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightKind {
+    Distant,
+    Dome,
+    Sphere,
+    Rect,
+    Disk,
+    Cylinder,
+}
+
+/// A converted light: its texture (if any) is named by key; the assembly resolves it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightPiece {
+    pub desc: LightDesc,
+    pub texture: Option<TexKey>,
+}
+
+fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
+    let v = store.f32_or(name, default, p);
+    if v < 0.0 {
+        p.add(name, format!("must not be negative, got {}; using {}", v, default));
+        default
+    } else {
+        v
+    }
+}
+
+/// Converts a light. `None` (with a problem) for a light that cannot emit (zero area) or is
+/// invisible.
+pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Problems) -> Option<LightPiece> {
+    if store.token_or("visibility", &["inherited", "invisible"], "inherited", p) == "invisible" {
+        return None;
+    }
+    let transform = match store.get("transform") {
+        None => Mat4::IDENTITY,
+        Some(v) => match v.as_matrix() {
+            Some(m) if m.is_finite() => m,
+            _ => {
+                p.add("transform", "expected a finite 4x4 matrix; using identity");
+                Mat4::IDENTITY
+            }
+        },
+    };
+    let mut texture = None;
+    let tex_key = |wrap_s, wrap_t| {
+        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, linearize: false })
+    };
+    let zero_area = |p: &mut Problems, attr: &str| {
+        p.add(attr, "the light has zero area; dropped");
+        None
+    };
+    let shape = match kind {
+        LightKind::Distant => LightShape::Distant { angle_deg: nonneg(store, "angle", 0.53, p) },
+        LightKind::Dome => {
+            let fmt = store.token_or("texture:format", &["automatic", "latlong", "mirroredBall", "angular", "cubeMapVerticalCross"], "automatic", p);
+            texture = tex_key(WrapKey::Repeat, WrapKey::Clamp);
+            if texture.is_some() && !matches!(fmt, "automatic" | "latlong") {
+                p.add("texture:format", format!("format '{}' is not supported (latlong only); the texture is ignored", fmt));
+                texture = None;
+            }
+            LightShape::Dome { texture: None }
+        }
+        LightKind::Sphere => {
+            let radius = nonneg(store, "radius", 0.5, p);
+            let treat_as_point = store.bool_or("treatAsPoint", false, p);
+            if radius == 0.0 && !treat_as_point {
+                p.add("radius", "radius 0 without treatAsPoint; rendered as a point light");
+            }
+            LightShape::Sphere { radius, treat_as_point: treat_as_point || radius == 0.0 }
+        }
+        LightKind::Rect => {
+            let (width, height) = (nonneg(store, "width", 1.0, p), nonneg(store, "height", 1.0, p));
+            if width * height == 0.0 {
+                return zero_area(p, if width == 0.0 { "width" } else { "height" });
+            }
+            texture = tex_key(WrapKey::Clamp, WrapKey::Clamp);
+            LightShape::Rect { width, height, texture: None }
+        }
+        LightKind::Disk => {
+            let radius = nonneg(store, "radius", 0.5, p);
+            if radius == 0.0 {
+                return zero_area(p, "radius");
+            }
+            LightShape::Disk { radius }
+        }
+        LightKind::Cylinder => {
+            let radius = nonneg(store, "radius", 0.5, p);
+            let length = nonneg(store, "length", 1.0, p);
+            let treat_as_line = store.bool_or("treatAsLine", false, p);
+            if length == 0.0 || (radius == 0.0 && !treat_as_line) {
+                return zero_area(p, if length == 0.0 { "length" } else { "radius" });
+            }
+            LightShape::Cylinder { radius, length, treat_as_line }
+        }
+    };
+    let color = store.vec3_or("color", Vec3::ONE, p);
+    let color_temperature = store.bool_or("enableColorTemperature", false, p).then(|| {
+        let k = store.f32_or("colorTemperature", 6500.0, p);
+        if k > 0.0 {
+            k
+        } else {
+            p.add("colorTemperature", format!("must be positive, got {}; using 6500", k));
+            6500.0
+        }
+    });
+    Some(LightPiece {
+        desc: LightDesc {
+            name: path.into(),
+            shape,
+            transform,
+            color: color.to_array(),
+            intensity: store.f32_or("intensity", 1.0, p),
+            exposure: store.f32_or("exposure", 0.0, p),
+            normalize: store.bool_or("normalize", false, p),
+            color_temperature,
+            visible_to_camera: true,
+        },
+        texture,
+    })
+}
+
+/// A converted camera; shutter in frames, transform samples in frames; `medium` is the path of
+/// the material whose volume the camera starts in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraPiece {
+    pub desc: CameraDesc,
+    pub transforms: Vec<(f64, Mat4)>,
+    pub medium: Option<String>,
+}
+
+/// Converts a camera. Zero or negative apertures / focal length become problems and defaults.
+pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> CameraPiece {
+    let d = CameraDesc::default();
+    let positive = |name: &str, default: f32, p: &mut Problems| {
+        let v = store.f32_or(name, default, p);
+        if v > 0.0 {
+            v
+        } else {
+            p.add(name, format!("must be positive, got {}; using {}", v, default));
+            default
+        }
+    };
+    let projection = match store.token_or("projection", &["perspective", "orthographic"], "perspective", p) {
+        "orthographic" => Projection::Orthographic,
+        _ => Projection::Perspective,
+    };
+    let clipping_range = match store.get("clippingRange").and_then(|v| v.to_f32s()) {
+        Some(c) if c.len() == 2 && c[0] > 0.0 && c[1] > c[0] && c[1].is_finite() => [c[0], c[1]],
+        None => d.clipping_range,
+        Some(c) => {
+            p.add("clippingRange", format!("expected 0 < near < far, got {:?}; using {:?}", c, d.clipping_range));
+            d.clipping_range
+        }
+    };
+    let filter = store.token_or("tide:camera:filter", &["none", "underwaterRed"], "none", p);
+    if filter != "none" {
+        p.add("tide:camera:filter", format!("filter '{}' is not yet supported; ignored", filter));
+    }
+    let shutter_open = store.f32_or("shutter:open", 0.0, p);
+    let mut shutter_close = store.f32_or("shutter:close", 0.0, p);
+    if shutter_close < shutter_open {
+        p.add("shutter:close", format!("close ({}) is before open ({}); using open", shutter_close, shutter_open));
+        shutter_close = shutter_open;
+    }
+    let desc = CameraDesc {
+        name: path.into(),
+        transforms: vec![Mat4::IDENTITY],
+        times: vec![0.0],
+        projection,
+        focal_length: positive("focalLength", d.focal_length, p),
+        horizontal_aperture: positive("horizontalAperture", d.horizontal_aperture, p),
+        vertical_aperture: positive("verticalAperture", d.vertical_aperture, p),
+        horizontal_aperture_offset: store.f32_or("horizontalApertureOffset", 0.0, p),
+        vertical_aperture_offset: store.f32_or("verticalApertureOffset", 0.0, p),
+        clipping_range,
+        f_stop: store.f32_or("fStop", 0.0, p).max(0.0),
+        focus_distance: store.f32_or("focusDistance", 0.0, p).max(0.0),
+        shutter_open,
+        shutter_close,
+        exposure: store.f32_or("exposure", 0.0, p),
+        exposure_f_stop: positive("exposure:fStop", d.exposure_f_stop, p),
+        exposure_time: positive("exposure:time", d.exposure_time, p),
+        exposure_iso: positive("exposure:iso", d.exposure_iso, p),
+        exposure_responsivity: positive("exposure:responsivity", d.exposure_responsivity, p),
+        medium: None,
+    };
+    CameraPiece {
+        desc,
+        transforms: store.matrix_samples("transform", p),
+        medium: store.str_opt("tide:medium").filter(|s| !s.is_empty()).map(String::from),
+    }
+}
+
+/// One UsdRenderVar of a product.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderVarDesc {
+    pub path: String,
+    pub source_name: String,
+    /// The core AOV, when the source name is one.
+    pub aov: Option<tide_core::Aov>,
+}
+
+/// One UsdRenderProduct: an EXR file and its vars.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderProductDesc {
+    pub path: String,
+    pub product_name: String,
+    pub camera: Option<String>,
+    pub resolution: Option<[u32; 2]>,
+    pub vars: Vec<RenderVarDesc>,
+}
+
+/// A converted render settings prim.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingsPiece {
+    pub settings: RenderSettings,
+    /// Whether `resolution` was authored (otherwise the render buffers' size is used).
+    pub resolution_authored: bool,
+    pub camera: Option<String>,
+    pub included_purposes: Vec<String>,
+    pub color_space: ColorSpace,
+    pub time_codes_per_second: f64,
+    pub adaptive_threshold: f32,
+    pub products: Vec<RenderProductDesc>,
+}
+
+impl Default for SettingsPiece {
+    fn default() -> Self {
+        SettingsPiece {
+            settings: RenderSettings::default(),
+            resolution_authored: false,
+            camera: None,
+            included_purposes: vec!["default".into(), "render".into()],
+            color_space: ColorSpace::LinearRec709,
+            time_codes_per_second: 24.0,
+            adaptive_threshold: 0.0,
+            products: Vec::new(),
+        }
+    }
+}
+
+/// Converts a render settings prim. Products and vars are read from attributes prefixed with
+/// their paths: `products` (Paths), `<P>.productName`, `<P>.camera`, `<P>.resolution`,
+/// `<P>.orderedVars` (Paths), `<V>.sourceName`.
+pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
+    let d = SettingsPiece::default();
+    let mut s = d.settings.clone();
+    let mut resolution_authored = false;
+    if let Some(v) = store.get("resolution") {
+        match v.to_ints() {
+            Some(r) if r.len() == 2 && r[0] > 0 && r[1] > 0 => {
+                s.width = r[0] as u32;
+                s.height = r[1] as u32;
+                resolution_authored = true;
+            }
+            _ => p.add("resolution", format!("expected two positive ints; using {}x{}", s.width, s.height)),
+        }
+    }
+    let par = store.f32_or("pixelAspectRatio", 1.0, p);
+    s.pixel_aspect_ratio = if par > 0.0 {
+        par
+    } else {
+        p.add("pixelAspectRatio", "must be positive; using 1");
+        1.0
+    };
+    if let Some(v) = store.get("dataWindowNDC") {
+        match v.to_f32s() {
+            Some(w) if w.len() == 4 && w[2] > w[0] && w[3] > w[1] && w.iter().all(|x| x.is_finite()) => {
+                s.data_window_ndc = [w[0], w[1], w[2], w[3]]
+            }
+            _ => p.add("dataWindowNDC", "expected (xmin, ymin, xmax, ymax) with min < max; using (0, 0, 1, 1)"),
+        }
+    }
+    s.disable_motion_blur = store.bool_or("disableMotionBlur", false, p);
+    s.disable_depth_of_field = store.bool_or("disableDepthOfField", false, p);
+    let integrator = store.token_or("tide:integrator", &["path", "caustics"], "path", p);
+    if integrator == "caustics" {
+        p.add("tide:integrator", "the caustics integrator is not yet available; using path");
+    }
+    s.integrator = IntegratorKind::Path;
+    let nonneg_int = |name: &str, default: i64, p: &mut Problems| {
+        let v = store.i64_or(name, default, p);
+        if v < 0 {
+            p.add(name, format!("must not be negative; using {}", default));
+            default
+        } else {
+            v
+        }
+    };
+    s.spp = nonneg_int("tide:samples", 64, p).min(u32::MAX as i64) as u32;
+    s.max_depth = nonneg_int("tide:maxDepth", 64, p).min(u32::MAX as i64) as u32;
+    s.seed = nonneg_int("tide:seed", 0, p) as u64;
+    s.time_budget_s = store.f32_or("tide:time:budget", 0.0, p).max(0.0);
+    let adaptive_threshold = store.f32_or("tide:adaptive:threshold", 0.0, p);
+    if adaptive_threshold > 0.0 {
+        p.add("tide:adaptive:threshold", "adaptive sampling is not yet available; every pixel gets the full sample count");
+    }
+    let included_purposes = store.get("includedPurposes").and_then(|v| v.to_strings()).unwrap_or(d.included_purposes);
+    let color_space = match store.str_opt("renderingColorSpace") {
+        None | Some("") => ColorSpace::LinearRec709,
+        Some(c) => {
+            let l = c.to_ascii_lowercase();
+            if l.contains("acescg") || l.contains("ap1") {
+                ColorSpace::AcesCg
+            } else if l.contains("709") || l.contains("srgb") {
+                ColorSpace::LinearRec709
+            } else {
+                p.add("renderingColorSpace", format!("unknown colour space '{}'; using linear Rec.709", c));
+                ColorSpace::LinearRec709
+            }
+        }
+    };
+    let tcps = store.f32_or("timeCodesPerSecond", 24.0, p) as f64;
+    let time_codes_per_second = if tcps > 0.0 {
+        tcps
+    } else {
+        p.add("timeCodesPerSecond", "must be positive; using 24");
+        24.0
+    };
+    let mut products = Vec::new();
+    for prod in store.get("products").and_then(|v| v.to_strings()).unwrap_or_default() {
+        let get = |n: &str| store.get(&format!("{}.{}", prod, n));
+        let vars = get("orderedVars")
+            .and_then(|v| v.to_strings())
+            .unwrap_or_default()
+            .into_iter()
+            .map(|var| {
+                let source_name = store.str_opt(&format!("{}.sourceName", var)).unwrap_or("").to_string();
+                let aov = tide_core::Aov::from_source_name(&source_name);
+                if aov.is_none() {
+                    p.add(&format!("{}.sourceName", var), format!("unknown AOV '{}'; the var is skipped", source_name));
+                }
+                RenderVarDesc { path: var, source_name, aov }
+            })
+            .collect();
+        products.push(RenderProductDesc {
+            product_name: get("productName").and_then(|v| v.as_str()).unwrap_or("").to_string(),
+            camera: get("camera").and_then(|v| v.as_str()).map(String::from),
+            resolution: get("resolution").and_then(|v| v.to_ints()).filter(|r| r.len() == 2 && r[0] > 0 && r[1] > 0).map(|r| [r[0] as u32, r[1] as u32]),
+            vars,
+            path: prod,
+        });
+    }
+    SettingsPiece {
+        settings: s,
+        resolution_authored,
+        camera: store.str_opt("camera").filter(|c| !c.is_empty()).map(String::from),
+        included_purposes,
+        color_space,
+        time_codes_per_second,
+        adaptive_threshold,
+        products,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::{normalize_name, Attr, Value};
+
+    fn st(pairs: &[(&str, Value)]) -> AttrStore {
+        let mut s = AttrStore::default();
+        for (n, v) in pairs {
+            s.attrs.insert(normalize_name(n).to_string(), Attr { value: Some(v.clone()), samples: vec![] });
+        }
+        s
+    }
+    fn f(x: f64) -> Value {
+        Value::Float(x)
+    }
+
+    #[test]
+    fn lights_convert_with_usd_names_and_zero_area_is_dropped() {
+        let mut p = Problems::new("/L");
+        let rect = convert_light(
+            "/L",
+            LightKind::Rect,
+            &st(&[("inputs:width", f(2.0)), ("inputs:height", f(0.5)), ("inputs:intensity", f(10.0)), ("inputs:exposure", f(1.0)), ("inputs:color", Value::Floats { data: vec![1.0, 0.5, 0.25], tuple: 3 }), ("inputs:normalize", Value::Bool(true))]),
+            &mut p,
+        )
+        .unwrap();
+        assert_eq!(rect.desc.shape, LightShape::Rect { width: 2.0, height: 0.5, texture: None });
+        assert_eq!((rect.desc.intensity, rect.desc.exposure, rect.desc.color, rect.desc.normalize), (10.0, 1.0, [1.0, 0.5, 0.25], true));
+        let sun = convert_light("/S", LightKind::Distant, &st(&[("inputs:angle", f(1.0)), ("inputs:enableColorTemperature", Value::Bool(true)), ("inputs:colorTemperature", f(5000.0))]), &mut p).unwrap();
+        assert_eq!(sun.desc.shape, LightShape::Distant { angle_deg: 1.0 });
+        assert_eq!(sun.desc.color_temperature, Some(5000.0));
+        let sph = convert_light("/P", LightKind::Sphere, &st(&[("inputs:radius", f(0.1)), ("treatAsPoint", Value::Bool(true))]), &mut p).unwrap();
+        assert_eq!(sph.desc.shape, LightShape::Sphere { radius: 0.1, treat_as_point: true });
+        let dome = convert_light("/D", LightKind::Dome, &st(&[("inputs:texture:file", Value::Asset("/sky.exr".into()))]), &mut p).unwrap();
+        assert_eq!(dome.texture.unwrap().asset, "/sky.exr");
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert!(convert_light("/Z", LightKind::Disk, &st(&[("inputs:radius", f(0.0))]), &mut p).is_none());
+        assert_eq!(p.list.len(), 1);
+        assert_eq!(p.list[0].attribute, "radius");
+    }
+
+    #[test]
+    fn camera_keeps_usd_units_and_rejects_zero_aperture() {
+        let mut p = Problems::new("/cam");
+        let c = convert_camera(
+            "/cam",
+            &st(&[
+                ("focalLength", f(35.0)),
+                ("horizontalAperture", f(36.0)),
+                ("verticalAperture", f(0.0)),
+                ("fStop", f(2.8)),
+                ("focusDistance", f(5.0)),
+                ("clippingRange", Value::Floats { data: vec![0.1, 100.0], tuple: 2 }),
+                ("shutter:open", f(-0.25)),
+                ("shutter:close", f(0.25)),
+                ("projection", Value::Token("orthographic".into())),
+                ("tide:medium", Value::Path("/Looks/Sea".into())),
+            ]),
+            &mut p,
+        );
+        assert_eq!((c.desc.focal_length, c.desc.horizontal_aperture), (35.0, 36.0));
+        assert_eq!(c.desc.vertical_aperture, CameraDesc::default().vertical_aperture);
+        assert_eq!((c.desc.f_stop, c.desc.focus_distance, c.desc.clipping_range), (2.8, 5.0, [0.1, 100.0]));
+        assert_eq!((c.desc.shutter_open, c.desc.shutter_close, c.desc.projection), (-0.25, 0.25, Projection::Orthographic));
+        assert_eq!(c.medium.as_deref(), Some("/Looks/Sea"));
+        assert_eq!(p.list.len(), 1);
+        assert_eq!((p.list[0].item.as_str(), p.list[0].attribute.as_str()), ("/cam", "verticalAperture"));
+    }
+
+    #[test]
+    fn render_settings_and_products() {
+        let mut p = Problems::new("/Render/S");
+        let s = convert_settings(
+            &st(&[
+                ("resolution", Value::Ints(vec![320, 240])),
+                ("tide:samples", Value::Int(16)),
+                ("tide:maxDepth", Value::Int(8)),
+                ("tide:seed", Value::Int(7)),
+                ("tide:time:budget", f(2.0)),
+                ("disableMotionBlur", Value::Bool(true)),
+                ("camera", Value::Path("/cam".into())),
+                ("renderingColorSpace", Value::Token("ACEScg".into())),
+                ("products", Value::Paths(vec!["/Render/P".into()])),
+                ("/Render/P.productName", Value::String("out.exr".into())),
+                ("/Render/P.orderedVars", Value::Paths(vec!["/Render/P/color".into(), "/Render/P/depth".into()])),
+                ("/Render/P/color.sourceName", Value::String("color".into())),
+                ("/Render/P/depth.sourceName", Value::String("depth".into())),
+            ]),
+            &mut p,
+        );
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert_eq!((s.settings.width, s.settings.height, s.settings.spp, s.settings.max_depth, s.settings.seed), (320, 240, 16, 8, 7));
+        assert!(s.settings.disable_motion_blur && s.resolution_authored);
+        assert_eq!((s.settings.time_budget_s, s.color_space, s.camera.as_deref()), (2.0, ColorSpace::AcesCg, Some("/cam")));
+        assert_eq!(s.products[0].product_name, "out.exr");
+        let aovs: Vec<_> = s.products[0].vars.iter().map(|v| v.aov).collect();
+        assert_eq!(aovs, vec![Some(tide_core::Aov::Color), Some(tide_core::Aov::Depth)]);
+    }
+}

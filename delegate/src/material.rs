@@ -1,0 +1,567 @@
+//! Material networks → [`MaterialDesc`] (+ the interior [`MediumDesc`]).
+//!
+//! A material prim carries `surface` / `volume` (paths of the terminal nodes) and, per node N,
+//! `N.info:id`, `N.<input>` values and `N.<input>.connect` = `"<node>.<output>"` tokens.
+//! Supported nodes: `UsdPreviewSurface` (every input), `UsdUVTexture` (file, st, wrapS/T,
+//! fallback, scale, bias, sourceColorSpace, outputs rgb/r/g/b/a), `UsdPrimvarReader_float2`,
+//! `UsdTransform2d`, `TideWater`, `TideMedium`. An unknown surface id gives the default material
+//! (grey diffuse 0.18) and a problem.
+//!
+//! Textures are referred to by [`TexKey`] (asset + wrap modes + whether to linearise) in a list
+//! local to the material; the scene assembly maps them to `SceneDesc::textures` indices.
+
+use crate::value::{normalize_name, AttrStore, Problems, Value};
+use glam::Vec2;
+use std::collections::BTreeMap;
+use tide_core::scene::{
+    Channel, ColorInput, FloatInput, MaterialDesc, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
+    SurfaceModel, TexLookup, WaterDesc, Wrap,
+};
+
+/// The default material: grey diffuse 0.18.
+pub fn default_material(name: &str) -> MaterialDesc {
+    MaterialDesc { name: name.into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None }
+}
+
+/// A texture as a material uses it.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TexKey {
+    pub asset: String,
+    pub wrap_s: WrapKey,
+    pub wrap_t: WrapKey,
+    /// Apply the sRGB decoding curve to the colour channels.
+    pub linearize: bool,
+}
+
+/// `Wrap` with an ordering, for use in keys.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum WrapKey {
+    Repeat,
+    Mirror,
+    Clamp,
+    Black,
+}
+
+impl WrapKey {
+    pub fn wrap(self) -> Wrap {
+        match self {
+            WrapKey::Repeat => Wrap::Repeat,
+            WrapKey::Mirror => Wrap::Mirror,
+            WrapKey::Clamp => Wrap::Clamp,
+            WrapKey::Black => Wrap::Black,
+        }
+    }
+}
+
+/// What the delegate knows of a texture file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TexState {
+    /// Decoded pixels as the file holds them; `is_srgb`: the file's colour space is sRGB.
+    Loaded { width: u32, height: u32, channels: u32, pixels: std::sync::Arc<Vec<f32>>, is_srgb: bool },
+    Failed(String),
+}
+
+/// A converted material: texture indices in `desc` refer to `textures`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialPiece {
+    pub desc: MaterialDesc,
+    pub medium: Option<MediumDesc>,
+    pub textures: Vec<TexKey>,
+}
+
+#[derive(Default, Debug)]
+struct Node {
+    id: Option<String>,
+    inputs: BTreeMap<String, Value>,
+    connects: BTreeMap<String, (String, String)>,
+}
+
+/// Splits `"/a/b.outputs:rgb"` into (`/a/b`, `rgb`).
+fn split_target(s: &str) -> (String, String) {
+    match s.find('.') {
+        Some(i) => (s[..i].to_string(), s[i + 1..].strip_prefix("outputs:").unwrap_or(&s[i + 1..]).to_string()),
+        None => (s.to_string(), String::new()),
+    }
+}
+
+fn parse_nodes(store: &AttrStore) -> BTreeMap<String, Node> {
+    let mut nodes: BTreeMap<String, Node> = BTreeMap::new();
+    for (key, attr) in &store.attrs {
+        if !key.starts_with('/') {
+            continue;
+        }
+        let Some(dot) = key.find('.') else { continue };
+        let (node, rest) = (&key[..dot], &key[dot + 1..]);
+        let Some(v) = attr.current() else { continue };
+        let n = nodes.entry(node.to_string()).or_default();
+        if rest == "info:id" {
+            n.id = v.as_str().map(String::from);
+        } else if let Some(input) = rest.strip_suffix(".connect") {
+            if let Some(t) = v.as_str() {
+                n.connects.insert(normalize_name(input).to_string(), split_target(t));
+            }
+        } else {
+            n.inputs.insert(normalize_name(rest).to_string(), v.clone());
+        }
+    }
+    nodes
+}
+
+struct Ctx<'a> {
+    nodes: &'a BTreeMap<String, Node>,
+    textures: &'a dyn Fn(&str) -> Option<TexState>,
+    used: Vec<TexKey>,
+    p: Problems<'a>,
+}
+
+impl Ctx<'_> {
+    fn input_f32(&mut self, node: &str, name: &str, default: f32) -> f32 {
+        match self.nodes[node].inputs.get(name) {
+            None => default,
+            Some(v) => match v.as_f64() {
+                Some(x) if x.is_finite() => x as f32,
+                _ => {
+                    self.p.add(&format!("{}.inputs:{}", node, name), format!("expected a finite number, got {}; using {}", v.kind(), default));
+                    default
+                }
+            },
+        }
+    }
+
+    fn input_vec<const N: usize>(&mut self, node: &str, name: &str, default: [f32; N]) -> [f32; N] {
+        match self.nodes[node].inputs.get(name) {
+            None => default,
+            Some(v) => match v.to_f32s() {
+                Some(x) if x.len() == N && x.iter().all(|c| c.is_finite()) => std::array::from_fn(|i| x[i]),
+                Some(x) if x.len() == 1 && x[0].is_finite() => [x[0]; N],
+                _ => {
+                    self.p.add(&format!("{}.inputs:{}", node, name), format!("expected {} finite numbers, got {}; using {:?}", N, v.kind(), default));
+                    default
+                }
+            },
+        }
+    }
+
+    fn input_token<'s>(&mut self, node: &str, name: &str, allowed: &[&'s str], default: &'s str) -> &'s str {
+        match self.nodes[node].inputs.get(name).and_then(|v| v.as_str()) {
+            None => default,
+            Some("") => default,
+            Some(s) => match allowed.iter().find(|a| **a == s) {
+                Some(a) => a,
+                None => {
+                    self.p.add(&format!("{}.inputs:{}", node, name), format!("unknown token '{}' (expected one of {}); using '{}'", s, allowed.join(", "), default));
+                    default
+                }
+            },
+        }
+    }
+
+    fn node_id(&self, node: &str) -> Option<&str> {
+        self.nodes.get(node).and_then(|n| n.id.as_deref())
+    }
+
+    /// Resolves a connection of `node.input` to a UsdUVTexture; `None` if not connected or
+    /// unusable (a problem is recorded and the caller uses its constant).
+    fn texture_input(&mut self, node: &str, input: &str) -> Option<Result<TexLookup, [f32; 4]>> {
+        let (up, output) = self.nodes[node].connects.get(input)?.clone();
+        let attr = format!("{}.inputs:{}", node, input);
+        if !self.nodes.contains_key(&up) {
+            self.p.add(&attr, format!("connected to '{}', which is not a node of this material; using the constant value", up));
+            return None;
+        }
+        if self.node_id(&up) != Some("UsdUVTexture") {
+            self.p.add(&attr, format!("connected to a '{}' node; only UsdUVTexture outputs are supported here; using the constant value", self.node_id(&up).unwrap_or("")));
+            return None;
+        }
+        let channel = match output.as_str() {
+            "rgb" => Channel::Rgb,
+            "r" => Channel::R,
+            "g" => Channel::G,
+            "b" => Channel::B,
+            "a" => Channel::A,
+            other => {
+                self.p.add(&attr, format!("unknown UsdUVTexture output '{}'; using the constant value", other));
+                return None;
+            }
+        };
+        Some(self.uv_texture(&up, channel))
+    }
+
+    /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
+    fn uv_texture(&mut self, tex: &str, channel: Channel) -> Result<TexLookup, [f32; 4]> {
+        let wraps = ["repeat", "mirror", "clamp", "black", "useMetadata"];
+        let wrap = |s: &str| match s {
+            "mirror" => WrapKey::Mirror,
+            "clamp" => WrapKey::Clamp,
+            "black" => WrapKey::Black,
+            _ => WrapKey::Repeat,
+        };
+        let wrap_s = wrap(self.input_token(tex, "wrapS", &wraps, "useMetadata"));
+        let wrap_t = wrap(self.input_token(tex, "wrapT", &wraps, "useMetadata"));
+        let fallback = self.input_vec(tex, "fallback", [0.0, 0.0, 0.0, 1.0]);
+        let tex_scale = self.input_vec(tex, "scale", [1.0; 4]);
+        let bias = self.input_vec(tex, "bias", [0.0; 4]);
+        let cs = self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto");
+        let (scale, rotation_deg, translation) = self.st_transform(tex);
+        let file_attr = format!("{}.inputs:file", tex);
+        let Some(asset) = self.nodes[tex].inputs.get("file").and_then(|v| v.as_str()).map(String::from) else {
+            self.p.add(&file_attr, "no texture file; using the fallback value");
+            return Err(fallback);
+        };
+        if asset.is_empty() {
+            return Err(fallback);
+        }
+        let linearize = match (self.textures)(&asset) {
+            None => {
+                self.p.add(&file_attr, format!("texture '{}' was not provided; using the fallback value", asset));
+                return Err(fallback);
+            }
+            Some(TexState::Failed(msg)) => {
+                self.p.add(&file_attr, format!("texture '{}' could not be read ({}); using the fallback value", asset, msg));
+                return Err(fallback);
+            }
+            Some(TexState::Loaded { is_srgb, .. }) => cs == "sRGB" || (cs == "auto" && is_srgb),
+        };
+        let key = TexKey { asset, wrap_s, wrap_t, linearize };
+        let texture = match self.used.iter().position(|k| *k == key) {
+            Some(i) => i,
+            None => {
+                self.used.push(key);
+                self.used.len() - 1
+            }
+        };
+        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback })
+    }
+
+    /// The `st` input of a texture: a primvar reader, optionally through UsdTransform2d.
+    fn st_transform(&mut self, tex: &str) -> (Vec2, f32, Vec2) {
+        let mut scale = Vec2::ONE;
+        let mut rot = 0.0;
+        let mut trans = Vec2::ZERO;
+        let Some((mut up, _)) = self.nodes[tex].connects.get("st").cloned() else { return (scale, rot, trans) };
+        if self.node_id(&up) == Some("UsdTransform2d") {
+            let s = self.input_vec(&up, "scale", [1.0, 1.0]);
+            let t = self.input_vec(&up, "translation", [0.0, 0.0]);
+            scale = Vec2::from(s);
+            trans = Vec2::from(t);
+            rot = self.input_f32(&up, "rotation", 0.0);
+            match self.nodes[&up].connects.get("in").cloned() {
+                Some((u, _)) => up = u,
+                None => return (scale, rot, trans),
+            }
+        }
+        match self.node_id(&up) {
+            Some(id) if id.starts_with("UsdPrimvarReader_") => {
+                let var = self.nodes[&up].inputs.get("varname").and_then(|v| v.as_str()).unwrap_or("st").to_string();
+                if !["st", "st0", "uv", ""].contains(&var.as_str()) {
+                    self.p.add(&format!("{}.inputs:varname", up), format!("reads primvar '{}'; only the mesh's st (st0, uv) texture coordinates are available, which are used instead", var));
+                }
+            }
+            other => {
+                self.p.add(&format!("{}.inputs:st", tex), format!("st comes from a '{}' node; using the mesh's st", other.unwrap_or("unknown")));
+            }
+        }
+        (scale, rot, trans)
+    }
+
+    fn color(&mut self, node: &str, name: &str, default: [f32; 3]) -> ColorInput {
+        let c = self.input_vec(node, name, default);
+        match self.texture_input(node, name) {
+            None => ColorInput::Const(c),
+            Some(Ok(t)) => ColorInput::Texture(t),
+            Some(Err(fb)) => ColorInput::Const([fb[0], fb[1], fb[2]]),
+        }
+    }
+
+    fn float(&mut self, node: &str, name: &str, default: f32) -> FloatInput {
+        let c = self.input_f32(node, name, default);
+        match self.texture_input(node, name) {
+            None => FloatInput::Const(c),
+            Some(Ok(mut t)) => {
+                if t.channel == Channel::Rgb {
+                    t.channel = Channel::R;
+                }
+                FloatInput::Texture(t)
+            }
+            Some(Err(fb)) => FloatInput::Const(fb[0]),
+        }
+    }
+
+    fn preview(&mut self, n: &str) -> PreviewSurfaceDesc {
+        let d = PreviewSurfaceDesc::default();
+        let normal = match self.texture_input(n, "normal") {
+            Some(Ok(mut t)) => {
+                t.channel = Channel::Rgb;
+                Some(t)
+            }
+            _ => None,
+        };
+        if self.nodes[n].connects.contains_key("displacement") || self.nodes[n].inputs.contains_key("displacement") {
+            self.p.add(&format!("{}.inputs:displacement", n), "displacement is not supported; ignored");
+        }
+        PreviewSurfaceDesc {
+            diffuse_color: self.color(n, "diffuseColor", [0.18; 3]),
+            emissive_color: self.color(n, "emissiveColor", [0.0; 3]),
+            use_specular_workflow: self.input_f32(n, "useSpecularWorkflow", 0.0) != 0.0,
+            specular_color: self.color(n, "specularColor", [0.0; 3]),
+            metallic: self.float(n, "metallic", 0.0),
+            roughness: self.float(n, "roughness", 0.5),
+            clearcoat: self.float(n, "clearcoat", 0.0),
+            clearcoat_roughness: self.float(n, "clearcoatRoughness", 0.01),
+            opacity: self.float(n, "opacity", 1.0),
+            opacity_threshold: self.input_f32(n, "opacityThreshold", d.opacity_threshold),
+            ior: self.input_f32(n, "ior", d.ior),
+            normal,
+        }
+    }
+
+    fn water(&mut self, n: &str) -> WaterDesc {
+        let d = WaterDesc::default();
+        let model = self.input_token(n, "surfaceModel", &["dielectric", "sea"], "dielectric");
+        WaterDesc {
+            ior: self.input_f32(n, "ior", d.ior),
+            dispersion: self.nodes[n].inputs.get("dispersion").and_then(|v| v.as_bool()).unwrap_or(false),
+            temperature: self.input_f32(n, "temperature", d.temperature),
+            salinity: self.input_f32(n, "salinity", d.salinity),
+            roughness: self.input_f32(n, "roughness", d.roughness),
+            surface_model: if model == "sea" { SurfaceModel::Sea } else { SurfaceModel::Dielectric },
+            wind_speed: self.input_f32(n, "windSpeed", d.wind_speed),
+            wind_direction: self.input_f32(n, "windDirection", d.wind_direction),
+            priority: self.input_f32(n, "priority", 0.0) as i32,
+        }
+    }
+
+    fn medium(&mut self, n: &str, name: &str) -> MediumDesc {
+        let sa = self.input_vec(n, "absorption", [0.0; 3]);
+        let ss = self.input_vec(n, "scattering", [0.0; 3]);
+        let scale = self.input_f32(n, "densityScale", 1.0);
+        let phase = match self.input_token(n, "phase", &["hg", "dualHG", "fournierForand", "petzold"], "hg") {
+            "dualHG" => PhaseDesc::DualHg {
+                g1: self.input_f32(n, "g", 0.0),
+                g2: self.input_f32(n, "g2", -0.3),
+                w: self.input_f32(n, "lobeMix", 0.9),
+            },
+            "hg" => PhaseDesc::HenyeyGreenstein { g: self.input_f32(n, "g", 0.0) },
+            other => {
+                self.p.add(&format!("{}.inputs:phase", n), format!("phase '{}' is not yet supported; using hg with g", other));
+                PhaseDesc::HenyeyGreenstein { g: self.input_f32(n, "g", 0.0) }
+            }
+        };
+        let pending = [
+            "jerlovType",
+            "jerlovSource",
+            "molecularWeight",
+            "chlorophyll",
+            "cdom",
+            "spm",
+            "profileDepth",
+            "profileWidth",
+            "profilePeak",
+        ];
+        for a in pending {
+            let authored = match self.nodes[n].inputs.get(a) {
+                None => false,
+                Some(v) => match v.as_str() {
+                    Some(s) => !s.is_empty() && !(a == "jerlovSource" && s == "williamson2022"),
+                    None => v.as_f64().is_some_and(|x| x != 0.0),
+                },
+            };
+            if authored {
+                self.p.add(&format!("{}.inputs:{}", n, a), "not yet supported; stored and ignored (absorption/scattering are used)");
+            }
+        }
+        let check = |c: [f32; 3]| c.iter().all(|x| *x >= 0.0);
+        let (sa, ss) = if check(sa) && check(ss) && scale >= 0.0 {
+            (sa, ss)
+        } else {
+            self.p.add(&format!("{}.inputs:absorption", n), "negative coefficients; the medium is treated as empty");
+            ([0.0; 3], [0.0; 3])
+        };
+        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase }
+    }
+}
+
+/// The node path of a terminal attribute (`surface`, `volume`), accepting `"/N.outputs:x"`.
+fn terminal(store: &AttrStore, name: &str) -> Option<String> {
+    let s = store.str_opt(name)?;
+    let (node, _) = split_target(s);
+    (!node.is_empty()).then_some(node)
+}
+
+/// Converts a material prim. `textures` answers what is known of an asset path.
+pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -> Option<TexState>, problems: &mut Problems) -> MaterialPiece {
+    let nodes = parse_nodes(store);
+    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item) };
+    let mut desc = default_material(path);
+    let surf = terminal(store, "surface");
+    let vol = terminal(store, "volume");
+    match &surf {
+        None => {
+            if vol.is_none() {
+                ctx.p.add("surface", "the material has no surface or volume terminal; using the default material");
+            }
+        }
+        Some(s) if !nodes.contains_key(s) => {
+            ctx.p.add("surface", format!("terminal node '{}' has no attributes; using the default material", s));
+        }
+        Some(s) => match ctx.node_id(s) {
+            Some("UsdPreviewSurface") => desc.surface = SurfaceDesc::Preview(ctx.preview(s)),
+            Some("TideWater") => desc.surface = SurfaceDesc::Water(ctx.water(s)),
+            other => {
+                ctx.p.add(&format!("{}.info:id", s), format!("unknown shader id '{}'; using the default material", other.unwrap_or("")));
+            }
+        },
+    }
+    let mut medium = None;
+    if let Some(v) = &vol {
+        match ctx.node_id(v) {
+            Some("TideMedium") => medium = Some(ctx.medium(v, path)),
+            other => ctx.p.add(&format!("{}.info:id", v), format!("unknown volume shader id '{}'; the interior is left empty", other.unwrap_or(""))),
+        }
+    }
+    problems.list.extend(ctx.p.list);
+    MaterialPiece { desc, medium, textures: ctx.used }
+}
+
+/// Rewrites texture indices of a material (local list → scene list).
+pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
+    let fix = |t: &mut TexLookup| t.texture = map[t.texture];
+    let col = |c: &mut ColorInput| {
+        if let ColorInput::Texture(t) = c {
+            fix(t)
+        }
+    };
+    let flt = |c: &mut FloatInput| {
+        if let FloatInput::Texture(t) = c {
+            fix(t)
+        }
+    };
+    match &mut desc.surface {
+        SurfaceDesc::Diffuse { color } => col(color),
+        SurfaceDesc::Preview(p) => {
+            col(&mut p.diffuse_color);
+            col(&mut p.emissive_color);
+            col(&mut p.specular_color);
+            for f in [&mut p.metallic, &mut p.roughness, &mut p.clearcoat, &mut p.clearcoat_roughness, &mut p.opacity] {
+                flt(f);
+            }
+            if let Some(n) = &mut p.normal {
+                fix(n);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::Attr;
+
+    fn mat(pairs: &[(&str, Value)]) -> AttrStore {
+        let mut s = AttrStore::default();
+        for (n, v) in pairs {
+            s.attrs.insert(normalize_name(n).to_string(), Attr { value: Some(v.clone()), samples: vec![] });
+        }
+        s
+    }
+    fn tok(s: &str) -> Value {
+        Value::Token(s.into())
+    }
+    fn loaded(srgb: bool) -> impl Fn(&str) -> Option<TexState> {
+        move |a: &str| {
+            (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 2, height: 2, channels: 3, pixels: Default::default(), is_srgb: srgb })
+        }
+    }
+
+    #[test]
+    fn preview_surface_with_texture_connection_through_transform2d() {
+        let s = mat(&[
+            ("surface", Value::Path("/M/PBR.outputs:surface".into())),
+            ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+            ("/M/PBR.inputs:diffuseColor.connect", tok("/M/Tex.outputs:rgb")),
+            ("/M/PBR.inputs:roughness", Value::Float(0.25)),
+            ("/M/PBR.inputs:metallic.connect", tok("/M/Tex.outputs:a")),
+            ("/M/PBR.inputs:ior", Value::Float(1.4)),
+            ("/M/Tex.info:id", tok("UsdUVTexture")),
+            ("/M/Tex.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Tex.inputs:wrapS", tok("clamp")),
+            ("/M/Tex.inputs:scale", Value::Floats { data: vec![2.0, 2.0, 2.0, 1.0], tuple: 4 }),
+            ("/M/Tex.inputs:st.connect", tok("/M/Xf.outputs:result")),
+            ("/M/Xf.info:id", tok("UsdTransform2d")),
+            ("/M/Xf.inputs:rotation", Value::Float(90.0)),
+            ("/M/Xf.inputs:scale", Value::Floats { data: vec![3.0, 4.0], tuple: 2 }),
+            ("/M/Xf.inputs:in.connect", tok("/M/Uv.outputs:result")),
+            ("/M/Uv.info:id", tok("UsdPrimvarReader_float2")),
+            ("/M/Uv.inputs:varname", tok("st")),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(true), &mut p);
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, linearize: true }]);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+        assert_eq!((t.texture, t.channel, t.rotation_deg, t.scale), (0, Channel::Rgb, 90.0, Vec2::new(3.0, 4.0)));
+        assert_eq!(t.tex_scale, [2.0, 2.0, 2.0, 1.0]);
+        let FloatInput::Texture(tm) = &ps.metallic else { panic!() };
+        assert_eq!((tm.texture, tm.channel), (0, Channel::A));
+        assert_eq!(ps.roughness, FloatInput::Const(0.25));
+        assert_eq!(ps.ior, 1.4);
+    }
+
+    #[test]
+    fn unknown_shader_id_gives_default_material_and_problem() {
+        let s = mat(&[("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok("ND_standard_surface"))]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        assert_eq!(m.desc, default_material("/M"));
+        assert_eq!(p.list.len(), 1);
+        assert_eq!((p.list[0].item.as_str(), p.list[0].attribute.as_str()), ("/M", "/M/S.info:id"));
+    }
+
+    #[test]
+    fn missing_texture_uses_fallback_with_problem() {
+        let s = mat(&[
+            ("surface", Value::Path("/M/PBR".into())),
+            ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+            ("/M/PBR.inputs:diffuseColor.connect", tok("/M/Tex.outputs:rgb")),
+            ("/M/Tex.info:id", tok("UsdUVTexture")),
+            ("/M/Tex.inputs:file", Value::Asset("/tex/missing.png".into())),
+            ("/M/Tex.inputs:fallback", Value::Floats { data: vec![0.5, 0.25, 0.125, 1.0], tuple: 4 }),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert_eq!(ps.diffuse_color, ColorInput::Const([0.5, 0.25, 0.125]));
+        assert_eq!(p.list[0].attribute, "/M/Tex.inputs:file");
+    }
+
+    #[test]
+    fn water_and_medium() {
+        let s = mat(&[
+            ("surface", Value::Path("/W/Water".into())),
+            ("volume", Value::Path("/W/Med.outputs:volume".into())),
+            ("/W/Water.info:id", tok("TideWater")),
+            ("/W/Water.inputs:ior", Value::Float(1.34)),
+            ("/W/Water.inputs:surfaceModel", tok("sea")),
+            ("/W/Water.inputs:windSpeed", Value::Float(7.0)),
+            ("/W/Water.inputs:priority", Value::Int(2)),
+            ("/W/Water.inputs:dispersion", Value::Bool(true)),
+            ("/W/Med.info:id", tok("TideMedium")),
+            ("/W/Med.inputs:absorption", Value::Floats { data: vec![0.4, 0.05, 0.02], tuple: 3 }),
+            ("/W/Med.inputs:phase", tok("dualHG")),
+            ("/W/Med.inputs:g", Value::Float(0.9)),
+            ("/W/Med.inputs:jerlovType", tok("IB")),
+        ]);
+        let mut p = Problems::new("/W");
+        let m = convert_material("/W", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Water(w) = &m.desc.surface else { panic!() };
+        assert_eq!((w.ior, w.surface_model, w.wind_speed, w.priority, w.dispersion), (1.34, SurfaceModel::Sea, 7.0, 2, true));
+        let med = m.medium.unwrap();
+        assert_eq!(med.sigma_a, SpectrumDesc::Rgb([0.4, 0.05, 0.02]));
+        assert_eq!(med.phase, PhaseDesc::DualHg { g1: 0.9, g2: -0.3, w: 0.9 });
+        assert_eq!(p.list.len(), 1);
+        assert_eq!(p.list[0].attribute, "/W/Med.inputs:jerlovType");
+        assert!(p.list[0].message.contains("not yet supported"));
+    }
+}

@@ -1,0 +1,561 @@
+//! UsdGeomMesh → [`MeshDesc`]: validation of the topology (bad faces are dropped with a
+//! problem), polygon triangulation by ear clipping on each polygon's best-fit plane, holes,
+//! `orientation`, and primvar expansion (every interpolation, indexed or not) to per-vertex
+//! arrays of the triangulated mesh, unwelding vertices where uniform/faceVarying data needs it.
+//!
+//! Subdivision surfaces (`catmullClark`, `loop`, `bilinear`) are rendered as their control
+//! cage, flat (no refinement).
+//!
+//! Authored normals are taken as USD states them: they point to the front side of the surface.
+//! `leftHanded` reverses the triangle winding so the core's right-handed geometric normal
+//! agrees with USD's front side; the authored normals already describe that side and are
+//! therefore kept as they are (they are the "flipped" normals of a left-handed mesh).
+
+use crate::value::{AttrStore, Interpolation, Primvar, Problems};
+use glam::{Vec2, Vec3};
+use tide_core::scene::MeshDesc;
+
+/// Triangulates one simple polygon (possibly concave) given its corner positions. Returns
+/// corner triples (indices into `poly`) in the polygon's own winding. Ear clipping is done in
+/// the polygon's best-fit plane (Newell normal); a degenerate polygon (no area) is fanned.
+pub fn triangulate_polygon(poly: &[Vec3], out: &mut Vec<[u32; 3]>) {
+    let n = poly.len();
+    if n < 3 {
+        return;
+    }
+    if n == 3 {
+        out.push([0, 1, 2]);
+        return;
+    }
+    // Newell's normal: robust best-fit plane normal, oriented by the winding.
+    let mut normal = Vec3::ZERO;
+    for i in 0..n {
+        let a = poly[i];
+        let b = poly[(i + 1) % n];
+        normal += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
+    }
+    let len = normal.length();
+    if len <= 0.0 || !len.is_finite() {
+        fan(n, out);
+        return;
+    }
+    let nz = normal / len;
+    let (u, v) = nz.any_orthonormal_pair();
+    // (u, v, nz) is right-handed, so the polygon is counter-clockwise in (u, v).
+    let center = poly.iter().copied().sum::<Vec3>() / n as f32;
+    let p2: Vec<Vec2> = poly.iter().map(|&p| Vec2::new((p - center).dot(u), (p - center).dot(v))).collect();
+    let scale = p2.iter().fold(0.0f32, |m, p| m.max(p.abs().max_element())).max(f32::MIN_POSITIVE);
+    // Relative tolerance on doubled triangle areas (f32 round-off of coordinates ~ 1e-7 · scale).
+    let eps = 1e-6 * scale * scale;
+
+    let cross = |a: Vec2, b: Vec2, c: Vec2| (b - a).perp_dot(c - a);
+    // Only reflex (or flat) corners can lie inside an ear, and clipping ears never turns a
+    // convex corner reflex, so the initial reflex set is a sufficient list of blockers.
+    let blockers: Vec<usize> = (0..n).filter(|&i| cross(p2[(i + n - 1) % n], p2[i], p2[(i + 1) % n]) <= eps).collect();
+    if blockers.is_empty() {
+        fan(n, out); // convex
+        return;
+    }
+    let mut alive = vec![true; n];
+    let mut remaining: Vec<usize> = (0..n).collect();
+    let mut k = 0usize;
+    while remaining.len() > 3 {
+        let m = remaining.len();
+        let mut clipped = false;
+        for step in 0..m {
+            let kk = (k + step) % m;
+            let ia = remaining[(kk + m - 1) % m];
+            let ib = remaining[kk];
+            let ic = remaining[(kk + 1) % m];
+            let (a, b, c) = (p2[ia], p2[ib], p2[ic]);
+            if cross(a, b, c) <= eps {
+                continue; // reflex or degenerate corner
+            }
+            let blocked = blockers.iter().any(|&j| {
+                if !alive[j] || j == ia || j == ib || j == ic {
+                    return false;
+                }
+                let p = p2[j];
+                if p == a || p == b || p == c {
+                    return false;
+                }
+                cross(a, b, p) >= -eps && cross(b, c, p) >= -eps && cross(c, a, p) >= -eps
+            });
+            if blocked {
+                continue;
+            }
+            out.push([ia as u32, ib as u32, ic as u32]);
+            remaining.remove(kk);
+            alive[ib] = false;
+            k = if kk == 0 { 0 } else { kk - 1 };
+            clipped = true;
+            break;
+        }
+        if !clipped {
+            // Self-intersecting or numerically degenerate remainder: cut off the flattest
+            // corner (smallest |area|) as a sliver triangle so the loop always progresses.
+            let area = |x: usize| cross(p2[remaining[(x + m - 1) % m]], p2[remaining[x]], p2[remaining[(x + 1) % m]]).abs();
+            let kk = (0..m).min_by(|&x, &y| area(x).partial_cmp(&area(y)).unwrap_or(std::cmp::Ordering::Equal)).unwrap_or(0);
+            out.push([remaining[(kk + m - 1) % m] as u32, remaining[kk] as u32, remaining[(kk + 1) % m] as u32]);
+            alive[remaining[kk]] = false;
+            remaining.remove(kk);
+            k = kk.saturating_sub(1);
+        }
+    }
+    out.push([remaining[0] as u32, remaining[1] as u32, remaining[2] as u32]);
+}
+
+fn fan(n: usize, out: &mut Vec<[u32; 3]>) {
+    for i in 1..n - 1 {
+        out.push([0, i as u32, i as u32 + 1]);
+    }
+}
+
+/// A primvar resolved against the topology: flat per-element data and its interpolation.
+struct Expanded {
+    interp: Interpolation,
+    tuple: usize,
+    data: Vec<f32>,
+}
+
+impl Expanded {
+    fn element(&self, face: usize, point: usize, corner: usize) -> &[f32] {
+        let i = match self.interp {
+            Interpolation::Constant => 0,
+            Interpolation::Uniform => face,
+            Interpolation::Varying | Interpolation::Vertex => point,
+            Interpolation::FaceVarying => corner,
+        };
+        &self.data[i * self.tuple..i * self.tuple + self.tuple]
+    }
+}
+
+fn resolve_primvar(
+    pv: Primvar,
+    name: &str,
+    tuple: usize,
+    n_faces: usize,
+    n_points: usize,
+    n_corners: usize,
+    p: &mut Problems,
+) -> Option<Expanded> {
+    if pv.tuple as usize != tuple {
+        p.add(name, format!("expected {} components per element, got {}; ignored", tuple, pv.tuple));
+        return None;
+    }
+    let data = match pv.flatten() {
+        Ok(d) => d,
+        Err(e) => {
+            p.add(name, format!("{}; ignored", e));
+            return None;
+        }
+    };
+    if data.iter().any(|x| !x.is_finite()) {
+        p.add(name, "contains NaN or infinite values; ignored");
+        return None;
+    }
+    let need = match pv.interpolation {
+        Interpolation::Constant => 1,
+        Interpolation::Uniform => n_faces,
+        Interpolation::Varying | Interpolation::Vertex => n_points,
+        Interpolation::FaceVarying => n_corners,
+    };
+    let have = data.len() / tuple;
+    if have < need {
+        p.add(name, format!("{:?} interpolation needs {} elements, got {}; ignored", pv.interpolation, need, have));
+        return None;
+    }
+    Some(Expanded { interp: pv.interpolation, tuple, data })
+}
+
+/// Reads `points` (Floats 3) and reports non-finite ones; returns the points and a per-point
+/// "bad" flag.
+pub(crate) fn read_points(store: &AttrStore, p: &mut Problems) -> (Vec<Vec3>, Vec<bool>) {
+    let Some(v) = store.get("points") else { return (Vec::new(), Vec::new()) };
+    let Some(data) = v.to_f32s() else {
+        p.add("points", format!("expected Floats with 3 components, got {}", v.kind()));
+        return (Vec::new(), Vec::new());
+    };
+    if data.len() % 3 != 0 {
+        p.add("points", format!("length {} is not a multiple of 3; the incomplete point is dropped", data.len()));
+    }
+    let pts: Vec<Vec3> = data.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+    let bad: Vec<bool> = pts.iter().map(|q| !q.is_finite()).collect();
+    let n_bad = bad.iter().filter(|&&b| b).count();
+    if n_bad > 0 {
+        let first = bad.iter().position(|&b| b).unwrap_or(0);
+        p.add("points", format!("{} point(s) are NaN or infinite (first: index {}); what uses them is dropped", n_bad, first));
+    }
+    (pts, bad)
+}
+
+/// Converts a mesh prim's attributes into a triangle mesh.
+pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    let (points, bad_point) = read_points(store, p);
+    let ints = |attr: &str, p: &mut Problems| -> Vec<i32> {
+        match store.get(attr) {
+            None => Vec::new(),
+            Some(v) => v.to_ints().unwrap_or_else(|| {
+                p.add(attr, format!("expected Ints, got {}", v.kind()));
+                Vec::new()
+            }),
+        }
+    };
+    let counts = ints("faceVertexCounts", p);
+    let fv = ints("faceVertexIndices", p);
+    let holes = ints("holeIndices", p);
+    let left = store.token_or("orientation", &["rightHanded", "leftHanded"], "rightHanded", p) == "leftHanded";
+    store.token_or("subdivisionScheme", &["none", "catmullClark", "loop", "bilinear"], "catmullClark", p);
+    let double_sided = store.bool_or("doubleSided", false, p);
+
+    let n_faces = counts.len();
+    let n_points = points.len();
+    let n_corners = fv.len();
+    let mut is_hole = vec![false; n_faces];
+    for &h in &holes {
+        if h >= 0 && (h as usize) < n_faces {
+            is_hole[h as usize] = true;
+        } else {
+            p.add("holeIndices", format!("hole face index {} is out of range (0..{}); ignored", h, n_faces));
+        }
+    }
+
+    // Triangles as (face, corner a, corner b, corner c), corners indexing faceVertexIndices.
+    let mut tris: Vec<(u32, [u32; 3])> = Vec::new();
+    let mut local = Vec::new();
+    let mut poly = Vec::new();
+    let (mut n_small, mut n_bad_index, mut first_bad_index) = (0usize, 0usize, None);
+    let mut offset = 0usize;
+    for (f, &c) in counts.iter().enumerate() {
+        if c < 0 || offset + c as usize > n_corners {
+            p.add(
+                "faceVertexCounts",
+                format!("counts need more than the {} faceVertexIndices given (from face {}); the remaining faces are dropped", n_corners, f),
+            );
+            break;
+        }
+        let c = c as usize;
+        let corners = offset..offset + c;
+        offset += c;
+        if c < 3 {
+            n_small += 1;
+            continue;
+        }
+        if is_hole[f] {
+            continue;
+        }
+        if let Some(&bad) = fv[corners.clone()].iter().find(|&&i| i < 0 || i as usize >= n_points) {
+            n_bad_index += 1;
+            first_bad_index.get_or_insert((f, bad));
+            continue;
+        }
+        if fv[corners.clone()].iter().any(|&i| bad_point[i as usize]) {
+            continue;
+        }
+        poly.clear();
+        poly.extend(fv[corners.clone()].iter().map(|&i| points[i as usize]));
+        local.clear();
+        triangulate_polygon(&poly, &mut local);
+        for t in &local {
+            let [a, b, cc] = t.map(|k| (corners.start + k as usize) as u32);
+            tris.push((f as u32, if left { [a, cc, b] } else { [a, b, cc] }));
+        }
+    }
+    if n_small > 0 {
+        p.add("faceVertexCounts", format!("{} face(s) have fewer than 3 vertices; dropped", n_small));
+    }
+    if let Some((f, i)) = first_bad_index {
+        p.add(
+            "faceVertexIndices",
+            format!("{} face(s) use point indices out of range (first: face {} index {}, {} points); dropped", n_bad_index, f, i, n_points),
+        );
+    }
+    if offset < n_corners && !counts.is_empty() {
+        p.add("faceVertexIndices", format!("{} indices beyond the faces' counts; ignored", n_corners - offset));
+    }
+
+    let normals = store
+        .primvar("normals", Interpolation::Vertex)
+        .and_then(|pv| resolve_primvar(pv, "normals", 3, n_faces, n_points, n_corners, p));
+    let st_name = ["st", "st0", "uv"].into_iter().find(|n| store.primvars.contains_key(*n) || store.has(n));
+    let st = st_name.and_then(|n| {
+        store
+            .primvar(n, Interpolation::FaceVarying)
+            .and_then(|pv| resolve_primvar(pv, n, 2, n_faces, n_points, n_corners, p))
+    });
+
+    let unweld = [&normals, &st]
+        .iter()
+        .any(|e| e.as_ref().is_some_and(|e| matches!(e.interp, Interpolation::Uniform | Interpolation::FaceVarying)));
+
+    // Output vertex per key: the point (welded) or the face corner (unwelded).
+    let key_count = if unweld { n_corners } else { n_points };
+    let mut remap = vec![u32::MAX; key_count];
+    let mut positions = Vec::new();
+    let mut out_n: Vec<Vec3> = Vec::new();
+    let mut out_uv: Vec<Vec2> = Vec::new();
+    let mut indices = Vec::with_capacity(tris.len() * 3);
+    for &(f, t) in &tris {
+        for corner in t {
+            let corner = corner as usize;
+            let point = fv[corner] as usize;
+            let key = if unweld { corner } else { point };
+            if remap[key] == u32::MAX {
+                remap[key] = positions.len() as u32;
+                positions.push(points[point]);
+                if let Some(e) = &normals {
+                    let s = e.element(f as usize, point, corner);
+                    out_n.push(Vec3::new(s[0], s[1], s[2]).normalize_or_zero());
+                }
+                if let Some(e) = &st {
+                    let s = e.element(f as usize, point, corner);
+                    out_uv.push(Vec2::new(s[0], s[1]));
+                }
+            }
+            indices.push(remap[key]);
+        }
+    }
+    MeshDesc {
+        name: name.to_string(),
+        positions,
+        indices,
+        normals: normals.map(|_| out_n),
+        uvs: st.map(|_| out_uv),
+        double_sided,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::value::{Attr, Value};
+
+    fn store(points: &[f32], counts: &[i32], idx: &[i32]) -> AttrStore {
+        let mut s = AttrStore::default();
+        let mut put = |n: &str, v: Value| {
+            s.attrs.insert(n.to_string(), Attr { value: Some(v), samples: vec![] });
+        };
+        put("points", Value::Floats { data: points.to_vec(), tuple: 3 });
+        put("faceVertexCounts", Value::Ints(counts.to_vec()));
+        put("faceVertexIndices", Value::Ints(idx.to_vec()));
+        s
+    }
+
+    fn tri_normal(m: &MeshDesc, t: usize) -> Vec3 {
+        let [a, b, c] = [0, 1, 2].map(|k| m.positions[m.indices[3 * t + k] as usize]);
+        (b - a).cross(c - a) * 0.5
+    }
+
+    const QUAD: [f32; 12] = [0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.];
+
+    #[test]
+    fn concave_ngon_ear_clipping_preserves_area_and_winding() {
+        // An "L"-shaped hexagon tilted out of every coordinate plane: area 3 (unit squares).
+        let l2 = [(0., 0.), (2., 0.), (2., 1.), (1., 1.), (1., 2.), (0., 2.)];
+        let rot = glam::Quat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1);
+        let poly: Vec<Vec3> = l2.iter().map(|&(x, y)| rot * Vec3::new(x, y, 0.0) + Vec3::new(5.0, -2.0, 1.0)).collect();
+        let mut tris = Vec::new();
+        triangulate_polygon(&poly, &mut tris);
+        assert_eq!(tris.len(), 4);
+        let expected_n = rot * Vec3::Z;
+        let mut area = 0.0;
+        for t in &tris {
+            let [a, b, c] = t.map(|k| poly[k as usize]);
+            let n = (b - a).cross(c - a) * 0.5;
+            // Each triangle faces the polygon's side (no flipped or zero-area ears).
+            assert!(n.dot(expected_n) > 1e-3, "{:?}", t);
+            area += n.length();
+        }
+        // f32 coordinates of magnitude ~5: area error ~1e-6 relative; 1e-4 leaves margin.
+        assert!((area - 3.0).abs() < 1e-4, "area {}", area);
+        // The reflex corner (index 3) must not be the tip of an ear spanning outside.
+        for t in &tris {
+            let c = t.map(|k| l2[k as usize]);
+            let centroid = ((c[0].0 + c[1].0 + c[2].0) / 3.0, (c[0].1 + c[1].1 + c[2].1) / 3.0);
+            assert!(!(centroid.0 > 1.0 && centroid.1 > 1.0), "triangle outside the L: {:?}", t);
+        }
+    }
+
+    #[test]
+    fn assorted_polygons_triangulate_to_their_area() {
+        // Shoelace area of each outline vs the sum of its triangles (all counter-clockwise).
+        let star: Vec<(f32, f32)> = (0..10)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 10.0;
+                let r = if i % 2 == 0 { 1.0 } else { 0.4 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        let comb = vec![(0., 0.), (5., 0.), (5., 3.), (4., 3.), (4., 1.), (3., 1.), (3., 3.), (2., 3.), (2., 1.), (1., 1.), (1., 3.), (0., 3.)];
+        let collinear = vec![(0., 0.), (1., 0.), (2., 0.), (2., 2.), (1., 1.), (0., 2.)];
+        let big: Vec<(f32, f32)> = (0..2000)
+            .map(|i| {
+                let a = std::f32::consts::TAU * i as f32 / 2000.0;
+                let r = if i % 2 == 0 { 1.0 } else { 0.9 };
+                (r * a.cos(), r * a.sin())
+            })
+            .collect();
+        for outline in [star, comb, collinear, big] {
+            let n = outline.len();
+            let shoelace: f32 = (0..n).map(|i| {
+                let (a, b) = (outline[i], outline[(i + 1) % n]);
+                0.5 * (a.0 * b.1 - b.0 * a.1)
+            }).sum();
+            let poly: Vec<Vec3> = outline.iter().map(|&(x, y)| Vec3::new(x, 0.0, -y)).collect();
+            let mut tris = Vec::new();
+            triangulate_polygon(&poly, &mut tris);
+            assert_eq!(tris.len(), n - 2);
+            let mut area = 0.0;
+            for t in &tris {
+                let [a, b, c] = t.map(|k| poly[k as usize]);
+                let cr = (b - a).cross(c - a);
+                // Polygon in the XZ plane wound counter-clockwise about +Y; flat triangles
+                // (collinear corners) may have zero area but never negative.
+                assert!(cr.y >= -1e-6, "{:?}", t);
+                area += 0.5 * cr.y;
+            }
+            // f32 sums over up to 2000 triangles of unit-size coordinates: 1e-4 relative.
+            assert!((area - shoelace).abs() < 1e-4 * shoelace.abs().max(1.0), "{} vs {}", area, shoelace);
+        }
+    }
+
+    #[test]
+    fn left_handed_quad_faces_minus_z() {
+        let mut s = store(&QUAD, &[4], &[0, 1, 2, 3]);
+        let m = convert_mesh("/q", &s, &mut Problems::new("/q"));
+        assert!(tri_normal(&m, 0).z > 0.0 && tri_normal(&m, 1).z > 0.0);
+        s.attrs.insert("orientation".into(), Attr { value: Some(Value::Token("leftHanded".into())), samples: vec![] });
+        let m = convert_mesh("/q", &s, &mut Problems::new("/q"));
+        assert_eq!(m.indices.len(), 6);
+        assert!(tri_normal(&m, 0).z < 0.0 && tri_normal(&m, 1).z < 0.0);
+    }
+
+    #[test]
+    fn holes_are_skipped() {
+        let pts = [0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0., 2., 0., 0., 2., 1., 0.];
+        let mut s = store(&pts, &[4, 4], &[0, 1, 2, 3, 1, 4, 5, 2]);
+        s.attrs.insert("holeIndices".into(), Attr { value: Some(Value::Ints(vec![0])), samples: vec![] });
+        let mut p = Problems::new("/m");
+        let m = convert_mesh("/m", &s, &mut p);
+        assert!(p.list.is_empty());
+        assert_eq!(m.indices.len(), 6);
+        assert!(m.indices.iter().all(|&i| m.positions[i as usize].x >= 1.0));
+    }
+
+    #[test]
+    fn bad_faces_are_dropped_with_problems_and_the_rest_kept() {
+        // Face 0 good, face 1 has 2 vertices, face 2 indexes point 9, face 3 uses a NaN point.
+        let mut pts = QUAD.to_vec();
+        pts.extend_from_slice(&[f32::NAN, 0., 0.]);
+        let s = store(&pts, &[3, 2, 3, 3], &[0, 1, 2, 0, 1, 0, 2, 9, 0, 2, 4]);
+        let mut p = Problems::new("/bad");
+        let m = convert_mesh("/bad", &s, &mut p);
+        assert_eq!(m.indices.len(), 3);
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert!(attrs.contains(&"faceVertexCounts"));
+        assert!(attrs.contains(&"faceVertexIndices"));
+        assert!(attrs.contains(&"points"));
+        assert!(p.list.iter().all(|q| q.item == "/bad"));
+    }
+
+    fn with_pv(mut s: AttrStore, name: &str, interp: Interpolation, data: Vec<f32>, tuple: u32, idx: Option<Vec<i32>>) -> AttrStore {
+        s.primvars.insert(name.into(), Primvar { interpolation: interp, data, tuple, indices: idx });
+        s
+    }
+
+    /// Two quads sharing an edge; checks each interpolation lands on the right corners.
+    #[test]
+    fn every_primvar_interpolation_with_and_without_indices() {
+        let pts = [0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0., 2., 0., 0., 2., 1., 0.];
+        let counts = [4, 4];
+        let fvi = [0, 1, 2, 3, 1, 4, 5, 2];
+        let base = || store(&pts, &counts, &fvi);
+        // Expected st value per (face, point, corner) for each case, checked on every output vertex.
+        type Expect = fn(usize, usize, usize) -> f32;
+        let cases: Vec<(Interpolation, Vec<f32>, Option<Vec<i32>>, Expect)> = vec![
+            (Interpolation::Constant, vec![7.0, 7.0], None, |_, _, _| 7.0),
+            (Interpolation::Constant, vec![1.0, 1.0, 7.0, 7.0], Some(vec![1]), |_, _, _| 7.0),
+            (Interpolation::Uniform, vec![10.0, 10.0, 11.0, 11.0], None, |f, _, _| 10.0 + f as f32),
+            (Interpolation::Uniform, vec![11.0, 11.0, 10.0, 10.0], Some(vec![1, 0]), |f, _, _| 10.0 + f as f32),
+            (Interpolation::Vertex, (0..6).flat_map(|i| [i as f32, i as f32]).collect(), None, |_, p, _| p as f32),
+            (Interpolation::Varying, (0..6).flat_map(|i| [i as f32, i as f32]).collect(), None, |_, p, _| p as f32),
+            (
+                Interpolation::Vertex,
+                (0..6).rev().flat_map(|i| [i as f32, i as f32]).collect(),
+                Some((0..6).rev().collect()),
+                |_, p, _| p as f32,
+            ),
+            (Interpolation::FaceVarying, (0..8).flat_map(|i| [i as f32, i as f32]).collect(), None, |_, _, c| c as f32),
+            (
+                Interpolation::FaceVarying,
+                (0..8).rev().flat_map(|i| [i as f32, i as f32]).collect(),
+                Some((0..8).rev().collect()),
+                |_, _, c| c as f32,
+            ),
+        ];
+        for (interp, data, idx, expect) in cases {
+            let s = with_pv(base(), "st", interp, data, 2, idx.clone());
+            let mut p = Problems::new("/m");
+            let m = convert_mesh("/m", &s, &mut p);
+            assert!(p.list.is_empty(), "{:?}", p.list);
+            let uvs = m.uvs.as_ref().unwrap();
+            assert_eq!(uvs.len(), m.positions.len());
+            assert_eq!(m.indices.len(), 12);
+            let unwelded = matches!(interp, Interpolation::Uniform | Interpolation::FaceVarying);
+            assert_eq!(m.positions.len(), if unwelded { 8 } else { 6 }, "{:?}", interp);
+            // Every triangle corner: find its face (first 2 triangles = face 0) and corner.
+            for t in 0..4 {
+                let f = t / 2;
+                for k in 0..3 {
+                    let v = m.indices[3 * t + k] as usize;
+                    let pos = m.positions[v];
+                    let corner = (4 * f..4 * f + 4).find(|&c| {
+                        let q = fvi[c] as usize;
+                        Vec3::new(pts[3 * q], pts[3 * q + 1], pts[3 * q + 2]) == pos
+                    });
+                    let corner = corner.unwrap();
+                    let want = expect(f, fvi[corner] as usize, corner);
+                    assert_eq!(uvs[v], Vec2::splat(want), "{:?} {:?} tri {} corner {}", interp, idx, t, k);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn wrong_sized_or_badly_indexed_primvar_is_dropped_with_a_problem() {
+        let s = with_pv(store(&QUAD, &[4], &[0, 1, 2, 3]), "normals", Interpolation::Vertex, vec![0., 0., 1.], 3, None);
+        let mut p = Problems::new("/m");
+        let m = convert_mesh("/m", &s, &mut p);
+        assert!(m.normals.is_none() && m.indices.len() == 6);
+        assert_eq!(p.list[0].attribute, "normals");
+        let s = with_pv(store(&QUAD, &[4], &[0, 1, 2, 3]), "st", Interpolation::FaceVarying, vec![0., 0.], 2, Some(vec![0, 0, 3, 0]));
+        let mut p = Problems::new("/m");
+        let m = convert_mesh("/m", &s, &mut p);
+        assert!(m.uvs.is_none());
+        assert_eq!(p.list[0].attribute, "st");
+    }
+
+    #[test]
+    fn authored_normals_of_left_handed_mesh_agree_with_winding() {
+        let mut s = with_pv(store(&QUAD, &[4], &[0, 1, 2, 3]), "normals", Interpolation::Constant, vec![0., 0., -1.], 3, None);
+        s.attrs.insert("orientation".into(), Attr { value: Some(Value::Token("leftHanded".into())), samples: vec![] });
+        let m = convert_mesh("/m", &s, &mut Problems::new("/m"));
+        let n = m.normals.as_ref().unwrap();
+        for t in 0..2 {
+            let g = tri_normal(&m, t);
+            for k in 0..3 {
+                assert!(n[m.indices[3 * t + k] as usize].dot(g) > 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn catmull_clark_renders_the_cage() {
+        let mut s = store(&QUAD, &[4], &[0, 1, 2, 3]);
+        s.attrs.insert("subdivisionScheme".into(), Attr { value: Some(Value::Token("catmullClark".into())), samples: vec![] });
+        let mut p = Problems::new("/m");
+        let m = convert_mesh("/m", &s, &mut p);
+        assert!(p.list.is_empty());
+        assert_eq!(m.indices.len(), 6);
+    }
+}

@@ -1,0 +1,539 @@
+//! Render buffers and the progressive render pass.
+//!
+//! A [`RenderPass`] owns one background thread. Each job (a scene, settings and AOV → buffer
+//! bindings) is rendered in passes of 1, 2, 4, … samples per pixel until the target (or the
+//! time budget) is reached; after every pass the resolved pixels are published into the bound
+//! [`RenderBuffer`]s, which any thread may [`RenderBuffer::map`] at any time. Starting a new job
+//! cancels the running one (through the engine's cancel flag) and restarts. A panic inside the
+//! engine is caught and becomes [`PassStatus::Failed`]; dropping the pass joins the thread.
+//!
+//! The engine is abstracted by [`Engine`] so the state machine can be tested without the core
+//! renderer; [`core_factory`] builds the real one. Engines are created and used on the render
+//! thread only, so they need not be `Send`.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Condvar, Mutex, RwLock};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use tide_core::{Aov, RenderError, RenderSettings, Renderer, SceneDesc};
+
+/// What a render pass drives.
+pub trait Engine {
+    /// Renders `spp` more samples per pixel; false if cancelled part way.
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool;
+    fn samples_per_pixel(&self) -> u32;
+    /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
+    fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
+    fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()>;
+}
+
+impl Engine for Renderer {
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool {
+        Renderer::render_pass(self, spp, Some(cancel))
+    }
+    fn samples_per_pixel(&self) -> u32 {
+        Renderer::samples_per_pixel(self)
+    }
+    fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
+        Renderer::aov_pixels(self, aov)
+    }
+    fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
+        Renderer::write_exr(self, path, aovs, header)
+    }
+}
+
+/// Builds an engine for a job (called on the render thread).
+pub type EngineFactory = Arc<dyn Fn(&SceneDesc, &RenderSettings) -> Result<Box<dyn Engine>, RenderError> + Send + Sync>;
+
+/// The core renderer as the engine.
+pub fn core_factory() -> EngineFactory {
+    Arc::new(|scene, settings| Ok(Box::new(Renderer::new(scene, settings.clone())?) as Box<dyn Engine>))
+}
+
+/// A copy of a render buffer's pixels.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MappedBuffer {
+    pub width: u32,
+    pub height: u32,
+    pub channels: u32,
+    pub pixels: Vec<f32>,
+    /// Samples per pixel the pixels hold.
+    pub samples: u32,
+}
+
+/// A render buffer (bprim): shared, readable from any thread.
+#[derive(Clone, Debug, Default)]
+pub struct RenderBuffer {
+    inner: Arc<RwLock<MappedBuffer>>,
+}
+
+impl RenderBuffer {
+    pub fn new(width: u32, height: u32, channels: u32) -> Self {
+        let b = RenderBuffer::default();
+        b.resize(width, height, channels);
+        b
+    }
+
+    /// Sets the dimensions, clearing the pixels.
+    pub fn resize(&self, width: u32, height: u32, channels: u32) {
+        let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
+        *g = MappedBuffer { width, height, channels, pixels: vec![0.0; (width * height * channels) as usize], samples: 0 };
+    }
+
+    /// A copy of the current pixels with their dimensions.
+    pub fn map(&self) -> MappedBuffer {
+        self.inner.read().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    fn publish(&self, width: u32, height: u32, channels: u32, pixels: Vec<f32>, samples: u32) {
+        let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
+        *g = MappedBuffer { width, height, channels, pixels, samples };
+    }
+
+    pub fn dimensions(&self) -> (u32, u32) {
+        let g = self.inner.read().unwrap_or_else(|e| e.into_inner());
+        (g.width, g.height)
+    }
+}
+
+/// Where a pass stands.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PassStatus {
+    /// No job yet.
+    Idle,
+    /// A job is queued or being rendered.
+    Rendering,
+    /// The sample target (or time budget) was reached.
+    Converged,
+    /// The engine could not be built, or panicked; the message says why.
+    Failed(String),
+}
+
+/// One render job.
+#[derive(Clone)]
+pub struct Job {
+    pub scene: Arc<SceneDesc>,
+    pub settings: RenderSettings,
+    pub bindings: Vec<(Aov, RenderBuffer)>,
+}
+
+type ExrReply = std::sync::mpsc::Sender<std::io::Result<()>>;
+/// A queued EXR write: path, AOVs, header, where to send the result.
+type ExrRequest = (std::path::PathBuf, Vec<Aov>, Vec<(String, String)>, ExrReply);
+
+struct State {
+    job: Option<Job>,
+    /// Incremented by every start; the thread renders the latest.
+    generation: u64,
+    taken: u64,
+    status: PassStatus,
+    spp_done: u32,
+    spp_target: u32,
+    shutdown: bool,
+    exr: Vec<ExrRequest>,
+}
+
+struct Shared {
+    state: Mutex<State>,
+    cond: Condvar,
+    cancel: AtomicBool,
+}
+
+impl Shared {
+    fn lock(&self) -> std::sync::MutexGuard<'_, State> {
+        self.state.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+/// A progressive render on a background thread.
+pub struct RenderPass {
+    shared: Arc<Shared>,
+    thread: Option<JoinHandle<()>>,
+}
+
+fn panic_message(e: Box<dyn std::any::Any + Send>) -> String {
+    if let Some(s) = e.downcast_ref::<&str>() {
+        s.to_string()
+    } else if let Some(s) = e.downcast_ref::<String>() {
+        s.clone()
+    } else {
+        "unknown panic".into()
+    }
+}
+
+impl RenderPass {
+    /// Starts the thread (idle until [`RenderPass::start`]).
+    pub fn new(factory: EngineFactory) -> RenderPass {
+        let shared = Arc::new(Shared {
+            state: Mutex::new(State {
+                job: None,
+                generation: 0,
+                taken: 0,
+                status: PassStatus::Idle,
+                spp_done: 0,
+                spp_target: 0,
+                shutdown: false,
+                exr: Vec::new(),
+            }),
+            cond: Condvar::new(),
+            cancel: AtomicBool::new(false),
+        });
+        let s = shared.clone();
+        let thread = std::thread::Builder::new()
+            .name("tide-render-pass".into())
+            .spawn(move || {
+                // The loop itself catches engine panics per job; this outer guard keeps a bug
+                // in the bookkeeping from escaping the thread.
+                if let Err(e) = catch_unwind(AssertUnwindSafe(|| thread_main(&s, &factory))) {
+                    let mut st = s.lock();
+                    st.status = PassStatus::Failed(format!("render thread panicked: {}", panic_message(e)));
+                    s.cond.notify_all();
+                }
+            })
+            .ok();
+        let pass = RenderPass { shared, thread };
+        if pass.thread.is_none() {
+            pass.shared.lock().status = PassStatus::Failed("could not start the render thread".into());
+        }
+        pass
+    }
+
+    /// Renders `job`, cancelling whatever is running.
+    pub fn start(&self, job: Job) {
+        let mut st = self.shared.lock();
+        st.generation += 1;
+        st.spp_target = job.settings.spp;
+        st.spp_done = 0;
+        st.job = Some(job);
+        if self.thread.is_some() {
+            st.status = PassStatus::Rendering;
+        }
+        self.shared.cancel.store(true, Ordering::SeqCst);
+        self.shared.cond.notify_all();
+    }
+
+    /// Stops the current job (the buffers keep what was published).
+    pub fn cancel(&self) {
+        let mut st = self.shared.lock();
+        st.job = None;
+        st.generation += 1;
+        if st.status == PassStatus::Rendering {
+            st.status = PassStatus::Idle;
+        }
+        self.shared.cancel.store(true, Ordering::SeqCst);
+        self.shared.cond.notify_all();
+    }
+
+    pub fn status(&self) -> PassStatus {
+        self.shared.lock().status.clone()
+    }
+
+    pub fn is_converged(&self) -> bool {
+        self.status() == PassStatus::Converged
+    }
+
+    /// Fraction of the sample target reached (1 when converged).
+    pub fn progress(&self) -> f32 {
+        let st = self.shared.lock();
+        match st.status {
+            PassStatus::Converged => 1.0,
+            _ if st.spp_target == 0 => 0.0,
+            _ => st.spp_done as f32 / st.spp_target as f32,
+        }
+    }
+
+    /// Waits until the job converges or fails (or `timeout` passes); true if converged.
+    pub fn wait(&self, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        let mut st = self.shared.lock();
+        loop {
+            match st.status {
+                PassStatus::Converged => return true,
+                PassStatus::Failed(_) | PassStatus::Idle => return false,
+                PassStatus::Rendering => {}
+            }
+            let now = Instant::now();
+            if now >= deadline {
+                return false;
+            }
+            st = self.shared.cond.wait_timeout(st, deadline - now).unwrap_or_else(|e| e.into_inner()).0;
+        }
+    }
+
+    /// Writes the current film of the running (or finished) job to EXR through the engine.
+    pub fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        {
+            let mut st = self.shared.lock();
+            if st.job.is_none() {
+                return Err(std::io::Error::other("no render to write: execute a render pass first"));
+            }
+            st.exr.push((path.to_path_buf(), aovs.to_vec(), header.to_vec(), tx));
+            self.shared.cond.notify_all();
+        }
+        rx.recv().unwrap_or_else(|_| Err(std::io::Error::other("the render thread stopped before writing")))
+    }
+}
+
+impl Drop for RenderPass {
+    fn drop(&mut self) {
+        {
+            let mut st = self.shared.lock();
+            st.shutdown = true;
+            self.shared.cancel.store(true, Ordering::SeqCst);
+            self.shared.cond.notify_all();
+        }
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn serve_exr(shared: &Shared, engine: Option<&dyn Engine>) {
+    let reqs = std::mem::take(&mut shared.lock().exr);
+    for (path, aovs, header, reply) in reqs {
+        let r = match engine {
+            Some(e) => catch_unwind(AssertUnwindSafe(|| e.write_exr(&path, &aovs, &header)))
+                .unwrap_or_else(|p| Err(std::io::Error::other(format!("writing panicked: {}", panic_message(p))))),
+            None => Err(std::io::Error::other("no finished render to write")),
+        };
+        let _ = reply.send(r);
+    }
+}
+
+fn thread_main(shared: &Shared, factory: &EngineFactory) {
+    let mut engine: Option<Box<dyn Engine>> = None;
+    loop {
+        // Wait for a new job, serving EXR requests against the last engine meanwhile.
+        let (job, generation) = {
+            let mut st = shared.lock();
+            loop {
+                if st.shutdown {
+                    for (_, _, _, reply) in st.exr.drain(..) {
+                        let _ = reply.send(Err(std::io::Error::other("the render pass was dropped")));
+                    }
+                    return;
+                }
+                if !st.exr.is_empty() {
+                    drop(st);
+                    serve_exr(shared, engine.as_deref());
+                    st = shared.lock();
+                    continue;
+                }
+                if st.generation != st.taken {
+                    st.taken = st.generation;
+                    if let Some(j) = st.job.clone() {
+                        shared.cancel.store(false, Ordering::SeqCst);
+                        break (j, st.generation);
+                    }
+                    continue;
+                }
+                st = shared.cond.wait(st).unwrap_or_else(|e| e.into_inner());
+            }
+        };
+        engine = None;
+        let outcome = catch_unwind(AssertUnwindSafe(|| run_job(shared, factory, &job, generation, &mut engine)));
+        let mut st = shared.lock();
+        if st.generation == generation {
+            match outcome {
+                Ok(Ok(true)) => st.status = PassStatus::Converged,
+                Ok(Ok(false)) => {}
+                Ok(Err(msg)) => st.status = PassStatus::Failed(msg),
+                Err(p) => {
+                    engine = None;
+                    st.status = PassStatus::Failed(format!("the renderer panicked: {}", panic_message(p)));
+                }
+            }
+        }
+        shared.cond.notify_all();
+    }
+}
+
+/// Renders one job; Ok(true) when it reached its target or budget, Ok(false) if superseded.
+fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64, slot: &mut Option<Box<dyn Engine>>) -> Result<bool, String> {
+    let target = job.settings.spp;
+    let budget = job.settings.time_budget_s;
+    let e = slot.insert(factory(&job.scene, &job.settings).map_err(|e| format!("the scene could not be prepared: {}", e))?);
+    let start = Instant::now();
+    let mut next = 1u32;
+    let mut done = 0u32;
+    while done < target {
+        if shared.cancel.load(Ordering::SeqCst) {
+            return Ok(false);
+        }
+        let n = next.min(target - done);
+        if !e.render_pass(n, &shared.cancel) {
+            return Ok(false);
+        }
+        done += n;
+        let (w, h) = (job.settings.width, job.settings.height);
+        for (aov, buf) in &job.bindings {
+            let px = e.aov_pixels(*aov);
+            // A film that does not match the job's size is not published (the buffer keeps
+            // its last consistent pixels).
+            if px.len() == (w * h) as usize * aov.channels() {
+                buf.publish(w, h, aov.channels() as u32, px, e.samples_per_pixel());
+            }
+        }
+        {
+            let mut st = shared.lock();
+            if st.generation != generation {
+                return Ok(false);
+            }
+            st.spp_done = done;
+            shared.cond.notify_all();
+        }
+        if !shared.lock().exr.is_empty() {
+            serve_exr(shared, Some(&**e));
+        }
+        next = next.saturating_mul(2);
+        if budget > 0.0 && start.elapsed().as_secs_f32() >= budget {
+            break;
+        }
+    }
+    Ok(true)
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use std::sync::atomic::AtomicU32;
+
+    /// A fake engine: fills every AOV with its sample count; optionally slow or panicking.
+    pub(crate) struct Fake {
+        pub w: u32,
+        pub h: u32,
+        pub spp: u32,
+        pub delay: Duration,
+        pub panic_at: Option<u32>,
+        pub passes: Arc<Mutex<Vec<u32>>>,
+    }
+
+    impl Engine for Fake {
+        fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool {
+            let until = Instant::now() + self.delay;
+            while Instant::now() < until {
+                if cancel.load(Ordering::SeqCst) {
+                    return false;
+                }
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            if self.panic_at == Some(self.spp + spp) {
+                panic!("fake engine failure");
+            }
+            self.spp += spp;
+            self.passes.lock().unwrap().push(spp);
+            true
+        }
+        fn samples_per_pixel(&self) -> u32 {
+            self.spp
+        }
+        fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
+            vec![self.spp as f32; (self.w * self.h) as usize * aov.channels()]
+        }
+        fn write_exr(&self, _: &std::path::Path, _: &[Aov], _: &[(String, String)]) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    pub(crate) fn fake_factory(delay: Duration, panic_at: Option<u32>, builds: Arc<AtomicU32>, passes: Arc<Mutex<Vec<u32>>>) -> EngineFactory {
+        Arc::new(move |_, s| {
+            builds.fetch_add(1, Ordering::SeqCst);
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay, panic_at, passes: passes.clone() }) as Box<dyn Engine>)
+        })
+    }
+
+    fn job(spp: u32, buf: &RenderBuffer) -> Job {
+        let settings = RenderSettings { width: 4, height: 2, spp, ..Default::default() };
+        Job { scene: Arc::new(SceneDesc::default()), settings, bindings: vec![(Aov::Color, buf.clone())] }
+    }
+
+    #[test]
+    fn progressive_passes_double_and_publish() {
+        let passes = Arc::new(Mutex::new(Vec::new()));
+        let pass = RenderPass::new(fake_factory(Duration::ZERO, None, Default::default(), passes.clone()));
+        assert_eq!(pass.status(), PassStatus::Idle);
+        let buf = RenderBuffer::new(4, 2, 4);
+        pass.start(job(10, &buf));
+        assert!(pass.wait(Duration::from_secs(5)));
+        assert_eq!(*passes.lock().unwrap(), vec![1, 2, 4, 3]);
+        let m = buf.map();
+        assert_eq!((m.width, m.height, m.channels, m.samples), (4, 2, 4, 10));
+        assert!(m.pixels.iter().all(|&x| x == 10.0) && m.pixels.len() == 32);
+        assert_eq!(pass.progress(), 1.0);
+    }
+
+    #[test]
+    fn zero_spp_converges_immediately() {
+        let pass = RenderPass::new(fake_factory(Duration::ZERO, None, Default::default(), Default::default()));
+        pass.start(job(0, &RenderBuffer::default()));
+        assert!(pass.wait(Duration::from_secs(5)));
+    }
+
+    #[test]
+    fn restart_cancels_the_running_job_and_drop_joins() {
+        let builds = Arc::new(AtomicU32::new(0));
+        let passes = Arc::new(Mutex::new(Vec::new()));
+        // Each pass takes 20 ms: the first job (1000 spp) cannot finish before the restart.
+        let pass = RenderPass::new(fake_factory(Duration::from_millis(20), None, builds.clone(), passes.clone()));
+        let buf = RenderBuffer::new(4, 2, 4);
+        pass.start(job(1000, &buf));
+        std::thread::sleep(Duration::from_millis(30));
+        assert_eq!(pass.status(), PassStatus::Rendering);
+        assert!(!pass.wait(Duration::from_millis(1)));
+        pass.start(job(3, &buf));
+        assert!(pass.wait(Duration::from_secs(5)));
+        assert_eq!(builds.load(Ordering::SeqCst), 2);
+        assert_eq!(buf.map().samples, 3);
+        pass.start(job(1000, &buf));
+        std::thread::sleep(Duration::from_millis(10));
+        pass.cancel();
+        assert_eq!(pass.status(), PassStatus::Idle);
+        let t = Instant::now();
+        pass.start(job(1000, &buf));
+        drop(pass);
+        // Drop cancels through the flag: well under one 1000-spp job (≥ 10 passes · 20 ms).
+        assert!(t.elapsed() < Duration::from_millis(150), "{:?}", t.elapsed());
+    }
+
+    #[test]
+    fn engine_panic_becomes_an_error_state() {
+        let pass = RenderPass::new(fake_factory(Duration::ZERO, Some(3), Default::default(), Default::default()));
+        let buf = RenderBuffer::new(4, 2, 4);
+        pass.start(job(8, &buf));
+        assert!(!pass.wait(Duration::from_secs(5)));
+        match pass.status() {
+            PassStatus::Failed(m) => assert!(m.contains("fake engine failure"), "{}", m),
+            s => panic!("{:?}", s),
+        }
+        // The first pass (1 spp) was published before the failure.
+        assert_eq!(buf.map().samples, 1);
+        // The thread survives and takes the next job.
+        let ok = RenderPass::new(fake_factory(Duration::ZERO, None, Default::default(), Default::default()));
+        ok.start(job(2, &buf));
+        assert!(ok.wait(Duration::from_secs(5)));
+        pass.start(job(2, &buf));
+        assert!(pass.wait(Duration::from_secs(5)));
+    }
+
+    #[test]
+    fn factory_error_is_reported() {
+        let f: EngineFactory = Arc::new(|_, _| Err(RenderError("empty scene".into())));
+        let pass = RenderPass::new(f);
+        pass.start(job(4, &RenderBuffer::default()));
+        assert!(!pass.wait(Duration::from_secs(5)));
+        assert!(matches!(pass.status(), PassStatus::Failed(m) if m.contains("empty scene")));
+    }
+
+    #[test]
+    fn time_budget_stops_early() {
+        let pass = RenderPass::new(fake_factory(Duration::from_millis(5), None, Default::default(), Default::default()));
+        let buf = RenderBuffer::new(4, 2, 4);
+        let mut j = job(1 << 20, &buf);
+        j.settings.time_budget_s = 0.02;
+        pass.start(j);
+        assert!(pass.wait(Duration::from_secs(5)));
+        assert!(buf.map().samples < 1 << 20);
+    }
+}
