@@ -29,6 +29,7 @@ fn main() {
         .std("c++17")
         .flag_if_supported("-Wall")
         .flag_if_supported("-Wno-deprecated-declarations")
+        .flag_if_supported("-Wno-missing-field-initializers")
         .define("TIDE_OCIO_DIR", format!("\"{}\"", manifest.join("ocio").display()).as_str());
     for lib in ["OpenImageIO", "OpenColorIO"] {
         for flag in pkg_config(lib, "--cflags") {
