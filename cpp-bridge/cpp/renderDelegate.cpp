@@ -121,11 +121,13 @@ void RenderDelegate::CommitResources() {
 std::vector<Problem> RenderDelegate::TakeProblems() {
     // The delegate's problems come first; a C++ problem about the same prim and attribute
     // (e.g. a texture the delegate also reports) is not repeated.
-    std::vector<Problem> out = std::exchange(_pending, {});
-    std::set<std::pair<std::string, std::string>> seen;
-    for (const auto& p : out) seen.emplace(p.prim, p.attribute);
+    std::vector<Problem> candidates = std::exchange(_pending, {});
+    for (const auto& p : candidates) _reportedByRust.emplace(p.prim, p.attribute);
     for (auto& p : _param->TakeProblems())
-        if (seen.emplace(p.prim, p.attribute).second) out.push_back(std::move(p));
+        if (!_reportedByRust.count({p.prim, p.attribute})) candidates.push_back(std::move(p));
+    std::vector<Problem> out;
+    for (auto& p : candidates)
+        if (_reported.emplace(p.prim, p.attribute, p.message).second) out.push_back(std::move(p));
     return out;
 }
 

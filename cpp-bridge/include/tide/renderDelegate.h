@@ -9,6 +9,8 @@
 
 #include <map>
 #include <memory>
+#include <set>
+#include <tuple>
 #include <string>
 #include <vector>
 
@@ -58,6 +60,10 @@ private:
     std::unique_ptr<RenderParam> _param;
     RenderSettingsMap _settings;
     std::vector<Problem> _pending;
+    /// (prim, attribute, message) already reported: each problem is reported once.
+    std::set<std::tuple<std::string, std::string, std::string>> _reported;
+    /// (prim, attribute) the Rust delegate reported on: the C++ layer does not repeat them.
+    std::set<std::pair<std::string, std::string>> _reportedByRust;
 };
 
 }  // namespace tide
