@@ -1,0 +1,91 @@
+//! Display previews through OpenColorIO, written as PNG with OpenImageIO.
+#include "tide/preview.h"
+
+#include <OpenColorIO/OpenColorIO.h>
+#include <OpenImageIO/imageio.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <vector>
+
+#ifndef TIDE_OCIO_DIR
+#define TIDE_OCIO_DIR "ocio"
+#endif
+
+namespace OCIO = OCIO_NAMESPACE;
+
+namespace tide {
+
+std::string PreviewConfigPath() {
+    if (const char* env = std::getenv("TIDE_OCIO_CONFIG"); env && *env) return env;
+    return std::string(TIDE_OCIO_DIR) + "/config.ocio";
+}
+
+/// The config's name for a colour space given as the user may spell it.
+static std::string CanonicalColorSpace(const std::string& name) {
+    std::string n;
+    for (char c : name) n += char(std::tolower(static_cast<unsigned char>(c)));
+    if (n.empty() || n == "scene_linear" || n == "lin_rec709" || n == "linear" || n == "lin_srgb" ||
+        n == "linear rec.709 (srgb)" || n == "rec709" || n == "srgb_linear")
+        return "lin_rec709";
+    if (n == "acescg" || n == "lin_ap1" || n == "aces - acescg") return "ACEScg";
+    return name;
+}
+
+bool WritePreviewPng(const std::string& path, int width, int height, int channels, const float* pixels,
+                     const std::string& colorSpace, const std::string& view, std::string* error) {
+    auto fail = [&](const std::string& msg) {
+        if (error) *error = msg;
+        return false;
+    };
+    if (width <= 0 || height <= 0 || channels < 1 || channels > 4 || !pixels)
+        return fail("nothing to preview (empty buffer: has the pass rendered?)");
+
+    // RGB working copy (grey for 1 channel, alpha dropped).
+    const size_t n = size_t(width) * size_t(height);
+    std::vector<float> rgb(n * 3);
+    for (size_t p = 0; p < n; ++p)
+        for (int c = 0; c < 3; ++c) {
+            float v = channels >= 3 ? pixels[p * channels + c] : pixels[p * channels + std::min(c, channels - 1)];
+            rgb[p * 3 + c] = std::isfinite(v) ? v : 0.0f;
+        }
+
+    try {
+        OCIO::ConstConfigRcPtr config = OCIO::Config::CreateFromFile(PreviewConfigPath().c_str());
+        OCIO::ConstProcessorRcPtr proc = config->getProcessor(CanonicalColorSpace(colorSpace).c_str(), "sRGB",
+                                                              view.empty() ? "Standard" : view.c_str(),
+                                                              OCIO::TRANSFORM_DIR_FORWARD);
+        OCIO::ConstCPUProcessorRcPtr cpu = proc->getDefaultCPUProcessor();
+        OCIO::PackedImageDesc desc(rgb.data(), width, height, 3);
+        cpu->apply(desc);
+    } catch (const std::exception& e) {
+        return fail(std::string("OpenColorIO: ") + e.what());
+    }
+
+    const std::string tmp = path + ".tmp";
+    auto out = OIIO::ImageOutput::create("png");
+    if (!out) return fail("OpenImageIO has no PNG writer: " + OIIO::geterror());
+    OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
+    if (!out->open(tmp, spec)) return fail("cannot open " + tmp + ": " + out->geterror());
+    if (!out->write_image(OIIO::TypeDesc::FLOAT, rgb.data())) {
+        std::string e = out->geterror();
+        out->close();
+        std::remove(tmp.c_str());
+        return fail("cannot write " + tmp + ": " + e);
+    }
+    if (!out->close()) {
+        std::remove(tmp.c_str());
+        return fail("cannot close " + tmp + ": " + out->geterror());
+    }
+    if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+        std::remove(tmp.c_str());
+        return fail("cannot rename " + tmp + " to " + path);
+    }
+    return true;
+}
+
+}  // namespace tide

@@ -1,0 +1,433 @@
+//! hdTide: the Hd* classes over tide:: (see hdTide.h).
+#include "hdTide.h"
+
+#include "tide/renderParam.h"
+
+#include "pxr/base/gf/matrix4d.h"
+#include "pxr/base/gf/vec2f.h"
+#include "pxr/base/gf/vec2i.h"
+#include "pxr/base/gf/vec3f.h"
+#include "pxr/base/gf/vec4f.h"
+#include "pxr/imaging/hd/camera.h"
+#include "pxr/imaging/hd/light.h"
+#include "pxr/imaging/hd/material.h"
+#include "pxr/imaging/hd/meshTopology.h"
+#include "pxr/imaging/hd/renderPassState.h"
+#include "pxr/imaging/hd/resourceRegistry.h"
+#include "pxr/imaging/hd/sceneDelegate.h"
+#include "pxr/imaging/hd/tokens.h"
+#include "pxr/usd/sdf/assetPath.h"
+
+PXR_NAMESPACE_OPEN_SCOPE
+
+namespace {
+
+template <typename T, size_t N>
+tide::Value FloatTuples(VtArray<T> const& a) {
+    std::vector<float> f;
+    f.reserve(a.size() * N);
+    for (auto const& x : a)
+        for (size_t i = 0; i < N; ++i) f.push_back(float(x[i]));
+    return tide::Value::MakeFloats(std::move(f), N);
+}
+
+}  // namespace
+
+tide::Value HdTideToValue(VtValue const& v) {
+    using tide::Value;
+    if (v.IsHolding<bool>()) return Value::MakeBool(v.UncheckedGet<bool>());
+    if (v.IsHolding<int>()) return Value::MakeInt(v.UncheckedGet<int>());
+    if (v.IsHolding<int64_t>()) return Value::MakeInt(v.UncheckedGet<int64_t>());
+    if (v.IsHolding<float>()) return Value::MakeFloat(v.UncheckedGet<float>());
+    if (v.IsHolding<double>()) return Value::MakeFloat(v.UncheckedGet<double>());
+    if (v.IsHolding<TfToken>()) return Value::MakeToken(v.UncheckedGet<TfToken>().GetString());
+    if (v.IsHolding<std::string>()) return Value::MakeString(v.UncheckedGet<std::string>());
+    if (v.IsHolding<SdfAssetPath>()) {
+        SdfAssetPath const& a = v.UncheckedGet<SdfAssetPath>();
+        return Value::MakeAsset(a.GetResolvedPath().empty() ? a.GetAssetPath() : a.GetResolvedPath());
+    }
+    if (v.IsHolding<SdfPath>()) return Value::MakePath(v.UncheckedGet<SdfPath>().GetString());
+    if (v.IsHolding<SdfPathVector>()) {
+        std::vector<std::string> p;
+        for (auto const& x : v.UncheckedGet<SdfPathVector>()) p.push_back(x.GetString());
+        return Value::MakePaths(std::move(p));
+    }
+    if (v.IsHolding<GfMatrix4d>()) {
+        std::array<double, 16> m{};
+        const double* d = v.UncheckedGet<GfMatrix4d>().GetArray();
+        std::copy(d, d + 16, m.begin());
+        return Value::MakeMatrix(m);
+    }
+    if (v.IsHolding<GfVec2f>()) { auto x = v.UncheckedGet<GfVec2f>(); return Value::MakeFloats({x[0], x[1]}, 2); }
+    if (v.IsHolding<GfVec3f>()) { auto x = v.UncheckedGet<GfVec3f>(); return Value::MakeFloats({x[0], x[1], x[2]}, 3); }
+    if (v.IsHolding<GfVec4f>()) { auto x = v.UncheckedGet<GfVec4f>(); return Value::MakeFloats({x[0], x[1], x[2], x[3]}, 4); }
+    if (v.IsHolding<GfVec2i>()) { auto x = v.UncheckedGet<GfVec2i>(); return Value::MakeInts({x[0], x[1]}); }
+    if (v.IsHolding<VtFloatArray>()) {
+        auto const& a = v.UncheckedGet<VtFloatArray>();
+        return Value::MakeFloats(std::vector<float>(a.begin(), a.end()), 1);
+    }
+    if (v.IsHolding<VtDoubleArray>()) {
+        auto const& a = v.UncheckedGet<VtDoubleArray>();
+        return Value::MakeDoubles(std::vector<double>(a.begin(), a.end()), 1);
+    }
+    if (v.IsHolding<VtIntArray>()) {
+        auto const& a = v.UncheckedGet<VtIntArray>();
+        return Value::MakeInts(std::vector<int32_t>(a.begin(), a.end()));
+    }
+    if (v.IsHolding<VtVec2fArray>()) return FloatTuples<GfVec2f, 2>(v.UncheckedGet<VtVec2fArray>());
+    if (v.IsHolding<VtVec3fArray>()) return FloatTuples<GfVec3f, 3>(v.UncheckedGet<VtVec3fArray>());
+    if (v.IsHolding<VtVec4fArray>()) return FloatTuples<GfVec4f, 4>(v.UncheckedGet<VtVec4fArray>());
+    if (v.IsHolding<VtMatrix4dArray>()) {
+        std::vector<double> d;
+        for (auto const& m : v.UncheckedGet<VtMatrix4dArray>()) d.insert(d.end(), m.GetArray(), m.GetArray() + 16);
+        return Value::MakeDoubles(std::move(d), 16);
+    }
+    return {};
+}
+
+// ---------------------------------------------------------------------------------------------
+// HdTideSnapshot
+
+static const TfToken kLightKeys[] = {
+    TfToken("inputs:intensity"), TfToken("inputs:exposure"), TfToken("inputs:color"), TfToken("inputs:normalize"),
+    TfToken("inputs:enableColorTemperature"), TfToken("inputs:colorTemperature"), TfToken("inputs:angle"),
+    TfToken("inputs:radius"), TfToken("treatAsPoint"), TfToken("inputs:width"), TfToken("inputs:height"),
+    TfToken("inputs:length"), TfToken("treatAsLine"), TfToken("inputs:texture:file"), TfToken("inputs:texture:format")};
+static const TfToken kCameraKeys[] = {
+    TfToken("projection"), TfToken("focalLength"), TfToken("horizontalAperture"), TfToken("verticalAperture"),
+    TfToken("horizontalApertureOffset"), TfToken("verticalApertureOffset"), TfToken("clippingRange"),
+    TfToken("fStop"), TfToken("focusDistance"), TfToken("shutter:open"), TfToken("shutter:close"),
+    TfToken("exposure"), TfToken("tide:camera:filter"), TfToken("tide:medium")};
+static const TfToken kGprimKeys[] = {TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"),
+                                     TfToken("width"), TfToken("length"), TfToken("doubleSided")};
+
+HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits)
+    : _path(id.GetString()) {
+    using CT = HdChangeTracker;
+    using tide::ChangeTracker;
+    const bool isRprim = typeId != "material" && typeId != "camera" && typeId != "renderSettings" &&
+                         typeId != "renderBuffer" && typeId.find("Light") == std::string::npos;
+    if (isRprim) {
+        if (bits & CT::DirtyTransform) {
+            HdTimeSampleArray<GfMatrix4d, 4> samples;
+            sd->SampleTransform(id, &samples);
+            for (size_t i = 0; i < samples.count; ++i) {
+                tide::TimedValue tv{samples.count > 1, double(samples.times[i]), HdTideToValue(VtValue(samples.values[i]))};
+                _store.Set(_path, "transform", tv);
+            }
+            _tideBits |= ChangeTracker::DirtyTransform;
+        }
+        if (bits & CT::DirtyVisibility) {
+            _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
+            _tideBits |= ChangeTracker::DirtyVisibility;
+        }
+        if (bits & CT::DirtyMaterialId) {
+            _Put("material", VtValue(sd->GetMaterialId(id)));
+            _tideBits |= ChangeTracker::DirtyMaterialId;
+        }
+        if (bits & CT::DirtyPoints) {
+            _Put("points", sd->Get(id, HdTokens->points));
+            _tideBits |= ChangeTracker::DirtyPoints;
+        }
+        if (typeId == "mesh" && (bits & CT::DirtyTopology)) {
+            HdMeshTopology topo = sd->GetMeshTopology(id);
+            _Put("faceVertexCounts", VtValue(topo.GetFaceVertexCounts()));
+            _Put("faceVertexIndices", VtValue(topo.GetFaceVertexIndices()));
+            _Put("holeIndices", VtValue(topo.GetHoleIndices()));
+            _Put("orientation", VtValue(topo.GetOrientation()));
+            _Put("subdivisionScheme", VtValue(topo.GetScheme()));
+            _tideBits |= ChangeTracker::DirtyTopology;
+        }
+        if (bits & (CT::DirtyPrimvar | CT::DirtyNormals | CT::DirtyWidths)) _tideBits |= ChangeTracker::DirtyPrimvar;
+        if (bits & CT::DirtyParams) {
+            for (TfToken const& k : kGprimKeys) _Put(k.GetString(), sd->Get(id, k));
+            _tideBits |= ChangeTracker::DirtyParams;
+        }
+    } else if (typeId == "material") {
+        VtValue res = sd->GetMaterialResource(id);
+        if (res.IsHolding<HdMaterialNetworkMap>()) {
+            for (auto const& term : res.UncheckedGet<HdMaterialNetworkMap>().map) {
+                const std::string terminal = term.first == HdMaterialTerminalTokens->volume ? "volume" : "surface";
+                HdMaterialNetwork const& net = term.second;
+                if (!net.nodes.empty()) _Put(terminal, VtValue(net.nodes.back().path));
+                for (HdMaterialNode const& n : net.nodes) {
+                    const std::string node = n.path.GetString();
+                    _Put(node + ".info:id", VtValue(n.identifier));
+                    for (auto const& p : n.parameters) {
+                        const std::string name = p.first.GetString();
+                        _Put(node + "." + (name.rfind("inputs:", 0) == 0 ? name : "inputs:" + name), p.second);
+                    }
+                }
+                for (HdMaterialRelationship const& r : net.relationships) {
+                    const std::string in = r.outputName.GetString();
+                    _Put(r.outputId.GetString() + "." + (in.rfind("inputs:", 0) == 0 ? in : "inputs:" + in) + ".connect",
+                         VtValue(TfToken(r.inputId.GetString() + ".outputs:" + r.inputName.GetString())));
+                }
+            }
+        }
+        _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource;
+    } else if (typeId == "camera") {
+        for (TfToken const& k : kCameraKeys) _Put(k.GetString(), sd->GetCameraParamValue(id, k));
+        _Put("transform", VtValue(sd->GetTransform(id)));
+        _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyTransform;
+    } else if (typeId == "renderBuffer") {
+        HdRenderBufferDescriptor d = sd->GetRenderBufferDescriptor(id);
+        _store.Set(_path, "dimensions", tide::TimedValue{false, 0, tide::Value::MakeInts({d.dimensions[0], d.dimensions[1]})});
+        _tideBits |= ChangeTracker::DirtyDescription;
+    } else {
+        for (TfToken const& k : kLightKeys) _Put(k.GetString(), sd->GetLightParamValue(id, k));
+        _Put("transform", VtValue(sd->GetTransform(id)));
+        _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
+        _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource | ChangeTracker::DirtyTransform;
+    }
+    (void)bits;
+    _sd = sd;
+    _id = id;
+}
+
+void HdTideSnapshot::_Put(std::string const& key, VtValue const& v) {
+    tide::Value value = HdTideToValue(v);
+    if (!value.IsEmpty()) _store.Set(_path, key, tide::TimedValue{false, 0.0, std::move(value)});
+}
+
+tide::Value HdTideSnapshot::Get(std::string const& path, std::string const& key) const { return _store.Get(path, key); }
+
+std::vector<tide::TimedValue> HdTideSnapshot::SampleValues(std::string const& path, std::string const& key) const {
+    return _store.SampleValues(path, key);
+}
+
+std::vector<std::string> HdTideSnapshot::GetKeys(std::string const& path) const { return _store.GetKeys(path); }
+
+std::vector<std::string> HdTideSnapshot::GetPrimvarNames(std::string const& path) const {
+    std::vector<std::string> names;
+    if (path != _path || !_sd) return names;
+    for (HdInterpolation i : {HdInterpolationConstant, HdInterpolationUniform, HdInterpolationVarying,
+                              HdInterpolationVertex, HdInterpolationFaceVarying})
+        for (HdPrimvarDescriptor const& d : _sd->GetPrimvarDescriptors(_id, i))
+            if (d.name != HdTokens->points) names.push_back(d.name.GetString());
+    return names;
+}
+
+tide::Primvar HdTideSnapshot::GetPrimvar(std::string const& path, std::string const& name) const {
+    tide::Primvar pv;
+    if (path != _path || !_sd) return pv;
+    static const char* interps[] = {"constant", "uniform", "varying", "vertex", "faceVarying"};
+    int k = 0;
+    for (HdInterpolation i : {HdInterpolationConstant, HdInterpolationUniform, HdInterpolationVarying,
+                              HdInterpolationVertex, HdInterpolationFaceVarying}) {
+        for (HdPrimvarDescriptor const& d : _sd->GetPrimvarDescriptors(_id, i)) {
+            if (d.name.GetString() != name) continue;
+            VtIntArray indices;
+            VtValue v = d.indexed ? _sd->GetIndexedPrimvar(_id, d.name, &indices) : _sd->Get(_id, d.name);
+            pv.interpolation = interps[k];
+            pv.data = HdTideToValue(v);
+            if (pv.data.type == tide::ValueType::Float) pv.data = tide::Value::MakeFloats({float(pv.data.f)}, 1);
+            pv.indexed = d.indexed;
+            pv.indices.assign(indices.begin(), indices.end());
+            return pv;
+        }
+        ++k;
+    }
+    return pv;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Prims: each Hd prim owns its tide:: prim.
+
+namespace {
+
+HdDirtyBits const kAllRprimBits = HdChangeTracker::AllSceneDirtyBits;
+
+template <typename Base>
+class HdTideRprim final : public Base {
+public:
+    HdTideRprim(SdfPath const& id, std::string typeId, tide::Rprim* prim)
+        : Base(id), _typeId(std::move(typeId)), _prim(prim) {}
+    tide::Rprim* TidePrim() const { return _prim; }
+
+    HdDirtyBits GetInitialDirtyBitsMask() const override { return kAllRprimBits; }
+    void Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits, TfToken const&) override {
+        HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, *dirtyBits);
+        tide::DirtyBits bits = snapshot.TideBits();
+        _prim->Sync(snapshot, &bits);
+        *dirtyBits &= ~HdChangeTracker::AllSceneDirtyBits;
+    }
+    TfTokenVector const& GetBuiltinPrimvarNames() const override {
+        static const TfTokenVector names = {HdTokens->points, HdTokens->normals, HdTokens->widths};
+        return names;
+    }
+
+protected:
+    HdDirtyBits _PropagateDirtyBits(HdDirtyBits bits) const override { return bits; }
+    void _InitRepr(TfToken const&, HdDirtyBits*) override {}
+
+private:
+    std::string _typeId;
+    tide::Rprim* _prim;
+};
+
+class HdTideSprim final : public HdSprim {
+public:
+    HdTideSprim(SdfPath const& id, std::string typeId, tide::Sprim* prim)
+        : HdSprim(id), _typeId(std::move(typeId)), _prim(prim) {}
+    tide::Sprim* TidePrim() const { return _prim; }
+    HdDirtyBits GetInitialDirtyBitsMask() const override { return HdChangeTracker::AllDirty; }
+    void Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits) override {
+        HdTideSnapshot snapshot(sd, GetId(), _typeId, *dirtyBits);
+        tide::DirtyBits bits = snapshot.TideBits();
+        _prim->Sync(snapshot, &bits);
+        *dirtyBits = HdChangeTracker::Clean;
+    }
+
+private:
+    std::string _typeId;
+    tide::Sprim* _prim;
+};
+
+class HdTideRenderBuffer final : public HdRenderBuffer {
+public:
+    HdTideRenderBuffer(SdfPath const& id, tide::RenderBuffer* buffer) : HdRenderBuffer(id), _buffer(buffer) {}
+    tide::RenderBuffer* TideBuffer() const { return _buffer; }
+    bool Allocate(GfVec3i const& dims, HdFormat format, bool multiSampled) override {
+        tide::Format f = tide::Format::Float32Vec4;
+        switch (HdGetComponentCount(format)) {
+        case 1: f = tide::Format::Float32; break;
+        case 2: f = tide::Format::Float32Vec2; break;
+        case 3: f = tide::Format::Float32Vec3; break;
+        default: break;
+        }
+        _hdFormat = format;
+        return _buffer->Allocate(dims[0], dims[1], dims[2], f, multiSampled);
+    }
+    unsigned int GetWidth() const override { return _buffer->GetWidth(); }
+    unsigned int GetHeight() const override { return _buffer->GetHeight(); }
+    unsigned int GetDepth() const override { return 1; }
+    HdFormat GetFormat() const override { return _hdFormat; }
+    bool IsMultiSampled() const override { return false; }
+    void* Map() override { return _buffer->Map(); }
+    void Unmap() override { _buffer->Unmap(); }
+    bool IsMapped() const override { return _buffer->IsMapped(); }
+    void Resolve() override { _buffer->Resolve(); }
+    bool IsConverged() const override { return _buffer->IsConverged(); }
+
+private:
+    void _Deallocate() override {}
+    tide::RenderBuffer* _buffer;
+    HdFormat _hdFormat = HdFormatFloat32Vec4;
+};
+
+class HdTideRenderPass final : public HdRenderPass {
+public:
+    HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass)
+        : HdRenderPass(index, collection), _pass(std::move(pass)) {}
+    bool IsConverged() const override { return _pass->IsConverged(); }
+
+protected:
+    void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
+        tide::RenderPassState s;
+        if (HdCamera const* cam = state->GetCamera()) s.camera = cam->GetId().GetString();
+        for (HdRenderPassAovBinding const& b : state->GetAovBindings()) {
+            auto* rb = dynamic_cast<HdTideRenderBuffer*>(b.renderBuffer);
+            s.aovBindings.push_back({b.aovName.GetString(), b.renderBufferId.GetString(), rb ? rb->TideBuffer() : nullptr});
+        }
+        std::string error;
+        if (!_pass->Execute(s, &error)) TF_WARN("Tide: %s", error.c_str());
+    }
+
+private:
+    std::shared_ptr<tide::RenderPass> _pass;
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// HdTideRenderDelegate
+
+static TfTokenVector Tokens(std::vector<std::string> const& v) {
+    TfTokenVector t;
+    for (auto const& s : v) t.emplace_back(s);
+    return t;
+}
+
+HdTideRenderDelegate::HdTideRenderDelegate() : _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {}
+
+HdTideRenderDelegate::HdTideRenderDelegate(HdRenderSettingsMap const& settingsMap)
+    : HdRenderDelegate(settingsMap), _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {}
+
+HdTideRenderDelegate::~HdTideRenderDelegate() = default;
+
+TfTokenVector const& HdTideRenderDelegate::GetSupportedRprimTypes() const {
+    static const TfTokenVector t = Tokens(_tide->GetSupportedRprimTypes());
+    return t;
+}
+TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
+    static const TfTokenVector t = Tokens(_tide->GetSupportedSprimTypes());
+    return t;
+}
+TfTokenVector const& HdTideRenderDelegate::GetSupportedBprimTypes() const {
+    static const TfTokenVector t = Tokens(_tide->GetSupportedBprimTypes());
+    return t;
+}
+
+HdResourceRegistrySharedPtr HdTideRenderDelegate::GetResourceRegistry() const { return _registry; }
+
+HdRenderPassSharedPtr HdTideRenderDelegate::CreateRenderPass(HdRenderIndex* index, HdRprimCollection const& collection) {
+    return std::make_shared<HdTideRenderPass>(index, collection, _tide->CreateRenderPass());
+}
+
+HdInstancer* HdTideRenderDelegate::CreateInstancer(HdSceneDelegate*, SdfPath const&) { return nullptr; }
+void HdTideRenderDelegate::DestroyInstancer(HdInstancer* instancer) { delete instancer; }
+
+HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const& rprimId) {
+    tide::Rprim* prim = _tide->CreateRprim(typeId.GetString(), rprimId.GetString());
+    if (!prim) return nullptr;
+    if (typeId == HdPrimTypeTokens->mesh) return new HdTideRprim<HdMesh>(rprimId, typeId.GetString(), prim);
+    if (typeId == HdPrimTypeTokens->points) return new HdTideRprim<HdPoints>(rprimId, typeId.GetString(), prim);
+    return new HdTideRprim<HdRprim>(rprimId, typeId.GetString(), prim);
+}
+
+void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
+    if (auto* m = dynamic_cast<HdTideRprim<HdMesh>*>(rPrim)) _tide->DestroyRprim(m->TidePrim());
+    else if (auto* p = dynamic_cast<HdTideRprim<HdPoints>*>(rPrim)) _tide->DestroyRprim(p->TidePrim());
+    else if (auto* g = dynamic_cast<HdTideRprim<HdRprim>*>(rPrim)) _tide->DestroyRprim(g->TidePrim());
+    delete rPrim;
+}
+
+HdSprim* HdTideRenderDelegate::CreateSprim(TfToken const& typeId, SdfPath const& sprimId) {
+    tide::Sprim* prim = _tide->CreateSprim(typeId.GetString(), sprimId.GetString());
+    return prim ? new HdTideSprim(sprimId, typeId.GetString(), prim) : nullptr;
+}
+
+HdSprim* HdTideRenderDelegate::CreateFallbackSprim(TfToken const&) { return nullptr; }
+
+void HdTideRenderDelegate::DestroySprim(HdSprim* sPrim) {
+    if (auto* s = dynamic_cast<HdTideSprim*>(sPrim)) _tide->DestroySprim(s->TidePrim());
+    delete sPrim;
+}
+
+HdBprim* HdTideRenderDelegate::CreateBprim(TfToken const& typeId, SdfPath const& bprimId) {
+    tide::Bprim* prim = _tide->CreateBprim(typeId.GetString(), bprimId.GetString());
+    return prim ? new HdTideRenderBuffer(bprimId, static_cast<tide::RenderBuffer*>(prim)) : nullptr;
+}
+
+HdBprim* HdTideRenderDelegate::CreateFallbackBprim(TfToken const&) { return nullptr; }
+
+void HdTideRenderDelegate::DestroyBprim(HdBprim* bPrim) {
+    if (auto* b = dynamic_cast<HdTideRenderBuffer*>(bPrim)) _tide->DestroyBprim(b->TideBuffer());
+    delete bPrim;
+}
+
+void HdTideRenderDelegate::CommitResources(HdChangeTracker*) {
+    _tide->CommitResources();
+    for (tide::Problem const& p : _tide->TakeProblems())
+        TF_WARN("Tide: %s: %s: %s", p.prim.c_str(), p.attribute.c_str(), p.message.c_str());
+}
+
+HdAovDescriptor HdTideRenderDelegate::GetDefaultAovDescriptor(TfToken const& name) const {
+    if (name == HdAovTokens->color) return HdAovDescriptor(HdFormatFloat32Vec4, false, VtValue(GfVec4f(0.0f)));
+    if (name == HdAovTokens->depth || name == HdAovTokens->primId)
+        return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));
+    return HdAovDescriptor(HdFormatFloat32Vec3, false, VtValue(GfVec3f(0.0f)));
+}
+
+PXR_NAMESPACE_CLOSE_SCOPE

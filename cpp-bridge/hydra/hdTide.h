@@ -1,0 +1,84 @@
+//! hdTide: Hd* classes mapped onto Tide's tide:: classes. Each Hd prim's Sync takes a
+//! snapshot of what its dirty bits name from the HdSceneDelegate (a tide::SceneSource) and
+//! hands it to the matching tide:: prim, which forwards it to the Rust delegate.
+#pragma once
+
+#include "tide/renderDelegate.h"
+#include "tide/sceneSource.h"
+
+#include "pxr/imaging/hd/bprim.h"
+#include "pxr/imaging/hd/mesh.h"
+#include "pxr/imaging/hd/points.h"
+#include "pxr/imaging/hd/renderBuffer.h"
+#include "pxr/imaging/hd/renderDelegate.h"
+#include "pxr/imaging/hd/renderPass.h"
+#include "pxr/imaging/hd/rprim.h"
+#include "pxr/imaging/hd/sprim.h"
+#include "pxr/pxr.h"
+
+#include <memory>
+
+PXR_NAMESPACE_OPEN_SCOPE
+
+/// Converts a VtValue into a tide::Value (Empty when the type has no protocol equivalent).
+tide::Value HdTideToValue(VtValue const& v);
+
+/// The values of one prim read from an HdSceneDelegate, as a tide::SceneSource.
+class HdTideSnapshot final : public tide::SceneSource {
+public:
+    HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits);
+    tide::Value Get(std::string const& path, std::string const& key) const override;
+    std::vector<tide::TimedValue> SampleValues(std::string const& path, std::string const& key) const override;
+    std::vector<std::string> GetKeys(std::string const& path) const override;
+    std::vector<std::string> GetPrimvarNames(std::string const& path) const override;
+    tide::Primvar GetPrimvar(std::string const& path, std::string const& name) const override;
+
+    /// The tide:: dirty bits matching the Hd ones that were read.
+    tide::DirtyBits TideBits() const { return _tideBits; }
+
+private:
+    void _Put(std::string const& key, VtValue const& v);
+    tide::MemorySceneSource _store;
+    std::string _path;
+    HdSceneDelegate* _sd = nullptr;
+    SdfPath _id;
+    tide::DirtyBits _tideBits = 0;
+};
+
+class HdTideRenderDelegate final : public HdRenderDelegate {
+public:
+    HdTideRenderDelegate();
+    explicit HdTideRenderDelegate(HdRenderSettingsMap const& settingsMap);
+    ~HdTideRenderDelegate() override;
+
+    HdRenderParam* GetRenderParam() const override { return nullptr; }
+    TfTokenVector const& GetSupportedRprimTypes() const override;
+    TfTokenVector const& GetSupportedSprimTypes() const override;
+    TfTokenVector const& GetSupportedBprimTypes() const override;
+    HdResourceRegistrySharedPtr GetResourceRegistry() const override;
+
+    HdRenderPassSharedPtr CreateRenderPass(HdRenderIndex* index, HdRprimCollection const& collection) override;
+    HdInstancer* CreateInstancer(HdSceneDelegate* delegate, SdfPath const& id) override;
+    void DestroyInstancer(HdInstancer* instancer) override;
+
+    HdRprim* CreateRprim(TfToken const& typeId, SdfPath const& rprimId) override;
+    void DestroyRprim(HdRprim* rPrim) override;
+    HdSprim* CreateSprim(TfToken const& typeId, SdfPath const& sprimId) override;
+    HdSprim* CreateFallbackSprim(TfToken const& typeId) override;
+    void DestroySprim(HdSprim* sPrim) override;
+    HdBprim* CreateBprim(TfToken const& typeId, SdfPath const& bprimId) override;
+    HdBprim* CreateFallbackBprim(TfToken const& typeId) override;
+    void DestroyBprim(HdBprim* bPrim) override;
+
+    void CommitResources(HdChangeTracker* tracker) override;
+    TfToken GetMaterialBindingPurpose() const override { return HdTokens->full; }
+    HdAovDescriptor GetDefaultAovDescriptor(TfToken const& name) const override;
+
+    tide::RenderDelegate& Tide() { return *_tide; }
+
+private:
+    std::unique_ptr<tide::RenderDelegate> _tide;
+    HdResourceRegistrySharedPtr _registry;
+};
+
+PXR_NAMESPACE_CLOSE_SCOPE

@@ -1,0 +1,56 @@
+//! tide::RenderPass: like HdRenderPass, renders the scene into bound render buffers; the
+//! rendering itself runs on the Rust delegate's background thread.
+#pragma once
+
+#include "rust/cxx.h"
+#include "tide-bridge/src/lib.rs.h"
+
+#include <string>
+#include <vector>
+
+namespace tide {
+
+class RenderParam;
+class RenderBuffer;
+
+/// An AOV (`sourceName`) rendered into a render buffer prim (HdRenderPassAovBinding).
+struct RenderPassAovBinding {
+    std::string aovName;
+    std::string renderBufferId;
+    /// Optional: marked converged when the pass is.
+    RenderBuffer* renderBuffer = nullptr;
+};
+
+/// What a pass renders (the part of HdRenderPassState Tide uses).
+struct RenderPassState {
+    std::string camera;
+    std::vector<RenderPassAovBinding> aovBindings;
+    /// A renderSettings prim path, or "" for defaults.
+    std::string renderSettings;
+};
+
+class RenderPass {
+public:
+    explicit RenderPass(RenderParam* param);
+    ~RenderPass();
+    RenderPass(const RenderPass&) = delete;
+    RenderPass& operator=(const RenderPass&) = delete;
+
+    /// Starts (or restarts) progressive rendering; false with `*error` set if it cannot.
+    bool Execute(const RenderPassState& state, std::string* error);
+    bool IsConverged() const;
+    /// Fraction of the sample target done, in [0, 1].
+    double GetProgress() const;
+    /// Waits up to `timeoutS` seconds (negative: no limit); true once the pass has stopped.
+    bool Wait(double timeoutS) const;
+    void Cancel();
+    /// The error that stopped the pass, or "".
+    std::string GetError() const;
+
+private:
+    RenderParam* _param;
+    rust::Box<rs::Pass> _pass;
+    std::vector<RenderBuffer*> _buffers;
+};
+
+}  // namespace tide

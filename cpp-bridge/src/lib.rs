@@ -1,0 +1,149 @@
+//! `tide-bridge`: the boundary between Tide's C++ Hydra-style layer (`cpp-bridge/cpp`,
+//! `cpp-bridge/include/tide`) and the Rust render delegate.
+//!
+//! The C++ prims (`tide::Mesh`, `tide::Material`, ...) pull values from a `tide::SceneSource`
+//! during `Sync` and forward them here through the `cxx` bridge below. Every function C++ may
+//! call catches Rust panics and returns a `Result`; `cxx` turns an `Err` into a C++ exception
+//! that the C++ layer turns into a problem or a Python exception, never an abort.
+//!
+//! With the `python` feature the cdylib also exports `PyInit__tide`, so the library copied to
+//! `cpp-bridge/python/tide/_tide.so` is the Python module `tide._tide`.
+
+mod backend;
+
+pub use backend::{Delegate, Pass};
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+/// Runs `f`, turning a panic into an error message so that no unwind reaches C++.
+pub(crate) fn guard<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(r) => r,
+        Err(payload) => {
+            let msg = if let Some(s) = payload.downcast_ref::<&str>() {
+                (*s).to_string()
+            } else if let Some(s) = payload.downcast_ref::<String>() {
+                s.clone()
+            } else {
+                "unknown panic".to_string()
+            };
+            Err(format!("internal error in {what}: {msg}"))
+        }
+    }
+}
+
+#[cxx::bridge(namespace = "tide::rs")]
+pub mod ffi {
+    /// A problem found in the input: which prim, which attribute, what is wrong.
+    #[derive(Clone, Debug, PartialEq, Eq)]
+    pub struct ProblemRow {
+        pub prim: String,
+        pub attribute: String,
+        pub message: String,
+    }
+
+    /// A copy of a render buffer's (or a texture's) pixels, row-major from the top row.
+    #[derive(Clone, Debug, Default)]
+    pub struct MappedBuffer {
+        pub width: u32,
+        pub height: u32,
+        pub channels: u32,
+        pub pixels: Vec<f32>,
+    }
+
+    /// An AOV (UsdRenderVar `sourceName`) rendered into a render buffer prim.
+    #[derive(Clone, Debug)]
+    pub struct AovBinding {
+        pub aov: String,
+        pub buffer: String,
+    }
+
+    /// A string pair (EXR layer name and AOV, or header key and value).
+    #[derive(Clone, Debug)]
+    pub struct StringPair {
+        pub first: String,
+        pub second: String,
+    }
+
+    extern "Rust" {
+        /// The Rust render delegate (prim store, scene conversion, render passes, buffers).
+        type Delegate;
+        /// A progressive render pass running on a background thread.
+        type Pass;
+
+        fn new_delegate() -> Result<Box<Delegate>>;
+        fn create_prim(self: &Delegate, type_id: &str, path: &str) -> Result<bool>;
+        fn destroy_prim(self: &Delegate, path: &str) -> Result<bool>;
+
+        fn set_bool(self: &Delegate, path: &str, key: &str, v: bool, has_time: bool, time: f64) -> Result<()>;
+        fn set_int(self: &Delegate, path: &str, key: &str, v: i64, has_time: bool, time: f64) -> Result<()>;
+        fn set_float(self: &Delegate, path: &str, key: &str, v: f64, has_time: bool, time: f64) -> Result<()>;
+        /// `kind`: 0 token, 1 string, 2 asset (resolved path), 3 path.
+        fn set_text(self: &Delegate, path: &str, key: &str, kind: u8, v: &str, has_time: bool, time: f64) -> Result<()>;
+        fn set_paths(self: &Delegate, path: &str, key: &str, v: &Vec<String>, has_time: bool, time: f64) -> Result<()>;
+        fn set_floats(self: &Delegate, path: &str, key: &str, v: &[f32], tuple: u32, has_time: bool, time: f64) -> Result<()>;
+        fn set_doubles(self: &Delegate, path: &str, key: &str, v: &[f64], tuple: u32, has_time: bool, time: f64) -> Result<()>;
+        fn set_ints(self: &Delegate, path: &str, key: &str, v: &[i32], has_time: bool, time: f64) -> Result<()>;
+        /// 16 values, USD's row-major row-vector convention.
+        fn set_matrix(self: &Delegate, path: &str, key: &str, v: &[f64], has_time: bool, time: f64) -> Result<()>;
+        /// `kind` 'f' (floats), 'd' (doubles, stored as floats), 'i' (ints).
+        fn set_primvar(
+            self: &Delegate,
+            path: &str,
+            name: &str,
+            interpolation: &str,
+            kind: u8,
+            floats: &[f32],
+            ints: &[i32],
+            tuple: u32,
+            has_indices: bool,
+            indices: &[i32],
+        ) -> Result<()>;
+
+        fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool) -> Result<()>;
+        fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
+        /// The pixels the delegate holds for a texture (for checks; empty if none).
+        fn texture_pixels(self: &Delegate, asset: &str) -> Result<MappedBuffer>;
+
+        fn commit_resources(self: &Delegate) -> Result<Vec<ProblemRow>>;
+        fn last_synced(self: &Delegate) -> Result<Vec<String>>;
+        fn map_buffer(self: &Delegate, path: &str) -> Result<MappedBuffer>;
+        fn write_exr(self: &Delegate, path: &str, layers: &Vec<StringPair>, header: &Vec<StringPair>) -> Result<()>;
+
+        fn create_render_pass(self: &Delegate) -> Result<Box<Pass>>;
+        fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<()>;
+        fn is_converged(self: &Pass) -> Result<bool>;
+        fn progress(self: &Pass) -> Result<f64>;
+        /// Waits up to `timeout_s` seconds (negative: forever); true once converged or stopped.
+        fn wait(self: &Pass, timeout_s: f64) -> Result<bool>;
+        fn cancel(self: &Pass) -> Result<()>;
+        /// The error that stopped the pass, or "".
+        fn error(self: &Pass) -> Result<String>;
+    }
+
+    unsafe extern "C++" {
+        include!("tide-bridge/include/tide/selfTest.h");
+
+        /// Runs the C++ layer's own checks; returns the failures, one a line ("" = all passed).
+        fn RunSelfTests(scratch_dir: &str) -> String;
+    }
+}
+
+fn new_delegate() -> Result<Box<Delegate>, String> {
+    guard("new_delegate", || Ok(Box::new(Delegate::new())))
+}
+
+#[cfg(feature = "python")]
+mod python {
+    extern "C" {
+        fn tide_python_module_init() -> *mut std::ffi::c_void;
+    }
+
+    /// The CPython entry point of `tide._tide` (the module itself is written in C++).
+    #[no_mangle]
+    pub extern "C" fn PyInit__tide() -> *mut std::ffi::c_void {
+        // SAFETY: called by the interpreter with the GIL held, as the C++ init expects; the
+        // C++ side catches every exception and returns null with a Python error set.
+        unsafe { tide_python_module_init() }
+    }
+}

@@ -1,0 +1,260 @@
+"""Tests of the C++ bridge through its Python module `tide._tide`: prim lifetimes in any
+order, errors as exceptions or problems (never aborts), render buffers mapped while a pass
+runs, textures read with OpenImageIO reaching the delegate with the right values."""
+import array
+import gc
+import math
+import os
+import random
+import struct
+import threading
+import zlib
+
+import pytest
+
+from tide import _tide
+
+
+def write_png(path, width, height, rows):
+    """A minimal 8-bit RGB PNG writer (rows: lists of (r, g, b) byte triples)."""
+    raw = b"".join(b"\x00" + bytes(c for px in row for c in px) for row in rows)
+
+    def chunk(tag, data):
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    with open(path, "wb") as f:
+        f.write(b"\x89PNG\r\n\x1a\n")
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)))
+        f.write(chunk(b"IDAT", zlib.compress(raw)))
+        f.write(chunk(b"IEND", b""))
+
+
+def srgb_to_linear(v):
+    return v / 12.92 if v <= 0.04045 else ((v + 0.055) / 1.055) ** 2.4
+
+
+def floats(data):
+    return array.array("f", data)
+
+
+def make_scene(d):
+    assert d.create_sprim("camera", "/Cam")
+    assert d.create_bprim("renderBuffer", "/Out/color")
+    d.set_array("/Out/color", "dimensions", [8, 4], 1, "i")
+    assert d.create_rprim("mesh", "/M")
+    d.set_array("/M", "points", floats([0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0]), 3, "f")
+    d.set_array("/M", "faceVertexCounts", [4], 1, "i")
+    d.set_array("/M", "faceVertexIndices", array.array("i", [0, 1, 2, 3]), 1, "i")
+
+
+def test_prims_created_and_destroyed_in_any_order():
+    rng = random.Random(7)
+    d = _tide.RenderDelegate()
+    kinds = d.supported_types()
+    made = []
+    for round_ in range(5):
+        for kind, create in (("rprims", d.create_rprim), ("sprims", d.create_sprim), ("bprims", d.create_bprim)):
+            for t in kinds[kind]:
+                path = f"/{t}_{round_}"
+                assert create(t, path)
+                made.append(path)
+        rng.shuffle(made)
+        # Destroy about half, commit, keep going: no leak of stale prims, no crash.
+        for path in made[: len(made) // 2]:
+            assert d.destroy_prim(path)
+            assert not d.destroy_prim(path)
+        del made[: len(made) // 2]
+        d.commit_resources()
+        assert set(d.last_synced()) <= set(made)
+    # A material destroyed before the mesh bound to it.
+    assert d.create_sprim("material", "/Looks/M")
+    assert d.create_rprim("sphere", "/S")
+    d.set("/S", "material", ("path", "/Looks/M"))
+    d.commit_resources()
+    assert d.destroy_prim("/Looks/M")
+    d.commit_resources()
+    assert d.destroy_prim("/S")
+    # Dropping the delegate with prims still alive.
+    del d
+    gc.collect()
+
+
+def test_only_dirty_prims_resync():
+    d = _tide.RenderDelegate()
+    d.create_rprim("sphere", "/A")
+    d.create_rprim("sphere", "/B")
+    d.commit_resources()
+    assert sorted(d.last_synced()) == ["/A", "/B"]
+    d.set("/B", "radius", 2.0)
+    d.commit_resources()
+    assert d.last_synced() == ["/B"]
+    d.commit_resources()
+    assert d.last_synced() == []
+
+
+def test_unknown_types_are_problems():
+    d = _tide.RenderDelegate()
+    assert d.create_rprim("teapot", "/T") is False
+    assert d.create_sprim("mesh", "/WrongKind") is False
+    problems = d.commit_resources()
+    assert any(p[0] == "/T" and "teapot" in p[2] for p in problems)
+    assert any(p[0] == "/WrongKind" for p in problems)
+
+
+def test_errors_surface_as_python_exceptions():
+    d = _tide.RenderDelegate()
+    d.create_rprim("mesh", "/M")
+    with pytest.raises(_tide.TideError):
+        d.set("/missing", "radius", 1.0)
+    with pytest.raises(ValueError):
+        d.set_array("/M", "points", floats([1, 2]), 3, "f")
+    with pytest.raises(ValueError):
+        d.set_array("/M", "points", floats([1, 2, 3]), 3, "x")
+    with pytest.raises(ValueError):
+        d.set("/M", "orientation", ("nonsense", "x"))
+    with pytest.raises(TypeError):
+        d.set("/M", "points", [1.0, 2.0])
+    with pytest.raises(TypeError):
+        d.set_array("/M", "faceVertexIndices", floats([0.5]), 1, "i")
+    with pytest.raises(ValueError):
+        d.set_matrix("/M", "transform", [1.0] * 15)
+    with pytest.raises(ValueError):
+        d.set_primvar("/M", "st", "perVertex", floats([0, 0]), 2)
+    with pytest.raises(_tide.TideError):
+        d.map_buffer("/nope")
+    p = d.create_render_pass()
+    with pytest.raises(_tide.TideError):
+        p.execute("/NoCamera", [("color", "/nope")])
+    with pytest.raises(_tide.TideError):
+        d.write_preview_png("/tmp/never.png", "/nope")
+    # The delegate is still usable after all of that.
+    d.set("/M", "doubleSided", True)
+    d.commit_resources()
+    assert d.last_synced() == ["/M"]
+
+
+def test_bad_values_become_problems_not_errors():
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    d.set_array("/M", "faceVertexIndices", array.array("i", [0, 1, 2, 9]), 1, "i")
+    problems = d.commit_resources()
+    assert ("/M", "faceVertexIndices") in [(p[0], p[1]) for p in problems]
+
+
+def test_buffers_and_values_of_every_kind():
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    pts = [0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0]
+    d.set_array("/M", "points", bytes(floats(pts)), 3, "f")
+    d.set_array("/M", "points", memoryview(array.array("d", pts)), 3, "f")
+    d.set_array("/M", "velocities", array.array("d", [0.0] * 12), 3, "d")
+    d.set_matrix("/M", "transform", [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1], time=0.0)
+    d.set_matrix("/M", "transform", [[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [2, 0, 0, 1]], time=1.0)
+    d.set_primvar("/M", "st", "faceVarying", floats([0, 0, 1, 0, 1, 1, 0, 1]), 2, indices=[0, 1, 2, 3])
+    d.set_primvar("/M", "displayColor", "constant", [0.5, 0.5, 0.5], 3)
+    d.set("/M", "orientation", ("token", "leftHanded"))
+    d.set("/M", "primId", 3)
+    d.set("/M", "tide:note", "free text")
+    d.set("/M", "purpose", ("token", "render"))
+    d.create_sprim("renderSettings", "/Render")
+    d.set("/Render", "includedPurposes", ("paths", ["default", "render"]))
+    d.set("/Render", "camera", ("path", "/Cam"))
+    assert d.commit_resources() == []
+
+
+def test_buffers_mapped_while_a_pass_runs():
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    assert d.commit_resources() == []
+    p = d.create_render_pass()
+    seen = []
+    stop = threading.Event()
+
+    def mapper():
+        while not stop.is_set():
+            w, h, c, data = d.map_buffer("/Out/color")
+            seen.append((w, h, c, len(data)))
+
+    t = threading.Thread(target=mapper)
+    t.start()
+    try:
+        for _ in range(5):
+            p.execute("/Cam", [("color", "/Out/color")])
+            assert p.wait(30.0)
+            assert p.error() is None
+    finally:
+        stop.set()
+        t.join()
+    assert p.is_converged()
+    assert 0.0 <= p.progress() <= 1.0
+    assert seen, "the mapping thread never ran"
+    for w, h, c, n in seen:
+        assert (w, h) == (8, 4)
+        assert n == w * h * c * 4
+    w, h, c, data = d.map_buffer("/Out/color")
+    assert (w, h, c) == (8, 4, 4)
+    # A pass dropped while running, then its delegate: threads are joined, nothing aborts.
+    p.execute("/Cam", [("color", "/Out/color")])
+    p.cancel()
+    del p, d
+    gc.collect()
+
+
+def test_texture_read_with_oiio_reaches_the_delegate(tmp_path):
+    path = str(tmp_path / "checker.png")
+    rows = [[(0, 128, 255), (64, 32, 16)], [(255, 255, 255), (1, 2, 3)]]
+    write_png(path, 2, 2, rows)
+    d = _tide.RenderDelegate()
+    assert d.load_texture(path, "auto")
+    w, h, c, data = d.texture_pixels(path)
+    assert (w, h, c) == (2, 2, 3)
+    got = array.array("f", data)
+    want = [srgb_to_linear(v / 255.0) for row in rows for px in row for v in px]
+    # float32 conversion of the same formula: 1e-6 covers rounding of pow in single precision.
+    assert all(math.isclose(a, b, abs_tol=1e-6) for a, b in zip(got, want)), (list(got), want)
+    assert d.load_texture(path, "raw")
+    got = array.array("f", d.texture_pixels(path)[3])
+    want = [v / 255.0 for row in rows for px in row for v in px]
+    assert all(math.isclose(a, b, abs_tol=1e-6) for a, b in zip(got, want))
+
+
+def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
+    path = str(tmp_path / "albedo.png")
+    write_png(path, 1, 1, [[(255, 0, 0)]])
+    d = _tide.RenderDelegate()
+    assert d.create_sprim("material", "/Looks/M")
+    d.set("/Looks/M", "surface", ("path", "/Looks/M/PBR"))
+    d.set("/Looks/M", "/Looks/M/PBR.info:id", ("token", "UsdPreviewSurface"))
+    d.set("/Looks/M", "/Looks/M/PBR.inputs:diffuseColor.connect", ("token", "/Looks/M/Tex.outputs:rgb"))
+    d.set("/Looks/M", "/Looks/M/Tex.info:id", ("token", "UsdUVTexture"))
+    d.set("/Looks/M", "/Looks/M/Tex.inputs:file", ("asset", path))
+    d.set("/Looks/M", "/Looks/M/Tex.inputs:sourceColorSpace", ("token", "raw"))
+    d.set("/Looks/M", "/Looks/M/Missing.info:id", ("token", "UsdUVTexture"))
+    d.set("/Looks/M", "/Looks/M/Missing.inputs:file", ("asset", str(tmp_path / "nope.exr")))
+    problems = d.commit_resources()
+    assert d.texture_pixels(path)[:3] == (1, 1, 3)
+    assert array.array("f", d.texture_pixels(path)[3]).tolist() == [1.0, 0.0, 0.0]
+    where = [(p[0], p[1]) for p in problems]
+    assert ("/Looks/M", "/Looks/M/Missing.inputs:file") in where, problems
+    assert ("/Looks/M", "/Looks/M/Tex.inputs:file") not in where
+    # Reported once: a second commit of the same material does not repeat it.
+    d.set("/Looks/M", "/Looks/M/PBR.inputs:roughness", 0.5)
+    again = d.commit_resources()
+    assert ("/Looks/M", "/Looks/M/Missing.inputs:file") not in [(p[0], p[1]) for p in again]
+    assert not d.load_texture(str(tmp_path / "nope.exr"))
+
+
+def test_preview_png_is_written_atomically(tmp_path):
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    d.commit_resources()
+    p = d.create_render_pass()
+    p.execute("/Cam", [("color", "/Out/color")])
+    assert p.wait(30.0)
+    out = str(tmp_path / "preview.png")
+    d.write_preview_png(out, "/Out/color", "ACEScg", "Standard")
+    with open(out, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+    assert os.listdir(tmp_path) == ["preview.png"]
+    with pytest.raises(_tide.TideError):
+        d.write_preview_png(out, "/Out/color", "NoSuchSpace", "Standard")
