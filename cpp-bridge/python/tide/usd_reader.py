@@ -947,7 +947,7 @@ class Reader:
         key = (str(proto), material)
         grp = self._groups.setdefault(key, {"prim": prim, "root": root, "worlds": []})
         grp["worlds"].append(_mat_key(
-            UsdGeom.Xformable(root).ComputeLocalToWorldTransform(self._time(0))))
+            UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
 
     def _emit_instance_groups(self):
         per_proto = {}
@@ -956,11 +956,11 @@ class Reader:
             per_proto[proto] = n + 1
             dpath = proto if n == 0 else "%s_m%d" % (proto, n)
             prim, root = grp["prim"], grp["root"]
-            px, rx = UsdGeom.Xformable(prim), UsdGeom.Xformable(root)
 
-            def rel(t, px=px, rx=rx):
-                return px.ComputeLocalToWorldTransform(t) * \
-                    rx.ComputeLocalToWorldTransform(t).GetInverse()
+            def rel(t, prim=prim, root=root):
+                cache = UsdGeom.XformCache(t)
+                return cache.GetLocalToWorldTransform(prim) * \
+                    cache.GetLocalToWorldTransform(root).GetInverse()
 
             st = self._gprim_state(prim, dpath, "/", rel, [prim])
             if st is None:
@@ -1011,7 +1011,6 @@ class Reader:
             it_xf = np.stack([mats[i] for i in sel]).astype(np.float64)
             base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
             parent = proto.GetParent()
-            px = UsdGeom.Xformable(parent) if parent else None
             pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
             for g in Usd.PrimRange(proto, pred):
                 if g.GetTypeName() not in GPRIMS:
@@ -1025,12 +1024,12 @@ class Reader:
                     continue
                 relp = g.GetPath().MakeRelativePath(proto.GetPath())
                 dpath = str(base if str(relp) == "." else base.AppendPath(relp))
-                gx = UsdGeom.Xformable(g)
 
-                def rel(tc, gx=gx, px=px):
-                    m = gx.ComputeLocalToWorldTransform(tc)
-                    if px:
-                        m = m * px.ComputeLocalToWorldTransform(tc).GetInverse()
+                def rel(tc, g=g, parent=parent):
+                    cache = UsdGeom.XformCache(tc)
+                    m = cache.GetLocalToWorldTransform(g)
+                    if parent:
+                        m = m * cache.GetLocalToWorldTransform(parent).GetInverse()
                     return m
 
                 st = self._gprim_state(g, dpath, str(path), rel, [g])
