@@ -37,7 +37,7 @@ def _stage(tmp_path, bad=False, vars_=("color",)):
 def _exr_channels(path):
     import OpenEXR
     with OpenEXR.File(path, separate_channels=True) as f:
-        return sorted(f.channels().keys()), f.header()
+        return sorted(f.channels().keys()), dict(f.header())
 
 
 def test_default_scene(tmp_path):
