@@ -106,7 +106,7 @@ def _probe():
     try:
         module = env.load_module(fake=False)
     except RuntimeError as e:
-        return "tide._tide is not built (cpp-bridge module missing: %s)" % e
+        return "needs the bridge module: %s" % e
     try:
         s = Usd.Stage.CreateInMemory()
         camera(s)

@@ -175,7 +175,8 @@ def test_native_instances_and_point_instancer_counts(renderer, stage):
     inst.CreateInvisibleIdsAttr([1])
     settings(stage, res=(w, h), samples=8)
     d = _darkness(render(renderer, stage)["color"])
-    # 2 native instances + 3 visible point instances, well separated (3 units ~ 12 px apart)
+    # 2 native instances + 3 visible point instances, well separated: 3 units = 6.7 px apart,
+    # each ball ~1.3 px in radius
     assert _components(d > 0.5) == 5
 
 
