@@ -128,7 +128,17 @@ def _negative_radius(stage):
     return "/Neg", "radius", None
 
 
-CASES = [_nan_points, _inf_points, _index_out_of_range, _short_face, _count_mismatch,
+def _missing_vdb(stage):
+    from pxr import UsdVol
+    vol = UsdVol.Volume.Define(stage, "/Cloud")
+    field = UsdVol.OpenVDBAsset.Define(stage, "/Cloud/density")
+    field.CreateFilePathAttr("/no/such/cloud.vdb")
+    field.CreateFieldNameAttr("density")
+    vol.CreateFieldRelationship("density", field.GetPath())
+    return "/Cloud/density", "filePath", None
+
+
+CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_face, _count_mismatch,
          _unknown_token, _unknown_shader, _missing_texture, _zero_area_rect, _zero_radius_disk,
          _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
          _missing_dome_texture, _unknown_aov, _negative_radius]
@@ -198,3 +208,20 @@ def test_bad_camera_override(stage, delegate):
     with pytest.raises(LookupError):
         load(stage, delegate, settings="/Nope")
 
+
+
+def test_value_rejected_by_the_delegate(stage, delegate):
+    _good(stage)
+    UsdGeom.Sphere.Define(stage, "/Other").CreateRadiusAttr(3.0)
+    real_set = delegate.set
+
+    def picky_set(path, key, value, time=None):
+        if path == "/Other" and key == "radius":
+            raise TypeError("radius refused")
+        return real_set(path, key, value, time)
+
+    delegate.set = picky_set
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Other", "radius")]
+    assert "radius refused" in problems[0].message
+    assert delegate.prims["/Other"] == "sphere" and delegate.value("/Good", "radius") == 1.0

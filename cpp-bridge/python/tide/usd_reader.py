@@ -427,16 +427,25 @@ class Reader:
             if not create(st.type, path):
                 self.problem(path, "type", "the delegate does not know prim type '%s'" % st.type)
                 return
-        for key, samples in st.values.items():
+        for key, samples in list(st.values.items()):
             if old is not None and old.values.get(key) == samples:
                 continue
-            for time, value in samples:
-                send(d, path, key, value, time)
-        for name, pv in st.primvars.items():
+            try:
+                for time, value in samples:
+                    send(d, path, key, value, time)
+            except Exception as e:  # the delegate refused the value: drop that input
+                self.problem(path, key, "rejected by the delegate (%s); dropped" % e)
+                del st.values[key]
+        for name, pv in list(st.primvars.items()):
             if old is not None and old.primvars.get(name) == pv:
                 continue
             interp, data, tsize, idx = pv
-            d.set_primvar(path, name, interp, data, tsize, idx)
+            try:
+                d.set_primvar(path, name, interp, data, tsize, idx)
+            except Exception as e:
+                self.problem(path, "primvars:" + name, "rejected by the delegate (%s); dropped"
+                             % e)
+                del st.primvars[name]
         self._sent[path] = st
 
     # -- traversal ------------------------------------------------------------------------
@@ -1100,13 +1109,19 @@ class Reader:
         csp = shader.GetInput("sourceColorSpace")
         space = str(csp.Get()) if csp and csp.Get() else "auto"
         if resolved not in self._textures_loaded():
-            ok = self.delegate.load_texture(resolved, space)
+            ok = self._load_texture(resolved, space)
             if ok is False:
                 self.problem(shader.GetPath(), name, "cannot read texture '%s'; the input's "
                              "default is used" % resolved)
                 return Sdf.AssetPath("")
             self._loaded.add(resolved)
         return asset
+
+    def _load_texture(self, path, space):
+        try:
+            return self.delegate.load_texture(path, space)
+        except Exception:  # the module reports a failure as an exception or as False
+            return False
 
     def _textures_loaded(self):
         if not hasattr(self, "_loaded"):
@@ -1132,7 +1147,7 @@ class Reader:
                     self.problem(path, name, "cannot find texture '%s'; the light uses its "
                                  "colour" % v.path)
                 elif v.resolvedPath and v.resolvedPath not in self._textures_loaded():
-                    if self.delegate.load_texture(v.resolvedPath, "auto") is False:
+                    if self._load_texture(v.resolvedPath, "auto") is False:
                         self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
                         v = Sdf.AssetPath("")
                     else:
