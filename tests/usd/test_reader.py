@@ -502,7 +502,7 @@ def test_render_pass_binds_buffers(stage, delegate):
     cam, bindings, sp = rp.executed[0]
     assert cam == "/Cam" and sp == "/Render/Settings"
     assert [a for a, _ in bindings] == ["color", "normal", "tide:diffuse"]
-    assert delegate.value(bindings[1][1], "format") == ("token", "float32Vec3")
+    assert delegate.value(bindings[1][1], "format") == ("token", "float3")
 
 
 def test_no_settings_prim_uses_defaults_and_first_camera(stage, delegate):

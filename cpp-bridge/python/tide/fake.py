@@ -14,7 +14,7 @@ RPRIMS = {"mesh", "points", "sphere", "cube", "cylinder", "cone", "capsule", "pl
 SPRIMS = {"camera", "material", "distantLight", "domeLight", "sphereLight", "rectLight",
           "diskLight", "cylinderLight", "renderSettings"}
 BPRIMS = {"renderBuffer"}
-_CHANNELS = {"float32": 1, "float32Vec2": 2, "float32Vec3": 3, "float32Vec4": 4}
+_CHANNELS = {"float": 1, "float2": 2, "float3": 3, "float4": 4}
 
 
 def _as_list(buffer, kind):
@@ -159,7 +159,7 @@ class RenderDelegate:
         if vals is None or self.prims.get(path) != "renderBuffer":
             raise KeyError("no render buffer %s" % path)
         w, h = self.value(path, "dimensions")[2]
-        fmt = self.value(path, "format") or ("token", "float32Vec4")
+        fmt = self.value(path, "format") or ("token", "float4")
         c = _CHANNELS.get(fmt[1], 4)
         return (w, h, c, bytes(4 * w * h * c))
 

@@ -87,11 +87,11 @@ ALLOWED_TOKENS = {
     "tide:caustics:transparency": ("off", "afterDiffuse", "volume", "all"),
 }
 AOVS = {
-    "color": "float32Vec4", "depth": "float32", "normal": "float32Vec3",
-    "albedo": "float32Vec3", "primId": "float32", "tide:diffuse": "float32Vec3",
-    "tide:specular": "float32Vec3", "tide:transmission": "float32Vec3",
-    "tide:volume": "float32Vec3", "tide:emission": "float32Vec3",
-    "tide:caustics": "float32Vec3",
+    "color": "float4", "depth": "float", "normal": "float3",
+    "albedo": "float3", "primId": "float", "tide:diffuse": "float3",
+    "tide:specular": "float3", "tide:transmission": "float3",
+    "tide:volume": "float3", "tide:emission": "float3",
+    "tide:caustics": "float3",
 }
 SHADER_IDS = {
     "UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_float",
