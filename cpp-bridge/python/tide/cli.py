@@ -48,7 +48,11 @@ def _float(text):
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="tide", description="Tide: a spectral path tracer for water.")
+    p = argparse.ArgumentParser(
+        prog="tide", description="Tide: a spectral path tracer for water.",
+        epilog="exit status: 0 written (problems in the stage are printed, the rest renders); "
+               "1 the stage could not be opened or rendered (no file written); 2 usage error; "
+               "130 interrupted")
     sub = p.add_subparsers(dest="command", metavar="COMMAND")
     sub.required = True
     r = sub.add_parser("render", help="render a stage (or the built-in pool scene) to EXR")
