@@ -1,0 +1,298 @@
+"""The `tide` command: render a USD stage to EXR (and a PNG preview), or list what a stage holds.
+
+    tide render [STAGE] [-o OUT.exr] [--settings PRIM] [--camera PATH] [--frame F] [--spp N]
+                [--width W] [--threads N] [--seed S]
+    tide info STAGE
+
+Exit status: 0 when the image was written (or the listing printed), even if the stage has
+problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIBUTE: MESSAGE`
+and that prim or input is dropped or replaced by its documented default (contract section 7);
+1 when the stage could not be opened or rendered at all (no file is left under the final
+name); 2 for usage errors (bad flags, a --settings or --camera path that names no such prim);
+130 when interrupted.
+"""
+import argparse
+import os
+import sys
+import time
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class UsageError(Exception):
+    pass
+
+
+def _positive_int(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected a positive integer, got %r" % text)
+    if v <= 0:
+        raise argparse.ArgumentTypeError("expected a positive integer, got %r" % text)
+    return v
+
+
+def _int(text):
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected an integer, got %r" % text)
+
+
+def _float(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected a number, got %r" % text)
+
+
+def build_parser():
+    p = argparse.ArgumentParser(
+        prog="tide", description="Tide: a spectral path tracer for water.",
+        epilog="exit status: 0 written (problems in the stage are printed, the rest renders); "
+               "1 the stage could not be opened or rendered (no file written); 2 usage error; "
+               "130 interrupted")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    r = sub.add_parser("render", help="render a stage (or the built-in pool scene) to EXR")
+    r.add_argument("stage", nargs="?", help="USD stage; omitted: a built-in sunlit pool")
+    r.add_argument("-o", "--output", metavar="OUT.exr", help="write all AOVs to this EXR")
+    r.add_argument("--settings", metavar="PRIM", help="UsdRenderSettings prim to use")
+    r.add_argument("--camera", metavar="PATH", help="camera prim (overrides the settings')")
+    r.add_argument("--frame", type=_float, metavar="F", help="time code to render")
+    r.add_argument("--spp", type=_positive_int, metavar="N", help="samples per pixel")
+    r.add_argument("--width", type=_positive_int, metavar="W",
+                   help="image width (height keeps the aspect ratio)")
+    r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
+    r.add_argument("--seed", type=_int, metavar="S", help="random seed")
+    i = sub.add_parser("info", help="list what would be rendered and every problem found")
+    i.add_argument("stage", help="USD stage")
+    i.add_argument("--settings", metavar="PRIM")
+    i.add_argument("--camera", metavar="PATH")
+    i.add_argument("--frame", type=_float, metavar="F")
+    return p
+
+
+def _say(msg):
+    sys.stderr.write("tide: %s\n" % msg)
+    sys.stderr.flush()
+
+
+def _print_problems(problems):
+    for p in problems:
+        _say("problem: %s" % (p,))
+
+
+def _open(args):
+    from tide import usd_reader
+
+    if args.stage is None:
+        from tide.default_scene import DEFAULT_SCENE_USDA
+        return usd_reader.stage_from_string(DEFAULT_SCENE_USDA), "tide"
+    if not os.path.exists(args.stage):
+        raise RuntimeError("cannot open stage '%s': no such file" % args.stage)
+    stage = usd_reader.open_stage(args.stage)
+    return stage, os.path.splitext(os.path.basename(args.stage))[0]
+
+
+def _make_reader(args, stage, delegate, **extra):
+    from tide import usd_reader
+
+    opts = usd_reader.Options(settings=args.settings, camera=args.camera, frame=args.frame,
+                              **extra)
+    reader = usd_reader.Reader(stage, delegate, opts)
+    try:
+        problems = reader.load()
+    except LookupError as e:
+        raise UsageError(str(e))
+    return reader, problems
+
+
+class Progress:
+    """A progress bar on a terminal, plain lines (every 10%) otherwise."""
+
+    def __init__(self, stream=None):
+        self.stream = stream or sys.stderr
+        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.last_decile = -1
+        self.start = time.monotonic()
+
+    def update(self, fraction, spp_done=None, spp_target=None):
+        fraction = max(0.0, min(1.0, fraction))
+        elapsed = time.monotonic() - self.start
+        spp = "" if spp_target is None else " %d/%d spp" % (spp_done, spp_target)
+        if self.tty:
+            width = 30
+            filled = int(round(width * fraction))
+            self.stream.write("\r[%s%s] %3d%%%s %.1fs" % ("#" * filled, "." * (width - filled),
+                                                      int(fraction * 100), spp, elapsed))
+        else:
+            decile = int(fraction * 10)
+            if decile == self.last_decile:
+                return
+            self.last_decile = decile
+            self.stream.write("tide: rendering %3d%%%s %.1fs\n" % (decile * 10, spp, elapsed))
+        self.stream.flush()
+
+    def done(self):
+        if self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def _fraction(progress, target):
+    """The pass's progress as (fraction, spp done): accepts a fraction or (done, target)."""
+    if isinstance(progress, (tuple, list)):
+        done, tgt = progress[0], progress[1] if len(progress) > 1 else target
+        return (float(done) / tgt if tgt else 0.0), int(done)
+    f = float(progress or 0.0)
+    return f, int(round(f * target))
+
+
+def _outputs(reader, args, stem):
+    """[(file name, [(aov, buffer)])]: one EXR per product, or everything in -o."""
+    if args.output:
+        return [(args.output, reader.bindings())]
+    out = []
+    for i, prod in enumerate(reader.products):
+        name = prod.name or ("%s.exr" % stem if i == 0 else "%s_%d.exr" % (stem, i))
+        out.append((name, prod.vars))
+    return out
+
+
+def cmd_render(args):
+    from tide import env
+
+    t0 = time.monotonic()
+    stage, stem = _open(args)
+    module = env.load_module()
+    delegate = module.RenderDelegate()
+    reader, problems = _make_reader(args, stage, delegate, spp=args.spp, width=args.width,
+                                    seed=args.seed, threads=args.threads)
+    _print_problems(problems)
+    if reader.camera_path is None:
+        raise RuntimeError("nothing to render: the stage has no camera")
+    outputs = _outputs(reader, args, stem)
+    for name, _ in outputs:
+        parent = os.path.dirname(os.path.abspath(name))
+        if not os.path.isdir(parent):
+            raise RuntimeError("cannot write '%s': no such directory" % name)
+    load_s = time.monotonic() - t0
+    target = max(1, int(reader.sample_target))
+    bar = Progress()
+    t1 = time.monotonic()
+    rp = reader.render_pass()
+    try:
+        while not rp.is_converged():
+            rp.wait(0.25)
+            frac, done = _fraction(rp.progress(), target)
+            bar.update(frac, done, target)
+        frac, done = _fraction(rp.progress(), target)
+        bar.update(1.0 if rp.is_converged() else frac, max(done, target), target)
+    except KeyboardInterrupt:
+        rp.cancel()
+        bar.done()
+        _say("interrupted; nothing written")
+        return EXIT_INTERRUPTED
+    bar.done()
+    render_s = time.monotonic() - t1
+    _print_problems(reader.commit())
+    spp = target
+    w, h = reader.resolution
+    sps = w * h * spp / render_s if render_s > 0 else 0.0
+    header = {
+        "tide:stage": args.stage or "<built-in pool>",
+        "tide:camera": reader.camera_path,
+        "tide:settings": reader.settings_path,
+        "tide:frame": "%g" % reader.frame,
+        "tide:spp": str(spp),
+        "tide:loadSeconds": "%.3f" % load_s,
+        "tide:renderSeconds": "%.3f" % render_s,
+        "tide:samplesPerSecond": "%.0f" % sps,
+        "tide:problems": str(len(reader.problems)),
+    }
+    sent = reader.sent().get(reader.settings_path)
+    if sent:
+        for key in ("tide:integrator", "tide:seed", "tide:maxDepth", "renderingColorSpace"):
+            if key in sent[1]:
+                header[key] = str(sent[1][key][0][1][1])
+    color_space = header.get("renderingColorSpace", "lin_rec709")
+    written = []
+    for name, vars_ in outputs:
+        delegate.write_exr(name, [(aov, buf) for aov, buf in vars_], header)
+        written.append(name)
+        color = [buf for aov, buf in vars_ if aov == "color"]
+        if color:
+            png = os.path.splitext(name)[0] + ".png"
+            delegate.write_preview_png(png, color[0], color_space, "Standard")
+            written.append(png)
+    sys.stdout.write("tide: wrote %s (%dx%d, %d spp, load %.2fs, render %.2fs, %.3g samples/s)\n"
+                     % (", ".join(written), w, h, spp, load_s, render_s, sps))
+    return EXIT_OK
+
+
+def cmd_info(args):
+    from tide import env
+    from tide import usd_reader
+
+    stage, _ = _open(args)
+    try:
+        module = env.load_module()
+        note = ""
+    except RuntimeError:
+        module = env.load_module(fake=True)
+        note = " (the renderer module is not built: only the reader's checks ran)"
+    reader, problems = _make_reader(args, stage, module.RenderDelegate())
+    out = sys.stdout
+    w, h = reader.resolution
+    out.write("stage: %s\n" % args.stage)
+    out.write("settings: %s  camera: %s  resolution: %dx%d  frame: %g  samples: %d\n"
+              % (reader.settings_path, reader.camera_path, w, h, reader.frame,
+                 reader.sample_target))
+    for prod in reader.products:
+        out.write("product: %s  vars: %s\n" % (prod.name or "<default>",
+                                              ", ".join(a for a, _ in prod.vars)))
+    sent = reader.sent()
+    for path in sorted(sent):
+        type_name, values = sent[path]
+        if type_name == "renderBuffer":
+            continue
+        extra = ""
+        if "instanceTransforms" in values:
+            n = len(usd_reader.decode(values["instanceTransforms"][0][1]))
+            extra += "  instances: %d" % n
+        if "material" in values and values["material"][0][1][1]:
+            extra += "  material: %s" % values["material"][0][1][1]
+        if "transform" in values and len(values["transform"]) > 1:
+            extra += "  motion samples: %d" % len(values["transform"])
+        out.write("%-14s %s%s\n" % (type_name, path, extra))
+    out.write("problems: %d%s\n" % (len(reader.problems), note))
+    for p in reader.problems:
+        out.write("  %s\n" % (p,))
+    return EXIT_OK
+
+
+def main(argv=None):
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:
+        return int(e.code or 0) if e.code not in (None, 0) else 0
+    try:
+        if args.command == "render":
+            return cmd_render(args)
+        return cmd_info(args)
+    except UsageError as e:
+        _say("error: %s" % e)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        _say("interrupted; nothing written")
+        return EXIT_INTERRUPTED
+    except Exception as e:  # the stage could not be opened or rendered at all
+        _say("error: %s" % (str(e).strip() or type(e).__name__))
+        return EXIT_FAIL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

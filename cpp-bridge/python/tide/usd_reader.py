@@ -1,0 +1,1241 @@
+"""The usd-core scene reader: walks a USD stage and drives Tide's RenderDelegate as Hydra would.
+
+It does UsdImaging's job with plain usd-core: composition, native instancing and point
+instancers, purposes, inherited visibility, transforms with motion samples over the camera
+shutter, material binding resolution, light linking collections, render settings / products /
+vars and camera selection. It then keeps the delegate in step with edits made through usd-core
+(`Reader.update()`, driven by `Usd.Notice.ObjectsChanged`).
+
+Every value sent to the delegate is remembered, so a later sync sends only what changed and
+the delegate marks only those prims dirty. Problems in the stage (contract section 7) are
+collected as `Problem(prim, attribute, message)`, each reported once; the rest renders.
+"""
+import math
+import os
+from collections import namedtuple
+
+from tide import env
+
+env.prepare()
+
+import numpy as np  # noqa: E402
+from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdVol  # noqa: E402
+
+env.register_shaders()
+
+
+class Problem(namedtuple("Problem", "prim attribute message")):
+    """Something wrong in the stage: which prim, which attribute, what is wrong."""
+
+    def __str__(self):
+        return "%s: %s: %s" % (self.prim, self.attribute, self.message)
+
+
+# USD prim type -> delegate rprim type.
+GPRIMS = {
+    "Mesh": "mesh", "Points": "points", "Sphere": "sphere", "Cube": "cube",
+    "Cylinder": "cylinder", "Cylinder_1": "cylinder", "Cone": "cone", "Capsule": "capsule",
+    "Capsule_1": "capsule", "Plane": "plane", "TideOcean": "tideOcean", "Volume": "volume",
+}
+LIGHTS = {
+    "DistantLight": "distantLight", "DomeLight": "domeLight", "DomeLight_1": "domeLight",
+    "SphereLight": "sphereLight", "RectLight": "rectLight", "DiskLight": "diskLight",
+    "CylinderLight": "cylinderLight",
+}
+# Attributes sent per implicit gprim, with USD's fallbacks.
+IMPLICIT_ATTRS = {
+    "sphere": {"radius": 1.0},
+    "cube": {"size": 2.0},
+    "cylinder": {"radius": 1.0, "height": 2.0, "axis": "Z"},
+    "cone": {"radius": 1.0, "height": 2.0, "axis": "Z"},
+    "capsule": {"radius": 0.5, "height": 1.0, "axis": "Z"},
+    "plane": {"width": 2.0, "length": 2.0, "axis": "Z"},
+}
+LIGHT_COMMON = {
+    "inputs:intensity": 1.0, "inputs:exposure": 0.0, "inputs:color": (1.0, 1.0, 1.0),
+    "inputs:normalize": False, "inputs:enableColorTemperature": False,
+    "inputs:colorTemperature": 6500.0,
+}
+LIGHT_SPECIFIC = {
+    "distantLight": {"inputs:angle": 0.53},
+    "domeLight": {"inputs:texture:file": Sdf.AssetPath(""), "inputs:texture:format": "automatic"},
+    "sphereLight": {"inputs:radius": 0.5, "treatAsPoint": False},
+    "rectLight": {"inputs:width": 1.0, "inputs:height": 1.0,
+                  "inputs:texture:file": Sdf.AssetPath("")},
+    "diskLight": {"inputs:radius": 0.5},
+    "cylinderLight": {"inputs:radius": 0.5, "inputs:length": 1.0, "treatAsLine": False},
+}
+CAMERA_ATTRS = {
+    "projection": "perspective", "focalLength": 50.0, "horizontalAperture": 20.955,
+    "verticalAperture": 15.2908, "horizontalApertureOffset": 0.0,
+    "verticalApertureOffset": 0.0, "clippingRange": (1.0, 1000000.0), "fStop": 0.0,
+    "focusDistance": 0.0, "shutter:open": 0.0, "shutter:close": 0.0, "exposure": 0.0,
+    "exposure:fStop": 1.0, "exposure:time": 1.0, "exposure:iso": 100.0,
+    "exposure:responsivity": 1.0, "tide:camera:filter": "none",
+}
+SETTINGS_TIDE = {
+    "tide:integrator": "caustics", "tide:samples": 64, "tide:maxDepth": 64,
+    "tide:adaptive:threshold": 0.0, "tide:seed": 0, "tide:time:budget": 0.0,
+}
+ALLOWED_TOKENS = {
+    "tide:integrator": ("path", "caustics"),
+    "tide:camera:filter": ("none", "underwaterRed"),
+    "projection": ("perspective", "orthographic"),
+    "orientation": ("rightHanded", "leftHanded"),
+    "subdivisionScheme": ("catmullClark", "loop", "bilinear", "none"),
+    "axis": ("X", "Y", "Z"),
+    "tide:caustics:transparency": ("off", "afterDiffuse", "volume", "all"),
+}
+AOVS = {
+    "color": "float4", "depth": "float", "normal": "float3",
+    "albedo": "float3", "primId": "float", "tide:diffuse": "float3",
+    "tide:specular": "float3", "tide:transmission": "float3",
+    "tide:volume": "float3", "tide:emission": "float3",
+    "tide:caustics": "float3",
+}
+SHADER_IDS = {
+    "UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_float",
+    "UsdPrimvarReader_float2", "UsdPrimvarReader_float3", "UsdPrimvarReader_float4",
+    "UsdPrimvarReader_int", "UsdPrimvarReader_string", "UsdPrimvarReader_normal",
+    "UsdPrimvarReader_point", "UsdPrimvarReader_vector", "UsdPrimvarReader_matrix",
+    "TideWater", "TideMedium",
+}
+IDENTITY = tuple(float(x) for x in (1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1))
+SETTINGS_FALLBACK_PATH = "/Render/__TideSettings"
+BUFFER_ROOT = "/Render/__TideBuffers"
+
+Product = namedtuple("Product", "path name vars")   # vars: [(sourceName, buffer path)]
+
+
+class Options:
+    """What the command line (or a caller) overrides: settings prim, camera, frame, spp, ..."""
+
+    def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
+                 seed=None, threads=None, output=None):
+        self.settings = settings
+        self.camera = camera
+        self.frame = frame
+        self.spp = spp
+        self.width = width
+        self.seed = seed
+        self.threads = threads
+        self.output = output
+
+
+# ---------------------------------------------------------------------------------------------
+# Value conversion: USD values -> tagged, comparable values of the delegate protocol.
+# ("bool"|"int"|"float"|"token"|"string"|"asset"|"path", v), ("paths", tuple),
+# ("floats"|"doubles", tuple_size, bytes), ("ints", bytes), ("matrix", 16-tuple)
+
+def _matrix(m):
+    return ("matrix", tuple(float(m[i][j]) for i in range(4) for j in range(4)))
+
+
+def _floats(data, tuple_size):
+    arr = np.ascontiguousarray(np.asarray(data, dtype=np.float32).reshape(-1))
+    return ("floats", int(tuple_size), arr.tobytes())
+
+
+def _ints(data):
+    return ("ints", np.ascontiguousarray(np.asarray(data, dtype=np.int32).reshape(-1)).tobytes())
+
+
+def _tuple_size(arr):
+    a = np.asarray(arr)
+    return 1 if a.ndim <= 1 else int(np.prod(a.shape[1:]))
+
+
+def convert(value, type_name=None):
+    """A USD value as a protocol value, or None when it has no protocol form."""
+    if value is None:
+        return None
+    if isinstance(value, bool):
+        return ("bool", value)
+    if isinstance(value, int):
+        return ("int", value)
+    if isinstance(value, float):
+        return ("float", value)
+    if isinstance(value, str):
+        if type_name is not None and type_name == Sdf.ValueTypeNames.String:
+            return ("string", value)
+        return ("token", value)
+    if isinstance(value, Sdf.AssetPath):
+        return ("asset", value.resolvedPath or "")
+    if isinstance(value, (Gf.Matrix4d, Gf.Matrix4f)):
+        return _matrix(value)
+    if isinstance(value, (Gf.Quatf, Gf.Quatd, Gf.Quath)):
+        im = value.GetImaginary()
+        return _floats([im[0], im[1], im[2], value.GetReal()], 4)
+    if isinstance(value, (Gf.Matrix3d, Gf.Matrix3f, Gf.Matrix2d, Gf.Matrix2f)):
+        return _floats(np.asarray(value), np.asarray(value).size)
+    if hasattr(value, "__len__") and not hasattr(value, "_isVtArray") and type(value).__module__.endswith("Gf"):
+        return _floats(list(value), len(value))
+    # Vt arrays
+    if isinstance(value, Sdf.PathListOp) or isinstance(value, Sdf.Path):
+        return ("path", str(value))
+    try:
+        seq = list(value) if len(value) and isinstance(value[0], str) else None
+    except TypeError:
+        return None
+    if seq is not None:
+        return ("paths", tuple(seq))
+    if len(value) and isinstance(value[0], Sdf.AssetPath):
+        return ("paths", tuple(v.resolvedPath for v in value))
+    if len(value) and isinstance(value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath)):
+        return _floats([[q.GetImaginary()[0], q.GetImaginary()[1], q.GetImaginary()[2],
+                         q.GetReal()] for q in value], 4)
+    arr = np.asarray(value)
+    if arr.dtype == object:
+        return None
+    if arr.dtype.kind in "iub" and (arr.ndim <= 1):
+        return _ints(arr)
+    if arr.dtype == np.float64 and arr.ndim == 3 and arr.shape[1:] == (4, 4):
+        return ("doubles", 16, np.ascontiguousarray(arr.reshape(-1)).tobytes())
+    return _floats(arr, _tuple_size(arr))
+
+
+def send(delegate, path, key, value, time=None):
+    """Sends one protocol value to the delegate."""
+    tag = value[0]
+    if tag in ("bool", "int", "float"):
+        delegate.set(path, key, value[1], time)
+    elif tag in ("token", "asset", "path", "string"):
+        delegate.set(path, key, (tag, value[1]), time)
+    elif tag == "paths":
+        delegate.set(path, key, ("paths", list(value[1])), time)
+    elif tag == "floats":
+        delegate.set_array(path, key, value[2], value[1], "f", time)
+    elif tag == "doubles":
+        delegate.set_array(path, key, value[2], value[1], "d", time)
+    elif tag == "ints":
+        delegate.set_array(path, key, value[1], 1, "i", time)
+    elif tag == "matrix":
+        delegate.set_matrix(path, key, list(value[1]), time)
+    else:
+        raise ValueError("unknown value tag %r" % (tag,))
+
+
+def decode(value):
+    """A protocol value back as plain Python (for listings and tests)."""
+    tag = value[0]
+    if tag == "floats":
+        a = np.frombuffer(value[2], dtype=np.float32)
+        return a.reshape(-1, value[1]) if value[1] > 1 else a
+    if tag == "doubles":
+        a = np.frombuffer(value[2], dtype=np.float64)
+        return a.reshape(-1, value[1])
+    if tag == "ints":
+        return np.frombuffer(value[1], dtype=np.int32)
+    return value[1]
+
+
+class _PrimState:
+    """What one delegate prim should hold: type, values (key -> [(time, value)]), primvars."""
+
+    __slots__ = ("kind", "type", "source", "values", "primvars")
+
+    def __init__(self, kind, type_name, source):
+        self.kind = kind          # rprim | sprim | bprim
+        self.type = type_name
+        self.source = source      # the USD path it comes from
+        self.values = {}
+        self.primvars = {}        # name -> (interpolation, floats bytes, tuple, indices bytes|None)
+
+    def set(self, key, value, samples=None):
+        if samples is not None:
+            self.values[key] = tuple(samples)
+        elif value is not None:
+            self.values[key] = ((None, value),)
+
+
+def _mat_key(m):
+    return tuple(float(m[i][j]) for i in range(4) for j in range(4))
+
+
+class Reader:
+    """Reads a USD stage into a Tide RenderDelegate and keeps it in step with edits."""
+
+    def __init__(self, stage, delegate, options=None):
+        self.stage = stage
+        self.delegate = delegate
+        self.options = options or Options()
+        self.problems = []            # every distinct problem found so far
+        self._seen = set()            # (prim, attribute) already reported
+        self._pending = []            # problems found since the last commit
+        self._sent = {}               # delegate path -> _PrimState last sent
+        self._prim_ids = {}
+        self._changed = []
+        self._instance_sources = set()
+        self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
+        self.frame = self._initial_frame()
+        self.settings_path = None     # delegate path of the renderSettings sprim
+        self.settings_prim = None     # the UsdRenderSettings prim, if any
+        self.camera_path = None
+        self.products = []
+        self.resolution = (0, 0)
+        self.sample_target = 0
+
+    # -- public ---------------------------------------------------------------------------
+    def populate(self):
+        """Creates every prim and sets every attribute; returns the problems found so far."""
+        self._sync(None)
+        return list(self._pending)
+
+    def commit(self):
+        """Commits to the delegate; returns the problems not reported before."""
+        found = list(self._pending)
+        self._pending = []
+        for item in self.delegate.commit_resources() or []:
+            found.append(Problem(*item))
+        new = []
+        for p in found:
+            key = (p.prim, p.attribute)
+            if key in self._seen:
+                continue
+            self._seen.add(key)
+            self.problems.append(p)
+            new.append(p)
+        return new
+
+    def load(self):
+        """populate() + commit(): returns the problems."""
+        self.populate()
+        return self.commit()
+
+    def update(self):
+        """Re-sets the prims affected by edits made through usd-core since the last sync,
+        then commits. Returns the new problems (the delegate restarts a running pass)."""
+        changed, self._changed = self._changed, []
+        if not changed:
+            return []
+        roots = self._roots_for(changed)
+        self._sync(roots)
+        return self.commit()
+
+    def render_pass(self):
+        """Creates a render pass and starts it on the selected camera and buffers."""
+        if self.camera_path is None:
+            raise RuntimeError("the stage has no camera to render from")
+        rp = self.delegate.create_render_pass()
+        rp.execute(self.camera_path, self.bindings(), self.settings_path)
+        return rp
+
+    def bindings(self):
+        out, seen = [], set()
+        for prod in self.products:
+            for source, buf in prod.vars:
+                if buf not in seen:
+                    seen.add(buf)
+                    out.append((source, buf))
+        return out
+
+    def sent(self):
+        """Delegate path -> (type, {key: [(time, value)]}) of what was sent (for listings)."""
+        return {p: (s.type, dict(s.values)) for p, s in self._sent.items()}
+
+    def close(self):
+        if self._listener is not None:
+            self._listener.Revoke()
+            self._listener = None
+
+    # -- problems -------------------------------------------------------------------------
+    def problem(self, prim, attribute, message):
+        self._pending.append(Problem(str(prim), attribute, message))
+
+    # -- change tracking ------------------------------------------------------------------
+    def _on_changed(self, notice, sender):
+        self._changed.extend(notice.GetResyncedPaths())
+        self._changed.extend(notice.GetChangedInfoOnlyPaths())
+
+    def _roots_for(self, changed):
+        roots = set()
+        for path in changed:
+            prim_path = path.GetPrimPath() if path.IsPropertyPath() else path
+            if prim_path == Sdf.Path.absoluteRootPath:
+                return None
+            name = path.name if path.IsPropertyPath() else ""
+            if name.startswith("collection:"):
+                return None
+            prim = self.stage.GetPrimAtPath(prim_path)
+            if prim and (prim.IsInstanceProxy() or prim.IsInstance() or prim.IsInPrototype()):
+                return None
+            for src in self._instance_sources:
+                if prim_path.HasPrefix(src) or src.HasPrefix(prim_path):
+                    return None
+            root = prim_path
+            p = prim
+            while p and p.GetPath() != Sdf.Path.absoluteRootPath:
+                if p.IsA(UsdShade.Material):
+                    root = p.GetPath()
+                if p.IsA(UsdGeom.PointInstancer):
+                    return None
+                p = p.GetParent()
+            roots.add(root)
+        out = []
+        for r in sorted(roots, key=lambda p: p.pathElementCount):
+            if not any(r.HasPrefix(o) for o in out):
+                out.append(r)
+        return out
+
+    # -- sync -----------------------------------------------------------------------------
+    def _initial_frame(self):
+        if self.options.frame is not None:
+            return float(self.options.frame)
+        if self.stage.HasAuthoredTimeCodeRange():
+            return float(self.stage.GetStartTimeCode())
+        return 0.0
+
+    def _sync(self, roots):
+        desired = {}
+        full = roots is None
+        if full:
+            roots = [Sdf.Path.absoluteRootPath]
+            self._instance_sources = set()
+        self._desired = desired
+        self._eval_settings()
+        self._groups = {}
+        for root in roots:
+            prim = self.stage.GetPrimAtPath(root)
+            if prim and prim.IsActive():
+                self._walk(prim)
+        if not full and self._groups:
+            return self._sync(None)
+        if full:
+            self._emit_instance_groups()
+        # Destroy what came from the walked subtrees and is gone.
+        for path in list(self._sent):
+            st = self._sent[path]
+            if path in desired:
+                continue
+            if any(Sdf.Path(st.source).HasPrefix(r) for r in roots):
+                if st.type == "material" and not full:
+                    continue
+                self.delegate.destroy_prim(path)
+                del self._sent[path]
+        for path, st in desired.items():
+            self._apply(path, st)
+
+    def _apply(self, path, st):
+        old = self._sent.get(path)
+        d = self.delegate
+        if old is not None and (old.type != st.type or set(old.primvars) != set(st.primvars)):
+            d.destroy_prim(path)
+            old = None
+        if old is None:
+            create = {"rprim": d.create_rprim, "sprim": d.create_sprim,
+                      "bprim": d.create_bprim}[st.kind]
+            if not create(st.type, path):
+                self.problem(path, "type", "the delegate does not know prim type '%s'" % st.type)
+                return
+        for key, samples in list(st.values.items()):
+            if old is not None and old.values.get(key) == samples:
+                continue
+            try:
+                for time, value in samples:
+                    send(d, path, key, value, time)
+            except Exception as e:  # the delegate refused the value: drop that input
+                self.problem(path, key, "rejected by the delegate (%s); dropped" % e)
+                del st.values[key]
+        for name, pv in list(st.primvars.items()):
+            if old is not None and old.primvars.get(name) == pv:
+                continue
+            interp, data, tsize, idx = pv
+            try:
+                d.set_primvar(path, name, interp, data, tsize, idx)
+            except Exception as e:
+                self.problem(path, "primvars:" + name, "rejected by the delegate (%s); dropped"
+                             % e)
+                del st.primvars[name]
+        self._sent[path] = st
+
+    # -- traversal ------------------------------------------------------------------------
+    def _included(self, imageable):
+        purpose = imageable.ComputePurpose()
+        return purpose in self._purposes, purpose
+
+    def _walk(self, root):
+        pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+        it = iter(Usd.PrimRange(root, pred))
+        for prim in it:
+            type_name = prim.GetTypeName()
+            if prim.IsA(UsdShade.Material):
+                if str(prim.GetPath()) in self._sent:
+                    self._eval_material(prim)
+                it.PruneChildren()
+                continue
+            if prim.IsA(UsdRender.SettingsBase) or prim.IsA(UsdRender.Var):
+                it.PruneChildren()
+                continue
+            img = UsdGeom.Imageable(prim)
+            if img:
+                if img.ComputeVisibility(self._time(0)) == UsdGeom.Tokens.invisible:
+                    it.PruneChildren()
+                    continue
+                ok, purpose = self._included(img)
+                if not ok:
+                    if purpose != UsdGeom.Tokens.default_:
+                        it.PruneChildren()
+                    continue
+            if prim.IsA(UsdGeom.PointInstancer):
+                self._eval_instancer(prim)
+                it.PruneChildren()
+                continue
+            if prim.IsInstance():
+                self._instance_sources.add(prim.GetPath())
+            if type_name in GPRIMS:
+                if prim.IsInstanceProxy():
+                    self._collect_instanced(prim)
+                else:
+                    self._eval_gprim(prim, str(prim.GetPath()), str(prim.GetPath()))
+            elif type_name in LIGHTS:
+                self._eval_light(prim)
+            elif prim.IsA(UsdGeom.Camera):
+                self._eval_camera(prim)
+            elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
+                self.problem(prim.GetPath(), "type",
+                             "light type '%s' is not supported; dropped" % type_name)
+            elif prim.IsA(UsdGeom.Gprim):
+                self.problem(prim.GetPath(), "type",
+                             "prim type '%s' is not supported; dropped" % type_name)
+
+    # -- time and transforms --------------------------------------------------------------
+    def _time(self, offset):
+        return Usd.TimeCode(self.frame + offset)
+
+    def _motion_offsets(self, prims):
+        """Offsets (frames) at which to sample transforms: shutter ends + authored samples."""
+        if not self._motion:
+            return [0.0]
+        lo, hi = self._shutter
+        interval = Gf.Interval(self.frame + lo, self.frame + hi)
+        times = {lo, hi}
+        for p in prims:
+            x = UsdGeom.Xformable(p)
+            while x:
+                for t in x.GetTimeSamplesInInterval(interval):
+                    times.add(t - self.frame)
+                parent = x.GetPrim().GetParent()
+                x = UsdGeom.Xformable(parent) if parent else None
+        return sorted(times)
+
+    def _xform_samples(self, fn, prims):
+        """[(offset|None, matrix value)] of fn(time): one sample unless it moves."""
+        offsets = self._motion_offsets(prims)
+        mats = [(o, fn(self._time(o))) for o in offsets]
+        keys = [_mat_key(m) for _, m in mats]
+        if all(k == keys[0] for k in keys):
+            return [(None, ("matrix", keys[0]))]
+        return [(o, ("matrix", k)) for (o, _), k in zip(mats, keys)]
+
+    def _world(self, prim):
+        x = UsdGeom.Xformable(prim)
+        return lambda t: x.ComputeLocalToWorldTransform(t)
+
+    # -- render settings, products, camera selection --------------------------------------
+    def _eval_settings(self):
+        o = self.options
+        stage = self.stage
+        path = o.settings
+        if path is None:
+            meta = stage.GetMetadata("renderSettingsPrimPath")
+            path = meta or None
+        settings = None
+        if path:
+            prim = stage.GetPrimAtPath(path)
+            if prim and prim.IsA(UsdRender.Settings):
+                settings = UsdRender.Settings(prim)
+            elif o.settings is not None:
+                raise LookupError("no UsdRenderSettings prim at %s" % path)
+            else:
+                self.problem("/", "renderSettingsPrimPath",
+                             "%s is not a UsdRenderSettings prim; using defaults" % path)
+        if settings is None and o.settings is None:
+            for prim in stage.Traverse():
+                if prim.IsA(UsdRender.Settings):
+                    settings = UsdRender.Settings(prim)
+                    break
+        self.settings_prim = settings.GetPrim() if settings else None
+        spath = str(settings.GetPath()) if settings else SETTINGS_FALLBACK_PATH
+        self.settings_path = spath
+        st = _PrimState("sprim", "renderSettings", spath if settings else "/")
+
+        def get(attr, fallback):
+            if settings is None or not attr:
+                return fallback
+            v = attr.Get()
+            return fallback if v is None else v
+
+        sp = settings.GetPrim() if settings else None
+        res = get(settings.GetResolutionAttr() if settings else None, Gf.Vec2i(1920, 1080))
+        w, h = int(res[0]), int(res[1])
+        if w <= 0 or h <= 0:
+            self.problem(spath, "resolution", "resolution %dx%d is not positive; using 1920x1080"
+                         % (w, h))
+            w, h = 1920, 1080
+        if o.width:
+            h = max(1, int(round(h * o.width / float(w))))
+            w = int(o.width)
+        self.resolution = (w, h)
+        st.set("resolution", _ints([w, h]))
+        st.set("pixelAspectRatio", ("float", float(get(
+            settings.GetPixelAspectRatioAttr() if settings else None, 1.0))))
+        st.set("dataWindowNDC", _floats(list(get(
+            settings.GetDataWindowNDCAttr() if settings else None, Gf.Vec4f(0, 0, 1, 1))), 4))
+        dmb = bool(get(sp.GetAttribute("disableMotionBlur") if sp else None, False))
+        ddof = bool(get(sp.GetAttribute("disableDepthOfField") if sp else None, False))
+        st.set("disableMotionBlur", ("bool", dmb))
+        st.set("disableDepthOfField", ("bool", ddof))
+        purposes = list(get(settings.GetIncludedPurposesAttr() if settings else None,
+                            ["default", "render"]))
+        self._purposes = set(purposes)
+        st.set("includedPurposes", ("paths", tuple(purposes)))
+        st.set("renderingColorSpace", ("token", str(get(
+            sp.GetAttribute("renderingColorSpace") if sp else None, "") or "lin_rec709")))
+        for key, fb in SETTINGS_TIDE.items():
+            attr = sp.GetAttribute(key) if sp else None
+            v = get(attr, fb)
+            if key in ALLOWED_TOKENS and v not in ALLOWED_TOKENS[key]:
+                self.problem(spath, key, "unknown token '%s'; using '%s'" % (v, fb))
+                v = fb
+            if isinstance(fb, int) and not isinstance(fb, bool):
+                v = int(v)
+            elif isinstance(fb, float):
+                v = float(v)
+            st.set(key, convert(v))
+        if o.spp is not None:
+            st.set("tide:samples", ("int", int(o.spp)))
+        if o.seed is not None:
+            st.set("tide:seed", ("int", int(o.seed)))
+        if o.threads is not None:
+            st.set("tide:threads", ("int", int(o.threads)))
+        self.sample_target = st.values["tide:samples"][0][1][1]
+        st.set("timeCodesPerSecond", ("float", float(stage.GetTimeCodesPerSecond())))
+
+        # Camera selection: --camera, the settings' camera, else the first camera.
+        cam = None
+        if o.camera:
+            cp = stage.GetPrimAtPath(o.camera)
+            if not (cp and cp.IsA(UsdGeom.Camera)):
+                raise LookupError("no UsdGeomCamera at %s" % o.camera)
+            cam = cp
+        elif settings is not None:
+            targets = settings.GetCameraRel().GetForwardedTargets()
+            if targets:
+                cp = stage.GetPrimAtPath(targets[0])
+                if cp and cp.IsA(UsdGeom.Camera):
+                    cam = cp
+                else:
+                    self.problem(spath, "camera", "%s is not a camera" % targets[0])
+        if cam is None:
+            for prim in stage.Traverse():
+                if prim.IsA(UsdGeom.Camera):
+                    cam = prim
+                    break
+        self.camera_path = str(cam.GetPath()) if cam else None
+        if cam is None:
+            self.problem(spath, "camera", "the stage has no camera")
+        else:
+            st.set("camera", ("path", self.camera_path))
+        self._shutter = (0.0, 0.0)
+        if cam is not None:
+            c = UsdGeom.Camera(cam)
+            lo = c.GetShutterOpenAttr().Get(self._time(0))
+            hi = c.GetShutterCloseAttr().Get(self._time(0))
+            lo = 0.0 if lo is None else float(lo)
+            hi = 0.0 if hi is None else float(hi)
+            if hi < lo:
+                self.problem(cam.GetPath(), "shutter:close", "shutter closes before it opens")
+                hi = lo
+            self._shutter = (lo, hi)
+        self._motion = (not dmb) and self._shutter[1] > self._shutter[0]
+        self._desired[spath] = st
+
+        # Products and their vars -> render buffers.
+        products = []
+        if settings is not None:
+            for ppath in settings.GetProductsRel().GetForwardedTargets():
+                pprim = stage.GetPrimAtPath(ppath)
+                if not (pprim and pprim.IsA(UsdRender.Product)):
+                    self.problem(spath, "products", "%s is not a UsdRenderProduct" % ppath)
+                    continue
+                prod = UsdRender.Product(pprim)
+                name = prod.GetProductNameAttr().Get() or pprim.GetName() + ".exr"
+                vars_ = []
+                for vpath in prod.GetOrderedVarsRel().GetForwardedTargets():
+                    vprim = stage.GetPrimAtPath(vpath)
+                    if not (vprim and vprim.IsA(UsdRender.Var)):
+                        self.problem(ppath, "orderedVars", "%s is not a UsdRenderVar" % vpath)
+                        continue
+                    source = UsdRender.Var(vprim).GetSourceNameAttr().Get() or ""
+                    if source not in AOVS:
+                        self.problem(vpath, "sourceName", "unknown AOV '%s'; dropped" % source)
+                        continue
+                    vars_.append(source)
+                if not vars_:
+                    vars_ = ["color"]
+                products.append((str(ppath), str(name), vars_))
+        if not products:
+            products.append(("", "", ["color"]))
+        self.products = []
+        for ppath, name, vars_ in products:
+            bound = []
+            for source in vars_:
+                buf = BUFFER_ROOT + "/" + source.replace(":", "_")
+                if buf not in self._desired:
+                    b = _PrimState("bprim", "renderBuffer", "/")
+                    b.set("dimensions", _ints([w, h]))
+                    b.set("format", ("token", AOVS[source]))
+                    self._desired[buf] = b
+                bound.append((source, buf))
+            self.products.append(Product(ppath, name, bound))
+
+    # -- gprims ---------------------------------------------------------------------------
+    def _prim_id(self, path):
+        if path not in self._prim_ids:
+            self._prim_ids[path] = len(self._prim_ids)
+        return self._prim_ids[path]
+
+    def _material_for(self, prim):
+        api = UsdShade.MaterialBindingAPI(prim)
+        mat, rel = api.ComputeBoundMaterial(UsdShade.Tokens.full)
+        if mat:
+            return str(self._eval_material(mat.GetPrim()))
+        direct = prim.GetRelationship("material:binding")
+        if direct and direct.GetTargets():
+            target = direct.GetTargets()[0]
+            self.problem(prim.GetPath(), "material:binding",
+                         "bound material %s does not exist; using the default material" % target)
+        return ""
+
+    def _gprim_state(self, prim, dpath, source, transform_fn, motion_prims):
+        type_name = GPRIMS[prim.GetTypeName()]
+        st = _PrimState("rprim", type_name, source)
+        st.set("transform", None, self._xform_samples(transform_fn, motion_prims))
+        st.set("visibility", ("token", "inherited"))
+        st.set("purpose", ("token", str(UsdGeom.Imageable(prim).ComputePurpose())))
+        ds = prim.GetAttribute("doubleSided").Get()
+        st.set("doubleSided", ("bool", bool(ds)))
+        st.set("material", ("path", self._material_for(prim)))
+        st.set("primId", ("int", self._prim_id(dpath)))
+        ok = getattr(self, "_eval_" + type_name.lower())(prim, st)
+        if ok is False:
+            return None
+        self._tide_attrs(prim, st)
+        return st
+
+    def _eval_gprim(self, prim, dpath, source):
+        st = self._gprim_state(prim, dpath, source, self._world(prim), [prim])
+        if st is not None:
+            self._desired[dpath] = st
+
+    def _tide_attrs(self, prim, st):
+        for attr in prim.GetAttributes():
+            name = attr.GetName()
+            if name.startswith("tide:"):
+                v = convert(attr.Get(self._time(0)), attr.GetTypeName())
+                if v is not None:
+                    allowed = ALLOWED_TOKENS.get(name)
+                    if allowed and v[1] not in allowed:
+                        self.problem(prim.GetPath(), name, "unknown token '%s'; using '%s'"
+                                     % (v[1], allowed[0]))
+                        v = ("token", allowed[0])
+                    st.set(name, v)
+        for rel in prim.GetRelationships():
+            name = rel.GetName()
+            if name.startswith("tide:"):
+                targets = rel.GetForwardedTargets()
+                st.set(name, ("path", str(targets[0]) if targets else ""))
+
+    def _attr(self, prim, name, fallback=None, offset=0.0):
+        attr = prim.GetAttribute(name)
+        v = attr.Get(self._time(offset)) if attr else None
+        return fallback if v is None else v
+
+    def _token(self, prim, st, name, fallback):
+        v = str(self._attr(prim, name, fallback))
+        allowed = ALLOWED_TOKENS.get(name)
+        if allowed and v not in allowed:
+            self.problem(prim.GetPath(), name, "unknown token '%s'; using '%s'" % (v, fallback))
+            v = fallback
+        st.set(name, ("token", v))
+        return v
+
+    def _primvars(self, prim, st, skip=()):
+        api = UsdGeom.PrimvarsAPI(prim)
+        for pv in api.FindPrimvarsWithInheritance():
+            if not pv.HasValue():
+                continue
+            name = pv.GetPrimvarName()
+            if name in skip:
+                continue
+            value = pv.Get(self._time(0))
+            if value is None:
+                continue
+            arr = np.asarray(value)
+            if arr.dtype == object or arr.dtype.kind in "USO":
+                continue
+            if arr.ndim == 0:
+                arr = arr.reshape(1)
+            idx = pv.GetIndices(self._time(0)) if pv.IsIndexed() else None
+            interp = str(pv.GetInterpolation())
+            data = np.ascontiguousarray(arr.astype(np.float32).reshape(-1)).tobytes()
+            idx_b = None
+            if idx is not None:
+                idx_a = np.asarray(idx, dtype=np.int32)
+                if idx_a.size and (idx_a.min() < 0 or idx_a.max() >= len(arr)):
+                    self.problem(prim.GetPath(), "primvars:%s:indices" % name,
+                                 "index out of range; primvar dropped")
+                    continue
+                idx_b = idx_a.tobytes()
+            st.primvars[name] = (interp, data, _tuple_size(arr), idx_b)
+
+    def _points_samples(self, prim, st, name="points"):
+        """Points (and time samples of them within the shutter); False when unusable."""
+        pts = self._attr(prim, name)
+        if pts is None:
+            self.problem(prim.GetPath(), name, "no %s; prim dropped" % name)
+            return None
+        arr = np.asarray(pts, dtype=np.float32).reshape(-1, 3)
+        if not np.all(np.isfinite(arr)):
+            self.problem(prim.GetPath(), name, "NaN or infinite values; prim dropped")
+            return None
+        samples = [(None, _floats(arr, 3))]
+        if self._motion:
+            attr = prim.GetAttribute(name)
+            lo, hi = self._shutter
+            times = attr.GetTimeSamplesInInterval(Gf.Interval(self.frame + lo, self.frame + hi))
+            if times:
+                offs = sorted({lo, hi} | {t - self.frame for t in times})
+                got = [np.asarray(attr.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
+                       for o in offs]
+                if all(g.shape == arr.shape and np.all(np.isfinite(g)) for g in got) and \
+                        any(not np.array_equal(g, got[0]) for g in got):
+                    samples = [(o, _floats(g, 3)) for o, g in zip(offs, got)]
+        st.set(name, None, samples)
+        return arr
+
+    def _eval_mesh(self, prim, st):
+        arr = self._points_samples(prim, st)
+        if arr is None:
+            return False
+        mesh = UsdGeom.Mesh(prim)
+        t = self._time(0)
+        counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(t) or [], dtype=np.int64)
+        idx = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(t) or [], dtype=np.int64)
+        path = prim.GetPath()
+        if counts.size and counts.min() < 3:
+            self.problem(path, "faceVertexCounts", "a face has fewer than 3 vertices; prim dropped")
+            return False
+        if int(counts.sum()) != idx.size:
+            self.problem(path, "faceVertexIndices", "%d indices for faces needing %d; prim dropped"
+                         % (idx.size, int(counts.sum())))
+            return False
+        if idx.size and (idx.min() < 0 or idx.max() >= len(arr)):
+            self.problem(path, "faceVertexIndices", "index out of range (0..%d); prim dropped"
+                         % (len(arr) - 1))
+            return False
+        st.set("faceVertexCounts", _ints(counts))
+        st.set("faceVertexIndices", _ints(idx))
+        st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
+        self._token(prim, st, "orientation", "rightHanded")
+        self._token(prim, st, "subdivisionScheme", "catmullClark")
+        vel = mesh.GetVelocitiesAttr().Get(t)
+        if vel is not None and len(vel):
+            st.set("velocities", _floats(vel, 3))
+        self._primvars(prim, st)
+        self._normals(mesh, st)
+        return True
+
+    def _normals(self, pb, st):
+        if "normals" in st.primvars:
+            return
+        n = pb.GetNormalsAttr().Get(self._time(0))
+        if n is not None and len(n):
+            st.primvars["normals"] = (str(pb.GetNormalsInterpolation()),
+                                      np.ascontiguousarray(np.asarray(n, dtype=np.float32)
+                                                           .reshape(-1)).tobytes(), 3, None)
+
+    def _eval_points(self, prim, st):
+        arr = self._points_samples(prim, st)
+        if arr is None:
+            return False
+        pts = UsdGeom.Points(prim)
+        t = self._time(0)
+        self._primvars(prim, st)
+        if "widths" not in st.primvars:
+            w = pts.GetWidthsAttr().Get(t)
+            if w is not None and len(w):
+                wa = np.asarray(w, dtype=np.float32)
+                interp = str(pts.GetWidthsInterpolation())
+                if len(wa) == 1:
+                    interp = "constant"
+                elif len(wa) != len(arr):
+                    self.problem(prim.GetPath(), "widths", "%d widths for %d points; using 1"
+                                 % (len(wa), len(arr)))
+                    wa, interp = np.ones(1, np.float32), "constant"
+                st.primvars["widths"] = (interp, wa.tobytes(), 1, None)
+            else:
+                st.primvars["widths"] = ("constant", np.ones(1, np.float32).tobytes(), 1, None)
+        for name in ("velocities", "accelerations"):
+            v = self._attr(prim, name)
+            if v is not None and len(v):
+                if len(v) != len(arr):
+                    self.problem(prim.GetPath(), name, "%d %s for %d points; ignored"
+                                 % (len(v), name, len(arr)))
+                    continue
+                st.set(name, _floats(v, 3))
+        self._normals(pts, st)
+        return True
+
+    def _eval_implicit(self, prim, st):
+        for name, fb in IMPLICIT_ATTRS[st.type].items():
+            if name == "axis":
+                self._token(prim, st, name, fb)
+            else:
+                v = float(self._attr(prim, name, fb))
+                if not math.isfinite(v) or v < 0:
+                    self.problem(prim.GetPath(), name, "%s = %r is invalid; using %r"
+                                 % (name, v, fb))
+                    v = fb
+                st.set(name, ("float", v))
+        self._primvars(prim, st)
+        return True
+
+    _eval_sphere = _eval_cube = _eval_cylinder = _eval_cone = _eval_capsule = _eval_plane = \
+        _eval_implicit
+
+    def _eval_tideocean(self, prim, st):
+        defn = prim.GetPrimDefinition()
+        for name in ("windSpeed", "windDirection", "spectrum", "patchSize", "resolution",
+                     "choppiness", "seed", "extent", "depth"):
+            attr = prim.GetAttribute(name)
+            st.set(name, convert(attr.Get(self._time(0)), attr.GetTypeName()) if attr else None)
+        if "spectrum" in st.values and st.values["spectrum"][0][1][1] not in \
+                ("piersonMoskowitz", "jonswap"):
+            self.problem(prim.GetPath(), "spectrum", "unknown token '%s'; using "
+                         "'piersonMoskowitz'" % st.values["spectrum"][0][1][1])
+            st.set("spectrum", ("token", "piersonMoskowitz"))
+        time_attr = prim.GetAttribute("time")
+        if time_attr and time_attr.HasAuthoredValue():
+            st.set("time", ("float", float(time_attr.Get(self._time(0)))))
+        else:
+            st.set("time", ("float", self.frame / self.stage.GetTimeCodesPerSecond()))
+        del defn
+        self._primvars(prim, st)
+        return True
+
+    def _eval_volume(self, prim, st):
+        vol = UsdVol.Volume(prim)
+        for name, fpath in sorted(vol.GetFieldPaths().items()):
+            fprim = self.stage.GetPrimAtPath(fpath)
+            if not (fprim and fprim.IsA(UsdVol.OpenVDBAsset)):
+                self.problem(prim.GetPath(), "field:%s" % name, "%s is not an OpenVDB asset"
+                             % fpath)
+                continue
+            field = UsdVol.OpenVDBAsset(fprim)
+            asset = field.GetFilePathAttr().Get(self._time(0))
+            resolved = asset.resolvedPath if asset else ""
+            if not resolved:
+                self.problem(fpath, "filePath", "cannot find VDB file '%s'; field dropped"
+                             % (asset.path if asset else ""))
+                continue
+            st.set("field:%s" % name, ("asset", resolved))
+            st.set("field:%s:fieldName" % name,
+                   ("token", str(field.GetFieldNameAttr().Get() or name)))
+        return True
+
+    # -- instancing -----------------------------------------------------------------------
+    def _collect_instanced(self, prim):
+        """A gprim inside a native instance: grouped by prototype prim (and material)."""
+        root = prim.GetParent()
+        while root and not root.IsInstance():
+            root = root.GetParent()
+        self._instance_sources.add(root.GetPath())
+        proto = prim.GetPrimInPrototype().GetPath()
+        material = self._material_for(prim)
+        key = (str(proto), material)
+        grp = self._groups.setdefault(key, {"prim": prim, "root": root, "worlds": []})
+        grp["worlds"].append(_mat_key(
+            UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
+
+    def _emit_instance_groups(self):
+        per_proto = {}
+        for (proto, material), grp in sorted(self._groups.items()):
+            n = per_proto.get(proto, 0)
+            per_proto[proto] = n + 1
+            dpath = proto if n == 0 else "%s_m%d" % (proto, n)
+            prim, root = grp["prim"], grp["root"]
+
+            def rel(t, prim=prim, root=root):
+                cache = UsdGeom.XformCache(t)
+                return cache.GetLocalToWorldTransform(prim) * \
+                    cache.GetLocalToWorldTransform(root).GetInverse()
+
+            st = self._gprim_state(prim, dpath, "/", rel, [prim])
+            if st is None:
+                continue
+            st.set("material", ("path", material))
+            st.set("instanceTransforms", ("doubles", 16,
+                                          np.asarray(grp["worlds"], np.float64).tobytes()))
+            self._desired[dpath] = st
+
+    def _eval_instancer(self, prim):
+        inst = UsdGeom.PointInstancer(prim)
+        path = prim.GetPath()
+        self._instance_sources.add(path)
+        t = self._time(0)
+        protos = inst.GetPrototypesRel().GetForwardedTargets()
+        idx = np.asarray(inst.GetProtoIndicesAttr().Get(t) or [], dtype=np.int64)
+        pos = inst.GetPositionsAttr().Get(t)
+        n = idx.size
+        if pos is None or len(pos) != n:
+            self.problem(path, "positions", "%d positions for %d protoIndices; instancer dropped"
+                         % (0 if pos is None else len(pos), n))
+            return
+        if n and (idx.min() < 0 or idx.max() >= len(protos)):
+            self.problem(path, "protoIndices", "index out of range (%d prototypes); "
+                         "instancer dropped" % len(protos))
+            return
+        for name in ("orientations", "orientationsf", "scales"):
+            a = prim.GetAttribute(name)
+            v = a.Get(t) if a else None
+            if v is not None and len(v) and len(v) != n:
+                self.problem(path, name, "%d %s for %d instances; instancer dropped"
+                             % (len(v), name, n))
+                return
+        xforms = inst.ComputeInstanceTransformsAtTime(
+            t, t, UsdGeom.PointInstancer.ExcludeProtoXform, UsdGeom.PointInstancer.IgnoreMask)
+        mask = list(inst.ComputeMaskAtTime(t) or [])
+        keep = np.asarray(mask, dtype=bool) if mask else np.ones(n, dtype=bool)
+        world = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t)
+        mats = [np.asarray(m * world, dtype=np.float64) for m in xforms] if n else []
+        for k, ppath in enumerate(protos):
+            proto = self.stage.GetPrimAtPath(ppath)
+            sel = [i for i in range(n) if idx[i] == k and keep[i]]
+            if not proto:
+                self.problem(path, "prototypes", "prototype %s does not exist" % ppath)
+                continue
+            if not sel:
+                continue
+            it_xf = np.stack([mats[i] for i in sel]).astype(np.float64)
+            base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
+            parent = proto.GetParent()
+            pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+            for g in Usd.PrimRange(proto, pred):
+                if g.GetTypeName() not in GPRIMS:
+                    if g.IsA(UsdGeom.PointInstancer):
+                        self.problem(g.GetPath(), "type",
+                                     "nested point instancers are not supported; dropped")
+                    continue
+                img = UsdGeom.Imageable(g)
+                if img.ComputeVisibility(t) == UsdGeom.Tokens.invisible or \
+                        not self._included(img)[0]:
+                    continue
+                relp = g.GetPath().MakeRelativePath(proto.GetPath())
+                dpath = str(base if str(relp) == "." else base.AppendPath(relp))
+
+                def rel(tc, g=g, parent=parent):
+                    cache = UsdGeom.XformCache(tc)
+                    m = cache.GetLocalToWorldTransform(g)
+                    if parent:
+                        m = m * cache.GetLocalToWorldTransform(parent).GetInverse()
+                    return m
+
+                st = self._gprim_state(g, dpath, str(path), rel, [g])
+                if st is None:
+                    continue
+                st.set("instanceTransforms", ("doubles", 16, it_xf.tobytes()))
+                self._desired[dpath] = st
+
+    # -- materials ------------------------------------------------------------------------
+    def _eval_material(self, prim):
+        path = str(prim.GetPath())
+        if path in self._desired:
+            return path
+        mat = UsdShade.Material(prim)
+        st = _PrimState("sprim", "material", path)
+        queue = []
+        for key, compute in (("surface", mat.ComputeSurfaceSource),
+                             ("volume", mat.ComputeVolumeSource)):
+            src = compute("tide")
+            shader = src[0] if src else None
+            if shader and shader.GetPrim().IsValid():
+                st.set(key, ("path", str(shader.GetPath())))
+                queue.append(shader)
+            else:
+                st.set(key, ("path", ""))
+        done = set()
+        while queue:
+            shader = queue.pop(0)
+            spath = str(shader.GetPath())
+            if spath in done:
+                continue
+            done.add(spath)
+            sid = shader.GetShaderId()
+            if not sid:
+                self.problem(spath, "info:id", "shader has no info:id; the material's default "
+                             "is used")
+                sid = ""
+            elif sid not in SHADER_IDS:
+                self.problem(spath, "info:id", "unknown shader id '%s'; replaced by the default "
+                             "material" % sid)
+            st.set(spath + ".info:id", ("token", str(sid)))
+            for inp in shader.GetInputs():
+                name = inp.GetFullName()
+                attrs = inp.GetValueProducingAttributes(False)
+                if attrs and UsdShade.Output.IsOutput(attrs[0]):
+                    up = attrs[0]
+                    st.set(spath + "." + name + ".connect",
+                           ("token", "%s.%s" % (up.GetPrim().GetPath(), up.GetName())))
+                    queue.append(UsdShade.Shader(up.GetPrim()))
+                    continue
+                src_attr = attrs[0] if attrs else inp.GetAttr()
+                value = src_attr.Get(self._time(0))
+                if value is None:
+                    continue
+                if isinstance(value, Sdf.AssetPath):
+                    value = self._texture(shader, name, value)
+                st.set(spath + "." + name, convert(value, src_attr.GetTypeName()))
+        self._desired[path] = st
+        return path
+
+    def _texture(self, shader, name, asset):
+        resolved = asset.resolvedPath
+        if not resolved:
+            if asset.path:
+                self.problem(shader.GetPath(), name, "cannot find texture '%s'; the input's "
+                             "default is used" % asset.path)
+            return Sdf.AssetPath("")
+        csp = shader.GetInput("sourceColorSpace")
+        space = str(csp.Get()) if csp and csp.Get() else "auto"
+        if resolved not in self._textures_loaded():
+            ok = self._load_texture(resolved, space)
+            if ok is False:
+                self.problem(shader.GetPath(), name, "cannot read texture '%s'; the input's "
+                             "default is used" % resolved)
+                return Sdf.AssetPath("")
+            self._loaded.add(resolved)
+        return asset
+
+    def _load_texture(self, path, space):
+        try:
+            return self.delegate.load_texture(path, space)
+        except Exception:  # the module reports a failure as an exception or as False
+            return False
+
+    def _textures_loaded(self):
+        if not hasattr(self, "_loaded"):
+            self._loaded = set()
+        return self._loaded
+
+    # -- lights and cameras ---------------------------------------------------------------
+    def _eval_light(self, prim):
+        type_name = LIGHTS[prim.GetTypeName()]
+        path = str(prim.GetPath())
+        st = _PrimState("sprim", type_name, path)
+        st.set("transform", None, self._xform_samples(self._world(prim), [prim]))
+        st.set("visibility", ("token", "inherited"))
+        attrs = dict(LIGHT_COMMON)
+        attrs.update(LIGHT_SPECIFIC[type_name])
+        vals = {}
+        for name, fb in attrs.items():
+            a = prim.GetAttribute(name)
+            v = a.Get(self._time(0)) if a else None
+            v = fb if v is None else v
+            if isinstance(v, Sdf.AssetPath):
+                if v.path and not v.resolvedPath:
+                    self.problem(path, name, "cannot find texture '%s'; the light uses its "
+                                 "colour" % v.path)
+                elif v.resolvedPath and v.resolvedPath not in self._textures_loaded():
+                    if self._load_texture(v.resolvedPath, "auto") is False:
+                        self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
+                        v = Sdf.AssetPath("")
+                    else:
+                        self._loaded.add(v.resolvedPath)
+            if isinstance(fb, float):
+                v = float(v)
+                if not math.isfinite(v):
+                    self.problem(path, name, "not a finite number; using %r" % fb)
+                    v = fb
+            vals[name] = v
+            st.set(name, convert(v, a.GetTypeName() if a else None))
+        zero = None
+        if type_name == "rectLight" and vals["inputs:width"] * vals["inputs:height"] <= 0:
+            zero = "inputs:width" if vals["inputs:width"] <= 0 else "inputs:height"
+        elif type_name == "diskLight" and vals["inputs:radius"] <= 0:
+            zero = "inputs:radius"
+        elif type_name == "sphereLight" and vals["inputs:radius"] <= 0 and \
+                not vals["treatAsPoint"]:
+            zero = "inputs:radius"
+        elif type_name == "cylinderLight" and not vals["treatAsLine"] and \
+                (vals["inputs:radius"] <= 0 or vals["inputs:length"] <= 0):
+            zero = "inputs:radius" if vals["inputs:radius"] <= 0 else "inputs:length"
+        if zero:
+            self.problem(path, zero, "zero-area light; dropped")
+            return
+        self._tide_attrs(prim, st)
+        light = UsdLux.LightAPI(prim)
+        for which, coll in (("lightLink", light.GetLightLinkCollectionAPI()),
+                            ("shadowLink", light.GetShadowLinkCollectionAPI())):
+            inc = coll.GetIncludesRel().GetTargets()
+            exc = coll.GetExcludesRel().GetTargets()
+            root_attr = coll.GetIncludeRootAttr()
+            include_root = root_attr.Get() if root_attr else None
+            if inc or exc or (include_root is not None and root_attr.HasAuthoredValue()):
+                base = "collection:%s:" % which
+                st.set(base + "includes", ("paths", tuple(str(p) for p in inc)))
+                st.set(base + "excludes", ("paths", tuple(str(p) for p in exc)))
+                st.set(base + "includeRoot", ("bool", True if include_root is None
+                                              else bool(include_root)))
+        self._desired[path] = st
+
+    def _eval_camera(self, prim):
+        path = str(prim.GetPath())
+        st = _PrimState("sprim", "camera", path)
+        st.set("transform", None, self._xform_samples(self._world(prim), [prim]))
+        for name, fb in CAMERA_ATTRS.items():
+            a = prim.GetAttribute(name)
+            v = a.Get(self._time(0)) if a else None
+            v = fb if v is None else v
+            if name in ("focalLength", "horizontalAperture", "verticalAperture"):
+                if not (math.isfinite(v) and v > 0):
+                    self.problem(path, name, "%s = %r must be positive; using %r" % (name, v, fb))
+                    v = fb
+            if name in ALLOWED_TOKENS or name == "tide:camera:filter":
+                if str(v) not in ALLOWED_TOKENS[name]:
+                    self.problem(path, name, "unknown token '%s'; using '%s'" % (v, fb))
+                    v = fb
+                st.set(name, ("token", str(v)))
+                continue
+            if isinstance(fb, tuple):
+                st.set(name, _floats(list(v), len(fb)))
+            else:
+                st.set(name, ("float", float(v)))
+        rel = prim.GetRelationship("tide:medium")
+        targets = rel.GetForwardedTargets() if rel else []
+        if targets:
+            mp = self.stage.GetPrimAtPath(targets[0])
+            if mp and mp.IsA(UsdShade.Material):
+                st.set("tide:medium", ("path", self._eval_material(mp)))
+            else:
+                self.problem(path, "tide:medium", "%s is not a material" % targets[0])
+        self._desired[path] = st
+
+
+def open_stage(path):
+    """Opens a stage file; raises RuntimeError naming the file when it cannot be opened."""
+    try:
+        stage = Usd.Stage.Open(path)
+    except Tf.ErrorException as e:
+        raise RuntimeError("cannot open stage '%s': %s" % (path, str(e).strip())) from e
+    if stage is None:
+        raise RuntimeError("cannot open stage '%s'" % path)
+    return stage
+
+
+def stage_from_string(text):
+    """A stage from .usda text (an anonymous layer)."""
+    layer = Sdf.Layer.CreateAnonymous(".usda")
+    if not layer.ImportFromString(text):
+        raise RuntimeError("invalid .usda text")
+    return Usd.Stage.Open(layer)

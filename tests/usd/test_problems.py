@@ -1,0 +1,227 @@
+"""Bad input (contract section 7): each problem names the prim and the attribute, is reported
+once, and the offending prim or input is dropped or replaced while the rest is read."""
+import math
+
+import pytest
+from pxr import Sdf, UsdGeom, UsdLux, UsdShade
+
+from conftest import bind, camera, load, preview_material, settings
+
+
+def _good(stage):
+    camera(stage)
+    UsdGeom.Sphere.Define(stage, "/Good")
+
+
+def _mesh(stage, path, points, counts, indices):
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr(points)
+    m.CreateFaceVertexCountsAttr(counts)
+    m.CreateFaceVertexIndicesAttr(indices)
+    return m
+
+
+TRI = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
+
+
+def _nan_points(stage):
+    _mesh(stage, "/Bad", [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)], [3], [0, 1, 2])
+    return "/Bad", "points", "Bad"
+
+
+def _inf_points(stage):
+    p = UsdGeom.Points.Define(stage, "/Bad")
+    p.CreatePointsAttr([(0, 0, math.inf)])
+    return "/Bad", "points", "Bad"
+
+
+def _index_out_of_range(stage):
+    _mesh(stage, "/Bad", TRI, [3], [0, 1, 7])
+    return "/Bad", "faceVertexIndices", "Bad"
+
+
+def _short_face(stage):
+    _mesh(stage, "/Bad", TRI, [2, 1], [0, 1, 2])
+    return "/Bad", "faceVertexCounts", "Bad"
+
+
+def _count_mismatch(stage):
+    _mesh(stage, "/Bad", TRI, [3, 3], [0, 1, 2])
+    return "/Bad", "faceVertexIndices", "Bad"
+
+
+def _unknown_token(stage):
+    m = _mesh(stage, "/Odd", TRI, [3], [0, 1, 2])
+    m.GetPrim().GetAttribute("orientation").Set("sideways")
+    return "/Odd", "orientation", None
+
+
+def _unknown_shader(stage):
+    mat = UsdShade.Material.Define(stage, "/Looks/M")
+    sh = UsdShade.Shader.Define(stage, "/Looks/M/S")
+    sh.CreateIdAttr("NoSuchShader")
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    bind(UsdGeom.Cube.Define(stage, "/Box").GetPrim(), mat)
+    return "/Looks/M/S", "info:id", None
+
+
+def _missing_texture(stage):
+    mat = preview_material(stage, "/Looks/T")
+    tex = UsdShade.Shader.Define(stage, "/Looks/T/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set("/no/such/texture.png")
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/T/Surface")).GetInput(
+        "diffuseColor").ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(UsdGeom.Cube.Define(stage, "/Box").GetPrim(), mat)
+    return "/Looks/T/Tex", "inputs:file", None
+
+
+def _zero_area_rect(stage):
+    UsdLux.RectLight.Define(stage, "/Bad").CreateWidthAttr(0.0)
+    return "/Bad", "inputs:width", "Bad"
+
+
+def _zero_radius_disk(stage):
+    UsdLux.DiskLight.Define(stage, "/Bad").CreateRadiusAttr(0.0)
+    return "/Bad", "inputs:radius", "Bad"
+
+
+def _zero_aperture(stage):
+    camera(stage, "/BadCam").CreateHorizontalApertureAttr(0.0)
+    return "/BadCam", "horizontalAperture", None
+
+
+def _unknown_integrator(stage):
+    settings(stage, integrator="bogus")
+    return "/Render/Settings", "tide:integrator", None
+
+
+def _bad_proto_index(stage):
+    inst = UsdGeom.PointInstancer.Define(stage, "/Bad")
+    UsdGeom.Sphere.Define(stage, "/Bad/P")
+    inst.CreatePrototypesRel().SetTargets(["/Bad/P"])
+    inst.CreateProtoIndicesAttr([0, 3])
+    inst.CreatePositionsAttr([(0, 0, 0), (1, 0, 0)])
+    return "/Bad", "protoIndices", None
+
+
+def _missing_material(stage):
+    s = UsdGeom.Sphere.Define(stage, "/Orphan")
+    UsdShade.MaterialBindingAPI.Apply(s.GetPrim())
+    s.GetPrim().CreateRelationship("material:binding").SetTargets(["/Looks/Nothing"])
+    return "/Orphan", "material:binding", None
+
+
+def _missing_dome_texture(stage):
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateTextureFileAttr("/no/sky.exr")
+    return "/Dome", "inputs:texture:file", None
+
+
+def _unknown_aov(stage):
+    settings(stage, vars_=("color", "notAnAov"))
+    return "/Render/Settings_Var1", "sourceName", None
+
+
+def _negative_radius(stage):
+    UsdGeom.Sphere.Define(stage, "/Neg").CreateRadiusAttr(-1.0)
+    return "/Neg", "radius", None
+
+
+def _missing_vdb(stage):
+    from pxr import UsdVol
+    vol = UsdVol.Volume.Define(stage, "/Cloud")
+    field = UsdVol.OpenVDBAsset.Define(stage, "/Cloud/density")
+    field.CreateFilePathAttr("/no/such/cloud.vdb")
+    field.CreateFieldNameAttr("density")
+    vol.CreateFieldRelationship("density", field.GetPath())
+    return "/Cloud/density", "filePath", None
+
+
+CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_face, _count_mismatch,
+         _unknown_token, _unknown_shader, _missing_texture, _zero_area_rect, _zero_radius_disk,
+         _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
+         _missing_dome_texture, _unknown_aov, _negative_radius]
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c.__name__.strip("_") for c in CASES])
+def test_problem_named_once_rest_renders(stage, delegate, case):
+    _good(stage)
+    prim, attribute, dropped = case(stage)
+    reader, problems = load(stage, delegate)
+    keys = [(p.prim, p.attribute) for p in problems]
+    assert (prim, attribute) in keys, problems
+    assert len(keys) == len(set(keys))                       # each problem once
+    assert all(str(p).startswith(p.prim + ": " + p.attribute + ": ") for p in problems)
+    assert delegate.prims["/Good"] == "sphere"                # the rest is read
+    if dropped:
+        assert "/" + dropped not in delegate.prims
+    # a later update that touches the same prim does not report it again
+    target = stage.GetPrimAtPath(prim) or stage.GetPrimAtPath("/Good")
+    target.SetCustomDataByKey("touched", 1)
+    assert [p for p in reader.update() if (p.prim, p.attribute) == (prim, attribute)] == []
+    assert len(reader.problems) == len({(p.prim, p.attribute) for p in reader.problems})
+
+
+def test_replaced_by_default(stage, delegate):
+    _good(stage)
+    _unknown_token(stage)
+    _zero_aperture(stage)
+    _unknown_integrator(stage)
+    load(stage, delegate)
+    assert delegate.value("/Odd", "orientation") == ("token", "rightHanded")
+    assert delegate.value("/BadCam", "horizontalAperture") == pytest.approx(20.955)
+    assert delegate.value("/Render/Settings", "tide:integrator") == ("token", "caustics")
+
+
+def test_delegate_problems_are_merged_once(stage, delegate):
+    _good(stage)
+    reader, _ = load(stage, delegate)
+    delegate._problems.append(("/Good", "radius", "a problem found by the core"))
+    delegate._problems.append(("/Good", "radius", "a problem found by the core"))
+    UsdGeom.Sphere(stage.GetPrimAtPath("/Good")).GetRadiusAttr().Set(2.0)
+    new = reader.update()
+    assert [(p.prim, p.attribute) for p in new] == [("/Good", "radius")]
+
+
+def test_unknown_gprim_type_is_reported(stage, delegate):
+    _good(stage)
+    UsdGeom.BasisCurves.Define(stage, "/Curves")
+    _, problems = load(stage, delegate)
+    assert ("/Curves", "type") in [(p.prim, p.attribute) for p in problems]
+    assert "/Curves" not in delegate.prims
+
+
+def test_no_camera(stage, delegate):
+    UsdGeom.Sphere.Define(stage, "/S")
+    reader, problems = load(stage, delegate)
+    assert reader.camera_path is None
+    assert any(p.attribute == "camera" for p in problems)
+    with pytest.raises(RuntimeError):
+        reader.render_pass()
+
+
+def test_bad_camera_override(stage, delegate):
+    _good(stage)
+    with pytest.raises(LookupError):
+        load(stage, delegate, camera="/Nope")
+    with pytest.raises(LookupError):
+        load(stage, delegate, settings="/Nope")
+
+
+
+def test_value_rejected_by_the_delegate(stage, delegate):
+    _good(stage)
+    UsdGeom.Sphere.Define(stage, "/Other").CreateRadiusAttr(3.0)
+    real_set = delegate.set
+
+    def picky_set(path, key, value, time=None):
+        if path == "/Other" and key == "radius":
+            raise TypeError("radius refused")
+        return real_set(path, key, value, time)
+
+    delegate.set = picky_set
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Other", "radius")]
+    assert "radius refused" in problems[0].message
+    assert delegate.prims["/Other"] == "sphere" and delegate.value("/Good", "radius") == 1.0
