@@ -210,7 +210,7 @@ fn chi2_plane(res: usize, samples: usize, seed: u64, quad: usize, mut sample: im
     let mut outside = 0;
     for _ in 0..samples {
         let Some(q) = sample(&mut rng) else { continue };
-        if !(q.x >= 0.0 && q.x <= 1.0 && q.y >= 0.0 && q.y <= 1.0) || !(density(q) > 0.0) {
+        if !(q.x >= 0.0 && q.x <= 1.0 && q.y >= 0.0 && q.y <= 1.0 && density(q) > 0.0) {
             outside += 1;
             continue;
         }
@@ -278,8 +278,10 @@ fn unpolar(s: Vec2) -> Vec2 {
 
 /// A light's surface as a map from the unit square: (point, normal, area Jacobian) at `s`,
 /// and the inverse map of a point.
+type SurfaceMap<'a> = Box<dyn Fn(Vec2) -> Option<(Vec3, Vec3, f64)> + 'a>;
+
 struct Param<'a> {
-    to_surface: Box<dyn Fn(Vec2) -> Option<(Vec3, Vec3, f64)> + 'a>,
+    to_surface: SurfaceMap<'a>,
     to_square: Box<dyn Fn(Vec3) -> Vec2 + 'a>,
 }
 
@@ -507,8 +509,8 @@ fn textured_dome_photon_power_matches_quadrature_of_le() {
         for x in 0..w {
             let dir = d.rot * latlong_direction((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32);
             let v = l.le(dir, &lam);
-            for k in 0..4 {
-                acc[k] += v.0[k] as f64 * omega;
+            for (a, s) in acc.iter_mut().zip(v.0) {
+                *a += s as f64 * omega;
             }
         }
     }
