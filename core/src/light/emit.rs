@@ -87,7 +87,8 @@ impl EmissionDisk {
         Ok(EmissionDisk { center, radius })
     }
 
-    /// The sphere around an axis-aligned box (centre and half diagonal).
+    /// The sphere around an axis-aligned box (centre and half diagonal). Errors name
+    /// "bounds": not finite, min above max, or a box of zero size.
     pub fn from_bounds(min: Vec3, max: Vec3) -> Result<EmissionDisk, String> {
         if !min.is_finite() || !max.is_finite() {
             return Err(format!("bounds: not finite ({min} .. {max})"));
@@ -96,7 +97,10 @@ impl EmissionDisk {
             return Err(format!("bounds: min exceeds max ({min} .. {max})"));
         }
         let radius = 0.5 * (max - min).length();
-        EmissionDisk::new(0.5 * (min + max), if radius > 0.0 { radius } else { f32::MIN_POSITIVE.sqrt() })
+        if !(radius > 0.0) || !radius.is_finite() {
+            return Err(format!("bounds: a box of zero or overflowing size ({min} .. {max})"));
+        }
+        EmissionDisk::new(0.5 * (min + max), radius)
     }
 
     pub fn center(&self) -> Vec3 {

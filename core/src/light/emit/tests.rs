@@ -675,8 +675,10 @@ fn bad_emission_disks_are_rejected_naming_the_argument() {
         let e = EmissionDisk::new(Vec3::ZERO, r).unwrap_err();
         assert!(e.starts_with("radius"), "{e}");
     }
-    let e = EmissionDisk::from_bounds(Vec3::ONE, Vec3::ZERO).unwrap_err();
-    assert!(e.starts_with("bounds"), "{e}");
+    for (lo, hi) in [(Vec3::ONE, Vec3::ZERO), (Vec3::ONE, Vec3::ONE), (Vec3::splat(f32::NEG_INFINITY), Vec3::ZERO)] {
+        let e = EmissionDisk::from_bounds(lo, hi).unwrap_err();
+        assert!(e.starts_with("bounds"), "{e}");
+    }
     let d = EmissionDisk::from_bounds(Vec3::new(-1.0, -2.0, -2.0), Vec3::new(1.0, 2.0, 2.0)).unwrap();
     assert_eq!((d.center(), d.radius()), (Vec3::ZERO, 3.0));
 }
