@@ -34,6 +34,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod distrib;
+pub mod emit;
 pub mod sampler;
 
 #[cfg(test)]
