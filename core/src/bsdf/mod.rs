@@ -15,6 +15,7 @@ pub mod fresnel;
 mod lobes;
 pub mod microfacet;
 pub mod preview;
+pub mod sea;
 #[cfg(test)]
 mod tests;
 
@@ -26,6 +27,7 @@ use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 use lobes::{Dielectric, Lambert, MicrofacetReflection, ReflFresnel};
 use preview::Preview;
+use sea::{CoxMunk, SeaSurface};
 
 /// Lobe classification bits.
 pub mod flags {
@@ -152,6 +154,7 @@ enum Model {
     Microfacet(MicrofacetReflection),
     Dielectric(Dielectric),
     Preview(Preview),
+    Sea(SeaSurface),
 }
 
 /// A surface's scattering function at one shading point.
@@ -201,6 +204,16 @@ impl Bsdf {
         Ok(Bsdf { model: Model::Dielectric(Dielectric::new(eta, d)) })
     }
 
+    /// Wind-driven sea surface (see [`sea`]): `eta` = n_water / n_air at the hero wavelength
+    /// with the water on the −Z side, `wind_speed` in m/s at 10 m (Cox–Munk slopes, in
+    /// [0, [`sea::MAX_WIND_SPEED`]]), `wind_direction` in radians in the tangent plane from +X
+    /// towards +Y.
+    pub fn sea(eta: f32, wind_speed: f32, wind_direction: f32) -> Result<Bsdf, BsdfError> {
+        let eta = check_positive("eta", eta)?;
+        let slopes = CoxMunk::new(wind_speed, wind_direction)?;
+        Ok(Bsdf { model: Model::Sea(SeaSurface::new(eta, slopes)) })
+    }
+
     /// UsdPreviewSurface (see [`PreviewParams`]).
     pub fn preview(p: PreviewParams) -> Result<Bsdf, BsdfError> {
         let p = PreviewParams {
@@ -222,6 +235,7 @@ impl Bsdf {
         let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
         match &self.model {
             Model::Dielectric(d) => d.f(wo, wi, mode),
+            Model::Sea(s) => s.f(wo, wi, mode),
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Microfacet(m) => m.f(wo2, wi2),
             Model::Preview(p) => p.f(wo2, wi2),
@@ -233,6 +247,7 @@ impl Bsdf {
         let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
         match &self.model {
             Model::Dielectric(d) => d.pdf(wo, wi),
+            Model::Sea(s) => s.pdf(wo, wi),
             Model::Lambert(l) => l.pdf(wo2, wi2),
             Model::Microfacet(m) => m.pdf(wo2, wi2),
             Model::Preview(p) => p.pdf(wo2, wi2),
@@ -244,13 +259,16 @@ impl Bsdf {
         if let Model::Dielectric(d) = &self.model {
             return d.sample_f(wo, uc, u, mode);
         }
+        if let Model::Sea(s) = &self.model {
+            return s.sample_f(wo, uc, u, mode);
+        }
         let flipped = wo.z < 0.0;
         let wo2 = if flipped { flip(wo) } else { wo };
         let mut s = match &self.model {
             Model::Lambert(l) => l.sample_f(wo2, u),
             Model::Microfacet(m) => m.sample_f(wo2, uc, u),
             Model::Preview(p) => p.sample_f(wo2, uc, u),
-            Model::Dielectric(_) => None,
+            Model::Dielectric(_) | Model::Sea(_) => None,
         }?;
         if flipped {
             s.wi = flip(s.wi);
@@ -264,6 +282,7 @@ impl Bsdf {
             Model::Lambert(_) => flags::DIFFUSE_REFLECTION,
             Model::Microfacet(m) => m.lobe_flags(),
             Model::Dielectric(d) => d.lobe_flags(),
+            Model::Sea(s) => s.lobe_flags(),
             Model::Preview(p) => p.lobe_flags(),
         }
     }
@@ -273,7 +292,7 @@ impl Bsdf {
         match &self.model {
             Model::Lambert(l) => l.reflectance,
             Model::Microfacet(m) => m.albedo(1.0),
-            Model::Dielectric(_) => SampledSpectrum::ONE,
+            Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ONE,
             Model::Preview(p) => p.albedo_hint(),
         }
     }
@@ -285,7 +304,7 @@ impl Bsdf {
         match &self.model {
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Preview(p) => p.f_diffuse_share(wo2, wi2),
-            Model::Microfacet(_) | Model::Dielectric(_) => SampledSpectrum::ZERO,
+            Model::Microfacet(_) | Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ZERO,
         }
     }
 
