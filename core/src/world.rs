@@ -35,6 +35,8 @@ pub struct DielectricMat {
     pub ior: f32,
     pub roughness: f32,
     pub priority: i32,
+    /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane).
+    pub sea: Option<(f32, Vec3)>,
 }
 
 /// What a surface does, ready to evaluate.
@@ -167,14 +169,19 @@ impl World {
                         }
                     }
                     SurfaceDesc::Water(w) => {
-                        if w.dispersion || w.surface_model == SurfaceModel::Sea {
+                        if w.dispersion {
                             problems.push(Problem {
                                 item: m.name.clone(),
-                                attribute: if w.dispersion { "inputs:dispersion".into() } else { "inputs:surfaceModel".into() },
-                                message: "not supported yet; rendered as a dielectric with constant ior and GGX roughness".into(),
+                                attribute: "inputs:dispersion".into(),
+                                message: "not supported yet; rendered with the constant ior".into(),
                             });
                         }
-                        SurfaceKind::Dielectric(DielectricMat { ior: w.ior, roughness: w.roughness, priority: w.priority })
+                        let sea = (w.surface_model == SurfaceModel::Sea).then(|| {
+                            // degrees about +Y from +X: the rotated +X axis
+                            let a = w.wind_direction.to_radians();
+                            (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()))
+                        });
+                        SurfaceKind::Dielectric(DielectricMat { ior: w.ior, roughness: w.roughness, priority: w.priority, sea })
                     }
                     SurfaceDesc::Conductor { eta, k, roughness } => SurfaceKind::Conductor { eta: uplift::unbounded(*eta, cs), k: uplift::unbounded(*k, cs), roughness: *roughness },
                     SurfaceDesc::Emissive { radiance, two_sided } => SurfaceKind::Emissive { radiance: uplift::illuminant(*radiance, cs), two_sided: *two_sided },
@@ -377,7 +384,13 @@ impl World {
                     use_specular_workflow: *use_specular_workflow,
                 })
             }
-            SurfaceKind::Dielectric(dm) => Bsdf::dielectric(eta, dm.roughness),
+            SurfaceKind::Dielectric(dm) => match dm.sea {
+                Some((speed, wind)) => {
+                    let l = frame.to_local(wind);
+                    Bsdf::sea(eta, speed, l.y.atan2(l.x))
+                }
+                None => Bsdf::dielectric(eta, dm.roughness),
+            },
             SurfaceKind::Conductor { eta: e, k, roughness } => Bsdf::conductor(e.sample(lambda) / outside_ior, k.sample(lambda) / outside_ior, *roughness),
             SurfaceKind::Emissive { .. } => Bsdf::lambert(SampledSpectrum::ZERO),
         };
