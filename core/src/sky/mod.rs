@@ -73,6 +73,9 @@
 //!
 //! Data: `core/data/hosek-wilkie/` (BSD-3-Clause, Hošek & Wilkie; see `core/data/README.md`).
 
+// `!(x >= 0.0)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod data;
 pub mod light;
 pub mod model;

@@ -404,8 +404,8 @@ impl HosekWilkieSky {
             let mu = (im as f64 + 0.5) * dmu;
             let sin_rho = a * (1.0 - mu * mu).sqrt();
             let cos_rho = (1.0 - sin_rho * sin_rho).sqrt();
-            for b in 0..N_BANDS {
-                ld[b] = Self::limb_band(t, b, mu);
+            for (b, l) in ld.iter_mut().enumerate() {
+                *l = Self::limb_band(t, b, mu);
             }
             for ip in 0..DISC_PSI_NODES {
                 let psi = (ip as f64 + 0.5) * dpsi;
