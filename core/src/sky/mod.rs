@@ -33,8 +33,8 @@
 //! Wavelengths: between 320 and 720 nm the bands are interpolated linearly, as in the reference
 //! implementation. Tide samples 360–830 nm: from 720 to 830 nm (where the reference returns 0)
 //! the 720 nm value is held. The sky's and sun's spectra fall slowly there, so holding slightly
-//! overestimates them, but ȳ over 720–830 nm carries about 0.1% of ∫ȳ, so luminance and colour
-//! change by well under 1%. Below 320 nm and above 830 nm the model returns 0.
+//! overestimates them, but x̄ and ȳ over 720–830 nm carry under 0.1% of their integrals, so luminance and
+//! colour change by well under 1%. Below 320 nm and above 830 nm the model returns 0.
 //!
 //! Directions below the horizon (cos θ < 0) receive no sky radiance (the ground is scene
 //! geometry); the sampler never picks them. Sun positions below the horizon have no data in the
@@ -54,9 +54,8 @@
 //! luminance 1. Used unscaled (scale 1, the default for a dome of `intensity` 1, `exposure` 0),
 //! one Tide radiance unit is 1 W m⁻² sr⁻¹ nm⁻¹, and Tide luminance 1 is
 //! 683 lm W⁻¹ × ∫ȳ dλ (106.86 nm) ≈ 7.30·10⁴ cd m⁻² ([`cd_per_m2_per_unit_luminance`]).
-//! A clear sky's zenith then has a luminance of order 0.05–0.2 and the sun's disc of order
-//! 10⁴, so a camera needs an exposure of about 2⁻³ to 2⁻¹ for a daylight scene where an
-//! RGB-(1,1,1) dome would need 1. [`SkyLight::scale`] multiplies the sky (the dome's
+//! A clear sky's zenith then has a luminance of order 0.02–0.2 (a few thousand cd m⁻²) and
+//! the sun's disc of order 10⁴. [`SkyLight::scale`] multiplies the sky (the dome's
 //! `intensity` × 2^`exposure`).
 //!
 //! # Wiring (done elsewhere)
