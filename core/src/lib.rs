@@ -14,6 +14,7 @@ pub mod medium;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod sky;
 pub mod spectrum;
 pub mod testing;
 pub mod texture;
