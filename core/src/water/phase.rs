@@ -15,7 +15,8 @@
 //!   the Petzold average-particle value, gives μ ≈ 3.5835 and is the contract's default.
 //! * **Petzold** (SIO Ref. 72-78, 1972): the eight stations' total VSFs at 530 nm. Below the
 //!   first tabulated angle (0.1°) the VSF is extended with the report's log-log slope of each
-//!   station down to 10⁻⁴°, which carries the 3–15 % of b the report assigns there. The default
+//!   station down to 10⁻⁷° (what lies below is < 0.5 % of that part), which carries the 3–15 %
+//!   of b the report assigns there. The default
 //!   [`PetzoldStation::AverageParticle`] is the "average particle" phase function of Mobley et
 //!   al. (1993): the three San Diego harbour stations (NUC 2200, 2040, 2240), pure-seawater
 //!   scattering (Morel 1974 at 530 nm, S = 35 PSU) subtracted from each, each normalised by its
@@ -47,9 +48,12 @@ const GRID_NODES: usize = 640;
 /// Smallest non-zero x of the generic grid (θ ≈ 1.4·10⁻⁶ rad).
 const GRID_X_MIN: f64 = 1e-12;
 
-/// x nodes: 0, then geometric from [`GRID_X_MIN`] to 2. Consecutive nodes differ by ≈ 4.5 %, so
-/// linear interpolation of HG (g ≤ 0.9999), FF or the molecular function between them is
-/// within ≈ 0.1 % of the analytic value.
+/// Uniform x nodes added to the geometric ones (step 2/256), for the wide part of the sphere.
+const GRID_UNIFORM: usize = 256;
+
+/// x nodes: 0, geometric from [`GRID_X_MIN`] to 2 (consecutive nodes ≈ 4.5 % apart), merged
+/// with a uniform grid of step 2/256. Linear interpolation of HG (g ≤ 0.9999), FF or the
+/// molecular function between them is within ≈ 0.1 % of the analytic value.
 fn grid() -> Vec<f64> {
     let r = (2.0 / GRID_X_MIN).powf(1.0 / (GRID_NODES - 2) as f64);
     let mut x = vec![0.0];
@@ -58,6 +62,9 @@ fn grid() -> Vec<f64> {
         x.push(v.min(2.0));
         v *= r;
     }
+    x.extend((1..=GRID_UNIFORM).map(|i| 2.0 * i as f64 / GRID_UNIFORM as f64));
+    x.sort_by(f64::total_cmp);
+    x.dedup_by(|a, b| (*a - *b).abs() <= 1e-6 * b.abs());
     *x.last_mut().unwrap() = 2.0;
     x
 }
@@ -69,7 +76,7 @@ impl PhaseTable {
         if x.len() < 2 || x.len() != v.len() || x[0] != 0.0 || *x.last().unwrap() != 2.0 {
             return Err(WaterError::BadPhaseTable("nodes must span x = 1 − cosθ from 0 to 2".into()));
         }
-        if x.windows(2).any(|w| !(w[1] > w[0])) || v.iter().any(|p| !(p.is_finite() && *p >= 0.0)) {
+        if x.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater)) || v.iter().any(|p| !(p.is_finite() && *p >= 0.0)) {
             return Err(WaterError::BadPhaseTable("nodes not increasing or values negative/non-finite".into()));
         }
         let mut t = PhaseTable { x, p: v };
@@ -195,7 +202,7 @@ pub fn hg_table(g: f64) -> Result<PhaseTable, WaterError> {
     let gm = crate::medium::G_MAX as f64;
     let g = g.clamp(-gm, gm);
     // 1 + g² − 2gμ = (1 − g)² + 2g·x
-    Ok(PhaseTable::from_fn(|x| (1.0 - g * g) / ((1.0 - g) * (1.0 - g) + 2.0 * g * x).powf(1.5))?)
+    PhaseTable::from_fn(|x| (1.0 - g * g) / ((1.0 - g) * (1.0 - g) + 2.0 * g * x).powf(1.5))
 }
 
 /// w·HG(g1) + (1 − w)·HG(g2) as a table.
@@ -278,7 +285,9 @@ impl FournierForand {
         Self::new(FF_DEFAULT_N, 0.5 * (lo + hi))
     }
 
-    /// The table (the forward node x = 0 takes the value at the first grid node).
+    /// The table (the forward node x = 0 takes the value at the first grid node). The density's
+    /// probability below x is ∝ x^((μ−3)/2); what lies below the first grid node (x = 10⁻¹²) is
+    /// dropped by normalisation: < 0.1 % for μ ≥ 3.5, but several % as μ → 3.
     pub fn table(&self) -> Result<PhaseTable, WaterError> {
         PhaseTable::from_fn(|x| self.density_x(x.max(GRID_X_MIN)))
     }
@@ -341,7 +350,7 @@ impl PetzoldStation {
 
 /// Decades below 0.1° covered by the power-law extension, and nodes per decade (the table's
 /// own spacing).
-const PETZOLD_EXT_DECADES: i32 = 3;
+const PETZOLD_EXT_DECADES: i32 = 6;
 const PETZOLD_EXT_PER_DECADE: i32 = 10;
 
 /// (θ radians, β m⁻¹ sr⁻¹) of one station including the power-law extension, increasing θ;
