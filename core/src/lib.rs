@@ -19,6 +19,7 @@ pub mod spectrum;
 pub mod testing;
 pub mod texture;
 pub mod validate;
+pub mod water;
 pub mod world;
 
 pub use render::{Aov, IntegratorKind, Problem, RenderError, RenderSettings, RenderStats, Renderer};
