@@ -108,11 +108,11 @@ enum Boundary {
     Real { eta: f32, medium_front: Option<usize>, medium_back: Option<usize>, enter: Interior },
 }
 
-fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack) -> Boundary {
+fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
     let info = &world.instances[s.instance as usize];
     let mat = &world.materials[info.material];
     let Some(d) = mat.dielectric() else { return Boundary::Opaque };
-    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior, medium: mat.interior_medium };
+    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium };
     if front {
         // entering
         if let Some(top) = stack.top() {
@@ -411,11 +411,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             continue;
         }
 
-        let boundary = classify_boundary(world, &s, front, &stack);
+        let boundary = classify_boundary(world, &s, front, &stack, lambda);
         if let Boundary::False = boundary {
             if front {
                 if let Some(mat) = world.materials[mat_i].dielectric() {
-                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior, medium: world.materials[mat_i].interior_medium });
+                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium });
                 }
             } else {
                 stack.remove(s.instance);
@@ -457,6 +457,12 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             add!(beta * le * w);
         }
 
+        // a dispersive interface sends each wavelength its own way: only the hero goes on
+        if let Boundary::Real { .. } = boundary {
+            if world.materials[mat_i].dielectric().is_some_and(|d| d.dispersion.is_some()) && !lambda.secondary_terminated() {
+                lambda.terminate_secondary();
+            }
+        }
         let (eta, medium_front, medium_back) = match &boundary {
             Boundary::Real { eta, medium_front, medium_back, .. } => (*eta, *medium_front, *medium_back),
             _ => (1.0, stack.medium(), stack.medium()),

@@ -37,6 +37,19 @@ pub struct DielectricMat {
     pub priority: i32,
     /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane).
     pub sea: Option<(f32, Vec3)>,
+    /// Spectral IOR n(λ) (Quan–Fry) when the water is dispersive; `ior` is then n(589 nm).
+    pub dispersion: Option<Spectrum>,
+}
+
+impl DielectricMat {
+    /// IOR at the hero wavelength of a path.
+    #[inline]
+    pub fn ior_at(&self, lambda: &SampledWavelengths) -> f32 {
+        match &self.dispersion {
+            Some(n) => n.eval(lambda.lambda[0]),
+            None => self.ior,
+        }
+    }
 }
 
 /// What a surface does, ready to evaluate.
@@ -169,19 +182,24 @@ impl World {
                         }
                     }
                     SurfaceDesc::Water(w) => {
-                        if w.dispersion {
-                            problems.push(Problem {
-                                item: m.name.clone(),
-                                attribute: "inputs:dispersion".into(),
-                                message: "not supported yet; rendered with the constant ior".into(),
-                            });
-                        }
+                        let dispersion = if w.dispersion {
+                            match crate::water::quan_fry_spectrum(w.salinity, w.temperature) {
+                                Ok(n) => Some(n),
+                                Err(e) => {
+                                    problems.push(Problem { item: m.name.clone(), attribute: "inputs:temperature".into(), message: format!("{e}; dispersion off, constant ior used") });
+                                    None
+                                }
+                            }
+                        } else {
+                            None
+                        };
                         let sea = (w.surface_model == SurfaceModel::Sea).then(|| {
                             // degrees about +Y from +X: the rotated +X axis
                             let a = w.wind_direction.to_radians();
                             (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()))
                         });
-                        SurfaceKind::Dielectric(DielectricMat { ior: w.ior, roughness: w.roughness, priority: w.priority, sea })
+                        let ior = dispersion.as_ref().map_or(w.ior, |n| n.eval(589.0));
+                        SurfaceKind::Dielectric(DielectricMat { ior, roughness: w.roughness, priority: w.priority, sea, dispersion })
                     }
                     SurfaceDesc::Conductor { eta, k, roughness } => SurfaceKind::Conductor { eta: uplift::unbounded(*eta, cs), k: uplift::unbounded(*k, cs), roughness: *roughness },
                     SurfaceDesc::Emissive { radiance, two_sided } => SurfaceKind::Emissive { radiance: uplift::illuminant(*radiance, cs), two_sided: *two_sided },

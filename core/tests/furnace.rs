@@ -65,3 +65,10 @@ fn sea_surface_sphere_never_gains_energy() {
     assert!(m < 1.0 + 3.0 * se + 0.005 && mr < 1.0 + 3.0 * ser + 0.005, "sea gains energy: {m} ± {se}");
     assert!(m > 0.8, "sea surface lost most of the light: {m}");
 }
+
+#[test]
+fn dispersive_water_sphere_renders_one() {
+    // Quan–Fry dispersion: each interface keeps only the hero wavelength; the estimate must
+    // stay unbiased (the white furnace still renders 1)
+    check("dispersive water", furnace(SurfaceDesc::Water(WaterDesc { dispersion: true, salinity: 35.0, temperature: 15.0, ..Default::default() })));
+}
