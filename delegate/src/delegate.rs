@@ -16,7 +16,7 @@ use crate::implicit::{self, PointsData};
 use crate::lux::{self, CameraPiece, LightKind, LightPiece, SettingsPiece};
 use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
 use crate::mesh;
-use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, RenderBuffer, RenderPass};
+use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use glam::{Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -332,6 +332,17 @@ impl Delegate {
         self.textures.insert(asset.to_string(), state);
         self.dirty_users_of(asset);
         ok
+    }
+
+    /// The pixels held for a texture as given to `add_texture` (2-channel images expanded to
+    /// RGBA), with `samples` 0; None if the texture is unknown or failed.
+    pub fn texture(&self, asset: &str) -> Option<MappedBuffer> {
+        match self.textures.get(asset) {
+            Some(TexState::Loaded { width, height, channels, pixels, .. }) => {
+                Some(MappedBuffer { width: *width, height: *height, channels: *channels, pixels: pixels.as_ref().clone(), samples: 0 })
+            }
+            _ => None,
+        }
     }
 
     /// Records that a texture file could not be read.
@@ -784,6 +795,12 @@ impl Delegate {
         self.pass.as_ref().is_some_and(|p| p.wait(timeout))
     }
 
+    /// A handle on the render pass for waiting or polling without borrowing the delegate
+    /// (None before the first `execute`).
+    pub fn watcher(&self) -> Option<PassWatcher> {
+        self.pass.as_ref().map(|p| p.watcher())
+    }
+
     /// Stops rendering (buffers keep their pixels).
     pub fn cancel(&mut self) {
         if let Some(p) = &self.pass {
@@ -944,6 +961,18 @@ mod tests {
         // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
         assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
         assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
+    }
+
+    #[test]
+    fn textures_read_back_as_held() {
+        let mut d = Delegate::new();
+        assert!(d.add_texture("/g.png", 2, 1, 2, vec![0.1, 0.9, 0.3, 0.7], false));
+        let t = d.texture("/g.png").unwrap();
+        assert_eq!((t.width, t.height, t.channels), (2, 1, 4));
+        assert_eq!(t.pixels, vec![0.1, 0.1, 0.1, 0.9, 0.3, 0.3, 0.3, 0.7]);
+        d.texture_failed("/g.png", "gone");
+        assert!(d.texture("/g.png").is_none());
+        assert!(d.texture("/never.png").is_none());
     }
 
     #[test]
