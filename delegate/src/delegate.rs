@@ -412,9 +412,13 @@ impl Delegate {
                 Geometry::None
             }
         };
-        if s.has("velocities") && prim.ty == PrimType::Mesh {
-            // Deforming-mesh motion has no counterpart in the core yet.
-            p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
+        if prim.ty == PrimType::Mesh {
+            // Deforming-mesh motion has no counterpart in the core yet; all-zero velocities
+            // describe a still mesh, which is exactly what renders.
+            let moving = s.get("velocities").map(|v| v.to_f32s().is_none_or(|d| d.iter().any(|&x| x != 0.0)));
+            if moving == Some(true) {
+                p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
+            }
         }
         let mut instance_transforms = Vec::new();
         if let Some(v) = s.get("instanceTransforms") {
@@ -961,6 +965,17 @@ mod tests {
         // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
         assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
         assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
+    }
+
+    #[test]
+    fn only_moving_mesh_velocities_are_reported() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/Still");
+        d.set_attribute("/Still", "velocities", Value::Doubles { data: vec![0.0; 12], tuple: 3 }, None);
+        quad(&mut d, "/Moving");
+        d.set_attribute("/Moving", "velocities", floats(&[0., 0., 0., 1., 0., 0., 0., 0., 0., 0., 0., 0.], 3), None);
+        let p = d.commit_resources();
+        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Moving", "velocities")]);
     }
 
     #[test]
