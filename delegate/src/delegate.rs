@@ -146,7 +146,8 @@ pub struct Delegate {
     pending: Vec<Problem>,
     assembly_problems: Vec<Problem>,
     last_synced: Vec<String>,
-    next_id: u32,
+    /// The `primId` of every path ever created: a prim re-created at a path keeps its id.
+    ids: HashMap<String, u32>,
     scene: Arc<SceneDesc>,
     scene_generation: u64,
     settings: SettingsPiece,
@@ -206,7 +207,7 @@ impl Delegate {
             pending: Vec::new(),
             assembly_problems: Vec::new(),
             last_synced: Vec::new(),
-            next_id: 0,
+            ids: HashMap::new(),
             scene: Arc::new(SceneDesc::default()),
             scene_generation: 0,
             settings: SettingsPiece::default(),
@@ -225,8 +226,8 @@ impl Delegate {
             self.pending.push(problem(path, "type", format!("unknown prim type '{}'; the prim is ignored", type_name)));
             return false;
         };
-        let id = self.next_id;
-        self.next_id += 1;
+        let next = self.ids.len() as u32;
+        let id = *self.ids.entry(path.to_string()).or_insert(next);
         self.prims.insert(path.to_string(), Prim { ty, store: AttrStore::default(), id });
         if ty == PrimType::RenderBuffer {
             self.buffers.entry(path.to_string()).or_default();
@@ -976,6 +977,26 @@ mod tests {
         d.set_attribute("/Moving", "velocities", floats(&[0., 0., 0., 1., 0., 0., 0., 0., 0., 0., 0., 0.], 3), None);
         let p = d.commit_resources();
         assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Moving", "velocities")]);
+    }
+
+    #[test]
+    fn prim_ids_are_stable_per_path() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        quad(&mut d, "/B");
+        d.commit_resources();
+        let id_of = |d: &Delegate, name: &str| d.scene().instances.iter().find(|i| i.name == name).map(|i| i.id);
+        let (a, b) = (id_of(&d, "/A").unwrap(), id_of(&d, "/B").unwrap());
+        assert_ne!(a, b);
+        d.destroy_prim("/A");
+        quad(&mut d, "/C");
+        quad(&mut d, "/A");
+        d.commit_resources();
+        assert_eq!((id_of(&d, "/A"), id_of(&d, "/B")), (Some(a), Some(b)));
+        assert!(![a, b].contains(&id_of(&d, "/C").unwrap()));
+        d.set_attribute("/C", "primId", Value::Int(77), None);
+        d.commit_resources();
+        assert_eq!(id_of(&d, "/C"), Some(77));
     }
 
     #[test]
