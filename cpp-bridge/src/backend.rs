@@ -1,204 +1,55 @@
-//! The Rust side of the bridge's `Delegate` and `Pass`: a thread-safe store speaking the
-//! delegate protocol (prims by type and path, attributes with time samples, primvars,
-//! textures, problems, render buffers, a background render pass).
+//! The Rust side of the bridge's `Delegate` and `Pass`: a thin, thread-safe wrapper around
+//! [`tide_delegate::Delegate`] that maps every `cxx` entry point onto the delegate's API.
 //!
-//! Values are validated the way the protocol asks (unknown prim types and bad values become
-//! problems); every entry point is wrapped in [`crate::guard`].
+//! The delegate lives in an `Arc<Mutex<..>>` shared by the bridge delegate and its passes.
+//! Calls take the lock only for as long as the delegate call itself; waiting for a render
+//! uses a [`PassWatcher`] taken out of the lock, so buffers can be mapped and prims edited by
+//! other threads while one waits. Errors are the caller's mistakes (a prim that does not
+//! exist, malformed arrays, an unknown camera or AOV); bad scene values are problems that
+//! `commit_resources` returns. Every entry point is wrapped in [`crate::guard`].
 
 use crate::ffi::{AovBinding, MappedBuffer, ProblemRow, StringPair};
 use crate::guard;
-use std::collections::{BTreeMap, BTreeSet, HashMap};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Condvar, Mutex};
-use std::thread::JoinHandle;
-use std::time::{Duration, Instant};
-use tide_core::render::Aov;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::time::Duration;
+use tide_core::Aov;
+use tide_delegate::{PassStatus, PrimType, Problem, Value};
 
-const RPRIMS: &[&str] = &["mesh", "points", "sphere", "cube", "cylinder", "cone", "capsule", "plane", "tideOcean", "volume"];
-const SPRIMS: &[&str] = &[
-    "camera",
-    "material",
-    "distantLight",
-    "domeLight",
-    "sphereLight",
-    "rectLight",
-    "diskLight",
-    "cylinderLight",
-    "renderSettings",
-];
-const BPRIMS: &[&str] = &["renderBuffer"];
+const INTERPOLATIONS: &[&str] = &["constant", "uniform", "varying", "vertex", "faceVarying"];
 
-/// An attribute value (the protocol's `Value`).
-#[derive(Clone, Debug, PartialEq)]
-pub enum Value {
-    Bool(bool),
-    Int(i64),
-    Float(f64),
-    Token(String),
-    String(String),
-    Asset(String),
-    Path(String),
-    Paths(Vec<String>),
-    Floats { data: Vec<f32>, tuple: u32 },
-    Doubles { data: Vec<f64>, tuple: u32 },
-    Ints(Vec<i32>),
-    Matrix([f64; 16]),
-}
-
-#[derive(Clone, Debug, PartialEq)]
-struct Primvar {
-    interpolation: String,
-    data: Value,
-    indices: Option<Vec<i32>>,
-}
-
-#[derive(Debug, Default)]
-struct Prim {
-    type_id: String,
-    /// key → (time or None, value), sorted by time.
-    attrs: BTreeMap<String, Vec<(Option<f64>, Value)>>,
-    primvars: BTreeMap<String, Primvar>,
-    dirty: bool,
-}
-
-struct Texture {
-    width: u32,
-    height: u32,
-    channels: u32,
-    pixels: Vec<f32>,
-}
-
-/// Pixels of one render buffer, shared with the pass that renders into it.
-#[derive(Default)]
-struct BufferData {
-    width: u32,
-    height: u32,
-    channels: u32,
-    pixels: Vec<f32>,
-}
-
-#[derive(Default)]
-struct Store {
-    prims: BTreeMap<String, Prim>,
-    problems: Vec<ProblemRow>,
-    reported: BTreeSet<(String, String, String)>,
-    textures: HashMap<String, Texture>,
-    failed_textures: HashMap<String, String>,
-    last_synced: Vec<String>,
-    buffers: HashMap<String, Arc<Mutex<BufferData>>>,
-    /// Bumped by every commit that changed something; passes restart when it moves.
-    version: u64,
-}
-
-impl Store {
-    fn problem(&mut self, prim: &str, attribute: &str, message: impl Into<String>) {
-        let key = (prim.to_string(), attribute.to_string(), message.into());
-        if self.reported.insert(key.clone()) {
-            self.problems.push(ProblemRow { prim: key.0, attribute: key.1, message: key.2 });
-        }
-    }
-
-    fn prim_mut(&mut self, path: &str) -> Result<&mut Prim, String> {
-        self.prims.get_mut(path).ok_or_else(|| format!("{path}: no such prim"))
-    }
-
-    fn set(&mut self, path: &str, key: &str, time: Option<f64>, v: Value) -> Result<(), String> {
-        if let Some(t) = time {
-            if !t.is_finite() {
-                return Err(format!("{path}: {key}: time sample at non-finite time {t}"));
-            }
-        }
-        let prim = self.prim_mut(path)?;
-        let key = key.strip_prefix("inputs:").map(|k| format!("inputs:{k}")).unwrap_or_else(|| key.to_string());
-        let samples = prim.attrs.entry(key).or_default();
-        match time {
-            None => {
-                samples.clear();
-                samples.push((None, v));
-            }
-            Some(t) => {
-                samples.retain(|(st, _)| st.is_some() && *st != Some(t));
-                let at = samples.partition_point(|(st, _)| st.unwrap_or(0.0) < t);
-                samples.insert(at, (Some(t), v));
-            }
-        }
-        prim.dirty = true;
-        Ok(())
-    }
-
-    /// Checks a dirty prim's values the way the conversion into the core scene does.
-    fn validate(&mut self, path: &str) {
-        let Some(prim) = self.prims.get(path) else { return };
-        let mut found: Vec<(String, String)> = Vec::new();
-        for (key, samples) in &prim.attrs {
-            for (_, v) in samples {
-                match v {
-                    Value::Floats { data, .. } if data.iter().any(|x| !x.is_finite()) => {
-                        found.push((key.clone(), "non-finite values".into()))
-                    }
-                    Value::Float(x) if !x.is_finite() => found.push((key.clone(), "non-finite value".into())),
-                    Value::Asset(a) if self.failed_textures.contains_key(a) => found.push((
-                        key.clone(),
-                        format!("texture {a}: {} (input falls back)", self.failed_textures[a]),
-                    )),
-                    _ => {}
-                }
-            }
-        }
-        if prim.type_id == "mesh" {
-            let n_points = match prim.attrs.get("points").and_then(|s| s.first()) {
-                Some((_, Value::Floats { data, .. })) => data.len() / 3,
-                _ => 0,
-            };
-            if let Some((_, Value::Ints(idx))) = prim.attrs.get("faceVertexIndices").and_then(|s| s.first()) {
-                if idx.iter().any(|&i| i < 0 || i as usize >= n_points) {
-                    found.push(("faceVertexIndices".into(), "index out of range (faces dropped)".into()));
-                }
-            }
-            if let Some((_, Value::Ints(c))) = prim.attrs.get("faceVertexCounts").and_then(|s| s.first()) {
-                if c.iter().any(|&n| n < 3) {
-                    found.push(("faceVertexCounts".into(), "face with fewer than 3 vertices (dropped)".into()));
-                }
-            }
-        }
-        if prim.type_id == "renderBuffer" {
-            let dims = match prim.attrs.get("dimensions").and_then(|s| s.first()) {
-                Some((_, Value::Ints(d))) if d.len() >= 2 && d[0] > 0 && d[1] > 0 => Some((d[0] as u32, d[1] as u32)),
-                Some(_) => {
-                    found.push(("dimensions".into(), "expected two positive ints".into()));
-                    None
-                }
-                None => None,
-            };
-            let buf = self.buffers.entry(path.to_string()).or_default().clone();
-            let mut b = buf.lock().unwrap_or_else(|e| e.into_inner());
-            if let Some((w, h)) = dims {
-                if (b.width, b.height) != (w, h) {
-                    b.width = w;
-                    b.height = h;
-                    b.channels = 0;
-                    b.pixels.clear();
-                }
-            }
-        }
-        for (attr, msg) in found {
-            self.problem(path, &attr, msg);
-        }
-    }
+struct Shared {
+    delegate: tide_delegate::Delegate,
+    /// Problems found outside a commit (render pass bindings), returned by the next commit.
+    pending: Vec<ProblemRow>,
+    /// The pass that started the running render (0: none); dropping that pass cancels it.
+    executing_pass: u64,
 }
 
 /// The delegate as seen from C++: all methods take `&self` and lock internally, so Hydra may
 /// sync prims from several threads.
 pub struct Delegate {
-    store: Arc<Mutex<Store>>,
+    shared: Arc<Mutex<Shared>>,
+    next_pass: AtomicU64,
 }
 
-fn lock(store: &Mutex<Store>) -> std::sync::MutexGuard<'_, Store> {
-    store.lock().unwrap_or_else(|e| e.into_inner())
+fn lock(shared: &Mutex<Shared>) -> MutexGuard<'_, Shared> {
+    shared.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 fn time_of(has_time: bool, time: f64) -> Option<f64> {
     has_time.then_some(time)
+}
+
+fn row(p: Problem) -> ProblemRow {
+    ProblemRow { prim: p.item, attribute: p.attribute, message: p.message }
+}
+
+fn check_tuple(path: &str, key: &str, len: usize, tuple: u32) -> Result<(), String> {
+    if tuple == 0 || len % tuple as usize != 0 {
+        return Err(format!("{path}: {key}: {len} values do not split into tuples of {tuple}"));
+    }
+    Ok(())
 }
 
 impl Default for Delegate {
@@ -209,40 +60,41 @@ impl Default for Delegate {
 
 impl Delegate {
     pub fn new() -> Delegate {
-        Delegate { store: Arc::new(Mutex::new(Store::default())) }
+        Delegate {
+            shared: Arc::new(Mutex::new(Shared { delegate: tide_delegate::Delegate::new(), pending: Vec::new(), executing_pass: 0 })),
+            next_pass: AtomicU64::new(1),
+        }
     }
 
     pub fn create_prim(&self, type_id: &str, path: &str) -> Result<bool, String> {
         guard("create_prim", || {
-            let mut s = lock(&self.store);
-            let known = RPRIMS.contains(&type_id) || SPRIMS.contains(&type_id) || BPRIMS.contains(&type_id);
-            if !known {
-                s.problem(path, "", format!("unknown prim type '{type_id}'"));
-                return Ok(false);
-            }
+            let mut s = lock(&self.shared);
             if !path.starts_with('/') {
-                s.problem(path, "", "prim path must be absolute");
+                s.pending.push(ProblemRow { prim: path.into(), attribute: String::new(), message: "prim path must be absolute; the prim is ignored".into() });
                 return Ok(false);
             }
-            s.prims.insert(path.to_string(), Prim { type_id: type_id.to_string(), dirty: true, ..Prim::default() });
-            Ok(true)
+            Ok(s.delegate.create_prim(type_id, path))
         })
     }
 
     pub fn destroy_prim(&self, path: &str) -> Result<bool, String> {
-        guard("destroy_prim", || {
-            let mut s = lock(&self.store);
-            s.buffers.remove(path);
-            let existed = s.prims.remove(path).is_some();
-            if existed {
-                s.version += 1;
-            }
-            Ok(existed)
-        })
+        guard("destroy_prim", || Ok(lock(&self.shared).delegate.destroy_prim(path)))
     }
 
     fn set_value(&self, what: &str, path: &str, key: &str, time: Option<f64>, v: Value) -> Result<(), String> {
-        guard(what, || lock(&self.store).set(path, key, time, v))
+        guard(what, || {
+            if let Some(t) = time {
+                if !t.is_finite() {
+                    return Err(format!("{path}: {key}: time sample at non-finite time {t}"));
+                }
+            }
+            let mut s = lock(&self.shared);
+            if !s.delegate.has_prim(path) {
+                return Err(format!("{path}: no such prim (setting {key})"));
+            }
+            s.delegate.set_attribute(path, key, v, time);
+            Ok(())
+        })
     }
 
     pub fn set_bool(&self, path: &str, key: &str, v: bool, has_time: bool, time: f64) -> Result<(), String> {
@@ -298,255 +150,173 @@ impl Delegate {
         indices: &[i32],
     ) -> Result<(), String> {
         guard("set_primvar", || {
-            if !["constant", "uniform", "varying", "vertex", "faceVarying"].contains(&interpolation) {
+            if !INTERPOLATIONS.contains(&interpolation) {
                 return Err(format!("{path}: primvars:{name}: unknown interpolation '{interpolation}'"));
             }
             let data = match kind {
-                b'f' | b'd' => {
-                    check_tuple(path, name, floats.len(), tuple)?;
-                    Value::Floats { data: floats.to_vec(), tuple }
-                }
-                b'i' => Value::Ints(ints.to_vec()),
+                b'f' | b'd' => floats.to_vec(),
+                b'i' => ints.iter().map(|&i| i as f32).collect(),
                 k => return Err(format!("{path}: primvars:{name}: unknown element kind '{}'", k as char)),
             };
-            let mut s = lock(&self.store);
-            let prim = s.prim_mut(path)?;
-            prim.primvars.insert(
-                name.to_string(),
-                Primvar { interpolation: interpolation.to_string(), data, indices: has_indices.then(|| indices.to_vec()) },
-            );
-            prim.dirty = true;
+            check_tuple(path, &format!("primvars:{name}"), data.len(), tuple)?;
+            let mut s = lock(&self.shared);
+            if !s.delegate.has_prim(path) {
+                return Err(format!("{path}: no such prim (setting primvars:{name})"));
+            }
+            s.delegate.set_primvar(path, name, interpolation, data, tuple, has_indices.then(|| indices.to_vec()));
             Ok(())
         })
     }
 
     pub fn add_texture(&self, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool) -> Result<(), String> {
         guard("add_texture", || {
-            let _ = is_srgb;
-            let expected = width as usize * height as usize * channels as usize;
-            if expected != pixels.len() || channels == 0 {
-                return Err(format!("{asset}: texture of {width}x{height}x{channels} needs {expected} floats, got {}", pixels.len()));
-            }
-            let mut s = lock(&self.store);
-            s.failed_textures.remove(asset);
-            s.textures.insert(asset.to_string(), Texture { width, height, channels, pixels: pixels.to_vec() });
-            mark_users_dirty(&mut s, asset);
+            // A refused size becomes a problem on the asset (returned by the next commit).
+            lock(&self.shared).delegate.add_texture(asset, width, height, channels, pixels.to_vec(), is_srgb);
             Ok(())
         })
     }
 
     pub fn texture_failed(&self, asset: &str, message: &str) -> Result<(), String> {
         guard("texture_failed", || {
-            let mut s = lock(&self.store);
-            s.textures.remove(asset);
-            s.failed_textures.insert(asset.to_string(), message.to_string());
-            mark_users_dirty(&mut s, asset);
+            lock(&self.shared).delegate.texture_failed(asset, message);
             Ok(())
         })
     }
 
     pub fn texture_pixels(&self, asset: &str) -> Result<MappedBuffer, String> {
         guard("texture_pixels", || {
-            let s = lock(&self.store);
-            Ok(s.textures
-                .get(asset)
-                .map(|t| MappedBuffer { width: t.width, height: t.height, channels: t.channels, pixels: t.pixels.clone() })
+            Ok(lock(&self.shared)
+                .delegate
+                .texture(asset)
+                .map(|t| MappedBuffer { width: t.width, height: t.height, channels: t.channels, pixels: t.pixels })
                 .unwrap_or_default())
         })
     }
 
     pub fn commit_resources(&self) -> Result<Vec<ProblemRow>, String> {
         guard("commit_resources", || {
-            let mut s = lock(&self.store);
-            let dirty: Vec<String> = s.prims.iter().filter(|(_, p)| p.dirty).map(|(k, _)| k.clone()).collect();
-            for path in &dirty {
-                s.validate(path);
-                if let Some(p) = s.prims.get_mut(path) {
-                    p.dirty = false;
-                }
-            }
-            if !dirty.is_empty() {
-                s.version += 1;
-            }
-            s.last_synced = dirty;
-            Ok(std::mem::take(&mut s.problems))
+            let mut s = lock(&self.shared);
+            let mut out = std::mem::take(&mut s.pending);
+            out.extend(s.delegate.commit_resources().into_iter().map(row));
+            Ok(out)
         })
     }
 
     pub fn last_synced(&self) -> Result<Vec<String>, String> {
-        guard("last_synced", || Ok(lock(&self.store).last_synced.clone()))
+        guard("last_synced", || Ok(lock(&self.shared).delegate.last_synced().to_vec()))
     }
 
     pub fn map_buffer(&self, path: &str) -> Result<MappedBuffer, String> {
         guard("map_buffer", || {
-            let buf = lock(&self.store).buffers.get(path).cloned().ok_or_else(|| format!("{path}: no such render buffer"))?;
-            let b = buf.lock().unwrap_or_else(|e| e.into_inner());
-            Ok(MappedBuffer { width: b.width, height: b.height, channels: b.channels, pixels: b.pixels.clone() })
+            let buf = lock(&self.shared).delegate.render_buffer(path).ok_or_else(|| format!("{path}: no such render buffer"))?;
+            let m = buf.map();
+            Ok(MappedBuffer { width: m.width, height: m.height, channels: m.channels, pixels: m.pixels })
         })
     }
 
     pub fn write_exr(&self, path: &str, layers: &Vec<StringPair>, header: &Vec<StringPair>) -> Result<(), String> {
         guard("write_exr", || {
-            let _ = header;
+            let mut aovs = Vec::with_capacity(layers.len());
             for l in layers {
                 if Aov::from_source_name(&l.second).is_none() {
-                    return Err(format!("{path}: layer {}: unknown AOV '{}'", l.first, l.second));
+                    return Err(format!("{path}: layer '{}': unknown AOV '{}'", l.first, l.second));
                 }
+                aovs.push((l.first.clone(), l.second.clone()));
             }
-            Err(format!("{path}: nothing rendered yet: the core renderer has no film to write"))
+            let header: Vec<(String, String)> = header.iter().map(|p| (p.first.clone(), p.second.clone())).collect();
+            lock(&self.shared).delegate.write_exr(std::path::Path::new(path), &aovs, &header).map_err(|e| format!("{path}: {e}"))
         })
     }
 
     pub fn create_render_pass(&self) -> Result<Box<Pass>, String> {
-        guard("create_render_pass", || Ok(Box::new(Pass { store: self.store.clone(), state: Arc::new(PassState::default()), thread: Mutex::new(None) })))
+        guard("create_render_pass", || Ok(Box::new(Pass { shared: self.shared.clone(), id: self.next_pass.fetch_add(1, Ordering::Relaxed) })))
     }
 }
 
-fn mark_users_dirty(s: &mut Store, asset: &str) {
-    for p in s.prims.values_mut() {
-        if p.attrs.values().flatten().any(|(_, v)| matches!(v, Value::Asset(a) if a == asset)) {
-            p.dirty = true;
-        }
-    }
-}
-
-fn check_tuple(path: &str, key: &str, len: usize, tuple: u32) -> Result<(), String> {
-    if tuple == 0 || len % tuple as usize != 0 {
-        return Err(format!("{path}: {key}: {len} values do not split into tuples of {tuple}"));
-    }
-    Ok(())
-}
-
-#[derive(Default)]
-struct PassFlags {
-    running: bool,
-    converged: bool,
-    progress: f64,
-    error: String,
-}
-
-#[derive(Default)]
-struct PassState {
-    flags: Mutex<PassFlags>,
-    changed: Condvar,
-    cancel: AtomicBool,
-}
-
-/// A render pass: `execute` binds AOVs to buffers and renders on a background thread.
+/// A render pass: `execute` binds AOVs to buffers and renders progressively on the
+/// delegate's render thread. Dropping the pass that started the running render cancels it.
 pub struct Pass {
-    store: Arc<Mutex<Store>>,
-    state: Arc<PassState>,
-    thread: Mutex<Option<JoinHandle<()>>>,
+    shared: Arc<Mutex<Shared>>,
+    id: u64,
 }
 
 impl Pass {
-    fn stop(&self) {
-        self.state.cancel.store(true, Ordering::SeqCst);
-        let handle = self.thread.lock().unwrap_or_else(|e| e.into_inner()).take();
-        if let Some(h) = handle {
-            let _ = h.join();
-        }
-        self.state.cancel.store(false, Ordering::SeqCst);
-    }
-
     pub fn execute(&self, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<(), String> {
         guard("execute", || {
-            self.stop();
-            let mut targets = Vec::new();
-            {
-                let s = lock(&self.store);
-                match s.prims.get(camera) {
-                    Some(p) if p.type_id == "camera" => {}
-                    _ => return Err(format!("{camera}: no such camera")),
-                }
-                if !settings.is_empty() && s.prims.get(settings).map(|p| p.type_id.as_str()) != Some("renderSettings") {
-                    return Err(format!("{settings}: no such renderSettings prim"));
-                }
-                for b in bindings {
-                    let aov = Aov::from_source_name(&b.aov).ok_or_else(|| format!("{}: unknown AOV '{}'", b.buffer, b.aov))?;
-                    let buf = s.buffers.get(&b.buffer).cloned().ok_or_else(|| format!("{}: no such render buffer", b.buffer))?;
-                    targets.push((aov, buf));
-                }
+            let mut s = lock(&self.shared);
+            let d = &s.delegate;
+            if !camera.is_empty() && d.prim_type(camera) != Some(PrimType::Camera) {
+                return Err(format!("{camera}: no such camera"));
             }
-            {
-                let mut f = self.state.flags.lock().unwrap_or_else(|e| e.into_inner());
-                *f = PassFlags { running: true, ..PassFlags::default() };
+            if !settings.is_empty() && d.prim_type(settings) != Some(PrimType::RenderSettings) {
+                return Err(format!("{settings}: no such renderSettings prim"));
             }
-            let state = self.state.clone();
-            let handle = std::thread::Builder::new()
-                .name("tide-render-pass".into())
-                .spawn(move || {
-                    let result = guard("render pass", || {
-                        // The film is cleared to the AOV's channel count; the core's
-                        // progressive passes fill it as they land.
-                        for (aov, buf) in &targets {
-                            let mut b = buf.lock().unwrap_or_else(|e| e.into_inner());
-                            b.channels = aov.channels() as u32;
-                            b.pixels = vec![0.0; b.width as usize * b.height as usize * aov.channels()];
-                        }
-                        Ok(())
-                    });
-                    let mut f = state.flags.lock().unwrap_or_else(|e| e.into_inner());
-                    f.running = false;
-                    match result {
-                        Ok(()) if !state.cancel.load(Ordering::SeqCst) => {
-                            f.converged = true;
-                            f.progress = 1.0;
-                        }
-                        Ok(()) => {}
-                        Err(e) => f.error = e,
-                    }
-                    state.changed.notify_all();
-                })
-                .map_err(|e| format!("cannot start the render thread: {e}"))?;
-            *self.thread.lock().unwrap_or_else(|e| e.into_inner()) = Some(handle);
+            let mut aovs = Vec::with_capacity(bindings.len());
+            for b in bindings {
+                if Aov::from_source_name(&b.aov).is_none() {
+                    return Err(format!("{}: unknown AOV '{}'", b.buffer, b.aov));
+                }
+                if d.prim_type(&b.buffer) != Some(PrimType::RenderBuffer) {
+                    return Err(format!("{}: no such render buffer (for AOV '{}')", b.buffer, b.aov));
+                }
+                aovs.push((b.aov.clone(), b.buffer.clone()));
+            }
+            let problems = s.delegate.execute(Some(camera), &aovs, Some(settings));
+            s.pending.extend(problems.into_iter().map(row));
+            s.executing_pass = self.id;
             Ok(())
         })
     }
 
     pub fn is_converged(&self) -> Result<bool, String> {
-        guard("is_converged", || Ok(self.state.flags.lock().unwrap_or_else(|e| e.into_inner()).converged))
+        guard("is_converged", || Ok(lock(&self.shared).delegate.is_converged()))
     }
 
     pub fn progress(&self) -> Result<f64, String> {
-        guard("progress", || Ok(self.state.flags.lock().unwrap_or_else(|e| e.into_inner()).progress))
+        guard("progress", || Ok(lock(&self.shared).delegate.progress() as f64))
     }
 
+    /// Waits without holding the delegate's lock; true once the render stopped (converged,
+    /// failed or cancelled), false on timeout.
     pub fn wait(&self, timeout_s: f64) -> Result<bool, String> {
         guard("wait", || {
-            let deadline = (timeout_s >= 0.0).then(|| Instant::now() + Duration::from_secs_f64(timeout_s.min(1e6)));
-            let mut f = self.state.flags.lock().unwrap_or_else(|e| e.into_inner());
-            while f.running {
-                match deadline {
-                    None => f = self.state.changed.wait(f).unwrap_or_else(|e| e.into_inner()),
-                    Some(d) => {
-                        let now = Instant::now();
-                        if now >= d {
-                            return Ok(false);
-                        }
-                        f = self.state.changed.wait_timeout(f, d - now).unwrap_or_else(|e| e.into_inner()).0;
-                    }
-                }
-            }
-            Ok(true)
+            let Some(watcher) = lock(&self.shared).delegate.watcher() else { return Ok(true) };
+            let timeout = if timeout_s.is_nan() || timeout_s < 0.0 { Duration::MAX } else { Duration::from_secs_f64(timeout_s.min(1e9)) };
+            watcher.wait(timeout);
+            Ok(watcher.status() != PassStatus::Rendering)
         })
     }
 
     pub fn cancel(&self) -> Result<(), String> {
         guard("cancel", || {
-            self.stop();
+            let mut s = lock(&self.shared);
+            s.delegate.cancel();
+            s.executing_pass = 0;
             Ok(())
         })
     }
 
+    /// The error that stopped the render, or "".
     pub fn error(&self) -> Result<String, String> {
-        guard("error", || Ok(self.state.flags.lock().unwrap_or_else(|e| e.into_inner()).error.clone()))
+        guard("error", || {
+            Ok(match lock(&self.shared).delegate.render_status() {
+                PassStatus::Failed(m) => m,
+                _ => String::new(),
+            })
+        })
     }
 }
 
 impl Drop for Pass {
     fn drop(&mut self) {
-        self.stop();
+        let _ = guard("drop render pass", || {
+            let mut s = lock(&self.shared);
+            if s.executing_pass == self.id {
+                s.delegate.cancel();
+                s.executing_pass = 0;
+            }
+            Ok(())
+        });
     }
 }
 
@@ -554,21 +324,42 @@ impl Drop for Pass {
 mod tests {
     use super::*;
 
+    fn quad_scene(d: &Delegate) {
+        assert_eq!(d.create_prim("camera", "/Cam"), Ok(true));
+        assert_eq!(d.create_prim("renderBuffer", "/Out/color"), Ok(true));
+        d.set_ints("/Out/color", "dimensions", &[8, 4], false, 0.0).unwrap();
+        assert_eq!(d.create_prim("domeLight", "/Dome"), Ok(true));
+        d.set_floats("/Dome", "inputs:color", &[0.25, 0.5, 0.75], 3, false, 0.0).unwrap();
+        assert_eq!(d.create_prim("renderSettings", "/S"), Ok(true));
+        d.set_int("/S", "tide:samples", 4, false, 0.0).unwrap();
+    }
+
+    fn binding(aov: &str, buffer: &str) -> Vec<AovBinding> {
+        vec![AovBinding { aov: aov.into(), buffer: buffer.into() }]
+    }
+
     #[test]
     fn unknown_type_is_a_problem_not_an_error() {
         let d = Delegate::new();
         assert_eq!(d.create_prim("teapot", "/T"), Ok(false));
+        assert_eq!(d.create_prim("sphere", "relative"), Ok(false));
         let p = d.commit_resources().unwrap();
-        assert_eq!(p.len(), 1);
-        assert_eq!(p[0].prim, "/T");
-        assert!(p[0].message.contains("teapot"));
+        assert_eq!(p.len(), 2, "{p:?}");
+        assert!(p.iter().any(|r| r.prim == "/T" && r.message.contains("teapot")));
+        assert!(p.iter().any(|r| r.prim == "relative"));
     }
 
     #[test]
     fn set_on_missing_prim_is_an_error() {
         let d = Delegate::new();
-        assert!(d.set_float("/nope", "radius", 1.0, false, 0.0).is_err());
+        assert!(d.set_float("/nope", "radius", 1.0, false, 0.0).unwrap_err().contains("/nope"));
         assert!(d.set_matrix("/nope", "transform", &[0.0; 3], false, 0.0).is_err());
+        assert!(d.set_primvar("/nope", "st", "vertex", b'f', &[0.0; 2], &[], 2, false, &[]).is_err());
+        d.create_prim("mesh", "/M").unwrap();
+        assert!(d.set_floats("/M", "points", &[1.0, 2.0], 3, false, 0.0).is_err());
+        assert!(d.set_primvar("/M", "st", "perVertex", b'f', &[0.0; 2], &[], 2, false, &[]).is_err());
+        assert!(d.set_float("/M", "radius", 1.0, true, f64::NAN).is_err());
+        assert!(d.commit_resources().unwrap().is_empty());
     }
 
     #[test]
@@ -581,6 +372,64 @@ mod tests {
         d.set_float("/B", "radius", 2.0, false, 0.0).unwrap();
         d.commit_resources().unwrap();
         assert_eq!(d.last_synced().unwrap(), vec!["/B".to_string()]);
+    }
+
+    #[test]
+    fn textures_read_back_and_bad_sizes_are_problems() {
+        let d = Delegate::new();
+        d.add_texture("/t.exr", 1, 1, 3, &[0.5, 0.25, 1.0], false).unwrap();
+        let t = d.texture_pixels("/t.exr").unwrap();
+        assert_eq!((t.width, t.height, t.channels, t.pixels), (1, 1, 3, vec![0.5, 0.25, 1.0]));
+        assert!(d.texture_pixels("/none.exr").unwrap().pixels.is_empty());
+        d.add_texture("/bad.exr", 2, 2, 3, &[0.0; 5], false).unwrap();
+        assert!(d.commit_resources().unwrap().iter().any(|p| p.prim == "/bad.exr"));
+    }
+
+    #[test]
+    fn bad_bindings_are_errors_and_a_dome_renders_its_colour() {
+        let d = Delegate::new();
+        quad_scene(&d);
+        assert!(d.commit_resources().unwrap().is_empty());
+        let p = d.create_render_pass().unwrap();
+        assert!(p.execute("/NoCamera", &binding("color", "/Out/color"), "").is_err());
+        assert!(p.execute("/Cam", &binding("bogus", "/Out/color"), "").is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Dome"), "").is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Out/color"), "/Cam").is_err());
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S").unwrap();
+        assert!(p.wait(60.0).unwrap());
+        assert_eq!(p.error().unwrap(), "");
+        assert!(p.is_converged().unwrap());
+        assert_eq!(p.progress().unwrap(), 1.0);
+        let m = d.map_buffer("/Out/color").unwrap();
+        assert_eq!((m.width, m.height, m.channels), (8, 4, 4));
+        // A dome seen directly: every pixel is its colour. The RGB → spectrum → RGB round trip
+        // of a smooth colour holds to about 1 %; 3 % leaves room for wavelength-sampling noise
+        // at 4 spp on 32 pixels.
+        let n = (m.width * m.height) as usize;
+        for (c, want) in [0.25f32, 0.5, 0.75].iter().enumerate() {
+            let mean = m.pixels.chunks_exact(4).map(|px| px[c]).sum::<f32>() / n as f32;
+            assert!((mean - want).abs() < 0.03 * want, "channel {c}: {mean} vs {want}");
+        }
+        assert!(d.map_buffer("/nope").is_err());
+    }
+
+    #[test]
+    fn waiting_does_not_block_other_callers_and_dropping_the_pass_cancels() {
+        let d = Arc::new(Delegate::new());
+        quad_scene(&d);
+        d.set_ints("/Out/color", "dimensions", &[64, 64], false, 0.0).unwrap();
+        d.set_int("/S", "tide:samples", 1 << 20, false, 0.0).unwrap();
+        d.commit_resources().unwrap();
+        let p = d.create_render_pass().unwrap();
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S").unwrap();
+        let d2 = d.clone();
+        let mapper = std::thread::spawn(move || (0..20).all(|_| d2.map_buffer("/Out/color").is_ok()));
+        assert!(!p.wait(0.2).unwrap());
+        assert!(mapper.join().unwrap());
+        drop(p);
+        let p = d.create_render_pass().unwrap();
+        assert!(p.wait(5.0).unwrap());
+        assert!(!p.is_converged().unwrap());
     }
 
     #[test]

@@ -16,7 +16,7 @@ use crate::implicit::{self, PointsData};
 use crate::lux::{self, CameraPiece, LightKind, LightPiece, SettingsPiece};
 use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
 use crate::mesh;
-use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, RenderBuffer, RenderPass};
+use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use glam::{Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -146,7 +146,8 @@ pub struct Delegate {
     pending: Vec<Problem>,
     assembly_problems: Vec<Problem>,
     last_synced: Vec<String>,
-    next_id: u32,
+    /// The `primId` of every path ever created: a prim re-created at a path keeps its id.
+    ids: HashMap<String, u32>,
     scene: Arc<SceneDesc>,
     scene_generation: u64,
     settings: SettingsPiece,
@@ -206,7 +207,7 @@ impl Delegate {
             pending: Vec::new(),
             assembly_problems: Vec::new(),
             last_synced: Vec::new(),
-            next_id: 0,
+            ids: HashMap::new(),
             scene: Arc::new(SceneDesc::default()),
             scene_generation: 0,
             settings: SettingsPiece::default(),
@@ -225,8 +226,8 @@ impl Delegate {
             self.pending.push(problem(path, "type", format!("unknown prim type '{}'; the prim is ignored", type_name)));
             return false;
         };
-        let id = self.next_id;
-        self.next_id += 1;
+        let next = self.ids.len() as u32;
+        let id = *self.ids.entry(path.to_string()).or_insert(next);
         self.prims.insert(path.to_string(), Prim { ty, store: AttrStore::default(), id });
         if ty == PrimType::RenderBuffer {
             self.buffers.entry(path.to_string()).or_default();
@@ -334,6 +335,17 @@ impl Delegate {
         ok
     }
 
+    /// The pixels held for a texture as given to `add_texture` (2-channel images expanded to
+    /// RGBA), with `samples` 0; None if the texture is unknown or failed.
+    pub fn texture(&self, asset: &str) -> Option<MappedBuffer> {
+        match self.textures.get(asset) {
+            Some(TexState::Loaded { width, height, channels, pixels, .. }) => {
+                Some(MappedBuffer { width: *width, height: *height, channels: *channels, pixels: pixels.as_ref().clone(), samples: 0 })
+            }
+            _ => None,
+        }
+    }
+
     /// Records that a texture file could not be read.
     pub fn texture_failed(&mut self, asset: &str, message: &str) {
         self.textures.insert(asset.to_string(), TexState::Failed(message.to_string()));
@@ -401,9 +413,13 @@ impl Delegate {
                 Geometry::None
             }
         };
-        if s.has("velocities") && prim.ty == PrimType::Mesh {
-            // Deforming-mesh motion has no counterpart in the core yet.
-            p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
+        if prim.ty == PrimType::Mesh {
+            // Deforming-mesh motion has no counterpart in the core yet; all-zero velocities
+            // describe a still mesh, which is exactly what renders.
+            let moving = s.get("velocities").map(|v| v.to_f32s().is_none_or(|d| d.iter().any(|&x| x != 0.0)));
+            if moving == Some(true) {
+                p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
+            }
         }
         let mut instance_transforms = Vec::new();
         if let Some(v) = s.get("instanceTransforms") {
@@ -784,6 +800,12 @@ impl Delegate {
         self.pass.as_ref().is_some_and(|p| p.wait(timeout))
     }
 
+    /// A handle on the render pass for waiting or polling without borrowing the delegate
+    /// (None before the first `execute`).
+    pub fn watcher(&self) -> Option<PassWatcher> {
+        self.pass.as_ref().map(|p| p.watcher())
+    }
+
     /// Stops rendering (buffers keep their pixels).
     pub fn cancel(&mut self) {
         if let Some(p) = &self.pass {
@@ -944,6 +966,49 @@ mod tests {
         // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
         assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
         assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
+    }
+
+    #[test]
+    fn only_moving_mesh_velocities_are_reported() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/Still");
+        d.set_attribute("/Still", "velocities", Value::Doubles { data: vec![0.0; 12], tuple: 3 }, None);
+        quad(&mut d, "/Moving");
+        d.set_attribute("/Moving", "velocities", floats(&[0., 0., 0., 1., 0., 0., 0., 0., 0., 0., 0., 0.], 3), None);
+        let p = d.commit_resources();
+        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Moving", "velocities")]);
+    }
+
+    #[test]
+    fn prim_ids_are_stable_per_path() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        quad(&mut d, "/B");
+        d.commit_resources();
+        let id_of = |d: &Delegate, name: &str| d.scene().instances.iter().find(|i| i.name == name).map(|i| i.id);
+        let (a, b) = (id_of(&d, "/A").unwrap(), id_of(&d, "/B").unwrap());
+        assert_ne!(a, b);
+        d.destroy_prim("/A");
+        quad(&mut d, "/C");
+        quad(&mut d, "/A");
+        d.commit_resources();
+        assert_eq!((id_of(&d, "/A"), id_of(&d, "/B")), (Some(a), Some(b)));
+        assert!(![a, b].contains(&id_of(&d, "/C").unwrap()));
+        d.set_attribute("/C", "primId", Value::Int(77), None);
+        d.commit_resources();
+        assert_eq!(id_of(&d, "/C"), Some(77));
+    }
+
+    #[test]
+    fn textures_read_back_as_held() {
+        let mut d = Delegate::new();
+        assert!(d.add_texture("/g.png", 2, 1, 2, vec![0.1, 0.9, 0.3, 0.7], false));
+        let t = d.texture("/g.png").unwrap();
+        assert_eq!((t.width, t.height, t.channels), (2, 1, 4));
+        assert_eq!(t.pixels, vec![0.1, 0.1, 0.1, 0.9, 0.3, 0.3, 0.3, 0.7]);
+        d.texture_failed("/g.png", "gone");
+        assert!(d.texture("/g.png").is_none());
+        assert!(d.texture("/never.png").is_none());
     }
 
     #[test]

@@ -14,6 +14,6 @@ pub mod render_pass;
 pub mod value;
 
 pub use delegate::{Delegate, PrimClass, PrimType};
-pub use render_pass::{Engine, EngineFactory, MappedBuffer, PassStatus, RenderBuffer, RenderPass};
+pub use render_pass::{Engine, EngineFactory, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 pub use tide_core::Problem;
 pub use value::{Interpolation, Primvar, Value};

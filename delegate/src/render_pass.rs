@@ -146,6 +146,60 @@ impl Shared {
     }
 }
 
+/// Observes a [`RenderPass`] (status, progress, waiting) without borrowing it, so a caller
+/// can wait for a render while the pass's owner stays available to other threads. It does not
+/// keep the render thread alive: once the pass is dropped its last status stays readable.
+#[derive(Clone)]
+pub struct PassWatcher {
+    shared: Arc<Shared>,
+}
+
+impl PassWatcher {
+    pub fn status(&self) -> PassStatus {
+        self.shared.lock().status.clone()
+    }
+
+    pub fn is_converged(&self) -> bool {
+        self.status() == PassStatus::Converged
+    }
+
+    /// Fraction of the sample target reached (1 when converged).
+    pub fn progress(&self) -> f32 {
+        let st = self.shared.lock();
+        match st.status {
+            PassStatus::Converged => 1.0,
+            _ if st.spp_target == 0 => 0.0,
+            _ => st.spp_done as f32 / st.spp_target as f32,
+        }
+    }
+
+    /// Waits until the job converges or fails (or `timeout` passes); true if converged.
+    pub fn wait(&self, timeout: Duration) -> bool {
+        let deadline = Instant::now().checked_add(timeout);
+        let mut st = self.shared.lock();
+        loop {
+            match st.status {
+                PassStatus::Converged => return true,
+                PassStatus::Failed(_) | PassStatus::Idle => return false,
+                PassStatus::Rendering => {}
+            }
+            if st.shutdown {
+                return false;
+            }
+            st = match deadline {
+                None => self.shared.cond.wait(st).unwrap_or_else(|e| e.into_inner()),
+                Some(d) => {
+                    let now = Instant::now();
+                    if now >= d {
+                        return false;
+                    }
+                    self.shared.cond.wait_timeout(st, d - now).unwrap_or_else(|e| e.into_inner()).0
+                }
+            };
+        }
+    }
+}
+
 /// A progressive render on a background thread.
 pub struct RenderPass {
     shared: Arc<Shared>,
@@ -226,7 +280,7 @@ impl RenderPass {
     }
 
     pub fn status(&self) -> PassStatus {
-        self.shared.lock().status.clone()
+        self.watcher().status()
     }
 
     pub fn is_converged(&self) -> bool {
@@ -235,30 +289,17 @@ impl RenderPass {
 
     /// Fraction of the sample target reached (1 when converged).
     pub fn progress(&self) -> f32 {
-        let st = self.shared.lock();
-        match st.status {
-            PassStatus::Converged => 1.0,
-            _ if st.spp_target == 0 => 0.0,
-            _ => st.spp_done as f32 / st.spp_target as f32,
-        }
+        self.watcher().progress()
     }
 
     /// Waits until the job converges or fails (or `timeout` passes); true if converged.
     pub fn wait(&self, timeout: Duration) -> bool {
-        let deadline = Instant::now() + timeout;
-        let mut st = self.shared.lock();
-        loop {
-            match st.status {
-                PassStatus::Converged => return true,
-                PassStatus::Failed(_) | PassStatus::Idle => return false,
-                PassStatus::Rendering => {}
-            }
-            let now = Instant::now();
-            if now >= deadline {
-                return false;
-            }
-            st = self.shared.cond.wait_timeout(st, deadline - now).unwrap_or_else(|e| e.into_inner()).0;
-        }
+        self.watcher().wait(timeout)
+    }
+
+    /// A handle that observes this pass without borrowing it.
+    pub fn watcher(&self) -> PassWatcher {
+        PassWatcher { shared: self.shared.clone() }
     }
 
     /// Writes the current film of the running (or finished) job to EXR through the engine.
@@ -281,6 +322,9 @@ impl Drop for RenderPass {
         {
             let mut st = self.shared.lock();
             st.shutdown = true;
+            if st.status == PassStatus::Rendering {
+                st.status = PassStatus::Idle;
+            }
             self.shared.cancel.store(true, Ordering::SeqCst);
             self.shared.cond.notify_all();
         }
@@ -462,6 +506,25 @@ pub(crate) mod tests {
         assert_eq!((m.width, m.height, m.channels, m.samples), (4, 2, 4, 10));
         assert!(m.pixels.iter().all(|&x| x == 10.0) && m.pixels.len() == 32);
         assert_eq!(pass.progress(), 1.0);
+    }
+
+    #[test]
+    fn watcher_waits_apart_from_the_pass_and_outlives_it() {
+        let pass = RenderPass::new(fake_factory(Duration::from_millis(20), None, Default::default(), Default::default()));
+        let buf = RenderBuffer::new(4, 2, 4);
+        let w = pass.watcher();
+        pass.start(job(4, &buf));
+        let waiter = std::thread::spawn(move || w.wait(Duration::from_secs(5)));
+        assert!(waiter.join().unwrap());
+        assert_eq!(buf.map().samples, 4);
+        let w = pass.watcher();
+        pass.start(job(1000, &buf));
+        drop(pass);
+        // Waiting "forever" on a dropped pass returns at once: nothing will ever finish it.
+        let t = Instant::now();
+        assert!(!w.wait(Duration::MAX));
+        assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
+        assert_eq!(w.status(), PassStatus::Idle);
     }
 
     #[test]

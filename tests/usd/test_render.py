@@ -230,13 +230,23 @@ def _blur_radius(renderer, stage, fstop, disable=False):
     if disable:
         st.GetPrim().CreateAttribute("disableDepthOfField", Sdf.ValueTypeNames.Bool).Set(True)
     d = _darkness(render(renderer, stage)["color"])
-    ys, xs = np.mgrid[0:h, 0:w]
+    # The dot is on the optical axis, so its image is centred on the frame. The moments are
+    # taken over a 32x32 window around the centre: it holds the whole blur disk (radius
+    # < 6 px) plus the dot (1.8 px) with room to spare. Over the full frame, the white dome's
+    # per-pixel spectral noise (~1e-4 in luminance at 512 spp), weighted by (x - cx)^2 up to
+    # 64^2 over 16k pixels, would outweigh the ~10 px of darkness of the dot itself.
+    lo, hi = w // 2 - 16, w // 2 + 16
+    d = d[lo:hi, lo:hi]
+    ys, xs = np.mgrid[lo:hi, lo:hi] + 0.5
     m = d.sum()
     cx = (d * xs).sum() / m
     var_x = (d * (xs - cx) ** 2).sum() / m
     r_sphere = 0.05 * _px_per_unit_at(-5.0, w)
-    # variances add under convolution; a uniform disk of radius R has per-axis variance R^2/4
-    return math.sqrt(max(0.0, 4 * var_x - r_sphere ** 2)), w
+    # variances add under convolution; a uniform disk of radius R has per-axis variance R^2/4.
+    # The pixel filter (a Gaussian of sigma 0.5 px truncated at 3 sigma, core/src/render.rs)
+    # adds its per-axis variance 0.25 * (1 - 6 phi(3) / (1 - 2 Phi(-3))) = 0.2433 px^2.
+    filter_var = 0.25 * (1 - 6 * math.exp(-4.5) / math.sqrt(2 * math.pi) / math.erf(3 / math.sqrt(2)))
+    return math.sqrt(max(0.0, 4 * (var_x - filter_var) - r_sphere ** 2)), w
 
 
 def test_depth_of_field_blur_of_an_off_focus_point(renderer, stage):
@@ -247,14 +257,14 @@ def test_depth_of_field_blur_of_an_off_focus_point(renderer, stage):
     r_lens = 0.1 * F / (2 * 8.0)
     r_focal = r_lens * abs(5.0 - 10.0) / 5.0
     expect = r_focal / (10.0 * (AP / 2) / F) * w / 2
-    # the moment estimate at 512 spp carries ~5 % noise on the radius; pixel integration
-    # adds 1/12 px^2 to the variance: 10 %
+    # the moment estimate at 512 spp carries ~5 % noise on the radius: 10 %
     assert radius == pytest.approx(expect, rel=0.10)
 
 
 def test_depth_of_field_disabled(renderer, stage):
     radius, _ = _blur_radius(renderer, stage, fstop=8.0, disable=True)
-    # without DOF only the pixel footprint (variance 1/12 px^2 -> 0.6 px) remains
+    # without DOF nothing is left once the dot and the pixel filter are taken out; 1 px (a
+    # fifth of the f/8 blur) bounds the window's noise (~0.2 px^2 on R^2)
     assert radius < 1.0
 
 

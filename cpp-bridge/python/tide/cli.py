@@ -185,7 +185,10 @@ def cmd_render(args):
     rp = reader.render_pass()
     try:
         while not rp.is_converged():
-            rp.wait(0.25)
+            stopped = rp.wait(0.25)
+            if stopped and not rp.is_converged():
+                raise RuntimeError("the render stopped before reaching its target: %s"
+                                   % (rp.error() or "cancelled"))
             frac, done = _fraction(rp.progress(), target)
             bar.update(frac, done, target)
         frac, done = _fraction(rp.progress(), target)
@@ -220,7 +223,7 @@ def cmd_render(args):
     color_space = header.get("renderingColorSpace", "lin_rec709")
     written = []
     for name, vars_ in outputs:
-        delegate.write_exr(name, [(aov, buf) for aov, buf in vars_], header)
+        delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
         written.append(name)
         color = [buf for aov, buf in vars_ if aov == "color"]
         if color:

@@ -142,7 +142,7 @@ def Scope "Lights"
     def DistantLight "Sun" (prepend apiSchemas = ["TideCausticsAPI"])
     {
         float inputs:angle = 0.53
-        float inputs:intensity = 50000
+        float inputs:intensity = 40000
         color3f inputs:color = (1, 0.96, 0.9)
         float3 xformOp:rotateXYZ = (-55, 30, 0)
         uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
@@ -151,7 +151,7 @@ def Scope "Lights"
 
     def DomeLight "Sky" (prepend apiSchemas = ["TideSkyAPI"])
     {
-        float inputs:intensity = 1
+        float inputs:intensity = 0.5
         color3f inputs:color = (0.45, 0.65, 1.0)
         float tide:sky:turbidity = 3
         rel tide:sky:sun = </Lights/Sun>
@@ -176,8 +176,8 @@ def Scope "Render"
         rel camera = </Camera>
         uniform int2 resolution = (640, 360)
         rel products = </Render/Product>
-        uniform token tide:integrator = "caustics"
-        uniform int tide:samples = 64
+        uniform token tide:integrator = "path"
+        uniform int tide:samples = 32
     }
 
     def RenderProduct "Product"

@@ -163,13 +163,23 @@ class RenderDelegate:
         c = _CHANNELS.get(fmt[1], 4)
         return (w, h, c, bytes(4 * w * h * c))
 
-    def write_exr(self, path, channels, header):
-        if not channels:
+    def write_exr(self, path, layers, header):
+        """layers: [(name, aov sourceName)] of the current render, as the real module."""
+        if not layers:
             raise ValueError("no channels to write")
-        w, h, _, _ = self.map_buffer(channels[0][1])
+        bound = {}
+        for p in self._passes:
+            for _, bindings, _ in p.executed[-1:]:
+                bound.update(dict(bindings))
+        buffers = []
+        for name, aov in layers:
+            if aov not in bound:
+                raise RuntimeError("%s: layer '%s': AOV '%s' was not rendered" % (path, name, aov))
+            buffers.append((name, bound[aov]))
+        w, h, _, _ = self.map_buffer(buffers[0][1])
         tmp = path + ".tmp%d" % os.getpid()
         try:
-            _write_exr_zeros(tmp, w, h, channels, self, header)
+            _write_exr_zeros(tmp, w, h, buffers, self, header)
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):
