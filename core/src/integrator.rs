@@ -235,13 +235,14 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
 }
 
 /// Radiance (and AOVs) of one camera sample through `raster` with wavelengths `lambda`.
-pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack) -> (SampledSpectrum, [SampledSpectrum; 5], SampleValue) {
+/// Returns the radiance split by light-path category (its sum is the sample's radiance) and
+/// the first-vertex AOVs.
+pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack) -> ([SampledSpectrum; 5], SampleValue) {
     let u_lens = sampler.get2d();
     let u_time = sampler.get1d();
     let cr = world.camera.generate_ray(raster, u_lens, u_time);
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1.0, ..Default::default() };
-    let mut l = SampledSpectrum::ZERO;
     let mut split = [SampledSpectrum::ZERO; 5];
     let mut beta = SampledSpectrum::ONE;
     let mut stack = *camera_stack;
@@ -259,7 +260,6 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     macro_rules! add {
         ($c:expr) => {{
             let c: SampledSpectrum = $c;
-            l += c;
             split[category] += c;
         }};
     }
@@ -498,7 +498,6 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                 let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));
                                 if depth == 0 {
                                     for (cat, v) in split_reflection(&bsdf, wo, wi, c) {
-                                        l += v;
                                         split[cat] += v;
                                     }
                                 } else {
@@ -564,5 +563,5 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             }
         }
     }
-    (l, split, aov)
+    (split, aov)
 }

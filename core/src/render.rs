@@ -288,7 +288,7 @@ impl Renderer {
                                 let f = sampler.get2d();
                                 let raster = glam::Vec2::new(x as f32 + 0.5 + sample_filter(f.x), y as f32 + 0.5 + sample_filter(f.y));
                                 let mut lambda = color::sample_wavelengths(sampler.get1d());
-                                let (l, split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack);
+                                let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack);
                                 let to_rgb = |x: crate::spectrum::SampledSpectrum| {
                                     let rgb = color::xyz_to_rgb(color::to_xyz(x, &lambda), cs);
                                     if rgb.iter().all(|c| c.is_finite()) {
@@ -297,7 +297,6 @@ impl Renderer {
                                         [0.0; 3]
                                     }
                                 };
-                                let _ = l;
                                 let mut total = [0.0f32; 3];
                                 for (k, sp) in split.iter().enumerate() {
                                     v.split[k] = to_rgb(*sp);
