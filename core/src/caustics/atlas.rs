@@ -44,6 +44,9 @@
 //!
 //! Sampling picks a row from the marginal, then a column (piecewise-constant 2D), in O(log n).
 
+// `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use std::f32::consts::PI;
 use std::fmt;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -475,7 +478,7 @@ impl Atlas {
             return Err(AtlasError::Defensive(config.defensive));
         }
         if let Some(c) = &config.camera {
-            if !c.position.is_finite() || !(c.solid_angle > 0.0 && c.solid_angle.is_finite()) {
+            if !(c.position.is_finite() && c.solid_angle > 0.0 && c.solid_angle.is_finite()) {
                 return Err(AtlasError::Camera);
             }
         }

@@ -190,9 +190,9 @@ impl Photon {
         SampledSpectrum::from_fn(|i| {
             let lc = kernel.lambda[i];
             let mut s = 0.0;
-            for k in 0..N_SPECTRUM {
-                if self.flux[k] != 0.0 {
-                    s += kernel.kernel.eval(lc - lp[k]) * self.flux[k];
+            for (&l, &f) in lp.iter().zip(&self.flux) {
+                if f != 0.0 {
+                    s += kernel.kernel.eval(lc - l) * f;
                 }
             }
             s * kernel.inv_norm[i]
@@ -362,7 +362,7 @@ impl PhotonMap {
 
     /// As [`PhotonMap::build`] with a smaller bound on the photon count.
     pub fn build_bounded(photons: Vec<Photon>, cell_size: f32, max_photons: usize) -> Result<PhotonMap, PhotonError> {
-        if !(cell_size.is_finite() && cell_size > 0.0) || !(1.0 / cell_size).is_finite() {
+        if !(cell_size.is_finite() && cell_size > 0.0 && (1.0 / cell_size).is_finite()) {
             return Err(PhotonError::CellSize(cell_size));
         }
         let max = max_photons.min(MAX_PHOTONS_PER_PASS);
