@@ -606,3 +606,19 @@ fn bad_input_returns_errors_naming_the_problem() {
     assert!(AtlasError::NoSamples.to_string().contains("camera sample"));
 }
 
+
+#[test]
+fn renderer_lights_become_atlas_lights() {
+    use crate::light::Light;
+    use crate::spectrum::Spectrum;
+    let point = Light::point(Vec3::new(1.0, 2.0, 3.0), Spectrum::Constant(1.0), 5.0);
+    let Some(AtlasLight::Local { center, radius, power }) = AtlasLight::from_light(&point) else { panic!("point light") };
+    assert_eq!((center, radius), (Vec3::new(1.0, 2.0, 3.0), 0.0));
+    assert_eq!(power, point.power());
+    assert!(power > 0.0);
+    let tri = Light::triangle([Vec3::ZERO, Vec3::X * 2.0, Vec3::Y * 2.0], Spectrum::Constant(1.0), false).unwrap();
+    let Some(AtlasLight::Local { center, radius, .. }) = AtlasLight::from_light(&tri) else { panic!("triangle light") };
+    assert!((center - Vec3::new(2.0, 2.0, 0.0) / 3.0).length() < 1e-6);
+    // the farthest corner from the centroid: (2,0) or (0,2) at √(16/9 + 4/9)
+    assert!((radius - (20.0f32 / 9.0).sqrt()).abs() < 1e-5);
+}
