@@ -1,0 +1,31 @@
+//! Guided caustic photon mapping (Conty & Kulla 2019; Weta's water caustics): the data
+//! structures the integrator calls between and during its progressive passes.
+//!
+//! - [`photon_map`]: spectral photons, a deterministic hashed grid, radius queries with a normal
+//!   check and a disk kernel, and stochastic single-photon selection.
+//! - [`atlas`]: the light–object guiding atlas: one 2D table packing a rectangle per (light,
+//!   caster) pair, sampled to emit photons towards casters' bounding spheres, learned from a
+//!   fixed-point visibility signal.
+//!
+//! # One progressive pass, as the integrator drives it
+//! 1. For each of N photons: `s = atlas.sample(u2)`; sample a point `x` on light `s.light` with
+//!    the light's own numbers (or take its position), `e = atlas.emit(&s, x)`; trace from
+//!    `e.origin` along `e.dir`, rejecting the path unless its first hit is caster `s.caster`;
+//!    the emitted power is `Le · cos / (p_x · e.pdf · N)` (area lights) or `E_sun / (e.pdf · N)`
+//!    (distant lights, `e.pdf` per m² of the disk); after ≥ 1 specular event store a
+//!    [`photon_map::Photon`] (with `cell = s.cell`) at each non-specular receiver.
+//! 2. `PhotonMap::build(photons, radius)`.
+//! 3. Camera paths gather with [`photon_map::PhotonMap::sample_one`] (or `estimate`), scale the
+//!    contribution by `atlas.photon_weight(camera_samples_this_pass)` (0 on the first pass,
+//!    which only trains), and record the used photons' throughput into a
+//!    [`atlas::VisibilityBuffer`] (`record(photon.cell, kind, value)`) from any thread.
+//! 4. `atlas.end_pass(&visibility, camera_samples_this_pass)` learns the next pass's table.
+
+pub mod atlas;
+pub mod photon_map;
+
+#[cfg(test)]
+mod tests;
+
+pub use atlas::{Atlas, AtlasConfig, AtlasError, AtlasLight, AtlasSample, CameraHint, Caster, EmissionMeasure, PhotonEmission, VisibilityBuffer, VisibilityKind};
+pub use photon_map::{NormalCheck, Photon, PhotonError, PhotonMap, Query, SelectedPhoton, SpectralKernel, SpectralLookup};
