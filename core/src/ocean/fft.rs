@@ -2,6 +2,8 @@
 //! is synthesised with. Twiddles come from `libm` and the butterflies run in a fixed order, so
 //! the output is the same bits on every IEEE-754 machine whatever its SIMD width.
 
+use std::ops::{Add, Mul, Sub};
+
 use rayon::prelude::*;
 
 /// A complex number in f64.
@@ -16,18 +18,6 @@ impl C64 {
     #[inline]
     pub fn new(re: f64, im: f64) -> Self {
         C64 { re, im }
-    }
-    #[inline]
-    pub fn mul(self, o: C64) -> C64 {
-        C64::new(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
-    }
-    #[inline]
-    pub fn add(self, o: C64) -> C64 {
-        C64::new(self.re + o.re, self.im + o.im)
-    }
-    #[inline]
-    pub fn sub(self, o: C64) -> C64 {
-        C64::new(self.re - o.re, self.im - o.im)
     }
     #[inline]
     pub fn scale(self, s: f64) -> C64 {
@@ -50,6 +40,30 @@ impl C64 {
     #[inline]
     pub fn norm_sqr(self) -> f64 {
         self.re * self.re + self.im * self.im
+    }
+}
+
+impl Mul for C64 {
+    type Output = C64;
+    #[inline]
+    fn mul(self, o: C64) -> C64 {
+        C64::new(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+    }
+}
+
+impl Add for C64 {
+    type Output = C64;
+    #[inline]
+    fn add(self, o: C64) -> C64 {
+        C64::new(self.re + o.re, self.im + o.im)
+    }
+}
+
+impl Sub for C64 {
+    type Output = C64;
+    #[inline]
+    fn sub(self, o: C64) -> C64 {
+        C64::new(self.re - o.re, self.im - o.im)
     }
 }
 
@@ -89,9 +103,9 @@ impl Fft {
                 for j in 0..half {
                     let w = self.twiddles[j * stride];
                     let a = x[start + j];
-                    let b = x[start + j + half].mul(w);
-                    x[start + j] = a.add(b);
-                    x[start + j + half] = a.sub(b);
+                    let b = x[start + j + half] * w;
+                    x[start + j] = a + b;
+                    x[start + j + half] = a - b;
                 }
             }
             len *= 2;

@@ -146,7 +146,7 @@ impl OceanPatch {
                 let k = libm::sqrt(kx * kx + kz * kz);
                 let wt = dispersion(k) * time;
                 let rot = C64::cis(-wt);
-                let h = a[i].mul(rot).add(a[j].conj().mul(rot.conj()));
+                let h = a[i] * rot + a[j].conj() * rot.conj();
                 coefficients[i] = h;
                 let ih = h.times_i();
                 let eta = h;
@@ -157,10 +157,10 @@ impl OceanPatch {
                 let jxx = h.scale(-lambda * kx * kx / k);
                 let jxz = h.scale(-lambda * kx * kz / k);
                 let jzz = h.scale(-lambda * kz * kz / k);
-                packed[0][i] = eta.add(dx.times_i());
-                packed[1][i] = sx.add(sz.times_i());
-                packed[2][i] = dz.add(jxx.times_i());
-                packed[3][i] = jxz.add(jzz.times_i());
+                packed[0][i] = eta + dx.times_i();
+                packed[1][i] = sx + sz.times_i();
+                packed[2][i] = dz + jxx.times_i();
+                packed[3][i] = jxz + jzz.times_i();
             }
         }
         let fft = Fft::new(n);
@@ -282,7 +282,7 @@ impl OceanPatch {
                 }
                 let kx = signed_index(mi, n) as f64 * dk;
                 let k = libm::sqrt(kx * kx + kz * kz);
-                let e = h.mul(C64::cis(kx * x + kz * z));
+                let e = h * C64::cis(kx * x + kz * z);
                 // Re(i e) = −Im(e)
                 eta += e.re;
                 dx -= lambda * kx / k * e.im;

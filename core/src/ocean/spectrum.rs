@@ -66,7 +66,7 @@ pub fn peak_wavelength(u: f64) -> f64 {
 
 /// The one-sided frequency spectrum S(ω) in m²·s.
 pub fn frequency_spectrum(kind: SpectrumKind, u: f64, omega: f64) -> f64 {
-    if !(u > 0.0) || !(omega > 0.0) {
+    if u.is_nan() || omega.is_nan() || u <= 0.0 || omega <= 0.0 {
         return 0.0;
     }
     let wp = peak_frequency(u);
@@ -117,7 +117,7 @@ pub fn dispersion(k: f64) -> f64 {
 /// Ψ = S(ω) D(ω, θ) (dω/dk) / k with ω² = g k.
 pub fn wavenumber_spectrum(kind: SpectrumKind, u: f64, wind: [f64; 2], kx: f64, kz: f64) -> f64 {
     let k = libm::sqrt(kx * kx + kz * kz);
-    if !(k > 0.0) || !(u > 0.0) {
+    if k.is_nan() || u.is_nan() || k <= 0.0 || u <= 0.0 {
         return 0.0;
     }
     let omega = dispersion(k);
@@ -129,7 +129,7 @@ pub fn wavenumber_spectrum(kind: SpectrumKind, u: f64, wind: [f64; 2], kx: f64, 
 /// ∫ ω^n S(ω) dω from 0 to `omega_max` (may be infinite) by Simpson's rule in ln ω over the
 /// range where the integrand is not negligible, plus the analytic ω⁻⁵ tail beyond it.
 pub fn spectral_moment(kind: SpectrumKind, u: f64, n: i32, omega_max: f64) -> f64 {
-    if !(u > 0.0) || !(omega_max > 0.0) {
+    if u.is_nan() || omega_max.is_nan() || u <= 0.0 || omega_max <= 0.0 {
         return 0.0;
     }
     let wp = peak_frequency(u);
