@@ -14,7 +14,8 @@ pub const GRAVITY: f64 = 9.81;
 pub const PHILLIPS_ALPHA: f64 = 0.0081;
 /// Peak of the Pierson–Moskowitz spectrum: ω_p = `PM_PEAK` · g / U. With it the spectrum's
 /// significant wave height is 4·√m₀ = 0.2093 U²/g, the Sverdrup–Munk / Pierson–Moskowitz
-/// relation H_s ≈ 0.21 U²/g for a fully developed sea.
+/// relation H_s ≈ 0.21 U²/g for a fully developed sea. (The peak written as f_m = 0.13 g/U,
+/// ω_p = 0.817 g/U, would give 0.241 U²/g.)
 pub const PM_PEAK: f64 = 0.877;
 /// JONSWAP peak enhancement γ (mean of the JONSWAP experiment).
 pub const JONSWAP_GAMMA: f64 = 3.3;
@@ -30,6 +31,7 @@ pub enum SpectrumKind {
     /// JONSWAP (Hasselmann et al. 1973) with γ = 3.3 about the Pierson–Moskowitz peak,
     /// normalised by A_γ = 1 − 0.287 ln γ (Goda) so that its significant wave height and peak
     /// stay those of the fully developed sea: a sharper, younger-looking peak at the same energy.
+    /// (The prim has no fetch, so JONSWAP's fetch-dependent α and ω_p are not used.)
     Jonswap,
 }
 
