@@ -12,6 +12,7 @@ pub mod integrator;
 pub mod light;
 pub mod math;
 pub mod medium;
+pub mod ocean;
 pub mod render;
 pub mod sampler;
 pub mod scene;

@@ -1,0 +1,243 @@
+//! The tiled ocean mesh: copies of the periodic patch out to `extent`, coarser with distance
+//! from the camera, stitched without cracks, and closed into a watertight body when the ocean
+//! has a depth.
+//!
+//! Level of detail: a tile at Chebyshev distance d (in tiles) from the camera's tile is drawn at
+//! level ℓ = 0 for d = 0 and ⌊log₂ d⌋ + 1 beyond (capped where a tile would have fewer than 2×2
+//! cells), i.e. with N/2^ℓ cells per side sampling every 2^ℓ-th grid point of the patch: its
+//! vertices lie exactly on the surface and carry its exact normals; between them the coarse
+//! tile is linear. Neighbouring tiles differ by at most one level.
+//!
+//! Stitching: every tile is cut into 2×2-cell blocks, each a fan of triangles about its centre
+//! vertex through the 8 vertices around it. Where a tile borders a coarser one, the blocks on
+//! that border leave out their edge midpoints, so both tiles use exactly the coarse tile's
+//! vertices along the shared edge. Vertices are keyed by their position on the finest grid, so
+//! a border vertex is one vertex shared by index by both tiles: no gap, no crack, no T-junction
+//! (no skirts, which would leave the body open).
+//!
+//! The closed body (`depth > 0`): the surface's outer rim keeps its height but not its
+//! horizontal displacement, so the four walls are vertical planes; the walls run down to
+//! y = −depth and a floor closes the body as a fan about its centre. The walls and the floor
+//! repeat their rim vertices (same position bits) so each part keeps its own flat normal;
+//! welded by position the mesh is a closed, consistently oriented 2-manifold with outward
+//! normals.
+
+use std::collections::HashMap;
+
+use glam::{Vec2, Vec3};
+
+use super::patch::OceanPatch;
+use super::{OceanError, OceanParams};
+use crate::scene::MeshDesc;
+
+/// Most patches along one side of the tiled surface.
+pub const MAX_TILES_PER_SIDE: u64 = 512;
+
+/// LOD level of a tile at Chebyshev distance `d` (tiles) from the camera's tile, for patch
+/// resolution `n`: 0, then ⌊log₂ d⌋ + 1, at most log₂ n − 1.
+pub fn lod_level(d: u64, n: u32) -> u32 {
+    let l = if d == 0 { 0 } else { 64 - d.leading_zeros() };
+    l.min(n.trailing_zeros().saturating_sub(1))
+}
+
+struct Builder<'a> {
+    patch: &'a OceanPatch,
+    /// fine-grid samples per tile side (N)
+    n: u64,
+    /// fine-grid samples across the whole surface
+    max: u64,
+    /// grid spacing L/N and the offset T·L of the surface's corner from the origin
+    delta: f64,
+    offset: f64,
+    closed: bool,
+    map: HashMap<u64, u32>,
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    uvs: Vec<Vec2>,
+    indices: Vec<u32>,
+    /// rim vertices of the surface: (gx, gz, index)
+    rim: Vec<(u64, u64, u32)>,
+}
+
+impl Builder<'_> {
+    fn vertex(&mut self, gx: u64, gz: u64) -> u32 {
+        let key = (gx << 32) | gz;
+        if let Some(&i) = self.map.get(&key) {
+            return i;
+        }
+        let (p, q) = ((gx % self.n) as i64, (gz % self.n) as i64);
+        let on_rim = gx == 0 || gz == 0 || gx == self.max || gz == self.max;
+        let disp = if self.closed && on_rim { Vec2::ZERO } else { self.patch.displacement(p, q) };
+        let x = gx as f64 * self.delta - self.offset;
+        let z = gz as f64 * self.delta - self.offset;
+        let i = self.positions.len() as u32;
+        self.positions.push(Vec3::new((x + disp.x as f64) as f32, self.patch.height(p, q), (z + disp.y as f64) as f32));
+        self.normals.push(self.patch.normal(p, q));
+        let l = self.patch.patch_size() as f64;
+        self.uvs.push(Vec2::new((x / l) as f32, (z / l) as f32));
+        self.map.insert(key, i);
+        if on_rim {
+            self.rim.push((gx, gz, i));
+        }
+        i
+    }
+
+    fn push_oriented(&mut self, tri: [u32; 3], outward: Vec3) {
+        let [a, b, c] = tri.map(|i| self.positions[i as usize]);
+        if (b - a).cross(c - a).dot(outward) < 0.0 {
+            self.indices.extend_from_slice(&[tri[0], tri[2], tri[1]]);
+        } else {
+            self.indices.extend_from_slice(&tri);
+        }
+    }
+
+    fn add_vertex(&mut self, p: Vec3, n: Vec3, uv: Vec2) -> u32 {
+        self.positions.push(p);
+        self.normals.push(n);
+        self.uvs.push(uv);
+        (self.positions.len() - 1) as u32
+    }
+}
+
+/// The ocean surface of `params` at `time` seconds as one mesh in the prim's local space (Y up,
+/// mean sea level y = 0), tiled over x, z ∈ [−T·L, T·L] with T = ⌈extent / patchSize⌉, finest
+/// around `camera_position` (local space; the origin when `None`), closed down to y = −depth
+/// when `depth > 0`. Triangles are counter-clockwise seen from above (outside for the body).
+/// uvs are the undisplaced (x, z) over `patchSize`, so a texture repeats with the patch.
+/// At the defaults the mesh has about 1.5 M triangles (0.73 M vertices); the count grows as N²
+/// (the camera's tile alone has 2N² triangles) and roughly as log(extent / patchSize).
+pub fn ocean_mesh(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<MeshDesc, OceanError> {
+    let patch = OceanPatch::new(params, time)?;
+    let cam = camera_position.unwrap_or(Vec3::ZERO);
+    if !cam.is_finite() {
+        return Err(OceanError { parameter: "camera position", message: format!("must be finite, got {cam}") });
+    }
+    let closed = params.depth > 0.0;
+    if closed {
+        let lowest = patch.heights().iter().fold(f32::INFINITY, |m, &h| m.min(h));
+        if lowest <= -params.depth {
+            return Err(OceanError {
+                parameter: "depth",
+                message: format!("{} m does not reach below the deepest trough ({lowest} m)", params.depth),
+            });
+        }
+    }
+    let n = params.resolution as u64;
+    let t = params.tiles_per_half_side() as i64;
+    let l = params.patch_size as f64;
+    let cam_tile = ((cam.x as f64 / l).floor() as i64, (cam.z as f64 / l).floor() as i64);
+    let level = |ti: i64, tj: i64| -> Option<u32> {
+        if ti < -t || ti >= t || tj < -t || tj >= t {
+            return None;
+        }
+        let d = (ti - cam_tile.0).unsigned_abs().max((tj - cam_tile.1).unsigned_abs());
+        Some(lod_level(d, params.resolution))
+    };
+
+    let mut b = Builder {
+        patch: &patch,
+        n,
+        max: 2 * t as u64 * n,
+        delta: l / n as f64,
+        offset: t as f64 * l,
+        closed,
+        map: HashMap::new(),
+        positions: Vec::new(),
+        normals: Vec::new(),
+        uvs: Vec::new(),
+        indices: Vec::new(),
+        rim: Vec::new(),
+    };
+
+    // block ring in tile-local (column, row) steps, counter-clockwise seen from +Y
+    const RING: [(u64, u64); 8] = [(0, 0), (0, 1), (0, 2), (1, 2), (2, 2), (2, 1), (2, 0), (1, 0)];
+    let mut ring = Vec::with_capacity(8);
+    for tj in -t..t {
+        for ti in -t..t {
+            let lv = level(ti, tj).unwrap_or(0);
+            let coarser = |o: Option<u32>| o.is_some_and(|x| x > lv);
+            let (west, east) = (coarser(level(ti - 1, tj)), coarser(level(ti + 1, tj)));
+            let (south, north) = (coarser(level(ti, tj - 1)), coarser(level(ti, tj + 1)));
+            let step = 1u64 << lv;
+            let cells = n >> lv;
+            let gx0 = (ti + t) as u64 * n;
+            let gz0 = (tj + t) as u64 * n;
+            for br in 0..cells / 2 {
+                for bc in 0..cells / 2 {
+                    let (c0, r0) = (2 * bc, 2 * br);
+                    let center = b.vertex(gx0 + (c0 + 1) * step, gz0 + (r0 + 1) * step);
+                    ring.clear();
+                    for &(dc, dr) in &RING {
+                        let skip = (dc == 0 && dr == 1 && bc == 0 && west)
+                            || (dc == 2 && dr == 1 && bc + 1 == cells / 2 && east)
+                            || (dr == 0 && dc == 1 && br == 0 && south)
+                            || (dr == 2 && dc == 1 && br + 1 == cells / 2 && north);
+                        if !skip {
+                            ring.push(b.vertex(gx0 + (c0 + dc) * step, gz0 + (r0 + dr) * step));
+                        }
+                    }
+                    for k in 0..ring.len() {
+                        b.indices.extend_from_slice(&[center, ring[k], ring[(k + 1) % ring.len()]]);
+                    }
+                }
+            }
+        }
+    }
+
+    if closed {
+        close_body(&mut b, params.depth);
+    }
+
+    Ok(MeshDesc {
+        name: "TideOcean".to_string(),
+        positions: b.positions,
+        indices: b.indices,
+        normals: Some(b.normals),
+        uvs: Some(b.uvs),
+        double_sided: false,
+    })
+}
+
+/// Walls from the rim down to y = −depth and a floor, each with its own copies of the rim.
+fn close_body(b: &mut Builder<'_>, depth: f32) {
+    let max = b.max;
+    let pick = |f: &dyn Fn(&(u64, u64, u32)) -> bool| -> Vec<(u64, u64, u32)> { b.rim.iter().copied().filter(|v| f(v)).collect() };
+    let mut south = pick(&|v| v.1 == 0);
+    south.sort_by_key(|v| v.0);
+    let mut east = pick(&|v| v.0 == max);
+    east.sort_by_key(|v| v.1);
+    let mut north = pick(&|v| v.1 == max);
+    north.sort_by_key(|v| std::cmp::Reverse(v.0));
+    let mut west = pick(&|v| v.0 == 0);
+    west.sort_by_key(|v| std::cmp::Reverse(v.1));
+    let l = b.patch.patch_size();
+    let y0 = -depth;
+    let mut floor_ring: Vec<Vec3> = Vec::new();
+    for (side, outward) in [(south, Vec3::NEG_Z), (east, Vec3::X), (north, Vec3::Z), (west, Vec3::NEG_X)] {
+        let along = if outward.x != 0.0 { Vec3::Z } else { Vec3::X };
+        let mut tops = Vec::with_capacity(side.len());
+        let mut bottoms = Vec::with_capacity(side.len());
+        for &(_, _, i) in &side {
+            let p = b.positions[i as usize];
+            let bottom = Vec3::new(p.x, y0, p.z);
+            tops.push(b.add_vertex(p, outward, Vec2::new(p.dot(along) / l, p.y / l)));
+            bottoms.push(b.add_vertex(bottom, outward, Vec2::new(p.dot(along) / l, y0 / l)));
+        }
+        for k in 0..side.len() - 1 {
+            b.push_oriented([bottoms[k], tops[k], tops[k + 1]], outward);
+            b.push_oriented([bottoms[k], tops[k + 1], bottoms[k + 1]], outward);
+        }
+        for &i in &bottoms[..bottoms.len() - 1] {
+            floor_ring.push(b.positions[i as usize]);
+        }
+    }
+    let center = b.add_vertex(Vec3::new(0.0, y0, 0.0), Vec3::NEG_Y, Vec2::ZERO);
+    let first = b.positions.len() as u32;
+    for p in &floor_ring {
+        b.add_vertex(*p, Vec3::NEG_Y, Vec2::new(p.x / l, p.z / l));
+    }
+    let count = floor_ring.len() as u32;
+    for k in 0..count {
+        b.push_oriented([center, first + k, first + (k + 1) % count], Vec3::NEG_Y);
+    }
+}
