@@ -305,6 +305,7 @@ impl TriBvh4 {
         let mut b = Builder { bvh2: &bvh2, tris, counts: vec![0; bvh2.nodes.len()], nodes: vec![], blocks: vec![], ids: vec![] };
         b.count(0);
         let (root, depth) = b.slot(0);
+        if std::env::var("TIDE_BVH_STATS").is_ok() { eprintln!("nodes {} blocks {} depth {} bvh2 nodes {}", b.nodes.len(), b.blocks.len(), depth, bvh2.nodes.len()); }
         TriBvh4 { nodes: b.nodes, blocks: b.blocks, ids: b.ids, root, depth, bounds: (lo, hi) }
     }
 
