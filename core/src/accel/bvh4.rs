@@ -137,28 +137,30 @@ const EMPTY: u32 = u32::MAX;
 /// Bvh2 subtrees with at most this many triangles become one leaf block.
 const BLOCK: usize = 4;
 
-/// Four child boxes, SoA: rows are min x, max x, min y, max y, min z, max z.
+/// Children per node.
+const W: usize = 8;
+
+/// W child boxes, SoA: rows are min x, max x, min y, max y, min z, max z.
 #[derive(Clone, Copy)]
-#[repr(C, align(16))]
+#[repr(C, align(64))]
 struct Node {
-    b: [[f32; 4]; 6],
-    child: [u32; 4],
+    b: [[f32; W]; 6],
+    child: [u32; W],
 }
 
-/// Four triangles, SoA: a vertex and two edges per lane.
+/// Four triangles, SoA: a vertex and two edges per lane, and the input index of each.
 #[derive(Clone, Copy)]
-#[repr(C, align(16))]
+#[repr(C, align(32))]
 struct Tri4 {
     v0: [[f32; 4]; 3],
     e1: [[f32; 4]; 3],
     e2: [[f32; 4]; 3],
+    ids: [u32; 4],
 }
 
 pub struct TriBvh4 {
     nodes: Vec<Node>,
     blocks: Vec<Tri4>,
-    /// Input triangle index of every lane of every block.
-    ids: Vec<[u32; 4]>,
     /// Root child slot: an inner node index, a leaf, or EMPTY.
     root: u32,
     /// Longest root-to-leaf path in nodes, which bounds the traversal stack.
@@ -172,7 +174,6 @@ struct Builder<'a> {
     counts: Vec<u32>,
     nodes: Vec<Node>,
     blocks: Vec<Tri4>,
-    ids: Vec<[u32; 4]>,
 }
 
 impl Builder<'_> {
@@ -216,8 +217,7 @@ impl Builder<'_> {
         let first = self.blocks.len() as u32;
         let nblocks = prims.len().div_ceil(BLOCK);
         for c in prims.chunks(BLOCK) {
-            let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3] };
-            let mut ids = [0u32; 4];
+            let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], ids: [0; 4] };
             for lane in 0..4 {
                 // short blocks repeat their last triangle: a duplicate never wins a strict `<`
                 let id = c[lane.min(c.len() - 1)];
@@ -228,10 +228,9 @@ impl Builder<'_> {
                     blk.e1[a][lane] = e1[a];
                     blk.e2[a][lane] = e2[a];
                 }
-                ids[lane] = id;
+                blk.ids[lane] = id;
             }
             self.blocks.push(blk);
-            self.ids.push(ids);
         }
         LEAF | ((nblocks as u32 - 1) << 28) | first
     }
@@ -251,7 +250,7 @@ impl Builder<'_> {
         }
         let n = &self.bvh2.nodes[k];
         let mut kids = vec![n.first_index as usize, n.first_index as usize + 1];
-        while kids.len() < 4 {
+        while kids.len() < W {
             let open = (0..kids.len())
                 .filter(|&i| !self.is_leaf(kids[i]))
                 .max_by(|&a, &b| self.area(kids[a]).total_cmp(&self.area(kids[b])));
@@ -261,7 +260,8 @@ impl Builder<'_> {
             kids.insert(i + 1, c + 1);
         }
         let me = self.nodes.len();
-        self.nodes.push(Node { b: [[f32::INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::INFINITY; 4], [f32::NEG_INFINITY; 4], [f32::INFINITY; 4], [f32::NEG_INFINITY; 4]], child: [EMPTY; 4] });
+        let (inf, ninf) = ([f32::INFINITY; W], [f32::NEG_INFINITY; W]);
+        self.nodes.push(Node { b: [inf, ninf, inf, ninf, inf, ninf], child: [EMPTY; W] });
         let mut depth = 0;
         for (lane, &c) in kids.iter().enumerate() {
             let bb = self.bvh2.nodes[c].aabb;
@@ -298,19 +298,19 @@ impl TriBvh4 {
             }
         }
         if tris.is_empty() {
-            return TriBvh4 { nodes: vec![], blocks: vec![], ids: vec![], root: EMPTY, depth: 0, bounds: (Vec3::ZERO, Vec3::ZERO) };
+            return TriBvh4 { nodes: vec![], blocks: vec![], root: EMPTY, depth: 0, bounds: (Vec3::ZERO, Vec3::ZERO) };
         }
         let params = BvhBuildParams { max_prims_per_leaf: BLOCK as u32, ..params };
         let bvh2 = build_bvh2_from_tris(tris, params, &mut Duration::default());
-        let mut b = Builder { bvh2: &bvh2, tris, counts: vec![0; bvh2.nodes.len()], nodes: vec![], blocks: vec![], ids: vec![] };
+        let mut b = Builder { bvh2: &bvh2, tris, counts: vec![0; bvh2.nodes.len()], nodes: vec![], blocks: vec![] };
         b.count(0);
         let (root, depth) = b.slot(0);
         if std::env::var("TIDE_BVH_STATS").is_ok() { eprintln!("nodes {} blocks {} depth {} bvh2 nodes {}", b.nodes.len(), b.blocks.len(), depth, bvh2.nodes.len()); }
-        TriBvh4 { nodes: b.nodes, blocks: b.blocks, ids: b.ids, root, depth, bounds: (lo, hi) }
+        TriBvh4 { nodes: b.nodes, blocks: b.blocks, root, depth, bounds: (lo, hi) }
     }
 
     pub fn bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<Node>() + self.blocks.len() * (std::mem::size_of::<Tri4>() + 16)
+        self.nodes.len() * std::mem::size_of::<Node>() + self.blocks.len() * std::mem::size_of::<Tri4>()
     }
 
     /// Closest hit with t in (0, t_max): (t, triangle, u, v), u and v the weights of vertices 1 and 2.
@@ -328,13 +328,13 @@ impl TriBvh4 {
             inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
             near: [(d.x < 0.0) as usize, (d.y < 0.0) as usize, (d.z < 0.0) as usize],
         };
-        // Each node visited pushes at most three siblings.
-        const FIXED: usize = 3 * 48 + 1;
-        if self.depth <= 48 {
+        // Each node visited pushes at most W - 1 siblings.
+        const FIXED: usize = (W - 1) * 24 + 1;
+        if self.depth <= 24 {
             let mut stack = [(0u32, 0f32); FIXED];
             self.traverse(&ray, t_max, &mut stack)
         } else {
-            let mut stack = vec![(0u32, 0f32); 3 * self.depth + 1];
+            let mut stack = vec![(0u32, 0f32); (W - 1) * self.depth + 1];
             self.traverse(&ray, t_max, &mut stack)
         }
     }
@@ -349,20 +349,25 @@ impl TriBvh4 {
         loop {
             if cur & LEAF == 0 {
                 let n = &self.nodes[cur as usize];
-                let tx0 = F4::load(&n.b[nx]).sub(ray.o[0]).mul(ray.inv[0]);
-                let tx1 = F4::load(&n.b[1 - nx]).sub(ray.o[0]).mul(ray.inv[0]);
-                let ty0 = F4::load(&n.b[2 + ny]).sub(ray.o[1]).mul(ray.inv[1]);
-                let ty1 = F4::load(&n.b[3 - ny]).sub(ray.o[1]).mul(ray.inv[1]);
-                let tz0 = F4::load(&n.b[4 + nz]).sub(ray.o[2]).mul(ray.inv[2]);
-                let tz1 = F4::load(&n.b[5 - nz]).sub(ray.o[2]).mul(ray.inv[2]);
-                // NaN (origin on a slab plane with a zero direction component) leaves the bound open
-                let tnear = tz0.max(ty0.max(tx0.max(F4::splat(0.0))));
-                let tfar = tz1.min(ty1.min(tx1.min(F4::splat(best_t))));
-                let mut mask = tnear.le(tfar);
+                let mut mask = 0u32;
+                let mut tn = [0f32; W];
+                for h in 0..W / 4 {
+                    let row = |r: usize| F4::load(n.b[r][4 * h..4 * h + 4].try_into().unwrap());
+                    let tx0 = row(nx).sub(ray.o[0]).mul(ray.inv[0]);
+                    let tx1 = row(1 - nx).sub(ray.o[0]).mul(ray.inv[0]);
+                    let ty0 = row(2 + ny).sub(ray.o[1]).mul(ray.inv[1]);
+                    let ty1 = row(3 - ny).sub(ray.o[1]).mul(ray.inv[1]);
+                    let tz0 = row(4 + nz).sub(ray.o[2]).mul(ray.inv[2]);
+                    let tz1 = row(5 - nz).sub(ray.o[2]).mul(ray.inv[2]);
+                    // NaN (origin on a slab plane with a zero direction component) leaves the bound open
+                    let tnear = tz0.max(ty0.max(tx0.max(F4::splat(0.0))));
+                    let tfar = tz1.min(ty1.min(tx1.min(F4::splat(best_t))));
+                    mask |= tnear.le(tfar) << (4 * h);
+                    tn[4 * h..4 * h + 4].copy_from_slice(&tnear.to_array());
+                }
                 if mask != 0 {
-                    let tn = tnear.to_array();
                     // nearest hit child next, the others onto the stack farthest first
-                    let mut kids = [(0u32, 0f32); 4];
+                    let mut kids = [(0u32, 0f32); W];
                     let mut k = 0;
                     while mask != 0 {
                         let i = mask.trailing_zeros() as usize;
@@ -387,7 +392,7 @@ impl TriBvh4 {
                 for b in first..first + count {
                     if let Some((t, lane, u, v)) = self.intersect_block(b, ray, best_t) {
                         best_t = t;
-                        best = Some((t, self.ids[b][lane], u, v));
+                        best = Some((t, self.blocks[b].ids[lane], u, v));
                     }
                 }
             }
