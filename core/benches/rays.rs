@@ -123,7 +123,8 @@ fn main() {
     for kind in ["incoherent", "coherent"] {
         let o = read_vec3s(&dir.join(format!("rays_{kind}_o.npy")));
         let d = read_vec3s(&dir.join(format!("rays_{kind}_d.npy")));
-        let n = o.len();
+        // TIDE_BENCH_RAYS takes a prefix of each set (for instruction-counting runs)
+        let n = std::env::var("TIDE_BENCH_RAYS").ok().map_or(o.len(), |s| s.parse::<usize>().expect("TIDE_BENCH_RAYS").min(o.len()));
         let mut first: Option<Vec<Answer>> = None;
         for &t in &threads {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
