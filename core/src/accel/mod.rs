@@ -3,11 +3,11 @@
 //! one over the instances that place them. Instances may move (transform motion blur with any
 //! number of samples, rotations interpolated on the sphere), spheres may move by velocity.
 
-mod bvh4;
+mod tribvh;
 pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
-use bvh4::TriBvh4;
+use tribvh::TriBvh;
 use glam::{Mat4, Vec3, Vec3A};
 use motion::MotionTransform;
 use obvhs::{
@@ -98,7 +98,7 @@ struct SphereBlas {
 }
 
 enum Blas {
-    Tri(TriBvh4),
+    Tri(TriBvh),
     Sphere(SphereBlas),
     Empty,
 }
@@ -174,15 +174,6 @@ fn pad_single<T: Clone>(v: &mut Vec<T>) {
     }
 }
 
-fn bvh_params(n: usize) -> BvhBuildParams {
-    // Higher-quality builds pay off for big meshes traced by many rays.
-    if n > 200_000 {
-        BvhBuildParams::medium_build()
-    } else {
-        BvhBuildParams::slow_build()
-    }
-}
-
 fn build_tri_blas(mesh: &MeshDesc) -> Blas {
     let ntri = mesh.indices.len() / 3;
     if ntri == 0 {
@@ -194,7 +185,7 @@ fn build_tri_blas(mesh: &MeshDesc) -> Blas {
             Triangle { v0: v(0), v1: v(1), v2: v(2) }
         })
         .collect();
-    Blas::Tri(TriBvh4::build(&tris, bvh_params(ntri)))
+    Blas::Tri(TriBvh::build(&tris))
 }
 
 fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
