@@ -460,6 +460,11 @@ impl TriBvh {
                     stack[sp..sp + k - 1].copy_from_slice(&kids[..k - 1]);
                     sp += k - 1;
                     cur = kids[k - 1].0;
+                    // the siblings left for later: start their loads now, so their cache
+                    // misses overlap the work on the nearest child
+                    for &(c, _) in &kids[..k - 1] {
+                        self.prefetch(c);
+                    }
                     continue;
                 }
             } else {
@@ -485,6 +490,25 @@ impl TriBvh {
                 }
             }
         }
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, slot: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let (p, lines) = if slot & LEAF == 0 {
+                (self.nodes.as_ptr().wrapping_add(slot as usize) as *const i8, std::mem::size_of::<Node>() / 64)
+            } else {
+                (self.blocks.as_ptr().wrapping_add((slot & 0x0fff_ffff) as usize) as *const i8, std::mem::size_of::<Tri4>().div_ceil(64))
+            };
+            for l in 0..lines {
+                // a prefetch never faults, whatever the address
+                unsafe { _mm_prefetch(p.wrapping_add(64 * l), _MM_HINT_T0) };
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = slot;
     }
 
     /// Nearest of a block's four triangles with t in (0, t_max), lanes tested in order.
