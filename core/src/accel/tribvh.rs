@@ -7,6 +7,7 @@
 
 use glam::{Vec3, Vec3A};
 use obvhs::triangle::Triangle;
+use std::mem::MaybeUninit;
 
 /// Four f32 lanes: SSE on x86-64, plain arrays elsewhere (same results lane for lane: min/max
 /// return the second operand when either is NaN, like `minps`/`maxps`).
@@ -407,16 +408,17 @@ impl TriBvh {
         // Each node visited pushes at most W - 1 siblings.
         const FIXED: usize = (W - 1) * 24 + 1;
         if self.depth <= 24 {
-            let mut stack = [(0u32, 0f32); FIXED];
+            // left uninitialised: zeroing it would cost more than a short ray's traversal
+            let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); FIXED];
             self.traverse(&ray, t_max, &mut stack)
         } else {
-            let mut stack = vec![(0u32, 0f32); (W - 1) * self.depth + 1];
+            let mut stack = vec![MaybeUninit::<(u32, f32)>::uninit(); (W - 1) * self.depth + 1];
             self.traverse(&ray, t_max, &mut stack)
         }
     }
 
     #[inline(always)]
-    fn traverse(&self, ray: &PreRay, t_max: f32, stack: &mut [(u32, f32)]) -> Option<(f32, u32, f32, f32)> {
+    fn traverse(&self, ray: &PreRay, t_max: f32, stack: &mut [MaybeUninit<(u32, f32)>]) -> Option<(f32, u32, f32, f32)> {
         let mut best_t = t_max;
         let mut best: Option<(f32, u32, f32, f32)> = None;
         let mut sp = 0usize;
@@ -457,7 +459,9 @@ impl TriBvh {
                         kids[j] = e;
                         k += 1;
                     }
-                    stack[sp..sp + k - 1].copy_from_slice(&kids[..k - 1]);
+                    for (slot, &e) in stack[sp..sp + k - 1].iter_mut().zip(&kids[..k - 1]) {
+                        slot.write(e);
+                    }
                     sp += k - 1;
                     cur = kids[k - 1].0;
                     // the siblings left for later: start their loads now, so their cache
@@ -483,7 +487,8 @@ impl TriBvh {
                     return best;
                 }
                 sp -= 1;
-                let (c, t) = stack[sp];
+                // SAFETY: entries below the pushed height were written by the push above.
+                let (c, t) = unsafe { stack[sp].assume_init() };
                 if t <= best_t {
                     cur = c;
                     break;
