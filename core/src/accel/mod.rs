@@ -3,14 +3,16 @@
 //! one over the instances that place them. Instances may move (transform motion blur with any
 //! number of samples, rotations interpolated on the sphere), spheres may move by velocity.
 
+mod tribvh;
 pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
+use tribvh::TriBvh;
 use glam::{Mat4, Vec3, Vec3A};
 use motion::MotionTransform;
 use obvhs::{
     aabb::Aabb,
-    cwbvh::{builder::build_cwbvh, builder::build_cwbvh_from_tris, CwBvh},
+    cwbvh::{builder::build_cwbvh, CwBvh},
     ray::{Ray as BvhRay, RayHit},
     triangle::Triangle,
     Boundable, BvhBuildParams,
@@ -39,7 +41,8 @@ pub struct Hit {
     pub v: f32,
 }
 
-/// A triangle prepared for intersection: a vertex and two edges.
+/// A triangle prepared for intersection: a vertex and two edges (the tests' reference).
+#[cfg(test)]
 #[derive(Clone, Copy, Debug)]
 struct TriPre {
     v0: Vec3A,
@@ -47,6 +50,7 @@ struct TriPre {
     e2: Vec3A,
 }
 
+#[cfg(test)]
 impl TriPre {
     /// Möller–Trumbore; returns (t, u, v) with u, v the weights of vertices 1 and 2.
     #[inline(always)]
@@ -76,13 +80,6 @@ impl TriPre {
     }
 }
 
-struct TriBlas {
-    bvh: CwBvh,
-    /// Triangles in BVH leaf order (a triangle may repeat when spatial splits are used).
-    tris: Vec<TriPre>,
-    /// Original triangle index of each entry of `tris`.
-    ids: Vec<u32>,
-}
 
 #[derive(Clone, Copy)]
 struct SphereBound(Aabb);
@@ -101,7 +98,7 @@ struct SphereBlas {
 }
 
 enum Blas {
-    Tri(TriBlas),
+    Tri(TriBvh),
     Sphere(SphereBlas),
     Empty,
 }
@@ -109,6 +106,8 @@ enum Blas {
 struct InstanceRec {
     blas: usize,
     xf: MotionTransform,
+    /// Static with the identity transform: rays need no change of frame.
+    identity: bool,
 }
 
 /// Bytes and timings of a build, for reports.
@@ -175,37 +174,18 @@ fn pad_single<T: Clone>(v: &mut Vec<T>) {
     }
 }
 
-fn bvh_params(n: usize) -> BvhBuildParams {
-    // Higher-quality builds pay off for big meshes traced by many rays.
-    if n > 200_000 {
-        BvhBuildParams::medium_build()
-    } else {
-        BvhBuildParams::slow_build()
-    }
-}
-
 fn build_tri_blas(mesh: &MeshDesc) -> Blas {
     let ntri = mesh.indices.len() / 3;
     if ntri == 0 {
         return Blas::Empty;
     }
-    let mut tris: Vec<Triangle> = (0..ntri)
+    let tris: Vec<Triangle> = (0..ntri)
         .map(|i| {
             let v = |k: usize| Vec3A::from(mesh.positions[mesh.indices[3 * i + k] as usize]);
             Triangle { v0: v(0), v1: v(1), v2: v(2) }
         })
         .collect();
-    pad_single(&mut tris);
-    let bvh = build_cwbvh_from_tris(&tris, bvh_params(ntri), &mut Duration::default());
-    let ids: Vec<u32> = bvh.primitive_indices.iter().map(|&i| i % ntri as u32).collect();
-    let pre = ids
-        .iter()
-        .map(|&i| {
-            let t = &tris[i as usize];
-            TriPre { v0: t.v0, e1: t.v1 - t.v0, e2: t.v2 - t.v0 }
-        })
-        .collect();
-    Blas::Tri(TriBlas { bvh, tris: pre, ids })
+    Blas::Tri(TriBvh::build(&tris))
 }
 
 fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
@@ -278,7 +258,7 @@ impl Accel {
             };
             let xf = MotionTransform::new(&inst.transforms, &inst.times);
             let local = match &blas[b] {
-                Blas::Tri(t) => t.bvh.total_aabb,
+                Blas::Tri(t) => Aabb::new(t.bounds.0.into(), t.bounds.1.into()),
                 Blas::Sphere(s) => s.bvh.total_aabb,
                 Blas::Empty => Aabb::empty(),
             };
@@ -288,7 +268,8 @@ impl Accel {
                     wb = wb.union(&transform_aabb(&m, &local));
                 }
             }
-            recs.push(InstanceRec { blas: b, xf });
+            let identity = inst.transforms.len() == 1 && inst.transforms[0] == Mat4::IDENTITY;
+            recs.push(InstanceRec { blas: b, xf, identity });
             ibounds.push(InstBound(wb));
         }
         let tlas = if ibounds.iter().any(|b| b.0.valid()) {
@@ -314,7 +295,7 @@ impl Accel {
         stats.bytes = blas
             .iter()
             .map(|b| match b {
-                Blas::Tri(t) => t.bvh.nodes.len() * 80 + t.tris.len() * (48 + 4) + t.bvh.primitive_indices.len() * 4,
+                Blas::Tri(t) => t.bytes(),
                 Blas::Sphere(s) => s.bvh.nodes.len() * 80 + s.centers.len() * 16 + s.bvh.primitive_indices.len() * 4,
                 Blas::Empty => 0,
             })
@@ -337,6 +318,13 @@ impl Accel {
     /// Closest hit in (0, ray.t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let tlas = self.tlas.as_ref()?;
+        if self.instances.len() == 1 {
+            // A lone instance needs no TLAS (whose padded build would visit it twice).
+            let inst = &self.instances[0];
+            let (o, d) = if inst.identity { (ray.o, ray.d) } else { inst.xf.ray_to_local(ray.o, ray.d, ray.time) };
+            let (t, prim, u, v) = self.intersect_blas(inst.blas, o.into(), d.into(), ray.t_max, ray.time)?;
+            return Some(Hit { t, instance: 0, prim, u, v });
+        }
         let mut best = Hit { t: ray.t_max, instance: u32::MAX, prim: 0, u: 0.0, v: 0.0 };
         let wray = bvh_ray(ray.o.into(), ray.d.into(), ray.t_max);
         let mut rh = RayHit::none();
@@ -362,19 +350,7 @@ impl Accel {
     #[inline]
     fn intersect_blas(&self, b: usize, o: Vec3A, d: Vec3A, t_max: f32, time: f32) -> Option<(f32, u32, f32, f32)> {
         match &self.blas[b] {
-            Blas::Tri(tb) => {
-                let mut best: Option<(f32, u32, f32, f32)> = None;
-                let r = bvh_ray(o, d, t_max);
-                let mut rh = RayHit::none();
-                tb.bvh.ray_traverse(r, &mut rh, |r, id| match tb.tris[id].intersect(o, d, 0.0, r.tmax) {
-                    Some((t, u, v)) => {
-                        best = Some((t, tb.ids[id], u, v));
-                        t
-                    }
-                    None => f32::INFINITY,
-                });
-                best
-            }
+            Blas::Tri(tb) => tb.intersect(o, d, t_max),
             Blas::Sphere(sb) => {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
                 let r = bvh_ray(o, d, t_max);

@@ -1,0 +1,190 @@
+//! Closest-hit throughput of Tide's `Accel` on the ocean mesh and ray sets written by
+//! `embree_bench.py gen` (`ocean_vertices.npy`, `ocean_indices.npy`, `rays_{incoherent,coherent}_{o,d}.npy`).
+//!
+//!     cargo bench -p tide-core --bench rays -- DATA_DIR [THREADS,...]
+//!
+//! (DATA_DIR may also come from `TIDE_BENCH_DATA`; threads default to `1,2`; each timing is the
+//! best of `TIDE_BENCH_REPEATS` passes, default 1; `TIDE_BENCH_CHECKS` rays per set, default 64,
+//! are checked by brute force.) Prints one JSON
+//! line: build seconds, bytes per triangle, and per ray set and thread count Mrays/s and hit
+//! fraction. Every run checks that all thread counts give bit-identical hits and that a strided
+//! subset of rays agrees with a brute-force search over every triangle; a failed check exits 1.
+
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+use tide_core::accel::{Accel, Ray};
+use tide_core::scene::{GeometryRef, InstanceDesc, MeshDesc};
+
+/// Reads a little-endian .npy file of 4-byte elements (`<f4`, `<i4`, `<u4`) in C order.
+fn read_npy_u32(path: &std::path::Path) -> Vec<u32> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(&bytes[..6], b"\x93NUMPY", "{}: not an .npy file", path.display());
+    let (hlen, start) = if bytes[6] == 1 {
+        (u16::from_le_bytes([bytes[8], bytes[9]]) as usize, 10)
+    } else {
+        (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12)
+    };
+    let header = std::str::from_utf8(&bytes[start..start + hlen]).unwrap();
+    assert!(
+        header.contains("'<f4'") || header.contains("'<i4'") || header.contains("'<u4'"),
+        "{}: need 4-byte little-endian elements, header {header}",
+        path.display()
+    );
+    assert!(header.contains("'fortran_order': False"), "{}: need C order", path.display());
+    bytes[start + hlen..].chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+}
+
+fn read_vec3s(path: &std::path::Path) -> Vec<Vec3> {
+    read_npy_u32(path).chunks_exact(3).map(|c| Vec3::new(f32::from_bits(c[0]), f32::from_bits(c[1]), f32::from_bits(c[2]))).collect()
+}
+
+/// CPU time of the calling thread (Linux; NaN elsewhere).
+fn thread_cpu_seconds() -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+        .map_or(f64::NAN, |ns| ns * 1e-9)
+}
+
+/// One ray's answer: distance bits and triangle, or `u32::MAX` for a miss.
+type Answer = (u32, u32);
+
+fn trace(accel: &Accel, o: &[Vec3], d: &[Vec3], out: &mut [Answer]) {
+    out.par_chunks_mut(1024).enumerate().for_each(|(c, chunk)| {
+        for (k, a) in chunk.iter_mut().enumerate() {
+            let i = c * 1024 + k;
+            let ray = Ray { o: o[i], d: d[i], t_max: f32::INFINITY, time: 0.0 };
+            *a = match accel.intersect(&ray) {
+                Some(h) => (h.t.to_bits(), h.prim),
+                None => (0, u32::MAX),
+            };
+        }
+    });
+}
+
+/// Closest hit over every triangle (double precision Möller–Trumbore), for checking.
+fn brute_force(pos: &[Vec3], idx: &[u32], o: Vec3, d: Vec3) -> Option<(f64, u32)> {
+    let (o, d) = (o.as_dvec3(), d.as_dvec3());
+    (0..idx.len() / 3)
+        .into_par_iter()
+        .filter_map(|i| {
+            let v = |k: usize| pos[idx[3 * i + k] as usize].as_dvec3();
+            let (v0, e1, e2) = (v(0), v(1) - v(0), v(2) - v(0));
+            let p = d.cross(e2);
+            let det = e1.dot(p);
+            if det == 0.0 {
+                return None;
+            }
+            let s = o - v0;
+            let u = s.dot(p) / det;
+            let q = s.cross(e1);
+            let w = d.dot(q) / det;
+            let t = e2.dot(q) / det;
+            (u >= 0.0 && w >= 0.0 && u + w <= 1.0 && t > 0.0).then_some((t, i as u32))
+        })
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
+    let dir = args.first().cloned().or_else(|| std::env::var("TIDE_BENCH_DATA").ok()).unwrap_or_else(|| {
+        eprintln!("usage: rays DATA_DIR [THREADS,...]  (or set TIDE_BENCH_DATA)");
+        std::process::exit(2)
+    });
+    let threads: Vec<usize> = args.get(1).map_or("1,2", |s| s.as_str()).split(',').map(|s| s.parse().expect("thread count")).collect();
+    let dir = std::path::Path::new(&dir);
+    let repeats: usize = std::env::var("TIDE_BENCH_REPEATS").ok().map_or(1, |s| s.parse().expect("TIDE_BENCH_REPEATS"));
+    let checks: usize = std::env::var("TIDE_BENCH_CHECKS").ok().map_or(64, |s| s.parse().expect("TIDE_BENCH_CHECKS"));
+
+    let positions = read_vec3s(&dir.join("ocean_vertices.npy"));
+    let indices = read_npy_u32(&dir.join("ocean_indices.npy"));
+    let ntri = indices.len() / 3;
+    let mesh = MeshDesc { name: "ocean".into(), positions: positions.clone(), indices: indices.clone(), ..Default::default() };
+    let inst = InstanceDesc {
+        name: "ocean".into(),
+        geometry: GeometryRef::Mesh(0),
+        transforms: vec![glam::Mat4::IDENTITY],
+        times: vec![0.0],
+        material: 0,
+        id: 0,
+        visible_to_camera: true,
+        casts_shadows: true,
+    };
+    let accel = Accel::build(&[mesh], &[], &[inst], (0.0, 0.0));
+    let st = &accel.stats;
+    print!(
+        "{{\"tide\": true, \"triangles\": {ntri}, \"build_s\": {:.4}, \"bytes\": {}, \"bytes_per_triangle\": {:.1}",
+        st.seconds,
+        st.bytes,
+        st.bytes as f64 / ntri as f64
+    );
+    let mut ok = true;
+    for kind in ["incoherent", "coherent"] {
+        let o = read_vec3s(&dir.join(format!("rays_{kind}_o.npy")));
+        let d = read_vec3s(&dir.join(format!("rays_{kind}_d.npy")));
+        // TIDE_BENCH_RAYS takes a prefix of each set (for instruction-counting runs)
+        let n = std::env::var("TIDE_BENCH_RAYS").ok().map_or(o.len(), |s| s.parse::<usize>().expect("TIDE_BENCH_RAYS").min(o.len()));
+        let mut first: Option<Vec<Answer>> = None;
+        for &t in &threads {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
+            let mut out = vec![(0u32, 0u32); n];
+            pool.install(|| {
+                trace(&accel, &o[..n / 10], &d[..n / 10], &mut out[..n / 10]); // warm-up
+                // best of `repeats`: other work on a shared machine only ever adds time
+                let mut s = f64::INFINITY;
+                let mut cpu = f64::INFINITY;
+                for _ in 0..repeats {
+                    let (start, c0) = (Instant::now(), thread_cpu_seconds());
+                    trace(&accel, &o, &d, &mut out);
+                    s = s.min(start.elapsed().as_secs_f64());
+                    cpu = cpu.min(thread_cpu_seconds() - c0);
+                }
+                if t == 1 {
+                    // on one thread the whole pass runs on this worker: its CPU time leaves out
+                    // time the machine gave to other processes
+                    print!(", \"{kind}_t1_cpu_mrays_s\": {:.3}", n as f64 / cpu / 1e6);
+                }
+                let hits = out.iter().filter(|a| a.1 != u32::MAX).count();
+                print!(
+                    ", \"{kind}_t{t}_s\": {s:.4}, \"{kind}_t{t}_mrays_s\": {:.3}, \"{kind}_t{t}_hit_fraction\": {:.6}",
+                    n as f64 / s / 1e6,
+                    hits as f64 / n as f64
+                );
+            });
+            match &first {
+                None => first = Some(out),
+                Some(f) => {
+                    if *f != out {
+                        eprintln!("{kind}: hits differ between {} and {t} threads", threads[0]);
+                        ok = false;
+                    }
+                }
+            }
+        }
+        // Strided subset against brute force: same triangle, or the same distance (shared edges).
+        let out = first.unwrap();
+        let mut bad = 0;
+        for k in 0..checks {
+            let i = k * (n / checks) + 7;
+            let want = brute_force(&positions, &indices, o[i], d[i]);
+            let got = out[i];
+            let agree = match want {
+                None => got.1 == u32::MAX,
+                Some((t, p)) => {
+                    got.1 != u32::MAX && (got.1 == p || (f32::from_bits(got.0) as f64 - t).abs() <= 1e-5 * t.max(1.0))
+                }
+            };
+            if !agree {
+                bad += 1;
+                eprintln!("{kind} ray {i}: tide {:?} brute force {want:?}", (f32::from_bits(got.0), got.1));
+            }
+        }
+        print!(", \"{kind}_brute_force_checked\": {checks}, \"{kind}_brute_force_mismatches\": {bad}");
+        ok &= bad == 0;
+    }
+    println!(", \"repeats\": {repeats}, \"threads\": \"{}\"}}", threads.iter().map(|t| t.to_string()).collect::<Vec<_>>().join(","));
+    if !ok {
+        std::process::exit(1);
+    }
+}
