@@ -521,3 +521,47 @@ fn default_mesh_is_bounded() {
     let far = mesh.positions.iter().fold(0.0f32, |m, p| m.max(p.x.abs()).max(p.z.abs()));
     assert!(far >= p.extent);
 }
+
+#[test]
+fn horizon_skirt_meets_the_rim_and_reaches_out() {
+    let p = OceanParams { extent: 300.0, choppiness: 0.5, ..params(8.0, 40.0, 32) };
+    let cam = Some(Vec3::new(55.0, 3.0, -20.0));
+    let reach = 50_000.0;
+    let (surface, skirt) = ocean_mesh_with_horizon(&p, 1.0, cam, reach).unwrap();
+    assert_eq!(surface, ocean_mesh(&p, 1.0, cam).unwrap());
+    let skirt = skirt.unwrap();
+    let key = |m: &crate::scene::MeshDesc, i: u32| m.positions[i as usize].to_array().map(f32::to_bits);
+    let s_edges = edge_counts(&surface.indices, |i| key(&surface, i));
+    let k_edges = edge_counts(&skirt.indices, |i| key(&skirt, i));
+    // every open edge of the surface is an edge of the skirt, the other way round: the two
+    // meshes join along the rim with the same vertices and no crack
+    let mut open = 0;
+    for &(a, b) in s_edges.keys() {
+        if !s_edges.contains_key(&(b, a)) {
+            open += 1;
+            assert_eq!(k_edges.get(&(b, a)), Some(&1), "rim edge not matched by the skirt");
+        }
+    }
+    assert!(open > 0);
+    // the skirt's own open edges are the rim and the far square; all of it faces up
+    let far = skirt.positions.iter().fold(0.0f32, |m, q| m.max(q.x.abs()).max(q.z.abs()));
+    assert_eq!(far, reach);
+    for (&(a, b), &c) in &k_edges {
+        assert_eq!(c, 1);
+        if !k_edges.contains_key(&(b, a)) && !s_edges.contains_key(&(b, a)) {
+            let (pa, pb) = (Vec3::from_array(a.map(f32::from_bits)), Vec3::from_array(b.map(f32::from_bits)));
+            let on_far = |q: Vec3| q.y == 0.0 && (q.x.abs() == reach || q.z.abs() == reach);
+            assert!(on_far(pa) && on_far(pb), "open skirt edge {pa} – {pb}");
+        }
+    }
+    assert!(skirt.indices.chunks(3).all(|t| {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| skirt.positions[i as usize]);
+        (b - a).cross(c - a).y > 0.0
+    }));
+    // a closed body has no skirt
+    let body = OceanParams { depth: 10.0, ..p.clone() };
+    assert!(ocean_mesh_with_horizon(&body, 1.0, cam, reach).unwrap().1.is_none());
+    // the sub-grid share without a patch is the patch's
+    let patch = OceanPatch::new(&p, 1.0).unwrap();
+    assert_eq!(p.subgrid_slope_variance(), patch.subgrid_slope_variance());
+}
