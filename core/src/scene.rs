@@ -137,6 +137,9 @@ pub struct WaterDesc {
     pub surface_model: SurfaceModel,
     pub wind_speed: f32,
     pub wind_direction: f32,
+    /// Share of the Cox–Munk slope variance the `sea` facets carry (1 for a flat interface;
+    /// less on a wave mesh that resolves the rest, e.g. a `TideOcean`).
+    pub slope_variance_scale: f32,
     pub priority: i32,
 }
 
@@ -151,6 +154,7 @@ impl Default for WaterDesc {
             surface_model: SurfaceModel::Dielectric,
             wind_speed: 5.0,
             wind_direction: 0.0,
+            slope_variance_scale: 1.0,
             priority: 0,
         }
     }

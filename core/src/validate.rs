@@ -253,6 +253,10 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                     problem(&mut p, &m.name, "inputs:roughness", "outside [0, 1]; clamped");
                     w.roughness = if w.roughness.is_finite() { w.roughness.clamp(0.0, 1.0) } else { 0.0 };
                 }
+                if !(w.slope_variance_scale.is_finite() && w.slope_variance_scale >= 0.0) {
+                    problem(&mut p, &m.name, "slopeVarianceScale", format!("{} is not a share >= 0; using 1", w.slope_variance_scale));
+                    w.slope_variance_scale = 1.0;
+                }
             }
             SurfaceDesc::Conductor { eta, k, roughness } => {
                 if eta.iter().chain(k.iter()).any(|v| !v.is_finite() || *v < 0.0) || !roughness.is_finite() {

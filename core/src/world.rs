@@ -35,8 +35,9 @@ pub struct DielectricMat {
     pub ior: f32,
     pub roughness: f32,
     pub priority: i32,
-    /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane).
-    pub sea: Option<(f32, Vec3)>,
+    /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane, share
+    /// of the Cox–Munk slope variance the facets carry).
+    pub sea: Option<(f32, Vec3, f32)>,
     /// Spectral IOR n(λ) (Quan–Fry) when the water is dispersive; `ior` is then n(589 nm).
     pub dispersion: Option<Spectrum>,
 }
@@ -196,7 +197,7 @@ impl World {
                         let sea = (w.surface_model == SurfaceModel::Sea).then(|| {
                             // degrees about +Y from +X: the rotated +X axis
                             let a = w.wind_direction.to_radians();
-                            (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()))
+                            (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()), w.slope_variance_scale)
                         });
                         let ior = dispersion.as_ref().map_or(w.ior, |n| n.eval(589.0));
                         SurfaceKind::Dielectric(DielectricMat { ior, roughness: w.roughness, priority: w.priority, sea, dispersion })
@@ -403,9 +404,9 @@ impl World {
                 })
             }
             SurfaceKind::Dielectric(dm) => match dm.sea {
-                Some((speed, wind)) => {
+                Some((speed, wind, scale)) => {
                     let l = frame.to_local(wind);
-                    Bsdf::sea(eta, speed, l.y.atan2(l.x))
+                    Bsdf::sea_scaled(eta, speed, l.y.atan2(l.x), scale)
                 }
                 None => Bsdf::dielectric(eta, dm.roughness),
             },

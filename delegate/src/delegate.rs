@@ -16,13 +16,14 @@ use crate::implicit::{self, PointsData};
 use crate::lux::{self, CameraPiece, LightKind, LightPiece, SettingsPiece};
 use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
 use crate::mesh;
+use crate::ocean::{self, OceanKey, OceanMeshes, OceanSpec};
 use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use glam::{Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 use std::time::Duration;
-use tide_core::scene::{GeometryRef, InstanceDesc, LightShape, MeshDesc, SpheresDesc, TextureDesc};
+use tide_core::scene::{GeometryRef, InstanceDesc, LightShape, MeshDesc, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
 use tide_core::{Aov, Problem, RenderSettings, SceneDesc};
 
 /// Which Hydra prim family a type belongs to.
@@ -103,6 +104,8 @@ enum Geometry {
     Mesh(MeshDesc),
     Spheres(SpheresDesc),
     Points(PointsData),
+    /// A `tideOcean`: its mesh is built at assembly, around the render camera.
+    Ocean(OceanSpec),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -158,6 +161,8 @@ pub struct Delegate {
     pass: Option<RenderPass>,
     /// What the running job was started from: (scene generation, bindings, settings).
     job_key: Option<JobKey>,
+    /// Built ocean meshes by prim path, with the key they were built for and their problems.
+    oceans: HashMap<String, (OceanKey, Arc<OceanMeshes>, Vec<Problem>)>,
 }
 
 impl Default for Delegate {
@@ -217,6 +222,7 @@ impl Delegate {
             factory,
             pass: None,
             job_key: None,
+            oceans: HashMap::new(),
         }
     }
 
@@ -242,6 +248,7 @@ impl Delegate {
         self.cache.remove(path);
         self.dirty.remove(path);
         self.buffers.remove(path);
+        self.oceans.remove(path);
         if existed {
             self.structure_changed = true;
         }
@@ -395,19 +402,7 @@ impl Delegate {
             PrimType::Cone => Geometry::Mesh(implicit::cone(path, s, p)),
             PrimType::Capsule => Geometry::Mesh(implicit::capsule(path, s, p)),
             PrimType::Plane => Geometry::Mesh(implicit::plane(path, s, p)),
-            PrimType::TideOcean => {
-                p.add("windSpeed", "ocean wave synthesis is not yet supported; the mean sea level (y = 0) is rendered as a flat plane of size `extent`");
-                let e = 0.5 * s.f32_or("extent", 1000.0, p).abs();
-                let positions = vec![Vec3::new(-e, 0.0, -e), Vec3::new(-e, 0.0, e), Vec3::new(e, 0.0, e), Vec3::new(e, 0.0, -e)];
-                Geometry::Mesh(MeshDesc {
-                    name: path.into(),
-                    positions,
-                    indices: vec![0, 1, 2, 0, 2, 3],
-                    normals: Some(vec![Vec3::Y; 4]),
-                    uvs: None,
-                    double_sided: true,
-                })
-            }
+            PrimType::TideOcean => Geometry::Ocean(ocean::ocean_spec(s, p)),
             _ => {
                 p.add("field", "volume prims (OpenVDB fields) are not yet supported; the volume is skipped");
                 Geometry::None
@@ -624,19 +619,24 @@ impl Delegate {
 
         let included = &sp.included_purposes;
         let mut color_mats: HashMap<[u32; 3], usize> = HashMap::new();
+        let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(Vec3::ZERO));
+        let mut oceans_seen = BTreeSet::new();
         for (path, c) in &self.cache {
             let Piece::Rprim(r) = &c.piece else { continue };
             if !r.visible || (r.purpose != "default" && !included.contains(&r.purpose)) {
                 continue;
             }
-            let geometry = match &r.geometry {
+            // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
+            // their sea material takes
+            let mut parts: Vec<(GeometryRef, Option<(f32, f32)>)> = Vec::new();
+            match &r.geometry {
                 Geometry::Mesh(m) if !m.indices.is_empty() => {
                     scene.meshes.push(m.clone());
-                    GeometryRef::Mesh(scene.meshes.len() - 1)
+                    parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
                 }
                 Geometry::Spheres(s) if !s.centers.is_empty() => {
                     scene.spheres.push(s.clone());
-                    GeometryRef::Spheres(scene.spheres.len() - 1)
+                    parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
                 }
                 Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
                     let mut s = implicit::fold_acceleration(pd, t0, t1);
@@ -644,10 +644,38 @@ impl Delegate {
                         s.velocities = None;
                     }
                     scene.spheres.push(s);
-                    GeometryRef::Spheres(scene.spheres.len() - 1)
+                    parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
+                }
+                Geometry::Ocean(spec) => {
+                    // level of detail about the camera in the ocean's space (its first instance)
+                    let xf0 = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
+                    let inv = xf0.inverse();
+                    let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c));
+                    let key = ocean::ocean_key(spec, cam_local);
+                    let meshes = match self.oceans.get(path.as_str()) {
+                        Some((k, m, probs)) if *k == key => {
+                            ap.extend(probs.iter().cloned());
+                            m.clone()
+                        }
+                        _ => {
+                            let mut p = Problems::new(path);
+                            let m = Arc::new(ocean::build(&key, &mut p));
+                            ap.extend(p.list.iter().cloned());
+                            self.oceans.insert(path.clone(), (key, m.clone(), p.list));
+                            m
+                        }
+                    };
+                    oceans_seen.insert(path.clone());
+                    let wind = ocean::world_wind_direction(&spec.params, xf0);
+                    scene.meshes.push(meshes.surface.clone());
+                    parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), Some((wind, ocean::sea_variance_scale(&spec.params)))));
+                    if let Some(skirt) = &meshes.skirt {
+                        scene.meshes.push(skirt.clone());
+                        parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), Some((wind, 1.0))));
+                    }
                 }
                 _ => continue,
-            };
+            }
             let bound = r.material.as_deref().and_then(|m| {
                 let i = mat_index.get(m).copied();
                 if i.is_none() {
@@ -666,19 +694,40 @@ impl Delegate {
             });
             let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
-            for (k, inst) in r.instance_transforms.iter().enumerate() {
-                scene.instances.push(InstanceDesc {
-                    name: if many { format!("{}[{}]", path, k) } else { path.clone() },
-                    geometry,
-                    transforms: xf.iter().map(|m| *inst * *m).collect(),
-                    times: times.clone(),
-                    material,
-                    id: r.id,
-                    visible_to_camera: true,
-                    casts_shadows: true,
-                });
+            for (part, (geometry, sea)) in parts.into_iter().enumerate() {
+                let material = match (sea, &scene.materials[material].surface) {
+                    (Some((wind, share)), SurfaceDesc::Water(w)) if w.surface_model == SurfaceModel::Sea => {
+                        let mut m = scene.materials[material].clone();
+                        if let SurfaceDesc::Water(w) = &mut m.surface {
+                            w.wind_speed = match &r.geometry {
+                                Geometry::Ocean(spec) => spec.params.wind_speed,
+                                _ => w.wind_speed,
+                            };
+                            w.wind_direction = wind;
+                            w.slope_variance_scale = share;
+                        }
+                        m.name = format!("{} on {}", m.name, path);
+                        scene.materials.push(m);
+                        scene.materials.len() - 1
+                    }
+                    _ => material,
+                };
+                for (k, inst) in r.instance_transforms.iter().enumerate() {
+                    let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
+                    scene.instances.push(InstanceDesc {
+                        name: if part == 0 { name } else { format!("{} horizon", name) },
+                        geometry,
+                        transforms: xf.iter().map(|m| *inst * *m).collect(),
+                        times: times.clone(),
+                        material,
+                        id: r.id,
+                        visible_to_camera: true,
+                        casts_shadows: true,
+                    });
+                }
             }
         }
+        self.oceans.retain(|p, _| oceans_seen.contains(p));
 
         for c in self.cache.values() {
             let Piece::Light(Some(l)) = &c.piece else { continue };
@@ -1069,6 +1118,103 @@ mod tests {
         assert_eq!((s.textures[0].wrap_s, s.textures[0].wrap_t), (tide_core::scene::Wrap::Repeat, tide_core::scene::Wrap::Clamp));
         assert_eq!(s.camera.medium, Some(0));
         assert!(s.instances.is_empty());
+    }
+
+    fn ocean(d: &mut Delegate, path: &str) {
+        d.create_prim("tideOcean", path);
+        for (k, v) in [("windSpeed", 7.0), ("windDirection", 30.0), ("patchSize", 8.0), ("extent", 20.0), ("time", 1.5)] {
+            d.set_attribute(path, k, Value::Float(v), None);
+        }
+        d.set_attribute(path, "resolution", Value::Int(16), None);
+    }
+
+    fn sea_material(d: &mut Delegate, path: &str) {
+        d.create_prim("material", path);
+        d.set_attribute(path, "surface", Value::Path(format!("{}/W", path)), None);
+        d.set_attribute(path, &format!("{}/W.info:id", path), tok("TideWater"), None);
+        d.set_attribute(path, &format!("{}/W.inputs:surfaceModel", path), tok("sea"), None);
+    }
+
+    fn water_of<'a>(d: &'a Delegate, inst: &str) -> &'a tide_core::scene::WaterDesc {
+        match &material_of(d, inst).surface {
+            SurfaceDesc::Water(w) => w,
+            other => panic!("{inst}: not water: {other:?}"),
+        }
+    }
+
+    fn mesh_of<'a>(d: &'a Delegate, inst: &str) -> &'a MeshDesc {
+        let i = d.scene().instances.iter().find(|i| i.name == inst).unwrap();
+        let GeometryRef::Mesh(m) = i.geometry else { panic!("{inst} is not a mesh") };
+        &d.scene().meshes[m]
+    }
+
+    #[test]
+    fn ocean_is_the_fft_mesh_with_a_horizon_and_a_sub_grid_sea() {
+        use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams};
+        let mut d = Delegate::new();
+        ocean(&mut d, "/Sea");
+        d.set_attribute("/Sea", "transform", translate(0., -1., 0.), None);
+        d.set_attribute("/Sea", "material", Value::Path("/M".into()), None);
+        sea_material(&mut d, "/M");
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "transform", translate(3., 1., 2.), None);
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{p:?}");
+        let params = OceanParams { wind_speed: 7.0, wind_direction: 30.0, patch_size: 8.0, extent: 20.0, resolution: 16, ..Default::default() };
+        // camera 2 m above the ocean's origin, in its patch (0, 0): built about that patch's centre
+        let (surface, skirt) = ocean_mesh_with_horizon(&params, 1.5, Some(Vec3::new(4.0, 0.0, 4.0)), 262_144.0).unwrap();
+        assert_eq!(mesh_of(&d, "/Sea").positions, surface.positions);
+        assert_eq!(mesh_of(&d, "/Sea").indices, surface.indices);
+        // the skirt reaches 1e5 camera heights out (2e5 m, rounded up to a power of two)
+        assert_eq!(mesh_of(&d, "/Sea horizon").positions, skirt.unwrap().positions);
+        let inst = d.scene().instances.iter().find(|i| i.name == "/Sea").unwrap();
+        assert_eq!(inst.transforms[0].w_axis.y, -1.0);
+        // the sea material takes the prim's wind and carries the sub-grid share; the skirt all
+        let w = water_of(&d, "/Sea");
+        let scale = ocean::sea_variance_scale(&params);
+        assert!(scale > 0.2 && scale < 0.8, "{scale}");
+        assert_eq!((w.wind_speed, w.slope_variance_scale), (7.0, scale));
+        assert!((w.wind_direction - 30.0).abs() < 1e-4, "{}", w.wind_direction);
+        assert_eq!(water_of(&d, "/Sea horizon").slope_variance_scale, 1.0);
+        // a camera move inside the patch keeps the mesh; into another patch re-tessellates
+        let before = mesh_of(&d, "/Sea").clone();
+        d.set_attribute("/cam", "transform", translate(5., 1., 7.), None);
+        d.commit_resources();
+        assert_eq!(mesh_of(&d, "/Sea"), &before);
+        d.set_attribute("/cam", "transform", translate(-13., 1., 7.), None);
+        d.commit_resources();
+        assert_ne!(mesh_of(&d, "/Sea").indices, before.indices);
+        // a depth makes a closed body and no skirt
+        d.set_attribute("/Sea", "depth", Value::Float(30.0), None);
+        assert!(d.commit_resources().is_empty());
+        assert!(d.scene().instances.iter().all(|i| i.name != "/Sea horizon"));
+        assert_eq!(mesh_of(&d, "/Sea").positions.iter().fold(0.0f32, |m, q| m.min(q.y)), -30.0);
+    }
+
+    #[test]
+    fn bad_ocean_values_are_problems_with_defaults() {
+        let mut d = Delegate::new();
+        ocean(&mut d, "/Sea");
+        d.set_attribute("/Sea", "windSpeed", Value::Float(-3.0), None);
+        d.set_attribute("/Sea", "resolution", Value::Int(100), None);
+        d.set_attribute("/Sea", "spectrum", tok("phillips"), None);
+        d.set_attribute("/Sea", "choppiness", Value::Float(f64::NAN), None);
+        d.set_attribute("/Sea", "depth", Value::Float(0.01), None);
+        let p = d.commit_resources();
+        let find = |a: &str| p.iter().find(|q| q.item == "/Sea" && q.attribute == a).unwrap_or_else(|| panic!("no {a} problem in {p:?}")).message.clone();
+        assert!(find("windSpeed").ends_with("using 5"), "{}", find("windSpeed"));
+        assert!(find("resolution").ends_with("using 256"), "{}", find("resolution"));
+        assert!(find("spectrum").contains("using 'piersonMoskowitz'"));
+        assert!(find("choppiness").contains("using 0"));
+        // 1 cm does not reach below the troughs of a 5 m/s sea: built open instead
+        assert!(find("depth").contains("an open sea"), "{}", find("depth"));
+        assert!(d.scene().instances.iter().any(|i| i.name == "/Sea horizon"));
+        // too many patches for the extent: capped
+        d.set_attribute("/Sea", "patchSize", Value::Float(0.5), None);
+        d.set_attribute("/Sea", "extent", Value::Float(5000.0), None);
+        let p = d.commit_resources();
+        let e = p.iter().find(|q| q.attribute == "extent").expect("extent problem");
+        assert!(e.message.ends_with("using 128"), "{}", e.message);
     }
 
     #[test]

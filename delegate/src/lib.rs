@@ -10,6 +10,7 @@ pub mod implicit;
 pub mod lux;
 pub mod material;
 pub mod mesh;
+pub mod ocean;
 pub mod render_pass;
 pub mod value;
 

@@ -327,6 +327,7 @@ impl Ctx<'_> {
             surface_model: if model == "sea" { SurfaceModel::Sea } else { SurfaceModel::Dielectric },
             wind_speed: self.input_f32(n, "windSpeed", d.wind_speed),
             wind_direction: self.input_f32(n, "windDirection", d.wind_direction),
+            slope_variance_scale: d.slope_variance_scale,
             priority: self.input_f32(n, "priority", 0.0) as i32,
         }
     }

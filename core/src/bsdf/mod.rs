@@ -209,8 +209,14 @@ impl Bsdf {
     /// [0, [`sea::MAX_WIND_SPEED`]]), `wind_direction` in radians in the tangent plane from +X
     /// towards +Y.
     pub fn sea(eta: f32, wind_speed: f32, wind_direction: f32) -> Result<Bsdf, BsdfError> {
+        Self::sea_scaled(eta, wind_speed, wind_direction, 1.0)
+    }
+
+    /// [`Bsdf::sea`] whose facets carry `variance_scale` (≥ 0) of the Cox–Munk slope variances:
+    /// the sub-grid part when a wave mesh resolves the rest (see [`sea::CoxMunk::with_variance_scale`]).
+    pub fn sea_scaled(eta: f32, wind_speed: f32, wind_direction: f32, variance_scale: f32) -> Result<Bsdf, BsdfError> {
         let eta = check_positive("eta", eta)?;
-        let slopes = CoxMunk::new(wind_speed, wind_direction)?;
+        let slopes = CoxMunk::with_variance_scale(wind_speed, wind_direction, variance_scale)?;
         Ok(Bsdf { model: Model::Sea(SeaSurface::new(eta, slopes)) })
     }
 

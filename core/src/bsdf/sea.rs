@@ -164,6 +164,20 @@ impl CoxMunk {
     /// Distribution for wind speed `wind_speed` (m/s at 10 m, in [0, [`MAX_WIND_SPEED`]]) and
     /// direction `wind_direction` (radians in the tangent plane, from +X towards +Y).
     pub fn new(wind_speed: f32, wind_direction: f32) -> Result<CoxMunk, BsdfError> {
+        Self::with_variance_scale(wind_speed, wind_direction, 1.0)
+    }
+
+    /// As [`CoxMunk::new`], with both slope variances multiplied by `variance_scale` (finite,
+    /// ≥ 0) before flooring: the part of the Cox–Munk slopes this facet distribution carries when
+    /// the rest is resolved by geometry (a wave mesh whose own slopes hold 1 − `variance_scale`
+    /// of them). The Gram–Charlier coefficients are in units of σ and stay those of the wind.
+    pub fn with_variance_scale(wind_speed: f32, wind_direction: f32, variance_scale: f32) -> Result<CoxMunk, BsdfError> {
+        if !variance_scale.is_finite() {
+            return Err(BsdfError::NotFinite { parameter: "slopeVarianceScale" });
+        }
+        if variance_scale < 0.0 {
+            return Err(BsdfError::OutOfRange { parameter: "slopeVarianceScale", value: variance_scale, expected: ">= 0" });
+        }
         if !wind_speed.is_finite() {
             return Err(BsdfError::NotFinite { parameter: "windSpeed" });
         }
@@ -174,10 +188,11 @@ impl CoxMunk {
             return Err(BsdfError::OutOfRange { parameter: "windSpeed", value: wind_speed, expected: "in [0, 40] m/s" });
         }
         let (vu, vc) = Self::variances(wind_speed);
+        let (vu, vc) = (vu as f64 * variance_scale as f64, vc as f64 * variance_scale as f64);
         let (sin_w, cos_w) = wind_direction.sin_cos();
         Ok(CoxMunk {
-            sigma_up: (vu as f64).max(MIN_SLOPE_VARIANCE).sqrt() as f32,
-            sigma_cross: (vc as f64).max(MIN_SLOPE_VARIANCE).sqrt() as f32,
+            sigma_up: vu.max(MIN_SLOPE_VARIANCE).sqrt() as f32,
+            sigma_cross: vc.max(MIN_SLOPE_VARIANCE).sqrt() as f32,
             cos_w,
             sin_w,
             c21: 0.01 - 0.0086 * wind_speed.min(GRAM_CHARLIER_MAX_WIND),
@@ -687,6 +702,41 @@ mod tests {
         }
     }
 
+    /// A variance scale multiplies both slope variances of the evaluated (Gram–Charlier
+    /// corrected) density — the second moments the BSDF carries are scale·Cox–Munk — until the
+    /// floor; the lobe keeps its shape and the sampler still matches the pdf; scale 1 is `new`.
+    #[test]
+    fn variance_scale_scales_the_slope_variances() {
+        for wind in [2.0f32, 5.0, 10.0] {
+            let (vu, vc) = CoxMunk::variances(wind);
+            let full = CoxMunk::new(wind, WIND_DIR).unwrap();
+            assert_eq!(CoxMunk::with_variance_scale(wind, WIND_DIR, 1.0).unwrap(), full);
+            for scale in [0.6f32, 0.35] {
+                let cm = CoxMunk::with_variance_scale(wind, WIND_DIR, scale).unwrap();
+                // second moments of the density with the unclamped series (the clamped tail,
+                // < 1e-3 of the mass, is bounded in gram_charlier_density_and_smith_lambda_agree)
+                let (mu, _) = slope_quadrature(&cm, |u, _| u * u);
+                let (mc, _) = slope_quadrature(&cm, |_, c| c * c);
+                let (mu, mc) = (mu - clamp_moment(&cm, |u, _| u * u), mc - clamp_moment(&cm, |_, c| c * c));
+                // the Gram–Charlier terms have no second moment, so these are the Gaussian's
+                // σ², stored as f32 σ (2.4e-7 relative), by a quadrature exact to ~1e-12
+                let tol = |v: f64| v * 1e-5;
+                let (eu, ec) = (scale as f64 * vu as f64, scale as f64 * vc as f64);
+                assert!((mu - eu).abs() <= tol(eu), "U {wind} scale {scale}: σ²_up {mu} vs {eu}");
+                assert!((mc - ec).abs() <= tol(ec), "U {wind} scale {scale}: σ²_cross {mc} vs {ec}");
+                assert_eq!((cm.c21, cm.c03), (full.c21, full.c03));
+            }
+        }
+        // a vanishing share floors at the calm-water lobe
+        let calm = CoxMunk::with_variance_scale(10.0, 0.0, 0.0).unwrap();
+        assert_eq!((calm.sigma_up, calm.sigma_cross), (MIN_SLOPE_VARIANCE.sqrt() as f32, MIN_SLOPE_VARIANCE.sqrt() as f32));
+        // the scaled BSDF still samples what it evaluates
+        let b = Bsdf::sea_scaled(WATER, 10.0, WIND_DIR, 0.4).unwrap();
+        check_chi2(&b, dir(45.0, 0.0), TransportMode::Radiance, "U 10 scale 0.4");
+        assert_eq!(Bsdf::sea_scaled(WATER, 5.0, 0.0, f32::NAN).unwrap_err(), BsdfError::NotFinite { parameter: "slopeVarianceScale" });
+        assert!(matches!(Bsdf::sea_scaled(WATER, 5.0, 0.0, -0.1), Err(BsdfError::OutOfRange { parameter: "slopeVarianceScale", .. })));
+    }
+
     /// Midpoint quadrature over standardised slopes (ξ, η) ∈ [−10, 10]² of g(ζ_up, ζ_cross)
     /// times the clamped Gram–Charlier density; and the mass the clamping added.
     fn slope_quadrature(cm: &CoxMunk, g: impl Fn(f64, f64) -> f64) -> (f64, f64) {
@@ -709,6 +759,24 @@ mod tests {
             }
         }
         (acc, clamped)
+    }
+
+    /// What the clamp adds to ∫ g p: the quadrature of g times the clamped-away negative series.
+    fn clamp_moment(cm: &CoxMunk, g: impl Fn(f64, f64) -> f64) -> f64 {
+        let n = 800;
+        let h = 20.0 / n as f64;
+        let mut acc = 0.0;
+        for i in 0..n {
+            let eta = -10.0 + (i as f64 + 0.5) * h;
+            for j in 0..n {
+                let xi = -10.0 + (j as f64 + 0.5) * h;
+                if cm.gram_charlier(xi as f32, eta as f32) == 0.0 {
+                    let phi = (-0.5 * (xi * xi + eta * eta)).exp() / (2.0 * std::f64::consts::PI);
+                    acc -= phi * h * h * gc_raw(cm, xi, eta) * g(eta * cm.sigma_up as f64, xi * cm.sigma_cross as f64);
+                }
+            }
+        }
+        acc
     }
 
     fn gc_raw(cm: &CoxMunk, xi: f64, eta: f64) -> f64 {

@@ -107,6 +107,72 @@ impl Builder<'_> {
 /// At the defaults the mesh has about 1.5 M triangles (0.73 M vertices); the count grows as N²
 /// (the camera's tile alone has 2N² triangles) and roughly as log(extent / patchSize).
 pub fn ocean_mesh(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<MeshDesc, OceanError> {
+    Ok(build(params, time, camera_position)?.0)
+}
+
+/// [`ocean_mesh`] and, for an open sea (`depth` = 0), a flat skirt at y = 0 that carries it to
+/// the horizon: from the tiled surface's outer rim (its very vertices, so the two meet without
+/// a crack) out to the square of half-size `reach` (m, local space; at least the tiled
+/// surface's), each rim vertex joined to its radial projection on that square. A camera at
+/// height h then sees water up to atan(h / reach) below the horizontal. The skirt has no waves
+/// (normals +Y, uvs the undisplaced (x, z) over `patchSize`); its slopes are all sub-grid.
+/// A closed body (`depth` > 0) has no skirt.
+pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position: Option<Vec3>, reach: f32) -> Result<(MeshDesc, Option<MeshDesc>), OceanError> {
+    if !reach.is_finite() {
+        return Err(OceanError { parameter: "horizon reach", message: format!("must be finite, got {reach}") });
+    }
+    let (mesh, rim, max, delta, offset) = build(params, time, camera_position)?;
+    if params.depth > 0.0 {
+        return Ok((mesh, None));
+    }
+    // the rim in order round the square: south (z = 0) west to east, then east, north, west
+    let side = |v: &(u64, u64, u32)| -> (u8, i64) {
+        let (gx, gz) = (v.0 as i64, v.1 as i64);
+        let m = max as i64;
+        if gz == 0 && gx < m {
+            (0, gx)
+        } else if gx == m && gz < m {
+            (1, gz)
+        } else if gz == m && gx > 0 {
+            (2, -gx)
+        } else {
+            (3, -gz)
+        }
+    };
+    let mut ring = rim;
+    ring.sort_by_key(side);
+    let reach = (reach as f64).max(offset);
+    let l = params.patch_size as f64;
+    let mut positions = Vec::with_capacity(2 * ring.len());
+    let mut uvs = Vec::with_capacity(2 * ring.len());
+    for &(gx, gz, i) in &ring {
+        let (x, z) = (gx as f64 * delta - offset, gz as f64 * delta - offset);
+        positions.push(mesh.positions[i as usize]);
+        uvs.push(Vec2::new((x / l) as f32, (z / l) as f32));
+        let (fx, fz) = (x * reach / offset, z * reach / offset);
+        positions.push(Vec3::new(fx as f32, 0.0, fz as f32));
+        uvs.push(Vec2::new((fx / l) as f32, (fz / l) as f32));
+    }
+    let count = ring.len() as u32;
+    let mut indices = Vec::with_capacity(6 * ring.len());
+    for k in 0..count {
+        let (a, fa) = (2 * k, 2 * k + 1);
+        let (b, fb) = (2 * ((k + 1) % count), 2 * ((k + 1) % count) + 1);
+        for tri in [[a, fa, fb], [a, fb, b]] {
+            let [p0, p1, p2] = tri.map(|i| positions[i as usize]);
+            let up = (p1 - p0).cross(p2 - p0).y >= 0.0;
+            indices.extend_from_slice(&if up { tri } else { [tri[0], tri[2], tri[1]] });
+        }
+    }
+    let normals = vec![Vec3::Y; positions.len()];
+    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), double_sided: false };
+    Ok((mesh, Some(skirt)))
+}
+
+/// The tiled surface with its rim vertices (fine-grid x, z, index), the fine-grid samples across
+/// the surface, the grid spacing and the offset of its corner from the origin.
+#[allow(clippy::type_complexity)]
+fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<(MeshDesc, Vec<(u64, u64, u32)>, u64, f64, f64), OceanError> {
     let patch = OceanPatch::new(params, time)?;
     let cam = camera_position.unwrap_or(Vec3::ZERO);
     if !cam.is_finite() {
@@ -188,14 +254,9 @@ pub fn ocean_mesh(params: &OceanParams, time: f64, camera_position: Option<Vec3>
         close_body(&mut b, params.depth);
     }
 
-    Ok(MeshDesc {
-        name: "TideOcean".to_string(),
-        positions: b.positions,
-        indices: b.indices,
-        normals: Some(b.normals),
-        uvs: Some(b.uvs),
-        double_sided: false,
-    })
+    let (max, delta, offset) = (b.max, b.delta, b.offset);
+    let mesh = MeshDesc { name: "TideOcean".to_string(), positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false };
+    Ok((mesh, b.rim, max, delta, offset))
 }
 
 /// Walls from the rim down to y = −depth and a floor, each with its own copies of the rim.

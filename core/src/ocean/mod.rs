@@ -66,7 +66,7 @@ pub mod spectrum;
 #[cfg(test)]
 mod tests;
 
-pub use mesh::{lod_level, ocean_mesh, MAX_TILES_PER_SIDE};
+pub use mesh::{lod_level, ocean_mesh, ocean_mesh_with_horizon, MAX_TILES_PER_SIDE};
 pub use patch::{OceanPatch, SurfacePoint};
 pub use spectrum::SpectrumKind;
 
@@ -186,6 +186,19 @@ impl OceanParams {
         } else {
             1
         }
+    }
+
+    /// Expected mean-square slope Σ |k|² Ψ(k) Δk² of the waves a patch of these parameters
+    /// resolves (without choppiness), without synthesising it: O(N²) spectrum evaluations.
+    pub fn resolved_slope_variance(&self) -> f64 {
+        patch::resolved_moments(self).slope_variance
+    }
+
+    /// [`spectrum::cox_munk_mss`] at `windSpeed` minus [`OceanParams::resolved_slope_variance`]
+    /// (never below 0): the slope variance left to the sea-surface BSDF, as
+    /// [`OceanPatch::subgrid_slope_variance`] without a patch.
+    pub fn subgrid_slope_variance(&self) -> f64 {
+        (spectrum::cox_munk_mss(self.wind_speed as f64) - self.resolved_slope_variance()).max(0.0)
     }
 
     /// Significant wave height 4√m₀ (m) of the full spectrum (not only the part a patch resolves).

@@ -521,3 +521,93 @@ fn default_mesh_is_bounded() {
     let far = mesh.positions.iter().fold(0.0f32, |m, p| m.max(p.x.abs()).max(p.z.abs()));
     assert!(far >= p.extent);
 }
+
+#[test]
+fn horizon_skirt_meets_the_rim_and_reaches_out() {
+    let p = OceanParams { extent: 300.0, choppiness: 0.5, ..params(8.0, 40.0, 32) };
+    let cam = Some(Vec3::new(55.0, 3.0, -20.0));
+    let reach = 50_000.0;
+    let (surface, skirt) = ocean_mesh_with_horizon(&p, 1.0, cam, reach).unwrap();
+    assert_eq!(surface, ocean_mesh(&p, 1.0, cam).unwrap());
+    let skirt = skirt.unwrap();
+    let key = |m: &crate::scene::MeshDesc, i: u32| m.positions[i as usize].to_array().map(f32::to_bits);
+    let s_edges = edge_counts(&surface.indices, |i| key(&surface, i));
+    let k_edges = edge_counts(&skirt.indices, |i| key(&skirt, i));
+    // every open edge of the surface is an edge of the skirt, the other way round: the two
+    // meshes join along the rim with the same vertices and no crack
+    let mut open = 0;
+    for &(a, b) in s_edges.keys() {
+        if !s_edges.contains_key(&(b, a)) {
+            open += 1;
+            assert_eq!(k_edges.get(&(b, a)), Some(&1), "rim edge not matched by the skirt");
+        }
+    }
+    assert!(open > 0);
+    // the skirt's own open edges are the rim and the far square; all of it faces up
+    let far = skirt.positions.iter().fold(0.0f32, |m, q| m.max(q.x.abs()).max(q.z.abs()));
+    assert_eq!(far, reach);
+    for (&(a, b), &c) in &k_edges {
+        assert_eq!(c, 1);
+        if !k_edges.contains_key(&(b, a)) && !s_edges.contains_key(&(b, a)) {
+            let (pa, pb) = (Vec3::from_array(a.map(f32::from_bits)), Vec3::from_array(b.map(f32::from_bits)));
+            let on_far = |q: Vec3| q.y == 0.0 && (q.x.abs() == reach || q.z.abs() == reach);
+            assert!(on_far(pa) && on_far(pb), "open skirt edge {pa} – {pb}");
+        }
+    }
+    assert!(skirt.indices.chunks(3).all(|t| {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| skirt.positions[i as usize]);
+        (b - a).cross(c - a).y > 0.0
+    }));
+    // a closed body has no skirt
+    let body = OceanParams { depth: 10.0, ..p.clone() };
+    assert!(ocean_mesh_with_horizon(&body, 1.0, cam, reach).unwrap().1.is_none());
+    // the sub-grid share without a patch is the patch's
+    let patch = OceanPatch::new(&p, 1.0).unwrap();
+    assert_eq!(p.subgrid_slope_variance(), patch.subgrid_slope_variance());
+}
+
+/// Mesh plus BSDF reproduce Cox–Munk: the mean-square slope of the mesh's own normals (the
+/// camera's patch, where every grid point is a vertex) plus the second moment of the sea BSDF's
+/// facet slopes at the sub-grid share equals Cox–Munk's 0.003 + 5.12·10⁻³ U, at 2, 5 and 10 m/s.
+#[test]
+fn mesh_and_sea_bsdf_slopes_sum_to_cox_munk() {
+    use crate::bsdf::sea::CoxMunk;
+    for u in [2.0f32, 5.0, 10.0] {
+        let p = OceanParams { extent: 64.0, ..params(u, 64.0, 256) };
+        let seeds = 4;
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        for seed in 0..seeds {
+            let mesh = ocean_mesh(&OceanParams { seed, ..p.clone() }, 3.0, Some(Vec3::new(10.0, 2.0, 10.0))).unwrap();
+            let uv = mesh.uvs.as_ref().unwrap();
+            let normals = mesh.normals.as_ref().unwrap();
+            // vertices of the camera's patch (0, L]²: one per grid point (the patch is periodic; its
+            // west and south borders, next to coarser patches, keep only every other vertex, while
+            // the east and north ones are the surface's rim and keep all)
+            for (w, n) in uv.iter().zip(normals) {
+                if w.x > 0.0 && w.x <= 1.0 && w.y > 0.0 && w.y <= 1.0 {
+                    let (sx, sz) = (-n.x as f64 / n.y as f64, -n.z as f64 / n.y as f64);
+                    sum += sx * sx + sz * sz;
+                    count += 1;
+                }
+            }
+        }
+        assert_eq!(count, 256 * 256 * seeds as usize);
+        let mesh_mss = sum / count as f64;
+        // the BSDF's facets as the delegate sets them: the sub-grid variance over the BSDF's own
+        // Cox–Munk variance at this wind; their slope second moment is σ²_up + σ²_cross (the
+        // Gram–Charlier terms add none: sea.rs, variance_scale_scales_the_slope_variances)
+        let (vu, vc) = CoxMunk::variances(u);
+        let share = (p.subgrid_slope_variance() / (vu as f64 + vc as f64)) as f32;
+        let cm = CoxMunk::with_variance_scale(u, 0.0, share).unwrap();
+        let bsdf_mss = (cm.sigma_up as f64).powi(2) + (cm.sigma_cross as f64).powi(2);
+        let total = mesh_mss + bsdf_mss;
+        let expected = cox_munk_mss(u as f64);
+        // the mesh's mean-square slope is a mean over `seeds` realisations of the grid's: their
+        // sampling spread (σ from the spectrum, each h(k) circular Gaussian) is what the sum may
+        // miss by; 4σ, plus f32 normals and σ (1e-6 relative)
+        let sigma = resolved_moments(&p).slope_variance_var.sqrt() / (seeds as f64).sqrt();
+        assert!((total - expected).abs() < 4.0 * sigma + 1e-6 * expected, "U={u}: mesh {mesh_mss} + BSDF {bsdf_mss} = {total} vs Cox–Munk {expected} ± {}", 4.0 * sigma);
+        // and the tolerance is tight: the sampling spread is a few percent of Cox–Munk
+        assert!(4.0 * sigma < 0.1 * expected, "U={u}: 4σ {} vs {expected}", 4.0 * sigma);
+    }
+}
