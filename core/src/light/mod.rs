@@ -397,7 +397,7 @@ pub struct TriangleLight {
 pub enum Light {
     Distant(DistantLight),
     Dome(DomeLight),
-    Sky(SkyDomeLight),
+    Sky(Box<SkyDomeLight>),
     Sphere(SphereLight),
     Rect(RectLight),
     Disk(DiskLight),
@@ -686,7 +686,7 @@ impl Light {
                 if !s.is_finite() {
                     return Err(err("exposure", format!("intensity × 2^exposure × sky scale overflows ({intensity} × 2^{exposure} × {units})")));
                 }
-                Light::Sky(SkyDomeLight::new(sky, s, vis)?)
+                Light::Sky(Box::new(SkyDomeLight::new(sky, s, vis)?))
             }
             LightShape::SkySun { zenith, turbidity, scale: units } => {
                 let units = check_length("tide:sky:scale", *units)?;
@@ -1036,12 +1036,12 @@ impl Light {
             }
             Light::Sky(d) => {
                 let (wi, _) = d.sky.sampler.sample(u)?;
-                // radiance and density from the direction itself, exactly as `le` and `pdf_li` see it
-                let pdf = d.sky.pdf_li(wi);
+                // radiance and density through `le` and `pdf_li` themselves, bit for bit
+                let pdf = self.pdf_li(ctx, wi, None);
                 if !(pdf > 0.0) {
                     return None;
                 }
-                let l = d.sky.le(wi, lambda);
+                let l = self.le(wi, lambda);
                 let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
                 Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
             }
