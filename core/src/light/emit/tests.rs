@@ -525,9 +525,8 @@ fn sky_photon_power_matches_quadrature_of_le() {
         for ip in 0..np {
             let ph = (ip as f64 + 0.5) / np as f64 * 2.0 * std::f64::consts::PI;
             let dir = f.to_world(Vec3::new((th.sin() * ph.cos()) as f32, (th.sin() * ph.sin()) as f32, th.cos() as f32));
-            let le = l.le(dir, &lam);
-            for k in 0..4 {
-                q[k] += le.0[k] as f64 * w;
+            for (acc, v) in q.iter_mut().zip(l.le(dir, &lam).0) {
+                *acc += v as f64 * w;
             }
         }
     }
