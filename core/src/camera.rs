@@ -2,14 +2,78 @@
 //! `focusDistance`) or orthographic, film-back apertures and offsets, clipping range, shutter,
 //! and exposure (including the physical exposure attributes).
 //!
+//! # Exposure
+//!
+//! The physical exposure is USD's linear exposure scale, `responsivity` × `time` × `iso`/100 /
+//! `fStop`², times 2^`exposure`; it multiplies the radiance before colour conversion. Seed 000
+//! §3.3 (Fascione's sensor equation) gives a pixel Y = π Δt S / (C N²) · L_v for a luminance
+//! L_v in cd m⁻², with calibration constant C = [`EXPOSURE_CALIBRATION`] (312.5): that is
+//! USD's scale with `exposure:responsivity` = 100π / C = [`seed_responsivity`] (≈ 1.0053) when
+//! Tide luminance is in cd m⁻², as the sky's is ([`crate::sky::nits_per_model_unit`]). Exposed
+//! for an illuminance E_v = C N² / (Δt S) lux (seed eq. 3.3; [`exposure_time_for_illuminance`])
+//! a diffuse surface of albedo k lit by E_v reads k: the sunny-16 rule (f/16, 1/125 s, ISO 100)
+//! is E_v = 10⁵ lx.
+//!
+//! # Filters
+//!
+//! `tide:camera:filter` puts a spectral filter in front of the sensor: the radiance reaching
+//! the film is multiplied by [`filter_transmission`] at each wavelength before conversion to
+//! colour (every colour AOV and the light-path split see it; albedo, depth and normals do not).
+//!
 //! Units follow USD: focal length and apertures are in tenths of a scene unit (millimetres
 //! for a centimetre scene), `focusDistance` in scene units. The aperture is conformed to the
 //! image's aspect by expanding it (UsdRenderSettings' default `expandAperture`).
 
 use crate::accel::motion::MotionTransform;
 use crate::math::sample_concentric_disk;
-use crate::scene::{CameraDesc, Projection};
+use crate::scene::{CameraDesc, CameraFilter, Projection};
+use crate::spectrum::{Spectrum, LAMBDA_MAX, LAMBDA_MIN};
 use glam::{Vec2, Vec3};
+use std::sync::OnceLock;
+
+/// Calibration constant C of the exposure equation of seed 000 §3.3 (eq. 3.2–3.3).
+pub const EXPOSURE_CALIBRATION: f32 = 312.5;
+
+/// The `exposure:responsivity` that makes USD's linear exposure scale equal seed 000's sensor
+/// equation for luminance in cd m⁻²: 100π / C.
+pub fn seed_responsivity() -> f32 {
+    100.0 * std::f32::consts::PI / EXPOSURE_CALIBRATION
+}
+
+/// Seed 000 eq. 3.3 solved for the shutter time: the `exposure:time` (s) at which, with
+/// `f_stop` N, `iso` S and [`seed_responsivity`], a diffuse surface of albedo k under an
+/// illuminance of `illuminance_lux` E_v reads k: Δt = C N² / (E_v S).
+pub fn exposure_time_for_illuminance(illuminance_lux: f32, f_stop: f32, iso: f32) -> f32 {
+    EXPOSURE_CALIBRATION * f_stop * f_stop / (illuminance_lux * iso)
+}
+
+/// Transmission of the `underwaterRed` filter before normalisation: a smooth long-pass edge,
+/// T₀(λ) = 0.2 + 0.8 / (1 + e^{−(λ − 590 nm)/12 nm}): about 0.2 through the blue-green
+/// (400–560 nm), 0.6 at 590 nm, above 0.95 from 625 nm. The shape is that of the orange-red
+/// correction filters used for ambient-light underwater photography in blue water (they pass
+/// the red that a few metres of water absorb and hold back the blue-green that dominates); it
+/// is a generic curve, not a particular product's.
+pub fn underwater_red_raw(lambda: f32) -> f32 {
+    0.2 + 0.8 / (1.0 + (-(lambda - 590.0) / 12.0).exp())
+}
+
+/// Spectral transmission of a camera filter (None for `none`). `underwaterRed` is
+/// [`underwater_red_raw`] divided by its luminance-weighted mean ∫T₀ȳ dλ / ∫ȳ dλ, so the
+/// filter keeps the luminance of an equal-energy white: it changes colour, not exposure (the
+/// physical filter plus the exposure compensation of its filter factor). The red/blue balance
+/// shifts by the ratio of T over the red and blue responses.
+pub fn filter_transmission(filter: CameraFilter) -> Option<&'static Spectrum> {
+    static RED: OnceLock<Spectrum> = OnceLock::new();
+    match filter {
+        CameraFilter::None => None,
+        CameraFilter::UnderwaterRed => Some(RED.get_or_init(|| {
+            let y = crate::spectrum::cie::cie().integrate_xyz(|l| underwater_red_raw(l as f32) as f64)[1];
+            let lambda: Vec<f32> = (LAMBDA_MIN as u32..=LAMBDA_MAX as u32).map(|l| l as f32).collect();
+            let value: Vec<f32> = lambda.iter().map(|&l| (underwater_red_raw(l) as f64 / y) as f32).collect();
+            Spectrum::tabulated(&lambda, &value).expect("filter table is well formed")
+        })),
+    }
+}
 
 /// USD's aperture and focal-length unit in scene units.
 pub const LENS_UNIT: f32 = 0.1;
@@ -32,6 +96,8 @@ pub struct Camera {
     pub width: u32,
     pub height: u32,
     pub medium: Option<usize>,
+    /// Spectral transmission in front of the sensor (`tide:camera:filter`).
+    pub filter: Option<&'static Spectrum>,
 }
 
 /// A camera ray in world space; `t_min..t_max` is the clipped interval.
@@ -80,6 +146,7 @@ impl Camera {
             width,
             height,
             medium: desc.medium,
+            filter: filter_transmission(desc.filter),
         }
     }
 
@@ -235,5 +302,29 @@ mod tests {
         assert!((r.o.z + 2.0).abs() < 1e-3 && (r.t_max - 3.0).abs() < 1e-3);
         // 2^1 × (0.5 · 400/100) / 2² = 1
         assert!((cam.exposure_scale - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn seed_exposure_maps_the_illuminance_to_a_grey_card_value() {
+        // sunny 16: f/16, ISO 100, E_v = 10⁵ lx → 1/125 s (C = 312.5)
+        let t = exposure_time_for_illuminance(1.0e5, 16.0, 100.0);
+        assert!((t - 1.0 / 125.0).abs() < 1e-7, "{t}");
+        let d = CameraDesc { exposure_f_stop: 16.0, exposure_time: t, exposure_iso: 100.0, exposure_responsivity: seed_responsivity(), ..desc() };
+        let cam = Camera::new(&d, 10, 10, 1.0, false, false);
+        // a card of albedo 0.18 under E_v has luminance 0.18 E_v / π cd m⁻²
+        let y = cam.exposure_scale * 0.18 * 1.0e5 / std::f32::consts::PI;
+        assert!((y - 0.18).abs() < 1e-6, "{y}");
+    }
+
+    #[test]
+    fn underwater_red_filter_keeps_white_luminance_and_favours_red() {
+        assert!(filter_transmission(CameraFilter::None).is_none());
+        let f = filter_transmission(CameraFilter::UnderwaterRed).unwrap();
+        let c = crate::spectrum::cie::cie();
+        let y = c.integrate_xyz(|l| f.eval(l as f32) as f64)[1];
+        // the 1 nm table and the 1 nm quadrature share their nodes: exact up to f32 rounding
+        assert!((y - 1.0).abs() < 1e-5, "{y}");
+        assert!(f.eval(650.0) > 4.0 * f.eval(480.0));
+        assert!(f.eval(400.0) > 0.0 && f.eval(830.0) < 3.0);
     }
 }

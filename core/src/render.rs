@@ -289,7 +289,12 @@ impl Renderer {
                                 let raster = glam::Vec2::new(x as f32 + 0.5 + sample_filter(f.x), y as f32 + 0.5 + sample_filter(f.y));
                                 let mut lambda = color::sample_wavelengths(sampler.get1d());
                                 let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack);
+                                let filter = world.camera.filter.map(|f| f.sample(&lambda));
                                 let to_rgb = |x: crate::spectrum::SampledSpectrum| {
+                                    let x = match &filter {
+                                        Some(t) => x * *t,
+                                        None => x,
+                                    };
                                     let rgb = color::xyz_to_rgb(color::to_xyz(x, &lambda), cs);
                                     if rgb.iter().all(|c| c.is_finite()) {
                                         rgb

@@ -266,6 +266,18 @@ pub enum LightShape {
     Disk { radius: f32 },
     /// Along the local X axis.
     Cylinder { radius: f32, length: f32, treat_as_line: bool },
+    /// The Hošek–Wilkie sky dome (`TideSkyAPI`, [`crate::sky`]): zenith along the light's
+    /// local +Y (as for a dome's lat-long map), the sun towards `sun_direction` (world space,
+    /// at or above the horizon). Emitted radiance = model radiance (W m⁻² sr⁻¹ nm⁻¹) ×
+    /// `scale` × `intensity` × 2^`exposure`; `scale` = [`crate::sky::nits_per_model_unit`]
+    /// puts the sky's luminance in cd m⁻². `color`, `colorTemperature` and `normalize` are not
+    /// used. The sun's disc is not part of the dome (see [`LightShape::SkySun`]).
+    Sky { turbidity: f32, ground_albedo: Rgb, sun_direction: Vec3, scale: f32 },
+    /// The physical sun of a sky: a distant light along the light's local +Z (as a
+    /// `DistantLight`) with the solar disc's angular diameter (0.51°), emitting the disc's mean
+    /// spectral radiance for its elevation above the horizon of `zenith` (world) and
+    /// `turbidity`, × `scale` × `intensity` × 2^`exposure` (see [`LightShape::Sky`]).
+    SkySun { zenith: Vec3, turbidity: f32, scale: f32 },
 }
 
 /// A light as UsdLux states it.
@@ -283,6 +295,15 @@ pub struct LightDesc {
     pub color_temperature: Option<f32>,
     /// Whether camera rays see the light itself.
     pub visible_to_camera: bool,
+}
+
+/// A spectral filter in front of the camera (`tide:camera:filter`), applied to the radiance
+/// before it is converted to colour; see [`crate::camera::filter_transmission`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CameraFilter {
+    #[default]
+    None,
+    UnderwaterRed,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -320,6 +341,7 @@ pub struct CameraDesc {
     pub exposure_responsivity: f32,
     /// Index into `SceneDesc::media`: the medium the camera sits in (underwater camera).
     pub medium: Option<usize>,
+    pub filter: CameraFilter,
 }
 
 impl Default for CameraDesc {
@@ -345,6 +367,7 @@ impl Default for CameraDesc {
             exposure_iso: 100.0,
             exposure_responsivity: 1.0,
             medium: None,
+            filter: CameraFilter::None,
         }
     }
 }

@@ -322,6 +322,8 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             LightShape::Cylinder { radius, length, treat_as_line } => !(*length > 0.0 && length.is_finite()) || (!treat_as_line && !(*radius > 0.0 && radius.is_finite())),
             LightShape::Distant { angle_deg } => !(angle_deg.is_finite() && *angle_deg >= 0.0 && *angle_deg < 180.0),
             LightShape::Dome { texture } => texture.is_some_and(|t| t >= n_tex),
+            // checked when the light is built (errors name the tide:sky attribute)
+            LightShape::Sky { .. } | LightShape::SkySun { .. } => false,
         };
         if area_bad {
             let attr = match &l.shape {
@@ -330,6 +332,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 LightShape::Cylinder { .. } => "inputs:length",
                 LightShape::Distant { .. } => "inputs:angle",
                 LightShape::Dome { .. } => "inputs:texture:file",
+                LightShape::Sky { .. } | LightShape::SkySun { .. } => "tide:sky:model",
             };
             problem(&mut p, &l.name, attr, "zero-area or invalid light shape; light dropped");
             return false;

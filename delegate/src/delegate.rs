@@ -729,9 +729,81 @@ impl Delegate {
         }
         self.oceans.retain(|p, _| oceans_seen.contains(p));
 
-        for c in self.cache.values() {
+        // TideSkyAPI domes: the sun's direction from the DistantLight they name, and the
+        // physical suns (path → the sun's shape and the dome's intensity and exposure, or None
+        // for a physical sun below the horizon, which is dropped)
+        let mut physical_suns: HashMap<String, Option<(LightShape, f32, f32)>> = HashMap::new();
+        let mut sky_suns: HashMap<String, Vec3> = HashMap::new();
+        for (path, c) in &self.cache {
+            let Piece::Light(Some(l)) = &c.piece else { continue };
+            let (Some(sky), LightShape::Sky { turbidity, .. }) = (&l.sky, &l.desc.shape) else { continue };
+            let m3 = glam::Mat3::from_mat4(l.desc.transform);
+            let zenith = (m3 * Vec3::Y).normalize_or_zero();
+            let zenith = if zenith == Vec3::ZERO { Vec3::Y } else { zenith };
+            let sun_light = sky.sun.as_deref().and_then(|s| match self.cache.get(s).map(|c| &c.piece) {
+                Some(Piece::Light(Some(sl))) if matches!(sl.desc.shape, LightShape::Distant { .. }) => Some(sl),
+                _ => {
+                    ap.push(problem(path, "tide:sky:sun", format!("'{}' is not a visible DistantLight; the sun stands {}° above the horizon", s, lux::DEFAULT_SUN_ELEVATION_DEG)));
+                    None
+                }
+            });
+            let to_sun = match sun_light {
+                Some(sl) => (glam::Mat3::from_mat4(sl.desc.transform) * Vec3::Z).normalize_or_zero(),
+                None => {
+                    let e = lux::DEFAULT_SUN_ELEVATION_DEG.to_radians();
+                    (m3 * Vec3::new(0.0, e.sin(), e.cos())).normalize_or_zero()
+                }
+            };
+            let sin_elev = zenith.dot(to_sun);
+            let mut physical = sky.physical_sun && sun_light.is_some();
+            let to_sun = if to_sun == Vec3::ZERO || sin_elev < 0.0 {
+                // below the horizon the model has no data: the sky of a sun on the horizon
+                // (azimuth kept), and no physical sun (it would light the scene from below)
+                let h = to_sun - zenith * sin_elev;
+                let h = if h.length_squared() > 1e-12 { h.normalize() } else { zenith.any_orthonormal_vector() };
+                ap.push(problem(
+                    path,
+                    "tide:sky:sun",
+                    format!(
+                        "the sun{} is {:.2}° below the horizon, where the Hošek–Wilkie model has no data; the sky is rendered for a sun on the horizon{}",
+                        sky.sun.as_deref().map(|s| format!(" ({s})")).unwrap_or_default(),
+                        sin_elev.clamp(-1.0, 1.0).asin().to_degrees().abs(),
+                        if physical { " and the physical sun is off" } else { "" }
+                    ),
+                ));
+                physical = false;
+                h
+            } else {
+                to_sun
+            };
+            sky_suns.insert(path.clone(), to_sun);
+            if let (true, Some(sun)) = (physical, &sky.sun) {
+                let shape = LightShape::SkySun { zenith, turbidity: *turbidity, scale: tide_core::sky::nits_per_model_unit() };
+                physical_suns.entry(sun.clone()).or_insert(Some((shape, l.desc.intensity, l.desc.exposure)));
+            } else if let (true, Some(sun)) = (sky.physical_sun && sun_light.is_some(), &sky.sun) {
+                physical_suns.entry(sun.clone()).or_insert(None);
+            }
+        }
+
+        for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
+            if let LightShape::Sky { sun_direction, .. } = &mut desc.shape {
+                if let Some(d) = sky_suns.get(path) {
+                    *sun_direction = *d;
+                }
+            }
+            if let Some(sun) = physical_suns.get(path) {
+                let Some((shape, intensity, exposure)) = sun else { continue };
+                // the solar model's radiance in place of the light's own (contract §6), on the
+                // sky's scale so that sun and sky keep their physical ratio
+                desc.shape = shape.clone();
+                desc.intensity = *intensity;
+                desc.exposure = *exposure;
+                desc.color = [1.0; 3];
+                desc.color_temperature = None;
+                desc.normalize = false;
+            }
             let t = l.texture.as_ref().and_then(|k| {
                 let i = texture(k, &mut scene);
                 if i.is_none() {
@@ -1215,6 +1287,91 @@ mod tests {
         let p = d.commit_resources();
         let e = p.iter().find(|q| q.attribute == "extent").expect("extent problem");
         assert!(e.message.ends_with("using 128"), "{}", e.message);
+    }
+
+    fn sun_at(d: &mut Delegate, path: &str, elevation_deg: f32) {
+        d.create_prim("distantLight", path);
+        // +Z towards the sun: rotate +Z up about +X by the elevation
+        let m = Mat4::from_rotation_x(-elevation_deg.to_radians());
+        d.set_attribute(path, "transform", Value::Matrix(m.to_cols_array().map(|v| v as f64)), None);
+        d.set_attribute(path, "inputs:intensity", Value::Float(5.0), None);
+    }
+
+    #[test]
+    fn tide_sky_api_maps_to_the_sky_and_the_physical_sun() {
+        let mut d = Delegate::new();
+        d.create_prim("domeLight", "/Sky");
+        d.set_attribute("/Sky", "tide:sky:model", tok("hosekWilkie"), None);
+        d.set_attribute("/Sky", "tide:sky:turbidity", Value::Float(4.0), None);
+        d.set_attribute("/Sky", "tide:sky:groundAlbedo", Value::Floats { data: vec![0.1, 0.2, 0.3], tuple: 3 }, None);
+        d.set_attribute("/Sky", "tide:sky:sun", Value::Path("/Sun".into()), None);
+        d.set_attribute("/Sky", "tide:sky:physicalSun", Value::Bool(true), None);
+        d.set_attribute("/Sky", "inputs:intensity", Value::Float(0.5), None);
+        sun_at(&mut d, "/Sun", 30.0);
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{:?}", p);
+        let s = d.scene();
+        let sky = s.lights.iter().find(|l| l.name == "/Sky").unwrap();
+        let sun = s.lights.iter().find(|l| l.name == "/Sun").unwrap();
+        let nits = tide_core::sky::nits_per_model_unit();
+        let LightShape::Sky { turbidity, ground_albedo, sun_direction, scale } = sky.shape.clone() else { panic!("{:?}", sky.shape) };
+        assert_eq!((turbidity, ground_albedo, scale), (4.0, [0.1, 0.2, 0.3], nits));
+        assert!((sun_direction.dot(Vec3::Y) - 30f32.to_radians().sin()).abs() < 1e-5, "{sun_direction}");
+        assert_eq!(sun.shape, LightShape::SkySun { zenith: Vec3::Y, turbidity: 4.0, scale: nits });
+        // the sky's scale, not the DistantLight's intensity
+        assert_eq!((sun.intensity, sun.exposure), (0.5, 0.0));
+        // the renderer builds both
+        let mut probs = Vec::new();
+        let w = tide_core::world::World::build(s, &RenderSettings { width: 4, height: 4, ..Default::default() }, &mut probs);
+        assert!(probs.is_empty(), "{probs:?}");
+        assert_eq!(w.lights.len(), 2);
+    }
+
+    #[test]
+    fn bad_sky_values_are_problems_naming_prim_and_attribute() {
+        let mut d = Delegate::new();
+        d.create_prim("domeLight", "/Sky");
+        d.set_attribute("/Sky", "tide:sky:turbidity", Value::Float(12.0), None);
+        d.set_attribute("/Sky", "tide:sky:groundAlbedo", Value::Floats { data: vec![1.5, 0.2, -0.1], tuple: 3 }, None);
+        d.set_attribute("/Sky", "tide:sky:model", tok("preetham"), None);
+        d.set_attribute("/Sky", "tide:sky:sun", Value::Path("/Sun".into()), None);
+        d.set_attribute("/Sky", "tide:sky:physicalSun", Value::Bool(true), None);
+        sun_at(&mut d, "/Sun", -10.0);
+        let p = d.commit_resources();
+        let attrs: Vec<(&str, &str)> = p.iter().map(|x| (x.item.as_str(), x.attribute.as_str())).collect();
+        for a in ["tide:sky:turbidity", "tide:sky:groundAlbedo", "tide:sky:model", "tide:sky:sun"] {
+            assert!(attrs.contains(&("/Sky", a)), "{a} missing from {p:?}");
+        }
+        let below = p.iter().find(|x| x.attribute == "tide:sky:sun").unwrap();
+        assert!(below.message.contains("below the horizon") && below.message.contains("physical sun is off"), "{}", below.message);
+        let s = d.scene();
+        // the sky renders clamped (turbidity 10, albedo in [0, 1], sun on the horizon); the
+        // physical sun below the horizon is dropped
+        assert_eq!(s.lights.len(), 1);
+        let LightShape::Sky { turbidity, ground_albedo, sun_direction, .. } = s.lights[0].shape.clone() else { panic!() };
+        assert_eq!((turbidity, ground_albedo), (10.0, [1.0, 0.2, 0.0]));
+        assert!(sun_direction.dot(Vec3::Y).abs() < 1e-6 && sun_direction.z > 0.9);
+        let mut probs = Vec::new();
+        tide_core::world::World::build(s, &RenderSettings { width: 4, height: 4, ..Default::default() }, &mut probs);
+        assert!(probs.is_empty(), "{probs:?}");
+        // a sun that is not a DistantLight: the default sun, named in the problem
+        d.set_attribute("/Sky", "tide:sky:sun", Value::Path("/Nothing".into()), None);
+        let p = d.commit_resources();
+        assert!(p.iter().any(|x| x.attribute == "tide:sky:sun" && x.message.contains("/Nothing")), "{p:?}");
+    }
+
+    #[test]
+    fn camera_filter_maps_to_the_core() {
+        let mut d = Delegate::new();
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "tide:camera:filter", tok("underwaterRed"), None);
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!(d.scene().camera.filter, tide_core::scene::CameraFilter::UnderwaterRed);
+        d.set_attribute("/cam", "tide:camera:filter", tok("sepia"), None);
+        let p = d.commit_resources();
+        assert!(p.iter().any(|x| x.item == "/cam" && x.attribute == "tide:camera:filter"), "{p:?}");
+        assert_eq!(d.scene().camera.filter, tide_core::scene::CameraFilter::None);
     }
 
     #[test]

@@ -8,7 +8,7 @@
 use crate::material::{TexKey, WrapKey};
 use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
-use tide_core::scene::{CameraDesc, ColorSpace, LightDesc, LightShape, Projection};
+use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection};
 use tide_core::{IntegratorKind, RenderSettings};
 
 /// Light prim types of the protocol.
@@ -27,6 +27,61 @@ pub enum LightKind {
 pub struct LightPiece {
     pub desc: LightDesc,
     pub texture: Option<TexKey>,
+    /// `TideSkyAPI` on a dome: the sun it names; the assembly sets the sky's sun direction.
+    pub sky: Option<SkyPiece>,
+}
+
+/// The sun of a `TideSkyAPI` dome (contract §6), resolved at scene assembly.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyPiece {
+    /// `tide:sky:sun`: path of the DistantLight whose direction sets the sun (None: unauthored).
+    pub sun: Option<String>,
+    /// `tide:sky:physicalSun`: that light emits the solar model's radiance.
+    pub physical_sun: bool,
+}
+
+/// Where the sky's sun stands when `tide:sky:sun` names no light: 45° above the horizon,
+/// towards the dome's local +Z (a clear mid-morning sky).
+pub const DEFAULT_SUN_ELEVATION_DEG: f32 = 45.0;
+
+/// Reads `TideSkyAPI` off a dome (any `tide:sky:*` attribute marks it). Bad values become
+/// problems naming the attribute: an unknown model → `hosekWilkie`; turbidity outside [1, 10]
+/// → clamped into it; ground-albedo components outside [0, 1] → clamped.
+fn convert_sky(store: &AttrStore, p: &mut Problems) -> Option<(LightShape, SkyPiece)> {
+    const ATTRS: [&str; 5] = ["tide:sky:model", "tide:sky:turbidity", "tide:sky:groundAlbedo", "tide:sky:sun", "tide:sky:physicalSun"];
+    if !ATTRS.iter().any(|a| store.has(a)) {
+        return None;
+    }
+    store.token_or("tide:sky:model", &["hosekWilkie"], "hosekWilkie", p);
+    let t = store.f32_or("tide:sky:turbidity", 3.0, p);
+    let turbidity = if !t.is_finite() {
+        p.add("tide:sky:turbidity", format!("{t} is not a number; using 3"));
+        3.0
+    } else if !(1.0..=10.0).contains(&t) {
+        let c = t.clamp(1.0, 10.0);
+        p.add("tide:sky:turbidity", format!("{t} is outside the model's range [1, 10]; using {c}"));
+        c
+    } else {
+        t
+    };
+    let a = store.vec3_or("tide:sky:groundAlbedo", Vec3::splat(0.3), p);
+    let ground = if !a.is_finite() {
+        p.add("tide:sky:groundAlbedo", format!("{a} is not finite; using 0.3"));
+        Vec3::splat(0.3)
+    } else if a.min_element() < 0.0 || a.max_element() > 1.0 {
+        let c = a.clamp(Vec3::ZERO, Vec3::ONE);
+        p.add("tide:sky:groundAlbedo", format!("{a} has components outside [0, 1]; using {c}"));
+        c
+    } else {
+        a
+    };
+    let sun = store.str_opt("tide:sky:sun").filter(|s| !s.is_empty()).map(String::from);
+    let physical_sun = store.bool_or("tide:sky:physicalSun", false, p);
+    if physical_sun && sun.is_none() {
+        p.add("tide:sky:physicalSun", "no tide:sky:sun light to give the solar radiance to; the sky has no sun disc");
+    }
+    let shape = LightShape::Sky { turbidity, ground_albedo: ground.to_array(), sun_direction: Vec3::Y, scale: tide_core::sky::nits_per_model_unit() };
+    Some((shape, SkyPiece { sun, physical_sun }))
 }
 
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
@@ -56,6 +111,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         },
     };
     let mut texture = None;
+    let mut sky = None;
     let tex_key = |wrap_s, wrap_t| {
         store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, linearize: false })
     };
@@ -72,7 +128,16 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
                 p.add("texture:format", format!("format '{}' is not supported (latlong only); the texture is ignored", fmt));
                 texture = None;
             }
-            LightShape::Dome { texture: None }
+            match convert_sky(store, p) {
+                Some((shape, piece)) => {
+                    if texture.take().is_some() {
+                        p.add("texture:file", "a TideSkyAPI dome is the Hošek–Wilkie sky; its texture is ignored");
+                    }
+                    sky = Some(piece);
+                    shape
+                }
+                None => LightShape::Dome { texture: None },
+            }
         }
         LightKind::Sphere => {
             let radius = nonneg(store, "radius", 0.5, p);
@@ -130,6 +195,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             visible_to_camera: true,
         },
         texture,
+        sky,
     })
 }
 
@@ -166,10 +232,10 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
             d.clipping_range
         }
     };
-    let filter = store.token_or("tide:camera:filter", &["none", "underwaterRed"], "none", p);
-    if filter != "none" {
-        p.add("tide:camera:filter", format!("filter '{}' is not yet supported; ignored", filter));
-    }
+    let filter = match store.token_or("tide:camera:filter", &["none", "underwaterRed"], "none", p) {
+        "underwaterRed" => CameraFilter::UnderwaterRed,
+        _ => CameraFilter::None,
+    };
     let shutter_open = store.f32_or("shutter:open", 0.0, p);
     let mut shutter_close = store.f32_or("shutter:close", 0.0, p);
     if shutter_close < shutter_open {
@@ -197,6 +263,7 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         exposure_iso: positive("exposure:iso", d.exposure_iso, p),
         exposure_responsivity: positive("exposure:responsivity", d.exposure_responsivity, p),
         medium: None,
+        filter,
     };
     CameraPiece {
         desc,

@@ -134,13 +134,13 @@ pub enum AtlasLight {
 }
 
 impl AtlasLight {
-    /// The atlas's view of a renderer light; None for dome lights (their smooth light is the
+    /// The atlas's view of a renderer light; None for dome and sky lights (their smooth light is the
     /// path tracer's job).
     pub fn from_light(light: &Light) -> Option<AtlasLight> {
         let power = light.power();
         let bound = |c: Vec3, pts: &[Vec3]| pts.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
         match light {
-            Light::Dome(_) => None,
+            Light::Dome(_) | Light::Sky(_) => None,
             Light::Point(l) => Some(AtlasLight::Local { center: l.p, radius: 0.0, power }),
             Light::Sphere(l) => Some(AtlasLight::Local { center: l.center, radius: l.radius, power }),
             Light::Rect(l) => {

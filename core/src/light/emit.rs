@@ -22,7 +22,7 @@
 //! | sphere, rect, disk, cylinder side, triangle | uniform by area, 1/A | cosine about the emitting normal, cos/π (two-sided triangles: either side with probability ½, cos/2π) |
 //! | point | the point (delta, `pdf_pos` 1) | uniform sphere, 1/4π |
 //! | distant | uniform on a disk perpendicular to the sun, 1/(πR′²) | uniform in the sun's cone, 1/(2π(1 − cos θ)) (delta for angle 0: `pdf_dir` 1) |
-//! | dome | uniform on a disk perpendicular to the sampled direction, 1/(πR²) | the dome's own distribution (as for `sample_li`) |
+//! | dome, sky | uniform on a disk perpendicular to the sampled direction, 1/(πR²) | the dome's own distribution (as for `sample_li`) |
 //!
 //! Infinite lights start their rays on a disk derived from an [`EmissionDisk`] `{center,
 //! radius}` (a sphere the caller wants lit: the scene's bounding sphere, or the bounds of the
@@ -255,7 +255,7 @@ impl Light {
                 };
                 Some(LeSample { ray_o, ray_d: d, l: li.l, pdf_pos: 1.0 / (PI * r * r), pdf_dir: li.pdf, n_light, delta_pos: false, delta_dir: li.is_delta })
             }
-            Light::Dome(_) => {
+            Light::Dome(_) | Light::Sky(_) => {
                 let ctx = LightSampleContext::new(disk.center, Vec3::ZERO);
                 let li = self.sample_li(&ctx, u_dir, lambda)?;
                 if li.l.is_black() {
@@ -301,7 +301,7 @@ impl Light {
                 }
                 (1.0 / (PI * r * r), pdf_dir)
             }
-            Light::Dome(_) => {
+            Light::Dome(_) | Light::Sky(_) => {
                 let pdf_dir = self.pdf_li(&LightSampleContext::new(disk.center, Vec3::ZERO), -ray_d, None);
                 let r = disk.radius;
                 let pdf_pos = if line_hits_disk(ray_o, ray_d, disk.center, ray_d, r) { 1.0 / (PI * r * r) } else { 0.0 };
@@ -352,7 +352,7 @@ impl Light {
                 };
                 per_area * PI * r * r
             }
-            Light::Dome(_) => 4.0 * PI * PI * disk.radius * disk.radius,
+            Light::Dome(_) | Light::Sky(_) => 4.0 * PI * PI * disk.radius * disk.radius,
             _ => PI * self.area(),
         }
     }

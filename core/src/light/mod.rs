@@ -21,7 +21,16 @@
 //! Sampling: sphere lights by the cone they subtend; rect lights uniformly in solid angle
 //! (spherical rectangles; by area when sheared or when they subtend under 1e-3 sr); disks,
 //! cylinders and triangles by area; distant lights uniformly in their cone; domes by a 2D
-//! piecewise-constant distribution of texel luminance × sin θ (uniformly without a texture).
+//! piecewise-constant distribution of texel luminance × sin θ (uniformly without a texture);
+//! the Hošek–Wilkie sky (`LightShape::Sky`) by its tabulated luminance over the upper
+//! hemisphere ([`crate::sky::SkySampler`]).
+//!
+//! The sky and its physical sun: `LightShape::Sky` is [`Light::Sky`], an infinite light like
+//! a dome (not delta, `le`/`pdf_li` over the upper hemisphere, zero below the horizon, power
+//! 4π · mean luminance · πR²). `LightShape::SkySun` is a [`Light::Distant`] of the solar
+//! disc's angular diameter (0.51°) whose radiance is the disc's mean spectral radiance
+//! ([`crate::sky::HosekWilkieSky::sun_spectrum`]: limb darkening averaged over the disc, the
+//! irradiance exact) for its elevation; the light's `color` and `normalize` do not apply.
 //!
 //! Approximations: a sphere light under a non-uniform scale stays a sphere whose radius is
 //! scaled by the mean of the axis scales; a cylinder's cross-section likewise stays circular
@@ -141,6 +150,45 @@ pub struct DomeLight {
     pub visible_to_camera: bool,
     scene_center: Vec3,
     scene_radius: f32,
+}
+
+/// The Hošek–Wilkie sky as an infinite light (`LightShape::Sky`): radiance, sampling and
+/// density from [`crate::sky::SkyLight`] (the upper hemisphere only; nothing below the horizon).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkyDomeLight {
+    pub sky: crate::sky::SkyLight,
+    /// The sky's solid-angle mean radiance over the whole sphere (∫_H L dω / 4π per
+    /// wavelength, scale included) as a spectrum, so that power and `phi` follow the dome's
+    /// formulas (4π · mean · πR²); `luminance` is that spectrum's exact Y (scale 1).
+    pub emission: Emission,
+    pub visible_to_camera: bool,
+    scene_center: Vec3,
+    scene_radius: f32,
+}
+
+impl SkyDomeLight {
+    fn new(sky: crate::sky::HosekWilkieSky, scale: f32, visible_to_camera: bool) -> Result<SkyDomeLight, String> {
+        use crate::sky::data::N_BANDS;
+        use crate::sky::model::{band_position, band_xyz_weights};
+        let integrals = sky.band_hemisphere_integrals();
+        let w = band_xyz_weights();
+        let inv4pi = 1.0 / (4.0 * std::f64::consts::PI);
+        let mean: [f64; N_BANDS] = std::array::from_fn(|b| integrals[b] * inv4pi * scale as f64);
+        let luminance = (0..N_BANDS).map(|b| w[b][1] * mean[b]).sum::<f64>() as f32;
+        // the band values interpolated as the sky interpolates its radiance (linear between
+        // bands, held from 720 nm), tabulated every nanometre so the interpolation is kept
+        let lambda: Vec<f32> = (crate::spectrum::LAMBDA_MIN as u32..=crate::spectrum::LAMBDA_MAX as u32).map(|l| l as f32).collect();
+        let value: Vec<f32> = lambda
+            .iter()
+            .map(|&l| match band_position(l as f64) {
+                Some((i, f)) => ((1.0 - f) * mean[i] + f * mean[i + 1]) as f32,
+                None => 0.0,
+            })
+            .collect();
+        let spectrum = Spectrum::tabulated(&lambda, &value).map_err(|e| err("tide:sky:model", format!("mean sky spectrum: {e}")))?;
+        let light = crate::sky::SkyLight::new(sky, scale).map_err(|e| e.to_string())?;
+        Ok(SkyDomeLight { sky: light, emission: Emission { spectrum, scale: 1.0, luminance }, visible_to_camera, scene_center: Vec3::ZERO, scene_radius: 1.0 })
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -349,6 +397,7 @@ pub struct TriangleLight {
 pub enum Light {
     Distant(DistantLight),
     Dome(DomeLight),
+    Sky(Box<SkyDomeLight>),
     Sphere(SphereLight),
     Rect(RectLight),
     Disk(DiskLight),
@@ -629,6 +678,34 @@ impl Light {
                 }
                 Light::Dome(DomeLight { rot, emission: em, map, visible_to_camera: vis, scene_center: Vec3::ZERO, scene_radius: 1.0 })
             }
+            LightShape::Sky { turbidity, ground_albedo, sun_direction, scale: units } => {
+                let units = check_length("tide:sky:scale", *units)?;
+                let y = m3 * Vec3::Y;
+                let sky = crate::sky::HosekWilkieSky::with_frame(y, *sun_direction, *turbidity, crate::sky::GroundAlbedo::Rgb { rgb: *ground_albedo, color_space: cs }).map_err(|e| e.to_string())?;
+                let s = scale * units;
+                if !s.is_finite() {
+                    return Err(err("exposure", format!("intensity × 2^exposure × sky scale overflows ({intensity} × 2^{exposure} × {units})")));
+                }
+                Light::Sky(Box::new(SkyDomeLight::new(sky, s, vis)?))
+            }
+            LightShape::SkySun { zenith, turbidity, scale: units } => {
+                let units = check_length("tide:sky:scale", *units)?;
+                let to_light = m3 * Vec3::Z;
+                if !(to_light.length_squared() > 0.0) {
+                    return Err(err("transform", "collapses the light's direction"));
+                }
+                let to_light = to_light.normalize();
+                // the ground albedo does not enter the solar radiance
+                let sky = crate::sky::HosekWilkieSky::with_frame(*zenith, to_light, *turbidity, 0.0).map_err(|e| e.to_string())?;
+                let spectrum = sky.sun_spectrum().map_err(|e| e.to_string())?;
+                let s = scale * units;
+                if !s.is_finite() {
+                    return Err(err("exposure", format!("intensity × 2^exposure × sky scale overflows ({intensity} × 2^{exposure} × {units})")));
+                }
+                let r = crate::sky::SUN_ANGULAR_RADIUS;
+                let omc = (2.0 * (0.5 * r).sin().powi(2)) as f32;
+                Light::Distant(DistantLight { to_light, frame: Frame::from_normal(to_light), one_minus_cos: omc, emission: Emission::new(spectrum, s), visible_to_camera: vis, scene_radius: 1.0 })
+            }
             LightShape::Sphere { radius, treat_as_point } => {
                 let r = check_length("radius", *radius)?;
                 let s = (m3.x_axis.length() + m3.y_axis.length() + m3.z_axis.length()) / 3.0;
@@ -734,12 +811,16 @@ impl Light {
                 d.scene_center = if scene_center.is_finite() { scene_center } else { Vec3::ZERO };
                 d.scene_radius = r;
             }
+            Light::Sky(d) => {
+                d.scene_center = if scene_center.is_finite() { scene_center } else { Vec3::ZERO };
+                d.scene_radius = r;
+            }
             _ => {}
         }
     }
 
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Distant(_) | Light::Dome(_))
+        matches!(self, Light::Distant(_) | Light::Dome(_) | Light::Sky(_))
     }
 
     pub fn is_delta(&self) -> bool {
@@ -755,6 +836,7 @@ impl Light {
         match self {
             Light::Distant(l) => l.visible_to_camera,
             Light::Dome(l) => l.visible_to_camera,
+            Light::Sky(l) => l.visible_to_camera,
             Light::Sphere(l) => l.visible_to_camera,
             Light::Rect(l) => l.visible_to_camera,
             Light::Disk(l) => l.visible_to_camera,
@@ -768,6 +850,7 @@ impl Light {
         match self {
             Light::Distant(l) => &l.emission,
             Light::Dome(l) => &l.emission,
+            Light::Sky(l) => &l.emission,
             Light::Sphere(l) => &l.emission,
             Light::Rect(l) => &l.emission,
             Light::Disk(l) => &l.emission,
@@ -807,6 +890,7 @@ impl Light {
                 irradiance * PI * d.scene_radius * d.scene_radius
             }
             Light::Dome(d) => base * 4.0 * PI * PI * d.scene_radius * d.scene_radius,
+            Light::Sky(d) => base * 4.0 * PI * PI * d.scene_radius * d.scene_radius,
             Light::Triangle(t) => base * PI * t.area * if t.two_sided { 2.0 } else { 1.0 },
             _ => base * PI * self.area(),
         };
@@ -835,6 +919,7 @@ impl Light {
     pub fn le(&self, dir: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Light::Dome(d) => d.le(dir.normalize(), lambda),
+            Light::Sky(d) => d.sky.le(dir.normalize(), lambda),
             Light::Distant(d) if d.one_minus_cos > 0.0 && in_cone(dir.normalize(), d.to_light, d.one_minus_cos) => d.emission.sample(lambda),
             _ => SampledSpectrum::ZERO,
         }
@@ -949,6 +1034,17 @@ impl Light {
                 let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
                 Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
             }
+            Light::Sky(d) => {
+                let (wi, _) = d.sky.sampler.sample(u)?;
+                // radiance and density through `le` and `pdf_li` themselves, bit for bit
+                let pdf = self.pdf_li(ctx, wi, None);
+                if !(pdf > 0.0) {
+                    return None;
+                }
+                let l = self.le(wi, lambda);
+                let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
+                Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
+            }
             Light::Sphere(s) => {
                 let v = s.center - ctx.p;
                 let d2 = v.length_squared();
@@ -1022,6 +1118,7 @@ impl Light {
                 }
             }
             Light::Dome(d) => d.pdf(wi.normalize()),
+            Light::Sky(d) => d.sky.pdf_li(wi.normalize()),
             Light::Sphere(s) => {
                 let v = s.center - ctx.p;
                 let d2 = v.length_squared();

@@ -145,6 +145,15 @@ impl fmt::Display for SkyError {
 
 impl std::error::Error for SkyError {}
 
+/// Tide radiance per model unit (W m⁻² sr⁻¹ nm⁻¹) that makes Tide luminance read in cd m⁻²
+/// (nits): 683 lm W⁻¹ × ∫ ȳ dλ ≈ 7.30·10⁴. It is the `scale` the delegate gives
+/// [`crate::scene::LightShape::Sky`] and [`crate::scene::LightShape::SkySun`]; the dome's
+/// `intensity` × 2^`exposure` multiplies it. With it, a camera's physical exposure
+/// ([`crate::camera`]) maps the sky and sun to pixel values as seed 000 §3.3 describes.
+pub fn nits_per_model_unit() -> f32 {
+    cd_per_m2_per_unit_luminance() as f32
+}
+
 /// Photometric luminance (cd m⁻²) of one unit of Tide luminance when radiance is in
 /// W m⁻² sr⁻¹ nm⁻¹: 683 lm W⁻¹ × ∫ ȳ dλ over 360–830 nm.
 pub fn cd_per_m2_per_unit_luminance() -> f64 {

@@ -1,4 +1,5 @@
-"""The scene `tide render` draws when no stage is given: a sunlit pool under a blue sky."""
+"""The scene `tide render` draws when no stage is given: a sunlit pool under a Hošek–Wilkie sky
+with its physical sun, exposed by the sunny-16 rule."""
 
 DEFAULT_SCENE_USDA = '''#usda 1.0
 (
@@ -48,6 +49,42 @@ def Xform "World"
         rel material:binding = </Looks/Stone>
     }
 
+    def Cube "LawnLeft" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        double size = 1
+        double3 xformOp:translate = (-2003, -0.56, 0)
+        float3 xformOp:scale = (3994, 1, 8000)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+        rel material:binding = </Looks/Lawn>
+    }
+
+    def Cube "LawnRight" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        double size = 1
+        double3 xformOp:translate = (2003, -0.56, 0)
+        float3 xformOp:scale = (3994, 1, 8000)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+        rel material:binding = </Looks/Lawn>
+    }
+
+    def Cube "LawnFront" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        double size = 1
+        double3 xformOp:translate = (0, -0.56, 2003)
+        float3 xformOp:scale = (12, 1, 3994)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+        rel material:binding = </Looks/Lawn>
+    }
+
+    def Cube "LawnBack" (prepend apiSchemas = ["MaterialBindingAPI"])
+    {
+        double size = 1
+        double3 xformOp:translate = (0, -0.56, -2003)
+        float3 xformOp:scale = (12, 1, 3994)
+        uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:scale"]
+        rel material:binding = </Looks/Lawn>
+    }
+
     def Cube "PoolFloor" (prepend apiSchemas = ["MaterialBindingAPI"])
     {
         double size = 1
@@ -86,6 +123,18 @@ def Scope "Looks"
             uniform token info:id = "UsdPreviewSurface"
             color3f inputs:diffuseColor = (0.62, 0.58, 0.52)
             float inputs:roughness = 0.8
+            token outputs:surface
+        }
+    }
+
+    def Material "Lawn"
+    {
+        token outputs:surface.connect = </Looks/Lawn/Surface.outputs:surface>
+        def Shader "Surface"
+        {
+            uniform token info:id = "UsdPreviewSurface"
+            color3f inputs:diffuseColor = (0.12, 0.2, 0.06)
+            float inputs:roughness = 0.9
             token outputs:surface
         }
     }
@@ -141,9 +190,7 @@ def Scope "Lights"
 {
     def DistantLight "Sun" (prepend apiSchemas = ["TideCausticsAPI"])
     {
-        float inputs:angle = 0.53
-        float inputs:intensity = 40000
-        color3f inputs:color = (1, 0.96, 0.9)
+        float inputs:angle = 0.51
         float3 xformOp:rotateXYZ = (-55, 30, 0)
         uniform token[] xformOpOrder = ["xformOp:rotateXYZ"]
         bool tide:caustics:emitter = 1
@@ -151,10 +198,11 @@ def Scope "Lights"
 
     def DomeLight "Sky" (prepend apiSchemas = ["TideSkyAPI"])
     {
-        float inputs:intensity = 0.5
-        color3f inputs:color = (0.45, 0.65, 1.0)
+        uniform token tide:sky:model = "hosekWilkie"
         float tide:sky:turbidity = 3
+        color3f tide:sky:groundAlbedo = (0.3, 0.3, 0.3)
         rel tide:sky:sun = </Lights/Sun>
+        bool tide:sky:physicalSun = 1
     }
 }
 
@@ -164,8 +212,14 @@ def Camera "Camera"
     float horizontalAperture = 36
     float verticalAperture = 20.25
     float2 clippingRange = (0.05, 1000)
+    # sunny 16 (f/16, 1/125 s, ISO 100: 10^5 lx maps an 18% grey card to 0.18) with the
+    # responsivity 100 pi / 312.5 that makes USD's exposure seed 000's sensor equation
+    float exposure:fStop = 16
+    float exposure:time = 0.008
+    float exposure:iso = 100
+    float exposure:responsivity = 1.0053096
     double3 xformOp:translate = (0, 3.2, 8.5)
-    float3 xformOp:rotateXYZ = (-22, 0, 0)
+    float3 xformOp:rotateXYZ = (-16, 0, 0)
     uniform token[] xformOpOrder = ["xformOp:translate", "xformOp:rotateXYZ"]
 }
 
