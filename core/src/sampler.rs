@@ -174,6 +174,30 @@ impl PixelSampler {
     }
 }
 
+/// A stream of uniform numbers for estimators that need an unbounded count of them (delta and
+/// ratio tracking): a SplitMix64 sequence seeded by one sample value, so that the stream is a
+/// deterministic function of the pixel sample.
+#[derive(Clone, Debug)]
+pub struct StreamRng(u64);
+
+impl StreamRng {
+    /// Seeds from a sample value in [0, 1) and a salt (e.g. the vertex).
+    pub fn new(u: f32, salt: u32) -> Self {
+        StreamRng(((u.to_bits() as u64) << 32 | salt as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15))
+    }
+
+    /// Next number in [0, 1).
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        (z >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

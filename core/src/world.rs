@@ -149,6 +149,36 @@ fn float_param(c: &FloatInput) -> FloatParam {
     }
 }
 
+/// The largest world y, at time 0, of every object whose material is filled with medium
+/// `medium` (the depth origin of a depth-varying water medium); None when no object is.
+fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
+    let mut top: Option<f32> = None;
+    for (ii, inst) in scene.instances.iter().enumerate() {
+        if scene.materials.get(inst.material).and_then(|m| m.interior_medium) != Some(medium) {
+            continue;
+        }
+        let xf = accel.instance_transform(ii as u32, 0.0);
+        let mut up = |y: f32| {
+            if y.is_finite() {
+                top = Some(top.map_or(y, |t| t.max(y)));
+            }
+        };
+        match inst.geometry {
+            GeometryRef::Mesh(i) => scene.meshes[i].positions.iter().for_each(|p| up(xf.transform_point3(*p).y)),
+            GeometryRef::Spheres(i) => {
+                let s = &scene.spheres[i];
+                for (c, r) in s.centers.iter().zip(&s.radii) {
+                    // the top of the transformed sphere: centre plus the radius along the
+                    // row of the transform that produces y
+                    let row = glam::Vec3::new(xf.x_axis.y, xf.y_axis.y, xf.z_axis.y);
+                    up(xf.transform_point3(*c).y + r * row.length());
+                }
+            }
+        }
+    }
+    top
+}
+
 impl World {
     /// Builds the world from a validated scene. Problems met here are appended to `problems`.
     pub fn build(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>) -> World {
@@ -210,11 +240,19 @@ impl World {
         let media = scene
             .media
             .iter()
-            .map(|m| match Medium::from_desc(m, cs) {
+            .enumerate()
+            .map(|(mi, m)| {
+                let mut m = m.clone();
+                if let Some(w) = m.water.as_mut().filter(|w| w.top.is_none()) {
+                    w.top = Some(water_top(scene, &accel, mi).unwrap_or(0.0));
+                }
+                m
+            })
+            .map(|m| match Medium::from_desc(&m, cs) {
                 Ok(med) => med,
                 Err(e) => {
                     problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
-                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic }, cs).expect("empty medium")
+                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None }, cs).expect("empty medium")
                 }
             })
             .collect();

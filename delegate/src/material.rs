@@ -377,7 +377,7 @@ impl Ctx<'_> {
             self.p.add(&format!("{}.inputs:absorption", n), "negative coefficients; the medium is treated as empty");
             ([0.0; 3], [0.0; 3])
         };
-        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase }
+        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase, water: None }
     }
 }
 
