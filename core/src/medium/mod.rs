@@ -16,6 +16,8 @@ pub mod tracking;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tracking_tests;
 
 pub use homogeneous::{
     distance_pdf, pass_probability, sample_distance_spectral, transmittance_spectral, DistanceSample,
