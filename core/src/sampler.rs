@@ -203,6 +203,26 @@ mod tests {
     use super::*;
 
     #[test]
+    fn stream_rng_is_uniform_and_streams_differ_by_seed() {
+        // χ² over 64 equal bins at 1 % significance; 200 000 draws
+        let mut r = StreamRng::new(0.37, 3);
+        let n = 200_000;
+        let mut bins = [0f64; 64];
+        for _ in 0..n {
+            let u = r.next_f32();
+            assert!((0.0..1.0).contains(&u));
+            bins[(u * 64.0) as usize] += 1.0;
+        }
+        let e = n as f64 / 64.0;
+        let stat: f64 = bins.iter().map(|o| (o - e) * (o - e) / e).sum();
+        let p = crate::testing::chi2::gamma_q(63.0 / 2.0, stat / 2.0);
+        assert!(p > 0.01, "p-value {p}");
+        let first = |u: f32, salt: u32| StreamRng::new(u, salt).next_f32();
+        assert_ne!(first(0.37, 3), first(0.37, 4));
+        assert_ne!(first(0.37, 3), first(0.370001, 3));
+    }
+
+    #[test]
     fn sobol_first_points_are_the_known_sequence() {
         // Dimension 0 is van der Corput: 0, 1/2, 1/4, 3/4, ...
         let f = |i, d| sobol_u32(i, d) as f64 / 4294967296.0;

@@ -453,3 +453,36 @@ impl World {
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat4;
+
+    fn tri(name: &str, y: [f32; 3]) -> MeshDesc {
+        MeshDesc { name: name.into(), positions: vec![Vec3::new(0.0, y[0], 0.0), Vec3::new(1.0, y[1], 0.0), Vec3::new(0.0, y[2], 1.0)], indices: vec![0, 1, 2], ..Default::default() }
+    }
+
+    fn inst(g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
+        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true }
+    }
+
+    #[test]
+    fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
+        let mut s = SceneDesc::default();
+        s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]));
+        s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None });
+        let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
+        s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
+        // medium 0: the mesh lifted by 2 (top 3) and a unit sphere scaled by 2.5 at y = 1 (top 3.5)
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 2.0), 0));
+        s.instances.push(inst(GeometryRef::Spheres(0), Mat4::from_scale_rotation_translation(Vec3::splat(2.5), glam::Quat::IDENTITY, Vec3::Y), 0));
+        // medium 1: the mesh as is; an unfilled body far above changes nothing
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 1));
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 50.0), 2));
+        let accel = Accel::build(&s.meshes, &s.spheres, &s.instances, (0.0, 0.0));
+        assert_eq!(water_top(&s, &accel, 0), Some(3.5));
+        assert_eq!(water_top(&s, &accel, 1), Some(1.0));
+        assert_eq!(water_top(&s, &accel, 2), None);
+    }
+}
