@@ -1,13 +1,14 @@
-//! Participating media: phase functions, the homogeneous medium that fills water bodies, and
-//! spectral-MIS free-flight sampling.
+//! Participating media: phase functions, the homogeneous medium that fills water bodies, the
+//! depth-varying water medium, and spectral-MIS free-flight sampling.
 //!
 //! [`Medium`] is the enum the integrator holds. Its position-aware interface
 //! ([`Medium::sample_distance`] and [`Medium::transmittance`] take the ray and a source of
-//! uniform numbers) is the one a heterogeneous medium needs: a density grid times
-//! coefficients, traversed by delta tracking (collisions) and ratio tracking (shadow rays)
-//! against a per-wavelength majorant, with the same one-sample spectral MIS over wavelengths
-//! as the homogeneous case. A homogeneous medium consumes exactly one number per call of
-//! `sample_distance` and none for `transmittance`.
+//! uniform numbers) serves both variants: [`Medium::Homogeneous`] consumes exactly one number
+//! per call of `sample_distance` and none for `transmittance`; [`Medium::BioOptical`] (natural
+//! water whose coefficients vary with depth) uses delta tracking for collisions, with the same
+//! one-sample spectral MIS over wavelengths as the homogeneous case, and residual ratio
+//! tracking for shadow rays, against per-wavelength bounds of σt over each segment
+//! ([`tracking`], [`bio_optical`]).
 
 pub mod bio_optical;
 pub mod homogeneous;
