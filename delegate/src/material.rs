@@ -427,7 +427,7 @@ impl Ctx<'_> {
             }
             None
         };
-        let water = (jerlov.is_some() || chlorophyll > 0.0 || cdom > 0.0 || spm > 0.0 || profile.is_some()).then(|| WaterIopDesc {
+        let water = (jerlov.is_some() || chlorophyll > 0.0 || cdom > 0.0 || spm > 0.0 || profile.is_some()).then_some(WaterIopDesc {
             jerlov,
             chlorophyll,
             cdom,

@@ -62,7 +62,7 @@ impl std::error::Error for MediumError {}
 pub enum Medium {
     Homogeneous(HomogeneousMedium),
     /// Natural water varying with depth (Jerlov / bio-optical IOPs).
-    BioOptical(BioOpticalMedium),
+    BioOptical(Box<BioOpticalMedium>),
 }
 
 impl Medium {
@@ -75,14 +75,14 @@ impl Medium {
         let water = crate::water::bio_optical_from_desc(w).map_err(|e| MediumError::BadMedium { medium: desc.name.clone(), reason: e.to_string() })?;
         // the RGB part unscaled: the scale multiplies the sum with the water's coefficients
         let rgb = HomogeneousMedium::from_desc_in(&MediumDesc { scale: 1.0, water: None, ..desc.clone() }, cs)?;
-        Ok(Medium::BioOptical(BioOpticalMedium {
+        Ok(Medium::BioOptical(Box::new(BioOpticalMedium {
             water,
             extra_a: rgb.sigma_a,
             extra_s: rgb.sigma_s,
             scale: desc.scale,
             phase: h.phase,
             top: w.top.unwrap_or(0.0),
-        }))
+        })))
     }
 
     /// True when coefficients and phase function are the same everywhere.

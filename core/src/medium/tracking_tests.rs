@@ -61,9 +61,10 @@ impl Bumped {
         let n = 40_000;
         let h = len / n as f64;
         let mut out = [[0.0; 4]; 3];
+        #[allow(clippy::needless_range_loop)]
         for j in 0..4 {
             let (mut tau, mut single, mut first) = (0.0, 0.0, 0.0);
-            let f = |t: f64, tau: f64| self.sigma_s(j, t) * (-tau as f64).exp();
+            let f = |t: f64, tau: f64| self.sigma_s(j, t) * (-tau).exp();
             let mut prev = f(0.0, 0.0);
             for i in 1..=n {
                 let (t0, t1) = ((i - 1) as f64 * h, i as f64 * h);
