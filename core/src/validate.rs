@@ -465,4 +465,40 @@ mod tests {
         assert!(clean.lights.is_empty());
         assert_eq!(clean.camera.horizontal_aperture, 20.955);
     }
+
+    #[test]
+    fn bad_water_media_are_reported_and_replaced_by_defaults() {
+        use crate::water::{JerlovSource, JerlovType};
+        let mut s = SceneDesc::default();
+        s.media.push(MediumDesc {
+            name: "/Sea/Medium".into(),
+            sigma_a: SpectrumDesc::Rgb([0.0; 3]),
+            sigma_s: SpectrumDesc::Rgb([0.0; 3]),
+            scale: 1.0,
+            phase: PhaseDesc::Tabulated { theta: vec![0.0, 1.0], value: vec![1.0] },
+            water: Some(WaterIopDesc {
+                jerlov: Some(JerlovDesc { water_type: JerlovType::I, source: JerlovSource::Williamson2022 }),
+                chlorophyll: -1.0,
+                cdom: f32::NAN,
+                spm: 2.0,
+                chlorophyll_profile: Some(DepthProfileDesc { depth: f32::INFINITY, width: -1.0, peak: 3.0 }),
+                salinity: 60.0,
+                top: Some(f32::NAN),
+            }),
+        });
+        let (clean, probs) = validate(&s);
+        let has = |attr: &str| probs.iter().any(|p| p.item == "/Sea/Medium" && p.attribute == attr);
+        for attr in ["phase", "chlorophyll", "cdom", "profileDepth", "profileWidth", "salinity", "top", "jerlovSource"] {
+            assert!(has(attr), "{attr}: {probs:?}");
+        }
+        assert_eq!(probs.len(), 8, "{probs:?}");
+        let m = &clean.media[0];
+        assert_eq!(m.phase, PhaseDesc::Isotropic);
+        let w = m.water.as_ref().unwrap();
+        assert_eq!((w.chlorophyll, w.cdom, w.spm, w.salinity, w.top), (0.0, 0.0, 2.0, 0.0, Some(0.0)));
+        assert_eq!(w.chlorophyll_profile, Some(DepthProfileDesc { depth: 0.0, width: 0.0, peak: 3.0 }));
+        assert_eq!(w.jerlov.unwrap().source, JerlovSource::Solonenko2015);
+        // what is left builds
+        crate::medium::Medium::from_desc(m, ColorSpace::LinearRec709).unwrap();
+    }
 }
