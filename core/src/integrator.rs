@@ -10,7 +10,7 @@ use crate::bsdf::{flags, Bsdf, TransportMode};
 use crate::film::SampleValue;
 use crate::light::LightSampleContext;
 use crate::math::{offset_ray_origin, power_heuristic, Frame};
-use crate::sampler::PixelSampler;
+use crate::sampler::{PixelSampler, StreamRng};
 use crate::spectrum::{color, SampledSpectrum, SampledWavelengths};
 use crate::medium::DistanceSample;
 use crate::world::{SurfaceHit, World};
@@ -140,8 +140,10 @@ fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &Interio
 
 /// Transmittance along a shadow ray from `o` (already offset) in direction `d` over `dist`,
 /// starting in `medium`. Opaque and dielectric surfaces block; translucent preview surfaces
-/// attenuate by their opacity; surfaces that cast no shadows are skipped.
-fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths) -> SampledSpectrum {
+/// attenuate by their opacity; surfaces that cast no shadows are skipped. `seed` (a sample
+/// value) seeds the numbers a depth-varying medium's ratio tracking draws.
+#[allow(clippy::too_many_arguments)]
+fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;
@@ -170,8 +172,9 @@ fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, m
         }
     }
     if let Some(m) = medium {
-        let mut never = || 0.5;
-        tr *= world.media[m].transmittance(o, d, dist.min(1e30), &mut never, lambda);
+        let mut stream = StreamRng::new(seed, 0x5ad0);
+        let mut rng = || stream.next_f32();
+        tr *= world.media[m].transmittance(o, d, dist.min(1e30), &mut rng, lambda);
     }
     tr
 }
@@ -281,9 +284,12 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
 
         // the medium the ray travels in
         if let Some(mi) = stack.medium() {
+            // the first number is the sampler's (all a homogeneous medium uses); tracking
+            // in a depth-varying one continues with a stream seeded by the next
             let u = sampler.get1d();
+            let mut stream = StreamRng::new(sampler.get1d(), vertex);
             let mut uu = Some(u);
-            let mut rng = || uu.take().unwrap_or(0.5);
+            let mut rng = || uu.take().unwrap_or_else(|| stream.next_f32());
             match world.media[mi].sample_distance(ray.o, ray.d, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
                     beta *= weight;
@@ -305,13 +311,14 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     if n_light > 0 {
                         let ul = sampler.get1d();
                         let u2 = sampler.get2d();
+                        let u_tr = sampler.get1d();
                         if let Some((li, pmf)) = world.light_sampler.sample(ul) {
                             let ctx = LightSampleContext::new(p, Vec3::ZERO);
                             if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
-                                    let tr = shadow_transmittance(world, p, ls.wi, dist, ray.time, Some(mi), lambda);
+                                    let tr = shadow_transmittance(world, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr);
                                     if !tr.is_black() {
                                         let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
@@ -479,6 +486,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if !bsdf.is_specular() && n_light > 0 {
             let ul = sampler.get1d();
             let u2 = sampler.get2d();
+            let u_tr = sampler.get1d();
             if let Some((li, pmf)) = world.light_sampler.sample(ul) {
                 let ctx = LightSampleContext::new(s.p, s.ns);
                 if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
@@ -492,7 +500,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let med = if out_front { medium_front } else { medium_back };
                             let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, o, ls.wi, dist, ray.time, med, lambda);
+                            let tr = shadow_transmittance(world, o, ls.wi, dist, ray.time, med, lambda, u_tr);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));

@@ -191,9 +191,67 @@ pub enum PhaseDesc {
     HenyeyGreenstein { g: f32 },
     /// w·HG(g1) + (1−w)·HG(g2).
     DualHg { g1: f32, g2: f32, w: f32 },
+    /// A measured or modelled p(θ) (Fournier–Forand, Petzold, mixtures with the molecular
+    /// function): nodes (θ in radians ∈ [0, π], value ≥ 0) in any order, values proportional
+    /// to the density (normalised on use), linear in cosθ between nodes and held beyond the
+    /// first and last node.
+    Tabulated { theta: Vec<f32>, value: Vec<f32> },
 }
 
-/// A homogeneous participating medium (coefficients in 1/m, i.e. per scene unit).
+/// A Jerlov water type and the published table its IOPs come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct JerlovDesc {
+    pub water_type: crate::water::JerlovType,
+    pub source: crate::water::JerlovSource,
+}
+
+/// A Gaussian depth profile added to a concentration: peak·exp(−(z − depth)²/(2·width²)),
+/// z in metres below the water's top.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthProfileDesc {
+    pub depth: f32,
+    /// σ of the Gaussian, m (0 = no profile).
+    pub width: f32,
+    /// Added concentration at `depth` (mg m⁻³ for chlorophyll).
+    pub peak: f32,
+}
+
+/// Spectral, depth-dependent coefficients of natural water: the `TideMedium` inputs
+/// `jerlovType`, `jerlovSource`, `chlorophyll`, `cdom`, `spm` and `profileDepth/Width/Peak`.
+///
+/// The water's σa(λ, z), σs(λ, z) (m⁻¹) are a Jerlov type's IOPs when `jerlov` is set, pure
+/// seawater (Buiteveld absorption, Morel scattering at `salinity`) otherwise, plus the
+/// bio-optical constituents (see `water::bio`); the profile applies to chlorophyll. Both are
+/// added to the medium's `sigma_a` / `sigma_s` and the sum is multiplied by `scale`.
+///
+/// Depth z is measured downwards (−Y, the scene's up axis being +Y) from the world height
+/// `top`: z = top − y. With `top` unset the world builder uses the top (largest y) of the
+/// world bounds, at shutter open, of every object whose material is filled with this medium
+/// (y = 0 when no object is).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WaterIopDesc {
+    pub jerlov: Option<JerlovDesc>,
+    /// Chlorophyll-a, mg m⁻³.
+    pub chlorophyll: f32,
+    /// Coloured dissolved organic matter, g m⁻³.
+    pub cdom: f32,
+    /// Suspended particulate matter, g m⁻³.
+    pub spm: f32,
+    pub chlorophyll_profile: Option<DepthProfileDesc>,
+    /// PSU, for pure-seawater scattering (the enclosing `TideWater.salinity`).
+    pub salinity: f32,
+    /// World y of depth 0; None: from the bounds of the water bodies (see above).
+    pub top: Option<f32>,
+}
+
+impl Default for WaterIopDesc {
+    fn default() -> Self {
+        WaterIopDesc { jerlov: None, chlorophyll: 0.0, cdom: 0.0, spm: 0.0, chlorophyll_profile: None, salinity: 0.0, top: None }
+    }
+}
+
+/// A participating medium (coefficients in 1/m, i.e. per scene unit): homogeneous from
+/// `sigma_a`/`sigma_s`, or depth-varying when `water` adds natural-water IOPs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MediumDesc {
     pub name: String,
@@ -201,6 +259,7 @@ pub struct MediumDesc {
     pub sigma_s: SpectrumDesc,
     pub scale: f32,
     pub phase: PhaseDesc,
+    pub water: Option<WaterIopDesc>,
 }
 
 /// A triangle mesh, already triangulated and with primvars expanded per vertex.

@@ -177,6 +177,45 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                     *w = if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.9 };
                 }
             }
+            PhaseDesc::Tabulated { .. } => {
+                if let Err(e) = crate::medium::PhaseFunction::from_desc(&m.phase) {
+                    problem(&mut p, &m.name, "phase", format!("{e}; using isotropic"));
+                    m.phase = PhaseDesc::Isotropic;
+                }
+            }
+        }
+        if let Some(w) = &mut m.water {
+            let name = m.name.clone();
+            let mut fix = |v: &mut f32, attr: &str, ok: bool, default: f32, what: &str| {
+                if !ok {
+                    problem(&mut p, &name, attr, format!("{v} {what}; using {default}"));
+                    *v = default;
+                }
+            };
+            for (v, attr) in [(&mut w.chlorophyll, "chlorophyll"), (&mut w.cdom, "cdom"), (&mut w.spm, "spm")] {
+                let ok = v.is_finite() && *v >= 0.0;
+                fix(v, attr, ok, 0.0, "must be finite and ≥ 0");
+            }
+            if let Some(pr) = &mut w.chlorophyll_profile {
+                let ok = pr.depth.is_finite();
+                fix(&mut pr.depth, "profileDepth", ok, 0.0, "must be finite");
+                let ok = pr.width.is_finite() && pr.width >= 0.0;
+                fix(&mut pr.width, "profileWidth", ok, 0.0, "must be finite and ≥ 0");
+                let ok = pr.peak.is_finite() && pr.peak >= 0.0;
+                fix(&mut pr.peak, "profilePeak", ok, 0.0, "must be finite and ≥ 0");
+            }
+            let ok = w.salinity.is_finite() && (0.0..=45.0).contains(&w.salinity);
+            fix(&mut w.salinity, "salinity", ok, 0.0, "PSU is outside [0, 45]");
+            if let Some(t) = &mut w.top {
+                let ok = t.is_finite();
+                fix(t, "top", ok, 0.0, "must be finite");
+            }
+            if let Some(j) = w.jerlov {
+                if !j.source.has_type(j.water_type) {
+                    problem(&mut p, &m.name, "jerlovSource", format!("Jerlov type {} is not tabulated by {}; using solonenko2015", j.water_type.name(), j.source.name()));
+                    w.jerlov = Some(JerlovDesc { source: crate::water::JerlovSource::Solonenko2015, ..j });
+                }
+            }
         }
     }
 
@@ -432,5 +471,41 @@ mod tests {
         assert_eq!(clean.spheres[0].centers, vec![Vec3::ONE]);
         assert!(clean.lights.is_empty());
         assert_eq!(clean.camera.horizontal_aperture, 20.955);
+    }
+
+    #[test]
+    fn bad_water_media_are_reported_and_replaced_by_defaults() {
+        use crate::water::{JerlovSource, JerlovType};
+        let mut s = SceneDesc::default();
+        s.media.push(MediumDesc {
+            name: "/Sea/Medium".into(),
+            sigma_a: SpectrumDesc::Rgb([0.0; 3]),
+            sigma_s: SpectrumDesc::Rgb([0.0; 3]),
+            scale: 1.0,
+            phase: PhaseDesc::Tabulated { theta: vec![0.0, 1.0], value: vec![1.0] },
+            water: Some(WaterIopDesc {
+                jerlov: Some(JerlovDesc { water_type: JerlovType::I, source: JerlovSource::Williamson2022 }),
+                chlorophyll: -1.0,
+                cdom: f32::NAN,
+                spm: 2.0,
+                chlorophyll_profile: Some(DepthProfileDesc { depth: f32::INFINITY, width: -1.0, peak: 3.0 }),
+                salinity: 60.0,
+                top: Some(f32::NAN),
+            }),
+        });
+        let (clean, probs) = validate(&s);
+        let has = |attr: &str| probs.iter().any(|p| p.item == "/Sea/Medium" && p.attribute == attr);
+        for attr in ["phase", "chlorophyll", "cdom", "profileDepth", "profileWidth", "salinity", "top", "jerlovSource"] {
+            assert!(has(attr), "{attr}: {probs:?}");
+        }
+        assert_eq!(probs.len(), 8, "{probs:?}");
+        let m = &clean.media[0];
+        assert_eq!(m.phase, PhaseDesc::Isotropic);
+        let w = m.water.as_ref().unwrap();
+        assert_eq!((w.chlorophyll, w.cdom, w.spm, w.salinity, w.top), (0.0, 0.0, 2.0, 0.0, Some(0.0)));
+        assert_eq!(w.chlorophyll_profile, Some(DepthProfileDesc { depth: 0.0, width: 0.0, peak: 3.0 }));
+        assert_eq!(w.jerlov.unwrap().source, JerlovSource::Solonenko2015);
+        // what is left builds
+        crate::medium::Medium::from_desc(m, ColorSpace::LinearRec709).unwrap();
     }
 }

@@ -150,6 +150,36 @@ fn float_param(c: &FloatInput) -> FloatParam {
     }
 }
 
+/// The largest world y, at time 0, of every object whose material is filled with medium
+/// `medium` (the depth origin of a depth-varying water medium); None when no object is.
+fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
+    let mut top: Option<f32> = None;
+    for (ii, inst) in scene.instances.iter().enumerate() {
+        if scene.materials.get(inst.material).and_then(|m| m.interior_medium) != Some(medium) {
+            continue;
+        }
+        let xf = accel.instance_transform(ii as u32, 0.0);
+        let mut up = |y: f32| {
+            if y.is_finite() {
+                top = Some(top.map_or(y, |t| t.max(y)));
+            }
+        };
+        match inst.geometry {
+            GeometryRef::Mesh(i) => scene.meshes[i].positions.iter().for_each(|p| up(xf.transform_point3(*p).y)),
+            GeometryRef::Spheres(i) => {
+                let s = &scene.spheres[i];
+                for (c, r) in s.centers.iter().zip(&s.radii) {
+                    // the top of the transformed sphere: centre plus the radius along the
+                    // row of the transform that produces y
+                    let row = glam::Vec3::new(xf.x_axis.y, xf.y_axis.y, xf.z_axis.y);
+                    up(xf.transform_point3(*c).y + r * row.length());
+                }
+            }
+        }
+    }
+    top
+}
+
 impl World {
     /// Builds the world from a validated scene. Problems met here are appended to `problems`.
     pub fn build(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>) -> World {
@@ -211,11 +241,19 @@ impl World {
         let media = scene
             .media
             .iter()
-            .map(|m| match Medium::from_desc(m, cs) {
+            .enumerate()
+            .map(|(mi, m)| {
+                let mut m = m.clone();
+                if let Some(w) = m.water.as_mut().filter(|w| w.top.is_none()) {
+                    w.top = Some(water_top(scene, &accel, mi).unwrap_or(0.0));
+                }
+                m
+            })
+            .map(|m| match Medium::from_desc(&m, cs) {
                 Ok(med) => med,
                 Err(e) => {
                     problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
-                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic }, cs).expect("empty medium")
+                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None }, cs).expect("empty medium")
                 }
             })
             .collect();
@@ -414,5 +452,38 @@ impl World {
             SurfaceKind::Emissive { .. } => Bsdf::lambert(SampledSpectrum::ZERO),
         };
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Mat4;
+
+    fn tri(name: &str, y: [f32; 3]) -> MeshDesc {
+        MeshDesc { name: name.into(), positions: vec![Vec3::new(0.0, y[0], 0.0), Vec3::new(1.0, y[1], 0.0), Vec3::new(0.0, y[2], 1.0)], indices: vec![0, 1, 2], ..Default::default() }
+    }
+
+    fn inst(g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
+        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true }
+    }
+
+    #[test]
+    fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
+        let mut s = SceneDesc::default();
+        s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]));
+        s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None });
+        let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
+        s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
+        // medium 0: the mesh lifted by 2 (top 3) and a unit sphere scaled by 2.5 at y = 1 (top 3.5)
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 2.0), 0));
+        s.instances.push(inst(GeometryRef::Spheres(0), Mat4::from_scale_rotation_translation(Vec3::splat(2.5), glam::Quat::IDENTITY, Vec3::Y), 0));
+        // medium 1: the mesh as is; an unfilled body far above changes nothing
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 1));
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 50.0), 2));
+        let accel = Accel::build(&s.meshes, &s.spheres, &s.instances, (0.0, 0.0));
+        assert_eq!(water_top(&s, &accel, 0), Some(3.5));
+        assert_eq!(water_top(&s, &accel, 1), Some(1.0));
+        assert_eq!(water_top(&s, &accel, 2), None);
     }
 }

@@ -23,7 +23,7 @@ fn beer_lambert_through_an_index_matched_slab() {
     let d = 0.5;
     let mut s = SceneDesc::default();
     s.meshes.push(box_mesh("/slab", Vec3::new(-5.0, -5.0, -d / 2.0), Vec3::new(5.0, 5.0, d / 2.0)));
-    s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic });
+    s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
@@ -71,7 +71,7 @@ fn busy_scene() -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(uv_sphere("/ball", 0.5, 16));
     s.meshes.push(quad_y("/floor", 5.0));
-    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 } });
+    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 }, water: None });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.5, 0.3]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.2, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/ball", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 0.5), 1));
@@ -145,4 +145,49 @@ fn spectral_estimates_are_consistent_for_a_single_wavelength_set() {
     for i in 0..4 {
         assert!((v[i] - sp.eval(lam.lambda[i])).abs() < 1e-6);
     }
+}
+
+/// The body colour of deep water seen from above under a white sky, with the IOPs of a Jerlov
+/// type (Williamson & Hollins 2022), Petzold's phase function with a molecular part, and an
+/// index-matched surface so that only light that entered the water reaches the camera. The
+/// depth origin comes from the water body's bounds (the scene leaves `top` unset).
+fn jerlov_body_rgb(t: tide_core::water::JerlovType) -> [(f64, f64); 3] {
+    use tide_core::water::{phase_desc, JerlovSource, ParticlePhase, PetzoldStation};
+    let mut s = SceneDesc::default();
+    s.meshes.push(box_mesh("/sea", Vec3::new(-60.0, -40.0, -60.0), Vec3::new(60.0, 0.0, 60.0)));
+    s.media.push(MediumDesc {
+        name: "/sea/medium".into(),
+        sigma_a: SpectrumDesc::Rgb([0.0; 3]),
+        sigma_s: SpectrumDesc::Rgb([0.0; 3]),
+        scale: 1.0,
+        phase: phase_desc(ParticlePhase::Petzold(PetzoldStation::AverageParticle), 0.1).unwrap(),
+        water: Some(WaterIopDesc { jerlov: Some(JerlovDesc { water_type: t, source: JerlovSource::Williamson2022 }), salinity: 35.0, ..Default::default() }),
+    });
+    s.materials.push(MaterialDesc { name: "/sea/mat".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
+    s.instances.push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.lights.push(dome(1.0));
+    s.camera = camera(Vec3::new(0.0, 2.0, 0.01), Vec3::ZERO, 20.0);
+    let w = 8;
+    let r = render(&s, settings(w, w, 32));
+    std::array::from_fn(|ch| {
+        let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
+        (m, se)
+    })
+}
+
+#[test]
+fn jerlov_ocean_water_is_bluer_than_coastal_water() {
+    use tide_core::water::JerlovType;
+    let ib = jerlov_body_rgb(JerlovType::IB);
+    let c5 = jerlov_body_rgb(JerlovType::C5);
+    // Clear ocean water (IB) absorbs red strongly and scatters mostly at short wavelengths:
+    // blue > green > red. Coastal 5C water adds CDOM and phytoplankton absorption in the blue
+    // and much more (greyer) particle scattering: green above both (its blue and red are
+    // close and not compared). Each comparison must hold by 3 standard errors of the means.
+    let gt = |a: (f64, f64), b: (f64, f64)| a.0 - b.0 > 3.0 * (a.1 * a.1 + b.1 * b.1).sqrt();
+    assert!(gt(ib[2], ib[1]) && gt(ib[1], ib[0]), "IB rgb {ib:?}");
+    assert!(gt(c5[1], c5[2]) && gt(c5[1], c5[0]), "5C rgb {c5:?}");
+    // blue relative to green: IB ≫ 5C
+    let ratio = |c: &[(f64, f64); 3]| c[2].0 / c[1].0;
+    assert!(ratio(&ib) > 1.5 * ratio(&c5), "b/g: IB {} vs 5C {}", ratio(&ib), ratio(&c5));
 }

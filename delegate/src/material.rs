@@ -332,53 +332,112 @@ impl Ctx<'_> {
         }
     }
 
-    fn medium(&mut self, n: &str, name: &str) -> MediumDesc {
+    /// A float input that must satisfy `ok`; otherwise a problem and `default`.
+    fn checked_f32(&mut self, node: &str, name: &str, default: f32, ok: impl Fn(f32) -> bool, expected: &str) -> f32 {
+        let v = self.input_f32(node, name, default);
+        if ok(v) {
+            v
+        } else {
+            self.p.add(&format!("{}.inputs:{}", node, name), format!("{} is outside {}; using {}", v, expected, default));
+            default
+        }
+    }
+
+    /// TideMedium (contract §3). `salinity` is the enclosing TideWater's (PSU), for the
+    /// scattering of pure seawater.
+    ///
+    /// * `jerlovType` set: the type's spectral IOPs from `jerlovSource` replace `absorption`
+    ///   and `scattering` (authored non-zero RGB is reported and ignored). A type the source
+    ///   does not tabulate (Williamson 2022 lacks I, IA, 7C, 9C) falls back to solonenko2015
+    ///   with a problem.
+    /// * `chlorophyll`, `cdom`, `spm` (and the chlorophyll profile `profileDepth/Width/Peak`,
+    ///   depth in m below the water's top) switch on the bio-optical model: pure seawater (or
+    ///   the Jerlov type) plus the constituents, added to the RGB coefficients.
+    /// * `densityScale` multiplies everything. `phase` `hg`/`dualHG` stay analytic unless
+    ///   `molecularWeight` > 0; `fournierForand` and `petzold` (and any molecular mixture) are
+    ///   tabulated (`PhaseDesc::Tabulated`).
+    ///
+    /// Bad tokens and out-of-range numbers give a problem naming the attribute and the
+    /// contract default.
+    fn medium(&mut self, n: &str, name: &str, salinity: f32) -> MediumDesc {
+        use tide_core::scene::{DepthProfileDesc, JerlovDesc, WaterIopDesc};
+        use tide_core::water::{JerlovSource, JerlovType, ParticlePhase};
+        let attr = |a: &str| format!("{}.inputs:{}", n, a);
+        let nonneg = |v: f32| v.is_finite() && v >= 0.0;
         let sa = self.input_vec(n, "absorption", [0.0; 3]);
         let ss = self.input_vec(n, "scattering", [0.0; 3]);
-        let scale = self.input_f32(n, "densityScale", 1.0);
-        let phase = match self.input_token(n, "phase", &["hg", "dualHG", "fournierForand", "petzold"], "hg") {
-            "dualHG" => PhaseDesc::DualHg {
-                g1: self.input_f32(n, "g", 0.0),
-                g2: self.input_f32(n, "g2", -0.3),
-                w: self.input_f32(n, "lobeMix", 0.9),
-            },
-            "hg" => PhaseDesc::HenyeyGreenstein { g: self.input_f32(n, "g", 0.0) },
-            other => {
-                self.p.add(&format!("{}.inputs:phase", n), format!("phase '{}' is not yet supported; using hg with g", other));
-                PhaseDesc::HenyeyGreenstein { g: self.input_f32(n, "g", 0.0) }
-            }
-        };
-        let pending = [
-            "jerlovType",
-            "jerlovSource",
-            "molecularWeight",
-            "chlorophyll",
-            "cdom",
-            "spm",
-            "profileDepth",
-            "profileWidth",
-            "profilePeak",
-        ];
-        for a in pending {
-            let authored = match self.nodes[n].inputs.get(a) {
-                None => false,
-                Some(v) => match v.as_str() {
-                    Some(s) => !s.is_empty() && !(a == "jerlovSource" && s == "williamson2022"),
-                    None => v.as_f64().is_some_and(|x| x != 0.0),
-                },
+        let (sa, ss) = {
+            let fix = |c: [f32; 3], a: &str, p: &mut Problems| {
+                if c.iter().all(|x| *x >= 0.0) {
+                    c
+                } else {
+                    p.add(&attr(a), format!("negative coefficients {:?}; using (0, 0, 0)", c));
+                    [0.0; 3]
+                }
             };
-            if authored {
-                self.p.add(&format!("{}.inputs:{}", n, a), "not yet supported; stored and ignored (absorption/scattering are used)");
-            }
-        }
-        let check = |c: [f32; 3]| c.iter().all(|x| *x >= 0.0);
-        let (sa, ss) = if check(sa) && check(ss) && scale >= 0.0 {
-            (sa, ss)
-        } else {
-            self.p.add(&format!("{}.inputs:absorption", n), "negative coefficients; the medium is treated as empty");
-            ([0.0; 3], [0.0; 3])
+            (fix(sa, "absorption", &mut self.p), fix(ss, "scattering", &mut self.p))
         };
-        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase }
+        let scale = self.checked_f32(n, "densityScale", 1.0, nonneg, "[0, ∞)");
+
+        // phase function
+        let unit = |v: f32| v.is_finite() && v.abs() <= 1.0;
+        let token = self.input_token(n, "phase", &["hg", "dualHG", "fournierForand", "petzold"], "hg");
+        let g = self.checked_f32(n, "g", 0.0, unit, "[-1, 1]");
+        let g2 = self.checked_f32(n, "g2", -0.3, unit, "[-1, 1]");
+        let lobe_mix = self.checked_f32(n, "lobeMix", 0.9, |v| (0.0..=1.0).contains(&v), "[0, 1]");
+        let w = self.checked_f32(n, "molecularWeight", 0.0, |v| (0.0..=1.0).contains(&v), "[0, 1]");
+        let phase = ParticlePhase::from_contract(token, g, g2, lobe_mix)
+            .and_then(|pp| tide_core::water::phase_desc(pp, w))
+            .unwrap_or_else(|e| {
+                self.p.add(&attr("phase"), format!("{}; using hg with g = {}", e, g));
+                PhaseDesc::HenyeyGreenstein { g }
+            });
+
+        // Jerlov type
+        let types: Vec<&str> = JerlovType::ALL.iter().map(|t| t.name()).collect();
+        let jt = self.input_token(n, "jerlovType", &types, "");
+        let source_token = self.input_token(n, "jerlovSource", &["williamson2022", "solonenko2015"], "williamson2022");
+        let jerlov = JerlovType::parse(jt).ok().map(|water_type| {
+            let mut source = JerlovSource::parse(source_token).unwrap_or_default();
+            if !source.has_type(water_type) {
+                self.p.add(&attr("jerlovSource"), format!("Jerlov type {} is not tabulated by {}; using solonenko2015", water_type.name(), source.name()));
+                source = JerlovSource::Solonenko2015;
+            }
+            JerlovDesc { water_type, source }
+        });
+        let (sa, ss) = if jerlov.is_some() && (sa != [0.0; 3] || ss != [0.0; 3]) {
+            let which = if sa != [0.0; 3] { "absorption" } else { "scattering" };
+            self.p.add(&attr(which), "overridden by jerlovType; ignored");
+            ([0.0; 3], [0.0; 3])
+        } else {
+            (sa, ss)
+        };
+
+        // bio-optical constituents
+        let chlorophyll = self.checked_f32(n, "chlorophyll", 0.0, nonneg, "[0, ∞) mg/m³");
+        let cdom = self.checked_f32(n, "cdom", 0.0, nonneg, "[0, ∞) g/m³");
+        let spm = self.checked_f32(n, "spm", 0.0, nonneg, "[0, ∞) g/m³");
+        let depth = self.input_f32(n, "profileDepth", 0.0);
+        let width = self.checked_f32(n, "profileWidth", 0.0, nonneg, "[0, ∞) m");
+        let peak = self.checked_f32(n, "profilePeak", 0.0, nonneg, "[0, ∞) mg/m³");
+        let profile = if peak > 0.0 && width > 0.0 {
+            Some(DepthProfileDesc { depth, width, peak })
+        } else {
+            if peak > 0.0 {
+                self.p.add(&attr("profileWidth"), "is 0 while profilePeak is set: no depth profile (uniform concentration)");
+            }
+            None
+        };
+        let water = (jerlov.is_some() || chlorophyll > 0.0 || cdom > 0.0 || spm > 0.0 || profile.is_some()).then_some(WaterIopDesc {
+            jerlov,
+            chlorophyll,
+            cdom,
+            spm,
+            chlorophyll_profile: profile,
+            salinity,
+            top: None,
+        });
+        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase, water }
     }
 }
 
@@ -416,7 +475,13 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
     let mut medium = None;
     if let Some(v) = &vol {
         match ctx.node_id(v) {
-            Some("TideMedium") => medium = Some(ctx.medium(v, path)),
+            Some("TideMedium") => {
+                let salinity = match &desc.surface {
+                    SurfaceDesc::Water(w) => w.salinity,
+                    _ => WaterDesc::default().salinity,
+                };
+                medium = Some(ctx.medium(v, path, salinity))
+            }
             other => ctx.p.add(&format!("{}.info:id", v), format!("unknown volume shader id '{}'; the interior is left empty", other.unwrap_or(""))),
         }
     }
@@ -458,6 +523,8 @@ pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
 mod tests {
     use super::*;
     use crate::value::Attr;
+    use tide_core::scene::{DepthProfileDesc, JerlovDesc};
+    use tide_core::water::{JerlovSource, JerlovType};
 
     fn mat(pairs: &[(&str, Value)]) -> AttrStore {
         let mut s = AttrStore::default();
@@ -559,10 +626,112 @@ mod tests {
         let SurfaceDesc::Water(w) = &m.desc.surface else { panic!() };
         assert_eq!((w.ior, w.surface_model, w.wind_speed, w.priority, w.dispersion), (1.34, SurfaceModel::Sea, 7.0, 2, true));
         let med = m.medium.unwrap();
-        assert_eq!(med.sigma_a, SpectrumDesc::Rgb([0.4, 0.05, 0.02]));
+        // jerlovType overrides the RGB coefficients (reported), the IOPs come from the type
+        assert_eq!(med.sigma_a, SpectrumDesc::Rgb([0.0; 3]));
         assert_eq!(med.phase, PhaseDesc::DualHg { g1: 0.9, g2: -0.3, w: 0.9 });
-        assert_eq!(p.list.len(), 1);
-        assert_eq!(p.list[0].attribute, "/W/Med.inputs:jerlovType");
-        assert!(p.list[0].message.contains("not yet supported"));
+        let water = med.water.expect("Jerlov IOPs");
+        assert_eq!(water.jerlov, Some(JerlovDesc { water_type: JerlovType::IB, source: JerlovSource::Williamson2022 }));
+        assert_eq!(p.list.len(), 1, "{:?}", p.list);
+        assert_eq!(p.list[0].attribute, "/W/Med.inputs:absorption");
+        assert!(p.list[0].message.contains("overridden by jerlovType"));
+    }
+
+    fn medium_of(inputs: &[(&str, Value)]) -> (Option<MediumDesc>, Vec<(String, String)>) {
+        let mut pairs = vec![
+            ("surface", Value::Path("/W/Water".into())),
+            ("volume", Value::Path("/W/Med.outputs:volume".into())),
+            ("/W/Water.info:id", tok("TideWater")),
+            ("/W/Water.inputs:salinity", Value::Float(35.0)),
+            ("/W/Med.info:id", tok("TideMedium")),
+        ];
+        let names: Vec<String> = inputs.iter().map(|(n, _)| format!("/W/Med.inputs:{n}")).collect();
+        for ((_, v), n) in inputs.iter().zip(&names) {
+            pairs.push((n.as_str(), v.clone()));
+        }
+        let mut p = Problems::new("/W");
+        let m = convert_material("/W", &mat(&pairs), &loaded(false), &mut p);
+        (m.medium, p.list.into_iter().map(|q| (q.attribute, q.message)).collect())
+    }
+
+    #[test]
+    fn bio_optical_inputs_with_profile_and_salinity_from_the_water() {
+        let (med, problems) = medium_of(&[
+            ("chlorophyll", Value::Float(0.3)),
+            ("cdom", Value::Float(0.5)),
+            ("spm", Value::Float(1.0)),
+            ("profileDepth", Value::Float(20.0)),
+            ("profileWidth", Value::Float(4.0)),
+            ("profilePeak", Value::Float(2.0)),
+            ("absorption", Value::Floats { data: vec![0.1, 0.0, 0.0], tuple: 3 }),
+            ("densityScale", Value::Float(0.5)),
+        ]);
+        assert!(problems.is_empty(), "{problems:?}");
+        let med = med.unwrap();
+        // without a Jerlov type the RGB coefficients are added to the model
+        assert_eq!(med.sigma_a, SpectrumDesc::Rgb([0.1, 0.0, 0.0]));
+        assert_eq!(med.scale, 0.5);
+        let w = med.water.unwrap();
+        assert_eq!((w.jerlov, w.chlorophyll, w.cdom, w.spm, w.salinity, w.top), (None, 0.3, 0.5, 1.0, 35.0, None));
+        assert_eq!(w.chlorophyll_profile, Some(DepthProfileDesc { depth: 20.0, width: 4.0, peak: 2.0 }));
+    }
+
+    #[test]
+    fn plain_rgb_medium_stays_homogeneous() {
+        let (med, problems) = medium_of(&[("absorption", Value::Floats { data: vec![0.4, 0.05, 0.02], tuple: 3 })]);
+        assert!(problems.is_empty());
+        let med = med.unwrap();
+        assert_eq!(med.water, None);
+        assert_eq!(med.phase, PhaseDesc::HenyeyGreenstein { g: 0.0 });
+    }
+
+    #[test]
+    fn ocean_phase_functions_are_tabulated() {
+        for (phase, w) in [("fournierForand", 0.0), ("petzold", 0.0), ("hg", 0.2), ("dualHG", 0.5)] {
+            let (med, problems) = medium_of(&[("phase", tok(phase)), ("g", Value::Float(0.8)), ("molecularWeight", Value::Float(w))]);
+            assert!(problems.is_empty(), "{phase}: {problems:?}");
+            let med = med.unwrap();
+            let PhaseDesc::Tabulated { theta, value } = &med.phase else { panic!("{phase}: {:?}", med.phase) };
+            assert!(theta.len() == value.len() && theta.len() > 10);
+            // the description builds in the core
+            tide_core::medium::PhaseFunction::from_desc(&med.phase).unwrap();
+        }
+    }
+
+    #[test]
+    fn bad_medium_tokens_and_values_name_the_attribute_and_use_the_defaults() {
+        let cases: Vec<(&str, Value, &str)> = vec![
+            ("jerlovType", tok("IX"), "using ''"),
+            ("jerlovSource", tok("mobley1994"), "using 'williamson2022'"),
+            ("phase", tok("rayleigh"), "using 'hg'"),
+            ("g", Value::Float(1.5), "using 0"),
+            ("g2", Value::Float(-2.0), "using -0.3"),
+            ("lobeMix", Value::Float(1.5), "using 0.9"),
+            ("molecularWeight", Value::Float(-0.1), "using 0"),
+            ("chlorophyll", Value::Float(-1.0), "using 0"),
+            ("cdom", Value::Float(f64::NAN), "using 0"),
+            ("spm", Value::Float(-3.0), "using 0"),
+            ("profileWidth", Value::Float(-1.0), "using 0"),
+            ("profilePeak", Value::Float(-1.0), "using 0"),
+            ("densityScale", Value::Float(-2.0), "using 1"),
+            ("absorption", Value::Floats { data: vec![-0.1, 0.0, 0.0], tuple: 3 }, "using (0, 0, 0)"),
+        ];
+        for (name, v, default) in cases {
+            let (med, problems) = medium_of(&[(name, v)]);
+            assert_eq!(problems.len(), 1, "{name}: {problems:?}");
+            assert_eq!(problems[0].0, format!("/W/Med.inputs:{name}"));
+            assert!(problems[0].1.contains(default), "{name}: {}", problems[0].1);
+            let med = med.unwrap();
+            // every default leaves the medium empty and homogeneous
+            assert_eq!(med.water, None, "{name}");
+        }
+        // a type the default source lacks falls back to Solonenko & Mobley
+        let (med, problems) = medium_of(&[("jerlovType", tok("9C"))]);
+        assert_eq!(problems.len(), 1);
+        assert_eq!(problems[0].0, "/W/Med.inputs:jerlovSource");
+        assert_eq!(med.unwrap().water.unwrap().jerlov, Some(JerlovDesc { water_type: JerlovType::C9, source: JerlovSource::Solonenko2015 }));
+        // a peak without a width is no profile
+        let (med, problems) = medium_of(&[("profilePeak", Value::Float(3.0))]);
+        assert_eq!(problems[0].0, "/W/Med.inputs:profileWidth");
+        assert_eq!(med.unwrap().water, None);
     }
 }

@@ -1,25 +1,32 @@
-//! Participating media: phase functions, the homogeneous medium that fills water bodies, and
-//! spectral-MIS free-flight sampling.
+//! Participating media: phase functions, the homogeneous medium that fills water bodies, the
+//! depth-varying water medium, and spectral-MIS free-flight sampling.
 //!
 //! [`Medium`] is the enum the integrator holds. Its position-aware interface
 //! ([`Medium::sample_distance`] and [`Medium::transmittance`] take the ray and a source of
-//! uniform numbers) is the one a heterogeneous medium needs: a density grid times
-//! coefficients, traversed by delta tracking (collisions) and ratio tracking (shadow rays)
-//! against a per-wavelength majorant, with the same one-sample spectral MIS over wavelengths
-//! as the homogeneous case. A homogeneous medium consumes exactly one number per call of
-//! `sample_distance` and none for `transmittance`.
+//! uniform numbers) serves both variants: [`Medium::Homogeneous`] consumes exactly one number
+//! per call of `sample_distance` and none for `transmittance`; [`Medium::BioOptical`] (natural
+//! water whose coefficients vary with depth) uses delta tracking for collisions, with the same
+//! one-sample spectral MIS over wavelengths as the homogeneous case, and residual ratio
+//! tracking for shadow rays, against per-wavelength bounds of σt over each segment
+//! ([`tracking`], [`bio_optical`]).
 
+pub mod bio_optical;
 pub mod homogeneous;
 pub mod phase;
+pub mod tracking;
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod tracking_tests;
 
 pub use homogeneous::{
     distance_pdf, pass_probability, sample_distance_spectral, transmittance_spectral, DistanceSample,
     HomogeneousMedium,
 };
+pub use bio_optical::BioOpticalMedium;
 pub use phase::{PhaseFunction, TabulatedPhase, G_MAX};
+pub use tracking::{sample_distance_tracking, transmittance_ratio_tracking};
 
 use crate::scene::{ColorSpace, MediumDesc};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths};
@@ -54,18 +61,37 @@ impl std::error::Error for MediumError {}
 #[derive(Clone, Debug, PartialEq)]
 pub enum Medium {
     Homogeneous(HomogeneousMedium),
+    /// Natural water varying with depth (Jerlov / bio-optical IOPs).
+    BioOptical(Box<BioOpticalMedium>),
 }
 
 impl Medium {
-    /// A homogeneous medium from its scene description, RGB coefficients uplifted in `cs`.
+    /// The medium a scene describes, RGB coefficients uplifted in `cs`: homogeneous, or
+    /// [`Medium::BioOptical`] when `desc.water` is set (depth origin `water.top`, 0 if unset;
+    /// the world builder fills it in from the water bodies' bounds).
     pub fn from_desc(desc: &MediumDesc, cs: ColorSpace) -> Result<Self, MediumError> {
-        HomogeneousMedium::from_desc_in(desc, cs).map(Medium::Homogeneous)
+        let h = HomogeneousMedium::from_desc_in(desc, cs)?;
+        let Some(w) = &desc.water else { return Ok(Medium::Homogeneous(h)) };
+        let water = crate::water::bio_optical_from_desc(w).map_err(|e| MediumError::BadMedium { medium: desc.name.clone(), reason: e.to_string() })?;
+        // the RGB part unscaled: the scale multiplies the sum with the water's coefficients
+        let rgb = HomogeneousMedium::from_desc_in(&MediumDesc { scale: 1.0, water: None, ..desc.clone() }, cs)?;
+        Ok(Medium::BioOptical(Box::new(BioOpticalMedium {
+            water,
+            extra_a: rgb.sigma_a,
+            extra_s: rgb.sigma_s,
+            scale: desc.scale,
+            phase: h.phase,
+            top: w.top.unwrap_or(0.0),
+        })))
     }
 
     /// True when coefficients and phase function are the same everywhere.
     #[inline]
     pub fn is_homogeneous(&self) -> bool {
-        matches!(self, Medium::Homogeneous(_))
+        match self {
+            Medium::Homogeneous(_) => true,
+            Medium::BioOptical(m) => m.water.is_uniform(),
+        }
     }
 
     /// Phase function at point `p`.
@@ -74,6 +100,7 @@ impl Medium {
         let _ = p;
         match self {
             Medium::Homogeneous(m) => &m.phase,
+            Medium::BioOptical(m) => &m.phase,
         }
     }
 
@@ -82,6 +109,7 @@ impl Medium {
     pub fn majorant(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
         match self {
             Medium::Homogeneous(m) => m.sigma_t(lambda),
+            Medium::BioOptical(m) => m.majorant(lambda),
         }
     }
 
@@ -96,9 +124,9 @@ impl Medium {
         rng: &mut impl FnMut() -> f32,
         lambda: &SampledWavelengths,
     ) -> DistanceSample {
-        let _ = (origin, dir);
         match self {
             Medium::Homogeneous(m) => m.sample_distance(t_max, rng(), lambda),
+            Medium::BioOptical(m) => m.sample_distance(origin, dir, t_max, rng, lambda),
         }
     }
 
@@ -113,9 +141,9 @@ impl Medium {
         rng: &mut impl FnMut() -> f32,
         lambda: &SampledWavelengths,
     ) -> SampledSpectrum {
-        let _ = (origin, dir, rng);
         match self {
             Medium::Homogeneous(m) => m.transmittance(t, lambda),
+            Medium::BioOptical(m) => m.transmittance(origin, dir, t, rng, lambda),
         }
     }
 }

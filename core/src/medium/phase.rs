@@ -121,10 +121,17 @@ impl PhaseFunction {
 
     /// Builds the phase function a scene describes, validating its parameters.
     pub fn from_desc(desc: &PhaseDesc) -> Result<Self, MediumError> {
-        match *desc {
+        match desc {
             PhaseDesc::Isotropic => Ok(PhaseFunction::Isotropic),
-            PhaseDesc::HenyeyGreenstein { g } => Self::hg(g),
-            PhaseDesc::DualHg { g1, g2, w } => Self::dual_hg(g1, g2, w),
+            PhaseDesc::HenyeyGreenstein { g } => Self::hg(*g),
+            PhaseDesc::DualHg { g1, g2, w } => Self::dual_hg(*g1, *g2, *w),
+            PhaseDesc::Tabulated { theta, value } => {
+                if theta.len() != value.len() {
+                    return Err(MediumError::BadTable(format!("{} angles but {} values", theta.len(), value.len())));
+                }
+                let pts: Vec<(f32, f32)> = theta.iter().copied().zip(value.iter().copied()).collect();
+                Ok(PhaseFunction::Tabulated(TabulatedPhase::from_angles(&pts)?))
+            }
         }
     }
 

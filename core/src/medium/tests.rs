@@ -54,7 +54,7 @@ fn hg_ref(g: f64, mu: f64) -> f64 {
 
 /// Pearson χ² over 1D bins: adjacent bins are merged until each expects at least 5 samples.
 /// Returns the p-value.
-fn chi2_1d(observed: &[f64], expected_prob: &[f64], n: usize) -> f64 {
+pub(super) fn chi2_1d(observed: &[f64], expected_prob: &[f64], n: usize) -> f64 {
     assert_eq!(observed.len(), expected_prob.len());
     let (mut stat, mut dof) = (0.0, 0usize);
     let (mut po, mut pe) = (0.0, 0.0);
@@ -384,17 +384,17 @@ fn ss(v: [f32; 4]) -> SampledSpectrum {
 const SIGMA_A: [f32; 4] = [0.02, 0.3, 1.5, 12.0];
 const SIGMA_S: [f32; 4] = [0.5, 0.4, 0.3, 0.2];
 
-struct Moments {
+pub(super) struct Moments {
     n: usize,
     sum: [f64; N_SPECTRUM],
     sum2: [f64; N_SPECTRUM],
 }
 
 impl Moments {
-    fn new(n: usize) -> Self {
+    pub(super) fn new(n: usize) -> Self {
         Moments { n, sum: [0.0; N_SPECTRUM], sum2: [0.0; N_SPECTRUM] }
     }
-    fn add(&mut self, v: SampledSpectrum) {
+    pub(super) fn add(&mut self, v: SampledSpectrum) {
         for j in 0..N_SPECTRUM {
             self.sum[j] += v[j] as f64;
             self.sum2[j] += (v[j] as f64).powi(2);
@@ -402,7 +402,7 @@ impl Moments {
     }
     /// Asserts that the mean of channel j equals `expected[j]` within 3 standard errors;
     /// the added 1e-6 relative slack covers f32 rounding of weights that have no variance.
-    fn check(&self, expected: [f64; N_SPECTRUM], what: &str) {
+    pub(super) fn check(&self, expected: [f64; N_SPECTRUM], what: &str) {
         let n = self.n as f64;
         for j in 0..N_SPECTRUM {
             let mean = self.sum[j] / n;
@@ -588,7 +588,7 @@ fn weights_are_finite_for_degenerate_input() {
 // ---------------------------------------------------------------- the medium itself
 
 fn desc(sigma_a: SpectrumDesc, sigma_s: SpectrumDesc, scale: f32, phase: PhaseDesc) -> MediumDesc {
-    MediumDesc { name: "/water/medium".into(), sigma_a, sigma_s, scale, phase }
+    MediumDesc { name: "/water/medium".into(), sigma_a, sigma_s, scale, phase, water: None }
 }
 
 #[test]

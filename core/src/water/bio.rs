@@ -86,6 +86,28 @@ impl Constituent {
         }
     }
 
+    /// Smallest and largest concentration over depths in [z0, z1] (z0 ≤ z1, either may be
+    /// infinite): the Gaussian is largest at the depth in the interval nearest its peak and
+    /// smallest at the end farthest from it.
+    pub fn range(&self, z0: f32, z1: f32) -> (f32, f32) {
+        match self.profile {
+            Some(p) if p.width > 0.0 && p.peak > 0.0 => {
+                let g = |z: f32| {
+                    let t = (z - p.depth) / p.width;
+                    if t.is_finite() {
+                        p.peak * (-0.5 * t * t).exp()
+                    } else {
+                        0.0
+                    }
+                };
+                let near = p.depth.clamp(z0, z1);
+                let far = if (z0 - p.depth).abs() >= (z1 - p.depth).abs() { z0 } else { z1 };
+                (self.base + g(far), self.base + g(near))
+            }
+            _ => (self.base, self.base),
+        }
+    }
+
     /// Largest concentration over all depths.
     pub fn max(&self) -> f32 {
         match self.profile {
@@ -278,6 +300,34 @@ impl BioOptical {
             ss.0[i] = b;
         }
         (sa, ss)
+    }
+
+    /// (σa, σs) for given concentrations [chl, cdom, spm] at a path's wavelengths (with
+    /// [`BioOptical::concentration_range`] this bounds σ over a depth interval: every term is
+    /// non-decreasing in its concentration).
+    #[inline]
+    pub fn sample_concentrations(&self, c: [f32; 3], lambda: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let mut sa = SampledSpectrum::ZERO;
+        let mut ss = SampledSpectrum::ZERO;
+        for i in 0..sa.0.len() {
+            let (a, b) = self.eval(c, lambda.lambda[i]);
+            sa.0[i] = a;
+            ss.0[i] = b;
+        }
+        (sa, ss)
+    }
+
+    /// Per-constituent (smallest, largest) concentrations over depths in [z0, z1].
+    pub fn concentration_range(&self, z0: f32, z1: f32) -> ([f32; 3], [f32; 3]) {
+        let (z0, z1) = if z0 <= z1 { (z0, z1) } else { (z1, z0) };
+        let r = [self.params.chlorophyll.range(z0, z1), self.params.cdom.range(z0, z1), self.params.spm.range(z0, z1)];
+        (r.map(|x| x.0), r.map(|x| x.1))
+    }
+
+    /// True when no constituent varies with depth.
+    pub fn is_uniform(&self) -> bool {
+        let (lo, hi) = self.concentration_range(f32::NEG_INFINITY, f32::INFINITY);
+        lo == hi
     }
 
     /// Fraction of σs due to pure water at (z, λ): the weight of the molecular phase function

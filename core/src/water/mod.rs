@@ -55,7 +55,7 @@ mod tests;
 pub use bio::{BioOptical, BioOpticalParams, Constituent, DepthProfile};
 pub use ior::{quan_fry_ior, quan_fry_spectrum};
 pub use jerlov::{jerlov_iop, jerlov_kd, jerlov_table, JerlovIop, JerlovSource, JerlovType};
-pub use phase::{phase_function, FournierForand, ParticlePhase, PetzoldStation, PhaseTable};
+pub use phase::{phase_desc, phase_function, FournierForand, ParticlePhase, PetzoldStation, PhaseTable};
 
 use crate::medium::{MediumError, PhaseFunction};
 use crate::spectrum::SpectrumError;
@@ -201,4 +201,30 @@ pub fn build_medium(p: &MediumParams) -> Result<WaterMedium, WaterError> {
     let particle = ParticlePhase::from_contract(&p.phase, p.g, p.g2, p.lobe_mix)?;
     let phase = phase_function(particle, p.molecular_weight)?;
     Ok(WaterMedium { coefficients, phase })
+}
+
+/// The bio-optical model a scene's [`crate::scene::WaterIopDesc`] describes (the mapping is
+/// documented there): Jerlov IOPs or pure seawater as the base, constituents on top, the
+/// profile on chlorophyll.
+pub fn bio_optical_from_desc(d: &crate::scene::WaterIopDesc) -> Result<BioOptical, WaterError> {
+    let background = match d.jerlov {
+        Some(j) => {
+            let iop = jerlov_iop(j.water_type, j.source)?;
+            Some((iop.a, iop.b))
+        }
+        None => None,
+    };
+    let chlorophyll = Constituent {
+        base: d.chlorophyll,
+        profile: d.chlorophyll_profile.map(|p| DepthProfile { depth: p.depth, width: p.width, peak: p.peak }),
+    };
+    BioOptical::new(BioOpticalParams {
+        chlorophyll,
+        cdom: Constituent::uniform(d.cdom),
+        spm: Constituent::uniform(d.spm),
+        pure_water: background.is_none(),
+        salinity: d.salinity,
+        background,
+        ..BioOpticalParams::default()
+    })
 }

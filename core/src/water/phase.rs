@@ -166,6 +166,17 @@ impl PhaseTable {
     /// The renderer's phase function: `PhaseFunction::Tabulated` through
     /// `TabulatedPhase::from_angles`.
     pub fn to_phase_function(&self) -> Result<PhaseFunction, WaterError> {
+        Ok(PhaseFunction::Tabulated(TabulatedPhase::from_angles(&self.f32_nodes())?))
+    }
+
+    /// The table as a scene description (`PhaseDesc::Tabulated`, the nodes
+    /// [`PhaseTable::to_phase_function`] uses).
+    pub fn to_phase_desc(&self) -> crate::scene::PhaseDesc {
+        let (theta, value) = self.f32_nodes().into_iter().unzip();
+        crate::scene::PhaseDesc::Tabulated { theta, value }
+    }
+
+    fn f32_nodes(&self) -> Vec<(f32, f32)> {
         let pts: Vec<(f32, f32)> = self.angles().into_iter().map(|(t, p)| (t as f32, p as f32)).collect();
         // nodes closer than f32 resolves in x would be duplicates there; keep the first
         let mut kept: Vec<(f32, f32)> = Vec::with_capacity(pts.len());
@@ -178,7 +189,7 @@ impl PhaseTable {
                 kept.push(p);
             }
         }
-        Ok(PhaseFunction::Tabulated(TabulatedPhase::from_angles(&kept)?))
+        kept
     }
 }
 
@@ -464,6 +475,26 @@ impl ParticlePhase {
             ParticlePhase::Petzold(s) => petzold(s),
         }
     }
+}
+
+/// The scene description of [`phase_function`]`(particle, molecular_weight)`: analytic HG /
+/// dual HG when there is no molecular part, `PhaseDesc::Tabulated` otherwise.
+pub fn phase_desc(particle: ParticlePhase, molecular_weight: f32) -> Result<crate::scene::PhaseDesc, WaterError> {
+    use crate::scene::PhaseDesc;
+    let w = molecular_weight as f64;
+    if !(w.is_finite() && (0.0..=1.0).contains(&w)) {
+        return Err(WaterError::OutOfRange { name: "molecularWeight", value: molecular_weight, min: 0.0, max: 1.0, unit: "" });
+    }
+    if w == 0.0 {
+        match particle {
+            ParticlePhase::Hg { g } => return Ok(PhaseDesc::HenyeyGreenstein { g: g as f32 }),
+            ParticlePhase::DualHg { g1, g2, w } => return Ok(PhaseDesc::DualHg { g1: g1 as f32, g2: g2 as f32, w: w as f32 }),
+            _ => {}
+        }
+    }
+    let t = particle.table()?;
+    let t = if w > 0.0 { t.mix_molecular(w)? } else { t };
+    Ok(t.to_phase_desc())
 }
 
 /// The renderer's phase function for particle phase `particle` mixed with the molecular one
