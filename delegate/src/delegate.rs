@@ -1072,6 +1072,34 @@ mod tests {
     }
 
     #[test]
+    fn a_one_prim_edit_rebuilds_only_that_prims_geometry() {
+        let mut d = Delegate::new();
+        for k in 0..5 {
+            quad(&mut d, &format!("/Q{k}"));
+            let mut pts = vec![0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.];
+            pts.iter_mut().skip(2).step_by(3).for_each(|z| *z = k as f32);
+            d.set_attribute(&format!("/Q{k}"), "points", floats(&pts, 3), None);
+        }
+        d.commit_resources();
+        let build = crate::render_pass::core_factory();
+        let settings = RenderSettings { width: 4, height: 4, spp: 1, ..Default::default() };
+        let stats = |d: &Delegate| {
+            let s = build(d.scene(), &settings).ok().and_then(|e| e.build_stats()).unwrap();
+            (s.blas_built, s.blas_reused)
+        };
+        assert_eq!(stats(&d), (5, 0));
+        // Moved: the prim re-syncs, its geometry is the same, so no BVH is rebuilt.
+        d.set_attribute("/Q3", "transform", translate(0., 2., 0.), None);
+        d.commit_resources();
+        assert_eq!(d.last_synced(), ["/Q3"]);
+        assert_eq!(stats(&d), (0, 5));
+        // Points edited: that one BVH is rebuilt.
+        d.set_attribute("/Q1", "points", floats(&[0., 0., 9., 2., 0., 9., 2., 2., 9., 0., 2., 9.], 3), None);
+        d.commit_resources();
+        assert_eq!(stats(&d), (1, 4));
+    }
+
+    #[test]
     fn render_pass_lifecycle_through_the_delegate() {
         let builds = Arc::new(AtomicU32::new(0));
         let passes = Arc::new(Mutex::new(Vec::new()));
