@@ -9,8 +9,13 @@
 //! `resync1000` (1000 meshes of 200 triangles; one is moved). Prints one JSON object per
 //! repeat; peak RSS is the process's VmHWM after each phase (it only grows, so run one case
 //! per process). `bench/front_door_rust.sh` runs every case and takes medians.
+//!
+//! Core builds pass one [`BlasCache`] along, as the delegate's render passes do: after the
+//! first build, `mesh2m` / `points1m` move the prim and rebuild (`move_*`), `resync1000`
+//! moves one of its meshes.
 
 use std::time::Instant;
+use tide_core::accel::BlasCache;
 use tide_core::{RenderSettings, Renderer};
 use tide_delegate::{Delegate, Value};
 
@@ -99,17 +104,30 @@ fn run(case: &str) -> String {
             let problems = d.commit_resources();
             let commit = secs(t);
             let hwm_commit = vm_hwm_mib();
+            let cache = BlasCache::default();
             let t = Instant::now();
-            let r = Renderer::new(&d.scene(), settings()).expect("renderer");
+            let r = Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer");
             let build = secs(t);
             let hwm_build = vm_hwm_mib();
-            let st = r.build_stats();
+            let st = r.build_stats().clone();
+            drop(r);
+            let path = if case == "mesh2m" { "/Grid" } else { "/Pts" };
+            d.set_attribute(path, "transform", translate(0.25), None);
+            let t = Instant::now();
+            d.commit_resources();
+            let move_commit = secs(t);
+            let t = Instant::now();
+            let r = Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer");
+            let move_build = secs(t);
+            let mst = r.build_stats();
             format!(
-                "{{\"case\":\"{case}\",\"author_s\":{author:.4},\"commit_s\":{commit:.4},\"core_build_s\":{build:.4},\"bvh_s\":{:.4},\"triangles\":{},\"spheres\":{},\"problems\":{},\"hwm_base_mib\":{base:.1},\"hwm_author_mib\":{hwm_author:.1},\"hwm_commit_mib\":{hwm_commit:.1},\"hwm_build_mib\":{hwm_build:.1}}}",
+                "{{\"case\":\"{case}\",\"author_s\":{author:.4},\"commit_s\":{commit:.4},\"core_build_s\":{build:.4},\"bvh_s\":{:.4},\"triangles\":{},\"spheres\":{},\"problems\":{},\"hwm_base_mib\":{base:.1},\"hwm_author_mib\":{hwm_author:.1},\"hwm_commit_mib\":{hwm_commit:.1},\"hwm_build_mib\":{hwm_build:.1},\"move_commit_s\":{move_commit:.4},\"move_core_build_s\":{move_build:.4},\"move_blas_built\":{},\"move_blas_reused\":{}}}",
                 st.seconds,
                 st.triangles,
                 st.spheres,
-                problems.len()
+                problems.len(),
+                mst.blas_built,
+                mst.blas_reused
             )
         }
         "resync1000" => {
@@ -120,8 +138,9 @@ fn run(case: &str) -> String {
             d.commit_resources();
             let commit0 = secs(t);
             let synced0 = d.last_synced().len();
+            let cache = BlasCache::default();
             let t = Instant::now();
-            drop(Renderer::new(&d.scene(), settings()).expect("renderer"));
+            drop(Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer"));
             let build0 = secs(t);
             d.set_attribute("/World/M0500", "transform", translate(0.25), None);
             let t = Instant::now();
@@ -129,10 +148,11 @@ fn run(case: &str) -> String {
             let commit1 = secs(t);
             let synced1 = d.last_synced().to_vec();
             let t = Instant::now();
-            drop(Renderer::new(&d.scene(), settings()).expect("renderer"));
+            let r = Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer");
             let build1 = secs(t);
+            let (built, reused) = (r.build_stats().blas_built, r.build_stats().blas_reused);
             format!(
-                "{{\"case\":\"{case}\",\"commit_initial_s\":{commit0:.5},\"core_build_initial_s\":{build0:.4},\"synced_initial\":{synced0},\"commit_resync_s\":{commit1:.5},\"core_build_resync_s\":{build1:.4},\"synced_resync\":{:?}}}",
+                "{{\"case\":\"{case}\",\"commit_initial_s\":{commit0:.5},\"core_build_initial_s\":{build0:.4},\"synced_initial\":{synced0},\"commit_resync_s\":{commit1:.5},\"core_build_resync_s\":{build1:.4},\"synced_resync\":{:?},\"resync_blas_built\":{built},\"resync_blas_reused\":{reused}}}",
                 synced1
             )
         }
