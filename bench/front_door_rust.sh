@@ -17,9 +17,9 @@ for l in sys.stdin:
     if m.get("reason") == "compiler-artifact" and m["target"]["name"] == "front_door_sync" and m.get("executable"):
         print(m["executable"])')
 for c in "${cases[@]}"; do
-    for _ in $(seq "$repeats"); do
-        "$bin" "$c"
-    done | tee /dev/stderr | python3 -c 'import json,statistics,sys
+    runs=$(for _ in $(seq "$repeats"); do "$bin" "$c"; done)
+    echo "$runs"
+    echo "$runs" | python3 -c 'import json,statistics,sys
 runs = [json.loads(l) for l in sys.stdin if l.strip()]
 med = {"case": runs[0]["case"], "repeats": len(runs), "median": True}
 for k, v in runs[0].items():
