@@ -200,6 +200,13 @@ impl Renderer {
     /// Validates the scene (problems are kept, see [`Renderer::problems`]) and builds the
     /// acceleration structures.
     pub fn new(scene: &SceneDesc, settings: RenderSettings) -> Result<Renderer, RenderError> {
+        Renderer::with_cache(scene, settings, None)
+    }
+
+    /// [`Renderer::new`], taking the BVHs of geometry that is unchanged since the last build
+    /// with the same `cache` from it (an interactive session passes the same cache to every
+    /// rebuild, so an edit rebuilds only the geometry it touched).
+    pub fn with_cache(scene: &SceneDesc, settings: RenderSettings, cache: Option<&crate::accel::BlasCache>) -> Result<Renderer, RenderError> {
         let start = std::time::Instant::now();
         if settings.width == 0 || settings.height == 0 || settings.width > 65_536 || settings.height > 65_536 {
             return Err(RenderError(format!("resolution {}×{} is not renderable", settings.width, settings.height)));
@@ -208,7 +215,7 @@ impl Renderer {
             return Err(RenderError(format!("pixelAspectRatio {} must be > 0", settings.pixel_aspect_ratio)));
         }
         let (clean, mut problems) = crate::validate::validate(scene);
-        let world = crate::world::World::build(&clean, &settings, &mut problems);
+        let world = crate::world::World::build_cached(&clean, &settings, &mut problems, cache);
         let w = settings.width;
         let h = settings.height;
         let dw = settings.data_window_ndc;

@@ -183,9 +183,14 @@ fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
 impl World {
     /// Builds the world from a validated scene. Problems met here are appended to `problems`.
     pub fn build(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>) -> World {
+        World::build_cached(scene, settings, problems, None)
+    }
+
+    /// [`World::build`] reusing the per-geometry BVHs of unchanged geometry from `cache`.
+    pub fn build_cached(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>, cache: Option<&crate::accel::BlasCache>) -> World {
         let cs = scene.color_space;
         let camera = Camera::new(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.disable_depth_of_field, settings.disable_motion_blur);
-        let accel = Accel::build(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter);
+        let accel = Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache);
         let materials: Vec<Material> = scene
             .materials
             .iter()

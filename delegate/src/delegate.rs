@@ -97,6 +97,10 @@ struct Prim {
     id: u32,
 }
 
+/// Rprim attributes that place or bind a prim without changing its geometry: editing only
+/// these re-syncs the prim but keeps its converted points and triangles.
+const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms"];
+
 /// Geometry of a converted rprim.
 #[derive(Clone, Debug, PartialEq)]
 enum Geometry {
@@ -110,7 +114,10 @@ enum Geometry {
 
 #[derive(Clone, Debug, PartialEq)]
 struct RprimPiece {
-    geometry: Geometry,
+    /// Shared with the next conversion when only placement attributes change.
+    geometry: Arc<Geometry>,
+    /// The problems found converting the geometry (kept with it when it is reused).
+    geometry_problems: Vec<Problem>,
     /// (frame offset, object-to-world).
     transforms: Vec<(f64, Mat4)>,
     instance_transforms: Vec<Mat4>,
@@ -144,6 +151,8 @@ pub struct Delegate {
     prims: BTreeMap<String, Prim>,
     cache: BTreeMap<String, Cached>,
     dirty: BTreeSet<String>,
+    /// Dirty prims whose geometry must be converted again (not only their placement).
+    geometry_dirty: BTreeSet<String>,
     structure_changed: bool,
     textures: HashMap<String, TexState>,
     pending: Vec<Problem>,
@@ -207,6 +216,7 @@ impl Delegate {
             prims: BTreeMap::new(),
             cache: BTreeMap::new(),
             dirty: BTreeSet::new(),
+            geometry_dirty: BTreeSet::new(),
             structure_changed: false,
             textures: HashMap::new(),
             pending: Vec::new(),
@@ -239,6 +249,7 @@ impl Delegate {
             self.buffers.entry(path.to_string()).or_default();
         }
         self.dirty.insert(path.to_string());
+        self.geometry_dirty.insert(path.to_string());
         true
     }
 
@@ -247,6 +258,7 @@ impl Delegate {
         let existed = self.prims.remove(path).is_some();
         self.cache.remove(path);
         self.dirty.remove(path);
+        self.geometry_dirty.remove(path);
         self.buffers.remove(path);
         self.oceans.remove(path);
         if existed {
@@ -269,6 +281,9 @@ impl Delegate {
             return None;
         }
         self.dirty.insert(path.to_string());
+        if !PLACEMENT_ATTRIBUTES.contains(&normalize_name(attr)) {
+            self.geometry_dirty.insert(path.to_string());
+        }
         self.prims.get_mut(path)
     }
 
@@ -296,6 +311,7 @@ impl Delegate {
             self.pending.push(problem(path, name, "tuple size 0; the primvar is ignored"));
             return false;
         }
+        self.geometry_dirty.insert(path.to_string());
         let Some(prim) = self.prim_mut(path, name) else { return false };
         prim.store.primvars.insert(name.to_string(), Primvar { interpolation: interp, data, tuple, indices });
         true
@@ -305,6 +321,7 @@ impl Delegate {
     pub fn mark_dirty(&mut self, path: &str) {
         if self.prims.contains_key(path) {
             self.dirty.insert(path.to_string());
+            self.geometry_dirty.insert(path.to_string());
         }
     }
 
@@ -359,7 +376,8 @@ impl Delegate {
         self.dirty_users_of(asset);
     }
 
-    fn convert(&self, path: &str, prim: &Prim) -> Cached {
+    /// Converts a prim; `geometry` is an rprim's converted geometry (and its problems) to keep.
+    fn convert(&self, path: &str, prim: &Prim, geometry: Option<(Arc<Geometry>, Vec<Problem>)>) -> Cached {
         let mut p = Problems::new(path);
         let s = &prim.store;
         let piece = match prim.ty {
@@ -386,12 +404,13 @@ impl Delegate {
                 }
                 Piece::Buffer
             }
-            _ => Piece::Rprim(self.convert_rprim(path, prim, &mut p)),
+            _ => Piece::Rprim(self.convert_rprim(path, prim, geometry, &mut p)),
         };
         Cached { piece, problems: p.list }
     }
 
-    fn convert_rprim(&self, path: &str, prim: &Prim, p: &mut Problems) -> RprimPiece {
+    /// An rprim's geometry (points, triangles, spheres) from its attributes and primvars.
+    fn convert_geometry(&self, path: &str, prim: &Prim, p: &mut Problems) -> Geometry {
         let s = &prim.store;
         let geometry = match prim.ty {
             PrimType::Mesh => Geometry::Mesh(mesh::convert_mesh(path, s, p)),
@@ -416,6 +435,17 @@ impl Delegate {
                 p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
             }
         }
+        geometry
+    }
+
+    fn convert_rprim(&self, path: &str, prim: &Prim, geometry: Option<(Arc<Geometry>, Vec<Problem>)>, p: &mut Problems) -> RprimPiece {
+        let (geometry, geometry_problems) = geometry.unwrap_or_else(|| {
+            let mut gp = Problems::new(path);
+            let g = self.convert_geometry(path, prim, &mut gp);
+            (Arc::new(g), gp.list)
+        });
+        p.list.extend(geometry_problems.iter().cloned());
+        let s = &prim.store;
         let mut instance_transforms = Vec::new();
         if let Some(v) = s.get("instanceTransforms") {
             match v.to_f32s() {
@@ -460,6 +490,7 @@ impl Delegate {
         };
         RprimPiece {
             geometry,
+            geometry_problems,
             transforms: s.matrix_samples("transform", p),
             instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![Mat4::IDENTITY] },
             material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
@@ -475,8 +506,13 @@ impl Delegate {
     pub fn commit_resources(&mut self) -> Vec<Problem> {
         let dirty: Vec<String> = std::mem::take(&mut self.dirty).into_iter().filter(|p| self.prims.contains_key(p)).collect();
         let mut problems = std::mem::take(&mut self.pending);
+        let geometry_dirty = std::mem::take(&mut self.geometry_dirty);
         for path in &dirty {
-            let cached = self.convert(path, &self.prims[path]);
+            let keep = match self.cache.get(path) {
+                Some(Cached { piece: Piece::Rprim(r), .. }) if !geometry_dirty.contains(path) => Some((r.geometry.clone(), r.geometry_problems.clone())),
+                _ => None,
+            };
+            let cached = self.convert(path, &self.prims[path], keep);
             problems.extend(cached.problems.iter().cloned());
             self.cache.insert(path.clone(), cached);
         }
@@ -629,7 +665,7 @@ impl Delegate {
             // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
             // their sea material takes
             let mut parts: Vec<(GeometryRef, Option<(f32, f32)>)> = Vec::new();
-            match &r.geometry {
+            match r.geometry.as_ref() {
                 Geometry::Mesh(m) if !m.indices.is_empty() => {
                     scene.meshes.push(m.clone());
                     parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
@@ -699,7 +735,7 @@ impl Delegate {
                     (Some((wind, share)), SurfaceDesc::Water(w)) if w.surface_model == SurfaceModel::Sea => {
                         let mut m = scene.materials[material].clone();
                         if let SurfaceDesc::Water(w) = &mut m.surface {
-                            w.wind_speed = match &r.geometry {
+                            w.wind_speed = match r.geometry.as_ref() {
                                 Geometry::Ocean(spec) => spec.params.wind_speed,
                                 _ => w.wind_speed,
                             };
@@ -1372,6 +1408,71 @@ mod tests {
         let p = d.commit_resources();
         assert!(p.iter().any(|x| x.item == "/cam" && x.attribute == "tide:camera:filter"), "{p:?}");
         assert_eq!(d.scene().camera.filter, tide_core::scene::CameraFilter::None);
+    }
+
+    #[test]
+    fn a_one_prim_edit_rebuilds_only_that_prims_geometry() {
+        let mut d = Delegate::new();
+        for k in 0..5 {
+            quad(&mut d, &format!("/Q{k}"));
+            let mut pts = vec![0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.];
+            pts.iter_mut().skip(2).step_by(3).for_each(|z| *z = k as f32);
+            d.set_attribute(&format!("/Q{k}"), "points", floats(&pts, 3), None);
+        }
+        d.commit_resources();
+        let build = crate::render_pass::core_factory();
+        let settings = RenderSettings { width: 4, height: 4, spp: 1, ..Default::default() };
+        let stats = |d: &Delegate| {
+            let s = build(d.scene(), &settings).ok().and_then(|e| e.build_stats()).unwrap();
+            (s.blas_built, s.blas_reused)
+        };
+        assert_eq!(stats(&d), (5, 0));
+        // Moved: the prim re-syncs, its geometry is the same, so no BVH is rebuilt.
+        d.set_attribute("/Q3", "transform", translate(0., 2., 0.), None);
+        d.commit_resources();
+        assert_eq!(d.last_synced(), ["/Q3"]);
+        assert_eq!(stats(&d), (0, 5));
+        // Points edited: that one BVH is rebuilt.
+        d.set_attribute("/Q1", "points", floats(&[0., 0., 9., 2., 0., 9., 2., 2., 9., 0., 2., 9.], 3), None);
+        d.commit_resources();
+        assert_eq!(stats(&d), (1, 4));
+    }
+
+    #[test]
+    fn placement_edits_keep_the_converted_geometry() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        // A face with two vertices: a geometry problem that must stay reported.
+        d.set_attribute("/A", "faceVertexCounts", Value::Ints(vec![4, 2]), None);
+        d.set_attribute("/A", "faceVertexIndices", Value::Ints(vec![0, 1, 2, 3, 0, 1]), None);
+        let first = d.commit_resources();
+        assert!(first.iter().any(|q| q.attribute == "faceVertexCounts"), "{:?}", first);
+        let geometry = |d: &Delegate| match &d.cache["/A"].piece {
+            Piece::Rprim(r) => r.geometry.clone(),
+            _ => unreachable!(),
+        };
+        let g0 = geometry(&d);
+        for (name, value) in [("transform", translate(0., 0., 5.)), ("material", Value::Path("/M".into())), ("visibility", tok("visible")), ("primId", Value::Int(7))] {
+            d.set_attribute("/A", name, value, None);
+            d.commit_resources();
+            assert_eq!(d.last_synced(), ["/A"]);
+            assert!(Arc::ptr_eq(&g0, &geometry(&d)), "{} re-converted the geometry", name);
+        }
+        assert!(d.problems().iter().any(|q| q.attribute == "faceVertexCounts"));
+        assert_eq!(d.scene().instances[0].transforms[0].w_axis.z, 5.0);
+        assert_eq!(d.scene().meshes[0].indices.len(), 6);
+        // Anything else (an attribute, a primvar, doubleSided) converts the geometry again.
+        d.set_attribute("/A", "doubleSided", Value::Bool(true), None);
+        d.commit_resources();
+        let g1 = geometry(&d);
+        assert!(!Arc::ptr_eq(&g0, &g1) && d.scene().meshes[0].double_sided);
+        d.set_primvar("/A", "st", "vertex", vec![0.0; 8], 2, None);
+        d.commit_resources();
+        assert!(!Arc::ptr_eq(&g1, &geometry(&d)) && d.scene().meshes[0].uvs.is_some());
+        d.set_attribute("/A", "faceVertexCounts", Value::Ints(vec![3, 3]), None);
+        d.commit_resources();
+        assert!(!d.problems().iter().any(|q| q.attribute == "faceVertexCounts"));
+        assert_eq!(d.scene().meshes[0].indices.len(), 6);
     }
 
     #[test]

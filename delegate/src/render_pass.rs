@@ -16,6 +16,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, RwLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
+use tide_core::accel::{BlasCache, BuildStats};
 use tide_core::{Aov, RenderError, RenderSettings, Renderer, SceneDesc};
 
 /// What a render pass drives.
@@ -26,6 +27,10 @@ pub trait Engine {
     /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
     fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
     fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()>;
+    /// How the engine's acceleration structure was built (None for engines without one).
+    fn build_stats(&self) -> Option<BuildStats> {
+        None
+    }
 }
 
 impl Engine for Renderer {
@@ -41,14 +46,19 @@ impl Engine for Renderer {
     fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
         Renderer::write_exr(self, path, aovs, header)
     }
+    fn build_stats(&self) -> Option<BuildStats> {
+        Some(Renderer::build_stats(self).clone())
+    }
 }
 
 /// Builds an engine for a job (called on the render thread).
 pub type EngineFactory = Arc<dyn Fn(&SceneDesc, &RenderSettings) -> Result<Box<dyn Engine>, RenderError> + Send + Sync>;
 
-/// The core renderer as the engine.
+/// The core renderer as the engine. The factory keeps the per-geometry BVHs of its last build,
+/// so a job that follows an edit rebuilds only the geometry whose points or triangles changed.
 pub fn core_factory() -> EngineFactory {
-    Arc::new(|scene, settings| Ok(Box::new(Renderer::new(scene, settings.clone())?) as Box<dyn Engine>))
+    let cache = BlasCache::default();
+    Arc::new(move |scene, settings| Ok(Box::new(Renderer::with_cache(scene, settings.clone(), Some(&cache))?) as Box<dyn Engine>))
 }
 
 /// A copy of a render buffer's pixels.

@@ -17,6 +17,9 @@ use obvhs::{
     triangle::Triangle,
     Boundable, BvhBuildParams,
 };
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
 /// A ray with a time (seconds of shutter time) and a maximum distance.
@@ -118,12 +121,65 @@ pub struct BuildStats {
     pub instances: usize,
     pub bytes: usize,
     pub seconds: f64,
+    /// Per-geometry BVHs built by this build.
+    pub blas_built: usize,
+    /// Per-geometry BVHs taken from a [`BlasCache`] instead of being rebuilt.
+    pub blas_reused: usize,
+}
+
+/// What a per-geometry BVH depends on: the geometry's content (hashed, with its sizes) and,
+/// for spheres, the shutter their motion is bounded over.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum BlasKey {
+    Tri { points: usize, indices: usize, hash: u64 },
+    Sphere { spheres: usize, moving: bool, shutter: (u32, u32), hash: u64 },
+}
+
+impl BlasKey {
+    fn mesh(m: &MeshDesc) -> BlasKey {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        h.write(bytemuck::cast_slice(&m.positions));
+        h.write(bytemuck::cast_slice(&m.indices));
+        BlasKey::Tri { points: m.positions.len(), indices: m.indices.len(), hash: h.finish() }
+    }
+
+    fn spheres(s: &SpheresDesc, shutter: (f32, f32)) -> BlasKey {
+        let mut h = std::collections::hash_map::DefaultHasher::new();
+        h.write(bytemuck::cast_slice(&s.centers));
+        h.write(bytemuck::cast_slice(&s.radii));
+        if let Some(v) = &s.velocities {
+            v.len().hash(&mut h);
+            h.write(bytemuck::cast_slice(v));
+        }
+        BlasKey::Sphere { spheres: s.centers.len(), moving: s.velocities.is_some(), shutter: (shutter.0.to_bits(), shutter.1.to_bits()), hash: h.finish() }
+    }
+}
+
+/// Per-geometry BVHs kept from one build to the next, so that a scene edit that leaves a
+/// geometry's points and triangles as they were (a moved instance, a new material, another
+/// prim edited) does not rebuild its BVH. Geometry is recognised by content, whatever its
+/// name or position in the scene. After each build the cache holds exactly the BVHs that
+/// build used. Cloning shares the cache.
+#[derive(Clone, Default)]
+pub struct BlasCache {
+    entries: Arc<Mutex<HashMap<BlasKey, Arc<Blas>>>>,
+}
+
+impl BlasCache {
+    /// Number of per-geometry BVHs held.
+    pub fn len(&self) -> usize {
+        self.entries.lock().unwrap_or_else(|e| e.into_inner()).len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// The scene's acceleration structure.
 pub struct Accel {
     tlas: Option<CwBvh>,
-    blas: Vec<Blas>,
+    blas: Vec<Arc<Blas>>,
     instances: Vec<InstanceRec>,
     bounds: (Vec3, Vec3),
     pub stats: BuildStats,
@@ -238,16 +294,44 @@ impl Accel {
     /// Builds the structure. `shutter` is the time interval rays will sample.
     /// Inputs must be validated (finite, well-indexed): see `SceneDesc::validate`.
     pub fn build(meshes: &[MeshDesc], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
+        Accel::build_cached(meshes, spheres, instances, shutter, None)
+    }
+
+    /// [`Accel::build`], taking the per-geometry BVHs of unchanged geometry from `cache` and
+    /// leaving in it those of this build.
+    pub fn build_cached(meshes: &[MeshDesc], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32), cache: Option<&BlasCache>) -> Accel {
         let start = std::time::Instant::now();
-        let mut blas = Vec::with_capacity(meshes.len() + spheres.len());
+        let mut blas: Vec<Arc<Blas>> = Vec::with_capacity(meshes.len() + spheres.len());
         let mut stats = BuildStats::default();
+        let mut old = cache.map(|c| std::mem::take(&mut *c.entries.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default();
+        let mut kept: HashMap<BlasKey, Arc<Blas>> = HashMap::new();
+        let mut get = |key: Option<BlasKey>, build: &dyn Fn() -> Blas, stats: &mut BuildStats| -> Arc<Blas> {
+            let Some(key) = key else {
+                stats.blas_built += 1;
+                return Arc::new(build());
+            };
+            if let Some(b) = kept.get(&key).or_else(|| old.get(&key)).cloned() {
+                stats.blas_reused += 1;
+                old.remove(&key);
+                kept.insert(key, b.clone());
+                return b;
+            }
+            stats.blas_built += 1;
+            let b = Arc::new(build());
+            kept.insert(key, b.clone());
+            b
+        };
         for m in meshes {
             stats.triangles += m.indices.len() / 3;
-            blas.push(build_tri_blas(m));
+            blas.push(get(cache.map(|_| BlasKey::mesh(m)), &|| build_tri_blas(m), &mut stats));
         }
         for s in spheres {
             stats.spheres += s.centers.len();
-            blas.push(build_sphere_blas(s, shutter));
+            blas.push(get(cache.map(|_| BlasKey::spheres(s, shutter)), &|| build_sphere_blas(s, shutter), &mut stats));
+        }
+        drop(old);
+        if let Some(c) = cache {
+            *c.entries.lock().unwrap_or_else(|e| e.into_inner()) = kept;
         }
         let mut recs = Vec::with_capacity(instances.len());
         let mut ibounds = Vec::with_capacity(instances.len());
@@ -257,7 +341,7 @@ impl Accel {
                 GeometryRef::Spheres(i) => meshes.len() + i,
             };
             let xf = MotionTransform::new(&inst.transforms, &inst.times);
-            let local = match &blas[b] {
+            let local = match blas[b].as_ref() {
                 Blas::Tri(t) => Aabb::new(t.bounds.0.into(), t.bounds.1.into()),
                 Blas::Sphere(s) => s.bvh.total_aabb,
                 Blas::Empty => Aabb::empty(),
@@ -294,7 +378,7 @@ impl Accel {
         stats.instances = recs.len();
         stats.bytes = blas
             .iter()
-            .map(|b| match b {
+            .map(|b| match b.as_ref() {
                 Blas::Tri(t) => t.bytes(),
                 Blas::Sphere(s) => s.bvh.nodes.len() * 80 + s.centers.len() * 16 + s.bvh.primitive_indices.len() * 4,
                 Blas::Empty => 0,
@@ -349,7 +433,7 @@ impl Accel {
 
     #[inline]
     fn intersect_blas(&self, b: usize, o: Vec3A, d: Vec3A, t_max: f32, time: f32) -> Option<(f32, u32, f32, f32)> {
-        match &self.blas[b] {
+        match self.blas[b].as_ref() {
             Blas::Tri(tb) => tb.intersect(o, d, t_max),
             Blas::Sphere(sb) => {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
@@ -378,7 +462,7 @@ impl Accel {
     /// Centre of a sphere at a time (object space).
     pub fn sphere_center(&self, instance: u32, prim: u32, time: f32) -> Option<(Vec3, f32)> {
         let inst = &self.instances[instance as usize];
-        match &self.blas[inst.blas] {
+        match self.blas[inst.blas].as_ref() {
             Blas::Sphere(sb) => {
                 let i = prim as usize;
                 let mut c = sb.centers[i];
