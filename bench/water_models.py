@@ -59,7 +59,7 @@ def make_variants(stage_path, out_dir):
                             Gf.Vec3f(*RGB_ABSORPTION))
                         sh.CreateInput("scattering", Sdf.ValueTypeNames.Color3f).Set(
                             Gf.Vec3f(*RGB_SCATTERING))
-                elif prim.GetTypeName() == "DomeLight" and "TideSkyAPI" in prim.GetAppliedSchemas():
+                elif prim.GetTypeName() == "DomeLight" and prim.HasRelationship("tide:sky:sun"):
                     n_skies += 1
                     if sky == "dome":
                         sun = prim.GetRelationship("tide:sky:sun").GetTargets()
