@@ -43,8 +43,9 @@ def make_variants(stage_path, out_dir):
     paths = {}
     for medium in ("spectral", "rgb"):
         for sky in ("sky", "dome"):
-            stage = Usd.Stage.Open(stage_path)
-            stage.GetRootLayer().identifier  # noqa: B018 (opened)
+            # a fresh anonymous copy each time: edits to a stage opened by path would change the
+            # shared, cached layer that the next variant opens
+            stage = Usd.Stage.Open(Sdf.Layer.OpenAsAnonymous(stage_path))
             n_media = n_skies = 0
             for prim in stage.Traverse():
                 if prim.IsA(UsdShade.Shader):
