@@ -302,62 +302,12 @@ impl Dielectric {
         tables().dielectric(mu, self.r, if above { self.eta } else { 1.0 / self.eta })
     }
 
-    /// Generalised half vector and the relative IOR crossed; None for degenerate or
-    /// back-facing configurations.
-    #[inline]
-    fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
-        let (co, ci) = (wo.z, wi.z);
-        if co == 0.0 || ci == 0.0 {
-            return None;
-        }
-        let reflect = co * ci > 0.0;
-        let etap = if reflect {
-            1.0
-        } else if co > 0.0 {
-            self.eta
-        } else {
-            1.0 / self.eta
-        };
-        let wm = wi * etap + wo;
-        if wm.length_squared() == 0.0 {
-            return None;
-        }
-        let mut wm = wm.normalize();
-        if wm.z < 0.0 {
-            wm = -wm;
-        }
-        if wm.dot(wi) * ci < 0.0 || wm.dot(wo) * co < 0.0 {
-            return None;
-        }
-        Some((wm, etap, reflect))
-    }
-
     fn f_ss(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
-        let fr = fresnel_dielectric(wo.dot(wm), self.eta);
-        let dg = self.distrib.d(wm) * self.distrib.g2(wo, wi);
-        if reflect {
-            dg * fr / (4.0 * wo.z * wi.z).abs()
-        } else {
-            let denom = wi.dot(wm) + wo.dot(wm) / etap;
-            let ft = dg * (1.0 - fr) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
-            match mode {
-                TransportMode::Radiance => ft / (etap * etap),
-                TransportMode::Importance => ft,
-            }
-        }
+        rough_dielectric_f(&self.distrib, self.eta, wo, wi, mode)
     }
 
     fn pdf_ss(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
-        let r = fresnel_dielectric(wo.dot(wm), self.eta);
-        let pv = self.distrib.pdf_visible(wo, wm);
-        if reflect {
-            pv / (4.0 * wo.dot(wm).abs()) * r
-        } else {
-            let denom = wi.dot(wm) + wo.dot(wm) / etap;
-            pv * wi.dot(wm).abs() / (denom * denom) * (1.0 - r)
-        }
+        rough_dielectric_pdf(&self.distrib, self.eta, wo, wi)
     }
 
     /// (reflected fraction, transmitted fraction) of the compensation lobe for ωo's side.
@@ -490,5 +440,89 @@ impl Dielectric {
                 eta: etap,
             })
         }
+    }
+}
+
+/// A microfacet distribution as the rough-dielectric lobe uses it: normal density, height-
+/// correlated masking-shadowing, and the density of visible normals.
+pub(crate) trait Microfacets {
+    fn d(&self, wm: Vec3) -> f32;
+    fn g2(&self, wo: Vec3, wi: Vec3) -> f32;
+    fn pdf_visible(&self, w: Vec3, wm: Vec3) -> f32;
+}
+
+impl Microfacets for TrowbridgeReitz {
+    #[inline]
+    fn d(&self, wm: Vec3) -> f32 {
+        TrowbridgeReitz::d(self, wm)
+    }
+    #[inline]
+    fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        TrowbridgeReitz::g2(self, wo, wi)
+    }
+    #[inline]
+    fn pdf_visible(&self, w: Vec3, wm: Vec3) -> f32 {
+        TrowbridgeReitz::pdf_visible(self, w, wm)
+    }
+}
+
+/// Generalised half vector of a rough dielectric of relative IOR `eta` (inside below), the
+/// relative IOR crossed, and whether (wo, wi) is a reflection; None for degenerate or
+/// back-facing configurations.
+#[inline]
+pub(crate) fn dielectric_half_vector(eta: f32, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
+    let (co, ci) = (wo.z, wi.z);
+    if co == 0.0 || ci == 0.0 {
+        return None;
+    }
+    let reflect = co * ci > 0.0;
+    let etap = if reflect {
+        1.0
+    } else if co > 0.0 {
+        eta
+    } else {
+        1.0 / eta
+    };
+    let wm = wi * etap + wo;
+    if wm.length_squared() == 0.0 {
+        return None;
+    }
+    let mut wm = wm.normalize();
+    if wm.z < 0.0 {
+        wm = -wm;
+    }
+    if wm.dot(wi) * ci < 0.0 || wm.dot(wo) * co < 0.0 {
+        return None;
+    }
+    Some((wm, etap, reflect))
+}
+
+/// Single-scattering rough dielectric BSDF (Walter et al. 2007) over any microfacet distribution.
+pub(crate) fn rough_dielectric_f(m: &impl Microfacets, eta: f32, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+    let Some((wm, etap, reflect)) = dielectric_half_vector(eta, wo, wi) else { return 0.0 };
+    let fr = fresnel_dielectric(wo.dot(wm), eta);
+    let dg = m.d(wm) * m.g2(wo, wi);
+    if reflect {
+        dg * fr / (4.0 * wo.z * wi.z).abs()
+    } else {
+        let denom = wi.dot(wm) + wo.dot(wm) / etap;
+        let ft = dg * (1.0 - fr) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
+        match mode {
+            TransportMode::Radiance => ft / (etap * etap),
+            TransportMode::Importance => ft,
+        }
+    }
+}
+
+/// Density of [`rough_dielectric_f`]'s sampling: a visible normal, then Fresnel's choice.
+pub(crate) fn rough_dielectric_pdf(m: &impl Microfacets, eta: f32, wo: Vec3, wi: Vec3) -> f32 {
+    let Some((wm, etap, reflect)) = dielectric_half_vector(eta, wo, wi) else { return 0.0 };
+    let r = fresnel_dielectric(wo.dot(wm), eta);
+    let pv = m.pdf_visible(wo, wm);
+    if reflect {
+        pv / (4.0 * wo.dot(wm).abs()) * r
+    } else {
+        let denom = wi.dot(wm) + wo.dot(wm) / etap;
+        pv * wi.dot(wm).abs() / (denom * denom) * (1.0 - r)
     }
 }

@@ -154,6 +154,21 @@ const C40: f32 = 0.40;
 const C22: f32 = 0.12;
 const C04: f32 = 0.23;
 
+impl super::lobes::Microfacets for CoxMunk {
+    #[inline]
+    fn d(&self, wm: Vec3) -> f32 {
+        CoxMunk::d(self, wm)
+    }
+    #[inline]
+    fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        CoxMunk::g2(self, wo, wi)
+    }
+    #[inline]
+    fn pdf_visible(&self, w: Vec3, wm: Vec3) -> f32 {
+        CoxMunk::pdf_visible(self, w, wm)
+    }
+}
+
 impl CoxMunk {
     /// The Cox–Munk clean-surface slope variances (σ²_up, σ²_cross) for wind speed `u` m/s,
     /// before flooring.
@@ -414,61 +429,12 @@ impl SeaSurface {
         }
     }
 
-    /// Generalised half vector, relative IOR crossed, and whether it is a reflection.
-    #[inline]
-    fn half_vector(&self, wo: Vec3, wi: Vec3) -> Option<(Vec3, f32, bool)> {
-        let (co, ci) = (wo.z, wi.z);
-        if co == 0.0 || ci == 0.0 {
-            return None;
-        }
-        let reflect = co * ci > 0.0;
-        let etap = if reflect {
-            1.0
-        } else if co > 0.0 {
-            self.eta
-        } else {
-            1.0 / self.eta
-        };
-        let wm = wi * etap + wo;
-        if wm.length_squared() == 0.0 {
-            return None;
-        }
-        let mut wm = wm.normalize();
-        if wm.z < 0.0 {
-            wm = -wm;
-        }
-        if wm.dot(wi) * ci < 0.0 || wm.dot(wo) * co < 0.0 {
-            return None;
-        }
-        Some((wm, etap, reflect))
-    }
-
     fn f_ss(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
-        let fr = fresnel_dielectric(wo.dot(wm), self.eta);
-        let dg = self.slopes.d(wm) * self.slopes.g2(wo, wi);
-        if reflect {
-            dg * fr / (4.0 * wo.z * wi.z).abs()
-        } else {
-            let denom = wi.dot(wm) + wo.dot(wm) / etap;
-            let ft = dg * (1.0 - fr) * (wi.dot(wm) * wo.dot(wm) / (wi.z * wo.z * denom * denom)).abs();
-            match mode {
-                TransportMode::Radiance => ft / (etap * etap),
-                TransportMode::Importance => ft,
-            }
-        }
+        super::lobes::rough_dielectric_f(&self.slopes, self.eta, wo, wi, mode)
     }
 
     fn pdf_ss(&self, wo: Vec3, wi: Vec3) -> f32 {
-        let Some((wm, etap, reflect)) = self.half_vector(wo, wi) else { return 0.0 };
-        let r = fresnel_dielectric(wo.dot(wm), self.eta);
-        let pv = self.slopes.pdf_visible(wo, wm);
-        if reflect {
-            pv / (4.0 * wo.dot(wm).abs()) * r
-        } else {
-            let denom = wi.dot(wm) + wo.dot(wm) / etap;
-            pv * wi.dot(wm).abs() / (denom * denom) * (1.0 - r)
-        }
+        super::lobes::rough_dielectric_pdf(&self.slopes, self.eta, wo, wi)
     }
 
     pub fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> SampledSpectrum {
