@@ -47,7 +47,7 @@ pub mod emit;
 pub mod sampler;
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;
 
 pub use sampler::LightSampler;
 

@@ -13,7 +13,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 const N_CHI2: usize = 31;
 const ALPHA: f64 = 0.01;
 
-fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
+pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     LightDesc {
         name: "/light".into(),
         shape,
@@ -27,11 +27,11 @@ fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     }
 }
 
-fn build(d: &LightDesc) -> Light {
+pub(crate) fn build(d: &LightDesc) -> Light {
     Light::from_desc(d, &[], ColorSpace::LinearRec709).unwrap()
 }
 
-fn lambda() -> SampledWavelengths {
+pub(crate) fn lambda() -> SampledWavelengths {
     SampledWavelengths::sample_uniform(0.37)
 }
 
@@ -100,7 +100,7 @@ fn check_sampling(name: &str, light: &Light, p: Vec3, seed: u64) -> (f64, f64) {
     (r.pdf_integral, r.success_rate)
 }
 
-fn tilt() -> Mat4 {
+pub(crate) fn tilt() -> Mat4 {
     Mat4::from_rotation_translation(Quat::from_euler(glam::EulerRot::XYZ, 0.4, -0.7, 0.2), Vec3::new(0.3, -0.2, 0.5))
 }
 

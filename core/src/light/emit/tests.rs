@@ -5,7 +5,7 @@
 
 use super::super::{latlong_direction, Light, LightSampleContext};
 use super::*;
-use crate::scene::{ColorSpace, LightDesc, LightShape, TextureDesc, Wrap};
+use crate::scene::{ColorSpace, LightShape, TextureDesc, Wrap};
 use crate::testing::chi2::{chi2_sphere, gamma_q, Chi2Config, TestRng};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
@@ -13,31 +13,7 @@ use glam::{Mat4, Quat, Vec2, Vec3};
 const N_CHI2: usize = 23;
 const ALPHA: f64 = 0.01;
 
-fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
-    LightDesc {
-        name: "/light".into(),
-        shape,
-        transform,
-        color: [1.0; 3],
-        intensity: 1.0,
-        exposure: 0.0,
-        normalize: false,
-        color_temperature: None,
-        visible_to_camera: true,
-    }
-}
-
-fn build(d: &LightDesc) -> Light {
-    Light::from_desc(d, &[], ColorSpace::LinearRec709).unwrap()
-}
-
-fn lambda() -> SampledWavelengths {
-    SampledWavelengths::sample_uniform(0.37)
-}
-
-fn tilt() -> Mat4 {
-    Mat4::from_rotation_translation(Quat::from_euler(glam::EulerRot::XYZ, 0.4, -0.7, 0.2), Vec3::new(0.3, -0.2, 0.5))
-}
+use crate::light::tests::{build, desc, lambda, tilt};
 
 fn u2(rng: &mut TestRng) -> Vec2 {
     Vec2::new(rng.next_f32(), rng.next_f32())
