@@ -140,10 +140,11 @@ fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &Interio
 
 /// Transmittance along a shadow ray from `o` (already offset) in direction `d` over `dist`,
 /// starting in `medium`. Opaque and dielectric surfaces block; translucent preview surfaces
-/// attenuate by their opacity; surfaces that cast no shadows are skipped. `seed` (a sample
+/// attenuate by their opacity; surfaces that cast no shadows, or not those of `light` (its
+/// shadow-link collection), are skipped. `seed` (a sample
 /// value) seeds the numbers a depth-varying medium's ratio tracking draws.
 #[allow(clippy::too_many_arguments)]
-fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
+fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;
@@ -154,7 +155,7 @@ fn shadow_transmittance(world: &World, o: Vec3, d: Vec3, dist: f32, time: f32, m
         };
         let info = &world.instances[hit.instance as usize];
         let s = world.surface(&ray, &hit);
-        let pass = if !info.casts_shadows {
+        let pass = if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
             1.0
         } else if world.materials[info.material].dielectric().is_some() {
             0.0
@@ -255,6 +256,10 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     let mut eta_scale = 1.0f32;
     let mut prev_pdf = 0.0f32;
     let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO);
+    // the surface the last BSDF-sampled ray left (None: the camera or a medium), whose light
+    // links decide which lights that ray may reach
+    let mut prev_instance: Option<u32> = None;
+    let lit = |li: usize, from: Option<u32>| from.is_none_or(|i| world.illuminates(li, i));
     // light-path category of everything after the first scattering event
     let mut category = EMISSION;
     let mut first_surface = true;
@@ -318,7 +323,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
-                                    let tr = shadow_transmittance(world, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr);
+                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr);
                                     if !tr.is_black() {
                                         let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
@@ -335,6 +340,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     prev_pdf = pdf;
                     specular_bounce = false;
                     prev_ctx = LightSampleContext::new(p, Vec3::ZERO);
+                    prev_instance = None;
                     ray = Ray { o: p, d: wi, t_max: f32::INFINITY, time: ray.time };
                     continue;
                 }
@@ -350,7 +356,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         // an area light in front of every surface
         if let Some((li, t, p, n)) = light_hit {
             let light = &world.lights[li];
-            if depth > 0 || light.visible_to_camera() {
+            if (depth > 0 || light.visible_to_camera()) && lit(li, prev_instance) {
                 let le = light.l(p, n, -ray.d, lambda);
                 if !le.is_black() {
                     let w = if depth == 0 || specular_bounce {
@@ -372,7 +378,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             // escaped: infinite lights
             for &li in &world.infinite_lights {
                 let light = &world.lights[li];
-                if depth == 0 && !light.visible_to_camera() {
+                if (depth == 0 && !light.visible_to_camera()) || !lit(li, prev_instance) {
                     continue;
                 }
                 let le = light.le(ray.d, lambda);
@@ -395,7 +401,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let mat_i = info.material;
         let wo_w = -ray.d;
         let front = wo_w.dot(s.ng) > 0.0;
-        if depth == 0 && null_events == 0 && !info.visible_to_camera {
+        if depth == 0 && !info.visible_to_camera {
             // invisible to the camera: continue as if it were not there
             ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
             ray.t_max -= hit.t;
@@ -487,7 +493,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let ul = sampler.get1d();
             let u2 = sampler.get2d();
             let u_tr = sampler.get1d();
-            if let Some((li, pmf)) = world.light_sampler.sample(ul) {
+            if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| world.illuminates(li, s.instance)) {
                 let ctx = LightSampleContext::new(s.p, s.ns);
                 if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                     let wi = frame.to_local(ls.wi);
@@ -500,7 +506,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let med = if out_front { medium_front } else { medium_back };
                             let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, o, ls.wi, dist, ray.time, med, lambda, u_tr);
+                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, lambda, u_tr);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));
@@ -544,6 +550,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         specular_bounce = bs.is_specular();
         prev_pdf = bs.pdf;
         prev_ctx = LightSampleContext::new(s.p, s.ns);
+        prev_instance = Some(s.instance);
         if bs.is_transmission() {
             eta_scale *= bs.eta * bs.eta;
             if let Boundary::Real { enter, .. } = boundary {

@@ -354,6 +354,11 @@ pub struct LightDesc {
     pub color_temperature: Option<f32>,
     /// Whether camera rays see the light itself.
     pub visible_to_camera: bool,
+    /// Names of the instances the light illuminates (`collection:lightLink`); None: all.
+    pub light_link: Option<Vec<String>>,
+    /// Names of the instances that cast the light's shadows (`collection:shadowLink`); None:
+    /// all (that cast shadows at all).
+    pub shadow_link: Option<Vec<String>>,
 }
 
 /// A spectral filter in front of the camera (`tide:camera:filter`), applied to the radiance

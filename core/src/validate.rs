@@ -457,6 +457,8 @@ mod tests {
             normalize: false,
             color_temperature: None,
             visible_to_camera: true,
+            light_link: None,
+            shadow_link: None,
         });
         s.camera.horizontal_aperture = 0.0;
         let (clean, probs) = validate(&s);

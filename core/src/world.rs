@@ -131,6 +131,10 @@ pub struct World {
     pub infinite_lights: Vec<usize>,
     /// (instance, triangle) → light index of emissive triangles.
     pub triangle_lights: HashMap<(u32, u32), usize>,
+    /// Per light: which instances it illuminates, by instance index (None: all).
+    pub light_links: Vec<Option<Vec<bool>>>,
+    /// Per light: which instances cast its shadows, by instance index (None: all).
+    pub shadow_links: Vec<Option<Vec<bool>>>,
     pub camera: Camera,
     pub cs: ColorSpace,
     pub max_depth: u32,
@@ -264,9 +268,21 @@ impl World {
             .collect();
 
         let mut lights = Vec::new();
+        let mut light_links = Vec::new();
+        let mut shadow_links = Vec::new();
+        let link_mask = |names: &Option<Vec<String>>| {
+            names.as_ref().map(|names| {
+                let names: std::collections::HashSet<&str> = names.iter().map(String::as_str).collect();
+                scene.instances.iter().map(|i| names.contains(i.name.as_str())).collect::<Vec<bool>>()
+            })
+        };
         for l in &scene.lights {
             match Light::from_desc(l, &scene.textures, cs) {
-                Ok(light) => lights.push(light),
+                Ok(light) => {
+                    lights.push(light);
+                    light_links.push(link_mask(&l.light_link));
+                    shadow_links.push(link_mask(&l.shadow_link));
+                }
                 Err(e) => {
                     let (attr, msg) = e.split_once(": ").map(|(a, m)| (a.to_string(), m.to_string())).unwrap_or(("inputs".into(), e.clone()));
                     problems.push(Problem { item: l.name.clone(), attribute: attr, message: format!("{msg}; light dropped") });
@@ -289,6 +305,8 @@ impl World {
                 if let Some(l) = Light::triangle(p, emission.clone(), two_sided || m.double_sided) {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
                     lights.push(l);
+                    light_links.push(None);
+                    shadow_links.push(None);
                 }
             }
         }
@@ -318,10 +336,23 @@ impl World {
             hittable_lights,
             infinite_lights,
             triangle_lights,
+            light_links,
+            shadow_links,
             camera,
             cs,
             max_depth: settings.max_depth,
         }
+    }
+
+    /// Whether light `light` illuminates instance `instance` (its light-link collection).
+    pub fn illuminates(&self, light: usize, instance: u32) -> bool {
+        self.light_links[light].as_ref().is_none_or(|m| m.get(instance as usize).copied().unwrap_or(false))
+    }
+
+    /// Whether instance `instance` casts the shadows of light `light` (its shadow-link
+    /// collection; the instance's own `casts_shadows` is separate).
+    pub fn casts_shadow_of(&self, light: usize, instance: u32) -> bool {
+        self.shadow_links[light].as_ref().is_none_or(|m| m.get(instance as usize).copied().unwrap_or(false))
     }
 
     /// Geometry at a hit.

@@ -173,3 +173,24 @@ fn no_acne_on_an_ocean_sized_plane_far_from_the_origin() {
     assert!((mean - expect).abs() < 3.0 * se, "mean {mean} ± {se} vs {expect}");
     assert!(lo > 0.5 * expect, "a pixel at {lo}: samples shadowed by their own surface");
 }
+
+#[test]
+fn a_closed_mesh_invisible_to_the_camera_is_not_seen_from_either_side() {
+    // a black box hidden from camera rays in front of a white environment: both its faces
+    // along a camera ray must be skipped, so every pixel sees the environment (radiance 1)
+    let mut s = SceneDesc::default();
+    s.meshes.push(box_mesh("/box", Vec3::splat(-1.0), Vec3::splat(1.0)));
+    s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
+    let mut inst = instance("/box", GeometryRef::Mesh(0), Mat4::IDENTITY, 0);
+    inst.visible_to_camera = false;
+    s.instances.push(inst);
+    s.lights.push(dome(1.0));
+    s.camera = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 10.0);
+    let (w, h) = (8, 8);
+    let r = render(&s, settings(w, h, 16));
+    for ch in 0..3 {
+        let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
+        // white round trip of the uplift plus 3σ of the spectral estimate
+        assert!((m - 1.0).abs() < 3.0 * se + 0.005, "channel {ch}: {m} ± {se}");
+    }
+}

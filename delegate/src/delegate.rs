@@ -601,6 +601,8 @@ impl Delegate {
         };
 
         let mut scene = SceneDesc { color_space: sp.color_space, ..Default::default() };
+        // the prim path of each instance, for light-link collections
+        let mut instance_paths: Vec<String> = Vec::new();
         scene.materials.push(default_material("default"));
         let mut tex_index: BTreeMap<TexKey, usize> = BTreeMap::new();
         let textures = &self.textures;
@@ -750,6 +752,7 @@ impl Delegate {
                 };
                 for (k, inst) in r.instance_transforms.iter().enumerate() {
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
+                    instance_paths.push(path.clone());
                     scene.instances.push(InstanceDesc {
                         name: if part == 0 { name } else { format!("{} horizon", name) },
                         geometry,
@@ -824,6 +827,12 @@ impl Delegate {
         for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
+            // collections of prim paths → the names of the instances of member prims
+            let members = |c: &Option<lux::Collection>| {
+                c.as_ref().map(|c| scene.instances.iter().zip(&instance_paths).filter(|(_, p)| c.contains(p)).map(|(i, _)| i.name.clone()).collect::<Vec<_>>())
+            };
+            desc.light_link = members(&l.light_link);
+            desc.shadow_link = members(&l.shadow_link);
             if let LightShape::Sky { sun_direction, .. } = &mut desc.shape {
                 if let Some(d) = sky_suns.get(path) {
                     *sun_direction = *d;

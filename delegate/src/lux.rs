@@ -29,6 +29,68 @@ pub struct LightPiece {
     pub texture: Option<TexKey>,
     /// `TideSkyAPI` on a dome: the sun it names; the assembly sets the sky's sun direction.
     pub sky: Option<SkyPiece>,
+    /// `collection:lightLink` (None: unauthored, the light illuminates everything).
+    pub light_link: Option<Collection>,
+    /// `collection:shadowLink` (None: unauthored, everything casts the light's shadows).
+    pub shadow_link: Option<Collection>,
+}
+
+/// A UsdCollectionAPI collection of prim paths as the reader sends it
+/// (`collection:<name>:includes`, `:excludes`, `:includeRoot`, `:expansionRule`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Collection {
+    pub includes: Vec<String>,
+    pub excludes: Vec<String>,
+    pub include_root: bool,
+    /// `expansionRule = explicitOnly`: only the paths named, not their descendants.
+    pub explicit_only: bool,
+}
+
+impl Collection {
+    /// Reads collection `name`; None when none of its attributes is present.
+    fn read(store: &AttrStore, name: &str, p: &mut Problems) -> Option<Collection> {
+        let attr = |a: &str| format!("collection:{name}:{a}");
+        let (inc, exc, root) = (attr("includes"), attr("excludes"), attr("includeRoot"));
+        if store.get(&inc).is_none() && store.get(&exc).is_none() && store.get(&root).is_none() {
+            return None;
+        }
+        let mut paths = |a: &str| -> Vec<String> {
+            let all = store.get(a).and_then(|v| v.to_strings()).unwrap_or_default();
+            let (nested, plain): (Vec<String>, Vec<String>) = all.into_iter().partition(|s| s.contains(".collection:"));
+            for n in nested {
+                p.add(a, format!("'{n}' names a collection; collections within collections are not supported and it is ignored"));
+            }
+            plain
+        };
+        let includes = paths(&inc);
+        let excludes = paths(&exc);
+        let include_root = store.bool_or(&root, true, p);
+        let rule = attr("expansionRule");
+        let explicit_only = store.token_or(&rule, &["expandPrims", "expandPrimsAndProperties", "explicitOnly"], "expandPrims", p) == "explicitOnly";
+        Some(Collection { includes, excludes, include_root, explicit_only })
+    }
+
+    /// Whether the prim at `path` is a member: under the expansion rules, the nearest of its
+    /// ancestors (itself included) that the collection names decides (an exclude wins over an
+    /// include of the same path; `includeRoot` includes `/`).
+    pub fn contains(&self, path: &str) -> bool {
+        if self.explicit_only {
+            return self.includes.iter().any(|i| i == path) && !self.excludes.iter().any(|e| e == path);
+        }
+        let under = |a: &str| {
+            let a = a.trim_end_matches('/');
+            a.is_empty() || path == a || (path.starts_with(a) && path.as_bytes().get(a.len()) == Some(&b'/'))
+        };
+        let depth = |a: &str| a.trim_end_matches('/').len();
+        let inc = self.includes.iter().filter(|a| under(a)).map(|a| depth(a)).max();
+        let inc = if self.include_root { inc.max(Some(0)) } else { inc };
+        let exc = self.excludes.iter().filter(|a| under(a)).map(|a| depth(a)).max();
+        match (inc, exc) {
+            (Some(i), Some(e)) => i > e,
+            (Some(_), None) => true,
+            _ => false,
+        }
+    }
 }
 
 /// The sun of a `TideSkyAPI` dome (contract §6), resolved at scene assembly.
@@ -193,9 +255,13 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             normalize: store.bool_or("normalize", false, p),
             color_temperature,
             visible_to_camera: true,
+            light_link: None,
+            shadow_link: None,
         },
         texture,
         sky,
+        light_link: Collection::read(store, "lightLink", p),
+        shadow_link: Collection::read(store, "shadowLink", p),
     })
 }
 
@@ -473,6 +539,34 @@ mod tests {
         assert!(convert_light("/Z", LightKind::Disk, &st(&[("inputs:radius", f(0.0))]), &mut p).is_none());
         assert_eq!(p.list.len(), 1);
         assert_eq!(p.list[0].attribute, "radius");
+    }
+
+    #[test]
+    fn light_link_collections_resolve_by_nearest_ancestor() {
+        let paths = |v: &[&str]| Value::Paths(v.iter().map(|s| s.to_string()).collect());
+        let mut p = Problems::new("/L");
+        let l = convert_light(
+            "/L",
+            LightKind::Sphere,
+            &st(&[
+                ("collection:lightLink:includes", paths(&["/World/a", "/World/b/keep"])),
+                ("collection:lightLink:excludes", paths(&["/World/b"])),
+                ("collection:lightLink:includeRoot", Value::Bool(false)),
+            ]),
+            &mut p,
+        )
+        .unwrap();
+        assert!(l.shadow_link.is_none());
+        let c = l.light_link.unwrap();
+        assert!(c.contains("/World/a") && c.contains("/World/a/mesh"));
+        assert!(!c.contains("/World/ab") && !c.contains("/World/c"));
+        assert!(!c.contains("/World/b") && !c.contains("/World/b/x"));
+        assert!(c.contains("/World/b/keep/mesh"));
+        let all_but = Collection { includes: vec![], excludes: vec!["/World/b".into()], include_root: true, explicit_only: false };
+        assert!(all_but.contains("/World/c") && !all_but.contains("/World/b/x"));
+        let explicit = Collection { explicit_only: true, include_root: true, ..c };
+        assert!(explicit.contains("/World/a") && !explicit.contains("/World/a/mesh"));
+        assert!(p.list.is_empty(), "{:?}", p.list);
     }
 
     #[test]

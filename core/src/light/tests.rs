@@ -24,6 +24,8 @@ pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
         normalize: false,
         color_temperature: None,
         visible_to_camera: true,
+        light_link: None,
+        shadow_link: None,
     }
 }
 

@@ -1187,6 +1187,8 @@ class Reader:
                 st.set(base + "excludes", ("paths", tuple(str(p) for p in exc)))
                 st.set(base + "includeRoot", ("bool", True if include_root is None
                                               else bool(include_root)))
+                rule = coll.GetExpansionRuleAttr().Get()
+                st.set(base + "expansionRule", ("token", str(rule or "expandPrims")))
         self._desired[path] = st
 
     def _eval_camera(self, prim):

@@ -1,0 +1,98 @@
+//! Light linking and shadow linking: a light illuminates only the instances its link names,
+//! by next-event estimation and by BSDF-sampled rays alike, and only the instances its shadow
+//! link names block it.
+
+mod common;
+use common::*;
+use glam::{Mat4, Vec3};
+use tide_core::scene::*;
+use tide_core::{Aov, Renderer};
+
+const W: u32 = 32;
+
+/// Two diffuse patches side by side (ids 1 and 2), seen from above; a sphere light off to the
+/// side, out of the camera's view.
+fn patches(light_link: Option<Vec<String>>, with_dome: bool) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(quad_y("/patch", 1.0));
+    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+    for (name, x, id) in [("/left", -1.5f32, 1), ("/right", 1.5, 2)] {
+        let mut i = instance(name, GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0);
+        i.id = id;
+        s.instances.push(i);
+    }
+    let mut l = light("/lamp", LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.0, 2.0, 3.0)), 400.0, false);
+    l.visible_to_camera = false;
+    l.light_link = light_link;
+    s.lights.push(l);
+    if with_dome {
+        s.lights.push(dome(0.5));
+    }
+    s.camera = camera(Vec3::new(0.0, 5.0, 0.0), Vec3::ZERO, 60.0);
+    s
+}
+
+/// Mean green of the pixels whose first hit is the instance with `id`, and their largest value.
+fn patch_stats(r: &Renderer, id: f32) -> (f64, f32) {
+    let ids = r.aov_pixels(Aov::PrimId);
+    let px = r.aov_pixels(Aov::Color);
+    let vals: Vec<f32> = (0..(W * W) as usize).filter(|&i| ids[i] == id).map(|i| px[4 * i + 1]).collect();
+    assert!(vals.len() > 20, "too few pixels of id {id}");
+    (vals.iter().map(|&v| v as f64).sum::<f64>() / vals.len() as f64, vals.iter().cloned().fold(0.0, f32::max))
+}
+
+#[test]
+fn a_linked_light_illuminates_only_the_instances_it_names() {
+    let r = render(&patches(Some(vec!["/left".into()]), false), settings(W, W, 64));
+    let (left, _) = patch_stats(&r, 1.0);
+    let (_, right_max) = patch_stats(&r, 2.0);
+    assert!(left > 0.05, "the linked patch is lit: {left}");
+    // neither technique (light sampling nor BSDF-sampled rays reaching the sphere) brings
+    // any of the lamp's light to the unlinked patch; light bounced off the lit patch would
+    // be the only way, and the patches are coplanar
+    assert_eq!(right_max, 0.0, "the unlinked patch receives none of the lamp's light");
+
+    // the same lamp unlinked lights both patches alike
+    let all = render(&patches(None, false), settings(W, W, 64));
+    let (l_all, _) = patch_stats(&all, 1.0);
+    let (r_all, _) = patch_stats(&all, 2.0);
+    assert!((l_all - r_all).abs() < 0.1 * l_all, "{l_all} vs {r_all}");
+    assert!((left - l_all).abs() < 0.05 * l_all, "linking does not change the linked patch: {left} vs {l_all}");
+}
+
+#[test]
+fn under_a_dome_both_patches_stay_lit_and_only_one_gets_the_lamp() {
+    let linked = render(&patches(Some(vec!["/left".into()]), true), settings(W, W, 64));
+    let mut dome_only = patches(None, true);
+    dome_only.lights.remove(0);
+    let dome_only = render(&dome_only, settings(W, W, 64));
+    let (left, _) = patch_stats(&linked, 1.0);
+    let (right, _) = patch_stats(&linked, 2.0);
+    let (dome_right, _) = patch_stats(&dome_only, 2.0);
+    assert!(dome_right > 0.01, "the dome lights the patches: {dome_right}");
+    assert!((right - dome_right).abs() < 0.05 * dome_right, "the unlinked patch has the dome's light only: {right} vs {dome_right}");
+    assert!(left > 1.5 * dome_right, "the linked patch has the lamp's light too: {left} vs {dome_right}");
+}
+
+#[test]
+fn a_shadow_link_names_the_instances_that_block_a_light() {
+    // a black blocker, invisible to the camera, between the lamp and the left patch
+    let scene = |shadow_link: Option<Vec<String>>| {
+        let mut s = patches(None, false);
+        s.meshes.push(quad_y("/blocker", 1.5));
+        s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
+        let mut b = instance("/blocker", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(-1.5, 1.0, 1.5)), 1);
+        b.visible_to_camera = false;
+        s.instances.push(b);
+        s.lights[0].shadow_link = shadow_link;
+        s
+    };
+    let shadowed = render(&scene(None), settings(W, W, 32));
+    let unshadowed = render(&scene(Some(vec!["/left".into(), "/right".into()])), settings(W, W, 32));
+    let (l_sh, _) = patch_stats(&shadowed, 1.0);
+    let (l_un, _) = patch_stats(&unshadowed, 1.0);
+    let (r_sh, _) = patch_stats(&shadowed, 2.0);
+    assert!(r_sh > 0.05, "the right patch is not behind the blocker: {r_sh}");
+    assert!(l_sh < 0.05 * r_sh, "the blocker shadows the left patch: {l_sh} vs {r_sh}");
+    assert!(l_un > 0.8 * r_sh, "a blocker outside the shadow link casts no shadow: {l_un} vs {r_sh}");
+}
