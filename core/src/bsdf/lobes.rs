@@ -386,33 +386,9 @@ impl Dielectric {
             Vec3::new(d.x, d.y, z)
         } else {
             let uc = ((uc - p_ms) / (1.0 - p_ms)).min(1.0 - f32::EPSILON);
-            let wm = self.distrib.sample_wm(wo, u);
-            let r = fresnel_dielectric(wo.dot(wm), self.eta);
-            if uc < r {
-                let wi = reflect(wo, wm);
-                if wi.z * wo.z <= 0.0 {
-                    return None;
-                }
-                wi
-            } else {
-                let (wi, _) = refract(wo, wm, self.eta)?;
-                if wi.z * wo.z >= 0.0 {
-                    return None;
-                }
-                wi
-            }
+            scatter_at_facet(wo, self.distrib.sample_wm(wo, u), self.eta, uc)?
         };
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let f = self.f(wo, wi, mode);
-        let (fl, eta) = if wi.z * wo.z > 0.0 {
-            (flags::GLOSSY_REFLECTION, 1.0)
-        } else {
-            (flags::GLOSSY_TRANSMISSION, if wo.z > 0.0 { self.eta } else { 1.0 / self.eta })
-        };
-        Some(BsdfSample { f, wi, pdf, flags: fl, eta })
+        glossy_dielectric_sample(wo, wi, self.eta, self.pdf(wo, wi), || self.f(wo, wi, mode))
     }
 
     fn sample_smooth(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
@@ -525,4 +501,31 @@ pub(crate) fn rough_dielectric_pdf(m: &impl Microfacets, eta: f32, wo: Vec3, wi:
         let denom = wi.dot(wm) + wo.dot(wm) / etap;
         pv * wi.dot(wm).abs() / (denom * denom) * (1.0 - r)
     }
+}
+
+/// Reflects or refracts `wo` at the microfacet `wm` of a dielectric of relative IOR `eta`, the
+/// choice made by Fresnel with `uc`; None when the result lands on the wrong side.
+#[inline]
+pub(crate) fn scatter_at_facet(wo: Vec3, wm: Vec3, eta: f32, uc: f32) -> Option<Vec3> {
+    if uc < fresnel_dielectric(wo.dot(wm), eta) {
+        let wi = reflect(wo, wm);
+        (wi.z * wo.z > 0.0).then_some(wi)
+    } else {
+        let (wi, _) = refract(wo, wm, eta)?;
+        (wi.z * wo.z < 0.0).then_some(wi)
+    }
+}
+
+/// The sample record of a glossy dielectric lobe for a sampled `wi` with density `pdf`.
+#[inline]
+pub(crate) fn glossy_dielectric_sample(wo: Vec3, wi: Vec3, eta: f32, pdf: f32, f: impl FnOnce() -> SampledSpectrum) -> Option<BsdfSample> {
+    if !(pdf > 0.0) {
+        return None;
+    }
+    let (fl, eta) = if wi.z * wo.z > 0.0 {
+        (flags::GLOSSY_REFLECTION, 1.0)
+    } else {
+        (flags::GLOSSY_TRANSMISSION, if wo.z > 0.0 { eta } else { 1.0 / eta })
+    };
+    Some(BsdfSample { f: f(), wi, pdf, flags: fl, eta })
 }

@@ -44,8 +44,6 @@
 //! the −Z side; `wind_speed` in m/s; `wind_direction` in radians in the local tangent plane,
 //! measured from +X towards +Y). [`CoxMunk`] exposes the slope distribution itself.
 
-use super::fresnel::fresnel_dielectric;
-use super::microfacet::{reflect, refract};
 use super::{flags, BsdfError, BsdfSample, TransportMode};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -465,32 +463,8 @@ impl SeaSurface {
                 eta: 1.0,
             });
         }
-        let wm = self.slopes.sample_visible(wo, u);
-        let r = fresnel_dielectric(wo.dot(wm), self.eta);
-        let wi = if uc < r {
-            let wi = reflect(wo, wm);
-            if wi.z * wo.z <= 0.0 {
-                return None;
-            }
-            wi
-        } else {
-            let (wi, _) = refract(wo, wm, self.eta)?;
-            if wi.z * wo.z >= 0.0 {
-                return None;
-            }
-            wi
-        };
-        let pdf = self.pdf(wo, wi);
-        if !(pdf > 0.0) {
-            return None;
-        }
-        let f = self.f(wo, wi, mode);
-        let (fl, eta) = if wi.z * wo.z > 0.0 {
-            (flags::GLOSSY_REFLECTION, 1.0)
-        } else {
-            (flags::GLOSSY_TRANSMISSION, if wo.z > 0.0 { self.eta } else { 1.0 / self.eta })
-        };
-        Some(BsdfSample { f, wi, pdf, flags: fl, eta })
+        let wi = super::lobes::scatter_at_facet(wo, self.slopes.sample_visible(wo, u), self.eta, uc)?;
+        super::lobes::glossy_dielectric_sample(wo, wi, self.eta, self.pdf(wo, wi), || self.f(wo, wi, mode))
     }
 }
 
@@ -897,7 +871,7 @@ mod tests {
         let (mut sum, mut sum2) = (0.0f64, 0.0f64);
         for _ in 0..n {
             let m = cm.sample_visible(wo, Vec2::new(rng.next_f32(), rng.next_f32()));
-            let wr = reflect(wo, m);
+            let wr = crate::bsdf::microfacet::reflect(wo, m);
             if wr.z <= 0.0 {
                 continue;
             }
