@@ -71,6 +71,18 @@ def preview_material(stage, path, color=(0.5, 0.5, 0.5), **inputs):
     return mat
 
 
+def lambert_material(stage, path, color):
+    """A purely Lambertian UsdPreviewSurface: specular workflow with black specular."""
+    mat = UsdShade.Material.Define(stage, path)
+    sh = UsdShade.Shader.Define(stage, path + "/S")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*color))
+    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    return mat
+
+
 def bind(prim, mat, purpose=None):
     api = UsdShade.MaterialBindingAPI.Apply(prim)
     if purpose:

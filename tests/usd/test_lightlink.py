@@ -5,20 +5,13 @@ import math
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import bind, camera, load, render, settings
+from conftest import bind, camera, lambert_material, load, render, settings
 
 F, AP = 50.0, 36.0
 
 
 def _grey(stage):
-    mat = UsdShade.Material.Define(stage, "/Looks/Grey")
-    sh = UsdShade.Shader.Define(stage, "/Looks/Grey/S")
-    sh.CreateIdAttr("UsdPreviewSurface")
-    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
-    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
-    return mat
+    return lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5))
 
 
 def _wall(stage, path, x0, x1, z, mat):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import ROOT, bind, camera, render, settings
+from conftest import ROOT, bind, camera, lambert_material, render, settings
 
 F, AP = 50.0, 36.0            # focal length, square aperture: tan(half fov) = 18/50
 
@@ -38,14 +38,7 @@ def _white_dome(stage):
 
 
 def _black(stage):
-    mat = UsdShade.Material.Define(stage, "/Looks/Black")
-    sh = UsdShade.Shader.Define(stage, "/Looks/Black/S")
-    sh.CreateIdAttr("UsdPreviewSurface")
-    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
-    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
-    return mat
+    return lambert_material(stage, "/Looks/Black", (0, 0, 0))
 
 
 def _ball(stage, path, pos, radius, mat):
@@ -106,13 +99,7 @@ def test_sphere_projects_where_the_camera_says(renderer, stage):
 def test_diffuse_patch_under_a_known_sun(renderer, stage):
     w = h = 32
     camera(stage, focal=F, aperture=(AP, AP))
-    mat = UsdShade.Material.Define(stage, "/Looks/Grey")
-    sh = UsdShade.Shader.Define(stage, "/Looks/Grey/S")
-    sh.CreateIdAttr("UsdPreviewSurface")
-    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
-    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    mat = lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5))
     m = UsdGeom.Mesh.Define(stage, "/Wall")
     m.CreatePointsAttr([(-10, -10, -5), (10, -10, -5), (10, 10, -5), (-10, 10, -5)])
     m.CreateFaceVertexCountsAttr([4])
