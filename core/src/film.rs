@@ -6,7 +6,9 @@ use crate::render::Aov;
 use std::path::Path;
 
 /// The light-path categories of the split AOVs, in `SampleValue::split` order.
-pub const SPLIT_AOVS: [Aov; 5] = [Aov::Diffuse, Aov::Specular, Aov::Transmission, Aov::Volume, Aov::Emission];
+pub const SPLIT_AOVS: [Aov; 6] = [Aov::Diffuse, Aov::Specular, Aov::Transmission, Aov::Volume, Aov::Emission, Aov::Caustics];
+/// Number of light-path categories.
+pub const N_SPLIT: usize = SPLIT_AOVS.len();
 
 /// What one camera sample contributes to its pixel.
 #[derive(Clone, Copy, Debug, Default)]
@@ -20,11 +22,11 @@ pub struct SampleValue {
     /// Instance id of the first hit, −1 for none.
     pub prim_id: f32,
     /// `color` split by light path, in `SPLIT_AOVS` order; sums to `color`.
-    pub split: [[f32; 3]; 5],
+    pub split: [[f32; 3]; N_SPLIT],
 }
 
-/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 15.
-const ACC: usize = 25;
+/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 3 per category.
+const ACC: usize = 10 + 3 * N_SPLIT;
 
 /// Accumulated samples of a rectangle of pixels.
 #[derive(Clone, Debug)]
@@ -220,7 +222,7 @@ mod tests {
     fn accumulates_resolves_and_writes_named_channels() {
         let mut f = Film::new(4, 3, [0, 0, 4, 3]);
         let mut t = FilmTile::new(0, 0, 4, 3, true);
-        let s = SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, depth: 5.0, prim_id: 7.0, split: [[1.0, 2.0, 3.0], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]], ..Default::default() };
+        let s = SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, depth: 5.0, prim_id: 7.0, split: [[1.0, 2.0, 3.0], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]], ..Default::default() };
         t.add(1, 2, &s, true);
         t.add(1, 2, &SampleValue { depth: 9.0, ..s }, false);
         f.merge(&t);

@@ -22,6 +22,25 @@ const SPECULAR: usize = 1;
 const TRANSMISSION: usize = 2;
 const VOLUME: usize = 3;
 const EMISSION: usize = 4;
+const CAUSTICS: usize = 5;
+use crate::caustics::engine::{Caustics, Chain};
+use crate::film::N_SPLIT;
+use crate::scene::CausticsTransparency;
+
+/// Path-state bits for switch-to-transparency (`tide:caustics:transparency`).
+const AFTER_DIFFUSE: u8 = 1;
+const AFTER_VOLUME: u8 = 2;
+
+/// Whether a surface with transparency mode `t` is transparent to a path in state `flags`.
+#[inline]
+fn transparent(t: CausticsTransparency, flags: u8) -> bool {
+    match t {
+        CausticsTransparency::Off => false,
+        CausticsTransparency::AfterDiffuse => flags & AFTER_DIFFUSE != 0,
+        CausticsTransparency::Volume => flags & AFTER_VOLUME != 0,
+        CausticsTransparency::All => flags != 0,
+    }
+}
 
 const MAX_NESTING: usize = 8;
 /// Surfaces a path may pass through without scattering (opacity cut-outs, overlapped
@@ -99,7 +118,7 @@ impl InteriorStack {
 }
 
 /// How a dielectric boundary hit acts on a path.
-enum Boundary {
+pub(crate) enum Boundary {
     /// Not a dielectric: an ordinary surface in the current medium.
     Opaque,
     /// A boundary the path passes through unchanged (the stack is updated).
@@ -108,7 +127,7 @@ enum Boundary {
     Real { eta: f32, medium_front: Option<usize>, medium_back: Option<usize>, enter: Interior },
 }
 
-fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
+pub(crate) fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
     let info = &world.instances[s.instance as usize];
     let mat = &world.materials[info.material];
     let Some(d) = mat.dielectric() else { return Boundary::Opaque };
@@ -144,10 +163,15 @@ fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &Interio
 /// shadow-link collection), are skipped. `seed` (a sample
 /// value) seeds the numbers a depth-varying medium's ratio tracking draws.
 #[allow(clippy::too_many_arguments)]
-fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
+fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;
+    // the medium of the current stretch of the ray, where it starts, and how far it reaches
+    let mut cur_medium = medium;
+    let mut seg_start = o;
+    let mut seg_len = 0.0f32;
+    let mut stream = StreamRng::new(seed, 0x5ad0);
     for _ in 0..MAX_NULL_EVENTS {
         let ray = Ray { o: origin, d, t_max: remaining, time };
         let Some(hit) = world.accel.intersect(&ray) else {
@@ -155,7 +179,8 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
         };
         let info = &world.instances[hit.instance as usize];
         let s = world.surface(&ray, &hit);
-        let pass = if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
+        let see_through = transparent(world.caustic_instances[hit.instance as usize].transparency, path_flags);
+        let pass = if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) || see_through {
             1.0
         } else if world.materials[info.material].dielectric().is_some() {
             0.0
@@ -166,16 +191,27 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             return SampledSpectrum::ZERO;
         }
         tr *= pass;
+        seg_len += hit.t;
+        if see_through && world.materials[info.material].dielectric().is_some() {
+            // a water body switched to transparency: its medium ends (or starts) here
+            if let Some(m) = cur_medium {
+                let mut rng = || stream.next_f32();
+                tr *= world.media[m].transmittance(seg_start, d, seg_len, &mut rng, lambda);
+            }
+            cur_medium = if d.dot(s.ng) > 0.0 { None } else { world.materials[info.material].interior_medium };
+            seg_start = s.p;
+            seg_len = 0.0;
+        }
         origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         remaining -= hit.t;
         if remaining <= 0.0 {
             break;
         }
     }
-    if let Some(m) = medium {
-        let mut stream = StreamRng::new(seed, 0x5ad0);
+    if let Some(m) = cur_medium {
         let mut rng = || stream.next_f32();
-        tr *= world.media[m].transmittance(o, d, dist.min(1e30), &mut rng, lambda);
+        let len = if seg_start == o { dist } else { (dist - (seg_start - o).length()).max(0.0) };
+        tr *= world.media[m].transmittance(seg_start, d, len.min(1e30), &mut rng, lambda);
     }
     tr
 }
@@ -240,14 +276,24 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
 
 /// Radiance (and AOVs) of one camera sample through `raster` with wavelengths `lambda`.
 /// Returns the radiance split by light-path category (its sum is the sample's radiance) and
-/// the first-vertex AOVs.
-pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack) -> ([SampledSpectrum; 5], SampleValue) {
+/// the first-vertex AOVs. With `caustics`, photon lookups are made at non-specular receiver
+/// vertices and the caustic transport they carry is weighted out of the path tracer's share
+/// (see [`crate::caustics::engine`]).
+pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack, caustics: Option<&Caustics>) -> ([SampledSpectrum; N_SPLIT], SampleValue) {
     let u_lens = sampler.get2d();
     let u_time = sampler.get1d();
     let cr = world.camera.generate_ray(raster, u_lens, u_time);
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1.0, ..Default::default() };
-    let mut split = [SampledSpectrum::ZERO; 5];
+    let mut split = [SampledSpectrum::ZERO; N_SPLIT];
+    // the ray footprint (for photon lookup radii): width now and growth per unit length
+    let (mut fp_width, mut fp_spread) = caustics.map_or((0.0, 0.0), |c| c.pixel_footprint());
+    let mut path_flags = 0u8;
+    let mut chain: Option<Chain> = None;
+    let chain_weight = |li: usize, chain: &Option<Chain>| match (caustics, chain) {
+        (Some(c), Some(ch)) => c.path_weight(li, ch),
+        _ => 1.0,
+    };
     let mut beta = SampledSpectrum::ONE;
     let mut stack = *camera_stack;
     let mut depth = 0u32;
@@ -298,6 +344,10 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             match world.media[mi].sample_distance(ray.o, ray.d, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
                     beta *= weight;
+                    fp_width += fp_spread * t;
+                    fp_spread = crate::caustics::engine::widen_after_diffuse(fp_spread);
+                    path_flags |= AFTER_VOLUME;
+                    chain = None;
                     if beta.is_black() {
                         break;
                     }
@@ -323,7 +373,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
-                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr);
+                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr, path_flags);
                                     if !tr.is_black() {
                                         let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
@@ -365,7 +415,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                         let lp = light.pdf_li(&prev_ctx, ray.d, Some((p, n))) * world.light_sampler.pmf(li);
                         power_heuristic(1.0, prev_pdf, 1.0, lp)
                     };
-                    add!(beta * le * w);
+                    add!(beta * le * (w * chain_weight(li, &chain)));
                 }
             }
             if depth == 0 {
@@ -391,7 +441,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     let lp = light.pdf_li(&prev_ctx, ray.d, None) * world.light_sampler.pmf(li);
                     power_heuristic(1.0, prev_pdf, 1.0, lp)
                 };
-                add!(beta * le * w);
+                add!(beta * le * (w * chain_weight(li, &chain)));
             }
             break;
         };
@@ -401,6 +451,26 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let mat_i = info.material;
         let wo_w = -ray.d;
         let front = wo_w.dot(s.ng) > 0.0;
+        fp_width += fp_spread * hit.t;
+        let roles = world.caustic_instances[hit.instance as usize];
+        if transparent(roles.transparency, path_flags) {
+            // switch-to-transparency: the path goes on as if the surface were not there (a
+            // water body's medium still begins and ends at it)
+            if let Some(d) = world.materials[mat_i].dielectric() {
+                if front {
+                    stack.push(Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: world.materials[mat_i].interior_medium });
+                } else {
+                    stack.remove(s.instance);
+                }
+            }
+            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+            ray.t_max -= hit.t;
+            null_events += 1;
+            if null_events > MAX_NULL_EVENTS {
+                break;
+            }
+            continue;
+        }
         if depth == 0 && !info.visible_to_camera {
             // invisible to the camera: continue as if it were not there
             ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
@@ -440,6 +510,15 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 break;
             }
             continue;
+        }
+
+        // the caustic chain goes on through casters and ends at anything else
+        if roles.caster {
+            if let Some(c) = chain.as_mut() {
+                c.last = s.instance;
+            }
+        } else {
+            chain = None;
         }
 
         // first-hit AOVs
@@ -488,8 +567,21 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             aov.albedo = color::xyz_to_rgb(color::to_xyz(bsdf.albedo_hint(), lambda), world.cs);
         }
 
+        let non_specular = !bsdf.is_specular();
+        if non_specular {
+            path_flags |= AFTER_DIFFUSE;
+        }
+        // caustic photons arriving here
+        if let Some(c) = caustics.filter(|_| non_specular && roles.receiver) {
+            let u = sampler.get1d();
+            let l = c.gather(s.p, s.ng, c.radius(fp_width), &bsdf, &frame, wo, lambda, beta.average(), u);
+            if !l.is_black() {
+                split[CAUSTICS] += beta * l;
+            }
+        }
+
         // next-event estimation
-        if !bsdf.is_specular() && n_light > 0 {
+        if non_specular && n_light > 0 {
             let ul = sampler.get1d();
             let u2 = sampler.get2d();
             let u_tr = sampler.get1d();
@@ -506,10 +598,10 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let med = if out_front { medium_front } else { medium_back };
                             let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, lambda, u_tr);
+                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, lambda, u_tr, path_flags);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
-                                let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));
+                                let c = beta * tr * f * ls.l * (w * chain_weight(li, &chain) / (ls.pdf * pmf));
                                 if depth == 0 {
                                     for (cat, v) in split_reflection(&bsdf, wo, wi, c) {
                                         split[cat] += v;
@@ -548,6 +640,12 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             };
         }
         specular_bounce = bs.is_specular();
+        if !roles.caster {
+            chain = (caustics.is_some() && roles.receiver && !bs.is_specular()).then_some(Chain { p_b: bs.pdf, last: u32::MAX });
+        }
+        if non_specular {
+            fp_spread = crate::caustics::engine::widen_after_diffuse(fp_spread);
+        }
         prev_pdf = bs.pdf;
         prev_ctx = LightSampleContext::new(s.p, s.ns);
         prev_instance = Some(s.instance);

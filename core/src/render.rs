@@ -24,6 +24,18 @@ impl std::fmt::Display for Problem {
 pub enum IntegratorKind {
     #[default]
     Path,
+    /// Path tracing plus guided caustic photon mapping ([`crate::caustics::engine`]).
+    Caustics,
+}
+
+impl IntegratorKind {
+    /// The `tide:integrator` token.
+    pub fn token(self) -> &'static str {
+        match self {
+            IntegratorKind::Path => "path",
+            IntegratorKind::Caustics => "caustics",
+        }
+    }
 }
 
 /// An output of the renderer.
@@ -44,10 +56,12 @@ pub enum Aov {
     Transmission,
     Volume,
     Emission,
+    /// Light carried by caustic photons (the `caustics` integrator's photon lookups).
+    Caustics,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 10] = [
+    pub const ALL: [Aov; 11] = [
         Aov::Color,
         Aov::Depth,
         Aov::Normal,
@@ -58,6 +72,7 @@ impl Aov {
         Aov::Transmission,
         Aov::Volume,
         Aov::Emission,
+        Aov::Caustics,
     ];
 
     /// The `sourceName` of a UsdRenderVar (contract §6).
@@ -73,6 +88,7 @@ impl Aov {
             Aov::Transmission => "tide:transmission",
             Aov::Volume => "tide:volume",
             Aov::Emission => "tide:emission",
+            Aov::Caustics => "tide:caustics",
         }
     }
 
@@ -109,6 +125,8 @@ pub struct RenderSettings {
     /// Seconds of rendering after which progressive passes stop; 0 = none.
     pub time_budget_s: f32,
     pub integrator: IntegratorKind,
+    /// Settings of the caustics integrator.
+    pub caustics: crate::caustics::engine::CausticsConfig,
 }
 
 impl Default for RenderSettings {
@@ -126,6 +144,7 @@ impl Default for RenderSettings {
             disable_depth_of_field: false,
             time_budget_s: 0.0,
             integrator: IntegratorKind::Path,
+            caustics: Default::default(),
         }
     }
 }
@@ -148,6 +167,10 @@ pub struct RenderStats {
     pub render_seconds: f64,
     pub build_seconds: f64,
     pub samples_per_second: f64,
+    /// Photon passes of the caustics integrator (None: no photons are traced).
+    pub caustics: Option<crate::caustics::engine::CausticsStats>,
+    /// Seconds spent tracing photons and building photon maps (part of `render_seconds`).
+    pub photon_seconds: f64,
 }
 
 /// Inverse of the standard normal CDF (Acklam's rational approximation, relative error
@@ -194,6 +217,7 @@ pub struct Renderer {
     pool: rayon::ThreadPool,
     camera_stack: crate::integrator::InteriorStack,
     stats: RenderStats,
+    caustics: Option<crate::caustics::engine::Caustics>,
 }
 
 impl Renderer {
@@ -238,8 +262,13 @@ impl Renderer {
             .build()
             .map_err(|e| RenderError(format!("cannot start render threads: {e}")))?;
         let camera_stack = crate::integrator::initial_stack(&world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
-        let stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
-        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats })
+        let caustics = match settings.integrator {
+            IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(&world, w, h, settings.caustics),
+            IntegratorKind::Path => None,
+        };
+        let mut stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
+        stats.caustics = caustics.as_ref().map(|c| c.stats().clone());
+        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics })
     }
 
     /// Problems found in the input.
@@ -276,6 +305,14 @@ impl Renderer {
         }
         let base = self.film.spp;
         let seed = self.settings.seed;
+        let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
+        if let Some(c) = self.caustics.as_mut() {
+            let t = std::time::Instant::now();
+            let world = &self.world;
+            self.pool.install(|| c.begin_pass(world, seed, spp, pixels));
+            self.stats.photon_seconds += t.elapsed().as_secs_f64();
+        }
+        let caustics = self.caustics.as_ref();
         let world = &self.world;
         let cs = world.cs;
         let stack = self.camera_stack;
@@ -295,7 +332,7 @@ impl Renderer {
                                 let f = sampler.get2d();
                                 let raster = glam::Vec2::new(x as f32 + 0.5 + sample_filter(f.x), y as f32 + 0.5 + sample_filter(f.y));
                                 let mut lambda = color::sample_wavelengths(sampler.get1d());
-                                let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack);
+                                let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, caustics);
                                 let filter = world.camera.filter.map(|f| f.sample(&lambda));
                                 let to_rgb = |x: crate::spectrum::SampledSpectrum| {
                                     let x = match &filter {
@@ -328,7 +365,15 @@ impl Renderer {
                 .collect()
         });
         if results.iter().any(|r| r.is_none()) {
+            if let Some(c) = self.caustics.as_mut() {
+                // the pass's photons and visibility are dropped with it
+                c.end_pass_cancelled();
+            }
             return false;
+        }
+        if let Some(c) = self.caustics.as_mut() {
+            c.end_pass(spp as u64 * pixels);
+            self.stats.caustics = Some(c.stats().clone());
         }
         for t in results.iter().flatten() {
             self.film.merge(t);
@@ -351,7 +396,12 @@ impl Renderer {
     pub fn reset(&mut self) {
         self.film.clear();
         self.stats.render_seconds = 0.0;
+        self.stats.photon_seconds = 0.0;
         self.stats.samples_per_pixel = 0;
+        if let Some(c) = self.caustics.as_mut() {
+            c.reset();
+            self.stats.caustics = Some(c.stats().clone());
+        }
     }
 
     /// Resolved pixels of an AOV, row-major from the top row, `aov.channels()` per pixel.
@@ -373,8 +423,20 @@ impl Renderer {
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
         h.push(("tide:renderSeconds".into(), format!("{:.3}", self.stats.render_seconds)));
         h.push(("tide:buildSeconds".into(), format!("{:.3}", self.stats.build_seconds)));
-        h.push(("tide:integrator".into(), "path".into()));
+        h.push(("tide:integrator".into(), self.settings.integrator.token().into()));
+        if let Some(c) = &self.stats.caustics {
+            h.push(("tide:caustics:passes".into(), c.passes.to_string()));
+            h.push(("tide:caustics:photonsEmitted".into(), c.photons_emitted.to_string()));
+            h.push(("tide:caustics:photonsStored".into(), c.photons_stored.to_string()));
+            h.push(("tide:caustics:peakPhotonBytes".into(), c.peak_map_bytes.to_string()));
+            h.push(("tide:caustics:pairs".into(), c.pairs.to_string()));
+        }
         self.film.write_exr(path, aovs, &h)
+    }
+
+    /// The caustics state (None for the path integrator, or when no light casts caustics).
+    pub fn caustics(&self) -> Option<&crate::caustics::engine::Caustics> {
+        self.caustics.as_ref()
     }
 
     pub fn stats(&self) -> RenderStats {

@@ -456,4 +456,69 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
     pub camera: CameraDesc,
     pub color_space: ColorSpace,
+    /// `TideCausticsAPI` tags (contract §4), by light and instance name.
+    pub caustics: CausticsTags,
+}
+
+/// `tide:caustics:transparency`: which paths pass straight through a surface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CausticsTransparency {
+    #[default]
+    Off,
+    /// Transparent to paths after their first non-specular bounce (their shadow rays included).
+    AfterDiffuse,
+    /// Transparent to paths that scattered in a volume.
+    Volume,
+    /// Both of the above.
+    All,
+}
+
+/// `TideCausticsAPI` attributes of one gprim, as authored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ObjectCaustics {
+    /// `tide:caustics:caster` (None: unauthored).
+    pub caster: Option<bool>,
+    /// `tide:caustics:receiver` (default true).
+    pub receiver: bool,
+    pub transparency: CausticsTransparency,
+}
+
+impl Default for ObjectCaustics {
+    fn default() -> Self {
+        ObjectCaustics { caster: None, receiver: true, transparency: CausticsTransparency::Off }
+    }
+}
+
+/// The caustics tags of a scene. Instances are matched by name: a key names the instances
+/// called exactly so, and those whose name continues with `[` (instancer copies) or ` `
+/// (generated parts such as an ocean's horizon skirt).
+///
+/// Which lights emit photons and which objects cast caustics (contract §4): when some light is
+/// tagged `emitter = true`, exactly the tagged lights emit; otherwise every distant and sphere
+/// light does (one-click default) unless tagged `false`. Likewise casters: the objects tagged
+/// `caster = true` if any, else every object with a `TideWater` surface not tagged `false`.
+/// Objects with a transparency mode other than `off` never cast caustics.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CausticsTags {
+    /// (light name, `tide:caustics:emitter`) where authored.
+    pub emitters: Vec<(String, bool)>,
+    /// (instance name, tags) where any `TideCausticsAPI` attribute is authored.
+    pub objects: Vec<(String, ObjectCaustics)>,
+}
+
+impl CausticsTags {
+    /// Whether instance `name` is named by `key`.
+    pub fn name_matches(key: &str, name: &str) -> bool {
+        name == key || (name.len() > key.len() && name.starts_with(key) && matches!(name.as_bytes()[key.len()], b'[' | b' '))
+    }
+
+    /// The tags of instance `name` (defaults when none are authored).
+    pub fn object(&self, name: &str) -> ObjectCaustics {
+        self.objects.iter().rev().find(|(k, _)| Self::name_matches(k, name)).map(|(_, o)| *o).unwrap_or_default()
+    }
+
+    /// The authored emitter tag of light `name`.
+    pub fn emitter(&self, name: &str) -> Option<bool> {
+        self.emitters.iter().rev().find(|(k, _)| k == name).map(|(_, e)| *e)
+    }
 }

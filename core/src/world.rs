@@ -138,6 +138,19 @@ pub struct World {
     pub camera: Camera,
     pub cs: ColorSpace,
     pub max_depth: u32,
+    /// Caustics roles of each instance (resolved `TideCausticsAPI` tags, contract §4).
+    pub caustic_instances: Vec<InstanceCaustics>,
+    /// Whether each light emits caustic photons.
+    pub caustic_emitters: Vec<bool>,
+}
+
+/// An instance's roles in caustics, with the one-click defaults resolved
+/// (see [`crate::scene::CausticsTags`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct InstanceCaustics {
+    pub caster: bool,
+    pub receiver: bool,
+    pub transparency: crate::scene::CausticsTransparency,
 }
 
 fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
@@ -268,6 +281,8 @@ impl World {
             .collect();
 
         let mut lights = Vec::new();
+        let mut caustic_emitters = Vec::new();
+        let any_emitter_tagged = scene.caustics.emitters.iter().any(|(_, e)| *e);
         let mut light_links = Vec::new();
         let mut shadow_links = Vec::new();
         let link_mask = |names: &Option<Vec<String>>| {
@@ -279,6 +294,9 @@ impl World {
         for l in &scene.lights {
             match Light::from_desc(l, &scene.textures, cs) {
                 Ok(light) => {
+                    let tag = scene.caustics.emitter(&l.name);
+                    let default = matches!(l.shape, crate::scene::LightShape::Distant { .. } | crate::scene::LightShape::SkySun { .. } | crate::scene::LightShape::Sphere { .. });
+                    caustic_emitters.push(if any_emitter_tagged { tag == Some(true) } else { tag.unwrap_or(default) });
                     lights.push(light);
                     light_links.push(link_mask(&l.light_link));
                     shadow_links.push(link_mask(&l.shadow_link));
@@ -305,6 +323,7 @@ impl World {
                 if let Some(l) = Light::triangle(p, emission.clone(), two_sided || m.double_sided) {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
                     lights.push(l);
+                    caustic_emitters.push(false);
                     light_links.push(None);
                     shadow_links.push(None);
                 }
@@ -324,7 +343,21 @@ impl World {
             .iter()
             .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows })
             .collect();
+        let any_caster_tagged = scene.caustics.objects.iter().any(|(_, o)| o.caster == Some(true));
+        let caustic_instances = scene
+            .instances
+            .iter()
+            .map(|i| {
+                let o = scene.caustics.object(&i.name);
+                let water = matches!(materials[i.material].kind, SurfaceKind::Dielectric(_));
+                let caster = if any_caster_tagged { o.caster == Some(true) } else { o.caster.unwrap_or(water) };
+                let caster = caster && o.transparency == crate::scene::CausticsTransparency::Off;
+                InstanceCaustics { caster, receiver: o.receiver && !caster, transparency: o.transparency }
+            })
+            .collect();
         World {
+            caustic_instances,
+            caustic_emitters,
             accel,
             instances,
             meshes: scene.meshes.clone(),

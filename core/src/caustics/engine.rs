@@ -1,0 +1,677 @@
+//! The `caustics` integrator's state across progressive passes: which lights emit photons and
+//! which objects cast caustics, the guided photon pass, the lookups camera paths make, and the
+//! approximate MIS weights that split caustic transport between photons and path tracing
+//! (Conty & Kulla 2019 §3–7).
+//!
+//! # A pass
+//! [`Caustics::begin_pass`] shoots `ρ² · spp · pixels` photons (capped by the memory budget),
+//! each from a cell of the guiding atlas: the cell picks a (light, caster) pair and the photon's
+//! start within the pair's cone (local lights) or disk (distant lights, whose direction is then
+//! jittered within the sun's cone). A photon is kept only if its first hit is the pair's caster.
+//! It then scatters through caster surfaces (any BSDF, sampled in importance mode) and media
+//! (attenuated by their transmittance: only unscattered light is carried), and is stored at the
+//! first non-caster surface if that surface is a receiver with a non-specular response; the walk
+//! ends there. The photons are built into a [`PhotonMap`].
+//!
+//! Camera paths then call [`Caustics::gather`] at every non-specular vertex on a receiver, with
+//! a radius of about one pixel footprint carried along the path, and select one photon in
+//! proportion to kernel × energy (stochastic lookup, §6.1). Every photon in reach adds its
+//! throughput to the atlas's visibility signal; [`Caustics::end_pass`] learns the next table.
+//!
+//! # What is counted once
+//! A path `x → c₁ … cₖ → light` with `x` a non-specular receiver vertex, `c₁…cₖ` (k ≥ 1) caster
+//! surfaces and no volume scattering in between can be made by photons (if the light emits them
+//! and the pair (light, group of `cₖ`) has a square in the atlas) and by the path tracer (a
+//! BSDF-sampled chain that reaches the light, or NEE from a glossy `cₖ`). Both estimators are
+//! weighted by the approximate MIS of §7: with `P_b` the BSDF pdf at `x` of the chain's first
+//! direction and `P_l` the pair's light-sampling pdf (1 / solid angle of the light seen from the
+//! caster's centre; ∞ for delta lights), the path tracer gets
+//! `W_l = 1 / (1 + N_p P_l / P_b)` and the photon `W_p = 1 − W_l` (`N_p` = 16). The weights
+//! depend only on `P_b` and the pair, so they sum to one on every such path.
+//!
+//! The first pass only trains the atlas (photon weight 0); the second makes up for it with the
+//! weight `(N₁ + N₂)/N₂` ([`Atlas::photon_weight`]).
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::atlas::{Atlas, AtlasConfig, AtlasLight, CameraHint, Caster, VisibilityBuffer, VisibilityKind};
+use super::photon_map::{NormalCheck, Photon, PhotonMap, Query, SpectralKernel, BYTES_PER_PHOTON};
+use crate::accel::Ray;
+use crate::bsdf::{Bsdf, TransportMode};
+use crate::integrator::{classify_boundary, Boundary, Interior, InteriorStack};
+use crate::light::emit::EmissionDisk;
+use crate::math::{offset_ray_origin, Frame};
+use crate::sampler::{PixelSampler, StreamRng};
+use crate::scene::CausticsTransparency;
+use crate::spectrum::{color, SampledSpectrum, SampledWavelengths};
+use crate::world::World;
+
+/// Settings of the caustics integrator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CausticsConfig {
+    /// Photons shot per camera sample (ρ² of the paper).
+    pub photons_per_sample: f32,
+    /// Memory allowed for one pass's photon map (photons and grid); fewer photons are shot
+    /// when a pass would need more.
+    pub memory_limit_bytes: usize,
+    /// `N_p` of the approximate MIS: larger values favour photons.
+    pub mis_photon_count: f32,
+    /// Lookup radius in pixel footprints.
+    pub radius_pixels: f32,
+}
+
+impl Default for CausticsConfig {
+    fn default() -> Self {
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0 }
+    }
+}
+
+/// Counters of the caustics passes so far.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CausticsStats {
+    pub passes: u32,
+    pub photons_emitted: u64,
+    pub photons_stored: u64,
+    /// Photons stored in the last pass.
+    pub photons_last_pass: u64,
+    /// Largest photon map of a pass, bytes.
+    pub peak_map_bytes: usize,
+    /// (light, caster) pairs in the atlas.
+    pub pairs: usize,
+    pub atlas_utilization: f32,
+    /// Passes whose photon count was cut to the memory budget.
+    pub capped_passes: u32,
+}
+
+/// A caustic chain a camera path is on: it left a non-specular receiver vertex with BSDF pdf
+/// `p_b` and has since met only caster surfaces, the last being `last` (u32::MAX: none yet).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Chain {
+    pub p_b: f32,
+    pub last: u32,
+}
+
+/// Angle a path's footprint widens by per unit length after a non-specular bounce (radians):
+/// lookups at later vertices gather over a wider area.
+const DIFFUSE_SPREAD: f32 = 0.05;
+/// Photons traced per parallel work item.
+const CHUNK: usize = 4096;
+/// Caster surfaces a photon may cross.
+const MAX_PHOTON_BOUNCES: u32 = 32;
+const NO_GROUP: u32 = u32::MAX;
+/// Instances above which casters are grouped into one bounding sphere.
+const MAX_CASTER_GROUPS: usize = 32;
+
+fn w_light(p_b: f32, p_l: f32, np: f32) -> f32 {
+    if !(p_l.is_finite()) || !(p_b > 0.0) {
+        return 0.0;
+    }
+    1.0 / (1.0 + np * p_l / p_b)
+}
+
+/// The caustics state of one render.
+pub struct Caustics {
+    atlas: Atlas,
+    fresh_atlas: Atlas,
+    vis: VisibilityBuffer,
+    map: PhotonMap,
+    /// World light of each atlas light, and atlas light of each world light.
+    atlas_lights: Vec<usize>,
+    light_atlas: Vec<u32>,
+    /// Caster group of each instance (NO_GROUP: not a caster).
+    instance_group: Vec<u32>,
+    n_groups: usize,
+    /// `P_l` of each (atlas light, group) pair; NaN where the pair has no photons.
+    pair_pl: Vec<f32>,
+    /// Stack of dielectrics around each atlas light's photons' start (local lights).
+    light_stack: Vec<InteriorStack>,
+    config: CausticsConfig,
+    width: u32,
+    height: u32,
+    /// Footprint of a camera ray: width at the camera and growth per unit length.
+    pixel_w0: f32,
+    pixel_spread: f32,
+    cell_size: f32,
+    scene_radius: f32,
+    disk: EmissionDisk,
+    kernel: SpectralKernel,
+    /// Photon contribution scale of the current pass.
+    weight: f32,
+    mean_energy: f32,
+    stats: CausticsStats,
+}
+
+impl Caustics {
+    /// Sets up caustics for `world`; None when no light emits photons towards any caster (the
+    /// integrator is then a plain path tracer).
+    pub fn new(world: &World, width: u32, height: u32, config: CausticsConfig) -> Option<Caustics> {
+        let n_inst = world.instances.len();
+        // casters and their world bounds
+        let caster_inst: Vec<u32> = (0..n_inst as u32).filter(|&i| world.caustic_instances[i as usize].caster).collect();
+        if caster_inst.is_empty() {
+            return None;
+        }
+        let (lo, hi) = world.accel.bounds();
+        let scene_center = (lo + hi) * 0.5;
+        let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
+        // receivers' bounds: casters are clipped to them (expanded), since photons matter only
+        // where they can land
+        let mut rlo = Vec3::splat(f32::INFINITY);
+        let mut rhi = Vec3::splat(f32::NEG_INFINITY);
+        let mut bounds = Vec::with_capacity(n_inst);
+        for i in 0..n_inst {
+            let b = instance_bounds(world, i as u32);
+            if let Some((a, b2)) = b {
+                let c = &world.caustic_instances[i];
+                if c.receiver && !c.caster {
+                    rlo = rlo.min(a);
+                    rhi = rhi.max(b2);
+                }
+            }
+            bounds.push(b);
+        }
+        if !(rlo.x <= rhi.x) {
+            return None;
+        }
+        let pad = (rhi - rlo) * 0.5 + Vec3::splat(1e-3 * scene_radius);
+        let (clo, chi) = (rlo - pad, rhi + pad);
+        let mut groups: Vec<(Vec3, Vec3, Vec<u32>)> = Vec::new();
+        for &i in &caster_inst {
+            let Some((a, b)) = bounds[i as usize] else { continue };
+            let (a, b) = (a.max(clo), b.min(chi));
+            if !(a.x <= b.x && a.y <= b.y && a.z <= b.z) {
+                continue;
+            }
+            groups.push((a, b, vec![i]));
+        }
+        if groups.is_empty() {
+            return None;
+        }
+        if groups.len() > MAX_CASTER_GROUPS {
+            let (mut a, mut b, mut all) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY), Vec::new());
+            for g in groups.drain(..) {
+                a = a.min(g.0);
+                b = b.max(g.1);
+                all.extend(g.2);
+            }
+            groups.push((a, b, all));
+        }
+        let mut instance_group = vec![NO_GROUP; n_inst];
+        let casters: Vec<Caster> = groups
+            .iter()
+            .enumerate()
+            .map(|(gi, (a, b, members))| {
+                for &m in members {
+                    instance_group[m as usize] = gi as u32;
+                }
+                Caster { center: (*a + *b) * 0.5, radius: ((*b - *a).length() * 0.5).max(1e-4 * scene_radius) }
+            })
+            .collect();
+        // emitters
+        let mut atlas_lights = Vec::new();
+        let mut alights = Vec::new();
+        let mut light_atlas = vec![NO_GROUP; world.lights.len()];
+        for (li, light) in world.lights.iter().enumerate() {
+            if !world.caustic_emitters.get(li).copied().unwrap_or(false) {
+                continue;
+            }
+            if let Some(a) = AtlasLight::from_light(light) {
+                light_atlas[li] = alights.len() as u32;
+                alights.push(a);
+                atlas_lights.push(li);
+            }
+        }
+        if alights.is_empty() {
+            return None;
+        }
+        let cam_pos = world.camera.position(world.camera.shutter.0);
+        let (pixel_w0, pixel_spread) = pixel_footprint(world, width, height);
+        let fov = (pixel_spread * width as f32) * (pixel_spread * height as f32);
+        let mut acfg = AtlasConfig::for_image(width, height, config.photons_per_sample.sqrt());
+        acfg.camera = Some(CameraHint { position: cam_pos, solid_angle: if fov > 0.0 { fov.min(4.0 * std::f32::consts::PI) } else { 4.0 * std::f32::consts::PI } });
+        let atlas = Atlas::new(&alights, &casters, None, &acfg).ok()?;
+        if atlas.pairs().is_empty() {
+            return None;
+        }
+        let mut pair_pl = vec![f32::NAN; alights.len() * casters.len()];
+        for p in atlas.pairs() {
+            let pl = match alights[p.light as usize] {
+                AtlasLight::Local { center, radius, .. } => {
+                    let c = &casters[p.caster as usize];
+                    let d = center.distance(c.center);
+                    if radius <= 0.0 {
+                        f32::INFINITY
+                    } else if d <= radius {
+                        1.0 / (4.0 * std::f32::consts::PI)
+                    } else {
+                        let s2 = (radius / d).powi(2);
+                        let omc = s2 / (1.0 + (1.0 - s2).max(0.0).sqrt());
+                        1.0 / (2.0 * std::f32::consts::PI * omc)
+                    }
+                }
+                AtlasLight::Distant { cos_half_angle, .. } => {
+                    if cos_half_angle >= 1.0 {
+                        f32::INFINITY
+                    } else {
+                        1.0 / (2.0 * std::f32::consts::PI * (1.0 - cos_half_angle))
+                    }
+                }
+            };
+            pair_pl[p.light as usize * casters.len() + p.caster as usize] = pl;
+        }
+        let light_stack = alights
+            .iter()
+            .map(|a| match a {
+                AtlasLight::Local { center, .. } => crate::integrator::initial_stack(world, *center, world.camera.shutter.0),
+                AtlasLight::Distant { .. } => InteriorStack::default(),
+            })
+            .collect();
+        // grid cells of about a lookup radius at the casters' distance from the camera
+        let dist = casters.iter().map(|c| c.center.distance(cam_pos)).fold(f32::INFINITY, f32::min).max(1e-3 * scene_radius);
+        let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * scene_radius);
+        let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
+        let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
+        let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), ..Default::default() };
+        Some(Caustics {
+            fresh_atlas: atlas.clone(),
+            atlas,
+            vis,
+            map: PhotonMap::build(Vec::new(), cell_size).ok()?,
+            atlas_lights,
+            light_atlas,
+            instance_group,
+            n_groups: casters.len(),
+            pair_pl,
+            light_stack,
+            config,
+            width,
+            height,
+            pixel_w0,
+            pixel_spread,
+            cell_size,
+            scene_radius,
+            disk,
+            kernel: SpectralKernel::default(),
+            weight: 0.0,
+            mean_energy: 1.0,
+            stats,
+        })
+    }
+
+    pub fn stats(&self) -> &CausticsStats {
+        &self.stats
+    }
+
+    pub fn atlas(&self) -> &Atlas {
+        &self.atlas
+    }
+
+    /// Forgets everything learned (a restarted render is then identical to a fresh one).
+    pub fn reset(&mut self) {
+        self.atlas = self.fresh_atlas.clone();
+        self.vis.clear();
+        self.map = PhotonMap::build(Vec::new(), self.cell_size).expect("empty map");
+        self.weight = 0.0;
+        self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, ..Default::default() };
+    }
+
+    /// Width of a camera ray's footprint at the camera and its growth per unit length.
+    pub fn pixel_footprint(&self) -> (f32, f32) {
+        (self.pixel_w0, self.pixel_spread)
+    }
+
+    /// Traces this pass's photons (`spp` samples per pixel over `pixels` pixels are about to be
+    /// rendered) and builds the photon map. Runs on the current rayon pool.
+    pub fn begin_pass(&mut self, world: &World, seed: u64, spp: u32, pixels: u64) {
+        let wanted = (self.config.photons_per_sample as f64 * spp as f64 * pixels as f64).round().max(1.0) as u64;
+        let cap = PhotonMap::max_photons_for_memory(self.config.memory_limit_bytes) as u64;
+        let n = wanted.min(cap).max(1);
+        if n < wanted {
+            self.stats.capped_passes += 1;
+        }
+        let pass = self.stats.passes;
+        let chunks = (n as usize).div_ceil(CHUNK);
+        let this = &*self;
+        let mut photons: Vec<Photon> = (0..chunks)
+            .into_par_iter()
+            .flat_map_iter(|c| {
+                let mut out = Vec::new();
+                let start = c * CHUNK;
+                let end = (start + CHUNK).min(n as usize);
+                for i in start..end {
+                    this.trace_photon(world, seed, pass, i as u32, n, &mut out);
+                }
+                out
+            })
+            .collect();
+        let cap_stored = cap as usize;
+        photons.truncate(cap_stored);
+        let stored = photons.len() as u64;
+        let energy: f64 = photons.iter().map(|p| p.energy() as f64).sum();
+        self.mean_energy = if stored > 0 && energy > 0.0 { (energy / stored as f64) as f32 } else { 1.0 };
+        self.map = PhotonMap::build(photons, self.cell_size).unwrap_or_else(|_| PhotonMap::build(Vec::new(), self.cell_size).expect("empty map"));
+        self.weight = self.atlas.photon_weight(spp as u64 * pixels);
+        self.stats.photons_emitted += n;
+        self.stats.photons_stored += stored;
+        self.stats.photons_last_pass = stored;
+        self.stats.peak_map_bytes = self.stats.peak_map_bytes.max(self.map.memory_bytes());
+        self.vis.clear();
+    }
+
+    /// Drops a cancelled pass's visibility (the atlas is unchanged; its photons are replaced
+    /// by the next pass's).
+    pub fn end_pass_cancelled(&mut self) {
+        self.vis.clear();
+    }
+
+    /// Learns the guiding table from the pass's visibility signal.
+    pub fn end_pass(&mut self, camera_samples: u64) {
+        let _ = self.atlas.end_pass(&self.vis, camera_samples.max(1));
+        self.stats.passes += 1;
+    }
+
+    /// One photon path; stored photons are appended to `out`.
+    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, out: &mut Vec<Photon>) {
+        let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
+        let ua = smp.get2d();
+        let s = self.atlas.sample([ua.x, ua.y]);
+        let li = self.atlas_lights[s.light as usize];
+        let light = &world.lights[li];
+        let mut lambda = color::sample_wavelengths(smp.get1d());
+        let (t0, t1) = world.camera.shutter;
+        let time = t0 + (t1 - t0) * smp.get1d();
+        let u_pos = smp.get2d();
+        let u_dir = smp.get2d();
+        let Some(ls) = light.sample_le(u_pos, u_dir, &lambda, time, &self.disk) else { return };
+        let (origin, dir, power, mut stack) = match self.atlas.lights()[s.light as usize] {
+            AtlasLight::Local { .. } => {
+                let Some(e) = self.atlas.emit(&s, ls.ray_o) else { return };
+                let power = if ls.delta_pos {
+                    ls.l / e.pdf
+                } else {
+                    let cos = e.dir.dot(ls.n_light);
+                    if !(cos > 0.0) {
+                        return;
+                    }
+                    ls.l * (cos / (ls.pdf_pos * e.pdf))
+                };
+                let n = if ls.delta_pos { Vec3::ZERO } else { ls.n_light * ls.n_light.dot(e.dir).signum() };
+                (offset_ray_origin(e.origin, n), e.dir, power, self.light_stack[s.light as usize])
+            }
+            AtlasLight::Distant { to_light, .. } => {
+                let Some(e) = self.atlas.emit(&s, Vec3::ZERO) else { return };
+                let d = ls.ray_d;
+                let cos = d.dot(-to_light);
+                if !(cos > 0.0) {
+                    return;
+                }
+                let power = if ls.delta_dir { ls.l / e.pdf } else { ls.l * (cos / (ls.pdf_dir * e.pdf)) };
+                (e.origin - d * (2.0 * self.scene_radius), d, power, InteriorStack::default())
+            }
+        };
+        let mut beta = power / n_emitted as f32;
+        if !beta.is_finite() || beta.is_black() {
+            return;
+        }
+        let mut ray = Ray { o: origin, d: dir, t_max: f32::INFINITY, time };
+        let mut first = true;
+        let mut bounces = 0u32;
+        let mut stream = StreamRng::new(smp.get1d(), index);
+        let mut null_events = 0u32;
+        loop {
+            let Some(hit) = world.accel.intersect(&ray) else { return };
+            let s_hit = world.surface(&ray, &hit);
+            if let Some(m) = stack.medium() {
+                let mut rng = || stream.next_f32();
+                beta *= world.media[m].transmittance(ray.o, ray.d, hit.t, &mut rng, &lambda);
+                if beta.is_black() {
+                    return;
+                }
+            }
+            let inst = hit.instance as usize;
+            let roles = world.caustic_instances[inst];
+            let front = ray.d.dot(s_hit.ng) < 0.0;
+            let pass_through = |ray: &mut Ray| {
+                ray.o = offset_ray_origin(s_hit.p, if front { -s_hit.ng } else { s_hit.ng });
+                ray.t_max = f32::INFINITY;
+            };
+            // surfaces transparent to paths after a non-specular bounce are not seen by light
+            // paths that end on receivers either
+            if matches!(roles.transparency, CausticsTransparency::AfterDiffuse | CausticsTransparency::All) {
+                null_events += 1;
+                if null_events > 128 {
+                    return;
+                }
+                pass_through(&mut ray);
+                continue;
+            }
+            if first {
+                if self.instance_group[inst] != s.caster {
+                    return;
+                }
+                first = false;
+            }
+            let mat_i = world.instances[inst].material;
+            let opacity = world.opacity(mat_i, s_hit.uv);
+            if opacity < 1.0 && stream.next_f32() >= opacity {
+                null_events += 1;
+                if null_events > 128 {
+                    return;
+                }
+                pass_through(&mut ray);
+                continue;
+            }
+            let boundary = classify_boundary(world, &s_hit, front, &stack, &lambda);
+            if let Boundary::False = boundary {
+                if front {
+                    if let Some(d) = world.materials[mat_i].dielectric() {
+                        stack.push(Interior { instance: s_hit.instance, priority: d.priority, ior: d.ior_at(&lambda), medium: world.materials[mat_i].interior_medium });
+                    }
+                } else {
+                    stack.remove(s_hit.instance);
+                }
+                null_events += 1;
+                if null_events > 128 {
+                    return;
+                }
+                pass_through(&mut ray);
+                continue;
+            }
+            if let Boundary::Real { .. } = boundary {
+                if world.materials[mat_i].dielectric().is_some_and(|d| d.dispersion.is_some()) && !lambda.secondary_terminated() {
+                    lambda.terminate_secondary();
+                }
+            }
+            let eta = match &boundary {
+                Boundary::Real { eta, .. } => *eta,
+                _ => 1.0,
+            };
+            let (bsdf, frame) = world.bsdf(mat_i, &s_hit, &lambda, stack.ior(), eta);
+            let frame = if s_hit.ns.dot(s_hit.ng) < 0.0 { Frame::from_normal(-s_hit.ns) } else { frame };
+            let wo_w = -ray.d;
+            if !roles.caster {
+                if bounces > 0 && roles.receiver && !bsdf.is_specular() && world.illuminates(li, hit.instance) {
+                    if let Ok(p) = Photon::new(s_hit.p, wo_w, s_hit.ng, beta, &lambda, s.cell) {
+                        out.push(p);
+                    }
+                }
+                return;
+            }
+            bounces += 1;
+            if bounces > MAX_PHOTON_BOUNCES {
+                return;
+            }
+            let wo = frame.to_local(wo_w);
+            let uc = stream.next_f32();
+            let u2 = Vec2::new(stream.next_f32(), stream.next_f32());
+            let Some(bs) = bsdf.sample_f(wo, uc, u2, TransportMode::Importance) else { return };
+            if !(bs.pdf > 0.0) || bs.f.is_black() {
+                return;
+            }
+            let wi_w = frame.to_world(bs.wi);
+            let out_front = wi_w.dot(s_hit.ng) > 0.0;
+            if (bs.wi.z > 0.0) != out_front {
+                return;
+            }
+            // importance transport: the shading-normal correction |wo·ng| / |wi·ng| … kept at 1
+            beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            if !beta.is_finite() || beta.is_black() {
+                return;
+            }
+            if bs.is_transmission() {
+                if let Boundary::Real { enter, .. } = boundary {
+                    if front {
+                        stack.push(enter);
+                    } else {
+                        stack.remove(s_hit.instance);
+                    }
+                }
+            }
+            ray = Ray { o: offset_ray_origin(s_hit.p, if out_front { s_hit.ng } else { -s_hit.ng }), d: wi_w, t_max: f32::INFINITY, time };
+        }
+    }
+
+    /// The caster group of an instance, if it casts caustics.
+    #[inline]
+    pub fn group_of(&self, instance: u32) -> Option<u32> {
+        self.instance_group.get(instance as usize).copied().filter(|&g| g != NO_GROUP)
+    }
+
+    /// The path tracer's weight `W_l` for light `light` reached through a caustic chain whose
+    /// last caster surface is `last` (1 where photons do not carry that transport).
+    #[inline]
+    pub fn path_weight(&self, light: usize, chain: &Chain) -> f32 {
+        if chain.last == u32::MAX {
+            return 1.0;
+        }
+        let a = self.light_atlas.get(light).copied().unwrap_or(NO_GROUP);
+        let Some(g) = self.group_of(chain.last) else { return 1.0 };
+        if a == NO_GROUP {
+            return 1.0;
+        }
+        let pl = self.pair_pl[a as usize * self.n_groups + g as usize];
+        if pl.is_nan() {
+            return 1.0;
+        }
+        w_light(chain.p_b, pl, self.config.mis_photon_count)
+    }
+
+    fn photon_weight_mis(&self, cell: u32, p_b: f32) -> f32 {
+        let Some(pair) = self.atlas.pair_of_cell(cell) else { return 0.0 };
+        let pl = self.pair_pl[pair.light as usize * self.n_groups + pair.caster as usize];
+        if pl.is_nan() {
+            return 0.0;
+        }
+        1.0 - w_light(p_b, pl, self.config.mis_photon_count)
+    }
+
+    /// Lookup radius for a path whose footprint has width `width` at this vertex.
+    #[inline]
+    pub fn radius(&self, width: f32) -> f32 {
+        (width * self.config.radius_pixels).max(1e-6 * self.scene_radius)
+    }
+
+    /// Radiance towards `wo` (local) at a non-specular receiver vertex from the photons within
+    /// `radius`: one photon chosen in proportion to kernel × energy (`u` seeds the choice),
+    /// weighted by the approximate MIS and the pass's photon weight. `throughput` (the camera
+    /// path's average weight) scales the visibility signal the photons in reach record.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather(&self, p: Vec3, ng: Vec3, radius: f32, bsdf: &Bsdf, frame: &Frame, wo: Vec3, lambda: &SampledWavelengths, throughput: f32, u: f32) -> SampledSpectrum {
+        if self.map.is_empty() {
+            return SampledSpectrum::ZERO;
+        }
+        let wo_w = frame.to_world(wo);
+        let n = if ng.dot(wo_w) >= 0.0 { ng } else { -ng };
+        let q = Query { position: p, normal: n, radius, normal_check: NormalCheck::SameSide { cos_min: 0.5 } };
+        let mut total = 0.0f32;
+        let mut chosen: Option<(Photon, f32)> = None;
+        let mut rng = StreamRng::new(u, 0x9a7e);
+        // visibility: the photon's energy relative to the pass's mean, times the camera path's
+        // throughput, times the kernel relative to one grid cell's
+        let vis_scale = throughput * (self.cell_size * self.cell_size) / (radius * radius * self.mean_energy.max(1e-30));
+        let record = throughput > 0.0 && vis_scale.is_finite();
+        self.map.for_each_in_radius(&q, |ph, k| {
+            let e = ph.energy();
+            let w = e * k;
+            if !(w > 0.0) {
+                return;
+            }
+            if record {
+                self.vis.record(ph.cell, VisibilityKind::Surface, e * vis_scale);
+            }
+            total += w;
+            if rng.next_f32() * total < w {
+                chosen = Some((*ph, w));
+            }
+        });
+        let Some((ph, w)) = chosen else { return SampledSpectrum::ZERO };
+        if self.weight <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let wi = frame.to_local(ph.wi());
+        let f = bsdf.f(wo, wi, TransportMode::Radiance);
+        if f.is_black() {
+            return SampledSpectrum::ZERO;
+        }
+        let p_b = bsdf.pdf(wo, wi, TransportMode::Radiance);
+        let mis = self.photon_weight_mis(ph.cell, p_b);
+        if mis <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        let lookup = self.kernel.at(lambda);
+        let k = 1.0 / (std::f32::consts::PI * radius * radius);
+        f * ph.spectral_flux(&lookup) * (k * total / w * mis * self.weight)
+    }
+
+    /// Bytes a photon takes in the map (for reports).
+    pub fn bytes_per_photon() -> usize {
+        BYTES_PER_PHOTON
+    }
+
+    pub fn image_size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+}
+
+/// Width of a camera ray's footprint at the camera (orthographic) and its angular growth
+/// (perspective), measured between the rays through the image centre and one pixel over.
+fn pixel_footprint(world: &World, width: u32, height: u32) -> (f32, f32) {
+    let c = Vec2::new(width as f32 * 0.5, height as f32 * 0.5);
+    let t = world.camera.shutter.0;
+    let a = world.camera.generate_ray(c, Vec2::splat(0.5), 0.0);
+    let b = world.camera.generate_ray(c + Vec2::X, Vec2::splat(0.5), 0.0);
+    let _ = t;
+    let spread = a.d.angle_between(b.d);
+    let w0 = (a.o - b.o).length();
+    (if w0.is_finite() { w0 } else { 0.0 }, if spread.is_finite() { spread } else { 0.0 })
+}
+
+/// World bounds of an instance at the shutter's open.
+fn instance_bounds(world: &World, instance: u32) -> Option<(Vec3, Vec3)> {
+    let info = &world.instances[instance as usize];
+    let xf = world.accel.instance_transform(instance, world.camera.shutter.0);
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    match info.geometry {
+        crate::scene::GeometryRef::Mesh(m) => {
+            for p in &world.meshes.get(m)?.positions {
+                let q = xf.transform_point3(*p);
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+        }
+        crate::scene::GeometryRef::Spheres(_) => {
+            let (a, b) = world.accel.bounds();
+            lo = a;
+            hi = b;
+        }
+    }
+    (lo.x <= hi.x && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// Widens a path footprint after a non-specular bounce.
+#[inline]
+pub fn widen_after_diffuse(spread: f32) -> f32 {
+    spread.max(DIFFUSE_SPREAD)
+}
