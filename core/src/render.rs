@@ -207,6 +207,8 @@ pub fn sample_filter(u: f32) -> f32 {
 }
 
 const TILE: u32 = 16;
+/// Most samples per pixel one caustic photon pass serves (longer passes are split).
+pub const PHOTON_PASS_MAX_SPP: u32 = 16;
 
 /// A prepared scene plus its film.
 pub struct Renderer {
@@ -289,6 +291,19 @@ impl Renderer {
         use rayon::prelude::*;
         use std::sync::atomic::Ordering;
         if spp == 0 {
+            return true;
+        }
+        if self.caustics.is_some() && spp > PHOTON_PASS_MAX_SPP {
+            // a photon map serves at most PHOTON_PASS_MAX_SPP samples per pixel: its photon
+            // count, and so the photons each lookup visits, grow with the samples it serves
+            let mut left = spp;
+            while left > 0 {
+                let k = left.min(PHOTON_PASS_MAX_SPP);
+                if !self.render_pass(k, cancel) {
+                    return false;
+                }
+                left -= k;
+            }
             return true;
         }
         let start = std::time::Instant::now();
@@ -418,7 +433,9 @@ impl Renderer {
 
     /// Like [`Renderer::write_exr`] with an output name per AOV (UsdRenderVar names).
     pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
-        let mut h: Vec<(String, String)> = header.to_vec();
+        // the renderer's own figures replace any the caller passed under the same keys
+        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator"];
+        let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:")).cloned().collect();
         h.push(("tide:spp".into(), self.film.spp.to_string()));
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
         h.push(("tide:renderSeconds".into(), format!("{:.3}", self.stats.render_seconds)));

@@ -126,6 +126,8 @@ struct RprimPiece {
     visible: bool,
     purpose: String,
     id: u32,
+    /// `TideCausticsAPI` attributes where any is authored.
+    caustics: Option<tide_core::scene::ObjectCaustics>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -498,6 +500,7 @@ impl Delegate {
             visible: s.token_or("visibility", &["inherited", "invisible", "visible"], "inherited", p) != "invisible",
             purpose: s.token_or("purpose", &["default", "render", "proxy", "guide"], "default", p).to_string(),
             id,
+            caustics: read_caustics(s, p),
         }
     }
 
@@ -767,6 +770,21 @@ impl Delegate {
             }
         }
         self.oceans.retain(|p, _| oceans_seen.contains(p));
+        for (path, c) in &self.cache {
+            match &c.piece {
+                Piece::Rprim(r) => {
+                    if let Some(o) = r.caustics {
+                        scene.caustics.objects.push((path.clone(), o));
+                    }
+                }
+                Piece::Light(Some(l)) => {
+                    if let Some(e) = l.caustics_emitter {
+                        scene.caustics.emitters.push((path.clone(), e));
+                    }
+                }
+                _ => {}
+            }
+        }
 
         // TideSkyAPI domes: the sun's direction from the DistantLight they name, and the
         // physical suns (path → the sun's shape and the dome's intensity and exposure, or None
@@ -1515,4 +1533,24 @@ mod tests {
         assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into())], &[]).is_ok());
         drop(d);
     }
+}
+
+/// Reads a gprim's `TideCausticsAPI` attributes (contract §4); None when none is authored.
+fn read_caustics(s: &crate::value::AttrStore, p: &mut Problems) -> Option<tide_core::scene::ObjectCaustics> {
+    use tide_core::scene::{CausticsTransparency, ObjectCaustics};
+    let names = ["tide:caustics:caster", "tide:caustics:receiver", "tide:caustics:transparency"];
+    if !names.iter().any(|n| s.has(n)) {
+        return None;
+    }
+    let transparency = match s.token_or("tide:caustics:transparency", &["off", "afterDiffuse", "volume", "all"], "off", p) {
+        "afterDiffuse" => CausticsTransparency::AfterDiffuse,
+        "volume" => CausticsTransparency::Volume,
+        "all" => CausticsTransparency::All,
+        _ => CausticsTransparency::Off,
+    };
+    Some(ObjectCaustics {
+        caster: s.has("tide:caustics:caster").then(|| s.bool_or("tide:caustics:caster", false, p)),
+        receiver: s.bool_or("tide:caustics:receiver", true, p),
+        transparency,
+    })
 }

@@ -33,6 +33,8 @@ pub struct LightPiece {
     pub light_link: Option<Collection>,
     /// `collection:shadowLink` (None: unauthored, everything casts the light's shadows).
     pub shadow_link: Option<Collection>,
+    /// `tide:caustics:emitter` where authored (`TideCausticsAPI`).
+    pub caustics_emitter: Option<bool>,
 }
 
 /// A UsdCollectionAPI collection of prim paths as the reader sends it
@@ -262,6 +264,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         sky,
         light_link: Collection::read(store, "lightLink", p),
         shadow_link: Collection::read(store, "shadowLink", p),
+        caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
     })
 }
 
@@ -420,11 +423,8 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
     }
     s.disable_motion_blur = store.bool_or("disableMotionBlur", false, p);
     s.disable_depth_of_field = store.bool_or("disableDepthOfField", false, p);
-    let integrator = store.token_or("tide:integrator", &["path", "caustics"], "path", p);
-    if integrator == "caustics" {
-        p.add("tide:integrator", "the caustics integrator is not yet available; using path");
-    }
-    s.integrator = IntegratorKind::Path;
+    let integrator = store.token_or("tide:integrator", &["caustics", "path"], "caustics", p);
+    s.integrator = if integrator == "path" { IntegratorKind::Path } else { IntegratorKind::Caustics };
     let nonneg_int = |name: &str, default: i64, p: &mut Problems| {
         let v = store.i64_or(name, default, p);
         if v < 0 {
