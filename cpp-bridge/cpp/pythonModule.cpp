@@ -758,6 +758,26 @@ PyObject* Pass_progress(PyObject* self, PyObject*) {
     TIDE_CATCH
 }
 
+PyObject* Pass_summary(PyObject* self, PyObject*) {
+    TIDE_TRY
+    std::vector<std::string> items = P(self).GetSummary();
+    PyObject* d = PyDict_New();
+    if (!d) return nullptr;
+    for (const std::string& kv : items) {
+        size_t eq = kv.find('=');
+        if (eq == std::string::npos) continue;
+        PyObject* v = PyUnicode_FromString(kv.substr(eq + 1).c_str());
+        if (!v || PyDict_SetItemString(d, kv.substr(0, eq).c_str(), v) < 0) {
+            Py_XDECREF(v);
+            Py_DECREF(d);
+            return nullptr;
+        }
+        Py_DECREF(v);
+    }
+    return d;
+    TIDE_CATCH
+}
+
 PyObject* Pass_wait(PyObject* self, PyObject* args, PyObject* kw) {
     static const char* names[] = {"timeout_s", nullptr};
     PyObject* timeout = Py_None;
@@ -821,6 +841,7 @@ PyMethodDef PassMethods[] = {
     {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None)"},
     {"is_converged", Pass_is_converged, METH_NOARGS, "is_converged() -> bool"},
     {"progress", Pass_progress, METH_NOARGS, "progress() -> float in [0, 1]"},
+    {"summary", Pass_summary, METH_NOARGS, "summary() -> {key: value} figures of the last finished pass (photons, memory, ...)"},
     {"wait", KW(Pass_wait), "wait(timeout_s=None) -> bool (True once the pass stopped)"},
     {"cancel", Pass_cancel, METH_NOARGS, "cancel()"},
     {"error", Pass_error, METH_NOARGS, "error() -> str | None"},

@@ -192,6 +192,15 @@ bool RenderPass::IsConverged() const {
     return converged;
 }
 
+std::vector<std::string> RenderPass::GetSummary() const {
+    std::vector<std::string> out;
+    try {
+        for (const auto& s : _pass->summary()) out.emplace_back(std::string(s));
+    } catch (const std::exception&) {
+    }
+    return out;
+}
+
 double RenderPass::GetProgress() const {
     try {
         return _pass->progress();

@@ -272,6 +272,11 @@ impl Pass {
         guard("is_converged", || Ok(lock(&self.shared).delegate.is_converged()))
     }
 
+    /// The render's figures after its last finished pass, as `key=value` strings.
+    pub fn summary(&self) -> Result<Vec<String>, String> {
+        guard("summary", || Ok(lock(&self.shared).delegate.render_summary().into_iter().map(|(k, v)| format!("{}={}", k, v)).collect()))
+    }
+
     pub fn progress(&self) -> Result<f64, String> {
         guard("progress", || Ok(lock(&self.shared).delegate.progress() as f64))
     }

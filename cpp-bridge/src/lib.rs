@@ -114,6 +114,8 @@ pub mod ffi {
         fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<()>;
         fn is_converged(self: &Pass) -> Result<bool>;
         fn progress(self: &Pass) -> Result<f64>;
+        /// The render's figures after its last finished pass, as `key=value` strings.
+        fn summary(self: &Pass) -> Result<Vec<String>>;
         /// Waits up to `timeout_s` seconds (negative: forever); true once converged or stopped.
         fn wait(self: &Pass, timeout_s: f64) -> Result<bool>;
         fn cancel(self: &Pass) -> Result<()>;

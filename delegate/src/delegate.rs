@@ -975,6 +975,12 @@ impl Delegate {
         self.pass.as_ref().is_some_and(|p| p.is_converged())
     }
 
+    /// The running render's figures after its last finished pass (see
+    /// `render_pass::Engine::summary`); empty before the first.
+    pub fn render_summary(&self) -> Vec<(String, String)> {
+        self.watcher().map(|w| w.summary()).unwrap_or_default()
+    }
+
     pub fn progress(&self) -> f32 {
         self.pass.as_ref().map_or(0.0, |p| p.progress())
     }

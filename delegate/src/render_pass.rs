@@ -31,6 +31,10 @@ pub trait Engine {
     fn build_stats(&self) -> Option<BuildStats> {
         None
     }
+    /// Figures for the render summary as (key, value) pairs: photons, memory, ….
+    fn summary(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
 }
 
 impl Engine for Renderer {
@@ -48,6 +52,19 @@ impl Engine for Renderer {
     }
     fn build_stats(&self) -> Option<BuildStats> {
         Some(Renderer::build_stats(self).clone())
+    }
+    fn summary(&self) -> Vec<(String, String)> {
+        let st = self.stats();
+        let mut out = vec![("renderSeconds".to_string(), format!("{:.3}", st.render_seconds))];
+        if let Some(c) = &st.caustics {
+            out.push(("photonPasses".into(), c.passes.to_string()));
+            out.push(("photonsEmitted".into(), c.photons_emitted.to_string()));
+            out.push(("photonsStored".into(), c.photons_stored.to_string()));
+            out.push(("photonMapPeakBytes".into(), c.peak_map_bytes.to_string()));
+            out.push(("photonPassesCapped".into(), c.capped_passes.to_string()));
+            out.push(("photonSeconds".into(), format!("{:.3}", st.photon_seconds)));
+        }
+        out
     }
 }
 
@@ -142,6 +159,8 @@ struct State {
     spp_target: u32,
     shutdown: bool,
     exr: Vec<ExrRequest>,
+    /// The engine's summary after the last finished pass.
+    summary: Vec<(String, String)>,
 }
 
 struct Shared {
@@ -181,6 +200,11 @@ impl PassWatcher {
             _ if st.spp_target == 0 => 0.0,
             _ => st.spp_done as f32 / st.spp_target as f32,
         }
+    }
+
+    /// The engine's figures after the last finished pass (photons, memory, …).
+    pub fn summary(&self) -> Vec<(String, String)> {
+        self.shared.lock().summary.clone()
     }
 
     /// Waits until the job converges or fails (or `timeout` passes); true if converged.
@@ -239,6 +263,7 @@ impl RenderPass {
                 spp_target: 0,
                 shutdown: false,
                 exr: Vec::new(),
+                summary: Vec::new(),
             }),
             cond: Condvar::new(),
             cancel: AtomicBool::new(false),
@@ -436,6 +461,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
                 return Ok(false);
             }
             st.spp_done = done;
+            st.summary = e.summary();
             shared.cond.notify_all();
         }
         if !shared.lock().exr.is_empty() {

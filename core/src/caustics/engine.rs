@@ -225,6 +225,19 @@ impl Caustics {
         if alights.is_empty() {
             return None;
         }
+        // a distant light's photons start on a disk perpendicular to its axis and leave in
+        // directions jittered within its cone: a disk of radius R (1 + sin θ) / cos θ lets every
+        // point of a caster's sphere of radius R receive the whole cone
+        let max_half_angle = alights
+            .iter()
+            .map(|a| match a {
+                AtlasLight::Distant { cos_half_angle, .. } => cos_half_angle.clamp(-1.0, 1.0).acos(),
+                AtlasLight::Local { .. } => 0.0,
+            })
+            .fold(0.0f32, f32::max)
+            .min(1.2);
+        let grow = (1.0 + max_half_angle.sin()) / max_half_angle.cos();
+        let casters: Vec<Caster> = casters.into_iter().map(|c| Caster { center: c.center, radius: c.radius * grow }).collect();
         let cam_pos = world.camera.position(world.camera.shutter.0);
         let (pixel_w0, pixel_spread) = pixel_footprint(world, width, height);
         let fov = (pixel_spread * width as f32) * (pixel_spread * height as f32);

@@ -41,6 +41,8 @@ public:
     bool IsConverged() const;
     /// Fraction of the sample target done, in [0, 1].
     double GetProgress() const;
+    /// The render's figures after its last finished pass, as `key=value` strings.
+    std::vector<std::string> GetSummary() const;
     /// Waits up to `timeoutS` seconds (negative: no limit); true once the pass has stopped.
     bool Wait(double timeoutS) const;
     void Cancel();

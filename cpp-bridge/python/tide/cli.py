@@ -232,6 +232,16 @@ def cmd_render(args):
             written.append(png)
     sys.stdout.write("tide: wrote %s (%dx%d, %d spp, load %.2fs, render %.2fs, %.3g samples/s)\n"
                      % (", ".join(written), w, h, spp, load_s, render_s, sps))
+    summary = rp.summary() if hasattr(rp, "summary") else {}
+    if "photonsStored" in summary:
+        mib = int(summary.get("photonMapPeakBytes", "0")) / float(1 << 20)
+        capped = int(summary.get("photonPassesCapped", "0"))
+        sys.stdout.write("tide: caustics: %s photon passes, %s photons shot, %s stored, "
+                         "peak photon map %.1f MiB%s, photon tracing %ss\n"
+                         % (summary["photonPasses"], summary["photonsEmitted"],
+                            summary["photonsStored"], mib,
+                            " (%d passes cut to the memory budget)" % capped if capped else "",
+                            summary.get("photonSeconds", "?")))
     return EXIT_OK
 
 

@@ -247,6 +247,9 @@ class RenderPass:
     def progress(self):
         return 1.0 if self.running else 0.0
 
+    def summary(self):
+        return {}
+
     def wait(self, timeout_s=None):
         return self.running
 
