@@ -230,7 +230,7 @@ def Scope "Render"
         rel camera = </Camera>
         uniform int2 resolution = (640, 360)
         rel products = </Render/Product>
-        uniform token tide:integrator = "path"
+        uniform token tide:integrator = "caustics"
         uniform int tide:samples = 32
     }
 
