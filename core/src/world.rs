@@ -367,13 +367,13 @@ impl World {
                 let idx = [mesh.indices[i] as usize, mesh.indices[i + 1] as usize, mesh.indices[i + 2] as usize];
                 let (b1, b2) = (hit.u, hit.v);
                 let b0 = 1.0 - b1 - b2;
-                let v = idx.map(|k| mesh.positions[k]);
+                let v = idx.map(|k| mesh.position_at(k, ray.time));
                 let p_obj = v[0] * b0 + v[1] * b1 + v[2] * b2;
                 let ng_obj = (v[1] - v[0]).cross(v[2] - v[0]);
                 let ng = (nm * ng_obj).normalize();
                 let mut ns = ng;
-                if let Some(n) = &mesh.normals {
-                    let ni = n[idx[0]] * b0 + n[idx[1]] * b1 + n[idx[2]] * b2;
+                if let [Some(n0), Some(n1), Some(n2)] = idx.map(|k| mesh.normal_at(k, ray.time)) {
+                    let ni = n0 * b0 + n1 * b1 + n2 * b2;
                     if ni.length_squared() > 1e-12 {
                         let w = (nm * ni).normalize();
                         ns = if w.dot(ng) < 0.0 { -w } else { w };
