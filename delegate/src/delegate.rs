@@ -106,9 +106,9 @@ const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "m
 enum Geometry {
     None,
     Mesh(MeshDesc),
-    /// A mesh whose points move (time samples or velocities); keys are made at assembly,
-    /// for the shutter.
-    Deforming(MeshDesc, mesh::Deformation),
+    /// A mesh prim: its points may move (time samples or velocities; keys are made at
+    /// assembly, for the shutter) and GeomSubsets may bind other materials to some faces.
+    UsdMesh(Box<mesh::MeshGeom>),
     Spheres(SpheresDesc),
     Points(PointsData),
     /// A `tideOcean`: its mesh is built at assembly, around the render camera.
@@ -437,10 +437,7 @@ impl Delegate {
     fn convert_geometry(&self, path: &str, prim: &Prim, p: &mut Problems) -> Geometry {
         let s = &prim.store;
         let geometry = match prim.ty {
-            PrimType::Mesh => match mesh::convert_deforming_mesh(path, s, p) {
-                (m, Some(d)) => Geometry::Deforming(m, d),
-                (m, None) => Geometry::Mesh(m),
-            },
+            PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
             PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
             PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p)),
@@ -710,18 +707,34 @@ impl Delegate {
             // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
             // their sea material takes
             let mut parts: Vec<(GeometryRef, Option<(f32, f32)>)> = Vec::new();
+            // per part: the suffix of its instances' names and the GeomSubset whose material it takes
+            let mut part_names: Vec<(String, Option<&mesh::SubsetPart>)> = Vec::new();
             match r.geometry.as_ref() {
                 Geometry::Mesh(m) if !m.indices.is_empty() => {
                     scene.meshes.push(m.clone());
                     parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
                 }
-                Geometry::Deforming(m, d) => {
-                    let mut m = m.clone();
-                    if motion {
+                Geometry::UsdMesh(g) if !g.mesh.indices.is_empty() => {
+                    let mut m = g.mesh.clone();
+                    if let (true, Some(d)) = (motion, &g.deformation) {
                         m.motion = mesh::motion_keys(&m, d, open, close, tcps);
                     }
-                    scene.meshes.push(m);
-                    parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                    if g.subsets.is_empty() {
+                        scene.meshes.push(m);
+                        parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                        part_names.push((String::new(), None));
+                    } else {
+                        // one core mesh per material: each keeps every vertex (and motion key)
+                        // and only its own triangles
+                        for (indices, subset) in std::iter::once((&g.rest, None)).chain(g.subsets.iter().map(|s| (&s.indices, Some(s)))) {
+                            if indices.is_empty() {
+                                continue;
+                            }
+                            scene.meshes.push(MeshDesc { indices: indices.clone(), ..m.clone() });
+                            parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                            part_names.push((subset.map_or(String::new(), |s| format!(" {}", s.path)), subset));
+                        }
+                    }
                 }
                 Geometry::Spheres(s) if !s.centers.is_empty() => {
                     scene.spheres.push(s.clone());
@@ -784,6 +797,14 @@ impl Delegate {
             let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
             for (part, (geometry, sea)) in parts.into_iter().enumerate() {
+                let (suffix, subset) = part_names.get(part).cloned().unwrap_or_else(|| (if part == 0 { String::new() } else { " horizon".into() }, None));
+                let material = match subset.and_then(|s| s.material.as_deref().map(|m| (s, m))) {
+                    Some((s, m)) => mat_index.get(m).copied().unwrap_or_else(|| {
+                        ap.push(problem(&s.path, "material", format!("bound material '{}' does not exist; the faces take the mesh's material", m)));
+                        material
+                    }),
+                    None => material,
+                };
                 let material = match (sea, &scene.materials[material].surface) {
                     (Some((wind, share)), SurfaceDesc::Water(w)) if w.surface_model == SurfaceModel::Sea => {
                         let mut m = scene.materials[material].clone();
@@ -810,7 +831,7 @@ impl Delegate {
                         (xf.iter().map(|m| *inst * *m).collect(), times.clone())
                     };
                     scene.instances.push(InstanceDesc {
-                        name: if part == 0 { name } else { format!("{} horizon", name) },
+                        name: format!("{name}{suffix}"),
                         geometry,
                         transforms,
                         times,
@@ -1291,6 +1312,39 @@ mod tests {
         let p = d.commit_resources();
         assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/P", "instanceTransforms")]);
         assert_eq!(d.scene().instances[1].transforms.len(), 1);
+    }
+
+    #[test]
+    fn material_bind_subsets_give_their_faces_their_material() {
+        let mut d = Delegate::new();
+        red_material(&mut d, "/Red");
+        d.create_prim("mesh", "/Strip");
+        // three quads side by side: faces 0, 1, 2
+        let pts: Vec<f32> = (0..4).flat_map(|i| [i as f32, 0., 0., i as f32, 1., 0.]).collect();
+        d.set_attribute("/Strip", "points", floats(&pts, 3), None);
+        d.set_attribute("/Strip", "faceVertexCounts", Value::Ints(vec![4, 4, 4]), None);
+        d.set_attribute("/Strip", "faceVertexIndices", Value::Ints(vec![0, 2, 3, 1, 2, 4, 5, 3, 4, 6, 7, 5]), None);
+        d.set_attribute("/Strip", "geomSubsets", Value::Paths(vec!["/Strip/a".into(), "/Strip/b".into()]), None);
+        d.set_attribute("/Strip", "/Strip/a.indices", Value::Ints(vec![2, 7, -1]), None);
+        d.set_attribute("/Strip", "/Strip/a.material", Value::Path("/Red".into()), None);
+        d.set_attribute("/Strip", "/Strip/b.indices", Value::Ints(vec![0, 2]), None);
+        d.set_attribute("/Strip", "/Strip/b.material", Value::Path("/Gone".into()), None);
+        let p = d.commit_resources();
+        let mut got: Vec<_> = p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect();
+        got.sort();
+        // out-of-range indices and a face claimed twice name subset a / b and `indices`; a
+        // missing material names the subset and `material`
+        assert_eq!(got, [("/Strip/a", "indices"), ("/Strip/b", "indices"), ("/Strip/b", "material")]);
+        let s = d.scene();
+        let parts: Vec<(&str, usize, String)> = s.instances.iter().map(|i| {
+            let GeometryRef::Mesh(m) = i.geometry else { unreachable!() };
+            (i.name.as_str(), s.meshes[m].indices.len() / 3, s.materials[i.material].name.clone())
+        }).collect();
+        // face 1 keeps the mesh's (default) material, face 2 takes /Red, face 0 is in b whose
+        // material is gone (the mesh's material)
+        assert_eq!(parts, [("/Strip", 2, "default".to_string()), ("/Strip /Strip/a", 2, "/Red".to_string()), ("/Strip /Strip/b", 2, "default".to_string())]);
+        // every part keeps all the mesh's vertices
+        assert!(s.meshes.iter().all(|m| m.positions.len() == 8));
     }
 
     #[test]

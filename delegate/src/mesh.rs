@@ -203,16 +203,86 @@ pub enum Deformation {
     Velocity { velocities: Vec<Vec3>, accelerations: Option<Vec<Vec3>> },
 }
 
-/// A mesh prim's triangle mesh (its pose at the current frame) and how its points move: time
-/// samples of `points` (all with the same point count), else `velocities` (and
-/// `accelerations`). A sample with another point count or non-finite points, or velocities
-/// of another count, is a problem and the mesh is static.
-pub fn convert_deforming_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Option<Deformation>) {
-    let (mesh, src) = convert_mesh_sources(name, store, p);
+/// A `materialBind` GeomSubset's share of a mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubsetPart {
+    /// The subset prim's path.
+    pub path: String,
+    /// Its bound material (after binding resolution), if any: else the mesh's.
+    pub material: Option<String>,
+    /// Three indices per triangle (into the mesh's vertices) of the subset's faces.
+    pub indices: Vec<u32>,
+}
+
+/// A mesh prim converted: the triangles at the current frame, how the points move, and the
+/// triangles of each `materialBind` subset (`geomSubsets`); `rest` holds the triangles of
+/// faces in no subset (all of them without subsets).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshGeom {
+    pub mesh: MeshDesc,
+    pub deformation: Option<Deformation>,
+    pub subsets: Vec<SubsetPart>,
+    pub rest: Vec<u32>,
+}
+
+/// Converts a mesh prim: its triangles, their motion ([`Deformation`]) and its GeomSubsets. `geomSubsets`
+/// (Paths) names the subsets; each subset S has `S.indices` (face indices) and `S.material`
+/// (Path). Face indices out of range are a problem naming the subset and `indices`, and are
+/// ignored; a face named by an earlier subset stays there (also a problem).
+pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGeom {
+    let (mesh, src, tri_faces) = convert_mesh_sources(name, store, p);
+    let deformation = deformation(&mesh, &src, store, p);
+    let n_faces = store.get("faceVertexCounts").and_then(|v| v.to_ints()).map_or(0, |c| c.len());
+    let subset_paths = store.get("geomSubsets").and_then(|v| v.to_strings()).unwrap_or_default();
+    // the subset (index into `subsets`) of each face
+    let mut owner: Vec<Option<u32>> = vec![None; n_faces];
+    let mut subsets = Vec::new();
+    for path in subset_paths {
+        let k = subsets.len() as u32;
+        let indices = store.get(&format!("{path}.indices")).and_then(|v| v.to_ints()).unwrap_or_default();
+        let (mut bad, mut taken) = (Vec::new(), 0usize);
+        for i in indices {
+            match owner.get_mut(i as usize).filter(|_| i >= 0) {
+                None => bad.push(i),
+                Some(Some(o)) if *o != k => taken += 1,
+                Some(o) => *o = Some(k),
+            }
+        }
+        if !bad.is_empty() {
+            p.list.push(tide_core::Problem {
+                item: path.clone(),
+                attribute: "indices".into(),
+                message: format!("{} face index(es) out of range (0..{}; first: {}); ignored", bad.len(), n_faces, bad[0]),
+            });
+        }
+        if taken > 0 {
+            p.list.push(tide_core::Problem {
+                item: path.clone(),
+                attribute: "indices".into(),
+                message: format!("{taken} face(s) already belong to an earlier materialBind subset; they keep its material"),
+            });
+        }
+        let material = store.get(&format!("{path}.material")).and_then(|v| v.as_str()).filter(|m| !m.is_empty()).map(String::from);
+        subsets.push(SubsetPart { path, material, indices: Vec::new() });
+    }
+    let mut rest = Vec::new();
+    for (t, &f) in mesh.indices.chunks_exact(3).zip(&tri_faces) {
+        match owner.get(f as usize).copied().flatten() {
+            Some(k) => subsets[k as usize].indices.extend_from_slice(t),
+            None => rest.extend_from_slice(t),
+        }
+    }
+    MeshGeom { mesh, deformation, subsets, rest }
+}
+
+/// How the points of a converted mesh move: time samples of `points` (all with the same
+/// point count), else `velocities` (and `accelerations`). A sample with another point count
+/// or non-finite points, or velocities of another count, is a problem and the mesh is static.
+fn deformation(mesh: &MeshDesc, src: &[u32], store: &AttrStore, p: &mut Problems) -> Option<Deformation> {
     let n_points = store.get("points").and_then(|v| v.to_f32s()).map_or(0, |d| d.len() / 3);
     let expand = |d: &[f32]| -> Vec<Vec3> { src.iter().map(|&i| Vec3::new(d[3 * i as usize], d[3 * i as usize + 1], d[3 * i as usize + 2])).collect() };
     if mesh.indices.is_empty() {
-        return (mesh, None);
+        return None;
     }
     let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
     if samples.len() >= 2 {
@@ -221,18 +291,18 @@ pub fn convert_deforming_mesh(name: &str, store: &AttrStore, p: &mut Problems) -
             let d = v.to_f32s().unwrap_or_default();
             if d.len() != 3 * n_points {
                 p.add("points", format!("the time sample at frame offset {} has {} points, the mesh {}; the topology must not change, so the mesh renders static at frame 0", t, d.len() / 3, n_points));
-                return (mesh, None);
+                return None;
             }
             if d.iter().any(|x| !x.is_finite()) {
                 p.add("points", format!("the time sample at frame offset {} has NaN or infinite points; the mesh renders static at frame 0", t));
-                return (mesh, None);
+                return None;
             }
             keys.push((*t, expand(&d)));
         }
         if keys.windows(2).any(|w| w[0].1 != w[1].1) {
-            return (mesh, Some(Deformation::Samples(keys)));
+            return Some(Deformation::Samples(keys));
         }
-        return (mesh, None);
+        return None;
     }
     let per_point = |attr: &str, p: &mut Problems| -> Option<Vec<Vec3>> {
         let v = store.get(attr)?;
@@ -248,10 +318,10 @@ pub fn convert_deforming_mesh(name: &str, store: &AttrStore, p: &mut Problems) -
     let accelerations = per_point("accelerations", p);
     let moving = |v: &Option<Vec<Vec3>>| v.as_ref().is_some_and(|v| v.iter().any(|x| *x != Vec3::ZERO));
     if !moving(&velocities) && !moving(&accelerations) {
-        return (mesh, None);
+        return None;
     }
     let velocities = velocities.unwrap_or_else(|| vec![Vec3::ZERO; mesh.positions.len()]);
-    (mesh, Some(Deformation::Velocity { velocities, accelerations }))
+    Some(Deformation::Velocity { velocities, accelerations })
 }
 
 /// Area-weighted vertex normals of a triangle mesh at given positions.
@@ -317,8 +387,8 @@ pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps
     Some(MeshMotion { times, positions, normals })
 }
 
-/// [`convert_mesh`], plus the source point of each output vertex.
-fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>) {
+/// [`convert_mesh`], plus the source point of each output vertex and the face of each triangle.
+fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Vec<u32>) {
     let (points, bad_point) = read_points(store, p);
     let ints = |attr: &str, p: &mut Problems| -> Vec<i32> {
         match store.get(attr) {
@@ -454,7 +524,8 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         double_sided,
         motion: None,
     };
-    (mesh, sources)
+    let faces = tris.iter().map(|t| t.0).collect();
+    (mesh, sources, faces)
 }
 
 #[cfg(test)]
