@@ -505,6 +505,29 @@ mod tests {
     }
 
     #[test]
+    fn a_deforming_mesh_is_shaded_as_it_stands_at_the_ray_time() {
+        // a triangle in y = 0 lifted to y = 2 over [0, 1] s while its normals turn from +Y
+        // to +X: at t = 0.25 the hit is at y = 0.5 and the normal is the lerp, normalised
+        let mut m = tri("/m", [0.0; 3]);
+        m.indices = vec![0, 2, 1]; // front side +Y, as the normals say
+        m.normals = Some(vec![Vec3::Y; 3]);
+        let lifted: Vec<Vec3> = m.positions.iter().map(|p| *p + Vec3::Y * 2.0).collect();
+        m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: vec![m.positions.clone(), lifted], normals: Some(vec![vec![Vec3::Y; 3], vec![Vec3::X; 3]]) });
+        let mut s = SceneDesc::default();
+        s.meshes.push(m);
+        s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.camera.shutter_close = 1.0;
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        let ray = Ray { o: Vec3::new(0.25, 5.0, 0.25), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.25 };
+        let hit = w.accel.intersect(&ray).expect("the triangle at y = 0.5");
+        let sh = w.surface(&ray, &hit);
+        // positions are lerped in f32: a few ulp
+        assert!((sh.p - Vec3::new(0.25, 0.5, 0.25)).length() < 1e-5, "{:?}", sh.p);
+        assert!((sh.ns - Vec3::new(0.25, 0.75, 0.0).normalize()).length() < 1e-5, "{:?}", sh.ns);
+    }
+
+    #[test]
     fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
         let mut s = SceneDesc::default();
         s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]));
