@@ -436,7 +436,7 @@ impl Delegate {
     /// An rprim's geometry (points, triangles, spheres) from its attributes and primvars.
     fn convert_geometry(&self, path: &str, prim: &Prim, p: &mut Problems) -> Geometry {
         let s = &prim.store;
-        let geometry = match prim.ty {
+        match prim.ty {
             PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
             PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
@@ -450,8 +450,7 @@ impl Delegate {
                 p.add("field", "volume prims (OpenVDB fields) are not yet supported; the volume is skipped");
                 Geometry::None
             }
-        };
-        geometry
+        }
     }
 
     fn convert_rprim(&self, path: &str, prim: &Prim, geometry: Option<(Arc<Geometry>, Vec<Problem>)>, p: &mut Problems) -> RprimPiece {
