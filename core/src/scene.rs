@@ -275,6 +275,69 @@ pub struct MeshDesc {
     pub uvs: Option<Vec<Vec2>>,
     /// Rendered from both sides (affects only the facing test of one-sided emitters/culling).
     pub double_sided: bool,
+    /// Deformation motion blur: vertex positions (and normals) at several times. `positions`
+    /// and `normals` above stay the pose at time 0 (used where a single pose is needed:
+    /// emissive triangles, the water's top).
+    pub motion: Option<MeshMotion>,
+}
+
+/// The keys of a deforming mesh: the same vertices (and triangles) at increasing times. A
+/// vertex moves linearly between keys and holds the first / last key outside them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshMotion {
+    /// Seconds of shutter time (as `InstanceDesc::times`), increasing, two or more.
+    pub times: Vec<f32>,
+    /// One array per time, each as long as `MeshDesc::positions`.
+    pub positions: Vec<Vec<Vec3>>,
+    /// Per-vertex shading normals per time (same shape as `positions`), when the mesh has them.
+    pub normals: Option<Vec<Vec<Vec3>>>,
+}
+
+impl MeshMotion {
+    /// Key segment and weight of the later key at `time`: values are
+    /// `key[i]·(1−w) + key[i+1]·w`.
+    #[inline]
+    pub fn locate(&self, time: f32) -> (usize, f32) {
+        let n = self.times.len();
+        if n < 2 || time <= self.times[0] {
+            return (0, 0.0);
+        }
+        if time >= self.times[n - 1] {
+            return (n - 2, 1.0);
+        }
+        let mut i = 0;
+        while i + 2 < n && self.times[i + 1] <= time {
+            i += 1;
+        }
+        let (a, b) = (self.times[i], self.times[i + 1]);
+        (i, if b > a { (time - a) / (b - a) } else { 0.0 })
+    }
+}
+
+impl MeshDesc {
+    /// Position of vertex `k` at `time` (seconds).
+    #[inline]
+    pub fn position_at(&self, k: usize, time: f32) -> Vec3 {
+        match &self.motion {
+            Some(m) if m.positions.len() >= 2 => {
+                let (i, w) = m.locate(time);
+                m.positions[i][k].lerp(m.positions[i + 1][k], w)
+            }
+            _ => self.positions[k],
+        }
+    }
+
+    /// Shading normal of vertex `k` at `time` (not normalised), when the mesh has normals.
+    #[inline]
+    pub fn normal_at(&self, k: usize, time: f32) -> Option<Vec3> {
+        match &self.motion {
+            Some(m @ MeshMotion { normals: Some(n), .. }) if n.len() >= 2 => {
+                let (i, w) = m.locate(time);
+                Some(n[i][k].lerp(n[i + 1][k], w))
+            }
+            _ => self.normals.as_ref().map(|n| n[k]),
+        }
+    }
 }
 
 /// A set of spheres (UsdGeomPoints), optionally moving linearly over the shutter.

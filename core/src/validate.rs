@@ -42,6 +42,26 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 m.uvs = None;
             }
         }
+        if let Some(mo) = &m.motion {
+            let times_ok = mo.times.len() >= 2 && mo.times.iter().all(|t| t.is_finite()) && mo.times.windows(2).all(|w| w[0] < w[1]);
+            let keys_ok = mo.positions.len() == mo.times.len() && mo.positions.iter().all(|k| k.len() == nv && k.iter().all(|&x| finite3(x)));
+            let normals_ok = mo.normals.as_ref().is_none_or(|n| n.len() == mo.times.len() && n.iter().all(|k| k.len() == nv));
+            if !(times_ok && keys_ok && normals_ok) {
+                let what = if !times_ok {
+                    "motion key times are not finite and increasing"
+                } else if !keys_ok {
+                    "a motion key has another point count or NaN/inf points"
+                } else {
+                    "motion normals do not match the point keys"
+                };
+                problem(&mut p, &m.name, "points", format!("{what}; the mesh renders static"));
+                m.motion = None;
+            } else if m.normals.is_none() {
+                if let Some(mo) = m.motion.as_mut() {
+                    mo.normals = None;
+                }
+            }
+        }
         let (mut bad_index, mut bad_point, mut degenerate) = (0usize, 0usize, 0usize);
         let mut kept = Vec::with_capacity(m.indices.len());
         for t in m.indices.chunks_exact(3) {
@@ -72,14 +92,18 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             problem(&mut p, &m.name, "points", format!("{degenerate} degenerate (zero-area) triangles dropped"));
         }
         m.indices = kept;
-        if let Some(n) = &mut m.normals {
-            for v in n.iter_mut() {
-                if !finite3(*v) || v.length_squared() == 0.0 {
-                    *v = Vec3::ZERO; // marks "use the geometric normal"
-                } else {
-                    *v = v.normalize();
-                }
+        let fix_normal = |v: &mut Vec3| {
+            if !finite3(*v) || v.length_squared() == 0.0 {
+                *v = Vec3::ZERO; // marks "use the geometric normal"
+            } else {
+                *v = v.normalize();
             }
+        };
+        if let Some(n) = &mut m.normals {
+            n.iter_mut().for_each(fix_normal);
+        }
+        if let Some(n) = m.motion.as_mut().and_then(|mo| mo.normals.as_mut()) {
+            n.iter_mut().flatten().for_each(fix_normal);
         }
     }
 
@@ -436,6 +460,28 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn motion_keys_with_another_point_count_leave_the_mesh_static() {
+        let tri = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
+        let mesh = |keys: Vec<Vec<Vec3>>, times: Vec<f32>| MeshDesc {
+            name: "/World/Blob".into(),
+            positions: tri.clone(),
+            indices: vec![0, 1, 2],
+            motion: Some(MeshMotion { times, positions: keys, normals: None }),
+            ..Default::default()
+        };
+        let good = mesh(vec![tri.clone(), tri.iter().map(|p| *p + Vec3::Z).collect()], vec![0.0, 0.5]);
+        let short = mesh(vec![tri.clone(), tri[..2].to_vec()], vec![0.0, 0.5]);
+        let unordered = mesh(vec![tri.clone(), tri.clone()], vec![0.5, 0.0]);
+        let s = SceneDesc { meshes: vec![good.clone(), short, unordered], ..Default::default() };
+        let (clean, p) = validate(&s);
+        assert_eq!(clean.meshes[0].motion, good.motion);
+        assert!(clean.meshes[1].motion.is_none() && clean.meshes[2].motion.is_none());
+        assert_eq!(p.len(), 2, "{p:?}");
+        assert!(p.iter().all(|q| q.item == "/World/Blob" && q.attribute == "points"));
+        assert_eq!(clean.meshes[1].indices, vec![0, 1, 2], "the static pose still renders");
+    }
 
     #[test]
     fn bad_input_is_reported_by_item_and_attribute_and_the_rest_kept() {

@@ -400,13 +400,13 @@ impl World {
                 let idx = [mesh.indices[i] as usize, mesh.indices[i + 1] as usize, mesh.indices[i + 2] as usize];
                 let (b1, b2) = (hit.u, hit.v);
                 let b0 = 1.0 - b1 - b2;
-                let v = idx.map(|k| mesh.positions[k]);
+                let v = idx.map(|k| mesh.position_at(k, ray.time));
                 let p_obj = v[0] * b0 + v[1] * b1 + v[2] * b2;
                 let ng_obj = (v[1] - v[0]).cross(v[2] - v[0]);
                 let ng = (nm * ng_obj).normalize();
                 let mut ns = ng;
-                if let Some(n) = &mesh.normals {
-                    let ni = n[idx[0]] * b0 + n[idx[1]] * b1 + n[idx[2]] * b2;
+                if let [Some(n0), Some(n1), Some(n2)] = idx.map(|k| mesh.normal_at(k, ray.time)) {
+                    let ni = n0 * b0 + n1 * b1 + n2 * b2;
                     if ni.length_squared() > 1e-12 {
                         let w = (nm * ni).normalize();
                         ns = if w.dot(ng) < 0.0 { -w } else { w };
@@ -535,6 +535,29 @@ mod tests {
 
     fn inst(g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
         InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true }
+    }
+
+    #[test]
+    fn a_deforming_mesh_is_shaded_as_it_stands_at_the_ray_time() {
+        // a triangle in y = 0 lifted to y = 2 over [0, 1] s while its normals turn from +Y
+        // to +X: at t = 0.25 the hit is at y = 0.5 and the normal is the lerp, normalised
+        let mut m = tri("/m", [0.0; 3]);
+        m.indices = vec![0, 2, 1]; // front side +Y, as the normals say
+        m.normals = Some(vec![Vec3::Y; 3]);
+        let lifted: Vec<Vec3> = m.positions.iter().map(|p| *p + Vec3::Y * 2.0).collect();
+        m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: vec![m.positions.clone(), lifted], normals: Some(vec![vec![Vec3::Y; 3], vec![Vec3::X; 3]]) });
+        let mut s = SceneDesc::default();
+        s.meshes.push(m);
+        s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.camera.shutter_close = 1.0;
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        let ray = Ray { o: Vec3::new(0.25, 5.0, 0.25), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.25 };
+        let hit = w.accel.intersect(&ray).expect("the triangle at y = 0.5");
+        let sh = w.surface(&ray, &hit);
+        // positions are lerped in f32: a few ulp
+        assert!((sh.p - Vec3::new(0.25, 0.5, 0.25)).length() < 1e-5, "{:?}", sh.p);
+        assert!((sh.ns - Vec3::new(0.25, 0.75, 0.0).normalize()).length() < 1e-5, "{:?}", sh.ns);
     }
 
     #[test]

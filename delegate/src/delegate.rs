@@ -106,6 +106,9 @@ const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "m
 enum Geometry {
     None,
     Mesh(MeshDesc),
+    /// A mesh prim: its points may move (time samples or velocities; keys are made at
+    /// assembly, for the shutter) and GeomSubsets may bind other materials to some faces.
+    UsdMesh(Box<mesh::MeshGeom>),
     Spheres(SpheresDesc),
     Points(PointsData),
     /// A `tideOcean`: its mesh is built at assembly, around the render camera.
@@ -121,6 +124,9 @@ struct RprimPiece {
     /// (frame offset, object-to-world).
     transforms: Vec<(f64, Mat4)>,
     instance_transforms: Vec<Mat4>,
+    /// Time samples of `instanceTransforms` (frame offset, one matrix per instance), when
+    /// they move; empty otherwise.
+    instance_samples: Vec<(f64, Vec<Mat4>)>,
     material: Option<String>,
     display_color: Option<[f32; 3]>,
     visible: bool,
@@ -204,6 +210,24 @@ fn matrix_at(samples: &[(f64, Mat4)], t: f64) -> Mat4 {
     let (a, b) = (samples[i - 1], samples[i]);
     let w = ((t - a.0) / (b.0 - a.0)) as f32;
     a.1 * (1.0 - w) + b.1 * w
+}
+
+/// World samples of instance `k` of a prim whose `instanceTransforms` move: at every sample
+/// time of either the prim's transform or the instance matrices, the instance matrix applied
+/// after the transform, each interpolated between its own samples as the core interpolates
+/// motion (rotation on the sphere).
+fn moving_instance(transforms: &[(f64, Mat4)], instance_samples: &[(f64, Vec<Mat4>)], k: usize) -> Vec<(f64, Mat4)> {
+    use tide_core::accel::motion::MotionTransform;
+    let secs = |t: f64| t as f32;
+    let prim = MotionTransform::new(&transforms.iter().map(|s| s.1).collect::<Vec<_>>(), &transforms.iter().map(|s| secs(s.0)).collect::<Vec<_>>());
+    let inst = MotionTransform::new(&instance_samples.iter().map(|s| s.1[k]).collect::<Vec<_>>(), &instance_samples.iter().map(|s| secs(s.0)).collect::<Vec<_>>());
+    let mut times: Vec<f64> = instance_samples.iter().map(|s| s.0).collect();
+    if transforms.len() > 1 {
+        times.extend(transforms.iter().map(|s| s.0));
+    }
+    times.sort_by(|a, b| a.total_cmp(b));
+    times.dedup();
+    times.into_iter().map(|t| (t, inst.at(secs(t)) * prim.at(secs(t)))).collect()
 }
 
 impl Delegate {
@@ -414,8 +438,8 @@ impl Delegate {
     /// An rprim's geometry (points, triangles, spheres) from its attributes and primvars.
     fn convert_geometry(&self, path: &str, prim: &Prim, p: &mut Problems) -> Geometry {
         let s = &prim.store;
-        let geometry = match prim.ty {
-            PrimType::Mesh => Geometry::Mesh(mesh::convert_mesh(path, s, p)),
+        match prim.ty {
+            PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
             PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
             PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p)),
@@ -428,16 +452,7 @@ impl Delegate {
                 p.add("field", "volume prims (OpenVDB fields) are not yet supported; the volume is skipped");
                 Geometry::None
             }
-        };
-        if prim.ty == PrimType::Mesh {
-            // Deforming-mesh motion has no counterpart in the core yet; all-zero velocities
-            // describe a still mesh, which is exactly what renders.
-            let moving = s.get("velocities").map(|v| v.to_f32s().is_none_or(|d| d.iter().any(|&x| x != 0.0)));
-            if moving == Some(true) {
-                p.add("velocities", "mesh velocities are not yet supported; the mesh renders static");
-            }
         }
-        geometry
     }
 
     fn convert_rprim(&self, path: &str, prim: &Prim, geometry: Option<(Arc<Geometry>, Vec<Problem>)>, p: &mut Problems) -> RprimPiece {
@@ -449,15 +464,38 @@ impl Delegate {
         p.list.extend(geometry_problems.iter().cloned());
         let s = &prim.store;
         let mut instance_transforms = Vec::new();
+        let mut instance_samples = Vec::new();
         if let Some(v) = s.get("instanceTransforms") {
             match v.to_f32s() {
                 Some(d) if d.len() % 16 == 0 => {
-                    for c in d.chunks_exact(16) {
+                    // an instance whose matrix is not finite at any time is dropped
+                    let samples = &s.attr("instanceTransforms").map_or(&[][..], |a| &a.samples[..]);
+                    let finite_at = |i: usize| {
+                        samples.iter().all(|(_, v)| v.to_f32s().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(|c| c.iter().all(|x| x.is_finite()))))
+                    };
+                    let mut kept = Vec::new();
+                    for (i, c) in d.chunks_exact(16).enumerate() {
                         let m = Mat4::from_cols_slice(c);
-                        if m.is_finite() {
+                        if m.is_finite() && finite_at(i) {
                             instance_transforms.push(m);
+                            kept.push(i);
                         } else {
                             p.add("instanceTransforms", "a matrix is not finite; that instance is dropped");
+                        }
+                    }
+                    if samples.len() >= 2 {
+                        let n = d.len() / 16;
+                        let parsed: Option<Vec<(f64, Vec<Mat4>)>> = samples
+                            .iter()
+                            .map(|(t, v)| match v.to_f32s() {
+                                Some(d) if d.len() == 16 * n => Some((*t, kept.iter().map(|&i| Mat4::from_cols_slice(&d[16 * i..16 * i + 16])).collect())),
+                                _ => None,
+                            })
+                            .collect();
+                        match parsed {
+                            Some(ps) if ps.windows(2).any(|w| w[0].1 != w[1].1) => instance_samples = ps,
+                            Some(_) => {}
+                            None => p.add("instanceTransforms", format!("time samples hold different numbers of matrices ({} at the current frame); the instances do not move", n)),
                         }
                     }
                 }
@@ -495,6 +533,7 @@ impl Delegate {
             geometry_problems,
             transforms: s.matrix_samples("transform", p),
             instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![Mat4::IDENTITY] },
+            instance_samples,
             material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
             display_color,
             visible: s.token_or("visibility", &["inherited", "invisible", "visible"], "inherited", p) != "invisible",
@@ -670,10 +709,34 @@ impl Delegate {
             // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
             // their sea material takes
             let mut parts: Vec<(GeometryRef, Option<(f32, f32)>)> = Vec::new();
+            // per part: the suffix of its instances' names and the GeomSubset whose material it takes
+            let mut part_names: Vec<(String, Option<&mesh::SubsetPart>)> = Vec::new();
             match r.geometry.as_ref() {
                 Geometry::Mesh(m) if !m.indices.is_empty() => {
                     scene.meshes.push(m.clone());
                     parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                }
+                Geometry::UsdMesh(g) if !g.mesh.indices.is_empty() => {
+                    let mut m = g.mesh.clone();
+                    if let (true, Some(d)) = (motion, &g.deformation) {
+                        m.motion = mesh::motion_keys(&m, d, open, close, tcps);
+                    }
+                    if g.subsets.is_empty() {
+                        scene.meshes.push(m);
+                        parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                        part_names.push((String::new(), None));
+                    } else {
+                        // one core mesh per material: each keeps every vertex (and motion key)
+                        // and only its own triangles
+                        for (indices, subset) in std::iter::once((&g.rest, None)).chain(g.subsets.iter().map(|s| (&s.indices, Some(s)))) {
+                            if indices.is_empty() {
+                                continue;
+                            }
+                            scene.meshes.push(MeshDesc { indices: indices.clone(), ..m.clone() });
+                            parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
+                            part_names.push((subset.map_or(String::new(), |s| format!(" {}", s.path)), subset));
+                        }
+                    }
                 }
                 Geometry::Spheres(s) if !s.centers.is_empty() => {
                     scene.spheres.push(s.clone());
@@ -736,6 +799,14 @@ impl Delegate {
             let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
             for (part, (geometry, sea)) in parts.into_iter().enumerate() {
+                let (suffix, subset) = part_names.get(part).cloned().unwrap_or_else(|| (if part == 0 { String::new() } else { " horizon".into() }, None));
+                let material = match subset.and_then(|s| s.material.as_deref().map(|m| (s, m))) {
+                    Some((s, m)) => mat_index.get(m).copied().unwrap_or_else(|| {
+                        ap.push(problem(&s.path, "material", format!("bound material '{}' does not exist; the faces take the mesh's material", m)));
+                        material
+                    }),
+                    None => material,
+                };
                 let material = match (sea, &scene.materials[material].surface) {
                     (Some((wind, share)), SurfaceDesc::Water(w)) if w.surface_model == SurfaceModel::Sea => {
                         let mut m = scene.materials[material].clone();
@@ -756,11 +827,16 @@ impl Delegate {
                 for (k, inst) in r.instance_transforms.iter().enumerate() {
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
                     instance_paths.push(path.clone());
+                    let (transforms, times) = if motion && !r.instance_samples.is_empty() {
+                        place(&moving_instance(&r.transforms, &r.instance_samples, k))
+                    } else {
+                        (xf.iter().map(|m| *inst * *m).collect(), times.clone())
+                    };
                     scene.instances.push(InstanceDesc {
-                        name: if part == 0 { name } else { format!("{} horizon", name) },
+                        name: format!("{name}{suffix}"),
                         geometry,
-                        transforms: xf.iter().map(|m| *inst * *m).collect(),
-                        times: times.clone(),
+                        transforms,
+                        times,
                         material,
                         id: r.id,
                         visible_to_camera: true,
@@ -1158,15 +1234,140 @@ mod tests {
         assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
     }
 
+    /// A camera with the shutter [open, close] (frames) at 25 frames per second.
+    fn shutter(d: &mut Delegate, open: f64, close: f64) {
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "shutter:open", Value::Float(open), None);
+        d.set_attribute("/cam", "shutter:close", Value::Float(close), None);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "timeCodesPerSecond", Value::Float(25.0), None);
+    }
+
+    fn motion_of<'a>(d: &'a Delegate, inst: &str) -> Option<&'a tide_core::scene::MeshMotion> {
+        mesh_of(d, inst).motion.as_ref()
+    }
+
     #[test]
-    fn only_moving_mesh_velocities_are_reported() {
+    fn mesh_velocities_and_accelerations_become_keys_at_open_and_close() {
         let mut d = Delegate::new();
+        shutter(&mut d, -0.5, 0.5);
         quad(&mut d, "/Still");
         d.set_attribute("/Still", "velocities", Value::Doubles { data: vec![0.0; 12], tuple: 3 }, None);
         quad(&mut d, "/Moving");
-        d.set_attribute("/Moving", "velocities", floats(&[0., 0., 0., 1., 0., 0., 0., 0., 0., 0., 0., 0.], 3), None);
+        d.set_attribute("/Moving", "velocities", floats(&[2., 0., 0.].repeat(4), 3), None);
+        d.set_attribute("/Moving", "accelerations", floats(&[0., 50., 0.].repeat(4), 3), None);
+        assert_eq!(d.commit_resources(), []);
+        assert!(motion_of(&d, "/Still").is_none());
+        let m = motion_of(&d, "/Moving").unwrap();
+        // shutter ±0.5 frame = ±0.02 s; p + v·t + a·t²/2 with v = 2 (x), a = 50 (y)
+        assert_eq!(m.times, vec![-0.02, 0.02]);
+        let p0 = mesh_of(&d, "/Moving").positions[0];
+        for (k, t) in [-0.02f32, 0.02].into_iter().enumerate() {
+            let want = p0 + Vec3::new(2.0 * t, 25.0 * t * t, 0.0);
+            assert!((m.positions[k][0] - want).length() < 1e-6, "{:?} vs {want:?}", m.positions[k][0]);
+        }
+        // no motion blur: the mesh stands at frame 0
+        d.set_attribute("/S", "disableMotionBlur", Value::Bool(true), None);
+        d.commit_resources();
+        assert!(motion_of(&d, "/Moving").is_none());
+    }
+
+    #[test]
+    fn point_samples_become_keys_and_another_point_count_is_a_problem() {
+        let mut d = Delegate::new();
+        shutter(&mut d, 0.0, 0.5);
+        let lifted = |y: f32| floats(&[0., y, 0., 1., y, 0., 1., 1. + y, 0., 0., 1. + y, 0.], 3);
+        quad(&mut d, "/Blob");
+        for (t, y) in [(-1.0, -1.0), (0.0, 0.0), (1.0, 4.0), (2.0, 9.0)] {
+            d.set_attribute("/Blob", "points", lifted(y), Some(t));
+        }
+        assert_eq!(d.commit_resources(), []);
+        let m = motion_of(&d, "/Blob").unwrap();
+        // the samples at frames 0 and 1 bracket the shutter [0, 0.5]
+        assert_eq!(m.times, vec![0.0, 0.04]);
+        assert_eq!(m.positions[1][0], Vec3::new(0.0, 4.0, 0.0));
+        d.set_attribute("/Blob", "points", floats(&[0.; 9], 3), Some(1.0));
         let p = d.commit_resources();
-        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Moving", "velocities")]);
+        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Blob", "points")]);
+        assert!(motion_of(&d, "/Blob").is_none());
+        assert_eq!(mesh_of(&d, "/Blob").positions[0], Vec3::ZERO, "static at frame 0");
+    }
+
+    #[test]
+    fn authored_normals_turn_with_a_rigidly_rotating_mesh() {
+        let mut d = Delegate::new();
+        shutter(&mut d, 0.0, 1.0);
+        quad(&mut d, "/Card");
+        d.set_primvar("/Card", "normals", "vertex", [0., 0., 1.].repeat(4), 3, None);
+        // the card (in z = 0) turned 90° about x at frame 1: now in y = 0, facing −y
+        d.set_attribute("/Card", "points", floats(&[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0.], 3), Some(0.0));
+        d.set_attribute("/Card", "points", floats(&[0., 0., 0., 1., 0., 0., 1., 0., 1., 0., 0., 1.], 3), Some(1.0));
+        assert_eq!(d.commit_resources(), []);
+        let n = motion_of(&d, "/Card").unwrap().normals.as_ref().unwrap();
+        assert!((n[0][0] - Vec3::Z).length() < 1e-6 && (n[1][0] - Vec3::NEG_Y).length() < 1e-6, "{:?}", n[1][0]);
+    }
+
+    #[test]
+    fn moving_instance_transforms_give_each_instance_motion_samples() {
+        let mut d = Delegate::new();
+        shutter(&mut d, 0.0, 1.0);
+        quad(&mut d, "/P");
+        d.set_attribute("/P", "transform", translate(0., 0., 5.), None);
+        let mats = |dx: f64| {
+            let mut v = Vec::new();
+            for k in 0..2 {
+                let Value::Matrix(m) = translate(k as f64 * 10.0 + dx * k as f64, 0., 0.) else { unreachable!() };
+                v.extend_from_slice(&m);
+            }
+            Value::Doubles { data: v, tuple: 16 }
+        };
+        d.set_attribute("/P", "instanceTransforms", mats(0.0), Some(0.0));
+        d.set_attribute("/P", "instanceTransforms", mats(3.0), Some(1.0));
+        assert_eq!(d.commit_resources(), []);
+        let s = d.scene();
+        let (i0, i1) = (&s.instances[0], &s.instances[1]);
+        assert_eq!(i0.transforms.len(), 2, "samples of every instance, still or not");
+        assert_eq!(i1.times, vec![0.0, 0.04]);
+        assert_eq!(i1.transforms[0].w_axis.truncate(), Vec3::new(10.0, 0.0, 5.0));
+        assert_eq!(i1.transforms[1].w_axis.truncate(), Vec3::new(13.0, 0.0, 5.0));
+        // samples with another instance count: a problem, and the instances stand still
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: vec![0.0; 16], tuple: 16 }, Some(1.0));
+        let p = d.commit_resources();
+        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/P", "instanceTransforms")]);
+        assert_eq!(d.scene().instances[1].transforms.len(), 1);
+    }
+
+    #[test]
+    fn material_bind_subsets_give_their_faces_their_material() {
+        let mut d = Delegate::new();
+        red_material(&mut d, "/Red");
+        d.create_prim("mesh", "/Strip");
+        // three quads side by side: faces 0, 1, 2
+        let pts: Vec<f32> = (0..4).flat_map(|i| [i as f32, 0., 0., i as f32, 1., 0.]).collect();
+        d.set_attribute("/Strip", "points", floats(&pts, 3), None);
+        d.set_attribute("/Strip", "faceVertexCounts", Value::Ints(vec![4, 4, 4]), None);
+        d.set_attribute("/Strip", "faceVertexIndices", Value::Ints(vec![0, 2, 3, 1, 2, 4, 5, 3, 4, 6, 7, 5]), None);
+        d.set_attribute("/Strip", "geomSubsets", Value::Paths(vec!["/Strip/a".into(), "/Strip/b".into()]), None);
+        d.set_attribute("/Strip", "/Strip/a.indices", Value::Ints(vec![2, 7, -1]), None);
+        d.set_attribute("/Strip", "/Strip/a.material", Value::Path("/Red".into()), None);
+        d.set_attribute("/Strip", "/Strip/b.indices", Value::Ints(vec![0, 2]), None);
+        d.set_attribute("/Strip", "/Strip/b.material", Value::Path("/Gone".into()), None);
+        let p = d.commit_resources();
+        let mut got: Vec<_> = p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect();
+        got.sort();
+        // out-of-range indices and a face claimed twice name subset a / b and `indices`; a
+        // missing material names the subset and `material`
+        assert_eq!(got, [("/Strip/a", "indices"), ("/Strip/b", "indices"), ("/Strip/b", "material")]);
+        let s = d.scene();
+        let parts: Vec<(&str, usize, String)> = s.instances.iter().map(|i| {
+            let GeometryRef::Mesh(m) = i.geometry else { unreachable!() };
+            (i.name.as_str(), s.meshes[m].indices.len() / 3, s.materials[i.material].name.clone())
+        }).collect();
+        // face 1 keeps the mesh's (default) material, face 2 takes /Red, face 0 is in b whose
+        // material is gone (the mesh's material)
+        assert_eq!(parts, [("/Strip", 2, "default".to_string()), ("/Strip /Strip/a", 2, "/Red".to_string()), ("/Strip /Strip/b", 2, "default".to_string())]);
+        // every part keeps all the mesh's vertices
+        assert!(s.meshes.iter().all(|m| m.positions.len() == 8));
     }
 
     #[test]

@@ -109,6 +109,7 @@ impl Builder {
             normals: Some(self.n.into_iter().map(|n| axis.map(n)).collect()),
             uvs: Some(self.uv),
             double_sided,
+            motion: None,
         }
     }
 }

@@ -12,8 +12,8 @@
 //! therefore kept as they are (they are the "flipped" normals of a left-handed mesh).
 
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
-use glam::{Vec2, Vec3};
-use tide_core::scene::MeshDesc;
+use glam::{Quat, Vec2, Vec3};
+use tide_core::scene::{MeshDesc, MeshMotion};
 
 /// Triangulates one simple polygon (possibly concave) given its corner positions. Returns
 /// corner triples (indices into `poly`) in the polygon's own winding. Ear clipping is done in
@@ -191,6 +191,204 @@ pub(crate) fn read_points(store: &AttrStore, p: &mut Problems) -> (Vec<Vec3>, Ve
 
 /// Converts a mesh prim's attributes into a triangle mesh.
 pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
+    convert_mesh_sources(name, store, p).0
+}
+
+/// How a mesh's points move, per output vertex of the converted mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Deformation {
+    /// Time samples of `points`: (frame offset, positions), two or more, sorted by time.
+    Samples(Vec<(f64, Vec<Vec3>)>),
+    /// `velocities` and `accelerations`, units per second (and per second²).
+    Velocity { velocities: Vec<Vec3>, accelerations: Option<Vec<Vec3>> },
+}
+
+/// A `materialBind` GeomSubset's share of a mesh.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SubsetPart {
+    /// The subset prim's path.
+    pub path: String,
+    /// Its bound material (after binding resolution), if any: else the mesh's.
+    pub material: Option<String>,
+    /// Three indices per triangle (into the mesh's vertices) of the subset's faces.
+    pub indices: Vec<u32>,
+}
+
+/// A mesh prim converted: the triangles at the current frame, how the points move, and the
+/// triangles of each `materialBind` subset (`geomSubsets`); `rest` holds the triangles of
+/// faces in no subset (all of them without subsets).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshGeom {
+    pub mesh: MeshDesc,
+    pub deformation: Option<Deformation>,
+    pub subsets: Vec<SubsetPart>,
+    pub rest: Vec<u32>,
+}
+
+/// Converts a mesh prim: its triangles, their motion ([`Deformation`]) and its GeomSubsets. `geomSubsets`
+/// (Paths) names the subsets; each subset S has `S.indices` (face indices) and `S.material`
+/// (Path). Face indices out of range are a problem naming the subset and `indices`, and are
+/// ignored; a face named by an earlier subset stays there (also a problem).
+pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGeom {
+    let (mesh, src, tri_faces) = convert_mesh_sources(name, store, p);
+    let deformation = deformation(&mesh, &src, store, p);
+    let n_faces = store.get("faceVertexCounts").and_then(|v| v.to_ints()).map_or(0, |c| c.len());
+    let subset_paths = store.get("geomSubsets").and_then(|v| v.to_strings()).unwrap_or_default();
+    // the subset (index into `subsets`) of each face
+    let mut owner: Vec<Option<u32>> = vec![None; n_faces];
+    let mut subsets = Vec::new();
+    for path in subset_paths {
+        let k = subsets.len() as u32;
+        let indices = store.get(&format!("{path}.indices")).and_then(|v| v.to_ints()).unwrap_or_default();
+        let (mut bad, mut taken) = (Vec::new(), 0usize);
+        for i in indices {
+            match owner.get_mut(i as usize).filter(|_| i >= 0) {
+                None => bad.push(i),
+                Some(Some(o)) if *o != k => taken += 1,
+                Some(o) => *o = Some(k),
+            }
+        }
+        if !bad.is_empty() {
+            p.list.push(tide_core::Problem {
+                item: path.clone(),
+                attribute: "indices".into(),
+                message: format!("{} face index(es) out of range (0..{}; first: {}); ignored", bad.len(), n_faces, bad[0]),
+            });
+        }
+        if taken > 0 {
+            p.list.push(tide_core::Problem {
+                item: path.clone(),
+                attribute: "indices".into(),
+                message: format!("{taken} face(s) already belong to an earlier materialBind subset; they keep its material"),
+            });
+        }
+        let material = store.get(&format!("{path}.material")).and_then(|v| v.as_str()).filter(|m| !m.is_empty()).map(String::from);
+        subsets.push(SubsetPart { path, material, indices: Vec::new() });
+    }
+    let mut rest = Vec::new();
+    for (t, &f) in mesh.indices.chunks_exact(3).zip(&tri_faces) {
+        match owner.get(f as usize).copied().flatten() {
+            Some(k) => subsets[k as usize].indices.extend_from_slice(t),
+            None => rest.extend_from_slice(t),
+        }
+    }
+    MeshGeom { mesh, deformation, subsets, rest }
+}
+
+/// How the points of a converted mesh move: time samples of `points` (all with the same
+/// point count), else `velocities` (and `accelerations`). A sample with another point count
+/// or non-finite points, or velocities of another count, is a problem and the mesh is static.
+fn deformation(mesh: &MeshDesc, src: &[u32], store: &AttrStore, p: &mut Problems) -> Option<Deformation> {
+    let n_points = store.get("points").and_then(|v| v.to_f32s()).map_or(0, |d| d.len() / 3);
+    let expand = |d: &[f32]| -> Vec<Vec3> { src.iter().map(|&i| Vec3::new(d[3 * i as usize], d[3 * i as usize + 1], d[3 * i as usize + 2])).collect() };
+    if mesh.indices.is_empty() {
+        return None;
+    }
+    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
+    if samples.len() >= 2 {
+        let mut keys = Vec::with_capacity(samples.len());
+        for (t, v) in samples {
+            let d = v.to_f32s().unwrap_or_default();
+            if d.len() != 3 * n_points {
+                p.add("points", format!("the time sample at frame offset {} has {} points, the mesh {}; the topology must not change, so the mesh renders static at frame 0", t, d.len() / 3, n_points));
+                return None;
+            }
+            if d.iter().any(|x| !x.is_finite()) {
+                p.add("points", format!("the time sample at frame offset {} has NaN or infinite points; the mesh renders static at frame 0", t));
+                return None;
+            }
+            keys.push((*t, expand(&d)));
+        }
+        if keys.windows(2).any(|w| w[0].1 != w[1].1) {
+            return Some(Deformation::Samples(keys));
+        }
+        return None;
+    }
+    let per_point = |attr: &str, p: &mut Problems| -> Option<Vec<Vec3>> {
+        let v = store.get(attr)?;
+        match v.to_f32s() {
+            Some(d) if d.len() == 3 * n_points && d.iter().all(|x| x.is_finite()) => Some(expand(&d)),
+            _ => {
+                p.add(attr, format!("expected {} finite vectors, one per point; ignored", n_points));
+                None
+            }
+        }
+    };
+    let velocities = per_point("velocities", p);
+    let accelerations = per_point("accelerations", p);
+    let moving = |v: &Option<Vec<Vec3>>| v.as_ref().is_some_and(|v| v.iter().any(|x| *x != Vec3::ZERO));
+    if !moving(&velocities) && !moving(&accelerations) {
+        return None;
+    }
+    let velocities = velocities.unwrap_or_else(|| vec![Vec3::ZERO; mesh.positions.len()]);
+    Some(Deformation::Velocity { velocities, accelerations })
+}
+
+/// Area-weighted vertex normals of a triangle mesh at given positions.
+fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for t in indices.chunks_exact(3) {
+        let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+        let f = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += f;
+        }
+    }
+    n
+}
+
+/// The deformation keys over the shutter [open, close] (frame offsets; seconds =
+/// frames / `tcps`): the samples inside the shutter plus one on either side, or for
+/// velocities the positions at open and close (p + v·t + a·t²/2, the chord of each point's
+/// parabola). Authored normals turn with the surface: each key's normal is the authored one
+/// rotated by the shortest arc from the vertex's geometric normal at the current frame to
+/// its geometric normal at the key (exact for rigid motion).
+pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps: f64) -> Option<MeshMotion> {
+    let (times, positions): (Vec<f32>, Vec<Vec<Vec3>>) = match d {
+        Deformation::Samples(samples) => {
+            let lo = samples.iter().rposition(|s| s.0 <= open).unwrap_or(0);
+            let hi = samples.iter().position(|s| s.0 >= close).unwrap_or(samples.len() - 1);
+            let kept = &samples[lo..=hi.max(lo)];
+            if kept.len() < 2 {
+                return None;
+            }
+            kept.iter().map(|s| ((s.0 / tcps) as f32, s.1.clone())).unzip()
+        }
+        Deformation::Velocity { velocities, accelerations } => {
+            let key = |t: f32| -> Vec<Vec3> {
+                (0..mesh.positions.len())
+                    .map(|i| mesh.positions[i] + velocities[i] * t + accelerations.as_ref().map_or(Vec3::ZERO, |a| a[i] * (0.5 * t * t)))
+                    .collect()
+            };
+            let (t0, t1) = ((open / tcps) as f32, (close / tcps) as f32);
+            (vec![t0, t1], vec![key(t0), key(t1)])
+        }
+    };
+    if !(times.windows(2).all(|w| w[0] < w[1])) {
+        return None;
+    }
+    let normals = mesh.normals.as_ref().map(|authored| {
+        let g0 = vertex_normals(&mesh.positions, &mesh.indices);
+        positions
+            .iter()
+            .map(|key| {
+                let gk = vertex_normals(key, &mesh.indices);
+                authored
+                    .iter()
+                    .zip(g0.iter().zip(&gk))
+                    .map(|(n, (a, b))| match (a.try_normalize(), b.try_normalize()) {
+                        (Some(a), Some(b)) => Quat::from_rotation_arc(a, b) * *n,
+                        _ => *n,
+                    })
+                    .collect()
+            })
+            .collect()
+    });
+    Some(MeshMotion { times, positions, normals })
+}
+
+/// [`convert_mesh`], plus the source point of each output vertex and the face of each triangle.
+fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Vec<u32>) {
     let (points, bad_point) = read_points(store, p);
     let ints = |attr: &str, p: &mut Problems| -> Vec<i32> {
         match store.get(attr) {
@@ -292,6 +490,7 @@ pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc
     let key_count = if unweld { n_corners } else { n_points };
     let mut remap = vec![u32::MAX; key_count];
     let mut positions = Vec::new();
+    let mut sources = Vec::new();
     let mut out_n: Vec<Vec3> = Vec::new();
     let mut out_uv: Vec<Vec2> = Vec::new();
     let mut indices = Vec::with_capacity(tris.len() * 3);
@@ -303,6 +502,7 @@ pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc
             if remap[key] == u32::MAX {
                 remap[key] = positions.len() as u32;
                 positions.push(points[point]);
+                sources.push(point as u32);
                 if let Some(e) = &normals {
                     let s = e.element(f as usize, point, corner);
                     out_n.push(Vec3::new(s[0], s[1], s[2]).normalize_or_zero());
@@ -315,14 +515,17 @@ pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc
             indices.push(remap[key]);
         }
     }
-    MeshDesc {
+    let mesh = MeshDesc {
         name: name.to_string(),
         positions,
         indices,
         normals: normals.map(|_| out_n),
         uvs: st.map(|_| out_uv),
         double_sided,
-    }
+        motion: None,
+    };
+    let faces = tris.iter().map(|t| t.0).collect();
+    (mesh, sources, faces)
 }
 
 #[cfg(test)]

@@ -1,13 +1,16 @@
 //! The BVH: Tide's two-level acceleration structure. One compressed-wide BVH (obvhs `CwBvh`)
 //! per geometry (a mesh's triangles, or a points set's spheres, intersected by callback), and
 //! one over the instances that place them. Instances may move (transform motion blur with any
-//! number of samples, rotations interpolated on the sphere), spheres may move by velocity.
+//! number of samples, rotations interpolated on the sphere), spheres may move by velocity and
+//! meshes may deform (vertex position keys, `motion_mesh.rs`).
 
 mod tribvh;
+mod motion_mesh;
 pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
 use tribvh::TriBvh;
+use motion_mesh::MotionTriBlas;
 use glam::{Mat4, Vec3, Vec3A};
 use motion::MotionTransform;
 use obvhs::{
@@ -102,6 +105,7 @@ struct SphereBlas {
 
 enum Blas {
     Tri(TriBvh),
+    MotionTri(MotionTriBlas),
     Sphere(SphereBlas),
     Empty,
 }
@@ -132,6 +136,7 @@ pub struct BuildStats {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum BlasKey {
     Tri { points: usize, indices: usize, hash: u64 },
+    MotionTri { points: usize, indices: usize, keys: usize, hash: u64 },
     Sphere { spheres: usize, moving: bool, shutter: (u32, u32), hash: u64 },
 }
 
@@ -140,6 +145,13 @@ impl BlasKey {
         let mut h = std::collections::hash_map::DefaultHasher::new();
         h.write(bytemuck::cast_slice(&m.positions));
         h.write(bytemuck::cast_slice(&m.indices));
+        if let Some(mo) = &m.motion {
+            h.write(bytemuck::cast_slice(&mo.times));
+            for k in &mo.positions {
+                h.write(bytemuck::cast_slice(k));
+            }
+            return BlasKey::MotionTri { points: m.positions.len(), indices: m.indices.len(), keys: mo.times.len(), hash: h.finish() };
+        }
         BlasKey::Tri { points: m.positions.len(), indices: m.indices.len(), hash: h.finish() }
     }
 
@@ -234,6 +246,9 @@ fn build_tri_blas(mesh: &MeshDesc) -> Blas {
     let ntri = mesh.indices.len() / 3;
     if ntri == 0 {
         return Blas::Empty;
+    }
+    if mesh.motion.is_some() {
+        return MotionTriBlas::build(mesh).map_or(Blas::Empty, Blas::MotionTri);
     }
     let tris: Vec<Triangle> = (0..ntri)
         .map(|i| {
@@ -343,6 +358,10 @@ impl Accel {
             let xf = MotionTransform::new(&inst.transforms, &inst.times);
             let local = match blas[b].as_ref() {
                 Blas::Tri(t) => Aabb::new(t.bounds.0.into(), t.bounds.1.into()),
+                Blas::MotionTri(t) => {
+                    let (lo, hi) = t.bounds();
+                    Aabb::new(lo.into(), hi.into())
+                }
                 Blas::Sphere(s) => s.bvh.total_aabb,
                 Blas::Empty => Aabb::empty(),
             };
@@ -380,6 +399,7 @@ impl Accel {
             .iter()
             .map(|b| match b.as_ref() {
                 Blas::Tri(t) => t.bytes(),
+                Blas::MotionTri(t) => t.bytes(),
                 Blas::Sphere(s) => s.bvh.nodes.len() * 80 + s.centers.len() * 16 + s.bvh.primitive_indices.len() * 4,
                 Blas::Empty => 0,
             })
@@ -435,6 +455,7 @@ impl Accel {
     fn intersect_blas(&self, b: usize, o: Vec3A, d: Vec3A, t_max: f32, time: f32) -> Option<(f32, u32, f32, f32)> {
         match self.blas[b].as_ref() {
             Blas::Tri(tb) => tb.intersect(o, d, t_max),
+            Blas::MotionTri(mb) => mb.intersect(o, d, t_max, time),
             Blas::Sphere(sb) => {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
                 let r = bvh_ray(o, d, t_max);

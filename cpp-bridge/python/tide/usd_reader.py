@@ -1,8 +1,9 @@
 """The usd-core scene reader: walks a USD stage and drives Tide's RenderDelegate as Hydra would.
 
 It does UsdImaging's job with plain usd-core: composition, native instancing and point
-instancers, purposes, inherited visibility, transforms with motion samples over the camera
-shutter, material binding resolution, light linking collections, render settings / products /
+instancers (both with motion over the camera shutter), purposes, inherited visibility,
+transforms with motion samples over the shutter, deforming points (time samples, velocities,
+accelerations), material binding resolution (also of materialBind GeomSubsets), light linking collections, render settings / products /
 vars and camera selection. It then keeps the delegate in step with edits made through usd-core
 (`Reader.update()`, driven by `Usd.Notice.ObjectsChanged`).
 
@@ -363,6 +364,8 @@ class Reader:
                 if prim_path.HasPrefix(src) or src.HasPrefix(prim_path):
                     return None
             root = prim_path
+            if prim and prim.IsA(UsdGeom.Subset):
+                root = prim_path.GetParentPath()
             p = prim
             while p and p.GetPath() != Sdf.Path.absoluteRootPath:
                 if p.IsA(UsdShade.Material):
@@ -808,8 +811,16 @@ class Reader:
                 offs = sorted({lo, hi} | {t - self.frame for t in times})
                 got = [np.asarray(attr.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
                        for o in offs]
-                if all(g.shape == arr.shape and np.all(np.isfinite(g)) for g in got) and \
-                        any(not np.array_equal(g, got[0]) for g in got):
+                other = [(o, g) for o, g in zip(offs, got) if g.shape != arr.shape]
+                if other:
+                    self.problem(prim.GetPath(), name, "the time sample at frame offset %g has %d "
+                                 "points, frame 0 has %d; the topology must not change over "
+                                 "the shutter, so the prim renders static at frame 0"
+                                 % (other[0][0], len(other[0][1]), len(arr)))
+                elif not all(np.all(np.isfinite(g)) for g in got):
+                    self.problem(prim.GetPath(), name, "NaN or infinite values in a time sample; "
+                                 "the prim renders static at frame 0")
+                elif any(not np.array_equal(g, got[0]) for g in got):
                     samples = [(o, _floats(g, 3)) for o, g in zip(offs, got)]
         st.set(name, None, samples)
         return arr
@@ -839,12 +850,32 @@ class Reader:
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
         self._token(prim, st, "subdivisionScheme", "catmullClark")
-        vel = mesh.GetVelocitiesAttr().Get(t)
-        if vel is not None and len(vel):
-            st.set("velocities", _floats(vel, 3))
+        for name in ("velocities", "accelerations"):
+            v = self._attr(prim, name)
+            if v is not None and len(v):
+                if len(v) != len(arr):
+                    self.problem(path, name, "%d %s for %d points; ignored"
+                                 % (len(v), name, len(arr)))
+                    continue
+                st.set(name, _floats(v, 3))
+        self._subsets(prim, st)
         self._primvars(prim, st)
         self._normals(mesh, st)
         return True
+
+    def _subsets(self, prim, st):
+        """materialBind GeomSubsets: their face indices and resolved material bindings."""
+        subsets = UsdGeom.Subset.GetGeomSubsets(UsdGeom.Imageable(prim), UsdGeom.Tokens.face,
+                                                "materialBind")
+        paths = []
+        for sub in subsets:
+            sp = str(sub.GetPath())
+            idx = np.asarray(sub.GetIndicesAttr().Get(self._time(0)) or [], dtype=np.int64)
+            paths.append(sp)
+            st.set(sp + ".indices", _ints(idx))
+            st.set(sp + ".material", ("path", self._material_for(sub.GetPrim())))
+        if paths:
+            st.set("geomSubsets", ("paths", tuple(paths)))
 
     def _normals(self, pb, st):
         if "normals" in st.primvars:
@@ -954,9 +985,8 @@ class Reader:
         proto = prim.GetPrimInPrototype().GetPath()
         material = self._material_for(prim)
         key = (str(proto), material)
-        grp = self._groups.setdefault(key, {"prim": prim, "root": root, "worlds": []})
-        grp["worlds"].append(_mat_key(
-            UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
+        grp = self._groups.setdefault(key, {"prim": prim, "root": root, "roots": []})
+        grp["roots"].append(root)
 
     def _emit_instance_groups(self):
         per_proto = {}
@@ -975,8 +1005,19 @@ class Reader:
             if st is None:
                 continue
             st.set("material", ("path", material))
-            st.set("instanceTransforms", ("doubles", 16,
-                                          np.asarray(grp["worlds"], np.float64).tobytes()))
+            # each instance root's world matrix over the shutter (motion of the instances
+            # themselves; the prototype's own motion is in `transform`)
+            offsets = sorted({o for r in grp["roots"] for o in self._motion_offsets([r])})
+            worlds = []
+            for o in offsets:
+                cache = UsdGeom.XformCache(self._time(o))
+                worlds.append(np.asarray([_mat_key(cache.GetLocalToWorldTransform(r))
+                                          for r in grp["roots"]], np.float64))
+            if all(np.array_equal(w, worlds[0]) for w in worlds):
+                st.set("instanceTransforms", ("doubles", 16, worlds[0].tobytes()))
+            else:
+                st.set("instanceTransforms", None,
+                       [(o, ("doubles", 16, w.tobytes())) for o, w in zip(offsets, worlds)])
             self._desired[dpath] = st
 
     def _eval_instancer(self, prim):
@@ -1003,12 +1044,10 @@ class Reader:
                 self.problem(path, name, "%d %s for %d instances; instancer dropped"
                              % (len(v), name, n))
                 return
-        xforms = inst.ComputeInstanceTransformsAtTime(
-            t, t, UsdGeom.PointInstancer.ExcludeProtoXform, UsdGeom.PointInstancer.IgnoreMask)
         mask = list(inst.ComputeMaskAtTime(t) or [])
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(n, dtype=bool)
-        world = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t)
-        mats = [np.asarray(m * world, dtype=np.float64) for m in xforms] if n else []
+        # per instance world matrices at each motion offset: (offsets, [n x 4 x 4] per offset)
+        offsets, mats_at = self._instancer_motion(prim, inst, n)
         for k, ppath in enumerate(protos):
             proto = self.stage.GetPrimAtPath(ppath)
             sel = [i for i in range(n) if idx[i] == k and keep[i]]
@@ -1017,7 +1056,8 @@ class Reader:
                 continue
             if not sel:
                 continue
-            it_xf = np.stack([mats[i] for i in sel]).astype(np.float64)
+            it_xf = [(o, np.stack([m[i] for i in sel]).astype(np.float64))
+                     for o, m in zip(offsets, mats_at)]
             base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
             parent = proto.GetParent()
             pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -1044,8 +1084,102 @@ class Reader:
                 st = self._gprim_state(g, dpath, str(path), rel, [g])
                 if st is None:
                     continue
-                st.set("instanceTransforms", ("doubles", 16, it_xf.tobytes()))
+                if len(it_xf) == 1:
+                    st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
+                else:
+                    st.set("instanceTransforms", None,
+                           [(o, ("doubles", 16, m.tobytes())) for o, m in it_xf])
                 self._desired[dpath] = st
+
+    def _instancer_motion(self, prim, inst, n):
+        """Offsets (frames) and the instances' world matrices at each: one offset unless the
+        instances move over the shutter (time-sampled positions / orientations / scales,
+        velocities, angular velocities, accelerations, or the instancer's own transform).
+        USD's ComputeInstanceTransformsAtTime extrapolates time-sampled positions with the
+        velocities; positions with only a default value are extrapolated here the same way
+        (p + v dt + a dt^2 / 2, the orientation turned by |w| dt about w after it; dt in
+        seconds). Angular velocities and accelerations get 4 steps over the shutter, so a spin
+        sweeps an arc (slerp between keys) and a parabola is followed within 1/16 of the
+        chord's sag."""
+        t = self._time(0)
+        tcps = self.stage.GetTimeCodesPerSecond() or 24.0
+        world_at = lambda o: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(self._time(o))
+        rates = {}
+        pos_attr = inst.GetPositionsAttr()
+        if pos_attr.GetNumTimeSamples() == 0:
+            for name in ("velocities", "angularVelocities", "accelerations"):
+                v = self._attr(prim, name)
+                if v is None or not len(v):
+                    continue
+                if len(v) != n:
+                    self.problem(prim.GetPath(), name, "%d %s for %d instances; ignored"
+                                 % (len(v), name, n))
+                    continue
+                rates[name] = np.asarray(v, dtype=np.float64).reshape(-1, 3)
+        base = inst.ComputeInstanceTransformsAtTime(
+            t, t, UsdGeom.PointInstancer.ExcludeProtoXform, UsdGeom.PointInstancer.IgnoreMask)
+        p0 = np.asarray(pos_attr.Get(t) or [], dtype=np.float64).reshape(-1, 3)
+
+        def extrapolated(o):
+            dt = o / tcps
+            out = []
+            for i, m in enumerate(base):
+                m = Gf.Matrix4d(m)
+                p = p0[i].copy()
+                if "velocities" in rates:
+                    p += rates["velocities"][i] * dt
+                if "accelerations" in rates:
+                    p += rates["accelerations"][i] * 0.5 * dt * dt
+                if "angularVelocities" in rates:
+                    w = rates["angularVelocities"][i]
+                    deg = float(np.linalg.norm(w)) * dt
+                    if deg != 0.0:
+                        turn = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(*w), deg))
+                        m = m * Gf.Matrix4d().SetTranslate(-Gf.Vec3d(*p0[i])) * turn * \
+                            Gf.Matrix4d().SetTranslate(Gf.Vec3d(*p0[i]))
+                m.SetTranslateOnly(Gf.Vec3d(*p))
+                out.append(m)
+            return out
+
+        def at(o):
+            if rates:
+                xf = extrapolated(o)
+            else:
+                xf = inst.ComputeInstanceTransformsAtTime(
+                    self._time(o), t, UsdGeom.PointInstancer.ExcludeProtoXform,
+                    UsdGeom.PointInstancer.IgnoreMask)
+            if n and (xf is None or len(xf) != n):
+                return None
+            w = world_at(o)
+            return np.asarray([np.asarray(m * w, dtype=np.float64) for m in xf]
+                              if n else np.zeros((0, 4, 4)), dtype=np.float64)
+
+        still = [(0.0, at(0.0))]
+        if not self._motion or not n:
+            return [o for o, _ in still], [m for _, m in still]
+        lo, hi = self._shutter
+        offs = set(self._motion_offsets([prim]))
+        interval = Gf.Interval(self.frame + lo, self.frame + hi)
+        stepped = False
+        for name in ("positions", "orientations", "orientationsf", "scales", "velocities",
+                     "angularVelocities", "accelerations"):
+            a = prim.GetAttribute(name)
+            if not a or not a.HasAuthoredValue():
+                continue
+            offs.update(x - self.frame for x in a.GetTimeSamplesInInterval(interval))
+            if name in ("angularVelocities", "accelerations"):
+                stepped = True
+        if stepped:
+            offs.update(lo + (hi - lo) * k / 4.0 for k in range(5))
+        offs = sorted(offs)
+        mats = [at(o) for o in offs]
+        if any(m is None for m in mats):
+            self.problem(prim.GetPath(), "positions", "the instances cannot be computed at every "
+                         "time of the shutter (another instance count?); they do not move")
+            return [o for o, _ in still], [m for _, m in still]
+        if all(np.array_equal(m, mats[0]) for m in mats):
+            return [0.0], [mats[0]]
+        return offs, mats
 
     # -- materials ------------------------------------------------------------------------
     def _eval_material(self, prim):
