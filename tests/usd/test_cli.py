@@ -209,3 +209,26 @@ def test_integrator_name_reaches_the_exr_header(tmp_path, renderer):
         # problem printed while the caustics integrator is not available.
         assert header["tide:integrator"] == integ or (integ == "caustics" and fallback
                                                       and header["tide:integrator"] == "path")
+
+
+def test_exr_header_reader_agrees_with_openexr(tmp_path):
+    import numpy as np
+    import OpenEXR
+    from tide import exr_header
+    path = str(tmp_path / "h.exr")
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+           "tide:spp": "17", "tide:integrator": "caustics"}
+    with OpenEXR.File(hdr, {"R": np.zeros((3, 5), np.float32)}) as f:
+        f.write(path)
+    got = exr_header.read_header(path)
+    assert (got["tide:spp"], got["tide:integrator"]) == ("17", "caustics")
+    assert isinstance(got["dataWindow"], bytes) and len(got["dataWindow"]) == 16
+    bad = tmp_path / "bad.exr"
+    bad.write_bytes(b"not an exr at all")
+    with pytest.raises(ValueError):
+        exr_header.read_header(str(bad))
+    whole = open(path, "rb").read()
+    for cut in (6, 20, 26, 40):      # inside the version, a name, a size, a value
+        bad.write_bytes(whole[:cut])
+        with pytest.raises(ValueError):
+            exr_header.read_header(str(bad))

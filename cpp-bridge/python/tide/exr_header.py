@@ -30,7 +30,10 @@ def read_header(path):
             if not name:
                 return out
             kind = cstr()
-            size = struct.unpack("<i", f.read(4))[0]
+            raw = f.read(4)
+            if len(raw) != 4:
+                raise ValueError("%s: truncated header" % path)
+            size = struct.unpack("<i", raw)[0]
             if size < 0:
                 raise ValueError("%s: malformed attribute %r" % (path, name))
             value = f.read(size)
