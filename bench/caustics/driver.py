@@ -294,6 +294,14 @@ def main():
                      "(target ≥ 1×)." % (scene, ref_desc, a.ref_budget, rinfo["spp"], rinfo["time_s"],
                                          scored[0]["ref_floor"], best["label"], best["ratio_to_caustics"],
                                          TARGET[scene], path["ratio_to_caustics"]))
+        # what the renderer says it ran (the delegate falls back to path, with a problem, for an
+        # integrator it does not have)
+        said = sorted({(load(b)[1].get("integrator"), load(b)[1].get("integrator_in_header"))
+                       for b in [b for _, b in runs] + ref_bases if os.path.basename(b).startswith("tide_")})
+        odd = ["asked %s, header says %s" % p for p in said if p[0] != p[1]]
+        if odd:
+            notes.append("  - %s: Tide EXR headers disagree with the integrator asked for: %s."
+                         % (scene, "; ".join(odd)))
         results["scenes"][scene] = dict(reference=dict(renderer=ref_desc, **rinfo), rows=scored)
     lines += [""] + notes
     if "sphere" in a.scenes.split(","):
