@@ -2,7 +2,9 @@
 //!
 //! A [`RenderPass`] owns one background thread. Each job (a scene, settings and AOV → buffer
 //! bindings) is rendered in passes of 1, 2, 4, … samples per pixel until the target (or the
-//! time budget) is reached; after every pass the resolved pixels are published into the bound
+//! time budget, counted from when the engine is built, so scene preparation is not in it) is
+//! reached; with a budget, a pass is shortened to what the measured rate fits in half the time
+//! left; after every pass the resolved pixels are published into the bound
 //! [`RenderBuffer`]s, which any thread may [`RenderBuffer::map`] at any time. Starting a new job
 //! cancels the running one (through the engine's cancel flag) and restarts. A panic inside the
 //! engine is caught and becomes [`PassStatus::Failed`]; dropping the pass joins the thread.
@@ -441,7 +443,19 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         if shared.cancel.load(Ordering::SeqCst) {
             return Ok(false);
         }
-        let n = next.min(target - done);
+        let mut n = next.min(target - done);
+        if budget > 0.0 && done > 0 {
+            // Size the pass to half the budget left at the rate measured so far (which includes
+            // publishing), so the render ends at the budget instead of up to one doubling past
+            // it, and a slowdown of the machine during the last passes overruns by at most a
+            // small pass; a pass that would not fit even one sample is not started.
+            let elapsed = start.elapsed().as_secs_f64();
+            let fit = (budget as f64 - elapsed) / (elapsed / done as f64);
+            if fit < 1.0 {
+                break;
+            }
+            n = n.min((fit * 0.5).clamp(1.0, u32::MAX as f64) as u32);
+        }
         if !e.render_pass(n, &shared.cancel) {
             return Ok(false);
         }
@@ -486,13 +500,15 @@ pub(crate) mod tests {
         pub h: u32,
         pub spp: u32,
         pub delay: Duration,
+        /// Extra time per sample per pixel of a pass.
+        pub per_spp: Duration,
         pub panic_at: Option<u32>,
         pub passes: Arc<Mutex<Vec<u32>>>,
     }
 
     impl Engine for Fake {
         fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool {
-            let until = Instant::now() + self.delay;
+            let until = Instant::now() + self.delay + self.per_spp * spp;
             while Instant::now() < until {
                 if cancel.load(Ordering::SeqCst) {
                     return false;
@@ -520,7 +536,7 @@ pub(crate) mod tests {
     pub(crate) fn fake_factory(delay: Duration, panic_at: Option<u32>, builds: Arc<AtomicU32>, passes: Arc<Mutex<Vec<u32>>>) -> EngineFactory {
         Arc::new(move |_, s| {
             builds.fetch_add(1, Ordering::SeqCst);
-            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay, panic_at, passes: passes.clone() }) as Box<dyn Engine>)
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay, per_spp: Duration::ZERO, panic_at, passes: passes.clone() }) as Box<dyn Engine>)
         })
     }
 
@@ -634,5 +650,29 @@ pub(crate) mod tests {
         pass.start(j);
         assert!(pass.wait(Duration::from_secs(5)));
         assert!(buf.map().samples < 1 << 20);
+    }
+
+    #[test]
+    fn time_budget_is_not_overshot_by_a_doubling() {
+        // 2 ms per sample, 0.2 s budget: the budget holds at most 100 samples. Doubling passes
+        // alone would end at 127 (the pass of 64 starting at 63 samples, 0.126 s). Every pass is
+        // sized by a measured rate that is never faster than the true one, so the bound of 100
+        // is exact whatever the machine's load.
+        let per_spp = Duration::from_millis(2);
+        let f: EngineFactory = Arc::new(move |_, s| {
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay: Duration::ZERO, per_spp, panic_at: None, passes: Default::default() })
+                as Box<dyn Engine>)
+        });
+        let pass = RenderPass::new(f);
+        let buf = RenderBuffer::new(4, 2, 4);
+        let mut j = job(1 << 20, &buf);
+        j.settings.time_budget_s = 0.2;
+        pass.start(j);
+        assert!(pass.wait(Duration::from_secs(10)));
+        let n = buf.map().samples;
+        // Lower bound: a pass is only skipped when not one more sample fits, so the render cannot
+        // stop far below the budget; 10 samples (20% of it) leaves room for a loaded machine
+        // where sleeps overrun several-fold.
+        assert!((10..=100).contains(&n), "{n} samples in a 0.2 s budget at 2 ms per sample");
     }
 }

@@ -82,7 +82,11 @@ def test_info_lists_prims_and_problems(tmp_path):
 
 
 @pytest.mark.parametrize("args", [["render", "--spp", "0"], ["render", "--width", "x"],
-                                  ["frobnicate"], ["render", "--nope"], ["info"]])
+                                  ["frobnicate"], ["render", "--nope"], ["info"],
+                                  ["render", "--integrator", "bdpt"],
+                                  ["render", "--time-budget", "-1"],
+                                  ["render", "--time-budget", "soon"],
+                                  ["render", "--max-depth", "-2"]])
 def test_usage_errors_exit_2(tmp_path, args):
     out = run(args, tmp_path)
     assert out.returncode == 2, (out.stdout, out.stderr)
@@ -133,3 +137,98 @@ def test_missing_module_exit_1(tmp_path):
     out = run(["render", "--spp", "1"], tmp_path, fake=False)
     assert out.returncode == 1 and "setup.sh" in out.stderr
     assert os.listdir(tmp_path) == []
+
+
+def test_flags_override_render_settings(tmp_path):
+    # the stage asks for path, depth 8 and no budget; the command line wins on each
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    settings(s, product="scene_out.exr", integrator="path", maxDepth=8, time__budget=0.0)
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1", "--integrator", "caustics", "--max-depth", "3",
+               "--time-budget", "2.5"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    assert header["tide:integrator"] == "caustics"
+    assert header["tide:maxDepth"] == "3"
+    assert float(header["tide:time:budget"]) == 2.5
+    # without the flags the stage's own values stand
+    out = run(["render", path, "--spp", "1"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    assert (header["tide:integrator"], header["tide:maxDepth"]) == ("path", "8")
+
+
+def _lit_stage(tmp_path):
+    from pxr import UsdLux
+    path = str(tmp_path / "lit.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    UsdLux.DomeLight.Define(s, "/Sky").CreateIntensityAttr(1.0)
+    settings(s, product="lit.exr")
+    s.GetRootLayer().Save()
+    return path
+
+
+def test_time_budget_stops_a_huge_target_near_the_budget(tmp_path, renderer):
+    stage = _lit_stage(tmp_path)
+    out = run(["render", stage, "--spp", "1000000", "--time-budget", "1", "--threads", "2",
+               "-o", str(tmp_path / "b.exr")], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    chans, header = _exr_channels(str(tmp_path / "b.exr"))
+    assert chans == ["A", "B", "G", "R"]
+    spp = int(header["tide:spp"])
+    # a million samples of 32x32 pixels would take minutes: the budget stopped it
+    assert 1 <= spp < 1000000
+    assert ("%d spp" % spp) in out.stdout          # the spp reached, not the target
+    secs = float(header["tide:renderSeconds"])
+    # Lower bound: a pass is skipped only when not one more sample (well under 0.1 s here) fits.
+    # Upper bound: the last pass is sized from the mean rate so far, so only a slowdown of the
+    # shared machine during it can overrun; 1.6 s leaves room for a 2x slowdown of a pass that
+    # was sized for up to half the budget.
+    assert 0.8 <= secs <= 1.6, secs
+    import OpenEXR
+    with OpenEXR.File(str(tmp_path / "b.exr"), separate_channels=True) as f:
+        import numpy as np
+        r = np.asarray(f.channels()["R"].pixels)
+    assert np.isfinite(r).all() and r.max() > 0
+
+
+def test_integrator_name_reaches_the_exr_header(tmp_path, renderer):
+    stage = _lit_stage(tmp_path)
+    for integ in ("path", "caustics"):
+        exr = str(tmp_path / ("%s.exr" % integ))
+        out = run(["render", stage, "--spp", "1", "--integrator", integ, "-o", exr],
+                  tmp_path, fake=False)
+        assert out.returncode == 0, out.stderr
+        _, header = _exr_channels(exr)
+        fallback = "tide:integrator: the caustics integrator is not yet available" in out.stderr
+        # The header names the integrator that rendered: the one asked for, or path with a
+        # problem printed while the caustics integrator is not available.
+        assert header["tide:integrator"] == integ or (integ == "caustics" and fallback
+                                                      and header["tide:integrator"] == "path")
+
+
+def test_exr_header_reader_agrees_with_openexr(tmp_path):
+    import numpy as np
+    import OpenEXR
+    from tide import exr_header
+    path = str(tmp_path / "h.exr")
+    hdr = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage,
+           "tide:spp": "17", "tide:integrator": "caustics"}
+    with OpenEXR.File(hdr, {"R": np.zeros((3, 5), np.float32)}) as f:
+        f.write(path)
+    got = exr_header.read_header(path)
+    assert (got["tide:spp"], got["tide:integrator"]) == ("17", "caustics")
+    assert isinstance(got["dataWindow"], bytes) and len(got["dataWindow"]) == 16
+    bad = tmp_path / "bad.exr"
+    bad.write_bytes(b"not an exr at all")
+    with pytest.raises(ValueError):
+        exr_header.read_header(str(bad))
+    whole = open(path, "rb").read()
+    for cut in (6, 20, 26, 40):      # inside the version, a name, a size, a value
+        bad.write_bytes(whole[:cut])
+        with pytest.raises(ValueError):
+            exr_header.read_header(str(bad))

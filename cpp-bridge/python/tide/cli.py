@@ -1,8 +1,16 @@
 """The `tide` command: render a USD stage to EXR (and a PNG preview), or list what a stage holds.
 
     tide render [STAGE] [-o OUT.exr] [--settings PRIM] [--camera PATH] [--frame F] [--spp N]
-                [--width W] [--threads N] [--seed S]
+                [--width W] [--threads N] [--seed S] [--integrator {path,caustics}]
+                [--time-budget SECONDS] [--max-depth N]
     tide info STAGE
+
+Flags override the render settings' attributes (contract: the command line wins):
+--spp `tide:samples`, --seed `tide:seed`, --integrator `tide:integrator`, --time-budget
+`tide:time:budget` (rendering stops at the sample target or after this many seconds of
+rendering, whichever comes first; loading and acceleration-structure building are not counted),
+--max-depth `tide:maxDepth`. The EXR header records the samples per pixel actually reached
+(`tide:spp`).
 
 Exit status: 0 when the image was written (or the listing printed), even if the stage has
 problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIBUTE: MESSAGE`
@@ -40,6 +48,20 @@ def _int(text):
         raise argparse.ArgumentTypeError("expected an integer, got %r" % text)
 
 
+def _nonneg_int(text):
+    v = _int(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError("expected a non-negative integer, got %r" % text)
+    return v
+
+
+def _nonneg_float(text):
+    v = _float(text)
+    if not v >= 0.0 or v == float("inf"):
+        raise argparse.ArgumentTypeError("expected a non-negative number of seconds, got %r" % text)
+    return v
+
+
 def _float(text):
     try:
         return float(text)
@@ -66,6 +88,13 @@ def build_parser():
                    help="image width (height keeps the aspect ratio)")
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
     r.add_argument("--seed", type=_int, metavar="S", help="random seed")
+    r.add_argument("--integrator", choices=("path", "caustics"),
+                   help="light transport (tide:integrator)")
+    r.add_argument("--time-budget", type=_nonneg_float, metavar="SECONDS",
+                   help="stop rendering after this many seconds if the sample target is not "
+                        "reached first (0: no budget; loading is not counted)")
+    r.add_argument("--max-depth", type=_nonneg_int, metavar="N",
+                   help="maximum path depth (tide:maxDepth)")
     i = sub.add_parser("info", help="list what would be rendered and every problem found")
     i.add_argument("stage", help="USD stage")
     i.add_argument("--settings", metavar="PRIM")
@@ -169,7 +198,9 @@ def cmd_render(args):
     module = env.load_module()
     delegate = module.RenderDelegate()
     reader, problems = _make_reader(args, stage, delegate, spp=args.spp, width=args.width,
-                                    seed=args.seed, threads=args.threads)
+                                    seed=args.seed, threads=args.threads,
+                                    integrator=args.integrator, time_budget=args.time_budget,
+                                    max_depth=args.max_depth)
     _print_problems(problems)
     if reader.camera_path is None:
         raise RuntimeError("nothing to render: the stage has no camera")
@@ -201,35 +232,23 @@ def cmd_render(args):
     bar.done()
     render_s = time.monotonic() - t1
     _print_problems(reader.commit())
-    spp = target
     w, h = reader.resolution
-    sps = w * h * spp / render_s if render_s > 0 else 0.0
-    header = {
-        "tide:stage": args.stage or "<built-in pool>",
-        "tide:camera": reader.camera_path,
-        "tide:settings": reader.settings_path,
-        "tide:frame": "%g" % reader.frame,
-        "tide:spp": str(spp),
-        "tide:loadSeconds": "%.3f" % load_s,
-        "tide:renderSeconds": "%.3f" % render_s,
-        "tide:samplesPerSecond": "%.0f" % sps,
-        "tide:problems": str(len(reader.problems)),
-    }
-    sent = reader.sent().get(reader.settings_path)
-    if sent:
-        for key in ("tide:integrator", "tide:seed", "tide:maxDepth", "renderingColorSpace"):
-            if key in sent[1]:
-                header[key] = str(sent[1][key][0][1][1])
+
+    def make_header(spp):
+        sps = w * h * spp / render_s if render_s > 0 else 0.0
+        return sps, _header(args, reader, spp, load_s, render_s, sps)
+
+    spp = target
+    sps, header = make_header(spp)
     color_space = header.get("renderingColorSpace", "lin_rec709")
-    written = []
-    for name, vars_ in outputs:
-        delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
-        written.append(name)
-        color = [buf for aov, buf in vars_ if aov == "color"]
-        if color:
-            png = os.path.splitext(name)[0] + ".png"
-            delegate.write_preview_png(png, color[0], color_space, "Standard")
-            written.append(png)
+    written = _write(delegate, outputs, header, color_space)
+    # A time budget may stop the render short of its target: the film's own count, which the
+    # renderer writes into the header, is the truth; the header is rewritten to agree with it.
+    reached = _spp_written(outputs[0][0])
+    if reached is not None and reached != spp:
+        spp = reached
+        sps, header = make_header(spp)
+        _write(delegate, outputs, header, color_space, png=False)
     sys.stdout.write("tide: wrote %s (%dx%d, %d spp, load %.2fs, render %.2fs, %.3g samples/s)\n"
                      % (", ".join(written), w, h, spp, load_s, render_s, sps))
     summary = rp.summary() if hasattr(rp, "summary") else {}
@@ -243,6 +262,49 @@ def cmd_render(args):
                             " (%d passes cut to the memory budget)" % capped if capped else "",
                             summary.get("photonSeconds", "?")))
     return EXIT_OK
+
+
+def _spp_written(path):
+    from tide import exr_header
+
+    try:
+        return int(exr_header.read_header(path).get("tide:spp", ""))
+    except (OSError, ValueError):
+        return None
+
+
+def _header(args, reader, spp, load_s, render_s, sps):
+    header = {
+        "tide:stage": args.stage or "<built-in pool>",
+        "tide:camera": reader.camera_path,
+        "tide:settings": reader.settings_path,
+        "tide:frame": "%g" % reader.frame,
+        "tide:spp": str(spp),
+        "tide:loadSeconds": "%.3f" % load_s,
+        "tide:renderSeconds": "%.3f" % render_s,
+        "tide:samplesPerSecond": "%.0f" % sps,
+        "tide:problems": str(len(reader.problems)),
+    }
+    sent = reader.sent().get(reader.settings_path)
+    if sent:
+        for key in ("tide:integrator", "tide:seed", "tide:maxDepth", "tide:time:budget",
+                    "renderingColorSpace"):
+            if key in sent[1]:
+                header[key] = str(sent[1][key][0][1][1])
+    return header
+
+
+def _write(delegate, outputs, header, color_space, png=True):
+    written = []
+    for name, vars_ in outputs:
+        delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
+        written.append(name)
+        color = [buf for aov, buf in vars_ if aov == "color"]
+        if color and png:
+            png_name = os.path.splitext(name)[0] + ".png"
+            delegate.write_preview_png(png_name, color[0], color_space, "Standard")
+            written.append(png_name)
+    return written
 
 
 def cmd_info(args):

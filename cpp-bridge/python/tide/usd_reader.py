@@ -112,7 +112,8 @@ class Options:
     """What the command line (or a caller) overrides: settings prim, camera, frame, spp, ..."""
 
     def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
-                 seed=None, threads=None, output=None):
+                 seed=None, threads=None, output=None, integrator=None, time_budget=None,
+                 max_depth=None):
         self.settings = settings
         self.camera = camera
         self.frame = frame
@@ -121,6 +122,9 @@ class Options:
         self.seed = seed
         self.threads = threads
         self.output = output
+        self.integrator = integrator
+        self.time_budget = time_budget
+        self.max_depth = max_depth
 
 
 # ---------------------------------------------------------------------------------------------
@@ -611,6 +615,15 @@ class Reader:
             st.set("tide:seed", ("int", int(o.seed)))
         if o.threads is not None:
             st.set("tide:threads", ("int", int(o.threads)))
+        if o.integrator is not None:
+            if o.integrator not in ALLOWED_TOKENS["tide:integrator"]:
+                raise LookupError("unknown integrator '%s' (expected one of: %s)"
+                                  % (o.integrator, ", ".join(ALLOWED_TOKENS["tide:integrator"])))
+            st.set("tide:integrator", ("token", str(o.integrator)))
+        if o.time_budget is not None:
+            st.set("tide:time:budget", ("float", float(o.time_budget)))
+        if o.max_depth is not None:
+            st.set("tide:maxDepth", ("int", int(o.max_depth)))
         self.sample_target = st.values["tide:samples"][0][1][1]
         st.set("timeCodesPerSecond", ("float", float(stage.GetTimeCodesPerSecond())))
 
