@@ -144,10 +144,18 @@ fn explore_pool() {
     let h = w * 3 / 4;
     let spp: u32 = std::env::var("SPP").ok().and_then(|v| v.parse().ok()).unwrap_or(16);
     let angle: f32 = std::env::var("ANGLE").ok().and_then(|v| v.parse().ok()).unwrap_or(5.0);
-    let scene = pool(angle);
-    for kind in [IntegratorKind::Path, IntegratorKind::Caustics] {
+    let mut scene = pool(angle);
+    if std::env::var("CLEAR").is_ok() {
+        scene.media[0].sigma_a = SpectrumDesc::Rgb([0.0; 3]);
+    }
+    let kinds: Vec<IntegratorKind> = if std::env::var("ONLY_CAUSTICS").is_ok() { vec![IntegratorKind::Caustics] } else { vec![IntegratorKind::Path, IntegratorKind::Caustics] };
+    for kind in kinds {
         let t = std::time::Instant::now();
-        let r = render_progressive(&scene, settings_for(kind, w, h, spp, 2));
+        let mut st = settings_for(kind, w, h, spp, 2);
+        if let Some(nm) = std::env::var("NM").ok().and_then(|v| v.parse().ok()) {
+            st.caustics.spectral_radius_nm = nm;
+        }
+        let r = render_progressive(&scene, st);
         let px = r.aov_pixels(Aov::Color);
         let c = r.aov_pixels(Aov::Caustics);
         let mean: f64 = px.chunks_exact(4).map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / (w * h) as f64;

@@ -204,11 +204,8 @@ def test_integrator_name_reaches_the_exr_header(tmp_path, renderer):
                   tmp_path, fake=False)
         assert out.returncode == 0, out.stderr
         _, header = _exr_channels(exr)
-        fallback = "tide:integrator: the caustics integrator is not yet available" in out.stderr
-        # The header names the integrator that rendered: the one asked for, or path with a
-        # problem printed while the caustics integrator is not available.
-        assert header["tide:integrator"] == integ or (integ == "caustics" and fallback
-                                                      and header["tide:integrator"] == "path")
+        # the header names the integrator that rendered: the one asked for
+        assert header["tide:integrator"] == integ
 
 
 def test_exr_header_reader_agrees_with_openexr(tmp_path):

@@ -59,11 +59,13 @@ pub struct CausticsConfig {
     pub mis_photon_count: f32,
     /// Lookup radius in pixel footprints.
     pub radius_pixels: f32,
+    /// Radius (nm) of the kernel that merges a photon's wavelengths into a camera path's.
+    pub spectral_radius_nm: f32,
 }
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0 }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 50.0 }
     }
 }
 
@@ -305,7 +307,7 @@ impl Caustics {
             cell_size,
             scene_radius,
             disk,
-            kernel: SpectralKernel::default(),
+            kernel: SpectralKernel::new(config.spectral_radius_nm).unwrap_or_default(),
             weight: 0.0,
             mean_energy: 1.0,
             stats,
