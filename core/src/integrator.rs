@@ -335,6 +335,14 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
 
         // the medium the ray travels in
         if let Some(mi) = stack.medium() {
+            // photon beams scattered towards the camera along this stretch
+            if let Some(c) = caustics.filter(|c| c.has_beams(mi)) {
+                let u = sampler.get1d();
+                let l = c.gather_beams(world, ray.o, ray.d, t_surface.min(1e30), mi, lambda, beta.average(), fp_width, fp_spread, u);
+                if !l.is_black() {
+                    split[CAUSTICS] += beta * l;
+                }
+            }
             // the first number is the sampler's (all a homogeneous medium uses); tracking
             // in a depth-varying one continues with a stream seeded by the next
             let u = sampler.get1d();
@@ -347,7 +355,6 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     fp_width += fp_spread * t;
                     fp_spread = crate::caustics::engine::widen_after_diffuse(fp_spread);
                     path_flags |= AFTER_VOLUME;
-                    chain = None;
                     if beta.is_black() {
                         break;
                     }
@@ -386,6 +393,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     if !(pdf > 0.0) {
                         break;
                     }
+                    // a chain from this volume vertex through casters to a light is what
+                    // photon beams carry
+                    chain = caustics.filter(|c| c.beams_in(mi)).map(|_| Chain { p_b: pdf, last: u32::MAX });
                     beta *= val / pdf;
                     prev_pdf = pdf;
                     specular_bounce = false;

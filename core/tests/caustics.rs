@@ -290,3 +290,42 @@ fn transparency_lets_shadow_rays_through_water() {
     assert!((ratio / expected - 1.0).abs() < 0.02, "ratio {ratio:.4}, expected {expected:.4}");
     assert!(with.caustics().is_none(), "a transparent water body must not cast caustics");
 }
+
+/// A camera 1.5 m under a wavy surface in scattering water, looking up towards the sun's side:
+/// god rays (sun → surface → medium → camera) and surface caustics on a sand floor.
+pub fn underwater(sun_angle: f32) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(quad_y("/sand", 6.0));
+    s.meshes.push(wavy_water(6.0, 64, 0.05, -3.01));
+    s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None });
+    s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
+    s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
+    s.instances.push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));
+    s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.lights.push(sun(sun_angle, 60.0, -90.0));
+    s.lights.push(dome(0.05));
+    s.camera = camera(Vec3::new(0.0, -1.5, 3.0), Vec3::new(0.0, -1.2, -2.0), 60.0);
+    s
+}
+
+#[test]
+#[ignore]
+fn explore_underwater() {
+    let w: u32 = std::env::var("W").ok().and_then(|v| v.parse().ok()).unwrap_or(48);
+    let h = w / 2;
+    let spp: u32 = std::env::var("SPP").ok().and_then(|v| v.parse().ok()).unwrap_or(64);
+    let pspp: u32 = std::env::var("PSPP").ok().and_then(|v| v.parse().ok()).unwrap_or(spp);
+    let angle: f32 = std::env::var("ANGLE").ok().and_then(|v| v.parse().ok()).unwrap_or(8.0);
+    let scene = underwater(angle);
+    for (kind, n) in [(IntegratorKind::Path, pspp), (IntegratorKind::Caustics, spp)] {
+        let t = std::time::Instant::now();
+        let r = render_progressive(&scene, settings_for(kind, w, h, n, 2));
+        println!("{kind:?} {n} spp: mean {:.5} caustics {:.5} time {:.2}s stats {:?}", image_mean(&r, Aov::Color), image_mean(&r, Aov::Caustics), t.elapsed().as_secs_f64(), r.stats().caustics);
+        let b = block_means(&r, w, h, w / 4, h / 2);
+        println!("  blocks {:?}", b.iter().map(|(m, s)| format!("{m:.4}±{s:.4}")).collect::<Vec<_>>());
+        if let Ok(dir) = std::env::var("OUT") {
+            let p = std::path::Path::new(&dir).join(format!("uw_{kind:?}.exr"));
+            r.write_exr(&p, &[Aov::Color, Aov::Caustics], &[]).unwrap();
+        }
+    }
+}

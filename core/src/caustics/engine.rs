@@ -36,6 +36,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::atlas::{Atlas, AtlasConfig, AtlasLight, CameraHint, Caster, VisibilityBuffer, VisibilityKind};
+use super::beams::{Beam, BeamMap};
 use super::photon_map::{NormalCheck, Photon, PhotonMap, Query, SpectralKernel, BYTES_PER_PHOTON};
 use crate::accel::Ray;
 use crate::bsdf::{Bsdf, TransportMode};
@@ -61,11 +62,14 @@ pub struct CausticsConfig {
     pub radius_pixels: f32,
     /// Radius (nm) of the kernel that merges a photon's wavelengths into a camera path's.
     pub spectral_radius_nm: f32,
+    /// Photon beams kept per pixel and pass (beams of more photons are kept at random, with
+    /// their flux scaled up accordingly).
+    pub beams_per_pixel: f32,
 }
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 50.0 }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 1.0 }
     }
 }
 
@@ -77,6 +81,9 @@ pub struct CausticsStats {
     pub photons_stored: u64,
     /// Photons stored in the last pass.
     pub photons_last_pass: u64,
+    /// Photon beams stored (all passes, and the last).
+    pub beams_stored: u64,
+    pub beams_last_pass: u64,
     /// Largest photon map of a pass, bytes.
     pub peak_map_bytes: usize,
     /// (light, caster) pairs in the atlas.
@@ -118,6 +125,9 @@ pub struct Caustics {
     fresh_atlas: Atlas,
     vis: VisibilityBuffer,
     map: PhotonMap,
+    beams: BeamMap,
+    /// Media that scatter (beams are kept in them).
+    beam_media: Vec<bool>,
     /// World light of each atlas light, and atlas light of each world light.
     atlas_lights: Vec<usize>,
     light_atlas: Vec<u32>,
@@ -287,12 +297,15 @@ impl Caustics {
         let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * scene_radius);
         let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
+        let beam_media = world.media.iter().map(|m| m.scatters()).collect();
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), ..Default::default() };
         Some(Caustics {
             fresh_atlas: atlas.clone(),
             atlas,
             vis,
             map: PhotonMap::build(Vec::new(), cell_size).ok()?,
+            beams: BeamMap::default(),
+            beam_media,
             atlas_lights,
             light_atlas,
             instance_group,
@@ -327,6 +340,7 @@ impl Caustics {
         self.atlas = self.fresh_atlas.clone();
         self.vis.clear();
         self.map = PhotonMap::build(Vec::new(), self.cell_size).expect("empty map");
+        self.beams = BeamMap::default();
         self.weight = 0.0;
         self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, ..Default::default() };
     }
@@ -348,18 +362,30 @@ impl Caustics {
         let pass = self.stats.passes;
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
-        let mut photons: Vec<Photon> = (0..chunks)
+        let keep_beam = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
+        let parts: Vec<(Vec<Photon>, Vec<Beam>)> = (0..chunks)
             .into_par_iter()
-            .flat_map_iter(|c| {
-                let mut out = Vec::new();
+            .map(|c| {
+                let mut out = (Vec::new(), Vec::new());
                 let start = c * CHUNK;
                 let end = (start + CHUNK).min(n as usize);
                 for i in start..end {
-                    this.trace_photon(world, seed, pass, i as u32, n, &mut out);
+                    this.trace_photon(world, seed, pass, i as u32, n, keep_beam, &mut out);
                 }
                 out
             })
             .collect();
+        let mut photons = Vec::new();
+        let mut beams = Vec::new();
+        for (p, b) in parts {
+            photons.extend(p);
+            beams.extend(b);
+        }
+        let beam_cap = (self.config.memory_limit_bytes / 2 / (super::beams::BYTES_PER_BEAM + 64)).max(1);
+        beams.truncate(beam_cap);
+        self.stats.beams_last_pass = beams.len() as u64;
+        self.stats.beams_stored += beams.len() as u64;
+        self.beams = BeamMap::build(beams);
         let cap_stored = cap as usize;
         photons.truncate(cap_stored);
         let stored = photons.len() as u64;
@@ -370,7 +396,7 @@ impl Caustics {
         self.stats.photons_emitted += n;
         self.stats.photons_stored += stored;
         self.stats.photons_last_pass = stored;
-        self.stats.peak_map_bytes = self.stats.peak_map_bytes.max(self.map.memory_bytes());
+        self.stats.peak_map_bytes = self.stats.peak_map_bytes.max(self.map.memory_bytes() + self.beams.memory_bytes());
         self.vis.clear();
     }
 
@@ -387,7 +413,8 @@ impl Caustics {
     }
 
     /// One photon path; stored photons are appended to `out`.
-    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, out: &mut Vec<Photon>) {
+    #[allow(clippy::too_many_arguments)]
+    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: f32, out: &mut (Vec<Photon>, Vec<Beam>)) {
         let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
         let ua = smp.get2d();
         let s = self.atlas.sample([ua.x, ua.y]);
@@ -399,6 +426,8 @@ impl Caustics {
         let u_pos = smp.get2d();
         let u_dir = smp.get2d();
         let Some(ls) = light.sample_le(u_pos, u_dir, &lambda, time, &self.disk) else { return };
+        // the photon's footprint: a width at the start and a growth per unit length
+        let (mut width0, mut spread) = (0.0f32, 0.0f32);
         let (origin, dir, power, mut stack) = match self.atlas.lights()[s.light as usize] {
             AtlasLight::Local { .. } => {
                 let Some(e) = self.atlas.emit(&s, ls.ray_o) else { return };
@@ -412,6 +441,7 @@ impl Caustics {
                     ls.l * (cos / (ls.pdf_pos * e.pdf))
                 };
                 let n = if ls.delta_pos { Vec3::ZERO } else { ls.n_light * ls.n_light.dot(e.dir).signum() };
+                spread = (1.0 / (std::f32::consts::PI * n_emitted as f32 * e.pdf)).sqrt();
                 (offset_ray_origin(e.origin, n), e.dir, power, self.light_stack[s.light as usize])
             }
             AtlasLight::Distant { to_light, .. } => {
@@ -422,6 +452,7 @@ impl Caustics {
                     return;
                 }
                 let power = if ls.delta_dir { ls.l / e.pdf } else { ls.l * (cos / (ls.pdf_dir * e.pdf)) };
+                width0 = (1.0 / (std::f32::consts::PI * n_emitted as f32 * e.pdf)).sqrt();
                 (e.origin - d * (2.0 * self.scene_radius), d, power, InteriorStack::default())
             }
         };
@@ -434,16 +465,25 @@ impl Caustics {
         let mut bounces = 0u32;
         let mut stream = StreamRng::new(smp.get1d(), index);
         let mut null_events = 0u32;
+        let mut travelled = 0.0f32;
+        let beam_scale = if keep_beam > 0.0 { 1.0 / keep_beam.sqrt() } else { 0.0 };
         loop {
             let Some(hit) = world.accel.intersect(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
             if let Some(m) = stack.medium() {
+                if bounces > 0 && keep_beam > 0.0 && self.beam_media[m] && stream.next_f32() < keep_beam {
+                    let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
+                    if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
+                        out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32 });
+                    }
+                }
                 let mut rng = || stream.next_f32();
                 beta *= world.media[m].transmittance(ray.o, ray.d, hit.t, &mut rng, &lambda);
                 if beta.is_black() {
                     return;
                 }
             }
+            travelled += hit.t;
             let inst = hit.instance as usize;
             let roles = world.caustic_instances[inst];
             let front = ray.d.dot(s_hit.ng) < 0.0;
@@ -508,7 +548,7 @@ impl Caustics {
             if !roles.caster {
                 if bounces > 0 && roles.receiver && !bsdf.is_specular() && world.illuminates(li, hit.instance) {
                     if let Ok(p) = Photon::new(s_hit.p, wo_w, s_hit.ng, beta, &lambda, s.cell) {
-                        out.push(p);
+                        out.0.push(p);
                     }
                 }
                 return;
@@ -637,6 +677,66 @@ impl Caustics {
         let lookup = self.kernel.at(lambda);
         let k = 1.0 / (std::f32::consts::PI * radius * radius);
         f * ph.spectral_flux(&lookup) * (k * total / w * mis * self.weight)
+    }
+
+    /// Whether camera rays in medium `m` gather photon beams.
+    #[inline]
+    pub fn has_beams(&self, m: usize) -> bool {
+        !self.beams.is_empty() && self.beam_media.get(m).copied().unwrap_or(false)
+    }
+
+    /// Whether a volume vertex in medium `m` starts a caustic chain (beams carry that light).
+    #[inline]
+    pub fn beams_in(&self, m: usize) -> bool {
+        self.beam_media.get(m).copied().unwrap_or(false)
+    }
+
+    /// Radiance scattered towards the camera ray `a + t·c`, t ∈ [0, t_max], in medium `m`
+    /// from the photon beams (see [`super::beams`]), before the camera path's throughput.
+    /// `fp_width` / `fp_spread` give the ray's pixel footprint; `u` draws the kernel width
+    /// and seeds tracking in media that need it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn gather_beams(&self, world: &World, a: Vec3, c: Vec3, t_max: f32, m: usize, lambda: &SampledWavelengths, throughput: f32, fp_width: f32, fp_spread: f32, u: f32) -> SampledSpectrum {
+        let med = &world.media[m];
+        let lookup = self.kernel.at(lambda);
+        let mut rng_state = StreamRng::new(u, 0xbea5);
+        let sq = u.sqrt();
+        let mut sum = SampledSpectrum::ZERO;
+        let record = throughput > 0.0;
+        let inv_mean = 1.0 / self.mean_energy.max(1e-30);
+        self.beams.for_each_near(a, c, t_max, |b, ap| {
+            if b.medium as usize != m {
+                return;
+            }
+            let wp = (fp_width + fp_spread * ap.t).min(b.width);
+            let w = wp + (b.width - wp) * sq;
+            if !(ap.h < w) {
+                return;
+            }
+            if record {
+                self.vis.record(b.photon.cell, VisibilityKind::Volume, throughput * b.photon.energy() * inv_mean);
+            }
+            if self.weight <= 0.0 {
+                return;
+            }
+            let x = a + c * ap.t;
+            let (wo, wi) = (-c, -b.dir);
+            let phase = med.phase(x);
+            let fp = phase.eval(wo, wi);
+            if !(fp > 0.0) {
+                return;
+            }
+            let mis = self.photon_weight_mis(b.photon.cell, phase.pdf(wo, wi));
+            if mis <= 0.0 {
+                return;
+            }
+            let mut rng = || rng_state.next_f32();
+            let tr_b = med.transmittance(b.photon.position, b.dir, ap.s, &mut rng, lambda);
+            let tr_c = med.transmittance(a, c, ap.t, &mut rng, lambda);
+            let k = 1.0 / (2.0 * w * ap.sin_theta);
+            sum += b.photon.spectral_flux(&lookup) * med.sigma_s_at(x, lambda) * tr_b * tr_c * (fp * k * mis);
+        });
+        sum * self.weight
     }
 
     /// Bytes a photon takes in the map (for reports).

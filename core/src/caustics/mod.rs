@@ -22,6 +22,7 @@
 //! 4. `atlas.end_pass(&visibility, camera_samples_this_pass)` learns the next pass's table.
 
 pub mod atlas;
+pub mod beams;
 pub mod engine;
 pub mod photon_map;
 

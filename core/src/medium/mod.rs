@@ -104,6 +104,22 @@ impl Medium {
         }
     }
 
+    /// σs at point `p`, at the path's wavelengths.
+    #[inline]
+    pub fn sigma_s_at(&self, p: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Medium::Homogeneous(m) => m.coefficients(lambda).1,
+            Medium::BioOptical(m) => m.coefficients_at(p, lambda).1,
+        }
+    }
+
+    /// Whether the medium scatters light at all (σs > 0 at some visible wavelength).
+    pub fn scatters(&self) -> bool {
+        let lambda = SampledWavelengths::sample_uniform(0.37);
+        let probe = [Vec3::ZERO, Vec3::new(0.0, -10.0, 0.0), Vec3::new(0.0, -100.0, 0.0)];
+        probe.iter().any(|p| self.sigma_s_at(*p, &lambda).max_component() > 0.0)
+    }
+
     /// Per-wavelength upper bound of σt along any ray (σt itself when homogeneous).
     #[inline]
     pub fn majorant(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
