@@ -35,6 +35,9 @@ pub struct Interior {
     pub priority: i32,
     pub ior: f32,
     pub medium: Option<usize>,
+    /// The box of a volume: takes no part in the priority and IOR, and its medium replaces
+    /// every other while the path is inside (the latest entered box wins).
+    pub volume: bool,
 }
 
 /// The objects a path is inside, for nested dielectrics with priorities (Schmidt & Budge
@@ -48,7 +51,7 @@ pub struct InteriorStack {
 
 impl Default for InteriorStack {
     fn default() -> Self {
-        InteriorStack { items: [Interior { instance: u32::MAX, priority: i32::MIN, ior: 1.0, medium: None }; MAX_NESTING], len: 0 }
+        InteriorStack { items: [Interior { instance: u32::MAX, priority: i32::MIN, ior: 1.0, medium: None, volume: false }; MAX_NESTING], len: 0 }
     }
 }
 
@@ -56,7 +59,7 @@ impl InteriorStack {
     /// The winning object (highest priority, latest among equals).
     pub fn top(&self) -> Option<&Interior> {
         let mut best: Option<&Interior> = None;
-        for it in &self.items[..self.len] {
+        for it in self.items[..self.len].iter().filter(|i| !i.volume) {
             if best.is_none_or(|b| it.priority >= b.priority) {
                 best = Some(it);
             }
@@ -67,7 +70,11 @@ impl InteriorStack {
         self.top().map_or(1.0, |t| t.ior)
     }
     pub fn medium(&self) -> Option<usize> {
-        self.top().and_then(|t| t.medium)
+        self.volume_medium().or_else(|| self.top().and_then(|t| t.medium))
+    }
+    /// The medium of the volume box entered last, if the path is inside one.
+    pub fn volume_medium(&self) -> Option<usize> {
+        self.items[..self.len].iter().rev().find(|i| i.volume).and_then(|i| i.medium)
     }
     pub fn contains(&self, instance: u32) -> bool {
         self.items[..self.len].iter().any(|i| i.instance == instance)
@@ -108,11 +115,23 @@ enum Boundary {
     Real { eta: f32, medium_front: Option<usize>, medium_back: Option<usize>, enter: Interior },
 }
 
+/// A volume's box is crossed unchanged (its medium is pushed or removed by the caller); inside
+/// a box, both sides of any other interface are in the box's medium.
 fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
+    if world.materials[world.instances[s.instance as usize].material].is_medium_boundary() {
+        return Boundary::False;
+    }
+    match (classify_dielectric(world, s, front, stack, lambda), stack.volume_medium()) {
+        (Boundary::Real { eta, enter, .. }, Some(v)) => Boundary::Real { eta, medium_front: Some(v), medium_back: Some(v), enter },
+        (b, _) => b,
+    }
+}
+
+fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
     let info = &world.instances[s.instance as usize];
     let mat = &world.materials[info.material];
     let Some(d) = mat.dielectric() else { return Boundary::Opaque };
-    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium };
+    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium, volume: false };
     if front {
         // entering
         if let Some(top) = stack.top() {
@@ -143,11 +162,19 @@ fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &Interio
 /// attenuate by their opacity; surfaces that cast no shadows, or not those of `light` (its
 /// shadow-link collection), are skipped. `seed` (a sample
 /// value) seeds the numbers a depth-varying medium's ratio tracking draws.
+/// Crossing a volume's box switches the medium: to the box's on entering; on leaving, to the
+/// medium of the boxes still entered (from `stack`, the path's, and those entered along the
+/// ray), else to `medium` or, if the ray started inside a box, to the medium of `stack`'s
+/// dielectrics.
 #[allow(clippy::too_many_arguments)]
-fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
+fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, stack: &InteriorStack, lambda: &SampledWavelengths, seed: f32) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;
+    let mut stream = StreamRng::new(seed, 0x5ad0);
+    let mut vols = *stack;
+    let base = if stack.volume_medium().is_some() { stack.top().and_then(|t| t.medium) } else { medium };
+    let (mut cur, mut seg_o, mut seg_len, mut switched) = (medium, o, 0.0f32, false);
     for _ in 0..MAX_NULL_EVENTS {
         let ray = Ray { o: origin, d, t_max: remaining, time };
         let Some(hit) = world.accel.intersect(&ray) else {
@@ -155,7 +182,27 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
         };
         let info = &world.instances[hit.instance as usize];
         let s = world.surface(&ray, &hit);
-        let pass = if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
+        seg_len += hit.t;
+        let boundary = world.materials[info.material].is_medium_boundary() && info.casts_shadows && world.casts_shadow_of(light, hit.instance);
+        if boundary {
+            // the segment so far was in `cur`; the box's side decides what follows
+            if let Some(m) = cur {
+                let mut rng = || stream.next_f32();
+                tr *= world.media[m].transmittance(seg_o, d, seg_len.min(1e30), &mut rng, lambda);
+            }
+            if d.dot(s.ng) < 0.0 {
+                vols.push(Interior { instance: hit.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[info.material].interior_medium, volume: true });
+            } else {
+                vols.remove(hit.instance);
+            }
+            cur = vols.volume_medium().or(base);
+            seg_o = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+            seg_len = 0.0;
+            switched = true;
+        }
+        let pass = if boundary {
+            1.0
+        } else if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
             1.0
         } else if world.materials[info.material].dielectric().is_some() {
             0.0
@@ -172,10 +219,10 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             break;
         }
     }
-    if let Some(m) = medium {
-        let mut stream = StreamRng::new(seed, 0x5ad0);
+    if let Some(m) = cur {
         let mut rng = || stream.next_f32();
-        tr *= world.media[m].transmittance(o, d, dist.min(1e30), &mut rng, lambda);
+        let len = if switched { seg_len + remaining.max(0.0) } else { dist };
+        tr *= world.media[m].transmittance(seg_o, d, len.min(1e30), &mut rng, lambda);
     }
     tr
 }
@@ -219,8 +266,10 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
             let mat = &world.materials[info.material];
             if let Some(di) = mat.dielectric() {
                 if d.dot(s.ng) > 0.0 {
-                    found.push((travelled, Interior { instance: hit.instance, priority: di.priority, ior: di.ior, medium: mat.interior_medium }));
+                    found.push((travelled, Interior { instance: hit.instance, priority: di.priority, ior: di.ior, medium: mat.interior_medium, volume: false }));
                 }
+            } else if mat.is_medium_boundary() && d.dot(s.ng) > 0.0 {
+                found.push((travelled, Interior { instance: hit.instance, priority: i32::MIN, ior: 1.0, medium: mat.interior_medium, volume: true }));
             }
         }
         origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
@@ -229,10 +278,10 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
     for (_, it) in found {
         stack.push(it);
     }
-    if stack.is_empty() {
+    if stack.top().is_none() {
         if let Some(m) = world.camera.medium {
             // a camera declared to sit in a medium with no enclosing object: water around it
-            stack.push(Interior { instance: u32::MAX - 1, priority: i32::MIN, ior: 1.333, medium: Some(m) });
+            stack.push(Interior { instance: u32::MAX - 1, priority: i32::MIN, ior: 1.333, medium: Some(m), volume: false });
         }
     }
     stack
@@ -323,7 +372,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
-                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr);
+                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), &stack, lambda, u_tr);
                                     if !tr.is_black() {
                                         let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
@@ -428,7 +477,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if let Boundary::False = boundary {
             if front {
                 if let Some(mat) = world.materials[mat_i].dielectric() {
-                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium });
+                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium, volume: false });
+                } else if world.materials[mat_i].is_medium_boundary() {
+                    stack.push(Interior { instance: s.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[mat_i].interior_medium, volume: true });
                 }
             } else {
                 stack.remove(s.instance);
@@ -506,7 +557,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let med = if out_front { medium_front } else { medium_back };
                             let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, lambda, u_tr);
+                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, &stack, lambda, u_tr);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w / (ls.pdf * pmf));
