@@ -25,10 +25,13 @@
 //!
 //! unbiased for every wavelength and bounded by N (kept in the log domain).
 //!
-//! # Shadow rays: ratio tracking
-//! With the scalar rate μ(t) = m(t)·max_j σt_j, T_j = Π_i (1 − ρ(t_i) σt_j / (m(t_i) max σt))
-//! over the points of a Poisson process of rate μ (Novák et al. 2014); each factor lies in
-//! [0, 1]. Outside the box nothing is drawn and T = 1.
+//! # Shadow rays: residual ratio tracking
+//! Each super-voxel also stores the least density c a lookup in it can return. With the control
+//! c·σt_j and the scalar residual rate μ(t) = (m(t) − c(t))·max_j σt_j,
+//! T_j = e^{−σt_j ∫c} Π_i (1 − (ρ(t_i) − c) σt_j / ((m − c) max σt)) over the points of a
+//! Poisson process of rate μ (Novák et al. 2014); each factor lies in [0, 1]. Where the density
+//! is constant over a super-voxel (m = c) the estimate is exact there and draws nothing; outside
+//! the box T = 1.
 
 use super::homogeneous::DistanceSample;
 use super::phase::{PhaseFunction, ONE_MINUS_EPSILON};
@@ -48,6 +51,8 @@ pub struct DensityGrid {
     world_to_local: Mat4,
     super_dims: [usize; 3],
     majorants: Vec<f32>,
+    /// Per super-voxel lower bound of the density (the control of residual ratio tracking).
+    minorants: Vec<f32>,
     max_density: f32,
 }
 
@@ -81,35 +86,45 @@ impl DensityGrid {
         }
         let values: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
         let super_dims = d.map(|n| (n + 1).div_ceil(SUPER));
-        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), max_density: 0.0 };
+        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), minorants: Vec::new(), max_density: 0.0 };
         let mut maj = vec![0f32; super_dims[0] * super_dims[1] * super_dims[2]];
+        let mut min = vec![0f32; maj.len()];
         for cz in 0..super_dims[2] {
             for cy in 0..super_dims[1] {
                 for cx in 0..super_dims[0] {
                     // lookups in u ∈ [−1 + cS, −1 + (c+1)S) read the values at indices
                     // ⌊u⌋ and ⌊u⌋ + 1: from −1 + cS to (c+1)S
+                    // (every lookup is a convex combination of those values, so their max and
+                    // min bound it; a range reaching outside the array includes a 0)
                     let range = |c: usize, n: usize| {
                         let lo = (c * SUPER) as i64 - 1;
                         let hi = ((c + 1) * SUPER) as i64;
-                        (lo.max(0) as usize, (hi.min(n as i64 - 1)).max(0) as usize)
+                        let outside = lo < 0 || hi > n as i64 - 1;
+                        (lo.max(0) as usize, (hi.min(n as i64 - 1)).max(0) as usize, outside)
                     };
-                    let (x0, x1) = range(cx, d[0]);
-                    let (y0, y1) = range(cy, d[1]);
-                    let (z0, z1) = range(cz, d[2]);
+                    let (x0, x1, ox) = range(cx, d[0]);
+                    let (y0, y1, oy) = range(cy, d[1]);
+                    let (z0, z1, oz) = range(cz, d[2]);
                     let mut m = 0f32;
+                    let mut lo = if ox || oy || oz { 0.0 } else { f32::INFINITY };
                     for z in z0..=z1 {
                         for y in y0..=y1 {
                             for x in x0..=x1 {
-                                m = m.max(g.values[x + d[0] * (y + d[1] * z)]);
+                                let v = g.values[x + d[0] * (y + d[1] * z)];
+                                m = m.max(v);
+                                lo = lo.min(v);
                             }
                         }
                     }
-                    maj[cx + super_dims[0] * (cy + super_dims[1] * cz)] = m;
+                    let i = cx + super_dims[0] * (cy + super_dims[1] * cz);
+                    maj[i] = m;
+                    min[i] = lo.min(m);
                 }
             }
         }
         g.max_density = maj.iter().copied().fold(0.0, f32::max);
         g.majorants = maj;
+        g.minorants = min;
         Ok(g)
     }
 
@@ -172,7 +187,8 @@ impl DensityGrid {
     }
 }
 
-/// A walk over the super-voxels a ray crosses: (t0, t1, majorant density) in ray order.
+/// A walk over the super-voxels a ray crosses: (t0, t1, majorant density) in ray order;
+/// [`MajorantSegments::minorant`] is the lower bound of the super-voxel last returned.
 pub struct MajorantSegments<'a> {
     grid: &'a DensityGrid,
     /// Local origin and direction (t is the world ray's parameter).
@@ -184,9 +200,16 @@ pub struct MajorantSegments<'a> {
     dt: [f32; 3],
     t: f32,
     t_end: f32,
+    last: usize,
 }
 
 impl<'a> MajorantSegments<'a> {
+    /// Lower bound of the density in the super-voxel of the last segment returned.
+    #[inline]
+    pub fn minorant(&self) -> f32 {
+        self.grid.minorants.get(self.last).copied().unwrap_or(0.0)
+    }
+
     fn new(grid: &'a DensityGrid, uo: Vec3, ud: Vec3, t_max: f32) -> Self {
         let (lo, hi) = grid.local_bounds();
         let (mut t0, mut t1) = (0.0f32, t_max);
@@ -203,7 +226,7 @@ impl<'a> MajorantSegments<'a> {
             t0 = t0.max(a);
             t1 = t1.min(b);
         }
-        let mut s = MajorantSegments { grid, uo, ud, cell: [0; 3], step: [0; 3], t_next: [f32::INFINITY; 3], dt: [f32::INFINITY; 3], t: t0, t_end: t1 };
+        let mut s = MajorantSegments { grid, uo, ud, cell: [0; 3], step: [0; 3], t_next: [f32::INFINITY; 3], dt: [f32::INFINITY; 3], t: t0, t_end: t1, last: 0 };
         if !(t0 < t1) {
             s.t_end = f32::NEG_INFINITY;
             return s;
@@ -250,7 +273,9 @@ impl Iterator for MajorantSegments<'_> {
             let t0 = self.t;
             let t1 = self.t_next[axis].min(self.t_end).max(t0);
             let [cx, cy, cz] = self.cell.map(|c| c as usize);
-            let m = self.grid.majorants[cx + n[0] * (cy + n[1] * cz)];
+            let i = cx + n[0] * (cy + n[1] * cz);
+            let m = self.grid.majorants[i];
+            self.last = i;
             self.t = t1;
             self.cell[axis] += self.step[axis];
             self.t_next[axis] += self.dt[axis];
@@ -378,17 +403,29 @@ impl GridMedium {
         }
         let ratio = st / st_max;
         let mut steps = 0u32;
-        for (t0, t1, m) in self.grid.segments(o, d, t) {
+        let mut segs = self.grid.segments(o, d, t);
+        while let Some((t0, t1, m)) = segs.next() {
             if !(m > 0.0) {
+                continue;
+            }
+            // the control: the super-voxel's minimum density, attenuating exactly
+            let c = segs.minorant().clamp(0.0, m);
+            if c > 0.0 {
+                for j in 0..N_SPECTRUM {
+                    tr.0[j] *= (-st[j] * c * (t1 - t0)).exp();
+                }
+            }
+            let r = m - c;
+            if !(r > 0.0) {
                 continue;
             }
             let mut s = t0;
             loop {
-                s += -(-unit(rng)).ln_1p() / (st_max * m);
+                s += -(-unit(rng)).ln_1p() / (st_max * r);
                 if !(s < t1) {
                     break;
                 }
-                let f = self.grid.density(o + d * s) / m;
+                let f = (self.grid.density(o + d * s) - c).max(0.0) / r;
                 for j in 0..N_SPECTRUM {
                     tr.0[j] *= (1.0 - f * ratio[j]).max(0.0);
                 }

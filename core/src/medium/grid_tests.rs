@@ -81,6 +81,15 @@ fn majorant_segments_bound_the_density_and_cover_the_box() {
     let mut rng = TestRng::new(2);
     for _ in 0..500 {
         let (o, d, len) = random_ray(&g, &mut rng);
+        let mut it = g.segments(o, d, len);
+        while let Some((t0, t1, _)) = it.next() {
+            let c = it.minorant();
+            for k in 0..=16 {
+                let t = t0 + (t1 - t0) * k as f32 / 16.0;
+                // the same rounding slack as for the majorant below
+                assert!(g.density(o + d * t) >= c * (1.0 - 1e-5) - 1e-5, "ρ below the minorant {c} at t {t}");
+            }
+        }
         let segs: Vec<(f32, f32, f32)> = g.segments(o, d, len).collect();
         assert!(!segs.is_empty(), "every ray aims at the box's middle");
         for w in segs.windows(2) {
@@ -140,6 +149,29 @@ fn constant_grid_transmittance_is_beer_lambert() {
         }
         ratio.check(expected, "ratio tracking through a constant grid = exp(−σt·0.75)");
         pass.check(expected, "delta tracking's passing weight through a constant grid = exp(−σt·0.75)");
+    }
+}
+
+#[test]
+fn residual_ratio_tracking_is_exact_and_draws_nothing_where_the_density_is_constant() {
+    // a 24³ grid of 0.8: the super-voxels away from the edges (grid points 7 to 16) have
+    // minorant = majorant, so a segment inside them is attenuated exactly
+    let g = DensityGrid::new([24, 24, 24], &vec![0.8; 24 * 24 * 24], Mat4::from_scale(Vec3::splat(0.1))).unwrap();
+    let m = medium(g, false);
+    let lambda = all_live();
+    let (a, s) = m.coefficients(&lambda);
+    let o = Vec3::new(0.75, 1.2, 1.0);
+    let mut draws = 0;
+    let mut r = || {
+        draws += 1;
+        0.5
+    };
+    let tr = m.transmittance(o, Vec3::X, 0.7, &mut r, &lambda);
+    assert_eq!(draws, 0);
+    for j in 0..N_SPECTRUM {
+        let exact = (-(a[j] + s[j]) * 0.8 * 0.7).exp();
+        // f32 exponentials of a product computed in another order
+        assert!((tr[j] - exact).abs() <= 1e-5 * exact, "{} vs {exact}", tr[j]);
     }
 }
 
