@@ -200,9 +200,7 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             seg_len = 0.0;
             switched = true;
         }
-        let pass = if boundary {
-            1.0
-        } else if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
+        let pass = if boundary || !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
             1.0
         } else if world.materials[info.material].dielectric().is_some() {
             0.0

@@ -34,10 +34,10 @@ fn volume(name: &str, dims: [u32; 3], value: f32, voxel: f32, origin: Vec3, medi
 }
 
 fn check_rgb(r: &tide_core::Renderer, w: u32, expect: [f32; 3], what: &str) {
-    for ch in 0..3 {
+    for (ch, e) in expect.into_iter().enumerate() {
         let (m, se, _) = channel_stats(r, ch, |_, _| true, w);
         // 3σ, plus 2e-3 for the quadrature and f32 accumulation
-        assert!((m - expect[ch] as f64).abs() < 3.0 * se + 2e-3, "{what}, channel {ch}: {m} ± {se} vs {}", expect[ch]);
+        assert!((m - e as f64).abs() < 3.0 * se + 2e-3, "{what}, channel {ch}: {m} ± {se} vs {e}");
     }
 }
 

@@ -77,7 +77,7 @@ impl DensityGrid {
     /// negative values are read as 0 (the caller reports them).
     pub fn new(dims: [u32; 3], values: &[f32], local_to_world: Mat4) -> Result<Self, GridError> {
         let d = dims.map(|v| v as usize);
-        if d.iter().any(|&v| v == 0) || d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
+        if d.contains(&0) || d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
             return Err(GridError::Dims { dims, len: values.len() });
         }
         let world_to_local = local_to_world.inverse();
