@@ -1,6 +1,7 @@
 //! Builds the C++ layer with cxx-build and links OpenImageIO and OpenColorIO (found with
-//! pkg-config). With the `python` feature, also the CPython module (headers from the
-//! interpreter's sysconfig, libpython not linked: the interpreter provides its symbols).
+//! pkg-config) and OpenVDB (volumes' grids). With the `python` feature, also the CPython
+//! module (headers from the interpreter's sysconfig, libpython not linked: the interpreter
+//! provides its symbols).
 
 use std::path::PathBuf;
 use std::process::Command;
@@ -17,7 +18,7 @@ fn main() {
     let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
     let python = std::env::var("CARGO_FEATURE_PYTHON").is_ok();
 
-    let mut sources = vec!["cpp/value.cpp", "cpp/prims.cpp", "cpp/renderDelegate.cpp", "cpp/texture.cpp", "cpp/preview.cpp", "cpp/selfTest.cpp"];
+    let mut sources = vec!["cpp/value.cpp", "cpp/prims.cpp", "cpp/renderDelegate.cpp", "cpp/texture.cpp", "cpp/preview.cpp", "cpp/selfTest.cpp", "cpp/vdb.cpp"];
     if python {
         sources.push("cpp/pythonModule.cpp");
     }
@@ -59,6 +60,10 @@ fn main() {
                 println!("cargo:rustc-link-lib={name}");
             }
         }
+    }
+    // OpenVDB (Debian's libopenvdb-dev ships no pkg-config file; headers in the default path)
+    for lib in ["openvdb", "tbb"] {
+        println!("cargo:rustc-link-lib={lib}");
     }
     println!("cargo:rerun-if-changed=src/lib.rs");
     println!("cargo:rerun-if-changed=cpp");

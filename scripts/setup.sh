@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-PACKAGES=(build-essential pkg-config libopenimageio-dev libopencolorio-dev python3-venv python3-dev)
+PACKAGES=(build-essential pkg-config libopenimageio-dev libopencolorio-dev libopenvdb-dev libboost-dev python3-venv python3-dev)
 missing=()
 for p in "${PACKAGES[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

@@ -54,6 +54,9 @@ pub struct Interior {
     pub priority: i32,
     pub ior: f32,
     pub medium: Option<usize>,
+    /// The box of a volume: takes no part in the priority and IOR, and its medium replaces
+    /// every other while the path is inside (the latest entered box wins).
+    pub volume: bool,
 }
 
 /// The objects a path is inside, for nested dielectrics with priorities (Schmidt & Budge
@@ -67,7 +70,7 @@ pub struct InteriorStack {
 
 impl Default for InteriorStack {
     fn default() -> Self {
-        InteriorStack { items: [Interior { instance: u32::MAX, priority: i32::MIN, ior: 1.0, medium: None }; MAX_NESTING], len: 0 }
+        InteriorStack { items: [Interior { instance: u32::MAX, priority: i32::MIN, ior: 1.0, medium: None, volume: false }; MAX_NESTING], len: 0 }
     }
 }
 
@@ -75,7 +78,7 @@ impl InteriorStack {
     /// The winning object (highest priority, latest among equals).
     pub fn top(&self) -> Option<&Interior> {
         let mut best: Option<&Interior> = None;
-        for it in &self.items[..self.len] {
+        for it in self.items[..self.len].iter().filter(|i| !i.volume) {
             if best.is_none_or(|b| it.priority >= b.priority) {
                 best = Some(it);
             }
@@ -86,7 +89,11 @@ impl InteriorStack {
         self.top().map_or(1.0, |t| t.ior)
     }
     pub fn medium(&self) -> Option<usize> {
-        self.top().and_then(|t| t.medium)
+        self.volume_medium().or_else(|| self.top().and_then(|t| t.medium))
+    }
+    /// The medium of the volume box entered last, if the path is inside one.
+    pub fn volume_medium(&self) -> Option<usize> {
+        self.items[..self.len].iter().rev().find(|i| i.volume).and_then(|i| i.medium)
     }
     pub fn contains(&self, instance: u32) -> bool {
         self.items[..self.len].iter().any(|i| i.instance == instance)
@@ -127,11 +134,23 @@ pub(crate) enum Boundary {
     Real { eta: f32, medium_front: Option<usize>, medium_back: Option<usize>, enter: Interior },
 }
 
+/// A volume's box is crossed unchanged (its medium is pushed or removed by the caller); inside
+/// a box, both sides of any other interface are in the box's medium.
 pub(crate) fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
+    if world.materials[world.instances[s.instance as usize].material].is_medium_boundary() {
+        return Boundary::False;
+    }
+    match (classify_dielectric(world, s, front, stack, lambda), stack.volume_medium()) {
+        (Boundary::Real { eta, enter, .. }, Some(v)) => Boundary::Real { eta, medium_front: Some(v), medium_back: Some(v), enter },
+        (b, _) => b,
+    }
+}
+
+fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &InteriorStack, lambda: &SampledWavelengths) -> Boundary {
     let info = &world.instances[s.instance as usize];
     let mat = &world.materials[info.material];
     let Some(d) = mat.dielectric() else { return Boundary::Opaque };
-    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium };
+    let me = Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium, volume: false };
     if front {
         // entering
         if let Some(top) = stack.top() {
@@ -162,16 +181,19 @@ pub(crate) fn classify_boundary(world: &World, s: &SurfaceHit, front: bool, stac
 /// attenuate by their opacity; surfaces that cast no shadows, or not those of `light` (its
 /// shadow-link collection), are skipped. `seed` (a sample
 /// value) seeds the numbers a depth-varying medium's ratio tracking draws.
+/// Crossing a volume's box switches the medium: to the box's on entering; on leaving, to the
+/// medium of the boxes still entered (from `stack`, the path's, and those entered along the
+/// ray), else to `medium` or, if the ray started inside a box, to the medium of `stack`'s
+/// dielectrics.
 #[allow(clippy::too_many_arguments)]
-fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
+fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, stack: &InteriorStack, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;
-    // the medium of the current stretch of the ray, where it starts, and how far it reaches
-    let mut cur_medium = medium;
-    let mut seg_start = o;
-    let mut seg_len = 0.0f32;
     let mut stream = StreamRng::new(seed, 0x5ad0);
+    let mut vols = *stack;
+    let mut base = if stack.volume_medium().is_some() { stack.top().and_then(|t| t.medium) } else { medium };
+    let (mut cur, mut seg_o, mut seg_len, mut switched) = (medium, o, 0.0f32, false);
     for _ in 0..MAX_NULL_EVENTS {
         let ray = Ray { o: origin, d, t_max: remaining, time };
         let Some(hit) = world.accel.intersect(&ray) else {
@@ -179,8 +201,33 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
         };
         let info = &world.instances[hit.instance as usize];
         let s = world.surface(&ray, &hit);
+        seg_len += hit.t;
+        let boundary = world.materials[info.material].is_medium_boundary() && info.casts_shadows && world.casts_shadow_of(light, hit.instance);
         let see_through = transparent(world.caustic_instances[hit.instance as usize].transparency, path_flags);
-        let pass = if !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) || see_through {
+        // a volume's box, or a water body switched to transparency: the medium changes here
+        let water_switch = see_through && world.materials[info.material].dielectric().is_some();
+        if boundary || water_switch {
+            // the segment so far was in `cur`; the surface's side decides what follows
+            if let Some(m) = cur {
+                let mut rng = || stream.next_f32();
+                tr *= world.media[m].transmittance(seg_o, d, seg_len.min(1e30), &mut rng, lambda);
+            }
+            let entering = d.dot(s.ng) < 0.0;
+            if boundary {
+                if entering {
+                    vols.push(Interior { instance: hit.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[info.material].interior_medium, volume: true });
+                } else {
+                    vols.remove(hit.instance);
+                }
+            } else {
+                base = if entering { world.materials[info.material].interior_medium } else { None };
+            }
+            cur = vols.volume_medium().or(base);
+            seg_o = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+            seg_len = 0.0;
+            switched = true;
+        }
+        let pass = if boundary || see_through || !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
             1.0
         } else if world.materials[info.material].dielectric().is_some() {
             0.0
@@ -191,27 +238,16 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             return SampledSpectrum::ZERO;
         }
         tr *= pass;
-        seg_len += hit.t;
-        if see_through && world.materials[info.material].dielectric().is_some() {
-            // a water body switched to transparency: its medium ends (or starts) here
-            if let Some(m) = cur_medium {
-                let mut rng = || stream.next_f32();
-                tr *= world.media[m].transmittance(seg_start, d, seg_len, &mut rng, lambda);
-            }
-            cur_medium = if d.dot(s.ng) > 0.0 { None } else { world.materials[info.material].interior_medium };
-            seg_start = s.p;
-            seg_len = 0.0;
-        }
         origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         remaining -= hit.t;
         if remaining <= 0.0 {
             break;
         }
     }
-    if let Some(m) = cur_medium {
+    if let Some(m) = cur {
         let mut rng = || stream.next_f32();
-        let len = if seg_start == o { dist } else { (dist - (seg_start - o).length()).max(0.0) };
-        tr *= world.media[m].transmittance(seg_start, d, len.min(1e30), &mut rng, lambda);
+        let len = if switched { seg_len + remaining.max(0.0) } else { dist };
+        tr *= world.media[m].transmittance(seg_o, d, len.min(1e30), &mut rng, lambda);
     }
     tr
 }
@@ -255,8 +291,10 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
             let mat = &world.materials[info.material];
             if let Some(di) = mat.dielectric() {
                 if d.dot(s.ng) > 0.0 {
-                    found.push((travelled, Interior { instance: hit.instance, priority: di.priority, ior: di.ior, medium: mat.interior_medium }));
+                    found.push((travelled, Interior { instance: hit.instance, priority: di.priority, ior: di.ior, medium: mat.interior_medium, volume: false }));
                 }
+            } else if mat.is_medium_boundary() && d.dot(s.ng) > 0.0 {
+                found.push((travelled, Interior { instance: hit.instance, priority: i32::MIN, ior: 1.0, medium: mat.interior_medium, volume: true }));
             }
         }
         origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
@@ -265,10 +303,10 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
     for (_, it) in found {
         stack.push(it);
     }
-    if stack.is_empty() {
+    if stack.top().is_none() {
         if let Some(m) = world.camera.medium {
             // a camera declared to sit in a medium with no enclosing object: water around it
-            stack.push(Interior { instance: u32::MAX - 1, priority: i32::MIN, ior: 1.333, medium: Some(m) });
+            stack.push(Interior { instance: u32::MAX - 1, priority: i32::MIN, ior: 1.333, medium: Some(m), volume: false });
         }
     }
     stack
@@ -380,7 +418,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
-                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), lambda, u_tr, path_flags);
+                                    let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), &stack, lambda, u_tr, path_flags);
                                     if !tr.is_black() {
                                         let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
@@ -468,7 +506,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             // water body's medium still begins and ends at it)
             if let Some(d) = world.materials[mat_i].dielectric() {
                 if front {
-                    stack.push(Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: world.materials[mat_i].interior_medium });
+                    stack.push(Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: world.materials[mat_i].interior_medium, volume: false });
                 } else {
                     stack.remove(s.instance);
                 }
@@ -508,7 +546,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if let Boundary::False = boundary {
             if front {
                 if let Some(mat) = world.materials[mat_i].dielectric() {
-                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium });
+                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium, volume: false });
+                } else if world.materials[mat_i].is_medium_boundary() {
+                    stack.push(Interior { instance: s.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[mat_i].interior_medium, volume: true });
                 }
             } else {
                 stack.remove(s.instance);
@@ -608,7 +648,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let med = if out_front { medium_front } else { medium_back };
                             let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, lambda, u_tr, path_flags);
+                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, &stack, lambda, u_tr, path_flags);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w * chain_weight(li, &chain) / (ls.pdf * pmf));

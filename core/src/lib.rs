@@ -21,6 +21,7 @@ pub mod spectrum;
 pub mod testing;
 pub mod texture;
 pub mod validate;
+pub mod volume;
 pub mod water;
 pub mod world;
 

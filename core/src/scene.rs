@@ -374,6 +374,35 @@ pub struct InstanceDesc {
     pub casts_shadows: bool,
 }
 
+/// A scalar grid (an OpenVDB field) as dense values: the value `[i, j, k]` (x fastest) sits
+/// at the point (i, j, k) of the grid's local space; between points the grid is trilinear and
+/// outside the array 0, so it is non-zero only inside the box (−1, dims).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GridDesc {
+    /// Name (file and field) used in messages.
+    pub name: String,
+    pub dims: [u32; 3],
+    pub values: Vec<f32>,
+    /// Grid-local to world (the field's index-to-object transform, then the prim's).
+    pub local_to_world: Mat4,
+}
+
+/// A volume (`UsdVolVolume`): its `density` grid times the coefficients of a medium fill the
+/// grid's box. The world builder gives the box a boundary surface that neither reflects nor
+/// refracts: paths cross it and take its medium while inside (see [`crate::volume`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct VolumeDesc {
+    /// Name (prim path) used in messages.
+    pub name: String,
+    pub density: GridDesc,
+    /// Index into `SceneDesc::media`: the coefficients at density 1 and the phase function.
+    pub medium: usize,
+    /// Identifier written to the `primId` AOV (unused: a volume has no surface).
+    pub id: u32,
+    pub visible_to_camera: bool,
+    pub casts_shadows: bool,
+}
+
 /// Kind of light and its shape (in the light's local frame; USD conventions).
 #[derive(Clone, Debug, PartialEq)]
 pub enum LightShape {
@@ -519,6 +548,7 @@ pub struct SceneDesc {
     pub lights: Vec<LightDesc>,
     pub camera: CameraDesc,
     pub color_space: ColorSpace,
+    pub volumes: Vec<VolumeDesc>,
     /// `TideCausticsAPI` tags (contract §4), by light and instance name.
     pub caustics: CausticsTags,
 }

@@ -73,6 +73,9 @@ pub enum SurfaceKind {
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
     Emissive { radiance: Spectrum, two_sided: bool },
+    /// The box of a volume: no reflection or refraction, only the interior medium changes
+    /// (see [`crate::volume`]).
+    MediumBoundary,
 }
 
 #[derive(Clone, Debug)]
@@ -88,6 +91,11 @@ impl Material {
             SurfaceKind::Dielectric(d) => Some(d),
             _ => None,
         }
+    }
+
+    /// True for the box of a volume, which paths cross unchanged.
+    pub fn is_medium_boundary(&self) -> bool {
+        matches!(self.kind, SurfaceKind::MediumBoundary)
     }
 }
 
@@ -206,9 +214,12 @@ impl World {
     /// [`World::build`] reusing the per-geometry BVHs of unchanged geometry from `cache`.
     pub fn build_cached(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>, cache: Option<&crate::accel::BlasCache>) -> World {
         let cs = scene.color_space;
+        // volumes become boxes with a medium-boundary material and a grid medium
+        let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
+        let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
         let camera = Camera::new(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.disable_depth_of_field, settings.disable_motion_blur);
         let accel = Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache);
-        let materials: Vec<Material> = scene
+        let mut materials: Vec<Material> = scene
             .materials
             .iter()
             .map(|m| {
@@ -260,6 +271,10 @@ impl World {
                 Material { name: m.name.clone(), kind, interior_medium: m.interior_medium }
             })
             .collect();
+        for &mi in expanded.iter().flat_map(|e| &e.boundary_materials) {
+            materials[mi].kind = SurfaceKind::MediumBoundary;
+        }
+        let grid_of = |mi: usize| expanded.as_ref().and_then(|e| e.grids.iter().find(|g| g.0 == mi)).map(|g| g.1.clone());
         let media = scene
             .media
             .iter()
@@ -269,9 +284,9 @@ impl World {
                 if let Some(w) = m.water.as_mut().filter(|w| w.top.is_none()) {
                     w.top = Some(water_top(scene, &accel, mi).unwrap_or(0.0));
                 }
-                m
+                (mi, m)
             })
-            .map(|m| match Medium::from_desc(&m, cs) {
+            .map(|(mi, m)| match grid_of(mi).map_or_else(|| Medium::from_desc(&m, cs), |g| Medium::grid(&m, g, cs)) {
                 Ok(med) => med,
                 Err(e) => {
                     problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
@@ -518,7 +533,7 @@ impl World {
                 None => Bsdf::dielectric(eta, dm.roughness),
             },
             SurfaceKind::Conductor { eta: e, k, roughness } => Bsdf::conductor(e.sample(lambda) / outside_ior, k.sample(lambda) / outside_ior, *roughness),
-            SurfaceKind::Emissive { .. } => Bsdf::lambert(SampledSpectrum::ZERO),
+            SurfaceKind::Emissive { .. } | SurfaceKind::MediumBoundary => Bsdf::lambert(SampledSpectrum::ZERO),
         };
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
     }

@@ -10,6 +10,7 @@
 #include "tide/renderIndex.h"
 #include "tide/renderParam.h"
 #include "tide/texture.h"
+#include "tide/vdb.h"
 
 #include <cmath>
 #include <cstring>
@@ -500,6 +501,63 @@ PyObject* Delegate_load_texture(PyObject* self, PyObject* args, PyObject* kw) {
     TIDE_CATCH
 }
 
+PyObject* Delegate_load_vdb(PyObject* self, PyObject* args, PyObject* kw) {
+    static const char* names[] = {"asset_path", "field_name", "field_index", nullptr};
+    const char* asset = nullptr;
+    const char* field = nullptr;
+    long long index = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "ss|L", const_cast<char**>(names), &asset, &field, &index)) return nullptr;
+    TIDE_TRY
+    State& s = S(self);
+    bool ok = WithoutGil([&] {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        return tide::LoadVdbFor(*s.delegate->GetRenderParam(), asset, field, int64_t(index));
+    });
+    return PyBool_FromLong(ok);
+    TIDE_CATCH
+}
+
+/// write_vdb(path, [(name, kind, (nx, ny, nz), float32 bytes, voxel_size, (tx, ty, tz), (ox, oy, oz))])
+PyObject* Module_write_vdb(PyObject*, PyObject* args) {
+    const char* path = nullptr;
+    PyObject* list = nullptr;
+    if (!PyArg_ParseTuple(args, "sO!", &path, &PyList_Type, &list)) return nullptr;
+    std::vector<tide::VdbWriteGrid> grids;
+    for (Py_ssize_t i = 0; i < PyList_Size(list); ++i) {
+        tide::VdbWriteGrid g;
+        const char* name = nullptr;
+        const char* kind = nullptr;
+        Py_buffer buf;
+        unsigned int d0, d1, d2;
+        double tx, ty, tz;
+        int o0, o1, o2;
+        if (!PyArg_ParseTuple(PyList_GetItem(list, i), "ss(III)y*d(ddd)(iii)", &name, &kind, &d0, &d1, &d2, &buf,
+                              &g.voxelSize, &tx, &ty, &tz, &o0, &o1, &o2))
+            return nullptr;
+        g.name = name;
+        g.kind = kind;
+        g.dims[0] = d0;
+        g.dims[1] = d1;
+        g.dims[2] = d2;
+        g.translation[0] = tx;
+        g.translation[1] = ty;
+        g.translation[2] = tz;
+        g.origin[0] = o0;
+        g.origin[1] = o1;
+        g.origin[2] = o2;
+        g.values.resize(size_t(buf.len) / sizeof(float));
+        std::memcpy(g.values.data(), buf.buf, g.values.size() * sizeof(float));
+        PyBuffer_Release(&buf);
+        grids.push_back(std::move(g));
+    }
+    std::string error;
+    bool ok = WithoutGil([&] { return tide::WriteVdbGrids(path, grids, &error); });
+    if (!ok) {
+        PyErr_SetString(PyExc_ValueError, error.c_str());
+        return nullptr;
+    }
+    Py_RETURN_NONE;
+}
 
 PyObject* BufferTuple(uint32_t w, uint32_t h, uint32_t c, const float* data, size_t n) {
     return Py_BuildValue("(IIIy#)", w, h, c, reinterpret_cast<const char*>(data), Py_ssize_t(n * sizeof(float)));
@@ -827,6 +885,7 @@ PyMethodDef DelegateMethods[] = {
     {"set_matrix", KW(Delegate_set_matrix), "set_matrix(path, key, matrix (16 numbers or 4x4), time=None)"},
     {"set_primvar", KW(Delegate_set_primvar), "set_primvar(path, name, interpolation, buffer, tuple_size=1, indices=None, kind=None)"},
     {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path, source_color_space='auto') -> bool"},
+    {"load_vdb", KW(Delegate_load_vdb), "load_vdb(asset_path, field_name, field_index=0) -> bool: reads a volume's grid once per (file, field, index)"},
     {"texture_pixels", Delegate_texture_pixels, METH_VARARGS, "texture_pixels(asset_path) -> (w, h, channels, float32 bytes) as the delegate holds them"},
     {"commit_resources", Delegate_commit_resources, METH_NOARGS, "commit_resources() -> [(prim, attribute, message)]"},
     {"last_synced", Delegate_last_synced, METH_NOARGS, "last_synced() -> [path]"},
@@ -847,10 +906,16 @@ PyMethodDef PassMethods[] = {
     {"error", Pass_error, METH_NOARGS, "error() -> str | None"},
     {nullptr, nullptr, 0, nullptr}};
 
+PyMethodDef ModuleMethods[] = {
+    {"write_vdb", Module_write_vdb, METH_VARARGS,
+     "write_vdb(path, [(name, kind 'float'|'double'|'vec3', (nx, ny, nz), float32 bytes x fastest, voxel_size, "
+     "(tx, ty, tz), (ox, oy, oz) index of the first value)]): writes small OpenVDB grids (zeros left inactive)"},
+    {nullptr, nullptr, 0, nullptr}};
+
 PyModuleDef ModuleDef = {PyModuleDef_HEAD_INIT, "_tide",
                          "Tide's render delegate (the C++ bridge): create prims, set attributes by USD name, "
                          "commit, render, map buffers, write EXR / preview PNG.",
-                         -1, nullptr, nullptr, nullptr, nullptr, nullptr};
+                         -1, ModuleMethods, nullptr, nullptr, nullptr, nullptr};
 
 }  // namespace
 

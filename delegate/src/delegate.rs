@@ -19,6 +19,7 @@ use crate::mesh;
 use crate::ocean::{self, OceanKey, OceanMeshes, OceanSpec};
 use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
+use crate::volume::{self, GridKey, GridState, VolumeSpec};
 use glam::{Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
@@ -113,6 +114,8 @@ enum Geometry {
     Points(PointsData),
     /// A `tideOcean`: its mesh is built at assembly, around the render camera.
     Ocean(OceanSpec),
+    /// A `volume`: its grid is looked up at assembly (grids arrive with `add_grid`).
+    Volume(VolumeSpec),
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -180,6 +183,8 @@ pub struct Delegate {
     job_key: Option<JobKey>,
     /// Built ocean meshes by prim path, with the key they were built for and their problems.
     oceans: HashMap<String, (OceanKey, Arc<OceanMeshes>, Vec<Problem>)>,
+    /// Grids of volumes by (file, field name, field index), each read once.
+    grids: HashMap<GridKey, GridState>,
 }
 
 impl Default for Delegate {
@@ -259,6 +264,7 @@ impl Delegate {
             pass: None,
             job_key: None,
             oceans: HashMap::new(),
+            grids: HashMap::new(),
         }
     }
 
@@ -396,6 +402,32 @@ impl Delegate {
         }
     }
 
+    /// Provides a volume's grid read from `asset` (field `field`, the `index`-th of that name):
+    /// `dims` values, x fastest, placed in the volume's space by `index_to_object` (USD-style
+    /// matrix). Bad sizes or transform → false, and volumes reading it report the problem.
+    pub fn add_grid(&mut self, asset: &str, field: &str, index: i64, dims: [u32; 3], values: Vec<f32>, index_to_object: [f64; 16]) -> bool {
+        let state = match volume::grid_data(dims, values, index_to_object) {
+            Ok(g) => GridState::Loaded(Arc::new(g)),
+            Err(e) => GridState::Failed(e),
+        };
+        let ok = matches!(state, GridState::Loaded(_));
+        self.grids.insert((asset.to_string(), field.to_string(), index), state);
+        self.structure_changed = true;
+        ok
+    }
+
+    /// Records that a volume's grid could not be read (missing file, missing field, wrong
+    /// grid type); volumes reading it report `message` and are dropped.
+    pub fn grid_failed(&mut self, asset: &str, field: &str, index: i64, message: &str) {
+        self.grids.insert((asset.to_string(), field.to_string(), index), GridState::Failed(message.to_string()));
+        self.structure_changed = true;
+    }
+
+    /// Whether a grid is held for (file, field, index), loaded or failed.
+    pub fn has_grid(&self, asset: &str, field: &str, index: i64) -> bool {
+        self.grids.contains_key(&(asset.to_string(), field.to_string(), index))
+    }
+
     /// Records that a texture file could not be read.
     pub fn texture_failed(&mut self, asset: &str, message: &str) {
         self.textures.insert(asset.to_string(), TexState::Failed(message.to_string()));
@@ -448,10 +480,8 @@ impl Delegate {
             PrimType::Capsule => Geometry::Mesh(implicit::capsule(path, s, p)),
             PrimType::Plane => Geometry::Mesh(implicit::plane(path, s, p)),
             PrimType::TideOcean => Geometry::Ocean(ocean::ocean_spec(s, p)),
-            _ => {
-                p.add("field", "volume prims (OpenVDB fields) are not yet supported; the volume is skipped");
-                Geometry::None
-            }
+            PrimType::Volume => volume::volume_spec(s, p).map_or(Geometry::None, Geometry::Volume),
+            _ => Geometry::None,
         }
     }
 
@@ -709,6 +739,19 @@ impl Delegate {
             // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
             // their sea material takes
             let mut parts: Vec<(GeometryRef, Option<(f32, f32)>)> = Vec::new();
+            if let Geometry::Volume(spec) = r.geometry.as_ref() {
+                let medium = r.material.as_deref().and_then(|m| medium_of.get(m).copied());
+                let grid = self.grids.get(&(spec.asset.clone(), spec.field.clone(), spec.index));
+                let mut p = Problems::new(path);
+                for inst in &r.instance_transforms {
+                    let xf = *inst * matrix_at(&r.transforms, 0.0);
+                    if let Some(v) = volume::volume_desc(path, spec, grid, medium, xf, r.id, &mut p) {
+                        scene.volumes.push(v);
+                    }
+                }
+                ap.extend(p.list);
+                continue;
+            }
             // per part: the suffix of its instances' names and the GeomSubset whose material it takes
             let mut part_names: Vec<(String, Option<&mesh::SubsetPart>)> = Vec::new();
             match r.geometry.as_ref() {

@@ -13,6 +13,7 @@ pub mod mesh;
 pub mod ocean;
 pub mod render_pass;
 pub mod value;
+pub mod volume;
 
 pub use delegate::{Delegate, PrimClass, PrimType};
 pub use render_pass::{Engine, EngineFactory, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};

@@ -521,7 +521,9 @@ impl Caustics {
             if let Boundary::False = boundary {
                 if front {
                     if let Some(d) = world.materials[mat_i].dielectric() {
-                        stack.push(Interior { instance: s_hit.instance, priority: d.priority, ior: d.ior_at(&lambda), medium: world.materials[mat_i].interior_medium });
+                        stack.push(Interior { instance: s_hit.instance, priority: d.priority, ior: d.ior_at(&lambda), medium: world.materials[mat_i].interior_medium, volume: false });
+                    } else if world.materials[mat_i].is_medium_boundary() {
+                        stack.push(Interior { instance: s_hit.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[mat_i].interior_medium, volume: true });
                     }
                 } else {
                     stack.remove(s_hit.instance);

@@ -8,9 +8,11 @@
 //! water whose coefficients vary with depth) uses delta tracking for collisions, with the same
 //! one-sample spectral MIS over wavelengths as the homogeneous case, and residual ratio
 //! tracking for shadow rays, against per-wavelength bounds of σt over each segment
-//! ([`tracking`], [`bio_optical`]).
+//! ([`tracking`], [`bio_optical`]); [`Medium::Grid`] (a volume's density grid times a
+//! medium's coefficients) uses delta and ratio tracking against a majorant grid ([`grid`]).
 
 pub mod bio_optical;
+pub mod grid;
 pub mod homogeneous;
 pub mod phase;
 pub mod tracking;
@@ -19,12 +21,15 @@ pub mod tracking;
 mod tests;
 #[cfg(test)]
 mod tracking_tests;
+#[cfg(test)]
+mod grid_tests;
 
 pub use homogeneous::{
     distance_pdf, pass_probability, sample_distance_spectral, transmittance_spectral, DistanceSample,
     HomogeneousMedium,
 };
 pub use bio_optical::BioOpticalMedium;
+pub use grid::{DensityGrid, GridError, GridMedium};
 pub use phase::{PhaseFunction, TabulatedPhase, G_MAX};
 pub use tracking::{sample_distance_tracking, transmittance_ratio_tracking};
 
@@ -63,6 +68,8 @@ pub enum Medium {
     Homogeneous(HomogeneousMedium),
     /// Natural water varying with depth (Jerlov / bio-optical IOPs).
     BioOptical(Box<BioOpticalMedium>),
+    /// A volume: a density grid times a medium's coefficients.
+    Grid(Box<GridMedium>),
 }
 
 impl Medium {
@@ -85,12 +92,21 @@ impl Medium {
         })))
     }
 
+    /// The medium of a volume: `grid` times the coefficients of `desc` (RGB or tabulated,
+    /// `scale` included). Natural-water inputs (`desc.water`) do not apply to a grid and are
+    /// left out; the caller reports them.
+    pub fn grid(desc: &MediumDesc, grid: DensityGrid, cs: ColorSpace) -> Result<Self, MediumError> {
+        let h = HomogeneousMedium::from_desc_in(&MediumDesc { water: None, ..desc.clone() }, cs)?;
+        Ok(Medium::Grid(Box::new(GridMedium { grid, sigma_a: h.sigma_a, sigma_s: h.sigma_s, phase: h.phase })))
+    }
+
     /// True when coefficients and phase function are the same everywhere.
     #[inline]
     pub fn is_homogeneous(&self) -> bool {
         match self {
             Medium::Homogeneous(_) => true,
             Medium::BioOptical(m) => m.water.is_uniform(),
+            Medium::Grid(_) => false,
         }
     }
 
@@ -101,6 +117,7 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => &m.phase,
             Medium::BioOptical(m) => &m.phase,
+            Medium::Grid(m) => &m.phase,
         }
     }
 
@@ -110,12 +127,16 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => m.coefficients(lambda).1,
             Medium::BioOptical(m) => m.coefficients_at(p, lambda).1,
+            Medium::Grid(m) => m.coefficients_at(p, lambda).1,
         }
     }
 
     /// Whether the medium scatters light at all (σs > 0 at some visible wavelength).
     pub fn scatters(&self) -> bool {
         let lambda = SampledWavelengths::sample_uniform(0.37);
+        if let Medium::Grid(m) = self {
+            return m.coefficients(&lambda).1.max_component() > 0.0;
+        }
         let probe = [Vec3::ZERO, Vec3::new(0.0, -10.0, 0.0), Vec3::new(0.0, -100.0, 0.0)];
         probe.iter().any(|p| self.sigma_s_at(*p, &lambda).max_component() > 0.0)
     }
@@ -126,6 +147,7 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => m.sigma_t(lambda),
             Medium::BioOptical(m) => m.majorant(lambda),
+            Medium::Grid(m) => m.majorant(lambda),
         }
     }
 
@@ -143,6 +165,7 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => m.sample_distance(t_max, rng(), lambda),
             Medium::BioOptical(m) => m.sample_distance(origin, dir, t_max, rng, lambda),
+            Medium::Grid(m) => m.sample_distance(origin, dir, t_max, rng, lambda),
         }
     }
 
@@ -160,6 +183,7 @@ impl Medium {
         match self {
             Medium::Homogeneous(m) => m.transmittance(t, lambda),
             Medium::BioOptical(m) => m.transmittance(origin, dir, t, rng, lambda),
+            Medium::Grid(m) => m.transmittance(origin, dir, t, rng, lambda),
         }
     }
 }

@@ -115,7 +115,7 @@ pub fn sample_distance_tracking(
 }
 
 /// w_j = e^{L_j} num_j / ((1/N) Σ_c e^{L_c} den_c) over the live channels, in the log domain.
-fn mis_weight(logs: &[f32; N_SPECTRUM], num: SampledSpectrum, den: SampledSpectrum, lambda: &SampledWavelengths, n: usize) -> SampledSpectrum {
+pub(crate) fn mis_weight(logs: &[f32; N_SPECTRUM], num: SampledSpectrum, den: SampledSpectrum, lambda: &SampledWavelengths, n: usize) -> SampledSpectrum {
     let live = |j: usize| lambda.pdf[j] > 0.0;
     let d: [f32; N_SPECTRUM] = std::array::from_fn(|j| if live(j) { logs[j] + den[j].ln() } else { f32::NEG_INFINITY });
     let m = d.iter().copied().fold(f32::NEG_INFINITY, f32::max);

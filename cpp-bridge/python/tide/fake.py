@@ -117,6 +117,10 @@ class RenderDelegate:
         self.textures[asset_path] = source_color_space
         return True
 
+    def load_vdb(self, asset_path, field_name, field_index=0):
+        self.calls.append(("load_vdb", asset_path, field_name, field_index))
+        return bool(asset_path) and os.path.isfile(asset_path)
+
     # -- sync -----------------------------------------------------------------------------
     def commit_resources(self):
         self.commits += 1

@@ -983,10 +983,29 @@ class Reader:
                 self.problem(fpath, "filePath", "cannot find VDB file '%s'; field dropped"
                              % (asset.path if asset else ""))
                 continue
+            field_name = str(field.GetFieldNameAttr().Get() or name)
+            index_attr = field.GetFieldIndexAttr()
+            index = int(index_attr.Get()) if index_attr and index_attr.HasAuthoredValue() else 0
             st.set("field:%s" % name, ("asset", resolved))
-            st.set("field:%s:fieldName" % name,
-                   ("token", str(field.GetFieldNameAttr().Get() or name)))
+            st.set("field:%s:fieldName" % name, ("token", field_name))
+            st.set("field:%s:fieldIndex" % name, ("int", index))
+            if name == "density":
+                self._load_vdb(resolved, field_name, index)
         return True
+
+    def _load_vdb(self, path, field_name, index):
+        """Has the module read a grid, once per (file, field, index); a failure reaches the
+        delegate, which reports it on the volumes that read the grid."""
+        if not hasattr(self, "_vdbs"):
+            self._vdbs = set()
+        key = (path, field_name, index)
+        if key in self._vdbs:
+            return
+        self._vdbs.add(key)
+        try:
+            self.delegate.load_vdb(path, field_name, index)
+        except Exception as e:  # the module refused the call itself
+            self.problem(path, "field:density", "cannot read grid '%s': %s" % (field_name, e))
 
     # -- instancing -----------------------------------------------------------------------
     def _collect_instanced(self, prim):

@@ -1,0 +1,443 @@
+//! A heterogeneous medium from a density grid (a `UsdVolVolume`'s OpenVDB `density` field):
+//! σa(p) = ρ(p)·σa, σs(p) = ρ(p)·σs with ρ the trilinearly interpolated grid and (σa, σs) the
+//! bound `TideMedium`'s spectra (already multiplied by its `densityScale`).
+//!
+//! # Grid
+//! The grid is dense in its *local* index space: the value `[i, j, k]` (x fastest) sits at the
+//! point u = (i, j, k); ρ between points is trilinear, with 0 outside the array, so ρ can be
+//! non-zero only in the open box (−1, dims). An affine `local_to_world` places it.
+//!
+//! # Majorants
+//! A coarse grid of super-voxels of [`SUPER`]³ cells (cell c of an axis covers
+//! u ∈ [−1 + cS, −1 + (c+1)S)) stores the largest value any trilinear lookup in it can
+//! return; a 3-D DDA (Amanatides & Woo) walks a ray through it, giving a piecewise-constant
+//! majorant m(t) ≥ ρ(t) in density units.
+//!
+//! # Collisions: delta tracking with spectral MIS
+//! As in [`super::tracking`], channel c is chosen uniformly among the live wavelengths and
+//! tentative collisions are drawn with rate m(t)·σt_c. Because every wavelength's σt is the
+//! same density times a constant, a tentative collision is real with probability ρ/m for every
+//! channel, and in the MIS weight (f_j / ((1/N) Σ_c p_c)) the factors Π(m_i − ρ_i) and ρ are
+//! common to all strategies. With M = ∫ m dt up to the event and k null collisions,
+//!
+//! w_j = e^{−σt_j M} σt_j^k σs_j / ((1/N) Σ_c e^{−σt_c M} σt_c^{k+1})  (scatter),
+//! w_j = e^{−σt_j M} σt_j^k / ((1/N) Σ_c e^{−σt_c M} σt_c^k)  (pass),
+//!
+//! unbiased for every wavelength and bounded by N (kept in the log domain).
+//!
+//! # Shadow rays: residual ratio tracking
+//! Each super-voxel also stores the least density c a lookup in it can return. With the control
+//! c·σt_j and the scalar residual rate μ(t) = (m(t) − c(t))·max_j σt_j,
+//! T_j = e^{−σt_j ∫c} Π_i (1 − (ρ(t_i) − c) σt_j / ((m − c) max σt)) over the points of a
+//! Poisson process of rate μ (Novák et al. 2014); each factor lies in [0, 1]. Where the density
+//! is constant over a super-voxel (m = c) the estimate is exact there and draws nothing; outside
+//! the box T = 1.
+
+use super::homogeneous::DistanceSample;
+use super::phase::{PhaseFunction, ONE_MINUS_EPSILON};
+use super::tracking::{mis_weight, MAX_TRACKING_STEPS};
+use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, N_SPECTRUM};
+use glam::{Mat4, Vec3};
+
+/// Edge of a super-voxel of the majorant grid, in grid cells.
+pub const SUPER: usize = 8;
+
+/// A dense density grid with a world placement and its majorant grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DensityGrid {
+    dims: [usize; 3],
+    values: Vec<f32>,
+    local_to_world: Mat4,
+    world_to_local: Mat4,
+    super_dims: [usize; 3],
+    majorants: Vec<f32>,
+    /// Per super-voxel lower bound of the density (the control of residual ratio tracking).
+    minorants: Vec<f32>,
+    max_density: f32,
+}
+
+/// Why a grid cannot be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum GridError {
+    Dims { dims: [u32; 3], len: usize },
+    Transform,
+}
+
+impl std::fmt::Display for GridError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GridError::Dims { dims, len } => write!(f, "grid of {}×{}×{} needs as many values, has {len}", dims[0], dims[1], dims[2]),
+            GridError::Transform => write!(f, "grid transform is not finite and invertible"),
+        }
+    }
+}
+
+impl DensityGrid {
+    /// A grid of `dims` values (x fastest) placed by `local_to_world` (affine). Non-finite or
+    /// negative values are read as 0 (the caller reports them).
+    pub fn new(dims: [u32; 3], values: &[f32], local_to_world: Mat4) -> Result<Self, GridError> {
+        let d = dims.map(|v| v as usize);
+        if d.contains(&0) || d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
+            return Err(GridError::Dims { dims, len: values.len() });
+        }
+        let world_to_local = local_to_world.inverse();
+        if !local_to_world.is_finite() || !world_to_local.is_finite() || local_to_world.determinant().abs() < 1e-30 {
+            return Err(GridError::Transform);
+        }
+        let values: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
+        let super_dims = d.map(|n| (n + 1).div_ceil(SUPER));
+        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), minorants: Vec::new(), max_density: 0.0 };
+        let mut maj = vec![0f32; super_dims[0] * super_dims[1] * super_dims[2]];
+        let mut min = vec![0f32; maj.len()];
+        for cz in 0..super_dims[2] {
+            for cy in 0..super_dims[1] {
+                for cx in 0..super_dims[0] {
+                    // lookups in u ∈ [−1 + cS, −1 + (c+1)S) read the values at indices
+                    // ⌊u⌋ and ⌊u⌋ + 1: from −1 + cS to (c+1)S
+                    // (every lookup is a convex combination of those values, so their max and
+                    // min bound it; a range reaching outside the array includes a 0)
+                    let range = |c: usize, n: usize| {
+                        let lo = (c * SUPER) as i64 - 1;
+                        let hi = ((c + 1) * SUPER) as i64;
+                        let outside = lo < 0 || hi > n as i64 - 1;
+                        (lo.max(0) as usize, (hi.min(n as i64 - 1)).max(0) as usize, outside)
+                    };
+                    let (x0, x1, ox) = range(cx, d[0]);
+                    let (y0, y1, oy) = range(cy, d[1]);
+                    let (z0, z1, oz) = range(cz, d[2]);
+                    let mut m = 0f32;
+                    let mut lo = if ox || oy || oz { 0.0 } else { f32::INFINITY };
+                    for z in z0..=z1 {
+                        for y in y0..=y1 {
+                            for x in x0..=x1 {
+                                let v = g.values[x + d[0] * (y + d[1] * z)];
+                                m = m.max(v);
+                                lo = lo.min(v);
+                            }
+                        }
+                    }
+                    let i = cx + super_dims[0] * (cy + super_dims[1] * cz);
+                    maj[i] = m;
+                    min[i] = lo.min(m);
+                }
+            }
+        }
+        g.max_density = maj.iter().copied().fold(0.0, f32::max);
+        g.majorants = maj;
+        g.minorants = min;
+        Ok(g)
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    pub fn max_density(&self) -> f32 {
+        self.max_density
+    }
+
+    pub fn local_to_world(&self) -> Mat4 {
+        self.local_to_world
+    }
+
+    /// The box outside which the density is 0, in local coordinates: [−1, dims].
+    pub fn local_bounds(&self) -> (Vec3, Vec3) {
+        (Vec3::splat(-1.0), Vec3::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32))
+    }
+
+    #[inline]
+    fn value(&self, x: i64, y: i64, z: i64) -> f32 {
+        let d = self.dims;
+        if x < 0 || y < 0 || z < 0 || x >= d[0] as i64 || y >= d[1] as i64 || z >= d[2] as i64 {
+            return 0.0;
+        }
+        self.values[x as usize + d[0] * (y as usize + d[1] * z as usize)]
+    }
+
+    /// Trilinear density at local point `u`.
+    #[inline]
+    pub fn density_local(&self, u: Vec3) -> f32 {
+        let (lo, hi) = self.local_bounds();
+        if !(u.x > lo.x && u.y > lo.y && u.z > lo.z && u.x < hi.x && u.y < hi.y && u.z < hi.z) {
+            return 0.0;
+        }
+        let f = u.floor();
+        let (x, y, z) = (f.x as i64, f.y as i64, f.z as i64);
+        let w = u - f;
+        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+        let c00 = lerp(self.value(x, y, z), self.value(x + 1, y, z), w.x);
+        let c10 = lerp(self.value(x, y + 1, z), self.value(x + 1, y + 1, z), w.x);
+        let c01 = lerp(self.value(x, y, z + 1), self.value(x + 1, y, z + 1), w.x);
+        let c11 = lerp(self.value(x, y + 1, z + 1), self.value(x + 1, y + 1, z + 1), w.x);
+        lerp(lerp(c00, c10, w.y), lerp(c01, c11, w.y), w.z).max(0.0)
+    }
+
+    /// Trilinear density at world point `p`.
+    #[inline]
+    pub fn density(&self, p: Vec3) -> f32 {
+        self.density_local(self.world_to_local.transform_point3(p))
+    }
+
+    /// The super-voxel segments of `o + t·d`, t ∈ [0, t_max], that lie in the box.
+    #[inline]
+    pub fn segments(&self, o: Vec3, d: Vec3, t_max: f32) -> MajorantSegments<'_> {
+        let uo = self.world_to_local.transform_point3(o);
+        let ud = self.world_to_local.transform_vector3(d);
+        MajorantSegments::new(self, uo, ud, t_max)
+    }
+}
+
+/// A walk over the super-voxels a ray crosses: (t0, t1, majorant density) in ray order;
+/// [`MajorantSegments::minorant`] is the lower bound of the super-voxel last returned.
+pub struct MajorantSegments<'a> {
+    grid: &'a DensityGrid,
+    /// Local origin and direction (t is the world ray's parameter).
+    pub uo: Vec3,
+    pub ud: Vec3,
+    cell: [i64; 3],
+    step: [i64; 3],
+    t_next: [f32; 3],
+    dt: [f32; 3],
+    t: f32,
+    t_end: f32,
+    last: usize,
+}
+
+impl<'a> MajorantSegments<'a> {
+    /// Lower bound of the density in the super-voxel of the last segment returned.
+    #[inline]
+    pub fn minorant(&self) -> f32 {
+        self.grid.minorants.get(self.last).copied().unwrap_or(0.0)
+    }
+
+    fn new(grid: &'a DensityGrid, uo: Vec3, ud: Vec3, t_max: f32) -> Self {
+        let (lo, hi) = grid.local_bounds();
+        let (mut t0, mut t1) = (0.0f32, t_max);
+        for k in 0..3 {
+            if ud[k] == 0.0 {
+                if uo[k] <= lo[k] || uo[k] >= hi[k] {
+                    t1 = -1.0;
+                }
+                continue;
+            }
+            let inv = 1.0 / ud[k];
+            let (a, b) = ((lo[k] - uo[k]) * inv, (hi[k] - uo[k]) * inv);
+            let (a, b) = if a < b { (a, b) } else { (b, a) };
+            t0 = t0.max(a);
+            t1 = t1.min(b);
+        }
+        let mut s = MajorantSegments { grid, uo, ud, cell: [0; 3], step: [0; 3], t_next: [f32::INFINITY; 3], dt: [f32::INFINITY; 3], t: t0, t_end: t1, last: 0 };
+        if !(t0 < t1) {
+            s.t_end = f32::NEG_INFINITY;
+            return s;
+        }
+        // cell coordinates q = (u + 1) / S, entered at t0
+        let scale = 1.0 / SUPER as f32;
+        let q0 = (uo + ud * t0 + Vec3::ONE) * scale;
+        let qd = ud * scale;
+        for k in 0..3 {
+            let n = grid.super_dims[k] as i64;
+            let c = (q0[k].floor() as i64).clamp(0, n - 1);
+            s.cell[k] = c;
+            if qd[k] > 0.0 {
+                s.step[k] = 1;
+                s.t_next[k] = t0 + ((c + 1) as f32 - q0[k]) / qd[k];
+                s.dt[k] = 1.0 / qd[k];
+            } else if qd[k] < 0.0 {
+                s.step[k] = -1;
+                s.t_next[k] = t0 + (c as f32 - q0[k]) / qd[k];
+                s.dt[k] = -1.0 / qd[k];
+            }
+        }
+        s
+    }
+}
+
+impl Iterator for MajorantSegments<'_> {
+    type Item = (f32, f32, f32);
+
+    #[inline]
+    fn next(&mut self) -> Option<(f32, f32, f32)> {
+        let n = self.grid.super_dims;
+        loop {
+            if !(self.t < self.t_end) || (0..3).any(|k| self.cell[k] < 0 || self.cell[k] >= n[k] as i64) {
+                return None;
+            }
+            let axis = if self.t_next[0] <= self.t_next[1] && self.t_next[0] <= self.t_next[2] {
+                0
+            } else if self.t_next[1] <= self.t_next[2] {
+                1
+            } else {
+                2
+            };
+            let t0 = self.t;
+            let t1 = self.t_next[axis].min(self.t_end).max(t0);
+            let [cx, cy, cz] = self.cell.map(|c| c as usize);
+            let i = cx + n[0] * (cy + n[1] * cz);
+            let m = self.grid.majorants[i];
+            self.last = i;
+            self.t = t1;
+            self.cell[axis] += self.step[axis];
+            self.t_next[axis] += self.dt[axis];
+            if t1 > t0 {
+                return Some((t0, t1, m));
+            }
+        }
+    }
+}
+
+/// The medium of a volume: a density grid times a homogeneous medium's coefficients.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GridMedium {
+    pub grid: DensityGrid,
+    /// Coefficients at density 1 (per scene unit), `densityScale` included.
+    pub sigma_a: Spectrum,
+    pub sigma_s: Spectrum,
+    pub phase: PhaseFunction,
+}
+
+#[inline]
+fn unit(rng: &mut impl FnMut() -> f32) -> f32 {
+    rng().clamp(0.0, ONE_MINUS_EPSILON)
+}
+
+impl GridMedium {
+    /// (σa, σs) at density 1, at the live wavelengths (0 elsewhere and where negative).
+    #[inline]
+    pub fn coefficients(&self, lambda: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let keep = |s: SampledSpectrum| SampledSpectrum::from_fn(|j| if lambda.pdf[j] > 0.0 && s[j] > 0.0 && s[j].is_finite() { s[j] } else { 0.0 });
+        (keep(self.sigma_a.sample(lambda)), keep(self.sigma_s.sample(lambda)))
+    }
+
+    /// σt bound over the whole grid.
+    pub fn majorant(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let (a, s) = self.coefficients(lambda);
+        (a + s) * self.grid.max_density
+    }
+
+    /// (σa, σs) at world point `p`.
+    pub fn coefficients_at(&self, p: Vec3, lambda: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let (a, s) = self.coefficients(lambda);
+        let rho = self.grid.density(p);
+        (a * rho, s * rho)
+    }
+
+    /// Delta tracking with spectral MIS over the majorant grid (see the module docs).
+    pub fn sample_distance(&self, o: Vec3, d: Vec3, t_max: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> DistanceSample {
+        let live = |j: usize| lambda.pdf[j] > 0.0;
+        let n = (0..N_SPECTRUM).filter(|&j| live(j)).count();
+        let all_live = SampledSpectrum::from_fn(|j| if live(j) { 1.0 } else { 0.0 });
+        if n == 0 || !(t_max > 0.0) {
+            return DistanceSample::Pass { weight: all_live };
+        }
+        let (sa, ss) = self.coefficients(lambda);
+        let st = sa + ss;
+        if ss.is_black() {
+            // purely absorbing: collisions would carry weight 0; the transmittance estimate
+            // is itself an unbiased passing weight
+            return DistanceSample::Pass { weight: self.transmittance(o, d, t_max, rng, lambda) };
+        }
+        let scaled = unit(rng) * n as f32;
+        let kc = (scaled as usize).min(n - 1);
+        let v = (scaled - kc as f32).clamp(0.0, ONE_MINUS_EPSILON);
+        let c = (0..N_SPECTRUM).filter(|&j| live(j)).nth(kc).unwrap_or(0);
+        // log weights: L_j = −σt_j M + k ln σt_j
+        let logs = |m_acc: f32, k: u32| -> [f32; N_SPECTRUM] {
+            std::array::from_fn(|j| {
+                let a = if st[j] > 0.0 { -st[j] * m_acc } else { 0.0 };
+                if k == 0 {
+                    a
+                } else if st[j] > 0.0 {
+                    a + k as f32 * st[j].ln()
+                } else {
+                    f32::NEG_INFINITY
+                }
+            })
+        };
+        let mut m_acc = 0.0f32;
+        let mut k = 0u32;
+        let mut steps = 0u32;
+        // remaining optical depth to the next tentative collision, in density units
+        let mut need = if st[c] > 0.0 { -(-v).ln_1p() / st[c] } else { f32::INFINITY };
+        for (t0, t1, m) in self.grid.segments(o, d, t_max) {
+            if !(m > 0.0) {
+                continue;
+            }
+            let mut t = t0;
+            loop {
+                let room = m * (t1 - t);
+                if need >= room {
+                    need -= room;
+                    m_acc += room;
+                    break;
+                }
+                t += need / m;
+                m_acc += need;
+                let rho = self.grid.density(o + d * t);
+                if unit(rng) * m < rho {
+                    return DistanceSample::Scatter { t, weight: mis_weight(&logs(m_acc, k), ss, st, lambda, n) };
+                }
+                k += 1;
+                steps += 1;
+                if steps >= MAX_TRACKING_STEPS {
+                    return DistanceSample::Pass { weight: SampledSpectrum::ZERO };
+                }
+                need = -(-unit(rng)).ln_1p() / st[c];
+            }
+        }
+        DistanceSample::Pass { weight: mis_weight(&logs(m_acc, k), SampledSpectrum::ONE, SampledSpectrum::ONE, lambda, n) }
+    }
+
+    /// Ratio tracking over [0, t] (see the module docs); 1 for the parts outside the box.
+    pub fn transmittance(&self, o: Vec3, d: Vec3, t: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let live = |j: usize| lambda.pdf[j] > 0.0;
+        let mut tr = SampledSpectrum::from_fn(|j| if live(j) { 1.0 } else { 0.0 });
+        if !(t > 0.0) {
+            return tr;
+        }
+        let (sa, ss) = self.coefficients(lambda);
+        let st = sa + ss;
+        let st_max = st.max_component();
+        if !(st_max > 0.0) {
+            return tr;
+        }
+        let ratio = st / st_max;
+        let mut steps = 0u32;
+        let mut segs = self.grid.segments(o, d, t);
+        while let Some((t0, t1, m)) = segs.next() {
+            if !(m > 0.0) {
+                continue;
+            }
+            // the control: the super-voxel's minimum density, attenuating exactly
+            let c = segs.minorant().clamp(0.0, m);
+            if c > 0.0 {
+                for j in 0..N_SPECTRUM {
+                    tr.0[j] *= (-st[j] * c * (t1 - t0)).exp();
+                }
+            }
+            let r = m - c;
+            if !(r > 0.0) {
+                continue;
+            }
+            let mut s = t0;
+            loop {
+                s += -(-unit(rng)).ln_1p() / (st_max * r);
+                if !(s < t1) {
+                    break;
+                }
+                let f = (self.grid.density(o + d * s) - c).max(0.0) / r;
+                for j in 0..N_SPECTRUM {
+                    tr.0[j] *= (1.0 - f * ratio[j]).max(0.0);
+                }
+                steps += 1;
+                if tr.is_black() {
+                    return tr;
+                }
+                if steps >= MAX_TRACKING_STEPS {
+                    return SampledSpectrum::ZERO;
+                }
+            }
+        }
+        tr
+    }
+}

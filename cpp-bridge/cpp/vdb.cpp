@@ -1,0 +1,170 @@
+//! Reading volumes' grids from OpenVDB files into dense arrays for the delegate, and writing
+//! small grids.
+#include "tide/vdb.h"
+
+#include "tide/renderParam.h"
+
+#include <openvdb/openvdb.h>
+
+#include <filesystem>
+#include <mutex>
+#include <sstream>
+
+namespace tide {
+
+namespace {
+
+void InitOnce() {
+    static std::once_flag once;
+    std::call_once(once, [] { openvdb::initialize(); });
+}
+
+/// Largest grid handed over: 2^28 values (1 GiB of floats).
+constexpr uint64_t kMaxValues = uint64_t(1) << 28;
+
+template <typename GridT>
+bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
+    const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+    openvdb::Coord lo(0, 0, 0);
+    uint64_t dims[3] = {1, 1, 1};
+    const bool empty = box.empty();
+    if (!empty) {
+        lo = box.min();
+        const openvdb::Coord ext = box.dim();
+        for (int k = 0; k < 3; ++k) dims[k] = uint64_t(ext[k]);
+    }
+    const uint64_t count = dims[0] * dims[1] * dims[2];
+    if (count > kMaxValues) {
+        *error = "grid has " + std::to_string(count) + " voxels in its active bounding box (at most " +
+                 std::to_string(kMaxValues) + ")";
+        return false;
+    }
+    out->values.assign(size_t(count), 0.0f);
+    if (!empty) {
+        auto acc = grid.getConstAccessor();
+        size_t n = 0;
+        for (uint64_t k = 0; k < dims[2]; ++k)
+            for (uint64_t j = 0; j < dims[1]; ++j)
+                for (uint64_t i = 0; i < dims[0]; ++i)
+                    out->values[n++] = float(acc.getValue(lo.offsetBy(int(i), int(j), int(k))));
+    }
+    for (int k = 0; k < 3; ++k) out->dims[k] = uint32_t(dims[k]);
+    // the affine map from grid-local points (value [i, j, k] at index lo + (i, j, k))
+    const openvdb::math::Transform& xf = grid.transform();
+    const openvdb::Vec3d o = xf.indexToWorld(openvdb::Vec3d(lo.x(), lo.y(), lo.z()));
+    const openvdb::Vec3d axes[3] = {xf.indexToWorld(openvdb::Vec3d(lo.x() + 1, lo.y(), lo.z())) - o,
+                                    xf.indexToWorld(openvdb::Vec3d(lo.x(), lo.y() + 1, lo.z())) - o,
+                                    xf.indexToWorld(openvdb::Vec3d(lo.x(), lo.y(), lo.z() + 1)) - o};
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) out->indexToObject[4 * r + c] = axes[r][c];
+        out->indexToObject[4 * r + 3] = 0.0;
+    }
+    for (int c = 0; c < 3; ++c) out->indexToObject[12 + c] = o[c];
+    out->indexToObject[15] = 1.0;
+    return true;
+}
+
+}  // namespace
+
+bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, DenseGrid* out, std::string* error) {
+    auto fail = [&](const std::string& m) {
+        if (error) *error = m;
+        return false;
+    };
+    std::error_code ec;
+    if (path.empty()) return fail("empty asset path");
+    if (!std::filesystem::exists(path, ec)) return fail("no such file");
+    try {
+        InitOnce();
+        openvdb::io::File file(path);
+        file.open(/*delayLoad=*/false);
+        openvdb::GridPtrVecPtr grids = file.getGrids();
+        file.close();
+        std::vector<openvdb::GridBase::Ptr> named;
+        std::ostringstream names;
+        for (const auto& g : *grids) {
+            if (names.tellp() > 0) names << ", ";
+            names << g->getName();
+            if (g->getName() == field) named.push_back(g);
+        }
+        if (named.empty()) return fail("no grid named '" + field + "' (the file has: " + names.str() + ")");
+        if (index < 0 || index >= int64_t(named.size()))
+            return fail("fieldIndex " + std::to_string(index) + ": the file has " + std::to_string(named.size()) +
+                        " grid(s) named '" + field + "'");
+        const openvdb::GridBase::Ptr& base = named[size_t(index)];
+        if (!base->transform().isLinear()) return fail("grid '" + field + "' has a non-linear (frustum) transform");
+        std::string e;
+        bool ok = false;
+        if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) {
+            ok = Densify(*fg, out, &e);
+        } else if (auto dg = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) {
+            ok = Densify(*dg, out, &e);
+        } else {
+            return fail("grid '" + field + "' is of type " + base->valueType() + ", not a float or double scalar grid");
+        }
+        return ok ? true : fail(e);
+    } catch (const std::exception& ex) {
+        return fail(std::string("cannot read VDB file: ") + ex.what());
+    }
+}
+
+bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index) {
+    rs::Delegate& d = param.GetDelegate();
+    if (d.has_grid(asset, field, index)) return true;
+    DenseGrid grid;
+    std::string error;
+    if (!ReadVdbGrid(asset, field, index, &grid, &error)) {
+        d.grid_failed(asset, field, index, error);
+        return false;
+    }
+    return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3),
+                      rust::Slice<const float>(grid.values.data(), grid.values.size()),
+                      rust::Slice<const double>(grid.indexToObject, 16));
+}
+
+bool WriteVdbGrids(const std::string& path, const std::vector<VdbWriteGrid>& grids, std::string* error) {
+    try {
+        InitOnce();
+        openvdb::GridPtrVec out;
+        for (const auto& w : grids) {
+            const size_t n = size_t(w.dims[0]) * w.dims[1] * w.dims[2];
+            if (n != w.values.size()) {
+                if (error) *error = "grid '" + w.name + "': dims do not match the number of values";
+                return false;
+            }
+            auto xf = openvdb::math::Transform::createLinearTransform(w.voxelSize);
+            xf->postTranslate(openvdb::Vec3d(w.translation[0], w.translation[1], w.translation[2]));
+            auto fill = [&](auto grid, auto make) {
+                grid->setName(w.name);
+                grid->setTransform(xf);
+                grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+                auto acc = grid->getAccessor();
+                size_t i = 0;
+                for (uint32_t z = 0; z < w.dims[2]; ++z)
+                    for (uint32_t y = 0; y < w.dims[1]; ++y)
+                        for (uint32_t x = 0; x < w.dims[0]; ++x, ++i)
+                            if (w.values[i] != 0.0f)
+                                acc.setValue(openvdb::Coord(w.origin[0] + int(x), w.origin[1] + int(y), w.origin[2] + int(z)),
+                                             make(w.values[i]));
+                out.push_back(grid);
+            };
+            if (w.kind == "float") {
+                fill(openvdb::FloatGrid::create(0.0f), [](float v) { return v; });
+            } else if (w.kind == "double") {
+                fill(openvdb::DoubleGrid::create(0.0), [](float v) { return double(v); });
+            } else if (w.kind == "vec3") {
+                fill(openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f)), [](float v) { return openvdb::Vec3s(v, v, v); });
+            } else {
+                if (error) *error = "grid '" + w.name + "': unknown kind '" + w.kind + "' (float, double or vec3)";
+                return false;
+            }
+        }
+        openvdb::io::File(path).write(out);
+        return true;
+    } catch (const std::exception& ex) {
+        if (error) *error = std::string("cannot write VDB file: ") + ex.what();
+        return false;
+    }
+}
+
+}  // namespace tide
