@@ -329,3 +329,86 @@ fn explore_underwater() {
         }
     }
 }
+
+// God rays and caustics seen from under a wavy surface in scattering water, with the sun
+// widened to 16° so that the path tracer (which reaches the sun from a volume vertex only
+// through BSDF-sampled refraction) converges within a test: regions agree within 4σ. The
+// photon beams carry a large share of the light, so a beam estimator off by more than the
+// bound would fail.
+#[test]
+fn god_rays_agree_with_path_tracing() {
+    let (w, h) = (24, 12);
+    let scene = underwater(16.0);
+    let path = render_progressive(&scene, settings_for(IntegratorKind::Path, w, h, 1024, 2));
+    let caus = render_progressive(&scene, settings_for(IntegratorKind::Caustics, w, h, 64, 2));
+    let bp = block_means(&path, w, h, 6, 6);
+    let bc = block_means(&caus, w, h, 6, 6);
+    assert_blocks_agree(&bp, &bc, 4.0, "underwater regions");
+    let st = caus.stats().caustics.clone().unwrap();
+    assert!(st.beams_stored > 0, "no beams");
+    let share = image_mean(&caus, Aov::Caustics) / image_mean(&caus, Aov::Color);
+    assert!(share > 0.3, "photons and beams carry only {share:.2}");
+}
+
+/// Two sphere lights above three glass balls of different sizes.
+fn two_lights_three_casters() -> SceneDesc {
+    let mut s = glass_sphere(0.02);
+    s.lights.push(light("/bulb2", LightShape::Sphere { radius: 0.02, treat_as_point: false }, Mat4::from_translation(Vec3::new(-0.8, 1.8, -0.4)), 2400.0, false));
+    s.meshes.push(uv_sphere("/small", 0.12, 24));
+    s.meshes.push(uv_sphere("/large", 0.45, 32));
+    s.instances.push(instance("/small", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(-0.6, 0.12, 0.5)), 1));
+    s.instances.push(instance("/large", GeometryRef::Mesh(3), Mat4::from_translation(Vec3::new(0.9, 0.45, -0.7)), 1));
+    s
+}
+
+// The guiding table learned while rendering two lights and three casters: each of the six
+// (light, caster) squares is brighter over the cells whose directions hit its caster than over
+// those that miss it (seed 002 Fig. 8: the casters' outlines show in the table).
+#[test]
+fn the_learned_guiding_table_shows_the_casters() {
+    let scene = two_lights_three_casters();
+    let r = render_progressive(&scene, settings_for(IntegratorKind::Caustics, 48, 36, 31, 2));
+    let c = r.caustics().expect("caustics");
+    let atlas = c.atlas();
+    assert_eq!(atlas.pairs().len(), 6);
+    let (tw, _th, img) = atlas.visibility_image();
+    for pair in atlas.pairs() {
+        let light = atlas.lights()[pair.light as usize];
+        let caster = atlas.casters()[pair.caster as usize];
+        let tide_core::caustics::atlas::AtlasLight::Local { center, .. } = light else { panic!("local lights") };
+        let (mut hit_sum, mut hit_n, mut miss_sum, mut miss_n) = (0.0f64, 0, 0.0f64, 0);
+        for y in pair.y..pair.y + pair.size {
+            for x in pair.x..pair.x + pair.size {
+                // the cell's centre direction in the pair's cone, as the atlas maps it
+                let local = [((x - pair.x) as f32 + 0.5) / pair.size as f32, ((y - pair.y) as f32 + 0.5) / pair.size as f32];
+                let s = tide_core::caustics::atlas::AtlasSample { pair: 0, light: pair.light, caster: pair.caster, cell: y * tw + x, local, pdf_local: 1.0 };
+                let pair_index = atlas.pairs().iter().position(|p| p == pair).unwrap() as u32;
+                let e = atlas.emit(&tide_core::caustics::atlas::AtlasSample { pair: pair_index, ..s }, center).unwrap();
+                // does the direction meet the caster's sphere (the ball itself: bounding
+                // spheres here are the balls' own, grown by the mesh's tessellation)?
+                let oc = caster.center - e.origin;
+                let tca = oc.dot(e.dir);
+                let d2 = oc.length_squared() - tca * tca;
+                let v = img[(y * tw + x) as usize] as f64;
+                if tca > 0.0 && d2 < (0.8 * caster.radius).powi(2) {
+                    hit_sum += v;
+                    hit_n += 1;
+                } else if d2 > (1.2 * caster.radius).powi(2) || tca <= 0.0 {
+                    miss_sum += v;
+                    miss_n += 1;
+                }
+            }
+        }
+        let (hm, mm) = (hit_sum / hit_n.max(1) as f64, miss_sum / miss_n.max(1) as f64);
+        assert!(hit_n > 0 && hm > 0.0, "pair {pair:?}: no signal over the caster");
+        assert!(hm > 4.0 * mm, "pair {pair:?}: over the caster {hm:.3e}, beside it {mm:.3e}");
+    }
+    if let Ok(dir) = std::env::var("TIDE_GUIDING_IMAGE_DIR") {
+        let (w, h, img) = atlas.visibility_image();
+        let mut pgm = format!("P2\n{w} {h}\n255\n");
+        for v in img {
+            pgm += &format!("{} ", (v.clamp(0.0, 1.0).sqrt() * 255.0).round() as u32);
+        }
+        std::fs::write(std::path::Path::new(&dir).join("guiding_table.pgm"), pgm).unwrap();
+    }
+}
