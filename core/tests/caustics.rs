@@ -367,7 +367,10 @@ fn two_lights_three_casters() -> SceneDesc {
 #[test]
 fn the_learned_guiding_table_shows_the_casters() {
     let scene = two_lights_three_casters();
-    let r = render_progressive(&scene, settings_for(IntegratorKind::Caustics, 48, 36, 31, 2));
+    // the docs' picture (TIDE_GUIDING_IMAGE_DIR) comes from a larger image: a finer table
+    let big = std::env::var("TIDE_GUIDING_IMAGE_DIR").is_ok();
+    let (w, h, spp) = if big { (200, 150, 63) } else { (48, 36, 31) };
+    let r = render_progressive(&scene, settings_for(IntegratorKind::Caustics, w, h, spp, 2));
     let c = r.caustics().expect("caustics");
     let atlas = c.atlas();
     assert_eq!(atlas.pairs().len(), 6);
@@ -405,9 +408,14 @@ fn the_learned_guiding_table_shows_the_casters() {
     }
     if let Ok(dir) = std::env::var("TIDE_GUIDING_IMAGE_DIR") {
         let (w, h, img) = atlas.visibility_image();
+        // scaled to the 98th percentile of the lit cells, so single bright cells do not
+        // darken the picture
+        let mut lit: Vec<f32> = img.iter().copied().filter(|v| *v > 0.0).collect();
+        lit.sort_by(|a, b| a.total_cmp(b));
+        let top = lit.get(lit.len() * 98 / 100).copied().unwrap_or(1.0).max(1e-30);
         let mut pgm = format!("P2\n{w} {h}\n255\n");
         for v in img {
-            pgm += &format!("{} ", (v.clamp(0.0, 1.0).sqrt() * 255.0).round() as u32);
+            pgm += &format!("{} ", ((v / top).clamp(0.0, 1.0).sqrt() * 255.0).round() as u32);
         }
         std::fs::write(std::path::Path::new(&dir).join("guiding_table.pgm"), pgm).unwrap();
     }
