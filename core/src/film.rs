@@ -84,12 +84,14 @@ pub struct Film {
     pub scale: f32,
     /// Pixels outside this window [x0, y0, x1, y1) are not rendered (data window).
     pub window: [u32; 4],
+    /// The `tide:guiding` debug image (3 channels per pixel), set by the caustics integrator.
+    pub guiding: Option<Vec<f32>>,
 }
 
 impl Film {
     pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
         let n = (width * height) as usize;
-        Film { width, height, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window }
+        Film { width, height, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None }
     }
 
     /// Merges a finished tile of a pass.
@@ -118,6 +120,12 @@ impl Film {
     pub fn resolve(&self, aov: Aov) -> Vec<f32> {
         let n = (self.width * self.height) as usize;
         let ch = aov.channels();
+        if aov == Aov::Guiding {
+            return match &self.guiding {
+                Some(g) if g.len() == n * ch => g.clone(),
+                _ => vec![0.0; n * ch],
+            };
+        }
         let mut out = vec![0.0f32; n * ch];
         let inv = if self.spp > 0 { 1.0 / self.spp as f64 } else { 0.0 };
         let s = self.scale as f64;

@@ -58,10 +58,14 @@ pub enum Aov {
     Emission,
     /// Light carried by caustic photons (the `caustics` integrator's photon lookups).
     Caustics,
+    /// Debug view of the caustics guiding table stretched over the image: R the sampling
+    /// probability, G the learned visibility signal (each scaled to a maximum of 1), B 1 on
+    /// cells that belong to a (light, caster) pair. Zero without photons. Not part of the split.
+    Guiding,
 }
 
 impl Aov {
-    pub const ALL: [Aov; 11] = [
+    pub const ALL: [Aov; 12] = [
         Aov::Color,
         Aov::Depth,
         Aov::Normal,
@@ -73,6 +77,7 @@ impl Aov {
         Aov::Volume,
         Aov::Emission,
         Aov::Caustics,
+        Aov::Guiding,
     ];
 
     /// The `sourceName` of a UsdRenderVar (contract §6).
@@ -89,6 +94,7 @@ impl Aov {
             Aov::Volume => "tide:volume",
             Aov::Emission => "tide:emission",
             Aov::Caustics => "tide:caustics",
+            Aov::Guiding => "tide:guiding",
         }
     }
 
@@ -209,6 +215,26 @@ pub fn sample_filter(u: f32) -> f32 {
 const TILE: u32 = 16;
 /// Most samples per pixel one caustic photon pass serves (longer passes are split).
 pub const PHOTON_PASS_MAX_SPP: u32 = 16;
+
+/// The guiding table (probability, visibility, pair cells) stretched over a `w × h` image.
+fn guiding_image(c: &crate::caustics::engine::Caustics, w: u32, h: u32) -> Vec<f32> {
+    let atlas = c.atlas();
+    let (tw, th, prob) = atlas.to_image();
+    let (_, _, vis) = atlas.visibility_image();
+    let mut out = vec![0.0f32; (w * h * 3) as usize];
+    for y in 0..h {
+        for x in 0..w {
+            let cx = ((x as u64 * tw as u64) / w as u64).min(tw as u64 - 1) as u32;
+            let cy = ((y as u64 * th as u64) / h as u64).min(th as u64 - 1) as u32;
+            let cell = (cy * tw + cx) as usize;
+            let o = ((y * w + x) * 3) as usize;
+            out[o] = prob[cell];
+            out[o + 1] = vis[cell];
+            out[o + 2] = if atlas.pair_of_cell(cell as u32).is_some() { 1.0 } else { 0.0 };
+        }
+    }
+    out
+}
 
 /// A prepared scene plus its film.
 pub struct Renderer {
@@ -389,6 +415,7 @@ impl Renderer {
         if let Some(c) = self.caustics.as_mut() {
             c.end_pass(spp as u64 * pixels);
             self.stats.caustics = Some(c.stats().clone());
+            self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
         }
         for t in results.iter().flatten() {
             self.film.merge(t);
@@ -417,6 +444,7 @@ impl Renderer {
             c.reset();
             self.stats.caustics = Some(c.stats().clone());
         }
+        self.film.guiding = None;
     }
 
     /// Resolved pixels of an AOV, row-major from the top row, `aov.channels()` per pixel.

@@ -239,7 +239,7 @@ fn caustics_are_deterministic_across_thread_counts() {
     let a = render_progressive(&scene, settings_for(IntegratorKind::Caustics, 24, 16, 15, 1));
     let b = render_progressive(&scene, settings_for(IntegratorKind::Caustics, 24, 16, 15, 2));
     assert_eq!(a.stats().caustics.as_ref().unwrap().passes, 4);
-    for aov in [Aov::Color, Aov::Caustics, Aov::Diffuse] {
+    for aov in [Aov::Color, Aov::Caustics, Aov::Diffuse, Aov::Guiding] {
         let (x, y) = (a.aov_pixels(aov), b.aov_pixels(aov));
         assert!(x.iter().zip(&y).all(|(p, q)| p.to_bits() == q.to_bits()), "{aov:?} differs across thread counts");
     }
@@ -255,6 +255,13 @@ fn caustics_are_deterministic_across_thread_counts() {
         }
     }
     assert!(image_mean(&a, Aov::Caustics) > 0.0);
+    // the guiding debug AOV shows the table: probabilities and visibility scaled to 1, and
+    // the pairs' cells; the path integrator leaves it black
+    let g = a.aov_pixels(Aov::Guiding);
+    let max = |k: usize| g.chunks_exact(3).map(|p| p[k]).fold(0.0f32, f32::max);
+    assert!((max(0) - 1.0).abs() < 1e-6 && (max(1) - 1.0).abs() < 1e-6 && max(2) == 1.0, "{} {} {}", max(0), max(1), max(2));
+    let p = render(&scene, settings_for(IntegratorKind::Path, 8, 8, 1, 1));
+    assert!(p.aov_pixels(Aov::Guiding).iter().all(|v| *v == 0.0));
 }
 
 // Switch-to-transparency: a flat, clear water surface set `all` under a delta sun lets the

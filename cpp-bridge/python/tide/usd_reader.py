@@ -92,7 +92,7 @@ AOVS = {
     "albedo": "float3", "primId": "float", "tide:diffuse": "float3",
     "tide:specular": "float3", "tide:transmission": "float3",
     "tide:volume": "float3", "tide:emission": "float3",
-    "tide:caustics": "float3",
+    "tide:caustics": "float3", "tide:guiding": "float3",
 }
 SHADER_IDS = {
     "UsdPreviewSurface", "UsdUVTexture", "UsdTransform2d", "UsdPrimvarReader_float",
