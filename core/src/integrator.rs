@@ -547,6 +547,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 SPECULAR
             };
         }
+        if bs.is_transmission() && front && world.diffusion.body(s.instance).is_some() {
+            // a body whose medium renders in diffusion mode: its subsurface light ends the path
+            add!(beta * crate::diffusion::radiance_exit(world, &s, wi_w, lambda, sampler));
+            break;
+        }
         specular_bounce = bs.is_specular();
         prev_pdf = bs.pdf;
         prev_ctx = LightSampleContext::new(s.p, s.ns);

@@ -138,6 +138,8 @@ pub struct World {
     pub camera: Camera,
     pub cs: ColorSpace,
     pub max_depth: u32,
+    /// Cached surface irradiance of the bodies whose medium renders in diffusion mode.
+    pub diffusion: crate::diffusion::DiffusionCache,
 }
 
 fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
@@ -262,7 +264,7 @@ impl World {
                 Ok(med) => med,
                 Err(e) => {
                     problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
-                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None }, cs).expect("empty medium")
+                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() }, cs).expect("empty medium")
                 }
             })
             .collect();
@@ -324,7 +326,7 @@ impl World {
             .iter()
             .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows })
             .collect();
-        World {
+        let mut world = World {
             accel,
             instances,
             meshes: scene.meshes.clone(),
@@ -341,7 +343,10 @@ impl World {
             camera,
             cs,
             max_depth: settings.max_depth,
-        }
+            diffusion: Default::default(),
+        };
+        world.diffusion = crate::diffusion::DiffusionCache::build(&world, scene);
+        world
     }
 
     /// Whether light `light` illuminates instance `instance` (its light-link collection).
