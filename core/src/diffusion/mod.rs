@@ -44,9 +44,9 @@ pub use tree::{IrradiancePoint, IrradianceTree, N_BINS};
 /// Tree error criterion used when rendering (see [`IrradianceTree::exitance`]).
 pub const TREE_EPS: f32 = 0.25;
 /// Light samples per irradiance point.
-pub const IRRADIANCE_SAMPLES: u32 = 32;
+pub const IRRADIANCE_SAMPLES: u32 = 16;
 /// Upper bound on the points of one body; beyond it the spacing grows.
-pub const MAX_POINTS: usize = 200_000;
+pub const MAX_POINTS: usize = 100_000;
 
 /// One body rendered in diffusion mode.
 #[derive(Clone, Debug)]
@@ -102,8 +102,8 @@ impl DiffusionCache {
     }
 }
 
-/// Point spacing for a medium: half the smallest reduced mean free path 1/σt' over the
-/// spectral bins (the scale the dipole profile varies on near its source).
+/// Point spacing for a medium: the smallest reduced mean free path 1/σt' over the spectral
+/// bins (the scale the dipole profile varies on near its source).
 fn point_spacing(m: &Medium) -> f32 {
     let mut st_max = 0.0f32;
     for g in 0..N_BINS / N_SPECTRUM {
@@ -115,7 +115,7 @@ fn point_spacing(m: &Medium) -> f32 {
         }
     }
     if st_max > 0.0 {
-        0.5 / st_max
+        1.0 / st_max
     } else {
         1.0
     }
@@ -212,14 +212,25 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
             let ul = rng.next_f32();
             let u2 = glam::Vec2::new(rng.next_f32(), rng.next_f32());
             let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| world.illuminates(li, instance)) else { continue };
+            // one shadow ray per light sample (the direction of a sample does not depend on
+            // the wavelengths unless the light's sampling does; then each group traces its own)
+            let mut shadow: Option<(Vec3, bool)> = None;
             for (g, lambda) in groups.iter().enumerate() {
                 let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) else { continue };
                 let cos = ls.wi.dot(q.n);
                 if !(ls.pdf > 0.0) || cos <= 0.0 || ls.l.is_black() {
                     continue;
                 }
-                let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                if !visible(world, li, o, ls.wi, dist) {
+                let vis = match shadow {
+                    Some((w, v)) if w == ls.wi => v,
+                    _ => {
+                        let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
+                        let v = visible(world, li, o, ls.wi, dist);
+                        shadow = Some((ls.wi, v));
+                        v
+                    }
+                };
+                if !vis {
                     continue;
                 }
                 let ft = 1.0 - fresnel_dielectric(cos, eta);
@@ -260,7 +271,7 @@ pub struct Parts {
 }
 
 /// The parts the renderer uses.
-pub const RENDER_PARTS: Parts = Parts { multiple: true, single: true };
+pub const RENDER_PARTS: Parts = Parts { multiple: true, single: false };
 
 /// Radiance just inside the surface of a diffusion body at the camera path's refraction
 /// point `s`, travelling back along the path: `wi` is the refracted direction (into the

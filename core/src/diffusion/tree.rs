@@ -157,20 +157,19 @@ impl IrradianceTree {
     /// own `params`, None where the medium does not diffuse), for an exit point `xo` with
     /// outward normal `no`.
     ///
-    /// Error criterion: a node is replaced by its aggregate (centroid, mean normal and
-    /// direction, summed flux) when ρ·(σtr + 3/d) < `eps`, with ρ its radius, d the distance
-    /// from `xo` to its centroid and σtr the largest effective transport coefficient of the
-    /// path's wavelengths. The kernel falls off like e^{−σtr r}/r³ over the node, so the
-    /// relative error of a replaced node is second order, about ½ε² (the first-order term
-    /// cancels at the centroid when the irradiance varies little across the node);
-    /// `eps` = 0 sums every point.
+    /// Error criterion (Jensen & Buhler's, in terms of the node's radius): a node is replaced
+    /// by its aggregate (centroid, mean normal and direction, summed flux) when ρ < ε·d, with
+    /// ρ its radius and d the distance from `xo` to its centroid. The first-order error
+    /// cancels at the centroid (when the irradiance varies little across the node), so the
+    /// relative error of a replaced node is about ½ρ²·|∂²S/∂r²|/S ≈ ½ε²(3 + σtr·d)²: of
+    /// order ε² near the exit point, larger far away only where e^{−σtr d} makes the node's
+    /// share small. `eps` = 0 sums every point.
     pub fn exitance(&self, params: &[Option<DipoleParams>; N_SPECTRUM], lambda: &SampledWavelengths, xo: Vec3, no: Vec3, eps: f32) -> SampledSpectrum {
         let mut out = SampledSpectrum::ZERO;
         if self.nodes.is_empty() {
             return out;
         }
         let lerp: [(usize, f32); N_SPECTRUM] = std::array::from_fn(|k| bin_lerp(lambda.lambda[k]));
-        let sigma_tr = params.iter().flatten().map(|p| p.sigma_tr).fold(0.0f32, f32::max);
         let mut add = |p: Vec3, n: Vec3, dir: Vec3, ea: &[f32; N_BINS]| {
             for k in 0..N_SPECTRUM {
                 let Some(pk) = &params[k] else { continue };
@@ -195,7 +194,7 @@ impl IrradianceTree {
                 continue;
             }
             let d = (node.p - xo).length();
-            if eps > 0.0 && d > node.radius && node.radius * (sigma_tr + 3.0 / d) < eps {
+            if eps > 0.0 && node.radius < eps * d {
                 add(node.p, node.n, node.dir, &node.ea);
                 continue;
             }
