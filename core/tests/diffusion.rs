@@ -73,7 +73,6 @@ fn flat_centre_reproduces_the_model_and_bounds_its_bias_against_volumetric_path_
     // normal-exit radiance of exact transport is slightly above the Lambertian average the
     // model assumes, so the ratio lies in 1.1–1.6 (plus the reference's noise, 3σ)
     let ratio = ld / lv;
-    eprintln!("diffusion {ld} ± {sd}, model {expect}, volumetric {lv} ± {sv}");
     let slack = 3.0 * sv / lv * ratio;
     assert!(ratio > 1.1 - slack && ratio < 1.6 + slack, "diffusion {ld} vs volumetric {lv} ± {sv}: ratio {ratio}");
 }

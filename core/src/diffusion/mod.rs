@@ -33,7 +33,7 @@ use crate::bsdf::microfacet::refract;
 use crate::light::LightSampleContext;
 use crate::math::offset_ray_origin;
 use crate::medium::{sample_distance_spectral, DistanceSample, Medium};
-use crate::sampler::{sobol_u32, PixelSampler, StreamRng};
+use crate::sampler::{hash_u32, sobol_u32, PixelSampler, StreamRng};
 use crate::scene::{GeometryRef, MediumMethod, SceneDesc};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_SPECTRUM};
 use crate::world::{SurfaceHit, World};
@@ -136,7 +136,7 @@ fn coefficients(m: &Medium, p: Vec3, lambda: &SampledWavelengths) -> (SampledSpe
 
 /// Points on the mesh of `instance` (world space at time 0), spread by area: the k-th of N
 /// points sits at cumulative area (k + ½)·A/N, inside its triangle at the triangle's own
-/// Sobol point folded onto the triangle. N = A/spacing² (at most [`MAX_POINTS`], at least 1);
+/// Sobol point (shifted by a fixed offset) folded onto the triangle. N = A/spacing² (at most [`MAX_POINTS`], at least 1);
 /// every point stands for A/N. Normals are the geometric ones (outward by winding).
 pub fn surface_points(world: &World, instance: u32, spacing: f32) -> Vec<IrradiancePoint> {
     let info = &world.instances[instance as usize];
@@ -159,8 +159,9 @@ pub fn surface_points(world: &World, instance: u32, spacing: f32) -> Vec<Irradia
         let mut local = 0u32;
         let ng = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
         while k < n && (k as f64 + 0.5) * per < end {
-            let u = sobol_u32(local, 0) as f32 * (1.0 / 4_294_967_296.0);
-            let v = sobol_u32(local, 1) as f32 * (1.0 / 4_294_967_296.0);
+            // a fixed toroidal shift keeps the points off the triangle's edges and vertices
+            let u = (sobol_u32(local, 0) as f32 * (1.0 / 4_294_967_296.0) + 0.318_309_9).fract();
+            let v = (sobol_u32(local, 1) as f32 * (1.0 / 4_294_967_296.0) + 0.271_828_2).fract();
             let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
             out.push(IrradiancePoint { p: t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v, n: ng, area: per as f32, dir: -ng, e: [0.0; N_BINS] });
             local += 1;
@@ -203,7 +204,9 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
     }
     let groups: [SampledWavelengths; N_BINS / N_SPECTRUM] = std::array::from_fn(bins_group);
     pts.par_iter_mut().enumerate().for_each(|(i, q)| {
-        let mut rng = StreamRng::new(0.5, i as u32 ^ 0x0d1f_f05e);
+        // hashed seeds: streams of neighbouring points must not be shifted copies of each other
+        let h = hash_u32(i as u32 ^ 0x0d1f_f05e);
+        let mut rng = StreamRng::new((h >> 8) as f32 * (1.0 / 16_777_216.0), hash_u32(h));
         let o = offset_ray_origin(q.p, q.n);
         let ctx = LightSampleContext::new(q.p, q.n);
         let mut e = [0.0f32; N_BINS];
