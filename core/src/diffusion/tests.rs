@@ -333,8 +333,8 @@ fn surface_points_cover_the_body_by_area_and_the_cache_is_deterministic() {
 
 #[test]
 fn cached_irradiance_is_the_fresnel_transmitted_sky_irradiance() {
-    // top face under a uniform sky: E_t(λ) = L(λ) · 2π ∫ T(μ) μ dμ; the 16-sample estimate of
-    // each point is averaged over the ~600 points of the top (statistical error ~1%), so 3%
+    // top face under a uniform sky: E_t(λ) = L(λ) · 2π ∫ T(μ) μ dμ; the 64-sample estimate of
+    // each point is averaged over the ~600 points of the top (statistical error < 1%), so 3%
     let w = dome_box_world();
     let tree = &w.diffusion.bodies[0].tree;
     let top: Vec<&IrradiancePoint> = tree.points().iter().filter(|q| q.p.y.abs() < 1e-5).collect();
