@@ -160,8 +160,8 @@ pub fn surface_points(world: &World, instance: u32, spacing: f32) -> Vec<Irradia
         let ng = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
         while k < n && (k as f64 + 0.5) * per < end {
             // a fixed toroidal shift keeps the points off the triangle's edges and vertices
-            let u = (sobol_u32(local, 0) as f32 * (1.0 / 4_294_967_296.0) + 0.318_309_9).fract();
-            let v = (sobol_u32(local, 1) as f32 * (1.0 / 4_294_967_296.0) + 0.271_828_2).fract();
+            let u = (sobol_u32(local, 0) as f32 * (1.0 / 4_294_967_296.0) + 0.413_7).fract();
+            let v = (sobol_u32(local, 1) as f32 * (1.0 / 4_294_967_296.0) + 0.287_3).fract();
             let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
             out.push(IrradiancePoint { p: t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v, n: ng, area: per as f32, dir: -ng, e: [0.0; N_BINS] });
             local += 1;

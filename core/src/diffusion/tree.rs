@@ -100,8 +100,8 @@ impl IrradianceTree {
             n += q.n * q.area;
             let flux: f32 = q.e.iter().sum::<f32>() * q.area;
             dir += q.dir * flux;
-            for b in 0..N_BINS {
-                ea[b] += q.e[b] * q.area;
+            for (a, e) in ea.iter_mut().zip(&q.e) {
+                *a += e * q.area;
             }
             lo = lo.min(q.p);
             hi = hi.max(q.p);
