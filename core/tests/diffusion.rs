@@ -1,13 +1,14 @@
 //! The diffusion mode at render level: the flat centre of a thick milky-water body under a
-//! uniform sky, rendered with `method = diffusion`, against (1) the directional dipole
-//! integrated numerically over the plane (the renderer's points, irradiance cache, octree and
-//! Fresnel/η² bookkeeping must reproduce the model) and (2) volumetric path tracing (the
-//! model's own bias, measured against a random walk in the unit tests, bounds the ratio).
+//! uniform sky, rendered with `method = diffusion`, against (1) the classical dipole's closed
+//! form (the renderer's points, irradiance cache, octree and Fresnel/η² bookkeeping must
+//! reproduce the model) and (2) volumetric path tracing (they must agree within the model's
+//! error, measured against a random walk in the unit tests, and the reference's noise).
 
 mod common;
 use common::*;
 use glam::{Mat4, Vec3};
 use tide_core::bsdf::fresnel::fresnel_dielectric;
+use tide_core::diffusion::profile::classic_rd_total;
 use tide_core::diffusion::DipoleParams;
 use tide_core::scene::*;
 
@@ -33,47 +34,47 @@ fn scene(method: MediumMethod) -> SceneDesc {
     s
 }
 
-/// The model's radiance leaving the centre along the normal under a uniform sky of radiance
-/// 1: T(normal) · E_t · ∫ S_d dA, with E_t = 2π ∫ T(μ) μ dμ the transmitted irradiance and the
-/// incident light refracted along the normal on average (a uniform sky's mean direction).
+/// The model's radiance seen straight down on the centre under a uniform sky of radiance 1:
+/// the sky reflected by the surface, F(normal), plus the light leaving the body,
+/// T(normal) · E_t · ∫ S_d dA, with E_t = 2π ∫ T(μ) μ dμ the transmitted irradiance and
+/// ∫ S_d dA = R_d,total / (4C_Φ(1/η) π) for the classical dipole (independent of the
+/// direction of the light).
 fn model_radiance() -> f64 {
     let p = DipoleParams::new(SIGMA_A, SIGMA_S, 0.0, ETA).unwrap();
-    let n = Vec3::Y;
     let mut e_t = 0.0f64;
     for k in 0..2000 {
         let mu = (k as f64 + 0.5) / 2000.0;
         e_t += (1.0 - fresnel_dielectric(mu as f32, ETA) as f64) * mu * 2.0 * std::f64::consts::PI / 2000.0;
     }
-    let (a, b, m) = ((1e-6f64).ln(), (20.0f64).ln(), 20_000);
-    let mut plane = 0.0f64;
-    for k in 0..m {
-        let r = (a + (b - a) * (k as f64 + 0.5) / m as f64).exp();
-        plane += p.sd(Vec3::ZERO, n, -n, Vec3::new(r as f32, 0.0, 0.0), n) as f64 * 2.0 * std::f64::consts::PI * r * r * (b - a) / m as f64;
-    }
-    (1.0 - fresnel_dielectric(1.0, ETA) as f64) * e_t * plane
+    let plane = p.norm as f64 / std::f64::consts::PI * classic_rd_total(p.albedo_r, p.a) as f64;
+    let f0 = fresnel_dielectric(1.0, ETA) as f64;
+    f0 + (1.0 - f0) * e_t * plane
 }
 
 #[test]
-fn flat_centre_reproduces_the_model_and_bounds_its_bias_against_volumetric_path_tracing() {
+fn flat_centre_reproduces_the_model_and_agrees_with_volumetric_path_tracing() {
     let (w, h) = (4, 4);
     let dif = render(&scene(MediumMethod::Diffusion), settings(w, h, 64));
     let (ld, sd, _) = channel_stats(&dif, 1, |_, _| true, w);
     let expect = model_radiance();
-    // the renderer's approximations: tree ε = 0.25 (≤ ½ε² ≈ 3%); 64 sky samples per point,
-    // whose noisy mean direction raises the result a little (the profile is convex in the
-    // direction near the source: +3–4% measured with 256 samples, more with fewer); points
-    // one mean free path apart, averaged over the patch (~1%); the finite box (< 1%): 6%
-    assert!((ld / expect - 1.0).abs() < 0.06 + 3.0 * sd / ld, "diffusion {ld} ± {sd} vs model {expect}");
+    // the renderer's approximations: where the points fall (points half a mean free path
+    // apart: −2.9% measured on this patch, which the two triangles' shared edge crosses,
+    // +0.2% on a patch 1 m off it); the irradiance estimate of each point (stratified, 1.3%
+    // per point, averaged over ~100 points per exit point); tree ε = 0.25 (≤ ½ε² ≈ 3% on the
+    // far nodes it replaces, which carry a small share); the finite box (< 1%): 5%, plus the
+    // camera noise (3σ)
+    assert!((ld / expect - 1.0).abs() < 0.05 + 3.0 * sd / ld, "diffusion {ld} ± {sd} vs model {expect}");
 
-    let mut st = settings(w, h, 256);
+    let mut st = settings(w, h, 1024);
     st.max_depth = 4096;
     let vol = render(&scene(MediumMethod::Volumetric), st);
     let (lv, sv, _) = channel_stats(&vol, 1, |_, _| true, w);
-    // the directional dipole overestimates the total diffuse reflectance of a half-space by a
-    // factor 1.2–1.5 at these albedos (pinned against a random walk in the unit tests); the
-    // normal-exit radiance of exact transport is slightly above the Lambertian average the
-    // model assumes, so the ratio lies in 1.1–1.6 (plus the reference's noise, 3σ)
+    // agreement: the classical dipole's total diffuse reflectance is +3.5% above a random
+    // walk at this albedo for light along the normal (unit tests; under a sky the incidence
+    // spread brings it to within 1%), plus the point placement above (≤ 3%): 6%, plus 3σ of
+    // the two renders' noise (the reference's ~1.3% at 1024 spp dominates). The directional
+    // dipole (+40%) or adding single scattering on top (+16%) fails it.
     let ratio = ld / lv;
-    let slack = 3.0 * sv / lv * ratio;
-    assert!(ratio > 1.1 - slack && ratio < 1.6 + slack, "diffusion {ld} vs volumetric {lv} ± {sv}: ratio {ratio}");
+    let slack = 3.0 * ((sv / lv).powi(2) + (sd / ld).powi(2)).sqrt() * ratio;
+    assert!((ratio - 1.0).abs() < 0.06 + slack, "diffusion {ld} ± {sd} vs volumetric {lv} ± {sv}: ratio {ratio}");
 }

@@ -1,7 +1,9 @@
 //! The diffusion mode of a medium (`TideMedium.method = "diffusion"`): radiance leaving an
-//! optically thick body from the directional dipole BSSRDF (Frisvad, Hachisuka & Kjeldsen
-//! 2014, [`profile`]) integrated hierarchically over cached surface irradiance (Jensen &
-//! Buhler 2002, [`tree`]), plus single scattering along the refracted camera ray.
+//! optically thick body from a dipole BSSRDF ([`profile`]: the classical point-source dipole
+//! of Jensen et al. 2001 when rendering, [`RENDER_PROFILE`]; the directional dipole of
+//! Frisvad, Hachisuka & Kjeldsen 2014 selectable) integrated hierarchically over cached
+//! surface irradiance (Jensen & Buhler 2002, [`tree`]), and an exact single-scattering
+//! estimator along the refracted camera ray (off when rendering, [`RENDER_PARTS`]).
 //!
 //! [`DiffusionCache::build`] runs once when the world is built: for every instance whose
 //! material is a dielectric filled with a diffusion medium it places points on the mesh by
@@ -38,9 +40,13 @@ use crate::scene::{GeometryRef, MediumMethod, SceneDesc};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_SPECTRUM};
 use crate::world::{SurfaceHit, World};
 use glam::Vec3;
-pub use profile::DipoleParams;
+pub use profile::{DipoleParams, ProfileModel};
 pub use tree::{IrradiancePoint, IrradianceTree, N_BINS};
 
+/// The profile used when rendering. The classical dipole: its total diffuse reflectance
+/// matches a random walk in a half-space within a few per cent (single scattering
+/// included), where the directional dipole's is 1.3–1.45× too high (`docs/diffusion.md`).
+pub const RENDER_PROFILE: ProfileModel = ProfileModel::Classical;
 /// Tree error criterion used when rendering (see [`IrradianceTree::exitance`]).
 pub const TREE_EPS: f32 = 0.25;
 /// Light samples per irradiance point.
@@ -102,8 +108,14 @@ impl DiffusionCache {
     }
 }
 
-/// Point spacing for a medium: the smallest reduced mean free path 1/σt' over the spectral
-/// bins (the scale the dipole profile varies on near its source).
+/// Point spacing in reduced mean free paths. The classical profile's width at its peak is
+/// one mean free path (the real source's depth); at one point per mean free path the
+/// result at an exit point depended on where the points fell by ±5%, at half that by ±3%
+/// (`docs/diffusion.md`).
+pub const POINT_SPACING_MFP: f32 = 0.5;
+
+/// Point spacing for a medium: [`POINT_SPACING_MFP`] times the smallest reduced mean free
+/// path 1/σt' over the spectral bins (the scale the dipole profile varies on near its source).
 fn point_spacing(m: &Medium) -> f32 {
     let mut st_max = 0.0f32;
     for g in 0..N_BINS / N_SPECTRUM {
@@ -115,7 +127,7 @@ fn point_spacing(m: &Medium) -> f32 {
         }
     }
     if st_max > 0.0 {
-        1.0 / st_max
+        POINT_SPACING_MFP / st_max
     } else {
         1.0
     }
@@ -211,9 +223,16 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
         let ctx = LightSampleContext::new(q.p, q.n);
         let mut e = [0.0f32; N_BINS];
         let mut dir = Vec3::ZERO;
-        for _ in 0..IRRADIANCE_SAMPLES {
+        // the light's 2D sample numbers: a Sobol (0,2)-net shifted by the point's own
+        // random offset, so that each point's estimate is stratified (a smooth sky's
+        // irradiance is then nearly exact) while neighbouring points stay independent
+        let shift = [rng.next_f32(), rng.next_f32()];
+        for j in 0..IRRADIANCE_SAMPLES {
             let ul = rng.next_f32();
-            let u2 = glam::Vec2::new(rng.next_f32(), rng.next_f32());
+            let u2 = glam::Vec2::new(
+                (sobol_u32(j, 0) as f32 * (1.0 / 4_294_967_296.0) + shift[0]).fract(),
+                (sobol_u32(j, 1) as f32 * (1.0 / 4_294_967_296.0) + shift[1]).fract(),
+            );
             let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| world.illuminates(li, instance)) else { continue };
             // one shadow ray per light sample (the direction of a sample does not depend on
             // the wavelengths unless the light's sampling does; then each group traces its own)
@@ -257,13 +276,13 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
     pts
 }
 
-/// Per-wavelength dipole constants of `body` at `p`.
+/// Per-wavelength dipole constants of `body` at `p`, evaluating [`RENDER_PROFILE`].
 pub fn body_params(world: &World, body: &DiffusionBody, p: Vec3, lambda: &SampledWavelengths) -> [Option<DipoleParams>; N_SPECTRUM] {
     let m = &world.media[body.medium];
     let (a, s) = coefficients(m, p, lambda);
     let g = m.phase(p).mean_cosine();
     let (cphi, ce, cphi_out) = body.terms;
-    std::array::from_fn(|k| if lambda.pdf[k] > 0.0 { DipoleParams::with_terms(a[k], s[k], g, cphi, ce, cphi_out) } else { None })
+    std::array::from_fn(|k| if lambda.pdf[k] > 0.0 { DipoleParams::with_terms(a[k], s[k], g, cphi, ce, cphi_out).map(|p| p.with_model(RENDER_PROFILE)) } else { None })
 }
 
 /// Which parts [`radiance_exit`] adds.
@@ -273,7 +292,9 @@ pub struct Parts {
     pub single: bool,
 }
 
-/// The parts the renderer uses.
+/// The parts the renderer uses. Single scattering is off: the classical dipole's R_d
+/// already holds it (its total matches a random walk's total, single scattering included;
+/// adding the exact single-scattering estimator counted it twice).
 pub const RENDER_PARTS: Parts = Parts { multiple: true, single: false };
 
 /// Radiance just inside the surface of a diffusion body at the camera path's refraction

@@ -152,10 +152,12 @@ fn directional_dipole_against_a_random_walk_far_from_and_near_the_source() {
     // the exact solution: between 8 and 16 mean free paths the flux leaving agrees with the
     // random walk within 20% (measured: directional dipole +7…+15%, the classical one
     // +4…+7%; the walk's standard error there is ~2–4% with 40 000 photons). Near the source
-    // it does not: the directional dipole's real source sits D·μ0 deep, so it overestimates
-    // the flux within a few mean free paths and the total by ~30% (normal incidence). That
-    // bias is part of the model (docs/diffusion.md); the test pins it between 1.2× and 1.5×
-    // so that a change of the model or of the walk shows.
+    // it does not: the directional dipole as published (every term checked against Frisvad
+    // et al. 2014) overestimates the flux within a few mean free paths and the total by
+    // ~30–45% at normal incidence; its total exceeds 1 as α' → 1 (1.25 at α' = 0.999, η = 1).
+    // That is why the renderer uses the classical dipole (docs/diffusion.md); the test pins
+    // the directional one's ratio between 1.2 and 1.5 so that a change of it or of the walk
+    // shows.
     let edges = [0.0, 8.0, 16.0];
     for &(alpha, eta) in &[(0.99f32, 1.0f32), (0.999, 1.0), (0.99, 1.333)] {
         let p = DipoleParams::new(1.0 - alpha, alpha, 0.0, eta).unwrap();
@@ -165,11 +167,27 @@ fn directional_dipole_against_a_random_walk_far_from_and_near_the_source() {
         let all = model_flux(&p, 0.0, 1e9);
         let ratio = all / total;
         assert!(ratio > 1.2 && ratio < 1.5, "α {alpha} η {eta}: total dipole {all} vs walk {total}");
-        // the classical dipole's closed form is within 5% of the walk (Jensen et al. 2001)
-        let classic = classic_rd_total(alpha, p.a) as f64;
-        if eta == 1.0 {
-            assert!((classic / total - 1.0).abs() < 0.05, "α {alpha}: classical {classic} vs walk {total}");
-        }
+    }
+}
+
+#[test]
+fn classical_dipole_total_matches_a_random_walk_with_and_without_an_index_mismatch() {
+    // The profile the renderer uses. Its total diffuse reflectance (the flux leaving through
+    // the boundary, Fresnel included, per unit flux entering along the normal; single
+    // scattering included) against the walk: measured −0.7% (α' 0.99, η 1), +0.1% (0.99,
+    // 1.333), +3.5% (0.952, 1.333: the milky water of the render tests). Classical diffusion
+    // is known to drift above transport as the albedo falls; the walk's standard error is
+    // ≤ 0.6% with 40 000 photons: 5%.
+    for &(alpha, eta) in &[(0.99f32, 1.0f32), (0.99, 1.333), (0.952, 1.333)] {
+        let p = DipoleParams::new(1.0 - alpha, alpha, 0.0, eta).unwrap().with_model(ProfileModel::Classical);
+        let (total, _) = random_walk(alpha as f64, eta, 40_000, 11, &[0.0, 1.0]);
+        // the BSSRDF integrated as the renderer sums it: π ∫ S_d dA / norm is R_d's total
+        let n = Vec3::Y;
+        let model = std::f64::consts::PI * radial_integral(|r| p.eval(Vec3::ZERO, n, -n, Vec3::new(r, 0.0, 0.0), n), 1e-6, 200.0) / p.norm as f64;
+        let closed = classic_rd_total(alpha, p.a) as f64;
+        // quadrature of the log grid ~1e-5 (classical_dipole_integrates_to_the_closed_form…)
+        assert!((model / closed - 1.0).abs() < 1e-3, "α {alpha} η {eta}: ∫S_d {model} vs closed form {closed}");
+        assert!((closed / total - 1.0).abs() < 0.05, "α {alpha} η {eta}: classical {closed} vs walk {total}");
     }
 }
 
@@ -335,8 +353,10 @@ fn surface_points_cover_the_body_by_area_and_the_cache_is_deterministic() {
 
 #[test]
 fn cached_irradiance_is_the_fresnel_transmitted_sky_irradiance() {
-    // top face under a uniform sky: E_t(λ) = L(λ) · 2π ∫ T(μ) μ dμ; the 64-sample estimate of
-    // each point is averaged over the ~600 points of the top (statistical error < 1%), so 3%
+    // top face under a uniform sky: E_t(λ) = L(λ) · 2π ∫ T(μ) μ dμ. Each point's 64 samples
+    // are a shifted Sobol net: 1.3% relative spread per point measured (random samples gave
+    // 17%); the mean over the ~2600 points of the top is then exact to ~0.1%, so 1% (the
+    // mean of an unstratified estimate would also pass; the per-point bound below would not)
     let w = dome_box_world();
     let tree = &w.diffusion.bodies[0].tree;
     let top: Vec<&IrradiancePoint> = tree.points().iter().filter(|q| q.p.y.abs() < 1e-5).collect();
@@ -353,7 +373,10 @@ fn cached_irradiance_is_the_fresnel_transmitted_sky_irradiance() {
             let b = g * 4 + k;
             let mean = top.iter().map(|q| q.e[b] as f64).sum::<f64>() / top.len() as f64;
             let expect = l[k] as f64 * t_int;
-            assert!((mean / expect - 1.0).abs() < 0.03, "bin {b}: {mean} vs {expect}");
+            assert!((mean / expect - 1.0).abs() < 0.01, "bin {b}: {mean} vs {expect}");
+            // per point: rms spread 1.3% measured, 17% with unstratified samples: 5%
+            let rms = (top.iter().map(|q| (q.e[b] as f64 / expect - 1.0).powi(2)).sum::<f64>() / top.len() as f64).sqrt();
+            assert!(rms < 0.05, "bin {b}: per-point spread {rms}");
         }
     }
     // the mean refracted direction of a uniform sky is straight in

@@ -176,7 +176,7 @@ impl IrradianceTree {
                 let (b, f) = lerp[k];
                 let e = ea[b] * (1.0 - f) + ea[b + 1] * f;
                 if e > 0.0 {
-                    out[k] += pk.sd(p, n, dir, xo, no) * e;
+                    out[k] += pk.eval(p, n, dir, xo, no) * e;
                 }
             }
         };
@@ -216,7 +216,7 @@ impl IrradianceTree {
                 let Some(pk) = &params[k] else { continue };
                 let (b, f) = bin_lerp(lambda.lambda[k]);
                 let e = q.e[b] * (1.0 - f) + q.e[b + 1] * f;
-                out[k] += pk.sd(q.p, q.n, q.dir, xo, no) * e * q.area;
+                out[k] += pk.eval(q.p, q.n, q.dir, xo, no) * e * q.area;
             }
         }
         out
