@@ -1,6 +1,6 @@
 """TideMedium `method` end to end: a thick milky body authored in USD renders in diffusion mode
-through the real module, close to volumetric path tracing within the model's documented bias
-(docs/diffusion.md), and a bad token is a problem naming the input while the rest renders."""
+through the real module and agrees with volumetric path tracing within the model's documented
+error (docs/diffusion.md), and a bad token is a problem naming the input while the rest renders."""
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
@@ -50,17 +50,21 @@ def test_bad_method_names_the_input_and_falls_back_to_volumetric(stage, renderer
                for p in problems), problems
 
 
-def test_diffusion_renders_near_volumetric_within_the_model_bias(renderer):
+def test_diffusion_agrees_with_volumetric_on_the_flat_centre(renderer):
     from pxr import Usd
-    means = {}
-    for method, spp, depth in (("diffusion", 16, 64), ("volumetric", 128, 4096)):
+    means, errs = {}, {}
+    for method, spp, depth in (("diffusion", 16, 64), ("volumetric", 256, 4096)):
         stage = Usd.Stage.CreateInMemory()
         _milky(stage, method)
         settings(stage, res=(8, 8), samples=spp, integrator="path", maxDepth=depth)
         px = render(renderer, stage)["color"]
         assert np.isfinite(px).all()
-        means[method] = float(px[..., 1].mean())
-    # the directional dipole reads 1.3-1.5x exact transport on a flat, thick, milky body
-    # (docs/diffusion.md; the Rust test pins the renderer to the model within 6%)
+        g = px[..., 1].ravel()
+        means[method] = float(g.mean())
+        errs[method] = float(g.std(ddof=1) / np.sqrt(g.size))
+    # the classical dipole's error here: its total diffuse reflectance is within 3.5% of a
+    # random walk and the point placement moves the result by up to 3% (docs/diffusion.md,
+    # the Rust tests): 6%, plus 3 standard errors of the two means (pixel to pixel)
     ratio = means["diffusion"] / means["volumetric"]
-    assert 1.1 < ratio < 1.7, means
+    rel = np.hypot(errs["diffusion"] / means["diffusion"], errs["volumetric"] / means["volumetric"])
+    assert abs(ratio - 1.0) < 0.06 + 3.0 * rel, (means, errs)
