@@ -270,8 +270,9 @@ pub enum MediumMethod {
     /// Volumetric path tracing (exact; the reference).
     #[default]
     Volumetric,
-    /// The directional dipole with single scattering over cached surface irradiance
-    /// (`crate::diffusion`): fast for optically thick, highly scattering bodies.
+    /// A dipole BSSRDF (the classical one; the directional dipole selectable in code) over
+    /// cached surface irradiance (`crate::diffusion`): fast for optically thick, highly
+    /// scattering bodies.
     Diffusion,
 }
 

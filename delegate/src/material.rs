@@ -356,7 +356,7 @@ impl Ctx<'_> {
     /// * `densityScale` multiplies everything. `phase` `hg`/`dualHG` stay analytic unless
     ///   `molecularWeight` > 0; `fournierForand` and `petzold` (and any molecular mixture) are
     ///   tabulated (`PhaseDesc::Tabulated`).
-    /// * `method`: `volumetric` (default, path-traced) or `diffusion` (the directional dipole
+    /// * `method`: `volumetric` (default, path-traced) or `diffusion` (the classical dipole
     ///   over cached surface irradiance, for optically thick bodies; see `docs/diffusion.md`).
     ///
     /// Bad tokens and out-of-range numbers give a problem naming the attribute and the
