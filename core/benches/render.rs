@@ -83,6 +83,7 @@ fn scene() -> SceneDesc {
         scale: 1.0,
         phase: PhaseDesc::HenyeyGreenstein { g: 0.9 },
         water: None,
+        method: Default::default(),
     });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.05, ..Default::default() }), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.6, 0.45]) }, interior_medium: None });

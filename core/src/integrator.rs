@@ -689,6 +689,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 SPECULAR
             };
         }
+        if bs.is_transmission() && front && world.diffusion.body(s.instance).is_some() {
+            // a body whose medium renders in diffusion mode: its subsurface light ends the path
+            add!(beta * crate::diffusion::radiance_exit(world, &s, wi_w, lambda, sampler));
+            break;
+        }
         specular_bounce = bs.is_specular();
         if !roles.caster {
             chain = (caustics.is_some() && roles.receiver && !bs.is_specular()).then_some(Chain { p_b: bs.pdf, last: u32::MAX });

@@ -7,6 +7,7 @@ pub mod accel;
 pub mod bsdf;
 pub mod camera;
 pub mod caustics;
+pub mod diffusion;
 pub mod film;
 pub mod integrator;
 pub mod light;

@@ -260,6 +260,20 @@ pub struct MediumDesc {
     pub scale: f32,
     pub phase: PhaseDesc,
     pub water: Option<WaterIopDesc>,
+    /// How light inside bodies filled with this medium is rendered.
+    pub method: MediumMethod,
+}
+
+/// How a medium is rendered (`TideMedium.method`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MediumMethod {
+    /// Volumetric path tracing (exact; the reference).
+    #[default]
+    Volumetric,
+    /// A dipole BSSRDF (the classical one; the directional dipole selectable in code) over
+    /// cached surface irradiance (`crate::diffusion`): fast for optically thick, highly
+    /// scattering bodies.
+    Diffusion,
 }
 
 /// A triangle mesh, already triangulated and with primvars expanded per vertex.

@@ -540,6 +540,7 @@ mod tests {
                 salinity: 60.0,
                 top: Some(f32::NAN),
             }),
+            method: Default::default(),
         });
         let (clean, probs) = validate(&s);
         let has = |attr: &str| probs.iter().any(|p| p.item == "/Sea/Medium" && p.attribute == attr);

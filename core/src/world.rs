@@ -146,6 +146,8 @@ pub struct World {
     pub camera: Camera,
     pub cs: ColorSpace,
     pub max_depth: u32,
+    /// Cached surface irradiance of the bodies whose medium renders in diffusion mode.
+    pub diffusion: crate::diffusion::DiffusionCache,
     /// Caustics roles of each instance (resolved `TideCausticsAPI` tags, contract §4).
     pub caustic_instances: Vec<InstanceCaustics>,
     /// Whether each light emits caustic photons.
@@ -290,7 +292,7 @@ impl World {
                 Ok(med) => med,
                 Err(e) => {
                     problems.push(Problem { item: m.name.clone(), attribute: "inputs".into(), message: format!("{e}; medium made empty") });
-                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None }, cs).expect("empty medium")
+                    Medium::from_desc(&MediumDesc { name: m.name.clone(), sigma_a: SpectrumDesc::Rgb([0.0; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() }, cs).expect("empty medium")
                 }
             })
             .collect();
@@ -370,7 +372,7 @@ impl World {
                 InstanceCaustics { caster, receiver: o.receiver && !caster, transparency: o.transparency }
             })
             .collect();
-        World {
+        let mut world = World {
             caustic_instances,
             caustic_emitters,
             accel,
@@ -389,7 +391,10 @@ impl World {
             camera,
             cs,
             max_depth: settings.max_depth,
-        }
+            diffusion: Default::default(),
+        };
+        world.diffusion = crate::diffusion::DiffusionCache::build(&world, scene);
+        world
     }
 
     /// Whether light `light` illuminates instance `instance` (its light-link collection).

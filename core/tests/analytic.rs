@@ -23,7 +23,7 @@ fn beer_lambert_through_an_index_matched_slab() {
     let d = 0.5;
     let mut s = SceneDesc::default();
     s.meshes.push(box_mesh("/slab", Vec3::new(-5.0, -5.0, -d / 2.0), Vec3::new(5.0, 5.0, d / 2.0)));
-    s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None });
+    s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
@@ -71,7 +71,7 @@ fn busy_scene() -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(uv_sphere("/ball", 0.5, 16));
     s.meshes.push(quad_y("/floor", 5.0));
-    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 }, water: None });
+    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.5, 0.3]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.2, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/ball", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 0.5), 1));
@@ -162,6 +162,7 @@ fn jerlov_body_rgb(t: tide_core::water::JerlovType) -> [(f64, f64); 3] {
         scale: 1.0,
         phase: phase_desc(ParticlePhase::Petzold(PetzoldStation::AverageParticle), 0.1).unwrap(),
         water: Some(WaterIopDesc { jerlov: Some(JerlovDesc { water_type: t, source: JerlovSource::Williamson2022 }), salinity: 35.0, ..Default::default() }),
+        method: Default::default(),
     });
     s.materials.push(MaterialDesc { name: "/sea/mat".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));

@@ -69,7 +69,7 @@ pub fn pool(sun_angle: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(quad_y("/floor", 2.0));
     s.meshes.push(wavy_water(2.0, 48, 0.04, -0.801));
-    s.media.push(MediumDesc { name: "/clear".into(), sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None });
+    s.media.push(MediumDesc { name: "/clear".into(), sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.6, 0.6]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
@@ -304,7 +304,7 @@ pub fn underwater(sun_angle: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(quad_y("/sand", 6.0));
     s.meshes.push(wavy_water(6.0, 64, 0.05, -3.01));
-    s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None });
+    s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));

@@ -31,7 +31,7 @@ fn underwater(extra: impl Fn(&mut SceneDesc)) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(box_mesh("/sea", Vec3::new(-10.0, -2.0, -10.0), Vec3::new(10.0, 3.0, 10.0)));
     s.meshes.push(quad_y("/floor", 9.0));
-    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.08, 0.04]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None });
+    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.08, 0.04]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: water(1.333, 0), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.6, 0.4]) }, interior_medium: None });
     s.instances.push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));

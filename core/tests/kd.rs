@@ -65,6 +65,7 @@ fn medium(t: JerlovType, lambda: f32) -> Medium {
             top: Some(0.0),
             ..WaterIopDesc::default()
         }),
+        method: Default::default(),
     };
     Medium::from_desc(&desc, ColorSpace::LinearRec709).unwrap()
 }
@@ -201,7 +202,7 @@ fn kd_orders_the_water_types() {
 // ------------------------------------------------- consistency of the irradiance estimator
 
 fn plain_medium(sigma_a: f32, sigma_s: f32, phase: PhaseDesc) -> Medium {
-    let desc = MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([sigma_a; 3]), sigma_s: SpectrumDesc::Rgb([sigma_s; 3]), scale: 1.0, phase, water: None };
+    let desc = MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([sigma_a; 3]), sigma_s: SpectrumDesc::Rgb([sigma_s; 3]), scale: 1.0, phase, water: None, method: Default::default() };
     Medium::from_desc(&desc, ColorSpace::LinearRec709).unwrap()
 }
 

@@ -356,6 +356,8 @@ impl Ctx<'_> {
     /// * `densityScale` multiplies everything. `phase` `hg`/`dualHG` stay analytic unless
     ///   `molecularWeight` > 0; `fournierForand` and `petzold` (and any molecular mixture) are
     ///   tabulated (`PhaseDesc::Tabulated`).
+    /// * `method`: `volumetric` (default, path-traced) or `diffusion` (the classical dipole
+    ///   over cached surface irradiance, for optically thick bodies; see `docs/diffusion.md`).
     ///
     /// Bad tokens and out-of-range numbers give a problem naming the attribute and the
     /// contract default.
@@ -437,7 +439,11 @@ impl Ctx<'_> {
             salinity,
             top: None,
         });
-        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase, water }
+        let method = match self.input_token(n, "method", &["volumetric", "diffusion"], "volumetric") {
+            "diffusion" => tide_core::scene::MediumMethod::Diffusion,
+            _ => tide_core::scene::MediumMethod::Volumetric,
+        };
+        MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sa), sigma_s: SpectrumDesc::Rgb(ss), scale, phase, water, method }
     }
 }
 
@@ -698,10 +704,23 @@ mod tests {
     }
 
     #[test]
+    fn medium_method_selects_diffusion_or_volumetric() {
+        use tide_core::scene::MediumMethod;
+        let (med, problems) = medium_of(&[("method", tok("diffusion"))]);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(med.unwrap().method, MediumMethod::Diffusion);
+        let (med, problems) = medium_of(&[("method", tok("volumetric"))]);
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(med.unwrap().method, MediumMethod::Volumetric);
+        assert_eq!(medium_of(&[]).0.unwrap().method, MediumMethod::Volumetric);
+    }
+
+    #[test]
     fn bad_medium_tokens_and_values_name_the_attribute_and_use_the_defaults() {
         let cases: Vec<(&str, Value, &str)> = vec![
             ("jerlovType", tok("IX"), "using ''"),
             ("jerlovSource", tok("mobley1994"), "using 'williamson2022'"),
+            ("method", tok("dipole"), "using 'volumetric'"),
             ("phase", tok("rayleigh"), "using 'hg'"),
             ("g", Value::Float(1.5), "using 0"),
             ("g2", Value::Float(-2.0), "using -0.3"),
@@ -721,8 +740,9 @@ mod tests {
             assert_eq!(problems[0].0, format!("/W/Med.inputs:{name}"));
             assert!(problems[0].1.contains(default), "{name}: {}", problems[0].1);
             let med = med.unwrap();
-            // every default leaves the medium empty and homogeneous
+            // every default leaves the medium empty, homogeneous and path-traced
             assert_eq!(med.water, None, "{name}");
+            assert_eq!(med.method, tide_core::scene::MediumMethod::Volumetric, "{name}");
         }
         // a type the default source lacks falls back to Solonenko & Mobley
         let (med, problems) = medium_of(&[("jerlovType", tok("9C"))]);

@@ -33,9 +33,10 @@ TIDE_MEDIUM = {"jerlovType": "", "jerlovSource": "williamson2022", "absorption":
                "scattering": (0, 0, 0), "densityScale": 1.0, "phase": "hg", "g": 0.0,
                "g2": -0.3, "lobeMix": 0.9, "molecularWeight": 0.0, "chlorophyll": 0.0,
                "cdom": 0.0, "spm": 0.0, "profileDepth": 0.0, "profileWidth": 0.0,
-               "profilePeak": 0.0}
+               "profilePeak": 0.0, "method": "volumetric"}
 TYPES = {"ior": "float", "dispersion": "bool", "surfaceModel": "token", "priority": "int",
-         "absorption": "color3f", "jerlovType": "token", "phase": "token"}
+         "absorption": "color3f", "jerlovType": "token", "phase": "token",
+         "method": "token"}
 
 
 def _close(a, b):

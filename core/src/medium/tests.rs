@@ -588,7 +588,7 @@ fn weights_are_finite_for_degenerate_input() {
 // ---------------------------------------------------------------- the medium itself
 
 fn desc(sigma_a: SpectrumDesc, sigma_s: SpectrumDesc, scale: f32, phase: PhaseDesc) -> MediumDesc {
-    MediumDesc { name: "/water/medium".into(), sigma_a, sigma_s, scale, phase, water: None }
+    MediumDesc { name: "/water/medium".into(), sigma_a, sigma_s, scale, phase, water: None, method: Default::default() }
 }
 
 #[test]

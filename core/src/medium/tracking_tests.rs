@@ -268,6 +268,7 @@ fn water_desc(profile: Option<DepthProfileDesc>, top: f32) -> MediumDesc {
             top: Some(top),
             ..WaterIopDesc::default()
         }),
+        method: Default::default(),
     }
 }
 
