@@ -15,7 +15,7 @@ fn rgb_of(l: impl Fn(f32) -> f32) -> [f32; 3] {
 }
 
 fn absorbing(name: &str, sigma: [f32; 3], scale: f32) -> MediumDesc {
-    MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale, phase: PhaseDesc::Isotropic, water: None }
+    MediumDesc { name: name.into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale, phase: PhaseDesc::Isotropic, water: None, method: Default::default() }
 }
 
 /// A volume of `dims` voxels of density `value`, `voxel` wide, its grid point (0, 0, 0) at
