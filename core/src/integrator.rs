@@ -373,8 +373,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
 
         // the medium the ray travels in
         if let Some(mi) = stack.medium() {
-            // photon beams scattered towards the camera along this stretch
-            if let Some(c) = caustics.filter(|c| c.has_beams(mi)) {
+            // photon beams scattered towards the camera along this stretch (on every stretch:
+            // god rays lighting the sand that the camera sees matter as much as those seen
+            // directly)
+            let beams_here = caustics.is_some_and(|c| c.beams_in(mi));
+            if let Some(c) = caustics.filter(|c| beams_here && c.has_beams(mi)) {
                 let u = sampler.get1d();
                 let l = c.gather_beams(world, ray.o, ray.d, t_surface.min(1e30), mi, lambda, beta.average(), fp_width, fp_spread, u);
                 if !l.is_black() {
@@ -433,7 +436,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     }
                     // a chain from this volume vertex through casters to a light is what
                     // photon beams carry
-                    chain = caustics.filter(|c| c.beams_in(mi)).map(|_| Chain { p_b: pdf, last: u32::MAX });
+                    chain = beams_here.then_some(Chain { p_b: pdf, last: u32::MAX });
                     beta *= val / pdf;
                     prev_pdf = pdf;
                     specular_bounce = false;

@@ -69,7 +69,7 @@ pub struct CausticsConfig {
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 1.0 }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25 }
     }
 }
 
@@ -104,6 +104,11 @@ pub struct Chain {
 /// Angle a path's footprint widens by per unit length after a non-specular bounce (radians):
 /// lookups at later vertices gather over a wider area.
 const DIFFUSE_SPREAD: f32 = 0.05;
+/// Largest lookup radius, in photon-grid cells (a cell is two pixel footprints at the casters'
+/// distance from the camera).
+const MAX_RADIUS_CELLS: f32 = 2.0;
+/// Photons a lookup aims to have in reach where photons are dense.
+const LOOKUP_PHOTONS: f32 = 48.0;
 /// Photons traced per parallel work item.
 const CHUNK: usize = 4096;
 /// Caster surfaces a photon may cross.
@@ -292,8 +297,35 @@ impl Caustics {
                 AtlasLight::Distant { .. } => InteriorStack::default(),
             })
             .collect();
-        // grid cells of about a lookup radius at the casters' distance from the camera
-        let dist = casters.iter().map(|c| c.center.distance(cam_pos)).fold(f32::INFINITY, f32::min).max(1e-3 * scene_radius);
+        // grid cells of about two lookup radii at the median distance of the receivers the
+        // camera sees (16 × 16 probe rays through the image; the casters' distance when none)
+        let mut seen: Vec<f32> = Vec::new();
+        for j in 0..16 {
+            for i in 0..16 {
+                let raster = Vec2::new((i as f32 + 0.5) / 16.0 * width as f32, (j as f32 + 0.5) / 16.0 * height as f32);
+                let cr = world.camera.generate_ray(raster, Vec2::splat(0.5), 0.0);
+                let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: world.camera.shutter.0 };
+                let mut travelled = 0.0;
+                // through casters and other non-receivers, as camera paths see receivers
+                for _ in 0..8 {
+                    let Some(hit) = world.accel.intersect(&ray) else { break };
+                    travelled += hit.t;
+                    let roles = world.caustic_instances[hit.instance as usize];
+                    if roles.receiver && !roles.caster {
+                        seen.push(travelled);
+                        break;
+                    }
+                    let s = world.surface(&ray, &hit);
+                    ray = Ray { o: offset_ray_origin(s.p, if ray.d.dot(s.ng) > 0.0 { s.ng } else { -s.ng }), d: ray.d, t_max: f32::INFINITY, time: ray.time };
+                }
+            }
+        }
+        seen.sort_by(|a, b| a.total_cmp(b));
+        let dist = match seen.get(seen.len() / 2) {
+            Some(&d) => d,
+            None => casters.iter().map(|c| c.center.distance(cam_pos)).fold(f32::INFINITY, f32::min),
+        }
+        .max(1e-3 * scene_radius);
         let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * scene_radius);
         let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
@@ -640,6 +672,16 @@ impl Caustics {
         }
         let wo_w = frame.to_world(wo);
         let n = if ng.dot(wo_w) >= 0.0 { ng } else { -ng };
+        // where photons are dense the radius shrinks so that about LOOKUP_PHOTONS are in reach
+        // (wide lookups after diffuse bounces would otherwise visit thousands)
+        // and it never spans more than a few grid cells, which bounds the cells a lookup visits
+        let radius = radius.min(MAX_RADIUS_CELLS * self.cell_size);
+        let count = self.map.bucket_count(p);
+        let radius = if count as f32 > LOOKUP_PHOTONS {
+            radius.min(self.cell_size * (LOOKUP_PHOTONS / (std::f32::consts::PI * count as f32)).sqrt())
+        } else {
+            radius
+        };
         let q = Query { position: p, normal: n, radius, normal_check: NormalCheck::SameSide { cos_min: 0.5 } };
         let mut total = 0.0f32;
         let mut chosen: Option<(Photon, f32)> = None;

@@ -460,6 +460,17 @@ impl PhotonMap {
         }
     }
 
+    /// Photons in the grid bucket of `p`'s cell: an upper bound on the photons within one
+    /// cell of `p` (buckets may hold colliding cells), a local density estimate for lookups.
+    #[inline]
+    pub fn bucket_count(&self, p: Vec3) -> usize {
+        if self.photons.is_empty() || !p.is_finite() {
+            return 0;
+        }
+        let b = hash_cell(cell_coord(p, self.inv_cell), self.mask) as usize;
+        (self.bucket_start[b + 1] - self.bucket_start[b]) as usize
+    }
+
     /// Full kernel estimate `Σ_p K · Φ̂_p(λc)`: the flux per area arriving at the point, at the
     /// camera path's wavelengths.
     pub fn estimate(&self, q: &Query, lookup: &SpectralLookup) -> SampledSpectrum {
