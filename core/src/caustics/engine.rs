@@ -329,7 +329,10 @@ impl Caustics {
         let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * scene_radius);
         let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
-        let beam_media = world.media.iter().map(|m| m.scatters()).collect();
+        // beams in media whose coefficients are the same everywhere: along a depth-varying or
+        // gridded medium every beam would need two tracked transmittances per camera ray, and
+        // those god rays stay with the path tracer
+        let beam_media = world.media.iter().map(|m| m.scatters() && m.is_homogeneous()).collect();
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), ..Default::default() };
         Some(Caustics {
             fresh_atlas: atlas.clone(),
