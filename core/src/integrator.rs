@@ -504,6 +504,18 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let front = wo_w.dot(s.ng) > 0.0;
         fp_width += fp_spread * hit.t;
         let roles = world.caustic_instances[hit.instance as usize];
+        // the path goes on through the surface unchanged (a null event)
+        macro_rules! pass_through {
+            () => {{
+                ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+                ray.t_max -= hit.t;
+                null_events += 1;
+                if null_events > MAX_NULL_EVENTS {
+                    break;
+                }
+                continue;
+            }};
+        }
         if transparent(roles.transparency, path_flags) {
             // switch-to-transparency: the path goes on as if the surface were not there (a
             // water body's medium still begins and ends at it)
@@ -514,35 +526,17 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     stack.remove(s.instance);
                 }
             }
-            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
-            ray.t_max -= hit.t;
-            null_events += 1;
-            if null_events > MAX_NULL_EVENTS {
-                break;
-            }
-            continue;
+            pass_through!();
         }
         if depth == 0 && !info.visible_to_camera {
             // invisible to the camera: continue as if it were not there
-            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
-            ray.t_max -= hit.t;
-            null_events += 1;
-            if null_events > MAX_NULL_EVENTS {
-                break;
-            }
-            continue;
+            pass_through!();
         }
 
         // stochastic opacity
         let opacity = world.opacity(mat_i, s.uv);
         if opacity < 1.0 && sampler.get1d() >= opacity {
-            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
-            ray.t_max -= hit.t;
-            null_events += 1;
-            if null_events > MAX_NULL_EVENTS {
-                break;
-            }
-            continue;
+            pass_through!();
         }
 
         let boundary = classify_boundary(world, &s, front, &stack, lambda);
