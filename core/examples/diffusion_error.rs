@@ -11,24 +11,10 @@ use std::time::Instant;
 use tide_core::scene::*;
 use tide_core::{Aov, RenderSettings, Renderer};
 
-fn box_mesh(name: &str, lo: Vec3, hi: Vec3) -> MeshDesc {
-    let p = |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    let positions: Vec<Vec3> = (0..8).map(|i| p(i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect();
-    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
-    let mut indices = Vec::new();
-    for q in quads {
-        indices.extend([q[0], q[1], q[2], q[0], q[2], q[3]]);
-    }
-    MeshDesc { name: name.into(), positions, indices, ..Default::default() }
-}
-
-fn look_at(eye: Vec3, target: Vec3) -> Mat4 {
-    let z = (eye - target).normalize();
-    let up = if z.y.abs() > 0.999 { Vec3::Z } else { Vec3::Y };
-    let x = up.cross(z).normalize();
-    let y = z.cross(x);
-    Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), eye.extend(1.0))
-}
+// the render tests' scene builders (box_mesh, look_at, …)
+#[path = "../tests/common.rs"]
+mod common;
+use common::{box_mesh, look_at};
 
 /// Milky water: σs = 10 /m, σa = 0.5 /m (albedo 0.95), isotropic, IOR 1.333. The thick box is
 /// 8 × 2 × 8 m (top at y = 0, 20 mean free paths deep); the thin slab 0.1 m (one mean free

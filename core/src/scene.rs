@@ -312,20 +312,27 @@ impl MeshMotion {
     /// `key[i]·(1−w) + key[i+1]·w`.
     #[inline]
     pub fn locate(&self, time: f32) -> (usize, f32) {
-        let n = self.times.len();
-        if n < 2 || time <= self.times[0] {
-            return (0, 0.0);
-        }
-        if time >= self.times[n - 1] {
-            return (n - 2, 1.0);
-        }
-        let mut i = 0;
-        while i + 2 < n && self.times[i + 1] <= time {
-            i += 1;
-        }
-        let (a, b) = (self.times[i], self.times[i + 1]);
-        (i, if b > a { (time - a) / (b - a) } else { 0.0 })
+        locate_key(&self.times, time)
     }
+}
+
+/// Key segment of increasing key `times` at `time` and the weight of the later key (values are
+/// `key[i]·(1−w) + key[i+1]·w`; held at the first and last keys outside them).
+#[inline]
+pub fn locate_key(times: &[f32], time: f32) -> (usize, f32) {
+    let n = times.len();
+    if n < 2 || time <= times[0] {
+        return (0, 0.0);
+    }
+    if time >= times[n - 1] {
+        return (n - 2, 1.0);
+    }
+    let mut i = 0;
+    while i + 2 < n && times[i + 1] <= time {
+        i += 1;
+    }
+    let (a, b) = (times[i], times[i + 1]);
+    (i, if b > a { (time - a) / (b - a) } else { 0.0 })
 }
 
 impl MeshDesc {

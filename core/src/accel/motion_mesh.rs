@@ -95,19 +95,7 @@ impl MotionTriBlas {
     /// Key segment and weight of the later key at `time` (held outside the keys).
     #[inline]
     fn locate(&self, time: f32) -> (usize, f32) {
-        let n = self.times.len();
-        if time <= self.times[0] {
-            return (0, 0.0);
-        }
-        if time >= self.times[n - 1] {
-            return (n - 2, 1.0);
-        }
-        let mut i = 0;
-        while i + 2 < n && self.times[i + 1] <= time {
-            i += 1;
-        }
-        let (a, b) = (self.times[i], self.times[i + 1]);
-        (i, (time - a) / (b - a))
+        crate::scene::locate_key(&self.times, time)
     }
 
     /// Closest hit (t, triangle, u, v) in (0, t_max) of the mesh as it stands at `time`.
