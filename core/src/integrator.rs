@@ -110,6 +110,22 @@ impl InteriorStack {
             self.len -= 1;
         }
     }
+    /// Crosses the surface at `s` without scattering (a false boundary, a surface switched to
+    /// transparency): entering pushes the object (a dielectric, or a volume's box), leaving
+    /// removes it; other surfaces leave the stack as it is.
+    pub(crate) fn cross(&mut self, world: &World, s: &SurfaceHit, front: bool, lambda: &SampledWavelengths) {
+        if !front {
+            self.remove(s.instance);
+            return;
+        }
+        let mat = &world.materials[world.instances[s.instance as usize].material];
+        if let Some(d) = mat.dielectric() {
+            self.push(Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: mat.interior_medium, volume: false });
+        } else if mat.is_medium_boundary() {
+            self.push(Interior { instance: s.instance, priority: i32::MIN, ior: 1.0, medium: mat.interior_medium, volume: true });
+        }
+    }
+
     /// The stack as it would be after removing `instance`.
     pub fn without(&self, instance: u32) -> InteriorStack {
         let mut s = *self;
@@ -519,12 +535,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if transparent(roles.transparency, path_flags) {
             // switch-to-transparency: the path goes on as if the surface were not there (a
             // water body's medium still begins and ends at it)
-            if let Some(d) = world.materials[mat_i].dielectric() {
-                if front {
-                    stack.push(Interior { instance: s.instance, priority: d.priority, ior: d.ior_at(lambda), medium: world.materials[mat_i].interior_medium, volume: false });
-                } else {
-                    stack.remove(s.instance);
-                }
+            if world.materials[mat_i].dielectric().is_some() {
+                stack.cross(world, &s, front, lambda);
             }
             pass_through!();
         }
@@ -541,15 +553,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
 
         let boundary = classify_boundary(world, &s, front, &stack, lambda);
         if let Boundary::False = boundary {
-            if front {
-                if let Some(mat) = world.materials[mat_i].dielectric() {
-                    stack.push(Interior { instance: s.instance, priority: mat.priority, ior: mat.ior_at(lambda), medium: world.materials[mat_i].interior_medium, volume: false });
-                } else if world.materials[mat_i].is_medium_boundary() {
-                    stack.push(Interior { instance: s.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[mat_i].interior_medium, volume: true });
-                }
-            } else {
-                stack.remove(s.instance);
-            }
+            stack.cross(world, &s, front, lambda);
             ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
             ray.t_max = f32::INFINITY;
             null_events += 1;

@@ -22,6 +22,9 @@
 //! camera ray crosses; a beam contributes through the piece that holds its closest point, so
 //! nothing is counted twice.
 
+// `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::{Vec3, Vec3A};
 use obvhs::{
     aabb::Aabb,
@@ -89,17 +92,12 @@ pub fn closest_approach(a: Vec3, c: Vec3, o: Vec3, d: Vec3) -> Option<Approach> 
 }
 
 /// Beams of one pass with their BVH.
+#[derive(Default)]
 pub struct BeamMap {
     beams: Vec<Beam>,
     /// (beam, s0, s1) of each piece.
     pieces: Vec<(u32, f32, f32)>,
     bvh: Option<CwBvh>,
-}
-
-impl Default for BeamMap {
-    fn default() -> Self {
-        BeamMap { beams: Vec::new(), pieces: Vec::new(), bvh: None }
-    }
 }
 
 impl BeamMap {

@@ -32,15 +32,18 @@
 //! The first pass only trains the atlas (photon weight 0); the second makes up for it with the
 //! weight `(N₁ + N₂)/N₂` ([`Atlas::photon_weight`]).
 
+// `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::atlas::{Atlas, AtlasConfig, AtlasLight, CameraHint, Caster, VisibilityBuffer, VisibilityKind};
 use super::beams::{Beam, BeamMap};
-use super::photon_map::{NormalCheck, Photon, PhotonMap, Query, SpectralKernel, BYTES_PER_PHOTON};
+use super::photon_map::{NormalCheck, Photon, PhotonMap, Query, SpectralKernel};
 use crate::accel::Ray;
 use crate::bsdf::{Bsdf, TransportMode};
-use crate::integrator::{classify_boundary, Boundary, Interior, InteriorStack};
+use crate::integrator::{classify_boundary, Boundary, InteriorStack};
 use crate::light::emit::EmissionDisk;
 use crate::math::{offset_ray_origin, Frame};
 use crate::sampler::{PixelSampler, StreamRng};
@@ -144,8 +147,6 @@ pub struct Caustics {
     /// Stack of dielectrics around each atlas light's photons' start (local lights).
     light_stack: Vec<InteriorStack>,
     config: CausticsConfig,
-    width: u32,
-    height: u32,
     /// Footprint of a camera ray: width at the camera and growth per unit length.
     pixel_w0: f32,
     pixel_spread: f32,
@@ -348,8 +349,6 @@ impl Caustics {
             pair_pl,
             light_stack,
             config,
-            width,
-            height,
             pixel_w0,
             pixel_spread,
             cell_size,
@@ -554,15 +553,7 @@ impl Caustics {
             }
             let boundary = classify_boundary(world, &s_hit, front, &stack, &lambda);
             if let Boundary::False = boundary {
-                if front {
-                    if let Some(d) = world.materials[mat_i].dielectric() {
-                        stack.push(Interior { instance: s_hit.instance, priority: d.priority, ior: d.ior_at(&lambda), medium: world.materials[mat_i].interior_medium, volume: false });
-                    } else if world.materials[mat_i].is_medium_boundary() {
-                        stack.push(Interior { instance: s_hit.instance, priority: i32::MIN, ior: 1.0, medium: world.materials[mat_i].interior_medium, volume: true });
-                    }
-                } else {
-                    stack.remove(s_hit.instance);
-                }
+                stack.cross(world, &s_hit, front, &lambda);
                 null_events += 1;
                 if null_events > 128 {
                     return;
@@ -642,20 +633,18 @@ impl Caustics {
         if a == NO_GROUP {
             return 1.0;
         }
-        let pl = self.pair_pl[a as usize * self.n_groups + g as usize];
-        if pl.is_nan() {
-            return 1.0;
-        }
-        w_light(chain.p_b, pl, self.config.mis_photon_count)
+        self.pair_light_pdf(a, g).map_or(1.0, |pl| w_light(chain.p_b, pl, self.config.mis_photon_count))
+    }
+
+    /// `P_l` of the (atlas light, caster group) pair; None where the pair shoots no photons.
+    #[inline]
+    fn pair_light_pdf(&self, light: u32, group: u32) -> Option<f32> {
+        Some(self.pair_pl[light as usize * self.n_groups + group as usize]).filter(|pl| !pl.is_nan())
     }
 
     fn photon_weight_mis(&self, cell: u32, p_b: f32) -> f32 {
         let Some(pair) = self.atlas.pair_of_cell(cell) else { return 0.0 };
-        let pl = self.pair_pl[pair.light as usize * self.n_groups + pair.caster as usize];
-        if pl.is_nan() {
-            return 0.0;
-        }
-        1.0 - w_light(p_b, pl, self.config.mis_photon_count)
+        self.pair_light_pdf(pair.light, pair.caster).map_or(0.0, |pl| 1.0 - w_light(p_b, pl, self.config.mis_photon_count))
     }
 
     /// Lookup radius for a path whose footprint has width `width` at this vertex.
@@ -793,24 +782,14 @@ impl Caustics {
         sum * self.weight
     }
 
-    /// Bytes a photon takes in the map (for reports).
-    pub fn bytes_per_photon() -> usize {
-        BYTES_PER_PHOTON
-    }
-
-    pub fn image_size(&self) -> (u32, u32) {
-        (self.width, self.height)
-    }
 }
 
 /// Width of a camera ray's footprint at the camera (orthographic) and its angular growth
 /// (perspective), measured between the rays through the image centre and one pixel over.
 fn pixel_footprint(world: &World, width: u32, height: u32) -> (f32, f32) {
     let c = Vec2::new(width as f32 * 0.5, height as f32 * 0.5);
-    let t = world.camera.shutter.0;
     let a = world.camera.generate_ray(c, Vec2::splat(0.5), 0.0);
     let b = world.camera.generate_ray(c + Vec2::X, Vec2::splat(0.5), 0.0);
-    let _ = t;
     let spread = a.d.angle_between(b.d);
     let w0 = (a.o - b.o).length();
     (if w0.is_finite() { w0 } else { 0.0 }, if spread.is_finite() { spread } else { 0.0 })
