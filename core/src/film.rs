@@ -25,8 +25,14 @@ pub struct SampleValue {
     pub split: [[f32; 3]; N_SPLIT],
 }
 
-/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 3 per category.
-const ACC: usize = 10 + 3 * N_SPLIT;
+/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 3 per category, then the
+/// colour's luminance and its square (the noise estimate of adaptive sampling).
+const ACC: usize = 12 + 3 * N_SPLIT;
+const ACC_Y: usize = 10 + 3 * N_SPLIT;
+
+/// Luminance weights of a sample's colour for the noise estimate (Rec. 709 Y; in other
+/// rendering spaces it is still a fixed positive mix of the channels).
+const Y_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Accumulated samples of a rectangle of pixels.
 #[derive(Clone, Debug)]
@@ -36,6 +42,8 @@ pub struct FilmTile {
     pub w: u32,
     pub h: u32,
     sums: Vec<f32>,
+    /// Samples added per pixel.
+    n: Vec<u32>,
     /// depth and primId of each pixel's first sample (not averageable).
     first: Vec<[f32; 2]>,
     has_first: bool,
@@ -44,7 +52,7 @@ pub struct FilmTile {
 impl FilmTile {
     pub fn new(x0: u32, y0: u32, w: u32, h: u32, has_first: bool) -> Self {
         let n = (w * h) as usize;
-        FilmTile { x0, y0, w, h, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], has_first }
+        FilmTile { x0, y0, w, h, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], has_first }
     }
 
     /// Adds one sample to pixel (x, y) (image coordinates inside the tile).
@@ -65,6 +73,10 @@ impl FilmTile {
                 a[10 + 3 * c + k] += v[k];
             }
         }
+        let y = Y_WEIGHTS[0] * s.color[0] + Y_WEIGHTS[1] * s.color[1] + Y_WEIGHTS[2] * s.color[2];
+        a[ACC_Y] += y;
+        a[ACC_Y + 1] += y * y;
+        self.n[i] += 1;
         if first_sample && self.has_first {
             self.first[i] = [s.depth, s.prim_id];
         }
@@ -77,8 +89,10 @@ pub struct Film {
     pub width: u32,
     pub height: u32,
     sums: Vec<f64>,
+    /// Samples each pixel has taken (fewer than `spp` where adaptive sampling stopped it).
+    n: Vec<u32>,
     first: Vec<[f32; 2]>,
-    /// Samples per pixel accumulated.
+    /// Samples per pixel of the passes so far (the most any pixel has).
     pub spp: u32,
     /// Multiplier applied when resolving colour AOVs (camera exposure).
     pub scale: f32,
@@ -91,7 +105,7 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
         let n = (width * height) as usize;
-        Film { width, height, sums: vec![0.0; n * ACC], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None }
+        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None }
     }
 
     /// Merges a finished tile of a pass.
@@ -103,6 +117,7 @@ impl Film {
                 for k in 0..ACC {
                     self.sums[dst * ACC + k] += t.sums[src * ACC + k] as f64;
                 }
+                self.n[dst] += t.n[src];
                 if t.has_first {
                     self.first[dst] = t.first[src];
                 }
@@ -113,7 +128,31 @@ impl Film {
     pub fn clear(&mut self) {
         self.sums.iter_mut().for_each(|v| *v = 0.0);
         self.first.iter_mut().for_each(|v| *v = [f32::INFINITY, -1.0]);
+        self.n.iter_mut().for_each(|v| *v = 0);
         self.spp = 0;
+    }
+
+    /// Pixel `i`'s (Σ Y, Σ Y², samples) of its colour samples' luminance (unexposed).
+    pub fn luminance_sums(&self, i: usize) -> (f64, f64, u32) {
+        (self.sums[i * ACC + ACC_Y], self.sums[i * ACC + ACC_Y + 1], self.n[i])
+    }
+
+    /// Samples pixel `i` has taken.
+    pub fn pixel_samples(&self, i: usize) -> u32 {
+        self.n[i]
+    }
+
+    /// Mean samples per pixel over the window.
+    pub fn mean_samples(&self) -> f64 {
+        let [x0, y0, x1, y1] = self.window;
+        let count = ((x1 - x0) as u64 * (y1 - y0) as u64).max(1);
+        let mut total = 0u64;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                total += self.n[(y * self.width + x) as usize] as u64;
+            }
+        }
+        total as f64 / count as f64
     }
 
     /// Resolved pixels of an AOV, row-major from the top, `aov.channels()` per pixel.
@@ -127,9 +166,9 @@ impl Film {
             };
         }
         let mut out = vec![0.0f32; n * ch];
-        let inv = if self.spp > 0 { 1.0 / self.spp as f64 } else { 0.0 };
         let s = self.scale as f64;
         for i in 0..n {
+            let inv = if self.n[i] > 0 { 1.0 / self.n[i] as f64 } else { 0.0 };
             let a = &self.sums[i * ACC..(i + 1) * ACC];
             let o = &mut out[i * ch..(i + 1) * ch];
             match aov {

@@ -4,11 +4,13 @@
 //! plain data goes in ([`scene::SceneDesc`]), images come out.
 
 pub mod accel;
+pub mod adaptive;
 pub mod bsdf;
 pub mod camera;
 pub mod caustics;
 pub mod diffusion;
 pub mod film;
+pub mod filter;
 pub mod integrator;
 pub mod light;
 pub mod math;

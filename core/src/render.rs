@@ -133,6 +133,13 @@ pub struct RenderSettings {
     pub integrator: IntegratorKind,
     /// Settings of the caustics integrator.
     pub caustics: crate::caustics::engine::CausticsConfig,
+    /// The pixel reconstruction filter (`tide:pixelFilter`).
+    pub pixel_filter: crate::filter::PixelFilter,
+    /// Adaptive sampling's noise threshold (`tide:adaptive:threshold`, 0 = off): see
+    /// [`crate::adaptive`].
+    pub adaptive_threshold: f32,
+    /// Samples every pixel takes before adaptive sampling may stop it (0 = automatic).
+    pub adaptive_min_spp: u32,
 }
 
 impl Default for RenderSettings {
@@ -151,6 +158,9 @@ impl Default for RenderSettings {
             time_budget_s: 0.0,
             integrator: IntegratorKind::Path,
             caustics: Default::default(),
+            pixel_filter: Default::default(),
+            adaptive_threshold: 0.0,
+            adaptive_min_spp: 0,
         }
     }
 }
@@ -169,7 +179,11 @@ impl std::error::Error for RenderError {}
 /// Counters of a render so far.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RenderStats {
+    /// Samples per pixel of the passes so far (the most any pixel has).
     pub samples_per_pixel: u32,
+    /// Mean samples per pixel over the image (below `samples_per_pixel` where adaptive
+    /// sampling stopped pixels).
+    pub mean_samples_per_pixel: f64,
     pub render_seconds: f64,
     pub build_seconds: f64,
     pub samples_per_second: f64,
@@ -177,39 +191,6 @@ pub struct RenderStats {
     pub caustics: Option<crate::caustics::engine::CausticsStats>,
     /// Seconds spent tracing photons and building photon maps (part of `render_seconds`).
     pub photon_seconds: f64,
-}
-
-/// Inverse of the standard normal CDF (Acklam's rational approximation, relative error
-/// below 1.2e-9 in f64).
-fn inv_normal_cdf(p: f64) -> f64 {
-    const A: [f64; 6] = [-3.969683028665376e1, 2.209460984245205e2, -2.759285104469687e2, 1.383577518672690e2, -3.066479806614716e1, 2.506628277459239];
-    const B: [f64; 5] = [-5.447609879822406e1, 1.615858368580409e2, -1.556989798598866e2, 6.680131188771972e1, -1.328068155288572e1];
-    const C: [f64; 6] = [-7.784894002430293e-3, -3.223964580411365e-1, -2.400758277161838, -2.549732539343734, 4.374664141464968, 2.938163982698783];
-    const D: [f64; 4] = [7.784695709041462e-3, 3.224671290700398e-1, 2.445134137142996, 3.754408661907416];
-    let p = p.clamp(1e-300, 1.0 - 1e-16);
-    let pl = 0.02425;
-    if p < pl {
-        let q = (-2.0 * p.ln()).sqrt();
-        (((((C[0] * q + C[1]) * q + C[2]) * q + C[3]) * q + C[4]) * q + C[5]) / ((((D[0] * q + D[1]) * q + D[2]) * q + D[3]) * q + 1.0)
-    } else if p <= 1.0 - pl {
-        let q = p - 0.5;
-        let r = q * q;
-        (((((A[0] * r + A[1]) * r + A[2]) * r + A[3]) * r + A[4]) * r + A[5]) * q / (((((B[0] * r + B[1]) * r + B[2]) * r + B[3]) * r + B[4]) * r + 1.0)
-    } else {
-        -inv_normal_cdf(1.0 - p)
-    }
-}
-
-/// The pixel filter: a Gaussian of σ = 0.5 px truncated at 1.5 px (3σ), importance-sampled
-/// exactly per axis so every sample has weight 1 (filter importance sampling).
-pub const FILTER_SIGMA: f32 = 0.5;
-/// Φ(−3): the Gaussian's mass below −3σ.
-const PHI_MINUS_3: f64 = 0.001_349_898_031_630_094_6;
-
-/// Offset (pixels) of a filter sample from the pixel centre.
-pub fn sample_filter(u: f32) -> f32 {
-    let p = PHI_MINUS_3 + u as f64 * (1.0 - 2.0 * PHI_MINUS_3);
-    (FILTER_SIGMA as f64 * inv_normal_cdf(p)) as f32
 }
 
 const TILE: u32 = 16;
@@ -246,6 +227,8 @@ pub struct Renderer {
     camera_stack: crate::integrator::InteriorStack,
     stats: RenderStats,
     caustics: Option<crate::caustics::engine::Caustics>,
+    /// Which pixels still sample (None: adaptive sampling is off).
+    adaptive: Option<crate::adaptive::Adaptive>,
 }
 
 impl Renderer {
@@ -296,7 +279,8 @@ impl Renderer {
         };
         let mut stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
         stats.caustics = caustics.as_ref().map(|c| c.stats().clone());
-        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics })
+        let adaptive = crate::adaptive::Adaptive::new(settings.adaptive_threshold, settings.adaptive_min_spp, &film);
+        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive })
     }
 
     /// Problems found in the input.
@@ -316,7 +300,7 @@ impl Renderer {
         use crate::spectrum::color;
         use rayon::prelude::*;
         use std::sync::atomic::Ordering;
-        if spp == 0 {
+        if spp == 0 || self.converged() {
             return true;
         }
         if self.caustics.is_some() && spp > PHOTON_PASS_MAX_SPP {
@@ -347,6 +331,8 @@ impl Renderer {
         let base = self.film.spp;
         let seed = self.settings.seed;
         let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
+        // camera samples this pass (fewer than spp × pixels once adaptive sampling stops some)
+        let camera_samples = spp as u64 * self.active_pixels() as u64;
         if let Some(c) = self.caustics.as_mut() {
             let t = std::time::Instant::now();
             let world = &self.world;
@@ -357,6 +343,8 @@ impl Renderer {
         let world = &self.world;
         let cs = world.cs;
         let stack = self.camera_stack;
+        let pixel_filter = self.settings.pixel_filter;
+        let adaptive = self.adaptive.as_ref();
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
         let results: Vec<Option<FilmTile>> = self.pool.install(|| {
             tiles
@@ -368,10 +356,13 @@ impl Renderer {
                     let mut tile = FilmTile::new(tx, ty, tw, th, base == 0);
                     for y in ty..ty + th {
                         for x in tx..tx + tw {
+                            if adaptive.is_some_and(|a| !a.is_active(x, y)) {
+                                continue;
+                            }
                             for s in base..base + spp {
                                 let mut sampler = crate::sampler::PixelSampler::new(seed, x, y, s);
                                 let f = sampler.get2d();
-                                let raster = glam::Vec2::new(x as f32 + 0.5 + sample_filter(f.x), y as f32 + 0.5 + sample_filter(f.y));
+                                let raster = glam::Vec2::new(x as f32 + 0.5 + pixel_filter.sample(f.x), y as f32 + 0.5 + pixel_filter.sample(f.y));
                                 let mut lambda = color::sample_wavelengths(sampler.get1d());
                                 let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, caustics);
                                 let filter = world.camera.filter.map(|f| f.sample(&lambda));
@@ -413,7 +404,7 @@ impl Renderer {
             return false;
         }
         if let Some(c) = self.caustics.as_mut() {
-            c.end_pass(spp as u64 * pixels);
+            c.end_pass(camera_samples);
             self.stats.caustics = Some(c.stats().clone());
             self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
         }
@@ -421,12 +412,37 @@ impl Renderer {
             self.film.merge(t);
         }
         self.film.spp += spp;
+        if let Some(a) = self.adaptive.as_mut() {
+            a.update(&self.film);
+        }
         let secs = start.elapsed().as_secs_f64();
         self.stats.render_seconds += secs;
         self.stats.samples_per_pixel = self.film.spp;
         let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
-        self.stats.samples_per_second = px * self.film.spp as f64 / self.stats.render_seconds.max(1e-9);
+        self.stats.mean_samples_per_pixel = self.film.mean_samples();
+        self.stats.samples_per_second = px * self.stats.mean_samples_per_pixel / self.stats.render_seconds.max(1e-9);
         true
+    }
+
+    /// Samples each pixel has taken, row-major from the top (0 outside the data window).
+    pub fn pixel_samples(&self) -> Vec<u32> {
+        (0..(self.film.width * self.film.height) as usize).map(|i| self.film.pixel_samples(i)).collect()
+    }
+
+    /// Whether adaptive sampling has stopped every pixel (always false when it is off).
+    pub fn converged(&self) -> bool {
+        self.adaptive.as_ref().is_some_and(|a| a.converged())
+    }
+
+    /// Pixels still taking samples (all of the window when adaptive sampling is off).
+    pub fn active_pixels(&self) -> usize {
+        match &self.adaptive {
+            Some(a) => a.active_count(),
+            None => {
+                let [x0, y0, x1, y1] = self.film.window;
+                ((x1 - x0) * (y1 - y0)) as usize
+            }
+        }
     }
 
     /// Samples per pixel accumulated so far.
@@ -445,6 +461,8 @@ impl Renderer {
             self.stats.caustics = Some(c.stats().clone());
         }
         self.film.guiding = None;
+        self.adaptive = crate::adaptive::Adaptive::new(self.settings.adaptive_threshold, self.settings.adaptive_min_spp, &self.film);
+        self.stats.mean_samples_per_pixel = 0.0;
     }
 
     /// Resolved pixels of an AOV, row-major from the top row, `aov.channels()` per pixel.
@@ -462,13 +480,19 @@ impl Renderer {
     /// Like [`Renderer::write_exr`] with an output name per AOV (UsdRenderVar names).
     pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
         // the renderer's own figures replace any the caller passed under the same keys
-        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator"];
-        let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:")).cloned().collect();
+        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator", "tide:pixelFilter", "tide:pixelFilter:width"];
+        let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:") && !k.starts_with("tide:adaptive:")).cloned().collect();
         h.push(("tide:spp".into(), self.film.spp.to_string()));
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
         h.push(("tide:renderSeconds".into(), format!("{:.3}", self.stats.render_seconds)));
         h.push(("tide:buildSeconds".into(), format!("{:.3}", self.stats.build_seconds)));
         h.push(("tide:integrator".into(), self.settings.integrator.token().into()));
+        h.push(("tide:pixelFilter".into(), self.settings.pixel_filter.kind.token().into()));
+        h.push(("tide:pixelFilter:width".into(), format!("{}", self.settings.pixel_filter.width)));
+        if self.adaptive.is_some() {
+            h.push(("tide:adaptive:threshold".into(), format!("{}", self.settings.adaptive_threshold)));
+            h.push(("tide:adaptive:meanSpp".into(), format!("{:.2}", self.film.mean_samples())));
+        }
         if let Some(c) = &self.stats.caustics {
             h.push(("tide:caustics:passes".into(), c.passes.to_string()));
             h.push(("tide:caustics:photonsEmitted".into(), c.photons_emitted.to_string()));

@@ -105,6 +105,70 @@ fn one_and_two_threads_give_identical_bits() {
     assert!(max_diff < 1e-4, "{max_diff}");
 }
 
+#[test]
+fn adaptive_sampling_stops_quiet_pixels_deterministically_and_keeps_the_image() {
+    let s = busy_scene();
+    let (w, h) = (32u32, 24u32);
+    let passes = [1u32, 2, 4, 8, 16, 32];
+    let total: u32 = passes.iter().sum();
+    let run = |threads: usize, threshold: f32| {
+        let mut st = settings(w, h, total);
+        st.threads = threads;
+        st.adaptive_threshold = threshold;
+        st.adaptive_min_spp = 4;
+        let mut r = tide_core::Renderer::new(&s, st).unwrap();
+        for p in passes {
+            assert!(r.render_pass(p, None));
+        }
+        r
+    };
+    let a1 = run(1, 0.05);
+    let a2 = run(2, 0.05);
+    let (p1, p2) = (a1.aov_pixels(Aov::Color), a2.aov_pixels(Aov::Color));
+    assert!(p1.iter().zip(&p2).all(|(x, y)| x.to_bits() == y.to_bits()), "adaptive renders differ across thread counts");
+    let n = a1.pixel_samples();
+    assert_eq!(n, a2.pixel_samples());
+    // the sky pixels (a constant dome seen directly) stop as soon as the minimum allows: after
+    // the pass that reaches 4 samples (1 + 2 + 4 = 7); the noisiest keep all 63
+    let (lo, hi) = (*n.iter().min().unwrap(), *n.iter().max().unwrap());
+    assert_eq!((lo, hi), (7, total), "sample counts {lo}..{hi}");
+    let mean = n.iter().map(|&k| k as f64).sum::<f64>() / n.len() as f64;
+    assert!(mean < 0.8 * total as f64, "mean spp {mean}");
+    // each pixel is the mean of its own first samples, so the image agrees with the full render
+    // within the noise: per channel, the image means differ by under 4 standard errors of the
+    // difference (pixel noise of the adaptive image's estimate bounds it from above)
+    let full = run(2, 0.0);
+    for ch in 0..3 {
+        let (ma, sa, _) = channel_stats(&a1, ch, |_, _| true, w);
+        let (mf, sf, _) = channel_stats(&full, ch, |_, _| true, w);
+        // channel_stats' standard error is over pixels (scene variation included), a loose
+        // but fair scale for the sampling difference; 1% covers the stopping rule's own bias
+        assert!((ma - mf).abs() < 0.01 * mf + 0.25 * (sa * sa + sf * sf).sqrt(), "channel {ch}: {ma} vs {mf}");
+    }
+    // with the threshold off every pixel has every sample
+    assert!(full.pixel_samples().iter().all(|&k| k == total));
+    // a stage that is all sky converges: the render ends early
+    let mut sky = SceneDesc::default();
+    sky.lights.push(dome(1.0));
+    sky.camera = camera(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0), 40.0);
+    let mut st = settings(8, 8, 1000);
+    // hero-wavelength sampling leaves a white dome some colour noise per sample: a threshold
+    // of 0.05 is met within a few passes, long before the 1000-sample target
+    st.adaptive_threshold = 0.05;
+    let mut r = tide_core::Renderer::new(&sky, st).unwrap();
+    let mut done = 0;
+    for p in [1u32, 2, 4, 8, 16, 32, 64, 128, 256, 512] {
+        assert!(r.render_pass(p, None));
+        done += p;
+        if r.converged() {
+            break;
+        }
+    }
+    // nothing stops before the default 16 samples, i.e. before the pass ending at 31
+    assert!(r.converged() && (31..1000).contains(&done) && r.samples_per_pixel() == done, "{done}");
+    assert!(r.render_pass(8, None) && r.samples_per_pixel() == done, "a converged render takes no more samples");
+}
+
 fn split_nonzero(s: &SceneDesc) -> [bool; 5] {
     let r = render(s, settings(16, 12, 4));
     let c = r.aov_pixels(Aov::Color);

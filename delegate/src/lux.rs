@@ -439,9 +439,24 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
     s.seed = nonneg_int("tide:seed", 0, p) as u64;
     s.time_budget_s = store.f32_or("tide:time:budget", 0.0, p).max(0.0);
     let adaptive_threshold = store.f32_or("tide:adaptive:threshold", 0.0, p);
-    if adaptive_threshold > 0.0 {
-        p.add("tide:adaptive:threshold", "adaptive sampling is not yet available; every pixel gets the full sample count");
-    }
+    s.adaptive_threshold = if adaptive_threshold >= 0.0 {
+        adaptive_threshold
+    } else {
+        p.add("tide:adaptive:threshold", "must not be negative; adaptive sampling is off");
+        0.0
+    };
+    s.adaptive_min_spp = nonneg_int("tide:adaptive:minSamples", 0, p).min(u32::MAX as i64) as u32;
+    let filter_name = store.token_or("tide:pixelFilter", &["gaussian", "box", "triangle"], "gaussian", p);
+    let kind = tide_core::filter::FilterKind::from_token(filter_name).unwrap_or_default();
+    let width = store.f32_or("tide:pixelFilter:width", 0.0, p);
+    s.pixel_filter = match tide_core::filter::PixelFilter::new(kind, width) {
+        Ok(f) => f,
+        Err(e) => {
+            let f = tide_core::filter::PixelFilter::new(kind, 0.0).unwrap_or_default();
+            p.add("tide:pixelFilter:width", format!("{e}; using {}", f.width));
+            f
+        }
+    };
     let included_purposes = store.get("includedPurposes").and_then(|v| v.to_strings()).unwrap_or(d.included_purposes);
     let color_space = match store.str_opt("renderingColorSpace") {
         None | Some("") => ColorSpace::LinearRec709,
@@ -625,5 +640,38 @@ mod tests {
         assert_eq!(s.products[0].product_name, "out.exr");
         let aovs: Vec<_> = s.products[0].vars.iter().map(|v| v.aov).collect();
         assert_eq!(aovs, vec![Some(tide_core::Aov::Color), Some(tide_core::Aov::Depth)]);
+    }
+
+    #[test]
+    fn pixel_filter_and_adaptive_settings() {
+        use tide_core::filter::FilterKind;
+        let mut p = Problems::new("/Render/S");
+        let s = convert_settings(
+            &st(&[
+                ("tide:pixelFilter", Value::Token("box".into())),
+                ("tide:adaptive:threshold", f(0.02)),
+                ("tide:adaptive:minSamples", Value::Int(32)),
+            ]),
+            &mut p,
+        );
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert_eq!((s.settings.pixel_filter.kind, s.settings.pixel_filter.width), (FilterKind::Box, 1.0));
+        assert_eq!((s.settings.adaptive_threshold, s.settings.adaptive_min_spp), (0.02, 32));
+        // defaults: the Gaussian of width 3, adaptive sampling off
+        let d = convert_settings(&st(&[]), &mut Problems::new("/Render/S"));
+        assert_eq!((d.settings.pixel_filter.kind, d.settings.pixel_filter.width, d.settings.adaptive_threshold), (FilterKind::Gaussian, 3.0, 0.0));
+        // bad values: each named, the rest kept
+        let mut p = Problems::new("/Render/S");
+        let s = convert_settings(
+            &st(&[
+                ("tide:pixelFilter", Value::Token("mitchell".into())),
+                ("tide:pixelFilter:width", f(-2.0)),
+                ("tide:adaptive:threshold", f(-1.0)),
+            ]),
+            &mut p,
+        );
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, vec!["tide:adaptive:threshold", "tide:pixelFilter", "tide:pixelFilter:width"]);
+        assert_eq!((s.settings.pixel_filter.kind, s.settings.pixel_filter.width, s.settings.adaptive_threshold), (FilterKind::Gaussian, 3.0, 0.0));
     }
 }

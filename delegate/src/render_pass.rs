@@ -37,6 +37,10 @@ pub trait Engine {
     fn summary(&self) -> Vec<(String, String)> {
         Vec::new()
     }
+    /// Whether adaptive sampling has stopped every pixel (the job then ends early).
+    fn converged(&self) -> bool {
+        false
+    }
 }
 
 impl Engine for Renderer {
@@ -55,9 +59,15 @@ impl Engine for Renderer {
     fn build_stats(&self) -> Option<BuildStats> {
         Some(Renderer::build_stats(self).clone())
     }
+    fn converged(&self) -> bool {
+        Renderer::converged(self)
+    }
     fn summary(&self) -> Vec<(String, String)> {
         let st = self.stats();
         let mut out = vec![("renderSeconds".to_string(), format!("{:.3}", st.render_seconds))];
+        if st.mean_samples_per_pixel < st.samples_per_pixel as f64 {
+            out.push(("meanSpp".into(), format!("{:.2}", st.mean_samples_per_pixel)));
+        }
         if let Some(c) = &st.caustics {
             out.push(("photonPasses".into(), c.passes.to_string()));
             out.push(("photonsEmitted".into(), c.photons_emitted.to_string()));
@@ -483,6 +493,9 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         }
         next = next.saturating_mul(2);
         if budget > 0.0 && start.elapsed().as_secs_f32() >= budget {
+            break;
+        }
+        if e.converged() {
             break;
         }
     }

@@ -22,7 +22,9 @@ API_SCHEMAS = {
     "TideCameraAPI": {"tide:camera:filter": "none"},
     "TideRenderSettingsAPI": {"tide:integrator": "caustics", "tide:samples": 64,
                               "tide:maxDepth": 64, "tide:adaptive:threshold": 0.0,
-                              "tide:seed": 0, "tide:time:budget": 0.0},
+                              "tide:seed": 0, "tide:time:budget": 0.0,
+                              "tide:adaptive:minSamples": 0, "tide:pixelFilter": "gaussian",
+                              "tide:pixelFilter:width": 0.0},
 }
 
 # Contract section 3, typed independently of the plugin files.

@@ -2,15 +2,18 @@
 
     tide render [STAGE] [-o OUT.exr] [--settings PRIM] [--camera PATH] [--frame F] [--spp N]
                 [--width W] [--threads N] [--seed S] [--integrator {path,caustics}]
-                [--time-budget SECONDS] [--max-depth N]
+                [--time-budget SECONDS] [--max-depth N] [--pixel-filter {gaussian,box,triangle}]
+                [--pixel-filter-width W] [--adaptive-threshold T]
     tide info STAGE
 
 Flags override the render settings' attributes (contract: the command line wins):
 --spp `tide:samples`, --seed `tide:seed`, --integrator `tide:integrator`, --time-budget
 `tide:time:budget` (rendering stops at the sample target or after this many seconds of
 rendering, whichever comes first; loading and acceleration-structure building are not counted),
---max-depth `tide:maxDepth`. The EXR header records the samples per pixel actually reached
-(`tide:spp`).
+--max-depth `tide:maxDepth`, --pixel-filter `tide:pixelFilter`, --pixel-filter-width
+`tide:pixelFilter:width`, --adaptive-threshold `tide:adaptive:threshold`. The EXR header records
+the samples per pixel actually reached (`tide:spp`; with adaptive sampling the most any pixel
+took, and `tide:adaptive:meanSpp` the mean).
 
 Exit status: 0 when the image was written (or the listing printed), even if the stage has
 problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIBUTE: MESSAGE`
@@ -95,6 +98,13 @@ def build_parser():
                         "reached first (0: no budget; loading is not counted)")
     r.add_argument("--max-depth", type=_nonneg_int, metavar="N",
                    help="maximum path depth (tide:maxDepth)")
+    r.add_argument("--pixel-filter", choices=("gaussian", "box", "triangle"),
+                   help="pixel reconstruction filter (tide:pixelFilter)")
+    r.add_argument("--pixel-filter-width", type=_nonneg_float, metavar="W",
+                   help="the filter's full width in pixels (tide:pixelFilter:width; 0: its default)")
+    r.add_argument("--adaptive-threshold", type=_nonneg_float, metavar="T",
+                   help="stop sampling pixels whose noise is below T (tide:adaptive:threshold; "
+                        "0: off)")
     i = sub.add_parser("info", help="list what would be rendered and every problem found")
     i.add_argument("stage", help="USD stage")
     i.add_argument("--settings", metavar="PRIM")
@@ -200,7 +210,9 @@ def cmd_render(args):
     reader, problems = _make_reader(args, stage, delegate, spp=args.spp, width=args.width,
                                     seed=args.seed, threads=args.threads,
                                     integrator=args.integrator, time_budget=args.time_budget,
-                                    max_depth=args.max_depth)
+                                    max_depth=args.max_depth, pixel_filter=args.pixel_filter,
+                                    pixel_filter_width=args.pixel_filter_width,
+                                    adaptive_threshold=args.adaptive_threshold)
     _print_problems(problems)
     if reader.camera_path is None:
         raise RuntimeError("nothing to render: the stage has no camera")
@@ -233,9 +245,13 @@ def cmd_render(args):
     render_s = time.monotonic() - t1
     _print_problems(reader.commit())
     w, h = reader.resolution
+    summary = rp.summary() if hasattr(rp, "summary") else {}
+    # with adaptive sampling the pixels' mean sample count is below the passes' count
+    mean_spp = float(summary["meanSpp"]) if "meanSpp" in summary else None
 
     def make_header(spp):
-        sps = w * h * spp / render_s if render_s > 0 else 0.0
+        n = mean_spp if mean_spp is not None else spp
+        sps = w * h * n / render_s if render_s > 0 else 0.0
         return sps, _header(args, reader, spp, load_s, render_s, sps)
 
     spp = target
@@ -249,9 +265,9 @@ def cmd_render(args):
         spp = reached
         sps, header = make_header(spp)
         _write(delegate, outputs, header, color_space, png=False)
-    sys.stdout.write("tide: wrote %s (%dx%d, %d spp, load %.2fs, render %.2fs, %.3g samples/s)\n"
-                     % (", ".join(written), w, h, spp, load_s, render_s, sps))
-    summary = rp.summary() if hasattr(rp, "summary") else {}
+    adaptive = " (adaptive: mean %.1f)" % mean_spp if mean_spp is not None else ""
+    sys.stdout.write("tide: wrote %s (%dx%d, %d spp%s, load %.2fs, render %.2fs, %.3g samples/s)\n"
+                     % (", ".join(written), w, h, spp, adaptive, load_s, render_s, sps))
     if "photonsStored" in summary:
         mib = int(summary.get("photonMapPeakBytes", "0")) / float(1 << 20)
         capped = int(summary.get("photonPassesCapped", "0"))

@@ -76,10 +76,12 @@ CAMERA_ATTRS = {
 }
 SETTINGS_TIDE = {
     "tide:integrator": "caustics", "tide:samples": 64, "tide:maxDepth": 64,
-    "tide:adaptive:threshold": 0.0, "tide:seed": 0, "tide:time:budget": 0.0,
+    "tide:adaptive:threshold": 0.0, "tide:adaptive:minSamples": 0, "tide:seed": 0,
+    "tide:time:budget": 0.0, "tide:pixelFilter": "gaussian", "tide:pixelFilter:width": 0.0,
 }
 ALLOWED_TOKENS = {
     "tide:integrator": ("path", "caustics"),
+    "tide:pixelFilter": ("gaussian", "box", "triangle"),
     "tide:camera:filter": ("none", "underwaterRed"),
     "projection": ("perspective", "orthographic"),
     "orientation": ("rightHanded", "leftHanded"),
@@ -113,7 +115,8 @@ class Options:
 
     def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
                  seed=None, threads=None, output=None, integrator=None, time_budget=None,
-                 max_depth=None):
+                 max_depth=None, pixel_filter=None, pixel_filter_width=None,
+                 adaptive_threshold=None):
         self.settings = settings
         self.camera = camera
         self.frame = frame
@@ -125,6 +128,9 @@ class Options:
         self.integrator = integrator
         self.time_budget = time_budget
         self.max_depth = max_depth
+        self.pixel_filter = pixel_filter
+        self.pixel_filter_width = pixel_filter_width
+        self.adaptive_threshold = adaptive_threshold
 
 
 # ---------------------------------------------------------------------------------------------
@@ -624,6 +630,18 @@ class Reader:
             st.set("tide:time:budget", ("float", float(o.time_budget)))
         if o.max_depth is not None:
             st.set("tide:maxDepth", ("int", int(o.max_depth)))
+        if o.pixel_filter is not None:
+            if o.pixel_filter not in ALLOWED_TOKENS["tide:pixelFilter"]:
+                raise LookupError("unknown pixel filter '%s' (expected one of: %s)"
+                                  % (o.pixel_filter, ", ".join(ALLOWED_TOKENS["tide:pixelFilter"])))
+            st.set("tide:pixelFilter", ("token", str(o.pixel_filter)))
+            if o.pixel_filter_width is None:
+                # the settings' width was meant for their filter: the new one takes its own
+                st.set("tide:pixelFilter:width", ("float", 0.0))
+        if o.pixel_filter_width is not None:
+            st.set("tide:pixelFilter:width", ("float", float(o.pixel_filter_width)))
+        if o.adaptive_threshold is not None:
+            st.set("tide:adaptive:threshold", ("float", float(o.adaptive_threshold)))
         self.sample_target = st.values["tide:samples"][0][1][1]
         st.set("timeCodesPerSecond", ("float", float(stage.GetTimeCodesPerSecond())))
 
