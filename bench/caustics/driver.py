@@ -68,10 +68,12 @@ class Runner:
     def tide_render(self, scene, integ, budget, seed, tag, max_depth=None):
         od = os.path.join(self.a.out, scene)
         os.makedirs(od, exist_ok=True)
-        base = os.path.join(od, "tide_%s_%s" % (integ, tag))
+        # renders with another pixel filter than Tide's default are told apart by name
+        ftag = "" if self.a.pixel_filter == "gaussian" else "_" + self.a.pixel_filter
+        base = os.path.join(od, "tide_%s_%s%s" % (integ, tag, ftag))
         if self._done(base):
             return base
-        log("tide %s %s %gs seed %d" % (scene, integ, budget, seed))
+        log("tide %s %s %gs seed %d filter %s" % (scene, integ, budget, seed, self.a.pixel_filter))
         stage = os.path.join(self.a.bench, "scenes", scene + ".usda")
         load_before = os.getloadavg()
         t = time.perf_counter()
@@ -79,7 +81,8 @@ class Runner:
         subprocess.run([self.tide, "render", stage, "--integrator", integ, "--time-budget",
                         str(budget), "--spp", "1000000", "--threads", str(self.a.threads),
                         "--seed", str(seed), "--max-depth", str(max_depth or self.a.max_depth),
-                        "-o", base + ".exr"], check=True, stdout=subprocess.DEVNULL)
+                        "--pixel-filter", self.a.pixel_filter, "-o", base + ".exr"],
+                       check=True, stdout=subprocess.DEVNULL)
         wall = time.perf_counter() - t
         out = subprocess.run([self.tide_py, self.conv, base + ".exr", base + ".npy"], check=True,
                              capture_output=True, text=True)
@@ -92,6 +95,7 @@ class Runner:
                     time_s=secs, spp=spp, samples_per_s=spp * img.shape[0] * img.shape[1] / secs,
                     build_s=float(hdr.get("tide:buildSeconds", "nan")), wall_s=wall,
                     threads=self.a.threads, max_depth=max_depth or self.a.max_depth,
+                    pixel_filter=hdr.get("tide:pixelFilter"),
                     nan_pixels=int(np.isnan(img).any(-1).sum()), loadavg_before=load_before,
                     loadavg_after=os.getloadavg())
         with open(base + ".json", "w") as fh:
@@ -240,6 +244,9 @@ def main():
     ap.add_argument("--max-depth", type=int, default=64)
     ap.add_argument("--units-budget", type=float, default=20.0,
                     help="seconds of each direct-lighting render of the sphere units check")
+    ap.add_argument("--pixel-filter", default="box", choices=("box", "gaussian", "triangle"),
+                    help="Tide's pixel filter (default box: the Mitsuba scenes' rfilter, so both "
+                         "renderers estimate the same pixel integral)")
     ap.add_argument("--reuse", action="store_true", help="keep renders already in OUT")
     a = ap.parse_args()
     a.bench, a.repo, a.out = (os.path.abspath(p) for p in (a.bench, a.repo, a.out))
@@ -248,9 +255,11 @@ def main():
     T = a.budget
     tag = "t%g" % T
     results = dict(budget_s=T, ref_budget_s=a.ref_budget, threads=a.threads, max_depth=a.max_depth,
+                   pixel_filter=a.pixel_filter,
                    caustics_integrator=a.caustics_integrator, ref_integrator=a.ref_integrator,
                    scenes={})
-    lines = ["# Equal-time caustics benchmark: T = %g s, %d threads, max depth %d" % (T, a.threads, a.max_depth), ""]
+    lines = ["# Equal-time caustics benchmark: T = %g s, %d threads, max depth %d, Tide pixel filter %s"
+             % (T, a.threads, a.max_depth, a.pixel_filter), ""]
     if a.caustics_integrator != "caustics" or a.ref_integrator != "caustics":
         lines.append("**Dry run of the harness**: the 'Tide caustics' column is rendered with Tide `%s` "
                      "and the pool / underwater references with Tide `%s`." % (a.caustics_integrator, a.ref_integrator))

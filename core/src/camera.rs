@@ -218,12 +218,127 @@ impl Camera {
     pub fn position(&self, time: f32) -> Vec3 {
         self.xf.at(time).transform_point3(Vec3::ZERO)
     }
+
+    /// Whether the camera is a pinhole (perspective, no depth of field): the only camera light
+    /// paths can be connected to.
+    pub fn is_pinhole(&self) -> bool {
+        self.projection == Projection::Perspective && self.lens_radius == 0.0
+    }
+
+    /// Where a light-path vertex at `p` lands on a pinhole camera at `time`: its raster
+    /// position and the raster area per unit solid angle there, `dA_raster/dω = s_x s_y f² /
+    /// cos³θ` (s pixels per film unit, f the focal length, θ off the view axis), so a radiance
+    /// `L` arriving from `p` adds `L · filter(raster − pixel) · dA/dω · dω` to a pixel. None when
+    /// the camera is not a pinhole or `p` is outside the near–far range. The camera transform is
+    /// taken as rigid (a scaled camera would change solid angles).
+    pub fn connect(&self, p: Vec3, time: f32) -> Option<(Vec2, f32)> {
+        if !self.is_pinhole() {
+            return None;
+        }
+        let q = self.xf.at(time).inverse().transform_point3(p);
+        let depth = -q.z;
+        if !(depth >= self.near && depth <= self.far) || depth <= 0.0 {
+            return None;
+        }
+        let raster = self.project(p, time)?;
+        let cos = depth / q.length();
+        let sx = self.width as f32 / self.aperture.x;
+        let sy = self.height as f32 / self.aperture.y;
+        Some((raster, sx * sy * self.focal * self.focal / (cos * cos * cos)))
+    }
+
+    /// The part `[t0, t1]` of the segment `o + t·d` whose points project inside the raster
+    /// rectangle `[x0, x1] × [y0, y1]` (pixels) of a pinhole camera at `time`, between its near
+    /// and far planes; None when empty.
+    pub fn frustum_interval(&self, o: Vec3, d: Vec3, t0: f32, t1: f32, time: f32, rect: [f32; 4]) -> Option<(f32, f32)> {
+        if !self.is_pinhole() {
+            return None;
+        }
+        let inv = self.xf.at(time).inverse();
+        let (qo, qd) = (inv.transform_point3(o), inv.transform_vector3(d));
+        // film coordinates of the rectangle's edges
+        let fx = |x: f32| self.offset.x + (x / self.width as f32 - 0.5) * self.aperture.x;
+        let fy = |y: f32| self.offset.y + (0.5 - y / self.height as f32) * self.aperture.y;
+        let (fx0, fx1, fy0, fy1) = (fx(rect[0]), fx(rect[2]), fy(rect[3]), fy(rect[1]));
+        let f = self.focal;
+        let (mut a, mut b) = (t0, t1);
+        // every constraint is linear in t: c0 + c1·t ≥ 0 (with depth = −z > 0,
+        // film x = f·x/depth ≥ fx0 ⟺ f·x − fx0·depth ≥ 0)
+        let cons = [
+            (f * qo.x + fx0 * qo.z, f * qd.x + fx0 * qd.z),
+            (-(f * qo.x) - fx1 * qo.z, -(f * qd.x) - fx1 * qd.z),
+            (f * qo.y + fy0 * qo.z, f * qd.y + fy0 * qd.z),
+            (-(f * qo.y) - fy1 * qo.z, -(f * qd.y) - fy1 * qd.z),
+            (-qo.z - self.near, -qd.z),
+            (self.far + qo.z, qd.z),
+        ];
+        for (c0, c1) in cons {
+            if c1 == 0.0 {
+                if c0 < 0.0 {
+                    return None;
+                }
+            } else {
+                let t = -c0 / c1;
+                if c1 > 0.0 {
+                    a = a.max(t);
+                } else {
+                    b = b.min(t);
+                }
+            }
+        }
+        (a < b && a.is_finite() && b.is_finite()).then_some((a, b))
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use glam::Mat4;
+
+    #[test]
+    fn connections_cover_the_raster_once_per_steradian_and_clip_to_the_frustum() {
+        // ∫ dA/dω over the directions a pinhole sees = the raster's area W·H: estimated with
+        // directions uniform on the sphere, E[dA/dω · 1(seen)] · 4π
+        let xf = Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(0.1, 0.2, 0.3));
+        let cam = Camera::new(&CameraDesc { transforms: vec![xf], times: vec![0.0], ..desc() }, 64, 48, 1.0, false, false);
+        let eye = cam.position(0.0);
+        let mut rng = crate::testing::chi2::TestRng::new(5);
+        let n = 400_000;
+        let mut sum = 0.0f64;
+        let mut sum2 = 0.0f64;
+        for _ in 0..n {
+            let z = 1.0 - 2.0 * rng.next_f32();
+            let phi = std::f32::consts::TAU * rng.next_f32();
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let d = Vec3::new(r * phi.cos(), r * phi.sin(), z);
+            let v = match cam.connect(eye + d * 10.0, 0.0) {
+                Some((p, a)) if p.x >= 0.0 && p.x < 64.0 && p.y >= 0.0 && p.y < 48.0 => a as f64 * 4.0 * std::f64::consts::PI,
+                _ => 0.0,
+            };
+            sum += v;
+            sum2 += v * v;
+        }
+        let mean = sum / n as f64;
+        let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+        assert!((mean - 64.0 * 48.0).abs() < 4.0 * se, "{mean} ± {se} vs {}", 64 * 48);
+        // the frustum interval of a segment crossing the view: its ends project onto the edges
+        let o = eye + xf.transform_vector3(Vec3::new(-30.0, 1.0, -20.0));
+        let d = xf.transform_vector3(Vec3::X);
+        let (a, b) = cam.frustum_interval(o, d, 0.0, 100.0, 0.0, [0.0, 0.0, 64.0, 48.0]).unwrap();
+        let pa = cam.project(o + d * a, 0.0).unwrap();
+        let pb = cam.project(o + d * b, 0.0).unwrap();
+        assert!(pa.x.abs() < 1e-2 && (pb.x - 64.0).abs() < 1e-2, "{pa} {pb}");
+        for t in [a + 0.01, 0.5 * (a + b), b - 0.01] {
+            let p = cam.project(o + d * t, 0.0).unwrap();
+            assert!(p.x > 0.0 && p.x < 64.0 && p.y > 0.0 && p.y < 48.0);
+        }
+        // behind the camera: nothing
+        let o2 = eye + xf.transform_vector3(Vec3::new(-30.0, 0.0, 20.0));
+        assert!(cam.frustum_interval(o2, d, 0.0, 100.0, 0.0, [0.0, 0.0, 64.0, 48.0]).is_none());
+        // a lens (depth of field) cannot be connected to
+        let dof = Camera::new(&CameraDesc { f_stop: 2.8, focus_distance: 5.0, ..desc() }, 64, 48, 1.0, false, false);
+        assert!(!dof.is_pinhole() && dof.connect(Vec3::new(0.0, 0.0, -5.0), 0.0).is_none());
+    }
 
     fn desc() -> CameraDesc {
         CameraDesc { focal_length: 50.0, horizontal_aperture: 36.0, vertical_aperture: 24.0, clipping_range: [0.1, 1000.0], ..Default::default() }

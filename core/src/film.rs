@@ -100,12 +100,15 @@ pub struct Film {
     pub window: [u32; 4],
     /// The `tide:guiding` debug image (3 channels per pixel), set by the caustics integrator.
     pub guiding: Option<Vec<f32>>,
+    /// Light-traced radiance (RGB per pixel) summed over passes, each pass's image weighted by
+    /// its samples per pixel; resolved over `spp` into colour and `tide:caustics`.
+    light: Vec<f64>,
 }
 
 impl Film {
     pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
         let n = (width * height) as usize;
-        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None }
+        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None, light: Vec::new() }
     }
 
     /// Merges a finished tile of a pass.
@@ -129,7 +132,23 @@ impl Film {
         self.sums.iter_mut().for_each(|v| *v = 0.0);
         self.first.iter_mut().for_each(|v| *v = [f32::INFINITY, -1.0]);
         self.n.iter_mut().for_each(|v| *v = 0);
+        self.light.clear();
         self.spp = 0;
+    }
+
+    /// Adds a pass's light-traced image (RGB per pixel, the whole image) with weight `w` (the
+    /// pass's samples per pixel times its photon weight).
+    pub fn add_light(&mut self, image: &[f32], w: f64) {
+        let n = (self.width * self.height) as usize * 3;
+        if image.len() != n || w == 0.0 {
+            return;
+        }
+        if self.light.is_empty() {
+            self.light.resize(n, 0.0);
+        }
+        for (a, &v) in self.light.iter_mut().zip(image) {
+            *a += v as f64 * w;
+        }
     }
 
     /// Pixel `i`'s (Σ Y, Σ Y², samples) of its colour samples' luminance (unexposed).
@@ -155,6 +174,16 @@ impl Film {
         total as f64 / count as f64
     }
 
+    /// Light-traced radiance of pixel `i`, channel `k` (mean over the passes).
+    #[inline]
+    fn light_at(&self, i: usize, k: usize) -> f64 {
+        if self.light.is_empty() || self.spp == 0 {
+            0.0
+        } else {
+            self.light[i * 3 + k] / self.spp as f64
+        }
+    }
+
     /// Resolved pixels of an AOV, row-major from the top, `aov.channels()` per pixel.
     pub fn resolve(&self, aov: Aov) -> Vec<f32> {
         let n = (self.width * self.height) as usize;
@@ -174,7 +203,7 @@ impl Film {
             match aov {
                 Aov::Color => {
                     for k in 0..3 {
-                        o[k] = (a[k] * inv * s) as f32;
+                        o[k] = ((a[k] * inv + self.light_at(i, k)) * s) as f32;
                     }
                     o[3] = (a[3] * inv) as f32;
                 }
@@ -192,8 +221,10 @@ impl Film {
                 }
                 _ => {
                     let c = SPLIT_AOVS.iter().position(|&x| x == aov).unwrap_or(0);
+                    let light = aov == Aov::Caustics;
                     for k in 0..3 {
-                        o[k] = (a[10 + 3 * c + k] * inv * s) as f32;
+                        let l = if light { self.light_at(i, k) } else { 0.0 };
+                        o[k] = ((a[10 + 3 * c + k] * inv + l) * s) as f32;
                     }
                 }
             }

@@ -392,8 +392,14 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             // photon beams scattered towards the camera along this stretch (on every stretch:
             // god rays lighting the sand that the camera sees matter as much as those seen
             // directly)
+            // (on the camera's first stretch, light tracing has connected the photon stretches
+            // of media it covers to the camera instead)
+            let first_stretch = vertex == 1 && depth == 0 && null_events == 0;
+            // photons (beams, or light-traced connections) carry the caustic transport of this
+            // stretch's scattering vertices
             let beams_here = caustics.is_some_and(|c| c.beams_in(mi));
-            if let Some(c) = caustics.filter(|c| beams_here && c.has_beams(mi)) {
+            let gather_here = beams_here && !(first_stretch && caustics.is_some_and(|c| c.light_traced(mi)));
+            if let Some(c) = caustics.filter(|c| gather_here && c.has_beams(mi)) {
                 let u = sampler.get1d();
                 let l = c.gather_beams(world, ray.o, ray.d, t_surface.min(1e30), mi, lambda, beta.average(), fp_width, fp_spread, u);
                 if !l.is_black() {

@@ -273,10 +273,13 @@ impl Renderer {
             .build()
             .map_err(|e| RenderError(format!("cannot start render threads: {e}")))?;
         let camera_stack = crate::integrator::initial_stack(&world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
-        let caustics = match settings.integrator {
+        let mut caustics = match settings.integrator {
             IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(&world, w, h, settings.caustics),
             IntegratorKind::Path => None,
         };
+        if let Some(c) = caustics.as_mut() {
+            c.set_image(settings.pixel_filter, film.window);
+        }
         let mut stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
         stats.caustics = caustics.as_ref().map(|c| c.stats().clone());
         let adaptive = crate::adaptive::Adaptive::new(settings.adaptive_threshold, settings.adaptive_min_spp, &film);
@@ -411,6 +414,10 @@ impl Renderer {
         for t in results.iter().flatten() {
             self.film.merge(t);
         }
+        if let Some(c) = self.caustics.as_ref() {
+            let (image, weight) = c.light_image();
+            self.film.add_light(image, spp as f64 * weight as f64);
+        }
         self.film.spp += spp;
         if let Some(a) = self.adaptive.as_mut() {
             a.update(&self.film);
@@ -499,6 +506,7 @@ impl Renderer {
             h.push(("tide:caustics:photonsStored".into(), c.photons_stored.to_string()));
             h.push(("tide:caustics:peakPhotonBytes".into(), c.peak_map_bytes.to_string()));
             h.push(("tide:caustics:pairs".into(), c.pairs.to_string()));
+            h.push(("tide:caustics:lightConnections".into(), c.light_connections.to_string()));
         }
         self.film.write_exr(path, aovs, &h)
     }

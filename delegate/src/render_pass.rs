@@ -75,6 +75,7 @@ impl Engine for Renderer {
             out.push(("photonMapPeakBytes".into(), c.peak_map_bytes.to_string()));
             out.push(("photonPassesCapped".into(), c.capped_passes.to_string()));
             out.push(("photonSeconds".into(), format!("{:.3}", st.photon_seconds)));
+            out.push(("lightConnections".into(), c.light_connections.to_string()));
         }
         out
     }

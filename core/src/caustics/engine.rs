@@ -47,6 +47,7 @@ use crate::integrator::{classify_boundary, Boundary, InteriorStack};
 use crate::light::emit::EmissionDisk;
 use crate::math::{offset_ray_origin, Frame};
 use crate::sampler::{PixelSampler, StreamRng};
+use super::light_tracing::{LightTracer, Splat};
 use crate::scene::CausticsTransparency;
 use crate::spectrum::{color, SampledSpectrum, SampledWavelengths};
 use crate::world::World;
@@ -68,11 +69,14 @@ pub struct CausticsConfig {
     /// Photon beams kept per pixel and pass (beams of more photons are kept at random, with
     /// their flux scaled up accordingly).
     pub beams_per_pixel: f32,
+    /// Connect photon stretches in the camera's medium to a pinhole camera (light tracing of
+    /// the god rays seen directly; see [`super::light_tracing`]).
+    pub light_tracing: bool,
 }
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25 }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, light_tracing: true }
     }
 }
 
@@ -94,6 +98,8 @@ pub struct CausticsStats {
     pub atlas_utilization: f32,
     /// Passes whose photon count was cut to the memory budget.
     pub capped_passes: u32,
+    /// Photon stretches connected to the camera (light tracing), all passes.
+    pub light_connections: u64,
 }
 
 /// A caustic chain a camera path is on: it left a non-specular receiver vertex with BSDF pdf
@@ -163,6 +169,10 @@ pub struct Caustics {
     scene_radius: f32,
     disk: EmissionDisk,
     kernel: SpectralKernel,
+    /// Connections of photon stretches to the camera (None: off, or no camera medium to do it in).
+    light_tracer: Option<LightTracer>,
+    /// This pass's light-traced image (RGB per pixel, before the pass's photon weight).
+    light_image: Vec<f32>,
     /// Photon contribution scale of the current pass.
     weight: f32,
     mean_energy: f32,
@@ -342,9 +352,18 @@ impl Caustics {
         // beams in media whose coefficients are the same everywhere: along a depth-varying or
         // gridded medium every beam would need two tracked transmittances per camera ray, and
         // those god rays stay with the path tracer
-        let beam_media = world.media.iter().map(|m| m.scatters() && m.is_homogeneous()).collect();
+        let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && m.is_homogeneous()).collect();
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), ..Default::default() };
+        let light_tracer = if config.light_tracing {
+            let t = world.camera.shutter.0;
+            let camera_medium = crate::integrator::initial_stack(world, world.camera.position(t), t).medium();
+            LightTracer::new(world, &beam_media, camera_medium)
+        } else {
+            None
+        };
         Some(Caustics {
+            light_tracer,
+            light_image: Vec::new(),
             fresh_atlas: atlas.clone(),
             atlas,
             vis,
@@ -406,10 +425,10 @@ impl Caustics {
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
         let keep_beam = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
-        let parts: Vec<(Vec<Photon>, Vec<Beam>)> = (0..chunks)
+        let parts: Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)> = (0..chunks)
             .into_par_iter()
             .map(|c| {
-                let mut out = (Vec::new(), Vec::new());
+                let mut out = (Vec::new(), Vec::new(), Vec::new());
                 let start = c * CHUNK;
                 let end = (start + CHUNK).min(n as usize);
                 for i in start..end {
@@ -420,9 +439,25 @@ impl Caustics {
             .collect();
         let mut photons = Vec::new();
         let mut beams = Vec::new();
-        for (p, b) in parts {
+        // splats are summed in chunk order: the image is the same for any thread count
+        let (w, h) = (world.camera.width as usize, world.camera.height as usize);
+        self.light_image.clear();
+        let mut splats = Vec::new();
+        for (p, b, sp) in parts {
             photons.extend(p);
             beams.extend(b);
+            if !sp.is_empty() {
+                if self.light_image.is_empty() {
+                    self.light_image.resize(w * h * 3, 0.0);
+                }
+                for s in &sp {
+                    let o = s.pixel as usize * 3;
+                    for k in 0..3 {
+                        self.light_image[o + k] += s.rgb[k];
+                    }
+                }
+                splats.extend(sp.into_iter().filter(|s| s.energy > 0.0).map(|s| (s.cell, s.energy)));
+            }
         }
         let beam_cap = (self.config.memory_limit_bytes / 2 / (super::beams::BYTES_PER_BEAM + 64)).max(1);
         beams.truncate(beam_cap);
@@ -441,6 +476,32 @@ impl Caustics {
         self.stats.photons_last_pass = stored;
         self.stats.peak_map_bytes = self.stats.peak_map_bytes.max(self.map.memory_bytes() + self.beams.memory_bytes());
         self.vis.clear();
+        // the connections that reached the camera are this pass's first guiding signal
+        let inv_mean = 1.0 / self.mean_energy.max(1e-30);
+        self.stats.light_connections += splats.len() as u64;
+        for (cell, energy) in splats {
+            self.vis.record(cell, VisibilityKind::Volume, energy * inv_mean);
+        }
+    }
+
+    /// The light-traced image of the pass just traced (RGB per pixel over the whole image,
+    /// empty when nothing connected) and the weight it takes in this pass (the photons').
+    pub fn light_image(&self) -> (&[f32], f32) {
+        (&self.light_image, self.weight)
+    }
+
+    /// Sets the pixel filter and data window the light-traced splats land on.
+    pub fn set_image(&mut self, filter: crate::filter::PixelFilter, window: [u32; 4]) {
+        if let Some(lt) = self.light_tracer.as_mut() {
+            lt.set_image(filter, window);
+        }
+    }
+
+    /// Whether photon stretches in medium `m` are connected to the camera, so that the camera's
+    /// first stretch in it gathers no beams.
+    #[inline]
+    pub fn light_traced(&self, m: usize) -> bool {
+        self.light_tracer.as_ref().is_some_and(|lt| lt.covers(m))
     }
 
     /// Drops a cancelled pass's visibility (the atlas is unchanged; its photons are replaced
@@ -457,7 +518,7 @@ impl Caustics {
 
     /// One photon path; stored photons are appended to `out`.
     #[allow(clippy::too_many_arguments)]
-    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: f32, out: &mut (Vec<Photon>, Vec<Beam>)) {
+    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: f32, out: &mut (Vec<Photon>, Vec<Beam>, Vec<Splat>)) {
         let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
         let ua = smp.get2d();
         let s = self.atlas.sample([ua.x, ua.y]);
@@ -514,6 +575,11 @@ impl Caustics {
             let Some(hit) = world.accel.intersect(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
             if let Some(m) = stack.medium() {
+                if let Some(lt) = self.light_tracer.as_ref().filter(|lt| bounces > 0 && lt.covers(m)) {
+                    let u = stream.next_f32();
+                    let mut rng = || stream.next_f32();
+                    lt.connect(world, ray.o, ray.d, hit.t, m, beta, &lambda, time, s.cell, u, &mut rng, |p_b| self.photon_weight_mis(s.cell, p_b), &mut out.2);
+                }
                 if bounces > 0 && keep_beam > 0.0 && self.beam_media[m] && stream.next_f32() < keep_beam {
                     let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
                     if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {

@@ -3,6 +3,8 @@
 //!
 //! - [`photon_map`]: spectral photons, a deterministic hashed grid, radius queries with a normal
 //!   check and a disk kernel, and stochastic single-photon selection.
+//! - [`light_tracing`]: photon stretches in the camera's medium connected to a pinhole camera
+//!   (god rays seen directly), with equi-angular sampling.
 //! - [`atlas`]: the light–object guiding atlas: one 2D table packing a rectangle per (light,
 //!   caster) pair, sampled to emit photons towards casters' bounding spheres, learned from a
 //!   fixed-point visibility signal.
@@ -24,6 +26,7 @@
 pub mod atlas;
 pub mod beams;
 pub mod engine;
+pub mod light_tracing;
 pub mod photon_map;
 
 #[cfg(test)]

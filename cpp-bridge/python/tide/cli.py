@@ -271,11 +271,14 @@ def cmd_render(args):
     if "photonsStored" in summary:
         mib = int(summary.get("photonMapPeakBytes", "0")) / float(1 << 20)
         capped = int(summary.get("photonPassesCapped", "0"))
+        connected = int(summary.get("lightConnections", "0"))
         sys.stdout.write("tide: caustics: %s photon passes, %s photons shot, %s stored, "
-                         "peak photon map %.1f MiB%s, photon tracing %ss\n"
+                         "peak photon map %.1f MiB%s%s, photon tracing %ss\n"
                          % (summary["photonPasses"], summary["photonsEmitted"],
                             summary["photonsStored"], mib,
                             " (%d passes cut to the memory budget)" % capped if capped else "",
+                            ", %d photon stretches connected to the camera" % connected
+                            if connected else "",
                             summary.get("photonSeconds", "?")))
     return EXIT_OK
 
