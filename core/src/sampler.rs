@@ -53,9 +53,48 @@ const fn sobol_directions() -> [[u32; 32]; 4] {
 
 static DIRECTIONS: [[u32; 32]; 4] = sobol_directions();
 
+/// The generator matrices applied a byte at a time: entry `[d][b][v]` is the XOR of the
+/// direction numbers of dimension `d` selected by the bits of byte value `v` at byte `b` of the
+/// index (16 KiB in all, so a point costs four table reads instead of a loop over 32 bits).
+const fn sobol_byte_tables() -> [[[u32; 256]; 4]; 4] {
+    let dirs = sobol_directions();
+    let mut t = [[[0u32; 256]; 4]; 4];
+    let mut d = 0;
+    while d < 4 {
+        let mut b = 0;
+        while b < 4 {
+            let mut v = 0;
+            while v < 256 {
+                let mut x = 0u32;
+                let mut k = 0;
+                while k < 8 {
+                    if (v >> k) & 1 != 0 {
+                        x ^= dirs[d][b * 8 + k];
+                    }
+                    k += 1;
+                }
+                t[d][b][v] = x;
+                v += 1;
+            }
+            b += 1;
+        }
+        d += 1;
+    }
+    t
+}
+
+static BYTE_TABLES: [[[u32; 256]; 4]; 4] = sobol_byte_tables();
+
 /// The index-th point of Sobol dimension `dim` (0..4) as a 32-bit fixed-point fraction.
 #[inline]
-pub fn sobol_u32(mut index: u32, dim: usize) -> u32 {
+pub fn sobol_u32(index: u32, dim: usize) -> u32 {
+    let t = &BYTE_TABLES[dim & 3];
+    t[0][(index & 0xff) as usize] ^ t[1][((index >> 8) & 0xff) as usize] ^ t[2][((index >> 16) & 0xff) as usize] ^ t[3][(index >> 24) as usize]
+}
+
+/// [`sobol_u32`] the slow way, bit by bit (the reference the tables are checked against).
+#[cfg(test)]
+fn sobol_u32_bitwise(mut index: u32, dim: usize) -> u32 {
     let dirs = &DIRECTIONS[dim];
     let mut x = 0u32;
     let mut k = 0;
@@ -109,21 +148,48 @@ fn to_unit_float(x: u32) -> f32 {
     (x >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
+/// `hash_u32(d + 1)` for the four dimensions of a group (their per-dimension scramble salts).
+const DIM_HASH: [u32; 4] = [hash_u32_const(1), hash_u32_const(2), hash_u32_const(3), hash_u32_const(4)];
+
+const fn hash_u32_const(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x21f0_aaad);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x735a_2d97);
+    x ^= x >> 15;
+    x
+}
+
+/// `hash_combine(seed, d + 1)` with the hash of `d + 1` from [`DIM_HASH`].
+#[inline]
+fn dim_seed(seed: u32, d: usize) -> u32 {
+    seed ^ (DIM_HASH[d].wrapping_add(0x9e37_79b9).wrapping_add(seed << 6).wrapping_add(seed >> 2))
+}
+
+/// Dimension `d` of a group's point, from its shuffled index `i` and group seed.
+#[inline]
+fn sobol_dim(i: u32, seed: u32, d: usize) -> f32 {
+    to_unit_float(nested_uniform_scramble(sobol_u32(i, d), dim_seed(seed, d)))
+}
+
 /// Four dimensions of the shuffled, Owen-scrambled Sobol sequence for one (pixel, group).
 #[inline]
 pub fn sobol4(index: u32, seed: u32) -> [f32; 4] {
     let i = nested_uniform_scramble(index, seed);
-    std::array::from_fn(|d| to_unit_float(nested_uniform_scramble(sobol_u32(i, d), hash_combine(seed, d as u32 + 1))))
+    std::array::from_fn(|d| sobol_dim(i, seed, d))
 }
 
 /// The sample stream of one pixel sample: dimensions are drawn in order; each group of four
 /// consecutive dimensions is a 4D Owen-scrambled Sobol point decorrelated by its own hash.
+/// A group's dimensions are computed when drawn (paths often use only some of them).
 #[derive(Clone, Debug)]
 pub struct PixelSampler {
     pixel_seed: u32,
     index: u32,
     group: u32,
-    buf: [f32; 4],
+    /// The current group's seed and shuffled index.
+    seed: u32,
+    shuffled: u32,
     used: usize,
 }
 
@@ -131,12 +197,13 @@ impl PixelSampler {
     /// `seed` is the render's seed, `(x, y)` the pixel, `index` the sample number in the pixel.
     pub fn new(seed: u64, x: u32, y: u32, index: u32) -> Self {
         let s = hash_combine(hash_combine(hash_u32(seed as u32) ^ hash_u32((seed >> 32) as u32), x), y);
-        PixelSampler { pixel_seed: s, index, group: 0, buf: [0.0; 4], used: 4 }
+        PixelSampler { pixel_seed: s, index, group: 0, seed: 0, shuffled: 0, used: 4 }
     }
 
     #[inline]
     fn refill(&mut self) {
-        self.buf = sobol4(self.index, hash_combine(self.pixel_seed, self.group));
+        self.seed = hash_combine(self.pixel_seed, self.group);
+        self.shuffled = nested_uniform_scramble(self.index, self.seed);
         self.group += 1;
         self.used = 0;
     }
@@ -147,7 +214,7 @@ impl PixelSampler {
         if self.used >= 4 {
             self.refill();
         }
-        let v = self.buf[self.used];
+        let v = sobol_dim(self.shuffled, self.seed, self.used);
         self.used += 1;
         v
     }
@@ -158,7 +225,7 @@ impl PixelSampler {
         if self.used > 2 {
             self.refill();
         }
-        let v = glam::Vec2::new(self.buf[self.used], self.buf[self.used + 1]);
+        let v = glam::Vec2::new(sobol_dim(self.shuffled, self.seed, self.used), sobol_dim(self.shuffled, self.seed, self.used + 1));
         self.used += 2;
         v
     }
@@ -220,6 +287,30 @@ mod tests {
         let first = |u: f32, salt: u32| StreamRng::new(u, salt).next_f32();
         assert_ne!(first(0.37, 3), first(0.37, 4));
         assert_ne!(first(0.37, 3), first(0.370001, 3));
+    }
+
+    #[test]
+    fn the_byte_tables_equal_the_bitwise_generator_and_lazy_draws_equal_whole_points() {
+        let mut x = 0x1234_5678u32;
+        for _ in 0..20_000 {
+            x = hash_u32(x);
+            for d in 0..4 {
+                assert_eq!(sobol_u32(x, d), sobol_u32_bitwise(x, d), "index {x} dim {d}");
+            }
+        }
+        for (i, d) in [(0u32, 0usize), (1, 1), (255, 2), (256, 3), (u32::MAX, 3)] {
+            assert_eq!(sobol_u32(i, d), sobol_u32_bitwise(i, d));
+        }
+        for d in 0..4 {
+            assert_eq!(DIM_HASH[d], hash_u32(d as u32 + 1));
+        }
+        // drawing one value at a time gives the group's whole 4D point
+        let mut s = PixelSampler::new(9, 3, 4, 77);
+        let a = [s.get1d(), s.get1d(), s.get1d(), s.get1d()];
+        assert_eq!(a, sobol4(77, hash_combine(s.pixel_seed, 0)));
+        let v = s.get2d();
+        let b = sobol4(77, hash_combine(s.pixel_seed, 1));
+        assert_eq!([v.x, v.y], [b[0], b[1]]);
     }
 
     #[test]

@@ -36,6 +36,10 @@ struct TabulatedData {
     lambda: Box<[f32]>,
     value: Box<[f32]>,
     max: f32,
+    /// Intervals per nm if the samples were evenly spaced: the first guess of the interval
+    /// holding a wavelength, corrected by a step or two (or a binary search) where the grid is
+    /// uneven, so the interval found is always the one a search would find.
+    inv_step: f32,
 }
 
 impl Tabulated {
@@ -64,7 +68,21 @@ impl TabulatedData {
         if l >= xs[n - 1] {
             return ys[n - 1];
         }
-        let i = xs.partition_point(|&x| x <= l) - 1;
+        // the interval i with xs[i] <= l < xs[i + 1]
+        let mut i = (((l - xs[0]) * self.inv_step) as usize).min(n - 2);
+        let mut steps = 0;
+        while xs[i] > l || xs[i + 1] <= l {
+            steps += 1;
+            if steps > 2 {
+                i = xs.partition_point(|&x| x <= l) - 1;
+                break;
+            }
+            if xs[i] > l {
+                i -= 1;
+            } else {
+                i += 1;
+            }
+        }
         let t = (l - xs[i]) / (xs[i + 1] - xs[i]);
         ys[i] + t * (ys[i + 1] - ys[i])
     }
@@ -241,7 +259,11 @@ impl Spectrum {
             return Ok(Spectrum::Constant(value[0]));
         }
         // the maximum over [360, 830]: interior samples plus the curve at the two ends
-        let mut t = TabulatedData { lambda: lambda.into(), value: value.into(), max: 0.0 };
+        let mut t = TabulatedData { lambda: lambda.into(), value: value.into(), max: 0.0, inv_step: 0.0 };
+        let n = t.lambda.len();
+        if n > 1 {
+            t.inv_step = (n - 1) as f32 / (t.lambda[n - 1] - t.lambda[0]);
+        }
         let mut max = t.eval(LAMBDA_MIN).max(t.eval(LAMBDA_MAX));
         for (&l, &v) in lambda.iter().zip(value) {
             if (LAMBDA_MIN..=LAMBDA_MAX).contains(&l) {
@@ -295,6 +317,38 @@ impl Spectrum {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn tabulated_lookup_finds_the_searched_interval_on_even_and_uneven_grids() {
+        let mut x = 0x9e37_79b9u32;
+        let mut next = || {
+            x = crate::sampler::hash_u32(x);
+            (x >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let even: Vec<f32> = (0..95).map(|i| 360.0 + 5.0 * i as f32).collect();
+        let mut uneven = vec![300.0f32];
+        for _ in 0..60 {
+            let last = *uneven.last().unwrap();
+            uneven.push(last + 0.1 + 20.0 * next() * next());
+        }
+        for xs in [even, uneven] {
+            let ys: Vec<f32> = xs.iter().map(|l| (l * 0.01).sin().abs()).collect();
+            let t = TabulatedData { lambda: xs.clone().into(), value: ys.clone().into(), max: 0.0, inv_step: (xs.len() - 1) as f32 / (xs[xs.len() - 1] - xs[0]) };
+            for k in 0..20_000 {
+                let l = if k % 7 == 0 { xs[k % xs.len()] } else { xs[0] - 5.0 + (xs[xs.len() - 1] - xs[0] + 10.0) * next() };
+                // the reference: binary search
+                let want = if !(l > xs[0]) {
+                    ys[0]
+                } else if l >= xs[xs.len() - 1] {
+                    ys[xs.len() - 1]
+                } else {
+                    let i = xs.partition_point(|&x| x <= l) - 1;
+                    ys[i] + (l - xs[i]) / (xs[i + 1] - xs[i]) * (ys[i + 1] - ys[i])
+                };
+                assert_eq!(t.eval(l).to_bits(), want.to_bits(), "λ = {l}");
+            }
+        }
+    }
+
     use super::*;
     use crate::spectrum::color::sample_wavelengths;
 
