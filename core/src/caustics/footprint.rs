@@ -52,6 +52,9 @@
 //! the radius at a bright focus). Non-finite results of an event (a grazing angle, a curvature
 //! estimate on a degenerate triangle) leave the cone as it was.
 
+// `!(x > y)` is used on purpose: it rejects NaN along with the out-of-range values.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use glam::{Vec2, Vec3};
 
 /// Spread (radians per unit length) a footprint has at least after a non-specular bounce:
