@@ -32,6 +32,6 @@ pub mod photon_map;
 #[cfg(test)]
 mod tests;
 
-pub use footprint::Footprint;
 pub use atlas::{Atlas, AtlasConfig, AtlasError, AtlasLight, AtlasSample, CameraHint, Caster, EmissionMeasure, PhotonEmission, VisibilityBuffer, VisibilityKind};
+pub use footprint::Footprint;
 pub use photon_map::{NormalCheck, Photon, PhotonError, PhotonMap, Query, SelectedPhoton, SpectralKernel, SpectralLookup};
