@@ -8,9 +8,9 @@
 //! converges). Full ray differentials (Igehy 1999) would carry two position and two direction
 //! differentials per vertex (twelve numbers) and then have to be reduced to one radius anyway,
 //! because a photon lookup is a disk; a cone carries the two numbers the lookup needs, costs
-//! nothing on paths that do not gather photons, and is exact where it matters most — normal
-//! incidence on a curved surface (a lens, a ball, a wave crest seen from above) and any
-//! incidence on a flat interface (see below).
+//! nothing on paths that do not gather photons, and is exact at normal incidence on a curved
+//! surface (a lens, a ball, a wave crest seen from above) and close at any incidence on a flat
+//! interface (see below).
 //!
 //! Travelling `t`: `w ← w + β t`. The width keeps its sign past a focus (the bundle is
 //! inverted there) so that the curvature terms below, which are linear in the signed width,
@@ -36,10 +36,12 @@
 //! - refraction: `w' = w √(cos θₜ / cos θᵢ)`, `β' = (η_r cos θᵢ β + μ κ w) / √(cos θᵢ cos θₜ)`;
 //! - reflection: `w' = w`, `β' = β + 2κw`.
 //!
-//! Why the geometric mean: at a flat interface (`κ = 0`) a bundle from a point (a pinhole
-//! camera, `w = 0` at its apex) keeps `w_t w_s = w'²` at every distance, so the isotropic
-//! disk has exactly the area of the true elliptical footprint, which is what sets how many
-//! photons a lookup reaches; and the étendue `n w β` is conserved as in each section. For a
+//! Why the geometric mean: the area of the footprint sets how many photons a lookup reaches,
+//! and at a flat interface (`κ = 0`) the isotropic disk has the area of the true elliptical
+//! footprint (`w'² = w_t w_s`) at the interface and far beyond it, where widths are spreads
+//! times distance; in between it is smaller only through the cross term, by the factor
+//! `2 / (a + 1/a)` with `a = cos θₜ / cos θᵢ` (0.92 at 60° from air into water). The étendue
+//! `n w β` is conserved as in each section. For a
 //! parallel bundle on a curved surface the isotropic focal distance is the geometric mean of
 //! the tangential and sagittal ones (the astigmatic pair), and both coincide at normal
 //! incidence, where the cone is the paraxial lens formula.
@@ -62,10 +64,10 @@ use glam::{Vec2, Vec3};
 pub const DIFFUSE_SPREAD: f32 = 0.05;
 
 /// Smallest width of a footprint as a fraction of the unfocused pixel cone's width at the same
-/// path length. A paraxial focus is a point; the real bundle's waist is set by spherical
-/// aberration and the pixel filter, which at the focal lengths of glass balls and water waves
-/// keep it above about a tenth of the unfocused cone — 1/8 keeps lookups at a focus that small,
-/// and no smaller.
+/// path length. A paraxial focus is a point, while the real bundle keeps a waist (spherical
+/// aberration, the pixel filter's extent, the lens aperture) that the cone does not model; the
+/// floor lets focusing shrink a lookup's area up to 64× and no further, and where photons are
+/// dense the photon map's own limit (about 48 in reach) shrinks it anyway.
 pub const MIN_WIDTH_FRACTION: f32 = 0.125;
 
 /// Cosines below this are taken as this at specular events: bounds the width change across a
@@ -260,6 +262,16 @@ mod tests {
                 let e0 = n_i * 0.7 * 0.3;
                 let e1 = n_t * h.signed_width() as f64 * h.spread() as f64;
                 assert!((e0 - e1).abs() < 1e-5 * e0, "{deg}°: étendue {e0} {e1}");
+                // the disk's area against the ellipse's at a distance: equal at the interface,
+                // short by at most the cross term's 2/(a + 1/a) in between
+                let a = ct / ci;
+                for dist in [0.0, 0.5, 2.0, 1e4] {
+                    let ellipse = (0.7 * a + 0.3 * beta_t * dist) * (0.7 + 0.3 * beta_s * dist);
+                    let disk = (h.width_at(dist as f32) as f64).powi(2);
+                    let bound = 2.0 / (a + 1.0 / a);
+                    // 1e-4: the finite-difference spreads
+                    assert!(disk <= ellipse * (1.0 + 1e-4) && disk >= ellipse * (bound - 1e-4), "{deg}° at {dist}: {disk} vs {ellipse}");
+                }
             }
         }
     }
