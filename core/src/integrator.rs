@@ -24,6 +24,7 @@ const VOLUME: usize = 3;
 const EMISSION: usize = 4;
 const CAUSTICS: usize = 5;
 use crate::caustics::engine::{Caustics, Chain};
+use crate::caustics::footprint::Footprint;
 use crate::film::N_SPLIT;
 use crate::scene::CausticsTransparency;
 
@@ -340,8 +341,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1.0, ..Default::default() };
     let mut split = [SampledSpectrum::ZERO; N_SPLIT];
-    // the ray footprint (for photon lookup radii): width now and growth per unit length
-    let (mut fp_width, mut fp_spread) = caustics.map_or((0.0, 0.0), |c| c.pixel_footprint());
+    // the ray footprint (for photon lookup radii), carried through specular events
+    let mut fp = caustics.map_or(Footprint::default(), |c| c.pixel_footprint());
     let mut path_flags = 0u8;
     let mut chain: Option<Chain> = None;
     let chain_weight = |li: usize, chain: &Option<Chain>| match (caustics, chain) {
@@ -401,7 +402,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let gather_here = beams_here && !(first_stretch && caustics.is_some_and(|c| c.light_traced(mi)));
             if let Some(c) = caustics.filter(|c| gather_here && c.has_beams(mi)) {
                 let u = sampler.get1d();
-                let l = c.gather_beams(world, ray.o, ray.d, t_surface.min(1e30), mi, lambda, beta.average(), fp_width, fp_spread, u);
+                let l = c.gather_beams(world, ray.o, ray.d, t_surface.min(1e30), mi, lambda, beta.average(), &fp, u);
                 if !l.is_black() {
                     split[CAUSTICS] += beta * l;
                 }
@@ -415,8 +416,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             match world.media[mi].sample_distance(ray.o, ray.d, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
                     beta *= weight;
-                    fp_width += fp_spread * t;
-                    fp_spread = crate::caustics::engine::widen_after_diffuse(fp_spread);
+                    fp.advance(t);
+                    fp.after_diffuse();
                     path_flags |= AFTER_VOLUME;
                     if beta.is_black() {
                         break;
@@ -524,7 +525,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let mat_i = info.material;
         let wo_w = -ray.d;
         let front = wo_w.dot(s.ng) > 0.0;
-        fp_width += fp_spread * hit.t;
+        fp.advance(hit.t);
         let roles = world.caustic_instances[hit.instance as usize];
         // the path goes on through the surface unchanged (a null event)
         macro_rules! pass_through {
@@ -631,7 +632,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         // caustic photons arriving here
         if let Some(c) = caustics.filter(|_| non_specular && roles.receiver) {
             let u = sampler.get1d();
-            let l = c.gather(s.p, s.ng, c.radius(fp_width), &bsdf, &frame, wo, lambda, beta.average(), u);
+            let l = c.gather(s.p, s.ng, c.radius(fp.width()), &bsdf, &frame, wo, lambda, beta.average(), u);
             if !l.is_black() {
                 split[CAUSTICS] += beta * l;
             }
@@ -706,7 +707,15 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             chain = (caustics.is_some() && roles.receiver && !bs.is_specular()).then_some(Chain { p_b: bs.pdf, last: u32::MAX });
         }
         if non_specular {
-            fp_spread = crate::caustics::engine::widen_after_diffuse(fp_spread);
+            fp.after_diffuse();
+        } else if caustics.is_some() && bs.is_specular() {
+            // curvature seen from the incoming side: the outside's, or its negative from within
+            let k = world.mean_curvature(&ray, &hit) * if front { 1.0 } else { -1.0 };
+            if bs.is_transmission() {
+                fp.refract(k, bs.eta, wo.z, bs.wi.z);
+            } else {
+                fp.reflect(k);
+            }
         }
         prev_pdf = bs.pdf;
         prev_ctx = LightSampleContext::new(s.p, s.ns);

@@ -51,6 +51,7 @@ const fn sobol_directions() -> [[u32; 32]; 4] {
     v
 }
 
+#[cfg(test)]
 static DIRECTIONS: [[u32; 32]; 4] = sobol_directions();
 
 /// The generator matrices applied a byte at a time: entry `[d][b][v]` is the XOR of the
@@ -110,7 +111,7 @@ fn sobol_u32_bitwise(mut index: u32, dim: usize) -> u32 {
 
 /// 32-bit integer hash (Wellons' lowbias32).
 #[inline]
-pub fn hash_u32(mut x: u32) -> u32 {
+pub const fn hash_u32(mut x: u32) -> u32 {
     x ^= x >> 16;
     x = x.wrapping_mul(0x21f0_aaad);
     x ^= x >> 15;
@@ -149,16 +150,7 @@ fn to_unit_float(x: u32) -> f32 {
 }
 
 /// `hash_u32(d + 1)` for the four dimensions of a group (their per-dimension scramble salts).
-const DIM_HASH: [u32; 4] = [hash_u32_const(1), hash_u32_const(2), hash_u32_const(3), hash_u32_const(4)];
-
-const fn hash_u32_const(mut x: u32) -> u32 {
-    x ^= x >> 16;
-    x = x.wrapping_mul(0x21f0_aaad);
-    x ^= x >> 15;
-    x = x.wrapping_mul(0x735a_2d97);
-    x ^= x >> 15;
-    x
-}
+const DIM_HASH: [u32; 4] = [hash_u32(1), hash_u32(2), hash_u32(3), hash_u32(4)];
 
 /// `hash_combine(seed, d + 1)` with the hash of `d + 1` from [`DIM_HASH`].
 #[inline]

@@ -460,6 +460,38 @@ impl World {
         }
     }
 
+    /// Mean curvature (1/length, world units) of the shading surface at `hit`, positive where
+    /// it is convex on its outside (the side of [`SurfaceHit::ng`]): the normal derivative of
+    /// a mesh's interpolated vertex normals (0 without them), `1/r` on a sphere. Only what the
+    /// caustics footprint needs at specular events; not part of [`World::surface`].
+    pub fn mean_curvature(&self, ray: &Ray, hit: &Hit) -> f32 {
+        let info = &self.instances[hit.instance as usize];
+        let m = self.accel.instance_transform(hit.instance, ray.time);
+        match info.geometry {
+            GeometryRef::Mesh(mi) => {
+                let mesh = &self.meshes[mi];
+                let i = 3 * hit.prim as usize;
+                let idx = [mesh.indices[i] as usize, mesh.indices[i + 1] as usize, mesh.indices[i + 2] as usize];
+                let [Some(n0), Some(n1), Some(n2)] = idx.map(|k| mesh.normal_at(k, ray.time)) else { return 0.0 };
+                let nm = Mat3::from_mat4(m).inverse().transpose();
+                let p = idx.map(|k| m.transform_point3(mesh.position_at(k, ray.time)));
+                let n = [n0, n1, n2].map(|v| (nm * v).normalize_or_zero());
+                let k = crate::caustics::footprint::triangle_mean_curvature(p, n, Vec2::new(hit.u, hit.v));
+                // the curvature is signed for the side the normals face; the outside is ng's
+                let ng = (p[1] - p[0]).cross(p[2] - p[0]) * Mat3::from_mat4(m).determinant().signum();
+                let ni = n[0] * (1.0 - hit.u - hit.v) + n[1] * hit.u + n[2] * hit.v;
+                if ni.dot(ng) < 0.0 { -k } else { k }
+            }
+            GeometryRef::Spheres(_) => {
+                let r = self.accel.sphere_center(hit.instance, hit.prim, ray.time).map_or(1.0, |(_, r)| r);
+                // world radius under the instance's scale (the cube root of its volume change)
+                let s = Mat3::from_mat4(m).determinant().abs().cbrt();
+                let k = 1.0 / (r * s);
+                if k.is_finite() { k } else { 0.0 }
+            }
+        }
+    }
+
     fn color(&self, c: &ColorParam, uv: Vec2, lambda: &SampledWavelengths) -> SampledSpectrum {
         match c {
             ColorParam::Const(s) => s.sample(lambda),

@@ -40,6 +40,7 @@ use rayon::prelude::*;
 
 use super::atlas::{Atlas, AtlasConfig, AtlasLight, CameraHint, Caster, VisibilityBuffer, VisibilityKind};
 use super::beams::{Beam, BeamMap};
+use super::footprint::Footprint;
 use super::photon_map::{NormalCheck, Photon, PhotonMap, Query, SpectralKernel};
 use crate::accel::Ray;
 use crate::bsdf::{Bsdf, TransportMode};
@@ -110,9 +111,6 @@ pub struct Chain {
     pub last: u32,
 }
 
-/// Angle a path's footprint widens by per unit length after a non-specular bounce (radians):
-/// lookups at later vertices gather over a wider area.
-const DIFFUSE_SPREAD: f32 = 0.05;
 /// Largest lookup radius, in photon-grid cells (a cell is two pixel footprints at the casters'
 /// distance from the camera).
 const MAX_RADIUS_CELLS: f32 = 2.0;
@@ -407,9 +405,9 @@ impl Caustics {
         self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, ..Default::default() };
     }
 
-    /// Width of a camera ray's footprint at the camera and its growth per unit length.
-    pub fn pixel_footprint(&self) -> (f32, f32) {
-        (self.pixel_w0, self.pixel_spread)
+    /// The footprint of a camera ray at the camera (see [`super::footprint`]).
+    pub fn pixel_footprint(&self) -> Footprint {
+        Footprint::camera(self.pixel_w0, self.pixel_spread)
     }
 
     /// Traces this pass's photons (`spp` samples per pixel over `pixels` pixels are about to be
@@ -803,10 +801,10 @@ impl Caustics {
 
     /// Radiance scattered towards the camera ray `a + t·c`, t ∈ [0, t_max], in medium `m`
     /// from the photon beams (see [`super::beams`]), before the camera path's throughput.
-    /// `fp_width` / `fp_spread` give the ray's pixel footprint; `u` draws the kernel width
+    /// `fp` is the ray's pixel footprint at `a`; `u` draws the kernel width
     /// and seeds tracking in media that need it.
     #[allow(clippy::too_many_arguments)]
-    pub fn gather_beams(&self, world: &World, a: Vec3, c: Vec3, t_max: f32, m: usize, lambda: &SampledWavelengths, throughput: f32, fp_width: f32, fp_spread: f32, u: f32) -> SampledSpectrum {
+    pub fn gather_beams(&self, world: &World, a: Vec3, c: Vec3, t_max: f32, m: usize, lambda: &SampledWavelengths, throughput: f32, fp: &Footprint, u: f32) -> SampledSpectrum {
         let med = &world.media[m];
         let lookup = self.kernel.at(lambda);
         let mut rng_state = StreamRng::new(u, 0xbea5);
@@ -825,7 +823,7 @@ impl Caustics {
             if b.medium as usize != m {
                 return;
             }
-            let wp = (fp_width + fp_spread * ap.t).min(b.width);
+            let wp = fp.width_at(ap.t).min(b.width);
             let w = wp + (b.width - wp) * sq;
             if !(ap.h < w) {
                 return;
@@ -890,12 +888,6 @@ fn instance_bounds(world: &World, instance: u32) -> Option<(Vec3, Vec3)> {
         }
     }
     (lo.x <= hi.x && lo.is_finite() && hi.is_finite()).then_some((lo, hi))
-}
-
-/// Widens a path footprint after a non-specular bounce.
-#[inline]
-pub fn widen_after_diffuse(spread: f32) -> f32 {
-    spread.max(DIFFUSE_SPREAD)
 }
 
 #[cfg(test)]

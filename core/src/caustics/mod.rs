@@ -8,6 +8,8 @@
 //! - [`atlas`]: the light–object guiding atlas: one 2D table packing a rectangle per (light,
 //!   caster) pair, sampled to emit photons towards casters' bounding spheres, learned from a
 //!   fixed-point visibility signal.
+//! - [`footprint`]: the pixel footprint (a ray cone with curvature) carried along camera paths
+//!   through specular reflection and refraction, which sets the photon lookup radius.
 //!
 //! # One progressive pass, as the integrator drives it
 //! 1. For each of N photons: `s = atlas.sample(u2)`; sample a point `x` on light `s.light` with
@@ -26,6 +28,7 @@
 pub mod atlas;
 pub mod beams;
 pub mod engine;
+pub mod footprint;
 pub mod light_tracing;
 pub mod photon_map;
 
@@ -33,4 +36,5 @@ pub mod photon_map;
 mod tests;
 
 pub use atlas::{Atlas, AtlasConfig, AtlasError, AtlasLight, AtlasSample, CameraHint, Caster, EmissionMeasure, PhotonEmission, VisibilityBuffer, VisibilityKind};
+pub use footprint::Footprint;
 pub use photon_map::{NormalCheck, Photon, PhotonError, PhotonMap, Query, SelectedPhoton, SpectralKernel, SpectralLookup};
