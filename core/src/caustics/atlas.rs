@@ -22,7 +22,8 @@
 //!   caster's bounding sphere, `cosθ = 1 − β'₀(1 − cosθ_max)`, `φ = 2πβ'₁` (uniform in solid
 //!   angle); pdf per steradian `p_cell · side² / Ω_cone`.
 //! - Distant lights: a point on the disk of the caster's radius perpendicular to the light,
-//!   `r = R√β'₀`, `φ = 2πβ'₁` (uniform in area), moved towards the light by `R`; the direction is
+//!   `r = R√β'₀`, `φ = 2πβ'₁` (uniform in area; the pair's refit disk once it has one, see
+//!   below), moved towards the light by `R`; the direction is
 //!   the light's (the caller may jitter it within a sun cone with its own numbers); pdf per m²
 //!   `p_cell · side² / (πR²)`. Move the origin further back along `-dir` freely (the pdf holds).
 //!
@@ -43,6 +44,31 @@
 //! energy, and 1 afterwards.
 //!
 //! Sampling picks a row from the marginal, then a column (piecewise-constant 2D), in O(log n).
+//!
+//! # Refitting a distant light's disk (seed 000 §5.3, §5.5.2)
+//! A large caster (an ocean, a pool seen in part) gets a disk far larger than the area whose
+//! photons the camera uses, and the pair's cells are then too coarse to learn where that is.
+//! After passes 2, 4, 8, 16, … ([`refit_due`]) every distant-light pair that has learned over at
+//! least two passes since its last refit gets a new disk (a [`PairDisk`]: centre offset within
+//! the plane of the old disk, radius): the smallest disk that holds its strongest cells holding
+//! [`REFIT_SIGNAL_SHARE`] (95%) of its learned signal plus the cells around each of them (a
+//! margin of one cell of the current disk, along both polar axes), grown by the sagitta of the
+//! sampled cell arcs. It is taken only when its area is at most [`REFIT_MAX_AREA_RATIO`] (½) of
+//! the current disk's. The pair's square then maps onto the new disk (same polar map, finer
+//! cells); its visibility restarts (running means over its own samples since the refit) and its
+//! table mass is spread uniformly over its square (the pair's probability is unchanged; the
+//! defensive floor applies from the next pass as before). Refits only shrink a disk, and depend
+//! only on the fixed-point sums, so they are identical for any thread count.
+//!
+//! Every start of the original disk stays possible: a refit pair's photon starts, with
+//! probability [`REFIT_DEFENSIVE`] (δ = 0.1), uniformly on the original disk, otherwise from the
+//! table on the refit disk ([`Atlas::emit_mixture`]); its pdf, and [`Atlas::pdf_position`], are
+//! the mixture's `δ·P_pair/(πR₀²)·[x ∈ D₀] + (1−δ)·p_table(x)/(πR₁²)·[x ∈ D₁]`. A start from the
+//! uniform part takes the refit cell it falls in, or the id `cell_count() + pair` outside the
+//! table when it misses the refit disk (it names the pair for the MIS weights and records no
+//! visibility). A refit discards no photons and changes no pass's weight, so the first pass's
+//! `(N₁+N₂)/N₂` compensation is unchanged; the approximate-MIS `P_l` is the light's direction pdf
+//! and does not depend on the disk.
 
 // `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -72,6 +98,11 @@ pub const REFIT_DEFENSIVE: f32 = 0.1;
 /// A disk is refit only when the new disk's area is at most this share of the current one: the
 /// pair's cells then cover at least twice as finely what they cover (and the table restarts).
 pub const REFIT_MAX_AREA_RATIO: f32 = 0.5;
+/// Share of a pair's learned signal that its refit disk must hold: the strongest cells holding
+/// it are kept (camera paths that reach far receivers after a diffuse bounce or a total internal
+/// reflection leave a faint signal over much of a large caster; photons for them still start
+/// from the defensive part of the mixture).
+pub const REFIT_SIGNAL_SHARE: f64 = 0.95;
 /// Points per cell edge on the outer arc of the cells a refit disk must hold.
 const REFIT_ARC_POINTS: u32 = 4;
 
@@ -963,8 +994,8 @@ impl Atlas {
     }
 
     /// The refit disk of distant-light pair `k` from the learned signal (`combined`, per cell):
-    /// the smallest disk holding every cell of the pair with a non-zero signal and the cells
-    /// around them (a margin of one current cell, in the polar cells' rows and columns), when
+    /// the smallest disk holding the pair's strongest cells that together hold
+    /// [`REFIT_SIGNAL_SHARE`] of its signal, and the cells around them (a margin of one current cell, in the polar cells' rows and columns), when
     /// its area is at most [`REFIT_MAX_AREA_RATIO`] of the current disk's. None otherwise, or
     /// when the pair has learned nothing.
     fn refit_disk(&self, k: usize, combined: &[f64]) -> Option<PairDisk> {
@@ -978,7 +1009,20 @@ impl Atlas {
             None => ([0.0, 0.0], self.casters[p.caster as usize].radius),
         };
         // column i: radius R√(i/n)…R√((i+1)/n); row j: angle 2πj/n…2π(j+1)/n
-        let useful = |i: usize, j: usize| combined[(p.y as usize + j) * self.width as usize + p.x as usize + i] > 0.0;
+        let value = |i: usize, j: usize| combined[(p.y as usize + j) * self.width as usize + p.x as usize + i];
+        let mut sorted: Vec<f64> = (0..n * n).map(|c| value(c % n, c / n)).filter(|v| *v > 0.0).collect();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        let total: f64 = sorted.iter().sum();
+        let mut acc = 0.0;
+        let mut floor = f64::INFINITY;
+        for v in sorted {
+            floor = v;
+            acc += v;
+            if acc >= REFIT_SIGNAL_SHARE * total {
+                break;
+            }
+        }
+        let useful = |i: usize, j: usize| value(i, j) >= floor;
         let mut any = false;
         let mut keep = vec![false; n * n];
         for j in 0..n {

@@ -7,7 +7,8 @@
 //! [`Caustics::begin_pass`] shoots `ρ² · spp · pixels` photons (capped by the memory budget),
 //! each from a cell of the guiding atlas: the cell picks a (light, caster) pair and the photon's
 //! start within the pair's cone (local lights) or disk (distant lights, whose direction is then
-//! jittered within the sun's cone). A photon is kept only if its first hit is the pair's caster.
+//! jittered within the sun's cone; the disk is refit to the useful area as the atlas learns,
+//! with a defensive share of photons still starting on the original disk). A photon is kept only if its first hit is the pair's caster.
 //! It then scatters through caster surfaces (any BSDF, sampled in importance mode) and media
 //! (attenuated by their transmittance: only unscattered light is carried), and is stored at the
 //! first non-caster surface if that surface is a receiver with a non-specular response; the walk
