@@ -163,10 +163,19 @@ fn refit_renders_are_identical_on_one_and_two_threads() {
 fn explore_refit() {
     let passes: u32 = std::env::var("PASSES").ok().and_then(|v| v.parse().ok()).unwrap_or(40);
     let seeds: u64 = std::env::var("SEEDS").ok().and_then(|v| v.parse().ok()).unwrap_or(2);
+    // per-pixel relMSE against a long render (REF passes with the refit, its own seed)
+    let ref_passes: u32 = std::env::var("REF").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+    let reference = (ref_passes > 0).then(|| render_passes(settings_for(32, 8, 2, true, 99), ref_passes, 8).0.aov_pixels(Aov::Color));
+    let rel_mse = |r: &Renderer| {
+        let Some(q) = &reference else { return f64::NAN };
+        let p = r.aov_pixels(Aov::Color);
+        let e: f64 = p.chunks_exact(4).zip(q.chunks_exact(4)).map(|(a, b)| (0..3).map(|k| ((a[k] - b[k]) as f64).powi(2) / ((b[k] as f64).powi(2) + 1e-2)).sum::<f64>() / 3.0).sum();
+        e / (p.len() / 4) as f64
+    };
     for (refit, seed) in (0..seeds).flat_map(|k| [(true, 11 + 2 * k), (false, 12 + 2 * k)]) {
         let (r, p) = render_passes(settings_for(32, 8, 2, refit, seed), passes, 8);
         let st = r.caustics().unwrap().stats().clone();
         let m: Vec<String> = (0..5).map(|k| over_passes(&p[2..], k)).map(|(m, e)| format!("{m:.4}±{e:.4}")).collect();
-        println!("refit {refit} seed {seed}: ratio {:?} seen share {:.4} means {m:?}", st.disk_area_ratio, seen_share(&p[2..]));
+        println!("refit {refit} seed {seed}: ratio {:?} seen share {:.4} relMSE {:.5} means {m:?}", st.disk_area_ratio, seen_share(&p[2..]), rel_mse(&r));
     }
 }
