@@ -507,6 +507,9 @@ impl Renderer {
             h.push(("tide:caustics:peakPhotonBytes".into(), c.peak_map_bytes.to_string()));
             h.push(("tide:caustics:pairs".into(), c.pairs.to_string()));
             h.push(("tide:caustics:lightConnections".into(), c.light_connections.to_string()));
+            if let Some(r) = c.disk_area_ratio {
+                h.push(("tide:caustics:diskRefit".into(), format!("{r:.6}")));
+            }
         }
         self.film.write_exr(path, aovs, &h)
     }

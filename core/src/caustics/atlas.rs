@@ -22,7 +22,8 @@
 //!   caster's bounding sphere, `cosθ = 1 − β'₀(1 − cosθ_max)`, `φ = 2πβ'₁` (uniform in solid
 //!   angle); pdf per steradian `p_cell · side² / Ω_cone`.
 //! - Distant lights: a point on the disk of the caster's radius perpendicular to the light,
-//!   `r = R√β'₀`, `φ = 2πβ'₁` (uniform in area), moved towards the light by `R`; the direction is
+//!   `r = R√β'₀`, `φ = 2πβ'₁` (uniform in area; the pair's refit disk once it has one, see
+//!   below), moved towards the light by `R`; the direction is
 //!   the light's (the caller may jitter it within a sun cone with its own numbers); pdf per m²
 //!   `p_cell · side² / (πR²)`. Move the origin further back along `-dir` freely (the pdf holds).
 //!
@@ -43,6 +44,31 @@
 //! energy, and 1 afterwards.
 //!
 //! Sampling picks a row from the marginal, then a column (piecewise-constant 2D), in O(log n).
+//!
+//! # Refitting a distant light's disk (seed 000 §5.3, §5.5.2)
+//! A large caster (an ocean, a pool seen in part) gets a disk far larger than the area whose
+//! photons the camera uses, and the pair's cells are then too coarse to learn where that is.
+//! After passes 2, 4, 8, 16, … ([`refit_due`]) every distant-light pair that has learned over at
+//! least two passes since its last refit gets a new disk (a [`PairDisk`]: centre offset within
+//! the plane of the old disk, radius): the smallest disk that holds its strongest cells holding
+//! [`REFIT_SIGNAL_SHARE`] (95%) of its learned signal plus the cells around each of them (a
+//! margin of one cell of the current disk, along both polar axes), grown by the sagitta of the
+//! sampled cell arcs. It is taken only when its area is at most [`REFIT_MAX_AREA_RATIO`] (½) of
+//! the current disk's. The pair's square then maps onto the new disk (same polar map, finer
+//! cells); its visibility restarts (running means over its own samples since the refit) and its
+//! table mass is spread uniformly over its square (the pair's probability is unchanged; the
+//! defensive floor applies from the next pass as before). Refits only shrink a disk, and depend
+//! only on the fixed-point sums, so they are identical for any thread count.
+//!
+//! Every start of the original disk stays possible: a refit pair's photon starts, with
+//! probability [`REFIT_DEFENSIVE`] (δ = 0.1), uniformly on the original disk, otherwise from the
+//! table on the refit disk ([`Atlas::emit_mixture`]); its pdf, and [`Atlas::pdf_position`], are
+//! the mixture's `δ·P_pair/(πR₀²)·[x ∈ D₀] + (1−δ)·p_table(x)/(πR₁²)·[x ∈ D₁]`. A start from the
+//! uniform part takes the refit cell it falls in, or the id `cell_count() + pair` outside the
+//! table when it misses the refit disk (it names the pair for the MIS weights and records no
+//! visibility). A refit discards no photons and changes no pass's weight, so the first pass's
+//! `(N₁+N₂)/N₂` compensation is unchanged; the approximate-MIS `P_l` is the light's direction pdf
+//! and does not depend on the disk.
 
 // `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -66,6 +92,34 @@ pub const VISIBILITY_MAX_RECORD: f32 = 65536.0;
 /// Largest table (cells).
 pub const MAX_TABLE_CELLS: u64 = 1 << 24;
 const NO_PAIR: u32 = u32::MAX;
+/// Probability that a photon of a refit pair starts uniformly on the pair's original disk (the
+/// defensive half of the one-sample mixture that keeps every start of the original disk possible).
+pub const REFIT_DEFENSIVE: f32 = 0.1;
+/// A disk is refit only when the new disk's area is at most this share of the current one: the
+/// pair's cells then cover at least twice as finely what they cover (and the table restarts).
+pub const REFIT_MAX_AREA_RATIO: f32 = 0.5;
+/// Share of a pair's learned signal that its refit disk must hold: the strongest cells holding
+/// it are kept (camera paths that reach far receivers after a diffuse bounce or a total internal
+/// reflection leave a faint signal over much of a large caster; photons for them still start
+/// from the defensive part of the mixture).
+pub const REFIT_SIGNAL_SHARE: f64 = 0.95;
+/// Points per cell edge on the outer arc of the cells a refit disk must hold.
+const REFIT_ARC_POINTS: u32 = 4;
+
+/// Whether the passes completed so far call for a refit check: after passes 2, 4, 8, 16, …
+/// (a pair is checked only when it has learned over at least two passes since its last refit).
+pub fn refit_due(passes: u32) -> bool {
+    passes >= 2 && passes.is_power_of_two()
+}
+
+/// A refit emission disk of a distant-light pair: in the plane through the caster's centre
+/// perpendicular to the light, its centre's offset from the caster's centre (coordinates along
+/// the `s` and `t` axes of `Frame::from_normal(-to_light)`) and its radius.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairDisk {
+    pub offset: [f32; 2],
+    pub radius: f32,
+}
 
 /// What is wrong with the atlas's input.
 #[derive(Clone, Debug, PartialEq)]
@@ -228,11 +282,13 @@ pub struct AtlasConfig {
     pub camera: Option<CameraHint>,
     /// Least weight of the uniform distribution in the table's mixture, in [0, 1].
     pub defensive: f32,
+    /// Refit distant lights' emission disks to the cells that learned visibility.
+    pub disk_refit: bool,
 }
 
 impl Default for AtlasConfig {
     fn default() -> Self {
-        AtlasConfig { width: 256, height: 256, camera: None, defensive: 0.1 }
+        AtlasConfig { width: 256, height: 256, camera: None, defensive: 0.1, disk_refit: true }
     }
 }
 
@@ -382,6 +438,15 @@ pub struct Atlas {
     total_samples: u64,
     passes: u32,
     first_pass_samples: u64,
+    disk_refit: bool,
+    /// Each pair's refit emission disk (None: the caster's own disk).
+    disks: Vec<Option<PairDisk>>,
+    /// Camera samples and passes each pair's visibility means span (since its last refit).
+    pair_samples: Vec<u64>,
+    pair_passes: Vec<u32>,
+    /// Probability of sampling each pair in the current table.
+    pair_prob: Vec<f64>,
+    refits: u32,
 }
 
 fn sphere_solid_angle(dist: f32, radius: f32) -> f32 {
@@ -542,6 +607,7 @@ impl Atlas {
             }
         }
         let used_cells = cell_pair.iter().filter(|&&c| c != NO_PAIR).count();
+        let n_pairs = pairs.len();
         let mut atlas = Atlas {
             lights,
             casters: casters.to_vec(),
@@ -557,23 +623,41 @@ impl Atlas {
             total_samples: 0,
             passes: 0,
             first_pass_samples: 0,
+            disk_refit: config.disk_refit,
+            disks: vec![None; n_pairs],
+            pair_samples: vec![0; n_pairs],
+            pair_passes: vec![0; n_pairs],
+            pair_prob: vec![0.0; n_pairs],
+            refits: 0,
         };
-        atlas.rebuild_table(&vec![0.0; cells as usize], 1.0);
+        let m = atlas.table_masses(&vec![0.0; cells as usize], 1.0);
+        atlas.rebuild_table(&m);
         Ok(atlas)
     }
 
-    fn rebuild_table(&mut self, normalized_visibility: &[f64], t: f64) {
+    /// Cell masses `t·U + (1−t)·v` (0 outside the pairs' squares).
+    fn table_masses(&self, normalized_visibility: &[f64], t: f64) -> Vec<f32> {
         let u = 1.0 / self.used_cells as f64;
-        let m: Vec<f32> = self
-            .cell_pair
+        self.cell_pair
             .iter()
             .zip(normalized_visibility)
             .map(|(&p, &v)| if p == NO_PAIR { 0.0 } else { (t * u + (1.0 - t) * v) as f32 })
-            .collect();
+            .collect()
+    }
+
+    fn rebuild_table(&mut self, m: &[f32]) {
         let w = self.width as usize;
         self.rows = m.chunks(w).map(Distribution1D::new).collect();
         let marg: Vec<f32> = self.rows.iter().map(|r| r.integral()).collect();
         self.marginal = Distribution1D::new(&marg);
+        let mut sums = vec![0.0f64; self.pairs.len()];
+        for (&p, &v) in self.cell_pair.iter().zip(m) {
+            if p != NO_PAIR {
+                sums[p as usize] += v as f64;
+            }
+        }
+        let total: f64 = sums.iter().sum();
+        self.pair_prob = sums.iter().map(|v| if total > 0.0 { v / total } else { 0.0 }).collect();
     }
 
     pub fn width(&self) -> u32 {
@@ -610,9 +694,41 @@ impl Atlas {
         self.passes
     }
 
-    /// The pair a cell belongs to.
+    /// The pair a cell belongs to. Cell ids `cell_count() + k` (photons of a refit pair `k`
+    /// that started outside its refit disk) name pair `k` but lie outside the table.
     pub fn pair_of_cell(&self, cell: u32) -> Option<&Pair> {
-        self.cell_pair.get(cell as usize).and_then(|&p| self.pairs.get(p as usize))
+        let c = cell as usize;
+        match self.cell_pair.get(c) {
+            Some(&p) => self.pairs.get(p as usize),
+            None => self.pairs.get(c - self.cell_pair.len()),
+        }
+    }
+
+    /// Pair `k`'s emission disk now (distant lights): its refit disk, or None while it uses the
+    /// caster's own.
+    pub fn pair_disk(&self, k: usize) -> Option<PairDisk> {
+        self.disks.get(k).copied().flatten()
+    }
+
+    /// Refits made so far (over all pairs).
+    pub fn refits(&self) -> u32 {
+        self.refits
+    }
+
+    /// Area of the distant-light pairs' current emission disks over that of their original
+    /// disks (1 before any refit); None without distant-light pairs.
+    pub fn disk_area_ratio(&self) -> Option<f32> {
+        let (mut now, mut orig) = (0.0f64, 0.0f64);
+        for (k, p) in self.pairs.iter().enumerate() {
+            if !matches!(self.lights[p.light as usize], AtlasLight::Distant { .. }) {
+                continue;
+            }
+            let r0 = self.casters[p.caster as usize].radius as f64;
+            let r = self.disks[k].map_or(r0, |d| d.radius as f64);
+            now += r * r;
+            orig += r0 * r0;
+        }
+        (orig > 0.0).then(|| (now / orig) as f32)
     }
 
     /// Probability of sampling `cell` (0 outside the pairs' squares).
@@ -683,20 +799,83 @@ impl Atlas {
             AtlasLight::Distant { to_light, .. } => {
                 let dir = -to_light;
                 let frame = Frame::from_normal(dir);
-                let r = caster.radius * s.local[0].sqrt();
+                let (o, radius) = match self.disks[s.pair as usize] {
+                    Some(d) => (d.offset, d.radius),
+                    None => ([0.0, 0.0], caster.radius),
+                };
+                let r = radius * s.local[0].sqrt();
                 let (sp, cp) = phi.sin_cos();
-                let origin = caster.center + frame.s * (r * cp) + frame.t * (r * sp) + to_light * caster.radius;
-                let pdf = s.pdf_local / (PI * caster.radius * caster.radius);
+                let v = [o[0] + r * cp, o[1] + r * sp];
+                let origin = caster.center + frame.s * v[0] + frame.t * v[1] + to_light * caster.radius;
+                let pdf = self.pair_density(s.pair as usize, v, Some(s.pdf_local));
                 Some(PhotonEmission { origin, dir, pdf, measure: EmissionMeasure::Area })
             }
         }
     }
 
-    fn pdf_in_pair(&self, pair: &Pair, local: [f32; 2]) -> f32 {
+    /// [`Atlas::emit`] with the defensive mixture of refit distant-light pairs: with probability
+    /// [`REFIT_DEFENSIVE`] (`u_mix` below it) the start is drawn again from `u_disk`, uniformly on
+    /// the pair's original disk, and `s.cell` / `s.local` become the refit cell it falls in (or
+    /// `cell_count() + pair`, outside the table, when it falls outside the refit disk). The pdf
+    /// is the mixture's either way. Other samples are [`Atlas::emit`]'s.
+    #[inline]
+    pub fn emit_mixture(&self, s: &mut AtlasSample, light_point: Vec3, u_mix: f32, u_disk: [f32; 2]) -> Option<PhotonEmission> {
+        let k = s.pair as usize;
+        let (Some(disk), Some(pair)) = (self.disks.get(k).copied().flatten(), self.pairs.get(k)) else { return self.emit(s, light_point) };
+        let AtlasLight::Distant { to_light, .. } = self.lights[pair.light as usize] else { return self.emit(s, light_point) };
+        if !(u_mix < REFIT_DEFENSIVE) {
+            return self.emit(s, light_point);
+        }
+        let caster = &self.casters[pair.caster as usize];
+        let r = caster.radius * u_disk[0].max(0.0).sqrt();
+        let (sp, cp) = (2.0 * PI * u_disk[1]).sin_cos();
+        let v = [r * cp, r * sp];
+        let w = Vec3::new(v[0] - disk.offset[0], v[1] - disk.offset[1], 0.0);
+        let r2 = (w.x * w.x + w.y * w.y) / (disk.radius * disk.radius);
+        if r2 < 1.0 {
+            let local = [r2, (crate::math::spherical_phi(w) / (2.0 * PI)).min(1.0 - f32::EPSILON)];
+            s.local = local;
+            s.cell = self.cell_in_pair(pair, local);
+        } else {
+            s.cell = (self.cell_pair.len() + k) as u32;
+        }
+        let frame = Frame::from_normal(-to_light);
+        let origin = caster.center + frame.s * v[0] + frame.t * v[1] + to_light * caster.radius;
+        let pdf = self.pair_density(k, v, None);
+        Some(PhotonEmission { origin, dir: -to_light, pdf, measure: EmissionMeasure::Area })
+    }
+
+    /// Density (per m²) with which distant-light pair `k` starts a photon at offset `v` from its
+    /// caster's centre in the plane perpendicular to the light; `table` is the table's density
+    /// (per unit square, pair choice included) at the point's cell when the caller knows it.
+    fn pair_density(&self, k: usize, v: [f32; 2], table: Option<f32>) -> f32 {
+        let pair = &self.pairs[k];
+        let c = &self.casters[pair.caster as usize];
+        let on_disk = |o: [f32; 2], radius: f32| {
+            let w = Vec3::new(v[0] - o[0], v[1] - o[1], 0.0);
+            let r2 = (w.x * w.x + w.y * w.y) / (radius * radius);
+            (r2 < 1.0).then(|| table.unwrap_or_else(|| self.pdf_in_pair(pair, [r2, crate::math::spherical_phi(w) / (2.0 * PI)])))
+        };
+        match self.disks[k] {
+            None => on_disk([0.0, 0.0], c.radius).map_or(0.0, |t| t / (PI * c.radius * c.radius)),
+            Some(d) => {
+                let r0 = c.radius * c.radius;
+                let uniform = if v[0] * v[0] + v[1] * v[1] < r0 { REFIT_DEFENSIVE * self.pair_prob[k] as f32 / (PI * r0) } else { 0.0 };
+                uniform + on_disk(d.offset, d.radius).map_or(0.0, |t| (1.0 - REFIT_DEFENSIVE) * t / (PI * d.radius * d.radius))
+            }
+        }
+    }
+
+    /// The table cell of local coordinates in a pair's square.
+    fn cell_in_pair(&self, pair: &Pair, local: [f32; 2]) -> u32 {
         let s = pair.size;
         let col = pair.x + ((local[0] * s as f32) as u32).min(s - 1);
         let row = pair.y + ((local[1] * s as f32) as u32).min(s - 1);
-        self.cell_probability(row * self.width + col) * (s * s) as f32
+        row * self.width + col
+    }
+
+    fn pdf_in_pair(&self, pair: &Pair, local: [f32; 2]) -> f32 {
+        self.cell_probability(self.cell_in_pair(pair, local)) * (pair.size * pair.size) as f32
     }
 
     /// Density (per steradian, before rejection) of emitting along unit `dir` from `from` on
@@ -720,20 +899,15 @@ impl Atlas {
     }
 
     /// Density (per m² of the plane perpendicular to the light, before rejection) of starting a
-    /// photon of distant light `light` on the line through `point`, summed over its pairs.
+    /// photon of distant light `light` on the line through `point`, summed over its pairs; for a
+    /// refit pair, the defensive mixture's ([`Atlas::emit_mixture`]).
     pub fn pdf_position(&self, light: usize, point: Vec3) -> f32 {
         let Some(&AtlasLight::Distant { to_light, .. }) = self.lights.get(light) else { return 0.0 };
         let frame = Frame::from_normal(-to_light);
         let mut pdf = 0.0;
-        for pair in self.pairs.iter().filter(|p| p.light as usize == light) {
-            let c = &self.casters[pair.caster as usize];
-            let v = frame.to_local(point - c.center);
-            let r2 = (v.x * v.x + v.y * v.y) / (c.radius * c.radius);
-            if !(r2 < 1.0) {
-                continue;
-            }
-            let u1 = crate::math::spherical_phi(Vec3::new(v.x, v.y, 0.0)) / (2.0 * PI);
-            pdf += self.pdf_in_pair(pair, [r2, u1]) / (PI * c.radius * c.radius);
+        for (k, pair) in self.pairs.iter().enumerate().filter(|(_, p)| p.light as usize == light) {
+            let v = frame.to_local(point - self.casters[pair.caster as usize].center);
+            pdf += self.pair_density(k, [v.x, v.y], None);
         }
         pdf
     }
@@ -746,10 +920,12 @@ impl Atlas {
         if camera_samples == 0 {
             return Err(AtlasError::NoSamples);
         }
-        let t_prev = self.total_samples as f64;
-        let t_now = t_prev + camera_samples as f64;
+        // running means over the samples since each pair's last refit (all, for most pairs)
         for (k, kind) in [VisibilityKind::Surface, VisibilityKind::Volume].into_iter().enumerate() {
             for (c, v) in self.visibility[k].iter_mut().enumerate() {
+                let p = self.cell_pair[c];
+                let t_prev = if p == NO_PAIR { self.total_samples } else { self.pair_samples[p as usize] } as f64;
+                let t_now = t_prev + camera_samples as f64;
                 *v = (t_prev * *v + vis.value(c, kind)) / t_now;
             }
         }
@@ -758,6 +934,10 @@ impl Atlas {
         }
         self.total_samples += camera_samples;
         self.passes += 1;
+        for (n, p) in self.pair_samples.iter_mut().zip(self.pair_passes.iter_mut()) {
+            *n += camera_samples;
+            *p += 1;
+        }
         let max = |v: &[f64]| v.iter().copied().fold(0.0f64, f64::max);
         let (ms, mv) = (max(&self.visibility[0]), max(&self.visibility[1]));
         let combined: Vec<f64> = (0..self.cell_count())
@@ -772,14 +952,120 @@ impl Atlas {
             .collect();
         let total: f64 = combined.iter().sum();
         let next_pass = self.passes as f64 + 1.0;
-        if total > 0.0 {
+        let mut m = if total > 0.0 {
             let normalized: Vec<f64> = combined.iter().map(|v| v / total).collect();
             let t = (1.0 / next_pass).max(self.defensive as f64);
-            self.rebuild_table(&normalized, t);
+            self.table_masses(&normalized, t)
         } else {
-            self.rebuild_table(&combined, 1.0);
+            self.table_masses(&combined, 1.0)
+        };
+        if self.disk_refit && refit_due(self.passes) {
+            for k in 0..self.pairs.len() {
+                if self.pair_passes[k] < 2 {
+                    continue;
+                }
+                let Some(disk) = self.refit_disk(k, &combined) else { continue };
+                // the pair starts afresh on the new disk: no visibility, its table mass spread
+                // uniformly over its square
+                let p = self.pairs[k];
+                let mut mass = 0.0f64;
+                for row in p.y..p.y + p.size {
+                    for col in p.x..p.x + p.size {
+                        let c = (row * self.width + col) as usize;
+                        mass += m[c] as f64;
+                        self.visibility[0][c] = 0.0;
+                        self.visibility[1][c] = 0.0;
+                    }
+                }
+                let each = (mass / (p.size as f64 * p.size as f64)) as f32;
+                for row in p.y..p.y + p.size {
+                    for col in p.x..p.x + p.size {
+                        m[(row * self.width + col) as usize] = each;
+                    }
+                }
+                self.disks[k] = Some(disk);
+                self.pair_samples[k] = 0;
+                self.pair_passes[k] = 0;
+                self.refits += 1;
+            }
         }
+        self.rebuild_table(&m);
         Ok(())
+    }
+
+    /// The refit disk of distant-light pair `k` from the learned signal (`combined`, per cell):
+    /// the smallest disk holding the pair's strongest cells that together hold
+    /// [`REFIT_SIGNAL_SHARE`] of its signal, and the cells around them (a margin of one current cell, in the polar cells' rows and columns), when
+    /// its area is at most [`REFIT_MAX_AREA_RATIO`] of the current disk's. None otherwise, or
+    /// when the pair has learned nothing.
+    fn refit_disk(&self, k: usize, combined: &[f64]) -> Option<PairDisk> {
+        let p = self.pairs[k];
+        if !matches!(self.lights[p.light as usize], AtlasLight::Distant { .. }) || p.size < 2 {
+            return None;
+        }
+        let n = p.size as usize;
+        let (o, radius) = match self.disks[k] {
+            Some(d) => (d.offset, d.radius),
+            None => ([0.0, 0.0], self.casters[p.caster as usize].radius),
+        };
+        // column i: radius R√(i/n)…R√((i+1)/n); row j: angle 2πj/n…2π(j+1)/n
+        let value = |i: usize, j: usize| combined[(p.y as usize + j) * self.width as usize + p.x as usize + i];
+        let mut sorted: Vec<f64> = (0..n * n).map(|c| value(c % n, c / n)).filter(|v| *v > 0.0).collect();
+        sorted.sort_by(|a, b| b.total_cmp(a));
+        let total: f64 = sorted.iter().sum();
+        let mut acc = 0.0;
+        let mut floor = f64::INFINITY;
+        for v in sorted {
+            floor = v;
+            acc += v;
+            if acc >= REFIT_SIGNAL_SHARE * total {
+                break;
+            }
+        }
+        let useful = |i: usize, j: usize| value(i, j) >= floor;
+        let mut any = false;
+        let mut keep = vec![false; n * n];
+        for j in 0..n {
+            for i in 0..n {
+                if !useful(i, j) {
+                    continue;
+                }
+                any = true;
+                for dj in [n - 1, 0, 1] {
+                    for i2 in i.saturating_sub(1)..=(i + 1).min(n - 1) {
+                        keep[((j + dj) % n) * n + i2] = true;
+                    }
+                }
+            }
+        }
+        if !any {
+            return None;
+        }
+        // each row's kept cells lie in one annular sector; the sector lies in the convex hull of
+        // its inner corners and its outer arc, sampled at REFIT_ARC_POINTS + 1 angles (the arc
+        // leaves the chords by at most the sagitta, added to the radius)
+        let mut pts: Vec<[f64; 2]> = Vec::new();
+        let rad = |i: usize| radius as f64 * (i as f64 / n as f64).sqrt();
+        for j in 0..n {
+            let row = &keep[j * n..(j + 1) * n];
+            let (Some(lo), Some(hi)) = (row.iter().position(|&b| b), row.iter().rposition(|&b| b)) else { continue };
+            let (r_in, r_out) = (rad(lo), rad(hi + 1));
+            let a = |f: f64| 2.0 * std::f64::consts::PI * (j as f64 + f) / n as f64;
+            let at = |r: f64, phi: f64| [o[0] as f64 + r * phi.cos(), o[1] as f64 + r * phi.sin()];
+            pts.push(at(r_in, a(0.0)));
+            pts.push(at(r_in, a(1.0)));
+            for q in 0..=REFIT_ARC_POINTS {
+                pts.push(at(r_out, a(q as f64 / REFIT_ARC_POINTS as f64)));
+            }
+        }
+        let (c, r) = enclosing_circle(&mut pts);
+        let sagitta = radius as f64 * (1.0 - (std::f64::consts::PI / (n as f64 * REFIT_ARC_POINTS as f64)).cos());
+        // f32 rounding of the centre and radius: grow by a few ulps of the disk's scale
+        let r = (r + sagitta) * (1.0 + 1e-6) + 1e-6 * radius as f64;
+        if !(r * r <= REFIT_MAX_AREA_RATIO as f64 * (radius as f64).powi(2)) {
+            return None;
+        }
+        Some(PairDisk { offset: [c[0] as f32, c[1] as f32], radius: r as f32 })
     }
 
     /// The current sampling table as an image (row-major, `width × height`, scaled so the most
@@ -804,6 +1090,54 @@ impl Atlas {
             .collect();
         (self.width, self.height, img)
     }
+}
+
+/// The smallest circle holding `pts` (Welzl's algorithm, iterative, over a fixed shuffle so the
+/// result is a function of the points alone); the points are reordered.
+fn enclosing_circle(pts: &mut [[f64; 2]]) -> ([f64; 2], f64) {
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    for i in (1..pts.len()).rev() {
+        state = state.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1_442_695_040_888_963_407);
+        pts.swap(i, ((state >> 33) % (i as u64 + 1)) as usize);
+    }
+    let d = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+    let two = |a: [f64; 2], b: [f64; 2]| ([(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5], d(a, b) * 0.5);
+    let three = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let (bx, by, cx, cy) = (b[0] - a[0], b[1] - a[1], c[0] - a[0], c[1] - a[1]);
+        let den = 2.0 * (bx * cy - by * cx);
+        if den.abs() < 1e-300 {
+            // collinear: the circle on the farthest two
+            let cands = [two(a, b), two(a, c), two(b, c)];
+            return cands.into_iter().fold(cands[0], |m, x| if x.1 > m.1 { x } else { m });
+        }
+        let (b2, c2) = (bx * bx + by * by, cx * cx + cy * cy);
+        let ux = (cy * b2 - by * c2) / den;
+        let uy = (bx * c2 - cx * b2) / den;
+        ([a[0] + ux, a[1] + uy], (ux * ux + uy * uy).sqrt())
+    };
+    let Some(&first) = pts.first() else { return ([0.0, 0.0], 0.0) };
+    let inside = |c: &([f64; 2], f64), p: [f64; 2]| d(c.0, p) <= c.1 * (1.0 + 1e-12) + 1e-300;
+    let mut circ = (first, 0.0);
+    for i in 1..pts.len() {
+        if inside(&circ, pts[i]) {
+            continue;
+        }
+        circ = (pts[i], 0.0);
+        for j in 0..i {
+            if inside(&circ, pts[j]) {
+                continue;
+            }
+            circ = two(pts[i], pts[j]);
+            for k in 0..j {
+                if !inside(&circ, pts[k]) {
+                    circ = three(pts[i], pts[j], pts[k]);
+                }
+            }
+        }
+    }
+    // rounding in the circumcircles: the radius reaches the farthest point
+    let r = pts.iter().map(|&p| d(circ.0, p)).fold(circ.1, f64::max);
+    (circ.0, r)
 }
 
 /// Frame around the axis from `x` to the caster's centre and `1 − cosθ_max` of the cone that

@@ -7,7 +7,8 @@
 //! [`Caustics::begin_pass`] shoots `ρ² · spp · pixels` photons (capped by the memory budget),
 //! each from a cell of the guiding atlas: the cell picks a (light, caster) pair and the photon's
 //! start within the pair's cone (local lights) or disk (distant lights, whose direction is then
-//! jittered within the sun's cone). A photon is kept only if its first hit is the pair's caster.
+//! jittered within the sun's cone; the disk is refit to the useful area as the atlas learns,
+//! with a defensive share of photons still starting on the original disk). A photon is kept only if its first hit is the pair's caster.
 //! It then scatters through caster surfaces (any BSDF, sampled in importance mode) and media
 //! (attenuated by their transmittance: only unscattered light is carried), and is stored at the
 //! first non-caster surface if that surface is a receiver with a non-specular response; the walk
@@ -73,11 +74,14 @@ pub struct CausticsConfig {
     /// Connect photon stretches in the camera's medium to a pinhole camera (light tracing of
     /// the god rays seen directly; see [`super::light_tracing`]).
     pub light_tracing: bool,
+    /// Refit distant lights' emission disks to where photons proved useful (see
+    /// [`super::atlas`], "Refitting a distant light's disk").
+    pub disk_refit: bool,
 }
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, light_tracing: true }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, light_tracing: true, disk_refit: true }
     }
 }
 
@@ -101,6 +105,11 @@ pub struct CausticsStats {
     pub capped_passes: u32,
     /// Photon stretches connected to the camera (light tracing), all passes.
     pub light_connections: u64,
+    /// Area of the distant lights' emission disks now over their original area (refits shrink
+    /// it); None without distant-light emitters.
+    pub disk_area_ratio: Option<f32>,
+    /// Emission-disk refits so far.
+    pub disk_refits: u32,
 }
 
 /// A caustic chain a camera path is on: it left a non-specular receiver vertex with BSDF pdf
@@ -277,6 +286,7 @@ impl Caustics {
         let (pixel_w0, pixel_spread) = pixel_footprint(world, width, height);
         let fov = (pixel_spread * width as f32) * (pixel_spread * height as f32);
         let mut acfg = AtlasConfig::for_image(width, height, config.photons_per_sample.sqrt());
+        acfg.disk_refit = config.disk_refit;
         acfg.camera = Some(CameraHint { position: cam_pos, solid_angle: if fov > 0.0 { fov.min(4.0 * std::f32::consts::PI) } else { 4.0 * std::f32::consts::PI } });
         let atlas = Atlas::new(&alights, &casters, None, &acfg).ok()?;
         if atlas.pairs().is_empty() {
@@ -351,7 +361,7 @@ impl Caustics {
         // gridded medium every beam would need two tracked transmittances per camera ray, and
         // those god rays stay with the path tracer
         let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && m.is_homogeneous()).collect();
-        let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), ..Default::default() };
+        let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), disk_area_ratio: atlas.disk_area_ratio(), ..Default::default() };
         let light_tracer = if config.light_tracing {
             let t = world.camera.shutter.0;
             let camera_medium = crate::integrator::initial_stack(world, world.camera.position(t), t).medium();
@@ -395,6 +405,11 @@ impl Caustics {
         &self.atlas
     }
 
+    /// The photon map of the current pass.
+    pub fn photon_map(&self) -> &PhotonMap {
+        &self.map
+    }
+
     /// Forgets everything learned (a restarted render is then identical to a fresh one).
     pub fn reset(&mut self) {
         self.atlas = self.fresh_atlas.clone();
@@ -402,7 +417,7 @@ impl Caustics {
         self.map = PhotonMap::build(Vec::new(), self.cell_size).expect("empty map");
         self.beams = BeamMap::default();
         self.weight = 0.0;
-        self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, ..Default::default() };
+        self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, disk_area_ratio: self.atlas.disk_area_ratio(), ..Default::default() };
     }
 
     /// The footprint of a camera ray at the camera (see [`super::footprint`]).
@@ -512,6 +527,8 @@ impl Caustics {
     pub fn end_pass(&mut self, camera_samples: u64) {
         let _ = self.atlas.end_pass(&self.vis, camera_samples.max(1));
         self.stats.passes += 1;
+        self.stats.disk_area_ratio = self.atlas.disk_area_ratio();
+        self.stats.disk_refits = self.atlas.refits();
     }
 
     /// One photon path; stored photons are appended to `out`.
@@ -519,7 +536,7 @@ impl Caustics {
     fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: f32, out: &mut (Vec<Photon>, Vec<Beam>, Vec<Splat>)) {
         let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
         let ua = smp.get2d();
-        let s = self.atlas.sample([ua.x, ua.y]);
+        let mut s = self.atlas.sample([ua.x, ua.y]);
         let li = self.atlas_lights[s.light as usize];
         let light = &world.lights[li];
         let mut lambda = color::sample_wavelengths(smp.get1d());
@@ -527,6 +544,8 @@ impl Caustics {
         let time = t0 + (t1 - t0) * smp.get1d();
         let u_pos = smp.get2d();
         let u_dir = smp.get2d();
+        let u_stream = smp.get1d();
+        let (u_mix, u_disk) = (smp.get1d(), smp.get2d());
         let Some(ls) = light.sample_le(u_pos, u_dir, &lambda, time, &self.disk) else { return };
         // the photon's footprint: a width at the start and a growth per unit length
         let (mut width0, mut spread) = (0.0f32, 0.0f32);
@@ -547,7 +566,7 @@ impl Caustics {
                 (offset_ray_origin(e.origin, n), e.dir, power, self.light_stack[s.light as usize])
             }
             AtlasLight::Distant { to_light, .. } => {
-                let Some(e) = self.atlas.emit(&s, Vec3::ZERO) else { return };
+                let Some(e) = self.atlas.emit_mixture(&mut s, Vec3::ZERO, u_mix, [u_disk.x, u_disk.y]) else { return };
                 let d = ls.ray_d;
                 let cos = d.dot(-to_light);
                 if !(cos > 0.0) {
@@ -565,7 +584,7 @@ impl Caustics {
         let mut ray = Ray { o: origin, d: dir, t_max: f32::INFINITY, time };
         let mut first = true;
         let mut bounces = 0u32;
-        let mut stream = StreamRng::new(smp.get1d(), index);
+        let mut stream = StreamRng::new(u_stream, index);
         let mut null_events = 0u32;
         let mut travelled = 0.0f32;
         let beam_scale = if keep_beam > 0.0 { 1.0 / keep_beam.sqrt() } else { 0.0 };

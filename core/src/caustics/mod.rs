@@ -13,7 +13,8 @@
 //!
 //! # One progressive pass, as the integrator drives it
 //! 1. For each of N photons: `s = atlas.sample(u2)`; sample a point `x` on light `s.light` with
-//!    the light's own numbers (or take its position), `e = atlas.emit(&s, x)`; trace from
+//!    the light's own numbers (or take its position), `e = atlas.emit_mixture(&mut s, x, u, u2')`
+//!    (`atlas.emit(&s, x)` plus the defensive mixture of refit distant-light disks); trace from
 //!    `e.origin` along `e.dir`, rejecting the path unless its first hit is caster `s.caster`;
 //!    the emitted power is `Le · cos / (p_x · e.pdf · N)` (area lights) or `E_sun / (e.pdf · N)`
 //!    (distant lights, `e.pdf` per m² of the disk); after ≥ 1 specular event store a
@@ -23,7 +24,8 @@
 //!    contribution by `atlas.photon_weight(camera_samples_this_pass)` (0 on the first pass,
 //!    which only trains), and record the used photons' throughput into a
 //!    [`atlas::VisibilityBuffer`] (`record(photon.cell, kind, value)`) from any thread.
-//! 4. `atlas.end_pass(&visibility, camera_samples_this_pass)` learns the next pass's table.
+//! 4. `atlas.end_pass(&visibility, camera_samples_this_pass)` learns the next pass's table (and
+//!    refits distant lights' disks on its schedule).
 
 pub mod atlas;
 pub mod beams;
@@ -35,6 +37,6 @@ pub mod photon_map;
 #[cfg(test)]
 mod tests;
 
-pub use atlas::{Atlas, AtlasConfig, AtlasError, AtlasLight, AtlasSample, CameraHint, Caster, EmissionMeasure, PhotonEmission, VisibilityBuffer, VisibilityKind};
+pub use atlas::{Atlas, AtlasConfig, AtlasError, AtlasLight, AtlasSample, CameraHint, Caster, EmissionMeasure, PairDisk, PhotonEmission, VisibilityBuffer, VisibilityKind};
 pub use footprint::Footprint;
 pub use photon_map::{NormalCheck, Photon, PhotonError, PhotonMap, Query, SelectedPhoton, SpectralKernel, SpectralLookup};

@@ -359,7 +359,7 @@ fn train_pass(atlas: &mut Atlas, boxes: &[(Vec3, Vec3)], n: u32, pass: u32) {
 
 fn trained_atlas(passes: u32) -> (Atlas, Vec<(Vec3, Vec3)>) {
     let (lights, casters, boxes) = stage();
-    let cfg = AtlasConfig { width: 48, height: 48, camera: None, defensive: 0.1 };
+    let cfg = AtlasConfig { width: 48, height: 48, camera: None, defensive: 0.1, disk_refit: false };
     let mut atlas = Atlas::new(&lights, &casters, None, &cfg).unwrap();
     for pass in 0..passes {
         train_pass(&mut atlas, &boxes, 60_000, pass);
@@ -621,4 +621,160 @@ fn renderer_lights_become_atlas_lights() {
     assert!((center - Vec3::new(2.0, 2.0, 0.0) / 3.0).length() < 1e-6);
     // the farthest corner from the centroid: (2,0) or (0,2) at √(16/9 + 4/9)
     assert!((radius - (20.0f32 / 9.0).sqrt()).abs() < 1e-5);
+}
+
+/// One distant light over one wide caster (radius 10); photons are "useful" only when they start
+/// within 1.5 of (3, 2) in the light's perpendicular plane (a small visible region of a large
+/// water surface).
+fn refit_stage() -> (Atlas, Frame, Vec3) {
+    let to_light = Vec3::new(0.2, 1.0, -0.3).normalize();
+    let lights = [AtlasLight::Distant { to_light, irradiance: 3.0, cos_half_angle: 0.99999 }];
+    let casters = [Caster { center: Vec3::new(1.0, -2.0, 0.5), radius: 10.0 }];
+    let atlas = Atlas::new(&lights, &casters, None, &AtlasConfig { width: 32, height: 32, ..Default::default() }).unwrap();
+    (atlas, Frame::from_normal(-to_light), casters[0].center)
+}
+
+const USEFUL: ([f32; 2], f32) = ([3.0, 2.0], 1.5);
+
+/// A learning pass of `n` photons drawn with the defensive mixture: each useful one records a
+/// float-valued signal in its cell, from any thread.
+fn refit_pass(atlas: &mut Atlas, frame: &Frame, center: Vec3, n: u32, pass: u32) {
+    let vis = VisibilityBuffer::new(atlas, 1.0).unwrap();
+    (0..n).into_par_iter().for_each(|i| {
+        let mut rng = TestRng::new(((pass as u64) << 32) | i as u64 | 1 << 63);
+        let mut s = atlas.sample([rng.next_f32(), rng.next_f32()]);
+        let (um, ud) = (rng.next_f32(), [rng.next_f32(), rng.next_f32()]);
+        let e = atlas.emit_mixture(&mut s, Vec3::ZERO, um, ud).unwrap();
+        let v = frame.to_local(e.origin - center);
+        let (c, r) = USEFUL;
+        if (v.x - c[0]).powi(2) + (v.y - c[1]).powi(2) < r * r {
+            vis.record(s.cell, VisibilityKind::Surface, (0.5 + rng.next_f32()) / (n as f32 * e.pdf));
+        }
+    });
+    atlas.end_pass(&vis, n as u64).unwrap();
+}
+
+fn refit_atlas(passes: u32) -> (Atlas, Frame, Vec3) {
+    let (mut atlas, frame, center) = refit_stage();
+    for pass in 0..passes {
+        refit_pass(&mut atlas, &frame, center, 40_000, pass);
+    }
+    (atlas, frame, center)
+}
+
+// After two passes the disk shrinks to the useful region (with its margin), holds all of it,
+// and saves at least half the area; before pass 2 nothing changes.
+#[test]
+fn the_disk_is_refit_to_the_useful_cells_after_the_second_pass() {
+    let (one, ..) = refit_atlas(1);
+    assert!(one.pair_disk(0).is_none() && one.disk_area_ratio() == Some(1.0));
+    let (atlas, ..) = refit_atlas(2);
+    let d = atlas.pair_disk(0).expect("refit after pass 2");
+    let (c, r) = USEFUL;
+    let reach = ((d.offset[0] - c[0]).powi(2) + (d.offset[1] - c[1]).powi(2)).sqrt() + r;
+    assert!(reach <= d.radius, "refit disk {d:?} must hold the useful circle");
+    let ratio = atlas.disk_area_ratio().unwrap();
+    assert!(ratio <= REFIT_MAX_AREA_RATIO && (ratio / (d.radius / 10.0).powi(2) - 1.0).abs() < 1e-5, "area ratio {ratio}");
+    assert_eq!(atlas.refits(), 1);
+    // the pair's table restarts uniform over its square (visibility forgotten)
+    let (_, _, vis) = atlas.visibility_image();
+    assert!(vis.iter().all(|&v| v == 0.0));
+    let (_, _, img) = atlas.to_image();
+    assert!(img.iter().all(|&v| v == 1.0), "uniform over the pair's square");
+}
+
+// The defensive mixture on a refit disk against `pdf_position`: positions mapped to the upper
+// hemisphere by the equal-area map of a disk of radius 12 (the original disk, radius 10, and the
+// refit disk lie inside it). Also: each photon's pdf is `pdf_position` at its start, and photons
+// outside the refit disk carry the pair's out-of-table cell id.
+#[test]
+fn refit_position_sampling_passes_chi2_against_its_pdf() {
+    let (atlas, frame, center) = refit_atlas(4);
+    let d = atlas.pair_disk(0).expect("refit");
+    let big = 12.0f32;
+    let (mut outside, mut agree, mut total) = (0u32, 0u32, 0u32);
+    let mut rng = TestRng::new(99);
+    for _ in 0..20_000 {
+        let mut s = atlas.sample([rng.next_f32(), rng.next_f32()]);
+        let e = atlas.emit_mixture(&mut s, Vec3::ZERO, rng.next_f32(), [rng.next_f32(), rng.next_f32()]).unwrap();
+        let v = frame.to_local(e.origin - center);
+        let r_refit = ((v.x - d.offset[0]).powi(2) + (v.y - d.offset[1]).powi(2)).sqrt();
+        if r_refit >= d.radius {
+            outside += 1;
+            assert_eq!(s.cell as usize, atlas.cell_count(), "out-of-table id of pair 0");
+            assert_eq!(atlas.pair_of_cell(s.cell), Some(&atlas.pairs()[0]));
+        } else {
+            assert!((s.cell as usize) < atlas.cell_count());
+        }
+        total += 1;
+        let p = atlas.pdf_position(0, e.origin);
+        // f32 relative rounding; a start within rounding of a cell edge may read the neighbour
+        if (p / e.pdf - 1.0).abs() < 1e-4 {
+            agree += 1;
+        }
+    }
+    // the uniform branch (10%) lands outside the refit disk with probability 1 − (area ratio)
+    assert!(outside > total / 20, "outside the refit disk: {outside} of {total}");
+    assert!(agree as f32 > 0.999 * total as f32, "photon pdf equals pdf_position: {agree} of {total}");
+    let cfg = Chi2Config { theta_res: 16, phi_res: 32, samples: 300_000, quad_res: 32, ..Default::default() };
+    let r = chi2_sphere(
+        cfg,
+        |rng| {
+            let mut s = atlas.sample([rng.next_f32(), rng.next_f32()]);
+            let e = atlas.emit_mixture(&mut s, Vec3::ZERO, rng.next_f32(), [rng.next_f32(), rng.next_f32()])?;
+            let v = frame.to_local(e.origin - center);
+            let (a, b) = (v.x / big, v.y / big);
+            let rho2 = a * a + b * b;
+            assert!(rho2 < 1.0, "the test's disk holds both disks");
+            let k = (2.0 - rho2).sqrt();
+            Some(Vec3::new(a * k, b * k, 1.0 - rho2))
+        },
+        |dir| {
+            if dir.z <= 0.0 {
+                return 0.0;
+            }
+            let rho = (1.0 - dir.z).max(0.0).sqrt();
+            let phi = dir.y.atan2(dir.x);
+            let p = center + frame.to_world(Vec3::new(big * rho * phi.cos(), big * rho * phi.sin(), 0.0));
+            atlas.pdf_position(0, p) * big * big / 2.0
+        },
+    );
+    assert!(r.passed(0.01, 1), "{r:?}");
+    // midpoint quadrature of a density with disk edges and cell steps, as above
+    assert!((r.pdf_integral - 1.0).abs() < 5e-3, "{r:?}");
+}
+
+// The refit depends only on the fixed-point sums: identical disks, tables and signals for 1 and
+// 2 threads over two refit checks (passes 2 and 4).
+#[test]
+fn refit_is_identical_on_one_and_two_threads() {
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let (atlas, ..) = refit_atlas(5);
+            (atlas.pair_disk(0), atlas.to_image().2, atlas.visibility_image().2)
+        })
+    };
+    let (d1, t1, v1) = run(1);
+    let (d2, t2, v2) = run(2);
+    assert!(d1.is_some());
+    assert_eq!(d1.map(|d| (d.offset.map(f32::to_bits), d.radius.to_bits())), d2.map(|d| (d.offset.map(f32::to_bits), d.radius.to_bits())));
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&t1), bits(&t2), "learned tables differ");
+    assert_eq!(bits(&v1), bits(&v2), "visibility signals differ");
+}
+
+// Switched off, the disk stays the caster's.
+#[test]
+fn refit_can_be_switched_off() {
+    let (lights, casters) = {
+        let (a, ..) = refit_stage();
+        (a.lights().to_vec(), a.casters().to_vec())
+    };
+    let (_, frame, center) = refit_stage();
+    let mut atlas = Atlas::new(&lights, &casters, None, &AtlasConfig { width: 32, height: 32, disk_refit: false, ..Default::default() }).unwrap();
+    for pass in 0..4 {
+        refit_pass(&mut atlas, &frame, center, 20_000, pass);
+    }
+    assert!(atlas.pair_disk(0).is_none() && atlas.refits() == 0 && atlas.disk_area_ratio() == Some(1.0));
 }
