@@ -3,12 +3,16 @@
 
 #include "tide/renderParam.h"
 
+#include "pxr/base/gf/camera.h"
 #include "pxr/base/gf/matrix4d.h"
+#include "pxr/base/gf/range1d.h"
+#include "pxr/base/gf/range1f.h"
 #include "pxr/base/gf/vec2f.h"
 #include "pxr/base/gf/vec2i.h"
 #include "pxr/base/gf/vec3f.h"
 #include "pxr/base/gf/vec4f.h"
 #include "pxr/imaging/hd/camera.h"
+#include "pxr/imaging/hd/instancer.h"
 #include "pxr/imaging/hd/light.h"
 #include "pxr/imaging/hd/material.h"
 #include "pxr/imaging/hd/meshTopology.h"
@@ -17,6 +21,8 @@
 #include "pxr/imaging/hd/sceneDelegate.h"
 #include "pxr/imaging/hd/tokens.h"
 #include "pxr/usd/sdf/assetPath.h"
+
+#include <type_traits>
 
 PXR_NAMESPACE_OPEN_SCOPE
 
@@ -38,6 +44,7 @@ tide::Value HdTideToValue(VtValue const& v) {
     if (v.IsHolding<bool>()) return Value::MakeBool(v.UncheckedGet<bool>());
     if (v.IsHolding<int>()) return Value::MakeInt(v.UncheckedGet<int>());
     if (v.IsHolding<int64_t>()) return Value::MakeInt(v.UncheckedGet<int64_t>());
+    if (v.IsHolding<unsigned int>()) return Value::MakeInt(v.UncheckedGet<unsigned int>());
     if (v.IsHolding<float>()) return Value::MakeFloat(v.UncheckedGet<float>());
     if (v.IsHolding<double>()) return Value::MakeFloat(v.UncheckedGet<double>());
     if (v.IsHolding<TfToken>()) return Value::MakeToken(v.UncheckedGet<TfToken>().GetString());
@@ -61,6 +68,14 @@ tide::Value HdTideToValue(VtValue const& v) {
     if (v.IsHolding<GfVec2f>()) { auto x = v.UncheckedGet<GfVec2f>(); return Value::MakeFloats({x[0], x[1]}, 2); }
     if (v.IsHolding<GfVec3f>()) { auto x = v.UncheckedGet<GfVec3f>(); return Value::MakeFloats({x[0], x[1], x[2]}, 3); }
     if (v.IsHolding<GfVec4f>()) { auto x = v.UncheckedGet<GfVec4f>(); return Value::MakeFloats({x[0], x[1], x[2], x[3]}, 4); }
+    if (v.IsHolding<GfRange1f>()) {
+        auto r = v.UncheckedGet<GfRange1f>();
+        return Value::MakeFloats({r.GetMin(), r.GetMax()}, 2);
+    }
+    if (v.IsHolding<GfRange1d>()) {
+        auto r = v.UncheckedGet<GfRange1d>();
+        return Value::MakeFloats({float(r.GetMin()), float(r.GetMax())}, 2);
+    }
     if (v.IsHolding<GfVec2i>()) { auto x = v.UncheckedGet<GfVec2i>(); return Value::MakeInts({x[0], x[1]}); }
     if (v.IsHolding<VtFloatArray>()) {
         auto const& a = v.UncheckedGet<VtFloatArray>();
@@ -88,20 +103,88 @@ tide::Value HdTideToValue(VtValue const& v) {
 // ---------------------------------------------------------------------------------------------
 // HdTideSnapshot
 
-static const TfToken kLightKeys[] = {
-    TfToken("inputs:intensity"), TfToken("inputs:exposure"), TfToken("inputs:color"), TfToken("inputs:normalize"),
-    TfToken("inputs:enableColorTemperature"), TfToken("inputs:colorTemperature"), TfToken("inputs:angle"),
-    TfToken("inputs:radius"), TfToken("treatAsPoint"), TfToken("inputs:width"), TfToken("inputs:height"),
-    TfToken("inputs:length"), TfToken("treatAsLine"), TfToken("inputs:texture:file"), TfToken("inputs:texture:format")};
-static const TfToken kCameraKeys[] = {
-    TfToken("projection"), TfToken("focalLength"), TfToken("horizontalAperture"), TfToken("verticalAperture"),
-    TfToken("horizontalApertureOffset"), TfToken("verticalApertureOffset"), TfToken("clippingRange"),
-    TfToken("fStop"), TfToken("focusDistance"), TfToken("shutter:open"), TfToken("shutter:close"),
-    TfToken("exposure"), TfToken("tide:camera:filter"), TfToken("tide:medium")};
-static const TfToken kGprimKeys[] = {TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"),
-                                     TfToken("width"), TfToken("length"), TfToken("doubleSided")};
+namespace {
 
-HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits)
+/// An Hd parameter read under Tide's key (the USD attribute name the reader sends), divided by
+/// `unit` when Hydra hands it in other units (camera apertures and focal length in scene units).
+struct Param {
+    TfToken hd;
+    std::string key;
+    double unit = 1.0;
+};
+
+// Lights: HdLightTokens, which UsdImaging maps to the UsdLux inputs; the other names fall back
+// to the prim's attribute of that name.
+const std::vector<Param>& LightParams() {
+    static const std::vector<Param> p = {
+        {HdLightTokens->intensity, "inputs:intensity"},
+        {HdLightTokens->exposure, "inputs:exposure"},
+        {HdLightTokens->color, "inputs:color"},
+        {HdLightTokens->normalize, "inputs:normalize"},
+        {HdLightTokens->enableColorTemperature, "inputs:enableColorTemperature"},
+        {HdLightTokens->colorTemperature, "inputs:colorTemperature"},
+        {HdLightTokens->angle, "inputs:angle"},
+        {HdLightTokens->radius, "inputs:radius"},
+        {HdLightTokens->width, "inputs:width"},
+        {HdLightTokens->height, "inputs:height"},
+        {HdLightTokens->length, "inputs:length"},
+        {HdLightTokens->textureFile, "inputs:texture:file"},
+        {HdLightTokens->textureFormat, "inputs:texture:format"},
+        {TfToken("treatAsPoint"), "treatAsPoint"},
+        {TfToken("treatAsLine"), "treatAsLine"},
+        {TfToken("tide:caustics:emitter"), "tide:caustics:emitter"},
+    };
+    return p;
+}
+
+// Cameras: HdCameraTokens (Hydra's units: apertures and focal length in scene units, i.e. the
+// USD value times GfCamera's units); the exposure controls and Tide's filter fall back to the
+// prim's attribute of that name.
+const std::vector<Param>& CameraParams() {
+    static const std::vector<Param> p = {
+        {HdCameraTokens->projection, "projection"},
+        {HdCameraTokens->focalLength, "focalLength", GfCamera::FOCAL_LENGTH_UNIT},
+        {HdCameraTokens->horizontalAperture, "horizontalAperture", GfCamera::APERTURE_UNIT},
+        {HdCameraTokens->verticalAperture, "verticalAperture", GfCamera::APERTURE_UNIT},
+        {HdCameraTokens->horizontalApertureOffset, "horizontalApertureOffset", GfCamera::APERTURE_UNIT},
+        {HdCameraTokens->verticalApertureOffset, "verticalApertureOffset", GfCamera::APERTURE_UNIT},
+        {HdCameraTokens->clippingRange, "clippingRange"},
+        {HdCameraTokens->fStop, "fStop"},
+        {HdCameraTokens->focusDistance, "focusDistance"},
+        {HdCameraTokens->shutterOpen, "shutter:open"},
+        {HdCameraTokens->shutterClose, "shutter:close"},
+        {HdCameraTokens->exposure, "exposure"},
+        {TfToken("exposure:fStop"), "exposure:fStop"},
+        {TfToken("exposure:time"), "exposure:time"},
+        {TfToken("exposure:iso"), "exposure:iso"},
+        {TfToken("exposure:responsivity"), "exposure:responsivity"},
+        {TfToken("tide:camera:filter"), "tide:camera:filter"},
+    };
+    return p;
+}
+
+// Gprims' parameters: implicit shapes' sizes, doubleSided and the caustics tags (contract §4),
+// read with HdSceneDelegate::Get, which falls back to the prim's attribute.
+const std::vector<TfToken>& GprimParams() {
+    static const std::vector<TfToken> p = {
+        TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"), TfToken("width"),
+        TfToken("length"), TfToken("doubleSided"), TfToken("tide:caustics:caster"),
+        TfToken("tide:caustics:receiver"), TfToken("tide:caustics:transparency")};
+    return p;
+}
+
+/// `v` divided by `unit` (floats and doubles; anything else unchanged).
+VtValue Unscaled(VtValue const& v, double unit) {
+    if (unit == 1.0) return v;
+    if (v.IsHolding<float>()) return VtValue(float(double(v.UncheckedGet<float>()) / unit));
+    if (v.IsHolding<double>()) return VtValue(v.UncheckedGet<double>() / unit);
+    return v;
+}
+
+}  // namespace
+
+HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits,
+                               int primId)
     : _path(id.GetString()) {
     using CT = HdChangeTracker;
     using tide::ChangeTracker;
@@ -139,8 +222,14 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _tideBits |= ChangeTracker::DirtyTopology;
         }
         if (bits & (CT::DirtyPrimvar | CT::DirtyNormals | CT::DirtyWidths)) _tideBits |= ChangeTracker::DirtyPrimvar;
-        if (bits & CT::DirtyParams) {
-            for (TfToken const& k : kGprimKeys) _Put(k.GetString(), sd->Get(id, k));
+        // Implicit shapes' sizes arrive as DirtyPrimvar (Hydra's dirty bits translator), doubleSided
+        // as DirtyDoubleSided; the caustics tags have no bit of their own and ride on both.
+        if (bits & (CT::DirtyPrimvar | CT::DirtyDoubleSided)) {
+            for (TfToken const& k : GprimParams()) _Put(k.GetString(), sd->Get(id, k));
+            _tideBits |= ChangeTracker::DirtyParams;
+        }
+        if ((bits & CT::DirtyPrimID) && primId >= 0) {
+            _Put("primId", VtValue(primId));
             _tideBits |= ChangeTracker::DirtyParams;
         }
     } else if (typeId == "material") {
@@ -167,7 +256,13 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         }
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource;
     } else if (typeId == "camera") {
-        for (TfToken const& k : kCameraKeys) _Put(k.GetString(), sd->GetCameraParamValue(id, k));
+        for (Param const& p : CameraParams()) {
+            VtValue v = Unscaled(sd->GetCameraParamValue(id, p.hd), p.unit);
+            if (v.IsHolding<HdCamera::Projection>())
+                v = VtValue(TfToken(v.UncheckedGet<HdCamera::Projection>() == HdCamera::Orthographic ? "orthographic"
+                                                                                                   : "perspective"));
+            _Put(p.key, v);
+        }
         _Put("transform", VtValue(sd->GetTransform(id)));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyTransform;
     } else if (typeId == "renderBuffer") {
@@ -175,12 +270,11 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         _store.Set(_path, "dimensions", tide::TimedValue{false, 0, tide::Value::MakeInts({d.dimensions[0], d.dimensions[1]})});
         _tideBits |= ChangeTracker::DirtyDescription;
     } else {
-        for (TfToken const& k : kLightKeys) _Put(k.GetString(), sd->GetLightParamValue(id, k));
+        for (Param const& p : LightParams()) _Put(p.key, sd->GetLightParamValue(id, p.hd));
         _Put("transform", VtValue(sd->GetTransform(id)));
         _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource | ChangeTracker::DirtyTransform;
     }
-    (void)bits;
     _sd = sd;
     _id = id;
 }
@@ -238,16 +332,24 @@ namespace {
 
 HdDirtyBits const kAllRprimBits = HdChangeTracker::AllSceneDirtyBits;
 
+/// What every Hd prim of this delegate has: the tide:: prim it forwards to.
+template <typename P>
+class HdTideLink {
+public:
+    virtual ~HdTideLink() = default;
+    virtual P* TidePrim() const = 0;
+};
+
 template <typename Base>
-class HdTideRprim final : public Base {
+class HdTideRprim final : public Base, public HdTideLink<tide::Rprim> {
 public:
     HdTideRprim(SdfPath const& id, std::string typeId, tide::Rprim* prim)
         : Base(id), _typeId(std::move(typeId)), _prim(prim) {}
-    tide::Rprim* TidePrim() const { return _prim; }
+    tide::Rprim* TidePrim() const override { return _prim; }
 
     HdDirtyBits GetInitialDirtyBitsMask() const override { return kAllRprimBits; }
     void Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits, TfToken const&) override {
-        HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, *dirtyBits);
+        HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, *dirtyBits, Base::GetPrimId());
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
         *dirtyBits &= ~HdChangeTracker::AllSceneDirtyBits;
@@ -266,17 +368,22 @@ private:
     tide::Rprim* _prim;
 };
 
-class HdTideSprim final : public HdSprim {
+/// A camera (HdCamera, whose own Sync keeps the values Hydra reads back for framing), a light
+/// (HdLight) or a material (HdMaterial): Hydra casts sprims of these types to these classes.
+template <typename Base>
+class HdTideSprim final : public Base, public HdTideLink<tide::Sprim> {
 public:
     HdTideSprim(SdfPath const& id, std::string typeId, tide::Sprim* prim)
-        : HdSprim(id), _typeId(std::move(typeId)), _prim(prim) {}
-    tide::Sprim* TidePrim() const { return _prim; }
-    HdDirtyBits GetInitialDirtyBitsMask() const override { return HdChangeTracker::AllDirty; }
-    void Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits) override {
-        HdTideSnapshot snapshot(sd, GetId(), _typeId, *dirtyBits);
+        : Base(id), _typeId(std::move(typeId)), _prim(prim) {}
+    tide::Sprim* TidePrim() const override { return _prim; }
+    HdDirtyBits GetInitialDirtyBitsMask() const override { return Base::AllDirty; }
+    void Sync(HdSceneDelegate* sd, HdRenderParam* param, HdDirtyBits* dirtyBits) override {
+        const HdDirtyBits hdBits = *dirtyBits;
+        if constexpr (std::is_same_v<Base, HdCamera>) HdCamera::Sync(sd, param, dirtyBits);
+        HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, hdBits);
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
-        *dirtyBits = HdChangeTracker::Clean;
+        *dirtyBits = Base::Clean;
     }
 
 private:
@@ -288,6 +395,8 @@ class HdTideRenderBuffer final : public HdRenderBuffer {
 public:
     HdTideRenderBuffer(SdfPath const& id, tide::RenderBuffer* buffer) : HdRenderBuffer(id), _buffer(buffer) {}
     tide::RenderBuffer* TideBuffer() const { return _buffer; }
+    /// Tide renders float32: a request for another format gets float32 with as many components,
+    /// and GetFormat says what the mapped pixels really are.
     bool Allocate(GfVec3i const& dims, HdFormat format, bool multiSampled) override {
         tide::Format f = tide::Format::Float32Vec4;
         switch (HdGetComponentCount(format)) {
@@ -296,13 +405,21 @@ public:
         case 3: f = tide::Format::Float32Vec3; break;
         default: break;
         }
-        _hdFormat = format;
         return _buffer->Allocate(dims[0], dims[1], dims[2], f, multiSampled);
     }
     unsigned int GetWidth() const override { return _buffer->GetWidth(); }
     unsigned int GetHeight() const override { return _buffer->GetHeight(); }
     unsigned int GetDepth() const override { return 1; }
-    HdFormat GetFormat() const override { return _hdFormat; }
+    /// The float32 format of the pixels Map returns (after a Resolve, the bound AOV's channels).
+    HdFormat GetFormat() const override {
+        switch (_buffer->GetChannels()) {
+        case 0: return HdFormatInvalid;
+        case 1: return HdFormatFloat32;
+        case 2: return HdFormatFloat32Vec2;
+        case 3: return HdFormatFloat32Vec3;
+        default: return HdFormatFloat32Vec4;
+        }
+    }
     bool IsMultiSampled() const override { return false; }
     void* Map() override { return _buffer->Map(); }
     void Unmap() override { _buffer->Unmap(); }
@@ -313,18 +430,19 @@ public:
 private:
     void _Deallocate() override {}
     tide::RenderBuffer* _buffer;
-    HdFormat _hdFormat = HdFormatFloat32Vec4;
 };
 
 class HdTideRenderPass final : public HdRenderPass {
 public:
-    HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass)
-        : HdRenderPass(index, collection), _pass(std::move(pass)) {}
+    HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass,
+                     std::string settingsPath)
+        : HdRenderPass(index, collection), _pass(std::move(pass)), _settingsPath(std::move(settingsPath)) {}
     bool IsConverged() const override { return _pass->IsConverged(); }
 
 protected:
     void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
         tide::RenderPassState s;
+        s.renderSettings = _settingsPath;
         if (HdCamera const* cam = state->GetCamera()) s.camera = cam->GetId().GetString();
         for (HdRenderPassAovBinding const& b : state->GetAovBindings()) {
             auto* rb = dynamic_cast<HdTideRenderBuffer*>(b.renderBuffer);
@@ -336,6 +454,7 @@ protected:
 
 private:
     std::shared_ptr<tide::RenderPass> _pass;
+    std::string _settingsPath;
 };
 
 }  // namespace
@@ -349,19 +468,94 @@ static TfTokenVector Tokens(std::vector<std::string> const& v) {
     return t;
 }
 
-HdTideRenderDelegate::HdTideRenderDelegate() : _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {}
+/// Where the delegate's render settings live in the Rust delegate: the path the usd-core reader
+/// uses when a stage has no UsdRenderSettings prim.
+static const char kSettingsPath[] = "/Render/__TideSettings";
+
+/// TideRenderSettingsAPI (schemas/schema.usda): the settings the delegate forwards, with the
+/// schema's defaults. Resolution is not among them: Tide renders at the bound buffers' size.
+static HdRenderSettingDescriptorList const& Descriptors() {
+    static const HdRenderSettingDescriptorList d = {
+        {"Integrator (path, caustics)", TfToken("tide:integrator"), VtValue(TfToken("caustics"))},
+        {"Samples per pixel", TfToken("tide:samples"), VtValue(64)},
+        {"Maximum path depth", TfToken("tide:maxDepth"), VtValue(64)},
+        {"Seed", TfToken("tide:seed"), VtValue(0)},
+        {"Time budget (s, 0 = none)", TfToken("tide:time:budget"), VtValue(0.0f)},
+        {"Adaptive threshold (0 = off)", TfToken("tide:adaptive:threshold"), VtValue(0.0f)},
+        {"Adaptive minimum samples (0 = 16)", TfToken("tide:adaptive:minSamples"), VtValue(0)},
+        {"Pixel filter (gaussian, box, triangle)", TfToken("tide:pixelFilter"), VtValue(TfToken("gaussian"))},
+        {"Pixel filter width (pixels, 0 = the filter's own)", TfToken("tide:pixelFilter:width"), VtValue(0.0f)},
+    };
+    return d;
+}
+
+HdTideRenderDelegate::HdTideRenderDelegate() : HdTideRenderDelegate(HdRenderSettingsMap()) {}
 
 HdTideRenderDelegate::HdTideRenderDelegate(HdRenderSettingsMap const& settingsMap)
-    : HdRenderDelegate(settingsMap), _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {}
+    : HdRenderDelegate(settingsMap), _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {
+    _PopulateDefaultSettings(Descriptors());
+    _settingsPrim = _tide->CreateSprim("renderSettings", kSettingsPath);
+    _SyncSettings();
+}
 
-HdTideRenderDelegate::~HdTideRenderDelegate() = default;
+HdTideRenderDelegate::~HdTideRenderDelegate() {
+    if (_settingsPrim) _tide->DestroySprim(_settingsPrim);
+}
+
+void HdTideRenderDelegate::_SyncSettings() {
+    if (!_settingsPrim) return;
+    for (HdRenderSettingDescriptor const& d : Descriptors()) {
+        VtValue const v = GetRenderSetting(d.key);
+        tide::Value value = HdTideToValue(v);
+        if (value.IsEmpty()) {
+            if (!v.IsEmpty())
+                TF_WARN("Tide: %s: %s: a %s is not a setting value (the previous one stays)", kSettingsPath,
+                        d.key.GetText(), v.GetTypeName().c_str());
+            continue;
+        }
+        _tide->SetRenderSetting(d.key.GetString(), value);
+        _settingsSource.Set(kSettingsPath, d.key.GetString(), tide::TimedValue{false, 0.0, std::move(value)});
+    }
+    tide::DirtyBits bits = tide::ChangeTracker::DirtyParams;
+    _settingsPrim->Sync(_settingsSource, &bits);
+}
+
+void HdTideRenderDelegate::SetRenderSetting(TfToken const& key, VtValue const& value) {
+    const unsigned int before = GetRenderSettingsVersion();
+    HdRenderDelegate::SetRenderSetting(key, value);
+    if (GetRenderSettingsVersion() != before) _SyncSettings();
+}
+
+HdRenderSettingDescriptorList HdTideRenderDelegate::GetRenderSettingDescriptors() const { return Descriptors(); }
+
+VtDictionary HdTideRenderDelegate::GetRenderStats() const {
+    VtDictionary stats;
+    std::shared_ptr<tide::RenderPass> pass = _lastPass.lock();
+    if (!pass) return stats;
+    stats["percentDone"] = VtValue(100.0 * pass->GetProgress());
+    stats["tide:converged"] = VtValue(pass->IsConverged());
+    for (std::string const& kv : pass->GetSummary()) {
+        const size_t eq = kv.find('=');
+        if (eq != std::string::npos) stats["tide:" + kv.substr(0, eq)] = VtValue(kv.substr(eq + 1));
+    }
+    const std::string error = pass->GetError();
+    if (!error.empty()) stats["tide:error"] = VtValue(error);
+    return stats;
+}
 
 TfTokenVector const& HdTideRenderDelegate::GetSupportedRprimTypes() const {
     static const TfTokenVector t = Tokens(_tide->GetSupportedRprimTypes());
     return t;
 }
 TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
-    static const TfTokenVector t = Tokens(_tide->GetSupportedSprimTypes());
+    // Hydra's renderSettings prims are bprims (HdRenderSettings), which this delegate does not
+    // map: its settings come from the HdRenderSettingsMap.
+    static const TfTokenVector t = [this] {
+        TfTokenVector types;
+        for (std::string const& s : _tide->GetSupportedSprimTypes())
+            if (s != "renderSettings") types.emplace_back(s);
+        return types;
+    }();
     return t;
 }
 TfTokenVector const& HdTideRenderDelegate::GetSupportedBprimTypes() const {
@@ -372,7 +566,9 @@ TfTokenVector const& HdTideRenderDelegate::GetSupportedBprimTypes() const {
 HdResourceRegistrySharedPtr HdTideRenderDelegate::GetResourceRegistry() const { return _registry; }
 
 HdRenderPassSharedPtr HdTideRenderDelegate::CreateRenderPass(HdRenderIndex* index, HdRprimCollection const& collection) {
-    return std::make_shared<HdTideRenderPass>(index, collection, _tide->CreateRenderPass());
+    std::shared_ptr<tide::RenderPass> pass = _tide->CreateRenderPass();
+    _lastPass = pass;
+    return std::make_shared<HdTideRenderPass>(index, collection, std::move(pass), kSettingsPath);
 }
 
 HdInstancer* HdTideRenderDelegate::CreateInstancer(HdSceneDelegate*, SdfPath const&) { return nullptr; }
@@ -387,21 +583,22 @@ HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const&
 }
 
 void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
-    if (auto* m = dynamic_cast<HdTideRprim<HdMesh>*>(rPrim)) _tide->DestroyRprim(m->TidePrim());
-    else if (auto* p = dynamic_cast<HdTideRprim<HdPoints>*>(rPrim)) _tide->DestroyRprim(p->TidePrim());
-    else if (auto* g = dynamic_cast<HdTideRprim<HdRprim>*>(rPrim)) _tide->DestroyRprim(g->TidePrim());
+    if (auto* link = dynamic_cast<HdTideLink<tide::Rprim>*>(rPrim)) _tide->DestroyRprim(link->TidePrim());
     delete rPrim;
 }
 
 HdSprim* HdTideRenderDelegate::CreateSprim(TfToken const& typeId, SdfPath const& sprimId) {
     tide::Sprim* prim = _tide->CreateSprim(typeId.GetString(), sprimId.GetString());
-    return prim ? new HdTideSprim(sprimId, typeId.GetString(), prim) : nullptr;
+    if (!prim) return nullptr;
+    if (typeId == HdPrimTypeTokens->camera) return new HdTideSprim<HdCamera>(sprimId, typeId.GetString(), prim);
+    if (typeId == HdPrimTypeTokens->material) return new HdTideSprim<HdMaterial>(sprimId, typeId.GetString(), prim);
+    return new HdTideSprim<HdLight>(sprimId, typeId.GetString(), prim);
 }
 
 HdSprim* HdTideRenderDelegate::CreateFallbackSprim(TfToken const&) { return nullptr; }
 
 void HdTideRenderDelegate::DestroySprim(HdSprim* sPrim) {
-    if (auto* s = dynamic_cast<HdTideSprim*>(sPrim)) _tide->DestroySprim(s->TidePrim());
+    if (auto* link = dynamic_cast<HdTideLink<tide::Sprim>*>(sPrim)) _tide->DestroySprim(link->TidePrim());
     delete sPrim;
 }
 

@@ -26,7 +26,9 @@ tide::Value HdTideToValue(VtValue const& v);
 /// The values of one prim read from an HdSceneDelegate, as a tide::SceneSource.
 class HdTideSnapshot final : public tide::SceneSource {
 public:
-    HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits);
+    /// `primId`: the rprim's id in the render index (forwarded as `primId`), or -1.
+    HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::string const& typeId, HdDirtyBits bits,
+                   int primId = -1);
     tide::Value Get(std::string const& path, std::string const& key) const override;
     std::vector<tide::TimedValue> SampleValues(std::string const& path, std::string const& key) const override;
     std::vector<std::string> GetKeys(std::string const& path) const override;
@@ -74,11 +76,25 @@ public:
     TfToken GetMaterialBindingPurpose() const override { return HdTokens->full; }
     HdAovDescriptor GetDefaultAovDescriptor(TfToken const& name) const override;
 
+    /// TideRenderSettingsAPI's settings (tide:samples, tide:maxDepth, ...) with their defaults.
+    HdRenderSettingDescriptorList GetRenderSettingDescriptors() const override;
+    /// Stores the setting and forwards the settings to the delegate's renderSettings prim.
+    void SetRenderSetting(TfToken const& key, VtValue const& value) override;
+    /// The newest render pass's progress (`percentDone`), `tide:converged`, its summary
+    /// (`tide:<key>` strings) and `tide:error` when it failed.
+    VtDictionary GetRenderStats() const override;
+
     tide::RenderDelegate& Tide() { return *_tide; }
 
 private:
+    /// Forwards the settings map's Tide settings to the renderSettings prim.
+    void _SyncSettings();
+
     std::unique_ptr<tide::RenderDelegate> _tide;
     HdResourceRegistrySharedPtr _registry;
+    tide::Sprim* _settingsPrim = nullptr;
+    tide::MemorySceneSource _settingsSource;
+    std::weak_ptr<tide::RenderPass> _lastPass;
 };
 
 PXR_NAMESPACE_CLOSE_SCOPE
