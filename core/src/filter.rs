@@ -4,16 +4,18 @@
 //! `tide:pixelFilter` (`gaussian` | `box` | `triangle`) of full width `tide:pixelFilter:width`
 //! pixels on the render settings.
 //!
-//! - `gaussian` (default, width 3): σ = width / 6, truncated at ±3σ;
-//! - `box` (default width 1): uniform over the width (width 1 is the pixel's own square, the
-//!   filter of renderers that average samples per pixel);
+//! - `box` (the default, width 1): uniform over the width; width 1 is the pixel's own square, so
+//!   a pixel is the mean radiance over its area (the pixel integral that reference renders and
+//!   comparisons between renderers use);
+//! - `gaussian` (default width 3): σ = width / 6, truncated at ±3σ (smoother anti-aliasing at
+//!   the price of a slightly softer image);
 //! - `triangle` (default width 2): a tent reaching 0 at ±width / 2.
 
 /// The shape of a pixel filter.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum FilterKind {
-    #[default]
     Gaussian,
+    #[default]
     Box,
     Triangle,
 }
@@ -55,7 +57,7 @@ pub struct PixelFilter {
 
 impl Default for PixelFilter {
     fn default() -> Self {
-        PixelFilter { kind: FilterKind::Gaussian, width: FilterKind::Gaussian.default_width() }
+        PixelFilter { kind: FilterKind::Box, width: FilterKind::Box.default_width() }
     }
 }
 
@@ -199,9 +201,10 @@ mod tests {
     }
 
     #[test]
-    fn the_default_is_the_gaussian_of_sigma_half_a_pixel() {
-        let f = PixelFilter::default();
-        assert_eq!((f.kind, f.width), (FilterKind::Gaussian, 3.0));
+    fn the_default_is_the_pixel_box_and_the_gaussian_has_sigma_half_a_pixel() {
+        assert_eq!(PixelFilter::default(), PixelFilter { kind: FilterKind::Box, width: 1.0 });
+        let f = PixelFilter::new(FilterKind::Gaussian, 0.0).unwrap();
+        assert_eq!(f.width, 3.0);
         // the median is the centre; the upper quartile of the ±3σ-truncated normal is
         // Φ⁻¹(0.75 − Φ(−3)/2) ≈ 0.674490 − 0.000675/φ(0.674490) = 0.672366 (to first order,
         // whose error here is ~1e-6) in units of σ = 0.5 px

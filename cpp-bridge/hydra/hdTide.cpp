@@ -483,7 +483,7 @@ static HdRenderSettingDescriptorList const& Descriptors() {
         {"Time budget (s, 0 = none)", TfToken("tide:time:budget"), VtValue(0.0f)},
         {"Adaptive threshold (0 = off)", TfToken("tide:adaptive:threshold"), VtValue(0.0f)},
         {"Adaptive minimum samples (0 = 16)", TfToken("tide:adaptive:minSamples"), VtValue(0)},
-        {"Pixel filter (gaussian, box, triangle)", TfToken("tide:pixelFilter"), VtValue(TfToken("gaussian"))},
+        {"Pixel filter (gaussian, box, triangle)", TfToken("tide:pixelFilter"), VtValue(TfToken("box"))},
         {"Pixel filter width (pixels, 0 = the filter's own)", TfToken("tide:pixelFilter:width"), VtValue(0.0f)},
     };
     return d;

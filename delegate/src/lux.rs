@@ -446,7 +446,7 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
         0.0
     };
     s.adaptive_min_spp = nonneg_int("tide:adaptive:minSamples", 0, p).min(u32::MAX as i64) as u32;
-    let filter_name = store.token_or("tide:pixelFilter", &["gaussian", "box", "triangle"], "gaussian", p);
+    let filter_name = store.token_or("tide:pixelFilter", &["gaussian", "box", "triangle"], "box", p);
     let kind = tide_core::filter::FilterKind::from_token(filter_name).unwrap_or_default();
     let width = store.f32_or("tide:pixelFilter:width", 0.0, p);
     s.pixel_filter = match tide_core::filter::PixelFilter::new(kind, width) {
@@ -657,9 +657,9 @@ mod tests {
         assert!(p.list.is_empty(), "{:?}", p.list);
         assert_eq!((s.settings.pixel_filter.kind, s.settings.pixel_filter.width), (FilterKind::Box, 1.0));
         assert_eq!((s.settings.adaptive_threshold, s.settings.adaptive_min_spp), (0.02, 32));
-        // defaults: the Gaussian of width 3, adaptive sampling off
+        // defaults: the pixel's box, adaptive sampling off
         let d = convert_settings(&st(&[]), &mut Problems::new("/Render/S"));
-        assert_eq!((d.settings.pixel_filter.kind, d.settings.pixel_filter.width, d.settings.adaptive_threshold), (FilterKind::Gaussian, 3.0, 0.0));
+        assert_eq!((d.settings.pixel_filter.kind, d.settings.pixel_filter.width, d.settings.adaptive_threshold), (FilterKind::Box, 1.0, 0.0));
         // bad values: each named, the rest kept
         let mut p = Problems::new("/Render/S");
         let s = convert_settings(
@@ -672,6 +672,6 @@ mod tests {
         );
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
         assert_eq!(attrs, vec!["tide:adaptive:threshold", "tide:pixelFilter", "tide:pixelFilter:width"]);
-        assert_eq!((s.settings.pixel_filter.kind, s.settings.pixel_filter.width, s.settings.adaptive_threshold), (FilterKind::Gaussian, 3.0, 0.0));
+        assert_eq!((s.settings.pixel_filter.kind, s.settings.pixel_filter.width, s.settings.adaptive_threshold), (FilterKind::Box, 1.0, 0.0));
     }
 }

@@ -106,17 +106,17 @@ def test_adaptive_sampling_ends_a_quiet_render_early(renderer, stage, tmp_path):
     assert 31 <= spp < 4096, h
     assert float(h["tide:adaptive:threshold"]) == pytest.approx(0.05)
     assert float(h["tide:adaptive:meanSpp"]) <= spp
-    assert (h["tide:pixelFilter"], h["tide:pixelFilter:width"]) == ("gaussian", "3")
+    assert (h["tide:pixelFilter"], h["tide:pixelFilter:width"]) == ("box", "1")
     # the command-line flags override the settings
     exr2 = str(tmp_path / "sky2.exr")
     out = subprocess.run([os.path.join(ROOT, "tide"), "render", path, "-o", exr2,
-                          "--adaptive-threshold", "0", "--spp", "40", "--pixel-filter", "box"],
+                          "--adaptive-threshold", "0", "--spp", "40", "--pixel-filter", "gaussian"],
                          cwd=str(tmp_path), env=env, capture_output=True, text=True,
                          stdin=subprocess.DEVNULL, timeout=120)
     assert out.returncode == 0, out.stderr
     h2 = exr_header.read_header(exr2)
     assert h2["tide:spp"] == "40" and "tide:adaptive:meanSpp" not in h2
-    assert (h2["tide:pixelFilter"], h2["tide:pixelFilter:width"]) == ("box", "1")
+    assert (h2["tide:pixelFilter"], h2["tide:pixelFilter:width"]) == ("gaussian", "3")
 
 
 def test_bad_filter_settings_are_named_and_the_image_renders(renderer, stage):

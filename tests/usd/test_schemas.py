@@ -23,7 +23,7 @@ API_SCHEMAS = {
     "TideRenderSettingsAPI": {"tide:integrator": "caustics", "tide:samples": 64,
                               "tide:maxDepth": 64, "tide:adaptive:threshold": 0.0,
                               "tide:seed": 0, "tide:time:budget": 0.0,
-                              "tide:adaptive:minSamples": 0, "tide:pixelFilter": "gaussian",
+                              "tide:adaptive:minSamples": 0, "tide:pixelFilter": "box",
                               "tide:pixelFilter:width": 0.0},
 }
 

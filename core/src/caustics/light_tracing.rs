@@ -242,7 +242,7 @@ mod tests {
         assert_eq!(got, vec![(2 * 10 + 3, 1.0)]);
         // Gaussian: the pixels within 1.5 px, weights = the filter's density at their centres,
         // which is what a camera sample landing at that point would have been drawn with
-        lt.filter = PixelFilter::default();
+        lt.filter = PixelFilter::new(FilterKind::Gaussian, 0.0).unwrap();
         let p = Vec2::new(4.5, 4.5);
         let mut sum = 0.0;
         let mut n = 0;

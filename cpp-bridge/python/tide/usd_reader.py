@@ -77,7 +77,7 @@ CAMERA_ATTRS = {
 SETTINGS_TIDE = {
     "tide:integrator": "caustics", "tide:samples": 64, "tide:maxDepth": 64,
     "tide:adaptive:threshold": 0.0, "tide:adaptive:minSamples": 0, "tide:seed": 0,
-    "tide:time:budget": 0.0, "tide:pixelFilter": "gaussian", "tide:pixelFilter:width": 0.0,
+    "tide:time:budget": 0.0, "tide:pixelFilter": "box", "tide:pixelFilter:width": 0.0,
 }
 ALLOWED_TOKENS = {
     "tide:integrator": ("path", "caustics"),
