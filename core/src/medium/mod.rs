@@ -82,6 +82,25 @@ impl Medium {
         let water = crate::water::bio_optical_from_desc(w).map_err(|e| MediumError::BadMedium { medium: desc.name.clone(), reason: e.to_string() })?;
         // the RGB part unscaled: the scale multiplies the sum with the water's coefficients
         let rgb = HomogeneousMedium::from_desc_in(&MediumDesc { scale: 1.0, water: None, ..desc.clone() }, cs)?;
+        if water.is_uniform() {
+            // the same water at every depth: its coefficients tabulated once at 1 nm (the
+            // model's own data sit on whole nanometres, so this only linearises its smooth
+            // power laws between nodes, by under 10⁻⁴) make a homogeneous medium, which
+            // samples distances and transmittance in closed form
+            let bad = |e: crate::spectrum::SpectrumError| MediumError::BadMedium { medium: desc.name.clone(), reason: e.to_string() };
+            let l: Vec<f32> = (crate::spectrum::LAMBDA_MIN as i32..=crate::spectrum::LAMBDA_MAX as i32).map(|l| l as f32).collect();
+            let (mut a, mut b) = (Vec::with_capacity(l.len()), Vec::with_capacity(l.len()));
+            for &x in &l {
+                let (wa, wb) = water.coefficients_at(0.0, x);
+                a.push(((wa + rgb.sigma_a.eval(x).max(0.0)) * desc.scale).max(0.0));
+                b.push(((wb + rgb.sigma_s.eval(x).max(0.0)) * desc.scale).max(0.0));
+            }
+            return Ok(Medium::Homogeneous(HomogeneousMedium {
+                sigma_a: crate::spectrum::Spectrum::tabulated(&l, &a).map_err(bad)?,
+                sigma_s: crate::spectrum::Spectrum::tabulated(&l, &b).map_err(bad)?,
+                phase: h.phase,
+            }));
+        }
         Ok(Medium::BioOptical(Box::new(BioOpticalMedium {
             water,
             extra_a: rgb.sigma_a,

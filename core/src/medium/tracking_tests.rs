@@ -333,12 +333,18 @@ fn water_medium_without_profile_is_exact_like_a_homogeneous_one() {
 fn water_medium_adds_rgb_coefficients_and_scales_the_sum() {
     let mut d = water_desc(None, 0.0);
     let lambda = SampledWavelengths::sample_uniform(0.2);
-    let Medium::BioOptical(base) = Medium::from_desc(&d, ColorSpace::LinearRec709).unwrap() else { panic!() };
+    // (uniform water: a homogeneous medium; σa = σt − σs)
+    let coefficients = |m: &Medium| {
+        let p = Vec3::new(0.0, -3.0, 0.0);
+        let s = m.sigma_s_at(p, &lambda);
+        (m.majorant(&lambda) - s, s)
+    };
+    let base = Medium::from_desc(&d, ColorSpace::LinearRec709).unwrap();
     d.sigma_a = SpectrumDesc::Rgb([0.5; 3]);
     d.scale = 2.0;
-    let Medium::BioOptical(more) = Medium::from_desc(&d, ColorSpace::LinearRec709).unwrap() else { panic!() };
-    let (a0, s0) = base.coefficients_at(Vec3::new(0.0, -3.0, 0.0), &lambda);
-    let (a1, s1) = more.coefficients_at(Vec3::new(0.0, -3.0, 0.0), &lambda);
+    let more = Medium::from_desc(&d, ColorSpace::LinearRec709).unwrap();
+    let (a0, s0) = coefficients(&base);
+    let (a1, s1) = coefficients(&more);
     for j in 0..4 {
         // a grey RGB uplifts to a (nearly) constant spectrum: 2·(a + 0.5)
         assert!((a1[j] - 2.0 * (a0[j] + 0.5)).abs() < 2e-3, "{j}: {} vs {}", a1[j], 2.0 * (a0[j] + 0.5));
@@ -381,5 +387,33 @@ fn tabulated_phase_descriptions_build_and_bad_ones_are_rejected() {
         PhaseDesc::Tabulated { theta: vec![], value: vec![] },
     ] {
         assert!(PhaseFunction::from_desc(&bad).is_err(), "{bad:?}");
+    }
+}
+
+#[test]
+fn uniform_water_becomes_a_homogeneous_medium_with_the_models_coefficients() {
+    // Jerlov IB with chlorophyll and an RGB extra, scaled: no depth profile, so the medium is
+    // homogeneous with the model's σa, σs tabulated at 1 nm
+    let mut desc = water_desc(None, 0.0);
+    desc.sigma_a = SpectrumDesc::Rgb([0.02, 0.01, 0.005]);
+    desc.scale = 1.5;
+    let m = Medium::from_desc(&desc, ColorSpace::LinearRec709).unwrap();
+    let Medium::Homogeneous(h) = &m else { panic!("uniform water is not homogeneous: {m:?}") };
+    assert!(m.is_homogeneous());
+    // the exact model, through the depth-varying medium it would otherwise be
+    let water = crate::water::bio_optical_from_desc(desc.water.as_ref().unwrap()).unwrap();
+    let extra = HomogeneousMedium::from_desc_in(&MediumDesc { scale: 1.0, water: None, ..desc.clone() }, ColorSpace::LinearRec709).unwrap();
+    let exact = BioOpticalMedium { water, extra_a: extra.sigma_a, extra_s: extra.sigma_s, scale: 1.5, phase: h.phase.clone(), top: 0.0 };
+    for k in 0..200 {
+        let lambda = SampledWavelengths::sample_uniform((k as f32 + 0.37) / 200.0);
+        let (a0, s0) = exact.coefficients_at(Vec3::new(0.0, -3.0, 0.0), &lambda);
+        let (a1, s1) = h.coefficients(&lambda);
+        for j in 0..a0.0.len() {
+            // linear interpolation between whole-nanometre nodes of data that has its own nodes
+            // on whole nanometres: only the smooth power laws (λ^−4.32, exponentials) are
+            // linearised, by far less than 10⁻⁴ relative
+            assert!((a1[j] - a0[j]).abs() <= 1e-4 * a0[j] + 1e-7, "σa at {} nm: {} vs {}", lambda.lambda[j], a1[j], a0[j]);
+            assert!((s1[j] - s0[j]).abs() <= 1e-4 * s0[j] + 1e-7, "σs at {} nm: {} vs {}", lambda.lambda[j], s1[j], s0[j]);
+        }
     }
 }
