@@ -360,7 +360,9 @@ impl Caustics {
         // beams in media whose coefficients are the same everywhere: along a depth-varying or
         // gridded medium every beam would need two tracked transmittances per camera ray, and
         // those god rays stay with the path tracer
-        let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && m.is_homogeneous()).collect();
+        // beams in scattering water, depth-varying water included (its beams and camera rays
+        // then track their transmittance); not in volume grids, whose boxes photons do not enter
+        let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && !matches!(m, crate::medium::Medium::Grid(_))).collect();
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), disk_area_ratio: atlas.disk_area_ratio(), ..Default::default() };
         let light_tracer = if config.light_tracing {
             let t = world.camera.shutter.0;

@@ -77,8 +77,7 @@ pub fn equiangular_pdf(o: Vec3, d: Vec3, a: f32, b: f32, c: Vec3, t: f32) -> f32
 /// Connections of photon stretches to the camera.
 #[derive(Clone, Debug)]
 pub struct LightTracer {
-    /// Media whose photon stretches connect (the camera's medium, if it scatters with the same
-    /// coefficients everywhere).
+    /// Media whose photon stretches connect (the camera's medium, if it carries beams).
     media: Vec<bool>,
     filter: PixelFilter,
     width: u32,
