@@ -101,14 +101,7 @@ impl Medium {
                 phase: h.phase,
             }));
         }
-        Ok(Medium::BioOptical(Box::new(BioOpticalMedium {
-            water,
-            extra_a: rgb.sigma_a,
-            extra_s: rgb.sigma_s,
-            scale: desc.scale,
-            phase: h.phase,
-            top: w.top.unwrap_or(0.0),
-        })))
+        Ok(Medium::BioOptical(Box::new(BioOpticalMedium::new(water, rgb.sigma_a, rgb.sigma_s, desc.scale, h.phase, w.top.unwrap_or(0.0)))))
     }
 
     /// The medium of a volume: `grid` times the coefficients of `desc` (RGB or tabulated,

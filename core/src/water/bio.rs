@@ -241,6 +241,23 @@ impl BioOptical {
         [self.params.chlorophyll.at(z), self.params.cdom.at(z), self.params.spm.at(z)]
     }
 
+    /// The depths over which some constituent's profile differs from its base concentration
+    /// by more than e⁻³² of its peak (8 widths either side of each peak), and the narrowest
+    /// profile width; None when no constituent varies.
+    pub fn varying_span(&self) -> Option<(f32, f32, f32)> {
+        let mut span: Option<(f32, f32, f32)> = None;
+        for c in [&self.params.chlorophyll, &self.params.cdom, &self.params.spm] {
+            if let Some(p) = c.profile.filter(|p| p.width > 0.0 && p.peak > 0.0) {
+                let (lo, hi) = (p.depth - 8.0 * p.width, p.depth + 8.0 * p.width);
+                span = Some(match span {
+                    None => (lo, hi, p.width),
+                    Some((a, b, w)) => (a.min(lo), b.max(hi), w.min(p.width)),
+                });
+            }
+        }
+        span
+    }
+
     fn max_concentrations(&self) -> [f32; 3] {
         [self.params.chlorophyll.max(), self.params.cdom.max(), self.params.spm.max()]
     }
