@@ -51,14 +51,17 @@ pub struct OpticalDepthTable {
     c: Vec<f32>,
     /// σt at the nodes, `[nm][node]`.
     st: Vec<f32>,
+    /// σs at the nodes, `[nm][node]`.
+    ss: Vec<f32>,
 }
 
 /// Wavelength rows of the table: whole nanometres over the visible range.
 const OD_ROWS: usize = (crate::spectrum::LAMBDA_MAX - crate::spectrum::LAMBDA_MIN) as usize + 1;
 
 impl OpticalDepthTable {
-    /// The table of `sigma_t(z, λ)` over depths `[z0, z1]` with cells at most `max_dz` deep.
-    pub fn build(z0: f32, z1: f32, max_dz: f32, sigma_t: impl Fn(f32, f32) -> f32) -> Option<OpticalDepthTable> {
+    /// The table of `coefficients(z, λ) = (σa, σs)` over depths `[z0, z1]` with cells at most
+    /// `max_dz` deep.
+    pub fn build(z0: f32, z1: f32, max_dz: f32, coefficients: impl Fn(f32, f32) -> (f32, f32)) -> Option<OpticalDepthTable> {
         if !(z1 > z0 && max_dz > 0.0) {
             return None;
         }
@@ -66,23 +69,30 @@ impl OpticalDepthTable {
         let dz = (z1 - z0) / nz as f32;
         let mut c = vec![0.0f32; OD_ROWS * (nz + 1)];
         let mut st = vec![0.0f32; OD_ROWS * (nz + 1)];
+        let mut ss = vec![0.0f32; OD_ROWS * (nz + 1)];
+        let sigma_t = |z: f32, l: f32| {
+            let (a, b) = coefficients(z, l);
+            (a + b) as f64
+        };
         for r in 0..OD_ROWS {
             let l = crate::spectrum::LAMBDA_MIN + r as f32;
             let row = r * (nz + 1);
             let mut acc = 0.0f64;
-            let mut prev = sigma_t(z0, l) as f64;
+            let mut prev = sigma_t(z0, l);
             st[row] = prev as f32;
+            ss[row] = coefficients(z0, l).1;
             for k in 0..nz {
                 let za = z0 + dz * k as f32;
-                let mid = sigma_t(za + 0.5 * dz, l) as f64;
-                let next = sigma_t(za + dz, l) as f64;
+                let mid = sigma_t(za + 0.5 * dz, l);
+                let next = sigma_t(za + dz, l);
                 acc += dz as f64 / 6.0 * (prev + 4.0 * mid + next);
                 c[row + k + 1] = acc as f32;
                 st[row + k + 1] = next as f32;
+                ss[row + k + 1] = coefficients(za + dz, l).1;
                 prev = next;
             }
         }
-        Some(OpticalDepthTable { z0, dz, nz, c, st })
+        Some(OpticalDepthTable { z0, dz, nz, c, st, ss })
     }
 
     /// C and σt of row `r` at depth `z` (C extended linearly with the end σt beyond the span).
@@ -104,6 +114,24 @@ impl OpticalDepthTable {
         // C between nodes: the integral of σt interpolated linearly over the cell
         let c = self.c[row + k] + self.dz * f * (s0 + 0.5 * f * (s1 - s0));
         (c, s0 + f * (s1 - s0))
+    }
+
+    /// (σa, σs) at wavelength `l` (nm) and depth `z`, interpolated linearly in both.
+    #[inline]
+    pub fn coefficients(&self, l: f32, z: f32) -> (f32, f32) {
+        let x = (l - crate::spectrum::LAMBDA_MIN).clamp(0.0, (OD_ROWS - 1) as f32);
+        let r = (x as usize).min(OD_ROWS - 2);
+        let w = x - r as f32;
+        let u = ((z - self.z0) / self.dz).clamp(0.0, self.nz as f32);
+        let k = (u as usize).min(self.nz - 1);
+        let f = u - k as f32;
+        let at = |v: &[f32], r: usize| {
+            let row = r * (self.nz + 1) + k;
+            v[row] + f * (v[row + 1] - v[row])
+        };
+        let st = at(&self.st, r) + w * (at(&self.st, r + 1) - at(&self.st, r));
+        let ss = at(&self.ss, r) + w * (at(&self.ss, r + 1) - at(&self.ss, r));
+        ((st - ss).max(0.0), ss.max(0.0))
     }
 
     /// Optical depth at wavelength `l` (nm) from depth `za` to `zb` along a segment of length
@@ -136,7 +164,7 @@ impl BioOpticalMedium {
             // is then within ~10⁻⁴ of a Gaussian's curvature
             OpticalDepthTable::build(z0, z1, width / 20.0, |z, l| {
                 let (a, b) = water.coefficients_at(z, l);
-                ((a + ea.eval(l).max(0.0)) + (b + es.eval(l).max(0.0))) * scale
+                ((a + ea.eval(l).max(0.0)) * scale, (b + es.eval(l).max(0.0)) * scale)
             })
             .map(Box::new)
         });
@@ -161,9 +189,24 @@ impl BioOpticalMedium {
         ((a + extra.0) * self.scale, (s + extra.1) * self.scale)
     }
 
-    /// (σa, σs) at world point `p`, at the path's wavelengths.
+    /// (σa, σs) at world point `p`, at the path's wavelengths (from the table when there is
+    /// one).
     pub fn coefficients_at(&self, p: Vec3, lambda: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
-        self.with_concentrations(self.water.concentrations(self.depth(p)), self.extra(lambda), lambda)
+        match &self.optical_depth {
+            Some(od) => Self::from_table(od, self.depth(p), lambda),
+            None => self.with_concentrations(self.water.concentrations(self.depth(p)), self.extra(lambda), lambda),
+        }
+    }
+
+    #[inline]
+    fn from_table(od: &OpticalDepthTable, z: f32, lambda: &SampledWavelengths) -> (SampledSpectrum, SampledSpectrum) {
+        let (mut a, mut s) = (SampledSpectrum::ZERO, SampledSpectrum::ZERO);
+        for j in 0..a.0.len() {
+            let (x, y) = od.coefficients(lambda.lambda[j], z);
+            a.0[j] = x;
+            s.0[j] = y;
+        }
+        (a, s)
     }
 
     /// Per-wavelength (lower, upper) bounds of σt over depths in [z0, z1] (either order,
@@ -189,6 +232,12 @@ impl BioOpticalMedium {
     pub fn sample_distance(&self, origin: Vec3, dir: Vec3, t_max: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> DistanceSample {
         let (z0, z1) = self.depth_span(origin, dir, t_max);
         let (_, maj) = self.sigma_t_bounds(z0, z1, lambda);
+        if let Some(od) = &self.optical_depth {
+            // the table's σt interpolates the model linearly over cells a twentieth of a
+            // profile's width, so it exceeds the model's bound by under 10⁻³ where the profile
+            // is convex: the majorant is raised by that much
+            return sample_distance_tracking(maj * 1.001, t_max, rng, lambda, |t| Self::from_table(od, z0 - dir.y * t, lambda));
+        }
         let extra = self.extra(lambda);
         sample_distance_tracking(maj, t_max, rng, lambda, |t| self.with_concentrations(self.water.concentrations(z0 - dir.y * t), extra, lambda))
     }
