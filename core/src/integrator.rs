@@ -92,6 +92,13 @@ impl InteriorStack {
     pub fn medium(&self) -> Option<usize> {
         self.volume_medium().or_else(|| self.top().and_then(|t| t.medium))
     }
+    /// The gprim whose interior medium the path travels in (the volume box entered last, else
+    /// the winning object): light links apply to its scattering vertices. None outside any
+    /// (e.g. a camera medium named by relationship alone).
+    pub fn medium_owner(&self) -> Option<u32> {
+        let it = self.items[..self.len].iter().rev().find(|i| i.volume && i.medium.is_some()).or_else(|| self.top().filter(|t| t.medium.is_some()))?;
+        (it.instance != u32::MAX).then_some(it.instance)
+    }
     /// The medium of the volume box entered last, if the path is inside one.
     pub fn volume_medium(&self) -> Option<usize> {
         self.items[..self.len].iter().rev().find(|i| i.volume).and_then(|i| i.medium)
@@ -433,12 +440,14 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     let p = ray.o + ray.d * t;
                     let wo = -ray.d;
                     let phase = world.media[mi].phase(p);
+                    // the gprim this medium fills: its light links apply here
+                    let owner = stack.medium_owner();
                     // NEE from the medium
                     if n_light > 0 {
                         let ul = sampler.get1d();
                         let u2 = sampler.get2d();
                         let u_tr = sampler.get1d();
-                        if let Some((li, pmf)) = world.light_sampler.sample(ul) {
+                        if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| lit(li, owner)) {
                             let ctx = LightSampleContext::new(p, Vec3::ZERO);
                             if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
@@ -464,7 +473,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     prev_pdf = pdf;
                     specular_bounce = false;
                     prev_ctx = LightSampleContext::new(p, Vec3::ZERO);
-                    prev_instance = None;
+                    prev_instance = owner;
                     ray = Ray { o: p, d: wi, t_max: f32::INFINITY, time: ray.time };
                     continue;
                 }

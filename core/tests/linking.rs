@@ -96,3 +96,41 @@ fn a_shadow_link_names_the_instances_that_block_a_light() {
     assert!(l_sh < 0.05 * r_sh, "the blocker shadows the left patch: {l_sh} vs {r_sh}");
     assert!(l_un > 0.8 * r_sh, "a blocker outside the shadow link casts no shadow: {l_un} vs {r_sh}");
 }
+
+/// A tank of scattering water (index-matched, so its surface neither reflects nor refracts)
+/// beside a lamp, and a small patch far behind the camera: the lamp linked to the patch only
+/// must not light the water's scattering vertices, by light sampling or phase-sampled rays.
+fn tank(light_link: Option<Vec<String>>) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(box_mesh("/tank", Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)));
+    s.meshes.push(quad_y("/patch", 0.2));
+    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.1; 3]), sigma_s: SpectrumDesc::Rgb([1.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
+    s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
+    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+    s.instances.push(instance("/tank", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances.push(instance("/patch", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, -20.0, 40.0)), 1));
+    let mut l = light("/lamp", LightShape::Sphere { radius: 0.2, treat_as_point: false }, Mat4::from_translation(Vec3::new(2.0, 1.5, 0.0)), 200.0, false);
+    l.visible_to_camera = false;
+    l.light_link = light_link;
+    s.lights.push(l);
+    s.camera = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 40.0);
+    s
+}
+
+#[test]
+fn a_light_linked_away_from_a_water_body_does_not_light_its_medium() {
+    // everything the camera sees is light scattered in the water (the lamp is hidden from
+    // the camera and the patch is behind it): the sum of the colour's RGB
+    let total = |r: &Renderer| r.aov_pixels(Aov::Color).chunks_exact(4).map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>();
+    let lit = render(&tank(None), settings(W, W, 16));
+    let linked_away = render(&tank(Some(vec!["/patch".into()])), settings(W, W, 16));
+    let linked_in = render(&tank(Some(vec!["/tank".into()])), settings(W, W, 16));
+    let (v_all, v_away, v_in) = (total(&lit), total(&linked_away), total(&linked_in));
+    assert!(v_all > 1.0, "the unlinked lamp lights the water: {v_all}");
+    // only light the patch reflects into the water could remain: the patch is 40 m away and
+    // 0.4 m wide, far below 10⁻³ of the direct in-scattering
+    assert!(v_away < 1e-3 * v_all, "a lamp linked to the patch alone still lights the water: {v_away} vs {v_all}");
+    // a link naming the tank lights its medium as no link does (same samples: equal up to
+    // the patch's negligible share)
+    assert!((v_in - v_all).abs() < 1e-3 * v_all, "{v_in} vs {v_all}");
+}

@@ -594,12 +594,14 @@ impl Caustics {
             let Some(hit) = world.accel.intersect(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
             if let Some(m) = stack.medium() {
-                if let Some(lt) = self.light_tracer.as_ref().filter(|lt| bounces > 0 && lt.covers(m)) {
+                // the light's links decide whether it lights the gprim this medium fills
+                let linked = stack.medium_owner().is_none_or(|o| world.illuminates(li, o));
+                if let Some(lt) = self.light_tracer.as_ref().filter(|lt| linked && bounces > 0 && lt.covers(m)) {
                     let u = stream.next_f32();
                     let mut rng = || stream.next_f32();
                     lt.connect(world, ray.o, ray.d, hit.t, m, beta, &lambda, time, s.cell, u, &mut rng, |p_b| self.photon_weight_mis(s.cell, p_b), &mut out.2);
                 }
-                if bounces > 0 && keep_beam > 0.0 && self.beam_media[m] && stream.next_f32() < keep_beam {
+                if linked && bounces > 0 && keep_beam > 0.0 && self.beam_media[m] && stream.next_f32() < keep_beam {
                     let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
                     if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
                         out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32 });
