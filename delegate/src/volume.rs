@@ -4,8 +4,9 @@
 //!
 //! Attributes: `field:density` (Asset: the resolved VDB file), `field:density:fieldName`
 //! (Token, default `density`), `field:density:fieldIndex` (Int, default 0: which of the grids
-//! with that name). Other fields (`temperature`, ...) are accepted and not used: Tide's
-//! volumes absorb and scatter, they do not emit.
+//! with that name), `field:density:transform` (Matrix: the field prim's placement relative to
+//! the volume, identity by default). Other fields (`temperature`, ...) are accepted and not
+//! used: Tide's volumes absorb and scatter, they do not emit.
 
 use crate::value::{AttrStore, Problems};
 use glam::Mat4;
@@ -18,6 +19,8 @@ pub struct VolumeSpec {
     pub asset: String,
     pub field: String,
     pub index: i64,
+    /// The field prim's space to the volume prim's.
+    pub field_to_volume: Mat4,
 }
 
 /// Key of a loaded grid: (resolved file, field name, field index).
@@ -54,7 +57,8 @@ pub fn volume_spec(s: &AttrStore, p: &mut Problems) -> Option<VolumeSpec> {
     } else {
         index
     };
-    Some(VolumeSpec { asset, field, index })
+    let field_to_volume = s.matrix_samples("field:density:transform", p).first().map_or(Mat4::IDENTITY, |m| m.1);
+    Some(VolumeSpec { asset, field, index, field_to_volume })
 }
 
 /// Checks a grid handed over by the front end. `index_to_object` is USD-style (row-major,
@@ -92,7 +96,7 @@ pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medi
     };
     Some(VolumeDesc {
         name: path.to_string(),
-        density: GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: object_to_world * data.local_to_object },
+        density: GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: object_to_world * spec.field_to_volume * data.local_to_object },
         medium,
         id,
         visible_to_camera: true,

@@ -160,3 +160,31 @@ def test_wrong_grid_type_is_reported_on_the_volume(renderer, stage, tmp_path):
     hits = [p for p in problems if (p.prim, p.attribute) == ("/Cloud", "field:density")]
     assert hits and "not a float" in hits[0].message, problems
     assert_transmits(img, 1.0)
+
+
+def test_the_field_prims_own_transform_places_the_grid(stage, delegate, tmp_path):
+    """A field prim with its own translation: the reader sends its placement relative to the
+    volume (the volume's own transform is not in it)."""
+    from conftest import matrix
+    f = tmp_path / "cloud.vdb"
+    f.write_bytes(b"not read by the fake")
+    vol = volume(stage, str(f), "/A", mat=medium_material(stage), z=-1.0)
+    UsdGeom.Xformable(stage.GetPrimAtPath("/A/density")).AddTranslateOp().Set(Gf.Vec3d(3, 0, 0))
+    load(stage, delegate)
+    m = matrix(delegate.value("/A", "field:density:transform"))
+    assert np.allclose(m[3, :3], [3, 0, 0]) and np.allclose(m[:3, :3], np.eye(3)), m
+    assert vol  # the volume itself keeps its own transform
+    assert np.allclose(matrix(delegate.value("/A", "transform"))[3, :3], [0, 0, -1])
+
+
+def test_a_field_moved_out_of_view_leaves_the_dome_unobstructed(renderer, stage, tmp_path):
+    f = write_grid(renderer, tmp_path / "cloud.vdb")
+    scene(stage, f, sigma_a=0.7)
+    # the grid is 4 m wide; 10 m to the side it is far outside the camera's 0.8 m-wide view
+    UsdGeom.Xformable(stage.GetPrimAtPath("/Cloud/density")).AddTranslateOp().Set(Gf.Vec3d(10, 0, 0))
+    img = render(renderer, stage)["color"]
+    assert_transmits(img, 1.0)
+    # and back in place it absorbs as before (the same stage without the move)
+    stage.GetPrimAtPath("/Cloud/density").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0, 0, 0))
+    img = render(renderer, stage)["color"]
+    assert_transmits(img, math.exp(-0.7 * PATH_INTEGRAL))

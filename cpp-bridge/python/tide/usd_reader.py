@@ -1007,6 +1007,11 @@ class Reader:
             st.set("field:%s" % name, ("asset", resolved))
             st.set("field:%s:fieldName" % name, ("token", field_name))
             st.set("field:%s:fieldIndex" % name, ("int", index))
+            # the field prim's own placement relative to the volume (identity when the field
+            # sits under the volume with no transform of its own)
+            cache = UsdGeom.XformCache(self._time(0))
+            rel = cache.GetLocalToWorldTransform(fprim) * cache.GetLocalToWorldTransform(prim).GetInverse()
+            st.set("field:%s:transform" % name, _matrix(rel))
             if name == "density":
                 self._load_vdb(resolved, field_name, index)
         return True
