@@ -200,7 +200,12 @@ impl Camera {
     /// Pixel position (x right, y down) where a world point projects at `time` (pinhole), or
     /// None when it is behind the camera.
     pub fn project(&self, p: Vec3, time: f32) -> Option<Vec2> {
-        let q = self.xf.at(time).inverse().transform_point3(p);
+        self.raster_of(self.xf.at(time).inverse().transform_point3(p))
+    }
+
+    /// Pixel position of a camera-space point (None behind a perspective camera).
+    #[inline]
+    fn raster_of(&self, q: Vec3) -> Option<Vec2> {
         let f = match self.projection {
             Projection::Perspective => {
                 if q.z >= 0.0 {
@@ -240,7 +245,7 @@ impl Camera {
         if !(depth >= self.near && depth <= self.far) || depth <= 0.0 {
             return None;
         }
-        let raster = self.project(p, time)?;
+        let raster = self.raster_of(q)?;
         let cos = depth / q.length();
         let sx = self.width as f32 / self.aperture.x;
         let sy = self.height as f32 / self.aperture.y;

@@ -256,19 +256,7 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
     // elevation, seen straight down. Exact single scattering along the refracted ray:
     // L = σs p E⊥ cosθe T(θe) / cosθi · 1/(σt (1 + cosθo/cosθi)), θe outside, θi inside.
     use crate::scene::*;
-    let mut s = SceneDesc::default();
-    let lo = Vec3::new(-50.0, -20.0, -50.0);
-    let hi = Vec3::new(50.0, 0.0, 50.0);
-    let p = |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
-    let mut indices = Vec::new();
-    for q in quads {
-        indices.extend([q[0], q[1], q[2], q[0], q[2], q[3]]);
-    }
-    s.meshes.push(MeshDesc { name: "/b".into(), positions: (0..8).map(|i| p(i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect(), indices, ..Default::default() });
-    s.media.push(MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([1.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: MediumMethod::Diffusion });
-    s.materials.push(MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(InstanceDesc { name: "/b".into(), geometry: GeometryRef::Mesh(0), transforms: vec![glam::Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true });
+    let mut s = diffusion_box(Vec3::new(-50.0, -20.0, -50.0), Vec3::new(50.0, 0.0, 50.0), 1.0);
     let el = 60f32.to_radians();
     let to_sun = Vec3::new(el.cos(), el.sin(), 0.0);
     let z = to_sun;
@@ -309,10 +297,11 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
     assert!(expect > 0.0 && (mean - expect).abs() < 4.0 * se + 0.005 * expect, "{mean} ± {se} vs {expect}");
 }
 
-fn dome_box_world() -> World {
+/// A closed box of milky water (σa = 0.5, σs as given, isotropic, η = 1.333) in the diffusion
+/// mode, with no lights.
+fn diffusion_box(lo: Vec3, hi: Vec3, sigma_s: f32) -> crate::scene::SceneDesc {
     use crate::scene::*;
     let mut s = SceneDesc::default();
-    let (lo, hi) = (Vec3::new(-1.0, -0.5, -1.5), Vec3::new(1.0, 0.0, 1.5));
     let p = |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
     let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
     let mut indices = Vec::new();
@@ -320,9 +309,15 @@ fn dome_box_world() -> World {
         indices.extend([q[0], q[1], q[2], q[0], q[2], q[3]]);
     }
     s.meshes.push(MeshDesc { name: "/b".into(), positions: (0..8).map(|i| p(i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect(), indices, ..Default::default() });
-    s.media.push(MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([10.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: MediumMethod::Diffusion });
+    s.media.push(MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([sigma_s; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: MediumMethod::Diffusion });
     s.materials.push(MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(InstanceDesc { name: "/b".into(), geometry: GeometryRef::Mesh(0), transforms: vec![glam::Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true });
+    s
+}
+
+fn dome_box_world() -> World {
+    use crate::scene::*;
+    let mut s = diffusion_box(Vec3::new(-1.0, -0.5, -1.5), Vec3::new(1.0, 0.0, 1.5), 10.0);
     s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: glam::Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None });
     let mut problems = Vec::new();
     let w = World::build(&s, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
