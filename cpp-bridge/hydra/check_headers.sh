@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# check_headers.sh: syntax and type check of the Hydra plugin (hdTide.cpp, rendererPlugin.cpp)
+# check_headers.sh: syntax and type check of the Hydra plugin (hdTide.cpp, instancer.cpp, rendererPlugin.cpp)
 # against the headers of an OpenUSD source checkout, without an OpenUSD build. Not part of CI
 # (CI has no OpenUSD sources); run it by hand after changing the plugin:
 #
@@ -57,7 +57,7 @@ commit=""
 if git -C "$usd" rev-parse HEAD >/dev/null 2>&1; then commit=" ($(git -C "$usd" rev-parse HEAD))"; fi
 echo "OpenUSD $major.$minor.$patch from $usd$commit; compiler: $($cxx --version | head -n 1)"
 rc=0
-for src in hdTide.cpp rendererPlugin.cpp; do
+for src in hdTide.cpp instancer.cpp rendererPlugin.cpp; do
     echo "checking cpp-bridge/hydra/$src"
     "$cxx" -std=c++17 -fsyntax-only -Wall -Wextra -Wsuggest-override -Woverloaded-virtual -Wno-deprecated -Werror \
         -isystem "$gen" -isystem "$usd" -isystem "$cxxbridge" -I "$gen/crate" -I "$bridge/include" \

@@ -1,0 +1,157 @@
+//! HdTideInstancer (see instancer.h).
+#include "instancer.h"
+
+#include "pxr/base/gf/matrix4f.h"
+#include "pxr/base/gf/quatd.h"
+#include "pxr/base/gf/quatf.h"
+#include "pxr/base/gf/quath.h"
+#include "pxr/base/gf/vec3d.h"
+#include "pxr/base/gf/vec3f.h"
+#include "pxr/base/gf/vec3h.h"
+#include "pxr/base/gf/vec4d.h"
+#include "pxr/base/gf/vec4f.h"
+#include "pxr/imaging/hd/renderIndex.h"
+#include "pxr/imaging/hd/sceneDelegate.h"
+#include "pxr/imaging/hd/tokens.h"
+
+#include <algorithm>
+
+PXR_NAMESPACE_OPEN_SCOPE
+
+namespace {
+
+/// A vec3 primvar (float, double or half) as doubles; false for another type.
+bool Vec3s(VtValue const& v, std::vector<GfVec3d>* out) {
+    auto copy = [out](auto const& a) {
+        out->assign(a.begin(), a.end());
+        return true;
+    };
+    if (v.IsHolding<VtVec3fArray>()) return copy(v.UncheckedGet<VtVec3fArray>());
+    if (v.IsHolding<VtVec3dArray>()) return copy(v.UncheckedGet<VtVec3dArray>());
+    if (v.IsHolding<VtVec3hArray>()) return copy(v.UncheckedGet<VtVec3hArray>());
+    return false;
+}
+
+/// A rotation primvar: quaternions (half, float, double) or vec4s read as (real, i, j, k).
+bool Quats(VtValue const& v, std::vector<GfQuatd>* out) {
+    auto quats = [out](auto const& a) {
+        for (auto const& q : a) out->push_back(GfQuatd(q.GetReal(), GfVec3d(q.GetImaginary())));
+        return true;
+    };
+    auto vec4s = [out](auto const& a) {
+        for (auto const& x : a) out->push_back(GfQuatd(x[0], x[1], x[2], x[3]));
+        return true;
+    };
+    out->clear();
+    if (v.IsHolding<VtQuathArray>()) return quats(v.UncheckedGet<VtQuathArray>());
+    if (v.IsHolding<VtQuatfArray>()) return quats(v.UncheckedGet<VtQuatfArray>());
+    if (v.IsHolding<VtQuatdArray>()) return quats(v.UncheckedGet<VtQuatdArray>());
+    if (v.IsHolding<VtVec4fArray>()) return vec4s(v.UncheckedGet<VtVec4fArray>());
+    if (v.IsHolding<VtVec4dArray>()) return vec4s(v.UncheckedGet<VtVec4dArray>());
+    return false;
+}
+
+bool Matrices(VtValue const& v, std::vector<GfMatrix4d>* out) {
+    if (v.IsHolding<VtMatrix4dArray>()) {
+        auto const& a = v.UncheckedGet<VtMatrix4dArray>();
+        out->assign(a.begin(), a.end());
+        return true;
+    }
+    if (v.IsHolding<VtMatrix4fArray>()) {
+        out->clear();
+        for (GfMatrix4f const& m : v.UncheckedGet<VtMatrix4fArray>()) out->push_back(GfMatrix4d(m));
+        return true;
+    }
+    return false;
+}
+
+/// The value of `s` at `time` (linear between neighbours, held beyond the ends), or Empty.
+VtValue At(HdTimeSampleArray<VtValue, 4> const& s, float time) {
+    if (s.count == 0) return VtValue();
+    if (s.count == 1) return s.values[0];
+    return s.Resample(time);
+}
+
+void AddTimes(HdTimeSampleArray<VtValue, 4> const& s, std::vector<float>* times) {
+    times->insert(times->end(), s.times.begin(), s.times.begin() + s.count);
+}
+
+}  // namespace
+
+HdTideInstancer::HdTideInstancer(HdSceneDelegate* delegate, SdfPath const& id) : HdInstancer(delegate, id) {}
+
+void HdTideInstancer::Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits) {
+    _UpdateInstancer(sd, dirtyBits);
+    SdfPath const& id = GetId();
+    sd->SampleInstancerTransform(id, &_xform);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceTranslations, &_translations);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceRotations, &_rotations);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceScales, &_scales);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceTransforms, &_matrices);
+}
+
+void HdTideInstancer::_Times(std::vector<float>* times) const {
+    times->insert(times->end(), _xform.times.begin(), _xform.times.begin() + _xform.count);
+    for (auto const* s : {&_translations, &_rotations, &_scales, &_matrices}) AddTimes(*s, times);
+    if (GetParentId().IsEmpty()) return;
+    if (auto const* parent = dynamic_cast<HdTideInstancer const*>(GetDelegate()->GetRenderIndex().GetInstancer(GetParentId())))
+        parent->_Times(times);
+}
+
+VtMatrix4dArray HdTideInstancer::_TransformsAt(SdfPath const& prototypeId, float time) {
+    const VtIntArray indices = GetDelegate()->GetInstanceIndices(GetId(), prototypeId);
+    const GfMatrix4d instancer = _xform.count == 0 ? GfMatrix4d(1.0)
+                                 : _xform.count == 1 ? _xform.values[0]
+                                                     : _xform.Resample(time);
+    std::vector<GfVec3d> translations, scales;
+    std::vector<GfQuatd> rotations;
+    std::vector<GfMatrix4d> matrices;
+    Vec3s(At(_translations, time), &translations);
+    Vec3s(At(_scales, time), &scales);
+    Quats(At(_rotations, time), &rotations);
+    Matrices(At(_matrices, time), &matrices);
+
+    VtMatrix4dArray level(indices.size());
+    for (size_t i = 0; i < indices.size(); ++i) {
+        // an index past a primvar's end leaves that part of the placement out (identity)
+        const size_t k = size_t(std::max(indices[i], 0));
+        GfMatrix4d m(1.0);
+        if (k < matrices.size()) m = matrices[k];
+        if (k < scales.size()) m *= GfMatrix4d(1.0).SetScale(scales[k]);
+        if (k < rotations.size()) m *= GfMatrix4d(1.0).SetRotate(rotations[k].GetNormalized());
+        if (k < translations.size()) m *= GfMatrix4d(1.0).SetTranslate(translations[k]);
+        level[i] = m * instancer;
+    }
+    if (GetParentId().IsEmpty()) return level;
+    auto* parent = dynamic_cast<HdTideInstancer*>(GetDelegate()->GetRenderIndex().GetInstancer(GetParentId()));
+    if (!parent) return level;
+    const VtMatrix4dArray outer = parent->_TransformsAt(GetId(), time);
+    VtMatrix4dArray flat(outer.size() * level.size());
+    for (size_t i = 0; i < outer.size(); ++i)
+        for (size_t j = 0; j < level.size(); ++j) flat[i * level.size() + j] = level[j] * outer[i];
+    return flat;
+}
+
+HdTideInstanceSamples HdTideInstancer::SampleInstanceTransforms(SdfPath const& prototypeId) {
+    std::vector<float> times;
+    _Times(&times);
+    std::sort(times.begin(), times.end());
+    times.erase(std::unique(times.begin(), times.end()), times.end());
+    if (times.empty()) times.push_back(0.0f);
+
+    HdTideInstanceSamples out;
+    for (float t : times) {
+        out.times.push_back(t);
+        out.transforms.push_back(_TransformsAt(prototypeId, t));
+    }
+    // Hydra returns the shutter's ends even for still values: one sample when nothing moves
+    const bool still = std::all_of(out.transforms.begin(), out.transforms.end(),
+                                   [&](VtMatrix4dArray const& a) { return a == out.transforms.front(); });
+    if (still) {
+        out.times = {0.0f};
+        out.transforms.resize(1);
+    }
+    return out;
+}
+
+PXR_NAMESPACE_CLOSE_SCOPE
