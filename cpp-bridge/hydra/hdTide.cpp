@@ -2,24 +2,30 @@
 #include "hdTide.h"
 
 #include "tide/renderParam.h"
+#include "tide/vdb.h"
 
 #include "pxr/base/gf/camera.h"
 #include "pxr/base/gf/matrix4d.h"
 #include "pxr/base/gf/range1d.h"
 #include "pxr/base/gf/range1f.h"
+#include "pxr/base/gf/range2f.h"
 #include "pxr/base/gf/vec2f.h"
 #include "pxr/base/gf/vec2i.h"
 #include "pxr/base/gf/vec3f.h"
 #include "pxr/base/gf/vec4f.h"
 #include "pxr/imaging/hd/camera.h"
+#include "pxr/imaging/hd/field.h"
 #include "pxr/imaging/hd/instancer.h"
 #include "pxr/imaging/hd/light.h"
 #include "pxr/imaging/hd/material.h"
 #include "pxr/imaging/hd/meshTopology.h"
+#include "pxr/imaging/hd/renderIndex.h"
 #include "pxr/imaging/hd/renderPassState.h"
+#include "pxr/imaging/hd/renderSettings.h"
 #include "pxr/imaging/hd/resourceRegistry.h"
 #include "pxr/imaging/hd/sceneDelegate.h"
 #include "pxr/imaging/hd/tokens.h"
+#include "pxr/imaging/hd/volume.h"
 #include "pxr/usd/sdf/assetPath.h"
 
 #include <type_traits>
@@ -54,6 +60,11 @@ tide::Value HdTideToValue(VtValue const& v) {
         return Value::MakeAsset(a.GetResolvedPath().empty() ? a.GetAssetPath() : a.GetResolvedPath());
     }
     if (v.IsHolding<SdfPath>()) return Value::MakePath(v.UncheckedGet<SdfPath>().GetString());
+    if (v.IsHolding<VtTokenArray>()) {
+        std::vector<std::string> p;
+        for (TfToken const& t : v.UncheckedGet<VtTokenArray>()) p.push_back(t.GetString());
+        return Value::MakePaths(std::move(p));
+    }
     if (v.IsHolding<SdfPathVector>()) {
         std::vector<std::string> p;
         for (auto const& x : v.UncheckedGet<SdfPathVector>()) p.push_back(x.GetString());
@@ -279,6 +290,12 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
     _id = id;
 }
 
+void HdTideSnapshot::Add(std::string const& key, tide::TimedValue value, tide::DirtyBits bits) {
+    if (value.value.IsEmpty()) return;
+    _store.Set(_path, key, std::move(value));
+    _tideBits |= bits;
+}
+
 void HdTideSnapshot::_Put(std::string const& key, VtValue const& v) {
     tide::Value value = HdTideToValue(v);
     if (!value.IsEmpty()) _store.Set(_path, key, tide::TimedValue{false, 0.0, std::move(value)});
@@ -326,11 +343,123 @@ tide::Primvar HdTideSnapshot::GetPrimvar(std::string const& path, std::string co
 }
 
 // ---------------------------------------------------------------------------------------------
+// HdTideLightLinks
+
+void HdTideLightLinks::SetLight(std::string const& light, TfToken const& lightLink, TfToken const& shadowLink) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    std::array<TfToken, 2> const links = {lightLink, shadowLink};
+    auto it = _lights.find(light);
+    if (it != _lights.end() && it->second == links) return;
+    _lights[light] = links;
+    _changed = true;
+}
+
+void HdTideLightLinks::RemoveLight(std::string const& light) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    _lights.erase(light);
+    // a light made again at this path starts without collections in the Rust delegate
+    _sent.erase({light, 0});
+    _sent.erase({light, 1});
+}
+
+void HdTideLightLinks::SetCategories(std::string const& rprim, VtArray<TfToken> const& categories) {
+    std::set<TfToken> c(categories.begin(), categories.end());
+    std::lock_guard<std::mutex> lock(_mutex);
+    auto it = _categories.find(rprim);
+    if (it == _categories.end() ? c.empty() : it->second == c) return;
+    if (c.empty()) _categories.erase(rprim);
+    else _categories[rprim] = std::move(c);
+    _changed = true;
+}
+
+void HdTideLightLinks::RemoveRprim(std::string const& rprim) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    if (_categories.erase(rprim)) _changed = true;
+}
+
+void HdTideLightLinks::Forward(tide::RenderParam& param) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    if (!_changed) return;
+    _changed = false;
+    static const char* const names[2] = {"lightLink", "shadowLink"};
+    for (auto const& [light, tokens] : _lights) {
+        for (int which = 0; which < 2; ++which) {
+            Sent now;
+            now.everything = tokens[which].IsEmpty();
+            if (!now.everything)
+                for (auto const& [rprim, categories] : _categories)
+                    if (categories.count(tokens[which])) now.includes.push_back(rprim);
+            auto const sent = _sent.find({light, which});
+            // nothing sent yet and the light reaches everything: the delegate's default already
+            if (sent == _sent.end() ? now.everything : sent->second == now) continue;
+            const std::string base = std::string("collection:") + names[which] + ":";
+            auto put = [&](std::string const& key, tide::Value v) {
+                param.Forward(light, base + key, tide::TimedValue{false, 0.0, std::move(v)});
+            };
+            put("includes", tide::Value::MakePaths(now.includes));
+            put("excludes", tide::Value::MakePaths({}));
+            put("includeRoot", tide::Value::MakeBool(now.everything));
+            put("expansionRule", tide::Value::MakeToken(now.everything ? "expandPrims" : "explicitOnly"));
+            _sent[{light, which}] = std::move(now);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
 // Prims: each Hd prim owns its tide:: prim.
 
 namespace {
 
 HdDirtyBits const kAllRprimBits = HdChangeTracker::AllSceneDirtyBits;
+TfToken const kOpenVdbAsset("openvdbAsset");
+TfToken const kFieldIndex("fieldIndex");
+
+/// A volume's fields as the reader sends them: per field binding N of an `openvdbAsset` field,
+/// `field:N` (the resolved file), `field:N:fieldName` (the grid's name, else N),
+/// `field:N:fieldIndex` and `field:N:transform` (the field's placement relative to the volume);
+/// the density grid is read (once per file, grid and index) and handed to the delegate.
+void SyncVolumeFields(HdSceneDelegate* sd, SdfPath const& id, HdTideSnapshot* snapshot, HdTideShared& shared) {
+    using tide::ChangeTracker;
+    const std::string volume = id.GetString();
+    const GfMatrix4d toVolume = sd->GetTransform(id).GetInverse();
+    for (HdVolumeFieldDescriptor const& f : sd->GetVolumeFieldDescriptors(id)) {
+        const std::string name = f.fieldName.GetString();
+        const std::string field = f.fieldId.GetString();
+        if (f.fieldPrimType != kOpenVdbAsset) {
+            shared.param->AddProblem(volume, "field:" + name, field + " is not an OpenVDB asset");
+            continue;
+        }
+        const VtValue file = sd->Get(f.fieldId, HdFieldTokens->filePath);
+        std::string resolved, authored;
+        if (file.IsHolding<SdfAssetPath>()) {
+            resolved = file.UncheckedGet<SdfAssetPath>().GetResolvedPath();
+            authored = file.UncheckedGet<SdfAssetPath>().GetAssetPath();
+        }
+        if (resolved.empty()) {
+            shared.param->AddProblem(field, "filePath", "cannot find VDB file '" + authored + "'; field dropped");
+            continue;
+        }
+        const VtValue gridName = sd->Get(f.fieldId, HdFieldTokens->fieldName);
+        std::string grid = gridName.IsHolding<TfToken>() ? gridName.UncheckedGet<TfToken>().GetString()
+                           : gridName.IsHolding<std::string>() ? gridName.UncheckedGet<std::string>()
+                                                               : std::string();
+        if (grid.empty()) grid = name;
+        const VtValue indexValue = sd->Get(f.fieldId, kFieldIndex);
+        const int64_t index = indexValue.IsHolding<int>() ? indexValue.UncheckedGet<int>() : 0;
+        const std::string key = "field:" + name;
+        auto add = [&](std::string const& k, tide::Value v) {
+            snapshot->Add(k, tide::TimedValue{false, 0.0, std::move(v)}, ChangeTracker::DirtyParams);
+        };
+        add(key, tide::Value::MakeAsset(resolved));
+        add(key + ":fieldName", tide::Value::MakeToken(grid));
+        add(key + ":fieldIndex", tide::Value::MakeInt(index));
+        add(key + ":transform", HdTideToValue(VtValue(sd->GetTransform(f.fieldId) * toVolume)));
+        if (name == "density") {
+            std::lock_guard<std::mutex> lock(shared.vdbMutex);
+            tide::LoadVdbFor(*shared.param, resolved, grid, index);
+        }
+    }
+}
 
 /// What every Hd prim of this delegate has: the tide:: prim it forwards to.
 template <typename P>
@@ -343,13 +472,30 @@ public:
 template <typename Base>
 class HdTideRprim final : public Base, public HdTideLink<tide::Rprim> {
 public:
-    HdTideRprim(SdfPath const& id, std::string typeId, tide::Rprim* prim)
-        : Base(id), _typeId(std::move(typeId)), _prim(prim) {}
+    HdTideRprim(SdfPath const& id, std::string typeId, tide::Rprim* prim, HdTideShared* shared)
+        : Base(id), _typeId(std::move(typeId)), _prim(prim), _shared(shared) {}
     tide::Rprim* TidePrim() const override { return _prim; }
 
     HdDirtyBits GetInitialDirtyBitsMask() const override { return kAllRprimBits; }
     void Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits, TfToken const&) override {
-        HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, *dirtyBits, Base::GetPrimId());
+        using CT = HdChangeTracker;
+        SdfPath const& id = Base::GetId();
+        Base::_UpdateInstancer(sd, dirtyBits);
+        SdfPath const& instancerId = Base::GetInstancerId();
+        HdInstancer::_SyncInstancerAndParents(sd->GetRenderIndex(), instancerId);
+        HdTideSnapshot snapshot(sd, id, _typeId, *dirtyBits, Base::GetPrimId());
+        if (!instancerId.IsEmpty() && (*dirtyBits & (CT::DirtyInstancer | CT::DirtyInstanceIndex | CT::DirtyTransform))) {
+            if (auto* inst = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(instancerId))) {
+                HdTideInstanceSamples const s = inst->SampleInstanceTransforms(id);
+                for (size_t i = 0; i < s.times.size(); ++i)
+                    snapshot.Add("instanceTransforms",
+                                 tide::TimedValue{s.times.size() > 1, double(s.times[i]), HdTideToValue(VtValue(s.transforms[i]))},
+                                 tide::ChangeTracker::DirtyInstancer);
+            }
+        }
+        if (_typeId == "volume" && (*dirtyBits & (CT::DirtyVolumeField | CT::DirtyTransform)))
+            SyncVolumeFields(sd, id, &snapshot, *_shared);
+        if (*dirtyBits & CT::DirtyCategories) _shared->links.SetCategories(id.GetString(), sd->GetCategories(id));
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
         *dirtyBits &= ~HdChangeTracker::AllSceneDirtyBits;
@@ -366,6 +512,7 @@ protected:
 private:
     std::string _typeId;
     tide::Rprim* _prim;
+    HdTideShared* _shared;
 };
 
 /// A camera (HdCamera, whose own Sync keeps the values Hydra reads back for framing), a light
@@ -373,8 +520,9 @@ private:
 template <typename Base>
 class HdTideSprim final : public Base, public HdTideLink<tide::Sprim> {
 public:
-    HdTideSprim(SdfPath const& id, std::string typeId, tide::Sprim* prim)
-        : Base(id), _typeId(std::move(typeId)), _prim(prim) {}
+    /// `links`: where a light records its link categories (nullptr for cameras and materials).
+    HdTideSprim(SdfPath const& id, std::string typeId, tide::Sprim* prim, HdTideLightLinks* links = nullptr)
+        : Base(id), _typeId(std::move(typeId)), _prim(prim), _links(links) {}
     tide::Sprim* TidePrim() const override { return _prim; }
     HdDirtyBits GetInitialDirtyBitsMask() const override { return Base::AllDirty; }
     void Sync(HdSceneDelegate* sd, HdRenderParam* param, HdDirtyBits* dirtyBits) override {
@@ -383,12 +531,89 @@ public:
         HdTideSnapshot snapshot(sd, Base::GetId(), _typeId, hdBits);
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
+        if (_links) {
+            auto token = [&](TfToken const& name) {
+                VtValue const v = sd->GetLightParamValue(Base::GetId(), name);
+                return v.IsHolding<TfToken>() ? v.UncheckedGet<TfToken>() : TfToken();
+            };
+            _links->SetLight(Base::GetId().GetString(), token(HdTokens->lightLink), token(HdTokens->shadowLink));
+        }
         *dirtyBits = Base::Clean;
     }
 
 private:
     std::string _typeId;
     tide::Sprim* _prim;
+    HdTideLightLinks* _links;
+};
+
+/// An `openvdbAsset` field: its values are read by the volumes bound to it (Hydra marks them
+/// DirtyVolumeField when the field changes), so the field itself keeps nothing.
+class HdTideField final : public HdField {
+public:
+    using HdField::HdField;
+    HdDirtyBits GetInitialDirtyBitsMask() const override { return AllDirty; }
+    void Sync(HdSceneDelegate*, HdRenderParam*, HdDirtyBits* dirtyBits) override { *dirtyBits = Clean; }
+};
+
+/// A renderSettings bprim (UsdRenderSettings as Hydra flattens it) forwarded to a Tide
+/// renderSettings prim at its path, with the keys the usd-core reader sends: its `tide:`
+/// settings, `includedPurposes`, `renderingColorSpace`, and from its first product `camera`,
+/// `pixelAspectRatio`, `dataWindowNDC`, `disableMotionBlur`, `disableDepthOfField`; every
+/// product as `products`, `<P>.productName`, `<P>.camera`, `<P>.resolution`, `<P>.orderedVars`
+/// and `<V>.sourceName`. The image size stays the bound buffers' (no top-level `resolution`).
+class HdTideRenderSettings final : public HdRenderSettings {
+public:
+    HdTideRenderSettings(SdfPath const& id, tide::Sprim* prim, HdTideRenderDelegate* delegate)
+        : HdRenderSettings(id), _prim(prim), _delegate(delegate) {}
+    tide::Sprim* TidePrim() const { return _prim; }
+
+protected:
+    void _Sync(HdSceneDelegate*, HdRenderParam*, const HdDirtyBits*) override {
+        const std::string path = GetId().GetString();
+        tide::MemorySceneSource source;
+        auto put = [&](std::string const& key, tide::Value v) {
+            if (!v.IsEmpty()) source.Set(path, key, tide::TimedValue{false, 0.0, std::move(v)});
+        };
+        for (auto const& [key, value] : GetNamespacedSettings())
+            if (key.rfind("tide:", 0) == 0) put(key, HdTideToValue(value));
+        put("includedPurposes", HdTideToValue(VtValue(GetIncludedPurposes())));
+        const TfToken space = GetRenderingColorSpace();
+        put("renderingColorSpace", tide::Value::MakeToken(space.IsEmpty() ? "lin_rec709" : space.GetString()));
+        RenderProducts const& products = GetRenderProducts();
+        std::vector<std::string> productPaths;
+        for (RenderProduct const& p : products) {
+            const std::string pp = p.productPath.GetString();
+            productPaths.push_back(pp);
+            put(pp + ".productName", tide::Value::MakeString(p.name.GetString()));
+            if (!p.cameraPath.IsEmpty()) put(pp + ".camera", tide::Value::MakePath(p.cameraPath.GetString()));
+            put(pp + ".resolution", tide::Value::MakeInts({p.resolution[0], p.resolution[1]}));
+            std::vector<std::string> vars;
+            for (RenderProduct::RenderVar const& v : p.renderVars) {
+                vars.push_back(v.varPath.GetString());
+                put(v.varPath.GetString() + ".sourceName", tide::Value::MakeString(v.sourceName));
+            }
+            put(pp + ".orderedVars", tide::Value::MakePaths(std::move(vars)));
+        }
+        put("products", tide::Value::MakePaths(std::move(productPaths)));
+        if (!products.empty()) {
+            RenderProduct const& p = products.front();
+            if (!p.cameraPath.IsEmpty()) put("camera", tide::Value::MakePath(p.cameraPath.GetString()));
+            put("pixelAspectRatio", tide::Value::MakeFloat(p.pixelAspectRatio));
+            GfRange2f const& w = p.dataWindowNDC;
+            if (!w.IsEmpty())
+                put("dataWindowNDC", tide::Value::MakeFloats({w.GetMin()[0], w.GetMin()[1], w.GetMax()[0], w.GetMax()[1]}, 4));
+            put("disableMotionBlur", tide::Value::MakeBool(p.disableMotionBlur));
+            put("disableDepthOfField", tide::Value::MakeBool(p.disableDepthOfField));
+        }
+        tide::DirtyBits bits = tide::ChangeTracker::DirtyParams;
+        _prim->Sync(source, &bits);
+        _delegate->SetActiveSettings(path, IsActive());
+    }
+
+private:
+    tide::Sprim* _prim;
+    HdTideRenderDelegate* _delegate;
 };
 
 class HdTideRenderBuffer final : public HdRenderBuffer {
@@ -435,14 +660,14 @@ private:
 class HdTideRenderPass final : public HdRenderPass {
 public:
     HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass,
-                     std::string settingsPath)
-        : HdRenderPass(index, collection), _pass(std::move(pass)), _settingsPath(std::move(settingsPath)) {}
+                     HdTideRenderDelegate const* delegate)
+        : HdRenderPass(index, collection), _pass(std::move(pass)), _delegate(delegate) {}
     bool IsConverged() const override { return _pass->IsConverged(); }
 
 protected:
     void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
         tide::RenderPassState s;
-        s.renderSettings = _settingsPath;
+        s.renderSettings = _delegate->SettingsPathForPass();
         if (HdCamera const* cam = state->GetCamera()) s.camera = cam->GetId().GetString();
         for (HdRenderPassAovBinding const& b : state->GetAovBindings()) {
             auto* rb = dynamic_cast<HdTideRenderBuffer*>(b.renderBuffer);
@@ -454,7 +679,7 @@ protected:
 
 private:
     std::shared_ptr<tide::RenderPass> _pass;
-    std::string _settingsPath;
+    HdTideRenderDelegate const* _delegate;
 };
 
 }  // namespace
@@ -492,7 +717,9 @@ static HdRenderSettingDescriptorList const& Descriptors() {
 HdTideRenderDelegate::HdTideRenderDelegate() : HdTideRenderDelegate(HdRenderSettingsMap()) {}
 
 HdTideRenderDelegate::HdTideRenderDelegate(HdRenderSettingsMap const& settingsMap)
-    : HdRenderDelegate(settingsMap), _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()) {
+    : HdRenderDelegate(settingsMap), _tide(new tide::RenderDelegate()), _registry(new HdResourceRegistry()),
+      _shared(new HdTideShared()) {
+    _shared->param = _tide->GetRenderParam();
     _PopulateDefaultSettings(Descriptors());
     _settingsPrim = _tide->CreateSprim("renderSettings", kSettingsPath);
     _SyncSettings();
@@ -528,6 +755,19 @@ void HdTideRenderDelegate::SetRenderSetting(TfToken const& key, VtValue const& v
 
 HdRenderSettingDescriptorList HdTideRenderDelegate::GetRenderSettingDescriptors() const { return Descriptors(); }
 
+TfTokenVector HdTideRenderDelegate::GetRenderSettingsNamespaces() const { return {TfToken("tide")}; }
+
+void HdTideRenderDelegate::SetActiveSettings(std::string const& path, bool active) {
+    std::lock_guard<std::mutex> lock(_activeMutex);
+    if (active) _activeSettings = path;
+    else if (_activeSettings == path) _activeSettings.clear();
+}
+
+std::string HdTideRenderDelegate::SettingsPathForPass() const {
+    std::lock_guard<std::mutex> lock(_activeMutex);
+    return _activeSettings.empty() ? std::string(kSettingsPath) : _activeSettings;
+}
+
 VtDictionary HdTideRenderDelegate::GetRenderStats() const {
     VtDictionary stats;
     std::shared_ptr<tide::RenderPass> pass = _lastPass.lock();
@@ -548,8 +788,7 @@ TfTokenVector const& HdTideRenderDelegate::GetSupportedRprimTypes() const {
     return t;
 }
 TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
-    // Hydra's renderSettings prims are bprims (HdRenderSettings), which this delegate does not
-    // map: its settings come from the HdRenderSettingsMap.
+    // Hydra's renderSettings prims are bprims (HdRenderSettings; see CreateBprim).
     static const TfTokenVector t = [this] {
         TfTokenVector types;
         for (std::string const& s : _tide->GetSupportedSprimTypes())
@@ -559,7 +798,12 @@ TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
     return t;
 }
 TfTokenVector const& HdTideRenderDelegate::GetSupportedBprimTypes() const {
-    static const TfTokenVector t = Tokens(_tide->GetSupportedBprimTypes());
+    static const TfTokenVector t = [this] {
+        TfTokenVector types = Tokens(_tide->GetSupportedBprimTypes());
+        types.push_back(HdPrimTypeTokens->renderSettings);
+        types.push_back(kOpenVdbAsset);
+        return types;
+    }();
     return t;
 }
 
@@ -568,21 +812,26 @@ HdResourceRegistrySharedPtr HdTideRenderDelegate::GetResourceRegistry() const { 
 HdRenderPassSharedPtr HdTideRenderDelegate::CreateRenderPass(HdRenderIndex* index, HdRprimCollection const& collection) {
     std::shared_ptr<tide::RenderPass> pass = _tide->CreateRenderPass();
     _lastPass = pass;
-    return std::make_shared<HdTideRenderPass>(index, collection, std::move(pass), kSettingsPath);
+    return std::make_shared<HdTideRenderPass>(index, collection, std::move(pass), this);
 }
 
-HdInstancer* HdTideRenderDelegate::CreateInstancer(HdSceneDelegate*, SdfPath const&) { return nullptr; }
+HdInstancer* HdTideRenderDelegate::CreateInstancer(HdSceneDelegate* delegate, SdfPath const& id) {
+    return new HdTideInstancer(delegate, id);
+}
 void HdTideRenderDelegate::DestroyInstancer(HdInstancer* instancer) { delete instancer; }
 
 HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const& rprimId) {
     tide::Rprim* prim = _tide->CreateRprim(typeId.GetString(), rprimId.GetString());
     if (!prim) return nullptr;
-    if (typeId == HdPrimTypeTokens->mesh) return new HdTideRprim<HdMesh>(rprimId, typeId.GetString(), prim);
-    if (typeId == HdPrimTypeTokens->points) return new HdTideRprim<HdPoints>(rprimId, typeId.GetString(), prim);
-    return new HdTideRprim<HdRprim>(rprimId, typeId.GetString(), prim);
+    HdTideShared* shared = _shared.get();
+    if (typeId == HdPrimTypeTokens->mesh) return new HdTideRprim<HdMesh>(rprimId, typeId.GetString(), prim, shared);
+    if (typeId == HdPrimTypeTokens->points) return new HdTideRprim<HdPoints>(rprimId, typeId.GetString(), prim, shared);
+    if (typeId == HdPrimTypeTokens->volume) return new HdTideRprim<HdVolume>(rprimId, typeId.GetString(), prim, shared);
+    return new HdTideRprim<HdRprim>(rprimId, typeId.GetString(), prim, shared);
 }
 
 void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
+    _shared->links.RemoveRprim(rPrim->GetId().GetString());
     if (auto* link = dynamic_cast<HdTideLink<tide::Rprim>*>(rPrim)) _tide->DestroyRprim(link->TidePrim());
     delete rPrim;
 }
@@ -592,17 +841,23 @@ HdSprim* HdTideRenderDelegate::CreateSprim(TfToken const& typeId, SdfPath const&
     if (!prim) return nullptr;
     if (typeId == HdPrimTypeTokens->camera) return new HdTideSprim<HdCamera>(sprimId, typeId.GetString(), prim);
     if (typeId == HdPrimTypeTokens->material) return new HdTideSprim<HdMaterial>(sprimId, typeId.GetString(), prim);
-    return new HdTideSprim<HdLight>(sprimId, typeId.GetString(), prim);
+    return new HdTideSprim<HdLight>(sprimId, typeId.GetString(), prim, &_shared->links);
 }
 
 HdSprim* HdTideRenderDelegate::CreateFallbackSprim(TfToken const&) { return nullptr; }
 
 void HdTideRenderDelegate::DestroySprim(HdSprim* sPrim) {
+    if (dynamic_cast<HdLight*>(sPrim)) _shared->links.RemoveLight(sPrim->GetId().GetString());
     if (auto* link = dynamic_cast<HdTideLink<tide::Sprim>*>(sPrim)) _tide->DestroySprim(link->TidePrim());
     delete sPrim;
 }
 
 HdBprim* HdTideRenderDelegate::CreateBprim(TfToken const& typeId, SdfPath const& bprimId) {
+    if (typeId == kOpenVdbAsset) return new HdTideField(bprimId);
+    if (typeId == HdPrimTypeTokens->renderSettings) {
+        tide::Sprim* prim = _tide->CreateSprim("renderSettings", bprimId.GetString());
+        return prim ? new HdTideRenderSettings(bprimId, prim, this) : nullptr;
+    }
     tide::Bprim* prim = _tide->CreateBprim(typeId.GetString(), bprimId.GetString());
     return prim ? new HdTideRenderBuffer(bprimId, static_cast<tide::RenderBuffer*>(prim)) : nullptr;
 }
@@ -611,10 +866,16 @@ HdBprim* HdTideRenderDelegate::CreateFallbackBprim(TfToken const&) { return null
 
 void HdTideRenderDelegate::DestroyBprim(HdBprim* bPrim) {
     if (auto* b = dynamic_cast<HdTideRenderBuffer*>(bPrim)) _tide->DestroyBprim(b->TideBuffer());
+    if (auto* r = dynamic_cast<HdTideRenderSettings*>(bPrim)) {
+        SetActiveSettings(r->GetId().GetString(), false);
+        _tide->DestroySprim(r->TidePrim());
+    }
     delete bPrim;
 }
 
 void HdTideRenderDelegate::CommitResources(HdChangeTracker*) {
+    // every prim has synced: the light links' member sets are complete
+    _shared->links.Forward(*_tide->GetRenderParam());
     _tide->CommitResources();
     for (tide::Problem const& p : _tide->TakeProblems())
         TF_WARN("Tide: %s: %s: %s", p.prim.c_str(), p.attribute.c_str(), p.message.c_str());

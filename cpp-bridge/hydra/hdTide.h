@@ -3,6 +3,8 @@
 //! hands it to the matching tide:: prim, which forwards it to the Rust delegate.
 #pragma once
 
+#include "instancer.h"
+
 #include "tide/renderDelegate.h"
 #include "tide/sceneSource.h"
 
@@ -16,7 +18,13 @@
 #include "pxr/imaging/hd/sprim.h"
 #include "pxr/pxr.h"
 
+#include <array>
+#include <map>
 #include <memory>
+#include <mutex>
+#include <set>
+#include <string>
+#include <vector>
 
 PXR_NAMESPACE_OPEN_SCOPE
 
@@ -37,6 +45,8 @@ public:
 
     /// The tide:: dirty bits matching the Hd ones that were read.
     tide::DirtyBits TideBits() const { return _tideBits; }
+    /// Adds a sample of `key` read outside the constructor, with the tide:: bits it dirties.
+    void Add(std::string const& key, tide::TimedValue value, tide::DirtyBits bits);
 
 private:
     void _Put(std::string const& key, VtValue const& v);
@@ -45,6 +55,44 @@ private:
     HdSceneDelegate* _sd = nullptr;
     SdfPath _id;
     tide::DirtyBits _tideBits = 0;
+};
+
+/// Hydra's light linking turned into the collections Tide's lights take. A light names a
+/// category per link (`lightLink`, `shadowLink`: a collection token, empty when it reaches
+/// everything); rprims list their categories (HdSceneDelegate::GetCategories). Prims record
+/// what they read during Sync (in parallel); Forward, at commit, sends each light whose member
+/// set changed `collection:<link>:includes` (the member rprims' paths), `:excludes` (none),
+/// `:includeRoot` (false) and `:expansionRule` (explicitOnly), or, once its token is empty
+/// again, a collection that includes everything.
+class HdTideLightLinks {
+public:
+    void SetLight(std::string const& light, TfToken const& lightLink, TfToken const& shadowLink);
+    void RemoveLight(std::string const& light);
+    void SetCategories(std::string const& rprim, VtArray<TfToken> const& categories);
+    void RemoveRprim(std::string const& rprim);
+    /// Forwards the collections that changed since the last call.
+    void Forward(tide::RenderParam& param);
+
+private:
+    struct Sent {
+        bool everything = false;
+        std::vector<std::string> includes;
+        bool operator==(Sent const& o) const { return everything == o.everything && includes == o.includes; }
+    };
+    std::mutex _mutex;
+    bool _changed = false;
+    std::map<std::string, std::array<TfToken, 2>> _lights;
+    std::map<std::string, std::set<TfToken>> _categories;
+    /// (light, link) -> what was last forwarded.
+    std::map<std::pair<std::string, int>, Sent> _sent;
+};
+
+/// What the Hd prims of one delegate share: the tide:: state, the light-link tables and the
+/// lock that serialises reading VDB grids.
+struct HdTideShared {
+    tide::RenderParam* param = nullptr;
+    HdTideLightLinks links;
+    std::mutex vdbMutex;
 };
 
 class HdTideRenderDelegate final : public HdRenderDelegate {
@@ -83,8 +131,15 @@ public:
     /// The newest render pass's progress (`percentDone`), `tide:converged`, its summary
     /// (`tide:<key>` strings) and `tide:error` when it failed.
     VtDictionary GetRenderStats() const override;
+    /// "tide": render settings prims hand their `tide:` attributes to the delegate.
+    TfTokenVector GetRenderSettingsNamespaces() const override;
 
     tide::RenderDelegate& Tide() { return *_tide; }
+    /// Records whether the renderSettings bprim at `path` is the active one.
+    void SetActiveSettings(std::string const& path, bool active);
+    /// The settings prim a render pass uses: the active renderSettings bprim, else the one
+    /// holding the HdRenderSettingsMap's settings.
+    std::string SettingsPathForPass() const;
 
 private:
     /// Forwards the settings map's Tide settings to the renderSettings prim.
@@ -95,6 +150,9 @@ private:
     tide::Sprim* _settingsPrim = nullptr;
     tide::MemorySceneSource _settingsSource;
     std::weak_ptr<tide::RenderPass> _lastPass;
+    std::unique_ptr<HdTideShared> _shared;
+    mutable std::mutex _activeMutex;
+    std::string _activeSettings;
 };
 
 PXR_NAMESPACE_CLOSE_SCOPE
