@@ -10,6 +10,7 @@
 #include "pxr/base/gf/vec3h.h"
 #include "pxr/base/gf/vec4d.h"
 #include "pxr/base/gf/vec4f.h"
+#include "pxr/imaging/hd/changeTracker.h"
 #include "pxr/imaging/hd/renderIndex.h"
 #include "pxr/imaging/hd/sceneDelegate.h"
 #include "pxr/imaging/hd/tokens.h"
@@ -81,6 +82,9 @@ void AddTimes(HdTimeSampleArray<VtValue, 4> const& s, std::vector<float>* times)
 HdTideInstancer::HdTideInstancer(HdSceneDelegate* delegate, SdfPath const& id) : HdInstancer(delegate, id) {}
 
 void HdTideInstancer::Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dirtyBits) {
+    // _SyncInstancerAndParents also calls Sync, with clean bits, for the rprims that waited on
+    // the instancer's lock while another one synced it; those may already be reading it
+    if (*dirtyBits == HdChangeTracker::Clean) return;
     _UpdateInstancer(sd, dirtyBits);
     SdfPath const& id = GetId();
     sd->SampleInstancerTransform(id, &_xform);
