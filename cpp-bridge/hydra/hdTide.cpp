@@ -577,7 +577,8 @@ protected:
         };
         for (auto const& [key, value] : GetNamespacedSettings())
             if (key.rfind("tide:", 0) == 0) put(key, HdTideToValue(value));
-        put("includedPurposes", HdTideToValue(VtValue(GetIncludedPurposes())));
+        // unauthored purposes arrive empty: leave the delegate's default (default, render)
+        if (!GetIncludedPurposes().empty()) put("includedPurposes", HdTideToValue(VtValue(GetIncludedPurposes())));
         const TfToken space = GetRenderingColorSpace();
         put("renderingColorSpace", tide::Value::MakeToken(space.IsEmpty() ? "lin_rec709" : space.GetString()));
         RenderProducts const& products = GetRenderProducts();
