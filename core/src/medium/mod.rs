@@ -3,13 +3,14 @@
 //!
 //! [`Medium`] is the enum the integrator holds. Its position-aware interface
 //! ([`Medium::sample_distance`] and [`Medium::transmittance`] take the ray and a source of
-//! uniform numbers) serves both variants: [`Medium::Homogeneous`] consumes exactly one number
-//! per call of `sample_distance` and none for `transmittance`; [`Medium::BioOptical`] (natural
-//! water whose coefficients vary with depth) uses delta tracking for collisions, with the same
-//! one-sample spectral MIS over wavelengths as the homogeneous case, and residual ratio
-//! tracking for shadow rays, against per-wavelength bounds of σt over each segment
-//! ([`tracking`], [`bio_optical`]); [`Medium::Grid`] (a volume's density grid times a
-//! medium's coefficients) uses delta and ratio tracking against a majorant grid ([`grid`]).
+//! uniform numbers) serves every variant: [`Medium::Homogeneous`] consumes exactly one number
+//! per call of `sample_distance` and none for `transmittance`; so does [`Medium::BioOptical`]
+//! (natural water whose coefficients vary with depth), through a table of its optical depth
+//! over depth: collisions by inverting it, with the same one-sample spectral MIS over
+//! wavelengths as the homogeneous case, and transmittance in closed form ([`bio_optical`];
+//! delta and residual ratio tracking, [`tracking`], only where no table is built);
+//! [`Medium::Grid`] (a volume's density grid times a medium's coefficients) uses delta and
+//! ratio tracking against a majorant grid ([`grid`]).
 
 pub mod bio_optical;
 pub mod grid;

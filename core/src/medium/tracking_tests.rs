@@ -13,7 +13,7 @@ use crate::water::{JerlovSource, JerlovType};
 
 /// 1 % significance, Šidák-corrected for the χ² tests of this file.
 const ALPHA: f64 = 0.01;
-const N_CHI2_TESTS: usize = 3;
+const N_CHI2_TESTS: usize = 3 + TABLE_RAYS.len();
 
 fn all_live() -> SampledWavelengths {
     SampledWavelengths::sample_uniform(0.3)
@@ -497,4 +497,119 @@ fn depth_varying_coefficients_from_the_table_match_the_model() {
             assert!((a1[j] - a0[j]).abs() <= tol && (s1[j] - s0[j]).abs() <= tol, "y {y} λ {}: ({}, {}) vs ({}, {})", lambda.lambda[j], a1[j], s1[j], a0[j], s0[j]);
         }
     }
+}
+
+/// Rays through a chlorophyll maximum 6 m down (the table spans −6 m to 18 m, cells 7.5 cm
+/// deep): straight down across ~160 cells (the binary search of C), obliquely up, exactly
+/// horizontal inside the maximum, nearly horizontal (the walk in t), and from below the table's
+/// span up through it (σt constant beyond the span).
+const TABLE_RAYS: [([f32; 3], [f32; 3], f32); 5] = [
+    ([0.0, -1.0, 0.0], [0.0, -1.0, 0.0], 12.0),
+    ([0.0, -9.0, 0.0], [0.0, 0.5, 0.866], 9.0),
+    ([0.0, -6.0, 0.0], [1.0, 0.0, 0.0], 7.0),
+    ([0.0, -5.0, 0.0], [0.9999, -0.0141, 0.0], 30.0),
+    ([0.0, -30.0, 0.0], [0.0, 1.0, 0.0], 29.0),
+];
+
+fn table_ray(k: usize) -> (Vec3, Vec3, f32) {
+    let (o, d, t) = TABLE_RAYS[k];
+    (Vec3::from(o), Vec3::from(d).normalize(), t)
+}
+
+#[test]
+fn depth_varying_collision_distance_follows_the_tables_free_flight_mixture() {
+    // distances drawn by inverting the optical depth: the collision density is
+    // (1/N) Σ_j σt_j(t) e^{−τ_j(t)}, so P(t < x) = (1/N) Σ_j (1 − T_j(x)) with T_j the
+    // table's own transmittance, and P(pass) the rest; exactly one number is drawn per call
+    let Medium::BioOptical(m) = Medium::from_desc(&water_desc(Some(DCM), 0.0), ColorSpace::LinearRec709).unwrap() else { panic!() };
+    let med = Medium::BioOptical(m);
+    let th = 1.0 - (1.0 - ALPHA).powf(1.0 / N_CHI2_TESTS as f64);
+    for k in 0..TABLE_RAYS.len() {
+        let (o, d, len) = table_ray(k);
+        let lambda = SampledWavelengths::sample_uniform(0.13 + 0.17 * k as f32);
+        let bins = 50;
+        let none = &mut || -> f32 { panic!("the table draws no numbers") };
+        let mut cdf = |x: f32| {
+            let tr = med.transmittance(o, d, x, none, &lambda);
+            (0..4).map(|j| 1.0 - tr[j] as f64).sum::<f64>() / 4.0
+        };
+        let edges: Vec<f64> = (0..=bins).map(|i| cdf(len * i as f32 / bins as f32)).collect();
+        let mut probs: Vec<f64> = (0..bins).map(|i| edges[i + 1] - edges[i]).collect();
+        probs.push(1.0 - edges[bins]);
+        let n = 200_000;
+        let mut obs = vec![0.0; bins + 1];
+        let mut rng = TestRng::new(700 + k as u64);
+        for _ in 0..n {
+            let mut draws = 0;
+            let mut r = || {
+                draws += 1;
+                rng.next_f32()
+            };
+            match med.sample_distance(o, d, len, &mut r, &lambda) {
+                DistanceSample::Scatter { t, .. } => {
+                    assert!((0.0..len).contains(&t), "ray {k}: t {t}");
+                    obs[((t / len * bins as f32) as usize).min(bins - 1)] += 1.0;
+                }
+                DistanceSample::Pass { .. } => obs[bins] += 1.0,
+            }
+            assert_eq!(draws, 1, "ray {k}: one number per call");
+        }
+        let pv = chi2_1d(&obs, &probs, n);
+        assert!(pv > th, "ray {k}: p-value {pv}");
+    }
+}
+
+#[test]
+fn depth_varying_free_flight_weights_are_unbiased_per_wavelength() {
+    // E[1_pass w] = T(L) and E[1_scatter w] = ∫σs T dt per wavelength against the midpoint rule
+    // on 4000 steps of the table's own σs and transmittance (error ~10⁻⁷, far below the Monte
+    // Carlo error), within 3 standard errors; every weight lies in [0, N]
+    let Medium::BioOptical(m) = Medium::from_desc(&water_desc(Some(DCM), 0.0), ColorSpace::LinearRec709).unwrap() else { panic!() };
+    let med = Medium::BioOptical(m);
+    let mut pass_checked = 0;
+    // shorter segments than the χ² test's, so that passing is common enough to check
+    for (k, len) in [3.0, 2.5, 2.0, 8.0, 14.0].into_iter().enumerate() {
+        let (o, d, _) = table_ray(k);
+        let lambda = SampledWavelengths::sample_uniform(0.71 - 0.11 * k as f32);
+        let none = &mut || -> f32 { panic!("the table draws no numbers") };
+        let steps = 4000;
+        let h = len / steps as f32;
+        let mut single = [0.0f64; 4];
+        for i in 0..steps {
+            let t = h * (i as f32 + 0.5);
+            let tr = med.transmittance(o, d, t, none, &lambda);
+            let s = med.sigma_s_at(o + d * t, &lambda);
+            for j in 0..4 {
+                single[j] += (tr[j] * s[j] * h) as f64;
+            }
+        }
+        let pass_ref = med.transmittance(o, d, len, none, &lambda);
+        let n = 100_000;
+        let mut rng = TestRng::new(800 + k as u64);
+        let (mut pass, mut scatter) = (Moments::new(n), Moments::new(n));
+        for _ in 0..n {
+            let s = med.sample_distance(o, d, len, &mut || rng.next_f32(), &lambda);
+            let w = s.weight();
+            assert!(w.0.iter().all(|&v| (0.0..=N_SPECTRUM as f32 + 1e-3).contains(&v)), "ray {k}: weight {w:?} outside [0, N]");
+            match s {
+                DistanceSample::Pass { weight } => {
+                    pass.add(weight);
+                    scatter.add(SampledSpectrum::ZERO);
+                }
+                DistanceSample::Scatter { weight, .. } => {
+                    pass.add(SampledSpectrum::ZERO);
+                    scatter.add(weight);
+                }
+            }
+        }
+        // the standard error is estimated from the samples, so the pass check needs passes:
+        // where fewer than ~100 are expected it could only compare 0 with 0
+        let p_pass = (0..4).map(|j| pass_ref[j] as f64).sum::<f64>() / 4.0;
+        if p_pass * n as f64 >= 100.0 {
+            pass_checked += 1;
+            pass.check(std::array::from_fn(|j| pass_ref[j] as f64), &format!("ray {k}: E[1_pass w]"));
+        }
+        scatter.check(single, &format!("ray {k}: E[1_scatter w]"));
+    }
+    assert!(pass_checked >= 3, "only {pass_checked} rays pass often enough to check");
 }
