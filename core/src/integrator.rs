@@ -363,7 +363,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     let mut specular_bounce = false;
     let mut eta_scale = 1.0f32;
     let mut prev_pdf = 0.0f32;
-    let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO);
+    let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO).at(ray.time);
     // the surface the last BSDF-sampled ray left (None: the camera or a medium), whose light
     // links decide which lights that ray may reach
     let mut prev_instance: Option<u32> = None;
@@ -448,7 +448,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                         let u2 = sampler.get2d();
                         let u_tr = sampler.get1d();
                         if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| lit(li, owner)) {
-                            let ctx = LightSampleContext::new(p, Vec3::ZERO);
+                            let ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
                             if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
@@ -472,7 +472,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     beta *= val / pdf;
                     prev_pdf = pdf;
                     specular_bounce = false;
-                    prev_ctx = LightSampleContext::new(p, Vec3::ZERO);
+                    prev_ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
                     prev_instance = owner;
                     ray = Ray { o: p, d: wi, t_max: f32::INFINITY, time: ray.time };
                     continue;
@@ -653,7 +653,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let u2 = sampler.get2d();
             let u_tr = sampler.get1d();
             if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| world.illuminates(li, s.instance)) {
-                let ctx = LightSampleContext::new(s.p, s.ns);
+                let ctx = LightSampleContext::new(s.p, s.ns).at(ray.time);
                 if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                     let wi = frame.to_local(ls.wi);
                     if ls.pdf > 0.0 && !ls.l.is_black() {
@@ -727,7 +727,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             }
         }
         prev_pdf = bs.pdf;
-        prev_ctx = LightSampleContext::new(s.p, s.ns);
+        prev_ctx = LightSampleContext::new(s.p, s.ns).at(ray.time);
         prev_instance = Some(s.instance);
         if bs.is_transmission() {
             eta_scale *= bs.eta * bs.eta;

@@ -334,10 +334,23 @@ impl World {
                 _ => continue,
             };
             let m = &scene.meshes[mi];
-            let xf = accel.instance_transform(ii as u32, 0.0);
+            let motion = accel.instance_motion(ii as u32);
+            let deforms = m.motion.as_ref().is_some_and(|mm| mm.positions.len() >= 2);
+            let moves = deforms || !motion.is_static();
+            let xf = accel.instance_transform(ii as u32, camera.shutter.0);
             for (ti, t) in m.indices.chunks_exact(3).enumerate() {
-                let p = [0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize]));
-                if let Some(l) = Light::triangle(p, emission.clone(), two_sided || m.double_sided) {
+                let two = two_sided || m.double_sided;
+                let light = if moves {
+                    // sampled where the triangle is at each path's time, as the BVH places it
+                    let (times, p) = match &m.motion {
+                        Some(mm) if deforms => (mm.times.clone(), mm.positions.iter().map(|ps| [0, 1, 2].map(|k| ps[t[k] as usize])).collect()),
+                        _ => (vec![0.0], vec![[0, 1, 2].map(|k| m.positions[t[k] as usize])]),
+                    };
+                    Light::moving_triangle(crate::light::TriangleMotion { times, p, xf: motion.clone() }, camera.shutter.0, emission.clone(), two)
+                } else {
+                    Light::triangle([0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize])), emission.clone(), two)
+                };
+                if let Some(l) = light {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
                     lights.push(l);
                     caustic_emitters.push(false);

@@ -419,6 +419,11 @@ impl Accel {
         self.instances[instance as usize].xf.at(time)
     }
 
+    /// Object-to-world of an instance over the shutter.
+    pub fn instance_motion(&self, instance: u32) -> &MotionTransform {
+        &self.instances[instance as usize].xf
+    }
+
     /// Closest hit in (0, ray.t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let tlas = self.tlas.as_ref()?;

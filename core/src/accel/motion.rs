@@ -4,7 +4,7 @@
 
 use glam::{Mat4, Quat, Vec3};
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 struct Key {
     time: f32,
     scale: Vec3,
@@ -13,7 +13,7 @@ struct Key {
 }
 
 /// A possibly time-varying object-to-world transform.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct MotionTransform {
     keys: Vec<Key>,
     /// Matrices as given, for the static case and exact key times.

@@ -64,11 +64,19 @@ pub struct LightSampleContext {
     pub p: Vec3,
     /// Surface normal at `p`, or `Vec3::ZERO` inside a medium (currently informative only).
     pub n: Vec3,
+    /// Shutter time of the path (moving emissive triangles are sampled where they are then).
+    pub time: f32,
 }
 
 impl LightSampleContext {
+    /// A context at time 0.
     pub fn new(p: Vec3, n: Vec3) -> Self {
-        LightSampleContext { p, n }
+        LightSampleContext { p, n, time: 0.0 }
+    }
+
+    /// The same context at shutter time `time`.
+    pub fn at(self, time: f32) -> Self {
+        LightSampleContext { time, ..self }
     }
 }
 
@@ -381,7 +389,9 @@ pub struct CylinderLight {
     pub visible_to_camera: bool,
 }
 
-/// An emissive mesh triangle (world space).
+/// An emissive mesh triangle (world space). `p`, `n` and `area` are its place at the shutter's
+/// open; a triangle of a moving instance or a deforming mesh also carries its `motion`, and is
+/// sampled where it is at the time of the sample ([`LightSampleContext::time`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriangleLight {
     pub p: [Vec3; 3],
@@ -390,6 +400,45 @@ pub struct TriangleLight {
     pub area: f32,
     pub two_sided: bool,
     pub emission: Emission,
+    pub motion: Option<std::sync::Arc<TriangleMotion>>,
+}
+
+/// Where a moving emissive triangle is over the shutter, evaluated exactly as the scene's
+/// acceleration structure places the geometry: object-space vertices interpolated linearly
+/// between the mesh's motion samples, then the instance's object-to-world at that time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TriangleMotion {
+    /// Times of `p` (one entry for a mesh that does not deform).
+    pub times: Vec<f32>,
+    /// Object-space vertices at each time.
+    pub p: Vec<[Vec3; 3]>,
+    pub xf: crate::accel::motion::MotionTransform,
+}
+
+impl TriangleMotion {
+    /// World-space vertices at `time`.
+    pub fn at(&self, time: f32) -> [Vec3; 3] {
+        let obj = if self.p.len() >= 2 {
+            let (i, w) = crate::scene::locate_key(&self.times, time);
+            [0, 1, 2].map(|k| self.p[i][k].lerp(self.p[i + 1][k], w))
+        } else {
+            self.p[0]
+        };
+        let m = self.xf.at(time);
+        obj.map(|v| m.transform_point3(v))
+    }
+}
+
+impl TriangleLight {
+    /// Vertices, unit normal and area at `time`; None where the moving triangle degenerates.
+    #[inline]
+    pub fn at_time(&self, time: f32) -> Option<([Vec3; 3], Vec3, f32)> {
+        let Some(m) = &self.motion else { return Some((self.p, self.n, self.area)) };
+        let p = m.at(time);
+        let c = (p[1] - p[0]).cross(p[2] - p[0]);
+        let len = c.length();
+        (len > 0.0 && len.is_finite() && c.length_squared().is_normal()).then(|| (p, c / len, 0.5 * len))
+    }
 }
 
 /// Any light. Enum dispatch: no virtual calls in the sampling loop.
@@ -793,7 +842,21 @@ impl Light {
         if !(len > 0.0) || !len.is_finite() || !c.length_squared().is_normal() {
             return None;
         }
-        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0) }))
+        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None }))
+    }
+
+    /// An emissive triangle that moves over the shutter: placed by `motion` at each sample's
+    /// time, and at `open` (the shutter's open) for everything that does not depend on time
+    /// (its power for light selection). None when it is degenerate or not finite at `open`.
+    pub fn moving_triangle(motion: TriangleMotion, open: f32, emission: Spectrum, two_sided: bool) -> Option<Light> {
+        let p = motion.at(open);
+        match Light::triangle(p, emission, two_sided)? {
+            Light::Triangle(mut t) => {
+                t.motion = Some(std::sync::Arc::new(motion));
+                Some(Light::Triangle(t))
+            }
+            _ => None,
+        }
     }
 
     /// A point light of radiant intensity `intensity` × `spectrum` (per steradian).
@@ -1096,10 +1159,11 @@ impl Light {
                 area_sample(ctx.p, p, n, c.area, false, &c.emission, lambda)
             }
             Light::Triangle(t) => {
+                let (tp, n, area) = t.at_time(ctx.time)?;
                 let su = u.x.sqrt();
                 let (b1, b2) = (su * (1.0 - u.y), su * u.y);
-                let p = t.p[0] * (1.0 - b1 - b2) + t.p[1] * b1 + t.p[2] * b2;
-                area_sample(ctx.p, p, t.n, t.area, t.two_sided, &t.emission, lambda)
+                let p = tp[0] * (1.0 - b1 - b2) + tp[1] * b1 + tp[2] * b2;
+                area_sample(ctx.p, p, n, area, t.two_sided, &t.emission, lambda)
             }
         }
     }
@@ -1154,6 +1218,18 @@ impl Light {
 
     /// `pdf_li` of the lights sampled by area.
     fn pdf_li_area(&self, ctx: &LightSampleContext, wi: Vec3, hit: Option<(Vec3, Vec3)>) -> f32 {
+        let mut area = self.area();
+        if let Light::Triangle(t) = self {
+            if t.motion.is_some() {
+                // where the triangle is at the sample's time
+                let Some((p3, n3, a)) = t.at_time(ctx.time) else { return 0.0 };
+                area = a;
+                if hit.is_none() {
+                    let moved = Light::Triangle(TriangleLight { p: p3, n: n3, area: a, motion: None, ..t.clone() });
+                    return moved.pdf_li_area(ctx, wi, None);
+                }
+            }
+        }
         let (p, n) = match hit {
             Some(h) => h,
             None => match self.intersect(ctx.p, wi, f32::INFINITY) {
@@ -1169,7 +1245,7 @@ impl Light {
         if !(cos_l >= MIN_LIGHT_COS && d2 > 0.0) {
             return 0.0;
         }
-        let pdf = d2 / (cos_l * self.area());
+        let pdf = d2 / (cos_l * area);
         if pdf.is_finite() {
             pdf
         } else {
