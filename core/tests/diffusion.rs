@@ -17,6 +17,11 @@ const SIGMA_A: f32 = 0.5;
 const ETA: f32 = 1.333;
 
 fn scene(method: MediumMethod) -> SceneDesc {
+    scene_at(method, Vec3::ZERO, 0.4)
+}
+
+/// The body viewed straight down onto `target` (on the top face), `view` metres wide.
+fn scene_at(method: MediumMethod, target: Vec3, view: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
     // 4 × 2 × 4 m: the edges and the bottom (lit by the lower half of the sky) are 2 m
     // (7.7 diffusion lengths 1/σtr) from the viewed patch
@@ -27,8 +32,8 @@ fn scene(method: MediumMethod) -> SceneDesc {
     let mut sky = dome(1.0);
     sky.visible_to_camera = false;
     s.lights.push(sky);
-    // straight down onto a 0.4 m patch at the centre
-    let mut cam = camera(Vec3::new(0.0, 4.0, 0.0), Vec3::ZERO, 2.0 * (0.2f32 / 4.0).atan().to_degrees());
+    // straight down onto a patch `view` wide
+    let mut cam = camera(target + Vec3::Y * 4.0, target, 2.0 * (0.5 * view / 4.0).atan().to_degrees());
     cam.clipping_range = [1e-3, 1e6];
     s.camera = cam;
     s
@@ -38,7 +43,9 @@ fn scene(method: MediumMethod) -> SceneDesc {
 /// the sky reflected by the surface, F(normal), plus the light leaving the body,
 /// T(normal) · E_t · ∫ S_d dA, with E_t = 2π ∫ T(μ) μ dμ the transmitted irradiance and
 /// ∫ S_d dA = R_d,total / (4C_Φ(1/η) π) for the classical dipole (independent of the
-/// direction of the light).
+/// direction of the light). The renderer's profile, the directional dipole normalised to
+/// that total for light along the normal, gives the same: a uniform sky's mean refracted
+/// direction on a flat face is the normal, and each point is evaluated with it.
 fn model_radiance() -> f64 {
     let p = DipoleParams::new(SIGMA_A, SIGMA_S, 0.0, ETA).unwrap();
     let mut e_t = 0.0f64;
@@ -77,4 +84,31 @@ fn flat_centre_reproduces_the_model_and_agrees_with_volumetric_path_tracing() {
     let ratio = ld / lv;
     let slack = 3.0 * ((sv / lv).powi(2) + (sd / ld).powi(2)).sqrt() * ratio;
     assert!((ratio - 1.0).abs() < 0.06 + slack, "diffusion {ld} ± {sd} vs volumetric {lv} ± {sv}: ratio {ratio}");
+}
+
+#[test]
+fn edge_band_agrees_with_volumetric_path_tracing() {
+    // The band 0–0.25 m (one diffusion length 1/σtr) from an edge of the top face: light
+    // entering the side face leaves through the top, so the reference is ~40% brighter there
+    // than on the flat. The classical dipole, which sees distance only, reads −21.6% on the
+    // error table's band (docs/diffusion.md) and −22% here: it fails. The renderer's profile
+    // (the directional dipole normalised to the classical total) reads −7.4% there and
+    // −10% here (where the points fall along this box's edge moves it by a few per cent):
+    // 15%, plus 3σ of the mean per-pixel difference of the two renders (the band's own
+    // brightness gradient, common to both, cancels in the difference).
+    let (w, h) = (8, 8);
+    let target = Vec3::new(1.875, 0.0, 0.0);
+    let dif = render(&scene_at(MediumMethod::Diffusion, target, 0.25), settings(w, h, 32));
+    let mut st = settings(w, h, 512);
+    st.max_depth = 4096;
+    let vol = render(&scene_at(MediumMethod::Volumetric, target, 0.25), st);
+    let g = |r: &tide_core::Renderer| r.aov_pixels(tide_core::Aov::Color).chunks_exact(4).map(|p| p[1] as f64).collect::<Vec<f64>>();
+    let (pd, pv) = (g(&dif), g(&vol));
+    let n = pd.len() as f64;
+    let (ld, lv) = (pd.iter().sum::<f64>() / n, pv.iter().sum::<f64>() / n);
+    let diff: Vec<f64> = pd.iter().zip(&pv).map(|(a, b)| a - b).collect();
+    let md = diff.iter().sum::<f64>() / n;
+    let se = (diff.iter().map(|d| (d - md).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+    let ratio = ld / lv;
+    assert!(ld.is_finite() && (ratio - 1.0).abs() < 0.15 + 3.0 * se / lv, "diffusion {ld} vs volumetric {lv} (σ of the difference {se}): ratio {ratio}");
 }

@@ -4,7 +4,7 @@
 //! bin. [`IrradianceTree::exitance`] sums S_d × flux over the tree, replacing a node by its
 //! aggregate when it subtends little as seen from the exit point.
 
-use super::profile::DipoleParams;
+use super::profile::{DipoleParams, ProfileModel};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, LAMBDA_MAX, LAMBDA_MIN, N_SPECTRUM};
 use glam::Vec3;
 
@@ -68,6 +68,10 @@ pub struct IrradianceTree {
 }
 
 const LEAF_SIZE: usize = 8;
+/// Points closer to the exit point than this many patch sizes (√area) are integrated over
+/// their patch (3 × 3 midpoint rule) by the direction-aware profiles, whose peak near the
+/// source is narrower than the point spacing.
+const NEAR_PATCHES: f32 = 3.0;
 const MAX_LEVEL: u32 = 20;
 const STACK: usize = 8 * (MAX_LEVEL as usize + 2);
 
@@ -170,6 +174,7 @@ impl IrradianceTree {
             return out;
         }
         let lerp: [(usize, f32); N_SPECTRUM] = std::array::from_fn(|k| bin_lerp(lambda.lambda[k]));
+        let directional = params.iter().flatten().any(|p| p.model != ProfileModel::Classical);
         let mut add = |p: Vec3, n: Vec3, dir: Vec3, ea: &[f32; N_BINS]| {
             for k in 0..N_SPECTRUM {
                 let Some(pk) = &params[k] else { continue };
@@ -188,8 +193,23 @@ impl IrradianceTree {
             if node.leaf {
                 for q in &self.points[node.first as usize..(node.first + node.count) as usize] {
                     let mut ea = q.e;
-                    ea.iter_mut().for_each(|v| *v *= q.area);
-                    add(q.p, q.n, q.dir, &ea);
+                    let h2 = q.area;
+                    if directional && (q.p - xo).length_squared() < NEAR_PATCHES * NEAR_PATCHES * h2 {
+                        // a point next to the exit point stands for its patch (about h × h,
+                        // h = √area): the patch's integral by the midpoint rule on a 3 × 3 grid
+                        let h = h2.sqrt();
+                        let (t, b) = q.n.any_orthonormal_pair();
+                        ea.iter_mut().for_each(|v| *v *= q.area / 9.0);
+                        for i in 0..3 {
+                            for j in 0..3 {
+                                let off = t * ((i as f32 - 1.0) * h / 3.0) + b * ((j as f32 - 1.0) * h / 3.0);
+                                add(q.p + off, q.n, q.dir, &ea);
+                            }
+                        }
+                    } else {
+                        ea.iter_mut().for_each(|v| *v *= q.area);
+                        add(q.p, q.n, q.dir, &ea);
+                    }
                 }
                 continue;
             }
