@@ -234,7 +234,8 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             // the segment so far was in `cur`; the surface's side decides what follows
             if let Some(m) = cur {
                 let mut rng = || stream.next_f32();
-                tr *= world.media[m].transmittance(seg_o, d, seg_len.min(1e30), &mut rng, lambda);
+                let (ro, rd) = world.media[m].rest_ray(time, seg_o, d);
+                tr *= world.media[m].transmittance(ro, rd, seg_len.min(1e30), &mut rng, lambda);
             }
             let entering = d.dot(s.ng) < 0.0;
             if boundary {
@@ -271,7 +272,8 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
     if let Some(m) = cur {
         let mut rng = || stream.next_f32();
         let len = if switched { seg_len + remaining.max(0.0) } else { dist };
-        tr *= world.media[m].transmittance(seg_o, d, len.min(1e30), &mut rng, lambda);
+        let (ro, rd) = world.media[m].rest_ray(time, seg_o, d);
+        tr *= world.media[m].transmittance(ro, rd, len.min(1e30), &mut rng, lambda);
     }
     tr
 }
@@ -420,7 +422,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let mut stream = StreamRng::new(sampler.get1d(), vertex);
             let mut uu = Some(u);
             let mut rng = || uu.take().unwrap_or_else(|| stream.next_f32());
-            match world.media[mi].sample_distance(ray.o, ray.d, t_surface.min(1e30), &mut rng, lambda) {
+            let (ro, rd) = world.media[mi].rest_ray(ray.time, ray.o, ray.d);
+            match world.media[mi].sample_distance(ro, rd, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
                     beta *= weight;
                     fp.advance(t);

@@ -416,6 +416,10 @@ pub struct VolumeDesc {
     /// Name (prim path) used in messages.
     pub name: String,
     pub density: GridDesc,
+    /// Transform motion blur: the grid's local-to-world (as `density.local_to_world`) at each
+    /// time (seconds of shutter time, increasing). Empty, or one key: the volume is still at
+    /// `density.local_to_world`; otherwise it moves and `density.local_to_world` is ignored.
+    pub motion: Vec<(f32, Mat4)>,
     /// Index into `SceneDesc::media`: the coefficients at density 1 and the phase function.
     pub medium: usize,
     /// Identifier written to the `primId` AOV (unused: a volume has no surface).

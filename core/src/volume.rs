@@ -11,7 +11,7 @@
 use crate::medium::{DensityGrid, GridError};
 use crate::render::Problem;
 use crate::scene::*;
-use glam::Vec3;
+use glam::{Mat4, Vec3};
 
 /// A scene with its volumes turned into boxes, and what the world builder needs to finish
 /// them: the density grid of each added medium and the materials that are medium boundaries.
@@ -59,7 +59,8 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         if bad > 0 {
             problems.push(Problem { item: v.name.clone(), attribute: "field:density".into(), message: format!("{bad} negative or non-finite density value(s) in {} read as 0", g.name) });
         }
-        let grid = match DensityGrid::new(g.dims, &g.values, g.local_to_world) {
+        let (mats, times): (Vec<Mat4>, Vec<f32>) = if v.motion.len() >= 2 { (v.motion.iter().map(|k| k.1).collect(), v.motion.iter().map(|k| k.0).collect()) } else { (vec![g.local_to_world], vec![0.0]) };
+        let grid = match DensityGrid::new(g.dims, &g.values, mats[0]).and_then(|grid| grid.with_motion(&mats, &times)) {
             Ok(grid) => grid,
             Err(e @ (GridError::Dims { .. } | GridError::Transform)) => {
                 problems.push(Problem { item: v.name.clone(), attribute: "field:density".into(), message: format!("{}: {e}; volume dropped", g.name) });
@@ -82,12 +83,13 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         boundary_materials.push(material);
         let (lo, hi) = (Vec3::splat(-1.0), Vec3::new(g.dims[0] as f32, g.dims[1] as f32, g.dims[2] as f32));
         let mesh = s.meshes.len();
-        s.meshes.push(box_mesh(&v.name, lo, hi, g.local_to_world.determinant() < 0.0));
+        s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0));
+        // the box moves with the grid (the same keys, interpolated the same way)
         s.instances.push(InstanceDesc {
             name: v.name.clone(),
             geometry: GeometryRef::Mesh(mesh),
-            transforms: vec![g.local_to_world],
-            times: vec![0.0],
+            transforms: mats,
+            times,
             material,
             id: v.id,
             visible_to_camera: v.visible_to_camera,

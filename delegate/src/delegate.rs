@@ -743,9 +743,10 @@ impl Delegate {
                 let medium = r.material.as_deref().and_then(|m| medium_of.get(m).copied());
                 let grid = self.grids.get(&(spec.asset.clone(), spec.field.clone(), spec.index));
                 let mut p = Problems::new(path);
+                let (mats, times) = place(&r.transforms);
                 for inst in &r.instance_transforms {
-                    let xf = *inst * matrix_at(&r.transforms, 0.0);
-                    if let Some(v) = volume::volume_desc(path, spec, grid, medium, xf, r.id, &mut p) {
+                    let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
+                    if let Some(v) = volume::volume_desc(path, spec, grid, medium, &keys, r.id, &mut p) {
                         scene.volumes.push(v);
                     }
                 }

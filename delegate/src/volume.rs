@@ -5,7 +5,8 @@
 //! Attributes: `field:density` (Asset: the resolved VDB file), `field:density:fieldName`
 //! (Token, default `density`), `field:density:fieldIndex` (Int, default 0: which of the grids
 //! with that name), `field:density:transform` (Matrix: the field prim's placement relative to
-//! the volume, identity by default). Other fields (`temperature`, ...) are accepted and not
+//! the volume, identity by default). The prim's transform samples over the shutter move the
+//! volume (transform motion blur; the grid's values themselves do not change). Other fields (`temperature`, ...) are accepted and not
 //! used: Tide's volumes absorb and scatter, they do not emit.
 
 use crate::value::{AttrStore, Problems};
@@ -75,10 +76,11 @@ pub fn grid_data(dims: [u32; 3], values: Vec<f32>, index_to_object: [f64; 16]) -
     Ok(GridData { dims, values, local_to_object: m })
 }
 
-/// The core's volume for prim `path`: its grid placed by `object_to_world`, filled with medium
+/// The core's volume for prim `path`: its grid placed by `object_to_world` (one key, or the
+/// (shutter time, transform) keys of a volume that moves over the shutter), filled with medium
 /// `medium`. Problems name the prim and `field:density` (grid missing or unreadable) or
 /// `material` (no medium); the volume is then dropped.
-pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medium: Option<usize>, object_to_world: Mat4, id: u32, p: &mut Problems) -> Option<VolumeDesc> {
+pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medium: Option<usize>, object_to_world: &[(f32, Mat4)], id: u32, p: &mut Problems) -> Option<VolumeDesc> {
     let data = match grid {
         Some(GridState::Loaded(d)) => d,
         Some(GridState::Failed(msg)) => {
@@ -94,9 +96,12 @@ pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medi
         p.add("material", "the bound material has no TideMedium volume; the volume is dropped");
         return None;
     };
+    let place = |m: Mat4| m * spec.field_to_volume * data.local_to_object;
+    let rest = object_to_world.first().map_or(Mat4::IDENTITY, |k| k.1);
     Some(VolumeDesc {
         name: path.to_string(),
-        density: GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: object_to_world * spec.field_to_volume * data.local_to_object },
+        density: GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: place(rest) },
+        motion: if object_to_world.len() >= 2 { object_to_world.iter().map(|&(t, m)| (t, place(m))).collect() } else { Vec::new() },
         medium,
         id,
         visible_to_camera: true,

@@ -188,3 +188,27 @@ def test_a_field_moved_out_of_view_leaves_the_dome_unobstructed(renderer, stage,
     stage.GetPrimAtPath("/Cloud/density").GetAttribute("xformOp:translate").Set(Gf.Vec3d(0, 0, 0))
     img = render(renderer, stage)["color"]
     assert_transmits(img, math.exp(-0.7 * PATH_INTEGRAL))
+
+
+def test_a_volume_moving_over_the_shutter_blurs(renderer, stage, tmp_path):
+    """The volume's translation sweeps it from x = -6 to x = +6 over the shutter (frames 0 to
+    1) across the camera's 0.08 m-wide view: the time-averaged transmittance of its profile
+    across x (16 grid points 0.25 apart: flat over 3.75 m, a one-voxel ramp on either side),
+    [(12 - 4.25) + 3.75 e^-k + 2 * 0.25 (1 - e^-k) / k] / 12 with k = sigma_a * the integral of
+    the density along the view. Still at either end it would not be seen at all."""
+    f = write_grid(renderer, tmp_path / "cloud.vdb")
+    camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0),
+           **{"shutter__open": 0.0, "shutter__close": 1.0})
+    settings(stage, res=(16, 16), samples=64)
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateIntensityAttr(1.0)
+    dome.CreateColorAttr(Gf.Vec3f(1, 1, 1))
+    vol = volume(stage, f, mat=medium_material(stage, sigma_a=0.7))
+    op = vol.AddTranslateOp()
+    op.Set(Gf.Vec3d(-6, 0, -1), 0)
+    op.Set(Gf.Vec3d(6, 0, -1), 1)
+    img = render(renderer, stage)["color"]
+    k = 0.7 * PATH_INTEGRAL
+    expected = ((12 - 4.25) + 3.75 * math.exp(-k) + 0.5 * (1 - math.exp(-k)) / k) / 12
+    assert_transmits(img, expected)
+    assert expected < 0.92

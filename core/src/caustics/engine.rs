@@ -608,7 +608,8 @@ impl Caustics {
                     }
                 }
                 let mut rng = || stream.next_f32();
-                beta *= world.media[m].transmittance(ray.o, ray.d, hit.t, &mut rng, &lambda);
+                let (ro, rd) = world.media[m].rest_ray(ray.time, ray.o, ray.d);
+                beta *= world.media[m].transmittance(ro, rd, hit.t, &mut rng, &lambda);
                 if beta.is_black() {
                     return;
                 }

@@ -54,6 +54,9 @@ pub struct DensityGrid {
     /// Per super-voxel lower bound of the density (the control of residual ratio tracking).
     minorants: Vec<f32>,
     max_density: f32,
+    /// Grid-local to world over the shutter when the volume moves (`local_to_world` is then its
+    /// value at the first key): see [`DensityGrid::rest_ray`].
+    motion: Option<crate::accel::motion::MotionTransform>,
 }
 
 /// Why a grid cannot be built.
@@ -86,7 +89,7 @@ impl DensityGrid {
         }
         let values: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
         let super_dims = d.map(|n| (n + 1).div_ceil(SUPER));
-        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), minorants: Vec::new(), max_density: 0.0 };
+        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), minorants: Vec::new(), max_density: 0.0, motion: None };
         let mut maj = vec![0f32; super_dims[0] * super_dims[1] * super_dims[2]];
         let mut min = vec![0f32; maj.len()];
         for cz in 0..super_dims[2] {
@@ -170,6 +173,38 @@ impl DensityGrid {
         let c01 = lerp(self.value(x, y, z + 1), self.value(x + 1, y, z + 1), w.x);
         let c11 = lerp(self.value(x, y + 1, z + 1), self.value(x + 1, y + 1, z + 1), w.x);
         lerp(lerp(c00, c10, w.y), lerp(c01, c11, w.y), w.z).max(0.0)
+    }
+
+    /// The grid moving over the shutter: grid-local to world `mats[i]` at `times[i]`
+    /// (increasing), interpolated as instance transforms are (so the volume's box and its
+    /// density move together); its rest placement becomes `mats[0]`. Fewer than two keys leave
+    /// it still.
+    pub fn with_motion(mut self, mats: &[Mat4], times: &[f32]) -> Result<Self, GridError> {
+        if mats.len() < 2 || mats.len() != times.len() {
+            return Ok(self);
+        }
+        if mats.iter().any(|m| !m.is_finite() || m.determinant().abs() < 1e-30) {
+            return Err(GridError::Transform);
+        }
+        self.local_to_world = mats[0];
+        self.world_to_local = mats[0].inverse();
+        self.motion = Some(crate::accel::motion::MotionTransform::new(mats, times));
+        Ok(self)
+    }
+
+    /// A ray at shutter time `time` expressed where the grid rests (at its first key), with the
+    /// same parameter t: o + t·d at `time` lies in the grid where o′ + t·d′ lies at rest. The
+    /// coefficients stay per unit of t, so a grid that scales over the shutter is stretched,
+    /// not diluted. The identity for a grid that does not move.
+    #[inline]
+    pub fn rest_ray(&self, time: f32, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        match &self.motion {
+            Some(m) => {
+                let to_rest = self.local_to_world * m.at(time).inverse();
+                (to_rest.transform_point3(o), to_rest.transform_vector3(d))
+            }
+            None => (o, d),
+        }
     }
 
     /// Trilinear density at world point `p`.

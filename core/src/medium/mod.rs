@@ -154,6 +154,18 @@ impl Medium {
         probe.iter().any(|p| self.sigma_s_at(*p, &lambda).max_component() > 0.0)
     }
 
+    /// A ray at shutter time `time` in the frame where the medium's coefficients are defined:
+    /// moving volumes ([`DensityGrid::rest_ray`]) map it to their rest placement; every other
+    /// medium is still and returns it unchanged. Call before `sample_distance` and
+    /// `transmittance` with the path's time.
+    #[inline]
+    pub fn rest_ray(&self, time: f32, o: Vec3, d: Vec3) -> (Vec3, Vec3) {
+        match self {
+            Medium::Grid(m) => m.grid.rest_ray(time, o, d),
+            _ => (o, d),
+        }
+    }
+
     /// Per-wavelength upper bound of σt along any ray (σt itself when homogeneous).
     #[inline]
     pub fn majorant(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
