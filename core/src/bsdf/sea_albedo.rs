@@ -1,6 +1,7 @@
 //! Directional-albedo tables of the single-scattering sea-surface lobe (`sea.rs`), for its
-//! multiple-scattering energy compensation (Kulla & Conty 2017, dielectric form). Built once, at
-//! first use, by deterministic quadrature; no generated data is committed.
+//! multiple-scattering energy compensation (Kulla & Conty 2017, dielectric form). Each node is
+//! built once, the first time a lobe needs it, by deterministic quadrature; no generated data is
+//! committed.
 //!
 //! `E(ωo) = ∫(f_r + f_t)|cosθi| dωi` (transmission without the 1/η² radiance scaling, so that a
 //! lossless interface has albedo 1) is tabulated for light arriving from the air (relative IOR
@@ -10,15 +11,25 @@
 //! * the azimuth φ ∈ [0, π] of ωo relative to the wind (the lobe is anisotropic and, through
 //!   the Gram–Charlier skewness, differs upwind and downwind, but it is symmetric about the
 //!   wind axis, so φ and −φ share a node); the azimuth is tabulated rather than averaged
-//!   because the albedo seen from the water varies by up to ±0.03 with it at strong wind, and
-//!   an azimuthal average would push some views above 1;
+//!   because the albedo varies strongly with it: seen from the water 15° below the horizon at
+//!   U = 40 m/s it is 0.70 along the wind (φ = 0), 0.82 across it and 0.79 at φ = π, so an
+//!   azimuthal average (or an effective isotropic variance) would misstate the loss by up to
+//!   ±0.06 and push some views that far above 1. Nodes every 15°;
 //! * the total slope standard deviation σ = √(σ²_up + σ²_cross), uniform in σ from the floored
 //!   minimum to the Cox–Munk value at 40 m/s. Each node is the Cox–Munk lobe of the wind whose
 //!   total variance is σ² (below the calm-water value, the calm lobe with scaled variances). A
 //!   lobe whose variances were scaled (`slopeVarianceScale` ≠ 1) is looked up by its own σ: its
 //!   up/cross ratio and Gram–Charlier coefficients then differ from the node's (approximate);
 //! * η ∈ [[`ETA_LO`], [`ETA_HI`]] (n_water/n_air over 360–830 nm, salinity and temperature
-//!   included, for Quan–Fry n = 1.31–1.36), two nodes, clamped outside.
+//!   included, for Quan–Fry n = 1.31–1.36), three nodes (two left errors of 4·10⁻³ from the
+//!   water at strong wind, where the critical angle moves with η), clamped outside.
+//!
+//! Grid: 24 μ × 13 φ × 12 σ × 3 η × 2 sides. A node (one side, η and σ: 312 albedos) is built
+//! the first time a lobe needs it, so a scene pays only for its own winds and IORs (about
+//! 0.1 s of one core per node). Measured against Monte Carlo furnaces of the lobe, the
+//! tabulated albedo is within ±3.3·10⁻³ for U ≥ 5 m/s and within 1.1·10⁻² for calm water
+//! within 6° of the horizon (`cargo test -p tide-core --lib report_table_error -- --ignored
+//! --nocapture`).
 //!
 //! Each entry is a product Gauss–Legendre quadrature over the slopes standardised along the
 //! stretched view azimuth (s₁) and across it (s₂), where the visible projected area is
@@ -32,10 +43,10 @@ use super::sea::{CoxMunk, MAX_WIND_SPEED};
 use glam::Vec3;
 use std::sync::OnceLock;
 
-const N_MU: usize = 16;
-const N_PHI: usize = 9;
+const N_MU: usize = 24;
+const N_PHI: usize = 13;
 const N_SIGMA: usize = 12;
-const N_ETA: usize = 2;
+const N_ETA: usize = 3;
 /// Relative IORs of the two η nodes.
 pub const ETA_LO: f32 = 1.30;
 pub const ETA_HI: f32 = 1.37;
@@ -70,30 +81,58 @@ fn gauss_legendre(lo: f64, hi: f64, panels: usize, mut f: impl FnMut(f64, f64)) 
     }
 }
 
-pub struct SeaAlbedoTables {
-    /// [side][((eta · N_SIGMA + sigma) · N_PHI + phi) · N_MU + mu]; side 0: ωo in the air.
-    e: [Vec<f32>; 2],
-    /// [side][eta · N_SIGMA + sigma]: hemispherical averages of the interpolant.
-    avg: [Vec<f32>; 2],
-    /// Hemispherical average Fresnel reflectance from the air at the η nodes.
-    fresnel_avg: [f32; N_ETA],
+/// The albedos of one (side, η, σ) node over μ and φ, and their hemispherical average.
+#[derive(Debug)]
+pub struct Block {
+    /// [phi · N_MU + mu]
+    e: Vec<f32>,
+    avg: f32,
 }
 
-static TABLES: OnceLock<SeaAlbedoTables> = OnceLock::new();
+const N_BLOCKS: usize = 2 * N_ETA * N_SIGMA;
 
-/// The tables, built on first call.
-pub fn tables() -> &'static SeaAlbedoTables {
-    TABLES.get_or_init(SeaAlbedoTables::build)
+/// Each node is built the first time a lobe needs it, so a scene pays only for the winds and
+/// IORs it uses.
+static BLOCKS: [OnceLock<Block>; N_BLOCKS] = [const { OnceLock::new() }; N_BLOCKS];
+static FRESNEL_AVG: OnceLock<[f32; N_ETA]> = OnceLock::new();
+
+#[inline]
+fn block_index(above: bool, k: usize, j: usize) -> usize {
+    ((if above { 0 } else { 1 }) * N_ETA + k) * N_SIGMA + j
 }
 
-/// Where a lobe sits on the (σ, η) axes: precomputed once per lobe, so that a lookup only
-/// interpolates in μ and φ at the four surrounding (σ, η) nodes.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[inline]
+fn block(n: usize) -> &'static Block {
+    BLOCKS[n].get_or_init(|| {
+        let (side, k, j) = (n / (N_ETA * N_SIGMA), (n / N_SIGMA) % N_ETA, n % N_SIGMA);
+        Block::build(&node_lobe(grid_sigma(j, sigma_range())), grid_eta(k), side == 0)
+    })
+}
+
+/// Hemispherical average Fresnel reflectance from the air at the η nodes.
+fn fresnel_avg_nodes() -> &'static [f32; N_ETA] {
+    FRESNEL_AVG.get_or_init(|| {
+        std::array::from_fn(|k| {
+            let eta = grid_eta(k);
+            let mut acc = 0.0f64;
+            // 2∫F(μ)μ dμ from the air (smooth in μ): composite Gauss–Legendre
+            gauss_legendre(0.0, 1.0, 4, |mu, w| acc += w * 2.0 * mu * fresnel_dielectric(mu as f32, eta) as f64);
+            acc as f32
+        })
+    })
+}
+
+/// Where a lobe sits on the (σ, η) axes: the four surrounding (σ, η) nodes of each side and
+/// the weights between them, found once per lobe, so that a lookup only interpolates in μ and
+/// φ.
+#[derive(Clone, Copy, Debug)]
 pub struct SeaAlbedoKey {
-    j0: u8,
-    k0: u8,
+    /// [side][(k − k0) · 2 + (j − j0)]; side 0: the air side.
+    nodes: [[&'static Block; 4]; 2],
     tj: f32,
     tk: f32,
+    /// Hemispherical average Fresnel reflectance from the air at this η.
+    fresnel_avg: f32,
 }
 
 #[inline]
@@ -122,9 +161,12 @@ fn total_variance(cm: &CoxMunk) -> f64 {
 /// The smallest and largest total slope standard deviations: both variances floored, and the
 /// Cox–Munk lobe at the strongest accepted wind.
 fn sigma_range() -> (f64, f64) {
-    let lo = total_variance(&CoxMunk::with_variance_scale(0.0, 0.0, 0.0).expect("calm lobe")).sqrt();
-    let hi = total_variance(&CoxMunk::new(MAX_WIND_SPEED, 0.0).expect("strongest wind")).sqrt();
-    (lo, hi)
+    static RANGE: OnceLock<(f64, f64)> = OnceLock::new();
+    *RANGE.get_or_init(|| {
+        let lo = total_variance(&CoxMunk::with_variance_scale(0.0, 0.0, 0.0).expect("calm lobe")).sqrt();
+        let hi = total_variance(&CoxMunk::new(MAX_WIND_SPEED, 0.0).expect("strongest wind")).sqrt();
+        (lo, hi)
+    })
 }
 
 #[inline]
@@ -190,7 +232,8 @@ pub(crate) fn sea_albedo_quadrature(cm: &CoxMunk, eta: f32, wo: Vec3, panels_s1:
             let x = s1 * eb + s2 * ea; // across
             let dens = g1 * (-0.5 * s2 * s2).exp() / (2.0 * std::f64::consts::PI)
                 * cm.gram_charlier(x as f32, h as f32) as f64;
-            if dens == 0.0 {
+            // nodes far in the tails (below 10⁻¹² of the mass each) are skipped
+            if w1 * w2 * dens < 1e-12 {
                 return;
             }
             let m = cm.normal((h * cm.sigma_up as f64) as f32, (x * cm.sigma_cross as f64) as f32);
@@ -214,22 +257,6 @@ pub(crate) fn sea_albedo_quadrature(cm: &CoxMunk, eta: f32, wo: Vec3, panels_s1:
     acc
 }
 
-/// The N_PHI · N_MU albedos of one (side, η, σ) node, clamped at 1 (the clamped Gram–Charlier
-/// tail gains up to 10⁻³ at strong wind).
-fn albedo_block(cm: &CoxMunk, eta: f32, above: bool) -> Vec<f32> {
-    let mut b = Vec::with_capacity(N_PHI * N_MU);
-    for p in 0..N_PHI {
-        let (sp, cp) = grid_phi(p).sin_cos();
-        for i in 0..N_MU {
-            let mu = grid_mu(i);
-            let s = (1.0 - mu * mu).max(0.0).sqrt();
-            let z = if above { mu } else { -mu };
-            b.push(sea_albedo(cm, eta, Vec3::new(s * cp, s * sp, z)).min(1.0) as f32);
-        }
-    }
-    b
-}
-
 /// Exact ∫₀¹ 2μ E(μ) dμ of an interpolant linear in x = √μ between nodes uniform in x:
 /// ∫₀¹ 4x³ E(x) dx, a quartic per interval, integrated by 3-point Gauss–Legendre.
 fn hemispherical_integral(e: &[f64]) -> f64 {
@@ -249,107 +276,84 @@ fn hemispherical_integral(e: &[f64]) -> f64 {
     acc
 }
 
-impl SeaAlbedoTables {
-    fn build() -> Self {
-        let range = sigma_range();
-        let lobes: Vec<CoxMunk> = (0..N_SIGMA).map(|j| node_lobe(grid_sigma(j, range))).collect();
-        // one block of N_PHI · N_MU entries per (side, η, σ), computed on plain scoped threads
-        // (no work stealing, so no other task can run inside this one-time initialisation)
-        let jobs: Vec<(usize, usize, usize)> =
-            (0..2).flat_map(|side| (0..N_ETA).flat_map(move |k| (0..N_SIGMA).map(move |j| (side, k, j)))).collect();
-        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, 16);
-        let next = std::sync::atomic::AtomicUsize::new(0);
-        let mut blocks: Vec<Vec<f32>> = vec![Vec::new(); jobs.len()];
-        let done: Vec<Vec<(usize, Vec<f32>)>> = std::thread::scope(|scope| {
-            let handles: Vec<_> = (0..threads)
-                .map(|_| {
-                    scope.spawn(|| {
-                        let mut out = Vec::new();
-                        loop {
-                            let n = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-                            let Some(&(side, k, j)) = jobs.get(n) else { break };
-                            out.push((n, albedo_block(&lobes[j], grid_eta(k), side == 0)));
-                        }
-                        out
-                    })
-                })
-                .collect();
-            handles.into_iter().map(|h| h.join().expect("sea albedo table thread")).collect()
-        });
-        for (n, b) in done.into_iter().flatten() {
-            blocks[n] = b;
+impl Block {
+    fn build(cm: &CoxMunk, eta: f32, above: bool) -> Block {
+        let mut e = Vec::with_capacity(N_PHI * N_MU);
+        for p in 0..N_PHI {
+            let (sp, cp) = grid_phi(p).sin_cos();
+            for i in 0..N_MU {
+                let mu = grid_mu(i);
+                let s = (1.0 - mu * mu).max(0.0).sqrt();
+                let z = if above { mu } else { -mu };
+                // clamped at 1: the clamped Gram–Charlier tail gains up to 10⁻³ at strong wind
+                e.push(sea_albedo(cm, eta, Vec3::new(s * cp, s * sp, z)).min(1.0) as f32);
+            }
         }
-        let per_side = N_ETA * N_SIGMA * N_PHI * N_MU;
-        let mut e = [Vec::with_capacity(per_side), Vec::with_capacity(per_side)];
-        let mut avg = [vec![0.0f32; N_ETA * N_SIGMA], vec![0.0f32; N_ETA * N_SIGMA]];
-        for (&(side, k, j), b) in jobs.iter().zip(&blocks) {
-            e[side].extend_from_slice(b);
-            // trapezoid weights in φ: the exact mean of the piecewise-linear interpolant
-            let over_phi: Vec<f64> = (0..N_MU)
-                .map(|i| {
-                    (0..N_PHI)
-                        .map(|p| {
-                            let w = if p == 0 || p == N_PHI - 1 { 0.5 } else { 1.0 };
-                            w * b[p * N_MU + i] as f64
-                        })
-                        .sum::<f64>()
-                        / (N_PHI - 1) as f64
-                })
-                .collect();
-            avg[side][k * N_SIGMA + j] = hemispherical_integral(&over_phi) as f32;
-        }
-        let fresnel_avg = std::array::from_fn(|k| {
-            let eta = grid_eta(k);
-            let mut acc = 0.0f64;
-            // 2∫F(μ)μ dμ from the air (smooth in μ): composite Gauss–Legendre
-            gauss_legendre(0.0, 1.0, 4, |mu, w| acc += w * 2.0 * mu * fresnel_dielectric(mu as f32, eta) as f64);
-            acc as f32
-        });
-        SeaAlbedoTables { e, avg, fresnel_avg }
+        // trapezoid weights in φ: the exact mean of the piecewise-linear interpolant
+        let over_phi: Vec<f64> = (0..N_MU)
+            .map(|i| {
+                let sum: f64 = (0..N_PHI).map(|p| if p == 0 || p == N_PHI - 1 { 0.5 } else { 1.0 } * e[p * N_MU + i] as f64).sum();
+                sum / (N_PHI - 1) as f64
+            })
+            .collect();
+        Block { avg: hemispherical_integral(&over_phi) as f32, e }
     }
 
-    /// The table coordinates of a lobe with slopes `cm` and relative IOR `eta` (clamped to the
-    /// tabulated ranges).
-    pub fn key(&self, cm: &CoxMunk, eta: f32) -> SeaAlbedoKey {
-        let (lo, hi) = sigma_range();
-        let sigma = total_variance(cm).sqrt();
-        let (j0, _, tj) = coord(((sigma - lo) / (hi - lo)) as f32, N_SIGMA);
-        let (k0, _, tk) = coord((eta - ETA_LO) / (ETA_HI - ETA_LO), N_ETA);
-        SeaAlbedoKey { j0: j0 as u8, k0: k0 as u8, tj, tk }
-    }
-
-    /// Single-scattering albedo for a view on the air side (`above`) or the water side, at
-    /// μ = |cosθo| and azimuth `phi` ∈ [0, π] from the wind.
     #[inline]
-    pub fn albedo(&self, key: &SeaAlbedoKey, above: bool, mu: f32, phi: f32) -> f32 {
-        let t = &self.e[if above { 0 } else { 1 }];
-        let (i0, i1, ti) = coord(mu.max(0.0).sqrt(), N_MU);
-        let (p0, p1, tp) = coord(phi * std::f32::consts::FRAC_1_PI, N_PHI);
-        let at = |k: usize, j: usize| {
-            let base = (k * N_SIGMA + j) * N_PHI;
-            let r0 = (base + p0) * N_MU;
-            let r1 = (base + p1) * N_MU;
-            lerp(tp, lerp(ti, t[r0 + i0], t[r0 + i1]), lerp(ti, t[r1 + i0], t[r1 + i1]))
-        };
-        let (j0, k0) = (key.j0 as usize, key.k0 as usize);
-        let a = lerp(key.tj, at(k0, j0), at(k0, j0 + 1));
-        let b = lerp(key.tj, at(k0 + 1, j0), at(k0 + 1, j0 + 1));
-        lerp(key.tk, a, b)
+    fn at(&self, i0: usize, ti: f32, p0: usize, tp: f32) -> f32 {
+        let (r0, r1) = (p0 * N_MU, (p0 + 1) * N_MU);
+        lerp(tp, lerp(ti, self.e[r0 + i0], self.e[r0 + i0 + 1]), lerp(ti, self.e[r1 + i0], self.e[r1 + i0 + 1]))
     }
+}
 
-    /// Hemispherical average of [`Self::albedo`] on one side.
-    pub fn albedo_avg(&self, key: &SeaAlbedoKey, above: bool) -> f32 {
-        let t = &self.avg[if above { 0 } else { 1 }];
-        let (j0, k0) = (key.j0 as usize, key.k0 as usize);
-        let a = lerp(key.tj, t[k0 * N_SIGMA + j0], t[k0 * N_SIGMA + j0 + 1]);
-        let b = lerp(key.tj, t[(k0 + 1) * N_SIGMA + j0], t[(k0 + 1) * N_SIGMA + j0 + 1]);
-        lerp(key.tk, a, b)
+/// The table coordinates of a lobe with slopes `cm` and relative IOR `eta` (clamped to the
+/// tabulated ranges); builds the nodes it needs that are not built yet, in parallel on plain
+/// scoped threads (no work stealing, so no other task can run inside this initialisation).
+pub fn key(cm: &CoxMunk, eta: f32) -> SeaAlbedoKey {
+    let (lo, hi) = sigma_range();
+    let sigma = total_variance(cm).sqrt();
+    let (j0, _, tj) = coord(((sigma - lo) / (hi - lo)) as f32, N_SIGMA);
+    let (k0, _, tk) = coord((eta - ETA_LO) / (ETA_HI - ETA_LO), N_ETA);
+    let index = |side: usize, c: usize| block_index(side == 0, k0 + c / 2, j0 + c % 2);
+    if (0..8).any(|n| BLOCKS[index(n / 4, n % 4)].get().is_none()) {
+        let needed: Vec<usize> = (0..8).map(|n| index(n / 4, n % 4)).collect();
+        let threads = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, needed.len());
+        let next = std::sync::atomic::AtomicUsize::new(0);
+        std::thread::scope(|scope| {
+            for _ in 0..threads {
+                scope.spawn(|| {
+                    while let Some(&n) = needed.get(next.fetch_add(1, std::sync::atomic::Ordering::Relaxed)) {
+                        block(n);
+                    }
+                });
+            }
+        });
     }
+    let f = fresnel_avg_nodes();
+    let fresnel_avg = lerp(tk, f[k0], f[k0 + 1]);
+    SeaAlbedoKey { nodes: std::array::from_fn(|side| std::array::from_fn(|c| block(index(side, c)))), tj, tk, fresnel_avg }
+}
 
-    /// Hemispherical average Fresnel reflectance for light from the air.
-    pub fn fresnel_avg(&self, key: &SeaAlbedoKey) -> f32 {
-        lerp(key.tk, self.fresnel_avg[key.k0 as usize], self.fresnel_avg[key.k0 as usize + 1])
-    }
+/// Single-scattering albedo for a view on the air side (`above`) or the water side, at
+/// μ = |cosθo| and azimuth `phi` ∈ [0, π] from the wind.
+#[inline]
+pub fn albedo(key: &SeaAlbedoKey, above: bool, mu: f32, phi: f32) -> f32 {
+    let (i0, _, ti) = coord(mu.max(0.0).sqrt(), N_MU);
+    let (p0, _, tp) = coord(phi * std::f32::consts::FRAC_1_PI, N_PHI);
+    let n = &key.nodes[if above { 0 } else { 1 }];
+    let at = |c: usize| n[c].at(i0, ti, p0, tp);
+    lerp(key.tk, lerp(key.tj, at(0), at(1)), lerp(key.tj, at(2), at(3)))
+}
+
+/// Hemispherical average of [`albedo`] on one side.
+pub fn albedo_avg(key: &SeaAlbedoKey, above: bool) -> f32 {
+    let n = &key.nodes[if above { 0 } else { 1 }];
+    lerp(key.tk, lerp(key.tj, n[0].avg, n[1].avg), lerp(key.tj, n[2].avg, n[3].avg))
+}
+
+/// Hemispherical average Fresnel reflectance for light from the air.
+pub fn fresnel_avg(key: &SeaAlbedoKey) -> f32 {
+    key.fresnel_avg
 }
 
 #[inline]
