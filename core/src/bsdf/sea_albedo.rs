@@ -14,7 +14,7 @@
 //!   because the albedo varies strongly with it: seen from the water 15° below the horizon at
 //!   U = 40 m/s it is 0.70 along the wind (φ = 0), 0.82 across it and 0.79 at φ = π, so an
 //!   azimuthal average (or an effective isotropic variance) would misstate the loss by up to
-//!   ±0.06 and push some views that far above 1. Nodes every 15°;
+//!   ±0.06 and push some views that far above 1. Nodes every 10°;
 //! * the total slope standard deviation σ = √(σ²_up + σ²_cross), uniform in σ from the floored
 //!   minimum to the Cox–Munk value at 40 m/s. Each node is the Cox–Munk lobe of the wind whose
 //!   total variance is σ² (below the calm-water value, the calm lobe with scaled variances). A
@@ -24,11 +24,11 @@
 //!   included, for Quan–Fry n = 1.31–1.36), three nodes (two left errors of 4·10⁻³ from the
 //!   water at strong wind, where the critical angle moves with η), clamped outside.
 //!
-//! Grid: 24 μ × 13 φ × 12 σ × 3 η × 2 sides. A node (one side, η and σ: 312 albedos) is built
+//! Grid: 24 μ × 19 φ × 12 σ × 3 η × 2 sides. A node (one side, η and σ: 456 albedos) is built
 //! the first time a lobe needs it, so a scene pays only for its own winds and IORs (about
-//! 0.1 s of one core per node). Measured against Monte Carlo furnaces of the lobe, the
-//! tabulated albedo is within ±3.3·10⁻³ for U ≥ 5 m/s and within 1.1·10⁻² for calm water
-//! within 6° of the horizon (`cargo test -p tide-core --lib report_table_error -- --ignored
+//! 0.25 s of one core per node; a lobe needs 8). Measured against Monte Carlo furnaces of the
+//! lobe, the tabulated albedo is within ±3.3·10⁻³ for U ≥ 5 m/s and within 6.1·10⁻³ for calm
+//! water (U ≤ 2) within 6° of the horizon (`cargo test -p tide-core --lib report_table_error -- --ignored
 //! --nocapture`).
 //!
 //! Each entry is a product Gauss–Legendre quadrature over the slopes standardised along the
@@ -44,7 +44,7 @@ use glam::Vec3;
 use std::sync::OnceLock;
 
 const N_MU: usize = 24;
-const N_PHI: usize = 13;
+const N_PHI: usize = 19;
 const N_SIGMA: usize = 12;
 const N_ETA: usize = 3;
 /// Relative IORs of the two η nodes.
