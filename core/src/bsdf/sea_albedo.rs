@@ -14,7 +14,7 @@
 //!   because the albedo varies strongly with it: seen from the water 15° below the horizon at
 //!   U = 40 m/s it is 0.70 along the wind (φ = 0), 0.82 across it and 0.79 at φ = π, so an
 //!   azimuthal average (or an effective isotropic variance) would misstate the loss by up to
-//!   ±0.06 and push some views that far above 1. Nodes every 10°;
+//!   0.07 and push some views that far above 1. Nodes every 10°;
 //! * the total slope standard deviation σ = √(σ²_up + σ²_cross), uniform in σ from the floored
 //!   minimum to the Cox–Munk value at 40 m/s. Each node is the Cox–Munk lobe of the wind whose
 //!   total variance is σ² (below the calm-water value, the calm lobe with scaled variances). A
@@ -28,8 +28,8 @@
 //! the first time a lobe needs it, so a scene pays only for its own winds and IORs (about
 //! 0.25 s of one core per node; a lobe needs 8). Measured against Monte Carlo furnaces of the
 //! lobe, the tabulated albedo is within ±3.3·10⁻³ for U ≥ 5 m/s and within 6.1·10⁻³ for calm
-//! water (U ≤ 2) within 6° of the horizon (`cargo test -p tide-core --lib report_table_error -- --ignored
-//! --nocapture`).
+//! water (U ≤ 2) within 6° of the horizon (`cargo test -p tide-core --lib report_table_error
+//! -- --ignored --nocapture`).
 //!
 //! Each entry is a product Gauss–Legendre quadrature over the slopes standardised along the
 //! stretched view azimuth (s₁) and across it (s₂), where the visible projected area is
@@ -47,14 +47,14 @@ const N_MU: usize = 24;
 const N_PHI: usize = 19;
 const N_SIGMA: usize = 12;
 const N_ETA: usize = 3;
-/// Relative IORs of the two η nodes.
+/// Relative IORs of the first and last η nodes.
 pub const ETA_LO: f32 = 1.30;
 pub const ETA_HI: f32 = 1.37;
 /// Composite Gauss–Legendre panels (8 nodes each): along the view azimuth one per
 /// [`PANEL_WIDTH_S1`] of the visible range, across it a fixed number. Panels of about one
 /// standard deviation resolve the kink where facets reach the critical angle to within
-/// about 3·10⁻³ of the converged quadrature (checked against 48 × 32 panels and Monte Carlo),
-/// mostly within 5·10⁻⁴.
+/// 4·10⁻³ of the converged quadrature, mostly within 5·10⁻⁴ (checked against 48 × 32 panels
+/// and Monte Carlo: `report_quadrature_convergence` in `sea.rs`).
 const PANEL_WIDTH_S1: f64 = 1.1;
 const PANELS_S2: usize = 6;
 /// Standardised slopes beyond this carry less than 10⁻⁶ of the (Gram–Charlier) mass.
