@@ -16,6 +16,7 @@ mod lobes;
 pub mod microfacet;
 pub mod preview;
 pub mod sea;
+pub mod sea_albedo;
 #[cfg(test)]
 mod tests;
 
