@@ -12,21 +12,13 @@
 # `cargo build -p tide-bridge`; $TIDE_CXXBRIDGE_DIR overrides). Warnings in Tide's code are errors;
 # OpenUSD's headers are included as system headers, with -Wno-deprecated as OpenUSD's own build
 # uses (its TfHashSet includes <ext/hash_set>). Exit status: the compiler's.
-set -u
-if [ $# -ne 1 ] || [ ! -f "$1/pxr/pxr.h.in" ]; then
-    echo "usage: $0 OPENUSD_SRC_DIR   (a directory with pxr/pxr.h.in)" >&2
-    exit 2
-fi
-usd=$(cd "$1" && pwd)
-here=$(cd "$(dirname "$0")" && pwd)
-bridge=$(dirname "$here")
-repo=$(dirname "$bridge")
+marker=pxr/pxr.h.in what="OPENUSD_SRC_DIR   (a directory with pxr/pxr.h.in)"
+. "$(dirname "$0")/script_args.sh"
 cxxbridge=${TIDE_CXXBRIDGE_DIR:-$repo/target/cxxbridge}
 if [ ! -f "$cxxbridge/tide-bridge/src/lib.rs.h" ] || [ ! -f "$cxxbridge/rust/cxx.h" ]; then
     echo "$0: no cxx headers under $cxxbridge: run 'cargo build -p tide-bridge' or set TIDE_CXXBRIDGE_DIR" >&2
     exit 2
 fi
-cxx=${CXX:-g++}
 
 major=0 minor=0 patch=0
 version_cmake="$usd/cmake/defaults/Version.cmake"
