@@ -4,7 +4,9 @@
 //! HdEngine, render pass state and a renderBuffer bprim, then checks the image: the dome seen
 //! directly reads its radiance 1 and the sphere (default grey, albedo 0.18, in a white furnace)
 //! reads 0.18; then the sphere moves out of view (its transform marked dirty in Hydra's change
-//! tracker) and the pass, restarted, sees the dome there. Not part of CI: it needs an OpenUSD build with imaging (see check_runtime.sh).
+//! tracker) and the pass, restarted, sees the dome there. Built with TIDE_CHECK_USD_IMAGING and run
+//! as `check_runtime STAGE CAMERA W H SPP`, it renders a USD stage through UsdImaging's scene
+//! delegate instead and prints the image's mean RGB with standard errors. Not part of CI: it needs an OpenUSD build with imaging (see check_runtime.sh).
 #include "pxr/base/gf/camera.h"
 #include "pxr/base/gf/matrix4d.h"
 #include "pxr/base/gf/range1f.h"
@@ -27,8 +29,14 @@
 #include "pxr/imaging/hd/task.h"
 #include "pxr/imaging/hd/tokens.h"
 #include "pxr/imaging/pxOsd/tokens.h"
+#ifdef TIDE_CHECK_USD_IMAGING
+#include "pxr/usd/usd/stage.h"
+#include "pxr/usdImaging/usdImaging/delegate.h"
+#endif
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <tuple>
 #include <cmath>
 #include <cstdio>
@@ -142,9 +150,81 @@ int Fail(const char* what) {
     return 1;
 }
 
+/// Binds a float32 RGBA buffer as the color AOV of `state`, seen through `camera`.
+void Bind(HdRenderPassStateSharedPtr const& state, HdRenderBuffer* buffer, HdCamera const* camera, int w, int h) {
+    buffer->Allocate(GfVec3i(w, h, 1), HdFormatFloat32Vec4, false);
+    HdRenderPassAovBinding binding;
+    binding.aovName = HdAovTokens->color;
+    binding.renderBufferId = buffer->GetId();
+    binding.renderBuffer = buffer;
+    binding.clearValue = VtValue(GfVec4f(0));
+    state->SetAovBindings({binding});
+    state->SetCamera(camera);
+    state->SetFraming(CameraUtilFraming(GfRect2i(GfVec2i(0, 0), w, h)));
+}
+
+#ifdef TIDE_CHECK_USD_IMAGING
+/// Renders a USD stage through UsdImaging's scene delegate at `samples` per pixel, seen from
+/// `cameraPath`, w × h, and prints the image's mean RGB and the standard error of each mean
+/// (pixels as independent samples) for a comparison with `tide render` of the same stage.
+int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int samples) {
+    UsdStageRefPtr stage = UsdStage::Open(stagePath);
+    if (!stage) return Fail("cannot open the stage");
+    HdPluginRenderDelegateUniqueHandle delegate =
+        HdRendererPluginRegistry::GetInstance().CreateRenderDelegate(TfToken("HdTideRendererPlugin"));
+    if (!delegate) return Fail("HdTideRendererPlugin did not load");
+    delegate->SetRenderSetting(TfToken("tide:samples"), VtValue(samples));
+    std::unique_ptr<HdRenderIndex> index(HdRenderIndex::New(delegate.Get(), {}));
+    UsdImagingDelegate scene(index.get(), SdfPath::AbsoluteRootPath());
+    scene.Populate(stage->GetPseudoRoot());
+    scene.SetTime(UsdTimeCode(0.0));
+    const SdfPath bufferPath("/__check/color");
+    HdRenderBuffer* buffer = static_cast<HdRenderBuffer*>(delegate->CreateBprim(HdPrimTypeTokens->renderBuffer, bufferPath));
+    HdRprimCollection collection(HdTokens->geometry, HdReprSelector(HdReprTokens->smoothHull));
+    HdRenderPassSharedPtr pass = delegate->CreateRenderPass(index.get(), collection);
+    HdRenderPassStateSharedPtr state = delegate->CreateRenderPassState();
+    HdEngine engine;
+    HdTaskSharedPtrVector tasks = {std::make_shared<RenderTask>(pass, state)};
+    engine.Execute(index.get(), &tasks);
+    auto const* camera = static_cast<const HdCamera*>(index->GetSprim(HdPrimTypeTokens->camera, SdfPath(cameraPath)));
+    if (!camera) return Fail("the stage's camera did not reach the render index");
+    Bind(state, buffer, camera, w, h);
+    const auto start = std::chrono::steady_clock::now();
+    do {
+        engine.Execute(index.get(), &tasks);
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        if (std::chrono::steady_clock::now() - start > std::chrono::seconds(300)) return Fail("no convergence in 300 s");
+    } while (!pass->IsConverged());
+    buffer->Resolve();
+    const float* px = static_cast<const float*>(buffer->Map());
+    const int ch = HdGetComponentCount(buffer->GetFormat());
+    std::printf("hydra");
+    for (int c = 0; c < 3; ++c) {
+        double s = 0, s2 = 0;
+        for (int i = 0; i < w * h; ++i) {
+            s += px[i * ch + c];
+            s2 += double(px[i * ch + c]) * px[i * ch + c];
+        }
+        const double m = s / (w * h);
+        std::printf(" %.6f %.6f", m, std::sqrt(std::max(0.0, s2 / (w * h) - m * m) / (w * h)));
+    }
+    std::printf("\n");
+    buffer->Unmap();
+    delegate->DestroyBprim(buffer);
+    return 0;
+}
+#endif
+
 }  // namespace
 
-int main() {
+int main(int argc, char** argv) {
+    if (argc == 6) {
+#ifdef TIDE_CHECK_USD_IMAGING
+        return RenderStage(argv[1], argv[2], std::atoi(argv[3]), std::atoi(argv[4]), std::atoi(argv[5]));
+#else
+        return Fail("built without UsdImaging (TIDE_CHECK_USD_IMAGING)");
+#endif
+    }
     HdPluginRenderDelegateUniqueHandle delegate =
         HdRendererPluginRegistry::GetInstance().CreateRenderDelegate(TfToken("HdTideRendererPlugin"));
     if (!delegate) return Fail("HdTideRendererPlugin did not load (is its plugInfo.json on PXR_PLUGINPATH_NAME?)");
@@ -168,15 +248,7 @@ int main() {
     if (!buffer) return Fail("the render buffer bprim was not created");
     // the first Execute syncs the prims (and the buffer's descriptor); then bind and render
     engine.Execute(index.get(), &tasks);
-    buffer->Allocate(GfVec3i(kSize, kSize, 1), HdFormatFloat32Vec4, false);
-    HdRenderPassAovBinding binding;
-    binding.aovName = HdAovTokens->color;
-    binding.renderBufferId = kBuffer;
-    binding.renderBuffer = buffer;
-    binding.clearValue = VtValue(GfVec4f(0));
-    state->SetAovBindings({binding});
-    state->SetCamera(static_cast<const HdCamera*>(index->GetSprim(HdPrimTypeTokens->camera, kCamera)));
-    state->SetFraming(CameraUtilFraming(GfRect2i(GfVec2i(0, 0), kSize, kSize)));
+    Bind(state, buffer, static_cast<const HdCamera*>(index->GetSprim(HdPrimTypeTokens->camera, kCamera)), kSize, kSize);
 
     // renders until the pass converges; returns (centre, corners) means, or (-1, -1)
     auto render = [&]() -> std::pair<double, double> {
