@@ -7,19 +7,21 @@
 #   cpp-bridge/hydra/check_runtime.sh OPENUSD_DIR
 #
 # OPENUSD_DIR is an OpenUSD install or CMake build tree with imaging (`include/pxr/pxr.h` and the
-# `libusd_*.so` libraries somewhere under it; Python, GL and usdImaging are not needed: the `hd`
-# target and its dependencies are enough). Such a tree, from OpenUSD's sources (apt packages
-# cmake, ninja-build, libosd-dev, libtbb-dev; about 15 minutes on two cores at -O0):
+# `libusd_*.so` libraries somewhere under it; Python and GL are not needed: the `hd` and
+# `usdShade` targets and their dependencies are enough, `usdImaging` and `usdShaders` as well for
+# the stage comparison at the end). Such a tree, from OpenUSD's sources (apt packages cmake,
+# ninja-build, libosd-dev, libtbb-dev; about 30 minutes on two cores at -O0):
 #
 #   cmake -G Ninja -S OPENUSD_SRC -B OPENUSD_DIR -DCMAKE_BUILD_TYPE=None -DCMAKE_CXX_FLAGS="-O0 -g0 -w" \
 #       -DPXR_ENABLE_PYTHON_SUPPORT=OFF -DPXR_BUILD_IMAGING=ON -DPXR_BUILD_USD_IMAGING=ON \
 #       -DPXR_ENABLE_GL_SUPPORT=OFF -DPXR_BUILD_GPU_SUPPORT=OFF -DPXR_BUILD_TESTS=OFF \
 #       -DPXR_BUILD_EXAMPLES=OFF -DPXR_BUILD_TUTORIALS=OFF -DPXR_BUILD_USD_TOOLS=OFF \
 #       -DPXR_ENABLE_MATERIALX_SUPPORT=OFF -DPXR_ENABLE_OPENVDB_SUPPORT=OFF -DPXR_ENABLE_PTEX_SUPPORT=OFF
-#   ninja -C OPENUSD_DIR hd Needs g++ (or $CXX), libtbb-dev, OpenImageIO and
-# OpenColorIO dev packages, and a release build of the bridge (`cargo build --release -p
-# tide-bridge`, for target/release/libtide_bridge.a and the cxx headers). Exit status: the
-# compiler's or the check's.
+#   ninja -C OPENUSD_DIR hd usdShade usdImaging usdShaders
+#
+# Needs g++ (or $CXX), libtbb-dev, OpenImageIO and OpenColorIO dev packages, and a release build
+# of the bridge (`cargo build --release -p tide-bridge`, for target/release/libtide_bridge.a and
+# the cxx headers). Exit status: the compiler's or the check's.
 marker=include/pxr/pxr.h what="OPENUSD_DIR   (an OpenUSD install or build tree with include/pxr/pxr.h)"
 . "$(dirname "$0")/script_args.sh"
 target=$repo/target/release
@@ -31,7 +33,7 @@ libdirs=$(find "$usd" -name 'libusd_*.so' -printf '%h\n' | sort -u)
 [ -n "$libdirs" ] || { echo "$0: no libusd_*.so under $usd" >&2; exit 2; }
 lflags=()
 for d in $libdirs; do lflags+=(-L "$d" -Wl,-rpath,"$d"); done
-usdlibs=(-lusd_hd -lusd_hf -lusd_cameraUtil -lusd_pxOsd -lusd_sdf -lusd_plug -lusd_trace -lusd_work -lusd_vt -lusd_gf -lusd_tf -lusd_arch -ltbb)
+usdlibs=(-lusd_hd -lusd_hf -lusd_cameraUtil -lusd_pxOsd -lusd_usdShade -lusd_usd -lusd_ndr -lusd_sdf -lusd_plug -lusd_trace -lusd_work -lusd_vt -lusd_gf -lusd_tf -lusd_arch -ltbb)
 
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT
@@ -41,11 +43,13 @@ common=(-std=c++17 -fPIC -O1 -Wno-deprecated -isystem "$usd/include" -isystem "$
 
 echo "building hdTide.so against $usd"
 "$cxx" "${common[@]}" -shared -Wl,--no-undefined -o "$out/plugin/hdTide.so" \
-    "$here/rendererPlugin.cpp" "$here/hdTide.cpp" "$here/instancer.cpp" \
+    "$here/rendererPlugin.cpp" "$here/hdTide.cpp" "$here/instancer.cpp" "$here/shaderDiscovery.cpp" \
     "${lflags[@]}" "${usdlibs[@]}" "$target/libtide_bridge.a" \
     $(pkg-config --libs OpenImageIO OpenColorIO Imath) -lopenvdb -ltbb -lpthread -ldl -lm || exit $?
 sed -e 's|@PLUG_INFO_LIBRARY_PATH@|../hdTide.so|' -e 's|@PLUG_INFO_RESOURCE_PATH@|resources|' \
     -e 's|@PLUG_INFO_ROOT@|..|' "$here/plugInfo.json" > "$out/plugin/hdTide/resources/plugInfo.json"
+mkdir -p "$out/plugin/hdTide/resources/shaders"
+cp "$repo/schemas/shaders/TideWater.usda" "$repo/schemas/shaders/TideMedium.usda" "$out/plugin/hdTide/resources/shaders/"
 
 echo "building check_runtime"
 "$cxx" "${common[@]}" -o "$out/check_runtime" "$here/check_runtime.cpp" "${lflags[@]}" "${usdlibs[@]}" -lpthread || exit $?
@@ -82,6 +86,8 @@ echo "building check_runtime with UsdImaging"
     -lusd_usdImaging -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
 stage=$here/check_stage.usda
 echo "rendering the stage through UsdImaging and through tide render"
+# Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
+# the plugin's own discovery plugin
 hydra=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64) || exit $?
 "$repo/tide" render "$stage" -o "$out/core.exr" >/dev/null || exit $?
 "$repo/.venv/bin/python" - "$out/core.exr" "$hydra" <<'PY'
