@@ -251,13 +251,14 @@ impl AlbedoTables {
 }
 
 #[inline]
-fn lerp(t: f32, a: f32, b: f32) -> f32 {
+pub(super) fn lerp(t: f32, a: f32, b: f32) -> f32 {
     a + (b - a) * t
 }
 
-/// Cell indices and weight of x ∈ [0, 1] on a uniform grid of n nodes.
+/// Cell indices and weight of x ∈ [0, 1] (clamped; non-finite reads 0) on a uniform grid of n
+/// nodes.
 #[inline]
-fn coord(x: f32, n: usize) -> (usize, usize, f32) {
+pub(super) fn coord(x: f32, n: usize) -> (usize, usize, f32) {
     let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 } * (n - 1) as f32;
     let i0 = (x as usize).min(n - 2);
     (i0, i0 + 1, x - i0 as f32)

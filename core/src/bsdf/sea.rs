@@ -1239,22 +1239,31 @@ mod tests {
         for (wind, scale) in [(10.0f32, 0.4f32), (40.0, 0.1), (40.0, 0.5), (15.0, 0.02), (5.0, 0.7)] {
             let b = Bsdf::sea_scaled(WATER, wind, WIND_DIR, scale).unwrap();
             let Model::Sea(lobe) = &b.model else { unreachable!() };
-            let mut line = format!("U {wind} scale {scale}:");
-            for t in [0.0f32, 60.0, 75.0, 85.0, 89.0] {
-                for phi in [0.0f32, 90.0, 200.0] {
-                    for wo in [dir(t, phi), dir(180.0 - t, phi)] {
-                        let (ss, sss) = furnace_ss(WATER, lobe.slopes, wo, 100_000);
-                        let d = ss + lobe.p_ms(wo) as f64 - 1.0;
-                        worst = (worst.0.max(d), worst.1.min(d));
-                        if d.abs() > 3e-3 {
-                            line += &format!(" [{:.0} {phi}]:{d:+.4}±{sss:.4}", wo.z.acos().to_degrees());
-                        }
+            report_sweep(&format!("U {wind} scale {scale}:"), &[0.0, 60.0, 75.0, 85.0, 89.0], &[0.0, 90.0, 200.0], 3e-3, &mut worst, |wo| {
+                let (ss, sss) = furnace_ss(WATER, lobe.slopes, wo, 100_000);
+                (ss + lobe.p_ms(wo) as f64 - 1.0, sss)
+            });
+        }
+        println!("compensated − 1: max {:+.4}, min {:+.4}", worst.0, worst.1);
+    }
+
+    /// Prints, after `label`, the deviations d of `measure(ωo)` = (d, its standard error) larger
+    /// than `shown` over the polar angles `thetas` (and their mirror below the surface) and the
+    /// azimuths `phis`, and widens `worst` = (max d, min d) by them all.
+    fn report_sweep(label: &str, thetas: &[f32], phis: &[f32], shown: f64, worst: &mut (f64, f64), mut measure: impl FnMut(Vec3) -> (f64, f64)) {
+        let mut line = label.to_string();
+        for &t in thetas {
+            for &phi in phis {
+                for wo in [dir(t, phi), dir(180.0 - t, phi)] {
+                    let (d, s) = measure(wo);
+                    *worst = (worst.0.max(d), worst.1.min(d));
+                    if d.abs() > shown {
+                        line += &format!(" [{:.0} {phi}]:{d:+.4}±{s:.4}", wo.z.acos().to_degrees());
                     }
                 }
             }
-            println!("{line}");
         }
-        println!("compensated − 1: max {:+.4}, min {:+.4}", worst.0, worst.1);
+        println!("{line}");
     }
 
     /// Tabulated single-scattering albedo against a Monte Carlo furnace of the lobe.
@@ -1266,22 +1275,12 @@ mod tests {
             let cm = CoxMunk::new(wind, WIND_DIR).unwrap();
             let lobe = SeaSurface::new(WATER, cm);
             let Some(ms) = &lobe.ms else { continue };
-            let mut line = format!("U {wind:4}:");
-            for t in [0.0f32, 45.0, 60.0, 75.0, 80.0, 85.0, 87.0, 89.0] {
-                for phi in [0.0f32, 45.0, 90.0, 200.0] {
-                    for wo in [dir(t, phi), dir(180.0 - t, phi)] {
-                        let (m, s) = furnace_ss(WATER, cm, wo, 200_000);
-                        // the quadrature's albedo: the table less its margin (where below 1)
-                        let e = lobe.albedo_ss(&ms.key, wo) as f64;
-                        let d = m - if e < 1.0 { e - sea_albedo::TABLE_MARGIN } else { e };
-                        worst = (worst.0.max(d), worst.1.min(d));
-                        if d.abs() > 1.5e-3 {
-                            line += &format!(" [{:.0} {phi}]:{d:+.4}±{s:.4}", wo.z.acos().to_degrees());
-                        }
-                    }
-                }
-            }
-            println!("{line}");
+            report_sweep(&format!("U {wind:4}:"), &[0.0, 45.0, 60.0, 75.0, 80.0, 85.0, 87.0, 89.0], &[0.0, 45.0, 90.0, 200.0], 1.5e-3, &mut worst, |wo| {
+                let (m, s) = furnace_ss(WATER, cm, wo, 200_000);
+                // the quadrature's albedo: the table less its margin (where below 1)
+                let e = lobe.albedo_ss(&ms.key, wo) as f64;
+                (m - if e < 1.0 { e - sea_albedo::TABLE_MARGIN } else { e }, s)
+            });
         }
         println!("E_mc − E_table: max {:+.4}, min {:+.4}", worst.0, worst.1);
     }

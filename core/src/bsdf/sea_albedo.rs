@@ -41,6 +41,7 @@
 //! are multilinear. The hemispherical averages are the exact integrals of the interpolants, so
 //! a compensation lobe built from them carries exactly the missing energy.
 
+use super::albedo::{coord, lerp};
 use super::fresnel::fresnel_dielectric;
 
 /// Added to every tabulated albedo: the largest difference measured between the quadrature's
@@ -367,15 +368,3 @@ pub fn fresnel_avg(key: &SeaAlbedoKey) -> f32 {
     key.fresnel_avg
 }
 
-#[inline]
-fn lerp(t: f32, a: f32, b: f32) -> f32 {
-    a + (b - a) * t
-}
-
-/// Cell indices and weight of x ∈ [0, 1] (clamped) on a uniform grid of n nodes.
-#[inline]
-fn coord(x: f32, n: usize) -> (usize, usize, f32) {
-    let x = if x.is_finite() { x.clamp(0.0, 1.0) } else { 0.0 } * (n - 1) as f32;
-    let i0 = (x as usize).min(n - 2);
-    (i0, i0 + 1, x - i0 as f32)
-}
