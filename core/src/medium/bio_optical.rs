@@ -257,12 +257,8 @@ impl OpticalDepthTable {
         Some(self.z0 + self.dz * lo as f32 + x)
     }
 
-    /// (σa, σs) at wavelength `l` (nm) and depth `z`, interpolated linearly in both.
-    #[inline]
-    pub fn coefficients(&self, l: f32, z: f32) -> (f32, f32) {
-        self.coefficients_in(l, self.cell(z))
-    }
-
+    /// (σa, σs) at wavelength `l` (nm) in depth cell `cell`, interpolated linearly in depth and
+    /// wavelength.
     #[inline]
     fn coefficients_in(&self, l: f32, cell: Cell) -> (f32, f32) {
         let (r, w) = Self::rows(l);
@@ -290,13 +286,6 @@ impl OpticalDepthTable {
             (a.0[j], s.0[j]) = self.coefficients_in(lambda.lambda[j], cell);
         }
         (a, s)
-    }
-
-    /// Optical depth at wavelength `l` (nm) from depth `za` to `zb` along a segment of length
-    /// `t`.
-    #[inline]
-    pub fn optical_depth(&self, l: f32, za: f32, zb: f32, t: f32) -> f32 {
-        self.optical_depth_in(l, &self.segment(za, zb), t)
     }
 
     /// The cells a segment from depth `za` to `zb` needs: its middle when it spans under a
