@@ -334,13 +334,14 @@ impl World {
                 _ => continue,
             };
             let m = &scene.meshes[mi];
-            let motion = accel.instance_motion(ii as u32);
             let deforms = m.motion.as_ref().is_some_and(|mm| mm.positions.len() >= 2);
-            let moves = deforms || !motion.is_static();
+            let moves = deforms || !accel.instance_motion(ii as u32).is_static();
+            // the instance's motion, shared by its moving triangles
+            let motion = moves.then(|| std::sync::Arc::new(accel.instance_motion(ii as u32).clone()));
             let xf = accel.instance_transform(ii as u32, camera.shutter.0);
             for (ti, t) in m.indices.chunks_exact(3).enumerate() {
                 let two = two_sided || m.double_sided;
-                let light = if moves {
+                let light = if let Some(motion) = &motion {
                     // sampled where the triangle is at each path's time, as the BVH places it
                     let (times, p) = match &m.motion {
                         Some(mm) if deforms => (mm.times.clone(), mm.positions.iter().map(|ps| [0, 1, 2].map(|k| ps[t[k] as usize])).collect()),

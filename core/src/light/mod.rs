@@ -412,7 +412,8 @@ pub struct TriangleMotion {
     pub times: Vec<f32>,
     /// Object-space vertices at each time.
     pub p: Vec<[Vec3; 3]>,
-    pub xf: crate::accel::motion::MotionTransform,
+    /// The instance's object-to-world over the shutter (shared by its triangles).
+    pub xf: std::sync::Arc<crate::accel::motion::MotionTransform>,
 }
 
 impl TriangleMotion {
@@ -1027,29 +1028,7 @@ impl Light {
                 }
                 None
             }
-            Light::Triangle(tr) => {
-                // Möller–Trumbore
-                let e1 = tr.p[1] - tr.p[0];
-                let e2 = tr.p[2] - tr.p[0];
-                let pv = d.cross(e2);
-                let det = e1.dot(pv);
-                if det == 0.0 {
-                    return None;
-                }
-                let inv = 1.0 / det;
-                let tv = o - tr.p[0];
-                let b1 = tv.dot(pv) * inv;
-                if !(-EDGE_EPS..=1.0 + EDGE_EPS).contains(&b1) {
-                    return None;
-                }
-                let qv = tv.cross(e1);
-                let b2 = d.dot(qv) * inv;
-                if b2 < -EDGE_EPS || b1 + b2 > 1.0 + EDGE_EPS {
-                    return None;
-                }
-                let t = e2.dot(qv) * inv;
-                (t > 0.0 && t < t_max).then(|| (t, o + d * t, tr.n))
-            }
+            Light::Triangle(tr) => intersect_triangle(tr.p, tr.n, o, d, t_max),
             _ => None,
         }
     }
@@ -1219,20 +1198,23 @@ impl Light {
     /// `pdf_li` of the lights sampled by area.
     fn pdf_li_area(&self, ctx: &LightSampleContext, wi: Vec3, hit: Option<(Vec3, Vec3)>) -> f32 {
         let mut area = self.area();
+        let mut found = None;
         if let Light::Triangle(t) = self {
             if t.motion.is_some() {
                 // where the triangle is at the sample's time
                 let Some((p3, n3, a)) = t.at_time(ctx.time) else { return 0.0 };
                 area = a;
                 if hit.is_none() {
-                    let moved = Light::Triangle(TriangleLight { p: p3, n: n3, area: a, motion: None, ..t.clone() });
-                    return moved.pdf_li_area(ctx, wi, None);
+                    found = intersect_triangle(p3, n3, ctx.p, wi, f32::INFINITY);
+                    if found.is_none() {
+                        return 0.0;
+                    }
                 }
             }
         }
         let (p, n) = match hit {
             Some(h) => h,
-            None => match self.intersect(ctx.p, wi, f32::INFINITY) {
+            None => match found.or_else(|| self.intersect(ctx.p, wi, f32::INFINITY)) {
                 Some((_, p, n)) => (p, n),
                 None => return 0.0,
             },
@@ -1264,6 +1246,31 @@ const EDGE_EPS: f32 = 1e-5;
 /// by rounding, and their share of the irradiance (∝ cos²) is ~1e-5. `pdf_li` returns 0 for
 /// them too, so MIS leaves them to BSDF sampling and stays unbiased.
 const MIN_LIGHT_COS: f32 = 5e-3;
+
+/// Möller–Trumbore: the hit (t, point, `n`) of `o + t·d`, t ∈ (0, t_max), on the triangle `p`,
+/// with the edges widened by `EDGE_EPS`.
+fn intersect_triangle(p: [Vec3; 3], n: Vec3, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec3, Vec3)> {
+    let e1 = p[1] - p[0];
+    let e2 = p[2] - p[0];
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let tv = o - p[0];
+    let b1 = tv.dot(pv) * inv;
+    if !(-EDGE_EPS..=1.0 + EDGE_EPS).contains(&b1) {
+        return None;
+    }
+    let qv = tv.cross(e1);
+    let b2 = d.dot(qv) * inv;
+    if b2 < -EDGE_EPS || b1 + b2 > 1.0 + EDGE_EPS {
+        return None;
+    }
+    let t = e2.dot(qv) * inv;
+    (t > 0.0 && t < t_max).then(|| (t, o + d * t, n))
+}
 
 /// Converts a uniform area sample `p` (normal `n`) into a solid-angle sample seen from `from`.
 #[inline]
