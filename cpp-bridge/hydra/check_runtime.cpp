@@ -163,6 +163,20 @@ void Bind(HdRenderPassStateSharedPtr const& state, HdRenderBuffer* buffer, HdCam
     state->SetFraming(CameraUtilFraming(GfRect2i(GfVec2i(0, 0), w, h)));
 }
 
+/// Executes `tasks` until `pass` converges (false after `limit`), then resolves `buffer` and
+/// returns its mapped pixels (nullptr when it has none); the caller unmaps.
+const float* RenderUntilConverged(HdEngine& engine, HdRenderIndex* index, HdTaskSharedPtrVector& tasks,
+                                  HdRenderPassSharedPtr const& pass, HdRenderBuffer* buffer, std::chrono::seconds limit) {
+    const auto start = std::chrono::steady_clock::now();
+    do {
+        engine.Execute(index, &tasks);
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        if (std::chrono::steady_clock::now() - start > limit) return nullptr;
+    } while (!pass->IsConverged());
+    buffer->Resolve();
+    return static_cast<const float*>(buffer->Map());
+}
+
 #ifdef TIDE_CHECK_USD_IMAGING
 /// Renders a USD stage through UsdImaging's scene delegate at `samples` per pixel, seen from
 /// `cameraPath`, w × h, and prints the image's mean RGB and the standard error of each mean
@@ -189,14 +203,8 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
     auto const* camera = static_cast<const HdCamera*>(index->GetSprim(HdPrimTypeTokens->camera, SdfPath(cameraPath)));
     if (!camera) return Fail("the stage's camera did not reach the render index");
     Bind(state, buffer, camera, w, h);
-    const auto start = std::chrono::steady_clock::now();
-    do {
-        engine.Execute(index.get(), &tasks);
-        std::this_thread::sleep_for(std::chrono::milliseconds(50));
-        if (std::chrono::steady_clock::now() - start > std::chrono::seconds(300)) return Fail("no convergence in 300 s");
-    } while (!pass->IsConverged());
-    buffer->Resolve();
-    const float* px = static_cast<const float*>(buffer->Map());
+    const float* px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(300));
+    if (!px) return Fail("no convergence in 300 s, or no pixels");
     const int ch = HdGetComponentCount(buffer->GetFormat());
     std::printf("hydra");
     for (int c = 0; c < 3; ++c) {
@@ -252,14 +260,7 @@ int main(int argc, char** argv) {
 
     // renders until the pass converges; returns (centre, corners) means, or (-1, -1)
     auto render = [&]() -> std::pair<double, double> {
-        const auto start = std::chrono::steady_clock::now();
-        do {
-            engine.Execute(index.get(), &tasks);
-            std::this_thread::sleep_for(std::chrono::milliseconds(50));
-            if (std::chrono::steady_clock::now() - start > std::chrono::seconds(120)) return {-1.0, -1.0};
-        } while (!pass->IsConverged());
-        buffer->Resolve();
-        const float* px = static_cast<const float*>(buffer->Map());
+        const float* px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(120));
         if (!px || buffer->GetWidth() != kSize || buffer->GetHeight() != kSize) return {-1.0, -1.0};
         const int ch = HdGetComponentCount(buffer->GetFormat());
         auto mean = [&](int x0, int x1, int y0, int y1) {
