@@ -5,8 +5,13 @@
 //! directly reads its radiance 1 and the sphere (default grey, albedo 0.18, in a white furnace)
 //! reads 0.18; then the sphere moves out of view (its transform marked dirty in Hydra's change
 //! tracker) and the pass, restarted, sees the dome there. Built with TIDE_CHECK_USD_IMAGING and run
-//! as `check_runtime STAGE CAMERA W H SPP`, it renders a USD stage through UsdImaging's scene
-//! delegate instead and prints the image's mean RGB with standard errors. Not part of CI: it needs an OpenUSD build with imaging (see check_runtime.sh).
+//! as `check_runtime STAGE CAMERA W H SPP MODE`, it renders a USD stage through UsdImaging instead
+//! and prints the image's mean RGB with standard errors. MODE `delegate` uses UsdImaging's scene
+//! delegate (UsdImagingDelegate, what usdview uses by default in v24.08), `sceneIndex` its scene
+//! indices (UsdImagingStageSceneIndex and the filters UsdImagingCreateSceneIndices adds, what
+//! usdview uses with USDIMAGINGGL_ENGINE_ENABLE_SCENE_INDEX=1), inserted into the render index,
+//! which hands them to the plugin through its scene-index emulation. Not part of CI: it needs an
+//! OpenUSD build with imaging (see check_runtime.sh).
 #include "pxr/base/gf/camera.h"
 #include "pxr/base/gf/matrix4d.h"
 #include "pxr/base/gf/range1f.h"
@@ -32,6 +37,8 @@
 #ifdef TIDE_CHECK_USD_IMAGING
 #include "pxr/usd/usd/stage.h"
 #include "pxr/usdImaging/usdImaging/delegate.h"
+#include "pxr/usdImaging/usdImaging/sceneIndices.h"
+#include "pxr/usdImaging/usdImaging/stageSceneIndex.h"
 #endif
 
 #include <algorithm>
@@ -40,6 +47,7 @@
 #include <tuple>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <thread>
 
 PXR_NAMESPACE_USING_DIRECTIVE
@@ -178,10 +186,11 @@ const float* RenderUntilConverged(HdEngine& engine, HdRenderIndex* index, HdTask
 }
 
 #ifdef TIDE_CHECK_USD_IMAGING
-/// Renders a USD stage through UsdImaging's scene delegate at `samples` per pixel, seen from
-/// `cameraPath`, w × h, and prints the image's mean RGB and the standard error of each mean
-/// (pixels as independent samples) for a comparison with `tide render` of the same stage.
-int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int samples) {
+/// Renders a USD stage through UsdImaging (its scene delegate, or with `sceneIndex` its scene
+/// indices) at `samples` per pixel, seen from `cameraPath`, w × h, and prints the image's mean RGB
+/// and the standard error of each mean (pixels as independent samples) for a comparison with
+/// `tide render` of the same stage.
+int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int samples, bool sceneIndex) {
     UsdStageRefPtr stage = UsdStage::Open(stagePath);
     if (!stage) return Fail("cannot open the stage");
     HdPluginRenderDelegateUniqueHandle delegate =
@@ -189,9 +198,19 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
     if (!delegate) return Fail("HdTideRendererPlugin did not load");
     delegate->SetRenderSetting(TfToken("tide:samples"), VtValue(samples));
     std::unique_ptr<HdRenderIndex> index(HdRenderIndex::New(delegate.Get(), {}));
-    UsdImagingDelegate scene(index.get(), SdfPath::AbsoluteRootPath());
-    scene.Populate(stage->GetPseudoRoot());
-    scene.SetTime(UsdTimeCode(0.0));
+    std::unique_ptr<UsdImagingDelegate> scene;
+    UsdImagingSceneIndices sceneIndices;
+    if (sceneIndex) {
+        UsdImagingCreateSceneIndicesInfo info;
+        info.stage = stage;
+        sceneIndices = UsdImagingCreateSceneIndices(info);
+        sceneIndices.stageSceneIndex->SetTime(UsdTimeCode(0.0));
+        index->InsertSceneIndex(sceneIndices.finalSceneIndex, SdfPath::AbsoluteRootPath());
+    } else {
+        scene = std::make_unique<UsdImagingDelegate>(index.get(), SdfPath::AbsoluteRootPath());
+        scene->Populate(stage->GetPseudoRoot());
+        scene->SetTime(UsdTimeCode(0.0));
+    }
     const SdfPath bufferPath("/__check/color");
     HdRenderBuffer* buffer = static_cast<HdRenderBuffer*>(delegate->CreateBprim(HdPrimTypeTokens->renderBuffer, bufferPath));
     HdRprimCollection collection(HdTokens->geometry, HdReprSelector(HdReprTokens->smoothHull));
@@ -226,9 +245,11 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
 }  // namespace
 
 int main(int argc, char** argv) {
-    if (argc == 6) {
+    if (argc == 7) {
 #ifdef TIDE_CHECK_USD_IMAGING
-        return RenderStage(argv[1], argv[2], std::atoi(argv[3]), std::atoi(argv[4]), std::atoi(argv[5]));
+        const std::string mode = argv[6];
+        if (mode != "delegate" && mode != "sceneIndex") return Fail("MODE must be delegate or sceneIndex");
+        return RenderStage(argv[1], argv[2], std::atoi(argv[3]), std::atoi(argv[4]), std::atoi(argv[5]), mode == "sceneIndex");
 #else
         return Fail("built without UsdImaging (TIDE_CHECK_USD_IMAGING)");
 #endif

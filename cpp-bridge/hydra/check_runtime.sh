@@ -59,8 +59,9 @@ PXR_PLUGINPATH_NAME="$out/plugin/hdTide/resources" TIDE_OCIO_CONFIG="$bridge/oci
 
 # With OpenUSD's UsdImaging built too (libusd_usdImaging.so) and OPENUSD_SRC set to its source
 # tree (for the schemas' resources, which a build tree only installs): the same stage rendered
-# through UsdImaging's scene delegate and the plugin, and through `tide render`'s usd-core
-# reader, must agree (image means within 4 combined standard errors + 1e-3).
+# through UsdImaging and the plugin (once through UsdImaging's scene delegate, once through its
+# scene indices), and through `tide render`'s usd-core reader, must agree (image means within 4
+# combined standard errors + 1e-3).
 if [ -z "${OPENUSD_SRC:-}" ] || [ -z "$(find "$usd" -name 'libusd_usdImaging.so' | head -n 1)" ]; then
     echo "(no UsdImaging build or OPENUSD_SRC: the stage comparison is skipped)"
     exit 0
@@ -85,29 +86,35 @@ echo "building check_runtime with UsdImaging"
 "$cxx" "${common[@]}" -DTIDE_CHECK_USD_IMAGING -o "$out/check_stage" "$here/check_runtime.cpp" -L "$lay/lib" -Wl,-rpath,"$lay/lib" \
     -lusd_usdImaging -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
 stage=$here/check_stage.usda
-echo "rendering the stage through UsdImaging and through tide render"
+echo "rendering the stage through UsdImaging (scene delegate, then scene indices) and through tide render"
 # Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
 # the plugin's own discovery plugin
-hydra=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64) || exit $?
+hydra=()
+for mode in delegate sceneIndex; do
+    line=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || exit $?
+    hydra+=("$mode ${line#hydra }")
+done
 "$repo/tide" render "$stage" -o "$out/core.exr" >/dev/null || exit $?
-"$repo/.venv/bin/python" - "$out/core.exr" "$hydra" <<'PY'
+"$repo/.venv/bin/python" - "$out/core.exr" "${hydra[@]}" <<'PY'
 import sys
 import numpy as np
 import OpenEXR
+import Imath
 f = OpenEXR.InputFile(sys.argv[1])
 dw = f.header()["dataWindow"]
 w, h = dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1
-import Imath
 rgb = [np.frombuffer(f.channel(c, Imath.PixelType(Imath.PixelType.FLOAT)), dtype=np.float32).astype(np.float64) for c in "RGB"]
-hydra = [float(x) for x in sys.argv[2].split()[1:]]
 ok = True
-for c in range(3):
-    m, se = rgb[c].mean(), rgb[c].std() / np.sqrt(w * h)
-    hm, hse = hydra[2 * c], hydra[2 * c + 1]
-    tol = 4 * np.hypot(se, hse) + 1e-3
-    print("channel %s: usd-core reader %.5f +- %.5f, UsdImaging %.5f +- %.5f" % ("RGB"[c], m, se, hm, hse))
-    ok &= abs(m - hm) <= tol
+for line in sys.argv[2:]:
+    mode, *vals = line.split()
+    hydra = [float(x) for x in vals]
+    for c in range(3):
+        m, se = rgb[c].mean(), rgb[c].std() / np.sqrt(w * h)
+        hm, hse = hydra[2 * c], hydra[2 * c + 1]
+        tol = 4 * np.hypot(se, hse) + 1e-3
+        print("channel %s: usd-core reader %.5f +- %.5f, UsdImaging (%s) %.5f +- %.5f"
+              % ("RGB"[c], m, se, mode, hm, hse))
+        ok &= abs(m - hm) <= tol
 print("stage comparison: ok" if ok else "stage comparison: FAILED")
 sys.exit(0 if ok else 1)
 PY
-

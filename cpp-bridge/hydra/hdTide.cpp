@@ -245,13 +245,16 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         }
     } else if (typeId == "material") {
         VtValue res = sd->GetMaterialResource(id);
+        // UsdImaging's scene indices name nodes relative to the material ("Surface"), its scene
+        // delegate by their full paths: the delegate wants full paths
+        auto full = [&id](SdfPath const& node) { return node.IsAbsolutePath() ? node : id.AppendPath(node); };
         if (res.IsHolding<HdMaterialNetworkMap>()) {
             for (auto const& term : res.UncheckedGet<HdMaterialNetworkMap>().map) {
                 const std::string terminal = term.first == HdMaterialTerminalTokens->volume ? "volume" : "surface";
                 HdMaterialNetwork const& net = term.second;
-                if (!net.nodes.empty()) _Put(terminal, VtValue(net.nodes.back().path));
+                if (!net.nodes.empty()) _Put(terminal, VtValue(full(net.nodes.back().path)));
                 for (HdMaterialNode const& n : net.nodes) {
-                    const std::string node = n.path.GetString();
+                    const std::string node = full(n.path).GetString();
                     _Put(node + ".info:id", VtValue(n.identifier));
                     for (auto const& p : n.parameters) {
                         const std::string name = p.first.GetString();
@@ -260,8 +263,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                 }
                 for (HdMaterialRelationship const& r : net.relationships) {
                     const std::string in = r.outputName.GetString();
-                    _Put(r.outputId.GetString() + "." + (in.rfind("inputs:", 0) == 0 ? in : "inputs:" + in) + ".connect",
-                         VtValue(TfToken(r.inputId.GetString() + ".outputs:" + r.inputName.GetString())));
+                    _Put(full(r.outputId).GetString() + "." + (in.rfind("inputs:", 0) == 0 ? in : "inputs:" + in) + ".connect",
+                         VtValue(TfToken(full(r.inputId).GetString() + ".outputs:" + r.inputName.GetString())));
                 }
             }
         }

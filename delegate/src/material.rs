@@ -2,6 +2,8 @@
 //!
 //! A material prim carries `surface` / `volume` (paths of the terminal nodes) and, per node N,
 //! `N.info:id`, `N.<input>` values and `N.<input>.connect` = `"<node>.<output>"` tokens.
+//! The interior medium is the `volume` terminal's TideMedium, or else the TideMedium that the
+//! TideWater surface's optional `medium` input is connected to.
 //! Supported nodes: `UsdPreviewSurface` (every input), `UsdUVTexture` (file, st, wrapS/T,
 //! fallback, scale, bias, sourceColorSpace, outputs rgb/r/g/b/a), `UsdPrimvarReader_float2`,
 //! `UsdTransform2d`, `TideWater`, `TideMedium`. An unknown surface id gives the default material
@@ -478,6 +480,26 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
             }
         },
     }
+    // A TideWater may name its medium through a connection of its `medium` input: the surface's
+    // network then carries the medium (UsdImaging's scene delegate passes a material's volume
+    // network only when it has no surface). The volume output wins where both are given.
+    let linked = surf
+        .as_deref()
+        .filter(|s| ctx.node_id(s) == Some("TideWater"))
+        .and_then(|s| nodes[s].connects.get("medium").map(|(up, _)| (s.to_string(), up.clone())));
+    let vol = match (vol, linked) {
+        (Some(v), Some((s, up))) => {
+            if up != v {
+                ctx.p.add(
+                    &format!("{}.inputs:medium", s),
+                    format!("connected to '{}', but the material's volume output is '{}'; using the volume output", up, v),
+                );
+            }
+            Some(v)
+        }
+        (Some(v), None) => Some(v),
+        (None, linked) => linked.map(|(_, up)| up),
+    };
     let mut medium = None;
     if let Some(v) = &vol {
         match ctx.node_id(v) {
@@ -640,6 +662,53 @@ mod tests {
         assert_eq!(p.list.len(), 1, "{:?}", p.list);
         assert_eq!(p.list[0].attribute, "/W/Med.inputs:absorption");
         assert!(p.list[0].message.contains("overridden by jerlovType"));
+    }
+
+    /// The medium named by TideWater's `medium` connection equals the one named by the volume
+    /// output; given both, the volume output wins and a disagreement is reported.
+    #[test]
+    fn water_medium_through_its_medium_connection() {
+        let base = |extra: &[(&'static str, Value)]| {
+            let mut pairs = vec![
+                ("surface", Value::Path("/W/Water".into())),
+                ("/W/Water.info:id", tok("TideWater")),
+                ("/W/Med.info:id", tok("TideMedium")),
+                ("/W/Med.inputs:absorption", Value::Floats { data: vec![0.4, 0.05, 0.02], tuple: 3 }),
+                ("/W/Med.inputs:g", Value::Float(0.8)),
+                ("/W/Other.info:id", tok("TideMedium")),
+                ("/W/Other.inputs:scattering", Value::Floats { data: vec![1.0, 1.0, 1.0], tuple: 3 }),
+                ("/W/Tex.info:id", tok("UsdUVTexture")),
+            ];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/W");
+            let m = convert_material("/W", &mat(&pairs), &loaded(false), &mut p);
+            (m.medium, p.list.into_iter().map(|q| (q.attribute, q.message)).collect::<Vec<_>>())
+        };
+        let (by_output, p0) = base(&[("volume", Value::Path("/W/Med.outputs:volume".into()))]);
+        let (by_link, p1) = base(&[("/W/Water.inputs:medium.connect", tok("/W/Med.outputs:volume"))]);
+        assert!(p0.is_empty() && p1.is_empty(), "{p0:?} {p1:?}");
+        assert!(by_output.is_some());
+        assert_eq!(by_link, by_output);
+        // both, the same node: no problem
+        let (both, p2) = base(&[
+            ("volume", Value::Path("/W/Med.outputs:volume".into())),
+            ("/W/Water.inputs:medium.connect", tok("/W/Med.outputs:volume")),
+        ]);
+        assert_eq!((both, p2.len()), (by_output.clone(), 0));
+        // both, different nodes: the volume output, and the connection is reported
+        let (other, p3) = base(&[
+            ("volume", Value::Path("/W/Other.outputs:volume".into())),
+            ("/W/Water.inputs:medium.connect", tok("/W/Med.outputs:volume")),
+        ]);
+        assert_ne!(other, by_output);
+        assert_eq!(other.unwrap().sigma_s, SpectrumDesc::Rgb([1.0; 3]));
+        assert_eq!(p3.len(), 1, "{p3:?}");
+        assert_eq!(p3[0].0, "/W/Water.inputs:medium");
+        // a connection to a node that is not a TideMedium leaves the interior empty, reported
+        let (none, p4) = base(&[("/W/Water.inputs:medium.connect", tok("/W/Tex.outputs:rgb"))]);
+        assert_eq!(none, None);
+        assert_eq!(p4.len(), 1, "{p4:?}");
+        assert_eq!(p4[0].0, "/W/Tex.info:id");
     }
 
     fn medium_of(inputs: &[(&str, Value)]) -> (Option<MediumDesc>, Vec<(String, String)>) {

@@ -308,3 +308,50 @@ def test_bad_prim_dropped_rest_renders(renderer, stage):
     r_px = _px_per_unit_at(-10.0, w)
     # the ball is there (area within 15 %: 4 spp noise on a ~45 px disk)
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.15)
+
+
+def _water_tank(stage, link):
+    """A 1-unit TideWater cube (ior 1: no refraction, no reflection) holding a grey absorber
+    σa = 1/m, seen against a white dome through a narrow field (path lengths within 2e-4).
+    `link`: how the medium is given: "volume" (the material's output), "medium" (TideWater's
+    medium input connected to it), "both", or None (no medium)."""
+    camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0))
+    settings(stage, res=(16, 16), samples=64)
+    _white_dome(stage)
+    mat = UsdShade.Material.Define(stage, "/Looks/Water")
+    w = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
+    w.CreateIdAttr("TideWater")
+    w.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
+    mat.CreateSurfaceOutput().ConnectToSource(w.ConnectableAPI(), "surface")
+    med = UsdShade.Shader.Define(stage, "/Looks/Water/Medium")
+    med.CreateIdAttr("TideMedium")
+    med.CreateInput("absorption", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 1, 1))
+    med.CreateOutput("volume", Sdf.ValueTypeNames.Token)
+    if link in ("volume", "both"):
+        mat.CreateVolumeOutput().ConnectToSource(med.ConnectableAPI(), "volume")
+    if link in ("medium", "both"):
+        w.CreateInput("medium", Sdf.ValueTypeNames.Token).ConnectToSource(med.ConnectableAPI(), "volume")
+    cube = UsdGeom.Cube.Define(stage, "/Tank")
+    cube.CreateSizeAttr(1.0)
+    bind(cube.GetPrim(), mat)
+
+
+@pytest.mark.parametrize("link", ["medium", "both"])
+def test_water_medium_through_its_medium_input(renderer, stage, link):
+    """TideWater's optional `medium` connection fills the water like the material's volume
+    output: the same image, bit for bit, and Beer–Lambert's exp(-1) through the unit cube."""
+    _water_tank(stage, link)
+    img = render(renderer, stage)["color"]
+    from pxr import Usd
+    ref_stage = Usd.Stage.CreateInMemory()
+    _water_tank(ref_stage, "volume")
+    ref = render(renderer, ref_stage)["color"]
+    assert np.array_equal(img, ref)
+    rgb = img[..., :3].reshape(-1, 3).astype(np.float64)
+    mean, se = rgb.mean(axis=0), rgb.std(axis=0, ddof=1) / math.sqrt(len(rgb))
+    # 4 standard errors, plus 2e-3 for the grey absorber's uplifted spectrum and f32 sums
+    assert np.all(np.abs(mean - math.exp(-1.0)) < 4 * se + 2e-3), (mean, se)
+    # without a medium the tank is clear: the test can tell
+    empty_stage = Usd.Stage.CreateInMemory()
+    _water_tank(empty_stage, None)
+    assert render(renderer, empty_stage)["color"][..., :3].mean() > 0.95

@@ -30,7 +30,7 @@ API_SCHEMAS = {
 # Contract section 3, typed independently of the plugin files.
 TIDE_WATER = {"ior": 1.333, "dispersion": False, "temperature": 20.0, "salinity": 0.0,
               "roughness": 0.0, "surfaceModel": "dielectric", "windSpeed": 5.0,
-              "windDirection": 0.0, "priority": 0}
+              "windDirection": 0.0, "priority": 0, "medium": ""}
 TIDE_MEDIUM = {"jerlovType": "", "jerlovSource": "williamson2022", "absorption": (0, 0, 0),
                "scattering": (0, 0, 0), "densityScale": 1.0, "phase": "hg", "g": 0.0,
                "g2": -0.3, "lobeMix": 0.9, "molecularWeight": 0.0, "chlorophyll": 0.0,
@@ -38,7 +38,7 @@ TIDE_MEDIUM = {"jerlovType": "", "jerlovSource": "williamson2022", "absorption":
                "profilePeak": 0.0, "method": "volumetric"}
 TYPES = {"ior": "float", "dispersion": "bool", "surfaceModel": "token", "priority": "int",
          "absorption": "color3f", "jerlovType": "token", "phase": "token",
-         "method": "token"}
+         "method": "token", "medium": "token"}
 
 
 def _close(a, b):
