@@ -82,20 +82,28 @@ while read -r info; do
     [ -d "$OPENUSD_SRC/$(dirname "$rel")/shaders" ] && cp -r "$OPENUSD_SRC/$(dirname "$rel")/shaders" "$res/"
     paths="$paths:$res"
 done < <(find "$usd/pxr" -name plugInfo.json -not -path '*codegenTemplates*')
+echo "building usdImagingTide.so (Tide's UsdImaging adapters)"
+mkdir -p "$out/plugin/usdImagingTide/resources"
+"$cxx" "${common[@]}" -shared -Wl,--no-undefined -o "$out/plugin/usdImagingTide.so" "$here/usdImagingTide/adapters.cpp" \
+    -L "$lay/lib" -Wl,-rpath,"$lay/lib" -lusd_usdImaging -lusd_usdGeom -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
+sed -e 's|@PLUG_INFO_LIBRARY_PATH@|../usdImagingTide.so|' -e 's|@PLUG_INFO_RESOURCE_PATH@|resources|' \
+    -e 's|@PLUG_INFO_ROOT@|..|' "$here/usdImagingTide/plugInfo.json" > "$out/plugin/usdImagingTide/resources/plugInfo.json"
+paths="$paths:$out/plugin/usdImagingTide/resources"
 echo "building check_runtime with UsdImaging"
 "$cxx" "${common[@]}" -DTIDE_CHECK_USD_IMAGING -o "$out/check_stage" "$here/check_runtime.cpp" -L "$lay/lib" -Wl,-rpath,"$lay/lib" \
     -lusd_usdImaging -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
-stage=$here/check_stage.usda
-echo "rendering the stage through UsdImaging (scene delegate, then scene indices) and through tide render"
-# Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
-# the plugin's own discovery plugin
-hydra=()
-for mode in delegate sceneIndex; do
-    line=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || exit $?
-    hydra+=("$mode ${line#hydra }")
-done
-"$repo/tide" render "$stage" -o "$out/core.exr" >/dev/null || exit $?
-"$repo/.venv/bin/python" - "$out/core.exr" "${hydra[@]}" <<'PY'
+# compare STAGE MODE...: renders STAGE through UsdImaging in each MODE and through tide render,
+# and compares the image means
+compare() {
+    local stage=$1 mode line
+    shift
+    local hydra=()
+    for mode in "$@"; do
+        line=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || return $?
+        hydra+=("$mode ${line#hydra }")
+    done
+    "$repo/tide" render "$stage" -o "$out/core.exr" >/dev/null || return $?
+    "$repo/.venv/bin/python" - "$out/core.exr" "${hydra[@]}" <<'PY'
 import sys
 import numpy as np
 import OpenEXR
@@ -118,3 +126,10 @@ for line in sys.argv[2:]:
 print("stage comparison: ok" if ok else "stage comparison: FAILED")
 sys.exit(0 if ok else 1)
 PY
+}
+# Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
+# the plugin's own discovery plugin
+echo "rendering check_stage.usda through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_tide.usda (Tide's own prims and attributes) through UsdImaging's scene indices and through tide render"
+compare "$here/check_stage_tide.usda" sceneIndex

@@ -24,6 +24,7 @@
 #include "pxr/imaging/hd/renderSettings.h"
 #include "pxr/imaging/hd/resourceRegistry.h"
 #include "pxr/imaging/hd/sceneDelegate.h"
+#include "pxr/imaging/hd/sceneIndex.h"
 #include "pxr/imaging/hd/tokens.h"
 #include "pxr/imaging/hd/volume.h"
 #include "pxr/usd/sdf/assetPath.h"
@@ -144,6 +145,10 @@ const std::vector<Param>& LightParams() {
         {TfToken("treatAsPoint"), "treatAsPoint"},
         {TfToken("treatAsLine"), "treatAsLine"},
         {TfToken("tide:caustics:emitter"), "tide:caustics:emitter"},
+        {TfToken("tide:sky:model"), "tide:sky:model"},
+        {TfToken("tide:sky:turbidity"), "tide:sky:turbidity"},
+        {TfToken("tide:sky:groundAlbedo"), "tide:sky:groundAlbedo"},
+        {TfToken("tide:sky:physicalSun"), "tide:sky:physicalSun"},
     };
     return p;
 }
@@ -174,14 +179,43 @@ const std::vector<Param>& CameraParams() {
     return p;
 }
 
-// Gprims' parameters: implicit shapes' sizes, doubleSided and the caustics tags (contract §4),
-// read with HdSceneDelegate::Get, which falls back to the prim's attribute.
+// Gprims' parameters: implicit shapes' sizes, and Tide's attributes of gprims (contract §4, §5),
+// read with HdSceneDelegate::Get, which UsdImaging's scene delegate answers with the prim's
+// attribute (UsdImaging's scene indices hand Tide's attributes over in the `tide` container).
 const std::vector<TfToken>& GprimParams() {
     static const std::vector<TfToken> p = {
         TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"), TfToken("width"),
-        TfToken("length"), TfToken("doubleSided"), TfToken("tide:caustics:caster"),
-        TfToken("tide:caustics:receiver"), TfToken("tide:caustics:transparency")};
+        TfToken("length"), TfToken("tide:caustics:caster"), TfToken("tide:caustics:receiver"),
+        TfToken("tide:caustics:transparency"), TfToken("tide:blobby:threshold"), TfToken("tide:droplets:asVolume"),
+        TfToken("tide:droplets:voxelSize"), TfToken("tide:droplets:shell")};
     return p;
+}
+
+// TideOcean's parameters (contract §5), under their attribute names.
+const std::vector<TfToken>& OceanParams() {
+    static const std::vector<TfToken> p = {
+        TfToken("windSpeed"), TfToken("windDirection"), TfToken("spectrum"), TfToken("patchSize"),
+        TfToken("resolution"), TfToken("choppiness"), TfToken("seed"), TfToken("extent"), TfToken("depth"),
+        TfToken("time")};
+    return p;
+}
+
+/// The prim's `name` container in the render index's terminal scene index: how UsdImaging's
+/// scene indices (through Hydra's emulation) hand over what usdImagingTide's adapters publish,
+/// `tide` (a prim's `tide:` attributes and relationships) and `tideOcean`. None for the prims of
+/// a scene delegate such as UsdImagingDelegate, which answers Get instead.
+HdContainerDataSourceHandle SceneIndexContainer(HdSceneDelegate* sd, SdfPath const& id, TfToken const& name) {
+    HdSceneIndexBaseRefPtr si = sd->GetRenderIndex().GetTerminalSceneIndex();
+    if (!si) return nullptr;
+    HdContainerDataSourceHandle prim = si->GetPrim(id).dataSource;
+    return prim ? HdContainerDataSource::Cast(prim->Get(name)) : nullptr;
+}
+
+/// The value of `container`'s child `key` at the frame's time, or empty.
+VtValue ContainerValue(HdContainerDataSourceHandle const& container, TfToken const& key) {
+    if (!container) return VtValue();
+    HdSampledDataSourceHandle ds = HdSampledDataSource::Cast(container->Get(key));
+    return ds ? ds->GetValue(0.0f) : VtValue();
 }
 
 /// `v` divided by `unit` (floats and doubles; anything else unchanged).
@@ -237,6 +271,15 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         // as DirtyDoubleSided; the caustics tags have no bit of their own and ride on both.
         if (bits & (CT::DirtyPrimvar | CT::DirtyDoubleSided)) {
             for (TfToken const& k : GprimParams()) _Put(k.GetString(), sd->Get(id, k));
+            _Put("doubleSided", VtValue(sd->GetDoubleSided(id)));
+            if (typeId == "tideOcean") {
+                HdContainerDataSourceHandle ocean = SceneIndexContainer(sd, id, TfToken("tideOcean"));
+                for (TfToken const& k : OceanParams()) {
+                    VtValue v = ContainerValue(ocean, k);
+                    _Put(k.GetString(), v.IsEmpty() ? sd->Get(id, k) : v);
+                }
+            }
+            _PutTideAttributes(sd, id);
             _tideBits |= ChangeTracker::DirtyParams;
         }
         if ((bits & CT::DirtyPrimID) && primId >= 0) {
@@ -277,6 +320,7 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                                                                                                    : "perspective"));
             _Put(p.key, v);
         }
+        _PutTideAttributes(sd, id);
         _Put("transform", VtValue(sd->GetTransform(id)));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyTransform;
     } else if (typeId == "renderBuffer") {
@@ -285,6 +329,7 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         _tideBits |= ChangeTracker::DirtyDescription;
     } else {
         for (Param const& p : LightParams()) _Put(p.key, sd->GetLightParamValue(id, p.hd));
+        _PutTideAttributes(sd, id);
         _Put("transform", VtValue(sd->GetTransform(id)));
         _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource | ChangeTracker::DirtyTransform;
@@ -297,6 +342,12 @@ void HdTideSnapshot::Add(std::string const& key, tide::TimedValue value, tide::D
     if (value.value.IsEmpty()) return;
     _store.Set(_path, key, std::move(value));
     _tideBits |= bits;
+}
+
+void HdTideSnapshot::_PutTideAttributes(HdSceneDelegate* sd, SdfPath const& id) {
+    HdContainerDataSourceHandle tide = SceneIndexContainer(sd, id, TfToken("tide"));
+    if (!tide) return;
+    for (TfToken const& name : tide->GetNames()) _Put(name.GetString(), ContainerValue(tide, name));
 }
 
 void HdTideSnapshot::_Put(std::string const& key, VtValue const& v) {

@@ -50,6 +50,9 @@ public:
 
 private:
     void _Put(std::string const& key, VtValue const& v);
+    /// Every `tide:` attribute and relationship that usdImagingTide published for the prim in the
+    /// render index's scene indices, under its name (relationships as their first target's path).
+    void _PutTideAttributes(HdSceneDelegate* sd, SdfPath const& id);
     tide::MemorySceneSource _store;
     std::string _path;
     HdSceneDelegate* _sd = nullptr;
