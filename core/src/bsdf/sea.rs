@@ -974,7 +974,12 @@ mod tests {
     /// radiance scaling, so a lossless interface gives 1), with its standard error; also the
     /// reflected part alone.
     fn furnace(b: &Bsdf, wo: Vec3, n: usize) -> (f64, f64, f64) {
-        let mut rng = TestRng::new(1234);
+        furnace_seeded(b, wo, n, 1234)
+    }
+
+    /// [`furnace`] with the random sequence of `seed`.
+    fn furnace_seeded(b: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (f64, f64, f64) {
+        let mut rng = TestRng::new(seed);
         let (mut sum, mut sum2, mut refl) = (0.0f64, 0.0f64, 0.0f64);
         for _ in 0..n {
             let (uc, u) = rng_u(&mut rng);
@@ -1215,18 +1220,8 @@ mod tests {
             let (ss, sss) = furnace_ss(WATER, lobe.slopes, wo, 400_000);
             let mut line = format!("U {wind} θ {t} φ {phi}: ss {ss:.4}±{sss:.4} + ms {:.4} = {:.4};", lobe.p_ms(wo), ss + lobe.p_ms(wo) as f64);
             for seed in [1u64, 2, 3] {
-                let mut rng = TestRng::new(seed);
-                let (mut sum, mut sum2, n) = (0.0f64, 0.0f64, 400_000);
-                for _ in 0..n {
-                    let (uc, u) = rng_u(&mut rng);
-                    if let Some(s) = b.sample_f(wo, uc, u, TransportMode::Importance) {
-                        let w = (s.f[0] * s.wi.z.abs() / s.pdf) as f64;
-                        sum += w;
-                        sum2 += w * w;
-                    }
-                }
-                let m = sum / n as f64;
-                line += &format!(" full {m:.4}±{:.4}", ((sum2 / n as f64 - m * m) / n as f64).sqrt());
+                let (m, se, _) = furnace_seeded(&b, wo, 400_000, seed);
+                line += &format!(" full {m:.4}±{se:.4}");
             }
             println!("{line}");
         }
