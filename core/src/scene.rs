@@ -97,6 +97,25 @@ pub struct PreviewSurfaceDesc {
     pub ior: f32,
     /// Tangent-space normal map (values in [0,1] remapped to [-1,1] by scale/bias upstream).
     pub normal: Option<TexLookup>,
+    /// A thin water film over the surface (the material's `TideWetAPI`).
+    pub wet: Option<WetDesc>,
+}
+
+/// Wetness (contract §3, `TideWetAPI`): a thin smooth water film over the surface response.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WetDesc {
+    /// Wet fraction of the surface, 0–1.
+    pub amount: f32,
+    /// Index of the film.
+    pub ior: f32,
+    /// Brighten instead of darken when the surface sits inside geometric water.
+    pub water_compliant: bool,
+}
+
+impl Default for WetDesc {
+    fn default() -> Self {
+        WetDesc { amount: 0.0, ior: 1.333, water_compliant: true }
+    }
 }
 
 impl Default for PreviewSurfaceDesc {
@@ -114,6 +133,7 @@ impl Default for PreviewSurfaceDesc {
             opacity_threshold: 0.0,
             ior: 1.5,
             normal: None,
+            wet: None,
         }
     }
 }

@@ -69,6 +69,7 @@ pub enum SurfaceKind {
         opacity: FloatParam,
         opacity_threshold: f32,
         ior: f32,
+        wet: Option<WetDesc>,
     },
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
@@ -245,6 +246,7 @@ impl World {
                             opacity: float_param(&p.opacity),
                             opacity_threshold: p.opacity_threshold,
                             ior: p.ior,
+                            wet: p.wet,
                         }
                     }
                     SurfaceDesc::Water(w) => {
@@ -562,9 +564,12 @@ impl World {
         let frame = Frame::from_normal_tangent(s.ns, s.dpdu);
         let bsdf = match &self.materials[material].kind {
             SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s.uv, lambda).map(|v| v.clamp(0.0, 1.0))),
-            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, .. } => {
-                let d = self.color(diffuse, s.uv, lambda).map(|v| v.clamp(0.0, 1.0));
-                Bsdf::preview(PreviewParams {
+            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, .. } => {
+                let mut d = self.color(diffuse, s.uv, lambda).map(|v| v.clamp(0.0, 1.0));
+                if let Some(w) = wet.filter(|w| w.water_compliant) {
+                    d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
+                }
+                let params = |outer: f32| PreviewParams {
                     diffuse: d,
                     specular_f0: self.color(specular, s.uv, lambda).map(|v| v.clamp(0.0, 1.0)),
                     metallic: self.float(metallic, s.uv).clamp(0.0, 1.0),
@@ -572,9 +577,16 @@ impl World {
                     roughness: self.float(roughness, s.uv).clamp(0.0, 1.0),
                     clearcoat: self.float(clearcoat, s.uv).clamp(0.0, 1.0),
                     clearcoat_roughness: self.float(clearcoat_roughness, s.uv).clamp(0.0, 1.0),
-                    ior: (*ior / outside_ior).max(1.0 + 1e-4),
+                    ior: *ior,
+                    outside_ior: outer,
                     use_specular_workflow: *use_specular_workflow,
-                })
+                };
+                let dry = Bsdf::preview(params(outside_ior));
+                match wet {
+                    // the covered surface's layers meet the film, not the outside
+                    Some(w) if w.amount > 0.0 => dry.and_then(|dry| Bsdf::wet(dry, Bsdf::preview(params(w.ior.max(outside_ior)))?, w.amount, w.ior / outside_ior)),
+                    _ => dry,
+                }
             }
             SurfaceKind::Dielectric(dm) => match dm.sea {
                 Some((speed, wind, scale)) => {

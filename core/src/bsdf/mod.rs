@@ -17,6 +17,7 @@ pub mod microfacet;
 pub mod preview;
 pub mod sea;
 pub mod sea_albedo;
+pub mod wet;
 #[cfg(test)]
 mod tests;
 
@@ -29,6 +30,7 @@ use glam::{Vec2, Vec3};
 use lobes::{Dielectric, Lambert, MicrofacetReflection, ReflFresnel};
 use preview::Preview;
 use sea::{CoxMunk, SeaSurface};
+use wet::Wet;
 
 /// Lobe classification bits.
 pub mod flags {
@@ -156,6 +158,7 @@ enum Model {
     Dielectric(Dielectric),
     Preview(Preview),
     Sea(SeaSurface),
+    Wet(Wet),
 }
 
 /// A surface's scattering function at one shading point.
@@ -232,9 +235,30 @@ impl Bsdf {
             clearcoat: check_finite("clearcoat", p.clearcoat)?.clamp(0.0, 1.0),
             clearcoat_roughness: check_finite("clearcoatRoughness", p.clearcoat_roughness)?,
             ior: check_positive("ior", p.ior)?,
+            outside_ior: check_positive("outside_ior", p.outside_ior)?,
             use_specular_workflow: p.use_specular_workflow,
         };
         Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
+    }
+
+    /// A thin water film over part of a surface (see [`wet`]): `dry` is the surface as it is,
+    /// `covered` the same surface with its layers' indices taken against the film, `amount` the
+    /// wet fraction in [0, 1], `film_eta` the film's index over the index outside. Only
+    /// reflection-only surfaces (Lambert, conductor, preview) take a film; anything else is
+    /// returned dry.
+    pub fn wet(dry: Bsdf, covered: Bsdf, amount: f32, film_eta: f32) -> Result<Bsdf, BsdfError> {
+        let amount = check_finite("tide:wet:amount", amount)?.clamp(0.0, 1.0);
+        let film_eta = check_positive("tide:wet:ior", film_eta)?;
+        let base = |b: &Bsdf| match b.model {
+            Model::Lambert(l) => Some(wet::Base::Lambert(l)),
+            Model::Microfacet(m) => Some(wet::Base::Microfacet(m)),
+            Model::Preview(p) => Some(wet::Base::Preview(p)),
+            Model::Dielectric(_) | Model::Sea(_) | Model::Wet(_) => None,
+        };
+        match (base(&dry), base(&covered)) {
+            (Some(d), Some(c)) => Ok(Bsdf { model: Model::Wet(Wet::new(d, c, amount, film_eta)) }),
+            _ => Ok(dry),
+        }
     }
 
     /// BSDF value (cosine excluded); zero for delta lobes.
@@ -246,6 +270,7 @@ impl Bsdf {
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Microfacet(m) => m.f(wo2, wi2),
             Model::Preview(p) => p.f(wo2, wi2),
+            Model::Wet(w) => w.f(wo2, wi2),
         }
     }
 
@@ -258,6 +283,7 @@ impl Bsdf {
             Model::Lambert(l) => l.pdf(wo2, wi2),
             Model::Microfacet(m) => m.pdf(wo2, wi2),
             Model::Preview(p) => p.pdf(wo2, wi2),
+            Model::Wet(w) => w.pdf(wo2, wi2),
         }
     }
 
@@ -275,6 +301,7 @@ impl Bsdf {
             Model::Lambert(l) => l.sample_f(wo2, u),
             Model::Microfacet(m) => m.sample_f(wo2, uc, u),
             Model::Preview(p) => p.sample_f(wo2, uc, u),
+            Model::Wet(w) => w.sample_f(wo2, uc, u),
             Model::Dielectric(_) | Model::Sea(_) => None,
         }?;
         if flipped {
@@ -291,6 +318,7 @@ impl Bsdf {
             Model::Dielectric(d) => d.lobe_flags(),
             Model::Sea(s) => s.lobe_flags(),
             Model::Preview(p) => p.lobe_flags(),
+            Model::Wet(w) => w.lobe_flags(),
         }
     }
 
@@ -301,6 +329,7 @@ impl Bsdf {
             Model::Microfacet(m) => m.albedo(1.0),
             Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ONE,
             Model::Preview(p) => p.albedo_hint(),
+            Model::Wet(w) => w.albedo_hint(),
         }
     }
 
@@ -311,6 +340,7 @@ impl Bsdf {
         match &self.model {
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Preview(p) => p.f_diffuse_share(wo2, wi2),
+            Model::Wet(w) => w.f_diffuse_share(wo2, wi2),
             Model::Microfacet(_) | Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ZERO,
         }
     }

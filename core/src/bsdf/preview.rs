@@ -32,11 +32,32 @@ pub struct PreviewParams {
     pub clearcoat_roughness: f32,
     /// ior of the dielectric specular layer (metallic workflow).
     pub ior: f32,
+    /// Index of what lies above the surface (1 in air; the water's under geometric water or a
+    /// wet film): the layers' Fresnel terms use the indices relative to it.
+    pub outside_ior: f32,
     pub use_specular_workflow: bool,
 }
 
 /// IOR of the clearcoat layer.
 pub const CLEARCOAT_IOR: f32 = 1.5;
+
+/// A layer's index relative to what lies above it, kept just above 1 (a layer of lower index
+/// than its surroundings is not modelled).
+#[inline]
+fn relative_ior(ior: f32, outside_ior: f32) -> f32 {
+    (ior / outside_ior).max(1.0 + 1e-4)
+}
+
+/// A normal-incidence reflectance given against air, re-expressed against a medium of index
+/// `outside_ior` through the dielectric index it implies.
+#[inline]
+fn f0_under(f0: f32, outside_ior: f32) -> f32 {
+    if !(outside_ior > 1.0 + 1e-4) || f0 >= 1.0 {
+        return f0;
+    }
+    let r = f0.max(0.0).sqrt();
+    f0_from_ior(relative_ior((1.0 + r) / (1.0 - r), outside_ior))
+}
 
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Preview {
@@ -59,16 +80,16 @@ impl Preview {
     pub fn new(p: &PreviewParams) -> Self {
         let alpha = roughness_to_alpha(p.roughness);
         let (f0, diffuse) = if p.use_specular_workflow {
-            (p.specular_f0, p.diffuse)
+            (p.specular_f0.map(|f0| f0_under(f0, p.outside_ior)), p.diffuse)
         } else {
             let m = p.metallic;
-            let f0_d = f0_from_ior(p.ior);
+            let f0_d = f0_from_ior(relative_ior(p.ior, p.outside_ior));
             (SampledSpectrum::splat(f0_d) * (1.0 - m) + p.base_for_metal * m, p.diffuse * (1.0 - m))
         };
         let spec = MicrofacetReflection::new(TrowbridgeReitz::new(alpha, alpha), ReflFresnel::Schlick { f0 });
         let coat = (p.clearcoat > 0.0).then(|| {
             let a = roughness_to_alpha(p.clearcoat_roughness);
-            let f0 = SampledSpectrum::splat(f0_from_ior(CLEARCOAT_IOR));
+            let f0 = SampledSpectrum::splat(f0_from_ior(relative_ior(CLEARCOAT_IOR, p.outside_ior)));
             (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(a, a), ReflFresnel::Schlick { f0 }))
         });
         let spec_loss_avg = (SampledSpectrum::ONE - spec.albedo_avg()).map(|v| v.max(0.0));
@@ -202,8 +223,19 @@ impl Preview {
 
     /// Rough reflectance at normal incidence for the albedo AOV.
     pub fn albedo_hint(&self) -> SampledSpectrum {
-        let a = self.coat_transmittance(1.0);
-        let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(1.0) * *w);
-        coat + (self.spec.albedo(1.0) + self.diffuse * self.spec_loss(1.0)) * (a * a)
+        self.albedo_at(1.0)
+    }
+
+    /// Estimated directional albedo at μ (the layers' albedos, as the lobe selection uses them).
+    pub fn albedo_at(&self, mu: f32) -> SampledSpectrum {
+        let a = self.coat_transmittance(mu);
+        let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(mu) * *w);
+        coat + (self.spec.albedo(mu) + self.diffuse * self.spec_loss(mu)) * (a * a)
+    }
+
+    /// Directional albedo of the diffuse base as it shows through the layers above it at μ.
+    pub fn diffuse_albedo(&self, mu: f32) -> SampledSpectrum {
+        let a = self.coat_transmittance(mu);
+        self.diffuse * self.spec_loss(mu) * (a * a)
     }
 }

@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 105;
+const N_CHI2: usize = 123;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -122,6 +122,7 @@ fn preview_params() -> PreviewParams {
         clearcoat: 0.0,
         clearcoat_roughness: 0.1,
         ior: 1.5,
+        outside_ior: 1.0,
         use_specular_workflow: false,
     }
 }
@@ -608,3 +609,6 @@ fn conductor_albedo_table_matches_brute_force() {
         assert!((m - e).abs() < 4.0 * sigma + 5e-3, "μ {mu} r {r}: brute {m} ± {sigma}, table {e}");
     }
 }
+
+#[path = "wet_tests.rs"]
+mod wet_tests;
