@@ -182,6 +182,13 @@ const std::vector<Param>& CameraParams() {
 // Gprims' parameters: implicit shapes' sizes, and Tide's attributes of gprims (contract §4, §5),
 // read with HdSceneDelegate::Get, which UsdImaging's scene delegate answers with the prim's
 // attribute (UsdImaging's scene indices hand Tide's attributes over in the `tide` container).
+/// Material attributes asked for by name (the scene delegate answers `Get` from them).
+const std::vector<TfToken>& MaterialParams() {
+    static const std::vector<TfToken> params = {TfToken("tide:wet:amount"), TfToken("tide:wet:ior"),
+                                                TfToken("tide:wet:waterCompliant")};
+    return params;
+}
+
 const std::vector<TfToken>& GprimParams() {
     static const std::vector<TfToken> p = {
         TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"), TfToken("width"),
@@ -311,6 +318,10 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                 }
             }
         }
+        // the material's own attributes (TideWetAPI): by name through the scene delegate, the
+        // `tide` container through the scene indices
+        for (TfToken const& k : MaterialParams()) _Put(k.GetString(), sd->Get(id, k));
+        _PutTideAttributes(sd, id);
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource;
     } else if (typeId == "camera") {
         for (Param const& p : CameraParams()) {

@@ -17,7 +17,7 @@ use glam::Vec2;
 use std::collections::BTreeMap;
 use tide_core::scene::{
     Channel, ColorInput, FloatInput, MaterialDesc, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
-    SurfaceModel, TexLookup, WaterDesc, Wrap,
+    SurfaceModel, TexLookup, WaterDesc, WetDesc, Wrap,
 };
 
 /// The default material: grey diffuse 0.18.
@@ -314,6 +314,7 @@ impl Ctx<'_> {
             opacity_threshold: self.input_f32(n, "opacityThreshold", d.opacity_threshold),
             ior: self.input_f32(n, "ior", d.ior),
             normal,
+            wet: None,
         }
     }
 
@@ -449,6 +450,31 @@ impl Ctx<'_> {
     }
 }
 
+/// The material attributes of `TideWetAPI` (contract §3).
+const WET_ATTRS: [&str; 3] = ["tide:wet:amount", "tide:wet:ior", "tide:wet:waterCompliant"];
+
+/// The material's wetness: present when any `tide:wet:` attribute arrived (the reader sends all
+/// three, defaults included, for a material with `TideWetAPI` applied).
+fn wetness(store: &AttrStore, p: &mut Problems) -> Option<WetDesc> {
+    if !WET_ATTRS.iter().any(|a| store.has(a)) {
+        return None;
+    }
+    let d = WetDesc::default();
+    let mut amount = store.f32_or(WET_ATTRS[0], d.amount, p);
+    if !(0.0..=1.0).contains(&amount) {
+        let clamped = amount.clamp(0.0, 1.0);
+        p.add(WET_ATTRS[0], format!("{} is outside [0, 1]; using {}", amount, clamped));
+        amount = clamped;
+    }
+    let mut ior = store.f32_or(WET_ATTRS[1], d.ior, p);
+    if !(ior >= 1.0) {
+        p.add(WET_ATTRS[1], format!("{} is below 1; using {}", ior, d.ior));
+        ior = d.ior;
+    }
+    let water_compliant = store.bool_or(WET_ATTRS[2], d.water_compliant, p);
+    Some(WetDesc { amount, ior, water_compliant })
+}
+
 /// The node path of a terminal attribute (`surface`, `volume`), accepting `"/N.outputs:x"`.
 fn terminal(store: &AttrStore, name: &str) -> Option<String> {
     let s = store.str_opt(name)?;
@@ -500,6 +526,16 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         (Some(v), None) => Some(v),
         (None, linked) => linked.map(|(_, up)| up),
     };
+    if let Some(w) = wetness(store, &mut ctx.p) {
+        match &mut desc.surface {
+            SurfaceDesc::Preview(p) => p.wet = Some(w),
+            _ if w.amount > 0.0 || !w.water_compliant => ctx.p.add(
+                WET_ATTRS[0],
+                "TideWetAPI covers a UsdPreviewSurface; this material's surface is not one, so it renders dry",
+            ),
+            _ => {}
+        }
+    }
     let mut medium = None;
     if let Some(v) = &vol {
         match ctx.node_id(v) {
@@ -662,6 +698,38 @@ mod tests {
         assert_eq!(p.list.len(), 1, "{:?}", p.list);
         assert_eq!(p.list[0].attribute, "/W/Med.inputs:absorption");
         assert!(p.list[0].message.contains("overridden by jerlovType"));
+    }
+
+    /// TideWetAPI's material attributes reach the preview surface; bad values are clamped or
+    /// replaced and named; a TideWater surface renders dry and says so.
+    #[test]
+    fn wetness_from_the_material_attributes() {
+        let conv = |surface: &str, extra: &[(&'static str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(surface))];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let wet = match m.desc.surface {
+                SurfaceDesc::Preview(ps) => ps.wet,
+                _ => None,
+            };
+            (wet, p.list.into_iter().map(|q| (q.attribute, q.message)).collect::<Vec<_>>())
+        };
+        assert_eq!(conv("UsdPreviewSurface", &[]), (None, vec![]));
+        let (w, p) = conv("UsdPreviewSurface", &[("tide:wet:amount", Value::Float(0.7))]);
+        assert_eq!(w, Some(WetDesc { amount: 0.7, ..WetDesc::default() }));
+        assert!(p.is_empty(), "{p:?}");
+        let (w, p) = conv(
+            "UsdPreviewSurface",
+            &[("tide:wet:amount", Value::Float(1.5)), ("tide:wet:ior", Value::Float(0.5)), ("tide:wet:waterCompliant", Value::Bool(false))],
+        );
+        assert_eq!(w, Some(WetDesc { amount: 1.0, ior: 1.333, water_compliant: false }));
+        let names: Vec<&str> = p.iter().map(|(a, _)| a.as_str()).collect();
+        assert_eq!(names, ["tide:wet:amount", "tide:wet:ior"], "{p:?}");
+        let (w, p) = conv("TideWater", &[("tide:wet:amount", Value::Float(0.5))]);
+        assert_eq!(w, None);
+        assert_eq!(p.len(), 1, "{p:?}");
+        assert_eq!(p[0].0, "tide:wet:amount");
     }
 
     /// The medium named by TideWater's `medium` connection equals the one named by the volume

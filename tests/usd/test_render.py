@@ -96,23 +96,30 @@ def test_sphere_projects_where_the_camera_says(renderer, stage):
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.10)
 
 
-def test_diffuse_patch_under_a_known_sun(renderer, stage):
-    w = h = 32
-    camera(stage, focal=F, aperture=(AP, AP))
-    mat = lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5))
+def _sunlit_wall(stage, mat, tilt=0.0):
+    """A 20 x 20 wall at z = -5 facing the camera, bound to `mat`, under a sun of pi lux on a
+    perpendicular surface, tilted `tilt` degrees about X from the wall's normal."""
     m = UsdGeom.Mesh.Define(stage, "/Wall")
     m.CreatePointsAttr([(-10, -10, -5), (10, -10, -5), (10, 10, -5), (-10, 10, -5)])
     m.CreateFaceVertexCountsAttr([4])
     m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     bind(m.GetPrim(), mat)
-    # an unrotated DistantLight shines along -Z: straight onto the wall. With normalize on,
-    # the illuminance on a perpendicular surface is intensity * 2^exposure = pi lux, so a
-    # Lambertian albedo of 0.5 leaves with radiance 0.5 / pi * pi = 0.5.
     sun = UsdLux.DistantLight.Define(stage, "/Sun")
     sun.CreateIntensityAttr(math.pi / 2)
     sun.CreateExposureAttr(1.0)
     sun.CreateNormalizeAttr(True)
     sun.CreateAngleAttr(0.53)
+    if tilt:
+        sun.AddRotateXOp().Set(tilt)
+
+
+def test_diffuse_patch_under_a_known_sun(renderer, stage):
+    w = h = 32
+    camera(stage, focal=F, aperture=(AP, AP))
+    # an unrotated DistantLight shines along -Z: straight onto the wall. With normalize on,
+    # the illuminance on a perpendicular surface is intensity * 2^exposure = pi lux, so a
+    # Lambertian albedo of 0.5 leaves with radiance 0.5 / pi * pi = 0.5.
+    _sunlit_wall(stage, lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5)))
     settings(stage, res=(w, h), samples=16, integrator="path", maxDepth=1)
     img = render(renderer, stage)["color"]
     centre = img[8:24, 8:24, :3].reshape(-1, 3).mean(axis=0)
@@ -355,3 +362,63 @@ def test_water_medium_through_its_medium_input(renderer, stage, link):
     empty_stage = Usd.Stage.CreateInMemory()
     _water_tank(empty_stage, None)
     assert render(renderer, empty_stage)["color"][..., :3].mean() > 0.95
+
+
+def _fresnel(mu, eta):
+    """Unpolarised Fresnel reflectance for light arriving at cosine mu from the side of index 1
+    onto index eta (eta < 1: from the denser side; 1 beyond the critical angle)."""
+    s2 = (1 - mu * mu) / (eta * eta)
+    if s2 >= 1:
+        return 1.0
+    ct = math.sqrt(1 - s2)
+    rs = (mu - eta * ct) / (mu + eta * ct)
+    rp = (eta * mu - ct) / (eta * mu + ct)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+def _wet_wall(stage, wet):
+    """The grey wall of the sun test, lit by a sun 30 degrees off its normal (so that the film's
+    mirror image of the sun misses the camera); `wet`: TideWetAPI attributes, or None."""
+    camera(stage, focal=F, aperture=(AP, AP))
+    mat = lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5))
+    if wet is not None:
+        mat.GetPrim().ApplyAPI("TideWetAPI")
+        for name, value in wet.items():
+            mat.GetPrim().GetAttribute("tide:wet:" + name).Set(value)
+    _sunlit_wall(stage, mat, tilt=30.0)
+    settings(stage, res=(16, 16), samples=16, integrator="path", maxDepth=1)
+
+
+def test_wet_patch_darkens_as_a_film_over_a_diffuse_base(renderer, stage):
+    """TideWetAPI (contract §3): a water film of index n over a diffuse base of albedo a lets
+    (1 - F(mu_o)) (1 - F(mu_i)) / n^2 / (1 - a r_i) of the dry diffuse radiance out, r_i being
+    the film underside's reflectance for diffuse light (computed here from Fresnel's equations);
+    half the amount wets half the surface; the API with its defaults changes nothing in air."""
+    from pxr import Usd
+
+    def wall(wet):
+        s = Usd.Stage.CreateInMemory()
+        _wet_wall(s, wet)
+        return render(renderer, s)["color"][..., :3].reshape(-1, 3).astype(np.float64).mean(axis=0)
+
+    n, a = 1.333, 0.5
+    dry = wall(None)
+    r_e = sum(2 * _fresnel(mu, n) * mu / 4000 for mu in ((k + 0.5) / 4000 for k in range(4000)))
+    r_i = 1 - (1 - r_e) / (n * n)
+    ratio = (1 - _fresnel(1.0, n)) * (1 - _fresnel(math.cos(math.radians(30)), n)) \
+        / (n * n * (1 - a * r_i))
+    assert 0.6 < ratio < 0.8
+    wet = wall({"amount": 1.0})
+    # the base's black specular layer (Schlick's grazing term) and spectral round trips: 3 %
+    assert wet / dry == pytest.approx([ratio] * 3, rel=0.03), (wet, dry, ratio)
+    half = wall({"amount": 0.5})
+    assert half / dry == pytest.approx([(1 + ratio) / 2] * 3, rel=0.03), (half, dry)
+    # a denser film darkens more
+    dense = wall({"amount": 1.0, "ior": 1.6})
+    assert np.all(dense < wet * 0.97), (dense, wet)
+    # the API alone (amount 0) renders dry, bit for bit
+    s = Usd.Stage.CreateInMemory()
+    _wet_wall(s, {})
+    s2 = Usd.Stage.CreateInMemory()
+    _wet_wall(s2, None)
+    assert np.array_equal(render(renderer, s)["color"], render(renderer, s2)["color"])

@@ -4,11 +4,13 @@
 #include "pxr/base/tf/type.h"
 #include "pxr/imaging/hd/cameraSchema.h"
 #include "pxr/imaging/hd/lightSchema.h"
+#include "pxr/imaging/hd/materialSchema.h"
 #include "pxr/imaging/hd/overlayContainerDataSource.h"
 #include "pxr/imaging/hd/primvarsSchema.h"
 #include "pxr/imaging/hd/retainedDataSource.h"
 #include "pxr/usd/usd/relationship.h"
 #include "pxr/usd/usd/stage.h"
+#include "pxr/usd/usdShade/material.h"
 #include "pxr/usdImaging/usdImaging/dataSourceAttribute.h"
 #include "pxr/usdImaging/usdImaging/dataSourceGprim.h"
 #include "pxr/usdImaging/usdImaging/dataSourceStageGlobals.h"
@@ -210,7 +212,7 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
 }
 
 HdDataSourceLocatorSet UsdImagingTideAttributesAdapter::InvalidateImagingSubprim(
-    UsdPrim const&, TfToken const& subprim, TfToken const&, TfTokenVector const& properties,
+    UsdPrim const& prim, TfToken const& subprim, TfToken const&, TfTokenVector const& properties,
     UsdImagingPropertyInvalidationType invalidationType) {
     HdDataSourceLocatorSet locators;
     if (!subprim.IsEmpty()) return locators;
@@ -225,6 +227,8 @@ HdDataSourceLocatorSet UsdImagingTideAttributesAdapter::InvalidateImagingSubprim
         locators.insert(HdPrimvarsSchema::GetDefaultLocator().Append(p));
         locators.insert(HdLightSchema::GetDefaultLocator().Append(p));
         locators.insert(HdCameraSchema::GetDefaultLocator().Append(p));
+        // and materials (DirtyResource) their TideWetAPI values
+        if (prim.IsA<UsdShadeMaterial>()) locators.insert(HdMaterialSchema::GetDefaultLocator());
     }
     return locators;
 }

@@ -1253,6 +1253,8 @@ class Reader:
                 queue.append(shader)
             else:
                 st.set(key, ("path", ""))
+        # the material's own tide: attributes (TideWetAPI's, fallbacks included once applied)
+        self._tide_attrs(prim, st)
         done = set()
         while queue:
             shader = queue.pop(0)
