@@ -389,6 +389,21 @@ pub struct SpheresDesc {
     pub radii: Vec<f32>,
     /// Object-space velocity per point (units per second of shutter time), or none.
     pub velocities: Option<Vec<Vec3>>,
+    /// What each point is: a sphere of its radius, a bubble, or a blobby kernel.
+    pub shape: PointShape,
+}
+
+/// The shape points take (contract §5). Radii are the points' inner radii (half their widths).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum PointShape {
+    #[default]
+    Spheres,
+    /// `TideBubbleAPI`: per point the height above the equator (h₁) and the depth below it
+    /// (h₂), and optionally the bubble's frame (+Y up).
+    Bubbles { top: Vec<f32>, bottom: Vec<f32>, orientations: Option<Vec<glam::Quat>> },
+    /// `TideBlobbyAPI`: the threshold T of φ = Σψᵢ − T, and optionally per point the frame and
+    /// the inner radius' multipliers along its axes.
+    Blobby { threshold: f32, orientations: Option<Vec<glam::Quat>>, scales: Option<Vec<Vec3>> },
 }
 
 /// What an instance places.

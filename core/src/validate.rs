@@ -4,7 +4,7 @@
 
 use crate::render::Problem;
 use crate::scene::*;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Quat, Vec3};
 
 fn problem(out: &mut Vec<Problem>, item: &str, attribute: &str, message: impl Into<String>) {
     out.push(Problem { item: item.to_string(), attribute: attribute.to_string(), message: message.into() });
@@ -121,6 +121,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 sp.velocities = None;
             }
         }
+        fix_point_shape(sp, &mut p);
         let mut keep = vec![true; n];
         let (mut bad_c, mut bad_r) = (0, 0);
         for i in 0..n {
@@ -144,6 +145,25 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
             if let Some(v) = &sp.velocities {
                 sp.velocities = Some(idx.iter().map(|&i| v[i]).collect());
+            }
+            let pick = |v: &mut Vec<f32>| *v = idx.iter().map(|&i| v[i]).collect();
+            match &mut sp.shape {
+                PointShape::Spheres => {}
+                PointShape::Bubbles { top, bottom, orientations } => {
+                    pick(top);
+                    pick(bottom);
+                    if let Some(o) = orientations {
+                        *o = idx.iter().map(|&i| o[i]).collect();
+                    }
+                }
+                PointShape::Blobby { orientations, scales, .. } => {
+                    if let Some(o) = orientations {
+                        *o = idx.iter().map(|&i| o[i]).collect();
+                    }
+                    if let Some(sc) = scales {
+                        *sc = idx.iter().map(|&i| sc[i]).collect();
+                    }
+                }
             }
         }
     }
@@ -457,6 +477,54 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     (s, p)
 }
 
+/// Makes a points set's shape data agree with its points: one value per point, heights and
+/// scales positive and finite, orientations finite (normalised), the blobby threshold in (0, 1).
+fn fix_point_shape(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
+    let n = sp.centers.len();
+    let name = sp.name.clone();
+    let fix_quats = |o: &mut Option<Vec<Quat>>, attr: &str, p: &mut Vec<Problem>| {
+        if let Some(q) = o {
+            if q.len() != n || q.iter().any(|q| !(q.is_finite() && q.length_squared() > 0.0)) {
+                problem(p, &name, attr, format!("expected {n} finite, non-zero quaternions (one per point); ignored"));
+                *o = None;
+            } else {
+                q.iter_mut().for_each(|q| *q = q.normalize());
+            }
+        }
+    };
+    match &mut sp.shape {
+        PointShape::Spheres => {}
+        PointShape::Bubbles { top, bottom, orientations } => {
+            for (v, attr) in [(top, "primvars:tide:bubble:top"), (bottom, "primvars:tide:bubble:bottom")] {
+                let bad = v.len() != n || v.iter().any(|h| !(*h > 0.0 && h.is_finite()));
+                if bad {
+                    problem(p, &name, attr, format!("expected {n} positive heights (one per point); the point's radius is used where one is missing or bad"));
+                    v.resize(n, 0.0);
+                    for (h, r) in v.iter_mut().zip(&sp.radii) {
+                        if !(*h > 0.0 && h.is_finite()) {
+                            *h = *r;
+                        }
+                    }
+                }
+            }
+            fix_quats(orientations, "primvars:tide:bubble:orientation", p);
+        }
+        PointShape::Blobby { threshold, orientations, scales } => {
+            if !(*threshold > 0.0 && *threshold < 1.0) {
+                problem(p, &name, "tide:blobby:threshold", format!("{threshold} is outside (0, 1); using 0.5"));
+                *threshold = 0.5;
+            }
+            fix_quats(orientations, "primvars:tide:blobby:orientation", p);
+            if let Some(sc) = scales {
+                if sc.len() != n || sc.iter().any(|s| !(s.is_finite() && s.min_element() > 0.0)) {
+                    problem(p, &name, "primvars:tide:blobby:scale", format!("expected {n} positive, finite float3 (one per point); ignored"));
+                    *scales = None;
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -492,7 +560,7 @@ mod tests {
             indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 9, 0, 1, 4],
             ..Default::default()
         });
-        s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None });
+        s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() });
         s.lights.push(LightDesc {
             name: "/World/Rect".into(),
             shape: LightShape::Rect { width: 0.0, height: 1.0, texture: None },
@@ -556,5 +624,41 @@ mod tests {
         assert_eq!(w.jerlov.unwrap().source, JerlovSource::Solonenko2015);
         // what is left builds
         crate::medium::Medium::from_desc(m, ColorSpace::LinearRec709).unwrap();
+    }
+
+    /// Shape data follows the points that survive; bad heights, scales, orientations and
+    /// thresholds are named and replaced.
+    #[test]
+    fn point_shapes_are_checked_and_follow_their_points() {
+        let mut s = SceneDesc::default();
+        let pts = vec![Vec3::ZERO, Vec3::ONE, Vec3::X];
+        s.spheres.push(SpheresDesc {
+            name: "/Bubbles".into(),
+            centers: pts.clone(),
+            radii: vec![0.0, 1.0, 2.0],
+            velocities: None,
+            shape: PointShape::Bubbles { top: vec![0.5, f32::NAN, 0.7], bottom: vec![0.1, 0.2, 0.3], orientations: Some(vec![Quat::IDENTITY; 2]) },
+        });
+        s.spheres.push(SpheresDesc {
+            name: "/Blobs".into(),
+            centers: pts,
+            radii: vec![1.0; 3],
+            velocities: None,
+            shape: PointShape::Blobby { threshold: 1.5, orientations: None, scales: Some(vec![Vec3::ONE, Vec3::new(1.0, 0.0, 1.0), Vec3::ONE]) },
+        });
+        let (clean, probs) = validate(&s);
+        let attrs: Vec<(&str, &str)> = probs.iter().map(|p| (p.item.as_str(), p.attribute.as_str())).collect();
+        for want in [
+            ("/Bubbles", "primvars:tide:bubble:top"),
+            ("/Bubbles", "primvars:tide:bubble:orientation"),
+            ("/Bubbles", "widths"),
+            ("/Blobs", "tide:blobby:threshold"),
+            ("/Blobs", "primvars:tide:blobby:scale"),
+        ] {
+            assert!(attrs.contains(&want), "{want:?} in {attrs:?}");
+        }
+        // the zero-width point is dropped with its data; the NaN height became the radius
+        assert_eq!(clean.spheres[0].shape, PointShape::Bubbles { top: vec![1.0, 0.7], bottom: vec![0.2, 0.3], orientations: None });
+        assert_eq!(clean.spheres[1].shape, PointShape::Blobby { threshold: 0.5, orientations: None, scales: None });
     }
 }

@@ -465,8 +465,13 @@ impl World {
                 let (c, r) = self.accel.sphere_center(hit.instance, hit.prim, ray.time).unwrap_or((Vec3::ZERO, 1.0));
                 let inv = m.inverse();
                 let p_obj_ray = inv.transform_point3(ray.o + ray.d * hit.t);
-                let n_obj = (p_obj_ray - c).normalize_or_zero();
-                let p_obj = c + n_obj * r; // reproject onto the surface
+                let (n_obj, p_obj) = if self.accel.hit_carries_normal(hit.instance) {
+                    // bubbles and blobbies: the normal the intersection found, the ray's point
+                    (crate::accel::implicit::oct_decode(hit.u, hit.v), p_obj_ray)
+                } else {
+                    let n = (p_obj_ray - c).normalize_or_zero();
+                    (n, c + n * r) // reproject onto the surface
+                };
                 let ng = (nm * n_obj).normalize();
                 let phi = n_obj.z.atan2(n_obj.x);
                 let uv = Vec2::new(0.5 + phi / (2.0 * std::f32::consts::PI), 1.0 - n_obj.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
@@ -642,7 +647,7 @@ mod tests {
     fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
         let mut s = SceneDesc::default();
         s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]));
-        s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None });
+        s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None, ..Default::default() });
         let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
         s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
         // medium 0: the mesh lifted by 2 (top 3) and a unit sphere scaled by 2.5 at y = 1 (top 3.5)

@@ -5,13 +5,15 @@
 //! meshes may deform (vertex position keys, `motion_mesh.rs`).
 
 mod tribvh;
+pub mod implicit;
 mod motion_mesh;
 pub mod motion;
 
-use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, SpheresDesc};
+use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
+use implicit::{Bubble, Kernel};
 use tribvh::TriBvh;
 use motion_mesh::MotionTriBlas;
-use glam::{Mat4, Vec3, Vec3A};
+use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;
 use obvhs::{
     aabb::Aabb,
@@ -101,6 +103,16 @@ struct SphereBlas {
     centers: Vec<Vec3>,
     radii: Vec<f32>,
     velocities: Option<Vec<Vec3>>,
+    shape: PointsBlasShape,
+}
+
+/// What a points BVH's primitives are.
+enum PointsBlasShape {
+    Spheres,
+    /// Bubbles as at time 0 (centres move with the velocities).
+    Bubbles(Vec<Bubble>),
+    /// Blobby kernels' maps to their unit balls, and the threshold.
+    Blobby { a: Vec<Mat3>, threshold: f32 },
 }
 
 enum Blas {
@@ -162,6 +174,29 @@ impl BlasKey {
         if let Some(v) = &s.velocities {
             v.len().hash(&mut h);
             h.write(bytemuck::cast_slice(v));
+        }
+        let quats = |h: &mut std::collections::hash_map::DefaultHasher, q: &Option<Vec<Quat>>| {
+            if let Some(q) = q {
+                q.len().hash(h);
+                q.iter().for_each(|q| h.write(bytemuck::cast_slice(&q.to_array())));
+            }
+        };
+        match &s.shape {
+            PointShape::Spheres => 0u8.hash(&mut h),
+            PointShape::Bubbles { top, bottom, orientations } => {
+                1u8.hash(&mut h);
+                h.write(bytemuck::cast_slice(top));
+                h.write(bytemuck::cast_slice(bottom));
+                quats(&mut h, orientations);
+            }
+            PointShape::Blobby { threshold, orientations, scales } => {
+                2u8.hash(&mut h);
+                threshold.to_bits().hash(&mut h);
+                quats(&mut h, orientations);
+                if let Some(sc) = scales {
+                    h.write(bytemuck::cast_slice(sc));
+                }
+            }
         }
         BlasKey::Sphere { spheres: s.centers.len(), moving: s.velocities.is_some(), shutter: (shutter.0.to_bits(), shutter.1.to_bits()), hash: h.finish() }
     }
@@ -263,12 +298,44 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
     if s.centers.is_empty() {
         return Blas::Empty;
     }
+    let shape = match &s.shape {
+        PointShape::Spheres => PointsBlasShape::Spheres,
+        PointShape::Bubbles { top, bottom, orientations } => PointsBlasShape::Bubbles(
+            (0..s.centers.len())
+                .map(|i| Bubble {
+                    center: s.centers[i],
+                    r: s.radii[i],
+                    top: top[i],
+                    bottom: bottom[i],
+                    rot: orientations.as_ref().map_or(Quat::IDENTITY, |o| o[i]),
+                })
+                .collect(),
+        ),
+        PointShape::Blobby { threshold, orientations, scales } => PointsBlasShape::Blobby {
+            a: (0..s.centers.len())
+                .map(|i| {
+                    let rot = orientations.as_ref().map_or(Quat::IDENTITY, |o| o[i]);
+                    let scale = scales.as_ref().map_or(Vec3::ONE, |sc| sc[i]);
+                    Kernel::new(Vec3::ZERO, s.radii[i], scale, rot, *threshold).a
+                })
+                .collect(),
+            threshold: *threshold,
+        },
+    };
+    // the radius of a sphere about each centre that holds its primitive
+    let bound_radius = |i: usize| match (&s.shape, &shape) {
+        (_, PointsBlasShape::Bubbles(b)) => b[i].bounding_radius(),
+        (PointShape::Blobby { threshold, scales, .. }, _) => {
+            s.radii[i] * scales.as_ref().map_or(1.0, |sc| sc[i].max_element()) * implicit::blobby_bound_factor(*threshold)
+        }
+        _ => s.radii[i],
+    };
     let mut bounds: Vec<SphereBound> = s
         .centers
         .iter()
         .enumerate()
         .map(|(i, &c)| {
-            let r = Vec3A::splat(s.radii[i]);
+            let r = Vec3A::splat(bound_radius(i));
             let mut bb = Aabb::new(Vec3A::from(c) - r, Vec3A::from(c) + r);
             if let Some(v) = &s.velocities {
                 for t in [shutter.0, shutter.1] {
@@ -281,7 +348,7 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
         .collect();
     pad_single(&mut bounds);
     let bvh = build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
-    Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone() })
+    Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone(), shape })
 }
 
 #[derive(Clone, Copy)]
@@ -465,24 +532,64 @@ impl Accel {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
                 let r = bvh_ray(o, d, t_max);
                 let mut rh = RayHit::none();
-                sb.bvh.ray_traverse(r, &mut rh, |r, id| {
-                    let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
-                    let mut c = sb.centers[i];
-                    if let Some(v) = &sb.velocities {
-                        c += v[i] * time;
+                let center = |i: usize| match &sb.velocities {
+                    Some(v) => sb.centers[i] + v[i] * time,
+                    None => sb.centers[i],
+                };
+                match &sb.shape {
+                    PointsBlasShape::Spheres => {
+                        sb.bvh.ray_traverse(r, &mut rh, |r, id| {
+                            let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
+                            match intersect_sphere(center(i).into(), sb.radii[i], o, d, 0.0, r.tmax) {
+                                Some(t) => {
+                                    best = Some((t, i as u32, 0.0, 0.0));
+                                    t
+                                }
+                                None => f32::INFINITY,
+                            }
+                        });
                     }
-                    match intersect_sphere(c.into(), sb.radii[i], o, d, 0.0, r.tmax) {
-                        Some(t) => {
-                            best = Some((t, i as u32, 0.0, 0.0));
-                            t
+                    PointsBlasShape::Bubbles(bubbles) => {
+                        sb.bvh.ray_traverse(r, &mut rh, |r, id| {
+                            let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
+                            let b = Bubble { center: center(i), ..bubbles[i] };
+                            match b.intersect(o.into(), d.into(), 0.0, r.tmax) {
+                                Some(t) => {
+                                    let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
+                                    best = Some((t, i as u32, u, v));
+                                    t
+                                }
+                                None => f32::INFINITY,
+                            }
+                        });
+                    }
+                    PointsBlasShape::Blobby { a, threshold } => {
+                        // every kernel whose bounds the ray crosses, then the sweep along the ray
+                        let mut ids: Vec<u32> = Vec::new();
+                        sb.bvh.ray_traverse(r, &mut rh, |_, id| {
+                            ids.push(sb.bvh.primitive_indices[id] % sb.centers.len() as u32);
+                            f32::INFINITY
+                        });
+                        ids.sort_unstable();
+                        ids.dedup();
+                        let kernels: Vec<Kernel> = ids.iter().map(|&i| Kernel { center: center(i as usize), a: a[i as usize] }).collect();
+                        if let Some((t, k, n)) = implicit::blobby_intersect(&kernels, *threshold, o.into(), d.into(), 0.0, t_max) {
+                            let (u, v) = implicit::oct_encode(n);
+                            best = Some((t, ids[k], u, v));
                         }
-                        None => f32::INFINITY,
                     }
-                });
+                }
                 best
             }
             Blas::Empty => None,
         }
+    }
+
+    /// True when hits on `instance` carry their object-space normal in (u, v) (octahedral, see
+    /// [`implicit::oct_decode`]): bubbles and blobbies.
+    pub fn hit_carries_normal(&self, instance: u32) -> bool {
+        let inst = &self.instances[instance as usize];
+        matches!(self.blas[inst.blas].as_ref(), Blas::Sphere(SphereBlas { shape: PointsBlasShape::Bubbles(_) | PointsBlasShape::Blobby { .. }, .. }))
     }
 
     /// Centre of a sphere at a time (object space).

@@ -18,7 +18,7 @@ fn inst(g: GeometryRef, m: Vec<Mat4>, times: Vec<f32>) -> InstanceDesc {
 #[test]
 fn hits_a_translated_quad_and_a_sphere_in_order() {
     let meshes = vec![quad()];
-    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None }];
+    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
     let instances = vec![
         inst(GeometryRef::Mesh(0), vec![Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0))], vec![0.0]),
         inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0]),
@@ -76,7 +76,7 @@ fn rotation_is_interpolated_on_an_arc() {
 
 #[test]
 fn moving_spheres_follow_their_velocity() {
-    let s = SpheresDesc { name: "s".into(), centers: vec![Vec3::ZERO], radii: vec![0.1], velocities: Some(vec![Vec3::new(2.0, 0.0, 0.0)]) };
+    let s = SpheresDesc { name: "s".into(), centers: vec![Vec3::ZERO], radii: vec![0.1], velocities: Some(vec![Vec3::new(2.0, 0.0, 0.0)]), ..Default::default() };
     let a = Accel::build(&[], &[s], &[inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.5));
     let r = |x: f32, time| Ray { o: Vec3::new(x, 5.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert!(a.intersect(&r(0.0, 0.0)).is_some());
@@ -126,7 +126,7 @@ fn a_cache_reuses_the_bvh_of_unchanged_geometry_and_rebuilds_the_edited() {
         m
     };
     let meshes = vec![lifted(0.0), lifted(1.0), lifted(2.0)];
-    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 5.0, 0.0)], radii: vec![0.5], velocities: None }];
+    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 5.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
     let instances = |x: f32| {
         vec![
             inst(GeometryRef::Mesh(0), vec![moved(x)], vec![0.0]),
@@ -262,7 +262,7 @@ fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
     let keys = vec![key(-5.0), key(5.0)];
     m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: keys, normals: None });
     let both = [inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0]), inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])];
-    let far = SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, -50.0, 30.0)], radii: vec![0.5], velocities: None };
+    let far = SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, -50.0, 30.0)], radii: vec![0.5], velocities: None, ..Default::default() };
     let a = Accel::build(&[m], &[far], &both, (0.0, 1.0));
     let r = |x: f32, time| Ray { o: Vec3::new(x, 1.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert_eq!(a.intersect(&r(0.0, 0.5)).map(|h| h.instance), Some(0));
@@ -273,3 +273,6 @@ fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
     // world bounds hold the whole sweep
     assert!(a.bounds().0.x <= -6.0 && a.bounds().1.x >= 6.0);
 }
+
+#[path = "implicit_tests.rs"]
+mod implicit_tests;
