@@ -13,9 +13,9 @@
 
 use crate::mesh::read_points;
 use crate::value::{AttrStore, Interpolation, Problems};
-use glam::{Vec2, Vec3};
+use glam::{Quat, Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
-use tide_core::scene::{MeshDesc, SpheresDesc};
+use tide_core::scene::{MeshDesc, PointShape, SpheresDesc};
 
 /// Angular segments of tessellated round shapes.
 pub const SEGMENTS: u32 = 64;
@@ -127,7 +127,7 @@ fn positive(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f3
 /// UsdGeomSphere: one exact sphere.
 pub fn sphere(name: &str, store: &AttrStore, p: &mut Problems) -> SpheresDesc {
     let r = positive(store, "radius", 1.0, p);
-    SpheresDesc { name: name.into(), centers: vec![Vec3::ZERO], radii: vec![r], velocities: None }
+    SpheresDesc { name: name.into(), centers: vec![Vec3::ZERO], radii: vec![r], velocities: None, ..Default::default() }
 }
 
 /// UsdGeomCube: edge `size` (default 2), centred at the origin; 4 vertices per face.
@@ -299,7 +299,71 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     }
     out.spheres.velocities = vel.map(|_| vs);
     out.accelerations = acc.map(|_| as_);
+    // the points kept, for the per-point shape data
+    let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
+    out.spheres.shape = point_shape(store, n, &kept, &out.spheres.radii, p);
     out
+}
+
+/// Per-point floats of a primvar (one per point, or one for all), or None (absent or bad:
+/// reported under `attr`).
+fn per_point(store: &AttrStore, name: &str, attr: &str, tuple: usize, n: usize, p: &mut Problems) -> Option<Vec<f32>> {
+    let pv = store.primvar(name, Interpolation::Vertex)?;
+    let data = match pv.flatten() {
+        Ok(d) => d,
+        Err(e) => {
+            p.add(attr, format!("{}; ignored", e));
+            return None;
+        }
+    };
+    if pv.tuple as usize != tuple || data.iter().any(|x| !x.is_finite()) {
+        p.add(attr, format!("expected finite values of {} component(s); ignored", tuple));
+        return None;
+    }
+    match data.len() / tuple {
+        1 => Some((0..n).flat_map(|_| data.iter().copied()).collect()),
+        m if m >= n => Some(data[..n * tuple].to_vec()),
+        m => {
+            p.add(attr, format!("{} values for {} points; ignored", m, n));
+            None
+        }
+    }
+}
+
+/// What the points are (contract §5): blobby kernels (`TideBlobbyAPI`), bubbles
+/// (`TideBubbleAPI`) or spheres. `kept`: the indices of the points kept, `radii` theirs.
+fn point_shape(store: &AttrStore, n: usize, kept: &[usize], radii: &[f32], p: &mut Problems) -> PointShape {
+    let apis = store.get("apiSchemas").and_then(|v| v.to_strings()).unwrap_or_default();
+    let has_api = |a: &str| apis.iter().any(|s| s == a);
+    let blobby = has_api("TideBlobbyAPI") || store.has("tide:blobby:threshold");
+    let bubble = has_api("TideBubbleAPI") || store.primvars.contains_key("tide:bubble:top") || store.primvars.contains_key("tide:bubble:bottom");
+    if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
+        p.add("tide:droplets:asVolume", "droplets converted to a medium are not implemented; the droplets render as spheres (the exact result the medium would approximate)");
+    }
+    let pick = |v: Vec<f32>, tuple: usize| -> Vec<f32> { kept.iter().flat_map(|&i| v[i * tuple..(i + 1) * tuple].to_vec()).collect() };
+    let quats = |v: Vec<f32>| -> Vec<Quat> { pick(v, 4).chunks_exact(4).map(|c| Quat::from_xyzw(c[0], c[1], c[2], c[3])).collect() };
+    if blobby {
+        if bubble {
+            p.add("apiSchemas", "both TideBlobbyAPI and TideBubbleAPI; the points render as blobbies");
+        }
+        let threshold = store.f32_or("tide:blobby:threshold", 0.5, p);
+        let orientations = per_point(store, "tide:blobby:orientation", "primvars:tide:blobby:orientation", 4, n, p).map(quats);
+        let scales = per_point(store, "tide:blobby:scale", "primvars:tide:blobby:scale", 3, n, p)
+            .map(|v| pick(v, 3).chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect());
+        return PointShape::Blobby { threshold, orientations, scales };
+    }
+    if bubble {
+        // a missing height is the point's radius (half a sphere above, the quartic below)
+        let height = |name: &str, attr: &str, p: &mut Problems| match per_point(store, name, attr, 1, n, p) {
+            Some(v) => pick(v, 1),
+            None => radii.to_vec(),
+        };
+        let top = height("tide:bubble:top", "primvars:tide:bubble:top", p);
+        let bottom = height("tide:bubble:bottom", "primvars:tide:bubble:bottom", p);
+        let orientations = per_point(store, "tide:bubble:orientation", "primvars:tide:bubble:orientation", 4, n, p).map(quats);
+        return PointShape::Bubbles { top, bottom, orientations };
+    }
+    PointShape::Spheres
 }
 
 /// Folds accelerations into linear motion over the shutter [t0, t1] (seconds): the chord of
@@ -430,5 +494,37 @@ mod tests {
             let lin = f.centers[0] + f.velocities.as_ref().unwrap()[0] * t;
             assert!(close(exact, lin), "{:?} {:?}", exact, lin);
         }
+    }
+
+    /// TideBlobbyAPI / TideBubbleAPI pick the points' shape; per-point data follows the points
+    /// kept; bad data is named and replaced.
+    #[test]
+    fn points_shapes_from_the_api_schemas() {
+        let pts = Value::Floats { data: vec![0., 0., 0., f32::NAN, 0., 0., 1., 0., 0.], tuple: 3 };
+        let pv = |data: Vec<f32>, tuple: u32| Primvar { interpolation: Interpolation::Vertex, data, tuple, indices: None };
+        let apis = |a: &[&str]| Value::Paths(a.iter().map(|s| s.to_string()).collect());
+        // bubbles: heights per point (the NaN point's dropped), a constant orientation
+        let mut s = st(&[("points", pts.clone()), ("apiSchemas", apis(&["TideBubbleAPI"]))]);
+        s.primvars.insert("tide:bubble:top".into(), pv(vec![0.3, 0.4, 0.5], 1));
+        s.primvars.insert("tide:bubble:orientation".into(), pv(vec![0.0, 0.0, 0.0, 1.0], 4));
+        let mut p = Problems::new("/b");
+        let d = points("/b", &s, &mut p);
+        assert_eq!(
+            d.spheres.shape,
+            PointShape::Bubbles { top: vec![0.3, 0.5], bottom: vec![0.5, 0.5], orientations: Some(vec![Quat::IDENTITY; 2]) }
+        );
+        // blobbies: the threshold shows the API even without the schema list
+        let mut s = st(&[("points", pts.clone()), ("tide:blobby:threshold", Value::Float(0.4))]);
+        s.primvars.insert("tide:blobby:scale".into(), pv(vec![1.0, 2.0, 3.0, 1.0, 1.0, 1.0], 3));
+        let mut p = Problems::new("/k");
+        let d = points("/k", &s, &mut p);
+        let want = PointShape::Blobby { threshold: 0.4, orientations: None, scales: None };
+        assert_eq!(d.spheres.shape, want, "2 scales for 3 points");
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["points", "primvars:tide:blobby:scale"]);
+        // plain points; asVolume is reported, the droplets stay spheres
+        let s = st(&[("points", pts), ("tide:droplets:asVolume", Value::Bool(true))]);
+        let mut p = Problems::new("/d");
+        assert_eq!(points("/d", &s, &mut p).spheres.shape, PointShape::Spheres);
+        assert!(p.list.iter().any(|q| q.attribute == "tide:droplets:asVolume"));
     }
 }

@@ -755,6 +755,10 @@ class Reader:
         if ok is False:
             return None
         self._tide_attrs(prim, st)
+        # Tide's applied API schemas (TideBubbleAPI has no attribute of its own to show it)
+        tide_apis = [str(a) for a in prim.GetAppliedSchemas() if str(a).startswith("Tide")]
+        if tide_apis:
+            st.set("apiSchemas", ("paths", tuple(tide_apis)))
         return st
 
     def _eval_gprim(self, prim, dpath, source):
@@ -805,7 +809,13 @@ class Reader:
             value = pv.Get(self._time(0))
             if value is None:
                 continue
-            arr = np.asarray(value)
+            if hasattr(value, "__len__") and len(value) and isinstance(
+                    value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath)):
+                # quaternions as (i, j, k, real), as every quaternion is sent
+                arr = np.array([[q.GetImaginary()[0], q.GetImaginary()[1], q.GetImaginary()[2],
+                                 q.GetReal()] for q in value], dtype=np.float64)
+            else:
+                arr = np.asarray(value)
             if arr.dtype == object or arr.dtype.kind in "USO":
                 continue
             if arr.ndim == 0:
