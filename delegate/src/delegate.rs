@@ -791,6 +791,43 @@ impl Delegate {
                     if !motion {
                         s.velocities = None;
                     }
+                    if let Some((voxel, shell)) = pd.droplets {
+                        // droplets inside the cloud become a scattering medium; the shell stays spheres
+                        match tide_core::droplets::split(&s, voxel, shell) {
+                            Ok(split) => {
+                                if let Some(grid) = &split.grid {
+                                    scene.media.push(tide_core::scene::MediumDesc {
+                                        name: format!("{path} (droplets)"),
+                                        sigma_a: tide_core::scene::SpectrumDesc::Rgb([0.0; 3]),
+                                        sigma_s: tide_core::scene::SpectrumDesc::Rgb([1.0; 3]),
+                                        scale: 1.0,
+                                        phase: tide_core::droplets::droplet_phase(),
+                                        water: None,
+                                        method: tide_core::scene::MediumMethod::Volumetric,
+                                    });
+                                    let medium = scene.media.len() - 1;
+                                    let (mats, times) = place(&r.transforms);
+                                    for inst in &r.instance_transforms {
+                                        let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m * grid.local_to_world)).collect();
+                                        scene.volumes.push(tide_core::scene::VolumeDesc {
+                                            name: path.clone(),
+                                            density: tide_core::scene::GridDesc { local_to_world: keys[0].1, ..grid.clone() },
+                                            motion: if keys.len() >= 2 { keys } else { Vec::new() },
+                                            medium,
+                                            id: r.id,
+                                            visible_to_camera: true,
+                                            casts_shadows: true,
+                                        });
+                                    }
+                                }
+                                s = split.spheres;
+                            }
+                            Err(e) => ap.push(problem(path, "tide:droplets:voxelSize", format!("{e}; the droplets render as spheres"))),
+                        }
+                    }
+                    if s.centers.is_empty() {
+                        continue;
+                    }
                     scene.spheres.push(s);
                     parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
                 }

@@ -234,6 +234,8 @@ pub fn plane(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
 pub struct PointsData {
     pub spheres: SpheresDesc,
     pub accelerations: Option<Vec<Vec3>>,
+    /// `TideDropletsAPI` with `asVolume`: (voxel size, shell) in metres.
+    pub droplets: Option<(f32, f32)>,
 }
 
 fn per_point_vec3(store: &AttrStore, name: &str, n: usize, p: &mut Problems) -> Option<Vec<Vec3>> {
@@ -274,7 +276,7 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     };
     let vel = per_point_vec3(store, "velocities", n, p);
     let acc = per_point_vec3(store, "accelerations", n, p);
-    let mut out = PointsData { spheres: SpheresDesc { name: name.into(), ..Default::default() }, accelerations: None };
+    let mut out = PointsData { spheres: SpheresDesc { name: name.into(), ..Default::default() }, accelerations: None, droplets: None };
     let mut n_bad_w = 0;
     let (mut vs, mut as_) = (Vec::new(), Vec::new());
     for i in 0..n {
@@ -302,6 +304,23 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     // the points kept, for the per-point shape data
     let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
     out.spheres.shape = point_shape(store, n, &kept, &out.spheres.radii, p);
+    if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
+        if out.spheres.shape != PointShape::Spheres {
+            p.add("tide:droplets:asVolume", "droplets become a medium only as plain spheres, not as bubbles or blobbies; ignored");
+        } else {
+            let mut voxel = store.f32_or("tide:droplets:voxelSize", 0.01, p);
+            if !(voxel > 0.0) {
+                p.add("tide:droplets:voxelSize", format!("{} is not positive; using 0.01", voxel));
+                voxel = 0.01;
+            }
+            let mut shell = store.f32_or("tide:droplets:shell", 0.0, p);
+            if !(shell >= 0.0) {
+                p.add("tide:droplets:shell", format!("{} is negative; using 0", shell));
+                shell = 0.0;
+            }
+            out.droplets = Some((voxel, shell));
+        }
+    }
     out
 }
 
@@ -337,9 +356,6 @@ fn point_shape(store: &AttrStore, n: usize, kept: &[usize], radii: &[f32], p: &m
     let has_api = |a: &str| apis.iter().any(|s| s == a);
     let blobby = has_api("TideBlobbyAPI") || store.has("tide:blobby:threshold");
     let bubble = has_api("TideBubbleAPI") || store.primvars.contains_key("tide:bubble:top") || store.primvars.contains_key("tide:bubble:bottom");
-    if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
-        p.add("tide:droplets:asVolume", "droplets converted to a medium are not implemented; the droplets render as spheres (the exact result the medium would approximate)");
-    }
     let pick = |v: Vec<f32>, tuple: usize| -> Vec<f32> { kept.iter().flat_map(|&i| v[i * tuple..(i + 1) * tuple].to_vec()).collect() };
     let quats = |v: Vec<f32>| -> Vec<Quat> { pick(v, 4).chunks_exact(4).map(|c| Quat::from_xyzw(c[0], c[1], c[2], c[3])).collect() };
     if blobby {
@@ -521,10 +537,18 @@ mod tests {
         let want = PointShape::Blobby { threshold: 0.4, orientations: None, scales: None };
         assert_eq!(d.spheres.shape, want, "2 scales for 3 points");
         assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["points", "primvars:tide:blobby:scale"]);
-        // plain points; asVolume is reported, the droplets stay spheres
-        let s = st(&[("points", pts), ("tide:droplets:asVolume", Value::Bool(true))]);
+        // droplets as a medium: the voxel size and shell (a bad voxel size named and replaced);
+        // on blobbies asVolume is refused and named
+        let s = st(&[("points", pts.clone()), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:droplets:shell", Value::Float(0.2))]);
+        let d = points("/d", &s, &mut Problems::new("/d"));
+        assert_eq!((d.spheres.shape.clone(), d.droplets), (PointShape::Spheres, Some((0.01, 0.2))));
+        let s = st(&[("points", pts.clone()), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:droplets:voxelSize", Value::Float(-1.0))]);
         let mut p = Problems::new("/d");
-        assert_eq!(points("/d", &s, &mut p).spheres.shape, PointShape::Spheres);
+        assert_eq!(points("/d", &s, &mut p).droplets, Some((0.01, 0.0)));
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["points", "tide:droplets:voxelSize"]);
+        let s = st(&[("points", pts), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:blobby:threshold", Value::Float(0.5))]);
+        let mut p = Problems::new("/d");
+        assert_eq!(points("/d", &s, &mut p).droplets, None);
         assert!(p.list.iter().any(|q| q.attribute == "tide:droplets:asVolume"));
     }
 }

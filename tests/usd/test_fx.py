@@ -142,3 +142,57 @@ def test_a_bubble_turns_with_its_orientation(module, stage):
     assert abs(col - 2 * r * _px_per_unit()) < 1.5, (col, 2 * r * _px_per_unit())
     # +Y of the bubble now points to -X: more of it lies left of the centre
     assert d[:, :mid].sum() > d[:, mid:].sum() * 1.3
+
+
+def _droplet_cloud(stage, as_volume):
+    """20000 droplets of radius 5 mm at random in a 1 m cube (optical depth about 1.6 across),
+    in front of a black backdrop that hides the dome within about 45 degrees of the view
+    direction behind the cloud: the cloud shows by the dome light it scatters towards the camera
+    through larger angles, which depends on both its scattering coefficient and its phase
+    function."""
+    camera(stage, pos=(0, 0, 4), focal=50.0, aperture=(AP, AP))
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateIntensityAttr(1.0)
+    settings(stage, res=(32, 32), samples=256, integrator="path")
+    black = lambert_material(stage, "/Looks/Black", (0, 0, 0))
+    back = UsdGeom.Mesh.Define(stage, "/Backdrop")
+    back.CreatePointsAttr([(-3, -3, -3), (3, -3, -3), (3, 3, -3), (-3, 3, -3)])
+    back.CreateFaceVertexCountsAttr([4])
+    back.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    bind(back.GetPrim(), black)
+    from pxr import UsdShade
+    water = UsdShade.Material.Define(stage, "/Looks/Water")
+    sh = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
+    sh.CreateIdAttr("TideWater")
+    water.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    rng = np.random.default_rng(7)
+    pts = rng.uniform(-0.5, 0.5, size=(20000, 3))
+    p = _points(stage, "/Spray", [tuple(map(float, x)) for x in pts], [0.01] * len(pts))
+    bind(p.GetPrim(), water)
+    if as_volume:
+        p.GetPrim().ApplyAPI("TideDropletsAPI")
+        p.GetPrim().GetAttribute("tide:droplets:asVolume").Set(True)
+        p.GetPrim().GetAttribute("tide:droplets:voxelSize").Set(0.1)
+    return stage
+
+
+def test_droplets_as_a_medium_match_the_droplets(module, stage):
+    """TideDropletsAPI: the same cloud traced as 20000 water spheres (the reference) and as the
+    medium its droplets become (sigma_s from their cross-section, the phase function of a
+    water sphere) scatters the same dome light towards the camera."""
+    from pxr import Usd
+    spheres = render(module, _droplet_cloud(stage, False))["color"][..., :3].astype(np.float64)
+    vol_stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(vol_stage, UsdGeom.Tokens.y)
+    medium = render(module, _droplet_cloud(vol_stage, True))["color"][..., :3].astype(np.float64)
+    # the cloud's square: +-0.5 at distance 3.5..4.5 projects to about +-12 px of 32; take the
+    # middle 16 x 16
+    a, b = spheres[8:24, 8:24].mean(axis=2), medium[8:24, 8:24].mean(axis=2)
+    # the standard error of the mean difference (the cloud's shading, common to both, cancels)
+    se = (a - b).std(ddof=1) / math.sqrt(a.size)
+    print("spheres %.4f, medium %.4f, se %.4f" % (a.mean(), b.mean(), se))
+    assert a.mean() > 0.05, a.mean()      # the cloud is seen at all
+    # independent scattering by dilute droplets (volume fraction 1 %): 8 % model tolerance
+    assert abs(a.mean() - b.mean()) < 0.08 * a.mean() + 4 * se, (a.mean(), b.mean(), se)
+    # and outside the cloud both see the black backdrop
+    assert spheres[:3].mean() < 0.02 and medium[:3].mean() < 0.02
