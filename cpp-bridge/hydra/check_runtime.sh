@@ -136,4 +136,6 @@ compare "$here/check_stage_tide.usda" sceneIndex || exit $?
 echo "rendering check_stage_wet.usda (a material's TideWetAPI) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_wet.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_fx.usda (bubbles and blobbies) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_fx.usda" delegate sceneIndex
+compare "$here/check_stage_fx.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_motion.usda (the stage's frame rate, with the camera) through UsdImaging's scene indices and through tide render"
+compare "$here/check_stage_motion.usda" sceneIndex

@@ -642,7 +642,6 @@ impl Delegate {
             Some(Cached { piece: Piece::Settings(s), .. }) => s.clone(),
             _ => SettingsPiece::default(),
         };
-        let tcps = sp.time_codes_per_second;
         let cam_path = [self.active_camera.clone(), sp.camera.clone()]
             .into_iter()
             .flatten()
@@ -658,6 +657,12 @@ impl Delegate {
             Some(Cached { piece: Piece::Camera(c), .. }) => Some(c.clone()),
             _ => None,
         });
+        // frames to seconds: the settings' rate (the reader's), else the one a Hydra plugin
+        // sent with the camera, else 24
+        let tcps = match (sp.time_codes_authored, cam.as_ref().and_then(|c| c.time_codes_per_second)) {
+            (false, Some(t)) => t,
+            _ => sp.time_codes_per_second,
+        };
         let (open, close) = cam.as_ref().map_or((0.0, 0.0), |c| (c.desc.shutter_open as f64, c.desc.shutter_close as f64));
         let motion = !sp.settings.disable_motion_blur && close > open;
         let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
@@ -1326,6 +1331,26 @@ mod tests {
 
     fn motion_of<'a>(d: &'a Delegate, inst: &str) -> Option<&'a tide_core::scene::MeshMotion> {
         mesh_of(d, inst).motion.as_ref()
+    }
+
+    /// Through Hydra the settings carry no frame rate: the one the plugin sends with the camera
+    /// turns frames into seconds; the settings' (the reader's) wins where given.
+    #[test]
+    fn the_frame_rate_comes_from_the_camera_when_the_settings_have_none() {
+        let mut d = Delegate::new();
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "shutter:open", Value::Float(-0.5), None);
+        d.set_attribute("/cam", "shutter:close", Value::Float(0.5), None);
+        d.set_attribute("/cam", "timeCodesPerSecond", Value::Float(10.0), None);
+        quad(&mut d, "/Moving");
+        d.set_attribute("/Moving", "velocities", floats(&[2., 0., 0.].repeat(4), 3), None);
+        assert_eq!(d.commit_resources(), []);
+        // ±0.5 frame at 10 frames per second = ±0.05 s
+        assert_eq!(motion_of(&d, "/Moving").unwrap().times, vec![-0.05, 0.05]);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "timeCodesPerSecond", Value::Float(25.0), None);
+        d.commit_resources();
+        assert_eq!(motion_of(&d, "/Moving").unwrap().times, vec![-0.02, 0.02]);
     }
 
     #[test]

@@ -275,6 +275,9 @@ pub struct CameraPiece {
     pub desc: CameraDesc,
     pub transforms: Vec<(f64, Mat4)>,
     pub medium: Option<String>,
+    /// The stage's `timeCodesPerSecond` as a Hydra plugin hands it on with the camera (the
+    /// usdImagingTide adapter); the settings' value wins where the reader authored one.
+    pub time_codes_per_second: Option<f64>,
 }
 
 /// Converts a camera. Zero or negative apertures / focal length become problems and defaults.
@@ -334,10 +337,18 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         medium: None,
         filter,
     };
+    let time_codes_per_second = store.has("timeCodesPerSecond").then(|| store.f32_or("timeCodesPerSecond", 24.0, p) as f64).filter(|t| {
+        let ok = *t > 0.0;
+        if !ok {
+            p.add("timeCodesPerSecond", "must be positive; ignored");
+        }
+        ok
+    });
     CameraPiece {
         desc,
         transforms: store.matrix_samples("transform", p),
         medium: store.str_opt("tide:medium").filter(|s| !s.is_empty()).map(String::from),
+        time_codes_per_second,
     }
 }
 
@@ -370,6 +381,8 @@ pub struct SettingsPiece {
     pub included_purposes: Vec<String>,
     pub color_space: ColorSpace,
     pub time_codes_per_second: f64,
+    /// Whether `timeCodesPerSecond` was given (the reader always gives it; Hydra does not).
+    pub time_codes_authored: bool,
     pub adaptive_threshold: f32,
     pub products: Vec<RenderProductDesc>,
 }
@@ -383,6 +396,7 @@ impl Default for SettingsPiece {
             included_purposes: vec!["default".into(), "render".into()],
             color_space: ColorSpace::LinearRec709,
             time_codes_per_second: 24.0,
+            time_codes_authored: false,
             adaptive_threshold: 0.0,
             products: Vec::new(),
         }
@@ -510,6 +524,7 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
         included_purposes,
         color_space,
         time_codes_per_second,
+        time_codes_authored: store.has("timeCodesPerSecond"),
         adaptive_threshold,
         products,
     }

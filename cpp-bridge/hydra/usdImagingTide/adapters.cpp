@@ -10,6 +10,7 @@
 #include "pxr/imaging/hd/retainedDataSource.h"
 #include "pxr/usd/usd/relationship.h"
 #include "pxr/usd/usd/stage.h"
+#include "pxr/usd/usdGeom/camera.h"
 #include "pxr/usd/usdShade/material.h"
 #include "pxr/usdImaging/usdImaging/dataSourceAttribute.h"
 #include "pxr/usdImaging/usdImaging/dataSourceGprim.h"
@@ -205,6 +206,12 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
             names.push_back(name);
             values.push_back(HdRetainedTypedSampledDataSource<SdfPath>::New(targets.empty() ? SdfPath() : targets[0]));
         }
+    }
+    // a camera also carries the stage's frame rate: Hydra's shutter is in frames, and nothing
+    // else tells a render delegate how long a frame is
+    if (prim.IsA<UsdGeomCamera>()) {
+        names.push_back(TfToken("timeCodesPerSecond"));
+        values.push_back(HdRetainedTypedSampledDataSource<double>::New(prim.GetStage()->GetTimeCodesPerSecond()));
     }
     if (names.empty()) return nullptr;
     return HdRetainedContainerDataSource::New(
