@@ -355,6 +355,16 @@ impl Kernel {
         (self.a.transpose() * (self.a * w)) * (-6.0 * (1.0 - q) * (1.0 - q))
     }
 
+    /// Where the ray o + t·d first enters the set q ≤ `level` (None if it misses it).
+    pub fn entry(&self, o: Vec3, d: Vec3, level: f32) -> Option<f32> {
+        let (al, be, ga) = self.along(o, d);
+        if !(ga > 0.0) {
+            return None;
+        }
+        let disc = be * be - 4.0 * ga * (al - level as f64);
+        (disc >= 0.0).then(|| ((-be - disc.sqrt()) / (2.0 * ga)) as f32)
+    }
+
     /// q along the ray as γt² + βt + α: (α, β, γ).
     #[inline]
     fn along(&self, o: Vec3, d: Vec3) -> (f64, f64, f64) {
@@ -444,6 +454,22 @@ pub fn blobby_intersect(
             next += 1;
         }
         if active.is_empty() {
+            continue;
+        }
+        // bounds of φ over the piece from each kernel's q range on it (q is a convex quadratic:
+        // its least value at the vertex or an end, its largest at an end): where φ cannot
+        // change sign, there is no root to look for
+        let (mut upper, mut lower) = (-(threshold as f64), -(threshold as f64));
+        for &j in &active {
+            let (al, be, ga) = spans[j].3;
+            let q = |t: f64| al + be * t + ga * t * t;
+            let vertex = (-be / (2.0 * ga)).clamp(a, b);
+            let (qa, qb) = (q(a), q(b));
+            let (q_lo, q_hi) = (q(vertex).min(qa).min(qb).max(0.0), qa.max(qb).min(1.0));
+            upper += (1.0 - q_lo).powi(3);
+            lower += (1.0 - q_hi).max(0.0).powi(3);
+        }
+        if upper < 0.0 || lower > 0.0 {
             continue;
         }
         // φ(a + u) = Σ (1 − q(a + u))³ − T

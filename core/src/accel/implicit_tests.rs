@@ -296,6 +296,13 @@ fn the_bvh_finds_what_the_primitives_say() {
             (None, None) => {}
             (h, w) => panic!("{h:?} vs {w:?}"),
         }
+        // from inside the water (a kernel's centre): the exit, found by the second gathering
+        let inside = centers[(rng.next_f32() * 4.0) as usize % 4] + Vec3::new(0.5, 0.0, 0.0) * time;
+        let dir = unit(&mut rng);
+        let ray = Ray { o: inside + Vec3::new(0.0, 0.0, -3.0), d: dir, t_max: 9.0, time };
+        let want = blobby_intersect(&moved, threshold, inside, dir, 0.0, 9.0).expect("an exit");
+        let h = a.intersect(&ray).expect("an exit through the BVH");
+        assert!((h.t - want.0).abs() < 1e-5 * (1.0 + want.0), "exit {} vs {}", h.t, want.0);
         // the bubbles
         let o = Vec3::X * 30.0 + unit(&mut rng) * 5.0;
         let d = (Vec3::X * 30.0 + unit(&mut rng) * rng.next_f32() - o).normalize();

@@ -564,18 +564,49 @@ impl Accel {
                         });
                     }
                     PointsBlasShape::Blobby { a, threshold } => {
-                        // every kernel whose bounds the ray crosses, then the sweep along the ray
-                        let mut ids: Vec<u32> = Vec::new();
-                        sb.bvh.ray_traverse(r, &mut rh, |_, id| {
-                            ids.push(sb.bvh.primitive_indices[id] % sb.centers.len() as u32);
-                            f32::INFINITY
-                        });
-                        ids.sort_unstable();
-                        ids.dedup();
-                        let kernels: Vec<Kernel> = ids.iter().map(|&i| Kernel { center: center(i as usize), a: a[i as usize] }).collect();
-                        if let Some((t, k, n)) = implicit::blobby_intersect(&kernels, *threshold, o.into(), d.into(), 0.0, t_max) {
+                        // Every kernel whose bounds the ray crosses, then the sweep along the ray.
+                        // First pass: a kernel's inner core (where it alone reaches T) is inside
+                        // the surface, so a ray from outside crosses the surface before the first
+                        // core it enters: the gathering stops there. A ray from inside (no root
+                        // before that core) gathers everything in a second pass.
+                        let core = 1.0 - threshold.cbrt();
+                        let gather = |prune: bool| {
+                            let mut ids: Vec<u32> = Vec::new();
+                            let mut rh = RayHit::none();
+                            let mut reach = t_max;
+                            sb.bvh.ray_traverse(bvh_ray(o, d, t_max), &mut rh, |r, id| {
+                                let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
+                                ids.push(i as u32);
+                                if !prune {
+                                    return f32::INFINITY;
+                                }
+                                let k = Kernel { center: center(i), a: a[i] };
+                                match k.entry(o.into(), d.into(), core) {
+                                    Some(t) if t > 0.0 && t < r.tmax => {
+                                        reach = reach.min(t);
+                                        t
+                                    }
+                                    _ => f32::INFINITY,
+                                }
+                            });
+                            ids.sort_unstable();
+                            ids.dedup();
+                            (ids, reach)
+                        };
+                        let solve = |ids: &[u32], reach: f32| {
+                            let kernels: Vec<Kernel> = ids.iter().map(|&i| Kernel { center: center(i as usize), a: a[i as usize] }).collect();
+                            implicit::blobby_intersect(&kernels, *threshold, o.into(), d.into(), 0.0, reach).map(|(t, k, n)| (t, ids[k], n))
+                        };
+                        let (ids, reach) = gather(true);
+                        // a little past the core's entry, where φ ≥ 0 holds strictly
+                        let mut found = solve(&ids, if reach < t_max { (reach * (1.0 + 1e-5)).min(t_max) } else { t_max });
+                        if found.is_none() && reach < t_max {
+                            let (ids, _) = gather(false);
+                            found = solve(&ids, t_max);
+                        }
+                        if let Some((t, i, n)) = found {
                             let (u, v) = implicit::oct_encode(n);
-                            best = Some((t, ids[k], u, v));
+                            best = Some((t, i, u, v));
                         }
                     }
                 }
