@@ -10,27 +10,13 @@
 //! blobby/sphere and bubble/sphere throughput ratios, and how many of 256 blobby hits agree with
 //! the direct intersection over all kernels (the BVH's candidate gathering checked).
 
+mod common;
+use common::Rng;
 use glam::{Mat4, Quat, Vec3};
 use std::time::Instant;
 use tide_core::accel::implicit::{blobby_intersect, Kernel};
 use tide_core::accel::{Accel, Ray};
 use tide_core::scene::{GeometryRef, InstanceDesc, PointShape, SpheresDesc};
-
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn dir(&mut self) -> Vec3 {
-        let z = 2.0 * self.next() - 1.0;
-        let p = std::f32::consts::TAU * self.next();
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * p.cos(), r * p.sin(), z)
-    }
-}
 
 fn sheet(n: usize, rng: &mut Rng) -> SpheresDesc {
     let mut s = SpheresDesc { name: "/Splash".into(), ..Default::default() };

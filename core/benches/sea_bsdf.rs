@@ -8,27 +8,12 @@
 //! sets (1024 pairs), wind 10 m/s; each figure is ns per call, the best of 5 passes. Prints one
 //! JSON line.
 
+mod common;
+use common::Rng;
 use glam::{Vec2, Vec3};
 use std::hint::black_box;
 use std::time::Instant;
 use tide_core::bsdf::{Bsdf, TransportMode};
-
-/// A small deterministic generator (xorshift64*), uniform in [0, 1).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> f32 {
-        self.0 ^= self.0 >> 12;
-        self.0 ^= self.0 << 25;
-        self.0 ^= self.0 >> 27;
-        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
-    }
-    fn dir(&mut self) -> Vec3 {
-        let z = 2.0 * self.next() - 1.0;
-        let p = std::f32::consts::TAU * self.next();
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new(r * p.cos(), r * p.sin(), z)
-    }
-}
 
 fn best_ns(calls: usize, mut pass: impl FnMut() -> f32) -> f64 {
     (0..5)
