@@ -67,6 +67,21 @@ def test_edit_a_shader_input(stage, delegate):
     assert delegate.last_synced() == ["/Looks/Red"]
 
 
+def test_wet_a_material(stage, delegate):
+    """Applying TideWetAPI to a material and editing its amount re-syncs that material only."""
+    _scene(stage)
+    reader, _ = load(stage, delegate)
+    red = stage.GetPrimAtPath("/Looks/Red")
+    red.ApplyAPI("TideWetAPI")
+    reader.update()
+    assert delegate.last_synced() == ["/Looks/Red"]
+    assert delegate.value("/Looks/Red", "tide:wet:amount") == 0.0
+    red.GetAttribute("tide:wet:amount").Set(0.75)
+    reader.update()
+    assert delegate.last_synced() == ["/Looks/Red"]
+    assert delegate.value("/Looks/Red", "tide:wet:amount") == 0.75
+
+
 def test_add_and_remove_prims(stage, delegate):
     _scene(stage)
     reader, _ = load(stage, delegate)
