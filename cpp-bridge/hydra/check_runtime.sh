@@ -131,8 +131,8 @@ PY
 # the plugin's own discovery plugin
 echo "rendering check_stage.usda through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_tide.usda (Tide's own prims and attributes) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_tide.usda" sceneIndex || exit $?
+echo "rendering check_stage_tide.usda (Tide's own prims and attributes) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_tide.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_wet.usda (a material's TideWetAPI) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_wet.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_fx.usda (bubbles and blobbies) through UsdImaging (scene delegate, then scene indices) and through tide render"

@@ -341,6 +341,15 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
     } else {
         for (Param const& p : LightParams()) _Put(p.key, sd->GetLightParamValue(id, p.hd));
         _PutTideAttributes(sd, id);
+        // Without the scene indices' `tide` container (UsdImaging's scene delegate, whose Get
+        // reads attributes only) a sky's tide:sky:sun relationship cannot arrive: say so, and
+        // the delegate takes the scene's only DistantLight as the sun
+        if (!SceneIndexContainer(sd, id, TfToken("tide"))) {
+            bool sky = false;
+            for (const char* k : {"tide:sky:model", "tide:sky:turbidity", "tide:sky:groundAlbedo", "tide:sky:physicalSun"})
+                sky = sky || !_store.Get(_path, k).IsEmpty();
+            if (sky) _Put("tide:sky:sunUnreadable", VtValue(true));
+        }
         _Put("transform", VtValue(sd->GetTransform(id)));
         _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource | ChangeTracker::DirtyTransform;

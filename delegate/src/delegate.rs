@@ -959,6 +959,31 @@ impl Delegate {
             let m3 = glam::Mat3::from_mat4(l.desc.transform);
             let zenith = (m3 * Vec3::Y).normalize_or_zero();
             let zenith = if zenith == Vec3::ZERO { Vec3::Y } else { zenith };
+            // where the relationship cannot arrive (a Hydra scene delegate), the only DistantLight
+            let distant: Vec<&String> = self
+                .cache
+                .iter()
+                .filter(|(_, c)| matches!(&c.piece, Piece::Light(Some(sl)) if matches!(sl.desc.shape, LightShape::Distant { .. })))
+                .map(|(p, _)| p)
+                .collect();
+            let sun_path: Option<String> = match (&sky.sun, sky.sun_unreadable, distant.as_slice()) {
+                (Some(s), _, _) => Some(s.clone()),
+                (None, true, [only]) => {
+                    ap.push(problem(path, "tide:sky:sun", format!("the relationship cannot be read through this Hydra scene delegate; the scene's only DistantLight '{only}' is the sun")));
+                    Some((*only).clone())
+                }
+                (None, true, _) => {
+                    ap.push(problem(
+                        path,
+                        "tide:sky:sun",
+                        format!("the relationship cannot be read through this Hydra scene delegate and the scene has {} DistantLights; the sun stands {}° above the horizon", distant.len(), lux::DEFAULT_SUN_ELEVATION_DEG),
+                    ));
+                    None
+                }
+                (None, false, _) => None,
+            };
+            let sky = lux::SkyPiece { sun: sun_path, ..sky.clone() };
+            let sky = &sky;
             let sun_light = sky.sun.as_deref().and_then(|s| match self.cache.get(s).map(|c| &c.piece) {
                 Some(Piece::Light(Some(sl))) if matches!(sl.desc.shape, LightShape::Distant { .. }) => Some(sl),
                 _ => {
@@ -1701,6 +1726,36 @@ mod tests {
         let w = tide_core::world::World::build(s, &RenderSettings { width: 4, height: 4, ..Default::default() }, &mut probs);
         assert!(probs.is_empty(), "{probs:?}");
         assert_eq!(w.lights.len(), 2);
+    }
+
+    /// Through a Hydra scene delegate the sun relationship cannot arrive: the plugin says so, and
+    /// the scene's only DistantLight is the sun (said as a problem); with two, none is guessed.
+    #[test]
+    fn an_unreadable_sun_relationship_takes_the_only_distant_light() {
+        let mut d = Delegate::new();
+        d.create_prim("domeLight", "/Sky");
+        d.set_attribute("/Sky", "tide:sky:model", tok("hosekWilkie"), None);
+        d.set_attribute("/Sky", "tide:sky:physicalSun", Value::Bool(true), None);
+        d.set_attribute("/Sky", "tide:sky:sunUnreadable", Value::Bool(true), None);
+        sun_at(&mut d, "/Sun", 30.0);
+        let p = d.commit_resources();
+        assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/Sky", "tide:sky:sun")], "{p:?}");
+        assert!(p[0].message.contains("'/Sun' is the sun"), "{}", p[0].message);
+        let sky = d.scene().lights.iter().find(|l| l.name == "/Sky").unwrap().shape.clone();
+        let LightShape::Sky { sun_direction, .. } = sky else { panic!() };
+        assert!((sun_direction.dot(Vec3::Y) - 30f32.to_radians().sin()).abs() < 1e-5, "{sun_direction}");
+        assert!(matches!(d.scene().lights.iter().find(|l| l.name == "/Sun").unwrap().shape, LightShape::SkySun { .. }));
+        // a second DistantLight: no guess, the default elevation
+        sun_at(&mut d, "/Moon", 60.0);
+        let p = d.commit_resources();
+        assert!(p.iter().any(|q| q.attribute == "tide:sky:sun" && q.message.contains("2 DistantLights")), "{p:?}");
+        let LightShape::Sky { sun_direction, .. } = d.scene().lights.iter().find(|l| l.name == "/Sky").unwrap().shape.clone() else { panic!() };
+        assert!((sun_direction.dot(Vec3::Y) - lux::DEFAULT_SUN_ELEVATION_DEG.to_radians().sin()).abs() < 1e-5);
+        // without the plugin's word (the reader: an unauthored relationship), nothing is guessed
+        d.set_attribute("/Sky", "tide:sky:sunUnreadable", Value::Bool(false), None);
+        d.destroy_prim("/Moon");
+        let p = d.commit_resources();
+        assert!(!p.iter().any(|q| q.attribute == "tide:sky:sun"), "{p:?}");
     }
 
     #[test]

@@ -102,6 +102,9 @@ pub struct SkyPiece {
     pub sun: Option<String>,
     /// `tide:sky:physicalSun`: that light emits the solar model's radiance.
     pub physical_sun: bool,
+    /// `tide:sky:sunUnreadable`: a Hydra plugin says the relationship cannot reach it (a scene
+    /// delegate's `Get` reads attributes only); the scene's only DistantLight then stands in.
+    pub sun_unreadable: bool,
 }
 
 /// Where the sky's sun stands when `tide:sky:sun` names no light: 45° above the horizon,
@@ -141,11 +144,12 @@ fn convert_sky(store: &AttrStore, p: &mut Problems) -> Option<(LightShape, SkyPi
     };
     let sun = store.str_opt("tide:sky:sun").filter(|s| !s.is_empty()).map(String::from);
     let physical_sun = store.bool_or("tide:sky:physicalSun", false, p);
-    if physical_sun && sun.is_none() {
+    let sun_unreadable = store.get("tide:sky:sunUnreadable").and_then(|v| v.as_bool()).unwrap_or(false);
+    if physical_sun && sun.is_none() && !sun_unreadable {
         p.add("tide:sky:physicalSun", "no tide:sky:sun light to give the solar radiance to; the sky has no sun disc");
     }
     let shape = LightShape::Sky { turbidity, ground_albedo: ground.to_array(), sun_direction: Vec3::Y, scale: tide_core::sky::nits_per_model_unit() };
-    Some((shape, SkyPiece { sun, physical_sun }))
+    Some((shape, SkyPiece { sun, physical_sun, sun_unreadable }))
 }
 
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
