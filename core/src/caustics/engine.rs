@@ -622,15 +622,28 @@ impl Caustics {
                 ray.o = offset_ray_origin(s_hit.p, if front { -s_hit.ng } else { s_hit.ng });
                 ray.t_max = f32::INFINITY;
             };
+            // a crossing without scattering: counted (at most 128 per photon), the ray goes on
+            macro_rules! cross_on {
+                () => {{
+                    null_events += 1;
+                    if null_events > 128 {
+                        return;
+                    }
+                    pass_through(&mut ray);
+                    continue;
+                }};
+            }
             // surfaces transparent to paths after a non-specular bounce are not seen by light
             // paths that end on receivers either
             if matches!(roles.transparency, CausticsTransparency::AfterDiffuse | CausticsTransparency::All) {
-                null_events += 1;
-                if null_events > 128 {
-                    return;
-                }
-                pass_through(&mut ray);
-                continue;
+                cross_on!();
+            }
+            // a volume's box is no surface: the photon goes on in (or out of) its medium, the
+            // transmittance above accounting for the volume (it is not the caster the photon
+            // was aimed at, which still lies ahead)
+            if world.materials[world.instances[inst].material].is_medium_boundary() {
+                stack.cross(world, &s_hit, front, &lambda);
+                cross_on!();
             }
             if first {
                 if self.instance_group[inst] != s.caster {
@@ -641,22 +654,12 @@ impl Caustics {
             let mat_i = world.instances[inst].material;
             let opacity = world.opacity(mat_i, s_hit.uv);
             if opacity < 1.0 && stream.next_f32() >= opacity {
-                null_events += 1;
-                if null_events > 128 {
-                    return;
-                }
-                pass_through(&mut ray);
-                continue;
+                cross_on!();
             }
             let boundary = classify_boundary(world, &s_hit, front, &stack, &lambda);
             if let Boundary::False = boundary {
                 stack.cross(world, &s_hit, front, &lambda);
-                null_events += 1;
-                if null_events > 128 {
-                    return;
-                }
-                pass_through(&mut ray);
-                continue;
+                cross_on!();
             }
             if let Boundary::Real { .. } = boundary {
                 if world.materials[mat_i].dielectric().is_some_and(|d| d.dispersion.is_some()) && !lambda.secondary_terminated() {
