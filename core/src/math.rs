@@ -215,3 +215,58 @@ mod tests {
         }
     }
 }
+
+#[inline]
+fn sign_nonneg(x: f32) -> f32 {
+    if x >= 0.0 {
+        1.0
+    } else {
+        -1.0
+    }
+}
+
+/// Octahedral mapping of a unit vector to [−1, 1]² (the photon map quantises it; hits on
+/// implicit primitives carry it as is).
+#[inline]
+pub fn oct_encode(v: Vec3) -> Vec2 {
+    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
+    if !(l1 > 0.0) {
+        return Vec2::ZERO;
+    }
+    let (x, y) = (v.x / l1, v.y / l1);
+    if v.z < 0.0 {
+        Vec2::new((1.0 - y.abs()) * sign_nonneg(x), (1.0 - x.abs()) * sign_nonneg(y))
+    } else {
+        Vec2::new(x, y)
+    }
+}
+
+/// The inverse of [`oct_encode`]: a unit vector.
+#[inline]
+pub fn oct_decode(e: Vec2) -> Vec3 {
+    let (x, y) = (e.x, e.y);
+    let z = 1.0 - x.abs() - y.abs();
+    let (x, y) = if z < 0.0 { ((1.0 - y.abs()) * sign_nonneg(x), (1.0 - x.abs()) * sign_nonneg(y)) } else { (x, y) };
+    Vec3::new(x, y, z).normalize_or_zero()
+}
+
+/// Real roots of a t² + b t + c = 0, smaller first (the numerically stable form); None without
+/// real roots. A linear equation (a = 0) gives its root twice.
+#[inline]
+pub fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
+    if a == 0.0 {
+        if b == 0.0 {
+            return None;
+        }
+        let t = -c / b;
+        return Some((t, t));
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return None;
+    }
+    let q = -0.5 * (b + disc.sqrt().copysign(b));
+    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
+    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
+}
+

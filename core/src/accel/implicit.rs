@@ -17,33 +17,20 @@
 //! Hits on these primitives carry their object-space normal in the hit's (u, v), octahedrally
 //! encoded ([`oct_encode`]), so shading needs no second query.
 
+use crate::math::solve_quadratic;
 use glam::{Mat3, Quat, Vec3};
 
-/// Octahedral encoding of a unit vector into [−1, 1]².
+/// Octahedral encoding of a unit vector into [−1, 1]² ([`crate::math::oct_encode`]).
 #[inline]
 pub fn oct_encode(n: Vec3) -> (f32, f32) {
-    let s = n.x.abs() + n.y.abs() + n.z.abs();
-    if !(s > 0.0) {
-        return (0.0, 0.0);
-    }
-    let (x, y, z) = (n.x / s, n.y / s, n.z / s);
-    if z >= 0.0 {
-        (x, y)
-    } else {
-        ((1.0 - y.abs()) * x.signum(), (1.0 - x.abs()) * y.signum())
-    }
+    let e = crate::math::oct_encode(n);
+    (e.x, e.y)
 }
 
 /// The inverse of [`oct_encode`] (a unit vector).
 #[inline]
 pub fn oct_decode(u: f32, v: f32) -> Vec3 {
-    let z = 1.0 - u.abs() - v.abs();
-    let (x, y) = if z >= 0.0 {
-        (u, v)
-    } else {
-        ((1.0 - v.abs()) * u.signum(), (1.0 - u.abs()) * v.signum())
-    };
-    Vec3::new(x, y, z).normalize_or_zero()
+    crate::math::oct_decode(glam::Vec2::new(u, v))
 }
 
 // ------------------------------------------------------------------ polynomial roots
@@ -228,16 +215,7 @@ impl Bubble {
         {
             let s = glam::DVec3::new(1.0 / r, 1.0 / h1, 1.0 / r);
             let (so, sd) = (lo * s, ld * s);
-            let a = sd.length_squared();
-            let b = so.dot(sd);
-            let c = so.length_squared() - 1.0;
-            let disc = b * b - a * c;
-            if a > 0.0 && disc >= 0.0 {
-                let q = -(b + b.signum() * disc.sqrt());
-                let (mut t0, mut t1) = (q / a, if q != 0.0 { c / q } else { q / a });
-                if t0 > t1 {
-                    std::mem::swap(&mut t0, &mut t1);
-                }
+            if let Some((t0, t1)) = solve_quadratic(sd.length_squared(), 2.0 * so.dot(sd), so.length_squared() - 1.0) {
                 for t in [t0, t1] {
                     if t > t_min && t < t_max && t < best && lo.y + t * ld.y >= 0.0 {
                         best = t;
@@ -361,8 +339,7 @@ impl Kernel {
         if !(ga > 0.0) {
             return None;
         }
-        let disc = be * be - 4.0 * ga * (al - level as f64);
-        (disc >= 0.0).then(|| ((-be - disc.sqrt()) / (2.0 * ga)) as f32)
+        solve_quadratic(ga, be, al - level as f64).map(|(t0, _)| t0 as f32)
     }
 
     /// q along the ray as γt² + βt + α: (α, β, γ).
@@ -413,13 +390,8 @@ pub fn blobby_intersect(
         if !(ga > 0.0) {
             continue;
         }
-        let disc = be * be - 4.0 * ga * (al - 1.0);
-        if disc <= 0.0 {
-            continue;
-        }
-        let s = disc.sqrt();
-        let (t0, t1) = ((-be - s) / (2.0 * ga), (-be + s) / (2.0 * ga));
-        if t1 <= t_lo || t0 >= t_hi {
+        let Some((t0, t1)) = solve_quadratic(ga, be, al - 1.0) else { continue };
+        if t1 <= t0 || t1 <= t_lo || t0 >= t_hi {
             continue;
         }
         spans.push((t0, t1, i, (al, be, ga)));

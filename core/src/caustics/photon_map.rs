@@ -532,34 +532,12 @@ impl PartialEq for PhotonMap {
 
 /// Octahedral encoding of a unit vector in 2 × 16 bits.
 fn oct_encode(v: Vec3) -> u32 {
-    let l1 = v.x.abs() + v.y.abs() + v.z.abs();
-    let (mut x, mut y) = (v.x / l1, v.y / l1);
-    if v.z < 0.0 {
-        let (ox, oy) = (x, y);
-        x = (1.0 - oy.abs()) * sign(ox);
-        y = (1.0 - ox.abs()) * sign(oy);
-    }
+    let e = crate::math::oct_encode(v);
     let q = |t: f32| ((t.clamp(-1.0, 1.0) * 0.5 + 0.5) * 65535.0).round() as u32;
-    q(x) << 16 | q(y)
+    q(e.x) << 16 | q(e.y)
 }
 
 fn oct_decode(e: u32) -> Vec3 {
     let d = |q: u32| (q as f32 / 65535.0) * 2.0 - 1.0;
-    let (mut x, mut y) = (d(e >> 16), d(e & 0xffff));
-    let z = 1.0 - x.abs() - y.abs();
-    if z < 0.0 {
-        let (ox, oy) = (x, y);
-        x = (1.0 - oy.abs()) * sign(ox);
-        y = (1.0 - ox.abs()) * sign(oy);
-    }
-    Vec3::new(x, y, z).normalize()
-}
-
-#[inline]
-fn sign(x: f32) -> f32 {
-    if x >= 0.0 {
-        1.0
-    } else {
-        -1.0
-    }
+    crate::math::oct_decode(glam::Vec2::new(d(e >> 16), d(e & 0xffff)))
 }

@@ -540,24 +540,6 @@ pub fn spectrum_luminance(s: &Spectrum) -> f32 {
     (num / den) as f32
 }
 
-/// Smaller root first; None without real roots.
-#[inline]
-fn solve_quadratic(a: f64, b: f64, c: f64) -> Option<(f64, f64)> {
-    if a == 0.0 {
-        if b == 0.0 {
-            return None;
-        }
-        let t = -c / b;
-        return Some((t, t));
-    }
-    let disc = b * b - 4.0 * a * c;
-    if disc < 0.0 {
-        return None;
-    }
-    let q = -0.5 * (b + disc.sqrt().copysign(b));
-    let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (q / a, c / q) };
-    Some(if t0 <= t1 { (t0, t1) } else { (t1, t0) })
-}
 
 impl DomeMap {
     fn new(tex: &TextureDesc, tint: [f32; 3], cs: ColorSpace) -> Result<DomeMap, String> {
@@ -997,7 +979,7 @@ impl Light {
                 let oc = (o - s.center).as_dvec3();
                 let dd = d.as_dvec3();
                 let r = s.radius as f64;
-                let (t0, t1) = solve_quadratic(dd.length_squared(), 2.0 * oc.dot(dd), oc.length_squared() - r * r)?;
+                let (t0, t1) = crate::math::solve_quadratic(dd.length_squared(), 2.0 * oc.dot(dd), oc.length_squared() - r * r)?;
                 let t = if t0 > 0.0 { t0 } else { t1 };
                 let tf = t as f32;
                 if !(t > 0.0 && tf < t_max) {
@@ -1013,7 +995,7 @@ impl Light {
                 let ol = f.to_local(o - c.center).as_dvec3();
                 let dl = f.to_local(d).as_dvec3();
                 let r = c.radius as f64;
-                let (t0, t1) = solve_quadratic(dl.x * dl.x + dl.y * dl.y, 2.0 * (ol.x * dl.x + ol.y * dl.y), ol.x * ol.x + ol.y * ol.y - r * r)?;
+                let (t0, t1) = crate::math::solve_quadratic(dl.x * dl.x + dl.y * dl.y, 2.0 * (ol.x * dl.x + ol.y * dl.y), ol.x * ol.x + ol.y * ol.y - r * r)?;
                 for t in [t0, t1] {
                     let tf = t as f32;
                     if !(t > 0.0 && tf < t_max) {
