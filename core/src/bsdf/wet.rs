@@ -156,11 +156,10 @@ pub fn film_reflectances(eta: f32) -> (f32, f32) {
 /// Diffuse darkening of a Lambertian base of albedo `a` under a film of relative index η: the
 /// wet diffuse albedo over the dry one, (1 − r_e) / (η² (1 − a r_i)), excluding what the film
 /// itself reflects (which is (1 − r_e) at most). 1 for η ≤ 1 and for a white base.
-fn darkening(a: f32, eta: f32) -> f32 {
+fn darkening(a: f32, eta: f32, (r_e, r_i): (f32, f32)) -> f32 {
     if !(eta > 1.0) {
         return 1.0;
     }
-    let (r_e, r_i) = film_reflectances(eta);
     (1.0 - r_e) / (eta * eta * (1.0 - a * r_i)).max(1e-6)
 }
 
@@ -172,10 +171,11 @@ pub fn compliance_boost(diffuse: SampledSpectrum, film_ior: f32, outside_ior: f3
         return diffuse;
     }
     let eta_here = (film_ior / outside_ior).max(1.0);
+    let (here, air) = (film_reflectances(eta_here), film_reflectances(film_ior));
     diffuse.map(|a| {
         let a = a.clamp(0.0, 1.0);
         // ≥ 1 by construction (a film of lower relative index darkens less); max() absorbs rounding
-        (a * (darkening(a, eta_here) / darkening(a, film_ior)).max(1.0)).min(1.0)
+        (a * (darkening(a, eta_here, here) / darkening(a, film_ior, air)).max(1.0)).min(1.0)
     })
 }
 
@@ -204,6 +204,8 @@ pub(crate) struct Wet {
     wet: Base,
     amount: f32,
     eta: f32,
+    /// The film's reflectances for diffuse light from outside and from inside.
+    r_e: f32,
     r_i: f32,
     /// Ā_d of the wet base.
     a_avg: SampledSpectrum,
@@ -224,10 +226,10 @@ impl Wet {
     /// `eta` = film index over the index outside; `amount` in [0, 1] (validated by the caller).
     pub fn new(dry: Base, wet: Base, amount: f32, eta: f32) -> Self {
         let eta = eta.max(1.0);
-        let (_, r_i) = film_reflectances(eta);
+        let (r_e, r_i) = film_reflectances(eta);
         let a_avg = GL4.iter().fold(SampledSpectrum::ZERO, |acc, &(x, w)| acc + wet.diffuse_albedo(x) * (2.0 * w * x));
         let multi = a_avg.map(|a| r_i * INV_PI / (1.0 - a.min(1.0) * r_i).max(1e-6));
-        Wet { dry, wet, amount, eta, r_i, a_avg, multi }
+        Wet { dry, wet, amount, eta, r_e, r_i, a_avg, multi }
     }
 
     pub fn lobe_flags(&self) -> u8 {
@@ -298,30 +300,26 @@ impl Wet {
     }
 
     pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return SampledSpectrum::ZERO;
-        }
-        let mut f = SampledSpectrum::ZERO;
-        if self.amount < 1.0 {
-            f += self.dry.f(wo, wi) * (1.0 - self.amount);
-        }
-        if self.amount > 0.0 {
-            f += self.f_covered(wo, wi, false) * self.amount;
-        }
-        f
+        self.f_mixed(wo, wi, false)
     }
 
     /// The diffuse lobes' share of [`Self::f`].
     pub fn f_diffuse_share(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        self.f_mixed(wo, wi, true)
+    }
+
+    /// (1 − amount)·dry + amount·covered, all lobes or the diffuse ones only.
+    fn f_mixed(&self, wo: Vec3, wi: Vec3, diffuse_only: bool) -> SampledSpectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
         let mut f = SampledSpectrum::ZERO;
         if self.amount < 1.0 {
-            f += self.dry.f_diffuse(wo, wi) * (1.0 - self.amount);
+            let dry = if diffuse_only { self.dry.f_diffuse(wo, wi) } else { self.dry.f(wo, wi) };
+            f += dry * (1.0 - self.amount);
         }
         if self.amount > 0.0 {
-            f += self.f_covered(wo, wi, true) * self.amount;
+            f += self.f_covered(wo, wi, diffuse_only) * self.amount;
         }
         f
     }
@@ -330,7 +328,11 @@ impl Wet {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p = self.probabilities(wo);
+        self.pdf_with(&self.probabilities(wo), wo, wi)
+    }
+
+    /// [`Self::pdf`] with the lobe probabilities for ωo already at hand.
+    fn pdf_with(&self, p: &[f32; 4], wo: Vec3, wi: Vec3) -> f32 {
         let mut pdf = 0.0;
         if p[DRY] > 0.0 {
             pdf += p[DRY] * self.dry.pdf(wo, wi);
@@ -396,7 +398,7 @@ impl Wet {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        let pdf = self.pdf_with(&p, wo, wi);
         if !(pdf > 0.0) {
             return None;
         }
@@ -406,7 +408,7 @@ impl Wet {
     /// Rough reflectance at normal incidence for the albedo AOV.
     pub fn albedo_hint(&self) -> SampledSpectrum {
         let f0 = self.fresnel(1.0);
-        let (r_e, _) = film_reflectances(self.eta);
+        let r_e = self.r_e;
         let base = self.wet.albedo_hint();
         let covered = SampledSpectrum::splat(f0)
             + base.map(|a| (1.0 - f0) * (1.0 - r_e) * a / (self.eta * self.eta * (1.0 - a.min(1.0) * self.r_i)).max(1e-6));
