@@ -358,9 +358,14 @@ pub fn blobby_value(kernels: &[Kernel], threshold: f32, p: Vec3) -> f32 {
 
 /// Outward unit normal (−∇φ) at p and the kernel contributing most there.
 pub fn blobby_normal(kernels: &[Kernel], p: Vec3) -> (Vec3, usize) {
+    normal_over(kernels.iter().enumerate(), p)
+}
+
+/// [`blobby_normal`] over (index, kernel) pairs; the index returned is the pair's.
+fn normal_over<'a>(kernels: impl Iterator<Item = (usize, &'a Kernel)>, p: Vec3) -> (Vec3, usize) {
     let mut g = Vec3::ZERO;
     let (mut best, mut best_psi) = (0, -1.0);
-    for (i, k) in kernels.iter().enumerate() {
+    for (i, k) in kernels {
         g += k.grad(p);
         let psi = k.psi(p);
         if psi > best_psi {
@@ -460,9 +465,8 @@ pub fn blobby_intersect(
         if let Some(t) = r[..n].iter().map(|u| a + u).find(|&t| t > t_lo) {
             if t < t_hi {
                 let p = o + d * t as f32;
-                let near: Vec<Kernel> = active.iter().map(|&j| kernels[spans[j].2]).collect();
-                let (n, k) = blobby_normal(&near, p);
-                return Some((t as f32, spans[active[k]].2, n));
+                let (n, k) = normal_over(active.iter().map(|&j| (spans[j].2, &kernels[spans[j].2])), p);
+                return Some((t as f32, k, n));
             }
         }
     }
