@@ -960,27 +960,28 @@ impl Delegate {
             let zenith = (m3 * Vec3::Y).normalize_or_zero();
             let zenith = if zenith == Vec3::ZERO { Vec3::Y } else { zenith };
             // where the relationship cannot arrive (a Hydra scene delegate), the only DistantLight
-            let distant: Vec<&String> = self
-                .cache
-                .iter()
-                .filter(|(_, c)| matches!(&c.piece, Piece::Light(Some(sl)) if matches!(sl.desc.shape, LightShape::Distant { .. })))
-                .map(|(p, _)| p)
-                .collect();
-            let sun_path: Option<String> = match (&sky.sun, sky.sun_unreadable, distant.as_slice()) {
-                (Some(s), _, _) => Some(s.clone()),
-                (None, true, [only]) => {
-                    ap.push(problem(path, "tide:sky:sun", format!("the relationship cannot be read through this Hydra scene delegate; the scene's only DistantLight '{only}' is the sun")));
-                    Some((*only).clone())
+            let sun_path: Option<String> = match (&sky.sun, sky.sun_unreadable) {
+                (Some(s), _) => Some(s.clone()),
+                (None, false) => None,
+                (None, true) => {
+                    let distant: Vec<&String> = self
+                        .cache
+                        .iter()
+                        .filter(|(_, c)| matches!(&c.piece, Piece::Light(Some(sl)) if matches!(sl.desc.shape, LightShape::Distant { .. })))
+                        .map(|(p, _)| p)
+                        .collect();
+                    if let [only] = distant.as_slice() {
+                        ap.push(problem(path, "tide:sky:sun", format!("the relationship cannot be read through this Hydra scene delegate; the scene's only DistantLight '{only}' is the sun")));
+                        Some((*only).clone())
+                    } else {
+                        ap.push(problem(
+                            path,
+                            "tide:sky:sun",
+                            format!("the relationship cannot be read through this Hydra scene delegate and the scene has {} DistantLights; the sun stands {}° above the horizon", distant.len(), lux::DEFAULT_SUN_ELEVATION_DEG),
+                        ));
+                        None
+                    }
                 }
-                (None, true, _) => {
-                    ap.push(problem(
-                        path,
-                        "tide:sky:sun",
-                        format!("the relationship cannot be read through this Hydra scene delegate and the scene has {} DistantLights; the sun stands {}° above the horizon", distant.len(), lux::DEFAULT_SUN_ELEVATION_DEG),
-                    ));
-                    None
-                }
-                (None, false, _) => None,
             };
             let sky = lux::SkyPiece { sun: sun_path, ..sky.clone() };
             let sky = &sky;

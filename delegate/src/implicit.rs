@@ -238,16 +238,22 @@ pub struct PointsData {
     pub droplets: Option<(f32, f32)>,
 }
 
-fn per_point_vec3(store: &AttrStore, name: &str, n: usize, p: &mut Problems) -> Option<Vec<Vec3>> {
+/// A per-point primvar's flattened values and tuple size, or None (absent, or unreadable:
+/// reported under `attr`).
+fn flat_primvar(store: &AttrStore, name: &str, attr: &str, p: &mut Problems) -> Option<(Vec<f32>, usize)> {
     let pv = store.primvar(name, Interpolation::Vertex)?;
-    let data = match pv.flatten() {
-        Ok(d) => d,
+    match pv.flatten() {
+        Ok(d) => Some((d, pv.tuple as usize)),
         Err(e) => {
-            p.add(name, format!("{}; ignored", e));
-            return None;
+            p.add(attr, format!("{}; ignored", e));
+            None
         }
-    };
-    if pv.tuple != 3 || data.len() / 3 < n || data.iter().any(|x| !x.is_finite()) {
+    }
+}
+
+fn per_point_vec3(store: &AttrStore, name: &str, n: usize, p: &mut Problems) -> Option<Vec<Vec3>> {
+    let (data, tuple) = flat_primvar(store, name, name, p)?;
+    if tuple != 3 || data.len() / 3 < n || data.iter().any(|x| !x.is_finite()) {
         p.add(name, format!("expected {} finite 3-vectors (one per point); ignored", n));
         return None;
     }
@@ -327,15 +333,8 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
 /// Per-point floats of a primvar (one per point, or one for all), or None (absent or bad:
 /// reported under `attr`).
 fn per_point(store: &AttrStore, name: &str, attr: &str, tuple: usize, n: usize, p: &mut Problems) -> Option<Vec<f32>> {
-    let pv = store.primvar(name, Interpolation::Vertex)?;
-    let data = match pv.flatten() {
-        Ok(d) => d,
-        Err(e) => {
-            p.add(attr, format!("{}; ignored", e));
-            return None;
-        }
-    };
-    if pv.tuple as usize != tuple || data.iter().any(|x| !x.is_finite()) {
+    let (data, got) = flat_primvar(store, name, attr, p)?;
+    if got != tuple || data.iter().any(|x| !x.is_finite()) {
         p.add(attr, format!("expected finite values of {} component(s); ignored", tuple));
         return None;
     }
