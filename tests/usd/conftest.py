@@ -1,5 +1,6 @@
 """Fixtures for the USD suites: stage authoring helpers, the recording fake delegate and,
 for rendering tests, the real module (skipped with the reason when it is not usable yet)."""
+import math
 import os
 
 import numpy as np
@@ -169,3 +170,29 @@ def render(module, stage, **opts):
         w, h, c, data = d.map_buffer(buf)
         out[aov] = np.frombuffer(data, dtype=np.float32).reshape(h, w, c)
     return out
+
+
+def fresnel(mu, eta):
+    """Unpolarised Fresnel reflectance for light arriving at cosine mu from the side of index 1
+    onto index eta (eta < 1: from the denser side; 1 beyond the critical angle)."""
+    s2 = (1 - mu * mu) / (eta * eta)
+    if s2 >= 1:
+        return 1.0
+    ct = math.sqrt(1 - s2)
+    rs = (mu - eta * ct) / (mu + eta * ct)
+    rp = (eta * mu - ct) / (eta * mu + ct)
+    return 0.5 * (rs * rs + rp * rp)
+
+
+def diffuse_reflectances(n, steps=4000):
+    """(r_e, r_i): a smooth interface's reflectance for diffuse light arriving from outside
+    (2 int F mu dmu, midpoint rule) and from the side of index n (1 - (1 - r_e)/n^2)."""
+    r_e = sum(2 * fresnel(mu, n) * mu / steps for mu in ((k + 0.5) / steps for k in range(steps)))
+    return r_e, 1 - (1 - r_e) / (n * n)
+
+
+def darkness(img):
+    """1 - luminance of a render against a white dome: the fraction of a pixel covered."""
+    rgb = img[..., :3].astype(np.float64)
+    return 1.0 - (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2])
+

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import bind, camera, lambert_material, render, settings
+from conftest import bind, camera, diffuse_reflectances, fresnel, lambert_material, render, settings
 
 SPLIT = ("tide:diffuse", "tide:specular", "tide:transmission", "tide:volume", "tide:emission",
          "tide:caustics")
@@ -133,17 +133,8 @@ def test_sun_through_flat_water_and_through_a_volume_box(renderer, stage):
     from pxr import Usd
     import math
 
-    def fresnel(mu, eta):
-        s2 = (1 - mu * mu) / (eta * eta)
-        if s2 >= 1:
-            return 1.0
-        ct = math.sqrt(1 - s2)
-        rs, rp = (mu - eta * ct) / (mu + eta * ct), (eta * mu - ct) / (eta * mu + ct)
-        return 0.5 * (rs * rs + rp * rp)
-
     n, rho, e = 1.333, 0.6, 3.0
-    r_e = sum(2 * fresnel((k + 0.5) / 4000, n) * (k + 0.5) / 4000 / 4000 for k in range(4000))
-    r_i = 1 - (1 - r_e) / (n * n)
+    _, r_i = diffuse_reflectances(n)
     t = 1 - fresnel(1.0, n)
     expect = rho * e * t * t / (math.pi * n * n * (1 - rho * r_i))
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux
 
-from conftest import bind, camera, lambert_material, render, settings
+from conftest import bind, camera, darkness, lambert_material, render, settings
 
 F, AP, DIST = 100.0, 36.0, 20.0     # focal length, square aperture, camera distance
 W = 96                             # image side in pixels
@@ -37,16 +37,11 @@ def _points(stage, path, pts, widths, api=None):
     return p
 
 
-def _darkness(img):
-    rgb = img[..., :3].astype(np.float64)
-    return 1.0 - (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2])
-
-
 def _pair(stage, api):
     mat = _scene(stage)
     p = _points(stage, "/Pair", [(-0.6, 0, 0), (0.6, 0, 0)], [1.0, 1.0], api)
     bind(p.GetPrim(), mat)
-    return _darkness(render(pytest.renderer_module, stage)["color"])
+    return darkness(render(pytest.renderer_module, stage)["color"])
 
 
 @pytest.fixture
@@ -90,7 +85,7 @@ def test_an_isolated_blobby_covers_its_inner_sphere(module, stage):
     p = _points(stage, "/Blob", [(0, 0, 0)], [2.0], "TideBlobbyAPI")
     p.GetPrim().GetAttribute("tide:blobby:threshold").Set(0.3)
     bind(p.GetPrim(), mat)
-    d = _darkness(render(module, stage)["color"])
+    d = darkness(render(module, stage)["color"])
     r_px = 1.0 * _px_per_unit()
     # perspective makes the silhouette 1/(1 - r^2/z^2) larger: 0.25 %; noise ~1 %
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.03)
@@ -107,7 +102,7 @@ def test_a_bubble_has_its_radius_and_heights(module, stage):
     UsdGeom.PrimvarsAPI(p).CreatePrimvar("tide:bubble:bottom", Sdf.ValueTypeNames.FloatArray,
                                          UsdGeom.Tokens.vertex).Set([h2])
     bind(p.GetPrim(), mat)
-    d = _darkness(render(module, stage)["color"])
+    d = darkness(render(module, stage)["color"])
     n = 20000
     quartic = sum(math.sqrt(1 - ((k + 0.5) / n) ** 4) for k in range(n)) / n
     area = math.pi * r * h1 / 2 + 2 * r * h2 * quartic
@@ -134,7 +129,7 @@ def test_a_bubble_turns_with_its_orientation(module, stage):
     pv.CreatePrimvar("tide:bubble:orientation", Sdf.ValueTypeNames.QuatfArray).Set(
         [Gf.Quatf(q.GetReal(), Gf.Vec3f(q.GetImaginary()))])
     bind(p.GetPrim(), mat)
-    d = _darkness(render(module, stage)["color"])
+    d = darkness(render(module, stage)["color"])
     mid = W // 2
     row = d[mid - 1:mid + 1].mean(axis=0).sum()
     col = d[:, mid - 1:mid + 1].mean(axis=1).sum()

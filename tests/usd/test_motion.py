@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, floats, lambert_material, load, render, settings
-from test_render import AP, F, _black, _darkness, _px_per_unit_at, _white_dome
+from conftest import bind, camera, darkness, floats, lambert_material, load, render, settings
+from test_render import AP, F, _black, _px_per_unit_at, _white_dome
 
 TCPS = 24.0
 
@@ -242,7 +242,7 @@ W, H = 128, 16
 def _streak(renderer, stage):
     """FWHM (px) of the darkness along the middle rows of a render against a white dome."""
     settings(stage, res=(W, H), samples=256)
-    d = _darkness(render(renderer, stage, frame=0)["color"])
+    d = darkness(render(renderer, stage, frame=0)["color"])
     row = d[H // 2 - 1:H // 2 + 1].mean(axis=0)
     half = row.max() / 2
     above = np.nonzero(row > half)[0]
@@ -307,7 +307,7 @@ def test_deformation_blur_is_off_without_motion_blur(renderer, stage):
     _deformed(stage)
     st = settings(stage, res=(W, H), samples=256)
     st.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
-    d = _darkness(render(renderer, stage, frame=0)["color"])
+    d = darkness(render(renderer, stage, frame=0)["color"])
     row = d[H // 2 - 1:H // 2 + 1].mean(axis=0)
     width = np.count_nonzero(row > row.max() / 2)
     # a still ball (diameter 0.5 units at frame 0): ~5.6 px wide, far from the 22 px streak

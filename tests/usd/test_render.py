@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import ROOT, bind, camera, lambert_material, render, settings
+from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel,
+                      lambert_material, render, settings)
 
 F, AP = 50.0, 36.0            # focal length, square aperture: tan(half fov) = 18/50
 
@@ -49,12 +50,6 @@ def _ball(stage, path, pos, radius, mat):
     return s
 
 
-def _darkness(img):
-    """1 - luminance of a render against the white dome: the fraction of a pixel covered."""
-    rgb = img[..., :3].astype(np.float64)
-    return 1.0 - (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2])
-
-
 def _components(mask):
     """Number of 4-connected components of a boolean image."""
     seen = np.zeros_like(mask, dtype=bool)
@@ -82,7 +77,7 @@ def test_sphere_projects_where_the_camera_says(renderer, stage):
     _ball(stage, "/Ball", (1.0, 0.5, -10.0), 0.5, _black(stage))
     settings(stage, res=(w, h), samples=16)
     img = render(renderer, stage)["color"]
-    d = _darkness(img)
+    d = darkness(img)
     ys, xs = np.mgrid[0:h, 0:w]
     cx, cy = (d * (xs + 0.5)).sum() / d.sum(), (d * (ys + 0.5)).sum() / d.sum()
     ex, ey = _project(1.0, 0.5, -10.0, w, h)
@@ -168,7 +163,7 @@ def test_native_instances_and_point_instancer_counts(renderer, stage):
     inst.CreatePositionsAttr([(x, 0, -20) for x in (-1.0, 2.0, 5.0, 8.0)])
     inst.CreateInvisibleIdsAttr([1])
     settings(stage, res=(w, h), samples=8)
-    d = _darkness(render(renderer, stage)["color"])
+    d = darkness(render(renderer, stage)["color"])
     # 2 native instances + 3 visible point instances, well separated: 3 units = 6.7 px apart,
     # each ball ~1.3 px in radius
     assert _components(d > 0.5) == 5
@@ -186,7 +181,7 @@ def _streak_fwhm(renderer, stage, disable_motion=False):
     st = settings(stage, res=(w, h), samples=256)
     if disable_motion:
         st.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
-    d = _darkness(render(renderer, stage, frame=0)["color"])
+    d = darkness(render(renderer, stage, frame=0)["color"])
     row = d[h // 2 - 1:h // 2 + 1].mean(axis=0)
     half = row.max() / 2
     above = np.nonzero(row > half)[0]
@@ -223,7 +218,7 @@ def _blur_radius(renderer, stage, fstop, disable=False):
     st = settings(stage, res=(w, h), samples=512)
     if disable:
         st.GetPrim().CreateAttribute("disableDepthOfField", Sdf.ValueTypeNames.Bool).Set(True)
-    d = _darkness(render(renderer, stage)["color"])
+    d = darkness(render(renderer, stage)["color"])
     # The dot is on the optical axis, so its image is centred on the frame. The moments are
     # taken over a 32x32 window around the centre: it holds the whole blur disk (radius
     # < 6 px) plus the dot (1.8 px) with room to spare. Over the full frame, the white dome's
@@ -311,7 +306,7 @@ def test_bad_prim_dropped_rest_renders(renderer, stage):
     m.CreateFaceVertexCountsAttr([3])
     m.CreateFaceVertexIndicesAttr([0, 1, 5])
     settings(stage, res=(w, h), samples=4)
-    d = _darkness(render(renderer, stage)["color"])
+    d = darkness(render(renderer, stage)["color"])
     r_px = _px_per_unit_at(-10.0, w)
     # the ball is there (area within 15 %: 4 spp noise on a ~45 px disk)
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.15)
@@ -364,18 +359,6 @@ def test_water_medium_through_its_medium_input(renderer, stage, link):
     assert render(renderer, empty_stage)["color"][..., :3].mean() > 0.95
 
 
-def _fresnel(mu, eta):
-    """Unpolarised Fresnel reflectance for light arriving at cosine mu from the side of index 1
-    onto index eta (eta < 1: from the denser side; 1 beyond the critical angle)."""
-    s2 = (1 - mu * mu) / (eta * eta)
-    if s2 >= 1:
-        return 1.0
-    ct = math.sqrt(1 - s2)
-    rs = (mu - eta * ct) / (mu + eta * ct)
-    rp = (eta * mu - ct) / (eta * mu + ct)
-    return 0.5 * (rs * rs + rp * rp)
-
-
 def _wet_wall(stage, wet):
     """The grey wall of the sun test, lit by a sun 30 degrees off its normal (so that the film's
     mirror image of the sun misses the camera); `wet`: TideWetAPI attributes, or None."""
@@ -403,9 +386,8 @@ def test_wet_patch_darkens_as_a_film_over_a_diffuse_base(renderer, stage):
 
     n, a = 1.333, 0.5
     dry = wall(None)
-    r_e = sum(2 * _fresnel(mu, n) * mu / 4000 for mu in ((k + 0.5) / 4000 for k in range(4000)))
-    r_i = 1 - (1 - r_e) / (n * n)
-    ratio = (1 - _fresnel(1.0, n)) * (1 - _fresnel(math.cos(math.radians(30)), n)) \
+    _, r_i = diffuse_reflectances(n)
+    ratio = (1 - fresnel(1.0, n)) * (1 - fresnel(math.cos(math.radians(30)), n)) \
         / (n * n * (1 - a * r_i))
     assert 0.6 < ratio < 0.8
     wet = wall({"amount": 1.0})
