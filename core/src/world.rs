@@ -574,7 +574,9 @@ impl World {
                 if let Some(w) = wet.filter(|w| w.water_compliant) {
                     d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
                 }
-                let params = |outer: f32| PreviewParams {
+                // the inputs are looked up once; a wet surface builds its layers twice, against
+                // the outside and against the film
+                let params = PreviewParams {
                     diffuse: d,
                     specular_f0: self.color(specular, s.uv, lambda).map(|v| v.clamp(0.0, 1.0)),
                     metallic: self.float(metallic, s.uv).clamp(0.0, 1.0),
@@ -583,13 +585,16 @@ impl World {
                     clearcoat: self.float(clearcoat, s.uv).clamp(0.0, 1.0),
                     clearcoat_roughness: self.float(clearcoat_roughness, s.uv).clamp(0.0, 1.0),
                     ior: *ior,
-                    outside_ior: outer,
+                    outside_ior,
                     use_specular_workflow: *use_specular_workflow,
                 };
-                let dry = Bsdf::preview(params(outside_ior));
+                let dry = Bsdf::preview(params);
                 match wet {
                     // the covered surface's layers meet the film, not the outside
-                    Some(w) if w.amount > 0.0 => dry.and_then(|dry| Bsdf::wet(dry, Bsdf::preview(params(w.ior.max(outside_ior)))?, w.amount, w.ior / outside_ior)),
+                    Some(w) if w.amount > 0.0 => dry.and_then(|dry| {
+                        let covered = Bsdf::preview(PreviewParams { outside_ior: w.ior.max(outside_ior), ..params })?;
+                        Bsdf::wet(dry, covered, w.amount, w.ior / outside_ior)
+                    }),
                     _ => dry,
                 }
             }
