@@ -156,6 +156,17 @@ def _tuple_size(arr):
     return 1 if a.ndim <= 1 else int(np.prod(a.shape[1:]))
 
 
+def _is_quat_array(value):
+    return hasattr(value, "__len__") and len(value) and isinstance(
+        value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath))
+
+
+def _quat_rows(value):
+    """Quaternions as (i, j, k, real) rows, as every quaternion is sent."""
+    return [[q.GetImaginary()[0], q.GetImaginary()[1], q.GetImaginary()[2], q.GetReal()]
+            for q in value]
+
+
 def convert(value, type_name=None):
     """A USD value as a protocol value, or None when it has no protocol form."""
     if value is None:
@@ -192,9 +203,8 @@ def convert(value, type_name=None):
         return ("paths", tuple(seq))
     if len(value) and isinstance(value[0], Sdf.AssetPath):
         return ("paths", tuple(v.resolvedPath for v in value))
-    if len(value) and isinstance(value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath)):
-        return _floats([[q.GetImaginary()[0], q.GetImaginary()[1], q.GetImaginary()[2],
-                         q.GetReal()] for q in value], 4)
+    if _is_quat_array(value):
+        return _floats(_quat_rows(value), 4)
     arr = np.asarray(value)
     if arr.dtype == object:
         return None
@@ -809,13 +819,7 @@ class Reader:
             value = pv.Get(self._time(0))
             if value is None:
                 continue
-            if hasattr(value, "__len__") and len(value) and isinstance(
-                    value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath)):
-                # quaternions as (i, j, k, real), as every quaternion is sent
-                arr = np.array([[q.GetImaginary()[0], q.GetImaginary()[1], q.GetImaginary()[2],
-                                 q.GetReal()] for q in value], dtype=np.float64)
-            else:
-                arr = np.asarray(value)
+            arr = np.array(_quat_rows(value)) if _is_quat_array(value) else np.asarray(value)
             if arr.dtype == object or arr.dtype.kind in "USO":
                 continue
             if arr.ndim == 0:
