@@ -813,16 +813,8 @@ impl Delegate {
                                     let medium = scene.media.len() - 1;
                                     let (mats, times) = place(&r.transforms);
                                     for inst in &r.instance_transforms {
-                                        let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m * grid.local_to_world)).collect();
-                                        scene.volumes.push(tide_core::scene::VolumeDesc {
-                                            name: path.clone(),
-                                            density: tide_core::scene::GridDesc { local_to_world: keys[0].1, ..grid.clone() },
-                                            motion: if keys.len() >= 2 { keys } else { Vec::new() },
-                                            medium,
-                                            id: r.id,
-                                            visible_to_camera: true,
-                                            casts_shadows: true,
-                                        });
+                                        let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
+                                        scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
                                     }
                                 }
                                 s = split.spheres;

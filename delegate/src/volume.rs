@@ -96,17 +96,23 @@ pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medi
         p.add("material", "the bound material has no TideMedium volume; the volume is dropped");
         return None;
     };
-    let place = |m: Mat4| m * spec.field_to_volume * data.local_to_object;
+    let grid = GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: Mat4::IDENTITY };
+    Some(placed_volume(path, grid, object_to_world, |m| m * spec.field_to_volume * data.local_to_object, medium, id))
+}
+
+/// A volume of `grid` whose local-to-world at an object-to-world key m is `place(m)`: still at
+/// the first key, or moving through all of them.
+pub fn placed_volume(path: &str, grid: GridDesc, object_to_world: &[(f32, Mat4)], place: impl Fn(Mat4) -> Mat4, medium: usize, id: u32) -> VolumeDesc {
     let rest = object_to_world.first().map_or(Mat4::IDENTITY, |k| k.1);
-    Some(VolumeDesc {
+    VolumeDesc {
         name: path.to_string(),
-        density: GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: place(rest) },
+        density: GridDesc { local_to_world: place(rest), ..grid },
         motion: if object_to_world.len() >= 2 { object_to_world.iter().map(|&(t, m)| (t, place(m))).collect() } else { Vec::new() },
         medium,
         id,
         visible_to_camera: true,
         casts_shadows: true,
-    })
+    }
 }
 
 #[cfg(test)]
