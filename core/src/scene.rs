@@ -511,6 +511,28 @@ pub struct LightDesc {
     /// Names of the instances that cast the light's shadows (`collection:shadowLink`); None:
     /// all (that cast shadows at all).
     pub shadow_link: Option<Vec<String>>,
+    /// `UsdLuxShapingAPI` (sphere, rect, disk and cylinder lights); None: unshaped.
+    pub shaping: Option<ShapingDesc>,
+}
+
+/// A light's `UsdLuxShapingAPI` values (see [`crate::light::shaping`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShapingDesc {
+    /// `shaping:cone:angle`, degrees off the light's axis (90 when unauthored; ≥ 180: no cone).
+    pub cone_angle_deg: f32,
+    /// `shaping:cone:softness`, clamped to [0, 1].
+    pub cone_softness: f32,
+    /// `shaping:focus` (≤ 0: none).
+    pub focus: f32,
+    /// `shaping:focusTint`.
+    pub focus_tint: Rgb,
+}
+
+impl Default for ShapingDesc {
+    /// The schema's fallbacks: a 90° cone with a hard edge, no focus.
+    fn default() -> Self {
+        ShapingDesc { cone_angle_deg: 90.0, cone_softness: 0.0, focus: 0.0, focus_tint: [0.0; 3] }
+    }
 }
 
 /// A spectral filter in front of the camera (`tide:camera:filter`), applied to the radiance

@@ -189,6 +189,20 @@ fn image_mean(r: &Renderer, aov: Aov) -> f64 {
     px.chunks_exact(ch).map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / (px.len() / ch) as f64
 }
 
+/// Compares a caustics render with a path-traced one: 8×8-pixel regions (4σ, see
+/// [`assert_blocks_agree`]) and the image means (4σ of their combined standard errors).
+/// Returns (worst region in σ, path mean, caustics mean, means' distance in σ).
+fn assert_agree_with_path(path: &Renderer, caus: &Renderer, w: u32, h: u32, what: &str) -> (f64, f64, f64, f64) {
+    let bp = block_means(path, w, h, 8, 8);
+    let bc = block_means(caus, w, h, 8, 8);
+    let worst = assert_blocks_agree(&bp, &bc, 4.0, what);
+    let (mp, mc) = (image_mean(path, Aov::Color), image_mean(caus, Aov::Color));
+    let se = |b: &[(f64, f64)]| (b.iter().map(|x| x.1 * x.1).sum::<f64>()).sqrt() / b.len() as f64;
+    let z = (mp - mc).abs() / (se(&bp).powi(2) + se(&bc).powi(2)).sqrt();
+    assert!(z < 4.0, "{what}: image means {mp:.4} vs {mc:.4} ({z:.1}σ)");
+    (worst, mp, mc, z)
+}
+
 // The sun is widened to 8° so that the path tracer, which reaches it only through BSDF-sampled
 // refraction, converges in a test's time. 8 regions of 8×8 pixels (plus the image mean) must
 // agree within 4σ of the combined standard errors (9 comparisons: a 4σ bound fails by chance
@@ -200,13 +214,9 @@ fn surface_caustics_seen_through_waves_agree_with_path_tracing() {
     let scene = pool(8.0);
     let path = render_progressive(&scene, settings_for(IntegratorKind::Path, w, h, 768, 2));
     let caus = render_progressive(&scene, settings_for(IntegratorKind::Caustics, w, h, 64, 2));
+    let (worst, mp, mc, _) = assert_agree_with_path(&path, &caus, w, h, "pool regions");
     let bp = block_means(&path, w, h, 8, 8);
     let bc = block_means(&caus, w, h, 8, 8);
-    let worst = assert_blocks_agree(&bp, &bc, 4.0, "pool regions");
-    let (mp, mc) = (image_mean(&path, Aov::Color), image_mean(&caus, Aov::Color));
-    let se = |b: &[(f64, f64)]| (b.iter().map(|x| x.1 * x.1).sum::<f64>()).sqrt() / b.len() as f64;
-    let z = (mp - mc).abs() / (se(&bp).powi(2) + se(&bc).powi(2)).sqrt();
-    assert!(z < 4.0, "image means {mp:.4} vs {mc:.4} ({z:.1}σ)");
     let share = image_mean(&caus, Aov::Caustics) / mc;
     assert!(share > 0.3, "photons carry only {share:.2} of the image");
     // the photon estimate is far less noisy than the path tracer's at 12× fewer samples
@@ -229,6 +239,29 @@ fn a_glass_sphere_caustic_agrees_with_path_tracing() {
     assert_blocks_agree(&bp, &bc, 4.0, "sphere regions");
     let share = image_mean(&caus, Aov::Caustics) / image_mean(&caus, Aov::Color);
     assert!(share > 0.02, "no caustic light: {share}");
+}
+
+// The same caustic from a spot light (UsdLuxShapingAPI) aimed at the sphere, with a cone
+// narrower than the sphere and a soft edge and a focus: the photons the atlas aims at the
+// sphere carry the shaping of their own direction (not of the direction the light's emission
+// sampler drew), which only then agrees with path tracing.
+#[test]
+fn a_spot_lights_caustic_agrees_with_path_tracing() {
+    let (w, h) = (32, 24);
+    let mut scene = glass_sphere(0.2);
+    let pos = Vec3::new(0.6, 1.5, 0.3);
+    let aim = (Vec3::new(0.0, 0.3, 0.0) - pos).normalize();
+    let l = &mut scene.lights[0];
+    l.transform = Mat4::from_rotation_translation(glam::Quat::from_rotation_arc(Vec3::NEG_Z, aim), pos);
+    l.shaping = Some(tide_core::scene::ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.6, focus: 8.0, focus_tint: [0.0; 3] });
+    let path = render_progressive(&scene, settings_for(IntegratorKind::Path, w, h, 4096, 2));
+    let caus = render_progressive(&scene, settings_for(IntegratorKind::Caustics, w, h, 256, 2));
+    let (worst, mp, mc, z) = assert_agree_with_path(&path, &caus, w, h, "spot regions");
+    let share = image_mean(&caus, Aov::Caustics) / mc;
+    // photons carry about 0.4 of this image; taking their power along the direction the
+    // light's sampler drew instead of their aim leaves 0.04
+    assert!(share > 0.2, "too little caustic light: {share}");
+    println!("worst block {worst:.2}σ, means {mp:.4} / {mc:.4} ({z:.1}σ), caustic share {share:.2}");
 }
 
 // Same seed → identical bits for 1 and 2 threads, over progressive passes in which the atlas

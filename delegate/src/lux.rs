@@ -8,7 +8,7 @@
 use crate::material::{TexKey, WrapKey};
 use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
-use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection};
+use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShapingDesc};
 use tide_core::{IntegratorKind, RenderSettings};
 
 /// Light prim types of the protocol.
@@ -152,6 +152,48 @@ fn convert_sky(store: &AttrStore, p: &mut Problems) -> Option<(LightShape, SkyPi
     Some((shape, SkyPiece { sun, physical_sun, sun_unreadable }))
 }
 
+/// `UsdLuxShapingAPI` attributes (any of them present marks a shaped light).
+const SHAPING_ATTRS: [&str; 7] = [
+    "shaping:cone:angle",
+    "shaping:cone:softness",
+    "shaping:focus",
+    "shaping:focusTint",
+    "shaping:ies:file",
+    "shaping:ies:angleScale",
+    "shaping:ies:normalize",
+];
+
+/// Reads `UsdLuxShapingAPI` (None when no shaping attribute is present). Values the schema
+/// clamps (softness into [0, 1], a negative focus ignored) are taken silently; a negative cone
+/// angle, a negative tint component and an IES profile (not supported) are problems.
+fn convert_shaping(kind: LightKind, store: &AttrStore, p: &mut Problems) -> Option<ShapingDesc> {
+    let present: Vec<&str> = SHAPING_ATTRS.iter().copied().filter(|a| store.has(a)).collect();
+    if present.is_empty() {
+        return None;
+    }
+    if matches!(kind, LightKind::Distant | LightKind::Dome) {
+        p.add(present[0], "shaping applies to sphere, rect, disk and cylinder lights; ignored on this light");
+        return None;
+    }
+    let d = ShapingDesc::default();
+    let mut angle = store.f32_or("shaping:cone:angle", d.cone_angle_deg, p);
+    if angle < 0.0 {
+        p.add("shaping:cone:angle", format!("{angle} is negative; using 0 (the light emits nothing)"));
+        angle = 0.0;
+    }
+    let tint = store.vec3_or("shaping:focusTint", Vec3::ZERO, p);
+    let tint = if tint.min_element() < 0.0 {
+        p.add("shaping:focusTint", format!("{tint} has negative components; using {}", tint.max(Vec3::ZERO)));
+        tint.max(Vec3::ZERO)
+    } else {
+        tint
+    };
+    if store.str_opt("shaping:ies:file").is_some_and(|f| !f.is_empty()) {
+        p.add("shaping:ies:file", "IES profiles are not supported; the light is shaped by its cone and focus only");
+    }
+    Some(ShapingDesc { cone_angle_deg: angle, cone_softness: store.f32_or("shaping:cone:softness", d.cone_softness, p), focus: store.f32_or("shaping:focus", d.focus, p), focus_tint: tint.to_array() })
+}
+
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
     let v = store.f32_or(name, default, p);
     if v < 0.0 {
@@ -240,6 +282,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             LightShape::Cylinder { radius, length, treat_as_line }
         }
     };
+    let shaping = convert_shaping(kind, store, p);
     let color = store.vec3_or("color", Vec3::ONE, p);
     let color_temperature = store.bool_or("enableColorTemperature", false, p).then(|| {
         let k = store.f32_or("colorTemperature", 6500.0, p);
@@ -252,6 +295,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     });
     Some(LightPiece {
         desc: LightDesc {
+            shaping,
             name: path.into(),
             shape,
             transform,
@@ -573,6 +617,34 @@ mod tests {
         assert!(convert_light("/Z", LightKind::Disk, &st(&[("inputs:radius", f(0.0))]), &mut p).is_none());
         assert_eq!(p.list.len(), 1);
         assert_eq!(p.list[0].attribute, "radius");
+    }
+
+    #[test]
+    fn shaping_is_read_where_it_applies() {
+        let mut p = Problems::new("/L");
+        // the API applied with its fallbacks: a hard 90° cone
+        let l = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shaping:cone:angle", f(90.0))]), &mut p).unwrap();
+        assert_eq!(l.desc.shaping, Some(ShapingDesc::default()));
+        let l = convert_light(
+            "/L",
+            LightKind::Rect,
+            &st(&[("inputs:shaping:cone:angle", f(25.0)), ("inputs:shaping:cone:softness", f(0.3)), ("inputs:shaping:focus", f(4.0)), ("inputs:shaping:focusTint", Value::Floats { data: vec![0.1, 0.2, 0.3], tuple: 3 })]),
+            &mut p,
+        )
+        .unwrap();
+        assert_eq!(l.desc.shaping, Some(ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.3, focus: 4.0, focus_tint: [0.1, 0.2, 0.3] }));
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        // unshaped lights stay unshaped
+        assert_eq!(convert_light("/L", LightKind::Disk, &st(&[]), &mut p).unwrap().desc.shaping, None);
+        // problems name the attribute: a negative angle, a negative tint, an IES profile, and
+        // shaping on a distant light
+        let l = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shaping:cone:angle", f(-5.0)), ("inputs:shaping:focusTint", Value::Floats { data: vec![-1.0, 0.5, 0.5], tuple: 3 }), ("inputs:shaping:ies:file", Value::Asset("/a.ies".into()))]), &mut p).unwrap();
+        let sd = l.desc.shaping.unwrap();
+        assert_eq!((sd.cone_angle_deg, sd.focus_tint), (0.0, [0.0, 0.5, 0.5]));
+        let sun = convert_light("/L", LightKind::Distant, &st(&[("inputs:shaping:focus", f(2.0))]), &mut p).unwrap();
+        assert!(sun.desc.shaping.is_none());
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["shaping:cone:angle", "shaping:focusTint", "shaping:ies:file", "shaping:focus"]);
     }
 
     #[test]

@@ -554,14 +554,19 @@ impl Caustics {
         let (origin, dir, power, mut stack) = match self.atlas.lights()[s.light as usize] {
             AtlasLight::Local { .. } => {
                 let Some(e) = self.atlas.emit(&s, ls.ray_o) else { return };
+                // the atlas aims the photon: a shaped light's emission is taken along that aim
+                let l = match light.shaping() {
+                    Some(sh) => light.emission().sample(&lambda) * sh.factor(e.dir, &lambda),
+                    None => ls.l,
+                };
                 let power = if ls.delta_pos {
-                    ls.l / e.pdf
+                    l / e.pdf
                 } else {
                     let cos = e.dir.dot(ls.n_light);
                     if !(cos > 0.0) {
                         return;
                     }
-                    ls.l * (cos / (ls.pdf_pos * e.pdf))
+                    l * (cos / (ls.pdf_pos * e.pdf))
                 };
                 let n = if ls.delta_pos { Vec3::ZERO } else { ls.n_light * ls.n_light.dot(e.dir).signum() };
                 spread = (1.0 / (std::f32::consts::PI * n_emitted as f32 * e.pdf)).sqrt();

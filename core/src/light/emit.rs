@@ -42,6 +42,12 @@
 //! returns 0 for the delta part (`pdf_pos` for point lights, `pdf_dir` for delta distant
 //! lights), as `pdf_li` does, since no other strategy can produce those rays.
 //!
+//! A shaped light (UsdLuxShapingAPI, [`super::shaping`]) is sampled as above; each ray's `l`
+//! carries the shaping's factor along `ray_d` (0 outside a cone), and `phi` its share of the
+//! power. A caller that sends the photon along another direction than `ray_d` (the caustics
+//! atlas aims local lights' photons at casters) takes the factor along its own direction
+//! ([`Light::shaping_factor`]).
+//!
 //! Tide's lights do not move: `time` is accepted so that light paths carry the same time
 //! as the camera paths they are merged with, and does not change the sample.
 //!
@@ -203,6 +209,18 @@ impl Light {
     /// point on the disk). `disk` is used by infinite lights only. None when the sample carries
     /// nothing (grazing direction, black dome texel, a dome that emits nothing).
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
+        let mut s = self.sample_le_unshaped(u_pos, u_dir, lambda, time, disk)?;
+        // a shaped light's sample keeps its place and direction (its `l` may be 0 outside the
+        // cone): callers that aim the ray elsewhere take the factor there (`shaping_factor`)
+        if let Some(sh) = self.shaping() {
+            s.l *= sh.factor(s.ray_d, lambda);
+        }
+        Some(s)
+    }
+
+    /// `sample_le` before the light's shaping.
+    #[inline]
+    fn sample_le_unshaped(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
         let _ = time;
         let area = |p: Vec3, n: Vec3, a: f32, l: SampledSpectrum| {
             let (d, pdf_dir) = cosine_about(n, u_dir)?;
@@ -322,7 +340,13 @@ impl Light {
                     Some(m) => dome_integral(m, |c| uplift::illuminant(c, m.cs).sample(lambda)) * (d.emission.scale * PI * r * r),
                 }
             }
-            _ => self.emission().sample(lambda) * self.phi_factor(disk),
+            _ => {
+                let phi = self.emission().sample(lambda) * self.phi_factor(disk);
+                match self.shaping() {
+                    Some(s) => phi * s.power_ratio(lambda),
+                    None => phi,
+                }
+            }
         }
     }
 
@@ -335,7 +359,7 @@ impl Light {
                 let r = disk.radius;
                 dome_integral(m, |c| SampledSpectrum::splat(color::luminance(c, m.cs).max(0.0))).0[0] * e.scale * PI * r * r
             }
-            _ => e.luminance * e.scale * self.phi_factor(disk),
+            _ => e.luminance * e.scale * self.phi_factor(disk) * self.shaping().map_or(1.0, |s| s.power_ratio_y()),
         }
     }
 

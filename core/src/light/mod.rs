@@ -17,6 +17,9 @@
 //!   front unless two-sided. `intersect` returns the emitting-side normal; `l` tests the side.
 //! - A light sample whose radiance is zero because the receiver sees the back of the light is
 //!   not returned (`None`), and `pdf_li` is 0 for such directions, so the two always agree.
+//!   Shaping (UsdLuxShapingAPI, [`shaping`]) only weights the radiance: a sample outside a
+//!   spot light's cone is not returned either, while `pdf_li` keeps the unshaped density
+//!   (both strategies then see zero radiance there, so MIS stays consistent).
 //!
 //! Sampling: sphere lights by the cone they subtend; rect lights uniformly in solid angle
 //! (spherical rectangles; by area when sheared or when they subtend under 1e-3 sr); disks,
@@ -45,11 +48,13 @@
 pub mod distrib;
 pub mod emit;
 pub mod sampler;
+pub mod shaping;
 
 #[cfg(test)]
 pub(crate) mod tests;
 
 pub use sampler::LightSampler;
+pub use shaping::Shaping;
 
 use glam::{Mat3, Vec2, Vec3};
 
@@ -205,6 +210,7 @@ pub struct SphereLight {
     pub radius: f32,
     pub emission: Emission,
     pub visible_to_camera: bool,
+    pub shaping: Option<Box<Shaping>>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -212,6 +218,7 @@ pub struct PointLight {
     pub p: Vec3,
     /// Radiant intensity (per steradian).
     pub emission: Emission,
+    pub shaping: Option<Box<Shaping>>,
 }
 
 /// A parallelogram (rect) or ellipse (disk) spanned by `a`, `b` about `origin`.
@@ -276,6 +283,7 @@ pub struct RectLight {
     pub visible_to_camera: bool,
     /// The edges are orthogonal (no shear in the transform).
     rectangular: bool,
+    pub shaping: Option<Box<Shaping>>,
 }
 
 /// Below this solid angle (sr) a rect is area-sampled: its spherical rectangle would lose
@@ -374,6 +382,7 @@ pub struct DiskLight {
     pub shape: Planar,
     pub emission: Emission,
     pub visible_to_camera: bool,
+    pub shaping: Option<Box<Shaping>>,
 }
 
 /// An open cylinder (no caps) emitting outwards from its side.
@@ -387,6 +396,7 @@ pub struct CylinderLight {
     pub area: f32,
     pub emission: Emission,
     pub visible_to_camera: bool,
+    pub shaping: Option<Box<Shaping>>,
 }
 
 /// An emissive mesh triangle (world space). `p`, `n` and `area` are its place at the shutter's
@@ -656,6 +666,13 @@ impl Light {
         let emission = |s: f32| Emission::new(uplift::illuminant(rgb, cs), s);
         // front of a planar light: where its local −Z goes (falls back to the plane normal)
         let front = -(m3 * Vec3::Z);
+        // UsdLuxShapingAPI about the light's axis (its −Z, or a planar light's normal)
+        let shaping = |axis: Vec3, spread: shaping::Spread| -> Result<Option<Box<Shaping>>, String> {
+            match &desc.shaping {
+                None => Ok(None),
+                Some(sd) => Ok(Shaping::new(sd, axis, spread, cs)?.map(Box::new)),
+            }
+        };
 
         let light = match &desc.shape {
             LightShape::Distant { angle_deg } => {
@@ -750,10 +767,10 @@ impl Light {
                     // same power as the sphere: I = L π r²; for r → 0 only the normalised
                     // limit (I = intensity / 4) is finite, and it is used for any zero radius
                     let i = if desc.normalize || !(area > 0.0) { 0.25 * scale } else { scale * PI * rw * rw };
-                    Light::Point(PointLight { p: origin, emission: emission(i) })
+                    Light::Point(PointLight { p: origin, emission: emission(i), shaping: shaping(front, shaping::Spread::Uniform)? })
                 } else {
                     let s = if desc.normalize { scale / area } else { scale };
-                    Light::Sphere(SphereLight { center: origin, radius: rw, emission: emission(s), visible_to_camera: vis })
+                    Light::Sphere(SphereLight { center: origin, radius: rw, emission: emission(s), visible_to_camera: vis, shaping: shaping(front, shaping::Spread::Uniform)? })
                 }
             }
             LightShape::Rect { width, height, texture: _ } => {
@@ -771,7 +788,8 @@ impl Light {
                 let shape = Planar::new(corner, a, b, front, false).ok_or_else(|| err("transform", "zero-area light (the transform collapses the rect)"))?;
                 let s = if desc.normalize { scale / shape.area } else { scale };
                 let rectangular = a.dot(b).abs() <= 1e-5 * a.length() * b.length();
-                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis, rectangular })
+                let shaping = shaping(shape.n, shaping::Spread::Cosine(shape.n))?;
+                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis, rectangular, shaping })
             }
             LightShape::Disk { radius } => {
                 let r = check_length("radius", *radius)?;
@@ -781,7 +799,8 @@ impl Light {
                 let shape = Planar::new(origin, m3 * Vec3::X * r, m3 * Vec3::Y * r, front, true)
                     .ok_or_else(|| err("transform", "zero-area light (the transform collapses the disk)"))?;
                 let s = if desc.normalize { scale / shape.area } else { scale };
-                Light::Disk(DiskLight { shape, emission: emission(s), visible_to_camera: vis })
+                let shaping = shaping(shape.n, shaping::Spread::Cosine(shape.n))?;
+                Light::Disk(DiskLight { shape, emission: emission(s), visible_to_camera: vis, shaping })
             }
             LightShape::Cylinder { radius, length, treat_as_line: _ } => {
                 let r = check_length("radius", *radius)?;
@@ -800,14 +819,16 @@ impl Light {
                     return Err(err("transform", "zero-area light (the transform collapses the cylinder)"));
                 }
                 let s = if desc.normalize { scale / area } else { scale };
+                let frame = Frame::from_normal(axis.normalize());
                 Light::Cylinder(CylinderLight {
                     center: origin,
-                    frame: Frame::from_normal(axis.normalize()),
+                    frame,
                     half_length,
                     radius,
                     area,
                     emission: emission(s),
                     visible_to_camera: vis,
+                    shaping: shaping(front, shaping::Spread::Cylinder(frame.n))?,
                 })
             }
         };
@@ -844,7 +865,7 @@ impl Light {
 
     /// A point light of radiant intensity `intensity` × `spectrum` (per steradian).
     pub fn point(p: Vec3, spectrum: Spectrum, intensity: f32) -> Light {
-        Light::Point(PointLight { p, emission: Emission::new(spectrum, intensity) })
+        Light::Point(PointLight { p, emission: Emission::new(spectrum, intensity), shaping: None })
     }
 
     /// Gives infinite lights the scene's bounding sphere (for power and for placing their
@@ -906,6 +927,28 @@ impl Light {
         }
     }
 
+    /// The light's UsdLuxShapingAPI, if it has one that shapes anything.
+    pub fn shaping(&self) -> Option<&Shaping> {
+        match self {
+            Light::Sphere(l) => l.shaping.as_deref(),
+            Light::Rect(l) => l.shaping.as_deref(),
+            Light::Disk(l) => l.shaping.as_deref(),
+            Light::Cylinder(l) => l.shaping.as_deref(),
+            Light::Point(l) => l.shaping.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// What the light emits along unit `w` (leaving it) at `lambda`, per unit of its unshaped
+    /// emission: its shaping's factor, 1 for unshaped lights.
+    #[inline]
+    pub fn shaping_factor(&self, w: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self.shaping() {
+            Some(s) => s.factor(w, lambda),
+            None => SampledSpectrum::ONE,
+        }
+    }
+
     /// Emitting area in world space (0 for non-area lights).
     pub fn area(&self) -> f32 {
         match self {
@@ -940,6 +983,10 @@ impl Light {
             Light::Triangle(t) => base * PI * t.area * if t.two_sided { 2.0 } else { 1.0 },
             _ => base * PI * self.area(),
         };
+        let p = match self.shaping() {
+            Some(s) => p * s.power_ratio_y(),
+            None => p,
+        };
         if p.is_finite() {
             p.max(0.0)
         } else {
@@ -954,7 +1001,7 @@ impl Light {
         let _ = p;
         let c = n.dot(w);
         match self {
-            Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda),
+            Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
             Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => t.emission.sample(lambda),
             _ => SampledSpectrum::ZERO,
         }
@@ -1018,6 +1065,19 @@ impl Light {
     /// Samples a direction towards the light from `ctx.p`. None when the light sends nothing
     /// there (receiver behind a one-sided light, inside a sphere light, black texel, ...).
     pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
+        let mut s = self.sample_li_unshaped(ctx, u, lambda)?;
+        if let Some(sh) = self.shaping() {
+            s.l *= sh.factor(-s.wi, lambda);
+            if s.l.is_black() {
+                return None;
+            }
+        }
+        Some(s)
+    }
+
+    /// `sample_li` before the light's shaping.
+    #[inline]
+    fn sample_li_unshaped(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
         match self {
             Light::Point(pl) => {
                 let v = pl.p - ctx.p;

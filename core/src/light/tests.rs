@@ -15,6 +15,7 @@ const ALPHA: f64 = 0.01;
 
 pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     LightDesc {
+        shaping: None,
         name: "/light".into(),
         shape,
         transform,
@@ -473,14 +474,18 @@ fn sphere_light_irradiance_is_analytic() {
 /// Total power of a light by Monte Carlo: irradiance through a sphere of radius `big` about
 /// the origin, integrated over that sphere, one light sample per point.
 fn flux(l: &Light, big: f32, samples: usize, seed: u64) -> (f64, f64) {
+    flux_about(l, Vec3::ZERO, big, samples, seed)
+}
+
+/// [`flux`] through a sphere centred at `c`: (mean, standard error).
+pub(crate) fn flux_about(l: &Light, c: Vec3, big: f32, samples: usize, seed: u64) -> (f64, f64) {
     let lam = lambda();
     let mut rng = TestRng::new(seed);
     let area = 4.0 * std::f64::consts::PI * (big as f64).powi(2);
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
     for _ in 0..samples {
-        let x = sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32())) * big;
-        let n = -x.normalize();
-        let ctx = LightSampleContext::new(x, n);
+        let n = -sample_uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        let ctx = LightSampleContext::new(c - n * big, n);
         let v = match l.sample_li(&ctx, Vec2::new(rng.next_f32(), rng.next_f32()), &lam) {
             Some(s) => area * (s.l[0] * s.wi.dot(n).max(0.0) / s.pdf) as f64,
             None => 0.0,

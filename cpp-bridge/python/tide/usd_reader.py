@@ -66,6 +66,12 @@ LIGHT_SPECIFIC = {
     "diskLight": {"inputs:radius": 0.5},
     "cylinderLight": {"inputs:radius": 0.5, "inputs:length": 1.0, "treatAsLine": False},
 }
+# UsdLuxShapingAPI: sent where the prim has them (the API applied, or authored).
+LIGHT_SHAPING = (
+    "inputs:shaping:cone:angle", "inputs:shaping:cone:softness", "inputs:shaping:focus",
+    "inputs:shaping:focusTint", "inputs:shaping:ies:file", "inputs:shaping:ies:angleScale",
+    "inputs:shaping:ies:normalize",
+)
 CAMERA_ATTRS = {
     "projection": "perspective", "focalLength": 50.0, "horizontalAperture": 20.955,
     "verticalAperture": 15.2908, "horizontalApertureOffset": 0.0,
@@ -1364,6 +1370,13 @@ class Reader:
                     v = fb
             vals[name] = v
             st.set(name, convert(v, a.GetTypeName() if a else None))
+        for name in LIGHT_SHAPING:
+            a = prim.GetAttribute(name)
+            if a and a.HasValue():
+                v = a.Get(self._time(0))
+                if isinstance(v, Sdf.AssetPath):
+                    v = Sdf.AssetPath(v.path, v.resolvedPath or v.path)
+                st.set(name, convert(v, a.GetTypeName()))
         zero = None
         if type_name == "rectLight" and vals["inputs:width"] * vals["inputs:height"] <= 0:
             zero = "inputs:width" if vals["inputs:width"] <= 0 else "inputs:height"

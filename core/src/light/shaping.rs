@@ -1,0 +1,257 @@
+//! UsdLuxShapingAPI: a light's emission shaped by direction (a spot light's cone, its soft
+//! edge, the focus and its tint).
+//!
+//! With θ the angle between the emission direction `w` (leaving the light) and the light's
+//! primary axis (its local −Z), the emitted radiance (or a point light's intensity) is
+//! multiplied by, as UsdLux states it:
+//!
+//! - the cone: 0 beyond θc = `shaping:cone:angle`; with `shaping:cone:softness` s ∈ [0, 1]
+//!   (clamped), 1 − smoothstep(θ; θs, θc) with θs = (1 − s) θc, so the edge fades over the
+//!   last fraction s of the cone (s = 0: a hard edge, full emission for θ ≤ θc);
+//! - the focus: f = |cos θ|^`shaping:focus` (focus ≤ 0: none), tinted by
+//!   `shaping:focusTint` t as lerp(f, t, 1) = t + f (1 − t) per wavelength (t uplifted as a
+//!   reflectance; black, the default, gives f itself, white disables the focus).
+//!
+//! A planar light (rect, disk) takes its emitting normal as the axis (the same as its −Z
+//! unless its transform shears it). Sampling is not changed by the shaping: samples are
+//! weighted by it (a light sample outside the cone carries nothing).
+//!
+//! Power: the shaped light emits Kf + t(λ)(Kc − Kf) of its unshaped power, where
+//! Kc = ∫cone·w dω / ∫w dω and Kf = ∫cone·f·w dω / ∫w dω, `w` being how the light's
+//! unshaped power spreads over directions (a point or sphere light: uniformly; a planar light:
+//! as the cosine to its normal; a cylinder: as the sine to its length). Both are computed
+//! once, by composite Simpson quadrature in θ split at the cone's and the focus's kinks (and
+//! graded towards each piece's ends).
+
+use glam::Vec3;
+
+use super::PI;
+use crate::math::Frame;
+use crate::scene::{ColorSpace, ShapingDesc};
+use crate::spectrum::{color, uplift, SampledSpectrum, SampledWavelengths, Spectrum};
+
+/// How a light's unshaped power spreads over emission directions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Spread {
+    /// Evenly over the sphere (point and sphere lights).
+    Uniform,
+    /// As max(0, n·w) (one-sided planar lights of unit normal `n`).
+    Cosine(Vec3),
+    /// As the projected area of an open cylinder of unit axis `a`: √(1 − (a·w)²).
+    Cylinder(Vec3),
+}
+
+impl Spread {
+    #[inline]
+    fn weight(&self, w: Vec3) -> f64 {
+        match *self {
+            Spread::Uniform => 1.0,
+            Spread::Cosine(n) => n.dot(w).max(0.0) as f64,
+            Spread::Cylinder(a) => (1.0 - (a.dot(w) as f64).powi(2)).max(0.0).sqrt(),
+        }
+    }
+}
+
+/// A light's shaping, in world space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shaping {
+    /// Unit primary axis (the direction the light points at).
+    pub axis: Vec3,
+    /// Soft edge start θs and cutoff θc (radians); θc ≥ π: no cone.
+    theta_start: f32,
+    theta_cut: f32,
+    cos_start: f32,
+    cos_cut: f32,
+    /// Cosine power (0: no focus).
+    focus: f32,
+    /// Focus tint; None for black (the default).
+    tint: Option<Spectrum>,
+    /// Luminance of the tint (relative: white = 1).
+    tint_y: f32,
+    /// Shares of the unshaped power kept by the cone alone (Kc) and by the cone and focus (Kf).
+    keep_cone: f32,
+    keep_focus: f32,
+}
+
+/// Composite Simpson intervals per piece of θ.
+const SIMPSON: usize = 256;
+/// Midpoints in φ when the integrand depends on it.
+const PHI_STEPS: usize = 128;
+
+impl Shaping {
+    /// The shaping of a light whose primary axis is `axis` (unit) and whose unshaped power
+    /// spreads as `spread`. None when the description shapes nothing (cone ≥ 180°, no focus).
+    /// Errors name the attribute (non-finite values).
+    pub(crate) fn new(desc: &ShapingDesc, axis: Vec3, spread: Spread, cs: ColorSpace) -> Result<Option<Shaping>, String> {
+        let finite = |name: &str, v: f32| if v.is_finite() { Ok(v) } else { Err(format!("{name}: not a finite number ({v})")) };
+        let angle = finite("shaping:cone:angle", desc.cone_angle_deg)?.clamp(0.0, 180.0);
+        let softness = finite("shaping:cone:softness", desc.cone_softness)?.clamp(0.0, 1.0);
+        let focus = finite("shaping:focus", desc.focus)?.max(0.0);
+        for &c in &desc.focus_tint {
+            finite("shaping:focusTint", c)?;
+        }
+        let tint_rgb = desc.focus_tint.map(|c| c.max(0.0));
+        if angle >= 180.0 && (focus == 0.0 || tint_rgb == [1.0; 3]) {
+            return Ok(None);
+        }
+        let Some(axis) = axis.try_normalize() else { return Err("transform: collapses the light's axis".into()) };
+        let theta_cut = if angle >= 180.0 { PI } else { angle.to_radians() };
+        let theta_start = (1.0 - softness) * theta_cut;
+        let (tint, tint_y) = if focus == 0.0 || tint_rgb == [0.0; 3] {
+            (None, 0.0)
+        } else if tint_rgb.iter().all(|&c| c <= 1.0) {
+            (Some(uplift::albedo(tint_rgb, cs)), color::luminance(tint_rgb, cs))
+        } else {
+            (Some(uplift::unbounded(tint_rgb, cs)), color::luminance(tint_rgb, cs))
+        };
+        let mut s = Shaping {
+            axis,
+            theta_start,
+            theta_cut,
+            cos_start: theta_start.cos(),
+            cos_cut: if angle >= 180.0 { -2.0 } else { theta_cut.cos() },
+            focus,
+            tint,
+            tint_y,
+            keep_cone: 1.0,
+            keep_focus: 1.0,
+        };
+        let (kc, kf) = s.keep(spread);
+        s.keep_cone = kc;
+        s.keep_focus = kf;
+        Ok(Some(s))
+    }
+
+    /// The cone's factor at cos θ (1 − smoothstep from θs to θc).
+    #[inline]
+    pub fn cone(&self, cos_t: f32) -> f32 {
+        if cos_t >= self.cos_start {
+            return 1.0;
+        }
+        if cos_t < self.cos_cut || self.theta_cut <= self.theta_start {
+            return 0.0;
+        }
+        let theta = cos_t.clamp(-1.0, 1.0).acos();
+        let t = ((theta - self.theta_start) / (self.theta_cut - self.theta_start)).clamp(0.0, 1.0);
+        1.0 - t * t * (3.0 - 2.0 * t)
+    }
+
+    /// The focus factor |cos θ|^focus.
+    #[inline]
+    pub fn focus(&self, cos_t: f32) -> f32 {
+        if self.focus > 0.0 {
+            cos_t.abs().powf(self.focus)
+        } else {
+            1.0
+        }
+    }
+
+    /// The factor on the radiance leaving the light along unit `w`.
+    #[inline]
+    pub fn factor(&self, w: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let c = w.dot(self.axis);
+        let k = self.cone(c);
+        if !(k > 0.0) {
+            return SampledSpectrum::ZERO;
+        }
+        let f = self.focus(c);
+        match &self.tint {
+            None => SampledSpectrum::splat(k * f),
+            Some(t) => (t.sample(lambda) * (1.0 - f) + SampledSpectrum::splat(f)) * k,
+        }
+    }
+
+    /// Share of the unshaped power the light still emits, per wavelength.
+    pub fn power_ratio(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let d = self.keep_cone - self.keep_focus;
+        match &self.tint {
+            None => SampledSpectrum::splat(self.keep_focus),
+            Some(t) => t.sample(lambda) * d + SampledSpectrum::splat(self.keep_focus),
+        }
+    }
+
+    /// Share of the unshaped power the light still emits, luminance-weighted (the tint taken
+    /// at its luminance).
+    pub fn power_ratio_y(&self) -> f32 {
+        self.keep_focus + self.tint_y * (self.keep_cone - self.keep_focus)
+    }
+
+    /// (Kc, Kf) for `spread` (see the module documentation).
+    fn keep(&self, spread: Spread) -> (f32, f32) {
+        let frame = Frame::from_normal(self.axis);
+        let phi_dependent = match spread {
+            Spread::Uniform => false,
+            Spread::Cosine(n) => n.dot(self.axis) < 1.0 - 1e-6,
+            Spread::Cylinder(_) => true,
+        };
+        // ∫ over φ at θ of (w, cone·w, cone·focus·w), times sin θ
+        // the cone is evaluated in θ, at a point nudged into the piece, so that each piece sees
+        // its own side of a hard edge
+        let (ts, tc) = (self.theta_start as f64, self.theta_cut as f64);
+        let cone_at = |theta: f64| -> f64 {
+            if theta <= ts {
+                1.0
+            } else if theta >= tc {
+                0.0
+            } else {
+                let t = (theta - ts) / (tc - ts);
+                1.0 - t * t * (3.0 - 2.0 * t)
+            }
+        };
+        let ring = |theta: f64, inside: f64| -> [f64; 3] {
+            let (st, ct) = theta.sin_cos();
+            let cone = cone_at(inside);
+            let focus = self.focus(ct as f32) as f64;
+            let at = |phi: f64| {
+                let (sp, cp) = phi.sin_cos();
+                spread.weight(frame.to_world(Vec3::new((st * cp) as f32, (st * sp) as f32, ct as f32)))
+            };
+            let w = if phi_dependent {
+                let h = 2.0 * std::f64::consts::PI / PHI_STEPS as f64;
+                (0..PHI_STEPS).map(|i| at((i as f64 + 0.5) * h)).sum::<f64>() * h
+            } else {
+                at(0.0) * 2.0 * std::f64::consts::PI
+            };
+            [w * st, cone * w * st, cone * focus * w * st]
+        };
+        // pieces split where the integrand has kinks or narrow features
+        let pi = std::f64::consts::PI;
+        let mut cuts = vec![0.0, pi, 0.5 * pi, self.theta_start as f64, self.theta_cut as f64];
+        if self.focus > 1.0 {
+            let width = (4.0 / self.focus as f64).sqrt();
+            if width < 0.5 * pi {
+                cuts.push(width);
+            }
+        }
+        cuts.retain(|c| (0.0..=pi).contains(c));
+        cuts.sort_by(|a, b| a.total_cmp(b));
+        cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        // each piece is mapped from u ∈ [0, 1] by the quintic smoothstep g(u) = u³(10 − 15u + 6u²)
+        // (g' = 30u²(1 − u)²), which crowds the nodes towards the ends: a kink such as
+        // |cos θ|^focus at 90° for a focus below 1 becomes smooth in u
+        let mut acc = [0.0f64; 3];
+        let h = 1.0 / SIMPSON as f64;
+        for w in cuts.windows(2) {
+            let (a, b) = (w[0], w[1]);
+            for i in 1..SIMPSON {
+                let u = h * i as f64;
+                let coef = if i % 2 == 1 { 4.0 } else { 2.0 };
+                let g = u * u * u * (10.0 + u * (6.0 * u - 15.0));
+                let dg = 30.0 * u * u * (1.0 - u) * (1.0 - u);
+                let theta = a + (b - a) * g;
+                let v = ring(theta, theta.clamp(a + 1e-9 * (b - a), b - 1e-9 * (b - a)));
+                for k in 0..3 {
+                    acc[k] += coef * h / 3.0 * (b - a) * dg * v[k];
+                }
+            }
+        }
+        if !(acc[0] > 0.0) {
+            return (0.0, 0.0);
+        }
+        ((acc[1] / acc[0]) as f32, (acc[2] / acc[0]) as f32)
+    }
+}
+
+#[cfg(test)]
+#[path = "shaping/tests.rs"]
+mod tests;

@@ -1,0 +1,170 @@
+"""UsdLuxShapingAPI: a spot light's cone, soft edge, focus and focus tint, rendered on a
+Lambertian floor and compared with the schema's formulas evaluated here; what the reader sends;
+and the problems bad shaping values give."""
+import math
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdLux
+
+from conftest import bind, camera, lambert_material, load, render, settings
+
+HEIGHT = 2.0          # the light above the floor
+WIDTH = 4.0           # the floor seen by the orthographic camera (metres across the image)
+RES = 64
+
+
+def _spot_scene(stage, cone=35.0, softness=0.4, focus=2.0, tint=None, albedo=0.5,
+                intensity=40.0):
+    """A point spot light HEIGHT above a Lambertian floor, pointing straight down, seen from
+    above by an orthographic camera WIDTH across."""
+    cam = camera(stage, pos=(0, 5, 0), aperture=(WIDTH * 10, WIDTH * 10),
+                 projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    floor = UsdGeom.Mesh.Define(stage, "/Floor")
+    s = 10.0
+    floor.CreatePointsAttr([(-s, 0, -s), (s, 0, -s), (s, 0, s), (-s, 0, s)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])      # facing +Y
+    bind(floor.GetPrim(), lambert_material(stage, "/Looks/Floor", (albedo,) * 3))
+    light = UsdLux.SphereLight.Define(stage, "/Spot")
+    light.CreateTreatAsPointAttr(True)
+    light.CreateNormalizeAttr(True)
+    light.CreateIntensityAttr(intensity)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, HEIGHT, 0))
+    light.AddRotateXOp().Set(-90.0)                      # its -Z points down
+    shaping = UsdLux.ShapingAPI.Apply(light.GetPrim())
+    shaping.CreateShapingConeAngleAttr(cone)
+    shaping.CreateShapingConeSoftnessAttr(softness)
+    shaping.CreateShapingFocusAttr(focus)
+    if tint is not None:
+        shaping.CreateShapingFocusTintAttr(Gf.Vec3f(*tint))
+    settings(stage, res=(RES, RES), samples=16, integrator="path")
+    return light
+
+
+def _profile(r, cone, softness, focus, tint_c, albedo, intensity):
+    """Radiance of the floor at distance r from the light's foot, per the UsdLux schema:
+    (ρ/π) I k(θ) (t + f(1 − t)) cos θ / d², θ the angle off the axis, I = intensity / 4 (a
+    normalised point light, Tide's treatAsPoint limit of a sphere light)."""
+    th = np.arctan2(r, HEIGHT)
+    tc = math.radians(cone)
+    ts = (1.0 - softness) * tc
+    t = np.clip((th - ts) / max(tc - ts, 1e-12), 0.0, 1.0)
+    k = np.where(th <= ts, 1.0, np.where(th >= tc, 0.0, 1.0 - t * t * (3.0 - 2.0 * t)))
+    f = np.abs(np.cos(th)) ** focus
+    d2 = HEIGHT ** 2 + r ** 2
+    return albedo / math.pi * intensity / 4.0 * k * (tint_c + f * (1.0 - tint_c)) * np.cos(th) / d2
+
+
+def _expected_image(tint_c, **kw):
+    """The profile averaged over each pixel (box filter) on an 8 x 8 sub-grid."""
+    sub = 8
+    px = WIDTH / RES
+    c = (np.arange(RES * sub) + 0.5) / (RES * sub) * WIDTH - WIDTH / 2
+    x, z = np.meshgrid(c, c)
+    v = _profile(np.hypot(x, z), tint_c=tint_c, **kw)
+    return v.reshape(RES, sub, RES, sub).mean(axis=(1, 3)), px
+
+
+def _floor_scale(renderer, stage_factory):
+    """The floor's radiance under a straight-down sun of unit irradiance, over ρ/π: the
+    UsdPreviewSurface's diffuse base seen and lit head-on (its grazing Schlick specular
+    renormalises the base by a couple of percent), measured so the spot tests compare the
+    emission profile alone. It changes by under 0.3% for incidence within 35° of the normal."""
+    stage = stage_factory()
+    _spot_scene(stage, cone=0.0)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(1.0)
+    sun.CreateNormalizeAttr(True)                        # intensity = irradiance
+    sun.AddRotateXOp().Set(-90.0)                        # straight down
+    img = render(renderer, stage)["color"][..., :3]
+    scale = img.mean(axis=(0, 1)) / (0.5 / math.pi)
+    assert np.all(np.abs(scale - 1.0) < 0.03), scale
+    return scale
+
+
+def _rings(img, px, width=2):
+    c = (np.arange(RES) + 0.5) * px - WIDTH / 2
+    x, z = np.meshgrid(c, c)
+    ring = (np.hypot(x, z) / (width * px)).astype(int)
+    n = ring.max() + 1
+    return np.array([img[ring == i].mean() for i in range(n)])
+
+
+def _new_stage():
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    return s
+
+
+def test_spot_light_profile_follows_the_shaping_formulas(renderer, stage):
+    kw = dict(cone=35.0, softness=0.4, focus=2.0, albedo=0.5, intensity=40.0)
+    scale = _floor_scale(renderer, _new_stage)[0]
+    _spot_scene(stage, **kw)
+    img = render(renderer, stage)["color"][..., 0]
+    want, px = _expected_image(0.0, **kw)
+    want = want * scale
+    got_r, want_r = _rings(img, px), _rings(want, px)
+    peak = want_r.max()
+    # ring means (each ring holds many pixels; the only noise is sub-pixel jitter)
+    assert np.all(np.abs(got_r - want_r) <= 0.01 * want_r + 2e-3 * peak), \
+        np.round(np.stack([got_r, want_r]), 4).tolist()
+    # beyond the cone nothing is lit
+    assert got_r[-3:].max() == 0.0
+    # the same light unshaped would read cos θ / d² with no focus and no cone: far off the test
+    th = np.arctan2((np.arange(len(want_r)) + 0.5) * 2 * px, HEIGHT)
+    unshaped = 0.5 / math.pi * 10.0 * np.cos(th) / (HEIGHT ** 2 + ((np.arange(len(want_r)) + 0.5) * 2 * px) ** 2)
+    assert np.abs(got_r - unshaped).max() > 0.2 * peak
+
+
+def test_focus_tint_colours_the_falloff(renderer, stage):
+    tint = (0.8, 0.4, 0.2)
+    kw = dict(cone=60.0, softness=0.0, focus=6.0, albedo=0.5, intensity=40.0)
+    scale = _floor_scale(renderer, _new_stage)
+    _spot_scene(stage, tint=tint, **kw)
+    img = render(renderer, stage)["color"]
+    for ch in range(3):
+        want, px = _expected_image(tint[ch], **kw)
+        want = want * scale[ch]
+        got_r, want_r = _rings(img[..., ch], px), _rings(want, px)
+        inside = want_r > 0.05 * want_r.max()
+        # the tint goes through the spectral uplift and back: 2% (plus the pixel-noise floor)
+        err = np.abs(got_r - want_r)[inside] / want_r[inside]
+        assert err.max() < 0.02, (ch, np.round(got_r, 4).tolist(), np.round(want_r, 4).tolist())
+    # off-axis the tint shows: red over blue grows from 1 on the axis towards 4 (0.8 / 0.2)
+    b = _rings(img[..., 2], WIDTH / RES)
+    r = _rings(img[..., 0], WIDTH / RES)
+    assert abs(r[0] / b[0] - 1.0) < 0.05 and r[12] / b[12] > 1.5
+
+
+def test_reader_sends_shaping_only_where_it_is(stage, delegate):
+    camera(stage)
+    spot = UsdLux.SphereLight.Define(stage, "/Spot")
+    UsdLux.ShapingAPI.Apply(spot.GetPrim()).CreateShapingFocusAttr(3.0)
+    UsdLux.SphereLight.Define(stage, "/Plain")
+    load(stage, delegate)
+    # the applied API's fallbacks come along (a 90° cone)
+    assert delegate.value("/Spot", "inputs:shaping:cone:angle") == 90.0
+    assert delegate.value("/Spot", "inputs:shaping:focus") == 3.0
+    assert delegate.value("/Spot", "inputs:shaping:cone:softness") == 0.0
+    assert delegate.value("/Plain", "inputs:shaping:cone:angle") is None
+
+
+def test_bad_shaping_values_are_reported_and_the_rest_renders(renderer, stage):
+    _spot_scene(stage)
+    spot = stage.GetPrimAtPath("/Spot")
+    spot.GetAttribute("inputs:shaping:cone:angle").Set(-10.0)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    UsdLux.ShapingAPI.Apply(sun.GetPrim()).CreateShapingFocusAttr(4.0)
+    sun.CreateIntensityAttr(1.0)
+    sun.CreateNormalizeAttr(True)                        # intensity = irradiance
+    sun.AddRotateXOp().Set(-90.0)                        # straight down
+    d = renderer.RenderDelegate()
+    _, problems = load(stage, d)
+    keys = {(p.prim, p.attribute) for p in problems}
+    assert ("/Spot", "shaping:cone:angle") in keys or ("/Spot", "inputs:shaping:cone:angle") in keys, problems
+    assert any(p.prim == "/Sun" and "shaping" in p.attribute for p in problems), problems
+    # the spot emits nothing (cone 0); the sun, unshaped, lights the floor as it does alone
+    img = render(renderer, stage)["color"][..., 0]
+    alone = _floor_scale(renderer, _new_stage)[0] * 0.5 / math.pi
+    assert abs(img.mean() - alone) < 0.005 * alone
