@@ -526,12 +526,18 @@ pub struct ShapingDesc {
     pub focus: f32,
     /// `shaping:focusTint`.
     pub focus_tint: Rgb,
+    /// `shaping:ies:file`, parsed.
+    pub ies: Option<std::sync::Arc<crate::light::ies::IesProfile>>,
+    /// `shaping:ies:angleScale` (clipped at −1).
+    pub ies_angle_scale: f32,
+    /// `shaping:ies:normalize`: divide the profile by its mean intensity.
+    pub ies_normalize: bool,
 }
 
 impl Default for ShapingDesc {
-    /// The schema's fallbacks: a 90° cone with a hard edge, no focus.
+    /// The schema's fallbacks: a 90° cone with a hard edge, no focus, no profile.
     fn default() -> Self {
-        ShapingDesc { cone_angle_deg: 90.0, cone_softness: 0.0, focus: 0.0, focus_tint: [0.0; 3] }
+        ShapingDesc { cone_angle_deg: 90.0, cone_softness: 0.0, focus: 0.0, focus_tint: [0.0; 3], ies: None, ies_angle_scale: 0.0, ies_normalize: false }
     }
 }
 

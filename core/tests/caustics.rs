@@ -253,7 +253,7 @@ fn a_spot_lights_caustic_agrees_with_path_tracing() {
     let aim = (Vec3::new(0.0, 0.3, 0.0) - pos).normalize();
     let l = &mut scene.lights[0];
     l.transform = Mat4::from_rotation_translation(glam::Quat::from_rotation_arc(Vec3::NEG_Z, aim), pos);
-    l.shaping = Some(tide_core::scene::ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.6, focus: 8.0, focus_tint: [0.0; 3] });
+    l.shaping = Some(tide_core::scene::ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.6, focus: 8.0, focus_tint: [0.0; 3], ..Default::default() });
     let path = render_progressive(&scene, settings_for(IntegratorKind::Path, w, h, 4096, 2));
     let caus = render_progressive(&scene, settings_for(IntegratorKind::Caustics, w, h, 256, 2));
     let (worst, mp, mc, z) = assert_agree_with_path(&path, &caus, w, h, "spot regions");

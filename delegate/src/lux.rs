@@ -8,6 +8,7 @@
 use crate::material::{TexKey, WrapKey};
 use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
+use tide_core::light::ies::IesProfile;
 use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShapingDesc};
 use tide_core::{IntegratorKind, RenderSettings};
 
@@ -164,8 +165,9 @@ const SHAPING_ATTRS: [&str; 7] = [
 ];
 
 /// Reads `UsdLuxShapingAPI` (None when no shaping attribute is present). Values the schema
-/// clamps (softness into [0, 1], a negative focus ignored) are taken silently; a negative cone
-/// angle, a negative tint component and an IES profile (not supported) are problems.
+/// clamps (softness into [0, 1], a negative focus ignored, an angle scale below −1) are taken
+/// silently; a negative cone angle, a negative tint component and an IES file that cannot be
+/// read or parsed (the light is then shaped without it) are problems.
 fn convert_shaping(kind: LightKind, store: &AttrStore, p: &mut Problems) -> Option<ShapingDesc> {
     let present: Vec<&str> = SHAPING_ATTRS.iter().copied().filter(|a| store.has(a)).collect();
     if present.is_empty() {
@@ -188,10 +190,29 @@ fn convert_shaping(kind: LightKind, store: &AttrStore, p: &mut Problems) -> Opti
     } else {
         tint
     };
-    if store.str_opt("shaping:ies:file").is_some_and(|f| !f.is_empty()) {
-        p.add("shaping:ies:file", "IES profiles are not supported; the light is shaped by its cone and focus only");
-    }
-    Some(ShapingDesc { cone_angle_deg: angle, cone_softness: store.f32_or("shaping:cone:softness", d.cone_softness, p), focus: store.f32_or("shaping:focus", d.focus, p), focus_tint: tint.to_array() })
+    let ies = store.str_opt("shaping:ies:file").filter(|f| !f.is_empty()).and_then(|f| {
+        let read = std::fs::read(f).map_err(|e| format!("cannot read '{f}': {e}")).and_then(|bytes| {
+            // LM-63 files are ASCII; older ones may carry Latin-1 in their keyword lines
+            let text: String = bytes.iter().map(|&b| b as char).collect();
+            IesProfile::parse(&text).map_err(|e| format!("'{f}': {e}"))
+        });
+        match read {
+            Ok(profile) => Some(std::sync::Arc::new(profile)),
+            Err(e) => {
+                p.add("shaping:ies:file", format!("{e}; the light is shaped without it"));
+                None
+            }
+        }
+    });
+    Some(ShapingDesc {
+        cone_angle_deg: angle,
+        cone_softness: store.f32_or("shaping:cone:softness", d.cone_softness, p),
+        focus: store.f32_or("shaping:focus", d.focus, p),
+        focus_tint: tint.to_array(),
+        ies,
+        ies_angle_scale: store.f32_or("shaping:ies:angleScale", d.ies_angle_scale, p),
+        ies_normalize: store.bool_or("shaping:ies:normalize", d.ies_normalize, p),
+    })
 }
 
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
@@ -632,15 +653,33 @@ mod tests {
             &mut p,
         )
         .unwrap();
-        assert_eq!(l.desc.shaping, Some(ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.3, focus: 4.0, focus_tint: [0.1, 0.2, 0.3] }));
+        assert_eq!(l.desc.shaping, Some(ShapingDesc { cone_angle_deg: 25.0, cone_softness: 0.3, focus: 4.0, focus_tint: [0.1, 0.2, 0.3], ..Default::default() }));
         assert!(p.list.is_empty(), "{:?}", p.list);
         // unshaped lights stay unshaped
         assert_eq!(convert_light("/L", LightKind::Disk, &st(&[]), &mut p).unwrap().desc.shaping, None);
         // problems name the attribute: a negative angle, a negative tint, an IES profile, and
         // shaping on a distant light
-        let l = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shaping:cone:angle", f(-5.0)), ("inputs:shaping:focusTint", Value::Floats { data: vec![-1.0, 0.5, 0.5], tuple: 3 }), ("inputs:shaping:ies:file", Value::Asset("/a.ies".into()))]), &mut p).unwrap();
+        let l = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shaping:cone:angle", f(-5.0)), ("inputs:shaping:focusTint", Value::Floats { data: vec![-1.0, 0.5, 0.5], tuple: 3 }), ("inputs:shaping:ies:file", Value::Asset("/no/such/file.ies".into()))]), &mut p).unwrap();
         let sd = l.desc.shaping.unwrap();
-        assert_eq!((sd.cone_angle_deg, sd.focus_tint), (0.0, [0.0, 0.5, 0.5]));
+        assert_eq!((sd.cone_angle_deg, sd.focus_tint, sd.ies.is_none()), (0.0, [0.0, 0.5, 0.5], true));
+        assert!(p.list[2].message.contains("cannot read '/no/such/file.ies'"), "{:?}", p.list[2]);
+        // a readable profile is parsed; a malformed one is a problem naming the file
+        let dir = std::env::temp_dir().join(format!("tide-ies-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.ies");
+        std::fs::write(&good, "TILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n300 100\n").unwrap();
+        let bad = dir.join("bad.ies");
+        std::fs::write(&bad, "TILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n1 1 0\n0 90\n0\n300 100\n").unwrap();
+        let mut q = Problems::new("/L");
+        let asset = |f: &std::path::Path| Value::Asset(f.to_string_lossy().into_owned());
+        let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shaping:ies:file", asset(&good)), ("inputs:shaping:ies:normalize", Value::Bool(true)), ("inputs:shaping:ies:angleScale", f(0.5))]), &mut q).unwrap();
+        let sd = l.desc.shaping.unwrap();
+        assert_eq!((sd.ies.unwrap().eval(0.0, 0.0), sd.ies_normalize, sd.ies_angle_scale), (300.0, true, 0.5));
+        assert!(q.list.is_empty(), "{:?}", q.list);
+        let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shaping:ies:file", asset(&bad))]), &mut q).unwrap();
+        assert!(l.desc.shaping.unwrap().ies.is_none());
+        assert!(q.list[0].attribute == "shaping:ies:file" && q.list[0].message.contains("type 3 (A) is not supported"), "{:?}", q.list);
+        std::fs::remove_dir_all(&dir).unwrap();
         let sun = convert_light("/L", LightKind::Distant, &st(&[("inputs:shaping:focus", f(2.0))]), &mut p).unwrap();
         assert!(sun.desc.shaping.is_none());
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();

@@ -4,7 +4,7 @@ and the problems bad shaping values give."""
 import math
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
 from conftest import bind, camera, lambert_material, load, render, settings
 
@@ -168,3 +168,87 @@ def test_bad_shaping_values_are_reported_and_the_rest_renders(renderer, stage):
     img = render(renderer, stage)["color"][..., 0]
     alone = _floor_scale(renderer, _new_stage)[0] * 0.5 / math.pi
     assert abs(img.mean() - alone) < 0.005 * alone
+
+
+# -- IES profiles ----------------------------------------------------------------------------
+V_ANGLES = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0]
+H_ANGLES = [0.0, 45.0, 90.0]
+CANDELA = [[200.0, 190.0, 160.0, 120.0, 70.0, 30.0, 0.0],     # along the light's X
+           [200.0, 170.0, 120.0, 75.0, 37.5, 15.0, 0.0],
+           [200.0, 150.0, 80.0, 30.0, 5.0, 0.0, 0.0]]         # along its Y
+
+
+def _write_ies(path):
+    """A quadrant-symmetric downlight (LM-63-2002, type C), twice as wide along X as along Y."""
+    lines = ["IESNA:LM-63-2002", "[TEST] quadrant downlight", "TILT=NONE",
+             "1 -1 1.0 %d %d 1 2 0.1 0.1 0" % (len(V_ANGLES), len(H_ANGLES)), "1.0 1.0 20",
+             " ".join(map(str, V_ANGLES)), " ".join(map(str, H_ANGLES))]
+    lines += [" ".join(map(str, row)) for row in CANDELA]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def _candela(v_deg, h_deg):
+    """The profile's bilinear interpolant, its quadrant symmetry unfolded (numpy arrays)."""
+    a = np.mod(h_deg, 180.0)
+    a = np.where(a > 90.0, 180.0 - a, a)
+    table = np.array(CANDELA)
+    out = np.zeros_like(v_deg)
+    rows = [np.interp(v_deg, V_ANGLES, table[j], right=0.0) for j in range(len(H_ANGLES))]
+    for j in range(len(H_ANGLES) - 1):
+        t = np.clip((a - H_ANGLES[j]) / (H_ANGLES[j + 1] - H_ANGLES[j]), 0.0, 1.0)
+        inside = (a >= H_ANGLES[j]) & (a <= H_ANGLES[j + 1])
+        out = np.where(inside, rows[j] * (1 - t) + rows[j + 1] * t, out)
+    return out
+
+
+def test_ies_profile_shapes_the_light_along_its_own_axes(renderer, stage, tmp_path):
+    ies = tmp_path / "quadrant.ies"
+    _write_ies(ies)
+    scale = _floor_scale(renderer, _new_stage)[0]
+    intensity = 0.4
+    _spot_scene(stage, cone=90.0, softness=0.0, focus=0.0, intensity=intensity)
+    stage.GetPrimAtPath("/Spot").GetAttribute("inputs:shaping:ies:file").Set(Sdf.AssetPath(str(ies)))
+    img = render(renderer, stage)["color"][..., 0]
+    # the floor under the light: the light's X is the world's X (image right), its Y the
+    # world's -Z (image up); radiance (ρ/π) (intensity/4) I(v, h) cos v / d²
+    sub = 8
+    c = (np.arange(RES * sub) + 0.5) / (RES * sub) * WIDTH - WIDTH / 2
+    x, z = np.meshgrid(c, c)            # image rows run along +Z (top row at -Z)
+    r = np.hypot(x, z)
+    v = np.degrees(np.arctan2(r, HEIGHT))
+    h = np.degrees(np.arctan2(-z, x))
+    e = intensity / 4.0 * _candela(v, h) * np.cos(np.radians(v)) / (HEIGHT ** 2 + r ** 2)
+    want = (0.5 / math.pi * scale * e).reshape(RES, sub, RES, sub).mean(axis=(1, 3))
+    lit = want > 0.05 * want.max()
+    # 8 x 8-pixel blocks: a pixel carries a few % of spectral noise at 16 samples (the white
+    # illuminant seen through 4 wavelengths per sample), a block well under 1%
+    b = RES // 8
+    block = lambda a: a.reshape(b, 8, b, 8).sum(axis=(1, 3))  # noqa: E731
+    bi, bw = block(img), block(want)
+    full = block(lit.astype(float)) == 64
+    rel = np.abs(bi[full] - bw[full]) / bw[full]
+    assert full.sum() >= 16 and rel.max() < 0.025, (full.sum(), np.round(rel, 4).tolist())
+    # the beam is wider along X (image rows) than along Y (image columns): 2.5 times brighter
+    # 37° off the axis
+    mid = RES // 2
+    assert img[mid, RES - 8] > 1.8 * img[8, mid]
+    # normalised, the profile keeps the light's power: the image scales by 1 / mean candela
+    stage.GetPrimAtPath("/Spot").GetAttribute("inputs:shaping:ies:normalize").Set(True)
+    norm = render(renderer, stage)["color"][..., 0]
+    v_mid = np.radians(np.arange(0.0, 90.0, 0.01) + 0.005)
+    hh = np.arange(0.0, 90.0, 0.5) + 0.25
+    mean = np.mean([np.sum(_candela(np.degrees(v_mid), np.full_like(v_mid, hv)) * np.sin(v_mid))
+                    * np.radians(0.01) for hv in hh])
+    ratio = norm[lit].sum() / img[lit].sum()
+    assert abs(ratio * mean - 1.0) < 0.01, (ratio, 1.0 / mean)
+
+
+def test_unreadable_ies_file_is_reported_and_the_light_still_shines(renderer, stage, tmp_path):
+    _spot_scene(stage, cone=40.0, softness=0.0, focus=0.0)
+    stage.GetPrimAtPath("/Spot").GetAttribute("inputs:shaping:ies:file").Set(
+        Sdf.AssetPath(str(tmp_path / "missing.ies")))
+    d = renderer.RenderDelegate()
+    _, problems = load(stage, d)
+    assert any(p.prim == "/Spot" and "ies:file" in p.attribute for p in problems), problems
+    img = render(renderer, stage)["color"][..., 0]
+    assert img[RES // 2, RES // 2] > 0.0

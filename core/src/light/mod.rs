@@ -47,6 +47,7 @@
 
 pub mod distrib;
 pub mod emit;
+pub mod ies;
 pub mod sampler;
 pub mod shaping;
 
@@ -670,7 +671,7 @@ impl Light {
         let shaping = |axis: Vec3, spread: shaping::Spread| -> Result<Option<Box<Shaping>>, String> {
             match &desc.shaping {
                 None => Ok(None),
-                Some(sd) => Ok(Shaping::new(sd, axis, spread, cs)?.map(Box::new)),
+                Some(sd) => Ok(Shaping::with_frame(sd, axis, m3 * Vec3::X, spread, cs)?.map(Box::new)),
             }
         };
 

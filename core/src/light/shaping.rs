@@ -12,6 +12,14 @@
 //!   `shaping:focusTint` t as lerp(f, t, 1) = t + f (1 − t) per wavelength (t uplifted as a
 //!   reflectance; black, the default, gives f itself, white disables the focus).
 //!
+//! - the IES profile (`shaping:ies:file`, [`super::ies`]): its candela at the vertical angle
+//!   v/(1 + `shaping:ies:angleScale`) from the nadir (the axis; the schema's scaling about the
+//!   axis, angleScale clipped at −1) and the horizontal angle of `w` about the axis, measured in
+//!   the light's local XY plane from +X towards +Y; with `shaping:ies:normalize`, divided by
+//!   the profile's mean intensity (over the sphere, or the hemisphere for downlight-only files).
+//!   Candela multiply the light's emission as they are: the profile is photometric, as UsdLux
+//!   states it.
+//!
 //! A planar light (rect, disk) takes its emitting normal as the axis (the same as its −Z
 //! unless its transform shears it). Sampling is not changed by the shaping: samples are
 //! weighted by it (a light sample outside the cone carries nothing).
@@ -26,6 +34,7 @@
 use glam::Vec3;
 
 use super::PI;
+use super::ies::IesProfile;
 use crate::math::Frame;
 use crate::scene::{ColorSpace, ShapingDesc};
 use crate::spectrum::{color, uplift, SampledSpectrum, SampledWavelengths, Spectrum};
@@ -68,9 +77,32 @@ pub struct Shaping {
     tint: Option<Spectrum>,
     /// Luminance of the tint (relative: white = 1).
     tint_y: f32,
-    /// Shares of the unshaped power kept by the cone alone (Kc) and by the cone and focus (Kf).
+    /// Shares of the unshaped power kept by the cone alone (Kc) and by the cone and focus (Kf),
+    /// each with the IES profile.
     keep_cone: f32,
     keep_focus: f32,
+    /// The profile, the light's local X and Y (unit, perpendicular to the axis; the axis is
+    /// its −Z), 1 / (1 + angleScale), and the factor dividing the candela.
+    ies: Option<Ies>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Ies {
+    profile: std::sync::Arc<IesProfile>,
+    x: Vec3,
+    y: Vec3,
+    inv_scale: f32,
+    inv_norm: f32,
+}
+
+impl Ies {
+    /// Candela (÷ the normalisation) along unit `w`, whose cosine to the axis is `c`.
+    #[inline]
+    fn value(&self, w: Vec3, c: f32) -> f32 {
+        let v = (c.clamp(-1.0, 1.0).acos() * self.inv_scale).min(std::f32::consts::PI);
+        let h = w.dot(self.y).atan2(w.dot(self.x));
+        self.profile.eval(v, h) * self.inv_norm
+    }
 }
 
 /// Composite Simpson intervals per piece of θ.
@@ -82,7 +114,14 @@ impl Shaping {
     /// The shaping of a light whose primary axis is `axis` (unit) and whose unshaped power
     /// spreads as `spread`. None when the description shapes nothing (cone ≥ 180°, no focus).
     /// Errors name the attribute (non-finite values).
+    #[cfg(test)]
     pub(crate) fn new(desc: &ShapingDesc, axis: Vec3, spread: Spread, cs: ColorSpace) -> Result<Option<Shaping>, String> {
+        Shaping::with_frame(desc, axis, Vec3::X, spread, cs)
+    }
+
+    /// [`Shaping::new`] for a light whose local X is `x` (world; made perpendicular to the
+    /// axis), which orients an IES profile's horizontal angles.
+    pub(crate) fn with_frame(desc: &ShapingDesc, axis: Vec3, x: Vec3, spread: Spread, cs: ColorSpace) -> Result<Option<Shaping>, String> {
         let finite = |name: &str, v: f32| if v.is_finite() { Ok(v) } else { Err(format!("{name}: not a finite number ({v})")) };
         let angle = finite("shaping:cone:angle", desc.cone_angle_deg)?.clamp(0.0, 180.0);
         let softness = finite("shaping:cone:softness", desc.cone_softness)?.clamp(0.0, 1.0);
@@ -91,10 +130,24 @@ impl Shaping {
             finite("shaping:focusTint", c)?;
         }
         let tint_rgb = desc.focus_tint.map(|c| c.max(0.0));
-        if angle >= 180.0 && (focus == 0.0 || tint_rgb == [1.0; 3]) {
+        let angle_scale = finite("shaping:ies:angleScale", desc.ies_angle_scale)?.max(-1.0);
+        if angle >= 180.0 && (focus == 0.0 || tint_rgb == [1.0; 3]) && desc.ies.is_none() {
             return Ok(None);
         }
         let Some(axis) = axis.try_normalize() else { return Err("transform: collapses the light's axis".into()) };
+        let ies = match &desc.ies {
+            None => None,
+            Some(profile) => {
+                let x = (x - axis * x.dot(axis)).try_normalize().unwrap_or_else(|| Frame::from_normal(axis).s);
+                // local Y = local Z × local X with local Z = −axis
+                let y = (-axis).cross(x);
+                let norm = if desc.ies_normalize { profile.mean_intensity() } else { 1.0 };
+                if !(norm > 0.0) {
+                    return Err("shaping:ies:file: the profile emits nothing, so it cannot be normalised".into());
+                }
+                Some(Ies { profile: profile.clone(), x, y, inv_scale: 1.0 / (1.0 + angle_scale).max(1e-6), inv_norm: 1.0 / norm })
+            }
+        };
         let theta_cut = if angle >= 180.0 { PI } else { angle.to_radians() };
         let theta_start = (1.0 - softness) * theta_cut;
         let (tint, tint_y) = if focus == 0.0 || tint_rgb == [0.0; 3] {
@@ -115,6 +168,7 @@ impl Shaping {
             tint_y,
             keep_cone: 1.0,
             keep_focus: 1.0,
+            ies,
         };
         let (kc, kf) = s.keep(spread);
         s.keep_cone = kc;
@@ -154,6 +208,10 @@ impl Shaping {
         if !(k > 0.0) {
             return SampledSpectrum::ZERO;
         }
+        let k = match &self.ies {
+            Some(ies) => k * ies.value(w, c),
+            None => k,
+        };
         let f = self.focus(c);
         match &self.tint {
             None => SampledSpectrum::splat(k * f),
@@ -183,7 +241,8 @@ impl Shaping {
             Spread::Uniform => false,
             Spread::Cosine(n) => n.dot(self.axis) < 1.0 - 1e-6,
             Spread::Cylinder(_) => true,
-        };
+        } || self.ies.as_ref().is_some_and(|i| !i.profile.is_axial());
+        let phi_steps = if self.ies.is_some() { 4 * PHI_STEPS } else { PHI_STEPS };
         // ∫ over φ at θ of (w, cone·w, cone·focus·w), times sin θ
         // the cone is evaluated in θ, at a point nudged into the piece, so that each piece sees
         // its own side of a hard edge
@@ -202,17 +261,22 @@ impl Shaping {
             let (st, ct) = theta.sin_cos();
             let cone = cone_at(inside);
             let focus = self.focus(ct as f32) as f64;
+            // (spread weight, weight × profile) along the direction at φ
             let at = |phi: f64| {
                 let (sp, cp) = phi.sin_cos();
-                spread.weight(frame.to_world(Vec3::new((st * cp) as f32, (st * sp) as f32, ct as f32)))
+                let w = frame.to_world(Vec3::new((st * cp) as f32, (st * sp) as f32, ct as f32));
+                let weight = spread.weight(w);
+                let ies = self.ies.as_ref().map_or(1.0, |i| i.value(w, ct as f32) as f64);
+                (weight, weight * ies)
             };
-            let w = if phi_dependent {
-                let h = 2.0 * std::f64::consts::PI / PHI_STEPS as f64;
-                (0..PHI_STEPS).map(|i| at((i as f64 + 0.5) * h)).sum::<f64>() * h
+            let (w, wi) = if phi_dependent {
+                let h = 2.0 * std::f64::consts::PI / phi_steps as f64;
+                (0..phi_steps).map(|i| at((i as f64 + 0.5) * h)).fold((0.0, 0.0), |a, b| (a.0 + b.0 * h, a.1 + b.1 * h))
             } else {
-                at(0.0) * 2.0 * std::f64::consts::PI
+                let (a, b) = at(0.0);
+                (a * 2.0 * std::f64::consts::PI, b * 2.0 * std::f64::consts::PI)
             };
-            [w * st, cone * w * st, cone * focus * w * st]
+            [w * st, cone * wi * st, cone * focus * wi * st]
         };
         // pieces split where the integrand has kinks or narrow features
         let pi = std::f64::consts::PI;
@@ -223,6 +287,11 @@ impl Shaping {
                 cuts.push(width);
             }
         }
+        if let Some(ies) = &self.ies {
+            // the profile's kinks, where the scaled vertical angle meets the file's angles
+            let scale = 1.0 / ies.inv_scale as f64;
+            cuts.extend(ies.profile.vertical_angles().iter().map(|&v| v as f64 * scale));
+        }
         cuts.retain(|c| (0.0..=pi).contains(c));
         cuts.sort_by(|a, b| a.total_cmp(b));
         cuts.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
@@ -230,10 +299,12 @@ impl Shaping {
         // (g' = 30u²(1 − u)²), which crowds the nodes towards the ends: a kink such as
         // |cos θ|^focus at 90° for a focus below 1 becomes smooth in u
         let mut acc = [0.0f64; 3];
-        let h = 1.0 / SIMPSON as f64;
+        // intervals per piece: fewer when a profile brings many pieces (even, at least 8)
+        let per = (SIMPSON.min(4096 / cuts.len().max(1)).max(8) / 2) * 2;
+        let h = 1.0 / per as f64;
         for w in cuts.windows(2) {
             let (a, b) = (w[0], w[1]);
-            for i in 1..SIMPSON {
+            for i in 1..per {
                 let u = h * i as f64;
                 let coef = if i % 2 == 1 { 4.0 } else { 2.0 };
                 let g = u * u * u * (10.0 + u * (6.0 * u - 15.0));

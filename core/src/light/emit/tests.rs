@@ -559,7 +559,7 @@ fn textured_dome_photon_power_matches_quadrature_of_le() {
 /// Lights with UsdLuxShapingAPI: a soft 50° cone with a tinted focus (the cylinder's cone is
 /// wider, about an axis across its length).
 fn shaped() -> Vec<(&'static str, Light)> {
-    let sd = crate::scene::ShapingDesc { cone_angle_deg: 50.0, cone_softness: 0.4, focus: 3.0, focus_tint: [0.8, 0.3, 0.1] };
+    let sd = crate::scene::ShapingDesc { cone_angle_deg: 50.0, cone_softness: 0.4, focus: 3.0, focus_tint: [0.8, 0.3, 0.1], ..Default::default() };
     let mk = |shape: LightShape, sd: &crate::scene::ShapingDesc| {
         let mut d = desc(shape, tilt());
         d.shaping = Some(sd.clone());

@@ -9,7 +9,7 @@ use crate::scene::{LightShape, ShapingDesc};
 use glam::{Mat4, Vec2};
 
 fn shaping(cone: f32, softness: f32, focus: f32, tint: [f32; 3], spread: Spread) -> Shaping {
-    let d = ShapingDesc { cone_angle_deg: cone, cone_softness: softness, focus, focus_tint: tint };
+    let d = ShapingDesc { cone_angle_deg: cone, cone_softness: softness, focus, focus_tint: tint, ..Default::default() };
     Shaping::new(&d, Vec3::Z, spread, ColorSpace::LinearRec709).unwrap().unwrap()
 }
 
@@ -134,7 +134,7 @@ fn shaped_lights_emit_the_power_they_declare() {
     // through a large sphere, sampled through sample_li and its per-direction factor
     let m = tilt();
     let c = m.transform_point3(Vec3::ZERO);
-    let sd = ShapingDesc { cone_angle_deg: 50.0, cone_softness: 0.4, focus: 3.0, focus_tint: [0.2; 3] };
+    let sd = ShapingDesc { cone_angle_deg: 50.0, cone_softness: 0.4, focus: 3.0, focus_tint: [0.2; 3], ..Default::default() };
     let cases = [
         ("sphere", spot(LightShape::Sphere { radius: 0.3, treat_as_point: false }, m, sd.clone())),
         ("point", spot(LightShape::Sphere { radius: 0.3, treat_as_point: true }, m, sd.clone())),
@@ -167,7 +167,7 @@ fn a_spot_lights_irradiance_follows_its_profile() {
     // a point light along −Y (rotated so that its −Z points down), 2 m above a floor: the
     // irradiance at a floor point x off the foot is I k(θ) f(θ) cos θ / d², θ = atan(x / 2)
     let m = Mat4::from_translation(Vec3::new(0.0, 2.0, 0.0)) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
-    let sd = ShapingDesc { cone_angle_deg: 35.0, cone_softness: 0.5, focus: 4.0, focus_tint: [0.0; 3] };
+    let sd = ShapingDesc { cone_angle_deg: 35.0, cone_softness: 0.5, focus: 4.0, focus_tint: [0.0; 3], ..Default::default() };
     let l = spot(LightShape::Sphere { radius: 0.0, treat_as_point: true }, m, sd);
     let lam = lambda();
     let white = uplift::illuminant([1.0; 3], ColorSpace::LinearRec709).sample(&lam).0[0] as f64;
@@ -184,5 +184,69 @@ fn a_spot_lights_irradiance_follows_its_profile() {
         let d2 = 4.0 + (x as f64).powi(2);
         let want = i0 * k * th.cos().powi(4) * th.cos() / d2;
         assert!((e - want).abs() <= 1e-5 * i0, "x = {x}: {e} vs {want}");
+    }
+}
+
+fn profile(text: &str) -> std::sync::Arc<crate::light::ies::IesProfile> {
+    std::sync::Arc::new(crate::light::ies::IesProfile::parse(text).unwrap())
+}
+
+/// A quadrant-symmetric downlight profile: 200 cd straight down, falling to 0 at 90°, twice as
+/// wide along the light's X as along its Y.
+fn quadrant_downlight() -> std::sync::Arc<crate::light::ies::IesProfile> {
+    let v = [0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 90.0];
+    let along_x = vec![200.0, 190.0, 160.0, 120.0, 70.0, 30.0, 0.0];
+    let along_y = vec![200.0, 150.0, 80.0, 30.0, 5.0, 0.0, 0.0];
+    let mid: Vec<f64> = along_x.iter().zip(&along_y).map(|(a, b)| 0.5 * (a + b)).collect();
+    profile(&crate::light::ies::tests::file(&v, &[0.0, 45.0, 90.0], &[along_x, mid, along_y]))
+}
+
+#[test]
+fn an_ies_profile_shapes_along_the_lights_own_axes() {
+    let lam = lambda();
+    let p = quadrant_downlight();
+    // a light turned about its axis by 30°: its X is (cos 30°, sin 30°, 0); the axis is −Z
+    let x = Vec3::new(30f32.to_radians().cos(), 30f32.to_radians().sin(), 0.0);
+    let sd = ShapingDesc { cone_angle_deg: 180.0, ies: Some(p.clone()), ..Default::default() };
+    let s = Shaping::with_frame(&sd, -Vec3::Z, x, Spread::Uniform, ColorSpace::LinearRec709).unwrap().unwrap();
+    let y = Vec3::Z.cross(x);
+    let dir = |v: f32, along: Vec3| (-Vec3::Z * v.to_radians().cos() + along * v.to_radians().sin()).normalize();
+    for v in [0.0f32, 20.0, 45.0, 70.0] {
+        let fx = s.factor(dir(v, x), &lam).0[0];
+        let fy = s.factor(dir(v, y), &lam).0[0];
+        assert!((fx - p.eval(v.to_radians(), 0.0)).abs() < 1e-3, "v {v} along X: {fx}");
+        assert!((fy - p.eval(v.to_radians(), std::f32::consts::FRAC_PI_2)).abs() < 1e-3, "v {v} along Y: {fy}");
+        // the profile's quadrant symmetry: −X as X
+        assert!((s.factor(dir(v, -x), &lam).0[0] - fx).abs() < 1e-3);
+    }
+    assert!(s.factor(dir(60.0, x), &lam).0[0] > 2.0 * s.factor(dir(60.0, y), &lam).0[0]);
+    // above the horizon of a downlight: dark
+    assert_eq!(s.factor(Vec3::Z, &lam).0[0], 0.0);
+    // angleScale 1 samples the profile at half the angle: a wider beam
+    let wide = Shaping::with_frame(&ShapingDesc { ies_angle_scale: 1.0, ..sd.clone() }, -Vec3::Z, x, Spread::Uniform, ColorSpace::LinearRec709).unwrap().unwrap();
+    assert!((wide.factor(dir(60.0, x), &lam).0[0] - p.eval(30f32.to_radians(), 0.0)).abs() < 1e-3);
+    // normalised: divided by the mean over the lower hemisphere (a downlight file), so a point
+    // light keeps half its power (its upper half is dark) ...
+    let n = Shaping::with_frame(&ShapingDesc { ies_normalize: true, ..sd.clone() }, -Vec3::Z, x, Spread::Uniform, ColorSpace::LinearRec709).unwrap().unwrap();
+    assert!((n.power_ratio_y() - 0.5).abs() < 2e-4, "{}", n.power_ratio_y());
+    // ... and unnormalised the power share is the mean candela over the sphere
+    assert!((s.power_ratio_y() - 0.5 * p.mean_intensity()).abs() < 2e-4 * p.mean_intensity(), "{} vs {}", s.power_ratio_y(), 0.5 * p.mean_intensity());
+}
+
+#[test]
+fn ies_lights_emit_the_power_they_declare() {
+    let m = tilt();
+    let c = m.transform_point3(Vec3::ZERO);
+    let sd = ShapingDesc { cone_angle_deg: 70.0, cone_softness: 0.3, ies: Some(quadrant_downlight()), ies_normalize: true, ies_angle_scale: 0.3, ..Default::default() };
+    let cases = [
+        ("point", spot(LightShape::Sphere { radius: 0.3, treat_as_point: true }, m, sd.clone())),
+        ("disk", spot(LightShape::Disk { radius: 0.3 }, m, sd.clone())),
+        ("sphere", spot(LightShape::Sphere { radius: 0.3, treat_as_point: false }, m, sd.clone())),
+    ];
+    let disk = crate::light::emit::EmissionDisk::new(Vec3::ZERO, 1.0).unwrap();
+    for (i, (name, l)) in cases.iter().enumerate() {
+        let (mean, se) = flux_about(l, c, 8.0, 200_000, 330 + i as u64);
+        let truth = l.phi(&lambda(), &disk).0[0] as f64;
+        assert!((mean - truth).abs() <= 4.0 * se + 1e-4 * truth, "{name}: flux {mean} ± {se} vs phi {truth}");
     }
 }

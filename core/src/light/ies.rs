@@ -1,0 +1,259 @@
+//! IES photometric profiles (ANSI/IES LM-63, the `.ies` files of `shaping:ies:file`).
+//!
+//! [`IesProfile::parse`] reads the text of an LM-63 file (1986, 1991, 1995, 2002 and 2019
+//! layouts: an optional `IESNA` first line, keyword lines, `TILT=`, then the numbers) of
+//! photometric type C, the type of nearly every architectural and theatrical profile.
+//! [`IesProfile::eval`] gives the luminous intensity in candela (values × the file's candela
+//! multiplier, ballast factor and ballast-lamp factor; `TILT` data is read and ignored) at a
+//! vertical angle `v` (0 = nadir, the light's primary axis) and horizontal angle `h` (radians),
+//! interpolating bilinearly and unfolding the file's symmetry:
+//!
+//! | horizontal angles | symmetry |
+//! |---|---|
+//! | one angle | about the vertical axis |
+//! | 0 to 90° | in each quadrant |
+//! | 0 to 180° | about the 0–180° plane |
+//! | 90 to 270° | about the 90–270° plane |
+//! | anything else starting at 0° | none; between the last angle and 360° the values go back to those at 0° |
+//!
+//! Directions outside the file's vertical range (e.g. above the horizon for a 0–90° file)
+//! have zero intensity. [`IesProfile::mean_intensity`] is the intensity averaged over the
+//! sphere, or over the hemisphere for files whose vertical angles span at most a hemisphere
+//! (as UsdLux's `shaping:ies:normalize` divides by).
+
+use std::f64::consts::PI;
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct IesProfile {
+    /// Vertical angles (radians, increasing).
+    v: Vec<f32>,
+    /// Horizontal angles (radians, increasing).
+    h: Vec<f32>,
+    /// Candela, `h.len()` rows of `v.len()` values.
+    cd: Vec<f32>,
+    symmetry: Symmetry,
+    mean: f32,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Symmetry {
+    Axial,
+    Quadrant,
+    Bilateral0,
+    Bilateral90,
+    Full,
+}
+
+/// Whitespace- or comma-separated numbers after the `TILT=` line.
+struct Numbers<'a> {
+    it: std::iter::Peekable<Box<dyn Iterator<Item = &'a str> + 'a>>,
+    read: usize,
+}
+
+impl<'a> Numbers<'a> {
+    fn next(&mut self, what: &str) -> Result<f64, String> {
+        let tok = self.it.next().ok_or_else(|| format!("the file ends before {what} (after {} numbers)", self.read))?;
+        self.read += 1;
+        let v: f64 = tok.parse().map_err(|_| format!("'{tok}' is not a number ({what})"))?;
+        if !v.is_finite() {
+            return Err(format!("{what} is not finite"));
+        }
+        Ok(v)
+    }
+
+    fn count(&mut self, what: &str, max: usize) -> Result<usize, String> {
+        let v = self.next(what)?;
+        if v < 1.0 || v.fract() != 0.0 || v > max as f64 {
+            return Err(format!("{what} must be a whole number from 1 to {max} (got {v})"));
+        }
+        Ok(v as usize)
+    }
+}
+
+impl IesProfile {
+    /// Parses an LM-63 file's text. Errors say what is wrong ("photometric type 2 (B) is not
+    /// supported", "the file ends before the candela values", ...).
+    pub fn parse(text: &str) -> Result<IesProfile, String> {
+        let mut lines = text.lines();
+        let mut tilt = None;
+        for line in lines.by_ref() {
+            let t = line.trim();
+            if let Some(rest) = t.strip_prefix("TILT=").or_else(|| t.strip_prefix("TILT =")) {
+                tilt = Some(rest.trim().to_string());
+                break;
+            }
+        }
+        let tilt = tilt.ok_or("no TILT= line: not an IES (LM-63) file")?;
+        let rest: Vec<&str> = lines.collect();
+        let words: Box<dyn Iterator<Item = &str>> = Box::new(rest.into_iter().flat_map(|l| l.split(|c: char| c.is_whitespace() || c == ',')).filter(|w| !w.is_empty()));
+        let mut n = Numbers { it: words.peekable(), read: 0 };
+        if tilt.eq_ignore_ascii_case("INCLUDE") {
+            n.next("the lamp-to-luminaire geometry")?;
+            let k = n.count("the number of tilt angles", 100_000)?;
+            for _ in 0..2 * k {
+                n.next("the tilt table")?;
+            }
+        }
+        n.next("the number of lamps")?;
+        n.next("the lumens per lamp")?;
+        let multiplier = n.next("the candela multiplier")?;
+        let nv = n.count("the number of vertical angles", 100_000)?;
+        let nh = n.count("the number of horizontal angles", 100_000)?;
+        let kind = n.next("the photometric type")?;
+        if kind != 1.0 {
+            let name = if kind == 2.0 { "B" } else if kind == 3.0 { "A" } else { "unknown" };
+            return Err(format!("photometric type {kind} ({name}) is not supported (type C only)"));
+        }
+        for what in ["the units type", "the width", "the length", "the height"] {
+            n.next(what)?;
+        }
+        let ballast = n.next("the ballast factor")?;
+        let lamp_factor = n.next("the ballast-lamp photometric factor")?;
+        n.next("the input watts")?;
+        let scale = multiplier * ballast * lamp_factor;
+        let read_angles = |n: &mut Numbers, count: usize, what: &str| -> Result<Vec<f64>, String> {
+            let a = (0..count).map(|_| n.next(what)).collect::<Result<Vec<f64>, String>>()?;
+            if a.windows(2).any(|w| !(w[1] > w[0])) {
+                return Err(format!("{what} must increase"));
+            }
+            Ok(a)
+        };
+        let v = read_angles(&mut n, nv, "the vertical angles")?;
+        let h = read_angles(&mut n, nh, "the horizontal angles")?;
+        if v[0] < 0.0 || v[nv - 1] > 180.0 {
+            return Err(format!("vertical angles must lie in [0, 180] degrees (got {} to {})", v[0], v[nv - 1]));
+        }
+        if h[0] < 0.0 || h[nh - 1] > 360.0 {
+            return Err(format!("horizontal angles must lie in [0, 360] degrees (got {} to {})", h[0], h[nh - 1]));
+        }
+        let mut cd = Vec::with_capacity(nv * nh);
+        for _ in 0..nv * nh {
+            let c = n.next("the candela values")? * scale;
+            cd.push(c.max(0.0) as f32);
+        }
+        let symmetry = match (h[0], h[nh - 1]) {
+            _ if nh == 1 => Symmetry::Axial,
+            (a, b) if a == 0.0 && b == 90.0 => Symmetry::Quadrant,
+            (a, b) if a == 0.0 && b == 180.0 => Symmetry::Bilateral0,
+            (a, b) if a == 90.0 && b == 270.0 => Symmetry::Bilateral90,
+            (a, _) if a == 0.0 => Symmetry::Full,
+            (a, b) => return Err(format!("horizontal angles from {a} to {b} degrees are not an LM-63 type C layout")),
+        };
+        let rad = |a: &Vec<f64>| a.iter().map(|d| d.to_radians() as f32).collect::<Vec<f32>>();
+        let mut p = IesProfile { v: rad(&v), h: rad(&h), cd, symmetry, mean: 0.0 };
+        p.mean = p.integrate_mean() as f32;
+        Ok(p)
+    }
+
+    /// Candela at vertical angle `v` from the nadir and horizontal angle `h` (radians).
+    pub fn eval(&self, v: f32, h: f32) -> f32 {
+        let nv = self.v.len();
+        if !(v >= self.v[0] && v <= self.v[nv - 1]) {
+            // a single vertical angle is a ring of measure zero; outside the range: dark
+            return 0.0;
+        }
+        let deg90 = std::f32::consts::FRAC_PI_2;
+        let two_pi = 2.0 * std::f32::consts::PI;
+        let h = h.rem_euclid(two_pi);
+        let h = match self.symmetry {
+            Symmetry::Axial => 0.0,
+            Symmetry::Quadrant => {
+                let a = h % std::f32::consts::PI;
+                if a > deg90 {
+                    std::f32::consts::PI - a
+                } else {
+                    a
+                }
+            }
+            Symmetry::Bilateral0 => {
+                if h > std::f32::consts::PI {
+                    two_pi - h
+                } else {
+                    h
+                }
+            }
+            Symmetry::Bilateral90 => {
+                if h < deg90 {
+                    std::f32::consts::PI - h
+                } else if h > 3.0 * deg90 {
+                    3.0 * std::f32::consts::PI - h
+                } else {
+                    h
+                }
+            }
+            Symmetry::Full => h,
+        };
+        let nh = self.h.len();
+        let (iv, tv) = bracket(&self.v, v);
+        let row = |j: usize| {
+            let r = &self.cd[j * nv..(j + 1) * nv];
+            if tv == 0.0 || iv + 1 >= nv {
+                r[iv]
+            } else {
+                r[iv] * (1.0 - tv) + r[iv + 1] * tv
+            }
+        };
+        if nh == 1 || matches!(self.symmetry, Symmetry::Axial) {
+            return row(0);
+        }
+        if matches!(self.symmetry, Symmetry::Full) && h > self.h[nh - 1] {
+            // from the last angle back round to 360° = the first row
+            let span = two_pi - self.h[nh - 1];
+            let t = if span > 0.0 { (h - self.h[nh - 1]) / span } else { 0.0 };
+            return row(nh - 1) * (1.0 - t) + row(0) * t;
+        }
+        let h = h.clamp(self.h[0], self.h[nh - 1]);
+        let (ih, th) = bracket(&self.h, h);
+        if th == 0.0 || ih + 1 >= nh {
+            row(ih)
+        } else {
+            row(ih) * (1.0 - th) + row(ih + 1) * th
+        }
+    }
+
+    /// Mean candela over the sphere, or over the hemisphere when the vertical angles span at
+    /// most 90° (plus a 0.1 rad margin).
+    pub fn mean_intensity(&self) -> f32 {
+        self.mean
+    }
+
+    /// The vertical angles (radians), where the profile has kinks.
+    pub fn vertical_angles(&self) -> &[f32] {
+        &self.v
+    }
+
+    /// Whether the profile depends on the horizontal angle.
+    pub fn is_axial(&self) -> bool {
+        matches!(self.symmetry, Symmetry::Axial)
+    }
+
+    fn integrate_mean(&self) -> f64 {
+        // midpoint rule on a grid fine against the file's own angles
+        let (nv, nh) = (2048, if self.is_axial() { 1 } else { 1024 });
+        let mut acc = 0.0;
+        for i in 0..nv {
+            let v = (i as f64 + 0.5) * PI / nv as f64;
+            let ring: f64 = (0..nh).map(|j| self.eval(v as f32, ((j as f64 + 0.5) * 2.0 * PI / nh as f64) as f32) as f64).sum::<f64>() / nh as f64;
+            acc += ring * v.sin() * (PI / nv as f64) * 2.0 * PI;
+        }
+        let span = (self.v[self.v.len() - 1] - self.v[0]) as f64;
+        acc / if span > PI / 2.0 + 0.1 { 4.0 * PI } else { 2.0 * PI }
+    }
+}
+
+/// Index `i` and fraction `t` with `a[i] ≤ x ≤ a[i + 1]` (x within `a`'s range).
+#[inline]
+fn bracket(a: &[f32], x: f32) -> (usize, f32) {
+    let n = a.len();
+    if n == 1 {
+        return (0, 0.0);
+    }
+    let i = (a.partition_point(|&y| y <= x).max(1) - 1).min(n - 2);
+    let d = a[i + 1] - a[i];
+    let t = if d > 0.0 { ((x - a[i]) / d).clamp(0.0, 1.0) } else { 0.0 };
+    (i, t)
+}
+
+#[cfg(test)]
+#[path = "ies/tests.rs"]
+pub(crate) mod tests;
