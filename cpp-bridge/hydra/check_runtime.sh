@@ -138,4 +138,6 @@ compare "$here/check_stage_wet.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_fx.usda (bubbles and blobbies) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_fx.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_motion.usda (the stage's frame rate, with the camera) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_motion.usda" sceneIndex
+compare "$here/check_stage_motion.usda" sceneIndex || exit $?
+echo "rendering check_stage_spot.usda (UsdLuxShapingAPI: cone, focus, IES profile) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_spot.usda" delegate sceneIndex

@@ -215,6 +215,21 @@ fn convert_shaping(kind: LightKind, store: &AttrStore, p: &mut Problems) -> Opti
     })
 }
 
+/// `UsdLuxShadowAPI`: whether the light casts shadows at all (`shadow:enable`). Its softer,
+/// non-physical controls (a shadow colour, distance and falloff) are not rendered: authored
+/// away from their fallbacks they are problems.
+fn shadows_enabled(store: &AttrStore, p: &mut Problems) -> bool {
+    if store.get("shadow:color").is_some_and(|v| v.as_vec3() != Some(Vec3::ZERO)) {
+        p.add("shadow:color", "coloured shadows are not supported; shadows stay black");
+    }
+    for (name, fallback) in [("shadow:distance", -1.0), ("shadow:falloff", -1.0), ("shadow:falloffGamma", 1.0)] {
+        if store.get(name).is_some_and(|v| v.as_f64() != Some(fallback)) {
+            p.add(name, "shadow distance limits and falloff are not supported; shadows reach as far as the light");
+        }
+    }
+    store.bool_or("shadow:enable", true, p)
+}
+
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
     let v = store.f32_or(name, default, p);
     if v < 0.0 {
@@ -332,7 +347,12 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         texture,
         sky,
         light_link: Collection::read(store, "lightLink", p),
-        shadow_link: Collection::read(store, "shadowLink", p),
+        // shadow:enable = false: nothing casts the light's shadows
+        shadow_link: if shadows_enabled(store, p) {
+            Collection::read(store, "shadowLink", p)
+        } else {
+            Some(Collection { includes: vec![], excludes: vec![], include_root: false, explicit_only: true })
+        },
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
     })
 }
@@ -684,6 +704,23 @@ mod tests {
         assert!(sun.desc.shaping.is_none());
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
         assert_eq!(attrs, ["shaping:cone:angle", "shaping:focusTint", "shaping:ies:file", "shaping:focus"]);
+    }
+
+    #[test]
+    fn shadow_api_turns_the_lights_shadows_off() {
+        let mut p = Problems::new("/L");
+        let on = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shadow:enable", Value::Bool(true)), ("inputs:shadow:color", Value::Floats { data: vec![0.0; 3], tuple: 3 }), ("inputs:shadow:distance", f(-1.0))]), &mut p).unwrap();
+        assert!(on.shadow_link.is_none());
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        // off: an empty shadow-link collection, which no prim belongs to (even where a
+        // shadowLink collection is authored too)
+        let off = convert_light("/L", LightKind::Rect, &st(&[("inputs:shadow:enable", Value::Bool(false)), ("collection:shadowLink:includeRoot", Value::Bool(true))]), &mut p).unwrap();
+        let c = off.shadow_link.unwrap();
+        assert!(!c.contains("/World") && !c.contains("/World/Ball"));
+        // the controls Tide does not render are named
+        convert_light("/L", LightKind::Disk, &st(&[("inputs:shadow:color", Value::Floats { data: vec![0.2, 0.0, 0.0], tuple: 3 }), ("inputs:shadow:falloff", f(2.0))]), &mut p).unwrap();
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["shadow:color", "shadow:falloff"]);
     }
 
     #[test]

@@ -252,3 +252,26 @@ def test_unreadable_ies_file_is_reported_and_the_light_still_shines(renderer, st
     assert any(p.prim == "/Spot" and "ies:file" in p.attribute for p in problems), problems
     img = render(renderer, stage)["color"][..., 0]
     assert img[RES // 2, RES // 2] > 0.0
+
+
+def test_shadow_api_turns_a_lights_shadows_off(renderer, stage):
+    """A ball 1 m above the floor under a sun 30° off the vertical: the part of its shadow the
+    camera (looking straight down) sees past the ball is dark; with the sun's shadow:enable off
+    it is lit like the open floor."""
+    _spot_scene(stage, cone=0.0)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(1.0)
+    sun.CreateNormalizeAttr(True)
+    sun.AddRotateXOp().Set(-60.0)          # shining down and towards -Z
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(0.6)
+    ball.AddTranslateOp().Set(Gf.Vec3d(0, 1.0, 0))
+    # the shadow's far end, z from -1.27 to -0.6 m beside x = 0: rows 15 to 19 (row 0 at
+    # z = -2), columns around the middle
+    shadow = np.s_[15:19, RES // 2 - 3:RES // 2 + 3]
+    open_floor = np.s_[2:10, 2:10]
+    img = render(renderer, stage)["color"][..., 0]
+    assert img[shadow].mean() < 0.2 * img[open_floor].mean(), (img[shadow].mean(), img[open_floor].mean())
+    UsdLux.ShadowAPI.Apply(sun.GetPrim()).CreateShadowEnableAttr(False)
+    img = render(renderer, stage)["color"][..., 0]
+    assert img[shadow].mean() > 0.9 * img[open_floor].mean(), (img[shadow].mean(), img[open_floor].mean())

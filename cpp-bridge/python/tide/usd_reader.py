@@ -66,11 +66,13 @@ LIGHT_SPECIFIC = {
     "diskLight": {"inputs:radius": 0.5},
     "cylinderLight": {"inputs:radius": 0.5, "inputs:length": 1.0, "treatAsLine": False},
 }
-# UsdLuxShapingAPI: sent where the prim has them (the API applied, or authored).
-LIGHT_SHAPING = (
+# UsdLuxShapingAPI and UsdLuxShadowAPI: sent where the prim has them (the API applied, or
+# authored).
+LIGHT_API_ATTRS = (
     "inputs:shaping:cone:angle", "inputs:shaping:cone:softness", "inputs:shaping:focus",
     "inputs:shaping:focusTint", "inputs:shaping:ies:file", "inputs:shaping:ies:angleScale",
-    "inputs:shaping:ies:normalize",
+    "inputs:shaping:ies:normalize", "inputs:shadow:enable", "inputs:shadow:color",
+    "inputs:shadow:distance", "inputs:shadow:falloff", "inputs:shadow:falloffGamma",
 )
 CAMERA_ATTRS = {
     "projection": "perspective", "focalLength": 50.0, "horizontalAperture": 20.955,
@@ -1370,7 +1372,7 @@ class Reader:
                     v = fb
             vals[name] = v
             st.set(name, convert(v, a.GetTypeName() if a else None))
-        for name in LIGHT_SHAPING:
+        for name in LIGHT_API_ATTRS:
             a = prim.GetAttribute(name)
             if a and a.HasValue():
                 v = a.Get(self._time(0))
