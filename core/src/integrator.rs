@@ -284,17 +284,22 @@ fn split_reflection(bsdf: &Bsdf, wo: Vec3, wi: Vec3, contrib: SampledSpectrum) -
     if wo.z * wi.z < 0.0 {
         return [(TRANSMISSION, contrib), (SPECULAR, SampledSpectrum::ZERO)];
     }
-    let fl = bsdf.flags();
-    if fl & flags::DIFFUSE == 0 {
-        return [(SPECULAR, contrib), (DIFFUSE, SampledSpectrum::ZERO)];
+    let share = diffuse_share(bsdf, wo, wi);
+    [(DIFFUSE, contrib * share), (SPECULAR, contrib * (SampledSpectrum::ONE - share))]
+}
+
+/// The diffuse lobes' share of `bsdf`'s f from `wo` to `wi` (per wavelength, in [0, 1]):
+/// what a light's `diffuse` multiplier applies to, the rest taking its `specular` one.
+pub fn diffuse_share(bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+    if wo.z * wi.z < 0.0 || bsdf.flags() & flags::DIFFUSE == 0 {
+        return SampledSpectrum::ZERO;
     }
-    if fl & (flags::GLOSSY | flags::SPECULAR) == 0 {
-        return [(DIFFUSE, contrib), (SPECULAR, SampledSpectrum::ZERO)];
+    if bsdf.flags() & (flags::GLOSSY | flags::SPECULAR) == 0 {
+        return SampledSpectrum::ONE;
     }
     let fd = bsdf.f_diffuse(wo, wi);
     let ft = bsdf.f(wo, wi, TransportMode::Radiance);
-    let ratio = fd.safe_div(ft).map(|v| v.clamp(0.0, 1.0));
-    [(DIFFUSE, contrib * ratio), (SPECULAR, contrib * (SampledSpectrum::ONE - ratio))]
+    fd.safe_div(ft).map(|v| v.clamp(0.0, 1.0))
 }
 
 /// Finds the dielectric objects that contain point `p` (by the side of each object's first
@@ -365,6 +370,20 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     let mut specular_bounce = false;
     let mut eta_scale = 1.0f32;
     let mut prev_pdf = 0.0f32;
+    // UsdLux's diffuse / specular multipliers of the lights this path reaches by BSDF sampling:
+    // the diffuse share of the last surface's f along the sampled direction (None: the camera
+    // or a medium scattered it last), kept only when some light needs it
+    let responses = world.any_light_response;
+    let mut prev_share: Option<SampledSpectrum> = None;
+    let gathered = |li: usize, share: &Option<SampledSpectrum>| -> SampledSpectrum {
+        match share {
+            Some(sh) if responses => {
+                let r = &world.light_response[li];
+                *sh * r.diffuse + (SampledSpectrum::ONE - *sh) * r.specular
+            }
+            _ => SampledSpectrum::ONE,
+        }
+    };
     let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO).at(ray.time);
     // the surface the last BSDF-sampled ray left (None: the camera or a medium), whose light
     // links decide which lights that ray may reach
@@ -474,6 +493,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     chain = beams_here.then_some(Chain { p_b: pdf, last: u32::MAX });
                     beta *= val / pdf;
                     prev_pdf = pdf;
+                    prev_share = None;
                     specular_bounce = false;
                     prev_ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
                     prev_instance = owner;
@@ -501,7 +521,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                         let lp = light.pdf_li(&prev_ctx, ray.d, Some((p, n))) * world.light_sampler.pmf(li);
                         power_heuristic(1.0, prev_pdf, 1.0, lp)
                     };
-                    add!(beta * le * (w * chain_weight(li, &chain)));
+                    add!(beta * le * gathered(li, &prev_share) * (w * chain_weight(li, &chain)));
                 }
             }
             if depth == 0 {
@@ -527,7 +547,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     let lp = light.pdf_li(&prev_ctx, ray.d, None) * world.light_sampler.pmf(li);
                     power_heuristic(1.0, prev_pdf, 1.0, lp)
                 };
-                add!(beta * le * (w * chain_weight(li, &chain)));
+                add!(beta * le * gathered(li, &prev_share) * (w * chain_weight(li, &chain)));
             }
             break;
         };
@@ -672,9 +692,15 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w * chain_weight(li, &chain) / (ls.pdf * pmf));
-                                if depth == 0 {
+                                let r = world.light_response[li];
+                                if depth == 0 || !r.is_physical() {
                                     for (cat, v) in split_reflection(&bsdf, wo, wi, c) {
-                                        split[cat] += v;
+                                        let v = v * if cat == DIFFUSE { r.diffuse } else { r.specular };
+                                        if depth == 0 {
+                                            split[cat] += v;
+                                        } else {
+                                            add!(v);
+                                        }
                                     }
                                 } else {
                                     add!(c);
@@ -700,6 +726,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             break;
         }
         beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+        if responses {
+            prev_share = Some(if bs.is_specular() { SampledSpectrum::ZERO } else { diffuse_share(&bsdf, wo, bs.wi) });
+        }
         if depth == 0 {
             category = if bs.is_transmission() {
                 TRANSMISSION

@@ -513,6 +513,33 @@ pub struct LightDesc {
     pub shadow_link: Option<Vec<String>>,
     /// `UsdLuxShapingAPI` (sphere, rect, disk and cylinder lights); None: unshaped.
     pub shaping: Option<ShapingDesc>,
+    /// UsdLux's non-physical `diffuse` and `specular` multipliers.
+    pub response: LightResponse,
+}
+
+/// How strongly a light shows in materials' diffuse and specular responses (UsdLux `diffuse`,
+/// `specular`; 1 and 1 for physical light). A multiplier applies where the light's emission is
+/// gathered: at the surface vertex that receives it (next-event estimation, or a ray sampled
+/// from its BSDF that reaches the light), by the lobe that vertex scatters it with (diffuse,
+/// or glossy / specular reflection and transmission), so a caustic photon carries the specular
+/// one from its first bounce. Light gathered in a medium is not changed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightResponse {
+    pub diffuse: f32,
+    pub specular: f32,
+}
+
+impl Default for LightResponse {
+    fn default() -> Self {
+        LightResponse { diffuse: 1.0, specular: 1.0 }
+    }
+}
+
+impl LightResponse {
+    /// Whether both multipliers are 1.
+    pub fn is_physical(&self) -> bool {
+        self.diffuse == 1.0 && self.specular == 1.0
+    }
 }
 
 /// A light's `UsdLuxShapingAPI` values (see [`crate::light::shaping`]).

@@ -125,6 +125,17 @@ pub struct SurfaceHit {
     pub t: f32,
 }
 
+/// The kind of scattering at the vertex that gathers a light's emission, which picks the
+/// light's multiplier ([`World::light_response`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// The camera itself, or a medium: no multiplier.
+    None,
+    Diffuse,
+    /// Glossy or specular reflection and transmission.
+    Specular,
+}
+
 /// The prepared scene.
 pub struct World {
     pub accel: Accel,
@@ -144,6 +155,10 @@ pub struct World {
     pub light_links: Vec<Option<Vec<bool>>>,
     /// Per light: which instances cast its shadows, by instance index (None: all).
     pub shadow_links: Vec<Option<Vec<bool>>>,
+    /// Per light: its diffuse and specular multipliers (see [`crate::scene::LightResponse`]).
+    pub light_response: Vec<crate::scene::LightResponse>,
+    /// Some light's multipliers are not 1 (paths then track what they need for them).
+    pub any_light_response: bool,
     pub camera: Camera,
     pub cs: ColorSpace,
     pub max_depth: u32,
@@ -304,6 +319,7 @@ impl World {
         let any_emitter_tagged = scene.caustics.emitters.iter().any(|(_, e)| *e);
         let mut light_links = Vec::new();
         let mut shadow_links = Vec::new();
+        let mut light_response = Vec::new();
         let link_mask = |names: &Option<Vec<String>>| {
             names.as_ref().map(|names| {
                 let names: std::collections::HashSet<&str> = names.iter().map(String::as_str).collect();
@@ -319,6 +335,7 @@ impl World {
                     lights.push(light);
                     light_links.push(link_mask(&l.light_link));
                     shadow_links.push(link_mask(&l.shadow_link));
+                    light_response.push(l.response);
                 }
                 Err(e) => {
                     let (attr, msg) = e.split_once(": ").map(|(a, m)| (a.to_string(), m.to_string())).unwrap_or(("inputs".into(), e.clone()));
@@ -359,6 +376,7 @@ impl World {
                     caustic_emitters.push(false);
                     light_links.push(None);
                     shadow_links.push(None);
+                    light_response.push(Default::default());
                 }
             }
         }
@@ -404,6 +422,8 @@ impl World {
             triangle_lights,
             light_links,
             shadow_links,
+            any_light_response: light_response.iter().any(|r| !r.is_physical()),
+            light_response,
             camera,
             cs,
             max_depth: settings.max_depth,
@@ -416,6 +436,17 @@ impl World {
     /// Whether light `light` illuminates instance `instance` (its light-link collection).
     pub fn illuminates(&self, light: usize, instance: u32) -> bool {
         self.light_links[light].as_ref().is_none_or(|m| m.get(instance as usize).copied().unwrap_or(false))
+    }
+
+    /// Light `light`'s multiplier for emission gathered by a vertex that scatters with `lobe`.
+    #[inline]
+    pub fn light_response(&self, light: usize, lobe: Lobe) -> f32 {
+        let r = &self.light_response[light];
+        match lobe {
+            Lobe::None => 1.0,
+            Lobe::Diffuse => r.diffuse,
+            Lobe::Specular => r.specular,
+        }
     }
 
     /// Whether instance `instance` casts the shadows of light `light` (its shadow-link

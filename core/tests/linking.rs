@@ -134,3 +134,59 @@ fn a_light_linked_away_from_a_water_body_does_not_light_its_medium() {
     // the patch's negligible share)
     assert!((v_in - v_all).abs() < 1e-3 * v_all, "{v_in} vs {v_all}");
 }
+
+/// A glossy-and-diffuse floor (UsdPreviewSurface, specular workflow) under a sphere light with
+/// the given multipliers, seen from above at an angle that catches the highlight.
+fn glossy_floor(response: LightResponse, lambert: bool) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(quad_y("/floor", 3.0));
+    let surface = if lambert {
+        SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }
+    } else {
+        SurfaceDesc::Preview(PreviewSurfaceDesc {
+            diffuse_color: ColorInput::Const([0.4, 0.5, 0.6]),
+            use_specular_workflow: true,
+            specular_color: ColorInput::Const([0.6; 3]),
+            roughness: FloatInput::Const(0.25),
+            ..Default::default()
+        })
+    };
+    s.materials.push(MaterialDesc { name: "/m".into(), surface, interior_medium: None });
+    s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    let mut l = light("/lamp", LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.0, 1.5, -1.0)), 60.0, false);
+    l.response = response;
+    // seen directly the light is neither response: out of the comparison
+    l.visible_to_camera = false;
+    s.lights.push(l);
+    s.camera = camera(Vec3::new(0.0, 1.5, 2.5), Vec3::new(0.0, 0.0, -0.3), 60.0);
+    s
+}
+
+// UsdLux's diffuse and specular multipliers: the image is linear in them, lobe by lobe, through
+// next-event estimation and BSDF-sampled rays alike (same seed, same samples: equal to f32
+// rounding), both lobes show, and a Lambertian floor has no specular part at all.
+#[test]
+fn diffuse_and_specular_multipliers_scale_their_lobes() {
+    let img = |d: f32, sp: f32, lambert: bool| {
+        let r = render(&glossy_floor(LightResponse { diffuse: d, specular: sp }, lambert), settings(W, W, 16));
+        r.aov_pixels(Aov::Color).chunks_exact(4).map(|p| [p[0] as f64, p[1] as f64, p[2] as f64]).collect::<Vec<_>>()
+    };
+    let (full, diffuse, specular, mixed) = (img(1.0, 1.0, false), img(1.0, 0.0, false), img(0.0, 1.0, false), img(0.5, 2.0, false));
+    let total = |v: &[[f64; 3]]| v.iter().map(|p| p[0] + p[1] + p[2]).sum::<f64>();
+    for i in 0..full.len() {
+        for c in 0..3 {
+            let (f, d, s, m) = (full[i][c], diffuse[i][c], specular[i][c], mixed[i][c]);
+            assert!((f - (d + s)).abs() <= 1e-4 * f.abs() + 1e-6, "pixel {i}: {f} vs {d} + {s}");
+            assert!((m - (0.5 * d + 2.0 * s)).abs() <= 1e-4 * m.abs() + 1e-6, "pixel {i}: {m} vs ½{d} + 2·{s}");
+        }
+    }
+    let (t, td, ts) = (total(&full), total(&diffuse), total(&specular));
+    assert!(td > 0.1 * t && ts > 0.1 * t, "lobes: diffuse {td}, specular {ts} of {t}");
+    // the highlight is specular: the brightest pixel of the full image is mostly the specular part
+    let peak = (0..full.len()).max_by(|&a, &b| full[a][1].total_cmp(&full[b][1])).unwrap();
+    assert!(specular[peak][1] > 0.5 * full[peak][1]);
+    // a Lambertian floor: no specular response, the diffuse multiplier scales everything
+    let (lam, lam_s, lam_d) = (img(1.0, 1.0, true), img(0.0, 1.0, true), img(0.3, 7.0, true));
+    assert_eq!(total(&lam_s), 0.0);
+    assert!((total(&lam_d) - 0.3 * total(&lam)).abs() <= 1e-4 * total(&lam));
+}

@@ -135,6 +135,8 @@ const std::vector<Param>& LightParams() {
         {HdLightTokens->normalize, "inputs:normalize"},
         {HdLightTokens->enableColorTemperature, "inputs:enableColorTemperature"},
         {HdLightTokens->colorTemperature, "inputs:colorTemperature"},
+        {HdLightTokens->diffuse, "inputs:diffuse"},
+        {HdLightTokens->specular, "inputs:specular"},
         {HdLightTokens->angle, "inputs:angle"},
         {HdLightTokens->radius, "inputs:radius"},
         {HdLightTokens->width, "inputs:width"},

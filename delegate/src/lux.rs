@@ -319,6 +319,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         }
     };
     let shaping = convert_shaping(kind, store, p);
+    let response = tide_core::scene::LightResponse { diffuse: nonneg(store, "diffuse", 1.0, p), specular: nonneg(store, "specular", 1.0, p) };
     let color = store.vec3_or("color", Vec3::ONE, p);
     let color_temperature = store.bool_or("enableColorTemperature", false, p).then(|| {
         let k = store.f32_or("colorTemperature", 6500.0, p);
@@ -332,6 +333,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     Some(LightPiece {
         desc: LightDesc {
             shaping,
+            response,
             name: path.into(),
             shape,
             transform,
@@ -704,6 +706,18 @@ mod tests {
         assert!(sun.desc.shaping.is_none());
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
         assert_eq!(attrs, ["shaping:cone:angle", "shaping:focusTint", "shaping:ies:file", "shaping:focus"]);
+    }
+
+    #[test]
+    fn diffuse_and_specular_multipliers_are_read() {
+        let mut p = Problems::new("/L");
+        let l = convert_light("/L", LightKind::Rect, &st(&[("inputs:diffuse", f(0.5)), ("inputs:specular", f(0.0))]), &mut p).unwrap();
+        assert_eq!((l.desc.response.diffuse, l.desc.response.specular), (0.5, 0.0));
+        assert!(convert_light("/L", LightKind::Rect, &st(&[]), &mut p).unwrap().desc.response.is_physical());
+        assert!(p.list.is_empty());
+        let l = convert_light("/L", LightKind::Rect, &st(&[("inputs:specular", f(-2.0))]), &mut p).unwrap();
+        assert_eq!(l.desc.response.specular, 1.0);
+        assert_eq!(p.list[0].attribute, "specular");
     }
 
     #[test]

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
-from conftest import bind, camera, lambert_material, load, render, settings
+from conftest import bind, camera, lambert_material, load, preview_material, render, settings
 
 HEIGHT = 2.0          # the light above the floor
 WIDTH = 4.0           # the floor seen by the orthographic camera (metres across the image)
@@ -275,3 +275,27 @@ def test_shadow_api_turns_a_lights_shadows_off(renderer, stage):
     UsdLux.ShadowAPI.Apply(sun.GetPrim()).CreateShadowEnableAttr(False)
     img = render(renderer, stage)["color"][..., 0]
     assert img[shadow].mean() > 0.9 * img[open_floor].mean(), (img[shadow].mean(), img[open_floor].mean())
+
+
+def test_light_diffuse_and_specular_multipliers(renderer, stage):
+    """A straight-down sun over the Lambertian floor: inputs:diffuse = 0.5 halves the image.
+    Over a polished metal floor (all specular): inputs:specular = 0 leaves it black, while
+    inputs:diffuse does nothing."""
+    _spot_scene(stage, cone=0.0)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(1.0)
+    sun.CreateNormalizeAttr(True)
+    sun.CreateAngleAttr(20.0)                              # wide enough to be seen in the metal
+    sun.AddRotateXOp().Set(-90.0)
+    base = render(renderer, stage)["color"][..., 0].mean()
+    sun.GetPrim().GetAttribute("inputs:diffuse").Set(0.5)
+    half = render(renderer, stage)["color"][..., 0].mean()
+    assert abs(half / base - 0.5) < 0.005, half / base
+    sun.GetPrim().GetAttribute("inputs:diffuse").Set(1.0)
+    metal = preview_material(stage, "/Looks/Metal", (0.9, 0.9, 0.9), metallic=1.0, roughness=0.3)
+    bind(stage.GetPrimAtPath("/Floor"), metal)
+    shiny = render(renderer, stage)["color"][..., 0].mean()
+    sun.GetPrim().GetAttribute("inputs:diffuse").Set(0.0)
+    assert abs(render(renderer, stage)["color"][..., 0].mean() - shiny) <= 1e-6 * shiny
+    sun.GetPrim().GetAttribute("inputs:specular").Set(0.0)
+    assert shiny > 0.01 and render(renderer, stage)["color"][..., 0].mean() < 1e-3 * shiny

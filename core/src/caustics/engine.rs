@@ -704,6 +704,13 @@ impl Caustics {
             }
             // importance transport: the shading-normal correction |wo·ng| / |wi·ng| … kept at 1
             beta *= bs.f * (bs.wi.z.abs() / bs.pdf);
+            // the light's diffuse / specular multipliers apply where its emission is first
+            // gathered, as in the path tracer: at this first bounce
+            let r = world.light_response[li];
+            if bounces == 1 && !r.is_physical() {
+                let share = if bs.is_specular() { SampledSpectrum::ZERO } else { crate::integrator::diffuse_share(&bsdf, wo, bs.wi) };
+                beta *= share * r.diffuse + (SampledSpectrum::ONE - share) * r.specular;
+            }
             if !beta.is_finite() || beta.is_black() {
                 return;
             }

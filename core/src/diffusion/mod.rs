@@ -267,7 +267,9 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
                 let w = ft * cos / (ls.pdf * pmf * IRRADIANCE_SAMPLES as f32);
                 let mut flux = 0.0;
                 for k in 0..N_SPECTRUM {
-                    let v = ls.l[k] * w;
+                    // light enters the body through its specular surface: the light's
+                    // specular multiplier
+                    let v = ls.l[k] * w * world.light_response[li].specular;
                     if v.is_finite() {
                         e[g * N_SPECTRUM + k] += v;
                         flux += v;
@@ -385,7 +387,7 @@ fn single_scatter(world: &World, body: &DiffusionBody, s: &SurfaceHit, wi: Vec3,
     let mut rng = || stream.next_f32();
     let tr = m.transmittance(p, w_in, h.t, &mut rng, lambda);
     let fp = m.phase(p).eval(-wi, w_in);
-    weight * tr * ls.l * (fp * ft * cos_out / (cos_in * ls.pdf * pmf))
+    weight * tr * ls.l * (fp * ft * cos_out * world.light_response[li].specular / (cos_in * ls.pdf * pmf))
 }
 
 /// The first surface of `instance` along a ray from `o` in direction `d` (other surfaces

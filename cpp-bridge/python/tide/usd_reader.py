@@ -55,7 +55,7 @@ IMPLICIT_ATTRS = {
 LIGHT_COMMON = {
     "inputs:intensity": 1.0, "inputs:exposure": 0.0, "inputs:color": (1.0, 1.0, 1.0),
     "inputs:normalize": False, "inputs:enableColorTemperature": False,
-    "inputs:colorTemperature": 6500.0,
+    "inputs:colorTemperature": 6500.0, "inputs:diffuse": 1.0, "inputs:specular": 1.0,
 }
 LIGHT_SPECIFIC = {
     "distantLight": {"inputs:angle": 0.53},
