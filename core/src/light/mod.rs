@@ -46,6 +46,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod distrib;
+pub mod dome_format;
 pub mod emit;
 pub mod ies;
 pub mod sampler;
