@@ -24,6 +24,7 @@ use glam::{Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 use std::time::Duration;
+use tide_core::light::dome_format::DomeFormat;
 use tide_core::scene::{GeometryRef, InstanceDesc, LightShape, MeshDesc, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
 use tide_core::{Aov, Problem, RenderSettings, SceneDesc};
 
@@ -697,7 +698,7 @@ impl Delegate {
                     }
                 }
             }
-            scene.textures.push(TextureDesc {
+            let tex = TextureDesc {
                 name: key.asset.clone(),
                 width: *width,
                 height: *height,
@@ -705,7 +706,10 @@ impl Delegate {
                 pixels: px,
                 wrap_s: key.wrap_s.wrap(),
                 wrap_t: key.wrap_t.wrap(),
-            });
+            };
+            // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
+            let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
+            scene.textures.push(tex);
             tex_index.insert(key.clone(), scene.textures.len() - 1);
             Some(scene.textures.len() - 1)
         };

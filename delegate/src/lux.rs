@@ -8,6 +8,7 @@
 use crate::material::{TexKey, WrapKey};
 use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
+use tide_core::light::dome_format::DomeFormat;
 use tide_core::light::ies::IesProfile;
 use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShapingDesc};
 use tide_core::{IntegratorKind, RenderSettings};
@@ -258,8 +259,8 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     };
     let mut texture = None;
     let mut sky = None;
-    let tex_key = |wrap_s, wrap_t| {
-        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, linearize: false })
+    let tex_key = |wrap_s, wrap_t, dome| {
+        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, linearize: false, dome })
     };
     let zero_area = |p: &mut Problems, attr: &str| {
         p.add(attr, "the light has zero area; dropped");
@@ -269,11 +270,8 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         LightKind::Distant => LightShape::Distant { angle_deg: nonneg(store, "angle", 0.53, p) },
         LightKind::Dome => {
             let fmt = store.token_or("texture:format", &["automatic", "latlong", "mirroredBall", "angular", "cubeMapVerticalCross"], "automatic", p);
-            texture = tex_key(WrapKey::Repeat, WrapKey::Clamp);
-            if texture.is_some() && !matches!(fmt, "automatic" | "latlong") {
-                p.add("texture:format", format!("format '{}' is not supported (latlong only); the texture is ignored", fmt));
-                texture = None;
-            }
+            // every UsdLux layout: the assembly resamples the others to lat-long
+            texture = tex_key(WrapKey::Repeat, WrapKey::Clamp, DomeFormat::from_token(fmt).unwrap_or_default());
             match convert_sky(store, p) {
                 Some((shape, piece)) => {
                     if texture.take().is_some() {
@@ -298,7 +296,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             if width * height == 0.0 {
                 return zero_area(p, if width == 0.0 { "width" } else { "height" });
             }
-            texture = tex_key(WrapKey::Clamp, WrapKey::Clamp);
+            texture = tex_key(WrapKey::Clamp, WrapKey::Clamp, DomeFormat::LatLong);
             LightShape::Rect { width, height, texture: None }
         }
         LightKind::Disk => {

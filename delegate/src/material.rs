@@ -15,6 +15,7 @@
 use crate::value::{normalize_name, AttrStore, Problems, Value};
 use glam::Vec2;
 use std::collections::BTreeMap;
+use tide_core::light::dome_format::DomeFormat;
 use tide_core::scene::{
     Channel, ColorInput, FloatInput, MaterialDesc, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
     SurfaceModel, TexLookup, WaterDesc, WetDesc, Wrap,
@@ -33,6 +34,8 @@ pub struct TexKey {
     pub wrap_t: WrapKey,
     /// Apply the sRGB decoding curve to the colour channels.
     pub linearize: bool,
+    /// A dome light's image layout (resampled to lat-long); `LatLong` for everything else.
+    pub dome: DomeFormat,
 }
 
 /// `Wrap` with an ordering, for use in keys.
@@ -224,7 +227,7 @@ impl Ctx<'_> {
             }
             Some(TexState::Loaded { is_srgb, .. }) => cs == "sRGB" || (cs == "auto" && is_srgb),
         };
-        let key = TexKey { asset, wrap_s, wrap_t, linearize };
+        let key = TexKey { asset, wrap_s, wrap_t, linearize, dome: DomeFormat::LatLong };
         let texture = match self.used.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
@@ -630,7 +633,7 @@ mod tests {
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
-        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, linearize: true }]);
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, linearize: true, dome: DomeFormat::LatLong }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
         assert_eq!((t.texture, t.channel, t.rotation_deg, t.scale), (0, Channel::Rgb, 90.0, Vec2::new(3.0, 4.0)));
