@@ -365,3 +365,27 @@ def test_dome_texture_formats(renderer, stage, tmp_path, fmt, size):
         want = float(_sky(np.array(d, dtype=float)))
         # 2%: the grey's spectral round trip and 16 samples; the axes differ by 8% or more
         assert abs(got - want) < 0.02 * want, (fmt, d, got, want)
+
+
+def test_rect_light_texture(renderer, stage, tmp_path):
+    """A rect light's image, seen from the side it lights: its columns run along the light's +X
+    and its top row is the +Y edge (the image upright from behind the light), so turned to face
+    the camera its left half shows on the right."""
+    import OpenEXR
+    img = np.array([[0.2, 0.2, 1.0, 1.0], [0.2, 0.2, 1.0, 1.0]], dtype=np.float32)
+    path = str(tmp_path / "panel.exr")
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                      {"R": img, "G": img, "B": img}) as f:
+        f.write(path)
+    camera(stage, focal=30.0, aperture=(20.0, 10.0))
+    rect = UsdLux.RectLight.Define(stage, "/Panel")
+    rect.CreateWidthAttr(2.0)
+    rect.CreateHeightAttr(1.0)
+    rect.CreateIntensityAttr(0.5)
+    rect.CreateTextureFileAttr(Sdf.AssetPath(path))
+    rect.AddTranslateOp().Set(Gf.Vec3d(0, 0, -3))
+    rect.AddRotateYOp().Set(180.0)                          # lighting the camera
+    settings(stage, res=(16, 8), samples=8, integrator="path")
+    px = render(renderer, stage)["color"][..., 0]
+    left, right = px[:, 1:7].mean(), px[:, 9:15].mean()
+    assert abs(left - 0.5) < 0.015 and abs(right - 0.1) < 0.003, (left, right)

@@ -554,11 +554,8 @@ impl Caustics {
         let (origin, dir, power, mut stack) = match self.atlas.lights()[s.light as usize] {
             AtlasLight::Local { .. } => {
                 let Some(e) = self.atlas.emit(&s, ls.ray_o) else { return };
-                // the atlas aims the photon: a shaped light's emission is taken along that aim
-                let l = match light.shaping() {
-                    Some(sh) => light.emission().sample(&lambda) * sh.factor(e.dir, &lambda),
-                    None => ls.l,
-                };
+                // the atlas aims the photon: the light's emission is taken along that aim
+                let l = light.le_towards(&ls, e.dir, &lambda);
                 let power = if ls.delta_pos {
                     l / e.pdf
                 } else {

@@ -45,8 +45,8 @@
 //! A shaped light (UsdLuxShapingAPI, [`super::shaping`]) is sampled as above; each ray's `l`
 //! carries the shaping's factor along `ray_d` (0 outside a cone), and `phi` its share of the
 //! power. A caller that sends the photon along another direction than `ray_d` (the caustics
-//! atlas aims local lights' photons at casters) takes the factor along its own direction
-//! ([`Light::shaping_factor`]).
+//! atlas aims local lights' photons at casters) takes the emission along its own direction
+//! ([`Light::le_towards`]). A rect light's image (`texture:file`) colours `l` at the origin.
 //!
 //! Tide's lights do not move: `time` is accepted so that light paths carry the same time
 //! as the camera paths they are merged with, and does not change the sample.
@@ -233,7 +233,7 @@ impl Light {
             }
             Light::Rect(r) => {
                 let p = r.shape.origin + r.shape.a * u_pos.x + r.shape.b * u_pos.y;
-                area(p, r.shape.n, r.shape.area, r.emission.sample(lambda))
+                area(p, r.shape.n, r.shape.area, r.radiance(p, lambda))
             }
             Light::Disk(dl) => {
                 let q = sample_concentric_disk(u_pos);
@@ -283,6 +283,18 @@ impl Light {
                 let ray_o = disk_point(&Frame::from_normal(li.wi), disk.center + li.wi * r, r, u_pos);
                 Some(LeSample { ray_o, ray_d: -li.wi, l: li.l, pdf_pos: 1.0 / (PI * r * r), pdf_dir: li.pdf, n_light: -li.wi, delta_pos: false, delta_dir: false })
             }
+        }
+    }
+
+    /// What the origin of emission sample `s` sends along unit `dir` instead of its own
+    /// `ray_d`, for a caller that aims the ray elsewhere (the caustics atlas aims local lights'
+    /// photons at casters): the light's radiance there (a point light's intensity), with its
+    /// shaping along `dir`. Infinite lights do not aim: their `l`.
+    pub fn le_towards(&self, s: &LeSample, dir: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Point(p) => p.emission.sample(lambda) * self.shaping_factor(dir, lambda),
+            _ if self.is_infinite() => s.l,
+            _ => self.l(s.ray_o, s.n_light, dir, lambda),
         }
     }
 
@@ -341,7 +353,11 @@ impl Light {
                 }
             }
             _ => {
-                let phi = self.emission().sample(lambda) * self.phi_factor(disk);
+                let radiance = match self {
+                    Light::Rect(super::RectLight { map: Some(m), emission, .. }) => m.mean(lambda) * emission.scale,
+                    _ => self.emission().sample(lambda),
+                };
+                let phi = radiance * self.phi_factor(disk);
                 match self.shaping() {
                     Some(s) => phi * s.power_ratio(lambda),
                     None => phi,

@@ -37,9 +37,10 @@
 //!
 //! Approximations: a sphere light under a non-uniform scale stays a sphere whose radius is
 //! scaled by the mean of the axis scales; a cylinder's cross-section likewise stays circular
-//! (mean of the Y and Z scales); a dome's transform is used for its rotation only. A rect
-//! light's texture and a cylinder's `treatAsLine` are ignored (rendered as uniform rect and
-//! true cylinder). Dome textures are looked up nearest-texel so that radiance and sampling
+//! (mean of the Y and Z scales); a dome's transform is used for its rotation only. A
+//! cylinder's `treatAsLine` is ignored (rendered as a true cylinder). A rect light's image
+//! (`texture:file`, [`RectMap`]) colours its radiance texel by texel; it is sampled as the
+//! untextured rect is, each sample weighted by its texel (none on black texels). Dome textures are looked up nearest-texel so that radiance and sampling
 //! density are both piecewise constant over the same cells.
 
 // `!(x > 0.0)` is used on purpose throughout: it rejects NaN along with the out-of-range values.
@@ -286,6 +287,70 @@ pub struct RectLight {
     /// The edges are orthogonal (no shear in the transform).
     rectangular: bool,
     pub shaping: Option<Box<Shaping>>,
+    /// `texture:file`: the image over the rectangle (texels × the light's colour).
+    pub map: Option<Box<RectMap>>,
+}
+
+/// A rect light's image: column s along the light's +X, row t from its +Y edge down (the
+/// image upright seen from behind the light, looking along its −Z, as UsdLux's reference
+/// renderer maps it), looked up nearest-texel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RectMap {
+    width: usize,
+    height: usize,
+    rgb: Vec<[f32; 3]>,
+    cs: ColorSpace,
+}
+
+impl RectMap {
+    fn new(tex: &TextureDesc, tint: [f32; 3], cs: ColorSpace) -> Result<RectMap, String> {
+        let (width, height, rgb) = light_texels(tex, tint)?;
+        Ok(RectMap { width, height, rgb, cs })
+    }
+
+    #[inline]
+    fn at(&self, s: f32, t: f32) -> [f32; 3] {
+        let x = ((s.clamp(0.0, 1.0) * self.width as f32) as usize).min(self.width - 1);
+        let y = ((t.clamp(0.0, 1.0) * self.height as f32) as usize).min(self.height - 1);
+        self.rgb[y * self.width + x]
+    }
+
+    /// Mean luminance of the texels.
+    fn mean_luminance(&self) -> f32 {
+        (self.rgb.iter().map(|&c| color::luminance(c, self.cs).max(0.0) as f64).sum::<f64>() / self.rgb.len() as f64) as f32
+    }
+
+    /// Mean spectral value of the uplifted texels at `lambda` (cost ∝ texels).
+    fn mean(&self, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let mut acc = [0.0f64; crate::spectrum::N_SPECTRUM];
+        for &c in &self.rgb {
+            if c != [0.0; 3] {
+                let v = uplift::illuminant(c, self.cs).sample(lambda);
+                for (a, x) in acc.iter_mut().zip(v.0) {
+                    *a += x as f64;
+                }
+            }
+        }
+        SampledSpectrum(acc.map(|a| (a / self.rgb.len() as f64) as f32))
+    }
+}
+
+impl RectLight {
+    /// Radiance leaving point `p` of the rectangle (its image's texel there, if it has one).
+    #[inline]
+    fn radiance(&self, p: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match &self.map {
+            None => self.emission.sample(lambda),
+            Some(m) => {
+                let q = p - self.shape.origin;
+                let c = m.at(self.shape.da.dot(q), 1.0 - self.shape.db.dot(q));
+                if c == [0.0; 3] {
+                    return SampledSpectrum::ZERO;
+                }
+                uplift::illuminant(c, m.cs).sample(lambda) * self.emission.scale
+            }
+        }
+    }
 }
 
 /// Below this solid angle (sr) a rect is area-sampled: its spherical rectangle would lose
@@ -553,33 +618,40 @@ pub fn spectrum_luminance(s: &Spectrum) -> f32 {
 }
 
 
+/// A light's image as RGB texels × the light's colour `tint`, row-major from the top row, with
+/// its width and height. Errors name the texture (no pixels, wrong channels or size,
+/// non-finite values); negative texels (ringing of resampled HDRs) emit nothing.
+fn light_texels(tex: &TextureDesc, tint: [f32; 3]) -> Result<(usize, usize, Vec<[f32; 3]>), String> {
+    let (w, h, ch) = (tex.width as usize, tex.height as usize, tex.channels as usize);
+    if w == 0 || h == 0 {
+        return Err(err("texture", format!("'{}' has no pixels ({w}×{h})", tex.name)));
+    }
+    if !matches!(ch, 1 | 3 | 4) {
+        return Err(err("texture", format!("'{}' has {ch} channels (1, 3 or 4 expected)", tex.name)));
+    }
+    if tex.pixels.len() != w * h * ch {
+        return Err(err("texture", format!("'{}' holds {} values, {w}×{h}×{ch} expected", tex.name, tex.pixels.len())));
+    }
+    let mut rgb = Vec::with_capacity(w * h);
+    for (i, px) in tex.pixels.chunks_exact(ch).enumerate() {
+        if let Some(bad) = px.iter().find(|v| !v.is_finite()) {
+            return Err(err("texture", format!("'{}' has a non-finite value ({bad}) at pixel ({}, {})", tex.name, i % w, i / w)));
+        }
+        let c = if ch == 1 { [px[0]; 3] } else { [px[0], px[1], px[2]] };
+        rgb.push([c[0].max(0.0) * tint[0], c[1].max(0.0) * tint[1], c[2].max(0.0) * tint[2]]);
+    }
+    Ok((w, h, rgb))
+}
+
 impl DomeMap {
     fn new(tex: &TextureDesc, tint: [f32; 3], cs: ColorSpace) -> Result<DomeMap, String> {
-        let (w, h, ch) = (tex.width as usize, tex.height as usize, tex.channels as usize);
-        if w == 0 || h == 0 {
-            return Err(err("texture", format!("'{}' has no pixels ({w}×{h})", tex.name)));
-        }
-        if !matches!(ch, 1 | 3 | 4) {
-            return Err(err("texture", format!("'{}' has {ch} channels (1, 3 or 4 expected)", tex.name)));
-        }
-        if tex.pixels.len() != w * h * ch {
-            return Err(err("texture", format!("'{}' holds {} values, {w}×{h}×{ch} expected", tex.name, tex.pixels.len())));
-        }
-        let mut rgb = Vec::with_capacity(w * h);
+        let (w, h, rgb) = light_texels(tex, tint)?;
         let mut func = Vec::with_capacity(w * h);
         let mut mean = 0.0f64;
         for y in 0..h {
             let sin_row = (PI * (y as f32 + 0.5) / h as f32).sin();
             for x in 0..w {
-                let px = &tex.pixels[(y * w + x) * ch..(y * w + x + 1) * ch];
-                if let Some(bad) = px.iter().find(|v| !v.is_finite()) {
-                    return Err(err("texture", format!("'{}' has a non-finite value ({bad}) at pixel ({x}, {y})", tex.name)));
-                }
-                // negative texels (ringing of resampled HDRs) emit nothing
-                let c = if ch == 1 { [px[0]; 3] } else { [px[0], px[1], px[2]] };
-                let c = [c[0].max(0.0) * tint[0], c[1].max(0.0) * tint[1], c[2].max(0.0) * tint[2]];
-                let lum = color::luminance(c, cs).max(0.0);
-                rgb.push(c);
+                let lum = color::luminance(rgb[y * w + x], cs).max(0.0);
                 func.push(lum * sin_row);
                 mean += (lum * sin_row) as f64;
             }
@@ -668,6 +740,13 @@ impl Light {
         let emission = |s: f32| Emission::new(uplift::illuminant(rgb, cs), s);
         // front of a planar light: where its local −Z goes (falls back to the plane normal)
         let front = -(m3 * Vec3::Z);
+        // the light's image in the scene's texture table
+        let texture_of = |t: &Option<usize>| -> Result<Option<&TextureDesc>, String> {
+            match t {
+                None => Ok(None),
+                Some(i) => textures.get(*i).map(Some).ok_or_else(|| err("texture:file", format!("texture index {i} out of range ({} textures)", textures.len()))),
+            }
+        };
         // UsdLuxShapingAPI about the light's axis (its −Z, or a planar light's normal)
         let shaping = |axis: Vec3, spread: shaping::Spread| -> Result<Option<Box<Shaping>>, String> {
             match &desc.shaping {
@@ -716,12 +795,9 @@ impl Light {
                     return Err(err("transform", "collapses the dome's orientation"));
                 }
                 let rot = Mat3::from_cols(x, y, x.cross(y));
-                let map = match texture {
+                let map = match texture_of(texture)? {
                     None => None,
-                    Some(i) => {
-                        let tex = textures.get(*i).ok_or_else(|| err("texture:file", format!("texture index {i} out of range ({} textures)", textures.len())))?;
-                        Some(Box::new(DomeMap::new(tex, rgb, cs)?))
-                    }
+                    Some(tex) => Some(Box::new(DomeMap::new(tex, rgb, cs)?)),
                 };
                 let mut em = emission(scale);
                 if let Some(mp) = &map {
@@ -775,7 +851,7 @@ impl Light {
                     Light::Sphere(SphereLight { center: origin, radius: rw, emission: emission(s), visible_to_camera: vis, shaping: shaping(front, shaping::Spread::Uniform)? })
                 }
             }
-            LightShape::Rect { width, height, texture: _ } => {
+            LightShape::Rect { width, height, texture } => {
                 let w = check_length("width", *width)?;
                 let h = check_length("height", *height)?;
                 if w == 0.0 {
@@ -791,7 +867,16 @@ impl Light {
                 let s = if desc.normalize { scale / shape.area } else { scale };
                 let rectangular = a.dot(b).abs() <= 1e-5 * a.length() * b.length();
                 let shaping = shaping(shape.n, shaping::Spread::Cosine(shape.n))?;
-                Light::Rect(RectLight { shape, emission: emission(s), visible_to_camera: vis, rectangular, shaping })
+                let map = match texture_of(texture)? {
+                    None => None,
+                    Some(tex) => Some(Box::new(RectMap::new(tex, rgb, cs)?)),
+                };
+                let mut em = emission(s);
+                if let Some(m) = &map {
+                    // the image carries the colour; the emission keeps the scale
+                    em.luminance = m.mean_luminance();
+                }
+                Light::Rect(RectLight { shape, emission: em, visible_to_camera: vis, rectangular, shaping, map })
             }
             LightShape::Disk { radius } => {
                 let r = check_length("radius", *radius)?;
@@ -1003,7 +1088,8 @@ impl Light {
         let _ = p;
         let c = n.dot(w);
         match self {
-            Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
+            Light::Rect(r) if c > 0.0 => r.radiance(p, lambda) * self.shaping_factor(w, lambda),
+            Light::Sphere(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
             Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => t.emission.sample(lambda),
             _ => SampledSpectrum::ZERO,
         }
@@ -1164,10 +1250,21 @@ impl Light {
                         return None;
                     }
                     let pdf = (1.0 / sr.s) as f32;
-                    return Some(LightLiSample { l: r.emission.sample(lambda), wi: v / dist, dist, pdf, is_delta: false, p_light: p, n_light: r.shape.n });
+                    let l = r.radiance(p, lambda);
+                    if l.is_black() {
+                        return None;
+                    }
+                    return Some(LightLiSample { l, wi: v / dist, dist, pdf, is_delta: false, p_light: p, n_light: r.shape.n });
                 }
                 let p = r.shape.origin + r.shape.a * u.x + r.shape.b * u.y;
-                area_sample(ctx.p, p, r.shape.n, r.shape.area, false, &r.emission, lambda)
+                let mut s = area_sample(ctx.p, p, r.shape.n, r.shape.area, false, &r.emission, lambda)?;
+                if r.map.is_some() {
+                    s.l = r.radiance(p, lambda);
+                    if s.l.is_black() {
+                        return None;
+                    }
+                }
+                Some(s)
             }
             Light::Disk(dl) => {
                 let q = sample_concentric_disk(u);

@@ -601,3 +601,44 @@ fn exposure_scales_the_radiance() {
 }
 
 
+
+/// A rect light 2 × 1 with an image of 4 × 2 texels: columns grow along the light's +X, the
+/// top row is its +Y edge; one texel is black.
+pub(crate) fn textured_rect(m: Mat4) -> Light {
+    let px: Vec<f32> = [[1.0, 2.0, 3.0, 4.0], [5.0, 0.0, 7.0, 8.0]].iter().flatten().flat_map(|&v| [v, 0.5 * v, 0.25 * v]).collect();
+    let tex = TextureDesc { name: "rect".into(), width: 4, height: 2, channels: 3, pixels: px, wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
+    let mut d = desc(LightShape::Rect { width: 2.0, height: 1.0, texture: Some(0) }, m);
+    d.intensity = 2.0;
+    Light::from_desc(&d, &[tex], ColorSpace::LinearRec709).unwrap()
+}
+
+#[test]
+fn a_rect_lights_image_lies_on_it_as_usd_maps_it() {
+    let lam = lambda();
+    let l = textured_rect(Mat4::IDENTITY);
+    let grey = |v: f32| uplift::illuminant([v, 0.5 * v, 0.25 * v], ColorSpace::LinearRec709).sample(&lam) * 2.0;
+    // the light emits along −Z; texel (column c, row r) covers x ∈ [−1 + c/2, −1 + (c+1)/2],
+    // y from +½ (row 0) down
+    for (x, y, v) in [(-0.75, 0.25, 1.0), (0.75, 0.25, 4.0), (-0.75, -0.25, 5.0), (0.25, -0.25, 7.0), (-0.25, -0.25, 0.0)] {
+        let p = Vec3::new(x, y, 0.0);
+        let got = l.l(p, -Vec3::Z, -Vec3::Z, &lam);
+        let want = if v == 0.0 { SampledSpectrum::ZERO } else { grey(v) };
+        assert_eq!(got, want, "at ({x}, {y})");
+    }
+    // light samples carry the radiance of the texel they land on (and none land on black)
+    let ctx = LightSampleContext::new(Vec3::new(0.1, 0.05, -0.7), Vec3::Z);
+    let mut rng = TestRng::new(5);
+    for _ in 0..500 {
+        let Some(s) = l.sample_li(&ctx, Vec2::new(rng.next_f32(), rng.next_f32()), &lam) else { continue };
+        assert_eq!(s.l, l.l(s.p_light, -Vec3::Z, -s.wi, &lam));
+        assert!(!s.l.is_black());
+    }
+    // power: the texels' mean luminance (one black of eight) × scale × πA
+    let mean_y: f32 = [1.0, 2.0, 3.0, 4.0, 5.0, 0.0, 7.0, 8.0].iter().map(|&v| crate::spectrum::color::luminance([v, 0.5 * v, 0.25 * v], ColorSpace::LinearRec709)).sum::<f32>() / 8.0;
+    assert!((l.power() - mean_y * 2.0 * PI * 2.0).abs() <= 1e-4 * l.power());
+    // the flux through an enclosing sphere is the spectral power, texel by texel
+    let disk = crate::light::emit::EmissionDisk::new(Vec3::ZERO, 1.0).unwrap();
+    let truth = l.phi(&lam, &disk).0[0] as f64;
+    let (m, se) = flux(&textured_rect(tilt()), 8.0, 100_000, 77);
+    assert!((m - truth).abs() <= 4.0 * se + 1e-4 * truth, "flux {m} ± {se} vs phi {truth}");
+}

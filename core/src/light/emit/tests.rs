@@ -575,12 +575,12 @@ fn shaped() -> Vec<(&'static str, Light)> {
 }
 
 #[test]
-fn shaped_photon_power_matches_phi() {
+fn shaped_and_textured_photon_power_matches_phi() {
     // photons drawn unshaped and weighted by the factor along their direction (Monte Carlo)
     // against phi's quadrature of the shaping, per wavelength (the tint is spectral)
     let disk = scene_disk();
     let lam = lambda();
-    for (i, (name, l)) in shaped().into_iter().enumerate() {
+    for (i, (name, l)) in shaped().into_iter().chain([("textured rect", crate::light::tests::textured_rect(tilt()))]).enumerate() {
         let truth = l.phi(&lam, &disk);
         let (mean, se) = photon_power(&l, &disk, 200_000, 400 + i as u64);
         for k in 0..4 {
@@ -588,8 +588,10 @@ fn shaped_photon_power_matches_phi() {
             assert!((mean[k] - t).abs() <= 4.0 * se[k] + 1e-4 * t, "{name} λ{k}: {} ± {} vs phi {t}", mean[k], se[k]);
         }
         // well below the unshaped light's power: the comparison is not vacuous
-        let unshaped = l.emission().sample(&lam).0[0] * l.phi_factor(&disk);
-        assert!(truth.0[0] < 0.5 * unshaped, "{name}: {} vs unshaped {unshaped}", truth.0[0]);
+        if l.shaping().is_some() {
+            let unshaped = l.emission().sample(&lam).0[0] * l.phi_factor(&disk);
+            assert!(truth.0[0] < 0.5 * unshaped, "{name}: {} vs unshaped {unshaped}", truth.0[0]);
+        }
     }
 }
 
@@ -675,7 +677,8 @@ fn emitted_rays_agree_with_l_le_intersect_and_sample_li() {
     let mut rng = TestRng::new(91);
     let area: Vec<(&str, Light)> = vec![("sphere", sphere()), ("rect", rect()), ("ellipse", ellipse()), ("cylinder", cylinder()), ("triangle", triangle(false)), ("two-sided triangle", triangle(true))];
     let shaped_area = shaped().into_iter().filter(|(n, _)| *n != "shaped point");
-    for (name, l) in area.into_iter().chain(shaped_area) {
+    let textured = [("textured rect", crate::light::tests::textured_rect(tilt()))];
+    for (name, l) in area.into_iter().chain(shaped_area).chain(textured) {
         let mut checked = 0;
         for _ in 0..2000 {
             let Some(s) = l.sample_le(u2(&mut rng), u2(&mut rng), &lam, 0.0, &disk) else { continue };
