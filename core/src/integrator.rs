@@ -410,7 +410,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         // analytic area lights along the ray
         let mut light_hit: Option<(usize, f32, Vec3, Vec3)> = None;
         for &li in &world.hittable_lights {
-            if let Some((t, p, n)) = world.lights[li].intersect(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1)) {
+            // a light hidden from the camera is not there for camera rays (they go on past it)
+            if depth == 0 && !world.lights[li].visible_to_camera() {
+                continue;
+            }
+            if let Some((t, p, n)) = world.lights[li].intersect_at(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1), ray.time) {
                 light_hit = Some((li, t, p, n));
             }
         }
@@ -513,7 +517,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if let Some((li, t, p, n)) = light_hit {
             let light = &world.lights[li];
             if (depth > 0 || light.visible_to_camera()) && lit(li, prev_instance) {
-                let le = light.l(p, n, -ray.d, lambda);
+                let le = light.l_at(p, n, -ray.d, ray.time, lambda);
                 if !le.is_black() {
                     let w = if depth == 0 || specular_bounce {
                         1.0

@@ -515,6 +515,9 @@ pub struct LightDesc {
     pub shaping: Option<ShapingDesc>,
     /// UsdLux's non-physical `diffuse` and `specular` multipliers.
     pub response: LightResponse,
+    /// Light-to-world over the shutter as (time in seconds, matrix) keys when the light moves
+    /// (empty: it stays at `transform`). Taken as a rigid move of the light from `transform`.
+    pub motion: Vec<(f32, Mat4)>,
 }
 
 /// How strongly a light shows in materials' diffuse and specular responses (UsdLux `diffuse`,

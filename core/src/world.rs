@@ -387,7 +387,7 @@ impl World {
             l.preprocess(center, radius);
         }
         let light_sampler = LightSampler::new(&lights);
-        let hittable_lights = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i], Light::Triangle(_))).collect();
+        let hittable_lights = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
         let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
         let instances = scene
             .instances

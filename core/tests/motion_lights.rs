@@ -107,3 +107,28 @@ fn a_deforming_emissive_mesh_lights_from_where_it_is_at_each_time() {
     });
     check(&s, "deforming mesh");
 }
+
+/// A UsdLux light keyed to move over the shutter: a rect light of the emitter's size, facing
+/// down, sweeping as the emitter does (its light-to-world keyed at the shutter's open and
+/// close), and its static counterpart at the open, which must not pass for it. Hidden from the
+/// camera, it is not there for camera rays (it passes between the camera and the floor).
+fn moving_rect(moving: bool) -> SceneDesc {
+    scene(|s| {
+        let at = |x: f32| Mat4::from_translation(Vec3::new(x, HEIGHT, 0.0)) * Mat4::from_rotation_x(-std::f32::consts::FRAC_PI_2);
+        let mut l = light("/rect", LightShape::Rect { width: 2.0 * HALF, height: 2.0 * HALF, texture: None }, at(-SWEEP), 1.0, false);
+        l.visible_to_camera = false;
+        if moving {
+            l.motion = vec![(0.0, at(-SWEEP)), (1.0, at(SWEEP))];
+        }
+        s.lights.push(l);
+    })
+}
+
+#[test]
+fn a_moving_light_lights_from_where_it_is_at_each_time() {
+    check(&moving_rect(true), "moving rect light");
+    // the same light left at the open reads well apart (0.010 against 0.0245)
+    let r = render(&moving_rect(false), settings(8, 8, 64));
+    let (m, _, _) = channel_stats(&r, 1, |_, _| true, 8);
+    assert!(m < 0.8 * expected(0.0, 0.0), "static light {m} vs moving {}", expected(0.0, 0.0));
+}

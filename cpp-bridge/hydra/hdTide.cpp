@@ -258,12 +258,7 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                          typeId != "renderBuffer" && typeId.find("Light") == std::string::npos;
     if (isRprim) {
         if (bits & CT::DirtyTransform) {
-            HdTimeSampleArray<GfMatrix4d, 4> samples;
-            sd->SampleTransform(id, &samples);
-            for (size_t i = 0; i < samples.count; ++i) {
-                tide::TimedValue tv{samples.count > 1, double(samples.times[i]), HdTideToValue(VtValue(samples.values[i]))};
-                _store.Set(_path, "transform", tv);
-            }
+            _PutTransformSamples(sd, id);
             _tideBits |= ChangeTracker::DirtyTransform;
         }
         if (bits & CT::DirtyVisibility) {
@@ -364,7 +359,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                 sky = sky || !_store.Get(_path, k).IsEmpty();
             if (sky) _Put("tide:sky:sunUnreadable", VtValue(true));
         }
-        _Put("transform", VtValue(sd->GetTransform(id)));
+        // every sample over the shutter: a light that moves lights from where it is
+        _PutTransformSamples(sd, id);
         _Put("visibility", VtValue(TfToken(sd->GetVisible(id) ? "inherited" : "invisible")));
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource | ChangeTracker::DirtyTransform;
     }
@@ -382,6 +378,15 @@ void HdTideSnapshot::_PutTideAttributes(HdSceneDelegate* sd, SdfPath const& id) 
     HdContainerDataSourceHandle tide = SceneIndexContainer(sd, id, TfToken("tide"));
     if (!tide) return;
     for (TfToken const& name : tide->GetNames()) _Put(name.GetString(), ContainerValue(tide, name));
+}
+
+void HdTideSnapshot::_PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id) {
+    HdTimeSampleArray<GfMatrix4d, 4> samples;
+    sd->SampleTransform(id, &samples);
+    for (size_t i = 0; i < samples.count; ++i) {
+        tide::TimedValue tv{samples.count > 1, double(samples.times[i]), HdTideToValue(VtValue(samples.values[i]))};
+        _store.Set(_path, "transform", tv);
+    }
 }
 
 void HdTideSnapshot::_Put(std::string const& key, VtValue const& v) {

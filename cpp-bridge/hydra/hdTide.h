@@ -49,6 +49,8 @@ public:
     void Add(std::string const& key, tide::TimedValue value, tide::DirtyBits bits);
 
 private:
+    /// `transform` as every sample of `SampleTransform` (frame offsets; one untimed when still).
+    void _PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id);
     void _Put(std::string const& key, VtValue const& v);
     /// Every `tide:` attribute and relationship that usdImagingTide published for the prim in the
     /// render index's scene indices, under its name (relationships as their first target's path).

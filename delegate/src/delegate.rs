@@ -1035,6 +1035,11 @@ impl Delegate {
             };
             desc.light_link = members(&l.light_link);
             desc.shadow_link = members(&l.shadow_link);
+            // a light that moves over the shutter (keys in seconds, as the instances')
+            let (xf, times) = place(&l.transforms);
+            if xf.len() >= 2 {
+                desc.motion = times.into_iter().zip(xf).collect();
+            }
             if let LightShape::Sky { sun_direction, .. } = &mut desc.shape {
                 if let Some(d) = sky_suns.get(path) {
                     *sun_direction = *d;

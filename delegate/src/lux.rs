@@ -37,6 +37,9 @@ pub struct LightPiece {
     pub shadow_link: Option<Collection>,
     /// `tide:caustics:emitter` where authored (`TideCausticsAPI`).
     pub caustics_emitter: Option<bool>,
+    /// The light's light-to-world samples (frame offsets; one at 0 when it does not move): the
+    /// assembly keys `desc.motion` from those over the shutter.
+    pub transforms: Vec<(f64, Mat4)>,
 }
 
 /// A UsdCollectionAPI collection of prim paths as the reader sends it
@@ -332,6 +335,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         desc: LightDesc {
             shaping,
             response,
+            motion: Vec::new(),
             name: path.into(),
             shape,
             transform,
@@ -354,6 +358,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             Some(Collection { includes: vec![], excludes: vec![], include_root: false, explicit_only: true })
         },
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
+        transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p) } else { vec![(0.0, transform)] },
     })
 }
 

@@ -196,3 +196,14 @@ def darkness(img):
     rgb = img[..., :3].astype(np.float64)
     return 1.0 - (0.2126 * rgb[..., 0] + 0.7152 * rgb[..., 1] + 0.0722 * rgb[..., 2])
 
+
+
+def fwhm(row):
+    """Full width at half maximum (pixels) of a profile along a row, with sub-pixel crossings
+    by linear interpolation on both sides."""
+    half = row.max() / 2
+    above = np.nonzero(row > half)[0]
+    lo, hi = above[0], above[-1]
+    left = lo - 1 + (half - row[lo - 1]) / (row[lo] - row[lo - 1])
+    right = hi + (row[hi] - half) / (row[hi] - row[hi + 1])
+    return right - left

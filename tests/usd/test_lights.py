@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
-from conftest import bind, camera, lambert_material, load, preview_material, render, settings
+from conftest import bind, camera, fwhm, lambert_material, load, preview_material, render, settings
 
 HEIGHT = 2.0          # the light above the floor
 WIDTH = 4.0           # the floor seen by the orthographic camera (metres across the image)
@@ -389,3 +389,34 @@ def test_rect_light_texture(renderer, stage, tmp_path):
     px = render(renderer, stage)["color"][..., 0]
     left, right = px[:, 1:7].mean(), px[:, 9:15].mean()
     assert abs(left - 0.5) < 0.015 and abs(right - 0.1) < 0.003, (left, right)
+
+
+# -- lights that move over the shutter ------------------------------------------------------
+def _light_streak(renderer, stage, disable_motion=False):
+    """A sphere light of radius 0.25 crossing the view 10 units away during a one-frame shutter
+    (x from -1 to 1), seen directly against black: the full width at half maximum of its
+    streak along the middle rows, in pixels, and the pixels per unit at its distance."""
+    w, h, focal, ap = 128, 16, 50.0, 36.0
+    camera(stage, focal=focal, aperture=(ap, ap * h / w), **{"shutter__open": 0.0, "shutter__close": 1.0})
+    light = UsdLux.SphereLight.Define(stage, "/Lamp")
+    light.CreateRadiusAttr(0.25)
+    light.CreateIntensityAttr(4.0)
+    op = light.AddTranslateOp()
+    op.Set(Gf.Vec3d(-1, 0, -10), 0)
+    op.Set(Gf.Vec3d(1, 0, -10), 1)
+    st = settings(stage, res=(w, h), samples=256, integrator="path")
+    if disable_motion:
+        st.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
+    img = render(renderer, stage, frame=0)["color"][..., 1]
+    return fwhm(img[h // 2 - 1:h // 2 + 1].mean(axis=0)), focal / 10.0 / (ap / 2) * w / 2
+
+
+def test_a_moving_light_streaks_over_the_shutter(renderer, stage):
+    length, per_unit = _light_streak(renderer, stage)
+    # a disk of diameter D swept over L >= D: a trapezoid whose full width at half maximum is L
+    assert length == pytest.approx(2.0 * per_unit, abs=1.5)
+
+
+def test_a_moving_light_stands_still_without_motion_blur(renderer, stage):
+    length, per_unit = _light_streak(renderer, stage, disable_motion=True)
+    assert length == pytest.approx(0.5 * per_unit, abs=1.5)

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, darkness, floats, lambert_material, load, render, settings
+from conftest import bind, camera, darkness, floats, fwhm, lambert_material, load, render, settings
 from test_render import AP, F, _black, _px_per_unit_at, _white_dome
 
 TCPS = 24.0
@@ -243,13 +243,7 @@ def _streak(renderer, stage):
     """FWHM (px) of the darkness along the middle rows of a render against a white dome."""
     settings(stage, res=(W, H), samples=256)
     d = darkness(render(renderer, stage, frame=0)["color"])
-    row = d[H // 2 - 1:H // 2 + 1].mean(axis=0)
-    half = row.max() / 2
-    above = np.nonzero(row > half)[0]
-    lo, hi = above[0], above[-1]
-    left = lo - 1 + (half - row[lo - 1]) / (row[lo] - row[lo - 1])
-    right = hi + (row[hi] - half) / (row[hi] - row[hi + 1])
-    return right - left
+    return fwhm(d[H // 2 - 1:H // 2 + 1].mean(axis=0))
 
 
 def _scene(stage):

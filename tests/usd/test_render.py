@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel,
+from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel, fwhm,
                       lambert_material, render, settings)
 
 F, AP = 50.0, 36.0            # focal length, square aperture: tan(half fov) = 18/50
@@ -182,14 +182,7 @@ def _streak_fwhm(renderer, stage, disable_motion=False):
     if disable_motion:
         st.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
     d = darkness(render(renderer, stage, frame=0)["color"])
-    row = d[h // 2 - 1:h // 2 + 1].mean(axis=0)
-    half = row.max() / 2
-    above = np.nonzero(row > half)[0]
-    lo, hi = above[0], above[-1]
-    # sub-pixel crossings by linear interpolation on both sides
-    left = lo - 1 + (half - row[lo - 1]) / (row[lo] - row[lo - 1])
-    right = hi + (row[hi] - half) / (row[hi] - row[hi + 1])
-    return right - left, w
+    return fwhm(d[h // 2 - 1:h // 2 + 1].mean(axis=0)), w
 
 
 def test_motion_blur_streak_length(renderer, stage):

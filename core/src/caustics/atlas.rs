@@ -194,6 +194,8 @@ impl AtlasLight {
         let power = light.power();
         let bound = |c: Vec3, pts: &[Vec3]| pts.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
         match light {
+            // where its transform puts it (the aim of its photons follows it over the shutter)
+            Light::Moving(m) => AtlasLight::from_light(&m.inner),
             Light::Dome(_) | Light::Sky(_) => None,
             Light::Point(l) => Some(AtlasLight::Local { center: l.p, radius: 0.0, power }),
             Light::Sphere(l) => Some(AtlasLight::Local { center: l.center, radius: l.radius, power }),

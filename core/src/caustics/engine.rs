@@ -555,7 +555,7 @@ impl Caustics {
             AtlasLight::Local { .. } => {
                 let Some(e) = self.atlas.emit(&s, ls.ray_o) else { return };
                 // the atlas aims the photon: the light's emission is taken along that aim
-                let l = light.le_towards(&ls, e.dir, &lambda);
+                let l = light.le_towards(&ls, e.dir, time, &lambda);
                 let power = if ls.delta_pos {
                     l / e.pdf
                 } else {

@@ -147,7 +147,7 @@ impl LightTracer {
         if world.accel.intersect(&shadow).is_some() {
             return;
         }
-        if world.hittable_lights.iter().any(|&li| world.lights[li].intersect(x, wc, dist).is_some()) {
+        if world.hittable_lights.iter().any(|&li| world.lights[li].intersect_at(x, wc, dist, time).is_some()) {
             return;
         }
         let tr = med.transmittance(o, d, t, rng, lambda) * med.transmittance(x, wc, dist, rng, lambda);

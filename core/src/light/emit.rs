@@ -48,8 +48,9 @@
 //! atlas aims local lights' photons at casters) takes the emission along its own direction
 //! ([`Light::le_towards`]). A rect light's image (`texture:file`) colours `l` at the origin.
 //!
-//! Tide's lights do not move: `time` is accepted so that light paths carry the same time
-//! as the camera paths they are merged with, and does not change the sample.
+//! `time` places a moving light ([`super::MovingLight`]) where it is then (its sample is the
+//! static light's, carried by the light's move); for other lights it only travels with the
+//! light path, so that it carries the same time as the camera paths it is merged with.
 //!
 //! `phi` relates to [`Light::power`] (used to pick lights in proportion to their power):
 //! for finite lights `phi_y()` equals `power()`. For infinite lights the power depends on the
@@ -209,6 +210,12 @@ impl Light {
     /// point on the disk). `disk` is used by infinite lights only. None when the sample carries
     /// nothing (grazing direction, black dome texel, a dome that emits nothing).
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
+        if let Light::Moving(m) = self {
+            // the sample where the light is at `time`
+            let (fwd, _) = m.moves(time);
+            let s = m.inner.sample_le(u_pos, u_dir, lambda, time, disk)?;
+            return Some(LeSample { ray_o: fwd.transform_point3(s.ray_o), ray_d: fwd.transform_vector3(s.ray_d).normalize(), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s });
+        }
         let mut s = self.sample_le_unshaped(u_pos, u_dir, lambda, time, disk)?;
         // a shaped light's sample keeps its place and direction (its `l` may be 0 outside the
         // cone): callers that aim the ray elsewhere take the factor there (`shaping_factor`)
@@ -227,6 +234,7 @@ impl Light {
             Some(LeSample { ray_o: p, ray_d: d, l, pdf_pos: 1.0 / a, pdf_dir, n_light: n, delta_pos: false, delta_dir: false })
         };
         match self {
+            Light::Moving(m) => m.inner.sample_le(u_pos, u_dir, lambda, time, disk),
             Light::Sphere(s) => {
                 let n = sample_uniform_sphere(u_pos);
                 area(s.center + n * s.radius, n, self.area(), s.emission.sample(lambda))
@@ -290,8 +298,13 @@ impl Light {
     /// `ray_d`, for a caller that aims the ray elsewhere (the caustics atlas aims local lights'
     /// photons at casters): the light's radiance there (a point light's intensity), with its
     /// shaping along `dir`. Infinite lights do not aim: their `l`.
-    pub fn le_towards(&self, s: &LeSample, dir: Vec3, lambda: &SampledWavelengths) -> SampledSpectrum {
+    pub fn le_towards(&self, s: &LeSample, dir: Vec3, time: f32, lambda: &SampledWavelengths) -> SampledSpectrum {
         match self {
+            Light::Moving(m) => {
+                let (_, inv) = m.moves(time);
+                let local = LeSample { ray_o: inv.transform_point3(s.ray_o), ray_d: inv.transform_vector3(s.ray_d), n_light: inv.transform_vector3(s.n_light), ..*s };
+                m.inner.le_towards(&local, inv.transform_vector3(dir), time, lambda)
+            }
             Light::Point(p) => p.emission.sample(lambda) * self.shaping_factor(dir, lambda),
             _ if self.is_infinite() => s.l,
             _ => self.l(s.ray_o, s.n_light, dir, lambda),
@@ -307,6 +320,8 @@ impl Light {
     pub fn pdf_le(&self, ray_o: Vec3, ray_d: Vec3, n: Vec3, disk: &EmissionDisk) -> (f32, f32) {
         let cos = n.dot(ray_d);
         match self {
+            // a rigid move keeps the densities of the ray and normal moved with it
+            Light::Moving(m) => m.inner.pdf_le(ray_o, ray_d, n, disk),
             Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) | Light::Triangle(_) => {
                 let two_sided = matches!(self, Light::Triangle(t) if t.two_sided);
                 let pdf_dir = if two_sided { 0.5 * cos.abs() } else { cos.max(0.0) } * INV_PI;
@@ -345,6 +360,7 @@ impl Light {
     /// documentation). A textured dome sums its texels (cost ∝ texels: not for inner loops).
     pub fn phi(&self, lambda: &SampledWavelengths, disk: &EmissionDisk) -> SampledSpectrum {
         match self {
+            Light::Moving(m) => m.inner.phi(lambda, disk),
             Light::Dome(d) => {
                 let r = disk.radius;
                 match &d.map {
@@ -371,6 +387,7 @@ impl Light {
     pub fn phi_y(&self, disk: &EmissionDisk) -> f32 {
         let e = self.emission();
         match self {
+            Light::Moving(m) => m.inner.phi_y(disk),
             Light::Dome(super::DomeLight { map: Some(m), .. }) => {
                 let r = disk.radius;
                 dome_integral(m, |c| SampledSpectrum::splat(color::luminance(c, m.cs).max(0.0))).0[0] * e.scale * PI * r * r

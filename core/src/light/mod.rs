@@ -59,7 +59,7 @@ pub(crate) mod tests;
 pub use sampler::LightSampler;
 pub use shaping::Shaping;
 
-use glam::{Mat3, Vec2, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 
 use crate::math::{sample_concentric_disk, sample_uniform_sphere, Frame, INV_4PI, PI};
 use crate::scene::{ColorSpace, LightDesc, LightShape, TextureDesc};
@@ -531,6 +531,31 @@ pub enum Light {
     Cylinder(CylinderLight),
     Triangle(TriangleLight),
     Point(PointLight),
+    /// A finite light that moves over the shutter (see [`MovingLight`]).
+    Moving(Box<MovingLight>),
+}
+
+/// A finite light moving over the shutter: `inner` is the light where its `transform` puts
+/// it, and each query at time t is answered by `inner` in its own frame, carried by the rigid
+/// move from there to where the light is at t (the light's keyed light-to-world interpolated as
+/// the scene's instances are, its scale change dropped: a light keeps its size).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MovingLight {
+    pub inner: Light,
+    motion: crate::accel::motion::MotionTransform,
+    /// Inverse of the transform `inner` was built with.
+    base_inv: Mat4,
+}
+
+impl MovingLight {
+    /// The rigid move (world to world) from where `inner` is to where the light is at `time`,
+    /// and its inverse.
+    #[inline]
+    fn moves(&self, time: f32) -> (Mat4, Mat4) {
+        let (_, r, t) = (self.motion.at(time) * self.base_inv).to_scale_rotation_translation();
+        let m = Mat4::from_rotation_translation(r.normalize(), t);
+        (m, m.inverse())
+    }
 }
 
 fn err(attr: &str, what: impl std::fmt::Display) -> String {
@@ -919,6 +944,14 @@ impl Light {
                 })
             }
         };
+        if desc.motion.len() >= 2 && !light.is_infinite() && desc.motion.iter().any(|(_, m)| *m != desc.motion[0].1) {
+            if desc.motion.iter().any(|(t, m)| !t.is_finite() || !m.is_finite()) {
+                return Err(err("transform", "a motion sample is not finite"));
+            }
+            let (times, mats): (Vec<f32>, Vec<Mat4>) = desc.motion.iter().copied().unzip();
+            let motion = crate::accel::motion::MotionTransform::new(&mats, &times);
+            return Ok(Light::Moving(Box::new(MovingLight { inner: light, motion, base_inv: m.inverse() })));
+        }
         Ok(light)
     }
 
@@ -977,8 +1010,17 @@ impl Light {
         matches!(self, Light::Distant(_) | Light::Dome(_) | Light::Sky(_))
     }
 
+    /// The light itself, or for a moving light the light where its `transform` puts it.
+    pub fn inner(&self) -> &Light {
+        match self {
+            Light::Moving(m) => &m.inner,
+            l => l,
+        }
+    }
+
     pub fn is_delta(&self) -> bool {
         match self {
+            Light::Moving(m) => m.inner.is_delta(),
             Light::Point(_) => true,
             Light::Distant(d) => d.one_minus_cos == 0.0,
             _ => false,
@@ -988,6 +1030,7 @@ impl Light {
     /// Whether camera rays see the light itself (emissive triangles: always).
     pub fn visible_to_camera(&self) -> bool {
         match self {
+            Light::Moving(m) => m.inner.visible_to_camera(),
             Light::Distant(l) => l.visible_to_camera,
             Light::Dome(l) => l.visible_to_camera,
             Light::Sky(l) => l.visible_to_camera,
@@ -1002,6 +1045,7 @@ impl Light {
 
     pub fn emission(&self) -> &Emission {
         match self {
+            Light::Moving(m) => m.inner.emission(),
             Light::Distant(l) => &l.emission,
             Light::Dome(l) => &l.emission,
             Light::Sky(l) => &l.emission,
@@ -1017,6 +1061,8 @@ impl Light {
     /// The light's UsdLuxShapingAPI, if it has one that shapes anything.
     pub fn shaping(&self) -> Option<&Shaping> {
         match self {
+            // in the light's frame where its transform puts it: queries go through `inner`
+            Light::Moving(_) => None,
             Light::Sphere(l) => l.shaping.as_deref(),
             Light::Rect(l) => l.shaping.as_deref(),
             Light::Disk(l) => l.shaping.as_deref(),
@@ -1039,6 +1085,7 @@ impl Light {
     /// Emitting area in world space (0 for non-area lights).
     pub fn area(&self) -> f32 {
         match self {
+            Light::Moving(m) => m.inner.area(),
             Light::Sphere(l) => 4.0 * PI * l.radius * l.radius,
             Light::Rect(l) => l.shape.area,
             Light::Disk(l) => l.shape.area,
@@ -1051,6 +1098,9 @@ impl Light {
     /// Estimate of the emitted power, luminance-weighted (infinite lights: through a disk of
     /// the scene's radius), for light selection.
     pub fn power(&self) -> f32 {
+        if let Light::Moving(m) = self {
+            return m.inner.power();
+        }
         let e = self.emission();
         let base = e.luminance * e.scale;
         let p = match self {
@@ -1088,10 +1138,36 @@ impl Light {
         let _ = p;
         let c = n.dot(w);
         match self {
+            Light::Moving(m) => m.inner.l(p, n, w, lambda),
             Light::Rect(r) if c > 0.0 => r.radiance(p, lambda) * self.shaping_factor(w, lambda),
             Light::Sphere(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
             Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => t.emission.sample(lambda),
             _ => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// [`Light::l`] at `time`: where a moving light is then.
+    #[inline]
+    pub fn l_at(&self, p: Vec3, n: Vec3, w: Vec3, time: f32, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self {
+            Light::Moving(m) => {
+                let (_, inv) = m.moves(time);
+                m.inner.l(inv.transform_point3(p), inv.transform_vector3(n), inv.transform_vector3(w), lambda)
+            }
+            _ => self.l(p, n, w, lambda),
+        }
+    }
+
+    /// [`Light::intersect`] at `time`: where a moving light is then.
+    #[inline]
+    pub fn intersect_at(&self, o: Vec3, d: Vec3, t_max: f32, time: f32) -> Option<(f32, Vec3, Vec3)> {
+        match self {
+            Light::Moving(m) => {
+                let (fwd, inv) = m.moves(time);
+                let (t, p, n) = m.inner.intersect(inv.transform_point3(o), inv.transform_vector3(d), t_max)?;
+                Some((t, fwd.transform_point3(p), fwd.transform_vector3(n).normalize()))
+            }
+            _ => self.intersect(o, d, t_max),
         }
     }
 
@@ -1110,6 +1186,7 @@ impl Light {
     /// (t, point, emitting-side normal). Back faces are reported too (`l` gives them zero).
     pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> Option<(f32, Vec3, Vec3)> {
         match self {
+            Light::Moving(m) => m.inner.intersect(o, d, t_max),
             Light::Sphere(s) => {
                 let oc = (o - s.center).as_dvec3();
                 let dd = d.as_dvec3();
@@ -1153,6 +1230,12 @@ impl Light {
     /// Samples a direction towards the light from `ctx.p`. None when the light sends nothing
     /// there (receiver behind a one-sided light, inside a sphere light, black texel, ...).
     pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
+        if let Light::Moving(m) = self {
+            let (fwd, inv) = m.moves(ctx.time);
+            let local = LightSampleContext { p: inv.transform_point3(ctx.p), n: inv.transform_vector3(ctx.n), ..*ctx };
+            let s = m.inner.sample_li(&local, u, lambda)?;
+            return Some(LightLiSample { wi: fwd.transform_vector3(s.wi).normalize(), p_light: fwd.transform_point3(s.p_light), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s });
+        }
         let mut s = self.sample_li_unshaped(ctx, u, lambda)?;
         if let Some(sh) = self.shaping() {
             s.l *= sh.factor(-s.wi, lambda);
@@ -1167,6 +1250,7 @@ impl Light {
     #[inline]
     fn sample_li_unshaped(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
         match self {
+            Light::Moving(m) => m.inner.sample_li(ctx, u, lambda),
             Light::Point(pl) => {
                 let v = pl.p - ctx.p;
                 let d2 = v.length_squared();
@@ -1293,6 +1377,11 @@ impl Light {
     /// (emissive triangles found by the scene BVH); otherwise it is found by `intersect`.
     pub fn pdf_li(&self, ctx: &LightSampleContext, wi: Vec3, hit: Option<(Vec3, Vec3)>) -> f32 {
         match self {
+            Light::Moving(m) => {
+                let (_, inv) = m.moves(ctx.time);
+                let local = LightSampleContext { p: inv.transform_point3(ctx.p), n: inv.transform_vector3(ctx.n), ..*ctx };
+                m.inner.pdf_li(&local, inv.transform_vector3(wi), hit.map(|(p, n)| (inv.transform_point3(p), inv.transform_vector3(n))))
+            }
             Light::Point(_) => 0.0,
             Light::Distant(d) => {
                 if d.one_minus_cos > 0.0 && in_cone(wi.normalize(), d.to_light, d.one_minus_cos) {

@@ -15,7 +15,7 @@ const ALPHA: f64 = 0.01;
 
 pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     LightDesc {
-        shaping: None, response: Default::default(),
+        shaping: None, response: Default::default(), motion: Vec::new(),
         name: "/light".into(),
         shape,
         transform,
@@ -641,4 +641,62 @@ fn a_rect_lights_image_lies_on_it_as_usd_maps_it() {
     let truth = l.phi(&lam, &disk).0[0] as f64;
     let (m, se) = flux(&textured_rect(tilt()), 8.0, 100_000, 77);
     assert!((m - truth).abs() <= 4.0 * se + 1e-4 * truth, "flux {m} ± {se} vs phi {truth}");
+}
+
+#[test]
+fn a_moving_light_answers_as_the_static_light_where_it_is_then() {
+    // each answer of the moving light at time t is an answer of the light built where it is at
+    // t: its samples land on that light with that light's radiance and density (the samples
+    // themselves differ: the frames they are drawn in turn with the light)
+    let lam = lambda();
+    let at = |t: f32| Mat4::from_rotation_translation(Quat::from_rotation_y(0.8 * t) * Quat::from_rotation_x(-1.2), Vec3::new(2.0 * t - 1.0, 1.5, 0.5 * t));
+    // radiances within 1e-3 of themselves, or of 1e-3 near a cone's edge, where f32 rounding of
+    // the direction moves a factor of 1e-6 by a percent
+    let rel = |a: f32, b: f32| (a - b).abs() <= 1e-3 * b.abs().max(1e-3);
+    for shape in [LightShape::Sphere { radius: 0.3, treat_as_point: false }, LightShape::Rect { width: 0.8, height: 0.5, texture: None }, LightShape::Disk { radius: 0.4 }, LightShape::Sphere { radius: 0.3, treat_as_point: true }] {
+        let mut d = desc(shape.clone(), at(0.0));
+        d.shaping = Some(crate::scene::ShapingDesc { cone_angle_deg: 60.0, cone_softness: 0.5, ..Default::default() });
+        d.motion = vec![(0.0, at(0.0)), (1.0, at(1.0))];
+        let moving = build(&d);
+        assert!(matches!(moving, Light::Moving(_)), "{shape:?}");
+        let disk = crate::light::emit::EmissionDisk::new(Vec3::ZERO, 5.0).unwrap();
+        let mut answered = 0;
+        for t in [0.0f32, 0.3, 1.0] {
+            let mut sd = d.clone();
+            sd.transform = at(t);
+            sd.motion.clear();
+            let fixed = build(&sd);
+            let ctx = LightSampleContext::new(Vec3::new(0.2, -0.4, 0.1), Vec3::Y).at(t);
+            let mut rng = TestRng::new(9);
+            for _ in 0..50 {
+                let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                if let Some(a) = moving.sample_li(&ctx, u, &lam) {
+                    answered += 1;
+                    if a.is_delta {
+                        let b = fixed.sample_li(&ctx, u, &lam).unwrap();
+                        assert!((a.wi - b.wi).length() < 1e-4 && rel(a.l.0[0], b.l.0[0]));
+                        continue;
+                    }
+                    let (_, ph, nh) = fixed.intersect(ctx.p, a.wi, f32::INFINITY).unwrap_or_else(|| panic!("{shape:?} t {t}: the sample misses the light where it is"));
+                    assert!((ph - a.p_light).length() < 1e-3, "{shape:?} t {t}: lands at {} not {ph}", a.p_light);
+                    assert!(rel(a.l.0[0], fixed.l(ph, nh, -a.wi, &lam).0[0]), "{shape:?} t {t}: radiance");
+                    assert!(rel(a.pdf, fixed.pdf_li(&ctx, a.wi, None)), "{shape:?} t {t}: pdf {} vs {}", a.pdf, fixed.pdf_li(&ctx, a.wi, None));
+                    assert!(rel(moving.pdf_li(&ctx, a.wi, None), a.pdf));
+                    let (_, pm, nm) = moving.intersect_at(ctx.p, a.wi, f32::INFINITY, t).unwrap();
+                    assert!((pm - ph).length() < 1e-3 && rel(moving.l_at(pm, nm, -a.wi, t, &lam).0[0], a.l.0[0]));
+                }
+                let (u1, u2) = (Vec2::new(rng.next_f32(), rng.next_f32()), Vec2::new(rng.next_f32(), rng.next_f32()));
+                let e = moving.sample_le(u1, u2, &lam, t, &disk).unwrap();
+                if !e.delta_pos {
+                    // the emitted ray leaves the light where it is, with its radiance there
+                    let back = e.ray_o + e.ray_d * 0.5;
+                    let (_, ph, nh) = fixed.intersect(back, -e.ray_d, f32::INFINITY).expect("the ray leaves the light where it is");
+                    assert!((ph - e.ray_o).length() < 1e-3 && rel(e.l.0[0], fixed.l(ph, nh, e.ray_d, &lam).0[0]), "{shape:?} t {t}: {e:?} vs {ph} {}", fixed.l(ph, nh, e.ray_d, &lam).0[0]);
+                } else {
+                    assert!((e.ray_o - at(t).transform_point3(Vec3::ZERO)).length() < 1e-4);
+                }
+            }
+        }
+        assert!(answered > 50, "{shape:?}: {answered}");
+    }
 }

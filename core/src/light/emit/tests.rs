@@ -732,7 +732,7 @@ fn emitted_rays_agree_with_l_le_intersect_and_sample_li() {
 }
 
 #[test]
-fn time_does_not_change_the_sample() {
+fn time_does_not_change_a_still_lights_sample() {
     let disk = scene_disk();
     let (u, v) = (Vec2::new(0.31, 0.72), Vec2::new(0.45, 0.13));
     for l in [sphere(), distant(0.53, 1.0), dome(true)] {
