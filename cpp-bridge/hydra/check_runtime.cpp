@@ -210,6 +210,9 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
         scene = std::make_unique<UsdImagingDelegate>(index.get(), SdfPath::AbsoluteRootPath());
         scene->Populate(stage->GetPseudoRoot());
         scene->SetTime(UsdTimeCode(0.0));
+        // as UsdImagingGLEngine does for the camera it views through (usdview): the scene
+        // delegate then samples motion over that camera's shutter
+        scene->SetCameraForSampling(SdfPath(cameraPath));
     }
     const SdfPath bufferPath("/__check/color");
     HdRenderBuffer* buffer = static_cast<HdRenderBuffer*>(delegate->CreateBprim(HdPrimTypeTokens->renderBuffer, bufferPath));

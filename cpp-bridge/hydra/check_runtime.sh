@@ -140,4 +140,6 @@ compare "$here/check_stage_fx.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_motion.usda (the stage's frame rate, with the camera) through UsdImaging's scene indices and through tide render"
 compare "$here/check_stage_motion.usda" sceneIndex || exit $?
 echo "rendering check_stage_spot.usda (UsdLuxShapingAPI: cone, focus, IES profile) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_spot.usda" delegate sceneIndex
+compare "$here/check_stage_spot.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_movinglight.usda (transform samples over the shutter: a light and a gprim) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_movinglight.usda" delegate sceneIndex

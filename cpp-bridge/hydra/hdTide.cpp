@@ -1,6 +1,9 @@
 //! hdTide: the Hd* classes over tide:: (see hdTide.h).
 #include "hdTide.h"
 
+#include <atomic>
+#include <cmath>
+
 #include "tide/renderParam.h"
 #include "tide/vdb.h"
 
@@ -111,6 +114,29 @@ tide::Value HdTideToValue(VtValue const& v) {
     }
     return {};
 }
+
+// ---------------------------------------------------------------------------------------------
+// Motion sampling window
+
+namespace {
+std::atomic<float> g_sampleOpen{-1.0f};
+std::atomic<float> g_sampleClose{1.0f};
+
+/// Widens the sampling window to a camera's shutter.
+void WidenSampling(VtValue const& open, VtValue const& close) {
+    auto widen = [](std::atomic<float>& a, double v, bool lower) {
+        float cur = a.load();
+        const float f = float(v);
+        while ((lower ? f < cur : f > cur) && !a.compare_exchange_weak(cur, f)) {
+        }
+    };
+    if (open.IsHolding<double>() && std::isfinite(open.UncheckedGet<double>())) widen(g_sampleOpen, open.UncheckedGet<double>(), true);
+    if (close.IsHolding<double>() && std::isfinite(close.UncheckedGet<double>())) widen(g_sampleClose, close.UncheckedGet<double>(), false);
+}
+}  // namespace
+
+float HdTideSampleOpen() { return g_sampleOpen.load(); }
+float HdTideSampleClose() { return g_sampleClose.load(); }
 
 // ---------------------------------------------------------------------------------------------
 // HdTideSnapshot
@@ -333,6 +359,7 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         _PutTideAttributes(sd, id);
         _tideBits |= ChangeTracker::DirtyParams | ChangeTracker::DirtyResource;
     } else if (typeId == "camera") {
+        WidenSampling(sd->GetCameraParamValue(id, HdCameraTokens->shutterOpen), sd->GetCameraParamValue(id, HdCameraTokens->shutterClose));
         for (Param const& p : CameraParams()) {
             VtValue v = Unscaled(sd->GetCameraParamValue(id, p.hd), p.unit);
             if (v.IsHolding<HdCamera::Projection>())
@@ -382,7 +409,7 @@ void HdTideSnapshot::_PutTideAttributes(HdSceneDelegate* sd, SdfPath const& id) 
 
 void HdTideSnapshot::_PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id) {
     HdTimeSampleArray<GfMatrix4d, 4> samples;
-    sd->SampleTransform(id, &samples);
+    sd->SampleTransform(id, HdTideSampleOpen(), HdTideSampleClose(), &samples);
     for (size_t i = 0; i < samples.count; ++i) {
         tide::TimedValue tv{samples.count > 1, double(samples.times[i]), HdTideToValue(VtValue(samples.values[i]))};
         _store.Set(_path, "transform", tv);

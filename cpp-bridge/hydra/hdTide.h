@@ -31,6 +31,14 @@ PXR_NAMESPACE_OPEN_SCOPE
 /// Converts a VtValue into a tide::Value (Empty when the type has no protocol equivalent).
 tide::Value HdTideToValue(VtValue const& v);
 
+/// The window (frame offsets from the current time) over which the plugin asks for transform
+/// and primvar samples: at least [−1, 1], widened to every synced camera's shutter. The Rust
+/// delegate keeps the samples that bracket the shutter it renders. Scene indices answer only
+/// what is asked for (without a window, one sample); UsdImaging's scene delegate answers over
+/// the shutter of the camera its application set for sampling.
+float HdTideSampleOpen();
+float HdTideSampleClose();
+
 /// The values of one prim read from an HdSceneDelegate, as a tide::SceneSource.
 class HdTideSnapshot final : public tide::SceneSource {
 public:

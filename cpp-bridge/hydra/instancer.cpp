@@ -1,5 +1,6 @@
 //! HdTideInstancer (see instancer.h).
 #include "instancer.h"
+#include "hdTide.h"
 
 #include "pxr/base/gf/matrix4f.h"
 #include "pxr/base/gf/quatd.h"
@@ -87,11 +88,13 @@ void HdTideInstancer::Sync(HdSceneDelegate* sd, HdRenderParam*, HdDirtyBits* dir
     if (*dirtyBits == HdChangeTracker::Clean) return;
     _UpdateInstancer(sd, dirtyBits);
     SdfPath const& id = GetId();
-    sd->SampleInstancerTransform(id, &_xform);
-    sd->SamplePrimvar(id, HdInstancerTokens->instanceTranslations, &_translations);
-    sd->SamplePrimvar(id, HdInstancerTokens->instanceRotations, &_rotations);
-    sd->SamplePrimvar(id, HdInstancerTokens->instanceScales, &_scales);
-    sd->SamplePrimvar(id, HdInstancerTokens->instanceTransforms, &_matrices);
+    // over the plugin's sampling window (scene indices give one sample without one)
+    const float t0 = HdTideSampleOpen(), t1 = HdTideSampleClose();
+    sd->SampleInstancerTransform(id, t0, t1, &_xform);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceTranslations, t0, t1, &_translations);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceRotations, t0, t1, &_rotations);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceScales, t0, t1, &_scales);
+    sd->SamplePrimvar(id, HdInstancerTokens->instanceTransforms, t0, t1, &_matrices);
 }
 
 void HdTideInstancer::_Times(std::vector<float>* times) const {
