@@ -296,7 +296,15 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _tideBits |= ChangeTracker::DirtyMaterialId;
         }
         if (bits & CT::DirtyPoints) {
-            _Put("points", sd->Get(id, HdTokens->points));
+            // every sample over the sampling window: a deforming mesh blurs
+            HdTimeSampleArray<VtValue, 4> samples;
+            sd->SamplePrimvar(id, HdTokens->points, HdTideSampleOpen(), HdTideSampleClose(), &samples);
+            if (samples.count > 1) {
+                for (size_t i = 0; i < samples.count; ++i)
+                    _store.Set(_path, "points", tide::TimedValue{true, double(samples.times[i]), HdTideToValue(samples.values[i])});
+            } else {
+                _Put("points", samples.count == 1 ? samples.values[0] : sd->Get(id, HdTokens->points));
+            }
             _tideBits |= ChangeTracker::DirtyPoints;
         }
         if (typeId == "mesh" && (bits & CT::DirtyTopology)) {
