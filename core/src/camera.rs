@@ -22,7 +22,8 @@
 //!
 //! Units follow USD: focal length and apertures are in tenths of a scene unit (millimetres
 //! for a centimetre scene), `focusDistance` in scene units. The aperture is conformed to the
-//! image's aspect by expanding it (UsdRenderSettings' default `expandAperture`).
+//! image's aspect as UsdRenderSettings' `aspectRatioConformPolicy` says ([`AspectConform`];
+//! by default `expandAperture`).
 
 use crate::accel::motion::MotionTransform;
 use crate::math::sample_concentric_disk;
@@ -111,18 +112,63 @@ pub struct CameraRay {
     pub depth_per_t: f32,
 }
 
-impl Camera {
-    /// Builds the camera for an image of `width`×`height` pixels with the given pixel aspect.
-    /// The description must be validated.
-    pub fn new(desc: &CameraDesc, width: u32, height: u32, pixel_aspect: f32, disable_dof: bool, disable_motion: bool) -> Camera {
-        let image_aspect = width as f32 * pixel_aspect.max(1e-6) / height.max(1) as f32;
-        let mut ap = Vec2::new(desc.horizontal_aperture, desc.vertical_aperture);
-        let ap_aspect = ap.x / ap.y;
-        if image_aspect > ap_aspect {
-            ap.x = ap.y * image_aspect;
-        } else {
-            ap.y = ap.x / image_aspect;
+/// UsdRenderSettings' `aspectRatioConformPolicy`: how an aperture whose aspect differs from
+/// the image's (width × pixel aspect / height) is made to fit it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum AspectConform {
+    /// Grow the aperture in the dimension that falls short, showing more of the scene.
+    #[default]
+    ExpandAperture,
+    /// Shrink the aperture in the dimension that overflows, cropping the scene.
+    CropAperture,
+    /// Change the aperture's width to the image's aspect.
+    AdjustApertureWidth,
+    /// Change the aperture's height to the image's aspect.
+    AdjustApertureHeight,
+    /// Keep the aperture: the pixels take the aspect that makes the image cover it exactly
+    /// (the settings' `pixelAspectRatio` is disregarded).
+    AdjustPixelAspectRatio,
+}
+
+impl AspectConform {
+    /// The policy of a UsdRender token; None for an unknown one.
+    pub fn from_token(t: &str) -> Option<AspectConform> {
+        Some(match t {
+            "expandAperture" => AspectConform::ExpandAperture,
+            "cropAperture" => AspectConform::CropAperture,
+            "adjustApertureWidth" => AspectConform::AdjustApertureWidth,
+            "adjustApertureHeight" => AspectConform::AdjustApertureHeight,
+            "adjustPixelAspectRatio" => AspectConform::AdjustPixelAspectRatio,
+            _ => return None,
+        })
+    }
+
+    /// The aperture `ap` (width, height) made to fit an image of aspect `image_aspect`.
+    pub fn conform(&self, ap: Vec2, image_aspect: f32) -> Vec2 {
+        let wider = image_aspect > ap.x / ap.y;
+        match self {
+            AspectConform::ExpandAperture if wider => Vec2::new(ap.y * image_aspect, ap.y),
+            AspectConform::ExpandAperture => Vec2::new(ap.x, ap.x / image_aspect),
+            AspectConform::CropAperture if wider => Vec2::new(ap.x, ap.x / image_aspect),
+            AspectConform::CropAperture => Vec2::new(ap.y * image_aspect, ap.y),
+            AspectConform::AdjustApertureWidth => Vec2::new(ap.y * image_aspect, ap.y),
+            AspectConform::AdjustApertureHeight => Vec2::new(ap.x, ap.x / image_aspect),
+            AspectConform::AdjustPixelAspectRatio => ap,
         }
+    }
+}
+
+impl Camera {
+    /// Builds the camera for an image of `width`×`height` pixels with the given pixel aspect,
+    /// its aperture expanded to the image's aspect. The description must be validated.
+    pub fn new(desc: &CameraDesc, width: u32, height: u32, pixel_aspect: f32, disable_dof: bool, disable_motion: bool) -> Camera {
+        Camera::with_conform(desc, width, height, pixel_aspect, AspectConform::ExpandAperture, disable_dof, disable_motion)
+    }
+
+    /// [`Camera::new`] with the aperture made to fit the image by `conform`.
+    pub fn with_conform(desc: &CameraDesc, width: u32, height: u32, pixel_aspect: f32, conform: AspectConform, disable_dof: bool, disable_motion: bool) -> Camera {
+        let image_aspect = width as f32 * pixel_aspect.max(1e-6) / height.max(1) as f32;
+        let ap = conform.conform(Vec2::new(desc.horizontal_aperture, desc.vertical_aperture), image_aspect);
         let lens_radius = if disable_dof || desc.f_stop <= 0.0 || desc.projection == Projection::Orthographic {
             0.0
         } else {
@@ -363,6 +409,45 @@ mod tests {
         let r = cam.generate_ray(expect, Vec2::splat(0.5), 0.0);
         let t = (0.0 - r.o.z) / r.d.z;
         assert!((r.o + r.d * t - Vec3::new(1.8, -1.2, 0.0)).length() < 1e-4);
+    }
+
+    #[test]
+    fn every_aspect_conform_policy_fits_the_aperture_as_usd_says() {
+        // a 36 × 24 aperture (1.5) onto a square image and onto a 2:1 image: where a point at
+        // the aperture's right edge (x = 18 film units at the focal distance) and one at its top
+        // edge (y = 12) land, in the image's NDC (0.5 = the centre, 1 = the edge)
+        let mut d = desc();
+        d.horizontal_aperture = 36.0;
+        d.vertical_aperture = 24.0;
+        let f = d.focal_length;
+        let edge = |cam: &Camera, x: f32, y: f32, w: u32, h: u32| {
+            let p = cam.project(Vec3::new(x / f * 10.0, y / f * 10.0, -10.0), 0.0).unwrap();
+            (p.x / w as f32, 1.0 - p.y / h as f32)
+        };
+        use AspectConform::*;
+        // (policy, image w, h, the aperture the image shows)
+        for (c, w, h, shown) in [
+            (ExpandAperture, 100, 100, (36.0, 36.0)),
+            (CropAperture, 100, 100, (24.0, 24.0)),
+            (AdjustApertureWidth, 100, 100, (24.0, 24.0)),
+            (AdjustApertureHeight, 100, 100, (36.0, 36.0)),
+            (AdjustPixelAspectRatio, 100, 100, (36.0, 24.0)),
+            (ExpandAperture, 200, 100, (48.0, 24.0)),
+            (CropAperture, 200, 100, (36.0, 18.0)),
+            (AdjustApertureWidth, 200, 100, (48.0, 24.0)),
+            (AdjustApertureHeight, 200, 100, (36.0, 18.0)),
+            (AdjustPixelAspectRatio, 200, 100, (36.0, 24.0)),
+        ] {
+            let cam = Camera::with_conform(&d, w, h, 1.0, c, false, false);
+            let (u, _) = edge(&cam, 18.0, 0.0, w, h);
+            let (_, v) = edge(&cam, 0.0, 12.0, w, h);
+            let (su, sv) = (0.5 + 0.5 * 36.0 / shown.0, 0.5 + 0.5 * 24.0 / shown.1);
+            assert!((u - su).abs() < 1e-4 && (v - sv).abs() < 1e-4, "{c:?} {w}×{h}: edges at ({u}, {v}), expected ({su}, {sv})");
+        }
+        for t in ["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight", "adjustPixelAspectRatio"] {
+            assert!(AspectConform::from_token(t).is_some());
+        }
+        assert_eq!(AspectConform::from_token("stretch"), None);
     }
 
     #[test]

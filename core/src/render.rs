@@ -124,6 +124,9 @@ pub struct RenderSettings {
     /// Worker threads; 0 = all cores.
     pub threads: usize,
     pub pixel_aspect_ratio: f32,
+    /// How the camera's aperture is made to fit the image (UsdRenderSettings
+    /// `aspectRatioConformPolicy`).
+    pub aspect_conform: crate::camera::AspectConform,
     /// (xmin, ymin, xmax, ymax) in NDC, as UsdRenderSettings `dataWindowNDC`.
     pub data_window_ndc: [f32; 4],
     pub disable_motion_blur: bool,
@@ -152,6 +155,7 @@ impl Default for RenderSettings {
             seed: 0,
             threads: 0,
             pixel_aspect_ratio: 1.0,
+            aspect_conform: Default::default(),
             data_window_ndc: [0.0, 0.0, 1.0, 1.0],
             disable_motion_blur: false,
             disable_depth_of_field: false,

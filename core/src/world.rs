@@ -235,7 +235,7 @@ impl World {
         // volumes become boxes with a medium-boundary material and a grid medium
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
-        let camera = Camera::new(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.disable_depth_of_field, settings.disable_motion_blur);
+        let camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
         let accel = Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache);
         let mut materials: Vec<Material> = scene
             .materials

@@ -729,6 +729,8 @@ protected:
             RenderProduct const& p = products.front();
             if (!p.cameraPath.IsEmpty()) put("camera", tide::Value::MakePath(p.cameraPath.GetString()));
             put("pixelAspectRatio", tide::Value::MakeFloat(p.pixelAspectRatio));
+            if (!p.aspectRatioConformPolicy.IsEmpty())
+                put("aspectRatioConformPolicy", tide::Value::MakeToken(p.aspectRatioConformPolicy.GetString()));
             GfRange2f const& w = p.dataWindowNDC;
             if (!w.IsEmpty())
                 put("dataWindowNDC", tide::Value::MakeFloats({w.GetMin()[0], w.GetMin()[1], w.GetMax()[0], w.GetMax()[1]}, 4));

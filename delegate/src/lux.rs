@@ -514,6 +514,8 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
             _ => p.add("resolution", format!("expected two positive ints; using {}x{}", s.width, s.height)),
         }
     }
+    let policy = store.token_or("aspectRatioConformPolicy", &["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight", "adjustPixelAspectRatio"], "expandAperture", p);
+    s.aspect_conform = tide_core::camera::AspectConform::from_token(policy).unwrap_or_default();
     let par = store.f32_or("pixelAspectRatio", 1.0, p);
     s.pixel_aspect_ratio = if par > 0.0 {
         par

@@ -91,6 +91,29 @@ def test_sphere_projects_where_the_camera_says(renderer, stage):
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.10)
 
 
+@pytest.mark.parametrize("policy,shown", [
+    ("expandAperture", (36.0, 36.0)), ("cropAperture", (24.0, 24.0)),
+    ("adjustApertureWidth", (24.0, 24.0)), ("adjustApertureHeight", (36.0, 36.0)),
+    ("adjustPixelAspectRatio", (36.0, 24.0))])
+def test_aspect_ratio_conform_policy(renderer, stage, policy, shown):
+    # a 36 x 24 aperture onto a square image: the film the image shows is `shown` (UsdRender's
+    # aspectRatioConformPolicy), so a ball at (1, 0.6, -10) lands at f x / z over half of it
+    w = h = 64
+    camera(stage, focal=F, aperture=(36.0, 24.0))
+    _white_dome(stage)
+    _ball(stage, "/Ball", (1.0, 0.6, -10.0), 0.3, _black(stage))
+    st = settings(stage, res=(w, h), samples=16)
+    st.CreateAspectRatioConformPolicyAttr(policy)
+    d = darkness(render(renderer, stage)["color"])
+    # the small ball's centroid: the white background's few-% noise would pull it to the centre
+    d = np.where(d > 0.1, d, 0.0)
+    ys, xs = np.mgrid[0:h, 0:w]
+    cx, cy = (d * (xs + 0.5)).sum() / d.sum(), (d * (ys + 0.5)).sum() / d.sum()
+    ex = (0.5 + F * 1.0 / 10.0 / shown[0]) * w
+    ey = (0.5 - F * 0.6 / 10.0 / shown[1]) * h
+    assert abs(cx - ex) < 0.5 and abs(cy - ey) < 0.5, ((cx, cy), (ex, ey))
+
+
 def _sunlit_wall(stage, mat, tilt=0.0):
     """A 20 x 20 wall at z = -5 facing the camera, bound to `mat`, under a sun of pi lux on a
     perpendicular surface, tilted `tilt` degrees about X from the wall's normal."""

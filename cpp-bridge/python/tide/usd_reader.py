@@ -610,6 +610,8 @@ class Reader:
         st.set("resolution", _ints([w, h]))
         st.set("pixelAspectRatio", ("float", float(get(
             settings.GetPixelAspectRatioAttr() if settings else None, 1.0))))
+        st.set("aspectRatioConformPolicy", ("token", str(get(
+            settings.GetAspectRatioConformPolicyAttr() if settings else None, "expandAperture"))))
         st.set("dataWindowNDC", _floats(list(get(
             settings.GetDataWindowNDCAttr() if settings else None, Gf.Vec4f(0, 0, 1, 1))), 4))
         dmb = bool(get(sp.GetAttribute("disableMotionBlur") if sp else None, False))
