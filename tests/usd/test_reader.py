@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from conftest import bind, camera, floats, load, matrix, preview_material, settings
 
@@ -492,6 +492,34 @@ def test_settings_products_and_camera_selection(stage, delegate):
     assert r2.settings_path == "/Render/B" and r2.camera_path == "/CamA"
     assert d2.value("/Render/B", "tide:samples") == 3 and d2.value("/Render/B", "tide:seed") == 7
     assert floats(d2.value("/Render/B", "resolution")).tolist() == [20, 20]
+
+
+def test_a_products_own_settings_override_the_settings(stage, delegate):
+    # UsdRenderSettingsBase attributes a product authors override the settings' for it; one
+    # image serves every product, so the first product's are rendered and a second product's
+    # different ones are reported
+    camera(stage, "/CamA")
+    camera(stage, "/CamB")
+    s = settings(stage, "/Render/S", cam="/CamA", res=(64, 48))
+    prod = UsdRender.Product(stage.GetPrimAtPath("/Render/S_Product"))
+    prod.CreateResolutionAttr(Gf.Vec2i(40, 20))
+    prod.CreateCameraRel().SetTargets(["/CamB"])
+    prod.CreatePixelAspectRatioAttr(2.0)
+    prod.CreateAspectRatioConformPolicyAttr("cropAperture")
+    prod.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
+    other = UsdRender.Product.Define(stage, "/Render/Other")
+    other.CreateProductNameAttr("other.exr")
+    other.CreateResolutionAttr(Gf.Vec2i(8, 8))
+    s.GetProductsRel().AddTarget("/Render/Other")
+    r, problems = load(stage, delegate)
+    v = lambda k: delegate.value("/Render/S", k)  # noqa: E731
+    assert floats(v("resolution")).tolist() == [40, 20]
+    assert r.camera_path == "/CamB" and v("camera") == ("path", "/CamB")
+    assert v("pixelAspectRatio") == 2.0 and v("aspectRatioConformPolicy") == ("token", "cropAperture")
+    assert v("disableMotionBlur") is True
+    assert [(p.prim, p.attribute) for p in problems] == [("/Render/Other", "resolution")]
+    for _, buf in r.bindings():
+        assert floats(delegate.value(buf, "dimensions")).tolist() == [40, 20]
 
 
 def test_render_pass_binds_buffers(stage, delegate):

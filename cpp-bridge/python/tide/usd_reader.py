@@ -66,6 +66,9 @@ LIGHT_SPECIFIC = {
     "diskLight": {"inputs:radius": 0.5},
     "cylinderLight": {"inputs:radius": 0.5, "inputs:length": 1.0, "treatAsLine": False},
 }
+# UsdRenderSettingsBase attributes (besides the camera) a product may override.
+BASE_ATTRS = ("resolution", "pixelAspectRatio", "aspectRatioConformPolicy", "dataWindowNDC",
+              "disableMotionBlur", "disableDepthOfField")
 # UsdLuxShapingAPI and UsdLuxShadowAPI: sent where the prim has them (the API applied, or
 # authored).
 LIGHT_API_ATTRS = (
@@ -597,7 +600,33 @@ class Reader:
             return fallback if v is None else v
 
         sp = settings.GetPrim() if settings else None
-        res = get(settings.GetResolutionAttr() if settings else None, Gf.Vec2i(1920, 1080))
+        # UsdRenderSettingsBase attributes a product authors override the settings' for it; one
+        # image serves every product, so the first product's are the ones rendered
+        products_ = [stage.GetPrimAtPath(t) for t in settings.GetProductsRel().GetForwardedTargets()] \
+            if settings else []
+        products_ = [q for q in products_ if q and q.IsA(UsdRender.Product)]
+        first_prod = products_[0] if products_ else None
+
+        def base(name, fallback):
+            if first_prod is not None:
+                a = first_prod.GetAttribute(name)
+                if a and a.HasAuthoredValue():
+                    return a.Get()
+            return get(sp.GetAttribute(name) if sp else None, fallback)
+
+        for q in products_[1:]:
+            for name in BASE_ATTRS:
+                a = q.GetAttribute(name)
+                if a and a.HasAuthoredValue() and a.Get() != base(name, None):
+                    self.problem(str(q.GetPath()), name, "differs from the first product's; "
+                                 "one image serves every product, rendered with the first's")
+            rel = q.GetRelationship("camera")
+            if rel and rel.GetForwardedTargets() and first_prod is not None and \
+                    rel.GetForwardedTargets() != (first_prod.GetRelationship("camera").GetForwardedTargets()
+                                                  or settings.GetCameraRel().GetForwardedTargets()):
+                self.problem(str(q.GetPath()), "camera", "differs from the first product's; "
+                             "one image serves every product, rendered with the first's")
+        res = base("resolution", Gf.Vec2i(1920, 1080))
         w, h = int(res[0]), int(res[1])
         if w <= 0 or h <= 0:
             self.problem(spath, "resolution", "resolution %dx%d is not positive; using 1920x1080"
@@ -608,14 +637,12 @@ class Reader:
             w = int(o.width)
         self.resolution = (w, h)
         st.set("resolution", _ints([w, h]))
-        st.set("pixelAspectRatio", ("float", float(get(
-            settings.GetPixelAspectRatioAttr() if settings else None, 1.0))))
-        st.set("aspectRatioConformPolicy", ("token", str(get(
-            settings.GetAspectRatioConformPolicyAttr() if settings else None, "expandAperture"))))
-        st.set("dataWindowNDC", _floats(list(get(
-            settings.GetDataWindowNDCAttr() if settings else None, Gf.Vec4f(0, 0, 1, 1))), 4))
-        dmb = bool(get(sp.GetAttribute("disableMotionBlur") if sp else None, False))
-        ddof = bool(get(sp.GetAttribute("disableDepthOfField") if sp else None, False))
+        st.set("pixelAspectRatio", ("float", float(base("pixelAspectRatio", 1.0))))
+        st.set("aspectRatioConformPolicy", ("token", str(base("aspectRatioConformPolicy",
+                                                             "expandAperture"))))
+        st.set("dataWindowNDC", _floats(list(base("dataWindowNDC", Gf.Vec4f(0, 0, 1, 1))), 4))
+        dmb = bool(base("disableMotionBlur", False))
+        ddof = bool(base("disableDepthOfField", False))
         st.set("disableMotionBlur", ("bool", dmb))
         st.set("disableDepthOfField", ("bool", ddof))
         purposes = list(get(settings.GetIncludedPurposesAttr() if settings else None,
@@ -673,7 +700,9 @@ class Reader:
                 raise LookupError("no UsdGeomCamera at %s" % o.camera)
             cam = cp
         elif settings is not None:
-            targets = settings.GetCameraRel().GetForwardedTargets()
+            targets = first_prod.GetRelationship("camera").GetForwardedTargets() \
+                if first_prod is not None and first_prod.GetRelationship("camera") else []
+            targets = targets or settings.GetCameraRel().GetForwardedTargets()
             if targets:
                 cp = stage.GetPrimAtPath(targets[0])
                 if cp and cp.IsA(UsdGeom.Camera):
