@@ -507,6 +507,7 @@ def test_a_products_own_settings_override_the_settings(stage, delegate):
     prod.CreatePixelAspectRatioAttr(2.0)
     prod.CreateAspectRatioConformPolicyAttr("cropAperture")
     prod.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
+    prod.GetPrim().CreateAttribute("tide:samples", Sdf.ValueTypeNames.Int).Set(5)
     other = UsdRender.Product.Define(stage, "/Render/Other")
     other.CreateProductNameAttr("other.exr")
     other.CreateResolutionAttr(Gf.Vec2i(8, 8))
@@ -516,7 +517,7 @@ def test_a_products_own_settings_override_the_settings(stage, delegate):
     assert floats(v("resolution")).tolist() == [40, 20]
     assert r.camera_path == "/CamB" and v("camera") == ("path", "/CamB")
     assert v("pixelAspectRatio") == 2.0 and v("aspectRatioConformPolicy") == ("token", "cropAperture")
-    assert v("disableMotionBlur") is True
+    assert v("disableMotionBlur") is True and v("tide:samples") == 5
     assert [(p.prim, p.attribute) for p in problems] == [("/Render/Other", "resolution")]
     for _, buf in r.bindings():
         assert floats(delegate.value(buf, "dimensions")).tolist() == [40, 20]

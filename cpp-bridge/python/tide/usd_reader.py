@@ -615,7 +615,7 @@ class Reader:
             return get(sp.GetAttribute(name) if sp else None, fallback)
 
         for q in products_[1:]:
-            for name in BASE_ATTRS:
+            for name in BASE_ATTRS + tuple(SETTINGS_TIDE):
                 a = q.GetAttribute(name)
                 if a and a.HasAuthoredValue() and a.Get() != base(name, None):
                     self.problem(str(q.GetPath()), name, "differs from the first product's; "
@@ -652,8 +652,8 @@ class Reader:
         st.set("renderingColorSpace", ("token", str(get(
             sp.GetAttribute("renderingColorSpace") if sp else None, "") or "lin_rec709")))
         for key, fb in SETTINGS_TIDE.items():
-            attr = sp.GetAttribute(key) if sp else None
-            v = get(attr, fb)
+            # the first product's own value, else the settings'
+            v = base(key, fb)
             if key in ALLOWED_TOKENS and v not in ALLOWED_TOKENS[key]:
                 self.problem(spath, key, "unknown token '%s'; using '%s'" % (v, fb))
                 v = fb
