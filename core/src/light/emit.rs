@@ -210,15 +210,9 @@ impl Light {
     /// point on the disk). `disk` is used by infinite lights only. None when the sample carries
     /// nothing (grazing direction, black dome texel, a dome that emits nothing).
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
-        if let Light::Moving(m) = self {
-            // the sample where the light is at `time`
-            let (fwd, _) = m.moves(time);
-            let s = m.inner.sample_le(u_pos, u_dir, lambda, time, disk)?;
-            return Some(LeSample { ray_o: fwd.transform_point3(s.ray_o), ray_d: fwd.transform_vector3(s.ray_d).normalize(), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s });
-        }
         let mut s = self.sample_le_unshaped(u_pos, u_dir, lambda, time, disk)?;
         // a shaped light's sample keeps its place and direction (its `l` may be 0 outside the
-        // cone): callers that aim the ray elsewhere take the factor there (`shaping_factor`)
+        // cone): callers that aim the ray elsewhere take the emission there (`le_towards`)
         if let Some(sh) = self.shaping() {
             s.l *= sh.factor(s.ray_d, lambda);
         }
@@ -228,13 +222,17 @@ impl Light {
     /// `sample_le` before the light's shaping.
     #[inline]
     fn sample_le_unshaped(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
-        let _ = time;
         let area = |p: Vec3, n: Vec3, a: f32, l: SampledSpectrum| {
             let (d, pdf_dir) = cosine_about(n, u_dir)?;
             Some(LeSample { ray_o: p, ray_d: d, l, pdf_pos: 1.0 / a, pdf_dir, n_light: n, delta_pos: false, delta_dir: false })
         };
         match self {
-            Light::Moving(m) => m.inner.sample_le(u_pos, u_dir, lambda, time, disk),
+            // the inner light's sample (its shaping included) where the light is at `time`
+            Light::Moving(m) => {
+                let (fwd, _) = m.moves(time);
+                let s = m.inner.sample_le(u_pos, u_dir, lambda, time, disk)?;
+                Some(LeSample { ray_o: fwd.transform_point3(s.ray_o), ray_d: fwd.transform_vector3(s.ray_d).normalize(), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s })
+            }
             Light::Sphere(s) => {
                 let n = sample_uniform_sphere(u_pos);
                 area(s.center + n * s.radius, n, self.area(), s.emission.sample(lambda))

@@ -1230,12 +1230,6 @@ impl Light {
     /// Samples a direction towards the light from `ctx.p`. None when the light sends nothing
     /// there (receiver behind a one-sided light, inside a sphere light, black texel, ...).
     pub fn sample_li(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
-        if let Light::Moving(m) = self {
-            let (fwd, inv) = m.moves(ctx.time);
-            let local = LightSampleContext { p: inv.transform_point3(ctx.p), n: inv.transform_vector3(ctx.n), ..*ctx };
-            let s = m.inner.sample_li(&local, u, lambda)?;
-            return Some(LightLiSample { wi: fwd.transform_vector3(s.wi).normalize(), p_light: fwd.transform_point3(s.p_light), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s });
-        }
         let mut s = self.sample_li_unshaped(ctx, u, lambda)?;
         if let Some(sh) = self.shaping() {
             s.l *= sh.factor(-s.wi, lambda);
@@ -1250,7 +1244,13 @@ impl Light {
     #[inline]
     fn sample_li_unshaped(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths) -> Option<LightLiSample> {
         match self {
-            Light::Moving(m) => m.inner.sample_li(ctx, u, lambda),
+            // the inner light's sample (its shaping included) where the light is at ctx.time
+            Light::Moving(m) => {
+                let (fwd, inv) = m.moves(ctx.time);
+                let local = LightSampleContext { p: inv.transform_point3(ctx.p), n: inv.transform_vector3(ctx.n), ..*ctx };
+                let s = m.inner.sample_li(&local, u, lambda)?;
+                Some(LightLiSample { wi: fwd.transform_vector3(s.wi).normalize(), p_light: fwd.transform_point3(s.p_light), n_light: fwd.transform_vector3(s.n_light).normalize(), ..s })
+            }
             Light::Point(pl) => {
                 let v = pl.p - ctx.p;
                 let d2 = v.length_squared();
