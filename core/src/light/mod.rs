@@ -310,9 +310,7 @@ impl RectMap {
 
     #[inline]
     fn at(&self, s: f32, t: f32) -> [f32; 3] {
-        let x = ((s.clamp(0.0, 1.0) * self.width as f32) as usize).min(self.width - 1);
-        let y = ((t.clamp(0.0, 1.0) * self.height as f32) as usize).min(self.height - 1);
-        self.rgb[y * self.width + x]
+        nearest_texel(&self.rgb, self.width, self.height, s, t)
     }
 
     /// Mean luminance of the texels.
@@ -643,6 +641,15 @@ pub fn spectrum_luminance(s: &Spectrum) -> f32 {
 }
 
 
+/// The texel of a `w` × `h` image (rows from the top) that covers (u, t) ∈ [0, 1]²; outside,
+/// the nearest edge texel (float-to-index casts saturate: NaN and negatives give 0).
+#[inline]
+fn nearest_texel(rgb: &[[f32; 3]], w: usize, h: usize, u: f32, t: f32) -> [f32; 3] {
+    let x = ((u * w as f32) as usize).min(w - 1);
+    let y = ((t * h as f32) as usize).min(h - 1);
+    rgb[y * w + x]
+}
+
 /// A light's image as RGB texels × the light's colour `tint`, row-major from the top row, with
 /// its width and height. Errors name the texture (no pixels, wrong channels or size,
 /// non-finite values); negative texels (ringing of resampled HDRs) emit nothing.
@@ -688,9 +695,7 @@ impl DomeMap {
 
     #[inline]
     fn texel(&self, u: f32, t: f32) -> [f32; 3] {
-        let x = ((u * self.width as f32) as usize).min(self.width - 1);
-        let y = ((t * self.height as f32) as usize).min(self.height - 1);
-        self.rgb[y * self.width + x]
+        nearest_texel(&self.rgb, self.width, self.height, u, t)
     }
 }
 
