@@ -299,12 +299,7 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             // every sample over the sampling window: a deforming mesh blurs
             HdTimeSampleArray<VtValue, 4> samples;
             sd->SamplePrimvar(id, HdTokens->points, HdTideSampleOpen(), HdTideSampleClose(), &samples);
-            if (samples.count > 1) {
-                for (size_t i = 0; i < samples.count; ++i)
-                    _store.Set(_path, "points", tide::TimedValue{true, double(samples.times[i]), HdTideToValue(samples.values[i])});
-            } else {
-                _Put("points", samples.count == 1 ? samples.values[0] : sd->Get(id, HdTokens->points));
-            }
+            if (_PutSamples("points", samples) == 0) _Put("points", sd->Get(id, HdTokens->points));
             _tideBits |= ChangeTracker::DirtyPoints;
         }
         if (typeId == "mesh" && (bits & CT::DirtyTopology)) {
@@ -415,13 +410,22 @@ void HdTideSnapshot::_PutTideAttributes(HdSceneDelegate* sd, SdfPath const& id) 
     for (TfToken const& name : tide->GetNames()) _Put(name.GetString(), ContainerValue(tide, name));
 }
 
+template <typename T, unsigned int N>
+size_t HdTideSnapshot::_PutSamples(std::string const& key, HdTimeSampleArray<T, N> const& s) {
+    size_t put = 0;
+    for (size_t i = 0; i < s.count; ++i) {
+        tide::Value v = HdTideToValue(VtValue(s.values[i]));
+        if (v.IsEmpty()) continue;
+        _store.Set(_path, key, tide::TimedValue{s.count > 1, double(s.times[i]), std::move(v)});
+        ++put;
+    }
+    return put;
+}
+
 void HdTideSnapshot::_PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id) {
     HdTimeSampleArray<GfMatrix4d, 4> samples;
     sd->SampleTransform(id, HdTideSampleOpen(), HdTideSampleClose(), &samples);
-    for (size_t i = 0; i < samples.count; ++i) {
-        tide::TimedValue tv{samples.count > 1, double(samples.times[i]), HdTideToValue(VtValue(samples.values[i]))};
-        _store.Set(_path, "transform", tv);
-    }
+    _PutSamples("transform", samples);
 }
 
 void HdTideSnapshot::_Put(std::string const& key, VtValue const& v) {

@@ -16,6 +16,7 @@
 #include "pxr/imaging/hd/renderPass.h"
 #include "pxr/imaging/hd/rprim.h"
 #include "pxr/imaging/hd/sprim.h"
+#include "pxr/imaging/hd/timeSampleArray.h"
 #include "pxr/pxr.h"
 
 #include <array>
@@ -57,6 +58,10 @@ public:
     void Add(std::string const& key, tide::TimedValue value, tide::DirtyBits bits);
 
 private:
+    /// `key` as the samples of `s` (frame offsets), or one untimed value when there is one;
+    /// empty values are skipped. Returns how many were put.
+    template <typename T, unsigned int N>
+    size_t _PutSamples(std::string const& key, HdTimeSampleArray<T, N> const& s);
     /// `transform` as every sample of `SampleTransform` (frame offsets; one untimed when still).
     void _PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id);
     void _Put(std::string const& key, VtValue const& v);
