@@ -494,10 +494,7 @@ def test_settings_products_and_camera_selection(stage, delegate):
     assert floats(d2.value("/Render/B", "resolution")).tolist() == [20, 20]
 
 
-def test_a_products_own_settings_override_the_settings(stage, delegate):
-    # UsdRenderSettingsBase attributes a product authors override the settings' for it; one
-    # image serves every product, so the first product's are rendered and a second product's
-    # different ones are reported
+def _products_stage(stage):
     camera(stage, "/CamA")
     camera(stage, "/CamB")
     s = settings(stage, "/Render/S", cam="/CamA", res=(64, 48))
@@ -511,16 +508,72 @@ def test_a_products_own_settings_override_the_settings(stage, delegate):
     other = UsdRender.Product.Define(stage, "/Render/Other")
     other.CreateProductNameAttr("other.exr")
     other.CreateResolutionAttr(Gf.Vec2i(8, 8))
+    var = UsdRender.Var.Define(stage, "/Render/OtherDepth")
+    var.CreateSourceNameAttr("depth")
+    other.CreateOrderedVarsRel().SetTargets([var.GetPath()])
     s.GetProductsRel().AddTarget("/Render/Other")
+    # the same settings as the first product, authored apart: rendered with it
+    twin = UsdRender.Product.Define(stage, "/Render/Twin")
+    twin.CreateProductNameAttr("twin.exr")
+    for name in ("resolution", "pixelAspectRatio", "aspectRatioConformPolicy",
+                 "disableMotionBlur", "tide:samples"):
+        a = prod.GetPrim().GetAttribute(name)
+        twin.GetPrim().CreateAttribute(name, a.GetTypeName()).Set(a.Get())
+    twin.CreateCameraRel().SetTargets(["/CamB"])
+    twin.CreateOrderedVarsRel().SetTargets([var.GetPath()])
+    s.GetProductsRel().AddTarget("/Render/Twin")
+    return s
+
+
+def test_a_products_own_settings_override_the_settings(stage, delegate):
+    # UsdRenderSettingsBase attributes a product authors override the settings' for it;
+    # products whose settings differ are rendered apart, those that agree together
+    _products_stage(stage)
     r, problems = load(stage, delegate)
+    assert problems == []
+    assert [[p.path for p in g] for g in r.renders] == [
+        ["/Render/S_Product", "/Render/Twin"], ["/Render/Other"]]
     v = lambda k: delegate.value("/Render/S", k)  # noqa: E731
     assert floats(v("resolution")).tolist() == [40, 20]
     assert r.camera_path == "/CamB" and v("camera") == ("path", "/CamB")
     assert v("pixelAspectRatio") == 2.0 and v("aspectRatioConformPolicy") == ("token", "cropAperture")
     assert v("disableMotionBlur") is True and v("tide:samples") == 5
-    assert [(p.prim, p.attribute) for p in problems] == [("/Render/Other", "resolution")]
+    assert [a for a, _ in r.bindings()] == ["color", "depth"]
     for _, buf in r.bindings():
         assert floats(delegate.value(buf, "dimensions")).tolist() == [40, 20]
+    # the second render: the settings' own values where the product authors none
+    assert r.select_render(1) == []
+    assert floats(v("resolution")).tolist() == [8, 8]
+    assert r.camera_path == "/CamA" and v("camera") == ("path", "/CamA")
+    assert v("pixelAspectRatio") == 1.0
+    assert v("aspectRatioConformPolicy") == ("token", "expandAperture")
+    assert v("disableMotionBlur") is False and v("tide:samples") == 64
+    assert [a for a, _ in r.bindings()] == ["depth"]
+    assert floats(delegate.value(r.bindings()[0][1], "dimensions")).tolist() == [8, 8]
+    r.select_render(0)
+    assert floats(v("resolution")).tolist() == [40, 20] and r.camera_path == "/CamB"
+
+
+def test_one_image_for_every_product_reports_the_differences(stage, delegate):
+    # `tide render -o` writes every product's vars into one image at the first's settings
+    _products_stage(stage)
+    r, problems = load(stage, delegate, single_image=True)
+    assert len(r.renders) == 1 and [a for a, _ in r.bindings(every_product=True)] == [
+        "color", "depth"]
+    assert floats(delegate.value("/Render/S", "resolution")).tolist() == [40, 20]
+    assert sorted((p.prim, p.attribute) for p in problems) == [
+        ("/Render/Other", "camera"), ("/Render/Other", "resolution")]
+
+
+def test_command_line_overrides_do_not_split_products(stage, delegate):
+    # products that differ only in what a flag overrides for all of them render together
+    camera(stage, "/CamA")
+    s = settings(stage, "/Render/S", cam="/CamA")
+    second = UsdRender.Product.Define(stage, "/Render/P2")
+    second.GetPrim().CreateAttribute("tide:samples", Sdf.ValueTypeNames.Int).Set(9)
+    s.GetProductsRel().AddTarget("/Render/P2")
+    assert len(load(stage, delegate)[0].renders) == 2
+    assert len(load(stage, type(delegate)(), spp=3)[0].renders) == 1
 
 
 def test_render_pass_binds_buffers(stage, delegate):

@@ -303,6 +303,58 @@ def test_exr_channels_and_header(renderer, stage, tmp_path):
     assert os.path.exists(tmp_path / "aovs.png")
 
 
+def _exr(path):
+    import OpenEXR
+    with OpenEXR.File(path, separate_channels=True) as f:
+        return {k: np.asarray(c.pixels) for k, c in f.channels().items()}, dict(f.header())
+
+
+def _centroid(d):
+    h, w = d.shape
+    ys, xs = np.mgrid[0:h, 0:w]
+    return (d * (xs + 0.5)).sum() / d.sum(), (d * (ys + 0.5)).sum() / d.sum()
+
+
+def test_products_render_with_their_own_camera_and_resolution(renderer, stage, tmp_path):
+    # contract: one EXR per product; a product's own camera and resolution (UsdRender) make it
+    # a render of its own, and products that agree share one
+    camera(stage, "/CamA")
+    camera(stage, "/CamB", pos=(1.0, 0.0, 0.0))
+    _white_dome(stage)
+    _ball(stage, "/Ball", (0, 0, -10), 0.5, _black(stage))
+    s = settings(stage, cam="/CamA", res=(64, 64), product=str(tmp_path / "a.exr"), samples=8)
+    from pxr import UsdRender
+    side = UsdRender.Product.Define(stage, "/Render/Side")
+    side.CreateProductNameAttr(str(tmp_path / "b.exr"))
+    side.CreateCameraRel().SetTargets(["/CamB"])
+    side.CreateResolutionAttr(Gf.Vec2i(32, 32))
+    depth = UsdRender.Var.Define(stage, "/Render/Depth")
+    depth.CreateSourceNameAttr("depth")
+    same = UsdRender.Product.Define(stage, "/Render/Same")
+    same.CreateProductNameAttr(str(tmp_path / "c.exr"))
+    same.CreateOrderedVarsRel().SetTargets([depth.GetPath()])
+    s.GetProductsRel().SetTargets(["/Render/Settings_Product", "/Render/Side", "/Render/Same"])
+    path = str(tmp_path / "scene.usda")
+    stage.GetRootLayer().Export(path)
+    out = _tide(["render", path], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "problem" not in out.stderr, out.stderr
+    assert "render 1 of 2" in out.stderr and "render 2 of 2" in out.stderr
+    a, ha = _exr(str(tmp_path / "a.exr"))
+    b, hb = _exr(str(tmp_path / "b.exr"))
+    c, hc = _exr(str(tmp_path / "c.exr"))
+    assert a["R"].shape == (64, 64) and b["R"].shape == (32, 32)
+    assert ha["tide:camera"] == "/CamA" and hb["tide:camera"] == "/CamB"
+    assert hc["tide:camera"] == "/CamA" and sorted(c) == ["depth.Z"]
+    assert c["depth.Z"].shape == (64, 64) and c["depth.Z"][32, 32] == pytest.approx(9.5, abs=0.05)
+    for img, w, x in ((a, 64, 0.0), (b, 32, -1.0)):
+        d = 1.0 - np.stack([img["R"], img["G"], img["B"]], -1).mean(-1)
+        d = np.where(d > 0.1, d, 0.0)
+        ex, ey = _project(x, 0.0, -10.0, w, w)
+        cx, cy = _centroid(d)
+        assert abs(cx - ex) < 0.5 and abs(cy - ey) < 0.5, (w, (cx, cy), (ex, ey))
+
+
 def test_default_scene_renders(renderer, tmp_path):
     out = _tide(["render", "--spp", "2", "--width", "48"], tmp_path)
     assert out.returncode == 0, out.stderr

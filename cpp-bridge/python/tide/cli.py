@@ -15,6 +15,10 @@ rendering, whichever comes first; loading and acceleration-structure building ar
 the samples per pixel actually reached (`tide:spp`; with adaptive sampling the most any pixel
 took, and `tide:adaptive:meanSpp` the mean).
 
+One EXR is written per render product. Products whose own settings (resolution, camera, ...)
+agree are rendered together; the others are rendered one after the other, each with the whole
+time budget. With -o everything goes into one image at the first product's settings.
+
 Exit status: 0 when the image was written (or the listing printed), even if the stage has
 problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIBUTE: MESSAGE`
 and that prim or input is dropped or replaced by its documented default (contract section 7);
@@ -190,11 +194,13 @@ def _fraction(progress, target):
 
 
 def _outputs(reader, args, stem):
-    """[(file name, [(aov, buffer)])]: one EXR per product, or everything in -o."""
+    """[(file name, [(aov, buffer)])] of the current render: its products' EXRs, or everything
+    in -o."""
     if args.output:
-        return [(args.output, reader.bindings())]
+        return [(args.output, reader.bindings(every_product=True))]
     out = []
-    for i, prod in enumerate(reader.products):
+    for prod in reader.renders[reader.render_index]:
+        i = reader.products.index(prod)
         name = prod.name or ("%s.exr" % stem if i == 0 else "%s_%d.exr" % (stem, i))
         out.append((name, prod.vars))
     return out
@@ -212,16 +218,36 @@ def cmd_render(args):
                                     integrator=args.integrator, time_budget=args.time_budget,
                                     max_depth=args.max_depth, pixel_filter=args.pixel_filter,
                                     pixel_filter_width=args.pixel_filter_width,
-                                    adaptive_threshold=args.adaptive_threshold)
+                                    adaptive_threshold=args.adaptive_threshold,
+                                    single_image=bool(args.output))
     _print_problems(problems)
     if reader.camera_path is None:
         raise RuntimeError("nothing to render: the stage has no camera")
-    outputs = _outputs(reader, args, stem)
-    for name, _ in outputs:
-        parent = os.path.dirname(os.path.abspath(name))
+    for prod in reader.products:
+        name = args.output or prod.name
+        parent = os.path.dirname(os.path.abspath(name)) if name else "."
         if not os.path.isdir(parent):
             raise RuntimeError("cannot write '%s': no such directory" % name)
-    load_s = time.monotonic() - t0
+    count = len(reader.renders)
+    for index in range(count):
+        if index > 0:
+            t0 = time.monotonic()
+            _print_problems(reader.select_render(index))
+            if reader.camera_path is None:
+                raise RuntimeError("nothing to render: render %d has no camera" % (index + 1))
+        if count > 1:
+            _say("render %d of %d: %s (%dx%d from %s)" % (
+                index + 1, count, ", ".join(p.path for p in reader.renders[index]),
+                reader.resolution[0], reader.resolution[1], reader.camera_path))
+        code = _render_one(reader, delegate, args, _outputs(reader, args, stem),
+                           time.monotonic() - t0)
+        if code != EXIT_OK:
+            return code
+    return EXIT_OK
+
+
+def _render_one(reader, delegate, args, outputs, load_s):
+    """Renders the reader's current render to its outputs; prints its summary line."""
     target = max(1, int(reader.sample_target))
     bar = Progress()
     t1 = time.monotonic()
@@ -239,7 +265,7 @@ def cmd_render(args):
     except KeyboardInterrupt:
         rp.cancel()
         bar.done()
-        _say("interrupted; nothing written")
+        _say("interrupted; this render's files not written")
         return EXIT_INTERRUPTED
     bar.done()
     render_s = time.monotonic() - t1
@@ -344,10 +370,22 @@ def cmd_info(args):
     out.write("settings: %s  camera: %s  resolution: %dx%d  frame: %g  samples: %d\n"
               % (reader.settings_path, reader.camera_path, w, h, reader.frame,
                  reader.sample_target))
+    if len(reader.renders) > 1:
+        out.write("render 1: %s  (products whose settings differ are rendered apart)\n"
+                  % ", ".join(p.name for p in reader.renders[0]))
     for prod in reader.products:
         out.write("product: %s  vars: %s\n" % (prod.name or "<default>",
                                               ", ".join(a for a, _ in prod.vars)))
     sent = reader.sent()
+    if len(reader.renders) > 1:
+        # products whose settings differ are rendered apart: list each render's own
+        for index in range(1, len(reader.renders)):
+            reader.select_render(index)
+            rw, rh = reader.resolution
+            out.write("render %d: %s  camera: %s  resolution: %dx%d  samples: %d\n"
+                      % (index + 1, ", ".join(p.name for p in reader.renders[index]),
+                         reader.camera_path, rw, rh, reader.sample_target))
+        reader.select_render(0)
     for path in sorted(sent):
         type_name, values = sent[path]
         if type_name == "renderBuffer":

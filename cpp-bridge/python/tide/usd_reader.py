@@ -119,6 +119,10 @@ SETTINGS_FALLBACK_PATH = "/Render/__TideSettings"
 BUFFER_ROOT = "/Render/__TideBuffers"
 
 Product = namedtuple("Product", "path name vars")   # vars: [(sourceName, buffer path)]
+# Options attributes that override a render setting for every product alike.
+OPTION_KEYS = {"spp": "tide:samples", "seed": "tide:seed", "integrator": "tide:integrator",
+               "time_budget": "tide:time:budget", "max_depth": "tide:maxDepth",
+               "pixel_filter": "tide:pixelFilter", "adaptive_threshold": "tide:adaptive:threshold"}
 
 
 class Options:
@@ -127,7 +131,7 @@ class Options:
     def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
                  seed=None, threads=None, output=None, integrator=None, time_budget=None,
                  max_depth=None, pixel_filter=None, pixel_filter_width=None,
-                 adaptive_threshold=None):
+                 adaptive_threshold=None, single_image=False):
         self.settings = settings
         self.camera = camera
         self.frame = frame
@@ -142,6 +146,9 @@ class Options:
         self.pixel_filter = pixel_filter
         self.pixel_filter_width = pixel_filter_width
         self.adaptive_threshold = adaptive_threshold
+        # True: one image at the first product's settings carries every product's vars (as
+        # `tide render -o` writes); False: products whose settings differ are rendered apart
+        self.single_image = single_image
 
 
 # ---------------------------------------------------------------------------------------------
@@ -304,6 +311,8 @@ class Reader:
         self.settings_prim = None     # the UsdRenderSettings prim, if any
         self.camera_path = None
         self.products = []
+        self.renders = []             # [[Product]]: products rendered together, in order
+        self.render_index = 0         # which of them the delegate holds now
         self.resolution = (0, 0)
         self.sample_target = 0
 
@@ -344,6 +353,15 @@ class Reader:
         self._sync(roots)
         return self.commit()
 
+    def select_render(self, index):
+        """Makes the delegate hold render `index` of `renders`: its lead product's resolution,
+        camera and settings (a full re-sync sends only what differs). Returns new problems."""
+        if not 0 <= index < max(1, len(self.renders)):
+            raise IndexError("render %d of %d" % (index, len(self.renders)))
+        self.render_index = index
+        self._sync(None)
+        return self.commit()
+
     def render_pass(self):
         """Creates a render pass and starts it on the selected camera and buffers."""
         if self.camera_path is None:
@@ -352,9 +370,12 @@ class Reader:
         rp.execute(self.camera_path, self.bindings(), self.settings_path)
         return rp
 
-    def bindings(self):
+    def bindings(self, every_product=False):
+        """(sourceName, buffer) of the products in the current render (of all of them)."""
         out, seen = [], set()
-        for prod in self.products:
+        prods = self.products if every_product or not self.renders \
+            else self.renders[self.render_index]
+        for prod in prods:
             for source, buf in prod.vars:
                 if buf not in seen:
                     seen.add(buf)
@@ -600,32 +621,58 @@ class Reader:
             return fallback if v is None else v
 
         sp = settings.GetPrim() if settings else None
-        # UsdRenderSettingsBase attributes a product authors override the settings' for it; one
-        # image serves every product, so the first product's are the ones rendered
+        # UsdRenderSettingsBase attributes a product authors override the settings' for it.
+        # Products whose resolved settings agree are rendered together; each other group is a
+        # render of its own (select_render), led by its first product.
         products_ = [stage.GetPrimAtPath(t) for t in settings.GetProductsRel().GetForwardedTargets()] \
             if settings else []
         products_ = [q for q in products_ if q and q.IsA(UsdRender.Product)]
-        first_prod = products_[0] if products_ else None
 
-        def base(name, fallback):
-            if first_prod is not None:
-                a = first_prod.GetAttribute(name)
+        def base_for(q, name, fallback):
+            if q is not None:
+                a = q.GetAttribute(name)
                 if a and a.HasAuthoredValue():
                     return a.Get()
             return get(sp.GetAttribute(name) if sp else None, fallback)
 
-        for q in products_[1:]:
-            for name in BASE_ATTRS + tuple(SETTINGS_TIDE):
-                a = q.GetAttribute(name)
-                if a and a.HasAuthoredValue() and a.Get() != base(name, None):
-                    self.problem(str(q.GetPath()), name, "differs from the first product's; "
+        def camera_for(q):
+            if o.camera:
+                return (o.camera,)
+            rel = q.GetRelationship("camera") if q is not None else None
+            targets = rel.GetForwardedTargets() if rel else []
+            return tuple(str(t) for t in (targets or settings.GetCameraRel().GetForwardedTargets()))
+
+        overridden = {key for opt, key in OPTION_KEYS.items() if getattr(o, opt) is not None}
+        if o.pixel_filter is not None or o.pixel_filter_width is not None:
+            overridden.add("tide:pixelFilter:width")
+
+        def key_for(q):
+            names = [n for n in BASE_ATTRS + tuple(SETTINGS_TIDE) if n not in overridden]
+            return tuple(repr(base_for(q, n, None)) for n in names) + (camera_for(q),)
+
+        groups = {}
+        for i, q in enumerate(products_):
+            k = 0 if o.single_image else key_for(q)
+            groups.setdefault(k, []).append(i)
+        self._render_groups = list(groups.values()) or [[0]]
+        self.render_index = min(self.render_index, len(self._render_groups) - 1)
+        lead = products_[self._render_groups[self.render_index][0]] if products_ else None
+
+        def base(name, fallback):
+            return base_for(lead, name, fallback)
+
+        if o.single_image:
+            for q in products_[1:]:
+                for name in BASE_ATTRS + tuple(SETTINGS_TIDE):
+                    if name in overridden:
+                        continue
+                    a = q.GetAttribute(name)
+                    if a and a.HasAuthoredValue() and a.Get() != base(name, None):
+                        self.problem(str(q.GetPath()), name, "differs from the first product's; "
+                                     "one image serves every product, rendered with the first's")
+                if camera_for(q) != camera_for(lead):
+                    self.problem(str(q.GetPath()), "camera", "differs from the first product's; "
                                  "one image serves every product, rendered with the first's")
-            rel = q.GetRelationship("camera")
-            if rel and rel.GetForwardedTargets() and first_prod is not None and \
-                    rel.GetForwardedTargets() != (first_prod.GetRelationship("camera").GetForwardedTargets()
-                                                  or settings.GetCameraRel().GetForwardedTargets()):
-                self.problem(str(q.GetPath()), "camera", "differs from the first product's; "
-                             "one image serves every product, rendered with the first's")
         res = base("resolution", Gf.Vec2i(1920, 1080))
         w, h = int(res[0]), int(res[1])
         if w <= 0 or h <= 0:
@@ -700,9 +747,7 @@ class Reader:
                 raise LookupError("no UsdGeomCamera at %s" % o.camera)
             cam = cp
         elif settings is not None:
-            targets = first_prod.GetRelationship("camera").GetForwardedTargets() \
-                if first_prod is not None and first_prod.GetRelationship("camera") else []
-            targets = targets or settings.GetCameraRel().GetForwardedTargets()
+            targets = camera_for(lead)
             if targets:
                 cp = stage.GetPrimAtPath(targets[0])
                 if cp and cp.IsA(UsdGeom.Camera):
@@ -771,6 +816,10 @@ class Reader:
                     self._desired[buf] = b
                 bound.append((source, buf))
             self.products.append(Product(ppath, name, bound))
+        if len(self.products) == len(products_):
+            self.renders = [[self.products[i] for i in g] for g in self._render_groups]
+        else:   # no valid product: the default one
+            self.renders = [list(self.products)]
 
     # -- gprims ---------------------------------------------------------------------------
     def _prim_id(self, path):
