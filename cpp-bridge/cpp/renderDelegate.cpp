@@ -30,8 +30,9 @@ RenderDelegate::RenderDelegate(const RenderSettingsMap& settings) : RenderDelega
 RenderDelegate::~RenderDelegate() = default;
 
 const std::vector<std::string>& RenderDelegate::GetSupportedRprimTypes() const {
-    static const std::vector<std::string> types = {"mesh", "points", "sphere", "cube", "cylinder",
-                                                   "cone", "capsule", "plane", "tideOcean", "volume"};
+    static const std::vector<std::string> types = {"mesh", "basisCurves", "points", "sphere", "cube",
+                                                   "cylinder", "cone", "capsule", "plane", "tideOcean",
+                                                   "volume"};
     return types;
 }
 
@@ -64,6 +65,7 @@ Rprim* RenderDelegate::CreateRprim(const std::string& typeId, const std::string&
     if (!CreateInRust(*_param, typeId, rprimId)) return nullptr;
     RenderParam* p = _param.get();
     if (typeId == "mesh" || typeId == "tideOcean" || typeId == "volume") return new Mesh(rprimId, typeId, p);
+    if (typeId == "basisCurves") return new BasisCurves(rprimId, typeId, p);
     if (typeId == "points") return new Points(rprimId, typeId, p);
     return new ImplicitGprim(rprimId, typeId, p);
 }

@@ -163,7 +163,8 @@ DirtyBits ChangeTracker::BitsForKey(const std::string& typeId, const std::string
     if (key == "inputs:texture:file" || key == "texture:file") return DirtyParams | DirtyResource;
     if (key == "points") return DirtyPoints;
     if (key == "faceVertexCounts" || key == "faceVertexIndices" || key == "holeIndices" ||
-        key == "orientation" || key == "subdivisionScheme")
+        key == "orientation" || key == "subdivisionScheme" || key == "curveVertexCounts" ||
+        (typeId == "basisCurves" && (key == "type" || key == "basis" || key == "wrap")))
         return DirtyTopology;
     if (key == "material") return DirtyMaterialId;
     if (key == "instanceTransforms") return DirtyInstancer;

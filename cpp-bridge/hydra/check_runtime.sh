@@ -142,4 +142,6 @@ compare "$here/check_stage_motion.usda" sceneIndex || exit $?
 echo "rendering check_stage_spot.usda (UsdLuxShapingAPI: cone, focus, IES profile) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_spot.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_movinglight.usda (transform samples over the shutter: a light and a gprim) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_movinglight.usda" delegate sceneIndex
+compare "$here/check_stage_movinglight.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_curves.usda (BasisCurves: topology, widths, normals) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_curves.usda" delegate sceneIndex

@@ -311,6 +311,16 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _Put("subdivisionScheme", VtValue(topo.GetScheme()));
             _tideBits |= ChangeTracker::DirtyTopology;
         }
+        if (typeId == "basisCurves" && (bits & CT::DirtyTopology)) {
+            HdBasisCurvesTopology topo = sd->GetBasisCurvesTopology(id);
+            // curve indices, a Hydra-only form no USD prim makes, are not read: such curves
+            // arrive with more points than their counts, which the delegate reports
+            _Put("curveVertexCounts", VtValue(topo.GetCurveVertexCounts()));
+            _Put("type", VtValue(topo.GetCurveType()));
+            _Put("basis", VtValue(topo.GetCurveBasis()));
+            _Put("wrap", VtValue(topo.GetCurveWrap()));
+            _tideBits |= ChangeTracker::DirtyTopology;
+        }
         if (bits & (CT::DirtyPrimvar | CT::DirtyNormals | CT::DirtyWidths)) _tideBits |= ChangeTracker::DirtyPrimvar;
         // Implicit shapes' sizes arrive as DirtyPrimvar (Hydra's dirty bits translator), doubleSided
         // as DirtyDoubleSided; the caustics tags have no bit of their own and ride on both.
@@ -960,6 +970,8 @@ HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const&
     if (!prim) return nullptr;
     HdTideShared* shared = _shared.get();
     if (typeId == HdPrimTypeTokens->mesh) return new HdTideRprim<HdMesh>(rprimId, typeId.GetString(), prim, shared);
+    if (typeId == HdPrimTypeTokens->basisCurves)
+        return new HdTideRprim<HdBasisCurves>(rprimId, typeId.GetString(), prim, shared);
     if (typeId == HdPrimTypeTokens->points) return new HdTideRprim<HdPoints>(rprimId, typeId.GetString(), prim, shared);
     if (typeId == HdPrimTypeTokens->volume) return new HdTideRprim<HdVolume>(rprimId, typeId.GetString(), prim, shared);
     return new HdTideRprim<HdRprim>(rprimId, typeId.GetString(), prim, shared);

@@ -8,6 +8,7 @@
 #include "tide/renderDelegate.h"
 #include "tide/sceneSource.h"
 
+#include "pxr/imaging/hd/basisCurves.h"
 #include "pxr/imaging/hd/bprim.h"
 #include "pxr/imaging/hd/mesh.h"
 #include "pxr/imaging/hd/points.h"

@@ -40,6 +40,7 @@ pub enum PrimClass {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PrimType {
     Mesh,
+    BasisCurves,
     Points,
     Sphere,
     Cube,
@@ -60,6 +61,7 @@ impl PrimType {
     pub fn parse(s: &str) -> Option<PrimType> {
         Some(match s {
             "mesh" => PrimType::Mesh,
+            "basisCurves" => PrimType::BasisCurves,
             "points" => PrimType::Points,
             "sphere" => PrimType::Sphere,
             "cube" => PrimType::Cube,
@@ -473,6 +475,7 @@ impl Delegate {
         let s = &prim.store;
         match prim.ty {
             PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
+            PrimType::BasisCurves => Geometry::UsdMesh(Box::new(crate::curves::convert_curves(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
             PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
             PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p)),

@@ -5,6 +5,7 @@
 //! ([`tide_core::scene::SceneDesc`]), render passes on a background thread and render buffers.
 //! The protocol is described in `README.md`.
 
+pub mod curves;
 pub mod delegate;
 pub mod implicit;
 pub mod lux;

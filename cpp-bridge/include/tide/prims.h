@@ -1,4 +1,4 @@
-//! Tide's Hydra-shaped prims: Rprim (Mesh, Points, ImplicitGprim), Sprim (Material, Light,
+//! Tide's Hydra-shaped prims: Rprim (Mesh, BasisCurves, Points, ImplicitGprim), Sprim (Material, Light,
 //! Camera, RenderSettings) and Bprim bases. `Sync` pulls the dirty attributes from a
 //! SceneSource and forwards them to the Rust delegate; `Finalize` lets go of Rust state.
 #pragma once
@@ -58,6 +58,12 @@ public:
 
 /// A polygon mesh (`mesh`; also `tideOcean` and `volume`, which share its data path).
 class Mesh final : public Rprim {
+public:
+    using Rprim::Rprim;
+};
+
+/// Curves drawn as tubes, or as ribbons where they have normals (`basisCurves`).
+class BasisCurves final : public Rprim {
 public:
     using Rprim::Rprim;
 };

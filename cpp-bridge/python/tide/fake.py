@@ -9,7 +9,7 @@ import os
 import struct
 import zlib
 
-RPRIMS = {"mesh", "points", "sphere", "cube", "cylinder", "cone", "capsule", "plane",
+RPRIMS = {"mesh", "basisCurves", "points", "sphere", "cube", "cylinder", "cone", "capsule", "plane",
           "tideOcean", "volume"}
 SPRIMS = {"camera", "material", "distantLight", "domeLight", "sphereLight", "rectLight",
           "diskLight", "cylinderLight", "renderSettings"}

@@ -34,7 +34,8 @@ class Problem(namedtuple("Problem", "prim attribute message")):
 
 # USD prim type -> delegate rprim type.
 GPRIMS = {
-    "Mesh": "mesh", "Points": "points", "Sphere": "sphere", "Cube": "cube",
+    "Mesh": "mesh", "BasisCurves": "basisCurves", "Points": "points", "Sphere": "sphere",
+    "Cube": "cube",
     "Cylinder": "cylinder", "Cylinder_1": "cylinder", "Cone": "cone", "Capsule": "capsule",
     "Capsule_1": "capsule", "Plane": "plane", "TideOcean": "tideOcean", "Volume": "volume",
 }
@@ -98,6 +99,9 @@ ALLOWED_TOKENS = {
     "orientation": ("rightHanded", "leftHanded"),
     "subdivisionScheme": ("catmullClark", "loop", "bilinear", "none"),
     "axis": ("X", "Y", "Z"),
+    "type": ("linear", "cubic"),
+    "basis": ("bezier", "bspline", "catmullRom", "hermite"),
+    "wrap": ("nonperiodic", "periodic", "pinned"),
     "tide:caustics:transparency": ("off", "afterDiffuse", "volume", "all"),
 }
 AOVS = {
@@ -983,18 +987,22 @@ class Reader:
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
         self._token(prim, st, "subdivisionScheme", "catmullClark")
-        for name in ("velocities", "accelerations"):
-            v = self._attr(prim, name)
-            if v is not None and len(v):
-                if len(v) != len(arr):
-                    self.problem(path, name, "%d %s for %d points; ignored"
-                                 % (len(v), name, len(arr)))
-                    continue
-                st.set(name, _floats(v, 3))
+        self._point_vectors(prim, st, len(arr))
         self._subsets(prim, st)
         self._primvars(prim, st)
         self._normals(mesh, st)
         return True
+
+    def _point_vectors(self, prim, st, count):
+        """`velocities` and `accelerations`, one per point (else reported and not sent)."""
+        for name in ("velocities", "accelerations"):
+            v = self._attr(prim, name)
+            if v is not None and len(v):
+                if len(v) != count:
+                    self.problem(prim.GetPath(), name, "%d %s for %d points; ignored"
+                                 % (len(v), name, count))
+                    continue
+                st.set(name, _floats(v, 3))
 
     def _subsets(self, prim, st):
         """materialBind GeomSubsets: their face indices and resolved material bindings."""
@@ -1040,15 +1048,33 @@ class Reader:
                 st.primvars["widths"] = (interp, wa.tobytes(), 1, None)
             else:
                 st.primvars["widths"] = ("constant", np.ones(1, np.float32).tobytes(), 1, None)
-        for name in ("velocities", "accelerations"):
-            v = self._attr(prim, name)
-            if v is not None and len(v):
-                if len(v) != len(arr):
-                    self.problem(prim.GetPath(), name, "%d %s for %d points; ignored"
-                                 % (len(v), name, len(arr)))
-                    continue
-                st.set(name, _floats(v, 3))
+        self._point_vectors(prim, st, len(arr))
         self._normals(pts, st)
+        return True
+
+    def _eval_basiscurves(self, prim, st):
+        arr = self._points_samples(prim, st)
+        if arr is None:
+            return False
+        curves = UsdGeom.BasisCurves(prim)
+        t = self._time(0)
+        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
+        if counts.size and counts.min() < 0 or int(counts.sum()) != len(arr):
+            self.problem(prim.GetPath(), "curveVertexCounts", "the counts add up to %d vertices, "
+                         "the curves have %d points; prim dropped" % (int(counts.sum()), len(arr)))
+            return False
+        st.set("curveVertexCounts", _ints(counts))
+        for name, fb in (("type", "cubic"), ("basis", "bezier"), ("wrap", "nonperiodic")):
+            self._token(prim, st, name, fb)
+        self._primvars(prim, st)
+        if "widths" not in st.primvars:
+            w = curves.GetWidthsAttr().Get(t)
+            if w is not None and len(w):
+                # the delegate checks the count against the interpolation
+                st.primvars["widths"] = (str(curves.GetWidthsInterpolation()),
+                                         np.asarray(w, dtype=np.float32).tobytes(), 1, None)
+        self._point_vectors(prim, st, len(arr))
+        self._normals(curves, st)
         return True
 
     def _eval_implicit(self, prim, st):

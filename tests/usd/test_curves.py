@@ -1,0 +1,101 @@
+"""UsdGeomBasisCurves: what the reader sends, and tubes and ribbons rendered at their widths
+(expectations from the camera model, as in test_render.py)."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdLux
+
+from conftest import bind, camera, darkness, floats, lambert_material, load, render, settings
+
+F, AP = 50.0, 36.0
+
+
+def _curves(stage, path, points, counts, **attrs):
+    c = UsdGeom.BasisCurves.Define(stage, path)
+    c.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
+    c.CreateCurveVertexCountsAttr(counts)
+    for k, v in attrs.items():
+        c.GetPrim().GetAttribute(k).Set(v)
+    return c
+
+
+def test_reader_sends_curves_with_their_widths_and_normals(stage, delegate):
+    camera(stage)
+    c = _curves(stage, "/Hair", [(0, 0, 0), (1, 0, 0), (2, 1, 0), (3, 1, 0)], [4],
+                type="cubic", basis="catmullRom", wrap="pinned")
+    c.CreateWidthsAttr([0.1, 0.2, 0.3, 0.4])
+    c.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    c.CreateNormalsAttr([Gf.Vec3f(0, 0, 1)] * 4)
+    r, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.prims["/Hair"] == "basisCurves"
+    v = lambda k: delegate.value("/Hair", k)  # noqa: E731
+    assert floats(v("curveVertexCounts")).tolist() == [4]
+    assert (v("type"), v("basis"), v("wrap")) == (("token", "cubic"), ("token", "catmullRom"),
+                                                  ("token", "pinned"))
+    interp, data, tsize, _ = delegate.primvars["/Hair"]["widths"]
+    assert interp == "vertex" and np.asarray(data, np.float32).tolist() == pytest.approx(
+        [0.1, 0.2, 0.3, 0.4])
+    assert delegate.primvars["/Hair"]["normals"][0] == "vertex"
+
+
+def test_reader_reports_bad_curves(stage, delegate):
+    camera(stage)
+    _curves(stage, "/Short", [(0, 0, 0), (1, 0, 0)], [3])
+    _curves(stage, "/Odd", [(0, 0, 0), (1, 0, 0)], [2], wrap="spiral")
+    r, problems = load(stage, delegate)
+    got = sorted((p.prim, p.attribute) for p in problems)
+    assert got == [("/Odd", "wrap"), ("/Short", "curveVertexCounts")]
+    assert "/Short" not in delegate.prims
+    assert delegate.value("/Odd", "wrap") == ("token", "nonperiodic")
+
+
+def _scene(stage, **curve_attrs):
+    w = h = 64
+    camera(stage, focal=F, aperture=(AP, AP))
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateColorAttr(Gf.Vec3f(1, 1, 1))
+    black = lambert_material(stage, "/Looks/Black", (0, 0, 0))
+    settings(stage, res=(w, h), samples=16)
+    return w, black
+
+
+def _px_per_unit(z, w):
+    return F / -z / (AP / 2) * w / 2
+
+
+@pytest.mark.parametrize("oriented", [False, True])
+def test_a_curve_covers_its_width_times_its_length(renderer, stage, oriented):
+    # a straight 4-unit curve 10 units away, 0.4 wide: a tube (seen side-on, its octagon shows
+    # its full diameter) or a ribbon facing the camera covers 4 x 0.4 units of the image
+    w, black = _scene(stage)
+    c = _curves(stage, "/Rope", [(-2, 0.5, -10), (2, 0.5, -10)], [2], type="linear")
+    c.CreateWidthsAttr([0.4])
+    if oriented:
+        c.CreateNormalsAttr([Gf.Vec3f(0, 0, 1)] * 2)
+    bind(c.GetPrim(), black)
+    d = darkness(render(renderer, stage)["color"])
+    k = _px_per_unit(-10.0, w)
+    assert d.sum() == pytest.approx(4.0 * 0.4 * k * k, rel=0.04)
+    ys, xs = np.mgrid[0:w, 0:w]
+    cy = (d * (ys + 0.5)).sum() / d.sum()
+    assert abs(cy - (w / 2 - 0.5 * k)) < 0.25
+
+
+def test_a_pinned_bspline_reaches_its_end_vertices(renderer, stage):
+    # a pinned cubic B-spline starts and ends at its end vertices; a nonperiodic one starts at
+    # (P0 + 4 P1 + P2) / 6: here x = -5/6, 7/6 in from the end vertex (and the same at the end)
+    w, black = _scene(stage)
+    pts = [(-2, -1, -10), (-1, -1, -10), (1, -1, -10), (2, -1, -10)]
+    for wrap, inset in (("pinned", 0.0), ("nonperiodic", 7.0 / 6.0)):
+        path = "/Curve_" + wrap
+        c = _curves(stage, path, pts, [4], basis="bspline", wrap=wrap)
+        c.CreateWidthsAttr([0.3])
+        c.CreateNormalsAttr([Gf.Vec3f(0, 0, 1)])
+        bind(c.GetPrim(), black)
+        d = darkness(render(renderer, stage)["color"])
+        stage.RemovePrim(path)
+        k = _px_per_unit(-10.0, w)
+        cols = np.nonzero(d.sum(axis=0) > 0.15 * 0.3 * k)[0]
+        left, right = cols.min(), cols.max() + 1
+        assert left == pytest.approx(w / 2 - (2 - inset) * k, abs=1.0), wrap
+        assert right == pytest.approx(w / 2 + (2 - inset) * k, abs=1.0), wrap
