@@ -3,8 +3,9 @@
 It does UsdImaging's job with plain usd-core: composition, native instancing and point
 instancers (both with motion over the camera shutter), purposes, inherited visibility,
 transforms with motion samples over the shutter, deforming points (time samples, velocities,
-accelerations), material binding resolution (also of materialBind GeomSubsets), light linking collections, render settings / products /
-vars and camera selection. It then keeps the delegate in step with edits made through usd-core
+accelerations), skinned meshes (UsdSkel, in `skel`), material binding resolution (also of
+materialBind GeomSubsets), light linking collections, render settings / products / vars and
+camera selection. It then keeps the delegate in step with edits made through usd-core
 (`Reader.update()`, driven by `Usd.Notice.ObjectsChanged`).
 
 Every value sent to the delegate is remembered, so a later sync sends only what changed and
@@ -21,6 +22,8 @@ env.prepare()
 
 import numpy as np  # noqa: E402
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdVol  # noqa: E402
+
+from tide import skel  # noqa: E402
 
 env.register_shaders()
 
@@ -309,6 +312,7 @@ class Reader:
         self._prim_ids = {}
         self._changed = []
         self._instance_sources = set()
+        self._skel_sources = set()    # Skeleton, SkelAnimation, BlendShape paths skinning read
         self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
         self.frame = self._initial_frame()
         self.settings_path = None     # delegate path of the renderSettings sprim
@@ -419,6 +423,11 @@ class Reader:
             for src in self._instance_sources:
                 if prim_path.HasPrefix(src) or src.HasPrefix(prim_path):
                     return None
+            # skinned meshes read Skeleton, SkelAnimation and BlendShape prims that may lie
+            # anywhere: an edit to one (or to a prim that was one) re-syncs everything
+            if skel.is_source(prim) or any(prim_path.HasPrefix(s) or s.HasPrefix(prim_path)
+                                           for s in self._skel_sources):
+                return None
             root = prim_path
             if prim and prim.IsA(UsdGeom.Subset):
                 root = prim_path.GetParentPath()
@@ -429,6 +438,10 @@ class Reader:
                 if p.IsA(UsdGeom.PointInstancer):
                     return None
                 p = p.GetParent()
+            # the skinning of a SkelRoot's meshes depends on bindings inherited within it
+            outer = skel.skel_root(self.stage, prim_path)
+            if outer:
+                root = outer.GetPath()
             roots.add(root)
         out = []
         for r in sorted(roots, key=lambda p: p.pathElementCount):
@@ -450,7 +463,9 @@ class Reader:
         if full:
             roots = [Sdf.Path.absoluteRootPath]
             self._instance_sources = set()
+            self._skel_sources = set()
         self._desired = desired
+        self._skinning = skel.Skinning(self.stage, self.problem)
         self._eval_settings()
         self._groups = {}
         for root in roots:
@@ -866,7 +881,54 @@ class Reader:
     def _eval_gprim(self, prim, dpath, source):
         st = self._gprim_state(prim, dpath, source, self._world(prim), [prim])
         if st is not None:
+            if st.type == "mesh":
+                self._skin(prim, st)
             self._desired[dpath] = st
+
+    def _skin(self, prim, st):
+        """A mesh bound to a Skeleton (UsdSkel) renders posed, as UsdSkelImaging draws it: its
+        points deformed by the skeleton's animation (blend shapes, then skinning), with samples
+        over the shutter like authored point samples, and placed by the Skeleton's
+        local-to-world transform, since skinned points are in the skeleton's space. When the
+        pose cannot be computed (reported), the mesh keeps its authored points and transform.
+        Skinned meshes in native instances or point instancer prototypes are not posed."""
+        target = self._skinning.target(prim)
+        if target is None:
+            return
+        self._skel_sources.update(target.sources)
+        # the binding's primvars (joint indices and weights, geomBindTransform) are inputs of
+        # the skinning, not data to shade with
+        for name in [n for n in st.primvars if n.startswith("skel:")]:
+            del st.primvars[name]
+        offsets = [0.0]
+        if self._motion:
+            lo, hi = self._shutter
+            times = target.time_samples(Gf.Interval(self.frame + lo, self.frame + hi))
+            offsets = sorted({lo, hi} | {t - self.frame for t in times})
+        posed = target.compute([self._time(o) for o in offsets])
+        if posed is None:
+            return
+        pts = [p for p, _ in posed]
+        if len(pts) > 1 and any(not np.array_equal(p, pts[0]) for p in pts):
+            st.set("points", None, [(o, _floats(p, 3)) for o, p in zip(offsets, pts)])
+        else:
+            st.set("points", _floats(pts[0], 3))
+        st.set("transform", None, self._xform_samples(self._world(target.space),
+                                                      [target.space]))
+        # Authored normals are not skinned (ComputeSkinnedNormals is missing from older
+        # usd-core): they are dropped and the core computes normals from the posed points, as
+        # UsdSkelImaging does. Authored velocities and accelerations describe the unposed
+        # points, so they go as well; the posed samples carry the motion.
+        st.primvars.pop("normals", None)
+        st.values.pop("velocities", None)
+        st.values.pop("accelerations", None)
+
+    def _unposed(self, prim, st, where):
+        """Skinned meshes are posed as plain gprims only: one shared by instances (which may
+        each have their own animation) renders in its bind pose, and says so."""
+        if st.type == "mesh" and self._skinning.target(prim) is not None:
+            self.problem(prim.GetPath(), "skel:skeleton", "a skinned mesh in %s is not posed; it "
+                         "renders in its bind pose" % where)
 
     def _tide_attrs(self, prim, st):
         for attr in prim.GetAttributes():
@@ -1187,6 +1249,7 @@ class Reader:
             st = self._gprim_state(prim, dpath, "/", rel, [prim])
             if st is None:
                 continue
+            self._unposed(prim, st, "a native instance")
             st.set("material", ("path", material))
             # each instance root's world matrix over the shutter (motion of the instances
             # themselves; the prototype's own motion is in `transform`)
@@ -1267,6 +1330,7 @@ class Reader:
                 st = self._gprim_state(g, dpath, str(path), rel, [g])
                 if st is None:
                     continue
+                self._unposed(g, st, "a point instancer prototype")
                 if len(it_xf) == 1:
                     st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
                 else:

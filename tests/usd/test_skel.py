@@ -1,0 +1,299 @@
+"""Skinned meshes (UsdSkel) through the reader: what reaches the delegate is the posed mesh,
+in the skeleton's space and placed by the Skeleton's transform, checked against poses computed
+here by hand (a vertex bound to a joint turns about the joint's position by the joint's
+animated angle), independently of UsdSkel.
+
+The rig: /World (translated by (0, 0, -5)) / Char (SkelRoot) / Skel (translated by (0, 2, 0)),
+joints `root` at the skeleton's origin and `root/tip` at (1, 0, 0). The mesh is a strip of two
+quads, x in {0, 1, 2} and y in {0, 1}; the two vertices at x = 2 follow `tip`, the rest follow
+`root`. The animation turns `tip` about Z by 90 degrees at time 0 and by 0 at time 1. The mesh
+has a transform of its own, which a skinned mesh does not use.
+"""
+import math
+
+import numpy as np
+from pxr import Gf, Usd, UsdGeom, UsdSkel
+
+from conftest import bind, camera, darkness, floats, load, matrix, render, settings
+from test_render import _black, _project, _white_dome
+
+STRIP = [(0, 0, 0), (1, 0, 0), (2, 0, 0), (0, 1, 0), (1, 1, 0), (2, 1, 0)]
+TIP = (1.0, 0.0, 0.0)                   # the `tip` joint's position in skeleton space
+MESH = "/World/Char/Mesh"
+SKEL_WORLD = (0.0, 2.0, -5.0)           # the skeleton's translation in the world
+
+
+def _quat_z(deg):
+    return Gf.Quatf(Gf.Rotation(Gf.Vec3d(0, 0, 1), deg).GetQuat())
+
+
+def _rig(stage, anim=True, rest=True, indices=(0, 0, 1, 0, 0, 1)):
+    UsdGeom.Xform.Define(stage, "/World").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    UsdSkel.Root.Define(stage, "/World/Char")
+    skel = UsdSkel.Skeleton.Define(stage, "/World/Char/Skel")
+    skel.AddTranslateOp().Set(Gf.Vec3d(0, 2, 0))
+    skel.CreateJointsAttr(["root", "root/tip"])
+    tip = Gf.Matrix4d().SetTranslate(Gf.Vec3d(*TIP))
+    skel.CreateBindTransformsAttr([Gf.Matrix4d(1), tip])
+    if rest:
+        skel.CreateRestTransformsAttr([Gf.Matrix4d(1), tip])
+    mesh = UsdGeom.Mesh.Define(stage, MESH)
+    mesh.CreatePointsAttr(STRIP)
+    mesh.CreateFaceVertexCountsAttr([4, 4])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 4, 3, 1, 2, 5, 4])
+    mesh.CreateSubdivisionSchemeAttr("none")
+    mesh.AddTranslateOp().Set(Gf.Vec3d(10, 10, 10))
+    binding = UsdSkel.BindingAPI.Apply(mesh.GetPrim())
+    binding.CreateSkeletonRel().SetTargets([skel.GetPath()])
+    binding.CreateJointIndicesPrimvar(False, 1).Set(list(indices))
+    binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * len(indices))
+    binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
+    if anim:
+        a = UsdSkel.Animation.Define(stage, "/World/Char/Anim")
+        a.CreateJointsAttr(["root/tip"])
+        a.CreateTranslationsAttr([Gf.Vec3f(*TIP)])
+        a.CreateScalesAttr([Gf.Vec3h(1, 1, 1)])
+        rot = a.CreateRotationsAttr()
+        rot.Set([_quat_z(90)], 0)
+        rot.Set([_quat_z(0)], 1)
+        UsdSkel.BindingAPI.Apply(skel.GetPrim()).CreateAnimationSourceRel().SetTargets(
+            [a.GetPath()])
+    return mesh
+
+
+def _turned(p, deg, about=TIP):
+    """`p` turned about the Z axis through `about` by `deg` degrees."""
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    x, y = p[0] - about[0], p[1] - about[1]
+    return (about[0] + c * x - s * y, about[1] + s * x + c * y, p[2])
+
+
+def _posed(deg):
+    """The strip with the vertices at x = 2 turned with `tip`."""
+    return np.asarray([_turned(p, deg) if p[0] == 2 else p for p in STRIP], dtype=np.float64)
+
+
+def _translation(value):
+    m = matrix(value)
+    assert np.allclose(m[:3, :3], np.eye(3))
+    return m[3, :3]
+
+
+def _scene(stage, **rig):
+    camera(stage)
+    settings(stage)
+    return _rig(stage, **rig)
+
+
+# -- the posed mesh -------------------------------------------------------------------------
+def test_posed_points_at_a_frame_in_the_skeletons_space(stage, delegate):
+    _scene(stage)
+    for frame, deg in ((0, 90), (0.5, 45), (1, 0)):
+        d = type(delegate)()
+        _, problems = load(stage, d, frame=frame)
+        assert problems == []
+        assert d.prims[MESH] == "mesh"
+        assert list(d.samples(MESH, "points")) == [None]
+        assert np.allclose(floats(d.value(MESH, "points")), _posed(deg), atol=1e-5), frame
+        # the Skeleton's world transform, not the mesh's own (which would add (10, 10, 10))
+        assert np.allclose(_translation(d.value(MESH, "transform")), SKEL_WORLD)
+
+
+def test_skinning_inputs_and_authored_normals_are_not_sent(stage, delegate):
+    mesh = _scene(stage)
+    mesh.CreateNormalsAttr([(0, 0, 1)] * len(STRIP))
+    mesh.SetNormalsInterpolation("vertex")
+    load(stage, delegate, frame=0)
+    # the binding's primvars are skinning inputs; normals of the unposed mesh would be wrong
+    assert sorted(delegate.primvars.get(MESH, {})) == []
+    # the skeleton is not a gprim of its own
+    assert sorted(delegate.of_type("mesh")) == [MESH]
+
+
+def test_bind_pose_without_animation(stage, delegate):
+    mesh = _scene(stage, anim=False)
+    # geomBindTransform places the mesh in the skeleton's space at bind time
+    UsdSkel.BindingAPI(mesh.GetPrim()).GetGeomBindTransformAttr().Set(
+        Gf.Matrix4d().SetTranslate(Gf.Vec3d(0, 0, 1)))
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert np.allclose(floats(delegate.value(MESH, "points")),
+                       np.asarray(STRIP) + (0, 0, 1), atol=1e-6)
+    assert np.allclose(_translation(delegate.value(MESH, "transform")), SKEL_WORLD)
+
+
+def test_rigid_influences_move_every_point_with_their_joint(stage, delegate):
+    mesh = _scene(stage)
+    binding = UsdSkel.BindingAPI(mesh.GetPrim())
+    binding.GetJointIndicesPrimvar().SetInterpolation("constant")
+    binding.GetJointIndicesPrimvar().Set([1])
+    binding.GetJointWeightsPrimvar().SetInterpolation("constant")
+    binding.GetJointWeightsPrimvar().Set([1.0])
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == []
+    assert np.allclose(floats(delegate.value(MESH, "points")),
+                       [_turned(p, 90) for p in STRIP], atol=1e-5)
+
+
+def test_blend_shapes_apply_before_skinning(stage, delegate):
+    mesh = _scene(stage)
+    shape = UsdSkel.BlendShape.Define(stage, MESH + "/Lift")
+    shape.CreateOffsetsAttr([Gf.Vec3f(0, 0, 1)])
+    shape.CreatePointIndicesAttr([2])
+    binding = UsdSkel.BindingAPI(mesh.GetPrim())
+    binding.CreateBlendShapesAttr(["lift"])
+    binding.CreateBlendShapeTargetsRel().SetTargets([shape.GetPath()])
+    anim = UsdSkel.Animation(stage.GetPrimAtPath("/World/Char/Anim"))
+    anim.CreateBlendShapesAttr(["lift"])
+    anim.CreateBlendShapeWeightsAttr([0.5])
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == []
+    want = _posed(90)
+    # vertex 2 lifted by half the offset, then turned with `tip` (the turn keeps z)
+    want[2] = _turned((2, 0, 0.5), 90)
+    assert np.allclose(floats(delegate.value(MESH, "points")), want, atol=1e-5)
+
+
+# -- motion over the shutter ----------------------------------------------------------------
+def test_posed_points_are_sampled_over_the_shutter(stage, delegate):
+    camera(stage, **{"shutter__open": -0.25, "shutter__close": 0.5})
+    settings(stage)
+    _rig(stage)
+    skel = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Char/Skel"))
+    # the skeleton moves too: its transform gets samples of its own
+    skel.GetOrderedXformOps()[0].Set(Gf.Vec3d(0, 2, 0), -1)
+    skel.GetOrderedXformOps()[0].Set(Gf.Vec3d(0, 4, 0), 1)
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == []
+    got = delegate.samples(MESH, "points")
+    # the shutter's ends and the animation's key at 0 within it; rotations are held before
+    # the first key and interpolated between keys
+    assert sorted(got) == [-0.25, 0.0, 0.5]
+    for t, deg in ((-0.25, 90), (0.0, 90), (0.5, 45)):
+        assert np.allclose(floats(got[t]), _posed(deg), atol=1e-5), t
+    xf = delegate.samples(MESH, "transform")
+    assert sorted(xf) == [-0.25, 0.5]
+    for t in xf:
+        # y from 2 at time -1 to 4 at time 1
+        assert np.allclose(_translation(xf[t]), (0, 3 + t, -5)), t
+    assert delegate.samples(MESH, "velocities") == {}
+
+
+def test_a_still_pose_is_one_sample_with_motion_blur_on(stage, delegate):
+    camera(stage, **{"shutter__open": 0.0, "shutter__close": 0.5})
+    settings(stage)
+    _rig(stage, anim=False)
+    load(stage, delegate)
+    assert list(delegate.samples(MESH, "points")) == [None]
+
+
+# -- problems -------------------------------------------------------------------------------
+def test_joint_index_out_of_range_is_a_problem_and_the_mesh_renders_unskinned(stage, delegate):
+    _scene(stage, indices=(0, 0, 5, 0, 0, 1))
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [
+        (MESH, "primvars:skel:jointIndices")]
+    assert "5" in problems[0].message and "2 joints" in problems[0].message
+    assert delegate.prims[MESH] == "mesh"
+    assert np.allclose(floats(delegate.value(MESH, "points")), STRIP)
+    # its own transform: (10, 10, 10) under /World's (0, 0, -5)
+    assert np.allclose(_translation(delegate.value(MESH, "transform")), (10, 10, 5))
+
+
+def test_mismatched_weights_are_a_problem(stage, delegate):
+    mesh = _scene(stage)
+    UsdSkel.BindingAPI(mesh.GetPrim()).GetJointWeightsPrimvar().Set([1.0] * 5)
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [
+        (MESH, "primvars:skel:jointWeights")]
+    assert np.allclose(floats(delegate.value(MESH, "points")), STRIP)
+
+
+def test_a_skeleton_without_a_pose_is_a_problem_on_the_skeleton(stage, delegate):
+    # the animation drives `tip` only: `root` needs restTransforms, which are missing
+    _scene(stage, rest=False)
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [
+        ("/World/Char/Skel", "restTransforms")]
+    assert np.allclose(floats(delegate.value(MESH, "points")), STRIP)
+    assert np.allclose(_translation(delegate.value(MESH, "transform")), (10, 10, 5))
+
+
+def test_a_skinned_mesh_in_native_instances_is_reported_unposed(stage, delegate):
+    _scene(stage)
+    for name in ("A", "B"):
+        inst = stage.DefinePrim("/Inst" + name, "Xform")
+        inst.GetReferences().AddInternalReference("/World")
+        inst.SetInstanceable(True)
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [("/InstA/Char/Mesh", "skel:skeleton")]
+    # the plain one is posed all the same
+    assert np.allclose(floats(delegate.value(MESH, "points")), _posed(90), atol=1e-5)
+
+
+def test_problems_are_reported_once(stage, delegate):
+    _scene(stage, indices=(0, 0, 5, 0, 0, 1))
+    reader, problems = load(stage, delegate, frame=0)
+    assert len(problems) == 1
+    assert reader.select_render(0) == []
+
+
+# -- edits ----------------------------------------------------------------------------------
+def test_editing_the_animation_resends_the_posed_points(stage, delegate):
+    _scene(stage)
+    reader, _ = load(stage, delegate, frame=0)
+    assert np.allclose(floats(delegate.value(MESH, "points")), _posed(90), atol=1e-5)
+    anim = UsdSkel.Animation(stage.GetPrimAtPath("/World/Char/Anim"))
+    anim.GetRotationsAttr().Set([_quat_z(180)], 0)
+    assert reader.update() == []
+    assert MESH in delegate.last_synced()
+    assert np.allclose(floats(delegate.value(MESH, "points")), _posed(180), atol=1e-5)
+
+
+def test_moving_the_skeleton_moves_the_mesh(stage, delegate):
+    _scene(stage)
+    reader, _ = load(stage, delegate, frame=0)
+    skel = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Char/Skel"))
+    skel.GetOrderedXformOps()[0].Set(Gf.Vec3d(3, 2, 0))
+    reader.update()
+    assert delegate.last_synced() == [MESH]
+    assert np.allclose(_translation(delegate.value(MESH, "transform")), (3, 2, -5))
+
+
+def test_editing_the_joint_indices_resends_the_posed_points(stage, delegate):
+    mesh = _scene(stage)
+    reader, _ = load(stage, delegate, frame=0)
+    # every vertex on `root`: the strip as authored
+    UsdSkel.BindingAPI(mesh.GetPrim()).GetJointIndicesPrimvar().Set([0] * 6)
+    reader.update()
+    assert delegate.last_synced() == [MESH]
+    assert np.allclose(floats(delegate.value(MESH, "points")), STRIP, atol=1e-6)
+
+
+# -- rendered -------------------------------------------------------------------------------
+def test_the_posed_strip_renders_where_the_skeleton_puts_it(renderer):
+    """Against a white dome, the black strip covers the pixels the hand-posed strip projects
+    to: the quad that `tip` folds away at frame 0 is there at frame 1 only."""
+    seen = {}
+    for frame in (0, 1):
+        stage = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+        camera(stage, focal=50.0, aperture=(36.0, 36.0))
+        settings(stage, res=(32, 32), samples=16)
+        _white_dome(stage)
+        mesh = _rig(stage)
+        bind(mesh.GetPrim(), _black(stage))
+        # the skeleton at (-1, -0.5, -5) in the world: the strip straddles the view's centre
+        UsdGeom.Xformable(stage.GetPrimAtPath("/World/Char/Skel")).GetOrderedXformOps()[0].Set(
+            Gf.Vec3d(-1, -0.5, 0))
+        d = darkness(render(renderer, stage, frame=frame)["color"])
+
+        def at(sx, sy):
+            col, row = _project(sx - 1, sy - 0.5, -5.0, 32, 32)
+            c, r = int(col), int(row)
+            return float(d[r - 1:r + 2, c - 1:c + 2].mean())
+
+        seen[frame] = (at(0.5, 0.5), at(1.5, 0.5))
+    assert seen[0][0] > 0.9 and seen[1][0] > 0.9, seen      # the `root` quad: always there
+    assert seen[1][1] > 0.9, seen                          # the `tip` quad, straight
+    assert seen[0][1] < 0.1, seen                          # folded away at frame 0
