@@ -42,9 +42,12 @@
 //! returns 0 for the delta part (`pdf_pos` for point lights, `pdf_dir` for delta distant
 //! lights), as `pdf_li` does, since no other strategy can produce those rays.
 //!
-//! A shaped light (UsdLuxShapingAPI, [`super::shaping`]) is sampled as above; each ray's `l`
-//! carries the shaping's factor along `ray_d` (0 outside a cone), and `phi` its share of the
-//! power. A caller that sends the photon along another direction than `ray_d` (the caustics
+//! A shaped light (UsdLuxShapingAPI, [`super::shaping`]) whose cone is narrower than a
+//! hemisphere draws its directions uniformly within the cone (1/(2π(1 − cos θc))), about the
+//! light's axis, with the origin as above; an area light's origin that faces away from the
+//! direction gives no ray (a sphere's or cylinder's far side). Wider cones are sampled as
+//! above. Either way each ray's `l` carries the shaping's factor along `ray_d`, and `phi` its
+//! share of the power. A caller that sends the photon along another direction than `ray_d` (the caustics
 //! atlas aims local lights' photons at casters) takes the emission along its own direction
 //! ([`Light::le_towards`]). A rect light's image (`texture:file`) colours `l` at the origin.
 //!
@@ -62,7 +65,7 @@
 use glam::{Vec2, Vec3};
 
 use super::{in_cone, DomeMap, Light, LightSampleContext, INV_4PI, PI};
-use crate::math::{sample_concentric_disk, sample_cosine_hemisphere, sample_uniform_sphere, Frame, INV_PI};
+use crate::math::{sample_concentric_disk, sample_cosine_hemisphere, sample_uniform_cone, sample_uniform_sphere, uniform_cone_pdf, Frame, INV_PI};
 use crate::spectrum::{color, uplift, SampledSpectrum, SampledWavelengths, N_SPECTRUM};
 
 /// Distant lights whose cone's half-angle is at most this start their rays on one fixed disk
@@ -210,6 +213,22 @@ impl Light {
     /// point on the disk). `disk` is used by infinite lights only. None when the sample carries
     /// nothing (grazing direction, black dome texel, a dome that emits nothing).
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2, lambda: &SampledWavelengths, time: f32, disk: &EmissionDisk) -> Option<LeSample> {
+        if let Some((sh, cos_cut)) = self.steered() {
+            // a cone narrower than a hemisphere: the direction is drawn uniformly in it (the
+            // light sends nothing outside it) and the origin as unshaped (`u_dir` = ½, ½ is a
+            // valid direction for every origin), so aimed callers keep its density
+            let mut s = self.sample_le_unshaped(u_pos, Vec2::splat(0.5), lambda, time, disk)?;
+            let d = Frame::from_normal(sh.axis).to_world(sample_uniform_cone(u_dir, cos_cut)).normalize();
+            if matches!(self, Light::Point(_)) {
+                s.n_light = d;
+            } else if !(s.n_light.dot(d) > 0.0) {
+                return None; // behind this origin (a sphere's or cylinder's far side)
+            }
+            s.ray_d = d;
+            s.pdf_dir = uniform_cone_pdf(cos_cut);
+            s.l *= sh.factor(d, lambda);
+            return Some(s);
+        }
         let mut s = self.sample_le_unshaped(u_pos, u_dir, lambda, time, disk)?;
         // a shaped light's sample keeps its place and direction (its `l` may be 0 outside the
         // cone): callers that aim the ray elsewhere take the emission there (`le_towards`)
@@ -217,6 +236,13 @@ impl Light {
             s.l *= sh.factor(s.ray_d, lambda);
         }
         Some(s)
+    }
+
+    /// The shaping whose cone emission sampling draws directions in, and its cos θc.
+    #[inline]
+    fn steered(&self) -> Option<(&super::shaping::Shaping, f32)> {
+        let sh = self.shaping()?;
+        Some((sh, sh.steering_cos()?))
     }
 
     /// `sample_le` before the light's shaping.
@@ -317,6 +343,11 @@ impl Light {
     /// Delta parts are 0 (point: `pdf_pos`; distant of angle 0: `pdf_dir`).
     pub fn pdf_le(&self, ray_o: Vec3, ray_d: Vec3, n: Vec3, disk: &EmissionDisk) -> (f32, f32) {
         let cos = n.dot(ray_d);
+        if let Some((sh, cos_cut)) = self.steered() {
+            let point = matches!(self, Light::Point(_));
+            let inside = sh.axis.dot(ray_d) >= cos_cut && (point || cos > 0.0);
+            return (if point { 0.0 } else { 1.0 / self.area() }, if inside { uniform_cone_pdf(cos_cut) } else { 0.0 });
+        }
         match self {
             // a rigid move keeps the densities of the ray and normal moved with it
             Light::Moving(m) => m.inner.pdf_le(ray_o, ray_d, n, disk),

@@ -176,6 +176,13 @@ impl Shaping {
         Ok(Some(s))
     }
 
+    /// cos θc when the cone is narrower than a hemisphere (θc < 90°): emission sampling then
+    /// draws its directions within the cone, outside which the light sends nothing.
+    #[inline]
+    pub fn steering_cos(&self) -> Option<f32> {
+        (self.cos_cut > 0.0).then_some(self.cos_cut)
+    }
+
     /// The cone's factor at cos θ (1 − smoothstep from θs to θc).
     #[inline]
     pub fn cone(&self, cos_t: f32) -> f32 {
