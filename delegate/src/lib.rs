@@ -13,6 +13,7 @@ pub mod material;
 pub mod mesh;
 pub mod ocean;
 pub mod render_pass;
+pub mod subdiv;
 pub mod value;
 pub mod volume;
 

@@ -4,13 +4,20 @@
 //! arrays of the triangulated mesh, unwelding vertices where uniform/faceVarying data needs it.
 //!
 //! Subdivision surfaces (`catmullClark`, `loop`, `bilinear`) are rendered as their control
-//! cage, flat (no refinement).
+//! cage, flat, unless `tide:subdivision:level` asks for refinement: then [`crate::subdiv`]
+//! refines the polygons (Catmull-Clark to the limit surface, or bilinear splitting) before the
+//! triangulation and primvar expansion here, and its stencil carries every time sample of
+//! `points` and the velocities. Each triangle keeps its control face (for uniform primvars and
+//! GeomSubsets). A refined Catmull-Clark mesh gets smooth normals from its limit surface and
+//! its authored normals are ignored, as USD says they are for subdivision surfaces; a refined
+//! bilinear mesh keeps its authored normals, interpolated like any primvar.
 //!
 //! Authored normals are taken as USD states them: they point to the front side of the surface.
 //! `leftHanded` reverses the triangle winding so the core's right-handed geometric normal
 //! agrees with USD's front side; the authored normals already describe that side and are
 //! therefore kept as they are (they are the "flipped" normals of a left-handed mesh).
 
+use crate::subdiv::{self, Refinement, Scheme, Stencil};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
 use tide_core::scene::{MeshDesc, MeshMotion};
@@ -168,6 +175,19 @@ fn resolve_primvar(
     Some(Expanded { interp: pv.interpolation, tuple, data })
 }
 
+/// A resolved primvar carried onto a subdivided mesh's refined points / corners (uniform data
+/// stays per control face: triangles keep their control face).
+fn refine_primvar(e: Expanded, r: Option<&Refinement>) -> Expanded {
+    let Some(r) = r else { return e };
+    let data = match e.interp {
+        Interpolation::Constant | Interpolation::Uniform => return e,
+        Interpolation::Vertex => r.vertex(&e.data, e.tuple),
+        Interpolation::Varying => r.varying(&e.data, e.tuple),
+        Interpolation::FaceVarying => r.face_varying(&e.data, e.tuple),
+    };
+    Expanded { data, ..e }
+}
+
 /// Reads `points` (Floats 3) and reports non-finite ones; returns the points and a per-point
 /// "bad" flag.
 pub(crate) fn read_points(store: &AttrStore, p: &mut Problems) -> (Vec<Vec3>, Vec<bool>) {
@@ -230,8 +250,8 @@ pub struct MeshGeom {
 /// (Path). Face indices out of range are a problem naming the subset and `indices`, and are
 /// ignored; a face named by an earlier subset stays there (also a problem).
 pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGeom {
-    let (mesh, src, tri_faces) = convert_mesh_sources(name, store, p);
-    let deformation = deformation(&mesh, &src, store, p);
+    let (mesh, src, tri_faces, stencil) = convert_mesh_sources(name, store, p);
+    let deformation = deformation(&mesh, &src, stencil.as_ref(), store, p);
     let n_faces = store.get("faceVertexCounts").and_then(|v| v.to_ints()).map_or(0, |c| c.len());
     let subset_paths = store.get("geomSubsets").and_then(|v| v.to_strings()).unwrap_or_default();
     // the subset (index into `subsets`) of each face
@@ -278,9 +298,14 @@ pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> Mesh
 /// How the points of a converted mesh move: time samples of `points` (all with the same
 /// point count), else `velocities` (and `accelerations`). A sample with another point count
 /// or non-finite points, or velocities of another count, is a problem and the mesh is static.
-fn deformation(mesh: &MeshDesc, src: &[u32], store: &AttrStore, p: &mut Problems) -> Option<Deformation> {
+/// A subdivided mesh's `stencil` refines each sample (and the velocities) first.
+fn deformation(mesh: &MeshDesc, src: &[u32], stencil: Option<&Stencil>, store: &AttrStore, p: &mut Problems) -> Option<Deformation> {
     let n_points = store.get("points").and_then(|v| v.to_f32s()).map_or(0, |d| d.len() / 3);
-    let expand = |d: &[f32]| -> Vec<Vec3> { src.iter().map(|&i| Vec3::new(d[3 * i as usize], d[3 * i as usize + 1], d[3 * i as usize + 2])).collect() };
+    let expand = |d: &[f32]| -> Vec<Vec3> {
+        let refined = stencil.map(|s| s.apply(d, 3));
+        let d = refined.as_deref().unwrap_or(d);
+        src.iter().map(|&i| Vec3::new(d[3 * i as usize], d[3 * i as usize + 1], d[3 * i as usize + 2])).collect()
+    };
     if mesh.indices.is_empty() {
         return None;
     }
@@ -387,8 +412,9 @@ pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps
     Some(MeshMotion { times, positions, normals })
 }
 
-/// [`convert_mesh`], plus the source point of each output vertex and the face of each triangle.
-fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Vec<u32>) {
+/// [`convert_mesh`], plus the source point of each output vertex (a refined point when
+/// subdivided), the (control) face of each triangle and the subdivision stencil, if any.
+fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Vec<u32>, Option<Stencil>) {
     let (points, bad_point) = read_points(store, p);
     let ints = |attr: &str, p: &mut Problems| -> Vec<i32> {
         match store.get(attr) {
@@ -403,7 +429,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
     let fv = ints("faceVertexIndices", p);
     let holes = ints("holeIndices", p);
     let left = store.token_or("orientation", &["rightHanded", "leftHanded"], "rightHanded", p) == "leftHanded";
-    store.token_or("subdivisionScheme", &["none", "catmullClark", "loop", "bilinear"], "catmullClark", p);
+    let scheme = store.token_or("subdivisionScheme", &["none", "catmullClark", "loop", "bilinear"], "catmullClark", p);
     let double_sided = store.bool_or("doubleSided", false, p);
 
     let n_faces = counts.len();
@@ -417,6 +443,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
             p.add("holeIndices", format!("hole face index {} is out of range (0..{}); ignored", h, n_faces));
         }
     }
+    let refined = subdiv::read_options(store, scheme, &counts, n_points, p).map(|o| subdiv::refine(&counts, &fv, &points, &o, p));
 
     // Triangles as (face, corner a, corner b, corner c), corners indexing faceVertexIndices.
     let mut tris: Vec<(u32, [u32; 3])> = Vec::new();
@@ -450,13 +477,23 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         if fv[corners.clone()].iter().any(|&i| bad_point[i as usize]) {
             continue;
         }
-        poly.clear();
-        poly.extend(fv[corners.clone()].iter().map(|&i| points[i as usize]));
-        local.clear();
-        triangulate_polygon(&poly, &mut local);
-        for t in &local {
-            let [a, b, cc] = t.map(|k| (corners.start + k as usize) as u32);
-            tris.push((f as u32, if left { [a, cc, b] } else { [a, b, cc] }));
+        // the face, or when subdivided its refined quads (corners of the refined indices)
+        let (pfv, ppts, first, pieces, size) = match &refined {
+            None => (&fv[..], &points[..], corners.start, 1, c),
+            Some(r) => {
+                let g = r.child_faces(f);
+                (&r.face_vertex_indices[..], &r.points[..], 4 * g.start, g.len(), 4)
+            }
+        };
+        for start in (0..pieces).map(|k| first + k * size) {
+            poly.clear();
+            poly.extend(pfv[start..start + size].iter().map(|&i| ppts[i as usize]));
+            local.clear();
+            triangulate_polygon(&poly, &mut local);
+            for t in &local {
+                let [a, b, cc] = t.map(|k| (start + k as usize) as u32);
+                tris.push((f as u32, if left { [a, cc, b] } else { [a, b, cc] }));
+            }
         }
     }
     if n_small > 0 {
@@ -472,15 +509,30 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         p.add("faceVertexIndices", format!("{} indices beyond the faces' counts; ignored", n_corners - offset));
     }
 
-    let normals = store
-        .primvar("normals", Interpolation::Vertex)
-        .and_then(|pv| resolve_primvar(pv, "normals", 3, n_faces, n_points, n_corners, p));
+    let normals = match &refined {
+        // the limit surface's normals (authored normals do not apply to a subdivision surface)
+        Some(r) if r.scheme == Scheme::CatmullClark => {
+            let data = r.smooth_normals(&is_hole).iter().flat_map(|&n| (if left { -n } else { n }).to_array()).collect();
+            Some(Expanded { interp: Interpolation::Vertex, tuple: 3, data })
+        }
+        _ => store
+            .primvar("normals", Interpolation::Vertex)
+            .and_then(|pv| resolve_primvar(pv, "normals", 3, n_faces, n_points, n_corners, p))
+            .map(|e| refine_primvar(e, refined.as_ref())),
+    };
     let st_name = ["st", "st0", "uv"].into_iter().find(|n| store.primvars.contains_key(*n) || store.has(n));
     let st = st_name.and_then(|n| {
         store
             .primvar(n, Interpolation::FaceVarying)
             .and_then(|pv| resolve_primvar(pv, n, 2, n_faces, n_points, n_corners, p))
+            .map(|e| refine_primvar(e, refined.as_ref()))
     });
+    // from here on a subdivided mesh is its refined points and quads
+    let (points, fv, stencil) = match refined {
+        Some(r) => (r.points, r.face_vertex_indices, Some(r.stencil)),
+        None => (points, fv, None),
+    };
+    let (n_points, n_corners) = (points.len(), fv.len());
 
     let unweld = [&normals, &st]
         .iter()
@@ -525,7 +577,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         motion: None,
     };
     let faces = tris.iter().map(|t| t.0).collect();
-    (mesh, sources, faces)
+    (mesh, sources, faces, stencil)
 }
 
 #[cfg(test)]

@@ -88,6 +88,34 @@ def test_catmull_clark_mesh_is_sent(stage, delegate):
         ("token", "catmullClark")
 
 
+def test_subdivision_tags_and_level_are_sent(stage, delegate):
+    camera(stage)
+    q = _quad(stage, "/Q")
+    q.CreateCreaseIndicesAttr([0, 1, 1, 2])
+    q.CreateCreaseLengthsAttr([2, 2])
+    q.CreateCreaseSharpnessesAttr([10.0, 2.5])
+    q.CreateCornerIndicesAttr([3])
+    q.CreateCornerSharpnessesAttr([10.0])
+    q.CreateInterpolateBoundaryAttr("edgeOnly")
+    q.GetPrim().CreateAttribute("tide:subdivision:level", Sdf.ValueTypeNames.Int).Set(2)
+    _quad(stage, "/Plain")
+    q2 = _quad(stage, "/Odd")
+    q2.CreateInterpolateBoundaryAttr("everywhere")
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Odd", "interpolateBoundary")]
+    v = lambda k: delegate.value("/Q", k)  # noqa: E731
+    assert floats(v("creaseIndices")).tolist() == [0, 1, 1, 2]
+    assert floats(v("creaseLengths")).tolist() == [2, 2]
+    assert floats(v("creaseSharpnesses")).tolist() == [10.0, 2.5]
+    assert floats(v("cornerIndices")).tolist() == [3]
+    assert floats(v("cornerSharpnesses")).tolist() == [10.0]
+    assert v("interpolateBoundary") == ("token", "edgeOnly")
+    assert v("tide:subdivision:level") == 2
+    assert delegate.value("/Plain", "interpolateBoundary") == ("token", "edgeAndCorner")
+    assert delegate.value("/Plain", "creaseIndices") is None
+    assert delegate.value("/Odd", "interpolateBoundary") == ("token", "edgeAndCorner")
+
+
 # -- implicit gprims --------------------------------------------------------------------------
 def test_implicit_dimensions_and_axis(stage, delegate):
     camera(stage)

@@ -102,6 +102,7 @@ ALLOWED_TOKENS = {
     "orientation": ("rightHanded", "leftHanded"),
     "subdivisionScheme": ("catmullClark", "loop", "bilinear", "none"),
     "axis": ("X", "Y", "Z"),
+    "interpolateBoundary": ("edgeAndCorner", "edgeOnly", "none"),
     "type": ("linear", "cubic"),
     "basis": ("bezier", "bspline", "catmullRom", "hermite"),
     "wrap": ("nonperiodic", "periodic", "pinned"),
@@ -1049,6 +1050,14 @@ class Reader:
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
         self._token(prim, st, "subdivisionScheme", "catmullClark")
+        # subdivision tags (used where `tide:subdivision:level` refines the mesh)
+        self._token(prim, st, "interpolateBoundary", "edgeAndCorner")
+        for name, kind in (("creaseIndices", "i"), ("creaseLengths", "i"), ("cornerIndices", "i"),
+                           ("creaseSharpnesses", "f"), ("cornerSharpnesses", "f")):
+            v = self._attr(prim, name)
+            if v is not None and len(v):
+                st.set(name, _ints(np.asarray(v, dtype=np.int64)) if kind == "i"
+                       else _floats(np.asarray(v, dtype=np.float32), 1))
         self._point_vectors(prim, st, len(arr))
         self._subsets(prim, st)
         self._primvars(prim, st)

@@ -1,0 +1,45 @@
+"""Subdivision surfaces through USD: `tide:subdivision:level` refines a Catmull-Clark cage to its
+limit surface (the cage stays as it is without it). The expectation is Catmull-Clark's exact
+limit of a cube's face centre, 68/81 of the half-size (the face-point mask on a regular cube:
+every level keeps the six face centres on the axes and their limit follows from the valence-4
+vertex rule), not a value from the renderer."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom
+
+from conftest import bind, camera, darkness, render, settings
+from test_render import _black, _white_dome
+
+F, AP = 50.0, 36.0
+D = 8.0                       # the cube's distance from the camera
+CUBE_POINTS = [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1),
+               (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)]
+CUBE_FACES = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 1, 2, 6, 5, 2, 3, 7, 6, 3, 0, 4, 7]
+
+
+def _cube(stage, level):
+    m = UsdGeom.Mesh.Define(stage, "/Cube")
+    m.CreatePointsAttr(CUBE_POINTS)
+    m.CreateFaceVertexCountsAttr([4] * 6)
+    m.CreateFaceVertexIndicesAttr(CUBE_FACES)
+    m.AddTranslateOp().Set(Gf.Vec3d(0, 0, -D))
+    if level is not None:
+        m.GetPrim().CreateAttribute("tide:subdivision:level", Sdf.ValueTypeNames.Int).Set(level)
+    bind(m.GetPrim(), _black(stage))
+
+
+@pytest.mark.parametrize("level,half", [(None, D / (D - 1)), (4, 68.0 / 81.0)])
+def test_a_subdivided_cube_reaches_its_limit_surface(renderer, stage, level, half):
+    # seen face-on, the middle rows' dark run spans 2 * half units at the cube's distance: the
+    # cage's front face (its edges at z = +1 project to D / (D - 1)), or the limit surface's
+    # side face centres (the run's widest points; the nearer, bulging surface around them adds
+    # < 0.1 px)
+    w = 96
+    camera(stage, focal=F, aperture=(AP, AP))
+    _white_dome(stage)
+    _cube(stage, level)
+    settings(stage, res=(w, w), samples=16)
+    d = darkness(render(renderer, stage)["color"])
+    k = F / D / (AP / 2) * w / 2             # pixels per unit at the cube's distance
+    width = d[w // 2 - 1:w // 2 + 1].mean(axis=0).sum()
+    assert width == pytest.approx(2 * half * k, abs=0.5), (width, 2 * half * k)
