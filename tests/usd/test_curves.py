@@ -99,3 +99,75 @@ def test_a_pinned_bspline_reaches_its_end_vertices(renderer, stage):
         left, right = cols.min(), cols.max() + 1
         assert left == pytest.approx(w / 2 - (2 - inset) * k, abs=1.0), wrap
         assert right == pytest.approx(w / 2 + (2 - inset) * k, abs=1.0), wrap
+
+
+def _nurbs_arc(stage, path, **attrs):
+    # a rational quadratic quarter circle of radius 2 about (0, 0, -10): exact on the circle
+    c = UsdGeom.NurbsCurves.Define(stage, path)
+    c.CreatePointsAttr([Gf.Vec3f(2, 0, -10), Gf.Vec3f(2, 2, -10), Gf.Vec3f(0, 2, -10)])
+    c.CreateCurveVertexCountsAttr([3])
+    c.CreateOrderAttr([3])
+    c.CreateKnotsAttr([0, 0, 0, 1, 1, 1])
+    c.CreatePointWeightsAttr([1.0, 0.5 ** 0.5, 1.0])
+    for k, v in attrs.items():
+        c.GetPrim().GetAttribute(k).Set(v)
+    return c
+
+
+def test_nurbs_curves_are_evaluated_exactly(stage, delegate):
+    camera(stage)
+    c = _nurbs_arc(stage, "/Arc")
+    c.CreateWidthsAttr([0.1, 0.2, 0.3])
+    c.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    r, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.prims["/Arc"] == "basisCurves"
+    pts = floats(delegate.value("/Arc", "points"))
+    assert delegate.value("/Arc", "type") == ("token", "linear")
+    assert floats(delegate.value("/Arc", "curveVertexCounts")).tolist() == [len(pts)]
+    assert len(pts) == 17
+    # every sample on the circle (a polynomial curve through these points would not be)
+    radius = np.hypot(pts[:, 0], pts[:, 1])
+    assert np.allclose(radius, 2.0, atol=1e-5) and np.allclose(pts[:, 2], -10)
+    assert np.allclose(pts[0], [2, 0, -10]) and np.allclose(pts[-1], [0, 2, -10], atol=1e-6)
+    # widths blend through the same rational basis: the ends keep their values, the middle
+    # (u = 1/2: basis 1/4, 1/2, 1/4 weighted by 1, 1/sqrt2, 1) lies in between
+    interp, data, _, _ = delegate.primvars["/Arc"]["widths"]
+    w = np.asarray(data, np.float32)
+    assert interp == "vertex" and len(w) == len(pts)
+    assert w[0] == pytest.approx(0.1) and w[-1] == pytest.approx(0.3)
+    b = np.array([0.25, 0.5 * 0.5 ** 0.5, 0.25])
+    assert w[8] == pytest.approx(float(b @ [0.1, 0.2, 0.3] / b.sum()), rel=1e-5)
+
+
+def test_bad_nurbs_curves_are_reported(stage, delegate):
+    camera(stage)
+    _nurbs_arc(stage, "/ShortKnots", knots=[0, 0, 1, 1, 1])
+    _nurbs_arc(stage, "/Backwards", knots=[0, 0, 1, 0, 1, 1])
+    _nurbs_arc(stage, "/Zero", pointWeights=[1.0, 0.0, 1.0])
+    _nurbs_arc(stage, "/Good")
+    _, problems = load(stage, delegate)
+    got = sorted((p.prim, p.attribute) for p in problems)
+    assert got == [("/Backwards", "knots"), ("/ShortKnots", "knots"), ("/Zero", "pointWeights")]
+    assert "/Good" in delegate.prims and "/ShortKnots" not in delegate.prims
+
+
+def test_a_nurbs_circle_renders_as_a_ring(renderer, stage):
+    # a full circle of radius 2 (nine rational quadratic vertices) drawn as a tube 0.2 wide,
+    # 10 units away: its ring covers 2 pi r w units of the image
+    w, black = _scene(stage)
+    s = 0.5 ** 0.5
+    pts = [(2, 0), (2, 2), (0, 2), (-2, 2), (-2, 0), (-2, -2), (0, -2), (2, -2), (2, 0)]
+    c = UsdGeom.NurbsCurves.Define(stage, "/Ring")
+    c.CreatePointsAttr([Gf.Vec3f(x, y, -10) for x, y in pts])
+    c.CreateCurveVertexCountsAttr([9])
+    c.CreateOrderAttr([3])
+    c.CreateKnotsAttr([0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 4])
+    c.CreatePointWeightsAttr([1, s, 1, s, 1, s, 1, s, 1])
+    c.CreateWidthsAttr([0.2])
+    bind(c.GetPrim(), black)
+    d = darkness(render(renderer, stage)["color"])
+    k = _px_per_unit(-10.0, w)
+    assert d.sum() == pytest.approx(2 * np.pi * 2.0 * 0.2 * k * k, rel=0.05)
+    # no ink at the centre, ink on the ring
+    assert d[w // 2, w // 2] < 0.05 and d[w // 2, int(w / 2 + 2 * k)] > 0.5

@@ -186,7 +186,7 @@ def test_delegate_problems_are_merged_once(stage, delegate):
 
 def test_unknown_gprim_type_is_reported(stage, delegate):
     _good(stage)
-    UsdGeom.NurbsCurves.Define(stage, "/Curves")
+    UsdGeom.NurbsPatch.Define(stage, "/Curves")
     _, problems = load(stage, delegate)
     assert ("/Curves", "type") in [(p.prim, p.attribute) for p in problems]
     assert "/Curves" not in delegate.prims

@@ -23,7 +23,7 @@ env.prepare()
 import numpy as np  # noqa: E402
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdVol  # noqa: E402
 
-from tide import skel  # noqa: E402
+from tide import nurbs, skel  # noqa: E402
 
 env.register_shaders()
 
@@ -37,7 +37,8 @@ class Problem(namedtuple("Problem", "prim attribute message")):
 
 # USD prim type -> delegate rprim type.
 GPRIMS = {
-    "Mesh": "mesh", "BasisCurves": "basisCurves", "Points": "points", "Sphere": "sphere",
+    "Mesh": "mesh", "BasisCurves": "basisCurves", "NurbsCurves": "basisCurves",
+    "Points": "points", "Sphere": "sphere",
     "Cube": "cube",
     "Cylinder": "cylinder", "Cylinder_1": "cylinder", "Cone": "cone", "Capsule": "capsule",
     "Capsule_1": "capsule", "Plane": "plane", "TideOcean": "tideOcean", "Volume": "volume",
@@ -1127,6 +1128,8 @@ class Reader:
         arr = self._points_samples(prim, st)
         if arr is None:
             return False
+        if prim.IsA(UsdGeom.NurbsCurves):
+            return self._eval_nurbs(prim, st, arr)
         curves = UsdGeom.BasisCurves(prim)
         t = self._time(0)
         counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
@@ -1146,6 +1149,91 @@ class Reader:
                                          np.asarray(w, dtype=np.float32).tobytes(), 1, None)
         self._point_vectors(prim, st, len(arr))
         self._normals(curves, st)
+        return True
+
+    def _eval_nurbs(self, prim, st, arr):
+        """NurbsCurves, evaluated exactly (`nurbs`), go to the delegate as linear curves through
+        their samples, with widths, normals, velocities and point samples carried along."""
+        curves = UsdGeom.NurbsCurves(prim)
+        t = self._time(0)
+        path = prim.GetPath()
+        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
+        if counts.size and counts.min() < 0 or int(counts.sum()) != len(arr):
+            self.problem(path, "curveVertexCounts", "the counts add up to %d vertices, the "
+                         "curves have %d points; prim dropped" % (int(counts.sum()), len(arr)))
+            return False
+        orders = np.asarray(curves.GetOrderAttr().Get(t) or [], dtype=np.int64)
+        knots = np.asarray(curves.GetKnotsAttr().Get(t) or [], dtype=np.float64)
+        if len(orders) != len(counts):
+            self.problem(path, "order", "%d orders for %d curves; prim dropped"
+                         % (len(orders), len(counts)))
+            return False
+        if knots.size != int((counts + orders).sum()):
+            self.problem(path, "knots", "%d knots; the curves need %d; prim dropped"
+                         % (knots.size, int((counts + orders).sum())))
+            return False
+        weights = curves.GetPointWeightsAttr().Get(t)
+        if weights is not None and len(weights) == 0:
+            weights = None
+        if weights is not None and len(weights) != len(arr):
+            self.problem(path, "pointWeights", "%d weights for %d points; ignored"
+                         % (len(weights), len(arr)))
+            weights = None
+        ranges = curves.GetRangesAttr().Get(t)
+        if ranges is not None and len(ranges) == 0:
+            ranges = None
+        if ranges is not None and len(ranges) != len(counts):
+            self.problem(path, "ranges", "%d ranges for %d curves; ignored"
+                         % (len(ranges), len(counts)))
+            ranges = None
+        cmap = nurbs.CurvesMap(counts, orders, knots, weights, ranges,
+                               lambda attr, msg: self.problem(path, attr, msg))
+        if not cmap.blocks:
+            return False
+        st.set("points", None, [(o, _floats(cmap.per_vertex(
+            np.frombuffer(v[2], dtype=np.float32).reshape(-1, 3)), 3))
+            for o, v in st.values["points"]])
+        st.set("curveVertexCounts", _ints(cmap.counts()))
+        st.set("type", ("token", "linear"))
+        st.set("basis", ("token", "bezier"))
+        st.set("wrap", ("token", "nonperiodic"))
+        self._primvars(prim, st)
+        for name, getter, interp_of in (
+                ("widths", curves.GetWidthsAttr, curves.GetWidthsInterpolation),
+                ("normals", curves.GetNormalsAttr, curves.GetNormalsInterpolation)):
+            pv = st.primvars.pop(name, None)
+            v = getter().Get(t)
+            interp = str(interp_of())
+            if pv is not None:      # primvars:widths / primvars:normals win, as USD says
+                interp, data, tsize, idx = pv
+                v = np.frombuffer(data, dtype=np.float32).reshape(-1, tsize)
+                if idx is not None:
+                    v = v[np.frombuffer(idx, dtype=np.int32)]
+            if v is None or len(v) == 0:
+                continue
+            v = np.asarray(v, dtype=np.float64).reshape(len(v), -1)
+            if len(v) == 1:
+                out, interp = v, "constant"
+            elif interp == "vertex" and len(v) == len(arr):
+                out = cmap.per_vertex(v)
+            elif interp == "uniform" and len(v) == len(counts):
+                out, interp = cmap.per_curve(v), "vertex"
+            else:
+                self.problem(path, name, "%d %s values with %s interpolation do not fit the "
+                             "curves (constant, uniform and vertex are read); ignored"
+                             % (len(v), name, interp))
+                continue
+            st.primvars[name] = ("vertex" if interp != "constant" else "constant",
+                                 np.ascontiguousarray(out, dtype=np.float32).reshape(-1).tobytes(),
+                                 v.shape[1], None)
+        for name in ("velocities", "accelerations"):
+            v = self._attr(prim, name)
+            if v is not None and len(v):
+                if len(v) != len(arr):
+                    self.problem(path, name, "%d %s for %d points; ignored"
+                                 % (len(v), name, len(arr)))
+                    continue
+                st.set(name, _floats(cmap.per_vertex(np.asarray(v)), 3))
         return True
 
     def _eval_implicit(self, prim, st):

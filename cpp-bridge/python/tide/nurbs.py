@@ -1,0 +1,131 @@
+"""NURBS curves (UsdGeomNurbsCurves) evaluated exactly, as polylines for the delegate's curves.
+
+Each curve of `order` k (degree p = k - 1) has `curveVertexCounts` n control vertices, n + k
+`knots` and optional `pointWeights` (rational curves: a circle is exact) and `ranges` (the
+parameter interval drawn; unauthored: [knots[p], knots[n]]). The curve is sampled at every knot
+inside its range and SAMPLES_PER_SPAN times across each knot span (once for degree 1, whose
+spans are straight), by the Cox-de Boor recursion with the weights folded in. A sample is a
+fixed rational combination of the control vertices, so one matrix per curve carries the control
+vertices to the polyline; the same matrix carries every time sample of the points, velocities,
+accelerations and `vertex` widths or normals, which therefore move and blend with the curve.
+"""
+import numpy as np
+
+SAMPLES_PER_SPAN = 16
+
+
+class NurbsError(ValueError):
+    """A curve that cannot be evaluated: `attribute` names what is wrong."""
+
+    def __init__(self, attribute, message):
+        ValueError.__init__(self, message)
+        self.attribute = attribute
+
+
+def _span(u, p, n, knots):
+    """The knot span index s (p <= s < n) with knots[s] <= u < knots[s + 1] (the last non-empty
+    span for u at the end of the domain)."""
+    if u >= knots[n]:
+        s = n - 1
+        while s > p and knots[s] >= knots[s + 1]:
+            s -= 1
+        return s
+    lo, hi = p, n
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if u < knots[mid]:
+            hi = mid
+        else:
+            lo = mid
+    return lo
+
+
+def _basis(s, u, p, knots):
+    """The p + 1 B-spline basis functions that are non-zero at u in span s (Cox-de Boor)."""
+    n = np.zeros(p + 1)
+    left = np.zeros(p + 1)
+    right = np.zeros(p + 1)
+    n[0] = 1.0
+    for j in range(1, p + 1):
+        left[j] = u - knots[s + 1 - j]
+        right[j] = knots[s + j] - u
+        saved = 0.0
+        for r in range(j):
+            den = right[r + 1] + left[j - r]
+            tmp = n[r] / den if den != 0.0 else 0.0
+            n[r] = saved + right[r + 1] * tmp
+            saved = left[j - r] * tmp
+        n[j] = saved
+    return n
+
+
+def curve_matrix(order, knots, weights, rng, count):
+    """(samples x count) matrix of the rational basis at the curve's sample parameters."""
+    p = int(order) - 1
+    if p < 1:
+        raise NurbsError("order", "order %d is below 2" % order)
+    if count < order:
+        raise NurbsError("curveVertexCounts", "%d vertices for order %d" % (count, order))
+    knots = np.asarray(knots, dtype=np.float64)
+    if knots.size != count + order:
+        raise NurbsError("knots", "%d knots for %d vertices of order %d (need %d)"
+                         % (knots.size, count, order, count + order))
+    if not np.all(np.isfinite(knots)) or np.any(np.diff(knots) < 0):
+        raise NurbsError("knots", "the knots are not finite and non-decreasing")
+    w = np.ones(count) if weights is None else np.asarray(weights, dtype=np.float64)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0)):
+        raise NurbsError("pointWeights", "weights must be finite and positive")
+    lo, hi = (knots[p], knots[count]) if rng is None else (float(rng[0]), float(rng[1]))
+    lo, hi = max(lo, knots[p]), min(hi, knots[count])
+    if not hi > lo:
+        raise NurbsError("ranges" if rng is not None else "knots",
+                         "the curve's parameter range [%g, %g] is empty" % (lo, hi))
+    breaks = np.unique(np.concatenate([[lo, hi], knots[(knots > lo) & (knots < hi)]]))
+    steps = 1 if p == 1 else SAMPLES_PER_SPAN
+    params = [breaks[0]]
+    for a, b in zip(breaks[:-1], breaks[1:]):
+        params.extend(a + (b - a) * (np.arange(1, steps + 1) / steps))
+    m = np.zeros((len(params), count))
+    for row, u in enumerate(params):
+        s = _span(u, p, count, knots)
+        nw = _basis(s, u, p, knots) * w[s - p:s + 1]
+        m[row, s - p:s + 1] = nw / nw.sum()
+    return m
+
+
+class CurvesMap:
+    """The matrices of every curve of a NurbsCurves prim, applied to per-vertex data."""
+
+    def __init__(self, counts, orders, knots, weights, ranges, problem):
+        self.blocks = []        # (curve index, first control vertex, count, matrix)
+        self.dropped = 0
+        first = koff = 0
+        for i, (c, k) in enumerate(zip(counts, orders)):
+            c, k = int(c), int(k)
+            try:
+                m = curve_matrix(k, knots[koff:koff + c + k],
+                                 None if weights is None else weights[first:first + c],
+                                 None if ranges is None else ranges[i], c)
+                self.blocks.append((i, first, c, m))
+            except NurbsError as e:
+                problem(e.attribute, "curve %d: %s; that curve is dropped" % (i, e))
+                self.dropped += 1
+            first += c
+            koff += c + k
+
+    def counts(self):
+        return [m.shape[0] for _, _, _, m in self.blocks]
+
+    def per_vertex(self, data):
+        """Per-control-vertex rows (n x d) carried onto the polylines' vertices."""
+        data = np.asarray(data, dtype=np.float64)
+        data = data.reshape(len(data), -1)
+        out = [m @ data[f:f + c] for _, f, c, m in self.blocks]
+        return np.concatenate(out) if out else np.zeros((0, data.shape[1]))
+
+    def per_curve(self, values):
+        """One value per curve (rows), repeated on each kept curve's polyline vertices."""
+        values = np.asarray(values, dtype=np.float64)
+        values = values.reshape(len(values), -1)
+        out = [np.repeat(values[i:i + 1], m.shape[0], axis=0) for i, _, _, m in self.blocks]
+        return np.concatenate(out) if out else np.zeros((0, values.shape[1]))
