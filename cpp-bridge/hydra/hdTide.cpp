@@ -234,7 +234,7 @@ const std::vector<TfToken>& GprimParams() {
         TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"), TfToken("width"),
         TfToken("length"), TfToken("tide:caustics:caster"), TfToken("tide:caustics:receiver"),
         TfToken("tide:caustics:transparency"), TfToken("tide:blobby:threshold"), TfToken("tide:droplets:asVolume"),
-        TfToken("tide:droplets:voxelSize"), TfToken("tide:droplets:shell")};
+        TfToken("tide:droplets:voxelSize"), TfToken("tide:droplets:shell"), TfToken("tide:subdivision:level")};
     return p;
 }
 
@@ -296,10 +296,13 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _tideBits |= ChangeTracker::DirtyMaterialId;
         }
         if (bits & CT::DirtyPoints) {
-            // every sample over the sampling window: a deforming mesh blurs
-            HdTimeSampleArray<VtValue, 4> samples;
-            sd->SamplePrimvar(id, HdTokens->points, HdTideSampleOpen(), HdTideSampleClose(), &samples);
-            if (_PutSamples("points", samples) == 0) _Put("points", sd->Get(id, HdTokens->points));
+            // every sample over the sampling window: a deforming mesh blurs. Points an ext
+            // computation makes (UsdSkelImaging's skinning) are computed here, on the CPU.
+            if (!_PutComputedPoints(sd, id)) {
+                HdTimeSampleArray<VtValue, 4> samples;
+                sd->SamplePrimvar(id, HdTokens->points, HdTideSampleOpen(), HdTideSampleClose(), &samples);
+                if (_PutSamples("points", samples) == 0) _Put("points", sd->Get(id, HdTokens->points));
+            }
             _tideBits |= ChangeTracker::DirtyPoints;
         }
         if (typeId == "mesh" && (bits & CT::DirtyTopology)) {
@@ -309,6 +312,15 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _Put("holeIndices", VtValue(topo.GetHoleIndices()));
             _Put("orientation", VtValue(topo.GetOrientation()));
             _Put("subdivisionScheme", VtValue(topo.GetScheme()));
+            // subdivision tags, under UsdGeomMesh's own names (empty arrays when the mesh has none)
+            PxOsdSubdivTags const tags = sd->GetSubdivTags(id);
+            if (!tags.GetVertexInterpolationRule().IsEmpty())
+                _Put("interpolateBoundary", VtValue(tags.GetVertexInterpolationRule()));
+            _Put("creaseIndices", VtValue(tags.GetCreaseIndices()));
+            _Put("creaseLengths", VtValue(tags.GetCreaseLengths()));
+            _Put("creaseSharpnesses", VtValue(tags.GetCreaseWeights()));
+            _Put("cornerIndices", VtValue(tags.GetCornerIndices()));
+            _Put("cornerSharpnesses", VtValue(tags.GetCornerWeights()));
             _tideBits |= ChangeTracker::DirtyTopology;
         }
         if (typeId == "basisCurves" && (bits & CT::DirtyTopology)) {
@@ -432,6 +444,18 @@ size_t HdTideSnapshot::_PutSamples(std::string const& key, HdTimeSampleArray<T, 
     return put;
 }
 
+bool HdTideSnapshot::_PutComputedPoints(HdSceneDelegate* sd, SdfPath const& id) {
+    HdExtComputationPrimvarDescriptorVector computed;
+    for (HdInterpolation i : {HdInterpolationVertex, HdInterpolationVarying, HdInterpolationConstant})
+        for (HdExtComputationPrimvarDescriptor const& d : sd->GetExtComputationPrimvarDescriptors(id, i))
+            if (d.name == HdTokens->points) computed.push_back(d);
+    if (computed.empty()) return false;
+    HdExtComputationUtils::SampledValueStore<4> store;
+    HdExtComputationUtils::SampleComputedPrimvarValues<4>(computed, sd, 4, &store);
+    auto const it = store.find(HdTokens->points);
+    return it != store.end() && _PutSamples("points", it->second) > 0;
+}
+
 void HdTideSnapshot::_PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id) {
     HdTimeSampleArray<GfMatrix4d, 4> samples;
     sd->SampleTransform(id, HdTideSampleOpen(), HdTideSampleClose(), &samples);
@@ -457,7 +481,9 @@ std::vector<std::string> HdTideSnapshot::GetPrimvarNames(std::string const& path
     for (HdInterpolation i : {HdInterpolationConstant, HdInterpolationUniform, HdInterpolationVarying,
                               HdInterpolationVertex, HdInterpolationFaceVarying})
         for (HdPrimvarDescriptor const& d : _sd->GetPrimvarDescriptors(_id, i))
-            if (d.name != HdTokens->points) names.push_back(d.name.GetString());
+            // skel: primvars are UsdSkelImaging's skinning inputs, not data to shade with
+            if (d.name != HdTokens->points && !TfStringStartsWith(d.name.GetString(), "skel:"))
+                names.push_back(d.name.GetString());
     return names;
 }
 
@@ -701,7 +727,8 @@ public:
 /// A renderSettings bprim (UsdRenderSettings as Hydra flattens it) forwarded to a Tide
 /// renderSettings prim at its path, with the keys the usd-core reader sends: its `tide:`
 /// settings, `includedPurposes`, `renderingColorSpace`, and from its first product `camera`,
-/// `pixelAspectRatio`, `dataWindowNDC`, `disableMotionBlur`, `disableDepthOfField`; every
+/// `pixelAspectRatio`, `dataWindowNDC`, `disableMotionBlur`, `disableDepthOfField` and the
+/// product's own `tide:` settings (over the settings' own); every
 /// product as `products`, `<P>.productName`, `<P>.camera`, `<P>.resolution`, `<P>.orderedVars`
 /// and `<V>.sourceName`. The image size stays the bound buffers' (no top-level `resolution`).
 class HdTideRenderSettings final : public HdRenderSettings {
@@ -750,6 +777,9 @@ protected:
                 put("dataWindowNDC", tide::Value::MakeFloats({w.GetMin()[0], w.GetMin()[1], w.GetMax()[0], w.GetMax()[1]}, 4));
             put("disableMotionBlur", tide::Value::MakeBool(p.disableMotionBlur));
             put("disableDepthOfField", tide::Value::MakeBool(p.disableDepthOfField));
+            // the product's own tide: settings override the settings' (as the reader does)
+            for (auto const& [key, value] : p.namespacedSettings)
+                if (key.rfind("tide:", 0) == 0) put(key, HdTideToValue(value));
         }
         tide::DirtyBits bits = tide::ChangeTracker::DirtyParams;
         _prim->Sync(source, &bits);
@@ -938,6 +968,7 @@ TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
         TfTokenVector types;
         for (std::string const& s : _tide->GetSupportedSprimTypes())
             if (s != "renderSettings") types.emplace_back(s);
+        types.push_back(HdPrimTypeTokens->extComputation);
         return types;
     }();
     return t;
@@ -984,6 +1015,8 @@ void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
 }
 
 HdSprim* HdTideRenderDelegate::CreateSprim(TfToken const& typeId, SdfPath const& sprimId) {
+    // computations (skinning) stay in Hydra: rprims evaluate them when they sync
+    if (typeId == HdPrimTypeTokens->extComputation) return new HdExtComputation(sprimId);
     tide::Sprim* prim = _tide->CreateSprim(typeId.GetString(), sprimId.GetString());
     if (!prim) return nullptr;
     if (typeId == HdPrimTypeTokens->camera) return new HdTideSprim<HdCamera>(sprimId, typeId.GetString(), prim);

@@ -10,6 +10,8 @@
 
 #include "pxr/imaging/hd/basisCurves.h"
 #include "pxr/imaging/hd/bprim.h"
+#include "pxr/imaging/hd/extComputation.h"
+#include "pxr/imaging/hd/extComputationUtils.h"
 #include "pxr/imaging/hd/mesh.h"
 #include "pxr/imaging/hd/points.h"
 #include "pxr/imaging/hd/renderBuffer.h"
@@ -63,6 +65,8 @@ private:
     /// empty values are skipped. Returns how many were put.
     template <typename T, unsigned int N>
     size_t _PutSamples(std::string const& key, HdTimeSampleArray<T, N> const& s);
+    /// `points` an ext computation makes (every sample); false when none does.
+    bool _PutComputedPoints(HdSceneDelegate* sd, SdfPath const& id);
     /// `transform` as every sample of `SampleTransform` (frame offsets; one untimed when still).
     void _PutTransformSamples(HdSceneDelegate* sd, SdfPath const& id);
     void _Put(std::string const& key, VtValue const& v);
