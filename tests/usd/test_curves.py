@@ -171,3 +171,66 @@ def test_a_nurbs_circle_renders_as_a_ring(renderer, stage):
     assert d.sum() == pytest.approx(2 * np.pi * 2.0 * 0.2 * k * k, rel=0.05)
     # no ink at the centre, ink on the ring
     assert d[w // 2, w // 2] < 0.05 and d[w // 2, int(w / 2 + 2 * k)] > 0.5
+
+
+def test_hermite_curves_become_the_same_bezier_curves(stage, delegate):
+    camera(stage)
+    c = UsdGeom.HermiteCurves.Define(stage, "/H")
+    c.CreatePointsAttr([(0, 0, 0), (3, 0, 0), (3, 3, 0)])
+    c.CreateTangentsAttr([(3, 3, 0), (3, 0, 0), (0, 6, 0)])
+    c.CreateCurveVertexCountsAttr([3])
+    c.CreateWidthsAttr([0.3, 0.6, 0.9])
+    c.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.value("/H", "basis") == ("token", "bezier")
+    pts = floats(delegate.value("/H", "points"))
+    assert floats(delegate.value("/H", "curveVertexCounts")).tolist() == [7]
+    # a Hermite segment (P0, T0, P1, T1) is the bezier (P0, P0 + T0/3, P1 - T1/3, P1)
+    assert np.allclose(pts, [(0, 0, 0), (1, 1, 0), (2, 0, 0), (3, 0, 0), (4, 0, 0), (3, 1, 0),
+                             (3, 3, 0)])
+    w = np.asarray(delegate.primvars["/H"]["widths"][1], np.float32)
+    assert np.allclose(w, [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
+
+
+def test_a_nurbs_patch_renders_its_exact_surface(stage, delegate):
+    # a rational quadratic quarter cylinder of radius 2 (u: the arc, v: straight, 0..4):
+    # every grid point lies on the cylinder, and the normals point away from its axis
+    camera(stage)
+    s = 0.5 ** 0.5
+    p = UsdGeom.NurbsPatch.Define(stage, "/P")
+    arc = [(2, 0), (2, 2), (0, 2)]
+    p.CreatePointsAttr([Gf.Vec3f(x, y, z) for z in (0, 4) for x, y in arc])
+    p.CreateUVertexCountAttr(3)
+    p.CreateVVertexCountAttr(2)
+    p.CreateUOrderAttr(3)
+    p.CreateVOrderAttr(2)
+    p.CreateUKnotsAttr([0, 0, 0, 1, 1, 1])
+    p.CreateVKnotsAttr([0, 0, 1, 1])
+    p.CreatePointWeightsAttr([1, s, 1, 1, s, 1])
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.prims["/P"] == "mesh"
+    pts = floats(delegate.value("/P", "points"))
+    assert len(pts) == 9 * 2
+    assert np.allclose(np.hypot(pts[:, 0], pts[:, 1]), 2.0, atol=1e-5)
+    assert sorted(set(np.round(pts[:, 2], 6))) == [0.0, 4.0]
+    interp, data, _, _ = delegate.primvars["/P"]["normals"]
+    n = np.asarray(data, np.float32).reshape(-1, 3)
+    radial = pts[:, :2] / 2.0
+    # du x dv: the arc runs counter-clockwise about +z, v along +z: the normals point out
+    assert np.allclose(n[:, :2], radial, atol=0.03) and np.allclose(n[:, 2], 0, atol=1e-5)
+    assert floats(delegate.value("/P", "faceVertexCounts")).tolist() == [4] * 8
+
+
+def test_a_tet_mesh_renders_its_surface(stage, delegate):
+    camera(stage)
+    tm = UsdGeom.TetMesh.Define(stage, "/T")
+    tm.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)])
+    tm.CreateTetVertexIndicesAttr([Gf.Vec4i(0, 1, 2, 3), Gf.Vec4i(1, 2, 3, 4)])
+    _, problems = load(stage, delegate)
+    assert problems == []
+    faces = floats(delegate.value("/T", "faceVertexIndices")).reshape(-1, 3)
+    # two tetrahedra sharing the face (1, 2, 3): six outer faces, not the shared one
+    assert len(faces) == 6
+    assert sorted(map(sorted, faces.tolist())).count([1, 2, 3]) == 0

@@ -184,12 +184,36 @@ def test_delegate_problems_are_merged_once(stage, delegate):
     assert [(p.prim, p.attribute) for p in new] == [("/Good", "radius")]
 
 
-def test_unknown_gprim_type_is_reported(stage, delegate):
+def test_every_usdgeom_gprim_type_is_read_or_reported(stage, delegate):
+    # UsdGeom's own gprims are all read; any other concrete gprim type usd-core defines (e.g.
+    # gaussian-splat particle fields in recent versions) is reported by name, never silently
+    # dropped
+    from pxr import Tf, Usd
+    from tide import usd_reader
+    registry = Usd.SchemaRegistry()
+    concrete = {registry.GetSchemaTypeName(t) for t in Tf.Type.FindByName("UsdGeomGprim")
+                .GetAllDerivedTypes() if registry.IsConcrete(t)}
+    geom = {"Mesh", "TetMesh", "BasisCurves", "NurbsCurves", "HermiteCurves", "NurbsPatch",
+            "Points", "Sphere", "Cube", "Cylinder", "Cone", "Capsule", "Plane", "Volume"}
+    assert geom <= concrete and geom <= set(usd_reader.GPRIMS)
+    other = sorted(concrete - set(usd_reader.GPRIMS))
     _good(stage)
-    UsdGeom.NurbsPatch.Define(stage, "/Curves")
+    for name in other:
+        stage.DefinePrim("/Other_" + name, name)
     _, problems = load(stage, delegate)
-    assert ("/Curves", "type") in [(p.prim, p.attribute) for p in problems]
-    assert "/Curves" not in delegate.prims
+    reported = {p.prim for p in problems if p.attribute == "type"}
+    assert reported == {"/Other_" + n for n in other}
+
+
+def test_unknown_gprim_type_is_reported(stage, delegate, monkeypatch):
+    from tide import usd_reader
+    monkeypatch.setattr(usd_reader, "GPRIMS", {k: v for k, v in usd_reader.GPRIMS.items()
+                                              if k != "NurbsPatch"})
+    _good(stage)
+    UsdGeom.NurbsPatch.Define(stage, "/Patch")
+    _, problems = load(stage, delegate)
+    assert ("/Patch", "type") in [(p.prim, p.attribute) for p in problems]
+    assert "/Patch" not in delegate.prims
 
 
 def test_no_camera(stage, delegate):

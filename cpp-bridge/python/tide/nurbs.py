@@ -1,4 +1,5 @@
-"""NURBS curves (UsdGeomNurbsCurves) evaluated exactly, as polylines for the delegate's curves.
+"""NURBS curves (UsdGeomNurbsCurves) evaluated exactly, as polylines for the delegate's curves,
+and NURBS patches (UsdGeomNurbsPatch) as grids of quads (`patch_matrix`).
 
 Each curve of `order` k (degree p = k - 1) has `curveVertexCounts` n control vertices, n + k
 `knots` and optional `pointWeights` (rational curves: a circle is exact) and `ranges` (the
@@ -59,7 +60,7 @@ def _basis(s, u, p, knots):
     return n
 
 
-def curve_matrix(order, knots, weights, rng, count):
+def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN):
     """(samples x count) matrix of the rational basis at the curve's sample parameters."""
     p = int(order) - 1
     if p < 1:
@@ -81,7 +82,7 @@ def curve_matrix(order, knots, weights, rng, count):
         raise NurbsError("ranges" if rng is not None else "knots",
                          "the curve's parameter range [%g, %g] is empty" % (lo, hi))
     breaks = np.unique(np.concatenate([[lo, hi], knots[(knots > lo) & (knots < hi)]]))
-    steps = 1 if p == 1 else SAMPLES_PER_SPAN
+    steps = 1 if p == 1 else per_span
     params = [breaks[0]]
     for a, b in zip(breaks[:-1], breaks[1:]):
         params.extend(a + (b - a) * (np.arange(1, steps + 1) / steps))
@@ -129,3 +130,28 @@ class CurvesMap:
         values = values.reshape(len(values), -1)
         out = [np.repeat(values[i:i + 1], m.shape[0], axis=0) for i, _, _, m in self.blocks]
         return np.concatenate(out) if out else np.zeros((0, values.shape[1]))
+
+
+PATCH_SAMPLES_PER_SPAN = 8
+
+
+def patch_matrix(u, v, weights):
+    """A NurbsPatch's evaluation: u and v are (order, knots, range, vertex count) of each
+    direction; weights (nv x nu) or None. Returns ((sv*su) x (nv*nu) matrix carrying the
+    control points, v-major with u fastest as USD lays them out, onto the grid; (su, sv)).
+    Rational patches divide by the weighted basis sum at each grid point."""
+    mats = []
+    for name, (order, knots, rng, count) in (("u", u), ("v", v)):
+        try:
+            mats.append(curve_matrix(order, knots, None, rng, count, PATCH_SAMPLES_PER_SPAN))
+        except NurbsError as e:
+            attr = {"order": name + "Order", "knots": name + "Knots", "ranges": name + "Range",
+                    "curveVertexCounts": name + "VertexCount"}.get(e.attribute, e.attribute)
+            raise NurbsError(attr, str(e))
+    mu, mv = mats
+    nu, nv = u[3], v[3]
+    w = np.ones((nv, nu)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(nv, nu)
+    if not (np.all(np.isfinite(w)) and np.all(w > 0)):
+        raise NurbsError("pointWeights", "weights must be finite and positive")
+    m = np.kron(mv, mu) * w.reshape(1, -1)
+    return m / m.sum(axis=1, keepdims=True), (mu.shape[0], mv.shape[0])

@@ -38,6 +38,7 @@ class Problem(namedtuple("Problem", "prim attribute message")):
 # USD prim type -> delegate rprim type.
 GPRIMS = {
     "Mesh": "mesh", "BasisCurves": "basisCurves", "NurbsCurves": "basisCurves",
+    "HermiteCurves": "basisCurves", "TetMesh": "mesh", "NurbsPatch": "mesh",
     "Points": "points", "Sphere": "sphere",
     "Cube": "cube",
     "Cylinder": "cylinder", "Cylinder_1": "cylinder", "Cone": "cone", "Capsule": "capsule",
@@ -1030,6 +1031,10 @@ class Reader:
         arr = self._points_samples(prim, st)
         if arr is None:
             return False
+        if prim.IsA(UsdGeom.TetMesh):
+            return self._eval_tetmesh(prim, st, arr)
+        if prim.IsA(UsdGeom.NurbsPatch):
+            return self._eval_patch(prim, st, arr)
         mesh = UsdGeom.Mesh(prim)
         t = self._time(0)
         counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(t) or [], dtype=np.int64)
@@ -1130,6 +1135,8 @@ class Reader:
             return False
         if prim.IsA(UsdGeom.NurbsCurves):
             return self._eval_nurbs(prim, st, arr)
+        if prim.IsA(UsdGeom.HermiteCurves):
+            return self._eval_hermite(prim, st, arr)
         curves = UsdGeom.BasisCurves(prim)
         t = self._time(0)
         counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
@@ -1190,20 +1197,38 @@ class Reader:
                                lambda attr, msg: self.problem(path, attr, msg))
         if not cmap.blocks:
             return False
-        st.set("points", None, [(o, _floats(cmap.per_vertex(
-            np.frombuffer(v[2], dtype=np.float32).reshape(-1, 3)), 3))
-            for o, v in st.values["points"]])
-        st.set("curveVertexCounts", _ints(cmap.counts()))
-        st.set("type", ("token", "linear"))
+        self._send_converted_curves(prim, st, len(arr), cmap.counts(), "linear",
+                                    cmap.per_vertex, lambda v: (cmap.per_curve(v), "vertex"))
+        return True
+
+    def _map_points(self, st, fn):
+        """Replaces every sample of the sent `points` by fn(points) (a linear map)."""
+        st.set("points", None, [(o, _floats(fn(np.frombuffer(v[2], dtype=np.float32)
+                                                 .reshape(-1, 3).astype(np.float64)), 3))
+                                for o, v in st.values["points"]])
+
+    def _send_converted_curves(self, prim, st, n_points, counts, kind, vertex_map, uniform_map,
+                               data_map=None):
+        """Sends curves another curve type was converted to (nonperiodic, `kind` linear or cubic
+        bezier): `vertex_map` carries per-point rows (the points' samples) onto the new
+        vertices, `data_map` (else `vertex_map`) per-point widths, normals, velocities and
+        accelerations, `uniform_map` per-curve rows to (rows, interpolation)."""
+        data_map = data_map or vertex_map
+        curves = UsdGeom.Curves(prim)
+        path = prim.GetPath()
+        t = self._time(0)
+        self._map_points(st, vertex_map)
+        st.set("curveVertexCounts", _ints(counts))
+        st.set("type", ("token", kind))
         st.set("basis", ("token", "bezier"))
         st.set("wrap", ("token", "nonperiodic"))
         self._primvars(prim, st)
-        for name, getter, interp_of in (
-                ("widths", curves.GetWidthsAttr, curves.GetWidthsInterpolation),
-                ("normals", curves.GetNormalsAttr, curves.GetNormalsInterpolation)):
+        for name, attr, interp in (
+                ("widths", curves.GetWidthsAttr(), curves.GetWidthsInterpolation()),
+                ("normals", prim.GetAttribute("normals"), UsdGeom.PointBased(prim)
+                 .GetNormalsInterpolation())):
             pv = st.primvars.pop(name, None)
-            v = getter().Get(t)
-            interp = str(interp_of())
+            v, interp = (attr.Get(t) if attr else None), str(interp)
             if pv is not None:      # primvars:widths / primvars:normals win, as USD says
                 interp, data, tsize, idx = pv
                 v = np.frombuffer(data, dtype=np.float32).reshape(-1, tsize)
@@ -1212,28 +1237,152 @@ class Reader:
             if v is None or len(v) == 0:
                 continue
             v = np.asarray(v, dtype=np.float64).reshape(len(v), -1)
-            if len(v) == 1:
-                out, interp = v, "constant"
-            elif interp == "vertex" and len(v) == len(arr):
-                out = cmap.per_vertex(v)
-            elif interp == "uniform" and len(v) == len(counts):
-                out, interp = cmap.per_curve(v), "vertex"
+            if len(v) == 1 or interp == "constant":
+                out, interp = v[:1], "constant"
+            elif interp in ("vertex", "varying") and len(v) == n_points:
+                out, interp = data_map(v), "vertex"
+            elif interp == "uniform" and len(v) == len(UsdGeom.Curves(prim)
+                                                          .GetCurveVertexCountsAttr().Get(t)):
+                out, interp = uniform_map(v)
             else:
                 self.problem(path, name, "%d %s values with %s interpolation do not fit the "
-                             "curves (constant, uniform and vertex are read); ignored"
-                             % (len(v), name, interp))
+                             "curves; ignored" % (len(v), name, interp))
                 continue
-            st.primvars[name] = ("vertex" if interp != "constant" else "constant",
-                                 np.ascontiguousarray(out, dtype=np.float32).reshape(-1).tobytes(),
-                                 v.shape[1], None)
+            st.primvars[name] = (interp, np.ascontiguousarray(out, dtype=np.float32)
+                                 .reshape(-1).tobytes(), v.shape[1], None)
         for name in ("velocities", "accelerations"):
             v = self._attr(prim, name)
             if v is not None and len(v):
-                if len(v) != len(arr):
+                if len(v) != n_points:
                     self.problem(path, name, "%d %s for %d points; ignored"
-                                 % (len(v), name, len(arr)))
+                                 % (len(v), name, n_points))
                     continue
-                st.set(name, _floats(cmap.per_vertex(np.asarray(v)), 3))
+                st.set(name, _floats(data_map(np.asarray(v, dtype=np.float64)), 3))
+
+    def _eval_hermite(self, prim, st, arr):
+        """HermiteCurves go to the delegate as cubic bezier curves, the same curves: each
+        segment's inner vertices are P0 + T0/3 and P1 - T1/3. Widths and normals per vertex
+        are interpolated at the thirds."""
+        curves = UsdGeom.HermiteCurves(prim)
+        t = self._time(0)
+        path = prim.GetPath()
+        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
+        tangents = np.asarray(curves.GetTangentsAttr().Get(t) or [], dtype=np.float64)
+        if counts.size and counts.min() < 2 or int(counts.sum()) != len(arr):
+            self.problem(path, "curveVertexCounts", "the counts add up to %d vertices, the "
+                         "curves have %d points (2 or more each); prim dropped"
+                         % (int(counts.sum()), len(arr)))
+            return False
+        if tangents.shape != (len(arr), 3) or not np.all(np.isfinite(tangents)):
+            self.problem(path, "tangents", "%d finite tangents needed, one per point; prim "
+                         "dropped" % len(arr))
+            return False
+        # per output vertex: (point a, point b, weight of b, tangent index, tangent factor)
+        rows = []
+        first = 0
+        for c in counts:
+            for i in range(first, first + c - 1):
+                rows += [(i, i, 0.0, i, 0.0), (i, i + 1, 1 / 3, i, 1 / 3),
+                         (i, i + 1, 2 / 3, i + 1, -1 / 3)]
+            rows.append((first + c - 1, first + c - 1, 0.0, first + c - 1, 0.0))
+            first += c
+        a, b, wb, ti, tf = (np.array(x) for x in zip(*rows))
+
+        def blend(v):       # per-point data at the thirds (linear between the points)
+            v = np.asarray(v, dtype=np.float64).reshape(len(arr), -1)
+            return v[a] * (1 - wb)[:, None] + v[b] * wb[:, None]
+
+        base = np.where(tf < 0, b, a)
+
+        def place(p):       # the bezier vertices: the points, their tangents' thirds between
+            return p[base] + tangents[ti] * tf[:, None]
+
+        self._send_converted_curves(prim, st, len(arr), 3 * (counts - 1) + 1, "cubic", place,
+                                    lambda v: (v, "uniform"), data_map=blend)
+        return True
+
+    def _eval_tetmesh(self, prim, st, arr):
+        """A TetMesh renders its surface: the faces `surfaceFaceVertexIndices` names, else the
+        tetrahedra's faces no two tetrahedra share (UsdGeomTetMesh.ComputeSurfaceFaces)."""
+        tm = UsdGeom.TetMesh(prim)
+        t = self._time(0)
+        tets = np.asarray(tm.GetTetVertexIndicesAttr().Get(t) or [], dtype=np.int64).reshape(-1, 4)
+        if tets.size and (tets.min() < 0 or tets.max() >= len(arr)):
+            self.problem(prim.GetPath(), "tetVertexIndices", "index out of range (0..%d); prim "
+                         "dropped" % (len(arr) - 1))
+            return False
+        faces = tm.GetSurfaceFaceVertexIndicesAttr().Get(t)
+        if not faces:
+            faces = UsdGeom.TetMesh.ComputeSurfaceFaces(tm, t)
+        faces = np.asarray(faces or [], dtype=np.int64).reshape(-1, 3)
+        if faces.size and (faces.min() < 0 or faces.max() >= len(arr)):
+            self.problem(prim.GetPath(), "surfaceFaceVertexIndices", "index out of range; prim "
+                         "dropped")
+            return False
+        st.set("faceVertexCounts", _ints(np.full(len(faces), 3)))
+        st.set("faceVertexIndices", _ints(faces.reshape(-1)))
+        self._token(prim, st, "orientation", "rightHanded")
+        st.set("subdivisionScheme", ("token", "none"))
+        self._point_vectors(prim, st, len(arr))
+        self._primvars(prim, st)
+        return True
+
+    def _eval_patch(self, prim, st, arr):
+        """A NurbsPatch renders its surface, evaluated exactly (`nurbs.patch_matrix`) on a grid
+        of quads with smooth normals; trim curves are not applied (reported)."""
+        patch = UsdGeom.NurbsPatch(prim)
+        t = self._time(0)
+        path = prim.GetPath()
+
+        def get(name, fallback=None):
+            v = prim.GetAttribute(name).Get(t)
+            return fallback if v is None else v
+
+        nu, nv = int(get("uVertexCount", 0)), int(get("vVertexCount", 0))
+        if nu * nv != len(arr):
+            self.problem(path, "uVertexCount", "%d x %d vertices for %d points; prim dropped"
+                         % (nu, nv, len(arr)))
+            return False
+        rng = lambda n: None if get(n) is None else tuple(get(n))  # noqa: E731
+        weights = get("pointWeights")
+        if weights is not None and len(weights) == 0:
+            weights = None
+        try:
+            m, (su, sv) = nurbs.patch_matrix(
+                (int(get("uOrder", 0)), get("uKnots", []), rng("uRange"), nu),
+                (int(get("vOrder", 0)), get("vKnots", []), rng("vRange"), nv), weights)
+        except nurbs.NurbsError as e:
+            self.problem(path, e.attribute, "%s; prim dropped" % e)
+            return False
+        except ValueError as e:
+            self.problem(path, "pointWeights", "%s; prim dropped" % e)
+            return False
+        if get("trimCurve:counts") is not None and len(get("trimCurve:counts")):
+            self.problem(path, "trimCurve:counts", "trim curves are not applied; the whole "
+                         "patch renders")
+        self._map_points(st, lambda p: m @ p)
+        quads = []
+        for j in range(sv - 1):
+            for i in range(su - 1):
+                k = j * su + i
+                quads.append((k, k + 1, k + 1 + su, k + su))
+        st.set("faceVertexCounts", _ints(np.full(len(quads), 4)))
+        st.set("faceVertexIndices", _ints(np.asarray(quads).reshape(-1)))
+        self._token(prim, st, "orientation", "rightHanded")
+        st.set("subdivisionScheme", ("token", "none"))
+        # smooth normals from the grid's u and v derivatives (du x dv faces the front)
+        g = (m @ arr.astype(np.float64)).reshape(sv, su, 3)
+        grad = lambda axis: np.gradient(g, axis=axis, edge_order=2 if g.shape[axis] > 2 else 1)  # noqa: E731
+        n = np.cross(grad(1), grad(0))
+        if str(get("orientation", "rightHanded")) == "leftHanded":
+            n = -n
+        n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-20)
+        st.primvars["normals"] = ("vertex", np.ascontiguousarray(n, dtype=np.float32)
+                                  .reshape(-1).tobytes(), 3, None)
+        for name in ("velocities", "accelerations"):
+            v = self._attr(prim, name)
+            if v is not None and len(v) == len(arr):
+                st.set(name, _floats(m @ np.asarray(v, dtype=np.float64), 3))
         return True
 
     def _eval_implicit(self, prim, st):
