@@ -13,6 +13,7 @@ API_SCHEMAS = {
     "TideCausticsAPI": {"tide:caustics:emitter": False, "tide:caustics:caster": False,
                         "tide:caustics:receiver": True, "tide:caustics:transparency": "off"},
     "TideBlobbyAPI": {"tide:blobby:threshold": 0.5},
+    "TideSubdivisionAPI": {"tide:subdivision:level": 0},
     "TideBubbleAPI": {},
     "TideDropletsAPI": {"tide:droplets:asVolume": False},
     "TideSkyAPI": {"tide:sky:model": "hosekWilkie", "tide:sky:turbidity": 3.0,
