@@ -140,6 +140,8 @@ struct RprimPiece {
     id: u32,
     /// `TideCausticsAPI` attributes where any is authored.
     caustics: Option<tide_core::scene::ObjectCaustics>,
+    /// UsdLuxMeshLightAPI: the mesh emits.
+    mesh_light: Option<lux::MeshLight>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -574,6 +576,7 @@ impl Delegate {
             purpose: s.token_or("purpose", &["default", "render", "proxy", "guide"], "default", p).to_string(),
             id,
             caustics: read_caustics(s, p),
+            mesh_light: lux::read_mesh_light(s, p),
         }
     }
 
@@ -904,6 +907,17 @@ impl Delegate {
                             w.slope_variance_scale = share;
                         }
                         m.name = format!("{} on {}", m.name, path);
+                        scene.materials.push(m);
+                        scene.materials.len() - 1
+                    }
+                    _ => material,
+                };
+                // a mesh light: its material emits (UsdLuxMeshLightAPI)
+                let material = match (&r.mesh_light, geometry) {
+                    (Some(ml), GeometryRef::Mesh(mi)) => {
+                        let world = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * xf.first().copied().unwrap_or(Mat4::IDENTITY);
+                        let (m, problem) = lux::mesh_light_material(ml, &scene.materials[material], &scene.meshes[mi], world, scene.color_space, path);
+                        ap.extend(problem);
                         scene.materials.push(m);
                         scene.materials.len() - 1
                     }

@@ -322,15 +322,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     let shaping = convert_shaping(kind, store, p);
     let response = tide_core::scene::LightResponse { diffuse: nonneg(store, "diffuse", 1.0, p), specular: nonneg(store, "specular", 1.0, p) };
     let color = store.vec3_or("color", Vec3::ONE, p);
-    let color_temperature = store.bool_or("enableColorTemperature", false, p).then(|| {
-        let k = store.f32_or("colorTemperature", 6500.0, p);
-        if k > 0.0 {
-            k
-        } else {
-            p.add("colorTemperature", format!("must be positive, got {}; using 6500", k));
-            6500.0
-        }
-    });
+    let color_temperature = color_temperature(store, p);
     Some(LightPiece {
         desc: LightDesc {
             shaping,
@@ -360,6 +352,121 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
         transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p) } else { vec![(0.0, transform)] },
     })
+}
+
+/// `colorTemperature` where `enableColorTemperature` is on (a non-positive value: 6500 K,
+/// reported).
+fn color_temperature(store: &AttrStore, p: &mut Problems) -> Option<f32> {
+    store.bool_or("enableColorTemperature", false, p).then(|| {
+        let k = store.f32_or("colorTemperature", 6500.0, p);
+        if k > 0.0 {
+            k
+        } else {
+            p.add("colorTemperature", format!("must be positive, got {}; using 6500", k));
+            6500.0
+        }
+    })
+}
+
+/// UsdLuxMeshLightAPI on a mesh: what it emits and how its material takes part.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MeshLight {
+    /// color × intensity × 2^exposure (before the colour temperature and normalisation).
+    pub rgb: [f32; 3],
+    pub color_temperature: Option<f32>,
+    /// Divide by the mesh's world-space area.
+    pub normalize: bool,
+    /// `light:materialSyncMode`.
+    pub mode: MeshLightMode,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeshLightMode {
+    /// The light's emission tinted by the material's emissive colour (where it has one); the
+    /// material shades the surface as before.
+    MaterialGlowTintsLight,
+    /// The light's emission replaces the material's; the material shades the surface.
+    Independent,
+    /// The surface only emits.
+    NoMaterialResponse,
+}
+
+/// The mesh light a mesh carries (`meshLight` true: the reader or Hydra saw MeshLightAPI), with
+/// UsdLux's light attributes and fallbacks; None for other meshes.
+pub fn read_mesh_light(store: &AttrStore, p: &mut Problems) -> Option<MeshLight> {
+    if !store.bool_or("meshLight", false, p) {
+        return None;
+    }
+    let color = store.vec3_or("color", Vec3::ONE, p).max(Vec3::ZERO);
+    let scale = store.f32_or("intensity", 1.0, p) * store.f32_or("exposure", 0.0, p).exp2();
+    let scale = if scale.is_finite() && scale >= 0.0 {
+        scale
+    } else {
+        p.add("intensity", format!("intensity × 2^exposure is {scale}; the mesh emits nothing"));
+        0.0
+    };
+    let color_temperature = color_temperature(store, p);
+    let mode = match store.token_or("light:materialSyncMode", &["materialGlowTintsLight", "independent", "noMaterialResponse"], "materialGlowTintsLight", p) {
+        "independent" => MeshLightMode::Independent,
+        "noMaterialResponse" => MeshLightMode::NoMaterialResponse,
+        _ => MeshLightMode::MaterialGlowTintsLight,
+    };
+    Some(MeshLight { rgb: (color * scale).to_array(), color_temperature, normalize: store.bool_or("normalize", false, p), mode })
+}
+
+/// The material a mesh light's mesh renders with: `base` (its bound material) emitting the
+/// light's radiance as UsdLux's `light:materialSyncMode` says. Emission from a constant colour
+/// makes the mesh's triangles lights the renderer samples. `world` places the mesh (for
+/// `normalize`, which divides by its world-space area). Surfaces other than UsdPreviewSurface
+/// and Lambert cannot also emit: they become emitters only, with a problem.
+pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc, mesh: &tide_core::scene::MeshDesc, world: Mat4, cs: ColorSpace, path: &str) -> (tide_core::scene::MaterialDesc, Option<tide_core::Problem>) {
+    use tide_core::scene::{ColorInput, PreviewSurfaceDesc, SurfaceDesc};
+    let mut rgb = ml.rgb;
+    if let Some(k) = ml.color_temperature {
+        let bb = tide_core::spectrum::color::blackbody_rgb(k, cs);
+        rgb = [rgb[0] * bb[0], rgb[1] * bb[1], rgb[2] * bb[2]];
+    }
+    if ml.normalize {
+        let area: f32 = mesh
+            .indices
+            .chunks_exact(3)
+            .map(|t| {
+                let [a, b, c] = [0, 1, 2].map(|k| world.transform_point3(mesh.positions[t[k] as usize]));
+                0.5 * (b - a).cross(c - a).length()
+            })
+            .sum();
+        if area > 0.0 {
+            rgb = rgb.map(|c| c / area);
+        }
+    }
+    let mut m = base.clone();
+    m.name = format!("{} (mesh light {})", base.name, path);
+    let mut problem = None;
+    let preview = match &base.surface {
+        _ if ml.mode == MeshLightMode::NoMaterialResponse => None,
+        SurfaceDesc::Preview(pr) => Some(pr.clone()),
+        SurfaceDesc::Diffuse { color } => Some(PreviewSurfaceDesc { diffuse_color: color.clone(), use_specular_workflow: true, specular_color: ColorInput::Const([0.0; 3]), ..Default::default() }),
+        _ => {
+            problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: format!("material '{}' cannot also emit; the mesh light renders as an emitter only (noMaterialResponse)", base.name) });
+            None
+        }
+    };
+    m.surface = match preview {
+        None => SurfaceDesc::Emissive { radiance: rgb, two_sided: mesh.double_sided },
+        Some(mut pr) => {
+            let glow = match (&pr.emissive_color, ml.mode) {
+                (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().any(|&c| c > 0.0) => *g,
+                (ColorInput::Texture(_), MeshLightMode::MaterialGlowTintsLight) => {
+                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "a textured emissive colour does not tint a mesh light; the light emits untinted".into() });
+                    [1.0; 3]
+                }
+                _ => [1.0; 3],
+            };
+            pr.emissive_color = ColorInput::Const([rgb[0] * glow[0], rgb[1] * glow[1], rgb[2] * glow[2]]);
+            SurfaceDesc::Preview(pr)
+        }
+    };
+    (m, problem)
 }
 
 /// A converted camera; shutter in frames, transform samples in frames; `medium` is the path of
@@ -711,6 +818,46 @@ mod tests {
         assert!(sun.desc.shaping.is_none());
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
         assert_eq!(attrs, ["shaping:cone:angle", "shaping:focusTint", "shaping:ies:file", "shaping:focus"]);
+    }
+
+    #[test]
+    fn mesh_lights_emit_through_their_material() {
+        use tide_core::scene::{ColorInput, MaterialDesc, MeshDesc, PreviewSurfaceDesc, SurfaceDesc};
+        let mut p = Problems::new("/M");
+        assert!(read_mesh_light(&st(&[("inputs:intensity", f(2.0))]), &mut p).is_none(), "no meshLight: not a light");
+        let store = st(&[("meshLight", Value::Bool(true)), ("inputs:intensity", f(3.0)), ("inputs:exposure", f(1.0)), ("inputs:color", Value::Floats { data: vec![1.0, 0.5, 0.25], tuple: 3 }), ("inputs:normalize", Value::Bool(true))]);
+        let ml = read_mesh_light(&store, &mut p).unwrap();
+        assert_eq!((ml.rgb, ml.normalize, ml.mode), ([6.0, 3.0, 1.5], true, MeshLightMode::MaterialGlowTintsLight));
+        // a unit square scaled by 2 × 3 in the world: area 6
+        let quad = MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y], indices: vec![0, 1, 2, 0, 2, 3], ..Default::default() };
+        let world = Mat4::from_scale(Vec3::new(2.0, 3.0, 1.0));
+        let glow = MaterialDesc { name: "glow".into(), surface: SurfaceDesc::Preview(PreviewSurfaceDesc { emissive_color: ColorInput::Const([0.5, 1.0, 2.0]), ..Default::default() }), interior_medium: None };
+        let (m, problem) = mesh_light_material(&ml, &glow, &quad, world, ColorSpace::LinearRec709, "/M");
+        assert!(problem.is_none());
+        let SurfaceDesc::Preview(pr) = &m.surface else { panic!("{:?}", m.surface) };
+        assert_eq!(pr.emissive_color, ColorInput::Const([6.0 / 6.0 * 0.5, 3.0 / 6.0, 1.5 / 6.0 * 2.0]));
+        // independent: the glow is replaced; a Lambert material keeps its colour and emits
+        let ind = MeshLight { mode: MeshLightMode::Independent, normalize: false, ..ml.clone() };
+        let (m, _) = mesh_light_material(&ind, &glow, &quad, world, ColorSpace::LinearRec709, "/M");
+        let SurfaceDesc::Preview(pr) = &m.surface else { panic!() };
+        assert_eq!(pr.emissive_color, ColorInput::Const([6.0, 3.0, 1.5]));
+        let lambert = MaterialDesc { name: "l".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.2; 3]) }, interior_medium: None };
+        let (m, _) = mesh_light_material(&ind, &lambert, &quad, world, ColorSpace::LinearRec709, "/M");
+        let SurfaceDesc::Preview(pr) = &m.surface else { panic!() };
+        assert_eq!((pr.diffuse_color.clone(), pr.emissive_color.clone()), (ColorInput::Const([0.2; 3]), ColorInput::Const([6.0, 3.0, 1.5])));
+        // noMaterialResponse, or a surface that cannot emit (a conductor: reported): an emitter
+        let only = MeshLight { mode: MeshLightMode::NoMaterialResponse, ..ind.clone() };
+        let (m, problem) = mesh_light_material(&only, &glow, &quad, world, ColorSpace::LinearRec709, "/M");
+        assert_eq!((m.surface, problem), (SurfaceDesc::Emissive { radiance: [6.0, 3.0, 1.5], two_sided: false }, None));
+        let metal = MaterialDesc { name: "metal".into(), surface: SurfaceDesc::Conductor { eta: [0.2; 3], k: [3.0; 3], roughness: 0.1 }, interior_medium: None };
+        let (m, problem) = mesh_light_material(&ind, &metal, &quad, world, ColorSpace::LinearRec709, "/M");
+        assert!(matches!(m.surface, SurfaceDesc::Emissive { .. }));
+        assert_eq!(problem.map(|q| (q.item, q.attribute)), Some(("/M".into(), "light:materialSyncMode".into())));
+        // an unknown sync mode is a problem and takes the fallback
+        let mut p = Problems::new("/M");
+        let ml = read_mesh_light(&st(&[("meshLight", Value::Bool(true)), ("light:materialSyncMode", Value::Token("glowy".into()))]), &mut p).unwrap();
+        assert_eq!(ml.mode, MeshLightMode::MaterialGlowTintsLight);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["light:materialSyncMode"]);
     }
 
     #[test]

@@ -105,6 +105,7 @@ ALLOWED_TOKENS = {
     "subdivisionScheme": ("catmullClark", "loop", "bilinear", "none"),
     "axis": ("X", "Y", "Z"),
     "interpolateBoundary": ("edgeAndCorner", "edgeOnly", "none"),
+    "light:materialSyncMode": ("materialGlowTintsLight", "independent", "noMaterialResponse"),
     "type": ("linear", "cubic"),
     "basis": ("bezier", "bspline", "catmullRom", "hermite"),
     "wrap": ("nonperiodic", "periodic", "pinned"),
@@ -1068,7 +1069,31 @@ class Reader:
         self._subsets(prim, st)
         self._primvars(prim, st)
         self._normals(mesh, st)
+        self._mesh_light(prim, st)
         return True
+
+    def _mesh_light(self, prim, st):
+        """UsdLuxMeshLightAPI: the mesh emits (`meshLight` and the light's own attributes)."""
+        if not prim.HasAPI(UsdLux.MeshLightAPI):
+            return
+        light = UsdLux.LightAPI(prim)
+        st.set("meshLight", ("bool", True))
+        for name, attr, fb in (("inputs:intensity", light.GetIntensityAttr(), 1.0),
+                               ("inputs:exposure", light.GetExposureAttr(), 0.0),
+                               ("inputs:colorTemperature", light.GetColorTemperatureAttr(), 6500.0)):
+            v = attr.Get(self._time(0)) if attr else None
+            st.set(name, ("float", float(fb if v is None else v)))
+        for name, attr in (("inputs:normalize", light.GetNormalizeAttr()),
+                           ("inputs:enableColorTemperature", light.GetEnableColorTemperatureAttr())):
+            v = attr.Get(self._time(0)) if attr else None
+            st.set(name, ("bool", bool(v)))
+        c = light.GetColorAttr().Get(self._time(0))
+        st.set("inputs:color", _floats(list(c) if c is not None else [1.0, 1.0, 1.0], 3))
+        self._token(prim, st, "light:materialSyncMode", "materialGlowTintsLight")
+        if light.GetLightLinkCollectionAPI().GetIncludesRel().GetTargets() or \
+                light.GetShadowLinkCollectionAPI().GetIncludesRel().GetTargets():
+            self.problem(prim.GetPath(), "collection:lightLink", "a mesh light lights every "
+                         "object; its light- and shadow-link collections are not applied")
 
     def _point_vectors(self, prim, st, count):
         """`velocities` and `accelerations`, one per point (else reported and not sent)."""

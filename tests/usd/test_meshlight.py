@@ -1,0 +1,141 @@
+"""UsdLuxMeshLightAPI: a mesh that is a light. Its emission seen directly (color x intensity x
+2^exposure, divided by the world area when normalized, tinted or replaced by the material's glow
+as `light:materialSyncMode` says), and the light it casts, against a RectLight of the same size
+and radiance lighting the same floor."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+
+from conftest import bind, camera, lambert_material, load, render, settings
+
+RES = 32
+WIDTH = 4.0
+
+
+def _top_camera(stage):
+    cam = camera(stage, pos=(0, 5, 0), aperture=(WIDTH * 10, WIDTH * 10),
+                 projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+
+
+def _panel(stage, path, size, y, facing_up, scale=1.0):
+    h = size / 2
+    m = UsdGeom.Mesh.Define(stage, path)
+    m.CreatePointsAttr([(-h, 0, -h), (h, 0, -h), (h, 0, h), (-h, 0, h)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 3, 2, 1] if facing_up else [0, 1, 2, 3])
+    m.AddTranslateOp().Set(Gf.Vec3d(0, y, 0))
+    if scale != 1.0:
+        m.AddScaleOp().Set(Gf.Vec3f(scale, 1, scale))
+    return m
+
+
+def _glow_material(stage, glow):
+    mat = UsdShade.Material.Define(stage, "/Looks/Glow")
+    sh = UsdShade.Shader.Define(stage, "/Looks/Glow/S")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
+    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
+    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*glow))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    return mat
+
+
+def _direct(renderer, stage, mode, normalize=False, scale=1.0, color=(1, 1, 1),
+            glow=(0.5, 0.25, 1.0)):
+    """The centre of a panel (2 x 2 before `scale`) facing the camera: a mesh light of
+    `color` x intensity 3 x 2^1 over a black UsdPreviewSurface glowing `glow`."""
+    _top_camera(stage)
+    m = _panel(stage, "/Panel", 2.0, 1.0, True, scale)
+    bind(m.GetPrim(), _glow_material(stage, glow))
+    UsdLux.MeshLightAPI.Apply(m.GetPrim())
+    la = UsdLux.LightAPI(m.GetPrim())
+    la.CreateColorAttr(Gf.Vec3f(*color))
+    la.CreateIntensityAttr(3.0)
+    la.CreateExposureAttr(1.0)
+    la.CreateNormalizeAttr(normalize)
+    m.GetPrim().CreateAttribute("light:materialSyncMode", Sdf.ValueTypeNames.Token).Set(mode)
+    settings(stage, res=(RES, RES), samples=64, integrator="path")
+    img = render(renderer, stage)["color"]
+    # the panel's middle (6 x 6 px; the wavelengths each pixel samples average out over them)
+    return img[RES // 2 - 3:RES // 2 + 3, RES // 2 - 3:RES // 2 + 3, :3].mean(axis=(0, 1))
+
+
+@pytest.mark.parametrize("mode,normalize,scale,expect", [
+    ("noMaterialResponse", False, 1.0, 6.0),
+    ("independent", False, 1.0, 6.0),                # the material's glow replaced
+    ("noMaterialResponse", True, 2.0, 6.0 / 16.0),   # / its world area (2 x 2, scaled by 2 x 2)
+])
+def test_a_mesh_light_seen_directly(renderer, stage, mode, normalize, scale, expect):
+    # white light: intensity 3 x 2^exposure 1, in every channel (a white spectrum round-trips)
+    centre = _direct(renderer, stage, mode, normalize, scale)
+    assert np.allclose(centre, expect, rtol=2e-3), (centre, expect)
+
+
+def test_the_materials_glow_tints_a_mesh_light(renderer, stage):
+    # materialGlowTintsLight (the fallback): white light x glow is what a light of the glow's
+    # colour emits with the material's glow replaced
+    from pxr import Usd
+    tinted = _direct(renderer, stage, "materialGlowTintsLight")
+    other = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(other, UsdGeom.Tokens.y)
+    coloured = _direct(renderer, other, "independent", color=(0.5, 0.25, 1.0), glow=(0, 0, 0))
+    assert np.allclose(tinted, coloured, rtol=1e-5), (tinted, coloured)
+    assert tinted[2] > 2 * tinted[1]
+
+
+def _floor_lit_by(stage, make_light):
+    _top_camera(stage)
+    floor = _panel(stage, "/Floor", 20.0, 0.0, True)
+    bind(floor.GetPrim(), lambert_material(stage, "/Looks/Floor", (0.5, 0.5, 0.5)))
+    make_light(stage)
+    settings(stage, res=(RES, RES), samples=64, integrator="path", seed=3)
+
+
+def test_a_mesh_light_lights_the_floor_as_a_rect_light_does(renderer, stage):
+    # a 1 x 1 panel 1 unit above the floor, facing down, radiance 2: as a mesh light and as a
+    # RectLight (which faces its -Z); the floor around the panel's footprint must agree
+    def mesh_light(s):
+        m = _panel(s, "/Panel", 1.0, 1.0, False)
+        UsdLux.MeshLightAPI.Apply(m.GetPrim())
+        UsdLux.LightAPI(m.GetPrim()).CreateIntensityAttr(2.0)
+        m.GetPrim().CreateAttribute("light:materialSyncMode", Sdf.ValueTypeNames.Token).Set(
+            "noMaterialResponse")
+
+    def rect_light(s):
+        r = UsdLux.RectLight.Define(s, "/Panel")
+        r.CreateWidthAttr(1.0)
+        r.CreateHeightAttr(1.0)
+        r.CreateIntensityAttr(2.0)
+        r.AddTranslateOp().Set(Gf.Vec3d(0, 1.0, 0))
+        r.AddRotateXOp().Set(-90.0)
+
+    from pxr import Usd
+    images = []
+    for make in (mesh_light, rect_light):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        _floor_lit_by(s, make)
+        images.append(render(renderer, s)["color"][..., 0].astype(np.float64))
+    # the annulus 0.75 to 1.75 units from the panel's foot (outside its footprint seen from
+    # above); px -> units: WIDTH / RES
+    ys, xs = np.mgrid[0:RES, 0:RES]
+    r = np.hypot(xs + 0.5 - RES / 2, ys + 0.5 - RES / 2) * WIDTH / RES
+    ring = (r > 0.75) & (r < 1.75)
+    a, b = images[0][ring].mean(), images[1][ring].mean()
+    assert a > 0.02 and a == pytest.approx(b, rel=0.03), (a, b)
+
+
+def test_reader_sends_the_mesh_light(stage, delegate):
+    camera(stage)
+    m = _panel(stage, "/Panel", 1.0, 1.0, False)
+    UsdLux.MeshLightAPI.Apply(m.GetPrim())
+    UsdLux.LightAPI(m.GetPrim()).CreateIntensityAttr(5.0)
+    plain = _panel(stage, "/Plain", 1.0, 2.0, False)
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.value("/Panel", "meshLight") is True
+    assert delegate.value("/Panel", "inputs:intensity") == 5.0
+    assert delegate.value("/Panel", "light:materialSyncMode") == ("token", "materialGlowTintsLight")
+    assert delegate.value(str(plain.GetPath()), "meshLight") is None
