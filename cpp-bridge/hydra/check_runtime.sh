@@ -150,4 +150,7 @@ compare "$here/check_stage_curves.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_skel.usda (a skinned mesh: UsdSkelImaging's computations) through UsdImaging's scene delegate and through tide render"
 compare "$here/check_stage_skel.usda" delegate || exit $?
 echo "rendering check_stage_subdiv.usda (tide:subdivision:level, creases and corners) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_subdiv.usda" delegate sceneIndex
+compare "$here/check_stage_subdiv.usda" delegate sceneIndex || exit $?
+# UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
+echo "rendering check_stage_meshlight.usda (UsdLuxMeshLightAPI) through UsdImaging's scene indices and through tide render"
+compare "$here/check_stage_meshlight.usda" sceneIndex

@@ -346,6 +346,18 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                     _Put(k.GetString(), v.IsEmpty() ? sd->Get(id, k) : v);
                 }
             }
+            if (typeId == "mesh") {
+                // UsdLuxMeshLightAPI: UsdImaging's scene indices give the mesh a `light`
+                // container (its scene delegate passes none)
+                HdContainerDataSourceHandle const light = SceneIndexContainer(sd, id, TfToken("light"));
+                VtValue const isLight = ContainerValue(light, HdTokens->isLight);
+                if (isLight.IsHolding<bool>() && isLight.UncheckedGet<bool>()) {
+                    _Put("meshLight", VtValue(true));
+                    for (const char* k : {"intensity", "exposure", "color", "normalize", "enableColorTemperature", "colorTemperature"})
+                        _Put(std::string("inputs:") + k, ContainerValue(light, TfToken(k)));
+                    _Put("light:materialSyncMode", ContainerValue(light, HdTokens->materialSyncMode));
+                }
+            }
             _PutTideAttributes(sd, id);
             _tideBits |= ChangeTracker::DirtyParams;
         }
