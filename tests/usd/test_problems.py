@@ -249,3 +249,14 @@ def test_value_rejected_by_the_delegate(stage, delegate):
     assert [(p.prim, p.attribute) for p in problems] == [("/Other", "radius")]
     assert "radius refused" in problems[0].message
     assert delegate.prims["/Other"] == "sphere" and delegate.value("/Good", "radius") == 1.0
+
+
+def test_a_portal_light_is_reported_and_the_dome_still_lights(stage, delegate):
+    from pxr import UsdLux
+    _good(stage)
+    UsdLux.DomeLight.Define(stage, "/Dome")
+    UsdLux.PortalLight.Define(stage, "/Window")
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Window", "type")]
+    assert "dome" in problems[0].message
+    assert delegate.prims["/Dome"] == "domeLight" and "/Window" not in delegate.prims

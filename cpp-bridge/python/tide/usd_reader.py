@@ -569,6 +569,10 @@ class Reader:
                 self._eval_light(prim)
             elif prim.IsA(UsdGeom.Camera):
                 self._eval_camera(prim)
+            elif prim.IsA(UsdLux.PortalLight):
+                # a portal only guides the dome's sampling: the image is the same without it
+                self.problem(prim.GetPath(), "type", "portal lights are not used; the dome "
+                             "lights through the scene's openings without it (with more noise)")
             elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self.problem(prim.GetPath(), "type",
                              "light type '%s' is not supported; dropped" % type_name)
