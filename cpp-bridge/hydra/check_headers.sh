@@ -49,7 +49,7 @@ commit=""
 if git -C "$usd" rev-parse HEAD >/dev/null 2>&1; then commit=" ($(git -C "$usd" rev-parse HEAD))"; fi
 echo "OpenUSD $major.$minor.$patch from $usd$commit; compiler: $($cxx --version | head -n 1)"
 rc=0
-for src in hdTide.cpp instancer.cpp rendererPlugin.cpp shaderDiscovery.cpp usdImagingTide/adapters.cpp; do
+for src in hdTide.cpp instancer.cpp rendererPlugin.cpp shaderDiscovery.cpp sceneIndexPlugin.cpp usdImagingTide/adapters.cpp; do
     echo "checking cpp-bridge/hydra/$src"
     "$cxx" -std=c++17 -fsyntax-only -Wall -Wextra -Wsuggest-override -Woverloaded-virtual -Wno-deprecated -Werror \
         -isystem "$gen" -isystem "$usd" -isystem "$cxxbridge" -I "$gen/crate" -I "$bridge/include" \

@@ -37,6 +37,8 @@
 #ifdef TIDE_CHECK_USD_IMAGING
 #include "pxr/usd/usd/stage.h"
 #include "pxr/usdImaging/usdImaging/delegate.h"
+#include "pxr/imaging/hd/sceneIndexPluginRegistry.h"
+#include "pxr/imaging/hdsi/sceneGlobalsSceneIndex.h"
 #include "pxr/usdImaging/usdImaging/sceneIndices.h"
 #include "pxr/usdImaging/usdImaging/stageSceneIndex.h"
 #endif
@@ -205,7 +207,16 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
         info.stage = stage;
         sceneIndices = UsdImagingCreateSceneIndices(info);
         sceneIndices.stageSceneIndex->SetTime(UsdTimeCode(0.0));
-        index->InsertSceneIndex(sceneIndices.finalSceneIndex, SdfPath::AbsoluteRootPath());
+        // as UsdImagingGLEngine does (usdview): scene globals naming the stage's render
+        // settings prim (`renderSettingsPrimPath`) the active one, then the scene index
+        // plugins loaded with Tide
+        HdsiSceneGlobalsSceneIndexRefPtr globals = HdsiSceneGlobalsSceneIndex::New(sceneIndices.finalSceneIndex);
+        std::string settingsPath;
+        if (stage->GetMetadata(TfToken("renderSettingsPrimPath"), &settingsPath) && !settingsPath.empty())
+            globals->SetActiveRenderSettingsPrimPath(SdfPath(settingsPath));
+        HdSceneIndexBaseRefPtr const appended =
+            HdSceneIndexPluginRegistry::GetInstance().AppendSceneIndicesForRenderer("Tide", globals, "");
+        index->InsertSceneIndex(appended, SdfPath::AbsoluteRootPath());
     } else {
         scene = std::make_unique<UsdImagingDelegate>(index.get(), SdfPath::AbsoluteRootPath());
         scene->Populate(stage->GetPseudoRoot());

@@ -44,7 +44,7 @@ common=(-std=c++17 -fPIC -O1 -Wno-deprecated -isystem "$usd/include" -isystem "$
 echo "building hdTide.so against $usd"
 "$cxx" "${common[@]}" -shared -Wl,--no-undefined -o "$out/plugin/hdTide.so" \
     "$here/rendererPlugin.cpp" "$here/hdTide.cpp" "$here/instancer.cpp" "$here/shaderDiscovery.cpp" \
-    "${lflags[@]}" "${usdlibs[@]}" "$target/libtide_bridge.a" \
+    "$here/sceneIndexPlugin.cpp" "${lflags[@]}" -lusd_hdsi "${usdlibs[@]}" "$target/libtide_bridge.a" \
     $(pkg-config --libs OpenImageIO OpenColorIO Imath) -lopenvdb -ltbb -lpthread -ldl -lm || exit $?
 sed -e 's|@PLUG_INFO_LIBRARY_PATH@|../hdTide.so|' -e 's|@PLUG_INFO_RESOURCE_PATH@|resources|' \
     -e 's|@PLUG_INFO_ROOT@|..|' "$here/plugInfo.json" > "$out/plugin/hdTide/resources/plugInfo.json"
@@ -91,7 +91,7 @@ sed -e 's|@PLUG_INFO_LIBRARY_PATH@|../usdImagingTide.so|' -e 's|@PLUG_INFO_RESOU
 paths="$paths:$out/plugin/usdImagingTide/resources"
 echo "building check_runtime with UsdImaging"
 "$cxx" "${common[@]}" -DTIDE_CHECK_USD_IMAGING -o "$out/check_stage" "$here/check_runtime.cpp" -L "$lay/lib" -Wl,-rpath,"$lay/lib" \
-    -lusd_usdImaging -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
+    -lusd_usdImaging -lusd_hdsi -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
 # compare STAGE MODE...: renders STAGE through UsdImaging in each MODE and through tide render,
 # and compares the image means
 compare() {
@@ -153,4 +153,7 @@ echo "rendering check_stage_subdiv.usda (tide:subdivision:level, creases and cor
 compare "$here/check_stage_subdiv.usda" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 echo "rendering check_stage_meshlight.usda (UsdLuxMeshLightAPI) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_meshlight.usda" sceneIndex
+compare "$here/check_stage_meshlight.usda" sceneIndex || exit $?
+# UsdImaging's scene delegate makes no renderSettings prims: only the scene indices are compared
+echo "rendering check_stage_product.usda (the active render settings and a product's own tide: settings) through UsdImaging's scene indices and through tide render"
+compare "$here/check_stage_product.usda" sceneIndex
