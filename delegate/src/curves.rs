@@ -17,7 +17,7 @@
 //! transported along the curve (a closed curve's twist is spread evenly), so a tube does not
 //! twist about itself.
 
-use crate::mesh::{read_points, Deformation, MeshGeom};
+use crate::mesh::{point_motion, read_points, Deformation, MeshGeom};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
@@ -520,39 +520,13 @@ fn curve_deformation(name: &str, plan: &Plan, built: &Built, store: &AttrStore, 
     if built.mesh.indices.is_empty() {
         return None;
     }
-    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
-    if samples.len() >= 2 {
-        let mut keys = Vec::with_capacity(samples.len());
-        for (t, v) in samples {
-            let d = v.to_f32s().unwrap_or_default();
-            if d.len() != 3 * n_points || d.iter().any(|x| !x.is_finite()) {
-                p.add("points", format!("the time sample at frame offset {t} has {} finite points of {n_points}; the curves render static at frame 0", d.len() / 3));
-                return None;
-            }
-            let key: Vec<Vec3> = d.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
-            keys.push((*t, build(name, plan, &key, double_sided).mesh.positions));
-        }
-        return keys.windows(2).any(|w| w[0].1 != w[1].1).then_some(Deformation::Samples(keys));
-    }
-    let per_point = |attr: &str, p: &mut Problems| -> Option<Vec<Vec3>> {
-        let d = store.get(attr)?.to_f32s();
-        match d {
-            Some(d) if d.len() == 3 * n_points && d.iter().all(|x| x.is_finite()) => Some(d.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()),
-            _ => {
-                p.add(attr, format!("expected {n_points} finite vectors, one per point; ignored"));
-                None
-            }
-        }
+    let vec3s = |d: &[f32]| -> Vec<Vec3> { d.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect() };
+    let key = |d: &[f32]| build(name, plan, &vec3s(d), double_sided).mesh.positions;
+    let carry = |d: &[f32]| -> Vec<Vec3> {
+        let v = vec3s(d);
+        built.vertex_point.iter().map(|c| c.eval(&v, Vec3::ZERO)).collect()
     };
-    let carry = |v: &[Vec3]| -> Vec<Vec3> { built.vertex_point.iter().map(|c| c.eval(v, Vec3::ZERO)).collect() };
-    let velocities = per_point("velocities", p);
-    let accelerations = per_point("accelerations", p);
-    let moving = |v: &Option<Vec<Vec3>>| v.as_ref().is_some_and(|v| v.iter().any(|x| *x != Vec3::ZERO));
-    if !moving(&velocities) && !moving(&accelerations) {
-        return None;
-    }
-    let velocities = velocities.map_or_else(|| vec![Vec3::ZERO; built.mesh.positions.len()], |v| carry(&v));
-    Some(Deformation::Velocity { velocities, accelerations: accelerations.map(|a| carry(&a)) })
+    point_motion(store, n_points, built.mesh.positions.len(), "the curves", key, carry, p)
 }
 
 #[cfg(test)]

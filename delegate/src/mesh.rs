@@ -300,29 +300,38 @@ pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> Mesh
 /// or non-finite points, or velocities of another count, is a problem and the mesh is static.
 /// A subdivided mesh's `stencil` refines each sample (and the velocities) first.
 fn deformation(mesh: &MeshDesc, src: &[u32], stencil: Option<&Stencil>, store: &AttrStore, p: &mut Problems) -> Option<Deformation> {
+    if mesh.indices.is_empty() {
+        return None;
+    }
     let n_points = store.get("points").and_then(|v| v.to_f32s()).map_or(0, |d| d.len() / 3);
     let expand = |d: &[f32]| -> Vec<Vec3> {
         let refined = stencil.map(|s| s.apply(d, 3));
         let d = refined.as_deref().unwrap_or(d);
         src.iter().map(|&i| Vec3::new(d[3 * i as usize], d[3 * i as usize + 1], d[3 * i as usize + 2])).collect()
     };
-    if mesh.indices.is_empty() {
-        return None;
-    }
+    point_motion(store, n_points, mesh.positions.len(), "the mesh", expand, expand, p)
+}
+
+/// How converted point-based geometry moves: time samples of `points` (two or more, each with
+/// the prim's `n_points` finite points), each turned into the converted vertices' positions by
+/// `key`; else `velocities` and `accelerations` (one finite vector per point) carried onto the
+/// `n_vertices` vertices by `carry`. A sample or vector array that does not fit is a problem
+/// (`what` names the prim's kind in it) and the geometry is static.
+pub(crate) fn point_motion(store: &AttrStore, n_points: usize, n_vertices: usize, what: &str, key: impl Fn(&[f32]) -> Vec<Vec3>, carry: impl Fn(&[f32]) -> Vec<Vec3>, p: &mut Problems) -> Option<Deformation> {
     let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
     if samples.len() >= 2 {
         let mut keys = Vec::with_capacity(samples.len());
         for (t, v) in samples {
             let d = v.to_f32s().unwrap_or_default();
             if d.len() != 3 * n_points {
-                p.add("points", format!("the time sample at frame offset {} has {} points, the mesh {}; the topology must not change, so the mesh renders static at frame 0", t, d.len() / 3, n_points));
+                p.add("points", format!("the time sample at frame offset {} has {} points, {} {}; the topology must not change, so {} renders static at frame 0", t, d.len() / 3, what, n_points, what));
                 return None;
             }
             if d.iter().any(|x| !x.is_finite()) {
-                p.add("points", format!("the time sample at frame offset {} has NaN or infinite points; the mesh renders static at frame 0", t));
+                p.add("points", format!("the time sample at frame offset {} has NaN or infinite points; {} renders static at frame 0", t, what));
                 return None;
             }
-            keys.push((*t, expand(&d)));
+            keys.push((*t, key(&d)));
         }
         if keys.windows(2).any(|w| w[0].1 != w[1].1) {
             return Some(Deformation::Samples(keys));
@@ -332,7 +341,7 @@ fn deformation(mesh: &MeshDesc, src: &[u32], stencil: Option<&Stencil>, store: &
     let per_point = |attr: &str, p: &mut Problems| -> Option<Vec<Vec3>> {
         let v = store.get(attr)?;
         match v.to_f32s() {
-            Some(d) if d.len() == 3 * n_points && d.iter().all(|x| x.is_finite()) => Some(expand(&d)),
+            Some(d) if d.len() == 3 * n_points && d.iter().all(|x| x.is_finite()) => Some(carry(&d)),
             _ => {
                 p.add(attr, format!("expected {} finite vectors, one per point; ignored", n_points));
                 None
@@ -345,7 +354,7 @@ fn deformation(mesh: &MeshDesc, src: &[u32], stencil: Option<&Stencil>, store: &
     if !moving(&velocities) && !moving(&accelerations) {
         return None;
     }
-    let velocities = velocities.unwrap_or_else(|| vec![Vec3::ZERO; mesh.positions.len()]);
+    let velocities = velocities.unwrap_or_else(|| vec![Vec3::ZERO; n_vertices]);
     Some(Deformation::Velocity { velocities, accelerations })
 }
 
