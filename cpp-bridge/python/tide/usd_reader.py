@@ -1168,10 +1168,8 @@ class Reader:
             return self._eval_hermite(prim, st, arr)
         curves = UsdGeom.BasisCurves(prim)
         t = self._time(0)
-        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
-        if counts.size and counts.min() < 0 or int(counts.sum()) != len(arr):
-            self.problem(prim.GetPath(), "curveVertexCounts", "the counts add up to %d vertices, "
-                         "the curves have %d points; prim dropped" % (int(counts.sum()), len(arr)))
+        counts = self._curve_counts(prim, len(arr))
+        if counts is None:
             return False
         st.set("curveVertexCounts", _ints(counts))
         for name, fb in (("type", "cubic"), ("basis", "bezier"), ("wrap", "nonperiodic")):
@@ -1187,16 +1185,27 @@ class Reader:
         self._normals(curves, st)
         return True
 
+    def _curve_counts(self, prim, n_points, least=0):
+        """A Curves prim's `curveVertexCounts`, or None (reported: the prim is dropped) when they
+        do not add up to its points or a curve has fewer than `least` vertices."""
+        counts = np.asarray(UsdGeom.Curves(prim).GetCurveVertexCountsAttr().Get(self._time(0))
+                            or [], dtype=np.int64)
+        if counts.size and counts.min() < least or int(counts.sum()) != n_points:
+            self.problem(prim.GetPath(), "curveVertexCounts", "the counts add up to %d vertices, "
+                         "the curves have %d points%s; prim dropped"
+                         % (int(counts.sum()), n_points,
+                            " (%d or more each)" % least if least else ""))
+            return None
+        return counts
+
     def _eval_nurbs(self, prim, st, arr):
         """NurbsCurves, evaluated exactly (`nurbs`), go to the delegate as linear curves through
         their samples, with widths, normals, velocities and point samples carried along."""
         curves = UsdGeom.NurbsCurves(prim)
         t = self._time(0)
         path = prim.GetPath()
-        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
-        if counts.size and counts.min() < 0 or int(counts.sum()) != len(arr):
-            self.problem(path, "curveVertexCounts", "the counts add up to %d vertices, the "
-                         "curves have %d points; prim dropped" % (int(counts.sum()), len(arr)))
+        counts = self._curve_counts(prim, len(arr))
+        if counts is None:
             return False
         orders = np.asarray(curves.GetOrderAttr().Get(t) or [], dtype=np.int64)
         knots = np.asarray(curves.GetKnotsAttr().Get(t) or [], dtype=np.float64)
@@ -1226,7 +1235,7 @@ class Reader:
                                lambda attr, msg: self.problem(path, attr, msg))
         if not cmap.blocks:
             return False
-        self._send_converted_curves(prim, st, len(arr), cmap.counts(), "linear",
+        self._send_converted_curves(prim, st, len(arr), len(counts), cmap.counts(), "linear",
                                     cmap.per_vertex, lambda v: (cmap.per_curve(v), "vertex"))
         return True
 
@@ -1236,11 +1245,11 @@ class Reader:
                                                  .reshape(-1, 3).astype(np.float64)), 3))
                                 for o, v in st.values["points"]])
 
-    def _send_converted_curves(self, prim, st, n_points, counts, kind, vertex_map, uniform_map,
-                               data_map=None):
+    def _send_converted_curves(self, prim, st, n_points, n_curves, counts, kind, vertex_map,
+                               uniform_map, data_map=None):
         """Sends curves another curve type was converted to (nonperiodic, `kind` linear or cubic
-        bezier): `vertex_map` carries per-point rows (the points' samples) onto the new
-        vertices, `data_map` (else `vertex_map`) per-point widths, normals, velocities and
+        bezier; `n_curves` source curves, `counts` vertices per converted curve): `vertex_map`
+        carries per-point rows (the points' samples) onto the new vertices, `data_map` (else `vertex_map`) per-point widths, normals, velocities and
         accelerations, `uniform_map` per-curve rows to (rows, interpolation)."""
         data_map = data_map or vertex_map
         curves = UsdGeom.Curves(prim)
@@ -1270,8 +1279,7 @@ class Reader:
                 out, interp = v[:1], "constant"
             elif interp in ("vertex", "varying") and len(v) == n_points:
                 out, interp = data_map(v), "vertex"
-            elif interp == "uniform" and len(v) == len(UsdGeom.Curves(prim)
-                                                          .GetCurveVertexCountsAttr().Get(t)):
+            elif interp == "uniform" and len(v) == n_curves:
                 out, interp = uniform_map(v)
             else:
                 self.problem(path, name, "%d %s values with %s interpolation do not fit the "
@@ -1295,13 +1303,10 @@ class Reader:
         curves = UsdGeom.HermiteCurves(prim)
         t = self._time(0)
         path = prim.GetPath()
-        counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(t) or [], dtype=np.int64)
-        tangents = np.asarray(curves.GetTangentsAttr().Get(t) or [], dtype=np.float64)
-        if counts.size and counts.min() < 2 or int(counts.sum()) != len(arr):
-            self.problem(path, "curveVertexCounts", "the counts add up to %d vertices, the "
-                         "curves have %d points (2 or more each); prim dropped"
-                         % (int(counts.sum()), len(arr)))
+        counts = self._curve_counts(prim, len(arr), least=2)
+        if counts is None:
             return False
+        tangents = np.asarray(curves.GetTangentsAttr().Get(t) or [], dtype=np.float64)
         if tangents.shape != (len(arr), 3) or not np.all(np.isfinite(tangents)):
             self.problem(path, "tangents", "%d finite tangents needed, one per point; prim "
                          "dropped" % len(arr))
@@ -1326,8 +1331,8 @@ class Reader:
         def place(p):       # the bezier vertices: the points, their tangents' thirds between
             return p[base] + tangents[ti] * tf[:, None]
 
-        self._send_converted_curves(prim, st, len(arr), 3 * (counts - 1) + 1, "cubic", place,
-                                    lambda v: (v, "uniform"), data_map=blend)
+        self._send_converted_curves(prim, st, len(arr), len(counts), 3 * (counts - 1) + 1, "cubic",
+                                    place, lambda v: (v, "uniform"), data_map=blend)
         return True
 
     def _eval_tetmesh(self, prim, st, arr):
