@@ -257,7 +257,7 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
         } else if world.materials[info.material].dielectric().is_some() {
             0.0
         } else {
-            1.0 - world.opacity(info.material, s.uv)
+            1.0 - world.opacity(info.material, &s)
         };
         if pass <= 0.0 {
             return SampledSpectrum::ZERO;
@@ -589,7 +589,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         }
 
         // stochastic opacity
-        let opacity = world.opacity(mat_i, s.uv);
+        let opacity = world.opacity(mat_i, &s);
         if opacity < 1.0 && sampler.get1d() >= opacity {
             pass_through!();
         }

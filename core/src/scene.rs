@@ -64,6 +64,44 @@ pub struct TexLookup {
     pub bias: [f32; 4],
     /// Value outside the texture for `Wrap::Black` and when the file could not be read.
     pub fallback: [f32; 4],
+    /// The texture coordinates: the geometry's `uvs` (None), or another primvar of two
+    /// components that a UsdPrimvarReader names (its fallback where the geometry lacks it).
+    pub uv_set: Option<PrimvarLookup>,
+}
+
+/// A value read from the shaded geometry's primvar (UsdPrimvarReader_*): its components
+/// (a one-component primvar fills three), or `fallback` where the geometry has no such primvar.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrimvarLookup {
+    pub name: String,
+    pub fallback: [f32; 4],
+}
+
+/// A primvar carried to shading: `tuple` floats per element, one element for the whole
+/// geometry (`constant`) or one per vertex of a mesh / per point of a sphere set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PrimvarData {
+    pub name: String,
+    pub tuple: u32,
+    pub constant: bool,
+    pub data: Vec<f32>,
+}
+
+impl PrimvarData {
+    /// Element `i` (element 0 when constant), components beyond `tuple` zero and a
+    /// one-component value repeated into the first three.
+    #[inline]
+    pub fn element(&self, i: usize) -> [f32; 4] {
+        let t = self.tuple as usize;
+        let i = if self.constant { 0 } else { i };
+        let mut out = [0.0; 4];
+        match self.data.get(i * t..i * t + t) {
+            Some([v]) => out = [*v, *v, *v, 0.0],
+            Some(d) => out[..t.min(4)].copy_from_slice(&d[..t.min(4)]),
+            None => {}
+        }
+        out
+    }
 }
 
 /// A colour input: constant or textured.
@@ -71,6 +109,7 @@ pub struct TexLookup {
 pub enum ColorInput {
     Const(Rgb),
     Texture(TexLookup),
+    Primvar(PrimvarLookup),
 }
 
 /// A scalar input: constant or textured.
@@ -78,6 +117,8 @@ pub enum ColorInput {
 pub enum FloatInput {
     Const(f32),
     Texture(TexLookup),
+    /// The primvar's first component.
+    Primvar(PrimvarLookup),
 }
 
 /// UsdPreviewSurface, every input.
@@ -102,10 +143,10 @@ pub struct PreviewSurfaceDesc {
 }
 
 /// Wetness (contract §3, `TideWetAPI`): a thin smooth water film over the surface response.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct WetDesc {
-    /// Wet fraction of the surface, 0–1.
-    pub amount: f32,
+    /// Wet fraction of the surface, 0–1: constant, or a mask (a texture or a primvar).
+    pub amount: FloatInput,
     /// Index of the film.
     pub ior: f32,
     /// Brighten instead of darken when the surface sits inside geometric water.
@@ -114,7 +155,7 @@ pub struct WetDesc {
 
 impl Default for WetDesc {
     fn default() -> Self {
-        WetDesc { amount: 0.0, ior: 1.333, water_compliant: true }
+        WetDesc { amount: FloatInput::Const(0.0), ior: 1.333, water_compliant: true }
     }
 }
 
@@ -307,6 +348,8 @@ pub struct MeshDesc {
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates.
     pub uvs: Option<Vec<Vec2>>,
+    /// Other primvars, per vertex or constant, for materials that read them.
+    pub primvars: Vec<PrimvarData>,
     /// Rendered from both sides (affects only the facing test of one-sided emitters/culling).
     pub double_sided: bool,
     /// Deformation motion blur: vertex positions (and normals) at several times. `positions`
@@ -391,6 +434,8 @@ pub struct SpheresDesc {
     pub velocities: Option<Vec<Vec3>>,
     /// What each point is: a sphere of its radius, a bubble, or a blobby kernel.
     pub shape: PointShape,
+    /// Primvars, per point or constant, for materials that read them.
+    pub primvars: Vec<PrimvarData>,
 }
 
 /// The shape points take (contract §5). Radii are the points' inner radii (half their widths).

@@ -110,7 +110,7 @@ mod tests {
     }
 
     fn lookup() -> TexLookup {
-        TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.5, 0.5, 0.5, 1.0] }
+        TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.5, 0.5, 0.5, 1.0], uv_set: None }
     }
 
     #[test]

@@ -19,6 +19,26 @@ fn mat_ok(m: &Mat4) -> bool {
 }
 
 /// Returns a cleaned copy of the scene and the problems found.
+/// Drops primvars whose data does not fit `n` elements (one when constant) or is not finite.
+fn check_primvars(pvs: &mut Vec<PrimvarData>, n: usize, item: &str, p: &mut Vec<Problem>) {
+    pvs.retain(|pv| {
+        let need = pv.tuple as usize * if pv.constant { 1 } else { n };
+        let ok = pv.tuple >= 1 && pv.data.len() == need && pv.data.iter().all(|x| x.is_finite());
+        if !ok {
+            problem(p, item, &format!("primvars:{}", pv.name), format!("{} values for {} elements of {}, or not finite; ignored", pv.data.len(), if pv.constant { 1 } else { n }, pv.tuple));
+        }
+        ok
+    });
+}
+
+/// A primvar lookup's fallback must be finite (zero otherwise).
+fn fix_fallback(l: &mut PrimvarLookup, item: &str, attr: &str, p: &mut Vec<Problem>) {
+    if l.fallback.iter().any(|x| !x.is_finite()) {
+        problem(p, item, attr, format!("the fallback of primvar '{}' is not finite; using 0", l.name));
+        l.fallback = [0.0; 4];
+    }
+}
+
 pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     let mut p = Vec::new();
     let mut s = scene.clone();
@@ -42,6 +62,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 m.uvs = None;
             }
         }
+        check_primvars(&mut m.primvars, nv, &m.name, &mut p);
         if let Some(mo) = &m.motion {
             let times_ok = mo.times.len() >= 2 && mo.times.iter().all(|t| t.is_finite()) && mo.times.windows(2).all(|w| w[0] < w[1]);
             let keys_ok = mo.positions.len() == mo.times.len() && mo.positions.iter().all(|k| k.len() == nv && k.iter().all(|&x| finite3(x)));
@@ -122,6 +143,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             }
         }
         fix_point_shape(sp, &mut p);
+        check_primvars(&mut sp.primvars, n, &sp.name, &mut p);
         let mut keep = vec![true; n];
         let (mut bad_c, mut bad_r) = (0, 0);
         for i in 0..n {
@@ -145,6 +167,10 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
             if let Some(v) = &sp.velocities {
                 sp.velocities = Some(idx.iter().map(|&i| v[i]).collect());
+            }
+            for pv in sp.primvars.iter_mut().filter(|pv| !pv.constant) {
+                let t = pv.tuple as usize;
+                pv.data = idx.iter().flat_map(|&i| pv.data[i * t..i * t + t].to_vec()).collect();
             }
             let pick = |v: &mut Vec<f32>| *v = idx.iter().map(|&i| v[i]).collect();
             match &mut sp.shape {
@@ -288,8 +314,11 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 if !tex_ok(l) {
                     problem(p, &m.name, attr, "texture missing; fallback used");
                     *c = ColorInput::Const([l.fallback[0], l.fallback[1], l.fallback[2]]);
+                } else if let Some(set) = &mut l.uv_set {
+                    fix_fallback(set, &m.name, attr, p);
                 }
             }
+            ColorInput::Primvar(l) => fix_fallback(l, &m.name, attr, p),
         };
         let fix_float = |c: &mut FloatInput, attr: &str, p: &mut Vec<Problem>, fallback: f32| match c {
             FloatInput::Const(v) => {
@@ -302,8 +331,11 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 if !tex_ok(l) {
                     problem(p, &m.name, attr, "texture missing; fallback used");
                     *c = FloatInput::Const(l.fallback[0]);
+                } else if let Some(set) = &mut l.uv_set {
+                    fix_fallback(set, &m.name, attr, p);
                 }
             }
+            FloatInput::Primvar(l) => fix_fallback(l, &m.name, attr, p),
         };
         match &mut m.surface {
             SurfaceDesc::Diffuse { color } => fix_color(color, "inputs:diffuseColor", &mut p, [0.18; 3]),
@@ -316,6 +348,9 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 fix_float(&mut ps.clearcoat, "inputs:clearcoat", &mut p, 0.0);
                 fix_float(&mut ps.clearcoat_roughness, "inputs:clearcoatRoughness", &mut p, 0.01);
                 fix_float(&mut ps.opacity, "inputs:opacity", &mut p, 1.0);
+                if let Some(w) = &mut ps.wet {
+                    fix_float(&mut w.amount, "tide:wet:amount", &mut p, 0.0);
+                }
                 if !(ps.ior.is_finite() && ps.ior > 0.0) {
                     problem(&mut p, &m.name, "inputs:ior", "must be > 0; using 1.5");
                     ps.ior = 1.5;
@@ -639,6 +674,11 @@ mod tests {
             radii: vec![0.0, 1.0, 2.0],
             velocities: None,
             shape: PointShape::Bubbles { top: vec![0.5, f32::NAN, 0.7], bottom: vec![0.1, 0.2, 0.3], orientations: Some(vec![Quat::IDENTITY; 2]) },
+            primvars: vec![
+                PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![10.0, 11.0, 12.0] },
+                PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
+                PrimvarData { name: "short".into(), tuple: 2, constant: false, data: vec![0.0; 4] },
+            ],
         });
         s.spheres.push(SpheresDesc {
             name: "/Blobs".into(),
@@ -646,6 +686,7 @@ mod tests {
             radii: vec![1.0; 3],
             velocities: None,
             shape: PointShape::Blobby { threshold: 1.5, orientations: None, scales: Some(vec![Vec3::ONE, Vec3::new(1.0, 0.0, 1.0), Vec3::ONE]) },
+            primvars: Vec::new(),
         });
         let (clean, probs) = validate(&s);
         let attrs: Vec<(&str, &str)> = probs.iter().map(|p| (p.item.as_str(), p.attribute.as_str())).collect();
@@ -655,11 +696,15 @@ mod tests {
             ("/Bubbles", "widths"),
             ("/Blobs", "tide:blobby:threshold"),
             ("/Blobs", "primvars:tide:blobby:scale"),
+            ("/Bubbles", "primvars:short"),
         ] {
             assert!(attrs.contains(&want), "{want:?} in {attrs:?}");
         }
         // the zero-width point is dropped with its data; the NaN height became the radius
         assert_eq!(clean.spheres[0].shape, PointShape::Bubbles { top: vec![1.0, 0.7], bottom: vec![0.2, 0.3], orientations: None });
+        // per-point primvars follow their points; a constant one is kept whole, a short one dropped
+        let pvs: Vec<(&str, &[f32])> = clean.spheres[0].primvars.iter().map(|p| (p.name.as_str(), &p.data[..])).collect();
+        assert_eq!(pvs, vec![("heat", &[11.0, 12.0][..]), ("tint", &[0.1, 0.2, 0.3][..])]);
         assert_eq!(clean.spheres[1].shape, PointShape::Blobby { threshold: 0.5, orientations: None, scales: None });
     }
 }

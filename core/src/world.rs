@@ -20,6 +20,7 @@ use std::collections::HashMap;
 pub enum ColorParam {
     Const(Spectrum),
     Tex(TexLookup),
+    Primvar(PrimvarLookup),
 }
 
 /// A scalar input.
@@ -27,6 +28,15 @@ pub enum ColorParam {
 pub enum FloatParam {
     Const(f32),
     Tex(TexLookup),
+    Primvar(PrimvarLookup),
+}
+
+/// A surface's wetness ([`WetDesc`]) with its amount ready to evaluate.
+#[derive(Clone, Debug)]
+pub struct WetParam {
+    pub amount: FloatParam,
+    pub ior: f32,
+    pub water_compliant: bool,
 }
 
 /// A clear dielectric interface (TideWater or any glass).
@@ -69,7 +79,7 @@ pub enum SurfaceKind {
         opacity: FloatParam,
         opacity_threshold: f32,
         ior: f32,
-        wet: Option<WetDesc>,
+        wet: Option<WetParam>,
     },
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
@@ -122,6 +132,8 @@ pub struct SurfaceHit {
     pub dpdu: Vec3,
     pub instance: u32,
     pub prim: u32,
+    /// Barycentric coordinates (b1, b2) of a triangle hit (zero for spheres), for primvars.
+    pub bary: Vec2,
     pub t: f32,
 }
 
@@ -141,6 +153,8 @@ pub struct World {
     pub accel: Accel,
     pub instances: Vec<InstanceInfo>,
     pub meshes: Vec<MeshDesc>,
+    /// Per sphere set, its primvars (the meshes carry theirs).
+    pub sphere_primvars: Vec<Vec<PrimvarData>>,
     pub materials: Vec<Material>,
     pub media: Vec<Medium>,
     pub textures: Vec<TextureDesc>,
@@ -183,6 +197,7 @@ fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
     match c {
         ColorInput::Const(rgb) => ColorParam::Const(uplift::albedo(*rgb, cs)),
         ColorInput::Texture(l) => ColorParam::Tex(l.clone()),
+        ColorInput::Primvar(l) => ColorParam::Primvar(l.clone()),
     }
 }
 
@@ -190,6 +205,7 @@ fn float_param(c: &FloatInput) -> FloatParam {
     match c {
         FloatInput::Const(v) => FloatParam::Const(*v),
         FloatInput::Texture(l) => FloatParam::Tex(l.clone()),
+        FloatInput::Primvar(l) => FloatParam::Primvar(l.clone()),
     }
 }
 
@@ -248,6 +264,7 @@ impl World {
                             ColorInput::Const(c) if c.iter().all(|v| *v <= 0.0) => None,
                             ColorInput::Const(c) => Some(ColorParam::Const(uplift::illuminant(*c, cs))),
                             ColorInput::Texture(l) => Some(ColorParam::Tex(l.clone())),
+                            ColorInput::Primvar(l) => Some(ColorParam::Primvar(l.clone())),
                         };
                         SurfaceKind::Preview {
                             diffuse: color_param(&p.diffuse_color, cs),
@@ -261,7 +278,7 @@ impl World {
                             opacity: float_param(&p.opacity),
                             opacity_threshold: p.opacity_threshold,
                             ior: p.ior,
-                            wet: p.wet,
+                            wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
                         }
                     }
                     SurfaceDesc::Water(w) => {
@@ -412,6 +429,7 @@ impl World {
             accel,
             instances,
             meshes: scene.meshes.clone(),
+            sphere_primvars: scene.spheres.iter().map(|s| s.primvars.clone()).collect(),
             materials,
             media,
             textures: scene.textures.clone(),
@@ -490,7 +508,7 @@ impl World {
                     }
                     None => (Vec2::new(b1, b2), m.transform_vector3(v[1] - v[0])),
                 };
-                SurfaceHit { p: m.transform_point3(p_obj), ng, ns, uv, dpdu, instance: hit.instance, prim: hit.prim, t: hit.t }
+                SurfaceHit { p: m.transform_point3(p_obj), ng, ns, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::new(b1, b2), t: hit.t }
             }
             GeometryRef::Spheres(_) => {
                 let (c, r) = self.accel.sphere_center(hit.instance, hit.prim, ray.time).unwrap_or((Vec3::ZERO, 1.0));
@@ -507,7 +525,7 @@ impl World {
                 let phi = n_obj.z.atan2(n_obj.x);
                 let uv = Vec2::new(0.5 + phi / (2.0 * std::f32::consts::PI), 1.0 - n_obj.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
                 let dpdu = m.transform_vector3(Vec3::new(-n_obj.z, 0.0, n_obj.x));
-                SurfaceHit { p: m.transform_point3(p_obj), ng, ns: ng, uv, dpdu, instance: hit.instance, prim: hit.prim, t: hit.t }
+                SurfaceHit { p: m.transform_point3(p_obj), ng, ns: ng, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::ZERO, t: hit.t }
             }
         }
     }
@@ -544,28 +562,77 @@ impl World {
         }
     }
 
-    fn color(&self, c: &ColorParam, uv: Vec2, lambda: &SampledWavelengths) -> SampledSpectrum {
-        match c {
-            ColorParam::Const(s) => s.sample(lambda),
-            ColorParam::Tex(l) => {
-                let rgb = texture::lookup_rgb(&self.textures, l, uv);
-                uplift::albedo(rgb, self.cs).sample(lambda)
+    /// The primvar `name` of the geometry at a hit: interpolated over a triangle, a sphere's
+    /// own value, or None where the geometry has no such primvar.
+    pub fn primvar(&self, s: &SurfaceHit, name: &str) -> Option<[f32; 4]> {
+        match self.instances.get(s.instance as usize)?.geometry {
+            GeometryRef::Mesh(mi) => {
+                let mesh = &self.meshes[mi];
+                let pv = mesh.primvars.iter().find(|p| p.name == name)?;
+                if pv.constant {
+                    return Some(pv.element(0));
+                }
+                let i = 3 * s.prim as usize;
+                let w = [1.0 - s.bary.x - s.bary.y, s.bary.x, s.bary.y];
+                let mut out = [0.0; 4];
+                for (k, wk) in w.into_iter().enumerate() {
+                    let e = pv.element(*mesh.indices.get(i + k)? as usize);
+                    for c in 0..4 {
+                        out[c] += wk * e[c];
+                    }
+                }
+                Some(out)
+            }
+            GeometryRef::Spheres(si) => self.sphere_primvars.get(si)?.iter().find(|p| p.name == name).map(|pv| pv.element(s.prim as usize)),
+        }
+    }
+
+    fn primvar_or(&self, s: &SurfaceHit, l: &PrimvarLookup) -> [f32; 4] {
+        self.primvar(s, &l.name).unwrap_or(l.fallback)
+    }
+
+    /// The texture coordinates a lookup reads at a hit.
+    fn st(&self, l: &TexLookup, s: &SurfaceHit) -> Vec2 {
+        match &l.uv_set {
+            None => s.uv,
+            Some(set) => {
+                let v = self.primvar_or(s, set);
+                Vec2::new(v[0], v[1])
             }
         }
     }
 
-    fn float(&self, c: &FloatParam, uv: Vec2) -> f32 {
+    fn rgb(&self, c: &ColorParam, s: &SurfaceHit) -> Option<[f32; 3]> {
         match c {
-            FloatParam::Const(v) => *v,
-            FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, uv),
+            ColorParam::Const(_) => None,
+            ColorParam::Tex(l) => Some(texture::lookup_rgb(&self.textures, l, self.st(l, s))),
+            ColorParam::Primvar(l) => {
+                let v = self.primvar_or(s, l);
+                Some([v[0], v[1], v[2]])
+            }
         }
     }
 
-    /// Opacity of a surface at `uv` (1 for everything but a translucent preview surface).
-    pub fn opacity(&self, material: usize, uv: Vec2) -> f32 {
+    fn color(&self, c: &ColorParam, s: &SurfaceHit, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match (c, self.rgb(c, s)) {
+            (ColorParam::Const(sp), _) => sp.sample(lambda),
+            (_, rgb) => uplift::albedo(rgb.unwrap_or_default(), self.cs).sample(lambda),
+        }
+    }
+
+    fn float(&self, c: &FloatParam, s: &SurfaceHit) -> f32 {
+        match c {
+            FloatParam::Const(v) => *v,
+            FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, self.st(l, s)),
+            FloatParam::Primvar(l) => self.primvar_or(s, l)[0],
+        }
+    }
+
+    /// Opacity of a surface at a hit (1 for everything but a translucent preview surface).
+    pub fn opacity(&self, material: usize, s: &SurfaceHit) -> f32 {
         match &self.materials[material].kind {
             SurfaceKind::Preview { opacity, opacity_threshold, .. } => {
-                let o = self.float(opacity, uv).clamp(0.0, 1.0);
+                let o = self.float(opacity, s).clamp(0.0, 1.0);
                 if *opacity_threshold > 0.0 {
                     if o < *opacity_threshold {
                         0.0
@@ -587,7 +654,7 @@ impl World {
             SurfaceKind::Emissive { radiance, two_sided } if front || *two_sided || double_sided => radiance.sample(lambda),
             SurfaceKind::Preview { emissive: Some(e), .. } if front || double_sided => match e {
                 ColorParam::Const(sp) => sp.sample(lambda),
-                ColorParam::Tex(l) => uplift::illuminant(texture::lookup_rgb(&self.textures, l, s.uv), self.cs).sample(lambda),
+                _ => uplift::illuminant(self.rgb(e, s).unwrap_or_default(), self.cs).sample(lambda),
             },
             _ => SampledSpectrum::ZERO,
         }
@@ -599,32 +666,33 @@ impl World {
     pub fn bsdf(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, eta: f32) -> (Bsdf, Frame) {
         let frame = Frame::from_normal_tangent(s.ns, s.dpdu);
         let bsdf = match &self.materials[material].kind {
-            SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s.uv, lambda).map(|v| v.clamp(0.0, 1.0))),
+            SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s, lambda).map(|v| v.clamp(0.0, 1.0))),
             SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, .. } => {
-                let mut d = self.color(diffuse, s.uv, lambda).map(|v| v.clamp(0.0, 1.0));
-                if let Some(w) = wet.filter(|w| w.water_compliant) {
+                let mut d = self.color(diffuse, s, lambda).map(|v| v.clamp(0.0, 1.0));
+                if let Some(w) = wet.as_ref().filter(|w| w.water_compliant) {
                     d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
                 }
                 // the inputs are looked up once; a wet surface builds its layers twice, against
                 // the outside and against the film
                 let params = PreviewParams {
                     diffuse: d,
-                    specular_f0: self.color(specular, s.uv, lambda).map(|v| v.clamp(0.0, 1.0)),
-                    metallic: self.float(metallic, s.uv).clamp(0.0, 1.0),
+                    specular_f0: self.color(specular, s, lambda).map(|v| v.clamp(0.0, 1.0)),
+                    metallic: self.float(metallic, s).clamp(0.0, 1.0),
                     base_for_metal: d,
-                    roughness: self.float(roughness, s.uv).clamp(0.0, 1.0),
-                    clearcoat: self.float(clearcoat, s.uv).clamp(0.0, 1.0),
-                    clearcoat_roughness: self.float(clearcoat_roughness, s.uv).clamp(0.0, 1.0),
+                    roughness: self.float(roughness, s).clamp(0.0, 1.0),
+                    clearcoat: self.float(clearcoat, s).clamp(0.0, 1.0),
+                    clearcoat_roughness: self.float(clearcoat_roughness, s).clamp(0.0, 1.0),
                     ior: *ior,
                     outside_ior,
                     use_specular_workflow: *use_specular_workflow,
                 };
                 let dry = Bsdf::preview(params);
+                let wet = wet.as_ref().map(|w| (w, self.float(&w.amount, s)));
                 match wet {
                     // the covered surface's layers meet the film, not the outside
-                    Some(w) if w.amount > 0.0 => dry.and_then(|dry| {
+                    Some((w, amount)) if amount > 0.0 => dry.and_then(|dry| {
                         let covered = Bsdf::preview(PreviewParams { outside_ior: w.ior.max(outside_ior), ..params })?;
-                        Bsdf::wet(dry, covered, w.amount, w.ior / outside_ior)
+                        Bsdf::wet(dry, covered, amount, w.ior / outside_ior)
                     }),
                     _ => dry,
                 }
@@ -696,5 +764,53 @@ mod tests {
         assert_eq!(water_top(&s, &accel, 0), Some(3.5));
         assert_eq!(water_top(&s, &accel, 1), Some(1.0));
         assert_eq!(water_top(&s, &accel, 2), None);
+    }
+
+    #[test]
+    fn primvars_are_interpolated_at_the_hit_or_give_the_fallback() {
+        // the triangle (0,0,0) (1,0,0) (0,0,1): at (x, 0, z) the barycentrics are (1-x-z, x, z)
+        let mut m = tri("/m", [0.0; 3]);
+        m.primvars = vec![
+            PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![0.0, 1.0, 2.0] },
+            PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
+        ];
+        let mut s = SceneDesc::default();
+        s.meshes.push(m);
+        s.spheres.push(SpheresDesc {
+            name: "/s".into(),
+            centers: vec![Vec3::new(10.0, 0.0, 0.0), Vec3::new(20.0, 0.0, 0.0)],
+            radii: vec![1.0; 2],
+            primvars: vec![PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![5.0, 7.0] }],
+            ..Default::default()
+        });
+        s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances.push(inst(GeometryRef::Spheres(0), Mat4::IDENTITY, 0));
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        let at = |o: Vec3, d: Vec3| {
+            let ray = Ray { o, d, t_max: f32::INFINITY, time: 0.0 };
+            w.surface(&ray, &w.accel.intersect(&ray).expect("a hit"))
+        };
+        let sh = at(Vec3::new(0.25, 3.0, 0.5), -Vec3::Y);
+        let heat = w.primvar(&sh, "heat").unwrap();
+        assert!((heat[0] - 1.25).abs() < 1e-5 && heat[..3].iter().all(|&v| v == heat[0]), "{heat:?}");
+        assert_eq!(w.primvar(&sh, "tint"), Some([0.1, 0.2, 0.3, 0.0]));
+        assert_eq!(w.primvar(&sh, "absent"), None);
+        let look = |name: &str| PrimvarLookup { name: name.into(), fallback: [0.9, 0.8, 0.7, 1.0] };
+        assert!((w.float(&FloatParam::Primvar(look("heat")), &sh) - 1.25).abs() < 1e-5);
+        assert_eq!(w.float(&FloatParam::Primvar(look("absent")), &sh), 0.9);
+        assert_eq!(w.rgb(&ColorParam::Primvar(look("tint")), &sh), Some([0.1, 0.2, 0.3]));
+        // a texture's coordinates from another primvar: its first two components
+        let mut tex = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
+        assert_eq!(w.st(&tex, &sh), sh.uv);
+        tex.uv_set = Some(look("tint"));
+        assert_eq!(w.st(&tex, &sh), Vec2::new(0.1, 0.2));
+        tex.uv_set = Some(look("absent"));
+        assert_eq!(w.st(&tex, &sh), Vec2::new(0.9, 0.8));
+        // each sphere has its own value
+        let sh = at(Vec3::new(20.0, 5.0, 0.0), -Vec3::Y);
+        assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(7.0));
+        let sh = at(Vec3::new(10.0, 5.0, 0.0), -Vec3::Y);
+        assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(5.0));
     }
 }

@@ -21,7 +21,7 @@ use crate::mesh::{point_motion, read_points, Deformation, MeshGeom};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
-use tide_core::scene::MeshDesc;
+use tide_core::scene::{MeshDesc, PrimvarData};
 
 /// Sides of a tube's cross-section.
 pub const TUBE_SIDES: usize = 8;
@@ -273,7 +273,8 @@ fn read_primvar<T>(pv: Option<Primvar>, attr: &str, tuple: u32, counts: (usize, 
 /// lies on (to move it with the control vertices).
 struct Built {
     mesh: MeshDesc,
-    vertex_point: Vec<Combo>,
+    /// Per output vertex: its curve (an index into the plan's) and the curve point it lies on.
+    vertex_point: Vec<(usize, CurvePoint)>,
 }
 
 /// Everything about the curves that does not depend on the pose.
@@ -337,7 +338,7 @@ fn transported_normals(tan: &[Vec3], closed: bool) -> Vec<Vec3> {
 fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
     let mut mesh = MeshDesc { name: name.into(), double_sided: double_sided || plan.normals.is_some(), ..Default::default() };
     let (mut normals, mut uvs, mut vertex_point) = (Vec::new(), Vec::new(), Vec::new());
-    for c in &plan.curves {
+    for (ci, c) in plan.curves.iter().enumerate() {
         let cps = c.points(plan.basis);
         let pos: Vec<Vec3> = cps.iter().map(|cp| cp.combo.eval(pts, Vec3::ZERO)).collect();
         let radius: Vec<f32> = cps.iter().map(|cp| 0.5 * plan.widths.as_ref().map_or(1.0, |w| w.at(c, cp, 0.0)).max(0.0)).collect();
@@ -354,7 +355,7 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                         mesh.positions.push(pos[i] + side * (s * radius[i]));
                         normals.push(n);
                         uvs.push(Vec2::new(cp.u, k as f32));
-                        vertex_point.push(cp.combo);
+                        vertex_point.push((ci, *cp));
                     }
                 }
                 if c.closed {
@@ -380,7 +381,7 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                         mesh.positions.push(pos[i] + dir * radius[i]);
                         normals.push(dir);
                         uvs.push(Vec2::new(u, k as f32 / TUBE_SIDES as f32));
-                        vertex_point.push(cps[i].combo);
+                        vertex_point.push((ci, cps[i]));
                     }
                 }
                 TUBE_SIDES + 1
@@ -406,13 +407,13 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                 mesh.positions.push(pos[i]);
                 normals.push(n);
                 uvs.push(Vec2::new(cps[i].u, 0.5));
-                vertex_point.push(cps[i].combo);
+                vertex_point.push((ci, cps[i]));
                 for k in 0..TUBE_SIDES as u32 {
                     let v = mesh.positions.len() as u32;
                     mesh.positions.push(mesh.positions[(ring_base + k) as usize]);
                     normals.push(n);
                     uvs.push(uvs[(ring_base + k) as usize]);
-                    vertex_point.push(cps[i].combo);
+                    vertex_point.push((ci, cps[i]));
                     let next = centre + 1 + (k + 1) % TUBE_SIDES as u32;
                     if outward < 0.0 {
                         mesh.indices.extend_from_slice(&[centre, next, v]);
@@ -508,10 +509,33 @@ pub fn convert_curves(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGe
     let normals = read_primvar(store.primvar("normals", Interpolation::Vertex), "normals", 3, shape, |c| Vec3::new(c[0], c[1], c[2]), p);
     let plan = Plan { basis, curves, widths, normals };
     let double_sided = store.get("doubleSided").and_then(|v| v.as_bool()).unwrap_or(false);
-    let built = build(name, &plan, &pts, double_sided);
+    let mut built = build(name, &plan, &pts, double_sided);
+    built.mesh.primvars = shading_primvars(store, &plan, &built, shape, p);
     let deformation = curve_deformation(name, &plan, &built, store, pts.len(), double_sided, p);
     let rest = built.mesh.indices.clone();
     MeshGeom { mesh: built.mesh, deformation, subsets: Vec::new(), rest }
+}
+
+/// The primvars a material may read, carried to every output vertex through the curves'
+/// interpolation rules (constant ones stay constant).
+fn shading_primvars(store: &AttrStore, plan: &Plan, built: &Built, shape: (usize, usize, usize), p: &mut Problems) -> Vec<PrimvarData> {
+    let mut out = Vec::new();
+    for name in crate::mesh::shading_primvar_names(store, None) {
+        let pv = store.primvar(&name, Interpolation::Constant);
+        let tuple = pv.as_ref().map_or(1, |pv| pv.tuple);
+        let widen = |c: &[f32]| {
+            let mut v = glam::Vec4::ZERO;
+            c.iter().enumerate().for_each(|(i, x)| v[i] = *x);
+            v
+        };
+        let Some(cv) = read_primvar(pv, &name, tuple, shape, widen, p) else { continue };
+        let data = match cv.interp {
+            Interpolation::Constant => cv.values[0].to_array()[..tuple as usize].to_vec(),
+            _ => built.vertex_point.iter().flat_map(|(c, cp)| cv.at(&plan.curves[*c], cp, glam::Vec4::ZERO).to_array()[..tuple as usize].to_vec()).collect(),
+        };
+        out.push(PrimvarData { name, tuple, constant: cv.interp == Interpolation::Constant, data });
+    }
+    out
 }
 
 /// How the converted curves move: every time sample of `points` built with the same plan, or
@@ -524,7 +548,7 @@ fn curve_deformation(name: &str, plan: &Plan, built: &Built, store: &AttrStore, 
     let key = |d: &[f32]| build(name, plan, &vec3s(d), double_sided).mesh.positions;
     let carry = |d: &[f32]| -> Vec<Vec3> {
         let v = vec3s(d);
-        built.vertex_point.iter().map(|c| c.eval(&v, Vec3::ZERO)).collect()
+        built.vertex_point.iter().map(|(_, cp)| cp.combo.eval(&v, Vec3::ZERO)).collect()
     };
     point_motion(store, n_points, built.mesh.positions.len(), "the curves", key, carry, p)
 }

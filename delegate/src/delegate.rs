@@ -121,6 +121,20 @@ enum Geometry {
     Volume(VolumeSpec),
 }
 
+impl Geometry {
+    /// Whether the geometry carries primvar `name` per element (not constant).
+    fn carries_varying(&self, name: &str) -> bool {
+        let pvs = match self {
+            Geometry::Mesh(m) => &m.primvars,
+            Geometry::UsdMesh(g) => &g.mesh.primvars,
+            Geometry::Spheres(s) => &s.primvars,
+            Geometry::Points(p) => &p.spheres.primvars,
+            _ => return false,
+        };
+        pvs.iter().any(|p| p.name == name && !p.constant)
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 struct RprimPiece {
     /// Shared with the next conversion when only placement attributes change.
@@ -134,6 +148,8 @@ struct RprimPiece {
     /// they move; empty otherwise.
     instance_samples: Vec<(f64, Vec<Mat4>)>,
     material: Option<String>,
+    /// `displayColor`, the colour of an unbound gprim: constant, or its average where it
+    /// varies (the geometry then carries it, when it can, for the fallback material to read).
     display_color: Option<[f32; 3]>,
     visible: bool,
     purpose: String,
@@ -475,7 +491,7 @@ impl Delegate {
     /// An rprim's geometry (points, triangles, spheres) from its attributes and primvars.
     fn convert_geometry(&self, path: &str, prim: &Prim, p: &mut Problems) -> Geometry {
         let s = &prim.store;
-        match prim.ty {
+        let mut g = match prim.ty {
             PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
             PrimType::BasisCurves => Geometry::UsdMesh(Box::new(crate::curves::convert_curves(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
@@ -488,7 +504,15 @@ impl Delegate {
             PrimType::TideOcean => Geometry::Ocean(ocean::ocean_spec(s, p)),
             PrimType::Volume => volume::volume_spec(s, p).map_or(Geometry::None, Geometry::Volume),
             _ => Geometry::None,
+        };
+        // implicit gprims carry their constant primvars (meshes, curves and points carry every
+        // interpolation)
+        match &mut g {
+            Geometry::Mesh(m) => m.primvars = mesh::constant_primvars(s, p),
+            Geometry::Spheres(sp) => sp.primvars = mesh::constant_primvars(s, p),
+            _ => {}
         }
+        g
     }
 
     fn convert_rprim(&self, path: &str, prim: &Prim, geometry: Option<(Arc<Geometry>, Vec<Problem>)>, p: &mut Problems) -> RprimPiece {
@@ -544,7 +568,7 @@ impl Delegate {
         }
         let display_color = s.primvar("displayColor", Interpolation::Constant).and_then(|pv| match pv.flatten() {
             Ok(d) if pv.tuple == 3 && d.len() >= 3 && d.iter().all(|x| x.is_finite()) => {
-                // The core has no vertex colours: non-constant displayColor is averaged.
+                // the average: the whole colour where the geometry cannot carry it per element
                 let n = (d.len() / 3) as f32;
                 let sum = d.chunks_exact(3).fold([0.0f32; 3], |a, c| [a[0] + c[0], a[1] + c[1], a[2] + c[2]]);
                 Some(sum.map(|x| x / n))
@@ -743,7 +767,7 @@ impl Delegate {
         }
 
         let included = &sp.included_purposes;
-        let mut color_mats: HashMap<[u32; 3], usize> = HashMap::new();
+        let mut color_mats: HashMap<([u32; 3], bool), usize> = HashMap::new();
         let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(Vec3::ZERO));
         let mut oceans_seen = BTreeSet::new();
         for (path, c) in &self.cache {
@@ -876,12 +900,19 @@ impl Delegate {
                 i
             });
             let material = bound.unwrap_or_else(|| match r.display_color {
-                Some(col) => *color_mats.entry(col.map(f32::to_bits)).or_insert_with(|| {
-                    let mut m = default_material(&format!("displayColor{:?}", col));
-                    m.surface = tide_core::scene::SurfaceDesc::Diffuse { color: tide_core::scene::ColorInput::Const(col) };
-                    scene.materials.push(m);
-                    scene.materials.len() - 1
-                }),
+                Some(col) => {
+                    let varies = r.geometry.carries_varying("displayColor");
+                    *color_mats.entry((col.map(f32::to_bits), varies)).or_insert_with(|| {
+                        let mut m = default_material(&format!("displayColor{:?}{}", col, if varies { " varying" } else { "" }));
+                        let color = match varies {
+                            true => tide_core::scene::ColorInput::Primvar(tide_core::scene::PrimvarLookup { name: "displayColor".into(), fallback: [col[0], col[1], col[2], 0.0] }),
+                            false => tide_core::scene::ColorInput::Const(col),
+                        };
+                        m.surface = tide_core::scene::SurfaceDesc::Diffuse { color };
+                        scene.materials.push(m);
+                        scene.materials.len() - 1
+                    })
+                }
                 None => 0,
             });
             let (xf, times) = place(&r.transforms);

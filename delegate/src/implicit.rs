@@ -110,6 +110,7 @@ impl Builder {
             uvs: Some(self.uv),
             double_sided,
             motion: None,
+            primvars: Vec::new(),
         }
     }
 }
@@ -310,6 +311,7 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     // the points kept, for the per-point shape data
     let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
     out.spheres.shape = point_shape(store, n, &kept, &out.spheres.radii, p);
+    out.spheres.primvars = crate::mesh::point_primvars(store, n, &kept, p);
     if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
         if out.spheres.shape != PointShape::Spheres {
             p.add("tide:droplets:asVolume", "droplets become a medium only as plain spheres, not as bubbles or blobbies; ignored");

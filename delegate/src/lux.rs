@@ -456,8 +456,8 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
         Some(mut pr) => {
             let glow = match (&pr.emissive_color, ml.mode) {
                 (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().any(|&c| c > 0.0) => *g,
-                (ColorInput::Texture(_), MeshLightMode::MaterialGlowTintsLight) => {
-                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "a textured emissive colour does not tint a mesh light; the light emits untinted".into() });
+                (ColorInput::Texture(_) | ColorInput::Primvar(_), MeshLightMode::MaterialGlowTintsLight) => {
+                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "a textured or primvar emissive colour does not tint a mesh light; the light emits untinted".into() });
                     [1.0; 3]
                 }
                 _ => [1.0; 3],

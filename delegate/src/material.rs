@@ -17,7 +17,7 @@ use glam::Vec2;
 use std::collections::BTreeMap;
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::scene::{
-    Channel, ColorInput, FloatInput, MaterialDesc, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
+    Channel, ColorInput, FloatInput, MaterialDesc, PrimvarLookup, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
     SurfaceModel, TexLookup, WaterDesc, WetDesc, Wrap,
 };
 
@@ -112,6 +112,30 @@ fn parse_nodes(store: &AttrStore) -> BTreeMap<String, Node> {
     nodes
 }
 
+/// What a connected input receives.
+enum Source {
+    Texture(TexLookup),
+    Primvar(PrimvarLookup),
+    /// A texture that is unavailable: its fallback value.
+    Fallback([f32; 4]),
+}
+
+/// A scalar input: its constant, or what its connection supplies (a texture's `rgb` read as
+/// its red channel).
+fn float_input(c: f32, source: Option<Source>) -> FloatInput {
+    match source {
+        None => FloatInput::Const(c),
+        Some(Source::Texture(mut t)) => {
+            if t.channel == Channel::Rgb {
+                t.channel = Channel::R;
+            }
+            FloatInput::Texture(t)
+        }
+        Some(Source::Primvar(l)) => FloatInput::Primvar(l),
+        Some(Source::Fallback(fb)) => FloatInput::Const(fb[0]),
+    }
+}
+
 struct Ctx<'a> {
     nodes: &'a BTreeMap<String, Node>,
     textures: &'a dyn Fn(&str) -> Option<TexState>,
@@ -165,31 +189,71 @@ impl Ctx<'_> {
         self.nodes.get(node).and_then(|n| n.id.as_deref())
     }
 
-    /// Resolves a connection of `node.input` to a UsdUVTexture; `None` if not connected or
-    /// unusable (a problem is recorded and the caller uses its constant).
-    fn texture_input(&mut self, node: &str, input: &str) -> Option<Result<TexLookup, [f32; 4]>> {
+    /// What the connection of `node.input` supplies; `None` if not connected or unusable (a
+    /// problem is recorded and the caller uses its constant).
+    fn source(&mut self, node: &str, input: &str) -> Option<Source> {
         let (up, output) = self.nodes[node].connects.get(input)?.clone();
-        let attr = format!("{}.inputs:{}", node, input);
-        if !self.nodes.contains_key(&up) {
-            self.p.add(&attr, format!("connected to '{}', which is not a node of this material; using the constant value", up));
+        self.connection(&format!("{}.inputs:{}", node, input), &up, &output)
+    }
+
+    /// What output `output` of node `up`, connected to the attribute `attr`, supplies: a
+    /// UsdUVTexture's lookup (or its fallback), or a UsdPrimvarReader's primvar.
+    fn connection(&mut self, attr: &str, up: &str, output: &str) -> Option<Source> {
+        if !self.nodes.contains_key(up) {
+            self.p.add(attr, format!("connected to '{}', which is not a node of this material; using the constant value", up));
             return None;
         }
-        if self.node_id(&up) != Some("UsdUVTexture") {
-            self.p.add(&attr, format!("connected to a '{}' node; only UsdUVTexture outputs are supported here; using the constant value", self.node_id(&up).unwrap_or("")));
-            return None;
+        match self.node_id(up) {
+            Some("UsdUVTexture") => {}
+            Some(id) if id.starts_with("UsdPrimvarReader_") && id != "UsdPrimvarReader_string" => {
+                if output != "result" {
+                    self.p.add(attr, format!("unknown {} output '{}'; using the constant value", id, output));
+                    return None;
+                }
+                return Some(Source::Primvar(self.primvar_reader(up)));
+            }
+            other => {
+                self.p.add(
+                    attr,
+                    format!("connected to a '{}' node; only UsdUVTexture and UsdPrimvarReader outputs are supported here; using the constant value", other.unwrap_or("")),
+                );
+                return None;
+            }
         }
-        let channel = match output.as_str() {
+        let channel = match output {
             "rgb" => Channel::Rgb,
             "r" => Channel::R,
             "g" => Channel::G,
             "b" => Channel::B,
             "a" => Channel::A,
             other => {
-                self.p.add(&attr, format!("unknown UsdUVTexture output '{}'; using the constant value", other));
+                self.p.add(attr, format!("unknown UsdUVTexture output '{}'; using the constant value", other));
                 return None;
             }
         };
-        Some(self.uv_texture(&up, channel))
+        Some(match self.uv_texture(up, channel) {
+            Ok(t) => Source::Texture(t),
+            Err(fb) => Source::Fallback(fb),
+        })
+    }
+
+    /// A UsdPrimvarReader: the primvar its `varname` names, and its `fallback` (a scalar
+    /// fills three components, as the primvar's own value does).
+    fn primvar_reader(&mut self, node: &str) -> PrimvarLookup {
+        let name = self.nodes[node].inputs.get("varname").and_then(|v| v.as_str()).unwrap_or("").to_string();
+        if name.is_empty() {
+            self.p.add(&format!("{}.inputs:varname", node), "names no primvar; the reader gives its fallback");
+        }
+        let mut fallback = [0.0; 4];
+        match self.nodes[node].inputs.get("fallback").map(|v| v.to_f32s()) {
+            None => {}
+            Some(Some(v)) if v.iter().all(|x| x.is_finite()) && !v.is_empty() => match v[..] {
+                [x] => fallback = [x, x, x, 0.0],
+                _ => v.iter().take(4).enumerate().for_each(|(i, x)| fallback[i] = *x),
+            },
+            Some(_) => self.p.add(&format!("{}.inputs:fallback", node), "expected finite numbers; using 0"),
+        }
+        PrimvarLookup { name, fallback }
     }
 
     /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
@@ -207,7 +271,7 @@ impl Ctx<'_> {
         let tex_scale = self.input_vec(tex, "scale", [1.0; 4]);
         let bias = self.input_vec(tex, "bias", [0.0; 4]);
         let cs = self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto");
-        let (scale, rotation_deg, translation) = self.st_transform(tex);
+        let (scale, rotation_deg, translation, uv_set) = self.st_transform(tex);
         let file_attr = format!("{}.inputs:file", tex);
         let Some(asset) = self.nodes[tex].inputs.get("file").and_then(|v| v.as_str()).map(String::from) else {
             self.p.add(&file_attr, "no texture file; using the fallback value");
@@ -235,15 +299,16 @@ impl Ctx<'_> {
                 self.used.len() - 1
             }
         };
-        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback })
+        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback, uv_set })
     }
 
-    /// The `st` input of a texture: a primvar reader, optionally through UsdTransform2d.
-    fn st_transform(&mut self, tex: &str) -> (Vec2, f32, Vec2) {
+    /// The `st` input of a texture: a primvar reader, optionally through UsdTransform2d. The
+    /// mesh's texture coordinates (`st`, `st0` or `uv`) are `uvs`; another primvar is a uv set.
+    fn st_transform(&mut self, tex: &str) -> (Vec2, f32, Vec2, Option<PrimvarLookup>) {
         let mut scale = Vec2::ONE;
         let mut rot = 0.0;
         let mut trans = Vec2::ZERO;
-        let Some((mut up, _)) = self.nodes[tex].connects.get("st").cloned() else { return (scale, rot, trans) };
+        let Some((mut up, _)) = self.nodes[tex].connects.get("st").cloned() else { return (scale, rot, trans, None) };
         if self.node_id(&up) == Some("UsdTransform2d") {
             let s = self.input_vec(&up, "scale", [1.0, 1.0]);
             let t = self.input_vec(&up, "translation", [0.0, 0.0]);
@@ -252,52 +317,44 @@ impl Ctx<'_> {
             rot = self.input_f32(&up, "rotation", 0.0);
             match self.nodes[&up].connects.get("in").cloned() {
                 Some((u, _)) => up = u,
-                None => return (scale, rot, trans),
+                None => return (scale, rot, trans, None),
             }
         }
-        match self.node_id(&up) {
-            Some(id) if id.starts_with("UsdPrimvarReader_") => {
-                let var = self.nodes[&up].inputs.get("varname").and_then(|v| v.as_str()).unwrap_or("st").to_string();
-                if !["st", "st0", "uv", ""].contains(&var.as_str()) {
-                    self.p.add(&format!("{}.inputs:varname", up), format!("reads primvar '{}'; only the mesh's st (st0, uv) texture coordinates are available, which are used instead", var));
-                }
-            }
+        let uv_set = match self.node_id(&up) {
+            Some(id) if id.starts_with("UsdPrimvarReader_") => Some(self.primvar_reader(&up)).filter(|l| !["st", "st0", "uv", ""].contains(&l.name.as_str())),
             other => {
                 self.p.add(&format!("{}.inputs:st", tex), format!("st comes from a '{}' node; using the mesh's st", other.unwrap_or("unknown")));
+                None
             }
-        }
-        (scale, rot, trans)
+        };
+        (scale, rot, trans, uv_set)
     }
 
     fn color(&mut self, node: &str, name: &str, default: [f32; 3]) -> ColorInput {
         let c = self.input_vec(node, name, default);
-        match self.texture_input(node, name) {
+        match self.source(node, name) {
             None => ColorInput::Const(c),
-            Some(Ok(t)) => ColorInput::Texture(t),
-            Some(Err(fb)) => ColorInput::Const([fb[0], fb[1], fb[2]]),
+            Some(Source::Texture(t)) => ColorInput::Texture(t),
+            Some(Source::Primvar(l)) => ColorInput::Primvar(l),
+            Some(Source::Fallback(fb)) => ColorInput::Const([fb[0], fb[1], fb[2]]),
         }
     }
 
     fn float(&mut self, node: &str, name: &str, default: f32) -> FloatInput {
         let c = self.input_f32(node, name, default);
-        match self.texture_input(node, name) {
-            None => FloatInput::Const(c),
-            Some(Ok(mut t)) => {
-                if t.channel == Channel::Rgb {
-                    t.channel = Channel::R;
-                }
-                FloatInput::Texture(t)
-            }
-            Some(Err(fb)) => FloatInput::Const(fb[0]),
-        }
+        float_input(c, self.source(node, name))
     }
 
     fn preview(&mut self, n: &str) -> PreviewSurfaceDesc {
         let d = PreviewSurfaceDesc::default();
-        let normal = match self.texture_input(n, "normal") {
-            Some(Ok(mut t)) => {
+        let normal = match self.source(n, "normal") {
+            Some(Source::Texture(mut t)) => {
                 t.channel = Channel::Rgb;
                 Some(t)
+            }
+            Some(Source::Primvar(_)) => {
+                self.p.add(&format!("{}.inputs:normal", n), "a normal from a primvar is not supported; the surface's own normal is used");
+                None
             }
             _ => None,
         };
@@ -457,13 +514,17 @@ impl Ctx<'_> {
 const WET_ATTRS: [&str; 3] = ["tide:wet:amount", "tide:wet:ior", "tide:wet:waterCompliant"];
 
 /// The material's wetness: present when any `tide:wet:` attribute arrived (the reader sends all
-/// three, defaults included, for a material with `TideWetAPI` applied).
-fn wetness(store: &AttrStore, p: &mut Problems) -> Option<WetDesc> {
-    if !WET_ATTRS.iter().any(|a| store.has(a)) {
+/// three, defaults included, for a material with `TideWetAPI` applied). `tide:wet:amount` may
+/// be connected (`tide:wet:amount.connect`) to a UsdUVTexture or UsdPrimvarReader output of the
+/// material: a wetness mask.
+fn wetness(store: &AttrStore, ctx: &mut Ctx) -> Option<WetDesc> {
+    let connect = format!("{}.connect", WET_ATTRS[0]);
+    if !WET_ATTRS.iter().chain([&connect.as_str()]).any(|a| store.has(a)) {
         return None;
     }
+    let p = &mut ctx.p;
     let d = WetDesc::default();
-    let mut amount = store.f32_or(WET_ATTRS[0], d.amount, p);
+    let mut amount = store.f32_or(WET_ATTRS[0], 0.0, p);
     if !(0.0..=1.0).contains(&amount) {
         let clamped = amount.clamp(0.0, 1.0);
         p.add(WET_ATTRS[0], format!("{} is outside [0, 1]; using {}", amount, clamped));
@@ -475,7 +536,9 @@ fn wetness(store: &AttrStore, p: &mut Problems) -> Option<WetDesc> {
         ior = d.ior;
     }
     let water_compliant = store.bool_or(WET_ATTRS[2], d.water_compliant, p);
-    Some(WetDesc { amount, ior, water_compliant })
+    let connected = store.str_opt(&connect).map(split_target);
+    let source = connected.and_then(|(up, output)| ctx.connection(WET_ATTRS[0], &up, &output));
+    Some(WetDesc { amount: float_input(amount, source), ior, water_compliant })
 }
 
 /// The node path of a terminal attribute (`surface`, `volume`), accepting `"/N.outputs:x"`.
@@ -529,10 +592,10 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         (Some(v), None) => Some(v),
         (None, linked) => linked.map(|(_, up)| up),
     };
-    if let Some(w) = wetness(store, &mut ctx.p) {
+    if let Some(w) = wetness(store, &mut ctx) {
         match &mut desc.surface {
             SurfaceDesc::Preview(p) => p.wet = Some(w),
-            _ if w.amount > 0.0 || !w.water_compliant => ctx.p.add(
+            _ if w.amount != FloatInput::Const(0.0) || !w.water_compliant => ctx.p.add(
                 WET_ATTRS[0],
                 "TideWetAPI covers a UsdPreviewSurface; this material's surface is not one, so it renders dry",
             ),
@@ -580,6 +643,9 @@ pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
             }
             if let Some(n) = &mut p.normal {
                 fix(n);
+            }
+            if let Some(w) = &mut p.wet {
+                flt(&mut w.amount);
             }
         }
         _ => {}
@@ -720,19 +786,87 @@ mod tests {
         };
         assert_eq!(conv("UsdPreviewSurface", &[]), (None, vec![]));
         let (w, p) = conv("UsdPreviewSurface", &[("tide:wet:amount", Value::Float(0.7))]);
-        assert_eq!(w, Some(WetDesc { amount: 0.7, ..WetDesc::default() }));
+        assert_eq!(w, Some(WetDesc { amount: FloatInput::Const(0.7), ..WetDesc::default() }));
         assert!(p.is_empty(), "{p:?}");
         let (w, p) = conv(
             "UsdPreviewSurface",
             &[("tide:wet:amount", Value::Float(1.5)), ("tide:wet:ior", Value::Float(0.5)), ("tide:wet:waterCompliant", Value::Bool(false))],
         );
-        assert_eq!(w, Some(WetDesc { amount: 1.0, ior: 1.333, water_compliant: false }));
+        assert_eq!(w, Some(WetDesc { amount: FloatInput::Const(1.0), ior: 1.333, water_compliant: false }));
         let names: Vec<&str> = p.iter().map(|(a, _)| a.as_str()).collect();
         assert_eq!(names, ["tide:wet:amount", "tide:wet:ior"], "{p:?}");
         let (w, p) = conv("TideWater", &[("tide:wet:amount", Value::Float(0.5))]);
         assert_eq!(w, None);
         assert_eq!(p.len(), 1, "{p:?}");
         assert_eq!(p[0].0, "tide:wet:amount");
+        // a mask: the amount connected to a texture channel or to a primvar reader
+        let tex = [("/M/Mask.info:id", tok("UsdUVTexture")), ("/M/Mask.inputs:file", Value::Asset("/tex/albedo.png".into()))];
+        let mut pairs = vec![("tide:wet:amount", Value::Float(0.2)), ("tide:wet:amount.connect", tok("/M/Mask.outputs:g"))];
+        pairs.extend_from_slice(&tex);
+        let (w, p) = conv("UsdPreviewSurface", &pairs);
+        assert!(p.is_empty(), "{p:?}");
+        match w.map(|w| w.amount) {
+            Some(FloatInput::Texture(t)) => assert_eq!((t.texture, t.channel), (0, Channel::G)),
+            other => panic!("{other:?}"),
+        }
+        let (w, p) = conv(
+            "UsdPreviewSurface",
+            &[
+                ("tide:wet:amount.connect", tok("/M/Wet.outputs:result")),
+                ("/M/Wet.info:id", tok("UsdPrimvarReader_float")),
+                ("/M/Wet.inputs:varname", tok("wetness")),
+                ("/M/Wet.inputs:fallback", Value::Float(0.25)),
+            ],
+        );
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!(w.map(|w| w.amount), Some(FloatInput::Primvar(PrimvarLookup { name: "wetness".into(), fallback: [0.25, 0.25, 0.25, 0.0] })));
+        // a connection to no node of the material keeps the constant, and says so
+        let (w, p) = conv("UsdPreviewSurface", &[("tide:wet:amount", Value::Float(0.4)), ("tide:wet:amount.connect", tok("/Elsewhere/T.outputs:r"))]);
+        assert_eq!(w.map(|w| w.amount), Some(FloatInput::Const(0.4)));
+        assert_eq!(p.iter().map(|(a, _)| a.as_str()).collect::<Vec<_>>(), ["tide:wet:amount"], "{p:?}");
+    }
+
+    /// UsdPrimvarReader outputs feed any input: a colour from a float3 primvar, a scalar from a
+    /// float primvar, and a texture's coordinates from a primvar other than st.
+    #[test]
+    fn primvar_readers_feed_inputs_and_texture_coordinates() {
+        let s = mat(&[
+            ("surface", Value::Path("/M/PBR".into())),
+            ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+            ("/M/PBR.inputs:diffuseColor.connect", tok("/M/Cd.outputs:result")),
+            ("/M/Cd.info:id", tok("UsdPrimvarReader_float3")),
+            ("/M/Cd.inputs:varname", Value::String("displayColor".into())),
+            ("/M/Cd.inputs:fallback", Value::Floats { data: vec![0.1, 0.2, 0.3], tuple: 3 }),
+            ("/M/PBR.inputs:roughness.connect", tok("/M/R.outputs:result")),
+            ("/M/R.info:id", tok("UsdPrimvarReader_float")),
+            ("/M/R.inputs:varname", tok("rough")),
+            ("/M/PBR.inputs:metallic.connect", tok("/M/R.outputs:rgb")),
+            ("/M/PBR.inputs:opacity.connect", tok("/M/Tex.outputs:a")),
+            ("/M/Tex.info:id", tok("UsdUVTexture")),
+            ("/M/Tex.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Tex.inputs:st.connect", tok("/M/Uv1.outputs:result")),
+            ("/M/Uv1.info:id", tok("UsdPrimvarReader_float2")),
+            ("/M/Uv1.inputs:varname", tok("st1")),
+            ("/M/PBR.inputs:clearcoat.connect", tok("/M/Tex2.outputs:r")),
+            ("/M/Tex2.info:id", tok("UsdUVTexture")),
+            ("/M/Tex2.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Tex2.inputs:st.connect", tok("/M/Uv0.outputs:result")),
+            ("/M/Uv0.info:id", tok("UsdPrimvarReader_float2")),
+            ("/M/Uv0.inputs:varname", tok("st")),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert_eq!(ps.diffuse_color, ColorInput::Primvar(PrimvarLookup { name: "displayColor".into(), fallback: [0.1, 0.2, 0.3, 0.0] }));
+        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup { name: "rough".into(), fallback: [0.0; 4] }));
+        let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
+        assert_eq!(t.uv_set, Some(PrimvarLookup { name: "st1".into(), fallback: [0.0; 4] }));
+        let FloatInput::Texture(t) = &ps.clearcoat else { panic!("{:?}", ps.clearcoat) };
+        assert_eq!(t.uv_set, None, "st is the mesh's own texture coordinates");
+        // a reader's output other than `result` is named and the constant kept
+        assert_eq!(ps.metallic, FloatInput::Const(0.0));
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["/M/PBR.inputs:metallic"], "{:?}", p.list);
     }
 
     /// The medium named by TideWater's `medium` connection equals the one named by the volume

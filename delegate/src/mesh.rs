@@ -20,7 +20,7 @@
 use crate::subdiv::{self, Refinement, Scheme, Stencil};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
-use tide_core::scene::{MeshDesc, MeshMotion};
+use tide_core::scene::{MeshDesc, MeshMotion, PrimvarData};
 
 /// Triangulates one simple polygon (possibly concave) given its corner positions. Returns
 /// corner triples (indices into `poly`) in the polygon's own winding. Ear clipping is done in
@@ -186,6 +186,56 @@ fn refine_primvar(e: Expanded, r: Option<&Refinement>) -> Expanded {
         Interpolation::FaceVarying => r.face_varying(&e.data, e.tuple),
     };
     Expanded { data, ..e }
+}
+
+/// The primvars a material may read (every primvar of 1 to 4 components but the geometry's
+/// own: `normals`, `widths`, the texture coordinates `uvs_from`, `tide:` and `skel:` ones),
+/// sorted by name.
+pub(crate) fn shading_primvar_names(store: &AttrStore, uvs_from: Option<&str>) -> Vec<String> {
+    let mut names: Vec<String> = store
+        .primvars
+        .iter()
+        .filter(|(n, pv)| {
+            (1..=4).contains(&pv.tuple)
+                && !["normals", "widths"].contains(&n.as_str())
+                && Some(n.as_str()) != uvs_from
+                && !n.starts_with("tide:")
+                && !n.starts_with("skel:")
+        })
+        .map(|(n, _)| n.clone())
+        .collect();
+    names.sort();
+    names
+}
+
+/// The constant primvars a material may read (what an implicit gprim or a curve carries).
+pub(crate) fn constant_primvars(store: &AttrStore, p: &mut Problems) -> Vec<PrimvarData> {
+    shading_primvar_names(store, None)
+        .into_iter()
+        .filter_map(|n| {
+            let pv = store.primvar(&n, Interpolation::Constant)?;
+            if pv.interpolation != Interpolation::Constant {
+                return None;
+            }
+            let e = resolve_primvar(pv.clone(), &n, pv.tuple as usize, 1, 1, 1, p)?;
+            Some(PrimvarData { data: e.element(0, 0, 0).to_vec(), name: n, tuple: e.tuple as u32, constant: true })
+        })
+        .collect()
+}
+
+/// The primvars a material may read of `n` points, of which `kept` are kept: per point
+/// (vertex, varying or faceVarying) or constant (constant or uniform).
+pub(crate) fn point_primvars(store: &AttrStore, n: usize, kept: &[usize], p: &mut Problems) -> Vec<PrimvarData> {
+    shading_primvar_names(store, None)
+        .into_iter()
+        .filter_map(|name| {
+            let pv = store.primvar(&name, Interpolation::Constant)?;
+            let e = resolve_primvar(pv.clone(), &name, pv.tuple as usize, 1, n, n, p)?;
+            let constant = matches!(e.interp, Interpolation::Constant | Interpolation::Uniform);
+            let data = if constant { e.element(0, 0, 0).to_vec() } else { kept.iter().flat_map(|&i| e.element(0, i, i).to_vec()).collect() };
+            Some(PrimvarData { name, tuple: e.tuple as u32, constant, data })
+        })
+        .collect()
 }
 
 /// Reads `points` (Floats 3) and reports non-finite ones; returns the points and a per-point
@@ -536,6 +586,14 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
             .and_then(|pv| resolve_primvar(pv, n, 2, n_faces, n_points, n_corners, p))
             .map(|e| refine_primvar(e, refined.as_ref()))
     });
+    let extra: Vec<(String, Expanded)> = shading_primvar_names(store, st_name)
+        .into_iter()
+        .filter_map(|n| {
+            let pv = store.primvar(&n, Interpolation::Constant)?;
+            let e = resolve_primvar(pv.clone(), &n, pv.tuple as usize, n_faces, n_points, n_corners, p)?;
+            Some((n, refine_primvar(e, refined.as_ref())))
+        })
+        .collect();
     // from here on a subdivided mesh is its refined points and quads
     let (points, fv, stencil) = match refined {
         Some(r) => (r.points, r.face_vertex_indices, Some(r.stencil)),
@@ -544,8 +602,18 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
     let (n_points, n_corners) = (points.len(), fv.len());
 
     let unweld = [&normals, &st]
+        .into_iter()
+        .flatten()
+        .chain(extra.iter().map(|(_, e)| e))
+        .any(|e| matches!(e.interp, Interpolation::Uniform | Interpolation::FaceVarying));
+    let mut primvars: Vec<PrimvarData> = extra
         .iter()
-        .any(|e| e.as_ref().is_some_and(|e| matches!(e.interp, Interpolation::Uniform | Interpolation::FaceVarying)));
+        .map(|(n, e)| {
+            let constant = e.interp == Interpolation::Constant;
+            let data = if constant { e.element(0, 0, 0).to_vec() } else { Vec::new() };
+            PrimvarData { name: n.clone(), tuple: e.tuple as u32, constant, data }
+        })
+        .collect();
 
     // Output vertex per key: the point (welded) or the face corner (unwelded).
     let key_count = if unweld { n_corners } else { n_points };
@@ -572,6 +640,11 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
                     let s = e.element(f as usize, point, corner);
                     out_uv.push(Vec2::new(s[0], s[1]));
                 }
+                for (pv, (_, e)) in primvars.iter_mut().zip(&extra) {
+                    if !pv.constant {
+                        pv.data.extend_from_slice(e.element(f as usize, point, corner));
+                    }
+                }
             }
             indices.push(remap[key]);
         }
@@ -584,6 +657,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         uvs: st.map(|_| out_uv),
         double_sided,
         motion: None,
+        primvars,
     };
     let faces = tris.iter().map(|t| t.0).collect();
     (mesh, sources, faces, stencil)
@@ -758,11 +832,18 @@ mod tests {
             ),
         ];
         for (interp, data, idx, expect) in cases {
-            let s = with_pv(base(), "st", interp, data, 2, idx.clone());
+            // the same values as texture coordinates and as a primvar a material may read
+            let s = with_pv(base(), "st", interp, data.clone(), 2, idx.clone());
+            let s = with_pv(s, "heat", interp, data, 2, idx.clone());
             let mut p = Problems::new("/m");
             let m = convert_mesh("/m", &s, &mut p);
             assert!(p.list.is_empty(), "{:?}", p.list);
             let uvs = m.uvs.as_ref().unwrap();
+            let [heat] = &m.primvars[..] else { panic!("{:?}", m.primvars) };
+            assert_eq!((heat.name.as_str(), heat.tuple, heat.constant), ("heat", 2, interp == Interpolation::Constant));
+            if heat.constant {
+                assert_eq!(heat.data, [7.0, 7.0]);
+            }
             assert_eq!(uvs.len(), m.positions.len());
             assert_eq!(m.indices.len(), 12);
             let unwelded = matches!(interp, Interpolation::Uniform | Interpolation::FaceVarying);
@@ -780,6 +861,7 @@ mod tests {
                     let corner = corner.unwrap();
                     let want = expect(f, fvi[corner] as usize, corner);
                     assert_eq!(uvs[v], Vec2::splat(want), "{:?} {:?} tri {} corner {}", interp, idx, t, k);
+                    assert_eq!(heat.element(v)[..2], [want; 2], "{:?} {:?} tri {} corner {}", interp, idx, t, k);
                 }
             }
         }

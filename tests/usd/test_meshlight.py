@@ -31,14 +31,9 @@ def _panel(stage, path, size, y, facing_up, scale=1.0):
 
 
 def _glow_material(stage, glow):
-    mat = UsdShade.Material.Define(stage, "/Looks/Glow")
-    sh = UsdShade.Shader.Define(stage, "/Looks/Glow/S")
-    sh.CreateIdAttr("UsdPreviewSurface")
-    sh.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
-    sh.CreateInput("useSpecularWorkflow", Sdf.ValueTypeNames.Int).Set(1)
-    sh.CreateInput("specularColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0, 0, 0))
+    mat = lambert_material(stage, "/Looks/Glow", (0, 0, 0))
+    sh = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Glow/S"))
     sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*glow))
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
     return mat
 
 

@@ -259,6 +259,7 @@ fn the_bvh_finds_what_the_primitives_say() {
             orientations: Some(vec![Quat::IDENTITY, Quat::IDENTITY, Quat::from_rotation_z(0.6), Quat::IDENTITY]),
             scales: Some(vec![Vec3::ONE, Vec3::ONE, Vec3::new(2.0, 0.5, 1.0), Vec3::ONE]),
         },
+        primvars: Vec::new(),
     };
     let bs = bubbles();
     let bub = SpheresDesc {
@@ -267,6 +268,7 @@ fn the_bvh_finds_what_the_primitives_say() {
         radii: bs.iter().map(|b| b.r).collect(),
         velocities: None,
         shape: PointShape::Bubbles { top: bs.iter().map(|b| b.top).collect(), bottom: bs.iter().map(|b| b.bottom).collect(), orientations: Some(bs.iter().map(|b| b.rot).collect()) },
+        primvars: Vec::new(),
     };
     let m = Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0));
     let instances = vec![

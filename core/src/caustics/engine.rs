@@ -654,7 +654,7 @@ impl Caustics {
                 first = false;
             }
             let mat_i = world.instances[inst].material;
-            let opacity = world.opacity(mat_i, s_hit.uv);
+            let opacity = world.opacity(mat_i, &s_hit);
             if opacity < 1.0 && stream.next_f32() >= opacity {
                 cross_on!();
             }

@@ -165,7 +165,7 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
         }
     }
     let normals = vec![Vec3::Y; positions.len()];
-    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), double_sided: false, motion: None };
+    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), double_sided: false, motion: None, primvars: Vec::new() };
     Ok((mesh, Some(skirt)))
 }
 
@@ -255,7 +255,7 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
     }
 
     let (max, delta, offset) = (b.max, b.delta, b.offset);
-    let mesh = MeshDesc { name: "TideOcean".to_string(), positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None };
+    let mesh = MeshDesc { name: "TideOcean".to_string(), positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars: Vec::new() };
     Ok((mesh, b.rim, max, delta, offset))
 }
 

@@ -1727,6 +1727,18 @@ class Reader:
                 st.set(key, ("path", ""))
         # the material's own tide: attributes (TideWetAPI's, fallbacks included once applied)
         self._tide_attrs(prim, st)
+        # a wetness mask: tide:wet:amount connected to a shader output of the material
+        amount = prim.GetAttribute("tide:wet:amount")
+        targets = amount.GetConnections() if amount else []
+        if targets:
+            up = targets[0]
+            node = prim.GetStage().GetPrimAtPath(up.GetPrimPath())
+            if node and node.IsA(UsdShade.Shader) and up.name.startswith("outputs:"):
+                st.set("tide:wet:amount.connect", ("token", str(up)))
+                queue.append(UsdShade.Shader(node))
+            else:
+                self.problem(path, "tide:wet:amount", "connected to '%s', which is not a shader "
+                             "output; the authored amount is used" % up)
         done = set()
         while queue:
             shader = queue.pop(0)

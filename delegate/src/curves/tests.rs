@@ -294,3 +294,27 @@ fn moving_points_move_every_tube_vertex() {
     assert!(velocities[0].length() < 1e-6);
 }
 
+
+#[test]
+fn primvars_reach_every_vertex_through_the_curves_rules() {
+    // three linear curves, the middle one (a single vertex) dropped: uniform values keep their
+    // curve's, vertex values are interpolated along it, constant ones stay constant
+    let pts = [Vec3::ZERO, Vec3::X, Vec3::new(5.0, 0.0, 0.0), Vec3::new(0.0, 5.0, 0.0), Vec3::new(2.0, 5.0, 0.0)];
+    let mut s = store(&pts, &[2, 1, 2], &[("type", tok("linear"))]);
+    primvar(&mut s, "widths", Interpolation::Constant, &[0.2], 1);
+    primvar(&mut s, "tag", Interpolation::Uniform, &[10.0, 20.0, 30.0], 1);
+    primvar(&mut s, "heat", Interpolation::Vertex, &[0.0, 1.0, 7.0, 2.0, 4.0], 1);
+    primvar(&mut s, "tint", Interpolation::Constant, &[0.1, 0.2, 0.3], 3);
+    let (g, _) = convert(&s);
+    let m = &g.mesh;
+    let find = |n: &str| m.primvars.iter().find(|p| p.name == n).unwrap_or_else(|| panic!("{n} in {:?}", m.primvars));
+    let (tag, heat, tint) = (find("tag"), find("heat"), find("tint"));
+    assert!(!tag.constant && !heat.constant && tint.constant);
+    assert_eq!(tint.data, [0.1, 0.2, 0.3]);
+    assert_eq!((tag.data.len(), heat.data.len()), (m.positions.len(), m.positions.len()));
+    for (v, p) in m.positions.iter().enumerate() {
+        let (want_tag, want_heat) = if p.y < 1.0 { (10.0, p.x) } else { (30.0, 2.0 + p.x) };
+        assert_eq!(tag.data[v], want_tag, "vertex {v} at {p}");
+        assert!((heat.data[v] - want_heat).abs() < 1e-5, "vertex {v} at {p}: {}", heat.data[v]);
+    }
+}

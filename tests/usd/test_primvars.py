@@ -1,0 +1,246 @@
+"""Primvars into materials: UsdPrimvarReader outputs connected to UsdPreviewSurface inputs
+(per face, per vertex, per point, constant), texture coordinates from a primvar other than st,
+an unbound gprim's varying displayColor, and a wetness mask (`tide:wet:amount` connected to a
+texture or a primvar reader). Emission seen directly and diffuse surfaces under a white dome
+read their values back."""
+import numpy as np
+import OpenEXR
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from conftest import bind, camera, lambert_material, render, settings
+
+RES = 32
+HALF = 2.0  # the panels span [-HALF, HALF] in x and z
+
+
+def _top_camera(stage):
+    """An orthographic camera looking down -Y at the 2 HALF square: column i sees x at
+    -HALF + (i + 0.5) 2 HALF / RES, row j sees z at -HALF + (j + 0.5) 2 HALF / RES."""
+    cam = camera(stage, pos=(0, 5, 0), aperture=(20 * HALF, 20 * HALF), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+
+
+def _panel(stage, path, columns=2):
+    """`columns` quads side by side along x, facing up (+Y), covering the square."""
+    m = UsdGeom.Mesh.Define(stage, path)
+    xs = np.linspace(-HALF, HALF, columns + 1)
+    pts = [(x, 0, z) for x in xs for z in (-HALF, HALF)]
+    m.CreatePointsAttr(pts)
+    m.CreateFaceVertexCountsAttr([4] * columns)
+    # point 2i is (x_i, -HALF), 2i+1 is (x_i, HALF): counter-clockwise seen from +Y
+    m.CreateFaceVertexIndicesAttr([k for i in range(columns) for k in (2 * i, 2 * i + 1, 2 * i + 3, 2 * i + 2)])
+    return m
+
+
+def _black(stage, path):
+    """A black Lambertian UsdPreviewSurface material and its shader, to glow through its
+    emissiveColor."""
+    mat = lambert_material(stage, path, (0, 0, 0))
+    return mat, UsdShade.Shader(stage.GetPrimAtPath(path + "/S"))
+
+
+def _glow(stage, reader_id, varname, out_type, fallback=None):
+    """A black surface whose emissiveColor is a primvar reader's result."""
+    mat, sh = _black(stage, "/Looks/Glow")
+    rd = UsdShade.Shader.Define(stage, "/Looks/Glow/Reader")
+    rd.CreateIdAttr(reader_id)
+    rd.CreateInput("varname", Sdf.ValueTypeNames.Token).Set(varname)
+    if fallback is not None:
+        rd.CreateInput("fallback", out_type).Set(fallback)
+    rd.CreateOutput("result", out_type)
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(rd.ConnectableAPI(), "result")
+    return mat
+
+
+def _near(pixels, want):
+    """The mean of `pixels` (N x 3) is `want` within 4 standard errors (hero-wavelength colour
+    noise) plus 0.5 % and 1e-3 for the spectral round trip."""
+    px = np.asarray(pixels, dtype=np.float64).reshape(-1, 3)
+    mean, se = px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
+    want = np.broadcast_to(np.asarray(want, dtype=np.float64), mean.shape)
+    return bool(np.all(np.abs(mean - want) < 4 * se + 0.005 * want + 1e-3)), (mean, se, want)
+
+
+def _seen(stage, samples=16):
+    """Settings for emission seen directly."""
+    settings(stage, res=(RES, RES), samples=samples, integrator="path")
+
+
+def test_a_per_face_primvar_colours_each_face(renderer, stage):
+    _top_camera(stage)
+    m = _panel(stage, "/Panel")
+    glow = [(0.8, 0.2, 0.1), (0.1, 0.3, 0.9)]
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("glow", Sdf.ValueTypeNames.Color3fArray,
+                                                   UsdGeom.Tokens.uniform).Set(glow)
+    bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float3", "glow", Sdf.ValueTypeNames.Float3))
+    _seen(stage)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    # emission seen directly, through the spectral round trip: 1 %
+    left, right = img[:, 2:RES // 2 - 2], img[:, RES // 2 + 2:-2]
+    ok, why = _near(left, glow[0])
+    assert ok, why
+    ok, why = _near(right, glow[1])
+    assert ok, why
+
+
+def test_a_per_vertex_primvar_is_interpolated_across_the_face(renderer, stage):
+    """A scalar 0 at x = -HALF and 1 at x = HALF, read by UsdPrimvarReader_float into a colour
+    input (a scalar fills the three components): each column glows (x + HALF) / (2 HALF)."""
+    _top_camera(stage)
+    m = _panel(stage, "/Panel", columns=1)
+    heat = [0.0, 0.0, 1.0, 1.0]  # points (-H,-H) (-H,H) (H,-H) (H,H)
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("heat", Sdf.ValueTypeNames.FloatArray,
+                                                   UsdGeom.Tokens.vertex).Set(heat)
+    bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float", "heat", Sdf.ValueTypeNames.Float))
+    _seen(stage)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    for i in range(RES):
+        ok, why = _near(img[:, i], (i + 0.5) / RES)
+        assert ok, (i, why)
+
+
+def test_an_absent_primvar_gives_the_readers_fallback(renderer, stage):
+    _top_camera(stage)
+    m = _panel(stage, "/Panel")
+    bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float3", "nowhere",
+                            Sdf.ValueTypeNames.Float3, Gf.Vec3f(0.2, 0.4, 0.6)))
+    _seen(stage, samples=4)
+    ok, why = _near(render(renderer, stage)["color"][..., :3], (0.2, 0.4, 0.6))
+    assert ok, why
+
+
+def _white_dome(stage):
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
+
+
+def test_varying_display_colors_of_an_unbound_mesh(renderer, stage):
+    """Under a white dome of radiance 1 a Lambertian surface that sees the whole sky reflects
+    its albedo: each face of an unbound mesh its own displayColor."""
+    _top_camera(stage)
+    _white_dome(stage)
+    m = _panel(stage, "/Panel")
+    faces = [(0.7, 0.3, 0.2), (0.2, 0.5, 0.6)]
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                   UsdGeom.Tokens.uniform).Set(faces)
+    settings(stage, res=(RES, RES), samples=16, integrator="path", maxDepth=1)
+    img = render(renderer, stage)["color"][..., :3]
+    for part, want in ((img[:, 1:RES // 2 - 1], faces[0]), (img[:, RES // 2 + 1:-1], faces[1])):
+        ok, why = _near(part, want)
+        assert ok, why
+
+
+def test_varying_display_colors_of_unbound_points(renderer, stage):
+    """The same for the spheres of a Points prim with a displayColor per point, seen at their
+    tops (which see the whole sky: the other ball lies below their horizon)."""
+    _top_camera(stage)
+    _white_dome(stage)
+    pts = UsdGeom.Points.Define(stage, "/Balls")
+    pts.CreatePointsAttr([(-1, 0, 0), (1, 0, 0)])
+    pts.CreateWidthsAttr([0.8, 0.8])
+    balls = [(0.9, 0.9, 0.1), (0.1, 0.8, 0.3)]
+    pts.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(balls)
+    settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    img = render(renderer, stage)["color"][..., :3]
+    # x = -1 and 1 are the columns around RES/4 and 3 RES/4; z = 0 the middle rows
+    for col, want in ((RES // 4, balls[0]), (3 * RES // 4, balls[1])):
+        ok, why = _near(img[RES // 2 - 1:RES // 2 + 1, col - 1:col + 1], want)
+        assert ok, why
+
+
+def _write_exr(path, rgb):
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"RGB": rgb}).write(str(path))
+
+
+def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
+    """A texture red on its left half and blue on its right, read through st1 (the panel's st
+    is all zero): the panel shows it mirrored, as st1 runs from 1 at x = -HALF to 0."""
+    tex_file = tmp_path / "halves.exr"
+    _write_exr(tex_file, [[(1, 0, 0), (1, 0, 0), (0, 0, 1), (0, 0, 1)]])
+    _top_camera(stage)
+    m = _panel(stage, "/Panel", columns=1)
+    pv = UsdGeom.PrimvarsAPI(m.GetPrim())
+    pv.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set([(0, 0)] * 4)
+    pv.CreatePrimvar("st1", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(1, 0), (1, 1), (0, 0), (0, 1)])
+    mat, sh = _black(stage, "/Looks/T")
+    tex = UsdShade.Shader.Define(stage, "/Looks/T/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
+    tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    uv = UsdShade.Shader.Define(stage, "/Looks/T/Uv")
+    uv.CreateIdAttr("UsdPrimvarReader_float2")
+    uv.CreateInput("varname", Sdf.ValueTypeNames.String).Set("st1")
+    uv.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+    tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(uv.ConnectableAPI(), "result")
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(m.GetPrim(), mat)
+    _seen(stage, samples=4)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    for part, want in ((img[:, :RES // 4], (0, 0, 1)), (img[:, -RES // 4:], (1, 0, 0))):
+        ok, why = _near(part, want)
+        assert ok, why
+
+
+def _wet_stage(amount, connect=None):
+    """A grey Lambertian panel under the white dome wearing TideWetAPI with `amount` (the
+    authored value) and, with `connect`, a function that authors its mask and connects it."""
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    _top_camera(s)
+    _white_dome(s)
+    m = _panel(s, "/Panel")
+    mat = lambert_material(s, "/Looks/Grey", (0.5, 0.5, 0.5))
+    mat.GetPrim().ApplyAPI("TideWetAPI")
+    attr = mat.GetPrim().GetAttribute("tide:wet:amount")
+    attr.Set(amount)
+    if connect is not None:
+        connect(s, m, mat, attr)
+    bind(m.GetPrim(), mat)
+    settings(s, res=(RES, RES), samples=16, integrator="path", maxDepth=2)
+    return s
+
+
+@pytest.mark.parametrize("mask", ["texture", "primvar"])
+def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
+    """The left half wet (mask 1) and the right half dry (mask 0) match, pixel for pixel, the
+    panel wet all over and dry all over; the authored amount (0.5) is not used."""
+    def by_texture(s, m, mat, attr):
+        f = tmp_path / "mask.exr"
+        _write_exr(f, [[(1, 1, 1), (1, 1, 1), (0, 0, 0), (0, 0, 0)]])
+        tex = UsdShade.Shader.Define(s, "/Looks/Grey/Mask")
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(f))
+        tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+        out = tex.CreateOutput("r", Sdf.ValueTypeNames.Float)
+        UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+            [(0, 0), (0, 1), (0.5, 0), (0.5, 1), (1, 0), (1, 1)])
+        attr.AddConnection(out.GetAttr().GetPath())
+
+    def by_primvar(s, m, mat, attr):
+        UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "wetness", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.uniform).Set([1.0, 0.0])
+        rd = UsdShade.Shader.Define(s, "/Looks/Grey/Wet")
+        rd.CreateIdAttr("UsdPrimvarReader_float")
+        rd.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("wetness")
+        out = rd.CreateOutput("result", Sdf.ValueTypeNames.Float)
+        attr.AddConnection(out.GetAttr().GetPath())
+
+    masked = render(renderer, _wet_stage(0.5, by_texture if mask == "texture" else by_primvar))
+    wet = render(renderer, _wet_stage(1.0))["color"][..., :3].astype(np.float64)
+    dry = render(renderer, _wet_stage(0.0))["color"][..., :3].astype(np.float64)
+    half = render(renderer, _wet_stage(0.5))["color"][..., :3].astype(np.float64)
+    got = masked["color"][..., :3].astype(np.float64)
+    # a texel's bilinear blend reaches a quarter of the panel from the middle: compare the
+    # outer quarters, where the mask is 1 and 0
+    q = RES // 4
+    if mask == "primvar":
+        q = RES // 2 - 1
+    assert np.allclose(got[:, :q], wet[:, :q], rtol=1e-4, atol=1e-5)
+    assert np.allclose(got[:, -q:], dry[:, -q:], rtol=1e-4, atol=1e-5)
+    # the film darkens, so the test can tell wet from dry and from the authored half amount
+    assert wet.mean() < 0.9 * half.mean() < 0.9 * dry.mean(), (wet.mean(), half.mean(), dry.mean())
