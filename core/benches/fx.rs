@@ -74,6 +74,7 @@ fn main() {
         id: 0,
         visible_to_camera: true,
         casts_shadows: true,
+        primvar_row: None,
     }];
     let mut out = Vec::new();
     let mut rates = Vec::new();

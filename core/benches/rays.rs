@@ -110,6 +110,7 @@ fn main() {
         id: 0,
         visible_to_camera: true,
         casts_shadows: true,
+        primvar_row: None,
     };
     let accel = Accel::build(&[mesh], &[], &[inst], (0.0, 0.0));
     let st = &accel.stats;

@@ -473,6 +473,19 @@ pub struct InstanceDesc {
     pub id: u32,
     pub visible_to_camera: bool,
     pub casts_shadows: bool,
+    /// Its own primvar values: (table in [`SceneDesc::instance_primvars`], row).
+    pub primvar_row: Option<(u32, u32)>,
+}
+
+/// Primvars that vary per instance (a PointInstancer's, or those native instances inherit):
+/// each non-constant [`PrimvarData`] holds one element per row. An instance's value comes
+/// after its geometry's varying primvar of the same name and before its constant one.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct InstancePrimvars {
+    /// Name (the instancing prim's path) used in messages.
+    pub name: String,
+    pub rows: u32,
+    pub primvars: Vec<PrimvarData>,
 }
 
 /// A scalar grid (an OpenVDB field) as dense values: the value `[i, j, k]` (x fastest) sits
@@ -705,6 +718,8 @@ pub struct SceneDesc {
     pub meshes: Vec<MeshDesc>,
     pub spheres: Vec<SpheresDesc>,
     pub instances: Vec<InstanceDesc>,
+    /// Per-instance primvar tables ([`InstanceDesc::primvar_row`]).
+    pub instance_primvars: Vec<InstancePrimvars>,
     pub materials: Vec<MaterialDesc>,
     pub media: Vec<MediumDesc>,
     pub textures: Vec<TextureDesc>,

@@ -394,6 +394,18 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     // instances
     let n_mat = s.materials.len();
     let (n_mesh, n_sph) = (s.meshes.len(), s.spheres.len());
+    for t in &mut s.instance_primvars {
+        check_primvars(&mut t.primvars, t.rows as usize, &t.name, &mut p);
+    }
+    let n_tables = s.instance_primvars.len();
+    for inst in &mut s.instances {
+        if let Some((t, r)) = inst.primvar_row {
+            if t as usize >= n_tables || r >= s.instance_primvars[t as usize].rows {
+                problem(&mut p, &inst.name, "primvars", "refers to per-instance primvars that do not exist; ignored");
+                inst.primvar_row = None;
+            }
+        }
+    }
     s.instances.retain_mut(|inst| {
         let ok_geom = match inst.geometry {
             GeometryRef::Mesh(i) => i < n_mesh,

@@ -94,6 +94,7 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
             id: v.id,
             visible_to_camera: v.visible_to_camera,
             casts_shadows: v.casts_shadows,
+            primvar_row: None,
         });
     }
     Expanded { scene: s, grids, boundary_materials }

@@ -118,6 +118,8 @@ pub struct InstanceInfo {
     pub id: u32,
     pub visible_to_camera: bool,
     pub casts_shadows: bool,
+    /// Its own primvar values: (table in [`World::instance_primvars`], row).
+    pub primvar_row: Option<(u32, u32)>,
 }
 
 /// Geometry at a hit point (world space).
@@ -155,6 +157,8 @@ pub struct World {
     pub meshes: Vec<MeshDesc>,
     /// Per sphere set, its primvars (the meshes carry theirs).
     pub sphere_primvars: Vec<Vec<PrimvarData>>,
+    /// Per-instance primvar tables ([`InstanceInfo::primvar_row`]).
+    pub instance_primvars: Vec<InstancePrimvars>,
     pub materials: Vec<Material>,
     pub media: Vec<Medium>,
     pub textures: Vec<TextureDesc>,
@@ -409,7 +413,7 @@ impl World {
         let instances = scene
             .instances
             .iter()
-            .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows })
+            .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows, primvar_row: i.primvar_row })
             .collect();
         let any_caster_tagged = scene.caustics.objects.iter().any(|(_, o)| o.caster == Some(true));
         let caustic_instances = scene
@@ -430,6 +434,7 @@ impl World {
             instances,
             meshes: scene.meshes.clone(),
             sphere_primvars: scene.spheres.iter().map(|s| s.primvars.clone()).collect(),
+            instance_primvars: scene.instance_primvars.clone(),
             materials,
             media,
             textures: scene.textures.clone(),
@@ -562,16 +567,29 @@ impl World {
         }
     }
 
-    /// The primvar `name` of the geometry at a hit: interpolated over a triangle, a sphere's
-    /// own value, or None where the geometry has no such primvar.
+    /// The primvar `name` at a hit: the geometry's varying one (interpolated over a triangle,
+    /// or a sphere's own value), else the instance's, else the geometry's constant one; None
+    /// where there is no such primvar.
     pub fn primvar(&self, s: &SurfaceHit, name: &str) -> Option<[f32; 4]> {
-        match self.instances.get(s.instance as usize)?.geometry {
+        let info = self.instances.get(s.instance as usize)?;
+        let own = match info.geometry {
+            GeometryRef::Mesh(mi) => self.meshes[mi].primvars.iter().find(|p| p.name == name),
+            GeometryRef::Spheres(si) => self.sphere_primvars.get(si)?.iter().find(|p| p.name == name),
+        };
+        match own {
+            Some(pv) if !pv.constant => {}
+            constant => {
+                let row = info.primvar_row.and_then(|(t, r)| Some((self.instance_primvars.get(t as usize)?.primvars.iter().find(|p| p.name == name)?, r)));
+                return match row {
+                    Some((pv, r)) => Some(pv.element(r as usize)),
+                    None => constant.map(|pv| pv.element(0)),
+                };
+            }
+        }
+        let pv = own?;
+        match info.geometry {
             GeometryRef::Mesh(mi) => {
                 let mesh = &self.meshes[mi];
-                let pv = mesh.primvars.iter().find(|p| p.name == name)?;
-                if pv.constant {
-                    return Some(pv.element(0));
-                }
                 let i = 3 * s.prim as usize;
                 let w = [1.0 - s.bary.x - s.bary.y, s.bary.x, s.bary.y];
                 let mut out = [0.0; 4];
@@ -583,7 +601,7 @@ impl World {
                 }
                 Some(out)
             }
-            GeometryRef::Spheres(si) => self.sphere_primvars.get(si)?.iter().find(|p| p.name == name).map(|pv| pv.element(s.prim as usize)),
+            GeometryRef::Spheres(_) => Some(pv.element(s.prim as usize)),
         }
     }
 
@@ -721,7 +739,7 @@ mod tests {
     }
 
     fn inst(g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
-        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true }
+        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }
     }
 
     #[test]
@@ -807,6 +825,21 @@ mod tests {
         assert_eq!(w.st(&tex, &sh), Vec2::new(0.1, 0.2));
         tex.uv_set = Some(look("absent"));
         assert_eq!(w.st(&tex, &sh), Vec2::new(0.9, 0.8));
+        // an instance's own values come between the geometry's varying and constant ones
+        let mut s2 = s.clone();
+        s2.instances[0].primvar_row = Some((0, 1));
+        let row = |name: &str, data: Vec<f32>, tuple| PrimvarData { name: name.into(), tuple, constant: false, data };
+        s2.instance_primvars.push(InstancePrimvars {
+            name: "/instancer".into(),
+            rows: 2,
+            primvars: vec![row("tint", vec![0.0, 0.0, 0.0, 0.4, 0.5, 0.6], 3), row("heat", vec![8.0, 9.0], 1), row("mood", vec![3.0, 4.0], 1)],
+        });
+        let w2 = World::build(&s2, &RenderSettings::default(), &mut Vec::new());
+        let ray = Ray { o: Vec3::new(0.25, 3.0, 0.5), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 };
+        let sh2 = w2.surface(&ray, &w2.accel.intersect(&ray).expect("a hit"));
+        assert_eq!(w2.primvar(&sh2, "tint"), Some([0.4, 0.5, 0.6, 0.0]));
+        assert!((w2.primvar(&sh2, "heat").unwrap()[0] - 1.25).abs() < 1e-5);
+        assert_eq!(w2.primvar(&sh2, "mood").map(|v| v[0]), Some(4.0));
         // each sphere has its own value
         let sh = at(Vec3::new(20.0, 5.0, 0.0), -Vec3::Y);
         assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(7.0));

@@ -444,8 +444,9 @@ PyObject* Delegate_set_primvar(PyObject* self, PyObject* args, PyObject* kw) {
         return nullptr;
     TIDE_TRY
     const std::string in = interp;
-    if (in != "constant" && in != "uniform" && in != "varying" && in != "vertex" && in != "faceVarying")
-        throw ArgError(PyExc_ValueError, "unknown interpolation '" + in + "' (constant, uniform, varying, vertex, faceVarying)");
+    if (in != "constant" && in != "uniform" && in != "varying" && in != "vertex" && in != "faceVarying" && in != "instance")
+        throw ArgError(PyExc_ValueError,
+                       "unknown interpolation '" + in + "' (constant, uniform, varying, vertex, faceVarying, instance)");
     tide::Primvar pv;
     pv.interpolation = in;
     if (kind && *kind) {

@@ -153,6 +153,8 @@ echo "rendering check_stage_subdiv.usda (tide:subdivision:level, creases and cor
 compare "$here/check_stage_subdiv.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_primvars.usda (primvars read by a material, a varying displayColor) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_primvars.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_instances.usda (per-instance primvars of a PointInstancer and of native instances) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_instances.usda" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 echo "rendering check_stage_meshlight.usda (UsdLuxMeshLightAPI) through UsdImaging's scene indices and through tide render"
 compare "$here/check_stage_meshlight.usda" sceneIndex || exit $?

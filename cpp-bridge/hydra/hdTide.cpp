@@ -1,6 +1,7 @@
 //! hdTide: the Hd* classes over tide:: (see hdTide.h).
 #include "hdTide.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 
@@ -487,6 +488,11 @@ std::vector<tide::TimedValue> HdTideSnapshot::SampleValues(std::string const& pa
 
 std::vector<std::string> HdTideSnapshot::GetKeys(std::string const& path) const { return _store.GetKeys(path); }
 
+void HdTideSnapshot::AddInstancePrimvar(std::string const& name, tide::Primvar pv) {
+    _instancePrimvars.emplace_back(name, std::move(pv));
+    _tideBits |= tide::ChangeTracker::DirtyPrimvar;
+}
+
 std::vector<std::string> HdTideSnapshot::GetPrimvarNames(std::string const& path) const {
     std::vector<std::string> names;
     if (path != _path || !_sd) return names;
@@ -496,12 +502,24 @@ std::vector<std::string> HdTideSnapshot::GetPrimvarNames(std::string const& path
             // skel: primvars are UsdSkelImaging's skinning inputs, not data to shade with
             if (d.name != HdTokens->points && !TfStringStartsWith(d.name.GetString(), "skel:"))
                 names.push_back(d.name.GetString());
+    for (auto const& [name, pv] : _instancePrimvars)
+        if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
     return names;
 }
 
 tide::Primvar HdTideSnapshot::GetPrimvar(std::string const& path, std::string const& name) const {
     tide::Primvar pv;
     if (path != _path || !_sd) return pv;
+    auto instance = std::find_if(_instancePrimvars.begin(), _instancePrimvars.end(),
+                                 [&](auto const& e) { return e.first == name; });
+    auto variesOverPrim = [&] {
+        for (HdInterpolation i : {HdInterpolationUniform, HdInterpolationVarying, HdInterpolationVertex, HdInterpolationFaceVarying})
+            for (HdPrimvarDescriptor const& d : _sd->GetPrimvarDescriptors(_id, i))
+                if (d.name.GetString() == name) return true;
+        return false;
+    };
+    // the prim's own primvar wins where it varies over the prim
+    if (instance != _instancePrimvars.end() && !variesOverPrim()) return instance->second;
     static const char* interps[] = {"constant", "uniform", "varying", "vertex", "faceVarying"};
     int k = 0;
     for (HdInterpolation i : {HdInterpolationConstant, HdInterpolationUniform, HdInterpolationVarying,
@@ -671,6 +689,7 @@ public:
                     snapshot.Add("instanceTransforms",
                                  tide::TimedValue{s.times.size() > 1, double(s.times[i]), HdTideToValue(VtValue(s.transforms[i]))},
                                  tide::ChangeTracker::DirtyInstancer);
+                for (auto& [name, pv] : inst->InstancePrimvars(id)) snapshot.AddInstancePrimvar(name, std::move(pv));
             }
         }
         if (_typeId == "volume" && (*dirtyBits & (CT::DirtyVolumeField | CT::DirtyTransform)))

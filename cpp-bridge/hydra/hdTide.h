@@ -59,6 +59,9 @@ public:
     tide::DirtyBits TideBits() const { return _tideBits; }
     /// Adds a sample of `key` read outside the constructor, with the tide:: bits it dirties.
     void Add(std::string const& key, tide::TimedValue value, tide::DirtyBits bits);
+    /// Adds a per-instance primvar (interpolation `instance`). It replaces the prim's own primvar
+    /// of that name where that one is constant, and gives way where it varies.
+    void AddInstancePrimvar(std::string const& name, tide::Primvar pv);
 
 private:
     /// `key` as the samples of `s` (frame offsets), or one untimed value when there is one;
@@ -78,6 +81,7 @@ private:
     HdSceneDelegate* _sd = nullptr;
     SdfPath _id;
     tide::DirtyBits _tideBits = 0;
+    std::vector<std::pair<std::string, tide::Primvar>> _instancePrimvars;
 };
 
 /// Hydra's light linking turned into the collections Tide's lights take. A light names a

@@ -161,4 +161,55 @@ HdTideInstanceSamples HdTideInstancer::SampleInstanceTransforms(SdfPath const& p
     return out;
 }
 
+std::vector<std::pair<std::string, tide::Primvar>> HdTideInstancer::InstancePrimvars(SdfPath const& prototypeId) {
+    std::vector<std::pair<std::string, tide::Primvar>> out;
+    HdSceneDelegate* sd = GetDelegate();
+    VtIntArray const indices = sd->GetInstanceIndices(GetId(), prototypeId);
+    size_t parents = 1;
+    if (!GetParentId().IsEmpty())
+        if (auto* parent = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(GetParentId())))
+            parents = parent->_TransformsAt(GetId(), 0.0f).size();
+    static const TfToken placement[] = {HdInstancerTokens->instanceTranslations, HdInstancerTokens->instanceRotations,
+                                        HdInstancerTokens->instanceScales, HdInstancerTokens->instanceTransforms};
+    for (HdPrimvarDescriptor const& d : sd->GetPrimvarDescriptors(GetId(), HdInterpolationInstance)) {
+        if (std::find(std::begin(placement), std::end(placement), d.name) != std::end(placement)) continue;
+        VtIntArray valueIndices;
+        tide::Value v = HdTideToValue(d.indexed ? sd->GetIndexedPrimvar(GetId(), d.name, &valueIndices) : sd->Get(GetId(), d.name));
+        std::vector<float> values;
+        uint32_t tuple = 1;
+        if (v.type == tide::ValueType::Floats) {
+            values = v.floats;
+            tuple = v.tuple;
+        } else if (v.type == tide::ValueType::Doubles) {
+            values.assign(v.doubles.begin(), v.doubles.end());
+            tuple = v.tuple;
+        } else if (v.type == tide::ValueType::Ints) {
+            values.assign(v.ints.begin(), v.ints.end());
+        } else {
+            continue;
+        }
+        if (tuple == 0 || tuple > 4) continue;
+        const size_t n = values.size() / tuple;
+        std::vector<float> rows;
+        rows.reserve(parents * indices.size() * tuple);
+        bool ok = true;
+        for (size_t p = 0; p < parents && ok; ++p)
+            for (int i : indices) {
+                size_t k = size_t(std::max(i, 0));
+                if (d.indexed) k = k < valueIndices.size() ? size_t(std::max(valueIndices[k], 0)) : n;
+                if (k >= n) {
+                    ok = false;
+                    break;
+                }
+                rows.insert(rows.end(), values.begin() + k * tuple, values.begin() + (k + 1) * tuple);
+            }
+        if (!ok) continue;
+        tide::Primvar pv;
+        pv.interpolation = "instance";
+        pv.data = tide::Value::MakeFloats(std::move(rows), tuple);
+        out.emplace_back(d.name.GetString(), std::move(pv));
+    }
+    return out;
+}
+
 PXR_NAMESPACE_CLOSE_SCOPE

@@ -7,7 +7,10 @@
 #include "pxr/imaging/hd/instancer.h"
 #include "pxr/imaging/hd/timeSampleArray.h"
 #include "pxr/pxr.h"
+#include "tide/value.h"
 
+#include <string>
+#include <utility>
 #include <vector>
 
 PXR_NAMESPACE_OPEN_SCOPE
@@ -33,6 +36,11 @@ public:
     /// M = instanceTransform · scale · rotate · translate · instancerTransform (row vectors),
     /// then the parent level's M after it.
     HdTideInstanceSamples SampleInstanceTransforms(SdfPath const& prototypeId);
+
+    /// This level's per-instance primvars (instance-rate, but the placement ones) for
+    /// `prototypeId`'s instances, in the order of SampleInstanceTransforms (repeated under each
+    /// parent instance), as `instance` primvars of floats; unreadable ones are skipped.
+    std::vector<std::pair<std::string, tide::Primvar>> InstancePrimvars(SdfPath const& prototypeId);
 
 private:
     /// Every sample time of this level and its parents.

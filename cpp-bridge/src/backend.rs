@@ -16,7 +16,8 @@ use std::time::Duration;
 use tide_core::Aov;
 use tide_delegate::{PassStatus, PrimType, Problem, Value};
 
-const INTERPOLATIONS: &[&str] = &["constant", "uniform", "varying", "vertex", "faceVarying"];
+/// Hydra's interpolations, with `instance` (one element per instance of `instanceTransforms`).
+const INTERPOLATIONS: &[&str] = &["constant", "uniform", "varying", "vertex", "faceVarying", "instance"];
 
 struct Shared {
     delegate: tide_delegate::Delegate,

@@ -25,7 +25,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
 use std::time::Duration;
 use tide_core::light::dome_format::DomeFormat;
-use tide_core::scene::{GeometryRef, InstanceDesc, LightShape, MeshDesc, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
+use tide_core::scene::{GeometryRef, InstanceDesc, InstancePrimvars, LightShape, MeshDesc, PrimvarData, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
 use tide_core::{Aov, Problem, RenderSettings, SceneDesc};
 
 /// Which Hydra prim family a type belongs to.
@@ -158,6 +158,8 @@ struct RprimPiece {
     caustics: Option<tide_core::scene::ObjectCaustics>,
     /// UsdLuxMeshLightAPI: the mesh emits.
     mesh_light: Option<lux::MeshLight>,
+    /// Per-instance primvars, one row per kept instance.
+    instance_primvars: Vec<PrimvarData>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -353,10 +355,12 @@ impl Delegate {
         prim.store.attrs.remove(normalize_name(name)).is_some()
     }
 
-    /// Sets a primvar (`primvars:` prefix optional).
+    /// Sets a primvar (`primvars:` prefix optional). Interpolation `instance`: one element per
+    /// instance of `instanceTransforms`.
     pub fn set_primvar(&mut self, path: &str, name: &str, interpolation: &str, data: Vec<f32>, tuple: u32, indices: Option<Vec<i32>>) -> bool {
         let name = name.strip_prefix("primvars:").unwrap_or(name);
-        let Some(interp) = Interpolation::parse(interpolation) else {
+        let per_instance = interpolation == "instance";
+        let Some(interp) = Interpolation::parse(interpolation).or(per_instance.then_some(Interpolation::Constant)) else {
             self.pending.push(problem(path, name, format!("unknown interpolation '{}'; the primvar is ignored", interpolation)));
             return false;
         };
@@ -366,7 +370,8 @@ impl Delegate {
         }
         self.geometry_dirty.insert(path.to_string());
         let Some(prim) = self.prim_mut(path, name) else { return false };
-        prim.store.primvars.insert(name.to_string(), Primvar { interpolation: interp, data, tuple, indices });
+        let map = if per_instance { &mut prim.store.instance_primvars } else { &mut prim.store.primvars };
+        map.insert(name.to_string(), Primvar { interpolation: interp, data, tuple, indices });
         true
     }
 
@@ -525,7 +530,10 @@ impl Delegate {
         let s = &prim.store;
         let mut instance_transforms = Vec::new();
         let mut instance_samples = Vec::new();
+        // the authored instances' count, and those kept
+        let (mut n_instances, mut kept) = (1, vec![0]);
         if let Some(v) = s.get("instanceTransforms") {
+            kept.clear();
             match v.to_f32s() {
                 Some(d) if d.len() % 16 == 0 => {
                     // an instance whose matrix is not finite at any time is dropped
@@ -533,7 +541,7 @@ impl Delegate {
                     let finite_at = |i: usize| {
                         samples.iter().all(|(_, v)| v.to_f32s().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(|c| c.iter().all(|x| x.is_finite()))))
                     };
-                    let mut kept = Vec::new();
+                    n_instances = d.len() / 16;
                     for (i, c) in d.chunks_exact(16).enumerate() {
                         let m = Mat4::from_cols_slice(c);
                         if m.is_finite() && finite_at(i) {
@@ -601,6 +609,7 @@ impl Delegate {
             id,
             caustics: read_caustics(s, p),
             mesh_light: lux::read_mesh_light(s, p),
+            instance_primvars: read_instance_primvars(s, n_instances, &kept, p),
         }
     }
 
@@ -899,9 +908,11 @@ impl Delegate {
                 }
                 i
             });
-            let material = bound.unwrap_or_else(|| match r.display_color {
+            let varies = r.geometry.carries_varying("displayColor") || r.instance_primvars.iter().any(|p| p.name == "displayColor");
+            // varying per instance only: the default grey where an instance has none
+            let display_color = r.display_color.or(varies.then_some([0.18; 3]));
+            let material = bound.unwrap_or_else(|| match display_color {
                 Some(col) => {
-                    let varies = r.geometry.carries_varying("displayColor");
                     *color_mats.entry((col.map(f32::to_bits), varies)).or_insert_with(|| {
                         let mut m = default_material(&format!("displayColor{:?}{}", col, if varies { " varying" } else { "" }));
                         let color = match varies {
@@ -917,6 +928,10 @@ impl Delegate {
             });
             let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
+            let table = (!r.instance_primvars.is_empty()).then(|| {
+                scene.instance_primvars.push(InstancePrimvars { name: path.clone(), rows: r.instance_transforms.len() as u32, primvars: r.instance_primvars.clone() });
+                scene.instance_primvars.len() as u32 - 1
+            });
             for (part, (geometry, sea)) in parts.into_iter().enumerate() {
                 let (suffix, subset) = part_names.get(part).cloned().unwrap_or_else(|| (if part == 0 { String::new() } else { " horizon".into() }, None));
                 let material = match subset.and_then(|s| s.material.as_deref().map(|m| (s, m))) {
@@ -971,6 +986,7 @@ impl Delegate {
                         id: r.id,
                         visible_to_camera: true,
                         casts_shadows: true,
+                        primvar_row: table.map(|t| (t, k as u32)),
                     });
                 }
             }
@@ -1489,6 +1505,31 @@ mod tests {
     }
 
     #[test]
+    fn per_instance_primvars_follow_the_instances_kept() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/P");
+        let mut v = Vec::new();
+        for k in 0..3 {
+            let Value::Matrix(m) = translate(k as f64, 0., 0.) else { unreachable!() };
+            v.extend_from_slice(&m);
+        }
+        v[16 + 12] = f64::NAN; // the second instance is dropped
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: v, tuple: 16 }, None);
+        assert!(d.set_primvar("/P", "primvars:displayColor", "instance", vec![1., 0., 0., 0., 1., 0., 0., 0., 1.], 3, None));
+        assert!(d.set_primvar("/P", "heat", "instance", vec![5., 6., 7.], 1, Some(vec![2, 1, 0])));
+        assert!(d.set_primvar("/P", "short", "instance", vec![5., 6.], 1, None));
+        let p = d.commit_resources();
+        let attrs: Vec<&str> = p.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["instanceTransforms", "primvars:short"], "{p:?}");
+        let s = d.scene();
+        assert_eq!(s.instances.iter().map(|i| i.primvar_row).collect::<Vec<_>>(), [Some((0, 0)), Some((0, 1))]);
+        let t = &s.instance_primvars[0];
+        assert_eq!(t.rows, 2);
+        let pvs: Vec<(&str, &[f32])> = t.primvars.iter().map(|p| (p.name.as_str(), &p.data[..])).collect();
+        assert_eq!(pvs, [("displayColor", &[1., 0., 0., 0., 0., 1.][..]), ("heat", &[7., 5.][..])]);
+    }
+
+    #[test]
     fn moving_instance_transforms_give_each_instance_motion_samples() {
         let mut d = Delegate::new();
         shutter(&mut d, 0.0, 1.0);
@@ -1954,6 +1995,33 @@ mod tests {
 }
 
 /// Reads a gprim's `TideCausticsAPI` attributes (contract §4); None when none is authored.
+/// The per-instance primvars of an rprim with `n` authored instances, rows picked for those
+/// `kept`: every one of 1 to 4 components with one finite element per instance.
+fn read_instance_primvars(s: &AttrStore, n: usize, kept: &[usize], p: &mut Problems) -> Vec<PrimvarData> {
+    let mut names: Vec<&String> = s.instance_primvars.keys().collect();
+    names.sort();
+    names
+        .into_iter()
+        .filter_map(|name| {
+            let pv = &s.instance_primvars[name];
+            let attr = format!("primvars:{name}");
+            let t = pv.tuple as usize;
+            let data = match pv.flatten() {
+                Ok(d) if (1..=4).contains(&t) && d.len() == n * t && d.iter().all(|x| x.is_finite()) => d,
+                Ok(d) => {
+                    p.add(&attr, format!("expected {n} finite per-instance value(s) of 1 to 4 components, got {} of {t}; ignored", d.len() / t.max(1)));
+                    return None;
+                }
+                Err(e) => {
+                    p.add(&attr, format!("{e}; ignored"));
+                    return None;
+                }
+            };
+            Some(PrimvarData { name: name.clone(), tuple: pv.tuple, constant: false, data: kept.iter().flat_map(|&i| data[i * t..i * t + t].to_vec()).collect() })
+        })
+        .collect()
+}
+
 fn read_caustics(s: &crate::value::AttrStore, p: &mut Problems) -> Option<tide_core::scene::ObjectCaustics> {
     use tide_core::scene::{CausticsTransparency, ObjectCaustics};
     let names = ["tide:caustics:caster", "tide:caustics:receiver", "tide:caustics:transparency"];

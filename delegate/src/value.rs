@@ -268,6 +268,9 @@ pub fn normalize_name(name: &str) -> &str {
 pub struct AttrStore {
     pub attrs: HashMap<String, Attr>,
     pub primvars: HashMap<String, Primvar>,
+    /// Primvars with one element per instance (interpolation `instance`, Hydra's name for an
+    /// instancer's per-instance data), in the order of `instanceTransforms`.
+    pub instance_primvars: HashMap<String, Primvar>,
 }
 
 /// Collects problems of one conversion, each (attribute, message) once.

@@ -154,11 +154,14 @@ def renderer():
     return env.load_module(fake=False)
 
 
-def render(module, stage, **opts):
-    """Renders `stage` with the real module; returns {sourceName: HxWxC array}."""
+def render(module, stage, problems=None, **opts):
+    """Renders `stage` with the real module; returns {sourceName: HxWxC array}. The problems
+    the load reports are appended to `problems` when it is given."""
     d = module.RenderDelegate()
     r = usd_reader.Reader(stage, d, usd_reader.Options(**opts))
-    r.load()
+    found = r.load()
+    if problems is not None:
+        problems.extend(found)
     rp = r.render_pass()
     for _ in range(600):
         if rp.is_converged():

@@ -244,3 +244,63 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
     assert np.allclose(got[:, -q:], dry[:, -q:], rtol=1e-4, atol=1e-5)
     # the film darkens, so the test can tell wet from dry and from the authored half amount
     assert wet.mean() < 0.9 * half.mean() < 0.9 * dry.mean(), (wet.mean(), half.mean(), dry.mean())
+
+
+def _tops(img, xs):
+    """The 2 x 2 pixels around the top of an object centred at x (and z = 0) in the top view."""
+    cols = [int(round((x + HALF) / (2 * HALF) * RES)) for x in xs]
+    return [img[RES // 2 - 1:RES // 2 + 1, c - 1:c + 1] for c in cols]
+
+
+def test_a_point_instancers_per_instance_colours(renderer, stage):
+    """A PointInstancer's displayColor with one value per instance colours each instance,
+    whichever prototype it places; a masked instance takes its colour along."""
+    _top_camera(stage)
+    _white_dome(stage)
+    inst = UsdGeom.PointInstancer.Define(stage, "/Inst")
+    protos = stage.DefinePrim("/Inst/Protos", "Scope")
+    UsdGeom.Sphere.Define(stage, "/Inst/Protos/Ball").CreateRadiusAttr(0.4)
+    UsdGeom.Cube.Define(stage, "/Inst/Protos/Box").CreateSizeAttr(0.8)
+    inst.CreatePrototypesRel().SetTargets([protos.GetPath().AppendChild("Ball"),
+                                           protos.GetPath().AppendChild("Box")])
+    xs = [-1.5, -0.5, 0.5, 1.5, 1.9]
+    inst.CreateProtoIndicesAttr([0, 1, 0, 1, 0])
+    inst.CreatePositionsAttr([(x, 0, 0) for x in xs])
+    colours = [(0.8, 0.2, 0.2), (0.2, 0.7, 0.2), (0.2, 0.3, 0.9), (0.9, 0.8, 0.1), (0, 0, 0)]
+    UsdGeom.PrimvarsAPI(inst.GetPrim()).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex).Set(colours)
+    inst.DeactivateId(4)
+    settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert problems == [], problems
+    for part, want in zip(_tops(img, xs[:4]), colours):
+        ok, why = _near(part, want)
+        assert ok, why
+
+
+def test_native_instances_inherit_their_own_colours(renderer, stage):
+    """Instanceable prims sharing one prototype, each with its own displayColor: every
+    instance shows the colour its instance prim gives (the prototype authors none)."""
+    _top_camera(stage)
+    _white_dome(stage)
+    proto = stage.DefinePrim("/Proto", "Xform")
+    UsdGeom.Sphere.Define(stage, "/Proto/Ball").CreateRadiusAttr(0.4)
+    xs = [-1.5, 0.0, 1.5]
+    colours = [(0.8, 0.3, 0.2), (0.2, 0.6, 0.3), (0.3, 0.2, 0.8)]
+    for i, (x, c) in enumerate(zip(xs, colours)):
+        x_ = UsdGeom.Xform.Define(stage, "/World/I%d" % i)
+        x_.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        p = x_.GetPrim()
+        p.GetReferences().AddInternalReference(proto.GetPath())
+        p.SetInstanceable(True)
+        UsdGeom.PrimvarsAPI(p).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                             UsdGeom.Tokens.constant).Set([c])
+    proto.SetSpecifier(Sdf.SpecifierClass)
+    settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert problems == [], problems
+    for part, want in zip(_tops(img, xs), colours):
+        ok, why = _near(part, want)
+        assert ok, why

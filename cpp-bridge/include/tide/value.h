@@ -56,7 +56,8 @@ struct TimedValue {
     Value value;
 };
 
-/// A primvar: interpolation (constant|uniform|varying|vertex|faceVarying), data (Floats,
+/// A primvar: interpolation (constant|uniform|varying|vertex|faceVarying, or instance: one element
+/// per instance of instanceTransforms), data (Floats,
 /// Doubles or Ints) and optional indices.
 struct Primvar {
     std::string interpolation;

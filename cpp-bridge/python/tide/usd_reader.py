@@ -1531,6 +1531,7 @@ class Reader:
                 continue
             self._unposed(prim, st, "a native instance")
             st.set("material", ("path", material))
+            self._inherited_by_instances(prim, st, grp["roots"])
             # each instance root's world matrix over the shutter (motion of the instances
             # themselves; the prototype's own motion is in `transform`)
             offsets = sorted({o for r in grp["roots"] for o in self._motion_offsets([r])})
@@ -1574,6 +1575,7 @@ class Reader:
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(n, dtype=bool)
         # per instance world matrices at each motion offset: (offsets, [n x 4 x 4] per offset)
         offsets, mats_at = self._instancer_motion(prim, inst, n)
+        per_instance = self._per_instance_primvars(prim, n)
         for k, ppath in enumerate(protos):
             proto = self.stage.GetPrimAtPath(ppath)
             sel = [i for i in range(n) if idx[i] == k and keep[i]]
@@ -1611,12 +1613,64 @@ class Reader:
                 if st is None:
                     continue
                 self._unposed(g, st, "a point instancer prototype")
+                for name, (data, tsize) in per_instance.items():
+                    # the prototype's own varying primvar wins; a constant one is replaced
+                    if st.primvars.get(name, ("constant",))[0] == "constant":
+                        st.primvars[name] = ("instance", np.ascontiguousarray(data[sel]).tobytes(),
+                                             tsize, None)
                 if len(it_xf) == 1:
                     st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
                 else:
                     st.set("instanceTransforms", None,
                            [(o, ("doubles", 16, m.tobytes())) for o, m in it_xf])
                 self._desired[dpath] = st
+
+    def _per_instance_primvars(self, prim, n):
+        """A PointInstancer's vertex and varying primvars (one value per instance): name ->
+        (n x tuple float32 rows, tuple)."""
+        out = {}
+        for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues():
+            if pv.GetInterpolation() not in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
+                continue
+            name = pv.GetPrimvarName()
+            value = pv.ComputeFlattened(self._time(0))
+            arr = np.asarray(value) if value is not None else None
+            if arr is None or arr.dtype == object or arr.dtype.kind in "USO":
+                continue
+            tsize = _tuple_size(arr)
+            if arr.size != n * tsize:
+                self.problem(prim.GetPath(), "primvars:" + name, "%d values for %d instances; "
+                             "ignored" % (arr.size // max(tsize, 1), n))
+                continue
+            out[str(name)] = (arr.astype(np.float32).reshape(n, tsize), tsize)
+        return out
+
+    def _inherited_by_instances(self, prim, st, roots):
+        """Constant primvars that native instances inherit from their instance prims (or
+        above) and that differ between the instances: one value per instance."""
+        if len(roots) < 2:
+            return
+        first = roots[0].GetPath()
+        for pv in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
+            owner = pv.GetAttr().GetPrim().GetPath()
+            if pv.GetInterpolation() != UsdGeom.Tokens.constant or \
+                    (owner.HasPrefix(first) and owner != first):
+                continue
+            name = pv.GetPrimvarName()
+            vals = []
+            for r in roots:
+                q = UsdGeom.PrimvarsAPI(r).FindPrimvarWithInheritance(name)
+                v = q.ComputeFlattened(self._time(0)) if q else None
+                a = np.asarray(v) if v is not None else None
+                if a is None or a.dtype == object or a.dtype.kind in "USO":
+                    break
+                vals.append(a.astype(np.float32).reshape(-1))
+            if len(vals) != len(roots) or len({a.size for a in vals}) != 1 or \
+                    all(np.array_equal(a, vals[0]) for a in vals):
+                continue
+            if st.primvars.get(str(name), ("constant",))[0] == "constant":
+                st.primvars[str(name)] = ("instance", np.concatenate(vals).tobytes(),
+                                          vals[0].size, None)
 
     def _instancer_motion(self, prim, inst, n):
         """Offsets (frames) and the instances' world matrices at each: one offset unless the
