@@ -149,6 +149,9 @@ public:
 
     void CommitResources(HdChangeTracker* tracker) override;
     TfToken GetMaterialBindingPurpose() const override { return HdTokens->full; }
+    /// Material outputs in this order: Tide's own (`outputs:tide:surface`), MaterialX's
+    /// (`outputs:mtlx:surface`: standard_surface and its nodes), the universal one.
+    TfTokenVector GetMaterialRenderContexts() const override { return {TfToken("tide"), TfToken("mtlx"), TfToken()}; }
     HdAovDescriptor GetDefaultAovDescriptor(TfToken const& name) const override;
 
     /// TideRenderSettingsAPI's settings (tide:samples, tide:maxDepth, ...) with their defaults.

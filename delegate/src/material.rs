@@ -6,11 +6,14 @@
 //! TideWater surface's optional `medium` input is connected to.
 //! Supported nodes: `UsdPreviewSurface` (every input), `UsdUVTexture` (file, st, wrapS/T,
 //! fallback, scale, bias, sourceColorSpace, outputs rgb/r/g/b/a), `UsdPrimvarReader_float2`,
-//! `UsdTransform2d`, `TideWater`, `TideMedium`. An unknown surface id gives the default material
-//! (grey diffuse 0.18) and a problem.
+//! `UsdTransform2d`, `TideWater`, `TideMedium`, and MaterialX's `standard_surface` with its
+//! image, geompropvalue, texcoord, normalmap, constant and dot nodes ([`mtlx`]). An unknown
+//! surface id gives the default material (grey diffuse 0.18) and a problem.
 //!
 //! Textures are referred to by [`TexKey`] (asset + wrap modes + whether to linearise) in a list
 //! local to the material; the scene assembly maps them to `SceneDesc::textures` indices.
+
+mod mtlx;
 
 use crate::value::{normalize_name, AttrStore, Problems, Value};
 use glam::Vec2;
@@ -185,8 +188,9 @@ impl Ctx<'_> {
         }
     }
 
+    /// A node's id; MaterialX's UsdPreviewSurface nodes read as the USD ones.
     fn node_id(&self, node: &str) -> Option<&str> {
-        self.nodes.get(node).and_then(|n| n.id.as_deref())
+        self.nodes.get(node).and_then(|n| n.id.as_deref()).map(mtlx::canonical_id)
     }
 
     /// What the connection of `node.input` supplies; `None` if not connected or unusable (a
@@ -199,11 +203,17 @@ impl Ctx<'_> {
     /// What output `output` of node `up`, connected to the attribute `attr`, supplies: a
     /// UsdUVTexture's lookup (or its fallback), or a UsdPrimvarReader's primvar.
     fn connection(&mut self, attr: &str, up: &str, output: &str) -> Option<Source> {
+        self.connection_at(attr, up, output, 0)
+    }
+
+    /// [`Ctx::connection`], `depth` nodes down a chain of MaterialX `dot` nodes.
+    fn connection_at(&mut self, attr: &str, up: &str, output: &str, depth: u32) -> Option<Source> {
         if !self.nodes.contains_key(up) {
             self.p.add(attr, format!("connected to '{}', which is not a node of this material; using the constant value", up));
             return None;
         }
         match self.node_id(up) {
+            Some(id) if mtlx::is_mtlx_node(id) => return self.mtlx_source(attr, up, depth),
             Some("UsdUVTexture") => {}
             Some(id) if id.starts_with("UsdPrimvarReader_") && id != "UsdPrimvarReader_string" => {
                 if output != "result" {
@@ -215,7 +225,7 @@ impl Ctx<'_> {
             other => {
                 self.p.add(
                     attr,
-                    format!("connected to a '{}' node; only UsdUVTexture and UsdPrimvarReader outputs are supported here; using the constant value", other.unwrap_or("")),
+                    format!("connected to a '{}' node; only UsdUVTexture, UsdPrimvarReader and MaterialX image, geompropvalue, constant and dot outputs are supported here; using the constant value", other.unwrap_or("")),
                 );
                 return None;
             }
@@ -272,34 +282,41 @@ impl Ctx<'_> {
         let bias = self.input_vec(tex, "bias", [0.0; 4]);
         let cs = self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto");
         let (scale, rotation_deg, translation, uv_set) = self.st_transform(tex);
-        let file_attr = format!("{}.inputs:file", tex);
-        let Some(asset) = self.nodes[tex].inputs.get("file").and_then(|v| v.as_str()).map(String::from) else {
+        let Some(texture) = self.texture_slot(tex, "file", cs, wrap_s, wrap_t) else { return Err(fallback) };
+        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback, uv_set })
+    }
+
+    /// The texture that input `file` of node `tex` names, as an index into this material's list
+    /// (`cs`: `sRGB`, `raw`, or `auto` for the file's own encoding); None when there is no
+    /// usable file (a problem names the input, but for an empty path).
+    fn texture_slot(&mut self, tex: &str, file: &str, cs: &str, wrap_s: WrapKey, wrap_t: WrapKey) -> Option<usize> {
+        let file_attr = format!("{}.inputs:{}", tex, file);
+        let Some(asset) = self.nodes[tex].inputs.get(file).and_then(|v| v.as_str()).map(String::from) else {
             self.p.add(&file_attr, "no texture file; using the fallback value");
-            return Err(fallback);
+            return None;
         };
         if asset.is_empty() {
-            return Err(fallback);
+            return None;
         }
         let linearize = match (self.textures)(&asset) {
             None => {
                 self.p.add(&file_attr, format!("texture '{}' was not provided; using the fallback value", asset));
-                return Err(fallback);
+                return None;
             }
             Some(TexState::Failed(msg)) => {
                 self.p.add(&file_attr, format!("texture '{}' could not be read ({}); using the fallback value", asset, msg));
-                return Err(fallback);
+                return None;
             }
             Some(TexState::Loaded { is_srgb, .. }) => cs == "sRGB" || (cs == "auto" && is_srgb),
         };
         let key = TexKey { asset, wrap_s, wrap_t, linearize, dome: DomeFormat::LatLong };
-        let texture = match self.used.iter().position(|k| *k == key) {
+        Some(match self.used.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
                 self.used.push(key);
                 self.used.len() - 1
             }
-        };
-        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback, uv_set })
+        })
     }
 
     /// The `st` input of a texture: a primvar reader, optionally through UsdTransform2d. The
@@ -567,6 +584,7 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         Some(s) => match ctx.node_id(s) {
             Some("UsdPreviewSurface") => desc.surface = SurfaceDesc::Preview(ctx.preview(s)),
             Some("TideWater") => desc.surface = SurfaceDesc::Water(ctx.water(s)),
+            Some("ND_standard_surface_surfaceshader") => desc.surface = ctx.standard_surface(s),
             other => {
                 ctx.p.add(&format!("{}.info:id", s), format!("unknown shader id '{}'; using the default material", other.unwrap_or("")));
             }
@@ -824,6 +842,94 @@ mod tests {
         let (w, p) = conv("UsdPreviewSurface", &[("tide:wet:amount", Value::Float(0.4)), ("tide:wet:amount.connect", tok("/Elsewhere/T.outputs:r"))]);
         assert_eq!(w.map(|w| w.amount), Some(FloatInput::Const(0.4)));
         assert_eq!(p.iter().map(|(a, _)| a.as_str()).collect::<Vec<_>>(), ["tide:wet:amount"], "{p:?}");
+    }
+
+    /// MaterialX standard_surface: its inputs as UsdPreviewSurface's (weights folded into
+    /// constants and texture scales), its nodes as lookups, what it cannot carry reported.
+    #[test]
+    fn materialx_standard_surface_maps_to_a_preview_surface() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let s = mat(&[
+            ("surface", Value::Path("/M/SR".into())),
+            ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")),
+            ("/M/SR.inputs:base", f(0.5)),
+            ("/M/SR.inputs:base_color.connect", tok("/M/Img.outputs:out")),
+            ("/M/Img.info:id", tok("ND_tiledimage_color3")),
+            ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Img.inputs:uaddressmode", tok("clamp")),
+            ("/M/Img.inputs:uvtiling", Value::Floats { data: vec![4.0, 2.0], tuple: 2 }),
+            ("/M/Img.inputs:texcoord.connect", tok("/M/Uv.outputs:out")),
+            ("/M/Uv.info:id", tok("ND_geompropvalue_vector2")),
+            ("/M/Uv.inputs:geomprop", Value::String("st1".into())),
+            ("/M/SR.inputs:metalness", f(0.3)),
+            ("/M/SR.inputs:specular_roughness.connect", tok("/M/Dot.outputs:out")),
+            ("/M/Dot.info:id", tok("ND_dot_float")),
+            ("/M/Dot.inputs:in.connect", tok("/M/Rough.outputs:out")),
+            ("/M/Rough.info:id", tok("ND_geompropvalue_float")),
+            ("/M/Rough.inputs:geomprop", Value::String("rough".into())),
+            ("/M/Rough.inputs:default", f(0.4)),
+            ("/M/SR.inputs:specular_IOR", f(1.4)),
+            ("/M/SR.inputs:coat", f(0.2)),
+            ("/M/SR.inputs:emission", f(2.0)),
+            ("/M/SR.inputs:emission_color", c3([0.1, 0.2, 0.3])),
+            ("/M/SR.inputs:opacity", c3([0.5, 0.5, 0.5])),
+            ("/M/SR.inputs:subsurface", f(0.5)),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
+        let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+        assert_eq!((t.channel, t.scale, t.tex_scale), (Channel::Rgb, Vec2::new(4.0, 2.0), [0.5, 0.5, 0.5, 1.0]));
+        assert_eq!(t.uv_set.as_ref().map(|l| l.name.as_str()), Some("st1"));
+        assert_eq!((m.textures[0].wrap_s, m.textures[0].wrap_t), (WrapKey::Clamp, WrapKey::Repeat));
+        assert_eq!(ps.metallic, FloatInput::Const(0.3));
+        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup { name: "rough".into(), fallback: [0.4, 0.4, 0.4, 0.0] }));
+        assert_eq!((ps.ior, ps.use_specular_workflow), (1.4, false));
+        assert_eq!(ps.clearcoat, FloatInput::Const(0.2));
+        assert_eq!(ps.emissive_color, ColorInput::Const([0.2, 0.4, 0.6]));
+        assert_eq!(ps.opacity, FloatInput::Const(0.5));
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["/M/SR.inputs:subsurface"], "{:?}", p.list);
+
+        // no specular on a non-metal: a plain diffuse; transmission: a clear dielectric
+        let plain = mat(&[("surface", Value::Path("/M/SR".into())), ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/SR.inputs:specular", f(0.0))]);
+        let m = convert_material("/M", &plain, &loaded(false), &mut Problems::new("/M"));
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert!(ps.use_specular_workflow && ps.specular_color == ColorInput::Const([0.0; 3]));
+        assert_eq!(ps.diffuse_color, ColorInput::Const([0.8; 3]));
+        let glass = mat(&[
+            ("surface", Value::Path("/M/SR".into())),
+            ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")),
+            ("/M/SR.inputs:transmission", f(0.7)),
+            ("/M/SR.inputs:specular_IOR", f(1.45)),
+            ("/M/SR.inputs:specular_roughness", f(0.05)),
+            ("/M/SR.inputs:transmission_color", c3([0.9, 1.0, 1.0])),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &glass, &loaded(false), &mut p);
+        assert_eq!(m.desc.surface, SurfaceDesc::Water(WaterDesc { ior: 1.45, roughness: 0.05, ..WaterDesc::default() }));
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["/M/SR.inputs:transmission", "/M/SR.inputs:transmission_color"], "{:?}", p.list);
+    }
+
+    /// MaterialX's own UsdPreviewSurface nodes read as USD's.
+    #[test]
+    fn materialx_usd_preview_surface_nodes_read_as_the_usd_ones() {
+        let usd = |surface: &str, tex: &str| {
+            mat(&[
+                ("surface", Value::Path("/M/S".into())),
+                ("/M/S.info:id", tok(surface)),
+                ("/M/S.inputs:roughness", Value::Float(0.3)),
+                ("/M/S.inputs:diffuseColor.connect", tok("/M/T.outputs:rgb")),
+                ("/M/T.info:id", tok(tex)),
+                ("/M/T.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ])
+        };
+        let a = convert_material("/M", &usd("UsdPreviewSurface", "UsdUVTexture"), &loaded(false), &mut Problems::new("/M"));
+        let b = convert_material("/M", &usd("ND_UsdPreviewSurface_surfaceshader", "ND_UsdUVTexture"), &loaded(false), &mut Problems::new("/M"));
+        assert!(matches!(&a.desc.surface, SurfaceDesc::Preview(p) if matches!(p.diffuse_color, ColorInput::Texture(_))));
+        assert_eq!(a, b);
     }
 
     /// UsdPrimvarReader outputs feed any input: a colour from a float3 primvar, a scalar from a

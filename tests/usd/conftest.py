@@ -4,6 +4,7 @@ import math
 import os
 
 import numpy as np
+import OpenEXR
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
 
@@ -210,3 +211,48 @@ def fwhm(row):
     left = lo - 1 + (half - row[lo - 1]) / (row[lo] - row[lo - 1])
     right = hi + (row[hi] - half) / (row[hi] - row[hi + 1])
     return right - left
+
+
+# -- a top view of panels and balls under a white sky -------------------------------------------
+RES = 32
+HALF = 2.0  # the panels span [-HALF, HALF] in x and z
+
+
+def top_camera(stage):
+    """An orthographic camera looking down -Y at the 2 HALF square: column i sees x at
+    -HALF + (i + 0.5) 2 HALF / RES, row j sees z at -HALF + (j + 0.5) 2 HALF / RES."""
+    cam = camera(stage, pos=(0, 5, 0), aperture=(20 * HALF, 20 * HALF), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+
+
+def panel(stage, path, columns=2):
+    """`columns` quads side by side along x, facing up (+Y), covering the square."""
+    m = UsdGeom.Mesh.Define(stage, path)
+    xs = np.linspace(-HALF, HALF, columns + 1)
+    pts = [(x, 0, z) for x in xs for z in (-HALF, HALF)]
+    m.CreatePointsAttr(pts)
+    m.CreateFaceVertexCountsAttr([4] * columns)
+    # point 2i is (x_i, -HALF), 2i+1 is (x_i, HALF): counter-clockwise seen from +Y
+    m.CreateFaceVertexIndicesAttr([k for i in range(columns) for k in (2 * i, 2 * i + 1, 2 * i + 3, 2 * i + 2)])
+    return m
+
+
+def near(pixels, want):
+    """The mean of `pixels` (N x 3) is `want` within 4 standard errors (hero-wavelength colour
+    noise) plus 0.5 % and 1e-3 for the spectral round trip."""
+    px = np.asarray(pixels, dtype=np.float64).reshape(-1, 3)
+    mean, se = px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
+    want = np.broadcast_to(np.asarray(want, dtype=np.float64), mean.shape)
+    return bool(np.all(np.abs(mean - want) < 4 * se + 0.005 * want + 1e-3)), (mean, se, want)
+
+
+def white_dome(stage):
+    """A white dome of radiance 1."""
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
+
+
+def write_exr(path, rgb):
+    """An RGB float EXR of `rgb` (rows of (r, g, b))."""
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+                 {"RGB": rgb}).write(str(path))

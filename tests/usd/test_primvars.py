@@ -4,33 +4,11 @@ an unbound gprim's varying displayColor, and a wetness mask (`tide:wet:amount` c
 texture or a primvar reader). Emission seen directly and diffuse surfaces under a white dome
 read their values back."""
 import numpy as np
-import OpenEXR
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, lambert_material, render, settings
-
-RES = 32
-HALF = 2.0  # the panels span [-HALF, HALF] in x and z
-
-
-def _top_camera(stage):
-    """An orthographic camera looking down -Y at the 2 HALF square: column i sees x at
-    -HALF + (i + 0.5) 2 HALF / RES, row j sees z at -HALF + (j + 0.5) 2 HALF / RES."""
-    cam = camera(stage, pos=(0, 5, 0), aperture=(20 * HALF, 20 * HALF), projection="orthographic")
-    cam.AddRotateXOp().Set(-90.0)
-
-
-def _panel(stage, path, columns=2):
-    """`columns` quads side by side along x, facing up (+Y), covering the square."""
-    m = UsdGeom.Mesh.Define(stage, path)
-    xs = np.linspace(-HALF, HALF, columns + 1)
-    pts = [(x, 0, z) for x in xs for z in (-HALF, HALF)]
-    m.CreatePointsAttr(pts)
-    m.CreateFaceVertexCountsAttr([4] * columns)
-    # point 2i is (x_i, -HALF), 2i+1 is (x_i, HALF): counter-clockwise seen from +Y
-    m.CreateFaceVertexIndicesAttr([k for i in range(columns) for k in (2 * i, 2 * i + 1, 2 * i + 3, 2 * i + 2)])
-    return m
+from conftest import (HALF, RES, bind, lambert_material, near, panel, render, settings, top_camera,
+                      white_dome, write_exr)
 
 
 def _black(stage, path):
@@ -53,23 +31,14 @@ def _glow(stage, reader_id, varname, out_type, fallback=None):
     return mat
 
 
-def _near(pixels, want):
-    """The mean of `pixels` (N x 3) is `want` within 4 standard errors (hero-wavelength colour
-    noise) plus 0.5 % and 1e-3 for the spectral round trip."""
-    px = np.asarray(pixels, dtype=np.float64).reshape(-1, 3)
-    mean, se = px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
-    want = np.broadcast_to(np.asarray(want, dtype=np.float64), mean.shape)
-    return bool(np.all(np.abs(mean - want) < 4 * se + 0.005 * want + 1e-3)), (mean, se, want)
-
-
 def _seen(stage, samples=16):
     """Settings for emission seen directly."""
     settings(stage, res=(RES, RES), samples=samples, integrator="path")
 
 
 def test_a_per_face_primvar_colours_each_face(renderer, stage):
-    _top_camera(stage)
-    m = _panel(stage, "/Panel")
+    top_camera(stage)
+    m = panel(stage, "/Panel")
     glow = [(0.8, 0.2, 0.1), (0.1, 0.3, 0.9)]
     UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("glow", Sdf.ValueTypeNames.Color3fArray,
                                                    UsdGeom.Tokens.uniform).Set(glow)
@@ -78,17 +47,17 @@ def test_a_per_face_primvar_colours_each_face(renderer, stage):
     img = render(renderer, stage)["color"][..., :3].astype(np.float64)
     # emission seen directly, through the spectral round trip: 1 %
     left, right = img[:, 2:RES // 2 - 2], img[:, RES // 2 + 2:-2]
-    ok, why = _near(left, glow[0])
+    ok, why = near(left, glow[0])
     assert ok, why
-    ok, why = _near(right, glow[1])
+    ok, why = near(right, glow[1])
     assert ok, why
 
 
 def test_a_per_vertex_primvar_is_interpolated_across_the_face(renderer, stage):
     """A scalar 0 at x = -HALF and 1 at x = HALF, read by UsdPrimvarReader_float into a colour
     input (a scalar fills the three components): each column glows (x + HALF) / (2 HALF)."""
-    _top_camera(stage)
-    m = _panel(stage, "/Panel", columns=1)
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
     heat = [0.0, 0.0, 1.0, 1.0]  # points (-H,-H) (-H,H) (H,-H) (H,H)
     UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("heat", Sdf.ValueTypeNames.FloatArray,
                                                    UsdGeom.Tokens.vertex).Set(heat)
@@ -96,45 +65,41 @@ def test_a_per_vertex_primvar_is_interpolated_across_the_face(renderer, stage):
     _seen(stage)
     img = render(renderer, stage)["color"][..., :3].astype(np.float64)
     for i in range(RES):
-        ok, why = _near(img[:, i], (i + 0.5) / RES)
+        ok, why = near(img[:, i], (i + 0.5) / RES)
         assert ok, (i, why)
 
 
 def test_an_absent_primvar_gives_the_readers_fallback(renderer, stage):
-    _top_camera(stage)
-    m = _panel(stage, "/Panel")
+    top_camera(stage)
+    m = panel(stage, "/Panel")
     bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float3", "nowhere",
                             Sdf.ValueTypeNames.Float3, Gf.Vec3f(0.2, 0.4, 0.6)))
     _seen(stage, samples=4)
-    ok, why = _near(render(renderer, stage)["color"][..., :3], (0.2, 0.4, 0.6))
+    ok, why = near(render(renderer, stage)["color"][..., :3], (0.2, 0.4, 0.6))
     assert ok, why
-
-
-def _white_dome(stage):
-    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
 
 
 def test_varying_display_colors_of_an_unbound_mesh(renderer, stage):
     """Under a white dome of radiance 1 a Lambertian surface that sees the whole sky reflects
     its albedo: each face of an unbound mesh its own displayColor."""
-    _top_camera(stage)
-    _white_dome(stage)
-    m = _panel(stage, "/Panel")
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Panel")
     faces = [(0.7, 0.3, 0.2), (0.2, 0.5, 0.6)]
     UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
                                                    UsdGeom.Tokens.uniform).Set(faces)
     settings(stage, res=(RES, RES), samples=16, integrator="path", maxDepth=1)
     img = render(renderer, stage)["color"][..., :3]
     for part, want in ((img[:, 1:RES // 2 - 1], faces[0]), (img[:, RES // 2 + 1:-1], faces[1])):
-        ok, why = _near(part, want)
+        ok, why = near(part, want)
         assert ok, why
 
 
 def test_varying_display_colors_of_unbound_points(renderer, stage):
     """The same for the spheres of a Points prim with a displayColor per point, seen at their
     tops (which see the whole sky: the other ball lies below their horizon)."""
-    _top_camera(stage)
-    _white_dome(stage)
+    top_camera(stage)
+    white_dome(stage)
     pts = UsdGeom.Points.Define(stage, "/Balls")
     pts.CreatePointsAttr([(-1, 0, 0), (1, 0, 0)])
     pts.CreateWidthsAttr([0.8, 0.8])
@@ -144,23 +109,17 @@ def test_varying_display_colors_of_unbound_points(renderer, stage):
     img = render(renderer, stage)["color"][..., :3]
     # x = -1 and 1 are the columns around RES/4 and 3 RES/4; z = 0 the middle rows
     for col, want in ((RES // 4, balls[0]), (3 * RES // 4, balls[1])):
-        ok, why = _near(img[RES // 2 - 1:RES // 2 + 1, col - 1:col + 1], want)
+        ok, why = near(img[RES // 2 - 1:RES // 2 + 1, col - 1:col + 1], want)
         assert ok, why
-
-
-def _write_exr(path, rgb):
-    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
-    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
-                 {"RGB": rgb}).write(str(path))
 
 
 def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
     """A texture red on its left half and blue on its right, read through st1 (the panel's st
     is all zero): the panel shows it mirrored, as st1 runs from 1 at x = -HALF to 0."""
     tex_file = tmp_path / "halves.exr"
-    _write_exr(tex_file, [[(1, 0, 0), (1, 0, 0), (0, 0, 1), (0, 0, 1)]])
-    _top_camera(stage)
-    m = _panel(stage, "/Panel", columns=1)
+    write_exr(tex_file, [[(1, 0, 0), (1, 0, 0), (0, 0, 1), (0, 0, 1)]])
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
     pv = UsdGeom.PrimvarsAPI(m.GetPrim())
     pv.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set([(0, 0)] * 4)
     pv.CreatePrimvar("st1", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
@@ -181,7 +140,7 @@ def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
     _seen(stage, samples=4)
     img = render(renderer, stage)["color"][..., :3].astype(np.float64)
     for part, want in ((img[:, :RES // 4], (0, 0, 1)), (img[:, -RES // 4:], (1, 0, 0))):
-        ok, why = _near(part, want)
+        ok, why = near(part, want)
         assert ok, why
 
 
@@ -190,9 +149,9 @@ def _wet_stage(amount, connect=None):
     authored value) and, with `connect`, a function that authors its mask and connects it."""
     s = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
-    _top_camera(s)
-    _white_dome(s)
-    m = _panel(s, "/Panel")
+    top_camera(s)
+    white_dome(s)
+    m = panel(s, "/Panel")
     mat = lambert_material(s, "/Looks/Grey", (0.5, 0.5, 0.5))
     mat.GetPrim().ApplyAPI("TideWetAPI")
     attr = mat.GetPrim().GetAttribute("tide:wet:amount")
@@ -210,7 +169,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
     panel wet all over and dry all over; the authored amount (0.5) is not used."""
     def by_texture(s, m, mat, attr):
         f = tmp_path / "mask.exr"
-        _write_exr(f, [[(1, 1, 1), (1, 1, 1), (0, 0, 0), (0, 0, 0)]])
+        write_exr(f, [[(1, 1, 1), (1, 1, 1), (0, 0, 0), (0, 0, 0)]])
         tex = UsdShade.Shader.Define(s, "/Looks/Grey/Mask")
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(f))
@@ -255,8 +214,8 @@ def _tops(img, xs):
 def test_a_point_instancers_per_instance_colours(renderer, stage):
     """A PointInstancer's displayColor with one value per instance colours each instance,
     whichever prototype it places; a masked instance takes its colour along."""
-    _top_camera(stage)
-    _white_dome(stage)
+    top_camera(stage)
+    white_dome(stage)
     inst = UsdGeom.PointInstancer.Define(stage, "/Inst")
     protos = stage.DefinePrim("/Inst/Protos", "Scope")
     UsdGeom.Sphere.Define(stage, "/Inst/Protos/Ball").CreateRadiusAttr(0.4)
@@ -275,15 +234,15 @@ def test_a_point_instancers_per_instance_colours(renderer, stage):
     img = render(renderer, stage, problems)["color"][..., :3]
     assert problems == [], problems
     for part, want in zip(_tops(img, xs[:4]), colours):
-        ok, why = _near(part, want)
+        ok, why = near(part, want)
         assert ok, why
 
 
 def test_native_instances_inherit_their_own_colours(renderer, stage):
     """Instanceable prims sharing one prototype, each with its own displayColor: every
     instance shows the colour its instance prim gives (the prototype authors none)."""
-    _top_camera(stage)
-    _white_dome(stage)
+    top_camera(stage)
+    white_dome(stage)
     proto = stage.DefinePrim("/Proto", "Xform")
     UsdGeom.Sphere.Define(stage, "/Proto/Ball").CreateRadiusAttr(0.4)
     xs = [-1.5, 0.0, 1.5]
@@ -302,5 +261,5 @@ def test_native_instances_inherit_their_own_colours(renderer, stage):
     img = render(renderer, stage, problems)["color"][..., :3]
     assert problems == [], problems
     for part, want in zip(_tops(img, xs), colours):
-        ok, why = _near(part, want)
+        ok, why = near(part, want)
         assert ok, why

@@ -125,6 +125,27 @@ SHADER_IDS = {
     "UsdPrimvarReader_point", "UsdPrimvarReader_vector", "UsdPrimvarReader_matrix",
     "TideWater", "TideMedium",
 }
+# MaterialX nodes the delegate reads (by id prefix), beside MaterialX's UsdPreviewSurface
+# library (ND_Usd...), which it reads as the USD nodes
+MTLX_IDS = ("ND_standard_surface_surfaceshader", "ND_image_", "ND_tiledimage_",
+            "ND_geompropvalue_", "ND_texcoord_", "ND_normalmap", "ND_constant_", "ND_dot_",
+            "ND_Usd")
+
+
+def _known_shader(sid):
+    return sid in SHADER_IDS or sid.startswith(MTLX_IDS)
+
+
+def _render_context(output):
+    """The render context a material's terminal is taken from: Tide's own, else MaterialX's,
+    else the universal one."""
+    for context in ("tide", "mtlx"):
+        out = output(context)
+        if out and out.HasConnectedSource():
+            return context
+    return ""
+
+
 IDENTITY = tuple(float(x) for x in (1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1))
 SETTINGS_FALLBACK_PATH = "/Render/__TideSettings"
 BUFFER_ROOT = "/Render/__TideBuffers"
@@ -1770,9 +1791,9 @@ class Reader:
         mat = UsdShade.Material(prim)
         st = _PrimState("sprim", "material", path)
         queue = []
-        for key, compute in (("surface", mat.ComputeSurfaceSource),
-                             ("volume", mat.ComputeVolumeSource)):
-            src = compute("tide")
+        for key, compute, output in (("surface", mat.ComputeSurfaceSource, mat.GetSurfaceOutput),
+                                     ("volume", mat.ComputeVolumeSource, mat.GetVolumeOutput)):
+            src = compute(_render_context(output))
             shader = src[0] if src else None
             if shader and shader.GetPrim().IsValid():
                 st.set(key, ("path", str(shader.GetPath())))
@@ -1805,7 +1826,7 @@ class Reader:
                 self.problem(spath, "info:id", "shader has no info:id; the material's default "
                              "is used")
                 sid = ""
-            elif sid not in SHADER_IDS:
+            elif not _known_shader(sid):
                 self.problem(spath, "info:id", "unknown shader id '%s'; replaced by the default "
                              "material" % sid)
             st.set(spath + ".info:id", ("token", str(sid)))
