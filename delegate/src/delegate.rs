@@ -151,6 +151,8 @@ struct RprimPiece {
     /// `displayColor`, the colour of an unbound gprim: constant, or its average where it
     /// varies (the geometry then carries it, when it can, for the fallback material to read).
     display_color: Option<[f32; 3]>,
+    /// `displayOpacity`, likewise: constant, or its average where it varies.
+    display_opacity: Option<f32>,
     visible: bool,
     purpose: String,
     id: u32,
@@ -574,18 +576,8 @@ impl Delegate {
                 p.add("instanceTransforms", "no usable instance matrices; the prim is not drawn");
             }
         }
-        let display_color = s.primvar("displayColor", Interpolation::Constant).and_then(|pv| match pv.flatten() {
-            Ok(d) if pv.tuple == 3 && d.len() >= 3 && d.iter().all(|x| x.is_finite()) => {
-                // the average: the whole colour where the geometry cannot carry it per element
-                let n = (d.len() / 3) as f32;
-                let sum = d.chunks_exact(3).fold([0.0f32; 3], |a, c| [a[0] + c[0], a[1] + c[1], a[2] + c[2]]);
-                Some(sum.map(|x| x / n))
-            }
-            _ => {
-                p.add("displayColor", "expected finite colour3 data; ignored");
-                None
-            }
-        });
+        let display_color = display_average::<3>(s, "displayColor", p);
+        let display_opacity = display_average::<1>(s, "displayOpacity", p).map(|[o]| o.clamp(0.0, 1.0));
         let id = match s.get("primId") {
             None => prim.id,
             Some(v) => match v.as_f64() {
@@ -604,6 +596,7 @@ impl Delegate {
             instance_samples,
             material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
             display_color,
+            display_opacity,
             visible: s.token_or("visibility", &["inherited", "invisible", "visible"], "inherited", p) != "invisible",
             purpose: s.token_or("purpose", &["default", "render", "proxy", "guide"], "default", p).to_string(),
             id,
@@ -776,7 +769,7 @@ impl Delegate {
         }
 
         let included = &sp.included_purposes;
-        let mut color_mats: HashMap<([u32; 3], bool), usize> = HashMap::new();
+        let mut color_mats: HashMap<([u32; 3], bool, u32, bool), usize> = HashMap::new();
         let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(Vec3::ZERO));
         let mut oceans_seen = BTreeSet::new();
         for (path, c) in &self.cache {
@@ -908,23 +901,21 @@ impl Delegate {
                 }
                 i
             });
-            let varies = r.geometry.carries_varying("displayColor") || r.instance_primvars.iter().any(|p| p.name == "displayColor");
-            // varying per instance only: the default grey where an instance has none
-            let display_color = r.display_color.or(varies.then_some([0.18; 3]));
-            let material = bound.unwrap_or_else(|| match display_color {
-                Some(col) => {
-                    *color_mats.entry((col.map(f32::to_bits), varies)).or_insert_with(|| {
-                        let mut m = default_material(&format!("displayColor{:?}{}", col, if varies { " varying" } else { "" }));
-                        let color = match varies {
-                            true => tide_core::scene::ColorInput::Primvar(tide_core::scene::PrimvarLookup { name: "displayColor".into(), fallback: [col[0], col[1], col[2], 0.0] }),
-                            false => tide_core::scene::ColorInput::Const(col),
-                        };
-                        m.surface = tide_core::scene::SurfaceDesc::Diffuse { color };
-                        scene.materials.push(m);
-                        scene.materials.len() - 1
-                    })
+            let varies = |name: &str| r.geometry.carries_varying(name) || r.instance_primvars.iter().any(|p| p.name == name);
+            let (color_varies, opacity_varies) = (varies("displayColor"), varies("displayOpacity"));
+            // varying per instance only: the defaults where an instance has none
+            let color = r.display_color.or(color_varies.then_some([0.18; 3]));
+            let opacity = r.display_opacity.or(opacity_varies.then_some(1.0));
+            let material = bound.unwrap_or_else(|| {
+                if color.is_none() && opacity.is_none() {
+                    return 0;
                 }
-                None => 0,
+                let (col, o) = (color.unwrap_or([0.18; 3]), opacity.unwrap_or(1.0));
+                let key = (col.map(f32::to_bits), color_varies, o.to_bits(), opacity_varies);
+                *color_mats.entry(key).or_insert_with(|| {
+                    scene.materials.push(display_material(col, color_varies, o, opacity_varies));
+                    scene.materials.len() - 1
+                })
             });
             let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
@@ -1995,6 +1986,57 @@ mod tests {
 }
 
 /// Reads a gprim's `TideCausticsAPI` attributes (contract §4); None when none is authored.
+/// A display primvar (`displayColor`, `displayOpacity`) of N components: its value, or its
+/// average where it varies (the whole prim's value where the geometry cannot carry it).
+fn display_average<const N: usize>(s: &AttrStore, name: &str, p: &mut Problems) -> Option<[f32; N]> {
+    let pv = s.primvar(name, Interpolation::Constant)?;
+    match pv.flatten() {
+        Ok(d) if pv.tuple as usize == N && d.len() >= N && d.iter().all(|x| x.is_finite()) => {
+            let n = (d.len() / N) as f32;
+            let mut sum = [0.0f32; N];
+            for c in d.chunks_exact(N) {
+                for k in 0..N {
+                    sum[k] += c[k];
+                }
+            }
+            Some(sum.map(|x| x / n))
+        }
+        _ => {
+            p.add(name, format!("expected finite data of {N} component(s); ignored"));
+            None
+        }
+    }
+}
+
+/// The fallback material of an unbound gprim: Lambertian of its displayColor, seen through its
+/// displayOpacity (each read per element where it varies, as UsdImaging's fallback does).
+fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_varies: bool) -> tide_core::scene::MaterialDesc {
+    use tide_core::scene::{ColorInput, FloatInput, PreviewSurfaceDesc, PrimvarLookup};
+    let mut name = format!("displayColor{:?}{}", color, if color_varies { " varying" } else { "" });
+    if opacity < 1.0 || opacity_varies {
+        name += &format!(" displayOpacity {}{}", opacity, if opacity_varies { " varying" } else { "" });
+    }
+    let mut m = default_material(&name);
+    let color = match color_varies {
+        true => ColorInput::Primvar(PrimvarLookup { name: "displayColor".into(), fallback: [color[0], color[1], color[2], 0.0] }),
+        false => ColorInput::Const(color),
+    };
+    m.surface = match (opacity, opacity_varies) {
+        (o, false) if o >= 1.0 => SurfaceDesc::Diffuse { color },
+        (o, varies) => SurfaceDesc::Preview(PreviewSurfaceDesc {
+            diffuse_color: color,
+            use_specular_workflow: true,
+            specular_color: ColorInput::Const([0.0; 3]),
+            opacity: match varies {
+                true => FloatInput::Primvar(PrimvarLookup { name: "displayOpacity".into(), fallback: [o, o, o, 0.0] }),
+                false => FloatInput::Const(o),
+            },
+            ..Default::default()
+        }),
+    };
+    m
+}
+
 /// The per-instance primvars of an rprim with `n` authored instances, rows picked for those
 /// `kept`: every one of 1 to 4 components with one finite element per instance.
 fn read_instance_primvars(s: &AttrStore, n: usize, kept: &[usize], p: &mut Problems) -> Vec<PrimvarData> {

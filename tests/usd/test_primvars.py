@@ -205,7 +205,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
     assert wet.mean() < 0.9 * half.mean() < 0.9 * dry.mean(), (wet.mean(), half.mean(), dry.mean())
 
 
-def _tops(img, xs):
+def tops(img, xs):
     """The 2 x 2 pixels around the top of an object centred at x (and z = 0) in the top view."""
     cols = [int(round((x + HALF) / (2 * HALF) * RES)) for x in xs]
     return [img[RES // 2 - 1:RES // 2 + 1, c - 1:c + 1] for c in cols]
@@ -233,7 +233,7 @@ def test_a_point_instancers_per_instance_colours(renderer, stage):
     problems = []
     img = render(renderer, stage, problems)["color"][..., :3]
     assert problems == [], problems
-    for part, want in zip(_tops(img, xs[:4]), colours):
+    for part, want in zip(tops(img, xs[:4]), colours):
         ok, why = near(part, want)
         assert ok, why
 
@@ -260,6 +260,31 @@ def test_native_instances_inherit_their_own_colours(renderer, stage):
     problems = []
     img = render(renderer, stage, problems)["color"][..., :3]
     assert problems == [], problems
-    for part, want in zip(_tops(img, xs), colours):
+    for part, want in zip(tops(img, xs), colours):
         ok, why = near(part, want)
         assert ok, why
+
+
+def test_display_opacity_of_unbound_gprims(renderer, stage):
+    """displayOpacity makes an unbound gprim thin-transparent, per face where it varies: black
+    surfaces against a white dome show 1 - opacity of the sky through each crossing (a ball's
+    front and back both)."""
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Panel")
+    m.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([(0, 0, 0)])
+    m.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.uniform).Set([1.0, 0.25])
+    pts = UsdGeom.Points.Define(stage, "/Ball")
+    pts.CreatePointsAttr([(1, 1, 0)])
+    pts.CreateWidthsAttr([1.0])
+    pts.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([(0, 0, 0)])
+    pts.CreateDisplayOpacityPrimvar(UsdGeom.Tokens.constant).Set([0.5])
+    settings(stage, res=(RES, RES), samples=64, integrator="path")
+    img = render(renderer, stage)["color"][..., :3]
+    # the left face is opaque black; the right face lets 0.75 through where no ball covers it
+    for part, want in ((img[:, 1:RES // 2 - 1], 0.0), (img[-6:, RES // 2 + 1:-1], 0.75)):
+        ok, why = near(part, want)
+        assert ok, why
+    # the ball's top over the panel: 0.5 through each of its two crossings, then the face
+    ok, why = near(tops(img, [1.0]), 0.75 * 0.25)
+    assert ok, why
