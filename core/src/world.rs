@@ -167,7 +167,9 @@ pub struct World {
     /// Lights with a shape of their own that rays can hit (not triangles: those are in the BVH).
     pub hittable_lights: Vec<usize>,
     pub infinite_lights: Vec<usize>,
-    /// (instance, triangle) → light index of emissive triangles.
+    /// (instance, triangle) → light index of emissive triangles: those whose material emits a
+    /// constant colour, or a colour from a primvar (its value at each corner, interpolated as
+    /// the surface interpolates it). Textured emission is found by the paths that hit it.
     pub triangle_lights: HashMap<(u32, u32), usize>,
     /// Per light: which instances it illuminates, by instance index (None: all).
     pub light_links: Vec<Option<Vec<bool>>>,
@@ -241,6 +243,39 @@ fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
         }
     }
     top
+}
+
+/// An emissive triangle whose radiance varies as its corners' RGB (emission from a primvar);
+/// None where it emits nothing.
+fn with_corners(light: Light, rgb: [[f32; 3]; 3], cs: ColorSpace) -> Option<Light> {
+    let Light::Triangle(mut t) = light else { return Some(light) };
+    let mean: [f32; 3] = std::array::from_fn(|k| (rgb[0][k] + rgb[1][k] + rgb[2][k]).max(0.0) / 3.0);
+    if mean == [0.0; 3] {
+        return None;
+    }
+    t.emission = crate::light::Emission::new(uplift::illuminant(mean, cs), 1.0);
+    t.corners = Some(Box::new(crate::light::CornerEmission { rgb, cs }));
+    Some(Light::Triangle(t))
+}
+
+/// Where an instance's primvar `name` comes from (see [`World::primvar`]).
+enum PrimvarSource<'a> {
+    /// The geometry's, per vertex or point.
+    Varying(&'a PrimvarData),
+    /// One value for the whole instance: its own row, or the geometry's constant.
+    Value([f32; 4]),
+}
+
+fn primvar_source<'a>(own: &'a [PrimvarData], row: Option<(u32, u32)>, tables: &[InstancePrimvars], name: &str) -> Option<PrimvarSource<'a>> {
+    let own = own.iter().find(|p| p.name == name);
+    if let Some(pv) = own.filter(|p| !p.constant) {
+        return Some(PrimvarSource::Varying(pv));
+    }
+    let instance = row.and_then(|(t, r)| Some((tables.get(t as usize)?.primvars.iter().find(|p| p.name == name)?, r)));
+    match instance {
+        Some((pv, r)) => Some(PrimvarSource::Value(pv.element(r as usize))),
+        None => own.map(|pv| PrimvarSource::Value(pv.element(0))),
+    }
 }
 
 impl World {
@@ -368,12 +403,26 @@ impl World {
         let mut triangle_lights = HashMap::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let GeometryRef::Mesh(mi) = inst.geometry else { continue };
+            let m = &scene.meshes[mi];
+            // emission read from a primvar: its value at each corner of each triangle
+            let mut corners: Option<Box<dyn Fn(&[u32]) -> [[f32; 3]; 3]>> = None;
             let (emission, two_sided) = match &materials[inst.material].kind {
                 SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided),
                 SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false),
+                SurfaceKind::Preview { emissive: Some(ColorParam::Primvar(l)), .. } => {
+                    let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
+                    corners = Some(match primvar_source(&m.primvars, inst.primvar_row, &scene.instance_primvars, &l.name) {
+                        Some(PrimvarSource::Varying(pv)) => Box::new(move |t: &[u32]| [0, 1, 2].map(|k| rgb(pv.element(t[k] as usize)))),
+                        Some(PrimvarSource::Value(v)) => Box::new(move |_: &[u32]| [rgb(v); 3]),
+                        None => {
+                            let v = l.fallback;
+                            Box::new(move |_: &[u32]| [rgb(v); 3])
+                        }
+                    });
+                    (Spectrum::Constant(0.0), false)
+                }
                 _ => continue,
             };
-            let m = &scene.meshes[mi];
             let deforms = m.motion.as_ref().is_some_and(|mm| mm.positions.len() >= 2);
             let moves = deforms || !accel.instance_motion(ii as u32).is_static();
             // the instance's motion, shared by its moving triangles
@@ -390,6 +439,10 @@ impl World {
                     Light::moving_triangle(crate::light::TriangleMotion { times, p, xf: motion.clone() }, camera.shutter.0, emission.clone(), two)
                 } else {
                     Light::triangle([0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize])), emission.clone(), two)
+                };
+                let light = match (&corners, light) {
+                    (Some(c), Some(l)) => with_corners(l, c(t), cs),
+                    (_, l) => l,
                 };
                 if let Some(l) = light {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
@@ -573,35 +626,27 @@ impl World {
     pub fn primvar(&self, s: &SurfaceHit, name: &str) -> Option<[f32; 4]> {
         let info = self.instances.get(s.instance as usize)?;
         let own = match info.geometry {
-            GeometryRef::Mesh(mi) => self.meshes[mi].primvars.iter().find(|p| p.name == name),
-            GeometryRef::Spheres(si) => self.sphere_primvars.get(si)?.iter().find(|p| p.name == name),
+            GeometryRef::Mesh(mi) => &self.meshes[mi].primvars[..],
+            GeometryRef::Spheres(si) => &self.sphere_primvars.get(si)?[..],
         };
-        match own {
-            Some(pv) if !pv.constant => {}
-            constant => {
-                let row = info.primvar_row.and_then(|(t, r)| Some((self.instance_primvars.get(t as usize)?.primvars.iter().find(|p| p.name == name)?, r)));
-                return match row {
-                    Some((pv, r)) => Some(pv.element(r as usize)),
-                    None => constant.map(|pv| pv.element(0)),
-                };
-            }
-        }
-        let pv = own?;
-        match info.geometry {
-            GeometryRef::Mesh(mi) => {
-                let mesh = &self.meshes[mi];
-                let i = 3 * s.prim as usize;
-                let w = [1.0 - s.bary.x - s.bary.y, s.bary.x, s.bary.y];
-                let mut out = [0.0; 4];
-                for (k, wk) in w.into_iter().enumerate() {
-                    let e = pv.element(*mesh.indices.get(i + k)? as usize);
-                    for c in 0..4 {
-                        out[c] += wk * e[c];
+        match primvar_source(own, info.primvar_row, &self.instance_primvars, name)? {
+            PrimvarSource::Value(v) => Some(v),
+            PrimvarSource::Varying(pv) => match info.geometry {
+                GeometryRef::Mesh(mi) => {
+                    let mesh = &self.meshes[mi];
+                    let i = 3 * s.prim as usize;
+                    let w = [1.0 - s.bary.x - s.bary.y, s.bary.x, s.bary.y];
+                    let mut out = [0.0; 4];
+                    for (k, wk) in w.into_iter().enumerate() {
+                        let e = pv.element(*mesh.indices.get(i + k)? as usize);
+                        for c in 0..4 {
+                            out[c] += wk * e[c];
+                        }
                     }
+                    Some(out)
                 }
-                Some(out)
-            }
-            GeometryRef::Spheres(_) => Some(pv.element(s.prim as usize)),
+                GeometryRef::Spheres(_) => Some(pv.element(s.prim as usize)),
+            },
         }
     }
 
@@ -672,7 +717,8 @@ impl World {
             SurfaceKind::Emissive { radiance, two_sided } if front || *two_sided || double_sided => radiance.sample(lambda),
             SurfaceKind::Preview { emissive: Some(e), .. } if front || double_sided => match e {
                 ColorParam::Const(sp) => sp.sample(lambda),
-                _ => uplift::illuminant(self.rgb(e, s).unwrap_or_default(), self.cs).sample(lambda),
+                // as an emissive triangle light evaluates it: negative values emit nothing
+                _ => uplift::illuminant(self.rgb(e, s).unwrap_or_default().map(|v| v.max(0.0)), self.cs).sample(lambda),
             },
             _ => SampledSpectrum::ZERO,
         }
@@ -845,5 +891,40 @@ mod tests {
         assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(7.0));
         let sh = at(Vec3::new(10.0, 5.0, 0.0), -Vec3::Y);
         assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(5.0));
+    }
+
+    #[test]
+    fn emission_from_a_primvar_is_sampled_as_the_surface_glows() {
+        // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2
+        let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
+        m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
+        m.indices = vec![0, 1, 2, 0, 2, 3];
+        let hot = [1.0, 0.5, 0.25];
+        m.primvars = vec![PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() }];
+        let mut s = SceneDesc::default();
+        s.meshes.push(m);
+        let glow = ColorInput::Primvar(PrimvarLookup { name: "glow".into(), fallback: [0.0; 4] });
+        let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: glow, ..Default::default() };
+        s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
+        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        assert_eq!(w.triangle_lights.len(), 2, "both triangles are lights");
+        let lambda = SampledWavelengths::sample_uniform(0.37);
+        let mut rng = crate::testing::chi2::TestRng::new(7);
+        for &li in w.triangle_lights.values() {
+            for _ in 0..50 {
+                let ctx = crate::light::LightSampleContext::new(Vec3::new(1.0, 0.0, 1.0), Vec3::Y);
+                let Some(ls) = w.lights[li].sample_li(&ctx, Vec2::new(rng.next_f32(), rng.next_f32()), &lambda) else { continue };
+                // the surface there, found by tracing to it, glows as the light says
+                let ray = Ray { o: ctx.p, d: ls.wi, t_max: f32::INFINITY, time: 0.0 };
+                let hit = w.accel.intersect(&ray).expect("the light's point");
+                let sh = w.surface(&ray, &hit);
+                assert!((sh.p - ls.p_light).length() < 1e-4);
+                let glow = w.emitted(0, &sh, -ls.wi, &lambda, false);
+                for k in 0..4 {
+                    assert!((glow.0[k] - ls.l.0[k]).abs() <= 1e-4 * glow.0[k].max(1.0), "{glow:?} vs {:?}", ls.l);
+                }
+            }
+        }
     }
 }

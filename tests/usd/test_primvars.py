@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import (HALF, RES, bind, lambert_material, near, panel, render, settings, top_camera,
+from conftest import (HALF, RES, bind, camera, lambert_material, near, panel, render, settings, top_camera,
                       white_dome, write_exr)
 
 
@@ -288,3 +288,29 @@ def test_display_opacity_of_unbound_gprims(renderer, stage):
     # the ball's top over the panel: 0.5 through each of its two crossings, then the face
     ok, why = near(tops(img, [1.0]), 0.75 * 0.25)
     assert ok, why
+
+
+def test_emission_varying_over_a_mesh_lights_as_it_glows(renderer, stage):
+    """A large panel whose glow (a per-vertex primvar) rises linearly from 0 at x = -20 to 1 at
+    x = 20, 1 above a grey floor (albedo 0.5): under a plane of linearly varying radiance the
+    floor's irradiance is pi L(x) (the odd part cancels), so it shows 0.5 L(x); the panel is
+    sampled as a light with that radiance, and a light of the panel's mean radiance would show
+    0.25 everywhere."""
+    cam = camera(stage, pos=(0, 0.5, 0), aperture=(20 * HALF, 20 * HALF), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    m = UsdGeom.Mesh.Define(stage, "/Glow")
+    m.CreatePointsAttr([(-20, 1, -20), (20, 1, -20), (20, 1, 20), (-20, 1, 20)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])  # facing down (-Y)
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+        "glow", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0, 0), (1, 1, 1), (1, 1, 1), (0, 0, 0)])
+    bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float3", "glow", Sdf.ValueTypeNames.Float3))
+    floor = panel(stage, "/Floor", columns=1)
+    floor.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([(0.5, 0.5, 0.5)])
+    settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    img = render(renderer, stage)["color"][..., :3]
+    for i in (2, RES // 2, RES - 3):
+        x = -HALF + (i + 0.5) * 2 * HALF / RES
+        ok, why = near(img[:, i], 0.5 * (0.5 + x / 40))
+        assert ok, (i, why)

@@ -282,7 +282,7 @@ impl Light {
                 let su = u_pos.x.sqrt();
                 let (b1, b2) = (su * (1.0 - u_pos.y), su * u_pos.y);
                 let p = t.p[0] * (1.0 - b1 - b2) + t.p[1] * b1 + t.p[2] * b2;
-                let l = t.emission.sample(lambda);
+                let l = t.radiance(b1, b2, lambda);
                 if !t.two_sided {
                     return area(p, t.n, t.area, l);
                 }

@@ -474,8 +474,19 @@ pub struct TriangleLight {
     pub n: Vec3,
     pub area: f32,
     pub two_sided: bool,
+    /// The radiance; its average over the corners where they differ (for the light's power).
     pub emission: Emission,
     pub motion: Option<std::sync::Arc<TriangleMotion>>,
+    /// Radiance (RGB) at each corner, interpolated over the triangle as a per-vertex primvar
+    /// is: emission read from a primvar. None: `emission` everywhere.
+    pub corners: Option<Box<CornerEmission>>,
+}
+
+/// An emissive triangle's radiance at its corners, in RGB of a colour space.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CornerEmission {
+    pub rgb: [[f32; 3]; 3],
+    pub cs: ColorSpace,
 }
 
 /// Where a moving emissive triangle is over the shutter, evaluated exactly as the scene's
@@ -506,6 +517,34 @@ impl TriangleMotion {
 }
 
 impl TriangleLight {
+    /// Radiance at barycentric coordinates (b1, b2).
+    #[inline]
+    pub fn radiance(&self, b1: f32, b2: f32, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match &self.corners {
+            None => self.emission.sample(lambda),
+            Some(c) => {
+                let b0 = 1.0 - b1 - b2;
+                let rgb: [f32; 3] = std::array::from_fn(|k| (b0 * c.rgb[0][k] + b1 * c.rgb[1][k] + b2 * c.rgb[2][k]).max(0.0));
+                if rgb == [0.0; 3] {
+                    return SampledSpectrum::ZERO;
+                }
+                uplift::illuminant(rgb, c.cs).sample(lambda) * self.emission.scale
+            }
+        }
+    }
+
+    /// Barycentric coordinates (b1, b2) of a point of the triangle (as it stands unmoved).
+    fn barycentric(&self, p: Vec3) -> (f32, f32) {
+        let (e1, e2, v) = (self.p[1] - self.p[0], self.p[2] - self.p[0], p - self.p[0]);
+        let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+        let (v1, v2) = (v.dot(e1), v.dot(e2));
+        let det = d11 * d22 - d12 * d12;
+        if !(det > 0.0) {
+            return (1.0 / 3.0, 1.0 / 3.0);
+        }
+        ((d22 * v1 - d12 * v2) / det, (d11 * v2 - d12 * v1) / det)
+    }
+
     /// Vertices, unit normal and area at `time`; None where the moving triangle degenerates.
     #[inline]
     pub fn at_time(&self, time: f32) -> Option<([Vec3; 3], Vec3, f32)> {
@@ -971,7 +1010,7 @@ impl Light {
         if !(len > 0.0) || !len.is_finite() || !c.length_squared().is_normal() {
             return None;
         }
-        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None }))
+        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None, corners: None }))
     }
 
     /// An emissive triangle that moves over the shutter: placed by `motion` at each sample's
@@ -1146,7 +1185,13 @@ impl Light {
             Light::Moving(m) => m.inner.l(p, n, w, lambda),
             Light::Rect(r) if c > 0.0 => r.radiance(p, lambda) * self.shaping_factor(w, lambda),
             Light::Sphere(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
-            Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => t.emission.sample(lambda),
+            Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => match t.corners {
+                None => t.emission.sample(lambda),
+                Some(_) => {
+                    let (b1, b2) = t.barycentric(p);
+                    t.radiance(b1, b2, lambda)
+                }
+            },
             _ => SampledSpectrum::ZERO,
         }
     }
@@ -1346,7 +1391,7 @@ impl Light {
                     return Some(LightLiSample { l, wi: v / dist, dist, pdf, is_delta: false, p_light: p, n_light: r.shape.n });
                 }
                 let p = r.shape.origin + r.shape.a * u.x + r.shape.b * u.y;
-                let mut s = area_sample(ctx.p, p, r.shape.n, r.shape.area, false, &r.emission, lambda)?;
+                let mut s = area_sample(ctx.p, p, r.shape.n, r.shape.area, false, r.emission.sample(lambda))?;
                 if r.map.is_some() {
                     s.l = r.radiance(p, lambda);
                     if s.l.is_black() {
@@ -1358,21 +1403,21 @@ impl Light {
             Light::Disk(dl) => {
                 let q = sample_concentric_disk(u);
                 let p = dl.shape.origin + dl.shape.a * q.x + dl.shape.b * q.y;
-                area_sample(ctx.p, p, dl.shape.n, dl.shape.area, false, &dl.emission, lambda)
+                area_sample(ctx.p, p, dl.shape.n, dl.shape.area, false, dl.emission.sample(lambda))
             }
             Light::Cylinder(c) => {
                 let z = (2.0 * u.x - 1.0) * c.half_length;
                 let (sp, cp) = (2.0 * PI * u.y).sin_cos();
                 let n = c.frame.to_world(Vec3::new(cp, sp, 0.0));
                 let p = c.center + c.frame.n * z + n * c.radius;
-                area_sample(ctx.p, p, n, c.area, false, &c.emission, lambda)
+                area_sample(ctx.p, p, n, c.area, false, c.emission.sample(lambda))
             }
             Light::Triangle(t) => {
                 let (tp, n, area) = t.at_time(ctx.time)?;
                 let su = u.x.sqrt();
                 let (b1, b2) = (su * (1.0 - u.y), su * u.y);
                 let p = tp[0] * (1.0 - b1 - b2) + tp[1] * b1 + tp[2] * b2;
-                area_sample(ctx.p, p, n, area, t.two_sided, &t.emission, lambda)
+                area_sample(ctx.p, p, n, area, t.two_sided, t.radiance(b1, b2, lambda))
             }
         }
     }
@@ -1509,7 +1554,7 @@ fn intersect_triangle(p: [Vec3; 3], n: Vec3, o: Vec3, d: Vec3, t_max: f32) -> Op
 
 /// Converts a uniform area sample `p` (normal `n`) into a solid-angle sample seen from `from`.
 #[inline]
-fn area_sample(from: Vec3, p: Vec3, n: Vec3, area: f32, two_sided: bool, em: &Emission, lambda: &SampledWavelengths) -> Option<LightLiSample> {
+fn area_sample(from: Vec3, p: Vec3, n: Vec3, area: f32, two_sided: bool, l: SampledSpectrum) -> Option<LightLiSample> {
     let v = p - from;
     let d2 = v.length_squared();
     if !(d2 > 0.0) {
@@ -1527,5 +1572,5 @@ fn area_sample(from: Vec3, p: Vec3, n: Vec3, area: f32, two_sided: bool, em: &Em
         return None;
     }
     let n_light = if cos_l < 0.0 { -n } else { n };
-    Some(LightLiSample { l: em.sample(lambda), wi, dist, pdf, is_delta: false, p_light: p, n_light })
+    Some(LightLiSample { l, wi, dist, pdf, is_delta: false, p_light: p, n_light })
 }
