@@ -168,8 +168,8 @@ pub struct World {
     pub hittable_lights: Vec<usize>,
     pub infinite_lights: Vec<usize>,
     /// (instance, triangle) → light index of emissive triangles: those whose material emits a
-    /// constant colour, or a colour from a primvar (its value at each corner, interpolated as
-    /// the surface interpolates it). Textured emission is found by the paths that hit it.
+    /// constant colour, a colour from a primvar (its value at each corner, interpolated as the
+    /// surface interpolates it) or from a texture (looked up where the sample lies).
     pub triangle_lights: HashMap<(u32, u32), usize>,
     /// Per light: which instances it illuminates, by instance index (None: all).
     pub light_links: Vec<Option<Vec<bool>>>,
@@ -245,17 +245,27 @@ fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
     top
 }
 
-/// An emissive triangle whose radiance varies as its corners' RGB (emission from a primvar);
-/// None where it emits nothing.
-fn with_corners(light: Light, rgb: [[f32; 3]; 3], cs: ColorSpace) -> Option<Light> {
+/// An emissive triangle whose radiance varies over it (emission from a primvar or a texture),
+/// its power from `mean` (RGB); None where it emits nothing.
+fn with_varying(light: Light, varying: crate::light::VaryingEmission, mean: [f32; 3], cs: ColorSpace) -> Option<Light> {
     let Light::Triangle(mut t) = light else { return Some(light) };
-    let mean: [f32; 3] = std::array::from_fn(|k| (rgb[0][k] + rgb[1][k] + rgb[2][k]).max(0.0) / 3.0);
+    let mean = mean.map(|v| v.max(0.0));
     if mean == [0.0; 3] {
         return None;
     }
     t.emission = crate::light::Emission::new(uplift::illuminant(mean, cs), 1.0);
-    t.corners = Some(Box::new(crate::light::CornerEmission { rgb, cs }));
+    t.varying = Some(Box::new(varying));
     Some(Light::Triangle(t))
+}
+
+/// The value of an instance's primvar `name` at each vertex of its mesh (`fallback` where it
+/// has none).
+fn corner_values<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], name: &str, fallback: [f32; 4]) -> Box<dyn Fn(u32) -> [f32; 4] + 'a> {
+    match primvar_source(&m.primvars, row, tables, name) {
+        Some(PrimvarSource::Varying(pv)) => Box::new(move |v| pv.element(v as usize)),
+        Some(PrimvarSource::Value(v)) => Box::new(move |_| v),
+        None => Box::new(move |_| fallback),
+    }
 }
 
 /// Where an instance's primvar `name` comes from (see [`World::primvar`]).
@@ -399,26 +409,50 @@ impl World {
                 }
             }
         }
-        // emissive triangles of meshes whose material emits a constant colour
+        // emissive triangles of meshes whose material emits a constant colour, or one from a
+        // primvar or a texture
         let mut triangle_lights = HashMap::new();
+        let mut shared_textures: HashMap<usize, std::sync::Arc<TextureDesc>> = HashMap::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let GeometryRef::Mesh(mi) = inst.geometry else { continue };
             let m = &scene.meshes[mi];
-            // emission read from a primvar: its value at each corner of each triangle
-            let mut corners: Option<Box<dyn Fn(&[u32]) -> [[f32; 3]; 3]>> = None;
+            // emission that varies: per triangle, how it varies and an estimate of its mean
+            let mut varying: Option<Box<dyn Fn(&[u32]) -> (crate::light::VaryingEmission, [f32; 3]) + '_>> = None;
             let (emission, two_sided) = match &materials[inst.material].kind {
                 SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided),
                 SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false),
                 SurfaceKind::Preview { emissive: Some(ColorParam::Primvar(l)), .. } => {
-                    let rgb = |v: [f32; 4]| [v[0], v[1], v[2]];
-                    corners = Some(match primvar_source(&m.primvars, inst.primvar_row, &scene.instance_primvars, &l.name) {
-                        Some(PrimvarSource::Varying(pv)) => Box::new(move |t: &[u32]| [0, 1, 2].map(|k| rgb(pv.element(t[k] as usize)))),
-                        Some(PrimvarSource::Value(v)) => Box::new(move |_: &[u32]| [rgb(v); 3]),
-                        None => {
-                            let v = l.fallback;
-                            Box::new(move |_: &[u32]| [rgb(v); 3])
-                        }
-                    });
+                    // the primvar's value at each corner of each triangle
+                    let value = corner_values(m, inst.primvar_row, &scene.instance_primvars, &l.name, l.fallback);
+                    varying = Some(Box::new(move |t: &[u32]| {
+                        let rgb = [0, 1, 2].map(|k| value(t[k]));
+                        let mean = std::array::from_fn(|c| (rgb[0][c] + rgb[1][c] + rgb[2][c]) / 3.0);
+                        (crate::light::VaryingEmission::Corners { rgb: rgb.map(|v| [v[0], v[1], v[2]]), cs }, mean)
+                    }));
+                    (Spectrum::Constant(0.0), false)
+                }
+                SurfaceKind::Preview { emissive: Some(ColorParam::Tex(l)), .. } => {
+                    let Some(tex) = scene.textures.get(l.texture) else { continue };
+                    let texture = shared_textures.entry(l.texture).or_insert_with(|| std::sync::Arc::new(tex.clone())).clone();
+                    let lookup = TexLookup { texture: 0, ..l.clone() };
+                    // the texture coordinates at each corner: a uv set, the mesh's, or the
+                    // triangle's own barycentrics (as a hit without uvs reads them)
+                    let set = l.uv_set.as_ref().map(|set| corner_values(m, inst.primvar_row, &scene.instance_primvars, &set.name, set.fallback));
+                    let own = m.uvs.as_deref();
+                    varying = Some(Box::new(move |t: &[u32]| {
+                        let uv: [Vec2; 3] = match (&set, own) {
+                            (Some(value), _) => [0, 1, 2].map(|k| {
+                                let v = value(t[k]);
+                                Vec2::new(v[0], v[1])
+                            }),
+                            (None, Some(uvs)) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
+                            (None, None) => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                        };
+                        let probe = |st: Vec2| texture::lookup_rgb(std::slice::from_ref(&*texture), &lookup, st);
+                        let samples = [uv[0], uv[1], uv[2], (uv[0] + uv[1] + uv[2]) / 3.0].map(probe);
+                        let mean = std::array::from_fn(|c| samples.iter().map(|s| s[c]).sum::<f32>() / 4.0);
+                        (crate::light::VaryingEmission::Texture { texture: texture.clone(), lookup: lookup.clone(), uv, cs }, mean)
+                    }));
                     (Spectrum::Constant(0.0), false)
                 }
                 _ => continue,
@@ -440,8 +474,11 @@ impl World {
                 } else {
                     Light::triangle([0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize])), emission.clone(), two)
                 };
-                let light = match (&corners, light) {
-                    (Some(c), Some(l)) => with_corners(l, c(t), cs),
+                let light = match (&varying, light) {
+                    (Some(v), Some(l)) => {
+                        let (how, mean) = v(t);
+                        with_varying(l, how, mean, cs)
+                    }
                     (_, l) => l,
                 };
                 if let Some(l) = light {
@@ -894,35 +931,41 @@ mod tests {
     }
 
     #[test]
-    fn emission_from_a_primvar_is_sampled_as_the_surface_glows() {
-        // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2
+    fn emission_from_a_primvar_or_a_texture_is_sampled_as_the_surface_glows() {
+        // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2,
+        // or shows a 2 x 2 texture (uv = (x, z) / 2)
         let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
         m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
         m.indices = vec![0, 1, 2, 0, 2, 3];
+        m.uvs = Some(m.positions.iter().map(|p| Vec2::new(p.x, p.z) / 2.0).collect());
         let hot = [1.0, 0.5, 0.25];
         m.primvars = vec![PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() }];
-        let mut s = SceneDesc::default();
-        s.meshes.push(m);
-        let glow = ColorInput::Primvar(PrimvarLookup { name: "glow".into(), fallback: [0.0; 4] });
-        let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: glow, ..Default::default() };
-        s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
-        assert_eq!(w.triangle_lights.len(), 2, "both triangles are lights");
-        let lambda = SampledWavelengths::sample_uniform(0.37);
-        let mut rng = crate::testing::chi2::TestRng::new(7);
-        for &li in w.triangle_lights.values() {
-            for _ in 0..50 {
-                let ctx = crate::light::LightSampleContext::new(Vec3::new(1.0, 0.0, 1.0), Vec3::Y);
-                let Some(ls) = w.lights[li].sample_li(&ctx, Vec2::new(rng.next_f32(), rng.next_f32()), &lambda) else { continue };
-                // the surface there, found by tracing to it, glows as the light says
-                let ray = Ray { o: ctx.p, d: ls.wi, t_max: f32::INFINITY, time: 0.0 };
-                let hit = w.accel.intersect(&ray).expect("the light's point");
-                let sh = w.surface(&ray, &hit);
-                assert!((sh.p - ls.p_light).length() < 1e-4);
-                let glow = w.emitted(0, &sh, -ls.wi, &lambda, false);
-                for k in 0..4 {
-                    assert!((glow.0[k] - ls.l.0[k]).abs() <= 1e-4 * glow.0[k].max(1.0), "{glow:?} vs {:?}", ls.l);
+        let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5], wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
+        let lookup = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
+        for glow in [ColorInput::Primvar(PrimvarLookup { name: "glow".into(), fallback: [0.0; 4] }), ColorInput::Texture(lookup)] {
+            let mut s = SceneDesc::default();
+            s.meshes.push(m.clone());
+            s.textures.push(texture.clone());
+            let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: glow.clone(), ..Default::default() };
+            s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
+            s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+            let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+            assert_eq!(w.triangle_lights.len(), 2, "both triangles are lights: {glow:?}");
+            let lambda = SampledWavelengths::sample_uniform(0.37);
+            let mut rng = crate::testing::chi2::TestRng::new(7);
+            for &li in w.triangle_lights.values() {
+                for _ in 0..50 {
+                    let ctx = crate::light::LightSampleContext::new(Vec3::new(1.0, 0.0, 1.0), Vec3::Y);
+                    let Some(ls) = w.lights[li].sample_li(&ctx, Vec2::new(rng.next_f32(), rng.next_f32()), &lambda) else { continue };
+                    // the surface there, found by tracing to it, glows as the light says
+                    let ray = Ray { o: ctx.p, d: ls.wi, t_max: f32::INFINITY, time: 0.0 };
+                    let hit = w.accel.intersect(&ray).expect("the light's point");
+                    let sh = w.surface(&ray, &hit);
+                    assert!((sh.p - ls.p_light).length() < 1e-4);
+                    let shown = w.emitted(0, &sh, -ls.wi, &lambda, false);
+                    for k in 0..4 {
+                        assert!((shown.0[k] - ls.l.0[k]).abs() <= 1e-4 * shown.0[k].max(1.0), "{glow:?}: {shown:?} vs {:?}", ls.l);
+                    }
                 }
             }
         }

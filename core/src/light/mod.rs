@@ -474,19 +474,22 @@ pub struct TriangleLight {
     pub n: Vec3,
     pub area: f32,
     pub two_sided: bool,
-    /// The radiance; its average over the corners where they differ (for the light's power).
+    /// The radiance; an estimate of its mean where it varies (for the light's power).
     pub emission: Emission,
     pub motion: Option<std::sync::Arc<TriangleMotion>>,
-    /// Radiance (RGB) at each corner, interpolated over the triangle as a per-vertex primvar
-    /// is: emission read from a primvar. None: `emission` everywhere.
-    pub corners: Option<Box<CornerEmission>>,
+    /// Radiance that varies over the triangle as the surface's emission does. None:
+    /// `emission` everywhere.
+    pub varying: Option<Box<VaryingEmission>>,
 }
 
-/// An emissive triangle's radiance at its corners, in RGB of a colour space.
+/// An emissive triangle's radiance where it varies over the triangle (RGB in `cs`).
 #[derive(Clone, Debug, PartialEq)]
-pub struct CornerEmission {
-    pub rgb: [[f32; 3]; 3],
-    pub cs: ColorSpace,
+pub enum VaryingEmission {
+    /// RGB at each corner, interpolated (emission read from a primvar).
+    Corners { rgb: [[f32; 3]; 3], cs: ColorSpace },
+    /// A texture looked up at the corners' texture coordinates, interpolated (`lookup` names
+    /// texture 0, `texture`).
+    Texture { texture: std::sync::Arc<TextureDesc>, lookup: crate::scene::TexLookup, uv: [Vec2; 3], cs: ColorSpace },
 }
 
 /// Where a moving emissive triangle is over the shutter, evaluated exactly as the scene's
@@ -520,17 +523,20 @@ impl TriangleLight {
     /// Radiance at barycentric coordinates (b1, b2).
     #[inline]
     pub fn radiance(&self, b1: f32, b2: f32, lambda: &SampledWavelengths) -> SampledSpectrum {
-        match &self.corners {
-            None => self.emission.sample(lambda),
-            Some(c) => {
-                let b0 = 1.0 - b1 - b2;
-                let rgb: [f32; 3] = std::array::from_fn(|k| (b0 * c.rgb[0][k] + b1 * c.rgb[1][k] + b2 * c.rgb[2][k]).max(0.0));
-                if rgb == [0.0; 3] {
-                    return SampledSpectrum::ZERO;
-                }
-                uplift::illuminant(rgb, c.cs).sample(lambda) * self.emission.scale
+        let b0 = 1.0 - b1 - b2;
+        let (rgb, cs) = match self.varying.as_deref() {
+            None => return self.emission.sample(lambda),
+            Some(VaryingEmission::Corners { rgb, cs }) => (std::array::from_fn(|k| b0 * rgb[0][k] + b1 * rgb[1][k] + b2 * rgb[2][k]), *cs),
+            Some(VaryingEmission::Texture { texture, lookup, uv, cs }) => {
+                let st = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
+                (crate::texture::lookup_rgb(std::slice::from_ref(&**texture), lookup, st), *cs)
             }
+        };
+        let rgb: [f32; 3] = rgb.map(|v| v.max(0.0));
+        if rgb == [0.0; 3] {
+            return SampledSpectrum::ZERO;
         }
+        uplift::illuminant(rgb, cs).sample(lambda) * self.emission.scale
     }
 
     /// Barycentric coordinates (b1, b2) of a point of the triangle (as it stands unmoved).
@@ -1010,7 +1016,7 @@ impl Light {
         if !(len > 0.0) || !len.is_finite() || !c.length_squared().is_normal() {
             return None;
         }
-        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None, corners: None }))
+        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None, varying: None }))
     }
 
     /// An emissive triangle that moves over the shutter: placed by `motion` at each sample's
@@ -1185,7 +1191,7 @@ impl Light {
             Light::Moving(m) => m.inner.l(p, n, w, lambda),
             Light::Rect(r) if c > 0.0 => r.radiance(p, lambda) * self.shaping_factor(w, lambda),
             Light::Sphere(_) | Light::Disk(_) | Light::Cylinder(_) if c > 0.0 => self.emission().sample(lambda) * self.shaping_factor(w, lambda),
-            Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => match t.corners {
+            Light::Triangle(t) if c > 0.0 || (t.two_sided && c != 0.0) => match t.varying {
                 None => t.emission.sample(lambda),
                 Some(_) => {
                     let (b1, b2) = t.barycentric(p);
