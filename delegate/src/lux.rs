@@ -454,15 +454,23 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
     m.surface = match preview {
         None => SurfaceDesc::Emissive { radiance: rgb, two_sided: mesh.double_sided },
         Some(mut pr) => {
-            let glow = match (&pr.emissive_color, ml.mode) {
-                (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().any(|&c| c > 0.0) => *g,
-                (ColorInput::Texture(_) | ColorInput::Primvar(_), MeshLightMode::MaterialGlowTintsLight) => {
-                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "a textured or primvar emissive colour does not tint a mesh light; the light emits untinted".into() });
-                    [1.0; 3]
+            pr.emissive_color = match (&pr.emissive_color, ml.mode) {
+                (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().any(|&c| c > 0.0) => ColorInput::Const([rgb[0] * g[0], rgb[1] * g[1], rgb[2] * g[2]]),
+                (ColorInput::Texture(t), MeshLightMode::MaterialGlowTintsLight) => {
+                    // the glow map tints the light texel by texel
+                    let mut t = t.clone();
+                    for k in 0..3 {
+                        t.tex_scale[k] *= rgb[k];
+                        t.bias[k] *= rgb[k];
+                    }
+                    ColorInput::Texture(t)
                 }
-                _ => [1.0; 3],
+                (ColorInput::Primvar(_), MeshLightMode::MaterialGlowTintsLight) => {
+                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "an emissive colour read from a primvar does not tint a mesh light; the light emits untinted".into() });
+                    ColorInput::Const(rgb)
+                }
+                _ => ColorInput::Const(rgb),
             };
-            pr.emissive_color = ColorInput::Const([rgb[0] * glow[0], rgb[1] * glow[1], rgb[2] * glow[2]]);
             SurfaceDesc::Preview(pr)
         }
     };
@@ -836,6 +844,24 @@ mod tests {
         assert!(problem.is_none());
         let SurfaceDesc::Preview(pr) = &m.surface else { panic!("{:?}", m.surface) };
         assert_eq!(pr.emissive_color, ColorInput::Const([6.0 / 6.0 * 0.5, 3.0 / 6.0, 1.5 / 6.0 * 2.0]));
+        // a glow map tints the light texel by texel: its scale and bias carry the light's colour
+        let map = tide_core::scene::TexLookup {
+            texture: 0,
+            channel: tide_core::scene::Channel::Rgb,
+            scale: glam::Vec2::ONE,
+            rotation_deg: 0.0,
+            translation: glam::Vec2::ZERO,
+            tex_scale: [1.0, 2.0, 1.0, 1.0],
+            bias: [0.5, 0.0, 0.0, 0.0],
+            fallback: [0.0; 4],
+            uv_set: None,
+        };
+        let mapped = MaterialDesc { surface: SurfaceDesc::Preview(PreviewSurfaceDesc { emissive_color: ColorInput::Texture(map), ..Default::default() }), ..glow.clone() };
+        let (m, problem) = mesh_light_material(&ml, &mapped, &quad, world, ColorSpace::LinearRec709, "/M");
+        assert!(problem.is_none());
+        let SurfaceDesc::Preview(pr) = &m.surface else { panic!() };
+        let ColorInput::Texture(t) = &pr.emissive_color else { panic!("{:?}", pr.emissive_color) };
+        assert_eq!((t.tex_scale, t.bias), ([1.0, 1.0, 0.25, 1.0], [0.5, 0.0, 0.0, 0.0]));
         // independent: the glow is replaced; a Lambert material keeps its colour and emits
         let ind = MeshLight { mode: MeshLightMode::Independent, normalize: false, ..ml.clone() };
         let (m, _) = mesh_light_material(&ind, &glow, &quad, world, ColorSpace::LinearRec709, "/M");
