@@ -991,6 +991,28 @@ class Reader:
         st.set(name, ("token", v))
         return v
 
+    def _primvar_values(self, owner, pv):
+        """A primvar's values as float32 rows (n x tuple) and its indices (int32, or None);
+        None when it holds no numbers, or when an index is out of range (reported on
+        `owner`)."""
+        value = pv.Get(self._time(0))
+        if value is None:
+            return None
+        arr = np.array(_quat_rows(value)) if _is_quat_array(value) else np.asarray(value)
+        if arr.dtype == object or arr.dtype.kind in "USO":
+            return None
+        if arr.ndim == 0:
+            arr = arr.reshape(1)
+        rows = arr.astype(np.float32).reshape(-1, _tuple_size(arr))
+        idx = None
+        if pv.IsIndexed():
+            idx = np.asarray(pv.GetIndices(self._time(0)), dtype=np.int32)
+            if idx.size and (idx.min() < 0 or idx.max() >= len(rows)):
+                self.problem(owner, "primvars:%s:indices" % pv.GetPrimvarName(),
+                             "index out of range; primvar dropped")
+                return None
+        return rows, idx
+
     def _primvars(self, prim, st, skip=()):
         api = UsdGeom.PrimvarsAPI(prim)
         for pv in api.FindPrimvarsWithInheritance():
@@ -999,26 +1021,12 @@ class Reader:
             name = pv.GetPrimvarName()
             if name in skip:
                 continue
-            value = pv.Get(self._time(0))
-            if value is None:
+            got = self._primvar_values(prim.GetPath(), pv)
+            if got is None:
                 continue
-            arr = np.array(_quat_rows(value)) if _is_quat_array(value) else np.asarray(value)
-            if arr.dtype == object or arr.dtype.kind in "USO":
-                continue
-            if arr.ndim == 0:
-                arr = arr.reshape(1)
-            idx = pv.GetIndices(self._time(0)) if pv.IsIndexed() else None
-            interp = str(pv.GetInterpolation())
-            data = np.ascontiguousarray(arr.astype(np.float32).reshape(-1)).tobytes()
-            idx_b = None
-            if idx is not None:
-                idx_a = np.asarray(idx, dtype=np.int32)
-                if idx_a.size and (idx_a.min() < 0 or idx_a.max() >= len(arr)):
-                    self.problem(prim.GetPath(), "primvars:%s:indices" % name,
-                                 "index out of range; primvar dropped")
-                    continue
-                idx_b = idx_a.tobytes()
-            st.primvars[name] = (interp, data, _tuple_size(arr), idx_b)
+            rows, idx = got
+            st.primvars[name] = (str(pv.GetInterpolation()), np.ascontiguousarray(rows).tobytes(),
+                                 rows.shape[1], None if idx is None else idx.tobytes())
 
     def _points_samples(self, prim, st, name="points"):
         """Points (and time samples of them within the shutter); False when unusable."""
@@ -1653,17 +1661,16 @@ class Reader:
         for pv in UsdGeom.PrimvarsAPI(prim).GetPrimvarsWithValues():
             if pv.GetInterpolation() not in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying):
                 continue
-            name = pv.GetPrimvarName()
-            value = pv.ComputeFlattened(self._time(0))
-            arr = np.asarray(value) if value is not None else None
-            if arr is None or arr.dtype == object or arr.dtype.kind in "USO":
+            name = str(pv.GetPrimvarName())
+            got = self._primvar_values(prim.GetPath(), pv)
+            if got is None:
                 continue
-            tsize = _tuple_size(arr)
-            if arr.size != n * tsize:
+            rows = got[0] if got[1] is None else got[0][got[1]]
+            if len(rows) != n:
                 self.problem(prim.GetPath(), "primvars:" + name, "%d values for %d instances; "
-                             "ignored" % (arr.size // max(tsize, 1), n))
+                             "ignored" % (len(rows), n))
                 continue
-            out[str(name)] = (arr.astype(np.float32).reshape(n, tsize), tsize)
+            out[name] = (rows, rows.shape[1])
         return out
 
     def _inherited_by_instances(self, prim, st, roots):
@@ -1681,11 +1688,10 @@ class Reader:
             vals = []
             for r in roots:
                 q = UsdGeom.PrimvarsAPI(r).FindPrimvarWithInheritance(name)
-                v = q.ComputeFlattened(self._time(0)) if q else None
-                a = np.asarray(v) if v is not None else None
-                if a is None or a.dtype == object or a.dtype.kind in "USO":
+                got = self._primvar_values(q.GetAttr().GetPrim().GetPath(), q) if q else None
+                if got is None:
                     break
-                vals.append(a.astype(np.float32).reshape(-1))
+                vals.append((got[0] if got[1] is None else got[0][got[1]]).reshape(-1))
             if len(vals) != len(roots) or len({a.size for a in vals}) != 1 or \
                     all(np.array_equal(a, vals[0]) for a in vals):
                 continue
