@@ -502,7 +502,13 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
             p.add("holeIndices", format!("hole face index {} is out of range (0..{}); ignored", h, n_faces));
         }
     }
-    let refined = subdiv::read_options(store, scheme, &counts, n_points, p).map(|o| subdiv::refine(&counts, &fv, &points, &o, p));
+    let options = subdiv::read_options(store, scheme, &counts, n_points, p);
+    if options.as_ref().is_some_and(|o| o.boundary == subdiv::Boundary::None) {
+        for (f, b) in subdiv::boundary_faces(&counts, &fv, n_points).into_iter().enumerate() {
+            is_hole[f] |= b;
+        }
+    }
+    let refined = options.map(|o| subdiv::refine(&counts, &fv, &points, &o, p));
 
     // Triangles as (face, corner a, corner b, corner c), corners indexing faceVertexIndices.
     let mut tris: Vec<(u32, [u32; 3])> = Vec::new();

@@ -14,7 +14,8 @@
 //! and non-manifold edges (more than two faces) are infinitely sharp creases, and their
 //! vertices use the crease (cubic B-spline curve) rule. `interpolateBoundary` `edgeAndCorner`
 //! (USD's fallback) also pins boundary vertices with only two incident edges; `edgeOnly` keeps
-//! them on the smooth boundary curve; `none` is reported and treated as `edgeAndCorner`.
+//! them on the smooth boundary curve; `none` leaves the faces that touch the boundary out (as
+//! holes: they still shape their neighbours).
 //! `creaseIndices` / `creaseLengths` / `creaseSharpnesses` (one sharpness per crease or per
 //! crease edge) and `cornerIndices` / `cornerSharpnesses` sharpen edges and vertices: a
 //! sharpness of [`INFINITELY_SHARP`] (10) or more is sharp at every level, a semi-sharp one
@@ -66,13 +67,16 @@ pub enum Scheme {
     Bilinear,
 }
 
-/// `interpolateBoundary` (`none` is treated as `edgeAndCorner`).
+/// `interpolateBoundary`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Boundary {
     /// Boundary vertices with only two incident edges are corners.
     EdgeAndCorner,
     /// Every boundary vertex follows the smooth boundary curve.
     EdgeOnly,
+    /// The faces that touch the boundary only shape their neighbours: they are holes
+    /// ([`boundary_faces`]), as OpenSubdiv's `VTX_BOUNDARY_NONE` makes them.
+    None,
 }
 
 /// What to refine and how, read from a mesh prim by [`read_options`].
@@ -141,10 +145,7 @@ pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: u
     }
     let boundary = match store.token_or("interpolateBoundary", &["none", "edgeOnly", "edgeAndCorner"], "edgeAndCorner", p) {
         "edgeOnly" => Boundary::EdgeOnly,
-        "none" => {
-            p.add("interpolateBoundary", "'none' (boundary faces left out of the limit surface) is not supported; treated as edgeAndCorner");
-            Boundary::EdgeAndCorner
-        }
+        "none" => Boundary::None,
         _ => Boundary::EdgeAndCorner,
     };
     let (creases, corners) = match scheme {
@@ -152,6 +153,37 @@ pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: u
         Scheme::Bilinear => (Vec::new(), Vec::new()),
     };
     Some(Options { scheme, level, boundary, creases, corners })
+}
+
+/// The faces (of `counts` corners, indexing `indices` into `n_points` points) that touch the
+/// boundary: a vertex of theirs lies on an edge only one face has. Faces that cannot be drawn
+/// (fewer than 3 corners, indices out of range) neither count nor are flagged.
+pub fn boundary_faces(counts: &[i32], indices: &[i32], n_points: usize) -> Vec<bool> {
+    let mut ranges = Vec::with_capacity(counts.len());
+    let mut off = 0usize;
+    for &c in counts {
+        let c = c.max(0) as usize;
+        let r = off..(off + c).min(indices.len());
+        off += c;
+        let usable = c >= 3 && r.len() == c && indices[r.clone()].iter().all(|&i| i >= 0 && (i as usize) < n_points);
+        ranges.push(usable.then_some(r));
+    }
+    let mut uses: HashMap<(i32, i32), u32> = HashMap::new();
+    for r in ranges.iter().flatten() {
+        let f = &indices[r.clone()];
+        for k in 0..f.len() {
+            let (a, b) = (f[k], f[(k + 1) % f.len()]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut on_boundary = vec![false; n_points];
+    for (&(a, b), &n) in &uses {
+        if n == 1 {
+            on_boundary[a as usize] = true;
+            on_boundary[b as usize] = true;
+        }
+    }
+    ranges.iter().map(|r| r.as_ref().is_some_and(|r| indices[r.clone()].iter().any(|&i| on_boundary[i as usize]))).collect()
 }
 
 /// Refined faces and (roughly) stencil weights of refining faces of `counts` corners `level` times.
@@ -529,7 +561,7 @@ impl Topo {
         }
         for v in 0..n_points {
             let edges = t.vert_edges.get(v);
-            let pinned = opts.boundary == Boundary::EdgeAndCorner && edges.len() == 2 && edges.iter().any(|&e| t.edge_faces.get(e as usize).len() == 1);
+            let pinned = opts.boundary != Boundary::EdgeOnly && edges.len() == 2 && edges.iter().any(|&e| t.edge_faces.get(e as usize).len() == 1);
             if pinned || t.fans(v) > 1 {
                 t.vert_sharp[v] = INFINITELY_SHARP;
             }

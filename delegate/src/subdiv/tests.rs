@@ -571,9 +571,9 @@ fn bad_levels_schemes_and_creases_are_problems_naming_prim_and_attribute() {
     let (m, list) = with(&[(LEVEL_ATTR, Value::Int(2)), ("subdivisionScheme", Value::Token("loop".into()))]);
     only(&list, "subdivisionScheme", "loop subdivision is not supported; rendered as its cage");
     assert_eq!(m, cage);
-    // interpolateBoundary none: as edgeAndCorner
+    // interpolateBoundary none on a closed mesh: no boundary, nothing left out
     let (m, list) = with(&[(LEVEL_ATTR, Value::Int(2)), ("interpolateBoundary", Value::Token("none".into()))]);
-    only(&list, "interpolateBoundary", "edgeAndCorner");
+    assert!(list.is_empty(), "{list:?}");
     assert_eq!(m, smooth2.0);
     // malformed creases and corners: reported, ignored, the smooth surface rendered
     let crease = |i: Vec<i32>, l: Vec<i32>, sh: Vec<f32>| {
@@ -723,4 +723,31 @@ fn levels_past_the_size_limit_are_lowered_with_a_problem() {
     let mut p = Problems::new("/m");
     assert_eq!(read_options(&s, "catmullClark", &vec![4; 100_000], 100_000, &mut p).map(|o| o.level), Some(1));
     assert!(p.list.is_empty());
+}
+
+#[test]
+fn boundary_none_leaves_the_faces_that_touch_the_boundary_out() {
+    // a 3 x 3 grid bent into a bowl: only the middle face touches no boundary vertex
+    let (mut pts, counts, idx) = grid(3, 3);
+    for q in &mut pts {
+        q.z = 0.3 * ((q.x - 1.5).powi(2) + (q.y - 1.5).powi(2));
+    }
+    let flags = boundary_faces(&counts, &idx, pts.len());
+    assert_eq!(flags.iter().filter(|&&b| !b).count(), 1);
+    assert!(!flags[4], "the middle face");
+    let mut s = mesh_store(&pts, &counts, &idx);
+    put(&mut s, LEVEL_ATTR, Value::Int(2));
+    let (corners, list) = problems(&s);
+    assert!(list.is_empty(), "{list:?}");
+    put(&mut s, "interpolateBoundary", Value::Token("none".into()));
+    let (none, list) = problems(&s);
+    assert!(list.is_empty(), "{list:?}");
+    // the middle face's 16 children, each where edgeAndCorner puts it (the boundary rules do
+    // not reach a face whose vertices are all interior)
+    assert_eq!(none.indices.len(), 16 * 2 * 3);
+    for t in none.indices.chunks_exact(3) {
+        let tri = t.iter().map(|&i| none.positions[i as usize]).collect::<Vec<_>>();
+        let found = corners.indices.chunks_exact(3).any(|u| u.iter().zip(&tri).all(|(&i, q)| (corners.positions[i as usize] - *q).length() < 1e-6));
+        assert!(found, "{tri:?}");
+    }
 }
