@@ -297,3 +297,29 @@ def test_the_posed_strip_renders_where_the_skeleton_puts_it(renderer):
     assert seen[0][0] > 0.9 and seen[1][0] > 0.9, seen      # the `root` quad: always there
     assert seen[1][1] > 0.9, seen                          # the `tip` quad, straight
     assert seen[0][1] < 0.1, seen                          # folded away at frame 0
+
+
+def test_points_and_basis_curves_are_posed_like_meshes(stage, delegate):
+    """UsdSkel skins any point-based gprim: Points and BasisCurves bound to the rig move as the
+    mesh's vertices do (a ribbon keeps its authored normals, and says so)."""
+    _scene(stage)
+    skel = stage.GetPrimAtPath("/World/Char/Skel")
+    pts = UsdGeom.Points.Define(stage, "/World/Char/Drops")
+    curves = UsdGeom.BasisCurves.Define(stage, "/World/Char/Rope")
+    curves.CreateTypeAttr("linear")
+    curves.CreateCurveVertexCountsAttr([6])
+    curves.CreateNormalsAttr([(0, 0, 1)] * 6)
+    for g in (pts, curves):
+        g.CreatePointsAttr(STRIP)
+        binding = UsdSkel.BindingAPI.Apply(g.GetPrim())
+        binding.CreateSkeletonRel().SetTargets([skel.GetPath()])
+        binding.CreateJointIndicesPrimvar(False, 1).Set([0, 0, 1, 0, 0, 1])
+        binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * 6)
+        binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
+    _, problems = load(stage, delegate, frame=0.5)
+    assert [(p.prim, p.attribute) for p in problems] == [("/World/Char/Rope", "normals")], problems
+    for path in ("/World/Char/Drops", "/World/Char/Rope"):
+        assert np.allclose(floats(delegate.value(path, "points")), _posed(45), atol=1e-5), path
+        assert np.allclose(_translation(delegate.value(path, "transform")), SKEL_WORLD)
+        assert not any(n.startswith("skel:") for n in delegate.primvars.get(path, {}))
+    assert "normals" in delegate.primvars["/World/Char/Rope"]

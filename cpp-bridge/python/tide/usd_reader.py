@@ -132,6 +132,12 @@ MTLX_IDS = ("ND_standard_surface_surfaceshader", "ND_image_", "ND_tiledimage_",
             "ND_Usd")
 
 
+def _skinnable(prim, st):
+    """Gprims a skeleton poses: meshes, points and basis curves (whose points are sent as
+    authored; NURBS and Hermite curves are evaluated into others)."""
+    return st.type in ("mesh", "points") or (st.type == "basisCurves" and prim.IsA(UsdGeom.BasisCurves))
+
+
 def _known_shader(sid):
     return sid in SHADER_IDS or sid.startswith(MTLX_IDS)
 
@@ -910,17 +916,18 @@ class Reader:
     def _eval_gprim(self, prim, dpath, source):
         st = self._gprim_state(prim, dpath, source, self._world(prim), [prim])
         if st is not None:
-            if st.type == "mesh":
+            if _skinnable(prim, st):
                 self._skin(prim, st)
             self._desired[dpath] = st
 
     def _skin(self, prim, st):
-        """A mesh bound to a Skeleton (UsdSkel) renders posed, as UsdSkelImaging draws it: its
-        points deformed by the skeleton's animation (blend shapes, then skinning), with samples
-        over the shutter like authored point samples, and placed by the Skeleton's
-        local-to-world transform, since skinned points are in the skeleton's space. When the
-        pose cannot be computed (reported), the mesh keeps its authored points and transform.
-        Skinned meshes in native instances or point instancer prototypes are not posed."""
+        """A mesh, points or basis curves bound to a Skeleton (UsdSkel) render posed, as
+        UsdSkelImaging draws them: their points deformed by the skeleton's animation (blend
+        shapes, then skinning), with samples over the shutter like authored point samples, and
+        placed by the Skeleton's local-to-world transform, since skinned points are in the
+        skeleton's space. When the pose cannot be computed (reported), the gprim keeps its
+        authored points and transform. Skinned gprims in native instances or point instancer
+        prototypes are not posed."""
         target = self._skinning.target(prim)
         if target is None:
             return
@@ -945,17 +952,22 @@ class Reader:
         st.set("transform", None, self._xform_samples(self._world(target.space),
                                                       [target.space]))
         # Authored normals are not skinned (ComputeSkinnedNormals is missing from older
-        # usd-core): they are dropped and the core computes normals from the posed points, as
-        # UsdSkelImaging does. Authored velocities and accelerations describe the unposed
-        # points, so they go as well; the posed samples carry the motion.
-        st.primvars.pop("normals", None)
+        # usd-core): a mesh's are dropped and the core computes normals from the posed points,
+        # as UsdSkelImaging does; a ribbon's (curves with normals) stay as authored, and say so.
+        # Authored velocities and accelerations describe the unposed points, so they go as
+        # well; the posed samples carry the motion.
+        if st.type == "basisCurves" and "normals" in st.primvars:
+            self.problem(prim.GetPath(), "normals", "a skinned ribbon keeps its authored normals "
+                         "(they are not skinned)")
+        else:
+            st.primvars.pop("normals", None)
         st.values.pop("velocities", None)
         st.values.pop("accelerations", None)
 
     def _unposed(self, prim, st, where):
         """Skinned meshes are posed as plain gprims only: one shared by instances (which may
         each have their own animation) renders in its bind pose, and says so."""
-        if st.type == "mesh" and self._skinning.target(prim) is not None:
+        if _skinnable(prim, st) and self._skinning.target(prim) is not None:
             self.problem(prim.GetPath(), "skel:skeleton", "a skinned mesh in %s is not posed; it "
                          "renders in its bind pose" % where)
 
