@@ -18,7 +18,6 @@ fn mat_ok(m: &Mat4) -> bool {
     m.is_finite() && m.determinant().abs() > 1e-30
 }
 
-/// Returns a cleaned copy of the scene and the problems found.
 /// Drops primvars whose data does not fit `n` elements (one when constant) or is not finite.
 fn check_primvars(pvs: &mut Vec<PrimvarData>, n: usize, item: &str, p: &mut Vec<Problem>) {
     pvs.retain(|pv| {
@@ -39,6 +38,7 @@ fn fix_fallback(l: &mut PrimvarLookup, item: &str, attr: &str, p: &mut Vec<Probl
     }
 }
 
+/// Returns a cleaned copy of the scene and the problems found.
 pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     let mut p = Vec::new();
     let mut s = scene.clone();

@@ -258,6 +258,50 @@ fn with_varying(light: Light, varying: crate::light::VaryingEmission, mean: [f32
     Some(Light::Triangle(t))
 }
 
+/// Per triangle (its vertex indices), how an emission that varies over a mesh varies there
+/// and an estimate of its mean RGB.
+type VaryingFn<'a> = Box<dyn Fn(&[u32]) -> (crate::light::VaryingEmission, [f32; 3]) + 'a>;
+
+/// How the emission `e` (from a primvar or a texture) of instance `inst` of mesh `m` varies per
+/// triangle; None for a constant or a missing texture. `shared` holds each texture once.
+fn varying_emission<'a>(e: &ColorParam, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a SceneDesc, shared: &mut HashMap<usize, std::sync::Arc<TextureDesc>>, cs: ColorSpace) -> Option<VaryingFn<'a>> {
+    match e {
+        ColorParam::Const(_) => None,
+        ColorParam::Primvar(l) => {
+            // the primvar's value at each corner of each triangle
+            let value = corner_values(m, inst.primvar_row, &scene.instance_primvars, &l.name, l.fallback);
+            Some(Box::new(move |t: &[u32]| {
+                let rgb = [0, 1, 2].map(|k| value(t[k]));
+                let mean = std::array::from_fn(|c| (rgb[0][c] + rgb[1][c] + rgb[2][c]) / 3.0);
+                (crate::light::VaryingEmission::Corners { rgb: rgb.map(|v| [v[0], v[1], v[2]]), cs }, mean)
+            }))
+        }
+        ColorParam::Tex(l) => {
+            let tex = scene.textures.get(l.texture)?;
+            let texture = shared.entry(l.texture).or_insert_with(|| std::sync::Arc::new(tex.clone())).clone();
+            let lookup = TexLookup { texture: 0, ..l.clone() };
+            // the texture coordinates at each corner: a uv set, the mesh's, or the triangle's
+            // own barycentrics (as a hit without uvs reads them)
+            let set = l.uv_set.as_ref().map(|set| corner_values(m, inst.primvar_row, &scene.instance_primvars, &set.name, set.fallback));
+            let own = m.uvs.as_deref();
+            Some(Box::new(move |t: &[u32]| {
+                let uv: [Vec2; 3] = match (&set, own) {
+                    (Some(value), _) => [0, 1, 2].map(|k| {
+                        let v = value(t[k]);
+                        Vec2::new(v[0], v[1])
+                    }),
+                    (None, Some(uvs)) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
+                    (None, None) => [Vec2::ZERO, Vec2::X, Vec2::Y],
+                };
+                let probe = |st: Vec2| texture::lookup_rgb(std::slice::from_ref(&*texture), &lookup, st);
+                let samples = [uv[0], uv[1], uv[2], (uv[0] + uv[1] + uv[2]) / 3.0].map(probe);
+                let mean = std::array::from_fn(|c| samples.iter().map(|s| s[c]).sum::<f32>() / 4.0);
+                (crate::light::VaryingEmission::Texture { texture: texture.clone(), lookup: lookup.clone(), uv, cs }, mean)
+            }))
+        }
+    }
+}
+
 /// The value of an instance's primvar `name` at each vertex of its mesh (`fallback` where it
 /// has none).
 fn corner_values<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], name: &str, fallback: [f32; 4]) -> Box<dyn Fn(u32) -> [f32; 4] + 'a> {
@@ -416,45 +460,13 @@ impl World {
         for (ii, inst) in scene.instances.iter().enumerate() {
             let GeometryRef::Mesh(mi) = inst.geometry else { continue };
             let m = &scene.meshes[mi];
-            // emission that varies: per triangle, how it varies and an estimate of its mean
-            let mut varying: Option<Box<dyn Fn(&[u32]) -> (crate::light::VaryingEmission, [f32; 3]) + '_>> = None;
-            let (emission, two_sided) = match &materials[inst.material].kind {
-                SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided),
-                SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false),
-                SurfaceKind::Preview { emissive: Some(ColorParam::Primvar(l)), .. } => {
-                    // the primvar's value at each corner of each triangle
-                    let value = corner_values(m, inst.primvar_row, &scene.instance_primvars, &l.name, l.fallback);
-                    varying = Some(Box::new(move |t: &[u32]| {
-                        let rgb = [0, 1, 2].map(|k| value(t[k]));
-                        let mean = std::array::from_fn(|c| (rgb[0][c] + rgb[1][c] + rgb[2][c]) / 3.0);
-                        (crate::light::VaryingEmission::Corners { rgb: rgb.map(|v| [v[0], v[1], v[2]]), cs }, mean)
-                    }));
-                    (Spectrum::Constant(0.0), false)
-                }
-                SurfaceKind::Preview { emissive: Some(ColorParam::Tex(l)), .. } => {
-                    let Some(tex) = scene.textures.get(l.texture) else { continue };
-                    let texture = shared_textures.entry(l.texture).or_insert_with(|| std::sync::Arc::new(tex.clone())).clone();
-                    let lookup = TexLookup { texture: 0, ..l.clone() };
-                    // the texture coordinates at each corner: a uv set, the mesh's, or the
-                    // triangle's own barycentrics (as a hit without uvs reads them)
-                    let set = l.uv_set.as_ref().map(|set| corner_values(m, inst.primvar_row, &scene.instance_primvars, &set.name, set.fallback));
-                    let own = m.uvs.as_deref();
-                    varying = Some(Box::new(move |t: &[u32]| {
-                        let uv: [Vec2; 3] = match (&set, own) {
-                            (Some(value), _) => [0, 1, 2].map(|k| {
-                                let v = value(t[k]);
-                                Vec2::new(v[0], v[1])
-                            }),
-                            (None, Some(uvs)) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
-                            (None, None) => [Vec2::ZERO, Vec2::X, Vec2::Y],
-                        };
-                        let probe = |st: Vec2| texture::lookup_rgb(std::slice::from_ref(&*texture), &lookup, st);
-                        let samples = [uv[0], uv[1], uv[2], (uv[0] + uv[1] + uv[2]) / 3.0].map(probe);
-                        let mean = std::array::from_fn(|c| samples.iter().map(|s| s[c]).sum::<f32>() / 4.0);
-                        (crate::light::VaryingEmission::Texture { texture: texture.clone(), lookup: lookup.clone(), uv, cs }, mean)
-                    }));
-                    (Spectrum::Constant(0.0), false)
-                }
+            let (emission, two_sided, varying) = match &materials[inst.material].kind {
+                SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided, None),
+                SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false, None),
+                SurfaceKind::Preview { emissive: Some(e), .. } => match varying_emission(e, m, inst, scene, &mut shared_textures, cs) {
+                    Some(v) => (Spectrum::Constant(0.0), false, Some(v)),
+                    None => continue,
+                },
                 _ => continue,
             };
             let deforms = m.motion.as_ref().is_some_and(|mm| mm.positions.len() >= 2);

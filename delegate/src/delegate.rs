@@ -1985,7 +1985,6 @@ mod tests {
     }
 }
 
-/// Reads a gprim's `TideCausticsAPI` attributes (contract §4); None when none is authored.
 /// A display primvar (`displayColor`, `displayOpacity`) of N components: its value, or its
 /// average where it varies (the whole prim's value where the geometry cannot carry it).
 fn display_average<const N: usize>(s: &AttrStore, name: &str, p: &mut Problems) -> Option<[f32; N]> {
@@ -2064,6 +2063,7 @@ fn read_instance_primvars(s: &AttrStore, n: usize, kept: &[usize], p: &mut Probl
         .collect()
 }
 
+/// Reads a gprim's `TideCausticsAPI` attributes (contract §4); None when none is authored.
 fn read_caustics(s: &crate::value::AttrStore, p: &mut Problems) -> Option<tide_core::scene::ObjectCaustics> {
     use tide_core::scene::{CausticsTransparency, ObjectCaustics};
     let names = ["tide:caustics:caster", "tide:caustics:receiver", "tide:caustics:transparency"];

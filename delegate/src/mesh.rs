@@ -208,7 +208,7 @@ pub(crate) fn shading_primvar_names(store: &AttrStore, uvs_from: Option<&str>) -
     names
 }
 
-/// The constant primvars a material may read (what an implicit gprim or a curve carries).
+/// The constant primvars a material may read (what an implicit gprim carries).
 pub(crate) fn constant_primvars(store: &AttrStore, p: &mut Problems) -> Vec<PrimvarData> {
     shading_primvar_names(store, None)
         .into_iter()

@@ -57,8 +57,7 @@ struct TimedValue {
 };
 
 /// A primvar: interpolation (constant|uniform|varying|vertex|faceVarying, or instance: one element
-/// per instance of instanceTransforms), data (Floats,
-/// Doubles or Ints) and optional indices.
+/// per instance of instanceTransforms), data (Floats, Doubles or Ints) and optional indices.
 struct Primvar {
     std::string interpolation;
     Value data;
