@@ -70,11 +70,22 @@ pub struct TexLookup {
 }
 
 /// A value read from the shaded geometry's primvar (UsdPrimvarReader_*): its components
-/// (a one-component primvar fills three), or `fallback` where the geometry has no such primvar.
+/// (a one-component primvar fills three), or `fallback` where the geometry has no such primvar,
+/// times `scale`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PrimvarLookup {
     pub name: String,
     pub fallback: [f32; 4],
+    /// Multiplies the value (the primvar's or the fallback), per component: a weight or a tint
+    /// applied to the reader's output.
+    pub scale: [f32; 4],
+}
+
+impl PrimvarLookup {
+    /// A lookup of primvar `name`, unscaled.
+    pub fn new(name: impl Into<String>, fallback: [f32; 4]) -> Self {
+        PrimvarLookup { name: name.into(), fallback, scale: [1.0; 4] }
+    }
 }
 
 /// A primvar carried to shading: `tuple` floats per element, one element for the whole

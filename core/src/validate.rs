@@ -30,11 +30,15 @@ fn check_primvars(pvs: &mut Vec<PrimvarData>, n: usize, item: &str, p: &mut Vec<
     });
 }
 
-/// A primvar lookup's fallback must be finite (zero otherwise).
+/// A primvar lookup's fallback and scale must be finite (zero and one otherwise).
 fn fix_fallback(l: &mut PrimvarLookup, item: &str, attr: &str, p: &mut Vec<Problem>) {
     if l.fallback.iter().any(|x| !x.is_finite()) {
         problem(p, item, attr, format!("the fallback of primvar '{}' is not finite; using 0", l.name));
         l.fallback = [0.0; 4];
+    }
+    if l.scale.iter().any(|x| !x.is_finite()) {
+        problem(p, item, attr, format!("the scale of primvar '{}' is not finite; using 1", l.name));
+        l.scale = [1.0; 4];
     }
 }
 

@@ -269,7 +269,7 @@ fn varying_emission<'a>(e: &ColorParam, m: &'a MeshDesc, inst: &InstanceDesc, sc
         ColorParam::Const(_) => None,
         ColorParam::Primvar(l) => {
             // the primvar's value at each corner of each triangle
-            let value = corner_values(m, inst.primvar_row, &scene.instance_primvars, &l.name, l.fallback);
+            let value = corner_values(m, inst.primvar_row, &scene.instance_primvars, l);
             Some(Box::new(move |t: &[u32]| {
                 let rgb = [0, 1, 2].map(|k| value(t[k]));
                 let mean = std::array::from_fn(|c| (rgb[0][c] + rgb[1][c] + rgb[2][c]) / 3.0);
@@ -282,7 +282,7 @@ fn varying_emission<'a>(e: &ColorParam, m: &'a MeshDesc, inst: &InstanceDesc, sc
             let lookup = TexLookup { texture: 0, ..l.clone() };
             // the texture coordinates at each corner: a uv set, the mesh's, or the triangle's
             // own barycentrics (as a hit without uvs reads them)
-            let set = l.uv_set.as_ref().map(|set| corner_values(m, inst.primvar_row, &scene.instance_primvars, &set.name, set.fallback));
+            let set = l.uv_set.as_ref().map(|set| corner_values(m, inst.primvar_row, &scene.instance_primvars, set));
             let own = m.uvs.as_deref();
             Some(Box::new(move |t: &[u32]| {
                 let uv: [Vec2; 3] = match (&set, own) {
@@ -302,13 +302,18 @@ fn varying_emission<'a>(e: &ColorParam, m: &'a MeshDesc, inst: &InstanceDesc, sc
     }
 }
 
-/// The value of an instance's primvar `name` at each vertex of its mesh (`fallback` where it
-/// has none).
-fn corner_values<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], name: &str, fallback: [f32; 4]) -> Box<dyn Fn(u32) -> [f32; 4] + 'a> {
-    match primvar_source(&m.primvars, row, tables, name) {
-        Some(PrimvarSource::Varying(pv)) => Box::new(move |v| pv.element(v as usize)),
-        Some(PrimvarSource::Value(v)) => Box::new(move |_| v),
-        None => Box::new(move |_| fallback),
+/// A lookup's value at each vertex of an instance's mesh (as [`World::primvar`] reads it at a
+/// hit on that vertex).
+fn corner_values<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], l: &PrimvarLookup) -> Box<dyn Fn(u32) -> [f32; 4] + 'a> {
+    let scale = l.scale;
+    let scaled = move |v: [f32; 4]| -> [f32; 4] { std::array::from_fn(|k| v[k] * scale[k]) };
+    match primvar_source(&m.primvars, row, tables, &l.name) {
+        Some(PrimvarSource::Varying(pv)) => Box::new(move |v| scaled(pv.element(v as usize))),
+        Some(PrimvarSource::Value(v)) => Box::new(move |_| scaled(v)),
+        None => {
+            let f = scaled(l.fallback);
+            Box::new(move |_| f)
+        }
     }
 }
 
@@ -699,8 +704,10 @@ impl World {
         }
     }
 
+    /// A lookup's value at a hit: the primvar's or the fallback, times the lookup's scale.
     fn primvar_or(&self, s: &SurfaceHit, l: &PrimvarLookup) -> [f32; 4] {
-        self.primvar(s, &l.name).unwrap_or(l.fallback)
+        let v = self.primvar(s, &l.name).unwrap_or(l.fallback);
+        std::array::from_fn(|k| v[k] * l.scale[k])
     }
 
     /// The texture coordinates a lookup reads at a hit.
@@ -909,9 +916,13 @@ mod tests {
         assert!((heat[0] - 1.25).abs() < 1e-5 && heat[..3].iter().all(|&v| v == heat[0]), "{heat:?}");
         assert_eq!(w.primvar(&sh, "tint"), Some([0.1, 0.2, 0.3, 0.0]));
         assert_eq!(w.primvar(&sh, "absent"), None);
-        let look = |name: &str| PrimvarLookup { name: name.into(), fallback: [0.9, 0.8, 0.7, 1.0] };
+        let look = |name: &str| PrimvarLookup::new(name, [0.9, 0.8, 0.7, 1.0]);
         assert!((w.float(&FloatParam::Primvar(look("heat")), &sh) - 1.25).abs() < 1e-5);
         assert_eq!(w.float(&FloatParam::Primvar(look("absent")), &sh), 0.9);
+        // a lookup's scale multiplies the primvar and the fallback alike
+        let scaled = |name: &str| PrimvarLookup { scale: [2.0, 1.0, 0.5, 1.0], ..look(name) };
+        assert!((w.float(&FloatParam::Primvar(scaled("heat")), &sh) - 2.5).abs() < 1e-5);
+        assert_eq!(w.rgb(&ColorParam::Primvar(scaled("absent")), &sh), Some([1.8, 0.8, 0.35]));
         assert_eq!(w.rgb(&ColorParam::Primvar(look("tint")), &sh), Some([0.1, 0.2, 0.3]));
         // a texture's coordinates from another primvar: its first two components
         let mut tex = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
@@ -954,7 +965,8 @@ mod tests {
         m.primvars = vec![PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() }];
         let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5], wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
         let lookup = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
-        for glow in [ColorInput::Primvar(PrimvarLookup { name: "glow".into(), fallback: [0.0; 4] }), ColorInput::Texture(lookup)] {
+        let tinted = PrimvarLookup { scale: [0.5, 2.0, 1.0, 1.0], ..PrimvarLookup::new("glow", [0.0; 4]) };
+        for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup)] {
             let mut s = SceneDesc::default();
             s.meshes.push(m.clone());
             s.textures.push(texture.clone());

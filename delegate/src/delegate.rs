@@ -2017,7 +2017,7 @@ fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_v
     }
     let mut m = default_material(&name);
     let color = match color_varies {
-        true => ColorInput::Primvar(PrimvarLookup { name: "displayColor".into(), fallback: [color[0], color[1], color[2], 0.0] }),
+        true => ColorInput::Primvar(PrimvarLookup::new("displayColor", [color[0], color[1], color[2], 0.0])),
         false => ColorInput::Const(color),
     };
     m.surface = match (opacity, opacity_varies) {
@@ -2027,7 +2027,7 @@ fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_v
             use_specular_workflow: true,
             specular_color: ColorInput::Const([0.0; 3]),
             opacity: match varies {
-                true => FloatInput::Primvar(PrimvarLookup { name: "displayOpacity".into(), fallback: [o, o, o, 0.0] }),
+                true => FloatInput::Primvar(PrimvarLookup::new("displayOpacity", [o, o, o, 0.0])),
                 false => FloatInput::Const(o),
             },
             ..Default::default()

@@ -465,9 +465,13 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
                     }
                     ColorInput::Texture(t)
                 }
-                (ColorInput::Primvar(_), MeshLightMode::MaterialGlowTintsLight) => {
-                    problem = Some(tide_core::Problem { item: path.into(), attribute: "light:materialSyncMode".into(), message: "an emissive colour read from a primvar does not tint a mesh light; the light emits untinted".into() });
-                    ColorInput::Const(rgb)
+                (ColorInput::Primvar(l), MeshLightMode::MaterialGlowTintsLight) => {
+                    // the glow read from a primvar tints the light point by point
+                    let mut l = l.clone();
+                    for k in 0..3 {
+                        l.scale[k] *= rgb[k];
+                    }
+                    ColorInput::Primvar(l)
                 }
                 _ => ColorInput::Const(rgb),
             };
@@ -862,6 +866,13 @@ mod tests {
         let SurfaceDesc::Preview(pr) = &m.surface else { panic!() };
         let ColorInput::Texture(t) = &pr.emissive_color else { panic!("{:?}", pr.emissive_color) };
         assert_eq!((t.tex_scale, t.bias), ([1.0, 1.0, 0.25, 1.0], [0.5, 0.0, 0.0, 0.0]));
+        // a glow read from a primvar is tinted through the lookup's scale
+        let painted = MaterialDesc { surface: SurfaceDesc::Preview(PreviewSurfaceDesc { emissive_color: ColorInput::Primvar(tide_core::scene::PrimvarLookup::new("glow", [0.0; 4])), ..Default::default() }), ..glow.clone() };
+        let (m, problem) = mesh_light_material(&ml, &painted, &quad, world, ColorSpace::LinearRec709, "/M");
+        assert!(problem.is_none());
+        let SurfaceDesc::Preview(pr) = &m.surface else { panic!() };
+        let ColorInput::Primvar(l) = &pr.emissive_color else { panic!("{:?}", pr.emissive_color) };
+        assert_eq!(l.scale, [1.0, 0.5, 0.25, 1.0]);
         // independent: the glow is replaced; a Lambert material keeps its colour and emits
         let ind = MeshLight { mode: MeshLightMode::Independent, normalize: false, ..ml.clone() };
         let (m, _) = mesh_light_material(&ind, &glow, &quad, world, ColorSpace::LinearRec709, "/M");

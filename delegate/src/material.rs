@@ -263,7 +263,7 @@ impl Ctx<'_> {
             },
             Some(_) => self.p.add(&format!("{}.inputs:fallback", node), "expected finite numbers; using 0"),
         }
-        PrimvarLookup { name, fallback }
+        PrimvarLookup::new(name, fallback)
     }
 
     /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
@@ -837,7 +837,7 @@ mod tests {
             ],
         );
         assert!(p.is_empty(), "{p:?}");
-        assert_eq!(w.map(|w| w.amount), Some(FloatInput::Primvar(PrimvarLookup { name: "wetness".into(), fallback: [0.25, 0.25, 0.25, 0.0] })));
+        assert_eq!(w.map(|w| w.amount), Some(FloatInput::Primvar(PrimvarLookup::new("wetness", [0.25, 0.25, 0.25, 0.0]))));
         // a connection to no node of the material keeps the constant, and says so
         let (w, p) = conv("UsdPreviewSurface", &[("tide:wet:amount", Value::Float(0.4)), ("tide:wet:amount.connect", tok("/Elsewhere/T.outputs:r"))]);
         assert_eq!(w.map(|w| w.amount), Some(FloatInput::Const(0.4)));
@@ -884,7 +884,7 @@ mod tests {
         assert_eq!(t.uv_set.as_ref().map(|l| l.name.as_str()), Some("st1"));
         assert_eq!((m.textures[0].wrap_s, m.textures[0].wrap_t), (WrapKey::Clamp, WrapKey::Repeat));
         assert_eq!(ps.metallic, FloatInput::Const(0.3));
-        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup { name: "rough".into(), fallback: [0.4, 0.4, 0.4, 0.0] }));
+        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup::new("rough", [0.4, 0.4, 0.4, 0.0])));
         assert_eq!((ps.ior, ps.use_specular_workflow), (1.4, false));
         assert_eq!(ps.clearcoat, FloatInput::Const(0.2));
         assert_eq!(ps.emissive_color, ColorInput::Const([0.2, 0.4, 0.6]));
@@ -898,6 +898,20 @@ mod tests {
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         assert!(ps.use_specular_workflow && ps.specular_color == ColorInput::Const([0.0; 3]));
         assert_eq!(ps.diffuse_color, ColorInput::Const([0.8; 3]));
+        // base weighs a base_color read from a primvar through the lookup's scale
+        let painted = mat(&[
+            ("surface", Value::Path("/M/SR".into())),
+            ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")),
+            ("/M/SR.inputs:base", f(0.5)),
+            ("/M/SR.inputs:base_color.connect", tok("/M/Cd.outputs:out")),
+            ("/M/Cd.info:id", tok("ND_geompropvalue_color3")),
+            ("/M/Cd.inputs:geomprop", Value::String("displayColor".into())),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &painted, &loaded(false), &mut p);
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert_eq!(ps.diffuse_color, ColorInput::Primvar(PrimvarLookup { scale: [0.5, 0.5, 0.5, 1.0], ..PrimvarLookup::new("displayColor", [0.0; 4]) }));
         let glass = mat(&[
             ("surface", Value::Path("/M/SR".into())),
             ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")),
@@ -963,10 +977,10 @@ mod tests {
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(false), &mut p);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
-        assert_eq!(ps.diffuse_color, ColorInput::Primvar(PrimvarLookup { name: "displayColor".into(), fallback: [0.1, 0.2, 0.3, 0.0] }));
-        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup { name: "rough".into(), fallback: [0.0; 4] }));
+        assert_eq!(ps.diffuse_color, ColorInput::Primvar(PrimvarLookup::new("displayColor", [0.1, 0.2, 0.3, 0.0])));
+        assert_eq!(ps.roughness, FloatInput::Primvar(PrimvarLookup::new("rough", [0.0; 4])));
         let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
-        assert_eq!(t.uv_set, Some(PrimvarLookup { name: "st1".into(), fallback: [0.0; 4] }));
+        assert_eq!(t.uv_set, Some(PrimvarLookup::new("st1", [0.0; 4])));
         let FloatInput::Texture(t) = &ps.clearcoat else { panic!("{:?}", ps.clearcoat) };
         assert_eq!(t.uv_set, None, "st is the mesh's own texture coordinates");
         // a reader's output other than `result` is named and the constant kept

@@ -95,7 +95,7 @@ impl Ctx<'_> {
         }
         let mut fallback = self.value4(node, "default", [0.0; 4]);
         fallback[3] = 0.0;
-        PrimvarLookup { name, fallback }
+        PrimvarLookup::new(name, fallback)
     }
 
     /// An `image` or `tiledimage` node as a texture lookup, or its `default` when the file is
@@ -140,8 +140,7 @@ impl Ctx<'_> {
         })
     }
 
-    /// A colour input scaled by a weight (`base` × `base_color`): constants and textures scale,
-    /// a primvar cannot (reported when the weight is not 1).
+    /// A colour input scaled by a weight (`base` × `base_color`).
     fn weighted_color(&mut self, node: &str, color: &str, default: [f32; 3], weight: &str, weight_default: f32) -> ColorInput {
         let w = self.constant_only(node, weight, weight_default);
         match self.color(node, color, default) {
@@ -153,9 +152,9 @@ impl Ctx<'_> {
                 }
                 ColorInput::Texture(t)
             }
-            ColorInput::Primvar(l) => {
-                if w != 1.0 {
-                    self.p.add(&format!("{}.inputs:{}", node, weight), format!("{} does not scale a primvar's colour; the primvar is used as it is", w));
+            ColorInput::Primvar(mut l) => {
+                for k in 0..3 {
+                    l.scale[k] *= w;
                 }
                 ColorInput::Primvar(l)
             }
