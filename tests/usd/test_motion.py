@@ -116,6 +116,26 @@ def test_point_instancer_velocities_give_transform_samples_over_the_shutter(stag
         assert np.allclose(mats[1][3, :3], [0, 3 - 24 * t / TCPS, -10], atol=1e-6)
 
 
+def test_a_nested_instancer_moves_with_the_outer_instances(stage, delegate):
+    """The outer instances' velocities carry the inner instancer's instances along: samples
+    at the shutter's ends, each inner ball where its outer instance has moved it."""
+    _shutter_cam(stage, -0.25, 0.5)
+    outer = UsdGeom.PointInstancer.Define(stage, "/Field")
+    UsdGeom.Xform.Define(stage, "/Field/Protos/Cluster")
+    _instancer(stage, "/Field/Protos/Cluster/PI")
+    outer.CreatePrototypesRel().SetTargets(["/Field/Protos/Cluster"])
+    outer.CreateProtoIndicesAttr([0])
+    outer.CreatePositionsAttr([(5, 0, 0)])
+    outer.CreateVelocitiesAttr([(48, 0, 0)])
+    _, problems = load(stage, delegate)
+    assert problems == [], problems
+    got = _instance_samples(delegate, "/Field/Protos/Cluster/PI/proto0_Ball")
+    assert [t for t, _ in got] == [-0.25, 0.5]
+    for t, mats in got:
+        x = 5 + 48 * t / TCPS
+        assert np.allclose([m[3, :3] for m in mats], [(x, 0, -10), (x, 3, -10)], atol=1e-6)
+
+
 def test_point_instancer_angular_velocities_sweep_an_arc(stage, delegate):
     _shutter_cam(stage, 0.0, 1.0)
     inst = _instancer(stage)

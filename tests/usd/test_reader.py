@@ -349,6 +349,44 @@ def test_point_instancer(stage, delegate):
     assert np.allclose(p[:3], expect, atol=tol)
 
 
+def test_nested_point_instancers_place_every_inner_instance_under_every_outer_one(stage, delegate):
+    """An instancer whose prototype holds another: each of the outer instances (translated
+    along x, turned 90 degrees about Y) places the inner instancer's, which sits 1 above its
+    prototype's origin and places balls along z. The inner balls' per-instance colours repeat
+    under each outer instance; a masked inner instance stays out everywhere."""
+    camera(stage)
+    outer = UsdGeom.PointInstancer.Define(stage, "/Field")
+    outer.AddTranslateOp().Set(Gf.Vec3d(0, 0, -10))
+    cluster = UsdGeom.Xform.Define(stage, "/Field/Protos/Cluster")
+    inner = UsdGeom.PointInstancer.Define(stage, "/Field/Protos/Cluster/Row")
+    inner.AddTranslateOp().Set(Gf.Vec3d(0, 1, 0))
+    UsdGeom.Sphere.Define(stage, "/Field/Protos/Cluster/Row/Protos/Ball")
+    inner.CreatePrototypesRel().SetTargets(["/Field/Protos/Cluster/Row/Protos/Ball"])
+    inner.CreateProtoIndicesAttr([0, 0, 0])
+    inner.CreatePositionsAttr([(0, 0, 0), (0, 0, 1), (0, 0, 2)])
+    inner.CreateIdsAttr([0, 1, 2])
+    inner.CreateInvisibleIdsAttr([1])
+    UsdGeom.PrimvarsAPI(inner.GetPrim()).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex).Set(
+        [(1, 0, 0), (0, 1, 0), (0, 0, 1)])
+    outer.CreatePrototypesRel().SetTargets([cluster.GetPath()])
+    outer.CreateProtoIndicesAttr([0, 0])
+    outer.CreatePositionsAttr([(0, 0, 0), (10, 0, 0)])
+    h = math.sqrt(0.5)
+    outer.CreateOrientationsAttr([Gf.Quath(h, 0, h, 0)] * 2)      # 90 deg about Y
+    _, problems = load(stage, delegate)
+    assert problems == [], problems
+    ball = "/Field/Protos/Cluster/Row/proto0_Ball"
+    assert delegate.of_type("sphere") == [ball]
+    mats = floats(delegate.value(ball, "instanceTransforms")).reshape(-1, 4, 4)
+    rot = _quat_matrix((0, 1, 0), 90)
+    want = [np.array([0, 1, z]) @ rot + np.array([x, 0, -10]) for x in (0, 10) for z in (0, 2)]
+    assert np.allclose([m[3, :3] for m in mats], want, atol=2e-3)
+    interp, data, tsize, _ = delegate.primvars[ball]["displayColor"]
+    assert (interp, tsize) == ("instance", 3)
+    assert np.allclose(np.asarray(data).reshape(-1, 3), [(1, 0, 0), (0, 0, 1)] * 2)
+
+
 # -- materials --------------------------------------------------------------------------------
 def test_material_network_and_connections(stage, delegate, tmp_path):
     camera(stage)

@@ -1588,7 +1588,11 @@ class Reader:
                        [(o, ("doubles", 16, w.tobytes())) for o, w in zip(offsets, worlds)])
             self._desired[dpath] = st
 
-    def _eval_instancer(self, prim):
+    def _eval_instancer(self, prim, outer=None):
+        """A PointInstancer's prototypes, each gprim sent once with the world matrices of its
+        instances. `outer`, for an instancer inside another's prototype: (offsets, a function
+        of an offset giving the world matrices of the instances placing that prototype, the
+        prototype's parent); each of those instances then places all of this one's."""
         inst = UsdGeom.PointInstancer(prim)
         path = prim.GetPath()
         self._instance_sources.add(path)
@@ -1615,7 +1619,10 @@ class Reader:
         mask = list(inst.ComputeMaskAtTime(t) or [])
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(n, dtype=bool)
         # per instance world matrices at each motion offset: (offsets, [n x 4 x 4] per offset)
-        offsets, mats_at = self._instancer_motion(prim, inst, n)
+        offsets, mats_at, place = self._instancer_motion(prim, inst, n)
+        copies = 1
+        if outer is not None:
+            offsets, mats_at, place, copies = self._nested(prim, offsets, place, outer)
         per_instance = self._per_instance_primvars(prim, n)
         for k, ppath in enumerate(protos):
             proto = self.stage.GetPrimAtPath(ppath)
@@ -1625,16 +1632,23 @@ class Reader:
                 continue
             if not sel:
                 continue
-            it_xf = [(o, np.stack([m[i] for i in sel]).astype(np.float64))
+            # every copy of the instancer (one per outer instance) places the selection
+            sel_all = [c * n + i for c in range(copies) for i in sel]
+            it_xf = [(o, np.stack([m[i] for i in sel_all]).astype(np.float64))
                      for o, m in zip(offsets, mats_at)]
             base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
             parent = proto.GetParent()
             pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
-            for g in Usd.PrimRange(proto, pred):
+            it = iter(Usd.PrimRange(proto, pred))
+            for g in it:
+                if g.IsA(UsdGeom.PointInstancer):
+                    # a nested instancer: placed by each of this prototype's instances
+                    img = UsdGeom.Imageable(g)
+                    if img.ComputeVisibility(t) != UsdGeom.Tokens.invisible and self._included(img)[0]:
+                        self._eval_instancer(g, (offsets, lambda o, s=sel_all: place(o)[s], parent))
+                    it.PruneChildren()
+                    continue
                 if g.GetTypeName() not in GPRIMS:
-                    if g.IsA(UsdGeom.PointInstancer):
-                        self.problem(g.GetPath(), "type",
-                                     "nested point instancers are not supported; dropped")
                     continue
                 img = UsdGeom.Imageable(g)
                 if img.ComputeVisibility(t) == UsdGeom.Tokens.invisible or \
@@ -1657,7 +1671,8 @@ class Reader:
                 for name, (data, tsize) in per_instance.items():
                     # the prototype's own varying primvar wins; a constant one is replaced
                     if st.primvars.get(name, ("constant",))[0] == "constant":
-                        st.primvars[name] = ("instance", np.ascontiguousarray(data[sel]).tobytes(),
+                        rows = np.tile(data[sel], (copies, 1))
+                        st.primvars[name] = ("instance", np.ascontiguousarray(rows).tobytes(),
                                              tsize, None)
                 if len(it_xf) == 1:
                     st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
@@ -1776,7 +1791,7 @@ class Reader:
 
         still = [(0.0, at(0.0))]
         if not self._motion or not n:
-            return [o for o, _ in still], [m for _, m in still]
+            return [o for o, _ in still], [m for _, m in still], at
         lo, hi = self._shutter
         offs = set(self._motion_offsets([prim]))
         interval = Gf.Interval(self.frame + lo, self.frame + hi)
@@ -1796,10 +1811,39 @@ class Reader:
         if any(m is None for m in mats):
             self.problem(prim.GetPath(), "positions", "the instances cannot be computed at every "
                          "time of the shutter (another instance count?); they do not move")
-            return [o for o, _ in still], [m for _, m in still]
+            return [o for o, _ in still], [m for _, m in still], lambda o: still[0][1]
         if all(np.array_equal(m, mats[0]) for m in mats):
-            return [0.0], [mats[0]]
-        return offs, mats
+            return [0.0], [mats[0]], at
+        return offs, mats, at
+
+    def _nested(self, prim, offsets, place, outer):
+        """A nested instancer's placements: each of its instances (relative to the parent of
+        the outer prototype it sits in) under each outer instance, outer-major. Returns
+        (offsets, matrices per offset, the function giving them at an offset, copies)."""
+        o_offsets, o_place, o_parent = outer
+        copies = len(o_place(0.0))
+        # the sample times of the levels that move (a still level's one sample is at 0)
+        moving = [offs for offs in (offsets, o_offsets) if len(offs) > 1]
+        if moving:
+            offsets = sorted(set().union(*moving))
+
+        def nested(o):
+            inner = place(o)
+            if inner is None:
+                return None
+            q = np.asarray(UsdGeom.XformCache(self._time(o)).GetLocalToWorldTransform(o_parent),
+                           dtype=np.float64)
+            rel = inner @ np.linalg.inv(q)
+            return np.einsum("jab,ibc->ijac", rel, o_place(o)).reshape(-1, 4, 4)
+
+        mats = [nested(o) for o in offsets]
+        if any(m is None for m in mats):
+            self.problem(prim.GetPath(), "positions", "the instances cannot be computed at every "
+                         "time of the shutter (another instance count?); they do not move")
+            offsets, mats = [0.0], [nested(0.0)]
+        elif len(mats) > 1 and all(np.array_equal(m, mats[0]) for m in mats):
+            offsets, mats = [0.0], [mats[0]]
+        return offsets, mats, nested, copies
 
     # -- materials ------------------------------------------------------------------------
     def _eval_material(self, prim):
