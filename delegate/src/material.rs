@@ -927,6 +927,67 @@ mod tests {
         assert_eq!(attrs, ["/M/SR.inputs:transmission", "/M/SR.inputs:transmission_color"], "{:?}", p.list);
     }
 
+    /// MaterialX arithmetic with all operands but one constant folds into the lookup; two
+    /// varying operands, or an offset primvar, are reported and the input keeps its constant.
+    #[test]
+    fn materialx_arithmetic_folds_into_lookups() {
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let s = mat(&[
+            ("surface", Value::Path("/M/SR".into())),
+            ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")),
+            // base_color = image x (0.5, 0.25, 1)
+            ("/M/SR.inputs:base_color.connect", tok("/M/Tint.outputs:out")),
+            ("/M/Tint.info:id", tok("ND_multiply_color3")),
+            ("/M/Tint.inputs:in1.connect", tok("/M/Img.outputs:out")),
+            ("/M/Tint.inputs:in2", c3([0.5, 0.25, 1.0])),
+            ("/M/Img.info:id", tok("ND_image_color3")),
+            ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            // emission_color = mix(image, grey 0.2, 0.25) = 0.25 image + 0.15
+            ("/M/SR.inputs:emission", Value::Float(1.0)),
+            ("/M/SR.inputs:emission_color.connect", tok("/M/Blend.outputs:out")),
+            ("/M/Blend.info:id", tok("ND_mix_color3")),
+            ("/M/Blend.inputs:fg.connect", tok("/M/Img.outputs:out")),
+            ("/M/Blend.inputs:bg", c3([0.2; 3])),
+            ("/M/Blend.inputs:mix", Value::Float(0.25)),
+            // opacity = 1 - image (an inverted mask)
+            ("/M/SR.inputs:opacity.connect", tok("/M/Inv.outputs:out")),
+            ("/M/Inv.info:id", tok("ND_subtract_color3")),
+            ("/M/Inv.inputs:in1", c3([1.0; 3])),
+            ("/M/Inv.inputs:in2.connect", tok("/M/Img.outputs:out")),
+            // roughness = 2 x 0.2, folded to a constant
+            ("/M/SR.inputs:specular_roughness.connect", tok("/M/Twice.outputs:out")),
+            ("/M/Twice.info:id", tok("ND_multiply_float")),
+            ("/M/Twice.inputs:in1", Value::Float(2.0)),
+            ("/M/Twice.inputs:in2", Value::Float(0.2)),
+            // metalness = primvar + 0.1: an offset primvar cannot fold
+            ("/M/SR.inputs:metalness.connect", tok("/M/Off.outputs:out")),
+            ("/M/Off.info:id", tok("ND_add_float")),
+            ("/M/Off.inputs:in1.connect", tok("/M/Pv.outputs:out")),
+            ("/M/Off.inputs:in2", Value::Float(0.1)),
+            ("/M/Pv.info:id", tok("ND_geompropvalue_float")),
+            ("/M/Pv.inputs:geomprop", Value::String("metal".into())),
+            // coat = image x image: two varying operands
+            ("/M/SR.inputs:coat.connect", tok("/M/Sq.outputs:out")),
+            ("/M/Sq.info:id", tok("ND_multiply_float")),
+            ("/M/Sq.inputs:in1.connect", tok("/M/Img.outputs:out")),
+            ("/M/Sq.inputs:in2.connect", tok("/M/Img.outputs:out")),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
+        let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+        assert_eq!((t.tex_scale, t.bias), ([0.5, 0.25, 1.0, 1.0], [0.0; 4]));
+        let ColorInput::Texture(t) = &ps.emissive_color else { panic!("{:?}", ps.emissive_color) };
+        assert_eq!(t.tex_scale, [0.25; 4]);
+        assert!(t.bias[..3].iter().all(|b| (b - 0.15).abs() < 1e-6), "{:?}", t.bias);
+        let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
+        assert_eq!((t.channel, t.tex_scale[0], t.bias[0]), (Channel::R, -1.0, 1.0));
+        assert!(matches!(ps.roughness, FloatInput::Const(r) if (r - 0.4).abs() < 1e-6), "{:?}", ps.roughness);
+        assert_eq!((ps.metallic.clone(), ps.clearcoat.clone()), (FloatInput::Const(0.0), FloatInput::Const(0.0)));
+        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
+        assert_eq!(attrs, ["/M/SR.inputs:metalness", "/M/SR.inputs:coat"], "{:?}", p.list);
+    }
+
     /// MaterialX's own UsdPreviewSurface nodes read as USD's.
     #[test]
     fn materialx_usd_preview_surface_nodes_read_as_the_usd_ones() {

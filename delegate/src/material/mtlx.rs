@@ -12,8 +12,9 @@
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset), `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs),
-//! `normalmap`, `constant` and `dot`; MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`,
-//! ...) are read as the USD ones.
+//! `normalmap`, `constant` and `dot`, and `multiply`, `add`, `subtract` and `mix` where all
+//! operands but one are constants (a tint, a gain, an offset: folded into the lookup);
+//! MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`, ...) are read as the USD ones.
 
 use super::{Ctx, Source, WrapKey};
 use glam::Vec2;
@@ -30,7 +31,7 @@ pub(super) fn canonical_id(id: &str) -> &str {
 
 /// The MaterialX node families that [`Ctx::mtlx_source`] reads.
 fn family(id: &str) -> Option<&'static str> {
-    ["ND_image_", "ND_tiledimage_", "ND_geompropvalue_", "ND_texcoord_", "ND_constant_", "ND_dot_", "ND_normalmap"]
+    ["ND_image_", "ND_tiledimage_", "ND_geompropvalue_", "ND_texcoord_", "ND_constant_", "ND_dot_", "ND_normalmap", "ND_multiply_", "ND_add_", "ND_subtract_", "ND_mix_"]
         .into_iter()
         .find(|f| id.starts_with(f))
 }
@@ -38,6 +39,26 @@ fn family(id: &str) -> Option<&'static str> {
 /// Whether `id` is a MaterialX node this module reads.
 pub(super) fn is_mtlx_node(id: &str) -> bool {
     family(id).is_some()
+}
+
+/// `source` × `mul` + `add`, per component, folded into the source: a constant, a texture's
+/// scale and bias (its fallback too), or a primvar's scale (an offset cannot be: Err).
+fn affine(source: Source, mul: [f32; 4], add: [f32; 4]) -> Result<Source, String> {
+    let map = |v: [f32; 4]| -> [f32; 4] { std::array::from_fn(|k| v[k] * mul[k] + add[k]) };
+    Ok(match source {
+        Source::Fallback(v) => Source::Fallback(map(v)),
+        Source::Texture(mut t) => {
+            t.tex_scale = std::array::from_fn(|k| t.tex_scale[k] * mul[k]);
+            t.bias = map(t.bias);
+            t.fallback = map(t.fallback);
+            Source::Texture(t)
+        }
+        Source::Primvar(mut l) if add == [0.0; 4] => {
+            l.scale = std::array::from_fn(|k| l.scale[k] * mul[k]);
+            Source::Primvar(l)
+        }
+        Source::Primvar(_) => return Err("offsets a primvar, which is not supported".into()),
+    })
 }
 
 impl Ctx<'_> {
@@ -57,6 +78,13 @@ impl Ctx<'_> {
             }),
             Some("ND_geompropvalue_") => Some(Source::Primvar(self.geomprop(up))),
             Some("ND_constant_") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
+            Some(op @ ("ND_multiply_" | "ND_add_" | "ND_subtract_" | "ND_mix_")) => match self.arithmetic(op, up, depth) {
+                Ok(source) => Some(source),
+                Err(why) => {
+                    self.p.add(attr, format!("a MaterialX '{}' node {}; using the constant value", id, why));
+                    None
+                }
+            },
             Some("ND_dot_") => match self.nodes[up].connects.get("in").cloned() {
                 Some((next, output)) if depth < 16 => self.connection_at(attr, &next, &output, depth + 1),
                 Some(_) => {
@@ -68,6 +96,53 @@ impl Ctx<'_> {
             _ => {
                 self.p.add(attr, format!("a MaterialX '{}' node is not supported here; using the constant value", id));
                 None
+            }
+        }
+    }
+
+    /// An operand of an arithmetic node: what its connection supplies, or its constant.
+    fn operand(&mut self, node: &str, input: &str, default: [f32; 4], depth: u32) -> Result<Source, String> {
+        match self.nodes[node].connects.get(input).cloned() {
+            None => Ok(Source::Fallback(self.value4(node, input, default))),
+            Some(_) if depth >= 16 => Err("chains more than 16 nodes".into()),
+            Some((up, output)) => self.connection_at(&format!("{}.inputs:{}", node, input), &up, &output, depth + 1).ok_or_else(|| format!("has an unusable {input}")),
+        }
+    }
+
+    /// `multiply`, `add`, `subtract` and `mix` where all but one operand are constants: folded
+    /// into the other operand's lookup (a texture's scale and bias, a primvar's scale) or into
+    /// a constant. Two varying operands cannot be folded (Err says why).
+    fn arithmetic(&mut self, op: &str, node: &str, depth: u32) -> Result<Source, String> {
+        let both = "combines two textures or primvars, which is not supported".to_string();
+        let cst = |s: &Source| match s {
+            Source::Fallback(v) => Some(*v),
+            _ => None,
+        };
+        match op {
+            "ND_mix_" => {
+                let fg = self.operand(node, "fg", [0.0; 4], depth)?;
+                let bg = self.operand(node, "bg", [0.0; 4], depth)?;
+                let Source::Fallback(m) = self.operand(node, "mix", [0.0; 4], depth)? else { return Err("has a connected mix amount, which is not supported".into()) };
+                let m = m[0];
+                match (cst(&fg), cst(&bg)) {
+                    (_, Some(b)) => affine(fg, [m; 4], b.map(|x| x * (1.0 - m))),
+                    (Some(f), None) => affine(bg, [1.0 - m; 4], f.map(|x| x * m)),
+                    (None, None) => Err(both),
+                }
+            }
+            _ => {
+                let in2_default = if op == "ND_multiply_" { [1.0; 4] } else { [0.0; 4] };
+                let a = self.operand(node, "in1", [0.0; 4], depth)?;
+                let b = self.operand(node, "in2", in2_default, depth)?;
+                match (op, cst(&a), cst(&b)) {
+                    ("ND_multiply_", _, Some(c)) => affine(a, c, [0.0; 4]),
+                    ("ND_multiply_", Some(c), None) => affine(b, c, [0.0; 4]),
+                    ("ND_add_", _, Some(c)) => affine(a, [1.0; 4], c),
+                    ("ND_add_", Some(c), None) => affine(b, [1.0; 4], c),
+                    ("ND_subtract_", _, Some(c)) => affine(a, [1.0; 4], c.map(|x| -x)),
+                    ("ND_subtract_", Some(c), None) => affine(b, [-1.0; 4], c),
+                    _ => Err(both),
+                }
             }
         }
     }
