@@ -353,7 +353,8 @@ def test_nested_point_instancers_place_every_inner_instance_under_every_outer_on
     """An instancer whose prototype holds another: each of the outer instances (translated
     along x, turned 90 degrees about Y) places the inner instancer's, which sits 1 above its
     prototype's origin and places balls along z. The inner balls' per-instance colours repeat
-    under each outer instance; a masked inner instance stays out everywhere."""
+    under each outer instance, each inner ball takes its outer instance's tint, and a masked
+    inner instance stays out everywhere."""
     camera(stage)
     outer = UsdGeom.PointInstancer.Define(stage, "/Field")
     outer.AddTranslateOp().Set(Gf.Vec3d(0, 0, -10))
@@ -372,6 +373,9 @@ def test_nested_point_instancers_place_every_inner_instance_under_every_outer_on
     outer.CreatePrototypesRel().SetTargets([cluster.GetPath()])
     outer.CreateProtoIndicesAttr([0, 0])
     outer.CreatePositionsAttr([(0, 0, 0), (10, 0, 0)])
+    # the outer level's own per-instance primvars reach the inner instances too
+    UsdGeom.PrimvarsAPI(outer.GetPrim()).CreatePrimvar(
+        "tint", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.vertex).Set([0.25, 0.75])
     h = math.sqrt(0.5)
     outer.CreateOrientationsAttr([Gf.Quath(h, 0, h, 0)] * 2)      # 90 deg about Y
     _, problems = load(stage, delegate)
@@ -385,6 +389,9 @@ def test_nested_point_instancers_place_every_inner_instance_under_every_outer_on
     interp, data, tsize, _ = delegate.primvars[ball]["displayColor"]
     assert (interp, tsize) == ("instance", 3)
     assert np.allclose(np.asarray(data).reshape(-1, 3), [(1, 0, 0), (0, 0, 1)] * 2)
+    interp, data, tsize, _ = delegate.primvars[ball]["tint"]
+    assert (interp, tsize) == ("instance", 1)
+    assert np.allclose(data, [0.25, 0.25, 0.75, 0.75])
 
 
 # -- materials --------------------------------------------------------------------------------

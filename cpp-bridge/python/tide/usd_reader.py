@@ -1592,7 +1592,9 @@ class Reader:
         """A PointInstancer's prototypes, each gprim sent once with the world matrices of its
         instances. `outer`, for an instancer inside another's prototype: (offsets, a function
         of an offset giving the world matrices of the instances placing that prototype, the
-        prototype's parent); each of those instances then places all of this one's."""
+        prototype's parent, their per-instance primvars {name: (rows, tuple)}); each of those
+        instances then places all of this one's, which take its primvars where they have none
+        of that name."""
         inst = UsdGeom.PointInstancer(prim)
         path = prim.GetPath()
         self._instance_sources.add(path)
@@ -1620,9 +1622,10 @@ class Reader:
         keep = np.asarray(mask, dtype=bool) if mask else np.ones(n, dtype=bool)
         # per instance world matrices at each motion offset: (offsets, [n x 4 x 4] per offset)
         offsets, mats_at, place = self._instancer_motion(prim, inst, n)
-        copies = 1
+        copies, inherited = 1, {}
         if outer is not None:
-            offsets, mats_at, place, copies = self._nested(prim, offsets, place, outer)
+            offsets, mats_at, place, copies = self._nested(prim, offsets, place, outer[:3])
+            inherited = outer[3]
         per_instance = self._per_instance_primvars(prim, n)
         for k, ppath in enumerate(protos):
             proto = self.stage.GetPrimAtPath(ppath)
@@ -1636,6 +1639,12 @@ class Reader:
             sel_all = [c * n + i for c in range(copies) for i in sel]
             it_xf = [(o, np.stack([m[i] for i in sel_all]).astype(np.float64))
                      for o, m in zip(offsets, mats_at)]
+            # the per-instance primvars of the selection, in its order: this level's, then the
+            # outer instances' (each repeated over the instances it places)
+            rows = {name: (np.tile(data[sel], (copies, 1)), tsize)
+                    for name, (data, tsize) in per_instance.items()}
+            for name, (outer_rows, tsize) in inherited.items():
+                rows.setdefault(name, (np.repeat(outer_rows, len(sel), axis=0), tsize))
             base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
             parent = proto.GetParent()
             pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -1645,7 +1654,8 @@ class Reader:
                     # a nested instancer: placed by each of this prototype's instances
                     img = UsdGeom.Imageable(g)
                     if img.ComputeVisibility(t) != UsdGeom.Tokens.invisible and self._included(img)[0]:
-                        self._eval_instancer(g, (offsets, lambda o, s=sel_all: place(o)[s], parent))
+                        self._eval_instancer(g, (offsets, lambda o, s=sel_all: place(o)[s], parent,
+                                                 rows))
                     it.PruneChildren()
                     continue
                 if g.GetTypeName() not in GPRIMS:
@@ -1668,11 +1678,10 @@ class Reader:
                 if st is None:
                     continue
                 self._unposed(g, st, "a point instancer prototype")
-                for name, (data, tsize) in per_instance.items():
+                for name, (data, tsize) in rows.items():
                     # the prototype's own varying primvar wins; a constant one is replaced
                     if st.primvars.get(name, ("constant",))[0] == "constant":
-                        rows = np.tile(data[sel], (copies, 1))
-                        st.primvars[name] = ("instance", np.ascontiguousarray(rows).tobytes(),
+                        st.primvars[name] = ("instance", np.ascontiguousarray(data).tobytes(),
                                              tsize, None)
                 if len(it_xf) == 1:
                     st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
