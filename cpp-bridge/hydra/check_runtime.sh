@@ -155,6 +155,8 @@ echo "rendering check_stage_primvars.usda (primvars read by a material, a varyin
 compare "$here/check_stage_primvars.usda" delegate sceneIndex || exit $?
 echo "rendering check_stage_instances.usda (per-instance primvars of a PointInstancer and of native instances) through UsdImaging (scene delegate, then scene indices) and through tide render"
 compare "$here/check_stage_instances.usda" delegate sceneIndex || exit $?
+echo "rendering check_stage_nested.usda (nested PointInstancers, the outer level's per-instance primvars) through UsdImaging (scene delegate, then scene indices) and through tide render"
+compare "$here/check_stage_nested.usda" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 echo "rendering check_stage_meshlight.usda (UsdLuxMeshLightAPI) through UsdImaging's scene indices and through tide render"
 compare "$here/check_stage_meshlight.usda" sceneIndex || exit $?

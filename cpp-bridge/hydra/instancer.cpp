@@ -209,6 +209,21 @@ std::vector<std::pair<std::string, tide::Primvar>> HdTideInstancer::InstancePrim
         pv.data = tide::Value::MakeFloats(std::move(rows), tuple);
         out.emplace_back(d.name.GetString(), std::move(pv));
     }
+    // the parent level's, for names this level lacks: each parent instance's row over the
+    // instances it places (the order of _TransformsAt: parent-major)
+    if (!GetParentId().IsEmpty())
+        if (auto* parent = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(GetParentId())))
+            for (auto& [name, pv] : parent->InstancePrimvars(GetId())) {
+                if (std::any_of(out.begin(), out.end(), [&](auto const& e) { return e.first == name; })) continue;
+                const uint32_t tuple = pv.data.tuple;
+                std::vector<float> const& outer = pv.data.floats;
+                std::vector<float> rows;
+                rows.reserve(outer.size() * indices.size());
+                for (size_t p = 0; p + tuple <= outer.size(); p += tuple)
+                    for (size_t k = 0; k < indices.size(); ++k) rows.insert(rows.end(), outer.begin() + p, outer.begin() + p + tuple);
+                pv.data = tide::Value::MakeFloats(std::move(rows), tuple);
+                out.emplace_back(name, std::move(pv));
+            }
     return out;
 }
 

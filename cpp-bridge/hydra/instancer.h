@@ -39,7 +39,9 @@ public:
 
     /// This level's per-instance primvars (instance-rate, but the placement ones) for
     /// `prototypeId`'s instances, in the order of SampleInstanceTransforms (repeated under each
-    /// parent instance), as `instance` primvars of floats; unreadable ones are skipped.
+    /// parent instance), then the parent levels' for the names this one lacks (each parent
+    /// instance's value over the instances it places), as `instance` primvars of floats;
+    /// unreadable ones are skipped.
     std::vector<std::pair<std::string, tide::Primvar>> InstancePrimvars(SdfPath const& prototypeId);
 
 private:
