@@ -123,6 +123,12 @@ enum Source {
     Fallback([f32; 4]),
 }
 
+/// A primvar lookup giving a texture's coordinates as a uv set, or None where it names the
+/// mesh's own texture coordinates (`uvs`: `st`, `st0`, `uv`, or no name).
+fn uv_set(l: PrimvarLookup) -> Option<PrimvarLookup> {
+    (!l.name.is_empty() && !crate::mesh::UV_NAMES.contains(&l.name.as_str())).then_some(l)
+}
+
 /// A scalar input: its constant, or what its connection supplies (a texture's `rgb` read as
 /// its red channel).
 fn float_input(c: f32, source: Option<Source>) -> FloatInput {
@@ -186,6 +192,14 @@ impl Ctx<'_> {
                 }
             },
         }
+    }
+
+    /// A wrap-mode input: the wrap of its token among `modes`, of `default` when unauthored
+    /// or unknown (reported).
+    fn wrap_input(&mut self, node: &str, input: &str, modes: &[(&'static str, WrapKey)], default: &'static str) -> WrapKey {
+        let names: Vec<&'static str> = modes.iter().map(|m| m.0).collect();
+        let token = self.input_token(node, input, &names, default);
+        modes.iter().find(|m| m.0 == token).map_or(WrapKey::Repeat, |m| m.1)
     }
 
     /// A node's id; MaterialX's UsdPreviewSurface nodes read as the USD ones.
@@ -268,15 +282,9 @@ impl Ctx<'_> {
 
     /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
     fn uv_texture(&mut self, tex: &str, channel: Channel) -> Result<TexLookup, [f32; 4]> {
-        let wraps = ["repeat", "mirror", "clamp", "black", "useMetadata"];
-        let wrap = |s: &str| match s {
-            "mirror" => WrapKey::Mirror,
-            "clamp" => WrapKey::Clamp,
-            "black" => WrapKey::Black,
-            _ => WrapKey::Repeat,
-        };
-        let wrap_s = wrap(self.input_token(tex, "wrapS", &wraps, "useMetadata"));
-        let wrap_t = wrap(self.input_token(tex, "wrapT", &wraps, "useMetadata"));
+        let modes = [("repeat", WrapKey::Repeat), ("mirror", WrapKey::Mirror), ("clamp", WrapKey::Clamp), ("black", WrapKey::Black), ("useMetadata", WrapKey::Repeat)];
+        let wrap_s = self.wrap_input(tex, "wrapS", &modes, "useMetadata");
+        let wrap_t = self.wrap_input(tex, "wrapT", &modes, "useMetadata");
         let fallback = self.input_vec(tex, "fallback", [0.0, 0.0, 0.0, 1.0]);
         let tex_scale = self.input_vec(tex, "scale", [1.0; 4]);
         let bias = self.input_vec(tex, "bias", [0.0; 4]);
@@ -338,7 +346,7 @@ impl Ctx<'_> {
             }
         }
         let uv_set = match self.node_id(&up) {
-            Some(id) if id.starts_with("UsdPrimvarReader_") => Some(self.primvar_reader(&up)).filter(|l| !["st", "st0", "uv", ""].contains(&l.name.as_str())),
+            Some(id) if id.starts_with("UsdPrimvarReader_") => uv_set(self.primvar_reader(&up)),
             other => {
                 self.p.add(&format!("{}.inputs:st", tex), format!("st comes from a '{}' node; using the mesh's st", other.unwrap_or("unknown")));
                 None

@@ -188,6 +188,9 @@ fn refine_primvar(e: Expanded, r: Option<&Refinement>) -> Expanded {
     Expanded { data, ..e }
 }
 
+/// The primvars a mesh takes its texture coordinates (`uvs`) from, the first found.
+pub(crate) const UV_NAMES: [&str; 3] = ["st", "st0", "uv"];
+
 /// The primvars a material may read (every primvar of 1 to 4 components but the geometry's
 /// own: `normals`, `widths`, the texture coordinates `uvs_from`, `tide:` and `skel:` ones),
 /// sorted by name.
@@ -585,7 +588,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
             .and_then(|pv| resolve_primvar(pv, "normals", 3, n_faces, n_points, n_corners, p))
             .map(|e| refine_primvar(e, refined.as_ref())),
     };
-    let st_name = ["st", "st0", "uv"].into_iter().find(|n| store.primvars.contains_key(*n) || store.has(n));
+    let st_name = UV_NAMES.into_iter().find(|n| store.primvars.contains_key(*n) || store.has(n));
     let st = st_name.and_then(|n| {
         store
             .primvar(n, Interpolation::FaceVarying)

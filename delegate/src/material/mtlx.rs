@@ -16,7 +16,7 @@
 //! operands but one are constants (a tint, a gain, an offset: folded into the lookup);
 //! MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`, ...) are read as the USD ones.
 
-use super::{Ctx, Source, WrapKey};
+use super::{uv_set, Ctx, Source, WrapKey};
 use glam::Vec2;
 use tide_core::scene::{Channel, ColorInput, FloatInput, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
 
@@ -176,15 +176,9 @@ impl Ctx<'_> {
     /// An `image` or `tiledimage` node as a texture lookup, or its `default` when the file is
     /// unavailable.
     fn mtlx_image(&mut self, node: &str) -> Result<TexLookup, [f32; 4]> {
-        let modes = ["periodic", "clamp", "mirror", "constant"];
-        let wrap = |s: &str| match s {
-            "clamp" => WrapKey::Clamp,
-            "mirror" => WrapKey::Mirror,
-            "constant" => WrapKey::Black,
-            _ => WrapKey::Repeat,
-        };
-        let wrap_s = wrap(self.input_token(node, "uaddressmode", &modes, "periodic"));
-        let wrap_t = wrap(self.input_token(node, "vaddressmode", &modes, "periodic"));
+        let modes = [("periodic", WrapKey::Repeat), ("clamp", WrapKey::Clamp), ("mirror", WrapKey::Mirror), ("constant", WrapKey::Black)];
+        let wrap_s = self.wrap_input(node, "uaddressmode", &modes, "periodic");
+        let wrap_t = self.wrap_input(node, "vaddressmode", &modes, "periodic");
         let fallback = self.value4(node, "default", [0.0, 0.0, 0.0, 1.0]);
         // tiledimage: uv' = uv · uvtiling − uvoffset
         let tiling = Vec2::from(self.input_vec(node, "uvtiling", [1.0, 1.0]));
@@ -193,8 +187,8 @@ impl Ctx<'_> {
             None => None,
             Some((up, _)) => match self.node_id(&up).unwrap_or("") {
                 id if id.starts_with("ND_texcoord_") => None,
-                id if id.starts_with("ND_geompropvalue_") => Some(self.geomprop(&up)).filter(|l| !["st", "st0", "uv", ""].contains(&l.name.as_str())),
-                id if id.starts_with("UsdPrimvarReader_") => Some(self.primvar_reader(&up)).filter(|l| !["st", "st0", "uv", ""].contains(&l.name.as_str())),
+                id if id.starts_with("ND_geompropvalue_") => uv_set(self.geomprop(&up)),
+                id if id.starts_with("UsdPrimvarReader_") => uv_set(self.primvar_reader(&up)),
                 id => {
                     self.p.add(&format!("{}.inputs:texcoord", node), format!("texcoord comes from a '{}' node; using the mesh's st", id));
                     None
