@@ -132,6 +132,14 @@ MTLX_IDS = ("ND_standard_surface_surfaceshader", "ND_image_", "ND_tiledimage_",
             "ND_Usd")
 
 
+def _set_instance_primvar(st, name, rows, tsize):
+    """Sends `rows` (one per instance) as primvar `name` of interpolation `instance`, unless
+    the gprim has a varying primvar of that name, which wins (a constant one is replaced)."""
+    if st.primvars.get(name, ("constant",))[0] == "constant":
+        st.primvars[name] = ("instance", np.ascontiguousarray(rows, dtype=np.float32).tobytes(),
+                             tsize, None)
+
+
 def _skinnable(prim, st):
     """Gprims a skeleton poses: meshes, points and basis curves (whose points are sent as
     authored; NURBS and Hermite curves are evaluated into others)."""
@@ -1679,10 +1687,7 @@ class Reader:
                     continue
                 self._unposed(g, st, "a point instancer prototype")
                 for name, (data, tsize) in rows.items():
-                    # the prototype's own varying primvar wins; a constant one is replaced
-                    if st.primvars.get(name, ("constant",))[0] == "constant":
-                        st.primvars[name] = ("instance", np.ascontiguousarray(data).tobytes(),
-                                             tsize, None)
+                    _set_instance_primvar(st, name, data, tsize)
                 if len(it_xf) == 1:
                     st.set("instanceTransforms", ("doubles", 16, it_xf[0][1].tobytes()))
                 else:
@@ -1731,9 +1736,7 @@ class Reader:
             if len(vals) != len(roots) or len({a.size for a in vals}) != 1 or \
                     all(np.array_equal(a, vals[0]) for a in vals):
                 continue
-            if st.primvars.get(str(name), ("constant",))[0] == "constant":
-                st.primvars[str(name)] = ("instance", np.concatenate(vals).tobytes(),
-                                          vals[0].size, None)
+            _set_instance_primvar(st, str(name), np.concatenate(vals), vals[0].size)
 
     def _instancer_motion(self, prim, inst, n):
         """Offsets (frames) and the instances' world matrices at each: one offset unless the
