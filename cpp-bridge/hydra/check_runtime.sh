@@ -127,39 +127,37 @@ print("stage comparison: ok" if ok else "stage comparison: FAILED")
 sys.exit(0 if ok else 1)
 PY
 }
+# check STAGE WHAT MODE...: says what STAGE (in this folder) checks and through which paths,
+# then compares it
+check() {
+    local stage=$1 what=$2 paths
+    shift 2
+    case "$*" in
+        "delegate sceneIndex") paths="UsdImaging (scene delegate, then scene indices)" ;;
+        delegate) paths="UsdImaging's scene delegate" ;;
+        sceneIndex) paths="UsdImaging's scene indices" ;;
+    esac
+    echo "rendering $stage${what:+ ($what)} through $paths and through tide render"
+    compare "$here/$stage" "$@"
+}
 # Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
 # the plugin's own discovery plugin
-echo "rendering check_stage.usda through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_tide.usda (Tide's own prims and attributes) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_tide.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_wet.usda (a material's TideWetAPI) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_wet.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_fx.usda (bubbles and blobbies) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_fx.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_motion.usda (the stage's frame rate, with the camera) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_motion.usda" sceneIndex || exit $?
-echo "rendering check_stage_spot.usda (UsdLuxShapingAPI: cone, focus, IES profile) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_spot.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_movinglight.usda (transform samples over the shutter: a light and a gprim) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_movinglight.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_curves.usda (BasisCurves: topology, widths, normals) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_curves.usda" delegate sceneIndex || exit $?
+check check_stage.usda "" delegate sceneIndex || exit $?
+check check_stage_tide.usda "Tide's own prims and attributes" delegate sceneIndex || exit $?
+check check_stage_wet.usda "a material's TideWetAPI" delegate sceneIndex || exit $?
+check check_stage_fx.usda "bubbles and blobbies" delegate sceneIndex || exit $?
+check check_stage_motion.usda "the stage's frame rate, with the camera" sceneIndex || exit $?
+check check_stage_spot.usda "UsdLuxShapingAPI: cone, focus, IES profile" delegate sceneIndex || exit $?
+check check_stage_movinglight.usda "transform samples over the shutter: a light and a gprim" delegate sceneIndex || exit $?
+check check_stage_curves.usda "BasisCurves: topology, widths, normals" delegate sceneIndex || exit $?
 # UsdSkelImaging (v24.08) has adapters for the scene delegate only: its scene indices drop skinned
 # meshes ("Datasource support not yet added"), so only the scene delegate is compared
-echo "rendering check_stage_skel.usda (a skinned mesh: UsdSkelImaging's computations) through UsdImaging's scene delegate and through tide render"
-compare "$here/check_stage_skel.usda" delegate || exit $?
-echo "rendering check_stage_subdiv.usda (tide:subdivision:level, creases and corners) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_subdiv.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_primvars.usda (primvars read by a material, a varying displayColor) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_primvars.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_instances.usda (per-instance primvars of a PointInstancer and of native instances) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_instances.usda" delegate sceneIndex || exit $?
-echo "rendering check_stage_nested.usda (nested PointInstancers, the outer level's per-instance primvars) through UsdImaging (scene delegate, then scene indices) and through tide render"
-compare "$here/check_stage_nested.usda" delegate sceneIndex || exit $?
+check check_stage_skel.usda "a skinned mesh: UsdSkelImaging's computations" delegate || exit $?
+check check_stage_subdiv.usda "tide:subdivision:level, creases and corners" delegate sceneIndex || exit $?
+check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
+check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
+check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
-echo "rendering check_stage_meshlight.usda (UsdLuxMeshLightAPI) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_meshlight.usda" sceneIndex || exit $?
+check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
 # UsdImaging's scene delegate makes no renderSettings prims: only the scene indices are compared
-echo "rendering check_stage_product.usda (the active render settings and a product's own tide: settings) through UsdImaging's scene indices and through tide render"
-compare "$here/check_stage_product.usda" sceneIndex
+check check_stage_product.usda "the active render settings and a product's own tide: settings" sceneIndex
