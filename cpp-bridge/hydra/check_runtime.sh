@@ -130,14 +130,15 @@ PY
 # check STAGE WHAT MODE...: says what STAGE (in this folder) checks and through which paths,
 # then compares it
 check() {
-    local stage=$1 what=$2 paths
+    # (not named `paths`: compare reads the plugin search path of that name)
+    local stage=$1 what=$2 via
     shift 2
     case "$*" in
-        "delegate sceneIndex") paths="UsdImaging (scene delegate, then scene indices)" ;;
-        delegate) paths="UsdImaging's scene delegate" ;;
-        sceneIndex) paths="UsdImaging's scene indices" ;;
+        "delegate sceneIndex") via="UsdImaging (scene delegate, then scene indices)" ;;
+        delegate) via="UsdImaging's scene delegate" ;;
+        sceneIndex) via="UsdImaging's scene indices" ;;
     esac
-    echo "rendering $stage${what:+ ($what)} through $paths and through tide render"
+    echo "rendering $stage${what:+ ($what)} through $via and through tide render"
     compare "$here/$stage" "$@"
 }
 # Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
