@@ -20,6 +20,7 @@ pub mod ocean;
 pub mod render;
 pub mod sampler;
 pub mod scene;
+pub mod shader_graph;
 pub mod sky;
 pub mod spectrum;
 pub mod testing;

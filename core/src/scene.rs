@@ -121,6 +121,35 @@ pub enum ColorInput {
     Const(Rgb),
     Texture(TexLookup),
     Primvar(PrimvarLookup),
+    /// Arithmetic over lookups (its first three components).
+    Graph(crate::shader_graph::Expr),
+}
+
+impl ColorInput {
+    /// The input times `s`, per channel: a constant's value, a texture's scale and bias, a
+    /// primvar's scale, or a graph's result.
+    pub fn scaled(self, s: Rgb) -> ColorInput {
+        match self {
+            ColorInput::Const(c) => ColorInput::Const(std::array::from_fn(|k| c[k] * s[k])),
+            ColorInput::Texture(mut t) => {
+                for k in 0..3 {
+                    t.tex_scale[k] *= s[k];
+                    t.bias[k] *= s[k];
+                }
+                ColorInput::Texture(t)
+            }
+            ColorInput::Primvar(mut l) => {
+                for k in 0..3 {
+                    l.scale[k] *= s[k];
+                }
+                ColorInput::Primvar(l)
+            }
+            ColorInput::Graph(e) => {
+                use crate::shader_graph::{Binary, Expr};
+                ColorInput::Graph(Expr::binary(Binary::Mul, e, Expr::Const([s[0], s[1], s[2], 1.0])))
+            }
+        }
+    }
 }
 
 /// A scalar input: constant or textured.
@@ -130,6 +159,8 @@ pub enum FloatInput {
     Texture(TexLookup),
     /// The primvar's first component.
     Primvar(PrimvarLookup),
+    /// Arithmetic over lookups (its first component).
+    Graph(crate::shader_graph::Expr),
 }
 
 /// UsdPreviewSurface, every input.

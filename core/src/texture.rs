@@ -45,7 +45,12 @@ fn texel(t: &TextureDesc, x: i64, y: i64, fallback: &[f32; 4]) -> [f32; 4] {
 
 /// Bilinearly filtered, scaled and biased RGBA at texture coordinates `st` (before transform).
 pub fn lookup_rgba(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> [f32; 4] {
-    let Some(t) = textures.get(l.texture) else {
+    lookup_rgba_in(textures.get(l.texture), l, st)
+}
+
+/// [`lookup_rgba`] in texture `t` (the lookup's index not read); the fallback where `t` is None.
+pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32; 4] {
+    let Some(t) = t else {
         return l.fallback;
     };
     let uv = transform_st(l, st);

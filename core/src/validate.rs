@@ -42,6 +42,25 @@ fn fix_fallback(l: &mut PrimvarLookup, item: &str, attr: &str, p: &mut Vec<Probl
     }
 }
 
+/// A node graph's leaves made safe: a missing texture reads its fallback, primvar fallbacks
+/// and scales are finite.
+fn fix_graph(e: &mut crate::shader_graph::Expr, n_tex: usize, item: &str, attr: &str, p: &mut Vec<Problem>) {
+    use crate::shader_graph::{channel_rgba, Expr};
+    e.leaves_mut(&mut |leaf| match leaf {
+        Expr::Texture(l) if l.texture >= n_tex => {
+            problem(p, item, attr, "texture missing; fallback used");
+            *leaf = Expr::Const(channel_rgba(l.fallback, l.channel));
+        }
+        Expr::Texture(l) => {
+            if let Some(set) = &mut l.uv_set {
+                fix_fallback(set, item, attr, p);
+            }
+        }
+        Expr::Primvar(l) => fix_fallback(l, item, attr, p),
+        _ => {}
+    });
+}
+
 /// Returns a cleaned copy of the scene and the problems found.
 pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     let mut p = Vec::new();
@@ -323,6 +342,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 }
             }
             ColorInput::Primvar(l) => fix_fallback(l, &m.name, attr, p),
+            ColorInput::Graph(e) => fix_graph(e, n_tex, &m.name, attr, p),
         };
         let fix_float = |c: &mut FloatInput, attr: &str, p: &mut Vec<Problem>, fallback: f32| match c {
             FloatInput::Const(v) => {
@@ -340,6 +360,7 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
                 }
             }
             FloatInput::Primvar(l) => fix_fallback(l, &m.name, attr, p),
+            FloatInput::Graph(e) => fix_graph(e, n_tex, &m.name, attr, p),
         };
         match &mut m.surface {
             SurfaceDesc::Diffuse { color } => fix_color(color, "inputs:diffuseColor", &mut p, [0.18; 3]),
@@ -639,6 +660,29 @@ mod tests {
         assert_eq!(clean.spheres[0].centers, vec![Vec3::ONE]);
         assert!(clean.lights.is_empty());
         assert_eq!(clean.camera.horizontal_aperture, 20.955);
+    }
+
+    #[test]
+    fn a_graph_reading_a_missing_texture_reads_its_fallback() {
+        use crate::shader_graph::{Binary, Expr};
+        let lookup = |texture| TexLookup { texture, channel: Channel::G, scale: glam::Vec2::ONE, rotation_deg: 0.0, translation: glam::Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.1, 0.2, 0.3, 0.4], uv_set: None };
+        let mut bad_pv = PrimvarLookup::new("mask", [f32::NAN; 4]);
+        bad_pv.scale = [2.0; 4];
+        let graph = Expr::binary(Binary::Mul, Expr::Texture(lookup(0)), Expr::binary(Binary::Add, Expr::Texture(lookup(1)), Expr::Primvar(bad_pv)));
+        let mut s = SceneDesc::default();
+        s.textures.push(TextureDesc { name: "t".into(), width: 1, height: 1, channels: 1, pixels: vec![1.0], wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat });
+        let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Graph(graph), roughness: FloatInput::Graph(Expr::Texture(lookup(5))), ..Default::default() };
+        s.materials.push(MaterialDesc { name: "/M".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
+        let (clean, probs) = validate(&s);
+        let SurfaceDesc::Preview(p) = &clean.materials[0].surface else { panic!() };
+        // texture 1 is missing: its G fallback in all four; the primvar's fallback is made finite
+        let mut fixed_pv = PrimvarLookup::new("mask", [0.0; 4]);
+        fixed_pv.scale = [2.0; 4];
+        let want = Expr::binary(Binary::Mul, Expr::Texture(lookup(0)), Expr::binary(Binary::Add, Expr::Const([0.2; 4]), Expr::Primvar(fixed_pv)));
+        assert_eq!(p.diffuse_color, ColorInput::Graph(want));
+        assert_eq!(p.roughness, FloatInput::Graph(Expr::Const([0.2; 4])));
+        let at = |attr: &str| probs.iter().filter(|p| p.item == "/M" && p.attribute == attr).count();
+        assert_eq!((at("inputs:diffuseColor"), at("inputs:roughness"), probs.len()), (2, 1, 3), "{probs:?}");
     }
 
     #[test]

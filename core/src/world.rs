@@ -10,6 +10,7 @@ use crate::math::Frame;
 use crate::medium::Medium;
 use crate::render::{Problem, RenderSettings};
 use crate::scene::*;
+use crate::shader_graph::{Expr, Lookups};
 use crate::spectrum::{uplift, SampledSpectrum, SampledWavelengths, Spectrum};
 use crate::texture;
 use glam::{Mat3, Vec2, Vec3};
@@ -21,6 +22,7 @@ pub enum ColorParam {
     Const(Spectrum),
     Tex(TexLookup),
     Primvar(PrimvarLookup),
+    Graph(Expr),
 }
 
 /// A scalar input.
@@ -29,6 +31,7 @@ pub enum FloatParam {
     Const(f32),
     Tex(TexLookup),
     Primvar(PrimvarLookup),
+    Graph(Expr),
 }
 
 /// A surface's wetness ([`WetDesc`]) with its amount ready to evaluate.
@@ -204,6 +207,7 @@ fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
         ColorInput::Const(rgb) => ColorParam::Const(uplift::albedo(*rgb, cs)),
         ColorInput::Texture(l) => ColorParam::Tex(l.clone()),
         ColorInput::Primvar(l) => ColorParam::Primvar(l.clone()),
+        ColorInput::Graph(e) => ColorParam::Graph(e.clone()),
     }
 }
 
@@ -212,6 +216,7 @@ fn float_param(c: &FloatInput) -> FloatParam {
         FloatInput::Const(v) => FloatParam::Const(*v),
         FloatInput::Texture(l) => FloatParam::Tex(l.clone()),
         FloatInput::Primvar(l) => FloatParam::Primvar(l.clone()),
+        FloatInput::Graph(e) => FloatParam::Graph(e.clone()),
     }
 }
 
@@ -299,22 +304,79 @@ fn varying_emission<'a>(e: &ColorParam, m: &'a MeshDesc, inst: &InstanceDesc, sc
                 (crate::light::VaryingEmission::Texture { texture: texture.clone(), lookup: lookup.clone(), uv, cs }, mean)
             }))
         }
+        ColorParam::Graph(g) => Some(graph_emission(g, m, inst, scene, shared, cs)),
+    }
+}
+
+/// What a node graph's lookups read at a hit.
+struct AtHit<'a> {
+    w: &'a World,
+    s: &'a SurfaceHit,
+}
+
+impl Lookups for AtHit<'_> {
+    fn texture(&self, l: &TexLookup) -> [f32; 4] {
+        texture::lookup_rgba(&self.w.textures, l, self.w.st(l, self.s))
+    }
+
+    fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+        self.w.primvar_or(self.s, l)
     }
 }
 
 /// A lookup's value at each vertex of an instance's mesh (as [`World::primvar`] reads it at a
 /// hit on that vertex).
 fn corner_values<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], l: &PrimvarLookup) -> Box<dyn Fn(u32) -> [f32; 4] + 'a> {
-    let scale = l.scale;
-    let scaled = move |v: [f32; 4]| -> [f32; 4] { std::array::from_fn(|k| v[k] * scale[k]) };
-    match primvar_source(&m.primvars, row, tables, &l.name) {
-        Some(PrimvarSource::Varying(pv)) => Box::new(move |v| scaled(pv.element(v as usize))),
-        Some(PrimvarSource::Value(v)) => Box::new(move |_| scaled(v)),
-        None => {
-            let f = scaled(l.fallback);
-            Box::new(move |_| f)
-        }
+    let (scale, fallback) = (l.scale, l.fallback);
+    let source = corner_source(m, row, tables, &l.name);
+    Box::new(move |v| {
+        let x = source.as_ref().map_or(fallback, |f| f(v));
+        std::array::from_fn(|k| x[k] * scale[k])
+    })
+}
+
+/// Primvar `name` at each vertex of an instance's mesh, unscaled; None where neither the mesh
+/// nor the instance has it.
+fn corner_source<'a>(m: &'a MeshDesc, row: Option<(u32, u32)>, tables: &[InstancePrimvars], name: &str) -> Option<Box<dyn Fn(u32) -> [f32; 4] + 'a>> {
+    match primvar_source(&m.primvars, row, tables, name)? {
+        PrimvarSource::Varying(pv) => Some(Box::new(move |v| pv.element(v as usize))),
+        PrimvarSource::Value(v) => Some(Box::new(move |_| v)),
     }
+}
+
+/// A node graph's emission over an instance's mesh: its textures each once (from `shared`),
+/// its primvars at each triangle's corners.
+fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a SceneDesc, shared: &mut HashMap<usize, std::sync::Arc<TextureDesc>>, cs: ColorSpace) -> VaryingFn<'a> {
+    let mut expr = e.clone();
+    let mut textures: Vec<std::sync::Arc<TextureDesc>> = Vec::new();
+    let mut local: HashMap<usize, usize> = HashMap::new();
+    expr.leaves_mut(&mut |leaf| {
+        let Expr::Texture(l) = leaf else { return };
+        l.texture = match scene.textures.get(l.texture) {
+            Some(tex) => *local.entry(l.texture).or_insert_with(|| {
+                textures.push(shared.entry(l.texture).or_insert_with(|| std::sync::Arc::new(tex.clone())).clone());
+                textures.len() - 1
+            }),
+            // validation leaves none; a lookup of no texture reads its fallback
+            None => usize::MAX,
+        };
+    });
+    let names = expr.primvar_names();
+    let sources: Vec<_> = names.iter().map(|n| corner_source(m, inst.primvar_row, &scene.instance_primvars, n)).collect();
+    let graph = std::sync::Arc::new(crate::light::EmissionGraph { expr, textures, names });
+    let own = m.uvs.as_deref();
+    Box::new(move |t: &[u32]| {
+        let corners = sources.iter().map(|s| s.as_ref().map(|f| [0, 1, 2].map(|k| f(t[k])))).collect();
+        let uv = match own {
+            Some(uvs) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
+            None => [Vec2::ZERO, Vec2::X, Vec2::Y],
+        };
+        let how = crate::light::VaryingEmission::Graph { graph: graph.clone(), corners, uv, cs };
+        let third = 1.0 / 3.0;
+        let probes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [third; 3]].map(|b| how.rgb(b).0);
+        let mean = std::array::from_fn(|c| probes.iter().map(|p| p[c]).sum::<f32>() / 4.0);
+        (how, mean)
+    })
 }
 
 /// Where an instance's primvar `name` comes from (see [`World::primvar`]).
@@ -363,6 +425,7 @@ impl World {
                             ColorInput::Const(c) => Some(ColorParam::Const(uplift::illuminant(*c, cs))),
                             ColorInput::Texture(l) => Some(ColorParam::Tex(l.clone())),
                             ColorInput::Primvar(l) => Some(ColorParam::Primvar(l.clone())),
+                            ColorInput::Graph(e) => Some(ColorParam::Graph(e.clone())),
                         };
                         SurfaceKind::Preview {
                             diffuse: color_param(&p.diffuse_color, cs),
@@ -729,6 +792,10 @@ impl World {
                 let v = self.primvar_or(s, l);
                 Some([v[0], v[1], v[2]])
             }
+            ColorParam::Graph(e) => {
+                let v = e.eval(&AtHit { w: self, s });
+                Some([v[0], v[1], v[2]])
+            }
         }
     }
 
@@ -744,6 +811,7 @@ impl World {
             FloatParam::Const(v) => *v,
             FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, self.st(l, s)),
             FloatParam::Primvar(l) => self.primvar_or(s, l)[0],
+            FloatParam::Graph(e) => e.eval(&AtHit { w: self, s })[0],
         }
     }
 
@@ -954,19 +1022,30 @@ mod tests {
     }
 
     #[test]
-    fn emission_from_a_primvar_or_a_texture_is_sampled_as_the_surface_glows() {
+    fn emission_from_a_primvar_a_texture_or_a_graph_is_sampled_as_the_surface_glows() {
         // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2,
-        // or shows a 2 x 2 texture (uv = (x, z) / 2)
+        // or shows a 2 x 2 texture (uv = (x, z) / 2), or a graph of both and of the texture
+        // read through a second uv set
         let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
         m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
         m.indices = vec![0, 1, 2, 0, 2, 3];
         m.uvs = Some(m.positions.iter().map(|p| Vec2::new(p.x, p.z) / 2.0).collect());
         let hot = [1.0, 0.5, 0.25];
-        m.primvars = vec![PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() }];
+        m.primvars = vec![
+            PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() },
+            PrimvarData { name: "st1".into(), tuple: 2, constant: false, data: m.positions.iter().flat_map(|p| [p.z / 2.0, 1.0 - p.x / 2.0]).collect() },
+        ];
         let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5], wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
         let lookup = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
         let tinted = PrimvarLookup { scale: [0.5, 2.0, 1.0, 1.0], ..PrimvarLookup::new("glow", [0.0; 4]) };
-        for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup)] {
+        use crate::shader_graph::{Binary, Expr};
+        let through_st1 = TexLookup { uv_set: Some(PrimvarLookup::new("st1", [0.0; 4])), ..lookup.clone() };
+        let graph = Expr::binary(
+            Binary::Add,
+            Expr::binary(Binary::Mul, Expr::Texture(lookup.clone()), Expr::Primvar(tinted.clone())),
+            Expr::binary(Binary::Mul, Expr::Texture(through_st1), Expr::Primvar(PrimvarLookup::new("absent", [0.5; 4]))),
+        );
+        for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup), ColorInput::Graph(graph)] {
             let mut s = SceneDesc::default();
             s.meshes.push(m.clone());
             s.textures.push(texture.clone());

@@ -455,24 +455,9 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
         None => SurfaceDesc::Emissive { radiance: rgb, two_sided: mesh.double_sided },
         Some(mut pr) => {
             pr.emissive_color = match (&pr.emissive_color, ml.mode) {
-                (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().any(|&c| c > 0.0) => ColorInput::Const([rgb[0] * g[0], rgb[1] * g[1], rgb[2] * g[2]]),
-                (ColorInput::Texture(t), MeshLightMode::MaterialGlowTintsLight) => {
-                    // the glow map tints the light texel by texel
-                    let mut t = t.clone();
-                    for k in 0..3 {
-                        t.tex_scale[k] *= rgb[k];
-                        t.bias[k] *= rgb[k];
-                    }
-                    ColorInput::Texture(t)
-                }
-                (ColorInput::Primvar(l), MeshLightMode::MaterialGlowTintsLight) => {
-                    // the glow read from a primvar tints the light point by point
-                    let mut l = l.clone();
-                    for k in 0..3 {
-                        l.scale[k] *= rgb[k];
-                    }
-                    ColorInput::Primvar(l)
-                }
+                (ColorInput::Const(g), MeshLightMode::MaterialGlowTintsLight) if g.iter().all(|&c| c <= 0.0) => ColorInput::Const(rgb),
+                // the glow tints the light, texel by texel or point by point where it varies
+                (g, MeshLightMode::MaterialGlowTintsLight) => g.clone().scaled(rgb),
                 _ => ColorInput::Const(rgb),
             };
             SurfaceDesc::Preview(pr)

@@ -3,11 +3,12 @@
 //! A material prim carries `surface` / `volume` (paths of the terminal nodes) and, per node N,
 //! `N.info:id`, `N.<input>` values and `N.<input>.connect` = `"<node>.<output>"` tokens.
 //! The interior medium is the `volume` terminal's TideMedium, or else the TideMedium that the
-//! TideWater surface's optional `medium` input is connected to.
+//! TideWater surface's optional `medium` input is connected to, or else the absorbing body of a
+//! MaterialX surface's tinted transmission.
 //! Supported nodes: `UsdPreviewSurface` (every input), `UsdUVTexture` (file, st, wrapS/T,
-//! fallback, scale, bias, sourceColorSpace, outputs rgb/r/g/b/a), `UsdPrimvarReader_float2`,
-//! `UsdTransform2d`, `TideWater`, `TideMedium`, and MaterialX's `standard_surface` with its
-//! image, geompropvalue, texcoord, normalmap, constant and dot nodes ([`mtlx`]). An unknown
+//! fallback, scale, bias, sourceColorSpace, outputs rgb/r/g/b/a), `UsdPrimvarReader_*`,
+//! `UsdTransform2d`, `TideWater`, `TideMedium`, and MaterialX's `standard_surface` and
+//! `open_pbr_surface` with their texture, primvar and arithmetic nodes ([`mtlx`]). An unknown
 //! surface id gives the default material (grey diffuse 0.18) and a problem.
 //!
 //! Textures are referred to by [`TexKey`] (asset + wrap modes + whether to linearise) in a list
@@ -19,6 +20,7 @@ use crate::value::{normalize_name, AttrStore, Problems, Value};
 use glam::Vec2;
 use std::collections::BTreeMap;
 use tide_core::light::dome_format::DomeFormat;
+use tide_core::shader_graph::Expr;
 use tide_core::scene::{
     Channel, ColorInput, FloatInput, MaterialDesc, PrimvarLookup, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
     SurfaceModel, TexLookup, WaterDesc, WetDesc, Wrap,
@@ -116,11 +118,48 @@ fn parse_nodes(store: &AttrStore) -> BTreeMap<String, Node> {
 }
 
 /// What a connected input receives.
+#[derive(Clone, Debug, PartialEq)]
 enum Source {
     Texture(TexLookup),
     Primvar(PrimvarLookup),
-    /// A texture that is unavailable: its fallback value.
+    /// A constant: a texture that is unavailable (its fallback value), or a node's value.
     Fallback([f32; 4]),
+    /// Arithmetic over lookups that no single lookup can carry (MaterialX nodes).
+    Graph(Expr),
+}
+
+impl Source {
+    /// The source as an expression.
+    fn into_expr(self) -> Expr {
+        match self {
+            Source::Texture(t) => Expr::Texture(t),
+            Source::Primvar(l) => Expr::Primvar(l),
+            Source::Fallback(v) => Expr::Const(v),
+            Source::Graph(e) => e,
+        }
+    }
+
+    /// The source as a colour input (a constant's first three components).
+    fn into_color(self) -> ColorInput {
+        match self {
+            Source::Texture(t) => ColorInput::Texture(t),
+            Source::Primvar(l) => ColorInput::Primvar(l),
+            Source::Fallback(fb) => ColorInput::Const([fb[0], fb[1], fb[2]]),
+            Source::Graph(e) => ColorInput::Graph(e),
+        }
+    }
+
+    /// An expression as the simplest source that carries it.
+    fn from_expr(e: Expr) -> Source {
+        if let Some(v) = e.constant_value() {
+            return Source::Fallback(v);
+        }
+        match e {
+            Expr::Texture(t) => Source::Texture(t),
+            Expr::Primvar(l) => Source::Primvar(l),
+            e => Source::Graph(e),
+        }
+    }
 }
 
 /// A primvar lookup giving a texture's coordinates as a uv set, or None where it names the
@@ -142,6 +181,7 @@ fn float_input(c: f32, source: Option<Source>) -> FloatInput {
         }
         Some(Source::Primvar(l)) => FloatInput::Primvar(l),
         Some(Source::Fallback(fb)) => FloatInput::Const(fb[0]),
+        Some(Source::Graph(e)) => FloatInput::Graph(e),
     }
 }
 
@@ -150,6 +190,8 @@ struct Ctx<'a> {
     textures: &'a dyn Fn(&str) -> Option<TexState>,
     used: Vec<TexKey>,
     p: Problems<'a>,
+    /// MaterialX nodes read so far (a bound on the size of the graphs built).
+    mtlx_nodes: u32,
 }
 
 impl Ctx<'_> {
@@ -227,7 +269,7 @@ impl Ctx<'_> {
             return None;
         }
         match self.node_id(up) {
-            Some(id) if mtlx::is_mtlx_node(id) => return self.mtlx_source(attr, up, depth),
+            Some(id) if mtlx::is_mtlx_node(id) => return self.mtlx_source(attr, up, output, depth),
             Some("UsdUVTexture") => {}
             Some(id) if id.starts_with("UsdPrimvarReader_") && id != "UsdPrimvarReader_string" => {
                 if output != "result" {
@@ -357,12 +399,7 @@ impl Ctx<'_> {
 
     fn color(&mut self, node: &str, name: &str, default: [f32; 3]) -> ColorInput {
         let c = self.input_vec(node, name, default);
-        match self.source(node, name) {
-            None => ColorInput::Const(c),
-            Some(Source::Texture(t)) => ColorInput::Texture(t),
-            Some(Source::Primvar(l)) => ColorInput::Primvar(l),
-            Some(Source::Fallback(fb)) => ColorInput::Const([fb[0], fb[1], fb[2]]),
-        }
+        self.source(node, name).map_or(ColorInput::Const(c), Source::into_color)
     }
 
     fn float(&mut self, node: &str, name: &str, default: f32) -> FloatInput {
@@ -377,8 +414,8 @@ impl Ctx<'_> {
                 t.channel = Channel::Rgb;
                 Some(t)
             }
-            Some(Source::Primvar(_)) => {
-                self.p.add(&format!("{}.inputs:normal", n), "a normal from a primvar is not supported; the surface's own normal is used");
+            Some(Source::Primvar(_) | Source::Graph(_)) => {
+                self.p.add(&format!("{}.inputs:normal", n), "a normal from a primvar or a node graph is not supported; the surface's own normal is used");
                 None
             }
             _ => None,
@@ -576,10 +613,12 @@ fn terminal(store: &AttrStore, name: &str) -> Option<String> {
 /// Converts a material prim. `textures` answers what is known of an asset path.
 pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -> Option<TexState>, problems: &mut Problems) -> MaterialPiece {
     let nodes = parse_nodes(store);
-    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item) };
+    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0 };
     let mut desc = default_material(path);
     let surf = terminal(store, "surface");
     let vol = terminal(store, "volume");
+    // the absorbing body a tinted transmission asks for (σa, RGB)
+    let mut body = None;
     match &surf {
         None => {
             if vol.is_none() {
@@ -592,7 +631,8 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         Some(s) => match ctx.node_id(s) {
             Some("UsdPreviewSurface") => desc.surface = SurfaceDesc::Preview(ctx.preview(s)),
             Some("TideWater") => desc.surface = SurfaceDesc::Water(ctx.water(s)),
-            Some("ND_standard_surface_surfaceshader") => desc.surface = ctx.standard_surface(s),
+            Some("ND_standard_surface_surfaceshader") => (desc.surface, body) = ctx.pbr_surface(s, &mtlx::STANDARD_SURFACE),
+            Some("ND_open_pbr_surface_surfaceshader") => (desc.surface, body) = ctx.pbr_surface(s, &mtlx::OPEN_PBR_SURFACE),
             other => {
                 ctx.p.add(&format!("{}.info:id", s), format!("unknown shader id '{}'; using the default material", other.unwrap_or("")));
             }
@@ -641,22 +681,47 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
             other => ctx.p.add(&format!("{}.info:id", v), format!("unknown volume shader id '{}'; the interior is left empty", other.unwrap_or(""))),
         }
     }
+    match body {
+        Some((_, attr)) if medium.is_some() => ctx.p.add(&attr, "the material's volume fills the body; the transmission colour is left out"),
+        Some((sigma_a, _)) => medium = Some(absorbing_body(path, sigma_a)),
+        None => {}
+    }
     problems.list.extend(ctx.p.list);
     MaterialPiece { desc, medium, textures: ctx.used }
+}
+
+/// A clear body that absorbs `sigma_a` (RGB, per scene unit) and scatters nothing.
+fn absorbing_body(name: &str, sigma_a: [f32; 3]) -> MediumDesc {
+    MediumDesc {
+        name: name.into(),
+        sigma_a: SpectrumDesc::Rgb(sigma_a),
+        sigma_s: SpectrumDesc::Rgb([0.0; 3]),
+        scale: 1.0,
+        phase: PhaseDesc::Isotropic,
+        water: None,
+        method: Default::default(),
+    }
 }
 
 /// Rewrites texture indices of a material (local list → scene list).
 pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
     let fix = |t: &mut TexLookup| t.texture = map[t.texture];
-    let col = |c: &mut ColorInput| {
-        if let ColorInput::Texture(t) = c {
-            fix(t)
-        }
+    let graph = |e: &mut Expr| {
+        e.leaves_mut(&mut |leaf| {
+            if let Expr::Texture(t) = leaf {
+                fix(t)
+            }
+        })
     };
-    let flt = |c: &mut FloatInput| {
-        if let FloatInput::Texture(t) = c {
-            fix(t)
-        }
+    let col = |c: &mut ColorInput| match c {
+        ColorInput::Texture(t) => fix(t),
+        ColorInput::Graph(e) => graph(e),
+        _ => {}
+    };
+    let flt = |c: &mut FloatInput| match c {
+        FloatInput::Texture(t) => fix(t),
+        FloatInput::Graph(e) => graph(e),
+        _ => {}
     };
     match &mut desc.surface {
         SurfaceDesc::Diffuse { color } => col(color),
@@ -683,6 +748,7 @@ mod tests {
     use super::*;
     use crate::value::Attr;
     use tide_core::scene::{DepthProfileDesc, JerlovDesc};
+    use tide_core::shader_graph::Binary;
     use tide_core::water::{JerlovSource, JerlovType};
 
     fn mat(pairs: &[(&str, Value)]) -> AttrStore {
@@ -936,7 +1002,7 @@ mod tests {
     }
 
     /// MaterialX arithmetic with all operands but one constant folds into the lookup; two
-    /// varying operands, or an offset primvar, are reported and the input keeps its constant.
+    /// varying operands, or an offset primvar, become a graph evaluated at each hit.
     #[test]
     fn materialx_arithmetic_folds_into_lookups() {
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
@@ -967,14 +1033,14 @@ mod tests {
             ("/M/Twice.info:id", tok("ND_multiply_float")),
             ("/M/Twice.inputs:in1", Value::Float(2.0)),
             ("/M/Twice.inputs:in2", Value::Float(0.2)),
-            // metalness = primvar + 0.1: an offset primvar cannot fold
+            // metalness = primvar + 0.1: an offset primvar cannot fold; a graph
             ("/M/SR.inputs:metalness.connect", tok("/M/Off.outputs:out")),
             ("/M/Off.info:id", tok("ND_add_float")),
             ("/M/Off.inputs:in1.connect", tok("/M/Pv.outputs:out")),
             ("/M/Off.inputs:in2", Value::Float(0.1)),
             ("/M/Pv.info:id", tok("ND_geompropvalue_float")),
             ("/M/Pv.inputs:geomprop", Value::String("metal".into())),
-            // coat = image x image: two varying operands
+            // coat = image x image: two varying operands; a graph
             ("/M/SR.inputs:coat.connect", tok("/M/Sq.outputs:out")),
             ("/M/Sq.info:id", tok("ND_multiply_float")),
             ("/M/Sq.inputs:in1.connect", tok("/M/Img.outputs:out")),
@@ -991,9 +1057,171 @@ mod tests {
         let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
         assert_eq!((t.channel, t.tex_scale[0], t.bias[0]), (Channel::R, -1.0, 1.0));
         assert!(matches!(ps.roughness, FloatInput::Const(r) if (r - 0.4).abs() < 1e-6), "{:?}", ps.roughness);
-        assert_eq!((ps.metallic.clone(), ps.clearcoat.clone()), (FloatInput::Const(0.0), FloatInput::Const(0.0)));
-        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["/M/SR.inputs:metalness", "/M/SR.inputs:coat"], "{:?}", p.list);
+        let FloatInput::Texture(img) = &ps.opacity else { unreachable!() };
+        let img = Expr::Texture(TexLookup { channel: Channel::Rgb, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0, 0.0, 0.0, 1.0], ..img.clone() });
+        let metal = Expr::binary(Binary::Add, Expr::Primvar(PrimvarLookup::new("metal", [0.0; 4])), Expr::Const([0.1; 4]));
+        assert_eq!(ps.metallic, FloatInput::Graph(metal));
+        assert_eq!(ps.clearcoat, FloatInput::Graph(Expr::binary(Binary::Mul, img.clone(), img)));
+        assert!(p.list.is_empty(), "{:?}", p.list);
+    }
+
+    /// OpenPBR Surface maps as standard_surface does, under its own input names and defaults.
+    #[test]
+    fn materialx_open_pbr_surface_maps_to_a_preview_surface() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let open_pbr = |extra: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/O".into())), ("/M/O.info:id", tok("ND_open_pbr_surface_surfaceshader"))];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        let (m, p) = open_pbr(&[]);
+        assert!(p.is_empty(), "{p:?}");
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
+        assert_eq!((ps.diffuse_color.clone(), ps.roughness.clone(), ps.emissive_color.clone()), (ColorInput::Const([0.8; 3]), FloatInput::Const(0.3), ColorInput::Const([0.0; 3])));
+        let (m, p) = open_pbr(&[
+            ("/M/O.inputs:base_weight", f(0.5)),
+            ("/M/O.inputs:base_color.connect", tok("/M/Img.outputs:out")),
+            ("/M/Img.info:id", tok("ND_image_color3")),
+            ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/O.inputs:base_metalness", f(0.3)),
+            ("/M/O.inputs:specular_roughness", f(0.1)),
+            ("/M/O.inputs:specular_ior", f(1.4)),
+            ("/M/O.inputs:coat_weight", f(0.2)),
+            ("/M/O.inputs:emission_luminance", f(2.0)),
+            ("/M/O.inputs:emission_color", c3([0.1, 0.2, 0.3])),
+            ("/M/O.inputs:geometry_opacity", f(0.5)),
+            ("/M/O.inputs:fuzz_weight", f(0.5)),
+        ]);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
+        let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+        assert_eq!(t.tex_scale, [0.5, 0.5, 0.5, 1.0]);
+        assert_eq!((ps.metallic.clone(), ps.roughness.clone(), ps.ior), (FloatInput::Const(0.3), FloatInput::Const(0.1), 1.4));
+        assert_eq!((ps.clearcoat.clone(), ps.clearcoat_roughness.clone()), (FloatInput::Const(0.2), FloatInput::Const(0.0)));
+        assert_eq!((ps.emissive_color.clone(), ps.opacity.clone()), (ColorInput::Const([0.2, 0.4, 0.6]), FloatInput::Const(0.5)));
+        assert_eq!(p, ["/M/O.inputs:fuzz_weight"]);
+    }
+
+    /// A transmission tinted over a depth fills the body with the absorption that keeps the
+    /// colour at that depth (Beer–Lambert); a tint without a depth is reported; a material's
+    /// own volume wins.
+    #[test]
+    fn materialx_tinted_transmission_fills_the_body_with_an_absorbing_medium() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let glass = |id: &str, weight: &str, depth: f64, extra: &[(&str, Value)]| {
+            let mut pairs = vec![
+                ("surface", Value::Path("/M/G".into())),
+                ("/M/G.info:id", tok(id)),
+                (weight, f(1.0)),
+                ("/M/G.inputs:transmission_color", c3([0.5, 0.25, 1.0])),
+                ("/M/G.inputs:transmission_depth", f(depth)),
+            ];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        // σa = −ln(colour) / depth: exp(−σa · 2) is (0.5, 0.25, 1)
+        let want = [std::f32::consts::LN_2 / 2.0, 2.0 * std::f32::consts::LN_2 / 2.0, 0.0];
+        for (id, weight) in [("ND_open_pbr_surface_surfaceshader", "/M/G.inputs:transmission_weight"), ("ND_standard_surface_surfaceshader", "/M/G.inputs:transmission")] {
+            let (m, p) = glass(id, weight, 2.0, &[]);
+            assert!(p.is_empty(), "{id}: {p:?}");
+            assert!(matches!(m.desc.surface, SurfaceDesc::Water(_)), "{id}");
+            let med = m.medium.expect("an absorbing body");
+            let SpectrumDesc::Rgb(sa) = med.sigma_a else { panic!() };
+            for k in 0..3 {
+                assert!((sa[k] - want[k]).abs() < 1e-6, "{id}: {sa:?}");
+            }
+            assert_eq!((med.sigma_s, med.scale), (SpectrumDesc::Rgb([0.0; 3]), 1.0));
+            let (m, p) = glass(id, weight, 0.0, &[]);
+            assert_eq!((m.medium, p), (None, vec!["/M/G.inputs:transmission_color".to_string()]), "{id}");
+            let (m, p) = glass(id, weight, 2.0, &[("volume", Value::Path("/M/V".into())), ("/M/V.info:id", tok("TideMedium")), ("/M/V.inputs:absorption", c3([0.1; 3]))]);
+            assert_eq!(m.medium.map(|v| v.sigma_a), Some(SpectrumDesc::Rgb([0.1; 3])), "{id}");
+            assert_eq!(p, ["/M/G.inputs:transmission_color"], "{id}");
+        }
+    }
+
+    /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5) so that it
+    /// cannot fold away, computes what the MaterialX specification says it does.
+    #[test]
+    fn materialx_nodes_compute_their_specified_values() {
+        use tide_core::shader_graph::Lookups;
+        const X: [f32; 4] = [0.3, 0.6, 0.9, 0.5];
+        struct AtX;
+        impl Lookups for AtX {
+            fn texture(&self, _: &TexLookup) -> [f32; 4] {
+                unreachable!("no texture here")
+            }
+            fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+                assert_eq!(l.name, "x");
+                std::array::from_fn(|k| X[k] * l.scale[k])
+            }
+        }
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let x = || tok("/M/X.outputs:out");
+        let smooth = |t: f32| t * t * (3.0 - 2.0 * t);
+        let lum = 0.2722287 * 0.3 + 0.6740818 * 0.6 + 0.0536895 * 0.9;
+        #[rustfmt::skip]
+        let cases: Vec<(&str, Vec<(&str, Value)>, &str, [f32; 4])> = vec![
+            ("ND_multiply_color3", vec![("in1.connect", x()), ("in2", c3([2.0, 3.0, 4.0]))], "out", [0.6, 1.8, 3.6, 0.5]),
+            ("ND_divide_color3", vec![("in1.connect", x()), ("in2", c3([2.0; 3]))], "out", [0.15, 0.3, 0.45, 0.5]),
+            ("ND_divide_color3", vec![("in1", c3([1.0; 3])), ("in2.connect", x())], "out", [1.0 / 0.3, 1.0 / 0.6, 1.0 / 0.9, 2.0]),
+            ("ND_min_color3FA", vec![("in1.connect", x()), ("in2", f(0.5))], "out", [0.3, 0.5, 0.5, 0.5]),
+            ("ND_max_color3FA", vec![("in1.connect", x()), ("in2", f(0.5))], "out", [0.5, 0.6, 0.9, 0.5]),
+            ("ND_power_color3FA", vec![("in1.connect", x()), ("in2", f(2.0))], "out", X.map(|v| v * v)),
+            ("ND_modulo_color3FA", vec![("in1.connect", x()), ("in2", f(0.25))], "out", [0.05, 0.1, 0.15, 0.0]),
+            ("ND_sqrt_color3", vec![("in.connect", x())], "out", X.map(f32::sqrt)),
+            ("ND_clamp_color3FA", vec![("in.connect", x()), ("low", f(0.4)), ("high", f(0.8))], "out", [0.4, 0.6, 0.8, 0.5]),
+            ("ND_invert_color3FA", vec![("in.connect", x())], "out", [0.7, 0.4, 0.1, 0.5]),
+            ("ND_remap_color3FA", vec![("in.connect", x()), ("inlow", f(0.2)), ("outlow", f(1.0)), ("outhigh", f(3.0))], "out", [1.25, 2.0, 2.75, 1.75]),
+            ("ND_smoothstep_color3FA", vec![("in.connect", x())], "out", X.map(smooth)),
+            ("ND_luminance_color3", vec![("in.connect", x())], "out", [lum; 4]),
+            ("ND_extract_color3", vec![("in.connect", x()), ("index", Value::Int(1))], "out", [0.6; 4]),
+            ("ND_separate3_color3", vec![("in.connect", x())], "outb", [0.9; 4]),
+            ("ND_combine3_color3", vec![("in1.connect", x()), ("in2", f(0.25)), ("in3", f(0.5))], "out", [0.3, 0.25, 0.5, 0.0]),
+            ("ND_convert_float_color3", vec![("in.connect", x())], "out", [0.3; 4]),
+            ("ND_mix_color3", vec![("fg.connect", x()), ("bg", c3([1.0; 3])), ("mix.connect", x())], "out", [0.79, 0.76, 0.91, 0.75]),
+            // x's second component (0.6) > 0.5: in1
+            ("ND_ifgreater_color3", vec![("value1.connect", tok("/M/E.outputs:out")), ("value2", f(0.5)), ("in1", c3([1.0, 2.0, 3.0])), ("in2.connect", x())], "out", [1.0, 2.0, 3.0, 1.0]),
+            // 0.5 ≥ 0.6 is false: in2
+            ("ND_ifgreatereq_color3", vec![("value1", f(0.5)), ("value2.connect", tok("/M/E.outputs:out")), ("in1", c3([1.0, 2.0, 3.0])), ("in2.connect", x())], "out", X),
+            ("ND_floor_color3", vec![("in.connect", tok("/M/Ten.outputs:out"))], "out", [3.0, 6.0, 9.0, 5.0]),
+        ];
+        for (id, inputs, output, want) in cases {
+            let mut pairs = vec![
+                ("surface", Value::Path("/M/S".into())),
+                ("/M/S.info:id", tok("UsdPreviewSurface")),
+                ("/M/X.info:id", tok("ND_geompropvalue_color4")),
+                ("/M/X.inputs:geomprop", Value::String("x".into())),
+                ("/M/E.info:id", tok("ND_extract_color4")),
+                ("/M/E.inputs:in.connect", x()),
+                ("/M/E.inputs:index", Value::Int(1)),
+                ("/M/Ten.info:id", tok("ND_multiply_color4FA")),
+                ("/M/Ten.inputs:in1.connect", x()),
+                ("/M/Ten.inputs:in2", f(10.0)),
+                ("/M/N.info:id", tok(id)),
+            ];
+            let target = format!("/M/N.outputs:{output}");
+            pairs.push(("/M/S.inputs:diffuseColor.connect", tok(&target)));
+            let names: Vec<String> = inputs.iter().map(|(k, _)| format!("/M/N.inputs:{k}")).collect();
+            pairs.extend(names.iter().map(String::as_str).zip(inputs.into_iter().map(|(_, v)| v)));
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            assert!(p.list.is_empty(), "{id}: {:?}", p.list);
+            let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{id}") };
+            let got = match &ps.diffuse_color {
+                ColorInput::Graph(e) => e.eval(&AtX),
+                ColorInput::Primvar(l) => AtX.primvar(l),
+                other => panic!("{id}: {other:?}"),
+            };
+            for k in 0..4 {
+                assert!((got[k] - want[k]).abs() < 1e-5, "{id}: {got:?} vs {want:?}");
+            }
+        }
     }
 
     /// MaterialX's own UsdPreviewSurface nodes read as USD's.

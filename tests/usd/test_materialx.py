@@ -37,12 +37,18 @@ def test_a_diffuse_standard_surface_reflects_its_base_colour(renderer, stage):
     preview.CreateIdAttr("UsdPreviewSurface")
     preview.CreateInput("diffuseColor", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 0, 0))
     mat.CreateSurfaceOutput().ConnectToSource(preview.ConnectableAPI(), "surface")
+    _shows_albedo(renderer, stage, m, mat, (0.45, 0.3, 0.15))
+
+
+def _shows_albedo(renderer, stage, m, mat, albedo):
+    """Panel `m` bound to `mat`, seen from above under the white dome with one bounce, shows
+    `albedo`, and the material raises no problem."""
     bind(m.GetPrim(), mat)
     settings(stage, res=(RES, RES), samples=16, integrator="path", maxDepth=1)
     problems = []
     img = render(renderer, stage, problems)["color"][..., :3]
     assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
-    ok, why = near(img, (0.45, 0.3, 0.15))
+    ok, why = near(img, albedo)
     assert ok, why
 
 
@@ -116,3 +122,108 @@ def test_transmission_makes_the_same_clear_dielectric_as_tide_water(renderer):
     glass = ball("mtlx")
     assert np.array_equal(glass, ball("water"))
     assert np.abs(glass - ball("diffuse")).mean() > 0.05
+
+
+def _shader(stage, path, node_id, **inputs):
+    """A MaterialX node `node_id` with `inputs`: floats, 3-tuples (colours), strings (file
+    paths or tokens) or the outputs of other nodes."""
+    sh = UsdShade.Shader.Define(stage, path)
+    sh.CreateIdAttr(node_id)
+    for k, v in inputs.items():
+        if isinstance(v, UsdShade.Output):
+            sh.CreateInput(k, v.GetTypeName()).ConnectToSource(v)
+        elif isinstance(v, tuple):
+            sh.CreateInput(k, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*v))
+        elif isinstance(v, str) and k == "file":
+            sh.CreateInput(k, Sdf.ValueTypeNames.Asset).Set(v)
+        elif isinstance(v, str):
+            sh.CreateInput(k, Sdf.ValueTypeNames.String).Set(v)
+        else:
+            sh.CreateInput(k, Sdf.ValueTypeNames.Float).Set(v)
+    return sh
+
+
+def test_two_textures_multiplied_and_mixed_by_a_primvar_mask(renderer, stage, tmp_path):
+    """emission_color = mix(bg 0.1, image A x image B, a per-face primvar mask): arithmetic on
+    two varying operands, evaluated at each hit. Left (mask 1): A x B = (1, 0.5, 0.25) x 2;
+    right (mask 0.25): 0.25 (0.25, 0.5, 1) x 0.5 + 0.75 x 0.1."""
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    write_exr(a, [[(1, 0.5, 0.25)] * 2 + [(0.25, 0.5, 1)] * 2])
+    write_exr(b, [[(2, 2, 2)] * 2 + [(0.5, 0.5, 0.5)] * 2])
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=2)
+    pv = UsdGeom.PrimvarsAPI(m.GetPrim())
+    pv.CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (0, 1), (0.5, 0), (0.5, 1), (1, 0), (1, 1)])
+    pv.CreatePrimvar("mask", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.uniform).Set([1.0, 0.25])
+    mat, sh = _standard_surface(stage, "/Looks/Sign", base=0.0, specular=0.0, emission=1.0)
+    out = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    img_a = _shader(stage, "/Looks/Sign/A", "ND_image_color3", file=str(a), uaddressmode="clamp")
+    img_b = _shader(stage, "/Looks/Sign/B", "ND_image_color3", file=str(b), uaddressmode="clamp")
+    mask = _shader(stage, "/Looks/Sign/Mask", "ND_geompropvalue_float", geomprop="mask")
+    prod = _shader(stage, "/Looks/Sign/AxB", "ND_multiply_color3", in1=out(img_a), in2=out(img_b))
+    mix = _shader(stage, "/Looks/Sign/Mix", "ND_mix_color3FA", fg=out(prod), bg=(0.1, 0.1, 0.1),
+                  mix=mask.CreateOutput("out", Sdf.ValueTypeNames.Float))
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(out(mix))
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=4, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
+    right = 0.25 * np.array([0.25, 0.5, 1.0]) * 0.5 + 0.75 * 0.1
+    for part, want in ((img[:, :RES // 4], (2, 1, 0.5)), (img[:, -RES // 4:], right)):
+        ok, why = near(part, want)
+        assert ok, why
+
+
+def _open_pbr(stage, path, **inputs):
+    """A Material whose mtlx:surface is an open_pbr_surface with `inputs`."""
+    mat = UsdShade.Material.Define(stage, path)
+    sh = _shader(stage, path + "/OpenPBR", "ND_open_pbr_surface_surfaceshader", **inputs)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    return mat
+
+
+def test_an_open_pbr_surface_reflects_its_base_colour(renderer, stage):
+    """base_weight x base_color with no specular, under a white dome of radiance 1: the albedo."""
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Panel")
+    mat = _open_pbr(stage, "/Looks/Clay", base_weight=0.5, base_color=(0.9, 0.6, 0.3),
+                    specular_weight=0.0)
+    _shows_albedo(renderer, stage, m, mat, (0.45, 0.3, 0.15))
+
+
+def test_a_tinted_transmission_absorbs_as_beer_lambert(renderer):
+    """An OpenPBR glass ball whose transmission_color (0.5, 0.25, 1) is reached at
+    transmission_depth 2 renders as a TideWater ball filled with a TideMedium absorbing
+    σa = −ln(colour) / 2, sample for sample up to float rounding of σa; a clear ball differs."""
+    ln2 = float(np.log(2.0))
+
+    def ball(kind):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        if kind == "water":
+            mat = UsdShade.Material.Define(s, "/Looks/Glass")
+            sh = UsdShade.Shader.Define(s, "/Looks/Glass/Water")
+            sh.CreateIdAttr("TideWater")
+            sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.5)
+            sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.1)
+            mat.CreateSurfaceOutput().ConnectToSource(sh.CreateOutput("surface", Sdf.ValueTypeNames.Token))
+            med = UsdShade.Shader.Define(s, "/Looks/Glass/Body")
+            med.CreateIdAttr("TideMedium")
+            med.CreateInput("absorption", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(ln2 / 2, ln2, 0))
+            mat.CreateVolumeOutput().ConnectToSource(med.CreateOutput("volume", Sdf.ValueTypeNames.Token))
+        else:
+            tint = (0.5, 0.25, 1.0) if kind == "tinted" else (1.0, 1.0, 1.0)
+            mat = _open_pbr(s, "/Looks/Glass", transmission_weight=1.0, specular_ior=1.5,
+                            specular_roughness=0.1, transmission_color=tint, transmission_depth=2.0)
+        _glass_ball(s, mat)
+        problems = []
+        img = render(renderer, s, problems)["color"]
+        assert problems == [], problems
+        return img
+
+    tinted, water = ball("tinted"), ball("water")
+    assert np.allclose(tinted, water, rtol=1e-4, atol=1e-6), np.abs(tinted - water).max()
+    assert np.abs(tinted - ball("clear")).mean() > 0.01

@@ -490,6 +490,64 @@ pub enum VaryingEmission {
     /// A texture looked up at the corners' texture coordinates, interpolated (`lookup` names
     /// texture 0, `texture`).
     Texture { texture: std::sync::Arc<TextureDesc>, lookup: crate::scene::TexLookup, uv: [Vec2; 3], cs: ColorSpace },
+    /// A node graph evaluated where the sample lies: its primvars interpolated from the
+    /// corners (`corners[i]`: primvar `graph.names[i]` at each corner, None where the geometry
+    /// lacks it), its textures looked up at interpolated coordinates (`uv`: the mesh's).
+    Graph { graph: std::sync::Arc<EmissionGraph>, corners: Box<[Option<[[f32; 4]; 3]>]>, uv: [Vec2; 3], cs: ColorSpace },
+}
+
+/// A node graph's emission as its triangles share it: the graph with its texture indices into
+/// `textures`, and the primvars it reads.
+#[derive(Clone, Debug, PartialEq)]
+pub struct EmissionGraph {
+    pub expr: crate::shader_graph::Expr,
+    pub textures: Vec<std::sync::Arc<TextureDesc>>,
+    /// [`crate::shader_graph::Expr::primvar_names`].
+    pub names: Vec<String>,
+}
+
+/// What a node graph's lookups read at barycentric coordinates `b` of an emissive triangle.
+struct OnTriangle<'a> {
+    graph: &'a EmissionGraph,
+    corners: &'a [Option<[[f32; 4]; 3]>],
+    uv: [Vec2; 3],
+    b: [f32; 3],
+}
+
+impl crate::shader_graph::Lookups for OnTriangle<'_> {
+    fn texture(&self, l: &crate::scene::TexLookup) -> [f32; 4] {
+        let st = match &l.uv_set {
+            Some(set) => {
+                let v = self.primvar(set);
+                Vec2::new(v[0], v[1])
+            }
+            None => self.uv[0] * self.b[0] + self.uv[1] * self.b[1] + self.uv[2] * self.b[2],
+        };
+        crate::texture::lookup_rgba_in(self.graph.textures.get(l.texture).map(|t| &**t), l, st)
+    }
+
+    fn primvar(&self, l: &crate::scene::PrimvarLookup) -> [f32; 4] {
+        let corners = self.graph.names.iter().position(|n| *n == l.name).and_then(|i| self.corners.get(i).copied().flatten());
+        let v = corners.map_or(l.fallback, |c| std::array::from_fn(|k| self.b[0] * c[0][k] + self.b[1] * c[1][k] + self.b[2] * c[2][k]));
+        std::array::from_fn(|k| v[k] * l.scale[k])
+    }
+}
+
+impl VaryingEmission {
+    /// RGB at barycentric coordinates (b0, b1, b2), before clamping, and its colour space.
+    pub fn rgb(&self, b: [f32; 3]) -> ([f32; 3], ColorSpace) {
+        match self {
+            VaryingEmission::Corners { rgb, cs } => (std::array::from_fn(|k| b[0] * rgb[0][k] + b[1] * rgb[1][k] + b[2] * rgb[2][k]), *cs),
+            VaryingEmission::Texture { texture, lookup, uv, cs } => {
+                let st = uv[0] * b[0] + uv[1] * b[1] + uv[2] * b[2];
+                (crate::texture::lookup_rgb(std::slice::from_ref(&**texture), lookup, st), *cs)
+            }
+            VaryingEmission::Graph { graph, corners, uv, cs } => {
+                let v = graph.expr.eval(&OnTriangle { graph, corners, uv: *uv, b });
+                ([v[0], v[1], v[2]], *cs)
+            }
+        }
+    }
 }
 
 /// Where a moving emissive triangle is over the shutter, evaluated exactly as the scene's
@@ -526,11 +584,7 @@ impl TriangleLight {
         let b0 = 1.0 - b1 - b2;
         let (rgb, cs) = match self.varying.as_deref() {
             None => return self.emission.sample(lambda),
-            Some(VaryingEmission::Corners { rgb, cs }) => (std::array::from_fn(|k| b0 * rgb[0][k] + b1 * rgb[1][k] + b2 * rgb[2][k]), *cs),
-            Some(VaryingEmission::Texture { texture, lookup, uv, cs }) => {
-                let st = uv[0] * b0 + uv[1] * b1 + uv[2] * b2;
-                (crate::texture::lookup_rgb(std::slice::from_ref(&**texture), lookup, st), *cs)
-            }
+            Some(v) => v.rgb([b0, b1, b2]),
         };
         let rgb: [f32; 3] = rgb.map(|v| v.max(0.0));
         if rgb == [0.0; 3] {

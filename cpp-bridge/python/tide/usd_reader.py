@@ -125,11 +125,6 @@ SHADER_IDS = {
     "UsdPrimvarReader_point", "UsdPrimvarReader_vector", "UsdPrimvarReader_matrix",
     "TideWater", "TideMedium",
 }
-# MaterialX nodes the delegate reads (by id prefix), beside MaterialX's UsdPreviewSurface
-# library (ND_Usd...), which it reads as the USD nodes
-MTLX_IDS = ("ND_standard_surface_surfaceshader", "ND_image_", "ND_tiledimage_",
-            "ND_geompropvalue_", "ND_texcoord_", "ND_normalmap", "ND_constant_", "ND_dot_",
-            "ND_Usd")
 
 
 def _set_instance_primvar(st, name, rows, tsize):
@@ -147,7 +142,9 @@ def _skinnable(prim, st):
 
 
 def _known_shader(sid):
-    return sid in SHADER_IDS or sid.startswith(MTLX_IDS)
+    """USD's and Tide's shaders; MaterialX nodes (`ND_...`) are judged by the delegate, which
+    names each one it cannot read where it is used."""
+    return sid in SHADER_IDS or sid.startswith("ND_")
 
 
 def _render_context(output):

@@ -1,24 +1,40 @@
-//! MaterialX networks (USD's `mtlx` render context): `standard_surface` as the surfaces Tide
-//! has, and the MaterialX nodes that feed its inputs.
+//! MaterialX networks (USD's `mtlx` render context): `standard_surface` and
+//! `open_pbr_surface` as the surfaces Tide has, and the MaterialX nodes that feed their inputs.
 //!
-//! `ND_standard_surface_surfaceshader` becomes a UsdPreviewSurface: `base` × `base_color`
-//! (diffuse), `metalness`, `specular_roughness`, `specular_IOR`, `coat` / `coat_roughness`
-//! (clearcoat), `emission` × `emission_color`, `opacity` and `normal` (through `normalmap`);
-//! `specular` 0 on a non-metal leaves the diffuse alone. With `transmission` it becomes a clear
-//! dielectric (as TideWater: `specular_IOR`, `specular_roughness`), which is what glass and
-//! water made in a DCC are. What the mapping cannot carry (subsurface, sheen, thin film, a
-//! tinted or partial transmission, a tinted coat or specular, diffuse roughness) is reported
-//! and left out.
+//! Both surfaces map through one table of input names ([`PbrModel`]) onto a UsdPreviewSurface:
+//! base weight × base colour (diffuse), metalness, specular roughness and IOR, coat weight and
+//! roughness (clearcoat, at UsdPreviewSurface's coat IOR), emission weight × emission colour
+//! (`open_pbr_surface`: `emission_luminance` × `emission_color`, as MaterialX's own graph
+//! computes it), opacity, and the normal through `normalmap`; a specular weight of 0 on a
+//! non-metal leaves the diffuse alone. With transmission it becomes a clear dielectric (as
+//! TideWater: specular IOR and roughness), which is what glass and water made in a DCC are; a
+//! transmission colour reached at `transmission_depth` fills the body with the absorption that
+//! keeps that colour there (Beer–Lambert, σa = −ln(colour) / depth), unless the material's
+//! volume output gives the body its medium. What the mapping cannot carry (subsurface, sheen or
+//! fuzz, thin film, a partial transmission, a tint at the surface, a tinted coat or specular,
+//! diffuse roughness, anisotropy, dispersion, scattering in the transmission) is reported and
+//! left out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset), `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs),
-//! `normalmap`, `constant` and `dot`, and `multiply`, `add`, `subtract` and `mix` where all
-//! operands but one are constants (a tint, a gain, an offset: folded into the lookup);
-//! MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`, ...) are read as the USD ones.
+//! `normalmap`, `constant` and `dot`, and the arithmetic of [`ARITHMETIC`] (math, `mix`,
+//! `clamp`, `remap`, `smoothstep`, `luminance`, conversions, channel extraction and combination,
+//! `ifgreater`). Arithmetic folds into a single lookup where it can (a tint, a gain, an offset
+//! of a texture: its scale and bias) and otherwise becomes a
+//! [`tide_core::shader_graph::Expr`] evaluated at each hit (a texture times a texture, a mask
+//! mixing two layers). MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`, ...) are read as
+//! the USD ones.
 
 use super::{uv_set, Ctx, Source, WrapKey};
 use glam::Vec2;
 use tide_core::scene::{Channel, ColorInput, FloatInput, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
+use tide_core::shader_graph::{Binary, Expr, Unary};
+
+/// The longest chain of MaterialX nodes read into one input.
+const MAX_DEPTH: u32 = 64;
+/// The most MaterialX nodes read for one material (a graph that reuses a node reads it once
+/// per use).
+const MAX_NODES: u32 = 4096;
 
 /// A MaterialX node id as the USD node it stands for (MaterialX's UsdPreviewSurface library),
 /// or itself.
@@ -29,11 +45,19 @@ pub(super) fn canonical_id(id: &str) -> &str {
     }
 }
 
-/// The MaterialX node families that [`Ctx::mtlx_source`] reads.
-fn family(id: &str) -> Option<&'static str> {
-    ["ND_image_", "ND_tiledimage_", "ND_geompropvalue_", "ND_texcoord_", "ND_constant_", "ND_dot_", "ND_normalmap", "ND_multiply_", "ND_add_", "ND_subtract_", "ND_mix_"]
-        .into_iter()
-        .find(|f| id.starts_with(f))
+/// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, and the arithmetic
+/// of [`Ctx::arithmetic`].
+const LOOKUPS: [&str; 7] = ["image", "tiledimage", "geompropvalue", "texcoord", "constant", "dot", "normalmap"];
+const ARITHMETIC: [&str; 33] = [
+    "multiply", "add", "subtract", "divide", "min", "max", "power", "modulo", "absval", "floor", "ceil", "sqrt", "exp", "ln", "sin", "cos", "sign", "mix", "clamp",
+    "invert", "remap", "smoothstep", "luminance", "convert", "extract", "separate2", "separate3", "separate4", "combine2", "combine3", "combine4", "ifgreater",
+    "ifgreatereq",
+];
+
+/// The node family of a MaterialX node id (`ND_multiply_color3FA` → `multiply`).
+fn family(id: &str) -> Option<&str> {
+    let name = id.strip_prefix("ND_")?.split('_').next()?;
+    (LOOKUPS.contains(&name) || ARITHMETIC.contains(&name)).then_some(name)
 }
 
 /// Whether `id` is a MaterialX node this module reads.
@@ -41,13 +65,15 @@ pub(super) fn is_mtlx_node(id: &str) -> bool {
     family(id).is_some()
 }
 
-/// `source` × `mul` + `add`, per component, folded into the source: a constant, a texture's
-/// scale and bias (its fallback too), or a primvar's scale (an offset cannot be: Err).
-fn affine(source: Source, mul: [f32; 4], add: [f32; 4]) -> Result<Source, String> {
+/// `source` × `mul` + `add`, per component, folded into the source where one lookup can carry
+/// it: a constant, a texture's scale and bias (its fallback too), or a primvar's scale. None
+/// where it cannot (a primvar's offset, a single-channel texture scaled unevenly, a graph).
+fn affine(source: &Source, mul: [f32; 4], add: [f32; 4]) -> Option<Source> {
     let map = |v: [f32; 4]| -> [f32; 4] { std::array::from_fn(|k| v[k] * mul[k] + add[k]) };
-    Ok(match source {
+    let even = |v: [f32; 4]| v[..3].iter().all(|x| *x == v[0]);
+    Some(match source.clone() {
         Source::Fallback(v) => Source::Fallback(map(v)),
-        Source::Texture(mut t) => {
+        Source::Texture(mut t) if t.channel == Channel::Rgb || (even(mul) && even(add)) => {
             t.tex_scale = std::array::from_fn(|k| t.tex_scale[k] * mul[k]);
             t.bias = map(t.bias);
             t.fallback = map(t.fallback);
@@ -57,17 +83,112 @@ fn affine(source: Source, mul: [f32; 4], add: [f32; 4]) -> Result<Source, String
             l.scale = std::array::from_fn(|k| l.scale[k] * mul[k]);
             Source::Primvar(l)
         }
-        Source::Primvar(_) => return Err("offsets a primvar, which is not supported".into()),
+        _ => return None,
     })
 }
 
+/// `a` × `b`: folded into one lookup where either is a constant, a graph otherwise.
+fn product(a: Source, b: Source) -> Source {
+    let folded = match (&a, &b) {
+        (_, Source::Fallback(c)) => affine(&a, *c, [0.0; 4]),
+        (Source::Fallback(c), _) => affine(&b, *c, [0.0; 4]),
+        _ => None,
+    };
+    folded.unwrap_or_else(|| Source::from_expr(Expr::binary(Binary::Mul, a.into_expr(), b.into_expr())))
+}
+
+/// A component index from an output name (`outr`, `outy`, ...) or a number.
+fn component(name: &str) -> Option<u8> {
+    match name.chars().last()? {
+        'r' | 'x' => Some(0),
+        'g' | 'y' => Some(1),
+        'b' | 'z' => Some(2),
+        'a' | 'w' => Some(3),
+        _ => None,
+    }
+}
+
+/// How a MaterialX PBR surface names the inputs that map onto Tide's surfaces.
+pub(super) struct PbrModel {
+    /// (weight, weight default, colour, colour default) of the diffuse base.
+    base: (&'static str, f32, &'static str, f32),
+    metalness: &'static str,
+    /// (weight, colour) of the specular lobe.
+    specular: (&'static str, &'static str),
+    roughness: (&'static str, f32),
+    ior: &'static str,
+    /// (weight, roughness, roughness default, colour) of the coat.
+    coat: (&'static str, &'static str, f32, &'static str),
+    /// (weight, colour): emission = weight × colour.
+    emission: (&'static str, &'static str),
+    /// The opacity input, and whether it is a colour.
+    opacity: (&'static str, bool),
+    normal: &'static str,
+    /// (weight, colour, depth, thin walled) of the transmission.
+    transmission: (&'static str, &'static str, &'static str, &'static str),
+    /// Inputs the mapping cannot carry: (input, its neutral value, what it is).
+    unsupported: &'static [(&'static str, f32, &'static str)],
+}
+
+/// `ND_standard_surface_surfaceshader` (Autodesk Standard Surface).
+pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
+    // the defaults of the nodedef's version 1.0.1 (MaterialX 1.39's default version)
+    base: ("base", 1.0, "base_color", 0.8),
+    metalness: "metalness",
+    specular: ("specular", "specular_color"),
+    roughness: ("specular_roughness", 0.2),
+    ior: "specular_IOR",
+    coat: ("coat", "coat_roughness", 0.1, "coat_color"),
+    emission: ("emission", "emission_color"),
+    opacity: ("opacity", true),
+    normal: "normal",
+    transmission: ("transmission", "transmission_color", "transmission_depth", "thin_walled"),
+    unsupported: &[
+        ("subsurface", 0.0, "subsurface scattering"),
+        ("sheen", 0.0, "sheen"),
+        ("thin_film_thickness", 0.0, "a thin film"),
+        ("diffuse_roughness", 0.0, "diffuse roughness"),
+        ("specular_anisotropy", 0.0, "anisotropy"),
+        ("transmission_scatter", 0.0, "scattering inside the transmission"),
+        ("transmission_dispersion", 0.0, "dispersion"),
+    ],
+};
+
+/// `ND_open_pbr_surface_surfaceshader` (OpenPBR Surface).
+pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
+    base: ("base_weight", 1.0, "base_color", 0.8),
+    metalness: "base_metalness",
+    specular: ("specular_weight", "specular_color"),
+    roughness: ("specular_roughness", 0.3),
+    ior: "specular_ior",
+    coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
+    emission: ("emission_luminance", "emission_color"),
+    opacity: ("geometry_opacity", false),
+    normal: "geometry_normal",
+    transmission: ("transmission_weight", "transmission_color", "transmission_depth", "geometry_thin_walled"),
+    unsupported: &[
+        ("subsurface_weight", 0.0, "subsurface scattering"),
+        ("fuzz_weight", 0.0, "fuzz"),
+        ("thin_film_weight", 0.0, "a thin film"),
+        ("base_diffuse_roughness", 0.0, "diffuse roughness"),
+        ("specular_roughness_anisotropy", 0.0, "anisotropy"),
+        ("transmission_scatter", 0.0, "scattering inside the transmission"),
+        ("transmission_dispersion_scale", 0.0, "dispersion"),
+    ],
+};
+
 impl Ctx<'_> {
-    /// What MaterialX node `up` supplies to the attribute `attr` (None: unusable, reported).
-    /// `depth` bounds chains of `dot` nodes.
-    pub(super) fn mtlx_source(&mut self, attr: &str, up: &str, depth: u32) -> Option<Source> {
+    /// What output `output` of MaterialX node `up` supplies to the attribute `attr` (None:
+    /// unusable, reported). `depth` bounds chains of nodes.
+    pub(super) fn mtlx_source(&mut self, attr: &str, up: &str, output: &str, depth: u32) -> Option<Source> {
         let id = self.node_id(up).unwrap_or("").to_string();
+        self.mtlx_nodes += 1;
+        if self.mtlx_nodes > MAX_NODES {
+            self.p.add(attr, format!("the node graph reads more than {MAX_NODES} nodes; using the constant value"));
+            return None;
+        }
         match family(&id) {
-            Some("ND_image_") | Some("ND_tiledimage_") => Some(match self.mtlx_image(up) {
+            Some("image" | "tiledimage") => Some(match self.mtlx_image(up) {
                 Ok(mut t) => {
                     if id.ends_with("_float") {
                         t.channel = Channel::R;
@@ -76,22 +197,21 @@ impl Ctx<'_> {
                 }
                 Err(fb) => Source::Fallback(fb),
             }),
-            Some("ND_geompropvalue_") => Some(Source::Primvar(self.geomprop(up))),
-            Some("ND_constant_") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
-            Some(op @ ("ND_multiply_" | "ND_add_" | "ND_subtract_" | "ND_mix_")) => match self.arithmetic(op, up, depth) {
+            Some("geompropvalue") => Some(Source::Primvar(self.geomprop(up))),
+            Some("constant") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
+            Some("dot") => match self.operand(up, "in", [0.0; 4], depth) {
                 Ok(source) => Some(source),
                 Err(why) => {
                     self.p.add(attr, format!("a MaterialX '{}' node {}; using the constant value", id, why));
                     None
                 }
             },
-            Some("ND_dot_") => match self.nodes[up].connects.get("in").cloned() {
-                Some((next, output)) if depth < 16 => self.connection_at(attr, &next, &output, depth + 1),
-                Some(_) => {
-                    self.p.add(attr, "a chain of more than 16 dot nodes; using the constant value");
+            Some(name) if ARITHMETIC.contains(&name) => match self.arithmetic(name, &id, up, output, depth) {
+                Ok(source) => Some(source),
+                Err(why) => {
+                    self.p.add(attr, format!("a MaterialX '{}' node {}; using the constant value", id, why));
                     None
                 }
-                None => Some(Source::Fallback(self.value4(up, "in", [0.0; 4]))),
             },
             _ => {
                 self.p.add(attr, format!("a MaterialX '{}' node is not supported here; using the constant value", id));
@@ -100,59 +220,166 @@ impl Ctx<'_> {
         }
     }
 
-    /// An operand of an arithmetic node: what its connection supplies, or its constant.
+    /// An operand of a node: what its connection supplies, or its constant.
     fn operand(&mut self, node: &str, input: &str, default: [f32; 4], depth: u32) -> Result<Source, String> {
         match self.nodes[node].connects.get(input).cloned() {
             None => Ok(Source::Fallback(self.value4(node, input, default))),
-            Some(_) if depth >= 16 => Err("chains more than 16 nodes".into()),
+            Some(_) if depth >= MAX_DEPTH => Err(format!("chains more than {MAX_DEPTH} nodes")),
             Some((up, output)) => self.connection_at(&format!("{}.inputs:{}", node, input), &up, &output, depth + 1).ok_or_else(|| format!("has an unusable {input}")),
         }
     }
 
-    /// `multiply`, `add`, `subtract` and `mix` where all but one operand are constants: folded
-    /// into the other operand's lookup (a texture's scale and bias, a primvar's scale) or into
-    /// a constant. Two varying operands cannot be folded (Err says why).
-    fn arithmetic(&mut self, op: &str, node: &str, depth: u32) -> Result<Source, String> {
-        let both = "combines two textures or primvars, which is not supported".to_string();
-        let cst = |s: &Source| match s {
-            Source::Fallback(v) => Some(*v),
-            _ => None,
-        };
-        match op {
-            "ND_mix_" => {
-                let fg = self.operand(node, "fg", [0.0; 4], depth)?;
-                let bg = self.operand(node, "bg", [0.0; 4], depth)?;
-                let Source::Fallback(m) = self.operand(node, "mix", [0.0; 4], depth)? else { return Err("has a connected mix amount, which is not supported".into()) };
-                let m = m[0];
-                match (cst(&fg), cst(&bg)) {
-                    (_, Some(b)) => affine(fg, [m; 4], b.map(|x| x * (1.0 - m))),
-                    (Some(f), None) => affine(bg, [1.0 - m; 4], f.map(|x| x * m)),
-                    (None, None) => Err(both),
-                }
-            }
-            _ => {
-                let in2_default = if op == "ND_multiply_" { [1.0; 4] } else { [0.0; 4] };
-                let a = self.operand(node, "in1", [0.0; 4], depth)?;
-                let b = self.operand(node, "in2", in2_default, depth)?;
-                match (op, cst(&a), cst(&b)) {
-                    ("ND_multiply_", _, Some(c)) => affine(a, c, [0.0; 4]),
-                    ("ND_multiply_", Some(c), None) => affine(b, c, [0.0; 4]),
-                    ("ND_add_", _, Some(c)) => affine(a, [1.0; 4], c),
-                    ("ND_add_", Some(c), None) => affine(b, [1.0; 4], c),
-                    ("ND_subtract_", _, Some(c)) => affine(a, [1.0; 4], c.map(|x| -x)),
-                    ("ND_subtract_", Some(c), None) => affine(b, [-1.0; 4], c),
-                    _ => Err(both),
-                }
-            }
-        }
+    /// An operand as an expression, its default `d` in every component.
+    fn arg(&mut self, node: &str, input: &str, d: f32, depth: u32) -> Result<Expr, String> {
+        self.operand(node, input, [d; 4], depth).map(Source::into_expr)
     }
 
-    /// An input's value as four components (a scalar fills three, as a colour's alpha is 1).
+    /// A MaterialX arithmetic node (family `name`, id `id`) as what it computes: folded into
+    /// a lookup or a constant where it can be, an expression otherwise.
+    fn arithmetic(&mut self, name: &str, id: &str, node: &str, output: &str, depth: u32) -> Result<Source, String> {
+        let c = |v: f32| Expr::Const([v; 4]);
+        let bin = Expr::binary;
+        let e = match name {
+            "multiply" | "add" | "subtract" | "divide" | "min" | "max" | "power" | "modulo" => {
+                let d2 = if matches!(name, "multiply" | "divide" | "power" | "modulo") { 1.0 } else { 0.0 };
+                let a = self.operand(node, "in1", [0.0; 4], depth)?;
+                let b = self.operand(node, "in2", [d2; 4], depth)?;
+                let neg = |v: &[f32; 4]| v.map(|x| -x);
+                let folded = match (name, &a, &b) {
+                    ("multiply", _, _) => return Ok(product(a, b)),
+                    ("add", _, Source::Fallback(k)) => affine(&a, [1.0; 4], *k),
+                    ("add", Source::Fallback(k), _) => affine(&b, [1.0; 4], *k),
+                    ("subtract", _, Source::Fallback(k)) => affine(&a, [1.0; 4], neg(k)),
+                    ("subtract", Source::Fallback(k), _) => affine(&b, [-1.0; 4], *k),
+                    _ => None,
+                };
+                if let Some(source) = folded {
+                    return Ok(source);
+                }
+                let op = match name {
+                    "add" => Binary::Add,
+                    "subtract" => Binary::Sub,
+                    "divide" => Binary::Div,
+                    "min" => Binary::Min,
+                    "max" => Binary::Max,
+                    "power" => Binary::Pow,
+                    _ => Binary::Modulo,
+                };
+                bin(op, a.into_expr(), b.into_expr())
+            }
+            "absval" | "floor" | "ceil" | "sqrt" | "exp" | "ln" | "sin" | "cos" | "sign" => {
+                let op = match name {
+                    "absval" => Unary::Abs,
+                    "floor" => Unary::Floor,
+                    "ceil" => Unary::Ceil,
+                    "sqrt" => Unary::Sqrt,
+                    "exp" => Unary::Exp,
+                    "ln" => Unary::Ln,
+                    "sin" => Unary::Sin,
+                    "cos" => Unary::Cos,
+                    _ => Unary::Sign,
+                };
+                Expr::unary(op, self.arg(node, "in", 0.0, depth)?)
+            }
+            "mix" => {
+                let fg = self.operand(node, "fg", [0.0; 4], depth)?;
+                let bg = self.operand(node, "bg", [0.0; 4], depth)?;
+                let m = self.operand(node, "mix", [0.0; 4], depth)?;
+                // fg·m + bg·(1 − m) with a constant amount and one constant side: one lookup
+                let folded = match (&fg, &bg, &m) {
+                    (_, Source::Fallback(b), Source::Fallback(m)) => affine(&fg, *m, std::array::from_fn(|k| b[k] * (1.0 - m[k]))),
+                    (Source::Fallback(f), _, Source::Fallback(m)) => affine(&bg, m.map(|x| 1.0 - x), std::array::from_fn(|k| f[k] * m[k])),
+                    _ => None,
+                };
+                if let Some(source) = folded {
+                    return Ok(source);
+                }
+                Expr::mix(fg.into_expr(), bg.into_expr(), m.into_expr())
+            }
+            "clamp" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let (lo, hi) = (self.arg(node, "low", 0.0, depth)?, self.arg(node, "high", 1.0, depth)?);
+                bin(Binary::Max, bin(Binary::Min, x, hi), lo)
+            }
+            "invert" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                bin(Binary::Sub, self.arg(node, "amount", 1.0, depth)?, x)
+            }
+            "remap" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let (il, ih) = (self.arg(node, "inlow", 0.0, depth)?, self.arg(node, "inhigh", 1.0, depth)?);
+                let (ol, oh) = (self.arg(node, "outlow", 0.0, depth)?, self.arg(node, "outhigh", 1.0, depth)?);
+                // outlow + (in − inlow) · (outhigh − outlow) / (inhigh − inlow)
+                let t = bin(Binary::Div, bin(Binary::Sub, x, il.clone()), bin(Binary::Sub, ih, il));
+                bin(Binary::Add, ol.clone(), bin(Binary::Mul, t, bin(Binary::Sub, oh, ol)))
+            }
+            "smoothstep" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let (lo, hi) = (self.arg(node, "low", 0.0, depth)?, self.arg(node, "high", 1.0, depth)?);
+                // t = clamp((in − low) / (high − low), 0, 1); t²(3 − 2t)
+                let t = bin(Binary::Div, bin(Binary::Sub, x, lo.clone()), bin(Binary::Sub, hi, lo));
+                let t = bin(Binary::Max, bin(Binary::Min, t, c(1.0)), c(0.0));
+                bin(Binary::Mul, bin(Binary::Mul, t.clone(), t.clone()), bin(Binary::Sub, c(3.0), bin(Binary::Mul, c(2.0), t)))
+            }
+            "luminance" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let w = self.value4(node, "lumacoeffs", [0.2722287, 0.6740818, 0.0536895, 0.0]);
+                let wx = bin(Binary::Mul, x, Expr::Const([w[0], w[1], w[2], 0.0]));
+                bin(Binary::Add, bin(Binary::Add, Expr::splat(wx.clone(), 0), Expr::splat(wx.clone(), 1)), Expr::splat(wx, 2))
+            }
+            "convert" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let from = id.trim_start_matches("ND_convert_").split('_').next().unwrap_or("");
+                match from {
+                    "float" | "integer" | "boolean" => Expr::splat(x, 0),
+                    // three components to four: alpha 1
+                    "color3" | "vector3" if id.ends_with("4") => bin(Binary::Add, bin(Binary::Mul, x, Expr::Const([1.0, 1.0, 1.0, 0.0])), Expr::Const([0.0, 0.0, 0.0, 1.0])),
+                    _ => x,
+                }
+            }
+            "extract" => {
+                let x = self.arg(node, "in", 0.0, depth)?;
+                let index = self.input_f32(node, "index", 0.0);
+                if !(0.0..4.0).contains(&index) {
+                    return Err(format!("extracts component {index}, which does not exist"));
+                }
+                Expr::splat(x, index as u8)
+            }
+            "separate2" | "separate3" | "separate4" => {
+                let Some(k) = component(output) else { return Err(format!("has no output '{output}'")) };
+                Expr::splat(self.arg(node, "in", 0.0, depth)?, k)
+            }
+            "combine2" | "combine3" | "combine4" => {
+                let n = name.trim_start_matches("combine").parse::<usize>().unwrap_or(2);
+                let mut sum = Expr::Const([0.0; 4]);
+                for k in 0..n {
+                    let part = Expr::splat(self.arg(node, &format!("in{}", k + 1), 0.0, depth)?, 0);
+                    let mask = std::array::from_fn(|j| f32::from(u8::from(j == k)));
+                    sum = bin(Binary::Add, sum, bin(Binary::Mul, part, Expr::Const(mask)));
+                }
+                sum
+            }
+            _ => {
+                // ifgreater: in1 where value1 > value2, else in2; ifgreatereq: where value1 ≥ value2
+                let (v1, v2) = (self.arg(node, "value1", 1.0, depth)?, self.arg(node, "value2", 0.0, depth)?);
+                let (a, b) = (self.arg(node, "in1", 0.0, depth)?, self.arg(node, "in2", 0.0, depth)?);
+                let pick = match name {
+                    "ifgreater" => bin(Binary::Greater, v1, v2),
+                    _ => bin(Binary::Sub, c(1.0), bin(Binary::Greater, v2, v1)),
+                };
+                Expr::mix(a, b, pick)
+            }
+        };
+        Ok(Source::from_expr(e))
+    }
+
+    /// An input's value as four components: a scalar fills all four (an operand of a node that
+    /// mixes scalars and colours applies to each component), three components take alpha 1.
     fn value4(&mut self, node: &str, input: &str, default: [f32; 4]) -> [f32; 4] {
         match self.nodes[node].inputs.get(input).map(|v| v.to_f32s()) {
             None => default,
             Some(Some(v)) if !v.is_empty() && v.len() <= 4 && v.iter().all(|x| x.is_finite()) => match v[..] {
-                [x] => [x, x, x, 1.0],
+                [x] => [x; 4],
                 _ => std::array::from_fn(|i| v.get(i).copied().unwrap_or(if i == 3 { 1.0 } else { 0.0 })),
             },
             Some(_) => {
@@ -209,25 +436,24 @@ impl Ctx<'_> {
         })
     }
 
-    /// A colour input scaled by a weight (`base` × `base_color`).
-    fn weighted_color(&mut self, node: &str, color: &str, default: [f32; 3], weight: &str, weight_default: f32) -> ColorInput {
-        let w = self.constant_only(node, weight, weight_default);
-        match self.color(node, color, default) {
-            ColorInput::Const(c) => ColorInput::Const(c.map(|x| x * w)),
-            ColorInput::Texture(mut t) => {
-                for k in 0..3 {
-                    t.tex_scale[k] *= w;
-                    t.bias[k] *= w;
+    /// A colour input times a scalar input (`base` × `base_color`), either constant or not.
+    fn weighted_color(&mut self, node: &str, color: &str, color_default: f32, weight: &str, weight_default: f32) -> ColorInput {
+        let c = self.input_vec(node, color, [color_default; 3]);
+        let c = self.source(node, color).unwrap_or(Source::Fallback([c[0], c[1], c[2], 1.0]));
+        let w = self.input_f32(node, weight, weight_default);
+        let w = match self.source(node, weight) {
+            None => Source::Fallback([w, w, w, 1.0]),
+            // a scalar: one channel of a texture, the first component of a graph
+            Some(Source::Texture(mut t)) => {
+                if t.channel == Channel::Rgb {
+                    t.channel = Channel::R;
                 }
-                ColorInput::Texture(t)
+                Source::Texture(t)
             }
-            ColorInput::Primvar(mut l) => {
-                for k in 0..3 {
-                    l.scale[k] *= w;
-                }
-                ColorInput::Primvar(l)
-            }
-        }
+            Some(Source::Graph(e)) => Source::Graph(Expr::splat(e, 0)),
+            Some(other) => other,
+        };
+        product(c, w).into_color()
     }
 
     /// A scalar input that only its constant can set (a connection is reported and ignored).
@@ -247,12 +473,12 @@ impl Ctx<'_> {
         }
     }
 
-    /// The normal map behind a `normal` input: `normalmap` over an image (its [0, 1] texels
+    /// The normal map behind a normal input (`normal`, `geometry_normal`): `normalmap` over an image (its [0, 1] texels
     /// remapped to [−1, 1]), or a UsdUVTexture as UsdPreviewSurface takes it.
-    fn mtlx_normal(&mut self, node: &str) -> Option<TexLookup> {
-        let (up, _) = self.nodes[node].connects.get("normal").cloned()?;
+    fn mtlx_normal(&mut self, node: &str, input: &str) -> Option<TexLookup> {
+        let (up, _) = self.nodes[node].connects.get(input).cloned()?;
         if self.node_id(&up) != Some("ND_normalmap") {
-            self.p.add(&format!("{}.inputs:normal", node), "a normal not from a normalmap node is not supported; the surface's own normal is used");
+            self.p.add(&format!("{}.inputs:{}", node, input), "a normal not from a normalmap node is not supported; the surface's own normal is used");
             return None;
         }
         let scale = self.input_f32(&up, "scale", 1.0);
@@ -268,60 +494,84 @@ impl Ctx<'_> {
         }
     }
 
-    /// `ND_standard_surface_surfaceshader` as a surface Tide has (see the module's text).
-    pub(super) fn standard_surface(&mut self, n: &str) -> SurfaceDesc {
-        for (input, neutral, what) in [
-            ("subsurface", &[0.0][..], "subsurface scattering"),
-            ("sheen", &[0.0], "sheen"),
-            ("thin_film_thickness", &[0.0], "a thin film"),
-            ("diffuse_roughness", &[0.0], "diffuse roughness"),
-            ("coat_color", &[1.0], "a tinted coat"),
-            ("specular_anisotropy", &[0.0], "anisotropy"),
-        ] {
-            self.unsupported(n, input, neutral, what);
+    /// A MaterialX PBR surface (`standard_surface`, `open_pbr_surface`) as a surface Tide has
+    /// (see the module's text), and the absorption coefficients (RGB, per scene unit) of the
+    /// body that its tinted transmission fills, if any, with the colour's attribute.
+    pub(super) fn pbr_surface(&mut self, n: &str, m: &PbrModel) -> (SurfaceDesc, Option<([f32; 3], String)>) {
+        for (input, neutral, what) in m.unsupported {
+            self.unsupported(n, input, &[*neutral], what);
         }
-        let ior = self.constant_only(n, "specular_IOR", 1.5);
-        let transmission = self.constant_only(n, "transmission", 0.0);
+        self.unsupported(n, m.coat.3, &[1.0], "a tinted coat");
+        let ior = self.constant_only(n, m.ior, 1.5);
+        let transmission = self.constant_only(n, m.transmission.0, 0.0);
         if transmission > 0.0 {
             if transmission < 1.0 {
-                self.p.add(&format!("{}.inputs:transmission", n), format!("partial transmission ({}) renders as a clear dielectric", transmission));
+                self.p.add(&format!("{}.inputs:{}", n, m.transmission.0), format!("partial transmission ({}) renders as a clear dielectric", transmission));
             }
-            self.unsupported(n, "transmission_color", &[1.0], "a tinted transmission (give the body a TideMedium)");
-            self.unsupported(n, "thin_walled", &[0.0], "a thin-walled transmission");
-            let roughness = self.constant_only(n, "specular_roughness", 0.2);
-            return SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() });
+            self.unsupported(n, m.transmission.3, &[0.0], "a thin-walled transmission");
+            let roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
+            let body = self.transmission_absorption(n, m).map(|sa| (sa, format!("{}.inputs:{}", n, m.transmission.1)));
+            return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), body);
         }
-        let metallic = self.float(n, "metalness", 0.0);
-        let specular = self.constant_only(n, "specular", 1.0);
+        let metallic = self.float(n, m.metalness, 0.0);
+        let specular = self.constant_only(n, m.specular.0, 1.0);
         if specular != 0.0 && specular != 1.0 {
-            self.p.add(&format!("{}.inputs:specular", n), format!("a specular weight of {} renders as 1", specular));
+            self.p.add(&format!("{}.inputs:{}", n, m.specular.0), format!("a specular weight of {} renders as 1", specular));
         }
-        self.unsupported(n, "specular_color", &[1.0], "a tinted specular");
+        self.unsupported(n, m.specular.1, &[1.0], "a tinted specular");
         // no specular on a non-metal: UsdPreviewSurface's specular workflow with black specular
         let plain_diffuse = specular == 0.0 && metallic == FloatInput::Const(0.0);
-        let opacity = match self.color(n, "opacity", [1.0; 3]) {
-            ColorInput::Const(c) => FloatInput::Const((c[0] + c[1] + c[2]) / 3.0),
-            ColorInput::Texture(mut t) => {
-                t.channel = Channel::R;
-                FloatInput::Texture(t)
-            }
-            ColorInput::Primvar(l) => FloatInput::Primvar(l),
+        let opacity = match m.opacity {
+            (input, false) => self.float(n, input, 1.0),
+            (input, true) => match self.color(n, input, [1.0; 3]) {
+                ColorInput::Const(c) => FloatInput::Const((c[0] + c[1] + c[2]) / 3.0),
+                ColorInput::Texture(mut t) => {
+                    t.channel = Channel::R;
+                    FloatInput::Texture(t)
+                }
+                ColorInput::Primvar(l) => FloatInput::Primvar(l),
+                ColorInput::Graph(e) => FloatInput::Graph(e),
+            },
         };
-        let normal = self.mtlx_normal(n);
-        SurfaceDesc::Preview(PreviewSurfaceDesc {
-            diffuse_color: self.weighted_color(n, "base_color", [0.8; 3], "base", 1.0),
-            emissive_color: self.weighted_color(n, "emission_color", [1.0; 3], "emission", 0.0),
+        let normal = self.mtlx_normal(n, m.normal);
+        let surface = SurfaceDesc::Preview(PreviewSurfaceDesc {
+            diffuse_color: self.weighted_color(n, m.base.2, m.base.3, m.base.0, m.base.1),
+            emissive_color: self.weighted_color(n, m.emission.1, 1.0, m.emission.0, 0.0),
             use_specular_workflow: plain_diffuse,
             specular_color: ColorInput::Const([0.0; 3]),
             metallic,
-            roughness: self.float(n, "specular_roughness", 0.2),
-            clearcoat: self.float(n, "coat", 0.0),
-            clearcoat_roughness: self.float(n, "coat_roughness", 0.1),
+            roughness: self.float(n, m.roughness.0, m.roughness.1),
+            clearcoat: self.float(n, m.coat.0, 0.0),
+            clearcoat_roughness: self.float(n, m.coat.1, m.coat.2),
             opacity,
             opacity_threshold: 0.0,
             ior,
             normal,
             wet: None,
-        })
+        });
+        (surface, None)
+    }
+
+    /// The absorption that a tinted transmission asks of the body: Beer–Lambert, so that light
+    /// crossing `transmission_depth` keeps `transmission_color`, σa = −ln(colour) / depth.
+    /// None for a clear one; a tint without a depth (a surface tint) is reported and left out.
+    fn transmission_absorption(&mut self, n: &str, m: &PbrModel) -> Option<[f32; 3]> {
+        let (_, color, depth, _) = m.transmission;
+        if self.nodes[n].connects.contains_key(color) {
+            self.p.add(&format!("{}.inputs:{}", n, color), "a varying transmission colour is not supported; its constant is used");
+        }
+        let c = self.input_vec(n, color, [1.0; 3]);
+        if c == [1.0; 3] {
+            return None;
+        }
+        let d = self.constant_only(n, depth, 0.0);
+        if !(d > 0.0) {
+            self.p.add(&format!("{}.inputs:{}", n, color), format!("a tinted transmission needs a {depth} above 0 (a tint at the surface is not supported); left out"));
+            return None;
+        }
+        if c.iter().any(|x| *x > 1.0) {
+            self.p.add(&format!("{}.inputs:{}", n, color), format!("{:?} above 1 would add light; clamped to 1", c));
+        }
+        Some(c.map(|x| -x.clamp(1e-4, 1.0).ln() / d))
     }
 }

@@ -1,0 +1,334 @@
+//! Per-hit arithmetic over texture and primvar lookups: what a shading node graph computes
+//! where it cannot be folded into one lookup (a texture times a texture, a mask mixing two
+//! textures, a primvar remapped through a chain of nodes). The delegate builds an [`Expr`]
+//! from MaterialX nodes; the core evaluates it at each hit, and over emissive triangles that
+//! are sampled as lights.
+//!
+//! Every value has four components. A colour reads the first three, a scalar the first; the
+//! builder broadcasts scalars to all four where a node mixes the two.
+
+use crate::scene::{Channel, PrimvarLookup, TexLookup};
+
+/// A value computed at a point of a surface.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Expr {
+    Const([f32; 4]),
+    /// A texture's scaled and biased RGBA; a single-channel lookup (`channel` R, G, B or A)
+    /// gives that channel in all four components.
+    Texture(TexLookup),
+    /// A primvar's value, or the lookup's fallback where the geometry lacks it, times the
+    /// lookup's scale.
+    Primvar(PrimvarLookup),
+    Unary(Unary, Box<Expr>),
+    Binary(Binary, Box<Expr>, Box<Expr>),
+    /// Component k of the result is component `pick[k]` (0..4) of the operand.
+    Swizzle(Box<Expr>, [u8; 4]),
+}
+
+/// Per-component functions of one operand.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unary {
+    Abs,
+    Floor,
+    Ceil,
+    Sqrt,
+    Exp,
+    Ln,
+    Sin,
+    Cos,
+    Sign,
+}
+
+/// Per-component functions of two operands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Binary {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Min,
+    Max,
+    /// `a` to the power `b`.
+    Pow,
+    /// `a − b·⌊a / b⌋` (GLSL's `mod`, MaterialX's `modulo`).
+    Modulo,
+    /// 1 where `a > b`, else 0.
+    Greater,
+}
+
+/// What an [`Expr`]'s leaves read where it is evaluated.
+pub trait Lookups {
+    /// A texture lookup's scaled and biased RGBA (channel not applied).
+    fn texture(&self, l: &TexLookup) -> [f32; 4];
+    /// A primvar lookup's value (fallback and scale applied).
+    fn primvar(&self, l: &PrimvarLookup) -> [f32; 4];
+}
+
+/// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
+pub fn channel_rgba(v: [f32; 4], channel: Channel) -> [f32; 4] {
+    match channel {
+        Channel::Rgb => v,
+        Channel::R => [v[0]; 4],
+        Channel::G => [v[1]; 4],
+        Channel::B => [v[2]; 4],
+        Channel::A => [v[3]; 4],
+    }
+}
+
+impl Unary {
+    fn apply(self, x: f32) -> f32 {
+        match self {
+            Unary::Abs => x.abs(),
+            Unary::Floor => x.floor(),
+            Unary::Ceil => x.ceil(),
+            Unary::Sqrt => x.sqrt(),
+            Unary::Exp => x.exp(),
+            Unary::Ln => x.ln(),
+            Unary::Sin => x.sin(),
+            Unary::Cos => x.cos(),
+            Unary::Sign => {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
+}
+
+impl Binary {
+    fn apply(self, a: f32, b: f32) -> f32 {
+        match self {
+            Binary::Add => a + b,
+            Binary::Sub => a - b,
+            Binary::Mul => a * b,
+            Binary::Div => a / b,
+            Binary::Min => a.min(b),
+            Binary::Max => a.max(b),
+            Binary::Pow => a.powf(b),
+            Binary::Modulo => a - b * (a / b).floor(),
+            Binary::Greater => f32::from(u8::from(a > b)),
+        }
+    }
+}
+
+impl Expr {
+    /// `op(a, b)`.
+    pub fn binary(op: Binary, a: Expr, b: Expr) -> Expr {
+        Expr::Binary(op, Box::new(a), Box::new(b))
+    }
+
+    /// `op(a)`.
+    pub fn unary(op: Unary, a: Expr) -> Expr {
+        Expr::Unary(op, Box::new(a))
+    }
+
+    /// Component `k` of `a` in all four components.
+    pub fn splat(a: Expr, k: u8) -> Expr {
+        Expr::Swizzle(Box::new(a), [k; 4])
+    }
+
+    /// `bg + (fg − bg) · mix`, per component.
+    pub fn mix(fg: Expr, bg: Expr, mix: Expr) -> Expr {
+        let d = Expr::binary(Binary::Sub, fg, bg.clone());
+        Expr::binary(Binary::Add, bg, Expr::binary(Binary::Mul, d, mix))
+    }
+
+    /// The value where `at` answers the lookups. A component that is not finite (a division
+    /// by zero, a root or logarithm of a negative) is 0, at each node: what follows never sees
+    /// an infinity or a NaN.
+    pub fn eval(&self, at: &dyn Lookups) -> [f32; 4] {
+        let finite = |v: [f32; 4]| v.map(|x| if x.is_finite() { x } else { 0.0 });
+        finite(match self {
+            Expr::Const(v) => *v,
+            Expr::Texture(l) => channel_rgba(at.texture(l), l.channel),
+            Expr::Primvar(l) => at.primvar(l),
+            Expr::Unary(op, a) => a.eval(at).map(|x| op.apply(x)),
+            Expr::Binary(op, a, b) => {
+                let (a, b) = (a.eval(at), b.eval(at));
+                std::array::from_fn(|k| op.apply(a[k], b[k]))
+            }
+            Expr::Swizzle(a, pick) => {
+                let a = a.eval(at);
+                pick.map(|k| a[(k as usize).min(3)])
+            }
+        })
+    }
+
+    /// The value, where the expression reads no texture or primvar.
+    pub fn constant_value(&self) -> Option<[f32; 4]> {
+        struct Nothing;
+        impl Lookups for Nothing {
+            fn texture(&self, l: &TexLookup) -> [f32; 4] {
+                l.fallback
+            }
+            fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+                l.fallback
+            }
+        }
+        let mut leaves = 0;
+        self.leaves(&mut |_| leaves += 1);
+        (leaves == 0).then(|| self.eval(&Nothing))
+    }
+
+    /// Calls `f` on every texture and primvar leaf, left to right.
+    pub fn leaves_mut(&mut self, f: &mut dyn FnMut(&mut Expr)) {
+        match self {
+            Expr::Const(_) => {}
+            Expr::Texture(_) | Expr::Primvar(_) => f(self),
+            Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves_mut(f),
+            Expr::Binary(_, a, b) => {
+                a.leaves_mut(f);
+                b.leaves_mut(f);
+            }
+        }
+    }
+
+    /// Calls `f` on every texture and primvar leaf, left to right.
+    pub fn leaves(&self, f: &mut dyn FnMut(&Expr)) {
+        match self {
+            Expr::Const(_) => {}
+            Expr::Texture(_) | Expr::Primvar(_) => f(self),
+            Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves(f),
+            Expr::Binary(_, a, b) => {
+                a.leaves(f);
+                b.leaves(f);
+            }
+        }
+    }
+
+    /// Every primvar the expression reads: its own lookups' and its textures' uv sets', each
+    /// name once, in order of first use.
+    pub fn primvar_names(&self) -> Vec<String> {
+        let mut names: Vec<String> = Vec::new();
+        self.leaves(&mut |leaf| {
+            let name = match leaf {
+                Expr::Primvar(l) => Some(&l.name),
+                Expr::Texture(t) => t.uv_set.as_ref().map(|s| &s.name),
+                _ => None,
+            };
+            if let Some(n) = name.filter(|n| !names.contains(n)) {
+                names.push(n.clone());
+            }
+        });
+        names
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    /// Textures answer `texture · 10 + row`, primvars `fallback + 100`.
+    struct Fixed;
+    impl Lookups for Fixed {
+        fn texture(&self, l: &TexLookup) -> [f32; 4] {
+            [1.0, 2.0, 3.0, 4.0].map(|v| v + 10.0 * l.texture as f32)
+        }
+        fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+            l.fallback.map(|v| v + 100.0)
+        }
+    }
+
+    fn tex(i: usize, channel: Channel) -> Expr {
+        Expr::Texture(TexLookup {
+            texture: i,
+            channel,
+            scale: Vec2::ONE,
+            rotation_deg: 0.0,
+            translation: Vec2::ZERO,
+            tex_scale: [1.0; 4],
+            bias: [0.0; 4],
+            fallback: [0.0; 4],
+            uv_set: None,
+        })
+    }
+
+    fn c(v: [f32; 4]) -> Expr {
+        Expr::Const(v)
+    }
+
+    #[test]
+    fn arithmetic_per_component() {
+        let a = c([1.0, -2.0, 9.0, 7.5]);
+        let b = c([4.0, 3.0, 2.0, 2.0]);
+        let cases = [
+            (Binary::Add, [5.0, 1.0, 11.0, 9.5]),
+            (Binary::Sub, [-3.0, -5.0, 7.0, 5.5]),
+            (Binary::Mul, [4.0, -6.0, 18.0, 15.0]),
+            (Binary::Div, [0.25, -2.0 / 3.0, 4.5, 3.75]),
+            (Binary::Min, [1.0, -2.0, 2.0, 2.0]),
+            (Binary::Max, [4.0, 3.0, 9.0, 7.5]),
+            (Binary::Pow, [1.0, -8.0, 81.0, 56.25]),
+            (Binary::Modulo, [1.0, 1.0, 1.0, 1.5]),
+            (Binary::Greater, [0.0, 0.0, 1.0, 1.0]),
+        ];
+        for (op, want) in cases {
+            let got = Expr::binary(op, a.clone(), b.clone()).eval(&Fixed);
+            for k in 0..4 {
+                assert!((got[k] - want[k]).abs() < 1e-6, "{:?}: {:?} vs {:?}", op, got, want);
+            }
+        }
+        let u = c([-1.5, 0.0, 2.25, 1.0]);
+        assert_eq!(Expr::unary(Unary::Abs, u.clone()).eval(&Fixed), [1.5, 0.0, 2.25, 1.0]);
+        assert_eq!(Expr::unary(Unary::Floor, u.clone()).eval(&Fixed), [-2.0, 0.0, 2.0, 1.0]);
+        assert_eq!(Expr::unary(Unary::Ceil, u.clone()).eval(&Fixed), [-1.0, 0.0, 3.0, 1.0]);
+        assert_eq!(Expr::unary(Unary::Sign, u.clone()).eval(&Fixed), [-1.0, 0.0, 1.0, 1.0]);
+        assert_eq!(Expr::unary(Unary::Exp, c([0.0; 4])).eval(&Fixed), [1.0; 4]);
+        assert_eq!(Expr::unary(Unary::Cos, c([0.0; 4])).eval(&Fixed), [1.0; 4]);
+        assert_eq!(Expr::unary(Unary::Sin, c([0.0; 4])).eval(&Fixed), [0.0; 4]);
+    }
+
+    #[test]
+    fn non_finite_components_become_zero() {
+        // √−2.25 and ln 0 and 1/0 are not numbers; the rest stays
+        assert_eq!(Expr::unary(Unary::Sqrt, c([-1.5, 0.0, 2.25, 4.0])).eval(&Fixed), [0.0, 0.0, 1.5, 2.0]);
+        assert_eq!(Expr::unary(Unary::Ln, c([0.0, -1.0, 1.0, 1.0])).eval(&Fixed), [0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(Expr::binary(Binary::Div, c([1.0; 4]), c([0.0, 2.0, 0.0, 4.0])).eval(&Fixed), [0.0, 0.5, 0.0, 0.25]);
+        // a NaN met inside does not spread: 0 · (1/0) is 0, not NaN
+        let inner = Expr::binary(Binary::Div, c([1.0; 4]), c([0.0; 4]));
+        assert_eq!(Expr::binary(Binary::Mul, c([0.0; 4]), inner).eval(&Fixed), [0.0; 4]);
+    }
+
+    #[test]
+    fn leaves_swizzles_and_mix() {
+        // texture 0 answers (1, 2, 3, 4), texture 1 (11, 12, 13, 14); G gives 2 everywhere
+        assert_eq!(tex(0, Channel::G).eval(&Fixed), [2.0; 4]);
+        assert_eq!(Expr::Swizzle(Box::new(tex(1, Channel::Rgb)), [3, 2, 1, 0]).eval(&Fixed), [14.0, 13.0, 12.0, 11.0]);
+        assert_eq!(Expr::splat(tex(1, Channel::Rgb), 2).eval(&Fixed), [13.0; 4]);
+        let pv = Expr::Primvar(PrimvarLookup::new("mask", [0.25, 0.5, 0.75, 1.0]));
+        assert_eq!(pv.eval(&Fixed), [100.25, 100.5, 100.75, 101.0]);
+        // mix(fg, bg, m) = fg·m + bg·(1 − m)
+        let m = c([0.0, 0.25, 1.0, 0.5]);
+        let got = Expr::mix(tex(0, Channel::Rgb), tex(1, Channel::Rgb), m).eval(&Fixed);
+        assert_eq!(got, [11.0, 12.0 * 0.75 + 2.0 * 0.25, 3.0, 9.0]);
+    }
+
+    #[test]
+    fn primvar_names_include_uv_sets_once() {
+        let mut t = tex(0, Channel::Rgb);
+        if let Expr::Texture(l) = &mut t {
+            l.uv_set = Some(PrimvarLookup::new("st1", [0.0; 4]));
+        }
+        let e = Expr::binary(
+            Binary::Mul,
+            Expr::binary(Binary::Add, Expr::Primvar(PrimvarLookup::new("dirt", [0.0; 4])), t),
+            Expr::Primvar(PrimvarLookup::new("dirt", [1.0; 4])),
+        );
+        assert_eq!(e.primvar_names(), vec!["dirt".to_string(), "st1".to_string()]);
+        assert_eq!(e.constant_value(), None);
+        let mut n = 0;
+        let mut e2 = e.clone();
+        e2.leaves_mut(&mut |leaf| {
+            n += 1;
+            *leaf = Expr::Const([n as f32; 4]);
+        });
+        // (1 + 2) · 3 once the three leaves are replaced
+        assert_eq!(e2.eval(&Fixed), [9.0; 4]);
+        assert_eq!(e2.constant_value(), Some([9.0; 4]));
+    }
+}
