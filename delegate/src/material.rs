@@ -682,22 +682,22 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         }
     }
     match body {
-        Some((_, attr)) if medium.is_some() => ctx.p.add(&attr, "the material's volume fills the body; the transmission colour is left out"),
-        Some((sigma_a, _)) => medium = Some(absorbing_body(path, sigma_a)),
+        Some(b) if medium.is_some() => ctx.p.add(&b.attr, "the material's volume fills the body; this input is left out"),
+        Some(b) => medium = Some(body_medium(path, &b)),
         None => {}
     }
     problems.list.extend(ctx.p.list);
     MaterialPiece { desc, medium, textures: ctx.used }
 }
 
-/// A clear body that absorbs `sigma_a` (RGB, per scene unit) and scatters nothing.
-fn absorbing_body(name: &str, sigma_a: [f32; 3]) -> MediumDesc {
+/// The homogeneous medium that fills a body (path-traced).
+fn body_medium(name: &str, b: &mtlx::Body) -> MediumDesc {
     MediumDesc {
         name: name.into(),
-        sigma_a: SpectrumDesc::Rgb(sigma_a),
-        sigma_s: SpectrumDesc::Rgb([0.0; 3]),
+        sigma_a: SpectrumDesc::Rgb(b.sigma_a),
+        sigma_s: SpectrumDesc::Rgb(b.sigma_s),
         scale: 1.0,
-        phase: PhaseDesc::Isotropic,
+        phase: if b.g == 0.0 { PhaseDesc::Isotropic } else { PhaseDesc::HenyeyGreenstein { g: b.g } },
         water: None,
         method: Default::default(),
     }
@@ -948,7 +948,7 @@ mod tests {
             ("/M/SR.inputs:emission", f(2.0)),
             ("/M/SR.inputs:emission_color", c3([0.1, 0.2, 0.3])),
             ("/M/SR.inputs:opacity", c3([0.5, 0.5, 0.5])),
-            ("/M/SR.inputs:subsurface", f(0.5)),
+            ("/M/SR.inputs:sheen", f(0.5)),
         ]);
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(false), &mut p);
@@ -964,7 +964,7 @@ mod tests {
         assert_eq!(ps.emissive_color, ColorInput::Const([0.2, 0.4, 0.6]));
         assert_eq!(ps.opacity, FloatInput::Const(0.5));
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["/M/SR.inputs:subsurface"], "{:?}", p.list);
+        assert_eq!(attrs, ["/M/SR.inputs:sheen"], "{:?}", p.list);
 
         // no specular on a non-metal: a plain diffuse; transmission: a clear dielectric
         let plain = mat(&[("surface", Value::Path("/M/SR".into())), ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/SR.inputs:specular", f(0.0))]);
@@ -1142,6 +1142,58 @@ mod tests {
             assert_eq!(m.medium.map(|v| v.sigma_a), Some(SpectrumDesc::Rgb([0.1; 3])), "{id}");
             assert_eq!(p, ["/M/G.inputs:transmission_color"], "{id}");
         }
+    }
+
+    /// A subsurface fills the body with a scattering medium: σt = 1 / (radius × scale) per
+    /// channel, split by the single-scattering albedo that gives the colour as the body's
+    /// multiple-scattering albedo; the surface is a dielectric of the specular IOR.
+    #[test]
+    fn materialx_subsurface_fills_the_body_with_a_scattering_medium() {
+        // Christensen and Burley's inversion: 0 at 0 (to the fit's 1e-5), 1 at 1, 0.9117 at 0.5
+        assert!(mtlx::single_scattering_albedo(0.0) < 1e-5 && mtlx::single_scattering_albedo(1.0) == 1.0);
+        assert!((mtlx::single_scattering_albedo(0.5) - 0.911709).abs() < 1e-5);
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let skin = |id: &str, inputs: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))];
+            pairs.extend_from_slice(inputs);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        let (m, p) = skin(
+            "ND_standard_surface_surfaceshader",
+            &[
+                ("/M/S.inputs:subsurface", f(1.0)),
+                ("/M/S.inputs:subsurface_color", c3([0.0, 0.5, 1.0])),
+                ("/M/S.inputs:subsurface_radius", c3([1.0, 0.5, 0.25])),
+                ("/M/S.inputs:subsurface_scale", f(0.1)),
+                ("/M/S.inputs:subsurface_anisotropy", f(0.3)),
+                ("/M/S.inputs:specular_IOR", f(1.4)),
+            ],
+        );
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!(m.desc.surface, SurfaceDesc::Water(WaterDesc { ior: 1.4, roughness: 0.2, ..WaterDesc::default() }));
+        let med = m.medium.expect("a scattering body");
+        let (SpectrumDesc::Rgb(sa), SpectrumDesc::Rgb(ss)) = (med.sigma_a, med.sigma_s) else { panic!() };
+        let a = mtlx::single_scattering_albedo(0.5);
+        let want_t = [10.0, 20.0, 40.0];
+        let want_s = [0.0, a * 20.0, 40.0];
+        for k in 0..3 {
+            assert!((sa[k] + ss[k] - want_t[k]).abs() < 1e-4 && (ss[k] - want_s[k]).abs() < 1e-4, "{sa:?} {ss:?}");
+        }
+        assert_eq!(med.phase, PhaseDesc::HenyeyGreenstein { g: 0.3 });
+        // OpenPBR: its defaults (colour 0.8, radius 1 × scale (1, 0.5, 0.25)); a partial weight
+        // is reported
+        let (m, p) = skin("ND_open_pbr_surface_surfaceshader", &[("/M/S.inputs:subsurface_weight", f(0.5))]);
+        assert_eq!(p, ["/M/S.inputs:subsurface_weight"]);
+        let med = m.medium.expect("a scattering body");
+        let a = mtlx::single_scattering_albedo(0.8);
+        let SpectrumDesc::Rgb(ss) = med.sigma_s else { panic!() };
+        for (k, mfp) in [1.0, 0.5, 0.25].into_iter().enumerate() {
+            assert!((ss[k] - a / mfp).abs() < 1e-5, "{ss:?}");
+        }
+        assert_eq!(med.phase, PhaseDesc::Isotropic);
     }
 
     /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5) so that it

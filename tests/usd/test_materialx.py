@@ -200,30 +200,67 @@ def test_a_tinted_transmission_absorbs_as_beer_lambert(renderer):
     σa = −ln(colour) / 2, sample for sample up to float rounding of σa; a clear ball differs."""
     ln2 = float(np.log(2.0))
 
-    def ball(kind):
-        s = Usd.Stage.CreateInMemory()
-        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
-        if kind == "water":
-            mat = UsdShade.Material.Define(s, "/Looks/Glass")
-            sh = UsdShade.Shader.Define(s, "/Looks/Glass/Water")
-            sh.CreateIdAttr("TideWater")
-            sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.5)
-            sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(0.1)
-            mat.CreateSurfaceOutput().ConnectToSource(sh.CreateOutput("surface", Sdf.ValueTypeNames.Token))
-            med = UsdShade.Shader.Define(s, "/Looks/Glass/Body")
-            med.CreateIdAttr("TideMedium")
-            med.CreateInput("absorption", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(ln2 / 2, ln2, 0))
-            mat.CreateVolumeOutput().ConnectToSource(med.CreateOutput("volume", Sdf.ValueTypeNames.Token))
-        else:
-            tint = (0.5, 0.25, 1.0) if kind == "tinted" else (1.0, 1.0, 1.0)
-            mat = _open_pbr(s, "/Looks/Glass", transmission_weight=1.0, specular_ior=1.5,
-                            specular_roughness=0.1, transmission_color=tint, transmission_depth=2.0)
-        _glass_ball(s, mat)
-        problems = []
-        img = render(renderer, s, problems)["color"]
-        assert problems == [], problems
-        return img
+    def ball(tint):
+        return _ball(renderer, lambda s: _open_pbr(
+            s, "/Looks/Glass", transmission_weight=1.0, specular_ior=1.5, specular_roughness=0.1,
+            transmission_color=tint, transmission_depth=2.0))
 
-    tinted, water = ball("tinted"), ball("water")
+    tinted = ball((0.5, 0.25, 1.0))
+    water = _ball(renderer, lambda s: _water_body(s, 1.5, 0.1, (ln2 / 2, ln2, 0), (0, 0, 0)))
     assert np.allclose(tinted, water, rtol=1e-4, atol=1e-6), np.abs(tinted - water).max()
-    assert np.abs(tinted - ball("clear")).mean() > 0.01
+    assert np.abs(tinted - ball((1.0, 1.0, 1.0))).mean() > 0.01
+
+
+def _ball(renderer, material):
+    """The image of `_glass_ball` of the material that `material(stage)` defines; no problem
+    raised."""
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    _glass_ball(s, material(s))
+    problems = []
+    img = render(renderer, s, problems)["color"]
+    assert problems == [], problems
+    return img
+
+
+def _water_body(stage, ior, roughness, absorption, scattering, g=None):
+    """A TideWater surface (`ior`, `roughness`) over a TideMedium body."""
+    mat = UsdShade.Material.Define(stage, "/Looks/Body")
+    sh = UsdShade.Shader.Define(stage, "/Looks/Body/Water")
+    sh.CreateIdAttr("TideWater")
+    sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(ior)
+    sh.CreateInput("roughness", Sdf.ValueTypeNames.Float).Set(roughness)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.CreateOutput("surface", Sdf.ValueTypeNames.Token))
+    med = UsdShade.Shader.Define(stage, "/Looks/Body/Medium")
+    med.CreateIdAttr("TideMedium")
+    med.CreateInput("absorption", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*absorption))
+    med.CreateInput("scattering", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*scattering))
+    if g is not None:
+        med.CreateInput("phase", Sdf.ValueTypeNames.Token).Set("hg")
+        med.CreateInput("g", Sdf.ValueTypeNames.Float).Set(g)
+    mat.CreateVolumeOutput().ConnectToSource(med.CreateOutput("volume", Sdf.ValueTypeNames.Token))
+    return mat
+
+
+def test_subsurface_is_a_random_walk_in_the_body(renderer):
+    """A standard_surface with subsurface 1 renders as a TideWater of its specular_IOR over a
+    TideMedium with σt = 1 / (radius x scale) and the single-scattering albedo whose
+    multiple-scattering albedo is subsurface_color (Christensen and Burley's inversion),
+    sample for sample up to float rounding; a diffuse ball of that colour differs."""
+    color, radius, scale = (0.9, 0.5, 0.2), (1.0, 0.5, 0.25), 0.5
+
+    def single(a):
+        r = 4.09712 + 4.20863 * a - np.sqrt(9.59217 + 41.6808 * a + 17.7126 * a * a)
+        return 1.0 - r * r
+
+    sigma_t = [1.0 / (r * scale) for r in radius]
+    sigma_s = [single(a) * t for a, t in zip(color, sigma_t)]
+    sigma_a = [t - ss for t, ss in zip(sigma_t, sigma_s)]
+    skin = _ball(renderer, lambda s: _standard_surface(
+        s, "/Looks/Skin", subsurface=1.0, subsurface_color=color, subsurface_radius=radius,
+        subsurface_scale=scale, subsurface_anisotropy=0.4, specular_IOR=1.4,
+        specular_roughness=0.3)[0])
+    water = _ball(renderer, lambda s: _water_body(s, 1.4, 0.3, sigma_a, sigma_s, g=0.4))
+    assert np.allclose(skin, water, rtol=1e-3, atol=1e-5), np.abs(skin - water).max()
+    diffuse = _ball(renderer, lambda s: _standard_surface(s, "/Looks/Clay", base_color=color)[0])
+    assert np.abs(skin - diffuse).mean() > 0.01

@@ -10,10 +10,13 @@
 //! TideWater: specular IOR and roughness), which is what glass and water made in a DCC are; a
 //! transmission colour reached at `transmission_depth` fills the body with the absorption that
 //! keeps that colour there (Beer–Lambert, σa = −ln(colour) / depth), unless the material's
-//! volume output gives the body its medium. What the mapping cannot carry (subsurface, sheen or
-//! fuzz, thin film, a partial transmission, a tint at the surface, a tinted coat or specular,
-//! diffuse roughness, anisotropy, dispersion, scattering in the transmission) is reported and
-//! left out.
+//! volume output gives the body its medium. A subsurface makes the surface a dielectric of the
+//! specular IOR over a scattering body that the path tracer walks through (σt = 1 / (radius ×
+//! scale), the single-scattering albedo whose multiple-scattering albedo is the subsurface
+//! colour, the anisotropy as a Henyey–Greenstein g). What the mapping cannot carry (sheen or
+//! fuzz, thin film, a partial transmission or subsurface, a tint at the surface, a tinted coat
+//! or specular, diffuse roughness, anisotropy, dispersion, scattering in the transmission) is
+//! reported and left out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset), `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs),
@@ -126,8 +129,39 @@ pub(super) struct PbrModel {
     normal: &'static str,
     /// (weight, colour, depth, thin walled) of the transmission.
     transmission: (&'static str, &'static str, &'static str, &'static str),
+    /// The subsurface: its weight, colour (default), radius (default) × radius scale (default)
+    /// and anisotropy.
+    subsurface: Subsurface,
     /// Inputs the mapping cannot carry: (input, its neutral value, what it is).
     unsupported: &'static [(&'static str, f32, &'static str)],
+}
+
+/// How a PBR surface names its subsurface inputs.
+pub(super) struct Subsurface {
+    weight: &'static str,
+    color: (&'static str, f32),
+    radius: (&'static str, [f32; 3]),
+    scale: (&'static str, [f32; 3]),
+    anisotropy: &'static str,
+}
+
+/// What fills a body whose surface asks for it: a homogeneous medium (RGB coefficients per
+/// scene unit), and the attribute that asked.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Body {
+    pub sigma_a: [f32; 3],
+    pub sigma_s: [f32; 3],
+    pub g: f32,
+    pub attr: String,
+}
+
+/// The single-scattering albedo of a medium whose multiple-scattering albedo (the colour a
+/// thick body of it shows) is `a`: Christensen and Burley's (2015) inversion of van de Hulst's
+/// relation (0 at 0 to within 1e-5, 1 at 1).
+pub(super) fn single_scattering_albedo(a: f32) -> f32 {
+    let a = a.clamp(0.0, 1.0);
+    let r = 4.09712 + 4.20863 * a - (9.59217 + 41.6808 * a + 17.7126 * a * a).sqrt();
+    (1.0 - r * r).clamp(0.0, 1.0)
 }
 
 /// `ND_standard_surface_surfaceshader` (Autodesk Standard Surface).
@@ -143,8 +177,14 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     opacity: ("opacity", true),
     normal: "normal",
     transmission: ("transmission", "transmission_color", "transmission_depth", "thin_walled"),
+    subsurface: Subsurface {
+        weight: "subsurface",
+        color: ("subsurface_color", 1.0),
+        radius: ("subsurface_radius", [1.0; 3]),
+        scale: ("subsurface_scale", [1.0; 3]),
+        anisotropy: "subsurface_anisotropy",
+    },
     unsupported: &[
-        ("subsurface", 0.0, "subsurface scattering"),
         ("sheen", 0.0, "sheen"),
         ("thin_film_thickness", 0.0, "a thin film"),
         ("diffuse_roughness", 0.0, "diffuse roughness"),
@@ -166,8 +206,14 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     opacity: ("geometry_opacity", false),
     normal: "geometry_normal",
     transmission: ("transmission_weight", "transmission_color", "transmission_depth", "geometry_thin_walled"),
+    subsurface: Subsurface {
+        weight: "subsurface_weight",
+        color: ("subsurface_color", 0.8),
+        radius: ("subsurface_radius", [1.0; 3]),
+        scale: ("subsurface_radius_scale", [1.0, 0.5, 0.25]),
+        anisotropy: "subsurface_scatter_anisotropy",
+    },
     unsupported: &[
-        ("subsurface_weight", 0.0, "subsurface scattering"),
         ("fuzz_weight", 0.0, "fuzz"),
         ("thin_film_weight", 0.0, "a thin film"),
         ("base_diffuse_roughness", 0.0, "diffuse roughness"),
@@ -496,8 +542,8 @@ impl Ctx<'_> {
 
     /// A MaterialX PBR surface (`standard_surface`, `open_pbr_surface`) as a surface Tide has
     /// (see the module's text), and the absorption coefficients (RGB, per scene unit) of the
-    /// body that its tinted transmission fills, if any, with the colour's attribute.
-    pub(super) fn pbr_surface(&mut self, n: &str, m: &PbrModel) -> (SurfaceDesc, Option<([f32; 3], String)>) {
+    /// body that its tinted transmission or its subsurface fills, if any.
+    pub(super) fn pbr_surface(&mut self, n: &str, m: &PbrModel) -> (SurfaceDesc, Option<Body>) {
         for (input, neutral, what) in m.unsupported {
             self.unsupported(n, input, &[*neutral], what);
         }
@@ -510,8 +556,19 @@ impl Ctx<'_> {
             }
             self.unsupported(n, m.transmission.3, &[0.0], "a thin-walled transmission");
             let roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
-            let body = self.transmission_absorption(n, m).map(|sa| (sa, format!("{}.inputs:{}", n, m.transmission.1)));
+            let attr = format!("{}.inputs:{}", n, m.transmission.1);
+            let body = self.transmission_absorption(n, m).map(|sigma_a| Body { sigma_a, sigma_s: [0.0; 3], g: 0.0, attr });
             return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), body);
+        }
+        let ss = m.subsurface.weight;
+        let subsurface = self.constant_only(n, ss, 0.0);
+        if subsurface > 0.0 {
+            if subsurface < 1.0 {
+                self.p.add(&format!("{}.inputs:{}", n, ss), format!("a partial subsurface ({}) renders as a full one", subsurface));
+            }
+            let roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
+            let body = self.subsurface_medium(n, &m.subsurface);
+            return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), Some(body));
         }
         let metallic = self.float(n, m.metalness, 0.0);
         let specular = self.constant_only(n, m.specular.0, 1.0);
@@ -550,6 +607,30 @@ impl Ctx<'_> {
             wet: None,
         });
         (surface, None)
+    }
+
+    /// The medium under a subsurface-scattering surface, which the path tracer walks through:
+    /// mean free path radius × scale per channel (σt = 1 / mfp), single-scattering albedo from
+    /// the colour ([`single_scattering_albedo`]), the anisotropy as a Henyey–Greenstein g.
+    fn subsurface_medium(&mut self, n: &str, s: &Subsurface) -> Body {
+        for input in [s.color.0, s.radius.0, s.scale.0, s.anisotropy] {
+            if self.nodes[n].connects.contains_key(input) {
+                self.p.add(&format!("{}.inputs:{}", n, input), "a varying subsurface is not supported; its constant is used");
+            }
+        }
+        let color = self.input_vec(n, s.color.0, [s.color.1; 3]);
+        let radius = self.input_vec(n, s.radius.0, s.radius.1);
+        let scale = self.input_vec(n, s.scale.0, s.scale.1);
+        let g = self.input_f32(n, s.anisotropy, 0.0).clamp(-0.99, 0.99);
+        let mut sigma_a = [0.0; 3];
+        let mut sigma_s = [0.0; 3];
+        for k in 0..3 {
+            let mfp = (radius[k] * scale[k]).max(1e-6);
+            let alpha = single_scattering_albedo(color[k]);
+            sigma_s[k] = alpha / mfp;
+            sigma_a[k] = (1.0 - alpha) / mfp;
+        }
+        Body { sigma_a, sigma_s, g, attr: format!("{}.inputs:{}", n, s.weight) }
     }
 
     /// The absorption that a tinted transmission asks of the body: Beer–Lambert, so that light
