@@ -38,6 +38,7 @@
 #include "pxr/usd/usd/stage.h"
 #include "pxr/usdImaging/usdImaging/delegate.h"
 #include "pxr/imaging/hd/sceneIndexPluginRegistry.h"
+#include "pxr/imaging/hdsi/legacyDisplayStyleOverrideSceneIndex.h"
 #include "pxr/imaging/hdsi/sceneGlobalsSceneIndex.h"
 #include "pxr/usdImaging/usdImaging/sceneIndices.h"
 #include "pxr/usdImaging/usdImaging/stageSceneIndex.h"
@@ -193,6 +194,9 @@ const float* RenderUntilConverged(HdEngine& engine, HdRenderIndex* index, HdTask
 /// and the standard error of each mean (pixels as independent samples) for a comparison with
 /// `tide render` of the same stage.
 int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int samples, bool sceneIndex) {
+    // the viewer's refinement (usdview's complexity), as UsdImagingGLEngine sets it
+    const char* refineEnv = std::getenv("TIDE_CHECK_REFINE");
+    const int refine = refineEnv ? std::atoi(refineEnv) : 0;
     UsdStageRefPtr stage = UsdStage::Open(stagePath);
     if (!stage) return Fail("cannot open the stage");
     HdPluginRenderDelegateUniqueHandle delegate =
@@ -214,11 +218,14 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
         std::string settingsPath;
         if (stage->GetMetadata(TfToken("renderSettingsPrimPath"), &settingsPath) && !settingsPath.empty())
             globals->SetActiveRenderSettingsPrimPath(SdfPath(settingsPath));
+        HdsiLegacyDisplayStyleOverrideSceneIndexRefPtr style = HdsiLegacyDisplayStyleOverrideSceneIndex::New(globals);
+        style->SetRefineLevel({true, refine});
         HdSceneIndexBaseRefPtr const appended =
-            HdSceneIndexPluginRegistry::GetInstance().AppendSceneIndicesForRenderer("Tide", globals, "");
+            HdSceneIndexPluginRegistry::GetInstance().AppendSceneIndicesForRenderer("Tide", style, "");
         index->InsertSceneIndex(appended, SdfPath::AbsoluteRootPath());
     } else {
         scene = std::make_unique<UsdImagingDelegate>(index.get(), SdfPath::AbsoluteRootPath());
+        scene->SetRefineLevelFallback(refine);
         scene->Populate(stage->GetPseudoRoot());
         scene->SetTime(UsdTimeCode(0.0));
         // as UsdImagingGLEngine does for the camera it views through (usdview): the scene

@@ -93,16 +93,18 @@ echo "building check_runtime with UsdImaging"
 "$cxx" "${common[@]}" -DTIDE_CHECK_USD_IMAGING -o "$out/check_stage" "$here/check_runtime.cpp" -L "$lay/lib" -Wl,-rpath,"$lay/lib" \
     -lusd_usdImaging -lusd_hdsi -lusd_usd -lusd_pcp -lusd_ar "${usdlibs[@]}" -lpthread || exit $?
 # compare STAGE MODE...: renders STAGE through UsdImaging in each MODE and through tide render,
-# and compares the image means
+# and compares the image means; $complexity (usdview's and tide render's, default low) sets the
+# viewer's refinement of both
 compare() {
-    local stage=$1 mode line
+    local stage=$1 mode line levels=(low medium high veryhigh) refine=0
     shift
+    for refine in 0 1 2 3; do [ "${levels[$refine]}" = "${complexity:-low}" ] && break; done
     local hydra=()
     for mode in "$@"; do
-        line=$(PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || return $?
+        line=$(TIDE_CHECK_REFINE=$refine PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || return $?
         hydra+=("$mode ${line#hydra }")
     done
-    "$repo/tide" render "$stage" -o "$out/core.exr" >/dev/null || return $?
+    "$repo/tide" render "$stage" -c "${complexity:-low}" -o "$out/core.exr" >/dev/null || return $?
     "$repo/.venv/bin/python" - "$out/core.exr" "${hydra[@]}" <<'PY'
 import sys
 import numpy as np
@@ -155,6 +157,7 @@ check check_stage_curves.usda "BasisCurves: topology, widths, normals" delegate 
 # meshes ("Datasource support not yet added"), so only the scene delegate is compared
 check check_stage_skel.usda "a skinned mesh: UsdSkelImaging's computations" delegate || exit $?
 check check_stage_subdiv.usda "tide:subdivision:level, creases and corners" delegate sceneIndex || exit $?
+complexity=veryhigh check check_stage_refine.usda "the viewer's refinement at complexity veryhigh" delegate sceneIndex || exit $?
 check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?

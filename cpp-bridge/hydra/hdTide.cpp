@@ -324,6 +324,12 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _Put("cornerSharpnesses", VtValue(tags.GetCornerWeights()));
             _tideBits |= ChangeTracker::DirtyTopology;
         }
+        if (typeId == "mesh" && (bits & CT::DirtyDisplayStyle)) {
+            // the viewer's refinement (usdview's complexity): the subdivision level of a mesh
+            // that authors no tide:subdivision:level
+            _Put("displayStyle:refineLevel", VtValue(sd->GetDisplayStyle(id).refineLevel));
+            _tideBits |= ChangeTracker::DirtyTopology;
+        }
         if (typeId == "basisCurves" && (bits & CT::DirtyTopology)) {
             HdBasisCurvesTopology topo = sd->GetBasisCurvesTopology(id);
             // curve indices, a Hydra-only form no USD prim makes, are not read: such curves

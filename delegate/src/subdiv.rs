@@ -2,7 +2,9 @@
 //! a `catmullClark` mesh L times and moves every vertex to its limit position, or splits a
 //! `bilinear` one L times without changing its shape. Level 0 (the default) keeps the control
 //! cage exactly as [`crate::mesh`] draws it without subdivision; `loop` is not supported (a
-//! problem, and the cage); `none` ignores the level.
+//! problem, and the cage); `none` ignores the level. Where the level is not authored, the
+//! viewer's refinement ([`REFINE_ATTR`]: Hydra's display style, usdview's complexity, `tide
+//! render --complexity`) is the level.
 //!
 //! The refinement is a linear operator built once from the topology: a [`Stencil`] gives every
 //! refined vertex as Σ wᵢ·Pᵢ over the control points. The same stencil moves `points` (and each
@@ -49,6 +51,10 @@ use std::ops::Range;
 
 /// The per-prim attribute that turns refinement on: the number of uniform levels (0 = the cage).
 pub const LEVEL_ATTR: &str = "tide:subdivision:level";
+/// The viewer's refinement level for a mesh that authors no [`LEVEL_ATTR`]: Hydra's
+/// `HdDisplayStyle::refineLevel` (usdview's complexity), or the command line's. Levels above
+/// [`MAX_LEVEL`] are lowered to it without a problem (usdview's highest complexity asks for 8).
+pub const REFINE_ATTR: &str = "displayStyle:refineLevel";
 /// Levels above this are clamped to it (with a problem).
 pub const MAX_LEVEL: u32 = 6;
 /// A crease or corner sharpness from which on the feature is sharp at every level.
@@ -105,13 +111,17 @@ impl Options {
 /// limits is lowered with a problem. Malformed crease or corner data is a problem naming its
 /// attribute, and that data (all creases, or all corners) is ignored.
 pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: usize, p: &mut Problems) -> Option<Options> {
-    store.get(LEVEL_ATTR)?;
-    let raw = store.i64_or(LEVEL_ATTR, 0, p);
+    let authored = store.get(LEVEL_ATTR).is_some();
+    let attr = if authored { LEVEL_ATTR } else { REFINE_ATTR };
+    store.get(attr)?;
+    let raw = store.i64_or(attr, 0, p);
     let asked = if raw < 0 {
-        p.add(LEVEL_ATTR, format!("level {raw} is negative; using 0 (the control cage)"));
+        p.add(attr, format!("level {raw} is negative; using 0 (the control cage)"));
         0
     } else if raw > MAX_LEVEL as i64 {
-        p.add(LEVEL_ATTR, format!("level {raw} is above the maximum {MAX_LEVEL}; using {MAX_LEVEL}"));
+        if authored {
+            p.add(attr, format!("level {raw} is above the maximum {MAX_LEVEL}; using {MAX_LEVEL}"));
+        }
         MAX_LEVEL
     } else {
         raw as u32
@@ -138,7 +148,7 @@ pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: u
     if level < asked {
         let (faces, _) = refined_size(counts, asked);
         let what = if level == 0 { "rendered as its cage".to_string() } else { format!("refined to level {level}") };
-        p.add(LEVEL_ATTR, format!("level {asked} would make about {faces} faces (at most {MAX_REFINED_FACES}, with n-gons counting more); {what}"));
+        p.add(attr, format!("level {asked} would make about {faces} faces (at most {MAX_REFINED_FACES}, with n-gons counting more); {what}"));
         if level == 0 {
             return None;
         }

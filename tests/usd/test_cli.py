@@ -4,7 +4,7 @@ import os
 import subprocess
 
 import pytest
-from pxr import Gf, Usd, UsdGeom
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
 from conftest import ROOT, camera, settings
 
@@ -185,7 +185,6 @@ def test_flags_override_render_settings(tmp_path):
 
 
 def _lit_stage(tmp_path):
-    from pxr import UsdLux
     path = str(tmp_path / "lit.usda")
     s = Usd.Stage.CreateNew(path)
     camera(s)
@@ -253,3 +252,39 @@ def test_exr_header_reader_agrees_with_openexr(tmp_path):
         bad.write_bytes(whole[:cut])
         with pytest.raises(ValueError):
             exr_header.read_header(str(bad))
+
+
+def test_complexity_subdivides_as_usdrecords_does(tmp_path, renderer):
+    """`--complexity high` (usdrecord's option) renders a cube that authors no level as an
+    authored tide:subdivision:level 2 does; a complexity it does not know is a usage error."""
+    import numpy as np
+    import OpenEXR
+    from test_subdiv import CUBE_FACES, CUBE_POINTS
+    stages = {}
+    for name, level in (("plain", None), ("two", 2)):
+        path = str(tmp_path / ("%s.usda" % name))
+        s = Usd.Stage.CreateNew(path)
+        camera(s)
+        m = UsdGeom.Mesh.Define(s, "/Cube")
+        m.CreatePointsAttr(CUBE_POINTS)
+        m.CreateFaceVertexCountsAttr([4] * 6)
+        m.CreateFaceVertexIndicesAttr(CUBE_FACES)
+        m.AddTranslateOp().Set(Gf.Vec3d(0, 0, -4))
+        if level is not None:
+            m.GetPrim().CreateAttribute("tide:subdivision:level", Sdf.ValueTypeNames.Int).Set(level)
+        UsdLux.DomeLight.Define(s, "/Sky").CreateIntensityAttr(1.0)
+        settings(s)
+        s.GetRootLayer().Save()
+        stages[name] = path
+    pixels = {}
+    for name, args in (("high", [stages["plain"], "-c", "high"]), ("two", [stages["two"]]),
+                       ("low", [stages["plain"]])):
+        exr = str(tmp_path / ("%s.exr" % name))
+        out = run(["render"] + args + ["--spp", "2", "-o", exr], tmp_path, fake=False)
+        assert out.returncode == 0, out.stderr
+        with OpenEXR.File(exr, separate_channels=True) as f:
+            pixels[name] = np.asarray(f.channels()["R"].pixels)
+    assert np.array_equal(pixels["high"], pixels["two"])
+    assert not np.array_equal(pixels["high"], pixels["low"])
+    out = run(["render", stages["plain"], "--complexity", "ultra"], tmp_path)
+    assert out.returncode == 2 and "complexity" in out.stderr

@@ -43,3 +43,28 @@ def test_a_subdivided_cube_reaches_its_limit_surface(renderer, stage, level, hal
     k = F / D / (AP / 2) * w / 2             # pixels per unit at the cube's distance
     width = d[w // 2 - 1:w // 2 + 1].mean(axis=0).sum()
     assert width == pytest.approx(2 * half * k, abs=0.5), (width, 2 * half * k)
+
+
+def _cube_stage(level, refine_level=0):
+    from pxr import Usd
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    camera(s, focal=F, aperture=(AP, AP))
+    _white_dome(s)
+    _cube(s, level)
+    settings(s, res=(32, 32), samples=4)
+    return s
+
+
+def test_the_complexity_subdivides_meshes_that_author_no_level(renderer):
+    """usdrecord's complexity (`tide render --complexity`, the reader's refine_level; Hydra's
+    display style refineLevel): `high` refines a cube that authors no level twice, pixel for
+    pixel as an authored level 2; an authored level wins over it, 0 (the cage) included."""
+    def img(level, refine=0):
+        return render(renderer, _cube_stage(level), refine_level=refine)["color"]
+
+    level2, cage = img(2), img(None)
+    assert np.array_equal(img(None, refine=2), level2)
+    assert np.array_equal(img(0, refine=2), cage)
+    assert np.array_equal(img(2, refine=1), level2)
+    assert not np.array_equal(level2, cage)

@@ -69,6 +69,17 @@ def _nonneg_float(text):
     return v
 
 
+# usdrecord's and usdview's refinement complexities; the index is the subdivision level
+COMPLEXITIES = ("low", "medium", "high", "veryhigh")
+
+
+def _complexity_arg(parser):
+    parser.add_argument("--complexity", "-c", choices=COMPLEXITIES, default="low",
+                        help="subdivide meshes that author no tide:subdivision:level this many "
+                             "times, as usdrecord's and usdview's complexity does: low 0 (their "
+                             "control cage), medium 1, high 2, veryhigh 3 (default: low)")
+
+
 def _float(text):
     try:
         return float(text)
@@ -109,11 +120,13 @@ def build_parser():
     r.add_argument("--adaptive-threshold", type=_nonneg_float, metavar="T",
                    help="stop sampling pixels whose noise is below T (tide:adaptive:threshold; "
                         "0: off)")
+    _complexity_arg(r)
     i = sub.add_parser("info", help="list what would be rendered and every problem found")
     i.add_argument("stage", help="USD stage")
     i.add_argument("--settings", metavar="PRIM")
     i.add_argument("--camera", metavar="PATH")
     i.add_argument("--frame", type=_float, metavar="F")
+    _complexity_arg(i)
     return p
 
 
@@ -143,7 +156,7 @@ def _make_reader(args, stage, delegate, **extra):
     from tide import usd_reader
 
     opts = usd_reader.Options(settings=args.settings, camera=args.camera, frame=args.frame,
-                              **extra)
+                              refine_level=COMPLEXITIES.index(args.complexity), **extra)
     reader = usd_reader.Reader(stage, delegate, opts)
     try:
         problems = reader.load()

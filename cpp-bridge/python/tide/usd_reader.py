@@ -174,7 +174,7 @@ class Options:
     def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
                  seed=None, threads=None, output=None, integrator=None, time_budget=None,
                  max_depth=None, pixel_filter=None, pixel_filter_width=None,
-                 adaptive_threshold=None, single_image=False):
+                 adaptive_threshold=None, single_image=False, refine_level=0):
         self.settings = settings
         self.camera = camera
         self.frame = frame
@@ -192,6 +192,9 @@ class Options:
         # True: one image at the first product's settings carries every product's vars (as
         # `tide render -o` writes); False: products whose settings differ are rendered apart
         self.single_image = single_image
+        # subdivision levels of meshes that author no tide:subdivision:level (usdrecord's and
+        # usdview's complexity: Hydra's display style refineLevel)
+        self.refine_level = refine_level
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1107,7 +1110,10 @@ class Reader:
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
         self._token(prim, st, "subdivisionScheme", "catmullClark")
-        # subdivision tags (used where `tide:subdivision:level` refines the mesh)
+        # subdivision tags (used where `tide:subdivision:level`, or the refinement asked for
+        # where it is not authored, refines the mesh)
+        if self.options.refine_level:
+            st.set("displayStyle:refineLevel", ("int", int(self.options.refine_level)))
         self._token(prim, st, "interpolateBoundary", "edgeAndCorner")
         for name, kind in (("creaseIndices", "i"), ("creaseLengths", "i"), ("cornerIndices", "i"),
                            ("creaseSharpnesses", "f"), ("cornerSharpnesses", "f")):

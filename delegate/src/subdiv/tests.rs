@@ -567,6 +567,16 @@ fn bad_levels_schemes_and_creases_are_problems_naming_prim_and_attribute() {
     let (m, list) = with(&[(LEVEL_ATTR, Value::Int(9))]);
     only(&list, LEVEL_ATTR, "maximum 6");
     assert_eq!(m.indices.len(), 6 * 4096 * 2 * 3);
+    // the viewer's refinement where no level is authored; an authored level wins, an authored
+    // 0 included; a fallback above 6 is 6 without a problem
+    let (m, list) = with(&[(REFINE_ATTR, Value::Int(2))]);
+    assert!(list.is_empty(), "{list:?}");
+    assert_eq!(m, smooth2.0);
+    assert_eq!(with(&[(REFINE_ATTR, Value::Int(2)), (LEVEL_ATTR, Value::Int(0))]).0, cage);
+    assert_eq!(with(&[(REFINE_ATTR, Value::Int(1)), (LEVEL_ATTR, Value::Int(2))]).0, smooth2.0);
+    let (m, list) = with(&[(REFINE_ATTR, Value::Int(8))]);
+    assert!(list.is_empty(), "{list:?}");
+    assert_eq!(m.indices.len(), 6 * 4096 * 2 * 3);
     // loop: the cage
     let (m, list) = with(&[(LEVEL_ATTR, Value::Int(2)), ("subdivisionScheme", Value::Token("loop".into()))]);
     only(&list, "subdivisionScheme", "loop subdivision is not supported; rendered as its cage");
