@@ -165,7 +165,7 @@ DirtyBits ChangeTracker::BitsForKey(const std::string& typeId, const std::string
     if (key == "faceVertexCounts" || key == "faceVertexIndices" || key == "holeIndices" ||
         key == "orientation" || key == "subdivisionScheme" || key == "curveVertexCounts" ||
         key == "interpolateBoundary" || key.rfind("crease", 0) == 0 || key.rfind("corner", 0) == 0 ||
-        key == "displayStyle:refineLevel" ||
+        key == "displayStyle:refineLevel" || key == "faceVaryingLinearInterpolation" ||
         (typeId == "basisCurves" && (key == "type" || key == "basis" || key == "wrap")))
         return DirtyTopology;
     if (key == "material") return DirtyMaterialId;

@@ -317,6 +317,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             PxOsdSubdivTags const tags = sd->GetSubdivTags(id);
             if (!tags.GetVertexInterpolationRule().IsEmpty())
                 _Put("interpolateBoundary", VtValue(tags.GetVertexInterpolationRule()));
+            if (!tags.GetFaceVaryingInterpolationRule().IsEmpty())
+                _Put("faceVaryingLinearInterpolation", VtValue(tags.GetFaceVaryingInterpolationRule()));
             _Put("creaseIndices", VtValue(tags.GetCreaseIndices()));
             _Put("creaseLengths", VtValue(tags.GetCreaseLengths()));
             _Put("creaseSharpnesses", VtValue(tags.GetCreaseWeights()));

@@ -30,9 +30,11 @@
 //! a semi-sharp feature with sharpness left after the last level counts as sharp there.
 //!
 //! Primvars: `vertex` through the stencil (smooth), `varying` bilinearly over the refined
-//! faces, `faceVarying` bilinearly within each control face (OpenSubdiv's
-//! `faceVaryingLinearInterpolation` = `all`, whatever is authored), `uniform` from the
-//! control face, `constant` unchanged. Holes (`holeIndices`) are refined as faces, so their
+//! faces, `faceVarying` as a mesh of its own values (its seams are that mesh's boundaries)
+//! refined by Catmull-Clark to its limit, with the mesh's creases and corners, under
+//! `faceVaryingLinearInterpolation` ([`FaceVarying`], OpenSubdiv's rules: `cornersPlus1` by
+//! default; `all`, and any bilinear mesh, split each control face bilinearly), `uniform` from
+//! the control face, `constant` unchanged. Holes (`holeIndices`) are refined as faces, so their
 //! neighbours keep the shape they have with the hole filled, and their children are then
 //! dropped by the mesh conversion. Faces the cage conversion drops (fewer than 3 vertices,
 //! indices out of range, NaN points) are left out of the refinement.
@@ -85,6 +87,29 @@ pub enum Boundary {
     None,
 }
 
+/// `faceVaryingLinearInterpolation`: where the faceVarying primvars of a Catmull-Clark mesh
+/// keep to straight lines (OpenSubdiv's `FVarLinearInterpolation`). A faceVarying primvar is
+/// refined as a mesh of its own values: its seams (edges across which the two faces' values
+/// differ) are that mesh's boundaries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FaceVarying {
+    /// Smooth everywhere, the seams as smooth boundary curves.
+    None,
+    /// Smooth, with the corners of the seams (a value used by one face only) pinned.
+    CornersOnly,
+    /// And junctions, where three or more values meet at a point, pinned (USD's fallback).
+    CornersPlus1,
+    /// And darts, where a seam ends inside the surface, pinned.
+    CornersPlus2,
+    /// Smooth inside, linear along every seam and boundary.
+    Boundaries,
+    /// Linear everywhere: bilinear within each control face.
+    All,
+}
+
+/// `faceVaryingLinearInterpolation`'s tokens, in [`FaceVarying`]'s order.
+const FACE_VARYING_TOKENS: [&str; 6] = ["none", "cornersOnly", "cornersPlus1", "cornersPlus2", "boundaries", "all"];
+
 /// What to refine and how, read from a mesh prim by [`read_options`].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Options {
@@ -96,12 +121,14 @@ pub struct Options {
     pub creases: Vec<(u32, u32, f32)>,
     /// Corner points and their sharpness.
     pub corners: Vec<(u32, f32)>,
+    pub face_varying: FaceVarying,
 }
 
 impl Options {
-    /// Smooth Catmull-Clark at `level` with USD's fallbacks (no creases, `edgeAndCorner`).
+    /// Smooth Catmull-Clark at `level` with USD's fallbacks (no creases, `edgeAndCorner`,
+    /// `cornersPlus1`).
     pub fn catmull_clark(level: u32) -> Options {
-        Options { scheme: Scheme::CatmullClark, level, boundary: Boundary::EdgeAndCorner, creases: Vec::new(), corners: Vec::new() }
+        Options { scheme: Scheme::CatmullClark, level, boundary: Boundary::EdgeAndCorner, creases: Vec::new(), corners: Vec::new(), face_varying: FaceVarying::CornersPlus1 }
     }
 }
 
@@ -162,7 +189,10 @@ pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: u
         Scheme::CatmullClark => (read_creases(store, n_points, p), read_corners(store, n_points, p)),
         Scheme::Bilinear => (Vec::new(), Vec::new()),
     };
-    Some(Options { scheme, level, boundary, creases, corners })
+    let fv = store.token_or("faceVaryingLinearInterpolation", &FACE_VARYING_TOKENS, "cornersPlus1", p);
+    let face_varying = [FaceVarying::None, FaceVarying::CornersOnly, FaceVarying::CornersPlus1, FaceVarying::CornersPlus2, FaceVarying::Boundaries, FaceVarying::All]
+        [FACE_VARYING_TOKENS.iter().position(|t| *t == fv).unwrap_or(2)];
+    Some(Options { scheme, level, boundary, creases, corners, face_varying })
 }
 
 /// The faces (of `counts` corners, indexing `indices` into `n_points` points) that touch the
@@ -860,6 +890,9 @@ pub struct Refinement {
     cage_indices: Vec<i32>,
     /// The (u, v) of every corner of the descendants of one level-1 quad, in refined order.
     pattern: Vec<[f32; 2]>,
+    /// The options refined with (creases, corners and the faceVarying rule shape faceVarying
+    /// primvars too).
+    opts: Options,
 }
 
 /// Refines a control cage (`faceVertexCounts`, `faceVertexIndices`, `points`) as `opts` says
@@ -917,7 +950,7 @@ pub fn refine(counts: &[i32], indices: &[i32], points: &[Vec3], opts: &Options, 
             .collect();
     }
     let pattern = quads.into_iter().flatten().collect();
-    Refinement { scheme: opts.scheme, level, points, face_vertex_indices, stencil, child_offsets, cage_faces, cage_indices: indices.to_vec(), pattern }
+    Refinement { scheme: opts.scheme, level, points, face_vertex_indices, stencil, child_offsets, cage_faces, cage_indices: indices.to_vec(), pattern, opts: opts.clone() }
 }
 
 impl Refinement {
@@ -979,11 +1012,103 @@ impl Refinement {
     }
 
     /// A `faceVarying` primvar (one value per control face corner) on the refined corners:
-    /// bilinear within each control face.
+    /// bilinear within each control face for a bilinear mesh or the rule `all`; otherwise
+    /// refined by Catmull-Clark as a mesh of its own values, to their limit as the points are
+    /// ([`FaceVarying`]). Corners of one point with equal values share a value (however the
+    /// primvar is indexed).
     pub fn face_varying(&self, data: &[f32], tuple: usize) -> Vec<f32> {
         let mut out = vec![0.0f32; self.face_vertex_indices.len() * tuple];
-        self.bilinear_faces(|start, k, c| data.get((start + k) * tuple + c).copied().unwrap_or(0.0), tuple, |corner, c, v| out[corner * tuple + c] = v);
+        let value = |corner: usize, c: usize| data.get(corner * tuple + c).copied().unwrap_or(0.0);
+        if self.scheme == Scheme::Bilinear || self.opts.face_varying == FaceVarying::All {
+            self.bilinear_faces(|start, k, c| value(start + k, c), tuple, |corner, c, v| out[corner * tuple + c] = v);
+            return out;
+        }
+        // the values' mesh: one vertex per (point, value) of the refined control faces
+        let mut ids: HashMap<(i32, Vec<u32>), u32> = HashMap::new();
+        let mut values: Vec<f32> = Vec::new();
+        let mut owner: Vec<i32> = Vec::new();
+        let mut fv_indices = vec![0i32; self.cage_indices.len()];
+        let mut ranges = Vec::new();
+        for &(start, m) in self.cage_faces.iter().filter(|f| f.1 > 0) {
+            let r = start as usize..(start + m) as usize;
+            for corner in r.clone() {
+                let v = self.cage_indices[corner];
+                let x: Vec<f32> = (0..tuple).map(|c| value(corner, c)).collect();
+                let id = *ids.entry((v, x.iter().map(|f| f.to_bits()).collect())).or_insert_with(|| {
+                    values.extend_from_slice(&x);
+                    owner.push(v);
+                    owner.len() as u32 - 1
+                });
+                fv_indices[corner] = id as i32;
+            }
+            ranges.push(r);
+        }
+        let n = owner.len();
+        let topo = self.value_mesh(n, &ranges, &fv_indices, &owner);
+        let mut rows: Option<Stencil> = None;
+        let mut t = topo;
+        for _ in 0..self.level {
+            let next = t.refine_rows(rows.as_ref(), Scheme::CatmullClark, n);
+            t = t.refine();
+            rows = Some(next);
+        }
+        let refined = t.limit_rows(&rows.unwrap_or_default(), n).apply(&values, tuple);
+        for (corner, &v) in t.face_verts.iter().enumerate() {
+            out[corner * tuple..(corner + 1) * tuple].copy_from_slice(&refined[v as usize * tuple..(v as usize + 1) * tuple]);
+        }
         out
+    }
+
+    /// The control level of a faceVarying primvar's own mesh (`n` values; `owner[i]`: the
+    /// point of value i): the mesh's creases and corners on the edges and points they lie on,
+    /// and the faceVarying rule's pins.
+    fn value_mesh(&self, n: usize, ranges: &[Range<usize>], fv: &[i32], owner: &[i32]) -> Topo {
+        let rule = self.opts.face_varying;
+        let sharp: HashMap<(u32, u32), f32> = self.opts.creases.iter().map(|&(a, b, s)| ((a.min(b), a.max(b)), s)).collect();
+        let mut creases = Vec::new();
+        for r in ranges {
+            for k in r.clone() {
+                let next = r.start + (k - r.start + 1) % r.len();
+                let (a, b) = (self.cage_indices[k] as u32, self.cage_indices[next] as u32);
+                if let Some(&s) = sharp.get(&(a.min(b), a.max(b))) {
+                    creases.push((fv[k] as u32, fv[next] as u32, s));
+                }
+            }
+        }
+        let pinned: HashMap<i32, f32> = self.opts.corners.iter().map(|&(v, s)| (v as i32, s)).collect();
+        let corners = (0..n).filter_map(|i| pinned.get(&owner[i]).map(|&s| (i as u32, s))).collect();
+        let boundary = if rule == FaceVarying::None { Boundary::EdgeOnly } else { Boundary::EdgeAndCorner };
+        let opts = Options { scheme: Scheme::CatmullClark, level: self.level, boundary, creases, corners, face_varying: rule };
+        let mut t = Topo::from_cage(n, ranges, fv, &opts, &mut Problems::new(""));
+        // values per point (junctions: 3 or more), and the points on the mesh's own boundary
+        let mut per_point: HashMap<i32, u32> = HashMap::new();
+        for &v in owner {
+            *per_point.entry(v).or_default() += 1;
+        }
+        let mut edge_uses: HashMap<(i32, i32), u32> = HashMap::new();
+        for r in ranges {
+            for k in r.clone() {
+                let (a, b) = (self.cage_indices[k], self.cage_indices[r.start + (k - r.start + 1) % r.len()]);
+                *edge_uses.entry((a.min(b), a.max(b))).or_default() += 1;
+            }
+        }
+        let on_mesh_boundary: std::collections::HashSet<i32> = edge_uses.iter().filter(|e| *e.1 == 1).flat_map(|((a, b), _)| [*a, *b]).collect();
+        for i in 0..n {
+            let on_seam = t.vert_edges.get(i).iter().any(|&e| t.edge_faces.get(e as usize).len() == 1);
+            let regions = per_point[&owner[i]];
+            let dart = regions == 1 && !on_mesh_boundary.contains(&owner[i]);
+            let pin = on_seam
+                && match rule {
+                    FaceVarying::CornersPlus1 => regions >= 3,
+                    FaceVarying::CornersPlus2 => regions >= 3 || dart,
+                    FaceVarying::Boundaries => true,
+                    _ => false,
+                };
+            if pin {
+                t.vert_sharp[i] = INFINITELY_SHARP;
+            }
+        }
+        t
     }
 
     /// Smooth shading normals of the refined points (unit length, or zero where the surface

@@ -68,3 +68,52 @@ def test_the_complexity_subdivides_meshes_that_author_no_level(renderer):
     assert np.array_equal(img(0, refine=2), cage)
     assert np.array_equal(img(2, refine=1), level2)
     assert not np.array_equal(level2, cage)
+
+
+def test_face_varying_primvars_are_smooth_by_default(renderer):
+    """A flat 2 x 2 grid refined 4 times glows the red of an indexed faceVarying primvar that
+    runs as u = x-index / 2 but for 0.6 at the centre. USD's fallback rule (cornersPlus1; no
+    seams here) refines it as Catmull-Clark refines points: the centre reaches its limit
+    (16·0.6 + 4·(0.5 + 0 + 1 + 0.5) + (0 + 1 + 1 + 0)) / 36 = 0.5444; under `all` it stays
+    bilinear within each face (0.6 at the centre, 0.598 over the pixel around it, where it
+    falls away on every side)."""
+    from pxr import Usd, UsdShade
+    from conftest import lambert_material, top_camera
+
+    def centre(rule):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        top_camera(s)
+        m = UsdGeom.Mesh.Define(s, "/Grid")
+        m.CreatePointsAttr([(-2 + 2 * i, 0, -2 + 2 * j) for i in range(3) for j in range(3)])
+        m.CreateFaceVertexCountsAttr([4] * 4)
+        m.CreateFaceVertexIndicesAttr([k for i in range(2) for j in range(2)
+                                       for k in (3 * i + j, 3 * i + j + 1, 3 * i + j + 4, 3 * i + j + 3)])
+        m.GetPrim().CreateAttribute("tide:subdivision:level", Sdf.ValueTypeNames.Int).Set(4)
+        if rule:
+            m.CreateFaceVaryingLinearInterpolationAttr(rule)
+        glow = [(0.6 if p == 4 else (p // 3) / 2.0,) * 3 for p in range(9)]
+        pv = UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "glow", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.faceVarying)
+        pv.Set(glow)
+        pv.SetIndices(m.GetFaceVertexIndicesAttr().Get())
+        mat = lambert_material(s, "/Looks/Glow", (0, 0, 0))
+        sh = UsdShade.Shader(s.GetPrimAtPath("/Looks/Glow/S"))
+        rd = UsdShade.Shader.Define(s, "/Looks/Glow/Reader")
+        rd.CreateIdAttr("UsdPrimvarReader_float3")
+        rd.CreateInput("varname", Sdf.ValueTypeNames.Token).Set("glow")
+        rd.CreateOutput("result", Sdf.ValueTypeNames.Float3)
+        sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+            rd.ConnectableAPI(), "result")
+        bind(m.GetPrim(), mat)
+        # a box filter, many samples: the centre pixel is the mean over a square around the
+        # centre, where the glow is smooth (linear to first order)
+        settings(s, res=(33, 33), samples=256, integrator="path", pixelFilter="box")
+        problems = []
+        img = render(renderer, s, problems)["color"]
+        assert problems == [], problems
+        return float(img[16, 16, 0])
+
+    assert centre(None) == pytest.approx(19.6 / 36, abs=0.002)
+    assert centre("cornersPlus1") == centre(None)
+    assert 0.59 < centre("all") <= 0.6

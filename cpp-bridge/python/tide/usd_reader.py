@@ -1115,6 +1115,7 @@ class Reader:
         if self.options.refine_level:
             st.set("displayStyle:refineLevel", ("int", int(self.options.refine_level)))
         self._token(prim, st, "interpolateBoundary", "edgeAndCorner")
+        self._token(prim, st, "faceVaryingLinearInterpolation", "cornersPlus1")
         for name, kind in (("creaseIndices", "i"), ("creaseLengths", "i"), ("cornerIndices", "i"),
                            ("creaseSharpnesses", "f"), ("cornerSharpnesses", "f")):
             v = self._attr(prim, name)

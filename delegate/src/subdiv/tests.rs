@@ -435,17 +435,17 @@ fn bilinear_splits_without_changing_the_shape() {
 }
 
 #[test]
-fn n_gons_give_n_quads_and_face_varying_is_bilinear_per_face() {
+fn n_gons_give_n_quads_and_face_varying_all_is_bilinear_per_face() {
     // a pentagon and a triangle sharing an edge
     let pts = vec![Vec3::new(0.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(2.5, 1.5, 0.0), Vec3::new(1.0, 2.5, 0.0), Vec3::new(-0.5, 1.5, 0.0), Vec3::new(2.0, -1.5, 0.0)];
     let counts = [5, 3];
     let idx = [0, 1, 2, 3, 4, 0, 5, 1];
-    let r = run(&pts, &counts, &idx, &Options::catmull_clark(2));
+    let r = run(&pts, &counts, &idx, &Options { face_varying: FaceVarying::All, ..Options::catmull_clark(2) });
     assert_eq!(r.child_faces(0), 0..20);
     assert_eq!(r.child_faces(1), 20..32);
-    // faceVarying values equal to the corners' positions: the refined values are the bilinear
-    // split of each control face (no smoothing), so the corners of each level-1 quad's
-    // children interpolate that quad's corner, edge midpoints and centroid
+    // faceVarying values equal to the corners' positions: under `all` the refined values are
+    // the bilinear split of each control face (no smoothing), so the corners of each level-1
+    // quad's children interpolate that quad's corner, edge midpoints and centroid
     let data: Vec<f32> = idx.iter().flat_map(|&i| [pts[i as usize].x, pts[i as usize].y]).collect();
     let fv = r.face_varying(&data, 2);
     assert_eq!(fv.len(), 2 * 4 * 32);
@@ -577,6 +577,11 @@ fn bad_levels_schemes_and_creases_are_problems_naming_prim_and_attribute() {
     let (m, list) = with(&[(REFINE_ATTR, Value::Int(8))]);
     assert!(list.is_empty(), "{list:?}");
     assert_eq!(m.indices.len(), 6 * 4096 * 2 * 3);
+    // an unknown faceVarying rule: USD's fallback, cornersPlus1
+    let fvar = |t: &str| vec![(LEVEL_ATTR, Value::Int(2)), ("faceVaryingLinearInterpolation", Value::Token(t.into()))];
+    let (m, list) = with(&fvar("smoothest"));
+    only(&list, "faceVaryingLinearInterpolation", "unknown token 'smoothest'");
+    assert_eq!(m, with(&fvar("cornersPlus1")).0);
     // loop: the cage
     let (m, list) = with(&[(LEVEL_ATTR, Value::Int(2)), ("subdivisionScheme", Value::Token("loop".into()))]);
     only(&list, "subdivisionScheme", "loop subdivision is not supported; rendered as its cage");
@@ -760,4 +765,99 @@ fn boundary_none_leaves_the_faces_that_touch_the_boundary_out() {
         let found = corners.indices.chunks_exact(3).any(|u| u.iter().zip(&tri).all(|(&i, q)| (corners.positions[i as usize] - *q).length() < 1e-6));
         assert!(found, "{tri:?}");
     }
+}
+
+/// The refined faceVarying value at the point that corner `k` of control face `f` was.
+fn at_control_corner(r: &Refinement, fv: &[f32], f: usize, k: usize) -> Vec2 {
+    let d = 1usize << (2 * (r.level - 1));
+    let c = 4 * (r.child_faces(f).start + k * d);
+    Vec2::new(fv[2 * c], fv[2 * c + 1])
+}
+
+/// A faceVarying primvar without seams whose values are the points' positions refines exactly
+/// as the points do (the values' mesh is the mesh), and a seam keeps each side's constant
+/// value: no value crosses it.
+#[test]
+fn face_varying_without_seams_follows_the_points_and_seams_are_not_crossed() {
+    let (pts, counts, idx) = cube();
+    for rule in [FaceVarying::None, FaceVarying::CornersOnly, FaceVarying::CornersPlus1, FaceVarying::CornersPlus2, FaceVarying::Boundaries] {
+        let r = run(&pts, &counts, &idx, &Options { face_varying: rule, ..Options::catmull_clark(3) });
+        let data: Vec<f32> = idx.iter().flat_map(|&i| pts[i as usize].to_array()).collect();
+        let fv = r.face_varying(&data, 3);
+        for (corner, &v) in r.face_vertex_indices.iter().enumerate() {
+            let x = Vec3::from_slice(&fv[3 * corner..3 * corner + 3]);
+            assert!((x - r.points[v as usize]).length() < 1e-5, "{rule:?} corner {corner}: {x} vs {}", r.points[v as usize]);
+        }
+        // one value per face: six islands, each refined to its own constant
+        let data: Vec<f32> = (0..24).flat_map(|c| [(c / 4) as f32, 10.0]).collect();
+        let fv = r.face_varying(&data, 2);
+        for f in 0..6 {
+            for g in r.child_faces(f) {
+                for c in 4 * g..4 * g + 4 {
+                    assert!((fv[2 * c] - f as f32).abs() < 1e-6 && (fv[2 * c + 1] - 10.0).abs() < 1e-6, "{rule:?} face {f}");
+                }
+            }
+        }
+    }
+}
+
+/// Each faceVarying rule pins what it names and smooths the rest, with limits computed by hand.
+#[test]
+fn face_varying_rules_pin_corners_junctions_darts_and_boundaries() {
+    // 2 × 2 unit quads: point 3y + x at (x, y), the centre point 4
+    let (pts, counts, idx) = grid(2, 2);
+    let pts = &pts;
+    let refine = |rule: FaceVarying, data: &[f32]| {
+        let r = run(pts, &counts, &idx, &Options { face_varying: rule, ..Options::catmull_clark(3) });
+        let fv = r.face_varying(data, 2);
+        (r, fv)
+    };
+    use FaceVarying::*;
+    // corners: one island with the points' positions; its corner (0, 0) has one face. Pinned by
+    // every rule but none, where it moves to its boundary curve's limit (e₀ + 4v + e₁) / 6
+    // = ((1, 0) + (0, 1)) / 6
+    let plain: Vec<f32> = idx.iter().flat_map(|&i| [pts[i as usize].x, pts[i as usize].y]).collect();
+    for rule in [CornersOnly, CornersPlus1, CornersPlus2, Boundaries, All] {
+        let (r, fv) = refine(rule, &plain);
+        assert!(at_control_corner(&r, &fv, 0, 0).length() < 1e-6, "{rule:?}");
+    }
+    let (r, fv) = refine(None, &plain);
+    assert!((at_control_corner(&r, &fv, 0, 0) - Vec2::splat(1.0 / 6.0)).length() < 1e-6);
+    // boundaries: the boundary point (1, 0) given the value (1, 0.5): linear along the
+    // boundary under `boundaries` (kept), on the smooth boundary curve otherwise:
+    // (0 + 4·0.5 + 0) / 6 = 1/3
+    let bent: Vec<f32> = idx.iter().flat_map(|&i| if i == 1 { [1.0, 0.5] } else { [pts[i as usize].x, pts[i as usize].y] }).collect();
+    for (rule, y) in [(Boundaries, 0.5), (CornersPlus1, 1.0 / 3.0), (None, 1.0 / 3.0)] {
+        let (r, fv) = refine(rule, &bent);
+        assert!((at_control_corner(&r, &fv, 0, 1) - Vec2::new(1.0, y)).length() < 1e-6, "{rule:?}: {}", at_control_corner(&r, &fv, 0, 1));
+    }
+    // junctions: faces 0 and 1 one island, faces 2 and 3 one each: three values meet at the
+    // centre (1, 1). Island 0's value there is (1, 1.5) against (0, 1) and (2, 1) along its
+    // seam: pinned by cornersPlus1, on the seam curve's limit under cornersOnly: y =
+    // (1 + 4·1.5 + 1) / 6
+    let island = |f: usize, i: i32| -> [f32; 2] {
+        let p = pts[i as usize];
+        match f {
+            0 | 1 if i == 4 => [1.0, 1.5],
+            0 | 1 => [p.x, p.y],
+            _ => [p.x + 10.0 * f as f32, p.y],
+        }
+    };
+    let three: Vec<f32> = idx.chunks(4).enumerate().flat_map(|(f, q)| q.iter().flat_map(move |&i| island(f, i)).collect::<Vec<_>>()).collect();
+    let (r, fv) = refine(CornersPlus1, &three);
+    assert!((at_control_corner(&r, &fv, 0, 2) - Vec2::new(1.0, 1.5)).length() < 1e-6);
+    let (r, fv) = refine(CornersOnly, &three);
+    assert!((at_control_corner(&r, &fv, 0, 2) - Vec2::new(1.0, 8.0 / 6.0)).length() < 1e-6, "{}", at_control_corner(&r, &fv, 0, 2));
+    // darts: a seam from the boundary point (1, 0) to the centre only (faces 0 and 1 differ at
+    // (1, 0) alone); the centre, valued (1, 1.5), is pinned by cornersPlus2 and not by
+    // cornersPlus1
+    let dart: Vec<f32> = idx
+        .chunks(4)
+        .enumerate()
+        .flat_map(|(f, q)| q.iter().flat_map(move |&i| if i == 4 { [1.0, 1.5] } else if i == 1 && f == 1 { [1.0, -1.0] } else { [pts[i as usize].x, pts[i as usize].y] }).collect::<Vec<_>>())
+        .collect();
+    let (r, fv) = refine(CornersPlus2, &dart);
+    assert!((at_control_corner(&r, &fv, 0, 2) - Vec2::new(1.0, 1.5)).length() < 1e-6);
+    let (r, fv) = refine(CornersPlus1, &dart);
+    assert!((at_control_corner(&r, &fv, 0, 2) - Vec2::new(1.0, 1.5)).length() > 0.05, "{}", at_control_corner(&r, &fv, 0, 2));
 }
