@@ -99,15 +99,76 @@ def test_posed_points_at_a_frame_in_the_skeletons_space(stage, delegate):
         assert np.allclose(_translation(d.value(MESH, "transform")), SKEL_WORLD)
 
 
-def test_skinning_inputs_and_authored_normals_are_not_sent(stage, delegate):
-    mesh = _scene(stage)
-    mesh.CreateNormalsAttr([(0, 0, 1)] * len(STRIP))
-    mesh.SetNormalsInterpolation("vertex")
+def test_skinning_inputs_are_not_sent(stage, delegate):
+    _scene(stage)
     load(stage, delegate, frame=0)
-    # the binding's primvars are skinning inputs; normals of the unposed mesh would be wrong
+    # the binding's primvars are skinning inputs
     assert sorted(delegate.primvars.get(MESH, {})) == []
     # the skeleton is not a gprim of its own
     assert sorted(delegate.of_type("mesh")) == [MESH]
+
+
+def _normals_sent(delegate):
+    interp, data, tsize, idx = delegate.primvars[MESH]["normals"]
+    assert tsize == 3 and idx is None
+    n = np.asarray(data, dtype=np.float64).reshape(-1, 3)
+    return interp, n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def test_authored_normals_turn_with_their_joints(stage, delegate):
+    """Normals (1, 0, 0) everywhere: those of the points that follow `tip` (2 and 5) turn
+    with it by 90 degrees about Z, the rest stay, per point and per face corner, with linear
+    blend and with dual quaternion skinning alike."""
+    mesh = _scene(stage)
+    want_points = np.asarray([(0, 1, 0) if i in (2, 5) else (1, 0, 0) for i in range(6)], float)
+    corners = [0, 1, 4, 3, 1, 2, 5, 4]
+    for method in ("classicLinear", "dualQuaternion"):
+        UsdSkel.BindingAPI(mesh.GetPrim()).CreateSkinningMethodAttr().Set(method)
+        for interp, count, want in (("vertex", 6, want_points),
+                                    ("faceVarying", 8, want_points[corners])):
+            mesh.CreateNormalsAttr([(1, 0, 0)] * count)
+            mesh.SetNormalsInterpolation(interp)
+            d = type(delegate)()
+            _, problems = load(stage, d, frame=0)
+            assert problems == []
+            got_interp, got = _normals_sent(d)
+            assert got_interp == interp
+            assert np.allclose(got, want, atol=1e-5), (method, interp, got)
+
+
+def test_blend_shape_normal_offsets_apply_before_skinning(stage, delegate):
+    """A shape lifting point 2's normal by (0, 0, 1) at weight 0.5: (1, 0, 0.5), then turned
+    with `tip` to (0, 1, 0.5) (normalised); a target without normalOffsets leaves normals as
+    authored."""
+    mesh = _scene(stage)
+    mesh.CreateNormalsAttr([(1, 0, 0)] * 6)
+    mesh.SetNormalsInterpolation("vertex")
+    shape = _lift(stage, mesh)
+    want = np.asarray([(0, 1, 0) if i in (2, 5) else (1, 0, 0) for i in range(6)], float)
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == []
+    assert np.allclose(_normals_sent(delegate)[1], want, atol=1e-5)
+    shape.CreateNormalOffsetsAttr([Gf.Vec3f(0, 0, 1)])
+    d = type(delegate)()
+    _, problems = load(stage, d, frame=0)
+    assert problems == []
+    want[2] = np.asarray((0, 1, 0.5)) / np.linalg.norm((0, 1, 0.5))
+    assert np.allclose(_normals_sent(d)[1], want, atol=1e-5)
+    # normalOffsets that do not fit the offsets: reported, and normals left to the core
+    shape.CreateNormalOffsetsAttr([Gf.Vec3f(0, 0, 1)] * 2)
+    d = type(delegate)()
+    _, problems = load(stage, d, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [(MESH + "/Lift", "normalOffsets")]
+    assert "normals" not in d.primvars.get(MESH, {})
+
+
+def test_uniform_normals_of_a_skinned_mesh_are_reported_and_left_to_the_core(stage, delegate):
+    mesh = _scene(stage)
+    mesh.CreateNormalsAttr([(0, 0, 1)] * 2)
+    mesh.SetNormalsInterpolation("uniform")
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [(MESH, "normals")]
+    assert "normals" not in delegate.primvars.get(MESH, {})
 
 
 def test_bind_pose_without_animation(stage, delegate):
@@ -135,8 +196,8 @@ def test_rigid_influences_move_every_point_with_their_joint(stage, delegate):
                        [_turned(p, 90) for p in STRIP], atol=1e-5)
 
 
-def test_blend_shapes_apply_before_skinning(stage, delegate):
-    mesh = _scene(stage)
+def _lift(stage, mesh):
+    """A blend shape lifting point 2 by (0, 0, 1), animated at weight 0.5."""
     shape = UsdSkel.BlendShape.Define(stage, MESH + "/Lift")
     shape.CreateOffsetsAttr([Gf.Vec3f(0, 0, 1)])
     shape.CreatePointIndicesAttr([2])
@@ -146,6 +207,12 @@ def test_blend_shapes_apply_before_skinning(stage, delegate):
     anim = UsdSkel.Animation(stage.GetPrimAtPath("/World/Char/Anim"))
     anim.CreateBlendShapesAttr(["lift"])
     anim.CreateBlendShapeWeightsAttr([0.5])
+    return shape
+
+
+def test_blend_shapes_apply_before_skinning(stage, delegate):
+    mesh = _scene(stage)
+    _lift(stage, mesh)
     _, problems = load(stage, delegate, frame=0)
     assert problems == []
     want = _posed(90)

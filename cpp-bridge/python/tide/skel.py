@@ -17,7 +17,7 @@ from tide import env
 env.prepare()
 
 import numpy as np  # noqa: E402
-from pxr import Sdf, Usd, UsdGeom, UsdSkel, Vt  # noqa: E402
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt  # noqa: E402
 
 JOINT_INDICES = "primvars:skel:jointIndices"
 JOINT_WEIGHTS = "primvars:skel:jointWeights"
@@ -121,20 +121,29 @@ class SkinnedMesh:
         return out
 
     # -- blend shapes ---------------------------------------------------------------------
-    def _blend(self, pts, time):
+    def _sub_weights(self, time):
+        """The blend shapes' sub-shape weights at `time` (UsdSkel's), () when every shape is at
+        rest, or None when the weights do not fit the targets (reported)."""
         if self._anim is None:
-            return True   # no weights: every shape at rest
+            return ()     # no weights: every shape at rest
         weights = self._anim.ComputeBlendShapeWeights(time)
         if weights is None or not len(weights):
-            return True
+            return ()
         weights = self._query.GetBlendShapeMapper().Remap(weights)
         q = self._shape_query
         if q.GetNumBlendShapes() != len(weights):
             self._problem(self.prim.GetPath(), "skel:blendShapeTargets", "%d usable targets for "
                           "%d skel:blendShapes; %s" % (q.GetNumBlendShapes(), len(weights),
                                                        _UNSKINNED))
-            return False
-        sub_weights, shape_idx, sub_idx = q.ComputeSubShapeWeights(weights)
+            return None
+        return q.ComputeSubShapeWeights(weights)
+
+    def _blend(self, pts, time):
+        sub = self._sub_weights(time)
+        if not sub:
+            return sub is not None
+        q = self._shape_query
+        sub_weights, shape_idx, sub_idx = sub
         n = len(pts)
         # checked here so that a bad shape is reported by name rather than by UsdSkel's warning
         for b, s in zip(shape_idx, sub_idx):
@@ -157,6 +166,89 @@ class SkinnedMesh:
                           "applied at time %g; %s" % (_t(time), _UNSKINNED))
             return False
         return True
+
+    # -- normals --------------------------------------------------------------------------
+    def compute_normals(self, normals, interpolation, face_vertex_indices, n_points, time):
+        """Authored normals (N x 3 float32, indices applied) deformed as the points are at
+        `time`: the blend shapes' normalOffsets, then the joints by the binding's
+        skinningMethod (UsdSkel's normal skinning: the inverse transposes of the skinning
+        transforms' 3 x 3 parts). `vertex` and `varying` normals are per point, `faceVarying`
+        ones per face corner (`face_vertex_indices` names each corner's point). None where they
+        cannot be: `uniform` or `constant` normals, or normalOffsets that do not fit (reported);
+        the caller then lets the core compute normals from the posed points."""
+        path = self.prim.GetPath()
+        per_corner = interpolation == "faceVarying"
+        if interpolation not in ("vertex", "varying", "faceVarying"):
+            self._problem(path, "normals", "%s normals of a skinned mesh cannot follow its "
+                          "points; normals are computed from the posed points" % interpolation)
+            return None
+        corner_points = np.asarray(face_vertex_indices, dtype=np.int64)
+        if len(normals) != (len(corner_points) if per_corner else n_points):
+            return None   # the mesh conversion reports normals of the wrong length
+        out = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(normals, dtype=np.float32))
+        if self._shapes:
+            delta = self._normal_offsets(n_points, time)
+            if delta is None:
+                return None
+            if delta is not False:
+                out = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(
+                    np.asarray(out) + (delta[corner_points] if per_corner else delta),
+                    dtype=np.float32))
+        if self._joints:
+            xforms = self._owner.skinning_transforms(self.skeleton, self._skel_query, time)
+            if xforms is None:
+                return None
+            q = self._query
+            mapper = q.GetJointMapper()
+            if mapper and not mapper.IsIdentity():
+                xforms = mapper.RemapTransforms(xforms)
+            inv_t = lambda m: Gf.Matrix3d(*[m[i][j] for i in range(3) for j in range(3)]).GetInverse().GetTranspose()
+            joints = Vt.Matrix3dArray([inv_t(m) for m in xforms])
+            per = q.GetNumInfluencesPerComponent()
+            idx, weights = q.ComputeVaryingJointInfluences(n_points, time)
+            if per_corner:
+                idx = np.asarray(idx, dtype=np.int32).reshape(-1, per)[corner_points].reshape(-1)
+                weights = np.asarray(weights, dtype=np.float32).reshape(-1, per)[corner_points].reshape(-1)
+                idx, weights = Vt.IntArray.FromNumpy(idx), Vt.FloatArray.FromNumpy(weights)
+            if not UsdSkel.SkinNormals(q.GetSkinningMethod(), inv_t(q.GetGeomBindTransform(time)),
+                                       joints, idx, weights, per, out):
+                return None
+        arr = np.asarray(out, dtype=np.float32).reshape(-1, 3)
+        return arr if np.all(np.isfinite(arr)) else None
+
+    def _normal_offsets(self, n_points, time):
+        """The blend shapes' normal offsets at `time`, summed per point (N x 3); False when no
+        target authors normalOffsets (normals are then as authored), None when one does not fit
+        (reported)."""
+        q = self._shape_query
+        if not any(q.GetBlendShape(b).GetNormalOffsetsAttr().HasAuthoredValue()
+                   for b in range(q.GetNumBlendShapes())):
+            return False
+        sub = self._sub_weights(time)
+        if sub is None:
+            return None
+        delta = Vt.Vec3fArray(n_points)
+        if not sub:
+            return np.zeros((n_points, 3), dtype=np.float32)
+        sub_weights, shape_idx, sub_idx = sub
+        offsets = []
+        for i, points in enumerate(self._shape_offsets):
+            inbetween = q.GetInbetween(i)
+            shape = q.GetBlendShape(q.GetBlendShapeIndex(i))
+            normal = (inbetween.GetNormalOffsets() if inbetween and inbetween.IsDefined()
+                      else shape.GetNormalOffsetsAttr().Get()) if len(points) else None
+            if normal is None or not len(normal):
+                normal = Vt.Vec3fArray(len(points))
+            elif len(normal) != len(points):
+                self._problem(shape.GetPrim().GetPath(), "normalOffsets", "%d normalOffsets for "
+                              "%d offsets; normals are computed from the posed points (%s)"
+                              % (len(normal), len(points), self.prim.GetPath()))
+                return None
+            offsets.append(normal)
+        if not q.ComputeDeformedPoints(sub_weights, shape_idx, sub_idx, self._shape_indices,
+                                       offsets, delta):
+            return None
+        return np.asarray(delta, dtype=np.float32).reshape(-1, 3)
 
     # -- joints ---------------------------------------------------------------------------
     def _skin(self, pts, time):

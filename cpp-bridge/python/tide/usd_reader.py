@@ -931,9 +931,9 @@ class Reader:
     def _skin(self, prim, st):
         """A mesh, points or basis curves bound to a Skeleton (UsdSkel) render posed, as
         UsdSkelImaging draws them: their points deformed by the skeleton's animation (blend
-        shapes, then skinning), with samples over the shutter like authored point samples, and
-        placed by the Skeleton's local-to-world transform, since skinned points are in the
-        skeleton's space. When the pose cannot be computed (reported), the gprim keeps its
+        shapes, then skinning; a mesh's normals too, which UsdSkelImaging drops), with samples
+        over the shutter like authored point samples, and placed by the Skeleton's
+        local-to-world transform, since skinned points are in the skeleton's space. When the pose cannot be computed (reported), the gprim keeps its
         authored points and transform. Skinned gprims in native instances or point instancer
         prototypes are not posed."""
         target = self._skinning.target(prim)
@@ -959,14 +959,24 @@ class Reader:
             st.set("points", _floats(pts[0], 3))
         st.set("transform", None, self._xform_samples(self._world(target.space),
                                                       [target.space]))
-        # Authored normals are not skinned (ComputeSkinnedNormals is missing from older
-        # usd-core): a mesh's are dropped and the core computes normals from the posed points,
-        # as UsdSkelImaging does; a ribbon's (curves with normals) stay as authored, and say so.
-        # Authored velocities and accelerations describe the unposed points, so they go as
-        # well; the posed samples carry the motion.
+        # A mesh's authored normals follow the points (blend-shape normalOffsets, then the
+        # joints), at the frame; where they cannot, the core computes normals from the posed
+        # points. A ribbon's (curves with normals) stay as authored, and say so. Authored
+        # velocities and accelerations describe the unposed points, so they go; the posed
+        # samples carry the motion.
         if st.type == "basisCurves" and "normals" in st.primvars:
             self.problem(prim.GetPath(), "normals", "a skinned ribbon keeps its authored normals "
                          "(they are not skinned)")
+        elif st.primvars.get("normals", (None, None, 0))[2] == 3:
+            interp, data, _, indices = st.primvars.pop("normals")
+            normals = np.frombuffer(data, dtype=np.float32).reshape(-1, 3)
+            if indices is not None:
+                normals = normals[np.frombuffer(indices, dtype=np.int32)]
+            fvi = UsdGeom.Mesh(prim).GetFaceVertexIndicesAttr().Get(self._time(0)) or []
+            n_points = len(UsdGeom.PointBased(prim).GetPointsAttr().Get(self._time(0)) or [])
+            skinned = target.compute_normals(normals, interp, fvi, n_points, self._time(0))
+            if skinned is not None:
+                st.primvars["normals"] = (interp, skinned.tobytes(), 3, None)
         else:
             st.primvars.pop("normals", None)
         st.values.pop("velocities", None)
