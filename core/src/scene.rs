@@ -55,10 +55,9 @@ pub enum Channel {
 pub struct TexLookup {
     pub texture: usize,
     pub channel: Channel,
-    /// UsdTransform2d: uv' = R(rotation°)·(S·uv) + translation, applied as USD orders it.
-    pub scale: Vec2,
-    pub rotation_deg: f32,
-    pub translation: Vec2,
+    /// The texture coordinates' transform, uv' = transform(uv): UsdTransform2d (scale, then
+    /// rotation, then translation), or any affine map a MaterialX graph makes of them.
+    pub transform: glam::Affine2,
     /// value = texel · tex_scale + bias (UsdUVTexture `scale`, `bias`; the first 3 of rgba).
     pub tex_scale: [f32; 4],
     pub bias: [f32; 4],

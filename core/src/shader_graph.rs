@@ -221,7 +221,6 @@ impl Expr {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec2;
 
     /// Textures answer `texture · 10 + row`, primvars `fallback + 100`.
     struct Fixed;
@@ -238,9 +237,7 @@ mod tests {
         Expr::Texture(TexLookup {
             texture: i,
             channel,
-            scale: Vec2::ONE,
-            rotation_deg: 0.0,
-            translation: Vec2::ZERO,
+            transform: glam::Affine2::IDENTITY,
             tex_scale: [1.0; 4],
             bias: [0.0; 4],
             fallback: [0.0; 4],

@@ -17,12 +17,10 @@ fn wrap_coord(i: i64, n: i64, wrap: Wrap) -> Option<i64> {
     }
 }
 
-/// UsdTransform2d: scale, then rotate (degrees, counter-clockwise), then translate.
+/// The lookup's texture coordinates for `st`: its transform applied.
 #[inline]
 pub fn transform_st(l: &TexLookup, st: Vec2) -> Vec2 {
-    let s = st * l.scale;
-    let (sn, cs) = l.rotation_deg.to_radians().sin_cos();
-    Vec2::new(s.x * cs - s.y * sn, s.x * sn + s.y * cs) + l.translation
+    l.transform.transform_point2(st)
 }
 
 /// The texel values (4 channels; missing ones filled: grey → RGB, alpha → 1) at (x, y).
@@ -115,7 +113,7 @@ mod tests {
     }
 
     fn lookup() -> TexLookup {
-        TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.5, 0.5, 0.5, 1.0], uv_set: None }
+        TexLookup { texture: 0, channel: Channel::Rgb, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.5, 0.5, 0.5, 1.0], uv_set: None }
     }
 
     #[test]
@@ -138,9 +136,8 @@ mod tests {
     #[test]
     fn transform2d_scale_rotate_translate() {
         let mut l = lookup();
-        l.scale = Vec2::new(2.0, 1.0);
-        l.rotation_deg = 90.0;
-        l.translation = Vec2::new(0.5, 0.0);
+        // UsdTransform2d: scale (2, 1), rotate 90°, translate (0.5, 0)
+        l.transform = glam::Affine2::from_scale_angle_translation(Vec2::new(2.0, 1.0), 90f32.to_radians(), Vec2::new(0.5, 0.0));
         // (0.25, 0.1) → scale (0.5, 0.1) → rotate 90° (−0.1, 0.5) → translate (0.4, 0.5)
         let r = transform_st(&l, Vec2::new(0.25, 0.1));
         assert!((r - Vec2::new(0.4, 0.5)).length() < 1e-6);

@@ -665,7 +665,7 @@ mod tests {
     #[test]
     fn a_graph_reading_a_missing_texture_reads_its_fallback() {
         use crate::shader_graph::{Binary, Expr};
-        let lookup = |texture| TexLookup { texture, channel: Channel::G, scale: glam::Vec2::ONE, rotation_deg: 0.0, translation: glam::Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.1, 0.2, 0.3, 0.4], uv_set: None };
+        let lookup = |texture| TexLookup { texture, channel: Channel::G, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.1, 0.2, 0.3, 0.4], uv_set: None };
         let mut bad_pv = PrimvarLookup::new("mask", [f32::NAN; 4]);
         bad_pv.scale = [2.0; 4];
         let graph = Expr::binary(Binary::Mul, Expr::Texture(lookup(0)), Expr::binary(Binary::Add, Expr::Texture(lookup(1)), Expr::Primvar(bad_pv)));

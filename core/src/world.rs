@@ -993,7 +993,7 @@ mod tests {
         assert_eq!(w.rgb(&ColorParam::Primvar(scaled("absent")), &sh), Some([1.8, 0.8, 0.35]));
         assert_eq!(w.rgb(&ColorParam::Primvar(look("tint")), &sh), Some([0.1, 0.2, 0.3]));
         // a texture's coordinates from another primvar: its first two components
-        let mut tex = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
+        let mut tex = TexLookup { texture: 0, channel: Channel::Rgb, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
         assert_eq!(w.st(&tex, &sh), sh.uv);
         tex.uv_set = Some(look("tint"));
         assert_eq!(w.st(&tex, &sh), Vec2::new(0.1, 0.2));
@@ -1036,7 +1036,7 @@ mod tests {
             PrimvarData { name: "st1".into(), tuple: 2, constant: false, data: m.positions.iter().flat_map(|p| [p.z / 2.0, 1.0 - p.x / 2.0]).collect() },
         ];
         let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5], wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
-        let lookup = TexLookup { texture: 0, channel: Channel::Rgb, scale: Vec2::ONE, rotation_deg: 0.0, translation: Vec2::ZERO, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
+        let lookup = TexLookup { texture: 0, channel: Channel::Rgb, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
         let tinted = PrimvarLookup { scale: [0.5, 2.0, 1.0, 1.0], ..PrimvarLookup::new("glow", [0.0; 4]) };
         use crate::shader_graph::{Binary, Expr};
         let through_st1 = TexLookup { uv_set: Some(PrimvarLookup::new("st1", [0.0; 4])), ..lookup.clone() };

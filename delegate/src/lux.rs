@@ -837,9 +837,7 @@ mod tests {
         let map = tide_core::scene::TexLookup {
             texture: 0,
             channel: tide_core::scene::Channel::Rgb,
-            scale: glam::Vec2::ONE,
-            rotation_deg: 0.0,
-            translation: glam::Vec2::ZERO,
+            transform: glam::Affine2::IDENTITY,
             tex_scale: [1.0, 2.0, 1.0, 1.0],
             bias: [0.5, 0.0, 0.0, 0.0],
             fallback: [0.0; 4],

@@ -17,7 +17,7 @@
 mod mtlx;
 
 use crate::value::{normalize_name, AttrStore, Problems, Value};
-use glam::Vec2;
+use glam::{Affine2, Vec2};
 use std::collections::BTreeMap;
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::shader_graph::Expr;
@@ -331,9 +331,9 @@ impl Ctx<'_> {
         let tex_scale = self.input_vec(tex, "scale", [1.0; 4]);
         let bias = self.input_vec(tex, "bias", [0.0; 4]);
         let cs = self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto");
-        let (scale, rotation_deg, translation, uv_set) = self.st_transform(tex);
+        let (transform, uv_set) = self.st_transform(tex);
         let Some(texture) = self.texture_slot(tex, "file", cs, wrap_s, wrap_t) else { return Err(fallback) };
-        Ok(TexLookup { texture, channel, scale, rotation_deg, translation, tex_scale, bias, fallback, uv_set })
+        Ok(TexLookup { texture, channel, transform, tex_scale, bias, fallback, uv_set })
     }
 
     /// The texture that input `file` of node `tex` names, as an index into this material's list
@@ -371,20 +371,17 @@ impl Ctx<'_> {
 
     /// The `st` input of a texture: a primvar reader, optionally through UsdTransform2d. The
     /// mesh's texture coordinates (`st`, `st0` or `uv`) are `uvs`; another primvar is a uv set.
-    fn st_transform(&mut self, tex: &str) -> (Vec2, f32, Vec2, Option<PrimvarLookup>) {
-        let mut scale = Vec2::ONE;
-        let mut rot = 0.0;
-        let mut trans = Vec2::ZERO;
-        let Some((mut up, _)) = self.nodes[tex].connects.get("st").cloned() else { return (scale, rot, trans, None) };
+    fn st_transform(&mut self, tex: &str) -> (Affine2, Option<PrimvarLookup>) {
+        let mut transform = Affine2::IDENTITY;
+        let Some((mut up, _)) = self.nodes[tex].connects.get("st").cloned() else { return (transform, None) };
         if self.node_id(&up) == Some("UsdTransform2d") {
-            let s = self.input_vec(&up, "scale", [1.0, 1.0]);
-            let t = self.input_vec(&up, "translation", [0.0, 0.0]);
-            scale = Vec2::from(s);
-            trans = Vec2::from(t);
-            rot = self.input_f32(&up, "rotation", 0.0);
+            let scale = Vec2::from(self.input_vec(&up, "scale", [1.0, 1.0]));
+            let translation = Vec2::from(self.input_vec(&up, "translation", [0.0, 0.0]));
+            let rotation = self.input_f32(&up, "rotation", 0.0).to_radians();
+            transform = Affine2::from_scale_angle_translation(scale, rotation, translation);
             match self.nodes[&up].connects.get("in").cloned() {
                 Some((u, _)) => up = u,
-                None => return (scale, rot, trans, None),
+                None => return (transform, None),
             }
         }
         let uv_set = match self.node_id(&up) {
@@ -394,7 +391,7 @@ impl Ctx<'_> {
                 None
             }
         };
-        (scale, rot, trans, uv_set)
+        (transform, uv_set)
     }
 
     fn color(&mut self, node: &str, name: &str, default: [f32; 3]) -> ColorInput {
@@ -794,7 +791,9 @@ mod tests {
         assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, linearize: true, dome: DomeFormat::LatLong }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
-        assert_eq!((t.texture, t.channel, t.rotation_deg, t.scale), (0, Channel::Rgb, 90.0, Vec2::new(3.0, 4.0)));
+        assert_eq!((t.texture, t.channel), (0, Channel::Rgb));
+        // UsdTransform2d: (1, 0) scaled by (3, 4), turned 90° counter-clockwise
+        assert!((t.transform.transform_vector2(Vec2::X) - Vec2::new(0.0, 3.0)).length() < 1e-6, "{:?}", t.transform);
         assert_eq!(t.tex_scale, [2.0, 2.0, 2.0, 1.0]);
         let FloatInput::Texture(tm) = &ps.metallic else { panic!() };
         assert_eq!((tm.texture, tm.channel), (0, Channel::A));
@@ -954,7 +953,7 @@ mod tests {
         let m = convert_material("/M", &s, &loaded(false), &mut p);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
-        assert_eq!((t.channel, t.scale, t.tex_scale), (Channel::Rgb, Vec2::new(4.0, 2.0), [0.5, 0.5, 0.5, 1.0]));
+        assert_eq!((t.channel, t.transform, t.tex_scale), (Channel::Rgb, Affine2::from_scale(Vec2::new(4.0, 2.0)), [0.5, 0.5, 0.5, 1.0]));
         assert_eq!(t.uv_set.as_ref().map(|l| l.name.as_str()), Some("st1"));
         assert_eq!((m.textures[0].wrap_s, m.textures[0].wrap_t), (WrapKey::Clamp, WrapKey::Repeat));
         assert_eq!(ps.metallic, FloatInput::Const(0.3));
@@ -1063,6 +1062,81 @@ mod tests {
         assert_eq!(ps.metallic, FloatInput::Graph(metal));
         assert_eq!(ps.clearcoat, FloatInput::Graph(Expr::binary(Binary::Mul, img.clone(), img)));
         assert!(p.list.is_empty(), "{:?}", p.list);
+    }
+
+    /// An image's texture coordinates through MaterialX nodes fold into the lookup's
+    /// transform: arithmetic by constants, `place2d` in both orders, then `tiledimage`'s own
+    /// tiling, offset and real-world sizes, each as MaterialX's graphs compute them (written
+    /// out here as those formulas, point by point).
+    #[test]
+    fn materialx_texture_coordinates_fold_into_the_lookup() {
+        let f = |x: f64| Value::Float(x);
+        let v2 = |a: [f32; 2]| Value::Floats { data: a.to_vec(), tuple: 2 };
+        // MaterialX's rotate2d: (c·x + s·y, −s·x + c·y) for `deg` degrees
+        let rot = |p: Vec2, deg: f32| {
+            let (s, c) = deg.to_radians().sin_cos();
+            Vec2::new(c * p.x + s * p.y, -s * p.x + c * p.y)
+        };
+        let (pivot, scale, offset, deg) = (Vec2::new(0.5, 0.25), Vec2::new(2.0, 4.0), Vec2::new(0.1, -0.3), 30.0);
+        let srt = |p: Vec2| rot((p - pivot) / scale, deg) - offset + pivot;
+        let trs = |p: Vec2| rot(p - pivot - offset, deg) / scale + pivot;
+        // the image: tiledimage with tiling (3, 2), offset (0.2, 0.1), image size 2, tile size 1
+        let tiled = |p: Vec2| (p * Vec2::new(3.0, 2.0) - Vec2::new(0.2, 0.1)) / 2.0;
+        for (order, place) in [(0, &srt as &dyn Fn(Vec2) -> Vec2), (1, &trs)] {
+            let s = mat(&[
+                ("surface", Value::Path("/M/S".into())),
+                ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
+                ("/M/S.inputs:base_color.connect", tok("/M/Img.outputs:out")),
+                ("/M/Img.info:id", tok("ND_tiledimage_color3")),
+                ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+                ("/M/Img.inputs:uvtiling", v2([3.0, 2.0])),
+                ("/M/Img.inputs:uvoffset", v2([0.2, 0.1])),
+                ("/M/Img.inputs:realworldimagesize", v2([2.0, 2.0])),
+                ("/M/Img.inputs:texcoord.connect", tok("/M/Place.outputs:out")),
+                ("/M/Place.info:id", tok("ND_place2d_vector2")),
+                ("/M/Place.inputs:texcoord.connect", tok("/M/Shift.outputs:out")),
+                ("/M/Place.inputs:pivot", v2(pivot.into())),
+                ("/M/Place.inputs:scale", v2(scale.into())),
+                ("/M/Place.inputs:offset", v2(offset.into())),
+                ("/M/Place.inputs:rotate", f(deg as f64)),
+                ("/M/Place.inputs:operationorder", Value::Int(order)),
+                // (0.5, 1) − 2 · uv1
+                ("/M/Shift.info:id", tok("ND_subtract_vector2")),
+                ("/M/Shift.inputs:in1", v2([0.5, 1.0])),
+                ("/M/Shift.inputs:in2.connect", tok("/M/Twice.outputs:out")),
+                ("/M/Twice.info:id", tok("ND_multiply_vector2FA")),
+                ("/M/Twice.inputs:in1.connect", tok("/M/Uv.outputs:out")),
+                ("/M/Twice.inputs:in2", f(2.0)),
+                ("/M/Uv.info:id", tok("ND_geompropvalue_vector2")),
+                ("/M/Uv.inputs:geomprop", Value::String("uv1".into())),
+            ]);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &s, &loaded(false), &mut p);
+            assert!(p.list.is_empty(), "{:?}", p.list);
+            let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+            let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+            assert_eq!(t.uv_set.as_ref().map(|l| l.name.as_str()), Some("uv1"));
+            for uv in [Vec2::ZERO, Vec2::new(1.0, 0.0), Vec2::new(0.3, 0.7), Vec2::new(-2.0, 5.0)] {
+                let want = tiled(place(Vec2::new(0.5, 1.0) - 2.0 * uv));
+                let got = t.transform.transform_point2(uv);
+                assert!((got - want).length() < 1e-5, "order {order}, uv {uv}: {got} vs {want}");
+            }
+        }
+        // a texcoord that varies otherwise (a texture's value): reported, the mesh's st used
+        let s = mat(&[
+            ("surface", Value::Path("/M/S".into())),
+            ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
+            ("/M/S.inputs:base_color.connect", tok("/M/Img.outputs:out")),
+            ("/M/Img.info:id", tok("ND_image_color3")),
+            ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Img.inputs:texcoord.connect", tok("/M/Warp.outputs:out")),
+            ("/M/Warp.info:id", tok("ND_image_vector2")),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["/M/Img.inputs:texcoord"]);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert!(matches!(&ps.diffuse_color, ColorInput::Texture(t) if t.transform == Affine2::IDENTITY && t.uv_set.is_none()));
     }
 
     /// OpenPBR Surface maps as standard_surface does, under its own input names and defaults.

@@ -19,8 +19,10 @@
 //! reported and left out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
-//! uvoffset), `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs),
-//! `normalmap`, `constant` and `dot`, and the arithmetic of [`ARITHMETIC`] (math, `mix`,
+//! uvoffset / realworldimagesize / realworldtilesize as MaterialX's own graph applies them),
+//! `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs), `normalmap`,
+//! `constant` and `dot`; an image's texcoord may pass through `place2d` (both operation
+//! orders) and arithmetic by constants, folded into the lookup's affine transform; and the arithmetic of [`ARITHMETIC`] (math, `mix`,
 //! `clamp`, `remap`, `smoothstep`, `luminance`, conversions, channel extraction and combination,
 //! `ifgreater`). Arithmetic folds into a single lookup where it can (a tint, a gain, an offset
 //! of a texture: its scale and bias) and otherwise becomes a
@@ -29,7 +31,7 @@
 //! the USD ones.
 
 use super::{uv_set, Ctx, Source, WrapKey};
-use glam::Vec2;
+use glam::{Affine2, Vec2};
 use tide_core::scene::{Channel, ColorInput, FloatInput, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
 use tide_core::shader_graph::{Binary, Expr, Unary};
 
@@ -50,7 +52,7 @@ pub(super) fn canonical_id(id: &str) -> &str {
 
 /// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, and the arithmetic
 /// of [`Ctx::arithmetic`].
-const LOOKUPS: [&str; 7] = ["image", "tiledimage", "geompropvalue", "texcoord", "constant", "dot", "normalmap"];
+const LOOKUPS: [&str; 8] = ["image", "tiledimage", "geompropvalue", "texcoord", "constant", "dot", "normalmap", "place2d"];
 const ARITHMETIC: [&str; 33] = [
     "multiply", "add", "subtract", "divide", "min", "max", "power", "modulo", "absval", "floor", "ceil", "sqrt", "exp", "ln", "sin", "cos", "sign", "mix", "clamp",
     "invert", "remap", "smoothstep", "luminance", "convert", "extract", "separate2", "separate3", "separate4", "combine2", "combine3", "combine4", "ifgreater",
@@ -88,6 +90,11 @@ fn affine(source: &Source, mul: [f32; 4], add: [f32; 4]) -> Option<Source> {
         }
         _ => return None,
     })
+}
+
+/// `outer` after an inner map of a coordinate set.
+fn map(outer: Affine2, (inner, set): (Affine2, Option<PrimvarLookup>)) -> (Affine2, Option<PrimvarLookup>) {
+    (outer * inner, set)
 }
 
 /// `a` × `b`: folded into one lookup where either is a constant, a graph otherwise.
@@ -453,32 +460,96 @@ impl Ctx<'_> {
         let wrap_s = self.wrap_input(node, "uaddressmode", &modes, "periodic");
         let wrap_t = self.wrap_input(node, "vaddressmode", &modes, "periodic");
         let fallback = self.value4(node, "default", [0.0, 0.0, 0.0, 1.0]);
-        // tiledimage: uv' = uv · uvtiling − uvoffset
+        // tiledimage (as MaterialX's own graph computes it): uv' = (uv · uvtiling − uvoffset)
+        // / realworldimagesize · realworldtilesize
         let tiling = Vec2::from(self.input_vec(node, "uvtiling", [1.0, 1.0]));
         let offset = Vec2::from(self.input_vec(node, "uvoffset", [0.0, 0.0]));
-        let uv_set = match self.nodes[node].connects.get("texcoord").cloned() {
-            None => None,
-            Some((up, _)) => match self.node_id(&up).unwrap_or("") {
-                id if id.starts_with("ND_texcoord_") => None,
-                id if id.starts_with("ND_geompropvalue_") => uv_set(self.geomprop(&up)),
-                id if id.starts_with("UsdPrimvarReader_") => uv_set(self.primvar_reader(&up)),
-                id => {
-                    self.p.add(&format!("{}.inputs:texcoord", node), format!("texcoord comes from a '{}' node; using the mesh's st", id));
-                    None
-                }
-            },
+        let image_size = Vec2::from(self.input_vec(node, "realworldimagesize", [1.0, 1.0]));
+        let tile_size = Vec2::from(self.input_vec(node, "realworldtilesize", [1.0, 1.0]));
+        let tiled = Affine2::from_scale(tile_size / image_size) * Affine2::from_translation(-offset) * Affine2::from_scale(tiling);
+        let (chain, uv_set) = match self.nodes[node].connects.get("texcoord").cloned() {
+            None => (Affine2::IDENTITY, None),
+            Some((up, _)) => self.texcoord(&up, 0).unwrap_or_else(|why| {
+                self.p.add(&format!("{}.inputs:texcoord", node), format!("{why}; using the mesh's st"));
+                (Affine2::IDENTITY, None)
+            }),
         };
         let Some(texture) = self.texture_slot(node, "file", "auto", wrap_s, wrap_t) else { return Err(fallback) };
-        Ok(TexLookup {
-            texture,
-            channel: Channel::Rgb,
-            scale: tiling,
-            rotation_deg: 0.0,
-            translation: -offset,
-            tex_scale: [1.0; 4],
-            bias: [0.0; 4],
-            fallback,
-            uv_set,
+        let transform = tiled * chain;
+        if !(transform.matrix2.is_finite() && transform.translation.is_finite()) {
+            self.p.add(&format!("{}.inputs:texcoord", node), "the texture coordinates' transform is not finite; using the mesh's st");
+            return Ok(TexLookup { transform: Affine2::IDENTITY, ..self.plain_lookup(texture, fallback, None) });
+        }
+        Ok(TexLookup { transform, ..self.plain_lookup(texture, fallback, uv_set) })
+    }
+
+    /// An untransformed RGB lookup of `texture`.
+    fn plain_lookup(&self, texture: usize, fallback: [f32; 4], uv_set: Option<PrimvarLookup>) -> TexLookup {
+        TexLookup { texture, channel: Channel::Rgb, transform: Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback, uv_set }
+    }
+
+    /// The texture coordinates node `up` gives, as an affine map of a set of coordinates (the
+    /// mesh's, or a primvar's): `texcoord`, `geompropvalue` or a UsdPrimvarReader, through
+    /// `dot`, `place2d`, and `multiply`, `divide`, `add` or `subtract` by constants. Err says why
+    /// not.
+    fn texcoord(&mut self, up: &str, depth: u32) -> Result<(Affine2, Option<PrimvarLookup>), String> {
+        if depth > MAX_DEPTH {
+            return Err(format!("texcoord chains more than {MAX_DEPTH} nodes"));
+        }
+        let id = self.node_id(up).unwrap_or("").to_string();
+        let next = |this: &mut Self, input: &str| -> Result<(Affine2, Option<PrimvarLookup>), String> {
+            match this.nodes[up].connects.get(input).cloned() {
+                Some((n, _)) => this.texcoord(&n, depth + 1),
+                None if input == "texcoord" => Ok((Affine2::IDENTITY, None)),
+                None => Err(format!("texcoord comes from a '{id}' node whose {input} is not connected")),
+            }
+        };
+        let family = family(&id).unwrap_or("");
+        Ok(match family {
+            _ if id.starts_with("ND_texcoord_") => (Affine2::IDENTITY, None),
+            _ if id.starts_with("ND_geompropvalue_") => (Affine2::IDENTITY, uv_set(self.geomprop(up))),
+            _ if id.starts_with("UsdPrimvarReader_") => (Affine2::IDENTITY, uv_set(self.primvar_reader(up))),
+            "dot" => next(self, "in")?,
+            "place2d" => {
+                let (inner, set) = next(self, "texcoord")?;
+                let pivot = Vec2::from(self.input_vec(up, "pivot", [0.0, 0.0]));
+                let scale = Vec2::from(self.input_vec(up, "scale", [1.0, 1.0]));
+                let offset = Vec2::from(self.input_vec(up, "offset", [0.0, 0.0]));
+                // MaterialX turns coordinates by −rotate (clockwise for positive degrees)
+                let turn = Affine2::from_angle(-self.input_f32(up, "rotate", 0.0).to_radians());
+                let shrink = Affine2::from_scale(Vec2::ONE / scale);
+                let t = Affine2::from_translation;
+                let place = match self.input_f32(up, "operationorder", 0.0) as i64 {
+                    // SRT: turn((uv − pivot) / scale) − offset + pivot
+                    0 => t(pivot - offset) * turn * shrink * t(-pivot),
+                    // TRS: turn(uv − pivot − offset) / scale + pivot
+                    _ => t(pivot) * shrink * turn * t(-pivot - offset),
+                };
+                (place * inner, set)
+            }
+            "multiply" | "divide" | "add" | "subtract" => {
+                let vec2 = |this: &mut Self, input: &str, d: f32| -> Option<Vec2> {
+                    (!this.nodes[up].connects.contains_key(input)).then(|| {
+                        let v = this.value4(up, input, [d; 4]);
+                        Vec2::new(v[0], v[1])
+                    })
+                };
+                let d2 = if matches!(family, "multiply" | "divide") { 1.0 } else { 0.0 };
+                let (c1, c2) = (vec2(self, "in1", 0.0), vec2(self, "in2", d2));
+                let t = Affine2::from_translation;
+                let s = Affine2::from_scale;
+                match (family, c1, c2) {
+                    ("multiply", None, Some(c)) => map(s(c), next(self, "in1")?),
+                    ("multiply", Some(c), None) => map(s(c), next(self, "in2")?),
+                    ("divide", None, Some(c)) => map(s(Vec2::ONE / c), next(self, "in1")?),
+                    ("add", None, Some(c)) => map(t(c), next(self, "in1")?),
+                    ("add", Some(c), None) => map(t(c), next(self, "in2")?),
+                    ("subtract", None, Some(c)) => map(t(-c), next(self, "in1")?),
+                    ("subtract", Some(c), None) => map(t(c) * s(Vec2::NEG_ONE), next(self, "in2")?),
+                    _ => return Err(format!("texcoord comes from a '{id}' node that is not texture coordinates and constants")),
+                }
+            }
+            _ => return Err(format!("texcoord comes from a '{id}' node")),
         })
     }
 
