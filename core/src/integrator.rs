@@ -632,9 +632,13 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             _ => usize::MAX,
         }).is_some_and(|m| m.double_sided));
         if !le.is_black() {
-            let w = if depth == 0 || specular_bounce {
+            let light = world.triangle_lights.get(&(hit.instance, hit.prim)).copied();
+            let w = if light.is_some_and(|li| !lit(li, prev_instance)) {
+                // a mesh light whose links leave out the surface the ray left
+                0.0
+            } else if depth == 0 || specular_bounce {
                 1.0
-            } else if let Some(&li) = world.triangle_lights.get(&(hit.instance, hit.prim)) {
+            } else if let Some(li) = light {
                 let lp = world.lights[li].pdf_li(&prev_ctx, ray.d, Some((s.p, s.ng))) * world.light_sampler.pmf(li);
                 power_heuristic(1.0, prev_pdf, 1.0, lp)
             } else {

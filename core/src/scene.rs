@@ -753,6 +753,17 @@ pub enum ColorSpace {
     AcesCg,
 }
 
+/// The links of an instance whose surface is a light (UsdLuxMeshLightAPI), as a light's
+/// ([`LightDesc::light_link`], [`LightDesc::shadow_link`]): the instances its emissive
+/// triangles light and those that shadow them, by name (None: all).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct EmitterLinks {
+    /// The instance's name.
+    pub instance: String,
+    pub light_link: Option<Vec<String>>,
+    pub shadow_link: Option<Vec<String>>,
+}
+
 /// Everything the renderer needs.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneDesc {
@@ -761,6 +772,8 @@ pub struct SceneDesc {
     pub instances: Vec<InstanceDesc>,
     /// Per-instance primvar tables ([`InstanceDesc::primvar_row`]).
     pub instance_primvars: Vec<InstancePrimvars>,
+    /// Links of mesh lights (instances absent here light everything).
+    pub emitter_links: Vec<EmitterLinks>,
     pub materials: Vec<MaterialDesc>,
     pub media: Vec<MediumDesc>,
     pub textures: Vec<TextureDesc>,

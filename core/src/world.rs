@@ -175,9 +175,9 @@ pub struct World {
     /// surface interpolates it) or from a texture (looked up where the sample lies).
     pub triangle_lights: HashMap<(u32, u32), usize>,
     /// Per light: which instances it illuminates, by instance index (None: all).
-    pub light_links: Vec<Option<Vec<bool>>>,
+    pub light_links: Vec<Option<std::sync::Arc<[bool]>>>,
     /// Per light: which instances cast its shadows, by instance index (None: all).
-    pub shadow_links: Vec<Option<Vec<bool>>>,
+    pub shadow_links: Vec<Option<std::sync::Arc<[bool]>>>,
     /// Per light: its diffuse and specular multipliers (see [`crate::scene::LightResponse`]).
     pub light_response: Vec<crate::scene::LightResponse>,
     /// Some light's multipliers are not 1 (paths then track what they need for them).
@@ -501,7 +501,7 @@ impl World {
         let link_mask = |names: &Option<Vec<String>>| {
             names.as_ref().map(|names| {
                 let names: std::collections::HashSet<&str> = names.iter().map(String::as_str).collect();
-                scene.instances.iter().map(|i| names.contains(i.name.as_str())).collect::<Vec<bool>>()
+                scene.instances.iter().map(|i| names.contains(i.name.as_str())).collect::<std::sync::Arc<[bool]>>()
             })
         };
         for l in &scene.lights {
@@ -542,6 +542,9 @@ impl World {
             // the instance's motion, shared by its moving triangles
             let motion = moves.then(|| std::sync::Arc::new(accel.instance_motion(ii as u32).clone()));
             let xf = accel.instance_transform(ii as u32, camera.shutter.0);
+            // a mesh light's links, shared by its triangles
+            let links = scene.emitter_links.iter().find(|e| e.instance == inst.name);
+            let (light_link, shadow_link) = (links.and_then(|e| link_mask(&e.light_link)), links.and_then(|e| link_mask(&e.shadow_link)));
             for (ti, t) in m.indices.chunks_exact(3).enumerate() {
                 let two = two_sided || m.double_sided;
                 let light = if let Some(motion) = &motion {
@@ -565,8 +568,8 @@ impl World {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
                     lights.push(l);
                     caustic_emitters.push(false);
-                    light_links.push(None);
-                    shadow_links.push(None);
+                    light_links.push(light_link.clone());
+                    shadow_links.push(shadow_link.clone());
                     light_response.push(Default::default());
                 }
             }
@@ -1019,6 +1022,26 @@ mod tests {
         assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(7.0));
         let sh = at(Vec3::new(10.0, 5.0, 0.0), -Vec3::Y);
         assert_eq!(w.primvar(&sh, "heat").map(|v| v[0]), Some(5.0));
+    }
+
+    /// A mesh light's links reach each of its triangle lights; other lights keep theirs.
+    #[test]
+    fn a_mesh_lights_links_reach_its_triangles() {
+        let mut s = SceneDesc::default();
+        s.meshes.push(MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)], indices: vec![0, 1, 2, 1, 3, 2], ..Default::default() });
+        s.materials.push(MaterialDesc { name: "/glow".into(), surface: SurfaceDesc::Emissive { radiance: [1.0; 3], two_sided: true }, interior_medium: None });
+        for (name, y) in [("/glow", 2.0), ("/a", 0.0), ("/b", -1.0), ("/plain", 5.0)] {
+            s.instances.push(InstanceDesc { name: name.into(), ..inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * y), 0) });
+        }
+        s.emitter_links.push(EmitterLinks { instance: "/glow".into(), light_link: Some(vec!["/a".into()]), shadow_link: Some(vec!["/b".into()]) });
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        // every instance's two triangles are lights; those of /glow carry its links
+        assert_eq!(w.triangle_lights.len(), 8);
+        for (&(ii, _), &li) in &w.triangle_lights {
+            let linked = ii == 0;
+            assert_eq!((w.illuminates(li, 1), w.illuminates(li, 2)), (true, !linked), "instance {ii}");
+            assert_eq!((w.casts_shadow_of(li, 1), w.casts_shadow_of(li, 2)), (!linked, true), "instance {ii}");
+        }
     }
 
     #[test]

@@ -703,6 +703,20 @@ public:
         if (_typeId == "volume" && (*dirtyBits & (CT::DirtyVolumeField | CT::DirtyTransform)))
             SyncVolumeFields(sd, id, &snapshot, *_shared);
         if (*dirtyBits & CT::DirtyCategories) _shared->links.SetCategories(id.GetString(), sd->GetCategories(id));
+        if (_typeId == "mesh" && (*dirtyBits & CT::DirtyPrimvar)) {
+            // a mesh light's link categories, as a light's (the `light` container UsdImaging's
+            // scene indices give a MeshLightAPI mesh)
+            HdContainerDataSourceHandle const light = SceneIndexContainer(sd, id, TfToken("light"));
+            VtValue const isLight = ContainerValue(light, HdTokens->isLight);
+            auto token = [&](TfToken const& key) {
+                VtValue const v = ContainerValue(light, key);
+                return v.IsHolding<TfToken>() ? v.UncheckedGet<TfToken>() : TfToken();
+            };
+            if (isLight.IsHolding<bool>() && isLight.UncheckedGet<bool>())
+                _shared->links.SetLight(id.GetString(), token(HdTokens->lightLink), token(HdTokens->shadowLink));
+            else
+                _shared->links.RemoveLight(id.GetString());
+        }
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
         *dirtyBits &= ~HdChangeTracker::AllSceneDirtyBits;
@@ -1049,6 +1063,7 @@ HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const&
 
 void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
     _shared->links.RemoveRprim(rPrim->GetId().GetString());
+    _shared->links.RemoveLight(rPrim->GetId().GetString());
     if (auto* link = dynamic_cast<HdTideLink<tide::Rprim>*>(rPrim)) _tide->DestroyRprim(link->TidePrim());
     delete rPrim;
 }

@@ -1081,15 +1081,23 @@ impl Delegate {
             }
         }
 
+        // collections of prim paths → the names of the instances of member prims
+        let members = |instances: &[InstanceDesc], c: &Option<lux::Collection>| {
+            c.as_ref().map(|c| instances.iter().zip(&instance_paths).filter(|(_, p)| c.contains(p)).map(|(i, _)| i.name.clone()).collect::<Vec<_>>())
+        };
+        // mesh lights' links, per instance of the mesh
+        let mut emitter_links = Vec::new();
+        for (inst, path) in scene.instances.iter().zip(&instance_paths) {
+            let Some(Cached { piece: Piece::Rprim(r), .. }) = self.cache.get(path) else { continue };
+            let Some(ml) = r.mesh_light.as_ref().filter(|ml| ml.light_link.is_some() || ml.shadow_link.is_some()) else { continue };
+            emitter_links.push(tide_core::scene::EmitterLinks { instance: inst.name.clone(), light_link: members(&scene.instances, &ml.light_link), shadow_link: members(&scene.instances, &ml.shadow_link) });
+        }
+        scene.emitter_links = emitter_links;
         for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
-            // collections of prim paths → the names of the instances of member prims
-            let members = |c: &Option<lux::Collection>| {
-                c.as_ref().map(|c| scene.instances.iter().zip(&instance_paths).filter(|(_, p)| c.contains(p)).map(|(i, _)| i.name.clone()).collect::<Vec<_>>())
-            };
-            desc.light_link = members(&l.light_link);
-            desc.shadow_link = members(&l.shadow_link);
+            desc.light_link = members(&scene.instances, &l.light_link);
+            desc.shadow_link = members(&scene.instances, &l.shadow_link);
             // a light that moves over the shutter (keys in seconds, as the instances')
             let (xf, times) = place(&l.transforms);
             if xf.len() >= 2 {

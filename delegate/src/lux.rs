@@ -378,6 +378,9 @@ pub struct MeshLight {
     pub normalize: bool,
     /// `light:materialSyncMode`.
     pub mode: MeshLightMode,
+    /// `collection:lightLink` and `collection:shadowLink`, as a light's.
+    pub light_link: Option<Collection>,
+    pub shadow_link: Option<Collection>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -411,7 +414,14 @@ pub fn read_mesh_light(store: &AttrStore, p: &mut Problems) -> Option<MeshLight>
         "noMaterialResponse" => MeshLightMode::NoMaterialResponse,
         _ => MeshLightMode::MaterialGlowTintsLight,
     };
-    Some(MeshLight { rgb: (color * scale).to_array(), color_temperature, normalize: store.bool_or("normalize", false, p), mode })
+    Some(MeshLight {
+        rgb: (color * scale).to_array(),
+        color_temperature,
+        normalize: store.bool_or("normalize", false, p),
+        mode,
+        light_link: Collection::read(store, "lightLink", p),
+        shadow_link: Collection::read(store, "shadowLink", p),
+    })
 }
 
 /// The material a mesh light's mesh renders with: `base` (its bound material) emitting the

@@ -134,3 +134,45 @@ def test_reader_sends_the_mesh_light(stage, delegate):
     assert delegate.value("/Panel", "inputs:intensity") == 5.0
     assert delegate.value("/Panel", "light:materialSyncMode") == ("token", "materialGlowTintsLight")
     assert delegate.value(str(plain.GetPath()), "meshLight") is None
+
+
+def test_a_mesh_lights_light_link_collection_leaves_out_what_it_excludes(renderer):
+    """A mesh light over a floor made of two halves whose lightLink includes only the left
+    half: the left half is lit as without the collection (same samples, to float rounding),
+    the right half not at all (nothing else lights it)."""
+    from pxr import Usd
+
+    def floor(link):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        _top_camera(s)
+        grey = lambert_material(s, "/Looks/Floor", (0.5, 0.5, 0.5))
+        for name, x in (("Left", -WIDTH / 4), ("Right", WIDTH / 4)):
+            half = UsdGeom.Mesh.Define(s, "/" + name)
+            h, d = WIDTH / 4, WIDTH / 2
+            half.CreatePointsAttr([(x - h, 0, -d), (x + h, 0, -d), (x + h, 0, d), (x - h, 0, d)])
+            half.CreateFaceVertexCountsAttr([4])
+            half.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+            bind(half.GetPrim(), grey)
+        m = _panel(s, "/Panel", 1.0, 1.0, False)
+        UsdLux.MeshLightAPI.Apply(m.GetPrim())
+        light = UsdLux.LightAPI(m.GetPrim())
+        light.CreateIntensityAttr(2.0)
+        m.GetPrim().CreateAttribute("light:materialSyncMode", Sdf.ValueTypeNames.Token).Set(
+            "noMaterialResponse")
+        if link:
+            coll = light.GetLightLinkCollectionAPI()
+            coll.CreateIncludeRootAttr(False)
+            coll.CreateIncludesRel().SetTargets(["/Left"])
+        settings(s, res=(RES, RES), samples=32, integrator="path", seed=3)
+        problems = []
+        img = render(renderer, s, problems)["color"][..., 0].astype(np.float64)
+        assert problems == [], problems
+        return img
+
+    linked, free = floor(True), floor(False)
+    # columns left of the panel's footprint, and right of it (the panel hides the middle)
+    left, right = slice(0, RES // 2 - 5), slice(RES // 2 + 5, RES)
+    assert free[:, right].mean() > 0.02
+    assert np.allclose(linked[:, left], free[:, left], rtol=1e-4, atol=1e-6)
+    assert np.all(linked[:, right] == 0.0)

@@ -141,6 +141,24 @@ def _skinnable(prim, st):
     return st.type in ("mesh", "points") or (st.type == "basisCurves" and prim.IsA(UsdGeom.BasisCurves))
 
 
+def _link_collections(light, st):
+    """A light's (or a mesh light's) light- and shadow-link collections, where authored."""
+    for which, coll in (("lightLink", light.GetLightLinkCollectionAPI()),
+                        ("shadowLink", light.GetShadowLinkCollectionAPI())):
+        inc = coll.GetIncludesRel().GetTargets()
+        exc = coll.GetExcludesRel().GetTargets()
+        root_attr = coll.GetIncludeRootAttr()
+        include_root = root_attr.Get() if root_attr else None
+        if inc or exc or (include_root is not None and root_attr.HasAuthoredValue()):
+            base = "collection:%s:" % which
+            st.set(base + "includes", ("paths", tuple(str(p) for p in inc)))
+            st.set(base + "excludes", ("paths", tuple(str(p) for p in exc)))
+            st.set(base + "includeRoot", ("bool", True if include_root is None
+                                          else bool(include_root)))
+            rule = coll.GetExpansionRuleAttr().Get()
+            st.set(base + "expansionRule", ("token", str(rule or "expandPrims")))
+
+
 def _known_shader(sid):
     """USD's and Tide's shaders; MaterialX nodes (`ND_...`) are judged by the delegate, which
     names each one it cannot read where it is used."""
@@ -1157,10 +1175,7 @@ class Reader:
         c = light.GetColorAttr().Get(self._time(0))
         st.set("inputs:color", _floats(list(c) if c is not None else [1.0, 1.0, 1.0], 3))
         self._token(prim, st, "light:materialSyncMode", "materialGlowTintsLight")
-        if light.GetLightLinkCollectionAPI().GetIncludesRel().GetTargets() or \
-                light.GetShadowLinkCollectionAPI().GetIncludesRel().GetTargets():
-            self.problem(prim.GetPath(), "collection:lightLink", "a mesh light lights every "
-                         "object; its light- and shadow-link collections are not applied")
+        _link_collections(light, st)
 
     def _point_vectors(self, prim, st, count):
         """`velocities` and `accelerations`, one per point (else reported and not sent)."""
@@ -2019,21 +2034,7 @@ class Reader:
             self.problem(path, zero, "zero-area light; dropped")
             return
         self._tide_attrs(prim, st)
-        light = UsdLux.LightAPI(prim)
-        for which, coll in (("lightLink", light.GetLightLinkCollectionAPI()),
-                            ("shadowLink", light.GetShadowLinkCollectionAPI())):
-            inc = coll.GetIncludesRel().GetTargets()
-            exc = coll.GetExcludesRel().GetTargets()
-            root_attr = coll.GetIncludeRootAttr()
-            include_root = root_attr.Get() if root_attr else None
-            if inc or exc or (include_root is not None and root_attr.HasAuthoredValue()):
-                base = "collection:%s:" % which
-                st.set(base + "includes", ("paths", tuple(str(p) for p in inc)))
-                st.set(base + "excludes", ("paths", tuple(str(p) for p in exc)))
-                st.set(base + "includeRoot", ("bool", True if include_root is None
-                                              else bool(include_root)))
-                rule = coll.GetExpansionRuleAttr().Get()
-                st.set(base + "expansionRule", ("token", str(rule or "expandPrims")))
+        _link_collections(UsdLux.LightAPI(prim), st)
         self._desired[path] = st
 
     def _eval_camera(self, prim):
