@@ -19,6 +19,8 @@ pub enum Expr {
     /// A primvar's value, or the lookup's fallback where the geometry lacks it, times the
     /// lookup's scale.
     Primvar(PrimvarLookup),
+    /// The geometry's texture coordinates (u, v, 0, 0).
+    TexCoord,
     Unary(Unary, Box<Expr>),
     Binary(Binary, Box<Expr>, Box<Expr>),
     /// Component k of the result is component `pick[k]` (0..4) of the operand.
@@ -62,6 +64,8 @@ pub trait Lookups {
     fn texture(&self, l: &TexLookup) -> [f32; 4];
     /// A primvar lookup's value (fallback and scale applied).
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4];
+    /// The geometry's texture coordinates.
+    fn uv(&self) -> glam::Vec2;
 }
 
 /// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
@@ -146,6 +150,10 @@ impl Expr {
             Expr::Const(v) => *v,
             Expr::Texture(l) => channel_rgba(at.texture(l), l.channel),
             Expr::Primvar(l) => at.primvar(l),
+            Expr::TexCoord => {
+                let uv = at.uv();
+                [uv.x, uv.y, 0.0, 0.0]
+            }
             Expr::Unary(op, a) => a.eval(at).map(|x| op.apply(x)),
             Expr::Binary(op, a, b) => {
                 let (a, b) = (a.eval(at), b.eval(at));
@@ -158,7 +166,7 @@ impl Expr {
         })
     }
 
-    /// The value, where the expression reads no texture or primvar.
+    /// The value, where the expression reads no texture, primvar or texture coordinates.
     pub fn constant_value(&self) -> Option<[f32; 4]> {
         struct Nothing;
         impl Lookups for Nothing {
@@ -168,16 +176,29 @@ impl Expr {
             fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
                 l.fallback
             }
+            fn uv(&self) -> glam::Vec2 {
+                glam::Vec2::ZERO
+            }
         }
         let mut leaves = 0;
         self.leaves(&mut |_| leaves += 1);
-        (leaves == 0).then(|| self.eval(&Nothing))
+        (leaves == 0 && !self.reads_uv()).then(|| self.eval(&Nothing))
+    }
+
+    /// Whether the expression reads the geometry's texture coordinates.
+    pub fn reads_uv(&self) -> bool {
+        match self {
+            Expr::TexCoord => true,
+            Expr::Const(_) | Expr::Texture(_) | Expr::Primvar(_) => false,
+            Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.reads_uv(),
+            Expr::Binary(_, a, b) => a.reads_uv() || b.reads_uv(),
+        }
     }
 
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves_mut(&mut self, f: &mut dyn FnMut(&mut Expr)) {
         match self {
-            Expr::Const(_) => {}
+            Expr::Const(_) | Expr::TexCoord => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves_mut(f),
             Expr::Binary(_, a, b) => {
@@ -190,7 +211,7 @@ impl Expr {
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves(&self, f: &mut dyn FnMut(&Expr)) {
         match self {
-            Expr::Const(_) => {}
+            Expr::Const(_) | Expr::TexCoord => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves(f),
             Expr::Binary(_, a, b) => {
@@ -230,6 +251,9 @@ mod tests {
         }
         fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
             l.fallback.map(|v| v + 100.0)
+        }
+        fn uv(&self) -> glam::Vec2 {
+            glam::Vec2::new(0.25, 0.75)
         }
     }
 
@@ -318,6 +342,9 @@ mod tests {
         );
         assert_eq!(e.primvar_names(), vec!["dirt".to_string(), "st1".to_string()]);
         assert_eq!(e.constant_value(), None);
+        // texture coordinates are no constant either
+        let uv = Expr::binary(Binary::Mul, Expr::TexCoord, c([2.0; 4]));
+        assert_eq!((uv.constant_value(), uv.eval(&Fixed)), (None, [0.5, 1.5, 0.0, 0.0]));
         let mut n = 0;
         let mut e2 = e.clone();
         e2.leaves_mut(&mut |leaf| {

@@ -322,6 +322,10 @@ impl Lookups for AtHit<'_> {
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
         self.w.primvar_or(self.s, l)
     }
+
+    fn uv(&self) -> Vec2 {
+        self.s.uv
+    }
 }
 
 /// A lookup's value at each vertex of an instance's mesh (as [`World::primvar`] reads it at a
@@ -1047,8 +1051,8 @@ mod tests {
     #[test]
     fn emission_from_a_primvar_a_texture_or_a_graph_is_sampled_as_the_surface_glows() {
         // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2,
-        // or shows a 2 x 2 texture (uv = (x, z) / 2), or a graph of both and of the texture
-        // read through a second uv set
+        // or shows a 2 x 2 texture (uv = (x, z) / 2), or a graph of both, of the texture read
+        // through a second uv set and of u
         let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
         m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
         m.indices = vec![0, 1, 2, 0, 2, 3];
@@ -1068,6 +1072,8 @@ mod tests {
             Expr::binary(Binary::Mul, Expr::Texture(lookup.clone()), Expr::Primvar(tinted.clone())),
             Expr::binary(Binary::Mul, Expr::Texture(through_st1), Expr::Primvar(PrimvarLookup::new("absent", [0.5; 4]))),
         );
+        // and the texture coordinates' u
+        let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::TexCoord, 0));
         for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup), ColorInput::Graph(graph)] {
             let mut s = SceneDesc::default();
             s.meshes.push(m.clone());

@@ -1270,8 +1270,9 @@ mod tests {
         assert_eq!(med.phase, PhaseDesc::Isotropic);
     }
 
-    /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5) so that it
-    /// cannot fold away, computes what the MaterialX specification says it does.
+    /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5) or the texture
+    /// coordinates (0.2, 0.7) so that it cannot fold away, computes what the MaterialX
+    /// specification says it does.
     #[test]
     fn materialx_nodes_compute_their_specified_values() {
         use tide_core::shader_graph::Lookups;
@@ -1284,6 +1285,9 @@ mod tests {
             fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
                 assert_eq!(l.name, "x");
                 std::array::from_fn(|k| X[k] * l.scale[k])
+            }
+            fn uv(&self) -> Vec2 {
+                Vec2::new(0.2, 0.7)
             }
         }
         let f = |x: f64| Value::Float(x);
@@ -1316,6 +1320,20 @@ mod tests {
             // 0.5 ≥ 0.6 is false: in2
             ("ND_ifgreatereq_color3", vec![("value1", f(0.5)), ("value2.connect", tok("/M/E.outputs:out")), ("in1", c3([1.0, 2.0, 3.0])), ("in2.connect", x())], "out", X),
             ("ND_floor_color3", vec![("in.connect", tok("/M/Ten.outputs:out"))], "out", [3.0, 6.0, 9.0, 5.0]),
+            // over the mesh's texture coordinates, (0.2, 0.7) here, or x's
+            ("ND_texcoord_vector2", vec![], "out", [0.2, 0.7, 0.0, 0.0]),
+            ("ND_ramplr_color3", vec![("valuel", c3([1.0, 0.0, 0.0])), ("valuer", c3([0.0, 0.0, 1.0]))], "out", [0.8, 0.0, 0.2, 1.0]),
+            ("ND_ramplr_color3", vec![("valuel", c3([1.0, 0.0, 0.0])), ("valuer", c3([0.0, 0.0, 1.0])), ("texcoord.connect", x())], "out", [0.7, 0.0, 0.3, 1.0]),
+            ("ND_ramptb_color3", vec![("valuet", c3([1.0; 3])), ("valueb", c3([0.0; 3]))], "out", [0.7, 0.7, 0.7, 1.0]),
+            ("ND_splitlr_color3", vec![("valuel", c3([1.0, 0.0, 0.0])), ("valuer", c3([0.0, 1.0, 0.0]))], "out", [1.0, 0.0, 0.0, 1.0]),
+            ("ND_splittb_color3", vec![("valuet", c3([1.0, 0.0, 0.0])), ("valueb", c3([0.0, 1.0, 0.0])), ("center", f(0.6))], "out", [1.0, 0.0, 0.0, 1.0]),
+            ("ND_splittb_color3", vec![("valuet", c3([1.0, 0.0, 0.0])), ("valueb", c3([0.0, 1.0, 0.0])), ("center", f(0.8))], "out", [0.0, 1.0, 0.0, 1.0]),
+            (
+                "ND_ramp4_color3",
+                vec![("valuetl", c3([1.0, 0.0, 0.0])), ("valuetr", c3([0.0, 1.0, 0.0])), ("valuebl", c3([0.0, 0.0, 1.0])), ("valuebr", c3([1.0; 3]))],
+                "out",
+                [0.62, 0.2, 0.3, 1.0],
+            ),
         ];
         for (id, inputs, output, want) in cases {
             let mut pairs = vec![

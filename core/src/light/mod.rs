@@ -521,9 +521,13 @@ impl crate::shader_graph::Lookups for OnTriangle<'_> {
                 let v = self.primvar(set);
                 Vec2::new(v[0], v[1])
             }
-            None => self.uv[0] * self.b[0] + self.uv[1] * self.b[1] + self.uv[2] * self.b[2],
+            None => self.uv(),
         };
         crate::texture::lookup_rgba_in(self.graph.textures.get(l.texture).map(|t| &**t), l, st)
+    }
+
+    fn uv(&self) -> Vec2 {
+        self.uv[0] * self.b[0] + self.uv[1] * self.b[1] + self.uv[2] * self.b[2]
     }
 
     fn primvar(&self, l: &crate::scene::PrimvarLookup) -> [f32; 4] {

@@ -21,14 +21,15 @@
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset / realworldimagesize / realworldtilesize as MaterialX's own graph applies them),
 //! `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs), `normalmap`,
-//! `constant` and `dot`; an image's texcoord may pass through `place2d` (both operation
-//! orders) and arithmetic by constants, folded into the lookup's affine transform; and the arithmetic of [`ARITHMETIC`] (math, `mix`,
-//! `clamp`, `remap`, `smoothstep`, `luminance`, conversions, channel extraction and combination,
-//! `ifgreater`). Arithmetic folds into a single lookup where it can (a tint, a gain, an offset
-//! of a texture: its scale and bias) and otherwise becomes a
-//! [`tide_core::shader_graph::Expr`] evaluated at each hit (a texture times a texture, a mask
-//! mixing two layers). MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`, ...) are read as
-//! the USD ones.
+//! `constant` and `dot`, and the arithmetic of [`ARITHMETIC`] (math, `mix`, `clamp`, `remap`,
+//! `smoothstep`, `luminance`, conversions, channel extraction and combination, `ifgreater`,
+//! ramps and splits over the texture coordinates, which `texcoord` also gives as a value). An
+//! image's texcoord may pass through `place2d` (both operation orders) and arithmetic by
+//! constants, folded into the lookup's affine transform. Arithmetic folds into a single lookup
+//! where it can (a tint, a gain, an offset of a texture: its scale and bias) and otherwise
+//! becomes a [`tide_core::shader_graph::Expr`] evaluated at each hit (a texture times a
+//! texture, a mask mixing two layers). MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`,
+//! ...) are read as the USD ones.
 
 use super::{uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
@@ -53,10 +54,10 @@ pub(super) fn canonical_id(id: &str) -> &str {
 /// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, and the arithmetic
 /// of [`Ctx::arithmetic`].
 const LOOKUPS: [&str; 8] = ["image", "tiledimage", "geompropvalue", "texcoord", "constant", "dot", "normalmap", "place2d"];
-const ARITHMETIC: [&str; 33] = [
+const ARITHMETIC: [&str; 38] = [
     "multiply", "add", "subtract", "divide", "min", "max", "power", "modulo", "absval", "floor", "ceil", "sqrt", "exp", "ln", "sin", "cos", "sign", "mix", "clamp",
     "invert", "remap", "smoothstep", "luminance", "convert", "extract", "separate2", "separate3", "separate4", "combine2", "combine3", "combine4", "ifgreater",
-    "ifgreatereq",
+    "ifgreatereq", "ramplr", "ramptb", "ramp4", "splitlr", "splittb",
 ];
 
 /// The node family of a MaterialX node id (`ND_multiply_color3FA` → `multiply`).
@@ -251,6 +252,7 @@ impl Ctx<'_> {
                 Err(fb) => Source::Fallback(fb),
             }),
             Some("geompropvalue") => Some(Source::Primvar(self.geomprop(up))),
+            Some("texcoord") => Some(Source::Graph(Expr::TexCoord)),
             Some("constant") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
             Some("dot") => match self.operand(up, "in", [0.0; 4], depth) {
                 Ok(source) => Some(source),
@@ -411,6 +413,34 @@ impl Ctx<'_> {
                     sum = bin(Binary::Add, sum, bin(Binary::Mul, part, Expr::Const(mask)));
                 }
                 sum
+            }
+            "ramplr" | "ramptb" | "ramp4" | "splitlr" | "splittb" => {
+                // over the texture coordinates (the mesh's unless connected): u left to right,
+                // v bottom to top, clamped to [0, 1] for the ramps
+                let tc = match self.nodes[node].connects.contains_key("texcoord") {
+                    true => self.arg(node, "texcoord", 0.0, depth)?,
+                    false => Expr::TexCoord,
+                };
+                let unit = |x: Expr| bin(Binary::Max, bin(Binary::Min, x, c(1.0)), c(0.0));
+                let (u, v) = (Expr::splat(tc.clone(), 0), Expr::splat(tc, 1));
+                match name {
+                    "ramplr" => Expr::mix(self.arg(node, "valuer", 0.0, depth)?, self.arg(node, "valuel", 0.0, depth)?, unit(u)),
+                    "ramptb" => Expr::mix(self.arg(node, "valuet", 0.0, depth)?, self.arg(node, "valueb", 0.0, depth)?, unit(v)),
+                    "ramp4" => {
+                        let top = Expr::mix(self.arg(node, "valuetr", 0.0, depth)?, self.arg(node, "valuetl", 0.0, depth)?, unit(u.clone()));
+                        let bottom = Expr::mix(self.arg(node, "valuebr", 0.0, depth)?, self.arg(node, "valuebl", 0.0, depth)?, unit(u));
+                        Expr::mix(top, bottom, unit(v))
+                    }
+                    // the second value from `center` on
+                    "splitlr" => {
+                        let from = bin(Binary::Sub, c(1.0), bin(Binary::Greater, self.arg(node, "center", 0.5, depth)?, u));
+                        Expr::mix(self.arg(node, "valuer", 0.0, depth)?, self.arg(node, "valuel", 0.0, depth)?, from)
+                    }
+                    _ => {
+                        let from = bin(Binary::Sub, c(1.0), bin(Binary::Greater, self.arg(node, "center", 0.5, depth)?, v));
+                        Expr::mix(self.arg(node, "valuet", 0.0, depth)?, self.arg(node, "valueb", 0.0, depth)?, from)
+                    }
+                }
             }
             _ => {
                 // ifgreater: in1 where value1 > value2, else in2; ifgreatereq: where value1 ≥ value2
