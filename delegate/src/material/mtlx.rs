@@ -414,34 +414,7 @@ impl Ctx<'_> {
                 }
                 sum
             }
-            "ramplr" | "ramptb" | "ramp4" | "splitlr" | "splittb" => {
-                // over the texture coordinates (the mesh's unless connected): u left to right,
-                // v bottom to top, clamped to [0, 1] for the ramps
-                let tc = match self.nodes[node].connects.contains_key("texcoord") {
-                    true => self.arg(node, "texcoord", 0.0, depth)?,
-                    false => Expr::TexCoord,
-                };
-                let unit = |x: Expr| bin(Binary::Max, bin(Binary::Min, x, c(1.0)), c(0.0));
-                let (u, v) = (Expr::splat(tc.clone(), 0), Expr::splat(tc, 1));
-                match name {
-                    "ramplr" => Expr::mix(self.arg(node, "valuer", 0.0, depth)?, self.arg(node, "valuel", 0.0, depth)?, unit(u)),
-                    "ramptb" => Expr::mix(self.arg(node, "valuet", 0.0, depth)?, self.arg(node, "valueb", 0.0, depth)?, unit(v)),
-                    "ramp4" => {
-                        let top = Expr::mix(self.arg(node, "valuetr", 0.0, depth)?, self.arg(node, "valuetl", 0.0, depth)?, unit(u.clone()));
-                        let bottom = Expr::mix(self.arg(node, "valuebr", 0.0, depth)?, self.arg(node, "valuebl", 0.0, depth)?, unit(u));
-                        Expr::mix(top, bottom, unit(v))
-                    }
-                    // the second value from `center` on
-                    "splitlr" => {
-                        let from = bin(Binary::Sub, c(1.0), bin(Binary::Greater, self.arg(node, "center", 0.5, depth)?, u));
-                        Expr::mix(self.arg(node, "valuer", 0.0, depth)?, self.arg(node, "valuel", 0.0, depth)?, from)
-                    }
-                    _ => {
-                        let from = bin(Binary::Sub, c(1.0), bin(Binary::Greater, self.arg(node, "center", 0.5, depth)?, v));
-                        Expr::mix(self.arg(node, "valuet", 0.0, depth)?, self.arg(node, "valueb", 0.0, depth)?, from)
-                    }
-                }
-            }
+            "ramplr" | "ramptb" | "ramp4" | "splitlr" | "splittb" => self.ramp(name, node, depth)?,
             _ => {
                 // ifgreater: in1 where value1 > value2, else in2; ifgreatereq: where value1 ≥ value2
                 let (v1, v2) = (self.arg(node, "value1", 1.0, depth)?, self.arg(node, "value2", 0.0, depth)?);
@@ -454,6 +427,35 @@ impl Ctx<'_> {
             }
         };
         Ok(Source::from_expr(e))
+    }
+
+    /// `ramplr`, `ramptb`, `ramp4`, `splitlr` and `splittb` over the texture coordinates (the
+    /// mesh's unless connected): u left to right, v bottom to top, clamped to [0, 1] for the
+    /// ramps; a split gives its second value from `center` on.
+    fn ramp(&mut self, name: &str, node: &str, depth: u32) -> Result<Expr, String> {
+        let c = |v: f32| Expr::Const([v; 4]);
+        let bin = Expr::binary;
+        let tc = match self.nodes[node].connects.contains_key("texcoord") {
+            true => self.arg(node, "texcoord", 0.0, depth)?,
+            false => Expr::TexCoord,
+        };
+        let unit = |x: Expr| bin(Binary::Max, bin(Binary::Min, x, c(1.0)), c(0.0));
+        let (u, v) = (Expr::splat(tc.clone(), 0), Expr::splat(tc, 1));
+        let value = |this: &mut Self, input: &str| this.arg(node, input, 0.0, depth);
+        Ok(match name {
+            "ramplr" => Expr::mix(value(self, "valuer")?, value(self, "valuel")?, unit(u)),
+            "ramptb" => Expr::mix(value(self, "valuet")?, value(self, "valueb")?, unit(v)),
+            "ramp4" => {
+                let top = Expr::mix(value(self, "valuetr")?, value(self, "valuetl")?, unit(u.clone()));
+                let bottom = Expr::mix(value(self, "valuebr")?, value(self, "valuebl")?, unit(u));
+                Expr::mix(top, bottom, unit(v))
+            }
+            _ => {
+                let (at, second, first) = if name == "splitlr" { (u, "valuer", "valuel") } else { (v, "valuet", "valueb") };
+                let from = bin(Binary::Sub, c(1.0), bin(Binary::Greater, self.arg(node, "center", 0.5, depth)?, at));
+                Expr::mix(value(self, second)?, value(self, first)?, from)
+            }
+        })
     }
 
     /// An input's value as four components: a scalar fills all four (an operand of a node that
