@@ -286,16 +286,44 @@ def test_a_skeleton_without_a_pose_is_a_problem_on_the_skeleton(stage, delegate)
     assert np.allclose(_translation(delegate.value(MESH, "transform")), (10, 10, 5))
 
 
-def test_a_skinned_mesh_in_native_instances_is_reported_unposed(stage, delegate):
+def test_skinned_meshes_in_native_instances_are_posed_each_apart(stage, delegate):
+    """Two instanceable references to the rig at (0, 0, 0) and (3, 0, 0) (their own translate
+    replaces the referenced one): each instance's mesh is sent at its instance proxy's path,
+    posed, and placed by that instance's skeleton, (0, 2, 0) above the instance."""
     _scene(stage)
-    for name in ("A", "B"):
-        inst = stage.DefinePrim("/Inst" + name, "Xform")
-        inst.GetReferences().AddInternalReference("/World")
-        inst.SetInstanceable(True)
+    for name, x in (("A", 0.0), ("B", 3.0)):
+        inst = UsdGeom.Xform.Define(stage, "/Inst" + name)
+        inst.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        inst.GetPrim().GetReferences().AddInternalReference("/World")
+        inst.GetPrim().SetInstanceable(True)
     _, problems = load(stage, delegate, frame=0)
-    assert [(p.prim, p.attribute) for p in problems] == [("/InstA/Char/Mesh", "skel:skeleton")]
-    # the plain one is posed all the same
-    assert np.allclose(floats(delegate.value(MESH, "points")), _posed(90), atol=1e-5)
+    assert problems == []
+    for mesh, skel in ((MESH, SKEL_WORLD), ("/InstA/Char/Mesh", (0, 2, 0)),
+                       ("/InstB/Char/Mesh", (3, 2, 0))):
+        assert np.allclose(floats(delegate.value(mesh, "points")), _posed(90), atol=1e-5), mesh
+        assert np.allclose(_translation(delegate.value(mesh, "transform")), skel), mesh
+
+
+def test_a_skinned_prototype_of_a_point_instancer_is_posed_once(stage, delegate):
+    """The rig as a point instancer's prototype, placed at (0, 0, 0) and (0, 4, 0): its mesh
+    is posed by its skeleton, placed relative to the prototype's parent (the instancer), and
+    the instances place that one pose."""
+    _scene(stage)
+    pi = UsdGeom.PointInstancer.Define(stage, "/Crowd")
+    proto = stage.DefinePrim("/Crowd/Protos/Agent", "Xform")
+    proto.GetReferences().AddInternalReference("/World")
+    pi.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(0, 0, 0), (0, 4, 0)])
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == []
+    agent = [p for p in delegate.of_type("mesh") if p.startswith("/Crowd/")]
+    assert len(agent) == 1, agent
+    assert np.allclose(floats(delegate.value(agent[0], "points")), _posed(90), atol=1e-5)
+    # the skeleton sits at (0, 2, -5) under the prototype, which sits at the instancer's origin
+    assert np.allclose(_translation(delegate.value(agent[0], "transform")), SKEL_WORLD)
+    xf = floats(delegate.value(agent[0], "instanceTransforms")).reshape(-1, 4, 4)
+    assert np.allclose(xf[:, 3, :3], [(0, 0, 0), (0, 4, 0)])
 
 
 def test_problems_are_reported_once(stage, delegate):

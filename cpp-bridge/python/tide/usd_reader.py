@@ -614,7 +614,9 @@ class Reader:
             if prim.IsInstance():
                 self._instance_sources.add(prim.GetPath())
             if type_name in GPRIMS:
-                if prim.IsInstanceProxy():
+                # a skinned gprim in a native instance is posed by that instance's skeleton
+                # and animation: sent on its own, at its instance proxy's path
+                if prim.IsInstanceProxy() and not self._posed_apart(prim):
                     self._collect_instanced(prim)
                 else:
                     self._eval_gprim(prim, str(prim.GetPath()), str(prim.GetPath()))
@@ -946,14 +948,20 @@ class Reader:
                 self._skin(prim, st)
             self._desired[dpath] = st
 
-    def _skin(self, prim, st):
+    def _posed_apart(self, prim):
+        """Whether an instance proxy is a gprim that a skeleton poses (each instance its own)."""
+        return prim.GetTypeName() in ("Mesh", "Points", "BasisCurves") and \
+            self._skinning.target(prim) is not None
+
+    def _skin(self, prim, st, relative_to=None):
         """A mesh, points or basis curves bound to a Skeleton (UsdSkel) render posed, as
         UsdSkelImaging draws them: their points deformed by the skeleton's animation (blend
         shapes, then skinning; a mesh's normals too, which UsdSkelImaging drops), with samples
         over the shutter like authored point samples, and placed by the Skeleton's
-        local-to-world transform, since skinned points are in the skeleton's space. When the pose cannot be computed (reported), the gprim keeps its
-        authored points and transform. Skinned gprims in native instances or point instancer
-        prototypes are not posed."""
+        local-to-world transform, since skinned points are in the skeleton's space (relative to
+        the prim `relative_to` for a point instancer's prototype, whose instances then place
+        the one pose). When the pose cannot be computed (reported), the gprim keeps its authored
+        points and transform."""
         target = self._skinning.target(prim)
         if target is None:
             return
@@ -975,8 +983,13 @@ class Reader:
             st.set("points", None, [(o, _floats(p, 3)) for o, p in zip(offsets, pts)])
         else:
             st.set("points", _floats(pts[0], 3))
-        st.set("transform", None, self._xform_samples(self._world(target.space),
-                                                      [target.space]))
+        space = self._world(target.space)
+        if relative_to is not None:
+            outer = self._world(relative_to)
+            st.set("transform", None, self._xform_samples(
+                lambda t: space(t) * outer(t).GetInverse(), [target.space, relative_to]))
+        else:
+            st.set("transform", None, self._xform_samples(space, [target.space]))
         # A mesh's authored normals follow the points (blend-shape normalOffsets, then the
         # joints), at the frame; where they cannot, the core computes normals from the posed
         # points. A ribbon's (curves with normals) stay as authored, and say so. Authored
@@ -999,13 +1012,6 @@ class Reader:
             st.primvars.pop("normals", None)
         st.values.pop("velocities", None)
         st.values.pop("accelerations", None)
-
-    def _unposed(self, prim, st, where):
-        """Skinned meshes are posed as plain gprims only: one shared by instances (which may
-        each have their own animation) renders in its bind pose, and says so."""
-        if _skinnable(prim, st) and self._skinning.target(prim) is not None:
-            self.problem(prim.GetPath(), "skel:skeleton", "a skinned mesh in %s is not posed; it "
-                         "renders in its bind pose" % where)
 
     def _tide_attrs(self, prim, st):
         for attr in prim.GetAttributes():
@@ -1607,7 +1613,6 @@ class Reader:
             st = self._gprim_state(prim, dpath, "/", rel, [prim])
             if st is None:
                 continue
-            self._unposed(prim, st, "a native instance")
             st.set("material", ("path", material))
             self._inherited_by_instances(prim, st, grp["roots"])
             # each instance root's world matrix over the shutter (motion of the instances
@@ -1714,7 +1719,9 @@ class Reader:
                 st = self._gprim_state(g, dpath, str(path), rel, [g])
                 if st is None:
                     continue
-                self._unposed(g, st, "a point instancer prototype")
+                if _skinnable(g, st):
+                    # one pose, its skeleton's, that every instance places
+                    self._skin(g, st, relative_to=None if parent.IsPseudoRoot() else parent)
                 for name, (data, tsize) in rows.items():
                     _set_instance_primvar(st, name, data, tsize)
                 if len(it_xf) == 1:
