@@ -9,6 +9,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod caustics;
 pub mod diffusion;
+pub mod displace;
 pub mod droplets;
 pub mod film;
 pub mod filter;

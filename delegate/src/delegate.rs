@@ -748,13 +748,15 @@ impl Delegate {
 
         let mut mat_index: HashMap<&str, usize> = HashMap::new();
         let mut medium_of: HashMap<&str, usize> = HashMap::new();
+        // scene material → its displacement (textures in the scene's list)
+        let mut displacement_of: HashMap<usize, tide_core::scene::FloatInput> = HashMap::new();
         for (path, c) in &self.cache {
             let Piece::Material(m) = &c.piece else { continue };
             let map: Option<Vec<usize>> = m.textures.iter().map(|k| texture(k, &mut scene)).collect();
-            let mut desc = match map {
+            let mut desc = match &map {
                 Some(map) => {
                     let mut d = m.desc.clone();
-                    material::remap_textures(&mut d, &map);
+                    material::remap_textures(&mut d, map);
                     d
                 }
                 None => default_material(path),
@@ -766,7 +768,13 @@ impl Delegate {
             }
             scene.materials.push(desc);
             mat_index.insert(path, scene.materials.len() - 1);
+            if let (Some(mut d), Some(map)) = (m.displacement.clone(), &map) {
+                material::remap_float(&mut d, map);
+                displacement_of.insert(scene.materials.len() - 1, d);
+            }
         }
+        // (mesh, material) → the mesh displaced by the material, made once per assembly
+        let mut displaced: HashMap<(usize, usize), usize> = HashMap::new();
 
         let included = &sp.included_purposes;
         let mut color_mats: HashMap<([u32; 3], bool, u32, bool), usize> = HashMap::new();
@@ -948,6 +956,15 @@ impl Delegate {
                         scene.materials.len() - 1
                     }
                     _ => material,
+                };
+                // a displacing material moves the mesh's points (a copy per mesh and material)
+                let geometry = match (geometry, displacement_of.get(&material)) {
+                    (GeometryRef::Mesh(mi), Some(d)) => GeometryRef::Mesh(*displaced.entry((mi, material)).or_insert_with(|| {
+                        let m = tide_core::displace::displace(&scene.meshes[mi], d, &scene.textures);
+                        scene.meshes.push(m);
+                        scene.meshes.len() - 1
+                    })),
+                    (g, _) => g,
                 };
                 // a mesh light: its material emits (UsdLuxMeshLightAPI)
                 let material = match (&r.mesh_light, geometry) {

@@ -77,6 +77,9 @@ pub struct MaterialPiece {
     pub desc: MaterialDesc,
     pub medium: Option<MediumDesc>,
     pub textures: Vec<TexKey>,
+    /// UsdPreviewSurface's `displacement` (object-space distance along the normal), where set:
+    /// applied to the meshes bound to the material ([`tide_core::displace`]).
+    pub displacement: Option<FloatInput>,
 }
 
 #[derive(Default, Debug)]
@@ -417,9 +420,6 @@ impl Ctx<'_> {
             }
             _ => None,
         };
-        if self.nodes[n].connects.contains_key("displacement") || self.nodes[n].inputs.contains_key("displacement") {
-            self.p.add(&format!("{}.inputs:displacement", n), "displacement is not supported; ignored");
-        }
         PreviewSurfaceDesc {
             diffuse_color: self.color(n, "diffuseColor", [0.18; 3]),
             emissive_color: self.color(n, "emissiveColor", [0.0; 3]),
@@ -683,8 +683,14 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         Some(b) => medium = Some(body_medium(path, &b)),
         None => {}
     }
+    // UsdPreviewSurface's displacement, where it moves anything
+    let displacement = surf
+        .as_deref()
+        .filter(|s| ctx.node_id(s) == Some("UsdPreviewSurface"))
+        .map(|s| ctx.float(s, "displacement", 0.0))
+        .filter(|d| *d != FloatInput::Const(0.0));
     problems.list.extend(ctx.p.list);
-    MaterialPiece { desc, medium, textures: ctx.used }
+    MaterialPiece { desc, medium, textures: ctx.used, displacement }
 }
 
 /// The homogeneous medium that fills a body (path-traced).
@@ -700,26 +706,33 @@ fn body_medium(name: &str, b: &mtlx::Body) -> MediumDesc {
     }
 }
 
+/// Rewrites the texture indices of a graph's lookups (local list → scene list).
+fn remap_graph(e: &mut Expr, map: &[usize]) {
+    e.leaves_mut(&mut |leaf| {
+        if let Expr::Texture(t) = leaf {
+            t.texture = map[t.texture]
+        }
+    })
+}
+
+/// Rewrites the texture indices of a scalar input (local list → scene list).
+pub fn remap_float(c: &mut FloatInput, map: &[usize]) {
+    match c {
+        FloatInput::Texture(t) => t.texture = map[t.texture],
+        FloatInput::Graph(e) => remap_graph(e, map),
+        _ => {}
+    }
+}
+
 /// Rewrites texture indices of a material (local list → scene list).
 pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
     let fix = |t: &mut TexLookup| t.texture = map[t.texture];
-    let graph = |e: &mut Expr| {
-        e.leaves_mut(&mut |leaf| {
-            if let Expr::Texture(t) = leaf {
-                fix(t)
-            }
-        })
-    };
     let col = |c: &mut ColorInput| match c {
         ColorInput::Texture(t) => fix(t),
-        ColorInput::Graph(e) => graph(e),
+        ColorInput::Graph(e) => remap_graph(e, map),
         _ => {}
     };
-    let flt = |c: &mut FloatInput| match c {
-        FloatInput::Texture(t) => fix(t),
-        FloatInput::Graph(e) => graph(e),
-        _ => {}
-    };
+    let flt = |c: &mut FloatInput| remap_float(c, map);
     match &mut desc.surface {
         SurfaceDesc::Diffuse { color } => col(color),
         SurfaceDesc::Preview(p) => {
@@ -1366,6 +1379,29 @@ mod tests {
                 assert!((got[k] - want[k]).abs() < 1e-5, "{id}: {got:?} vs {want:?}");
             }
         }
+    }
+
+    /// UsdPreviewSurface's displacement travels with the material piece (a texture's red, or a
+    /// constant); 0 displaces nothing.
+    #[test]
+    fn preview_surface_displacement_is_carried() {
+        let with = |extra: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok("UsdPreviewSurface"))];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            assert!(p.list.is_empty(), "{:?}", p.list);
+            m.displacement
+        };
+        assert_eq!(with(&[]), None);
+        assert_eq!(with(&[("/M/S.inputs:displacement", Value::Float(0.0))]), None);
+        assert_eq!(with(&[("/M/S.inputs:displacement", Value::Float(0.25))]), Some(FloatInput::Const(0.25)));
+        let tex = with(&[
+            ("/M/S.inputs:displacement.connect", tok("/M/H.outputs:r")),
+            ("/M/H.info:id", tok("UsdUVTexture")),
+            ("/M/H.inputs:file", Value::Asset("/tex/albedo.png".into())),
+        ]);
+        assert!(matches!(tex, Some(FloatInput::Texture(t)) if t.channel == Channel::R && t.texture == 0));
     }
 
     /// MaterialX's own UsdPreviewSurface nodes read as USD's.
