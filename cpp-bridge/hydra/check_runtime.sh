@@ -159,6 +159,7 @@ check check_stage_skel.usda "a skinned mesh: UsdSkelImaging's computations" dele
 check check_stage_subdiv.usda "tide:subdivision:level, creases and corners" delegate sceneIndex || exit $?
 complexity=veryhigh check check_stage_refine.usda "the viewer's refinement at complexity veryhigh" delegate sceneIndex || exit $?
 check check_stage_fvar.usda "faceVaryingLinearInterpolation" delegate sceneIndex || exit $?
+check check_stage_displace.usda "UsdPreviewSurface displacement" delegate sceneIndex || exit $?
 check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
