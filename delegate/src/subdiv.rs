@@ -771,6 +771,24 @@ impl Topo {
         }
     }
 
+    /// This control level refined `level` times by `scheme`, and the stencil giving its
+    /// vertices over the control vertices (at their limit for Catmull-Clark).
+    fn refined(self, level: u32, scheme: Scheme) -> (Topo, Stencil) {
+        let n = self.n_verts;
+        let mut topo = self;
+        let mut rows: Option<Stencil> = None;
+        for _ in 0..level {
+            let next = topo.refine_rows(rows.as_ref(), scheme, n);
+            topo = topo.refine();
+            rows = Some(next);
+        }
+        let mut stencil = rows.unwrap_or_default();
+        if scheme == Scheme::CatmullClark {
+            stencil = topo.limit_rows(&stencil, n);
+        }
+        (topo, stencil)
+    }
+
     /// The next level's vertices as rows over the control points: vertex points (child of
     /// vertex v is v), then face points, then edge points.
     fn refine_rows(&self, prev: Option<&Stencil>, scheme: Scheme, n_control: usize) -> Stencil {
@@ -924,17 +942,7 @@ pub fn refine(counts: &[i32], indices: &[i32], points: &[Vec3], opts: &Options, 
         child_offsets.push(child_offsets.last().copied().unwrap_or(0) + m * descendants);
     }
 
-    let mut topo = Topo::from_cage(n, &ranges, indices, opts, p);
-    let mut rows: Option<Stencil> = None;
-    for _ in 0..level {
-        let next = topo.refine_rows(rows.as_ref(), opts.scheme, n);
-        topo = topo.refine();
-        rows = Some(next);
-    }
-    let mut stencil = rows.unwrap_or_default();
-    if opts.scheme == Scheme::CatmullClark {
-        stencil = topo.limit_rows(&stencil, n);
-    }
+    let (topo, stencil) = Topo::from_cage(n, &ranges, indices, opts, p).refined(level, opts.scheme);
     let points = stencil.apply_vec3(points);
     let face_vertex_indices = topo.face_verts.iter().map(|&v| v as i32).collect();
 
@@ -1043,16 +1051,8 @@ impl Refinement {
             }
             ranges.push(r);
         }
-        let n = owner.len();
-        let topo = self.value_mesh(n, &ranges, &fv_indices, &owner);
-        let mut rows: Option<Stencil> = None;
-        let mut t = topo;
-        for _ in 0..self.level {
-            let next = t.refine_rows(rows.as_ref(), Scheme::CatmullClark, n);
-            t = t.refine();
-            rows = Some(next);
-        }
-        let refined = t.limit_rows(&rows.unwrap_or_default(), n).apply(&values, tuple);
+        let (t, stencil) = self.value_mesh(owner.len(), &ranges, &fv_indices, &owner).refined(self.level, Scheme::CatmullClark);
+        let refined = stencil.apply(&values, tuple);
         for (corner, &v) in t.face_verts.iter().enumerate() {
             out[corner * tuple..(corner + 1) * tuple].copy_from_slice(&refined[v as usize * tuple..(v as usize + 1) * tuple]);
         }
@@ -1065,14 +1065,13 @@ impl Refinement {
     fn value_mesh(&self, n: usize, ranges: &[Range<usize>], fv: &[i32], owner: &[i32]) -> Topo {
         let rule = self.opts.face_varying;
         let sharp: HashMap<(u32, u32), f32> = self.opts.creases.iter().map(|&(a, b, s)| ((a.min(b), a.max(b)), s)).collect();
+        // each face edge as its two corners
+        let face_edges = || ranges.iter().flat_map(|r| r.clone().map(move |k| (k, r.start + (k - r.start + 1) % r.len())));
         let mut creases = Vec::new();
-        for r in ranges {
-            for k in r.clone() {
-                let next = r.start + (k - r.start + 1) % r.len();
-                let (a, b) = (self.cage_indices[k] as u32, self.cage_indices[next] as u32);
-                if let Some(&s) = sharp.get(&(a.min(b), a.max(b))) {
-                    creases.push((fv[k] as u32, fv[next] as u32, s));
-                }
+        for (k, next) in face_edges() {
+            let (a, b) = (self.cage_indices[k] as u32, self.cage_indices[next] as u32);
+            if let Some(&s) = sharp.get(&(a.min(b), a.max(b))) {
+                creases.push((fv[k] as u32, fv[next] as u32, s));
             }
         }
         let pinned: HashMap<i32, f32> = self.opts.corners.iter().map(|&(v, s)| (v as i32, s)).collect();
@@ -1086,11 +1085,9 @@ impl Refinement {
             *per_point.entry(v).or_default() += 1;
         }
         let mut edge_uses: HashMap<(i32, i32), u32> = HashMap::new();
-        for r in ranges {
-            for k in r.clone() {
-                let (a, b) = (self.cage_indices[k], self.cage_indices[r.start + (k - r.start + 1) % r.len()]);
-                *edge_uses.entry((a.min(b), a.max(b))).or_default() += 1;
-            }
+        for (k, next) in face_edges() {
+            let (a, b) = (self.cage_indices[k], self.cage_indices[next]);
+            *edge_uses.entry((a.min(b), a.max(b))).or_default() += 1;
         }
         let on_mesh_boundary: std::collections::HashSet<i32> = edge_uses.iter().filter(|e| *e.1 == 1).flat_map(|((a, b), _)| [*a, *b]).collect();
         for i in 0..n {

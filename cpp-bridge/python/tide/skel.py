@@ -46,6 +46,11 @@ def is_source(prim):
                            or UsdSkel.IsSkelAnimationPrim(prim))
 
 
+def _normal_matrix(m):
+    """The inverse transpose of a 4 x 4 transform's 3 x 3 part: how it turns normals."""
+    return Gf.Matrix3d(*[m[i][j] for i in range(3) for j in range(3)]).GetInverse().GetTranspose()
+
+
 def _t(time):
     return time.GetValue() if isinstance(time, Usd.TimeCode) else float(time)
 
@@ -202,16 +207,18 @@ class SkinnedMesh:
             mapper = q.GetJointMapper()
             if mapper and not mapper.IsIdentity():
                 xforms = mapper.RemapTransforms(xforms)
-            inv_t = lambda m: Gf.Matrix3d(*[m[i][j] for i in range(3) for j in range(3)]).GetInverse().GetTranspose()
-            joints = Vt.Matrix3dArray([inv_t(m) for m in xforms])
+            joints = Vt.Matrix3dArray([_normal_matrix(m) for m in xforms])
             per = q.GetNumInfluencesPerComponent()
             idx, weights = q.ComputeVaryingJointInfluences(n_points, time)
             if per_corner:
-                idx = np.asarray(idx, dtype=np.int32).reshape(-1, per)[corner_points].reshape(-1)
-                weights = np.asarray(weights, dtype=np.float32).reshape(-1, per)[corner_points].reshape(-1)
-                idx, weights = Vt.IntArray.FromNumpy(idx), Vt.FloatArray.FromNumpy(weights)
-            if not UsdSkel.SkinNormals(q.GetSkinningMethod(), inv_t(q.GetGeomBindTransform(time)),
-                                       joints, idx, weights, per, out):
+                # each face corner takes its point's influences
+                per_point = lambda a, kind: np.asarray(a, dtype=kind).reshape(-1, per)
+                idx = Vt.IntArray.FromNumpy(per_point(idx, np.int32)[corner_points].ravel())
+                weights = Vt.FloatArray.FromNumpy(
+                    per_point(weights, np.float32)[corner_points].ravel())
+            bind = _normal_matrix(q.GetGeomBindTransform(time))
+            if not UsdSkel.SkinNormals(q.GetSkinningMethod(), bind, joints, idx, weights, per,
+                                       out):
                 return None
         arr = np.asarray(out, dtype=np.float32).reshape(-1, 3)
         return arr if np.all(np.isfinite(arr)) else None

@@ -536,8 +536,8 @@ impl Ctx<'_> {
                 None => Err(format!("texcoord comes from a '{id}' node whose {input} is not connected")),
             }
         };
-        let family = family(&id).unwrap_or("");
-        Ok(match family {
+        let kind = family(&id).unwrap_or("");
+        Ok(match kind {
             _ if id.starts_with("ND_texcoord_") => (Affine2::IDENTITY, None),
             _ if id.starts_with("ND_geompropvalue_") => (Affine2::IDENTITY, uv_set(self.geomprop(up))),
             _ if id.starts_with("UsdPrimvarReader_") => (Affine2::IDENTITY, uv_set(self.primvar_reader(up))),
@@ -566,11 +566,11 @@ impl Ctx<'_> {
                         Vec2::new(v[0], v[1])
                     })
                 };
-                let d2 = if matches!(family, "multiply" | "divide") { 1.0 } else { 0.0 };
+                let d2 = if matches!(kind, "multiply" | "divide") { 1.0 } else { 0.0 };
                 let (c1, c2) = (vec2(self, "in1", 0.0), vec2(self, "in2", d2));
                 let t = Affine2::from_translation;
                 let s = Affine2::from_scale;
-                match (family, c1, c2) {
+                match (kind, c1, c2) {
                     ("multiply", None, Some(c)) => map(s(c), next(self, "in1")?),
                     ("multiply", Some(c), None) => map(s(c), next(self, "in2")?),
                     ("divide", None, Some(c)) => map(s(Vec2::ONE / c), next(self, "in1")?),
