@@ -46,6 +46,12 @@ impl Lookups for AtVertex<'_> {
     fn uv(&self) -> Vec2 {
         self.mesh.uvs.as_ref().and_then(|u| u.get(self.v)).copied().unwrap_or(Vec2::ZERO)
     }
+
+    /// The vertex's own position: a mesh is displaced before any instance places it, so the
+    /// world's position is the mesh's own too.
+    fn position(&self, _world: bool) -> Vec3 {
+        self.mesh.positions[self.v]
+    }
 }
 
 /// The displacement at each vertex of `mesh` (0 where not finite).

@@ -21,6 +21,8 @@ pub enum Expr {
     Primvar(PrimvarLookup),
     /// The geometry's texture coordinates (u, v, 0, 0).
     TexCoord,
+    /// The point's position (x, y, z, 0): in the world, or in the geometry's own space.
+    Position { world: bool },
     Unary(Unary, Box<Expr>),
     Binary(Binary, Box<Expr>, Box<Expr>),
     /// Component k of the result is component `pick[k]` (0..4) of the operand.
@@ -66,6 +68,8 @@ pub trait Lookups {
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4];
     /// The geometry's texture coordinates.
     fn uv(&self) -> glam::Vec2;
+    /// The point's position in the world (`world`) or in the geometry's own space.
+    fn position(&self, world: bool) -> glam::Vec3;
 }
 
 /// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
@@ -154,6 +158,7 @@ impl Expr {
                 let uv = at.uv();
                 [uv.x, uv.y, 0.0, 0.0]
             }
+            Expr::Position { world } => at.position(*world).extend(0.0).to_array(),
             Expr::Unary(op, a) => a.eval(at).map(|x| op.apply(x)),
             Expr::Binary(op, a, b) => {
                 let (a, b) = (a.eval(at), b.eval(at));
@@ -179,26 +184,29 @@ impl Expr {
             fn uv(&self) -> glam::Vec2 {
                 glam::Vec2::ZERO
             }
+            fn position(&self, _: bool) -> glam::Vec3 {
+                glam::Vec3::ZERO
+            }
         }
         let mut leaves = 0;
         self.leaves(&mut |_| leaves += 1);
-        (leaves == 0 && !self.reads_uv()).then(|| self.eval(&Nothing))
+        (leaves == 0 && !self.reads_geometry()).then(|| self.eval(&Nothing))
     }
 
-    /// Whether the expression reads the geometry's texture coordinates.
-    pub fn reads_uv(&self) -> bool {
+    /// Whether the expression reads the geometry itself: its texture coordinates or position.
+    pub fn reads_geometry(&self) -> bool {
         match self {
-            Expr::TexCoord => true,
+            Expr::TexCoord | Expr::Position { .. } => true,
             Expr::Const(_) | Expr::Texture(_) | Expr::Primvar(_) => false,
-            Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.reads_uv(),
-            Expr::Binary(_, a, b) => a.reads_uv() || b.reads_uv(),
+            Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.reads_geometry(),
+            Expr::Binary(_, a, b) => a.reads_geometry() || b.reads_geometry(),
         }
     }
 
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves_mut(&mut self, f: &mut dyn FnMut(&mut Expr)) {
         match self {
-            Expr::Const(_) | Expr::TexCoord => {}
+            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves_mut(f),
             Expr::Binary(_, a, b) => {
@@ -211,7 +219,7 @@ impl Expr {
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves(&self, f: &mut dyn FnMut(&Expr)) {
         match self {
-            Expr::Const(_) | Expr::TexCoord => {}
+            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves(f),
             Expr::Binary(_, a, b) => {
@@ -254,6 +262,9 @@ mod tests {
         }
         fn uv(&self) -> glam::Vec2 {
             glam::Vec2::new(0.25, 0.75)
+        }
+        fn position(&self, world: bool) -> glam::Vec3 {
+            if world { glam::Vec3::new(1.0, 2.0, 3.0) } else { glam::Vec3::new(-1.0, -2.0, -3.0) }
         }
     }
 
@@ -345,6 +356,8 @@ mod tests {
         // texture coordinates are no constant either
         let uv = Expr::binary(Binary::Mul, Expr::TexCoord, c([2.0; 4]));
         assert_eq!((uv.constant_value(), uv.eval(&Fixed)), (None, [0.5, 1.5, 0.0, 0.0]));
+        let p = Expr::binary(Binary::Add, Expr::Position { world: true }, Expr::Position { world: false });
+        assert_eq!((p.constant_value(), p.eval(&Fixed)), (None, [0.0; 4]));
         let mut n = 0;
         let mut e2 = e.clone();
         e2.leaves_mut(&mut |leaf| {

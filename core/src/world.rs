@@ -326,6 +326,23 @@ impl Lookups for AtHit<'_> {
     fn uv(&self) -> Vec2 {
         self.s.uv
     }
+
+    fn position(&self, world: bool) -> Vec3 {
+        if world {
+            return self.s.p;
+        }
+        let Some(info) = self.w.instances.get(self.s.instance as usize) else { return self.s.p };
+        match info.geometry {
+            // the mesh's own vertices at the hit's barycentrics (its pose at time 0)
+            GeometryRef::Mesh(mi) => {
+                let m = &self.w.meshes[mi];
+                let i = 3 * self.s.prim as usize;
+                let b = [1.0 - self.s.bary.x - self.s.bary.y, self.s.bary.x, self.s.bary.y];
+                (0..3).map(|k| m.indices.get(i + k).and_then(|&v| m.positions.get(v as usize)).map_or(Vec3::ZERO, |p| *p * b[k])).sum()
+            }
+            GeometryRef::Spheres(_) => self.w.accel.instance_transform(self.s.instance, 0.0).inverse().transform_point3(self.s.p),
+        }
+    }
 }
 
 /// A lookup's value at each vertex of an instance's mesh (as [`World::primvar`] reads it at a
@@ -369,13 +386,16 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
     let sources: Vec<_> = names.iter().map(|n| corner_source(m, inst.primvar_row, &scene.instance_primvars, n)).collect();
     let graph = std::sync::Arc::new(crate::light::EmissionGraph { expr, textures, names });
     let own = m.uvs.as_deref();
+    let to_world = inst.transforms.first().copied().unwrap_or(glam::Mat4::IDENTITY);
     Box::new(move |t: &[u32]| {
         let corners = sources.iter().map(|s| s.as_ref().map(|f| [0, 1, 2].map(|k| f(t[k])))).collect();
         let uv = match own {
             Some(uvs) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
             None => [Vec2::ZERO, Vec2::X, Vec2::Y],
         };
-        let how = crate::light::VaryingEmission::Graph { graph: graph.clone(), corners, uv, cs };
+        let object = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+        let world = object.map(|p| to_world.transform_point3(p));
+        let how = crate::light::VaryingEmission::Graph { graph: graph.clone(), corners, uv, object, world, cs };
         let third = 1.0 / 3.0;
         let probes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [third; 3]].map(|b| how.rgb(b).0);
         let mean = std::array::from_fn(|c| probes.iter().map(|p| p[c]).sum::<f32>() / 4.0);
@@ -1052,7 +1072,7 @@ mod tests {
     fn emission_from_a_primvar_a_texture_or_a_graph_is_sampled_as_the_surface_glows() {
         // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2,
         // or shows a 2 x 2 texture (uv = (x, z) / 2), or a graph of both, of the texture read
-        // through a second uv set and of u
+        // through a second uv set, of u and of the position
         let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
         m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
         m.indices = vec![0, 1, 2, 0, 2, 3];
@@ -1072,8 +1092,10 @@ mod tests {
             Expr::binary(Binary::Mul, Expr::Texture(lookup.clone()), Expr::Primvar(tinted.clone())),
             Expr::binary(Binary::Mul, Expr::Texture(through_st1), Expr::Primvar(PrimvarLookup::new("absent", [0.5; 4]))),
         );
-        // and the texture coordinates' u
+        // and the texture coordinates' u, the object-space x and the world's z
         let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::TexCoord, 0));
+        let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Position { world: false }, 0));
+        let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Position { world: true }, 2));
         for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup), ColorInput::Graph(graph)] {
             let mut s = SceneDesc::default();
             s.meshes.push(m.clone());

@@ -1283,9 +1283,9 @@ mod tests {
         assert_eq!(med.phase, PhaseDesc::Isotropic);
     }
 
-    /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5) or the texture
-    /// coordinates (0.2, 0.7) so that it cannot fold away, computes what the MaterialX
-    /// specification says it does.
+    /// Every MaterialX arithmetic node, fed a primvar x = (0.3, 0.6, 0.9, 0.5), the texture
+    /// coordinates (0.2, 0.7) or the position so that it cannot fold away, computes what the
+    /// MaterialX specification says it does.
     #[test]
     fn materialx_nodes_compute_their_specified_values() {
         use tide_core::shader_graph::Lookups;
@@ -1301,6 +1301,9 @@ mod tests {
             }
             fn uv(&self) -> Vec2 {
                 Vec2::new(0.2, 0.7)
+            }
+            fn position(&self, world: bool) -> glam::Vec3 {
+                if world { glam::Vec3::new(1.0, 2.0, 3.0) } else { glam::Vec3::new(4.0, 5.0, 6.0) }
             }
         }
         let f = |x: f64| Value::Float(x);
@@ -1335,6 +1338,9 @@ mod tests {
             ("ND_floor_color3", vec![("in.connect", tok("/M/Ten.outputs:out"))], "out", [3.0, 6.0, 9.0, 5.0]),
             // over the mesh's texture coordinates, (0.2, 0.7) here, or x's
             ("ND_texcoord_vector2", vec![], "out", [0.2, 0.7, 0.0, 0.0]),
+            // the position, (4, 5, 6) in the object's space and (1, 2, 3) in the world here
+            ("ND_position_vector3", vec![], "out", [4.0, 5.0, 6.0, 0.0]),
+            ("ND_position_vector3", vec![("space", Value::String("world".into()))], "out", [1.0, 2.0, 3.0, 0.0]),
             ("ND_ramplr_color3", vec![("valuel", c3([1.0, 0.0, 0.0])), ("valuer", c3([0.0, 0.0, 1.0]))], "out", [0.8, 0.0, 0.2, 1.0]),
             ("ND_ramplr_color3", vec![("valuel", c3([1.0, 0.0, 0.0])), ("valuer", c3([0.0, 0.0, 1.0])), ("texcoord.connect", x())], "out", [0.7, 0.0, 0.3, 1.0]),
             ("ND_ramptb_color3", vec![("valuet", c3([1.0; 3])), ("valueb", c3([0.0; 3]))], "out", [0.7, 0.7, 0.7, 1.0]),

@@ -163,10 +163,12 @@ def _wet_stage(amount, connect=None):
     return s
 
 
-@pytest.mark.parametrize("mask", ["texture", "primvar"])
+@pytest.mark.parametrize("mask", ["texture", "primvar", "position"])
 def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
     """The left half wet (mask 1) and the right half dry (mask 0) match, pixel for pixel, the
-    panel wet all over and dry all over; the authored amount (0.5) is not used."""
+    panel wet all over and dry all over; the authored amount (0.5) is not used. The mask is a
+    texture, a per-face primvar, or MaterialX nodes on the position (wet where x < 0: the
+    way wet sand below a waterline is made)."""
     def by_texture(s, m, mat, attr):
         f = tmp_path / "mask.exr"
         write_exr(f, [[(1, 1, 1), (1, 1, 1), (0, 0, 0), (0, 0, 0)]])
@@ -189,7 +191,23 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
         out = rd.CreateOutput("result", Sdf.ValueTypeNames.Float)
         attr.AddConnection(out.GetAttr().GetPath())
 
-    masked = render(renderer, _wet_stage(0.5, by_texture if mask == "texture" else by_primvar))
+    def by_position(s, m, mat, attr):
+        def node(name, node_id, **inputs):
+            sh = UsdShade.Shader.Define(s, "/Looks/Grey/" + name)
+            sh.CreateIdAttr(node_id)
+            for k, v in inputs.items():
+                if isinstance(v, UsdShade.Output):
+                    sh.CreateInput(k, v.GetTypeName()).ConnectToSource(v)
+                else:
+                    sh.CreateInput(k, Sdf.ValueTypeNames.Float).Set(v)
+            return sh
+        p = node("P", "ND_position_vector3").CreateOutput("out", Sdf.ValueTypeNames.Float3)
+        x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
+        below = node("Below", "ND_ifgreater_float", value1=0.0, value2=x, in1=1.0, in2=0.0)
+        attr.AddConnection(below.CreateOutput("out", Sdf.ValueTypeNames.Float).GetAttr().GetPath())
+
+    connect = {"texture": by_texture, "primvar": by_primvar, "position": by_position}[mask]
+    masked = render(renderer, _wet_stage(0.5, connect))
     wet = render(renderer, _wet_stage(1.0))["color"][..., :3].astype(np.float64)
     dry = render(renderer, _wet_stage(0.0))["color"][..., :3].astype(np.float64)
     half = render(renderer, _wet_stage(0.5))["color"][..., :3].astype(np.float64)
@@ -197,7 +215,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
     # a texel's bilinear blend reaches a quarter of the panel from the middle: compare the
     # outer quarters, where the mask is 1 and 0
     q = RES // 4
-    if mask == "primvar":
+    if mask != "texture":
         q = RES // 2 - 1
     assert np.allclose(got[:, :q], wet[:, :q], rtol=1e-4, atol=1e-5)
     assert np.allclose(got[:, -q:], dry[:, -q:], rtol=1e-4, atol=1e-5)

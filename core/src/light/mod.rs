@@ -493,7 +493,8 @@ pub enum VaryingEmission {
     /// A node graph evaluated where the sample lies: its primvars interpolated from the
     /// corners (`corners[i]`: primvar `graph.names[i]` at each corner, None where the geometry
     /// lacks it), its textures looked up at interpolated coordinates (`uv`: the mesh's).
-    Graph { graph: std::sync::Arc<EmissionGraph>, corners: Box<[Option<[[f32; 4]; 3]>]>, uv: [Vec2; 3], cs: ColorSpace },
+    /// `object` and `world`: the corners in the mesh's own space and in the world.
+    Graph { graph: std::sync::Arc<EmissionGraph>, corners: Box<[Option<[[f32; 4]; 3]>]>, uv: [Vec2; 3], object: [Vec3; 3], world: [Vec3; 3], cs: ColorSpace },
 }
 
 /// A node graph's emission as its triangles share it: the graph with its texture indices into
@@ -511,6 +512,8 @@ struct OnTriangle<'a> {
     graph: &'a EmissionGraph,
     corners: &'a [Option<[[f32; 4]; 3]>],
     uv: [Vec2; 3],
+    object: [Vec3; 3],
+    world: [Vec3; 3],
     b: [f32; 3],
 }
 
@@ -530,6 +533,11 @@ impl crate::shader_graph::Lookups for OnTriangle<'_> {
         self.uv[0] * self.b[0] + self.uv[1] * self.b[1] + self.uv[2] * self.b[2]
     }
 
+    fn position(&self, world: bool) -> Vec3 {
+        let p = if world { self.world } else { self.object };
+        p[0] * self.b[0] + p[1] * self.b[1] + p[2] * self.b[2]
+    }
+
     fn primvar(&self, l: &crate::scene::PrimvarLookup) -> [f32; 4] {
         let corners = self.graph.names.iter().position(|n| *n == l.name).and_then(|i| self.corners.get(i).copied().flatten());
         let v = corners.map_or(l.fallback, |c| std::array::from_fn(|k| self.b[0] * c[0][k] + self.b[1] * c[1][k] + self.b[2] * c[2][k]));
@@ -546,8 +554,8 @@ impl VaryingEmission {
                 let st = uv[0] * b[0] + uv[1] * b[1] + uv[2] * b[2];
                 (crate::texture::lookup_rgb(std::slice::from_ref(&**texture), lookup, st), *cs)
             }
-            VaryingEmission::Graph { graph, corners, uv, cs } => {
-                let v = graph.expr.eval(&OnTriangle { graph, corners, uv: *uv, b });
+            VaryingEmission::Graph { graph, corners, uv, object, world, cs } => {
+                let v = graph.expr.eval(&OnTriangle { graph, corners, uv: *uv, object: *object, world: *world, b });
                 ([v[0], v[1], v[2]], *cs)
             }
         }

@@ -23,7 +23,8 @@
 //! `geompropvalue` (a primvar, as UsdPrimvarReader), `texcoord` (the mesh's uvs), `normalmap`,
 //! `constant` and `dot`, and the arithmetic of [`ARITHMETIC`] (math, `mix`, `clamp`, `remap`,
 //! `smoothstep`, `luminance`, conversions, channel extraction and combination, `ifgreater`,
-//! ramps and splits over the texture coordinates, which `texcoord` also gives as a value). An
+//! ramps and splits over the texture coordinates, which `texcoord` also gives as a value, and
+//! `position` in the object's or the world's space). An
 //! image's texcoord may pass through `place2d` (both operation orders) and arithmetic by
 //! constants, folded into the lookup's affine transform. Arithmetic folds into a single lookup
 //! where it can (a tint, a gain, an offset of a texture: its scale and bias) and otherwise
@@ -53,7 +54,7 @@ pub(super) fn canonical_id(id: &str) -> &str {
 
 /// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, and the arithmetic
 /// of [`Ctx::arithmetic`].
-const LOOKUPS: [&str; 8] = ["image", "tiledimage", "geompropvalue", "texcoord", "constant", "dot", "normalmap", "place2d"];
+const LOOKUPS: [&str; 9] = ["image", "tiledimage", "geompropvalue", "texcoord", "position", "constant", "dot", "normalmap", "place2d"];
 const ARITHMETIC: [&str; 38] = [
     "multiply", "add", "subtract", "divide", "min", "max", "power", "modulo", "absval", "floor", "ceil", "sqrt", "exp", "ln", "sin", "cos", "sign", "mix", "clamp",
     "invert", "remap", "smoothstep", "luminance", "convert", "extract", "separate2", "separate3", "separate4", "combine2", "combine3", "combine4", "ifgreater",
@@ -253,6 +254,8 @@ impl Ctx<'_> {
             }),
             Some("geompropvalue") => Some(Source::Primvar(self.geomprop(up))),
             Some("texcoord") => Some(Source::Graph(Expr::TexCoord)),
+            // `object` (the fallback) and `model` are the geometry's own space
+            Some("position") => Some(Source::Graph(Expr::Position { world: self.input_token(up, "space", &["object", "model", "world"], "object") == "world" })),
             Some("constant") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
             Some("dot") => match self.operand(up, "in", [0.0; 4], depth) {
                 Ok(source) => Some(source),
