@@ -246,6 +246,25 @@ def near(pixels, want):
     return bool(np.all(np.abs(mean - want) < 4 * se + 0.005 * want + 1e-3)), (mean, se, want)
 
 
+def shader_node(stage, path, node_id, **inputs):
+    """A MaterialX node `node_id` with `inputs`: floats, 3-tuples (colours), strings (file
+    paths or tokens) or the outputs of other nodes."""
+    sh = UsdShade.Shader.Define(stage, path)
+    sh.CreateIdAttr(node_id)
+    for k, v in inputs.items():
+        if isinstance(v, UsdShade.Output):
+            sh.CreateInput(k, v.GetTypeName()).ConnectToSource(v)
+        elif isinstance(v, tuple):
+            sh.CreateInput(k, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*v))
+        elif isinstance(v, str) and k == "file":
+            sh.CreateInput(k, Sdf.ValueTypeNames.Asset).Set(v)
+        elif isinstance(v, str):
+            sh.CreateInput(k, Sdf.ValueTypeNames.String).Set(v)
+        else:
+            sh.CreateInput(k, Sdf.ValueTypeNames.Float).Set(v)
+    return sh
+
+
 def white_dome(stage):
     """A white dome of radiance 1."""
     UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))

@@ -4,8 +4,8 @@ transmission as a clear dielectric."""
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import (RES, bind, camera, near, panel, render, settings, top_camera, white_dome,
-                      write_exr)
+from conftest import (RES, bind, camera, near, panel, render, settings, shader_node, top_camera,
+                      white_dome, write_exr)
 
 
 def _standard_surface(stage, path, **inputs):
@@ -124,25 +124,6 @@ def test_transmission_makes_the_same_clear_dielectric_as_tide_water(renderer):
     assert np.abs(glass - ball("diffuse")).mean() > 0.05
 
 
-def _shader(stage, path, node_id, **inputs):
-    """A MaterialX node `node_id` with `inputs`: floats, 3-tuples (colours), strings (file
-    paths or tokens) or the outputs of other nodes."""
-    sh = UsdShade.Shader.Define(stage, path)
-    sh.CreateIdAttr(node_id)
-    for k, v in inputs.items():
-        if isinstance(v, UsdShade.Output):
-            sh.CreateInput(k, v.GetTypeName()).ConnectToSource(v)
-        elif isinstance(v, tuple):
-            sh.CreateInput(k, Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*v))
-        elif isinstance(v, str) and k == "file":
-            sh.CreateInput(k, Sdf.ValueTypeNames.Asset).Set(v)
-        elif isinstance(v, str):
-            sh.CreateInput(k, Sdf.ValueTypeNames.String).Set(v)
-        else:
-            sh.CreateInput(k, Sdf.ValueTypeNames.Float).Set(v)
-    return sh
-
-
 def test_two_textures_multiplied_and_mixed_by_a_primvar_mask(renderer, stage, tmp_path):
     """emission_color = mix(bg 0.1, image A x image B, a per-face primvar mask): arithmetic on
     two varying operands, evaluated at each hit. Left (mask 1): A x B = (1, 0.5, 0.25) x 2;
@@ -158,11 +139,11 @@ def test_two_textures_multiplied_and_mixed_by_a_primvar_mask(renderer, stage, tm
     pv.CreatePrimvar("mask", Sdf.ValueTypeNames.FloatArray, UsdGeom.Tokens.uniform).Set([1.0, 0.25])
     mat, sh = _standard_surface(stage, "/Looks/Sign", base=0.0, specular=0.0, emission=1.0)
     out = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
-    img_a = _shader(stage, "/Looks/Sign/A", "ND_image_color3", file=str(a), uaddressmode="clamp")
-    img_b = _shader(stage, "/Looks/Sign/B", "ND_image_color3", file=str(b), uaddressmode="clamp")
-    mask = _shader(stage, "/Looks/Sign/Mask", "ND_geompropvalue_float", geomprop="mask")
-    prod = _shader(stage, "/Looks/Sign/AxB", "ND_multiply_color3", in1=out(img_a), in2=out(img_b))
-    mix = _shader(stage, "/Looks/Sign/Mix", "ND_mix_color3FA", fg=out(prod), bg=(0.1, 0.1, 0.1),
+    img_a = shader_node(stage, "/Looks/Sign/A", "ND_image_color3", file=str(a), uaddressmode="clamp")
+    img_b = shader_node(stage, "/Looks/Sign/B", "ND_image_color3", file=str(b), uaddressmode="clamp")
+    mask = shader_node(stage, "/Looks/Sign/Mask", "ND_geompropvalue_float", geomprop="mask")
+    prod = shader_node(stage, "/Looks/Sign/AxB", "ND_multiply_color3", in1=out(img_a), in2=out(img_b))
+    mix = shader_node(stage, "/Looks/Sign/Mix", "ND_mix_color3FA", fg=out(prod), bg=(0.1, 0.1, 0.1),
                   mix=mask.CreateOutput("out", Sdf.ValueTypeNames.Float))
     sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(out(mix))
     bind(m.GetPrim(), mat)
@@ -179,7 +160,7 @@ def test_two_textures_multiplied_and_mixed_by_a_primvar_mask(renderer, stage, tm
 def _open_pbr(stage, path, **inputs):
     """A Material whose mtlx:surface is an open_pbr_surface with `inputs`."""
     mat = UsdShade.Material.Define(stage, path)
-    sh = _shader(stage, path + "/OpenPBR", "ND_open_pbr_surface_surfaceshader", **inputs)
+    sh = shader_node(stage, path + "/OpenPBR", "ND_open_pbr_surface_surfaceshader", **inputs)
     mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
     return mat
 

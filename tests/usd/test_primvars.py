@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import (HALF, RES, bind, camera, lambert_material, near, panel, render, settings, top_camera,
-                      white_dome, write_exr)
+from conftest import (HALF, RES, bind, camera, lambert_material, near, panel, render, settings,
+                      shader_node, top_camera, white_dome, write_exr)
 
 
 def _black(stage, path):
@@ -192,15 +192,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
         attr.AddConnection(out.GetAttr().GetPath())
 
     def by_position(s, m, mat, attr):
-        def node(name, node_id, **inputs):
-            sh = UsdShade.Shader.Define(s, "/Looks/Grey/" + name)
-            sh.CreateIdAttr(node_id)
-            for k, v in inputs.items():
-                if isinstance(v, UsdShade.Output):
-                    sh.CreateInput(k, v.GetTypeName()).ConnectToSource(v)
-                else:
-                    sh.CreateInput(k, Sdf.ValueTypeNames.Float).Set(v)
-            return sh
+        node = lambda name, node_id, **inputs: shader_node(s, "/Looks/Grey/" + name, node_id, **inputs)
         p = node("P", "ND_position_vector3").CreateOutput("out", Sdf.ValueTypeNames.Float3)
         x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
         below = node("Below", "ND_ifgreater_float", value1=0.0, value2=x, in1=1.0, in2=0.0)
