@@ -966,18 +966,29 @@ impl Delegate {
                     })),
                     (g, _) => g,
                 };
-                // a mesh light: its material emits (UsdLuxMeshLightAPI)
-                let material = match (&r.mesh_light, geometry) {
+                // a mesh light: its material emits (UsdLuxMeshLightAPI); with `normalize`, each
+                // instance divides by its own world area (one material per area)
+                let mut emitting: Vec<(u32, usize)> = Vec::new();
+                let mut material_of = |k: usize, scene: &mut SceneDesc, ap: &mut Vec<Problem>| match (&r.mesh_light, geometry) {
                     (Some(ml), GeometryRef::Mesh(mi)) => {
-                        let world = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * xf.first().copied().unwrap_or(Mat4::IDENTITY);
+                        let world = r.instance_transforms.get(k).copied().unwrap_or(Mat4::IDENTITY) * xf.first().copied().unwrap_or(Mat4::IDENTITY);
+                        let key = if ml.normalize { lux::world_area(&scene.meshes[mi], world).to_bits() } else { 0 };
+                        if let Some(&(_, m)) = emitting.iter().find(|e| e.0 == key) {
+                            return m;
+                        }
                         let (m, problem) = lux::mesh_light_material(ml, &scene.materials[material], &scene.meshes[mi], world, scene.color_space, path);
-                        ap.extend(problem);
+                        // reported once per mesh
+                        if emitting.is_empty() {
+                            ap.extend(problem);
+                        }
                         scene.materials.push(m);
+                        emitting.push((key, scene.materials.len() - 1));
                         scene.materials.len() - 1
                     }
                     _ => material,
                 };
                 for (k, inst) in r.instance_transforms.iter().enumerate() {
+                    let material = material_of(k, &mut scene, &mut ap);
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
                     instance_paths.push(path.clone());
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {

@@ -424,6 +424,17 @@ pub fn read_mesh_light(store: &AttrStore, p: &mut Problems) -> Option<MeshLight>
     })
 }
 
+/// The area of `mesh` placed by `world`.
+pub fn world_area(mesh: &tide_core::scene::MeshDesc, world: Mat4) -> f32 {
+    mesh.indices
+        .chunks_exact(3)
+        .map(|t| {
+            let [a, b, c] = [0, 1, 2].map(|k| world.transform_point3(mesh.positions[t[k] as usize]));
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
 /// The material a mesh light's mesh renders with: `base` (its bound material) emitting the
 /// light's radiance as UsdLux's `light:materialSyncMode` says. Emission from a constant colour
 /// makes the mesh's triangles lights the renderer samples. `world` places the mesh (for
@@ -437,14 +448,7 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
         rgb = [rgb[0] * bb[0], rgb[1] * bb[1], rgb[2] * bb[2]];
     }
     if ml.normalize {
-        let area: f32 = mesh
-            .indices
-            .chunks_exact(3)
-            .map(|t| {
-                let [a, b, c] = [0, 1, 2].map(|k| world.transform_point3(mesh.positions[t[k] as usize]));
-                0.5 * (b - a).cross(c - a).length()
-            })
-            .sum();
+        let area = world_area(mesh, world);
         if area > 0.0 {
             rgb = rgb.map(|c| c / area);
         }

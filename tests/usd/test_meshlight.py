@@ -176,3 +176,34 @@ def test_a_mesh_lights_light_link_collection_leaves_out_what_it_excludes(rendere
     assert free[:, right].mean() > 0.02
     assert np.allclose(linked[:, left], free[:, left], rtol=1e-4, atol=1e-6)
     assert np.all(linked[:, right] == 0.0)
+
+
+def test_a_normalized_mesh_light_divides_each_instance_by_its_own_area(renderer):
+    """A PointInstancer placing a 1 x 1 mesh light (intensity 1, normalize) at x = -1 as it is
+    and at x = 1 scaled to half its width and depth: seen from above, the first glows 1 / 1,
+    the second 1 / 0.25."""
+    from pxr import Usd
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    _top_camera(s)
+    pi = UsdGeom.PointInstancer.Define(s, "/Lights")
+    m = _panel(s, "/Lights/Protos/Panel", 1.0, 0.0, True)
+    UsdLux.MeshLightAPI.Apply(m.GetPrim())
+    light = UsdLux.LightAPI(m.GetPrim())
+    light.CreateIntensityAttr(1.0)
+    light.CreateNormalizeAttr(True)
+    m.GetPrim().CreateAttribute("light:materialSyncMode", Sdf.ValueTypeNames.Token).Set(
+        "noMaterialResponse")
+    pi.CreatePrototypesRel().SetTargets([m.GetPath()])
+    pi.CreateProtoIndicesAttr([0, 0])
+    pi.CreatePositionsAttr([(-1, 1, 0), (1, 1, 0)])
+    pi.CreateScalesAttr([(1, 1, 1), (0.5, 1, 0.5)])
+    # many samples: a white light's wavelengths average out over few pixels
+    settings(s, res=(RES, RES), samples=256, integrator="path")
+    problems = []
+    img = render(renderer, s, problems)["color"][..., 0].astype(np.float64)
+    assert problems == [], problems
+    # the middle 2 x 2 pixels of each panel (x = -1 and x = 1: columns RES / 4 and 3 RES / 4)
+    mid = lambda col: img[RES // 2 - 1:RES // 2 + 1, col - 1:col + 1].mean()
+    assert mid(RES // 4) == pytest.approx(1.0, rel=0.01)
+    assert mid(3 * RES // 4) == pytest.approx(4.0, rel=0.01)
