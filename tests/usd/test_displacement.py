@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, darkness, render, settings, write_exr
+from conftest import bind, camera, darkness, load, render, settings, shader_node, write_exr
 from test_render import _white_dome
 
 F, AP, D, W = 50.0, 36.0, 8.0, 96
@@ -18,8 +18,8 @@ def _square(stage):
     xs = np.linspace(-1, 1, 5)
     m.CreatePointsAttr([(x, y, 0) for y in xs for x in xs])
     m.CreateFaceVertexCountsAttr([4] * 16)
-    m.CreateFaceVertexIndicesAttr([k for j in range(4) for i in range(4)
-                                   for k in (5 * j + i, 5 * j + i + 1, 5 * j + i + 6, 5 * j + i + 5)])
+    corners = lambda v: (v, v + 1, v + 6, v + 5)      # the quad whose first corner is point v
+    m.CreateFaceVertexIndicesAttr([k for j in range(4) for i in range(4) for k in corners(5 * j + i)])
     m.CreateSubdivisionSchemeAttr("none")
     m.AddTranslateOp().Set(Gf.Vec3d(0, 0, -D))
     return m
@@ -70,3 +70,22 @@ def test_a_displaced_square_comes_closer(renderer, tmp_path, lift):
         tex = tmp_path / "half.exr"
         write_exr(tex, [[(0.5, 0.5, 0.5)]])
         assert _width(renderer, tex_file=tex) == pytest.approx(want, abs=0.5)
+
+
+def test_a_materialx_displacement_shader_is_reported(stage, delegate):
+    """A material whose mtlx displacement terminal is a MaterialX displacement node: reported
+    on the material (only UsdPreviewSurface's own input displaces); a UsdPreviewSurface on the
+    displacement terminal is not."""
+    camera(stage)
+    bind(_square(stage).GetPrim(), _black_displacing(stage, displacement=1.0))
+    mat = UsdShade.Material(stage.GetPrimAtPath("/Looks/Black"))
+    ps = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Black/S"))
+    mat.CreateDisplacementOutput().ConnectToSource(
+        ps.CreateOutput("displacement", Sdf.ValueTypeNames.Token))
+    _, problems = load(stage, delegate)
+    assert problems == []
+    d = shader_node(stage, "/Looks/Black/D", "ND_displacement_float", displacement=0.5)
+    mat.CreateDisplacementOutput("mtlx").ConnectToSource(
+        d.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    _, problems = load(stage, type(delegate)())
+    assert [(p.prim, p.attribute) for p in problems] == [("/Looks/Black", "outputs:displacement")]
