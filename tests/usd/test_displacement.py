@@ -19,7 +19,8 @@ def _square(stage):
     m.CreatePointsAttr([(x, y, 0) for y in xs for x in xs])
     m.CreateFaceVertexCountsAttr([4] * 16)
     corners = lambda v: (v, v + 1, v + 6, v + 5)      # the quad whose first corner is point v
-    m.CreateFaceVertexIndicesAttr([k for j in range(4) for i in range(4) for k in corners(5 * j + i)])
+    m.CreateFaceVertexIndicesAttr([k for j in range(4) for i in range(4)
+                                   for k in corners(5 * j + i)])
     m.CreateSubdivisionSchemeAttr("none")
     m.AddTranslateOp().Set(Gf.Vec3d(0, 0, -D))
     return m
