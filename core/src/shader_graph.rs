@@ -7,7 +7,8 @@
 //! Every value has four components. A colour reads the first three, a scalar the first; the
 //! builder broadcasts scalars to all four where a node mixes the two.
 
-use crate::scene::{Channel, PrimvarLookup, TexLookup};
+use crate::scene::{PrimvarLookup, TexLookup};
+use crate::texture::channel_rgba;
 
 /// A value computed at a point of a surface.
 #[derive(Clone, Debug, PartialEq)]
@@ -70,17 +71,6 @@ pub trait Lookups {
     fn uv(&self) -> glam::Vec2;
     /// The point's position in the world (`world`) or in the geometry's own space.
     fn position(&self, world: bool) -> glam::Vec3;
-}
-
-/// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
-pub fn channel_rgba(v: [f32; 4], channel: Channel) -> [f32; 4] {
-    match channel {
-        Channel::Rgb => v,
-        Channel::R => [v[0]; 4],
-        Channel::G => [v[1]; 4],
-        Channel::B => [v[2]; 4],
-        Channel::A => [v[3]; 4],
-    }
 }
 
 impl Unary {
@@ -250,6 +240,7 @@ impl Expr {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Channel;
 
     /// Textures answer `texture · 10 + row`, primvars `fallback + 100`.
     struct Fixed;

@@ -71,28 +71,27 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
     })
 }
 
+/// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
+pub fn channel_rgba(v: [f32; 4], channel: Channel) -> [f32; 4] {
+    match channel {
+        Channel::Rgb => v,
+        Channel::R => [v[0]; 4],
+        Channel::G => [v[1]; 4],
+        Channel::B => [v[2]; 4],
+        Channel::A => [v[3]; 4],
+    }
+}
+
 /// An RGB value of a lookup (single-channel outputs are replicated).
 pub fn lookup_rgb(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> [f32; 3] {
-    let v = lookup_rgba(textures, l, st);
-    match l.channel {
-        Channel::Rgb => [v[0], v[1], v[2]],
-        Channel::R => [v[0]; 3],
-        Channel::G => [v[1]; 3],
-        Channel::B => [v[2]; 3],
-        Channel::A => [v[3]; 3],
-    }
+    let v = channel_rgba(lookup_rgba(textures, l, st), l.channel);
+    [v[0], v[1], v[2]]
 }
 
 /// A scalar value of a lookup (`Rgb` reads the red channel, as UsdPreviewSurface float
 /// inputs connected to `outputs:rgb` do).
 pub fn lookup_float(textures: &[TextureDesc], l: &TexLookup, st: Vec2) -> f32 {
-    let v = lookup_rgba(textures, l, st);
-    match l.channel {
-        Channel::Rgb | Channel::R => v[0],
-        Channel::G => v[1],
-        Channel::B => v[2],
-        Channel::A => v[3],
-    }
+    channel_rgba(lookup_rgba(textures, l, st), l.channel)[0]
 }
 
 #[cfg(test)]

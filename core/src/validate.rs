@@ -45,7 +45,8 @@ fn fix_fallback(l: &mut PrimvarLookup, item: &str, attr: &str, p: &mut Vec<Probl
 /// A node graph's leaves made safe: a missing texture reads its fallback, primvar fallbacks
 /// and scales are finite.
 fn fix_graph(e: &mut crate::shader_graph::Expr, n_tex: usize, item: &str, attr: &str, p: &mut Vec<Problem>) {
-    use crate::shader_graph::{channel_rgba, Expr};
+    use crate::shader_graph::Expr;
+    use crate::texture::channel_rgba;
     e.leaves_mut(&mut |leaf| match leaf {
         Expr::Texture(l) if l.texture >= n_tex => {
             problem(p, item, attr, "texture missing; fallback used");
