@@ -132,6 +132,18 @@ enum Source {
 }
 
 impl Source {
+    /// The source read as a scalar: a texture's `rgb` as its red channel (as UsdPreviewSurface
+    /// float inputs connected to `outputs:rgb` read it).
+    fn scalar(self) -> Source {
+        match self {
+            Source::Texture(mut t) if t.channel == Channel::Rgb => {
+                t.channel = Channel::R;
+                Source::Texture(t)
+            }
+            other => other,
+        }
+    }
+
     /// The source as an expression.
     fn into_expr(self) -> Expr {
         match self {
@@ -174,14 +186,9 @@ fn uv_set(l: PrimvarLookup) -> Option<PrimvarLookup> {
 /// A scalar input: its constant, or what its connection supplies (a texture's `rgb` read as
 /// its red channel).
 fn float_input(c: f32, source: Option<Source>) -> FloatInput {
-    match source {
+    match source.map(Source::scalar) {
         None => FloatInput::Const(c),
-        Some(Source::Texture(mut t)) => {
-            if t.channel == Channel::Rgb {
-                t.channel = Channel::R;
-            }
-            FloatInput::Texture(t)
-        }
+        Some(Source::Texture(t)) => FloatInput::Texture(t),
         Some(Source::Primvar(l)) => FloatInput::Primvar(l),
         Some(Source::Fallback(fb)) => FloatInput::Const(fb[0]),
         Some(Source::Graph(e)) => FloatInput::Graph(e),

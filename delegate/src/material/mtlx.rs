@@ -593,15 +593,9 @@ impl Ctx<'_> {
         let c = self.input_vec(node, color, [color_default; 3]);
         let c = self.source(node, color).unwrap_or(Source::Fallback([c[0], c[1], c[2], 1.0]));
         let w = self.input_f32(node, weight, weight_default);
-        let w = match self.source(node, weight) {
+        // a scalar: one channel of a texture, the first component of a graph
+        let w = match self.source(node, weight).map(Source::scalar) {
             None => Source::Fallback([w, w, w, 1.0]),
-            // a scalar: one channel of a texture, the first component of a graph
-            Some(Source::Texture(mut t)) => {
-                if t.channel == Channel::Rgb {
-                    t.channel = Channel::R;
-                }
-                Source::Texture(t)
-            }
             Some(Source::Graph(e)) => Source::Graph(Expr::splat(e, 0)),
             Some(other) => other,
         };
