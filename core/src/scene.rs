@@ -181,6 +181,42 @@ pub struct PreviewSurfaceDesc {
     pub normal: Option<TexLookup>,
     /// A thin water film over the surface (the material's `TideWetAPI`).
     pub wet: Option<WetDesc>,
+    /// The inputs of a MaterialX PBR surface beyond UsdPreviewSurface's (None: all neutral).
+    pub extras: Option<Box<PbrExtras>>,
+}
+
+/// The inputs of a MaterialX PBR surface (Standard Surface, OpenPBR) that UsdPreviewSurface
+/// lacks; [`Default`] is neutral (see [`crate::bsdf::preview`] for how they render).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PbrExtras {
+    /// Weight of the dielectric specular reflection, 0–1.
+    pub specular_weight: FloatInput,
+    /// Tint of the dielectric specular reflection.
+    pub specular_tint: ColorInput,
+    /// Colour the coat gives whatever lies under it.
+    pub coat_color: ColorInput,
+    /// IOR of the coat.
+    pub coat_ior: f32,
+    /// Specular anisotropy, 0–1, and how it maps to the two roughnesses.
+    pub anisotropy: FloatInput,
+    pub anisotropy_model: crate::bsdf::Anisotropy,
+    /// Turn of the anisotropy's tangent about the normal, in revolutions (Standard Surface's
+    /// `specular_rotation`); 0 is the direction of increasing u.
+    pub anisotropy_rotation: FloatInput,
+}
+
+impl Default for PbrExtras {
+    fn default() -> Self {
+        PbrExtras {
+            specular_weight: FloatInput::Const(1.0),
+            specular_tint: ColorInput::Const([1.0; 3]),
+            coat_color: ColorInput::Const([1.0; 3]),
+            coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
+            anisotropy: FloatInput::Const(0.0),
+            anisotropy_model: crate::bsdf::Anisotropy::StandardSurface,
+            anisotropy_rotation: FloatInput::Const(0.0),
+        }
+    }
 }
 
 /// Wetness (contract §3, `TideWetAPI`): a thin smooth water film over the surface response.
@@ -216,6 +252,7 @@ impl Default for PreviewSurfaceDesc {
             ior: 1.5,
             normal: None,
             wet: None,
+            extras: None,
         }
     }
 }

@@ -42,6 +42,19 @@ pub struct WetParam {
     pub water_compliant: bool,
 }
 
+/// A MaterialX surface's inputs beyond UsdPreviewSurface ([`crate::scene::PbrExtras`]),
+/// ready to evaluate.
+#[derive(Clone, Debug)]
+pub struct ExtrasParam {
+    pub specular_weight: FloatParam,
+    pub specular_tint: ColorParam,
+    pub coat_color: ColorParam,
+    pub coat_ior: f32,
+    pub anisotropy: FloatParam,
+    pub anisotropy_model: crate::bsdf::Anisotropy,
+    pub anisotropy_rotation: FloatParam,
+}
+
 /// A clear dielectric interface (TideWater or any glass).
 #[derive(Clone, Debug)]
 pub struct DielectricMat {
@@ -83,6 +96,7 @@ pub enum SurfaceKind {
         opacity_threshold: f32,
         ior: f32,
         wet: Option<WetParam>,
+        extras: Option<Box<ExtrasParam>>,
     },
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
@@ -464,6 +478,17 @@ impl World {
                             opacity_threshold: p.opacity_threshold,
                             ior: p.ior,
                             wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
+                            extras: p.extras.as_ref().map(|x| {
+                                Box::new(ExtrasParam {
+                                    specular_weight: float_param(&x.specular_weight),
+                                    specular_tint: color_param(&x.specular_tint, cs),
+                                    coat_color: color_param(&x.coat_color, cs),
+                                    coat_ior: x.coat_ior,
+                                    anisotropy: float_param(&x.anisotropy),
+                                    anisotropy_model: x.anisotropy_model,
+                                    anisotropy_rotation: float_param(&x.anisotropy_rotation),
+                                })
+                            }),
                         }
                     }
                     SurfaceDesc::Water(w) => {
@@ -879,10 +904,10 @@ impl World {
     /// surface sits in (for preview surfaces inside water), `eta` the relative IOR for
     /// dielectrics (inside over outside).
     pub fn bsdf(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, eta: f32) -> (Bsdf, Frame) {
-        let frame = Frame::from_normal_tangent(s.ns, s.dpdu);
+        let mut frame = Frame::from_normal_tangent(s.ns, s.dpdu);
         let bsdf = match &self.materials[material].kind {
             SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s, lambda).map(|v| v.clamp(0.0, 1.0))),
-            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, .. } => {
+            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, extras, .. } => {
                 let mut d = self.color(diffuse, s, lambda).map(|v| v.clamp(0.0, 1.0));
                 if let Some(w) = wet.as_ref().filter(|w| w.water_compliant) {
                     d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
@@ -900,6 +925,31 @@ impl World {
                     ior: *ior,
                     outside_ior,
                     use_specular_workflow: *use_specular_workflow,
+                    specular_weight: 1.0,
+                    specular_tint: SampledSpectrum::ONE,
+                    coat_color: SampledSpectrum::ONE,
+                    coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
+                    anisotropy: 0.0,
+                    anisotropy_model: crate::bsdf::Anisotropy::StandardSurface,
+                };
+                let params = match extras.as_deref() {
+                    Some(x) => {
+                        let turn = self.float(&x.anisotropy_rotation, s);
+                        if turn != 0.0 && turn.is_finite() {
+                            let (sin, cos) = (turn * std::f32::consts::TAU).sin_cos();
+                            frame = Frame::from_normal_tangent(s.ns, frame.s * cos + frame.t * sin);
+                        }
+                        PreviewParams {
+                            specular_weight: self.float(&x.specular_weight, s),
+                            specular_tint: self.color(&x.specular_tint, s, lambda),
+                            coat_color: self.color(&x.coat_color, s, lambda),
+                            coat_ior: x.coat_ior,
+                            anisotropy: self.float(&x.anisotropy, s),
+                            anisotropy_model: x.anisotropy_model,
+                            ..params
+                        }
+                    }
+                    None => params,
                 };
                 let dry = Bsdf::preview(params);
                 let wet = wet.as_ref().map(|w| (w, self.float(&w.amount, s)));

@@ -441,6 +441,7 @@ impl Ctx<'_> {
             ior: self.input_f32(n, "ior", d.ior),
             normal,
             wet: None,
+            extras: None,
         }
     }
 
@@ -1196,6 +1197,52 @@ mod tests {
         assert_eq!((ps.clearcoat.clone(), ps.clearcoat_roughness.clone()), (FloatInput::Const(0.2), FloatInput::Const(0.0)));
         assert_eq!((ps.emissive_color.clone(), ps.opacity.clone()), (ColorInput::Const([0.2, 0.4, 0.6]), FloatInput::Const(0.5)));
         assert_eq!(p, ["/M/O.inputs:fuzz_weight"]);
+    }
+
+    /// The inputs UsdPreviewSurface lacks ride along as the surface's extras: the specular's
+    /// weight and tint, the coat's colour, the anisotropy (and its turn) with its model's own
+    /// mapping; a surface that leaves them neutral has none.
+    #[test]
+    fn materialx_extras_map_to_the_layered_surface() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let surface = |id: &str, extra: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
+            (ps, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        for id in ["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"] {
+            let (ps, p) = surface(id, &[]);
+            assert!(ps.extras.is_none() && p.is_empty(), "{id}: {:?} {p:?}", ps.extras);
+        }
+        let (ps, p) = surface(
+            "ND_standard_surface_surfaceshader",
+            &[
+                ("/M/S.inputs:specular", f(0.6)),
+                ("/M/S.inputs:specular_color", c3([1.0, 0.5, 0.25])),
+                ("/M/S.inputs:coat", f(1.0)),
+                ("/M/S.inputs:coat_color", c3([0.2, 0.4, 0.8])),
+                ("/M/S.inputs:specular_anisotropy.connect", tok("/M/A.outputs:out")),
+                ("/M/A.info:id", tok("ND_geompropvalue_float")),
+                ("/M/A.inputs:geomprop", Value::String("aniso".into())),
+                ("/M/S.inputs:specular_rotation", f(0.25)),
+            ],
+        );
+        assert!(p.is_empty(), "{p:?}");
+        let x = ps.extras.expect("extras");
+        assert_eq!((x.specular_weight, x.specular_tint), (FloatInput::Const(0.6), ColorInput::Const([1.0, 0.5, 0.25])));
+        assert_eq!(x.coat_color, ColorInput::Const([0.2, 0.4, 0.8]));
+        assert_eq!(x.anisotropy, FloatInput::Primvar(PrimvarLookup::new("aniso", [0.0; 4])));
+        assert_eq!((x.anisotropy_model, x.anisotropy_rotation), (tide_core::bsdf::Anisotropy::StandardSurface, FloatInput::Const(0.25)));
+        assert!(!ps.use_specular_workflow);
+        let (ps, p) = surface("ND_open_pbr_surface_surfaceshader", &[("/M/S.inputs:specular_roughness_anisotropy", f(0.7)), ("/M/S.inputs:specular_color", c3([0.5, 0.5, 0.5]))]);
+        assert!(p.is_empty(), "{p:?}");
+        let x = ps.extras.expect("extras");
+        assert_eq!((x.anisotropy, x.anisotropy_model), (FloatInput::Const(0.7), tide_core::bsdf::Anisotropy::OpenPbr));
+        assert_eq!((x.specular_tint, x.anisotropy_rotation), (ColorInput::Const([0.5; 3]), FloatInput::Const(0.0)));
     }
 
     /// A transmission tinted over a depth fills the body with the absorption that keeps the

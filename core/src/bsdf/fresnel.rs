@@ -102,11 +102,12 @@ pub fn fresnel_complex_spectrum(cos_i: f32, eta: SampledSpectrum, k: SampledSpec
     SampledSpectrum::from_fn(|i| fresnel_complex(cos_i, eta[i], k[i]))
 }
 
-/// Schlick's approximation: F0 at normal incidence rising to 1 at grazing.
+/// Schlick's approximation: F0 at normal incidence rising to F90 at grazing (1 for a plain
+/// interface).
 #[inline]
-pub fn fresnel_schlick(cos_i: f32, f0: SampledSpectrum) -> SampledSpectrum {
+pub fn fresnel_schlick(cos_i: f32, f0: SampledSpectrum, f90: SampledSpectrum) -> SampledSpectrum {
     let m = (1.0 - cos_i.clamp(0.0, 1.0)).powi(5);
-    f0 + (SampledSpectrum::ONE - f0) * m
+    f0 + (f90 - f0) * m
 }
 
 /// Reflectance at normal incidence between media of relative IOR `eta`: ((η−1)/(η+1))².
@@ -134,8 +135,8 @@ pub fn hemispherical_average(f: impl Fn(f32) -> f32) -> f32 {
     GL8.iter().map(|&(x, w)| 2.0 * w * x * f(x)).sum()
 }
 
-/// Hemispherical average of Schlick's term: F0 + (1 − F0)/21 (exact).
+/// Hemispherical average of Schlick's term: F0 + (F90 − F0)/21 (exact).
 #[inline]
-pub fn schlick_average(f0: SampledSpectrum) -> SampledSpectrum {
-    f0 + (SampledSpectrum::ONE - f0) * (1.0 / 21.0)
+pub fn schlick_average(f0: SampledSpectrum, f90: SampledSpectrum) -> SampledSpectrum {
+    f0 + (f90 - f0) * (1.0 / 21.0)
 }

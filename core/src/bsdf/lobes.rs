@@ -53,8 +53,9 @@ impl Lambert {
 pub(crate) enum ReflFresnel {
     /// Conductor with complex relative IOR η + ik.
     Complex { eta: SampledSpectrum, k: SampledSpectrum },
-    /// Schlick: F0 at normal incidence, 1 at grazing.
-    Schlick { f0: SampledSpectrum },
+    /// Schlick: F0 at normal incidence, F90 at grazing (1 for a plain dielectric or metal;
+    /// less for a tinted or weighted specular).
+    Schlick { f0: SampledSpectrum, f90: SampledSpectrum },
 }
 
 impl ReflFresnel {
@@ -62,7 +63,7 @@ impl ReflFresnel {
     pub fn eval(&self, cos: f32) -> SampledSpectrum {
         match *self {
             ReflFresnel::Complex { eta, k } => fresnel_complex_spectrum(cos, eta, k),
-            ReflFresnel::Schlick { f0 } => fresnel_schlick(cos, f0),
+            ReflFresnel::Schlick { f0, f90 } => fresnel_schlick(cos, f0, f90),
         }
     }
     /// Hemispherical average 2∫F(μ)μ dμ.
@@ -71,7 +72,7 @@ impl ReflFresnel {
             ReflFresnel::Complex { eta, k } => SampledSpectrum::from_fn(|i| {
                 hemispherical_average(|mu| super::fresnel::fresnel_complex(mu, eta[i], k[i]))
             }),
-            ReflFresnel::Schlick { f0 } => schlick_average(f0),
+            ReflFresnel::Schlick { f0, f90 } => schlick_average(f0, f90),
         }
     }
 }
@@ -88,14 +89,35 @@ pub(crate) struct MicrofacetReflection {
     f_ms: SampledSpectrum,
     /// 1 − E_avg of the F = 1 lobe (0 when no compensation applies).
     one_minus_e_avg: f32,
+    /// Hemispherical averages of the albedo tables' (E1, Schlick) pair over every direction:
+    /// the tables' own averages for an isotropic lobe, a quadrature over μ and the azimuth of
+    /// [`Self::r_along`] for an anisotropic one.
+    avg: (f32, f32),
 }
 
 impl MicrofacetReflection {
     pub fn new(distrib: TrowbridgeReitz, fresnel: ReflFresnel) -> Self {
         let r = distrib.alpha_iso().sqrt();
-        let mut lobe = MicrofacetReflection { distrib, fresnel, r, f_ms: SampledSpectrum::ZERO, one_minus_e_avg: 0.0 };
+        let mut lobe = MicrofacetReflection { distrib, fresnel, r, f_ms: SampledSpectrum::ZERO, one_minus_e_avg: 0.0, avg: (0.0, 0.0) };
+        lobe.avg = if distrib.alpha_x == distrib.alpha_y {
+            tables().conductor_avg(r)
+        } else {
+            // the lobe is symmetric under x → −x and y → −y: a quarter turn of azimuths
+            const N_PHI: usize = 8;
+            let table = |k: usize| {
+                move |mu: f32| {
+                    let phi = (k as f32 + 0.5) * std::f32::consts::FRAC_PI_2 / N_PHI as f32;
+                    let sin = (1.0 - mu * mu).max(0.0).sqrt();
+                    let w = Vec3::new(sin * phi.cos(), sin * phi.sin(), mu);
+                    tables().conductor(mu, lobe.r_along(w))
+                }
+            };
+            let e: f32 = (0..N_PHI).map(|k| hemispherical_average(|mu| table(k)(mu).0)).sum();
+            let s: f32 = (0..N_PHI).map(|k| hemispherical_average(|mu| table(k)(mu).1)).sum();
+            (e / N_PHI as f32, s / N_PHI as f32)
+        };
         if !distrib.is_smooth() {
-            let e_avg = tables().conductor_avg(r).0;
+            let e_avg = lobe.avg.0;
             if 1.0 - e_avg > 1e-6 {
                 let favg = fresnel.average();
                 lobe.f_ms = SampledSpectrum::from_fn(|i| {
@@ -121,20 +143,44 @@ impl MicrofacetReflection {
         }
     }
 
+    /// Perceptual roughness of the lobe as seen along ω: an anisotropic lobe's GGX α projected
+    /// on ω's azimuth (the α its Smith masking term sees).
     #[inline]
-    fn e1(&self, mu: f32) -> f32 {
-        tables().conductor(mu, self.r).0
+    fn r_along(&self, w: Vec3) -> f32 {
+        let (ax, ay) = (self.distrib.alpha_x, self.distrib.alpha_y);
+        if ax == ay {
+            return self.r;
+        }
+        let s2 = w.x * w.x + w.y * w.y;
+        // along the normal, α² averaged over the azimuth
+        let (cx, cy) = if s2 < 1e-12 { (0.5, 0.5) } else { (w.x * w.x / s2, w.y * w.y / s2) };
+        (ax * ax * cx + ay * ay * cy).sqrt().sqrt()
+    }
+
+    /// Single-scattering albedo of the F = 1 lobe along ω.
+    #[inline]
+    fn e1(&self, w: Vec3) -> f32 {
+        tables().conductor(w.z, self.r_along(w)).0
     }
 
     /// Directional albedo at μo (exact up to table accuracy for Schlick, F(μo)·E1 + compensation
-    /// for a conductor).
+    /// for a conductor), of the lobe's mean roughness.
     pub fn albedo(&self, mu: f32) -> SampledSpectrum {
+        self.albedo_with_r(mu, self.r)
+    }
+
+    /// [`Self::albedo`] along ω: for an anisotropic lobe, at the roughness it has along ω.
+    pub fn albedo_along(&self, w: Vec3) -> SampledSpectrum {
+        self.albedo_with_r(w.z, self.r_along(w))
+    }
+
+    fn albedo_with_r(&self, mu: f32, r: f32) -> SampledSpectrum {
         if self.is_smooth() {
             return self.fresnel.eval(mu);
         }
-        let (e1, s) = tables().conductor(mu, self.r);
+        let (e1, s) = tables().conductor(mu, r);
         let ss = match self.fresnel {
-            ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
+            ReflFresnel::Schlick { f0, f90 } => f0 * e1 + (f90 - f0) * s,
             ReflFresnel::Complex { .. } => self.fresnel.eval(mu) * e1,
         };
         ss + self.f_ms * (1.0 - e1)
@@ -145,23 +191,23 @@ impl MicrofacetReflection {
         if self.is_smooth() {
             return self.fresnel.average();
         }
-        let (e1, s) = tables().conductor_avg(self.r);
+        let (e1, s) = self.avg;
         let ss = match self.fresnel {
-            ReflFresnel::Schlick { f0 } => f0 * e1 + (SampledSpectrum::ONE - f0) * s,
+            ReflFresnel::Schlick { f0, f90 } => f0 * e1 + (f90 - f0) * s,
             ReflFresnel::Complex { .. } => self.fresnel.average() * e1,
         };
         ss + self.f_ms * (1.0 - e1)
     }
 
-    /// Probability of sampling the multiple-scattering lobe for ωo at μo.
+    /// Probability of sampling the multiple-scattering lobe for ωo.
     #[inline]
-    fn p_ms(&self, mu_o: f32) -> f32 {
+    fn p_ms(&self, wo: Vec3) -> f32 {
         if self.one_minus_e_avg == 0.0 {
             return 0.0;
         }
-        let e = self.e1(mu_o);
+        let e = self.e1(wo);
         let ms = (1.0 - e) * self.f_ms.average();
-        let ss = e * self.fresnel.eval(mu_o).average();
+        let ss = e * self.fresnel.eval(wo.z).average();
         if ms + ss > 0.0 {
             ms / (ms + ss)
         } else {
@@ -183,7 +229,7 @@ impl MicrofacetReflection {
         if self.one_minus_e_avg == 0.0 {
             return ss;
         }
-        let ms = (1.0 - self.e1(wo.z)) * (1.0 - self.e1(wi.z)) * INV_PI / self.one_minus_e_avg;
+        let ms = (1.0 - self.e1(wo)) * (1.0 - self.e1(wi)) * INV_PI / self.one_minus_e_avg;
         ss + self.f_ms * ms
     }
 
@@ -196,7 +242,7 @@ impl MicrofacetReflection {
             return 0.0;
         }
         let wm = wm.normalize();
-        let p_ms = self.p_ms(wo.z);
+        let p_ms = self.p_ms(wo);
         let p_ss = self.distrib.pdf_visible(wo, wm) / (4.0 * wo.dot(wm).abs());
         (1.0 - p_ms) * p_ss + p_ms * wi.z * INV_PI
     }
@@ -210,7 +256,7 @@ impl MicrofacetReflection {
             let f = self.fresnel.eval(wo.z) / wo.z;
             return Some(BsdfSample { f, wi, pdf: 1.0, flags: flags::SPECULAR_REFLECTION, eta: 1.0 });
         }
-        let wi = if uc < self.p_ms(wo.z) {
+        let wi = if uc < self.p_ms(wo) {
             sample_cosine_hemisphere(u)
         } else {
             reflect(wo, self.distrib.sample_wm(wo, u))

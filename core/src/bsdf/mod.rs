@@ -23,7 +23,7 @@ mod tests;
 
 pub use fresnel::{fresnel_complex, fresnel_dielectric, fresnel_dielectric_polarized, fresnel_schlick};
 pub use microfacet::{roughness_to_alpha, TrowbridgeReitz, SMOOTH_ALPHA};
-pub use preview::PreviewParams;
+pub use preview::{Anisotropy, PreviewParams};
 
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -198,7 +198,7 @@ impl Bsdf {
     pub fn conductor_schlick(f0: SampledSpectrum, roughness: impl Into<Roughness>) -> Result<Bsdf, BsdfError> {
         let f0 = reflectance("f0", f0)?;
         let d = roughness.into().distribution()?;
-        Ok(Bsdf { model: Model::Microfacet(MicrofacetReflection::new(d, ReflFresnel::Schlick { f0 })) })
+        Ok(Bsdf { model: Model::Microfacet(MicrofacetReflection::new(d, ReflFresnel::Schlick { f0, f90: SampledSpectrum::ONE })) })
     }
 
     /// Dielectric interface, `eta` = n_inside / n_outside (inside is −Z) at the hero wavelength.
@@ -237,6 +237,12 @@ impl Bsdf {
             ior: check_positive("ior", p.ior)?,
             outside_ior: check_positive("outside_ior", p.outside_ior)?,
             use_specular_workflow: p.use_specular_workflow,
+            specular_weight: check_finite("specular weight", p.specular_weight)?.clamp(0.0, 1.0),
+            specular_tint: reflectance("specular tint", p.specular_tint)?,
+            coat_color: reflectance("coat colour", p.coat_color)?,
+            coat_ior: check_positive("coat ior", p.coat_ior)?,
+            anisotropy: check_finite("anisotropy", p.anisotropy)?.clamp(0.0, 1.0),
+            anisotropy_model: p.anisotropy_model,
         };
         Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
     }

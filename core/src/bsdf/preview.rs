@@ -1,9 +1,16 @@
-//! UsdPreviewSurface as a layered multi-lobe BSDF: a white GGX clearcoat (IOR 1.5) over a GGX
-//! specular layer over a Lambertian base. Each layer attenuates what lies beneath it by the
-//! upper layer's directional albedo on the way in and on the way out, so the stack never
-//! creates energy; the diffuse base under the specular layer is renormalised (Kulla & Conty
-//! 2017) so that a white base under any specular layer reflects exactly what the specular
-//! layer lets through.
+//! UsdPreviewSurface, and the MaterialX PBR surfaces mapped onto it, as a layered multi-lobe
+//! BSDF: a GGX clearcoat (IOR 1.5 unless set) over a GGX specular layer over a Lambertian base. Each
+//! layer attenuates what lies beneath it by the upper layer's directional albedo on the way in
+//! and on the way out, so the stack never creates energy; the diffuse base under the specular
+//! layer is renormalised (Kulla & Conty 2017) so that a white base under any specular layer
+//! reflects exactly what the specular layer lets through.
+//!
+//! The MaterialX surfaces add, as MaterialX's own node graphs compute them:
+//! * a specular weight and tint: the dielectric reflection is weight × tint × F, while what
+//!   lies beneath sees 1 − weight × albedo (the tint absorbs, it never adds light);
+//! * a coat colour: everything under the coat is multiplied by mix(1, colour, coat), and a
+//!   coat IOR;
+//! * specular anisotropy: two roughnesses along the tangent and bitangent ([`Anisotropy`]).
 
 use super::fresnel::f0_from_ior;
 use super::lobes::{Lambert, MicrofacetReflection, ReflFresnel};
@@ -36,9 +43,54 @@ pub struct PreviewParams {
     /// wet film): the layers' Fresnel terms use the indices relative to it.
     pub outside_ior: f32,
     pub use_specular_workflow: bool,
+    /// Weight of the dielectric specular reflection in [0, 1] (1 for UsdPreviewSurface).
+    pub specular_weight: f32,
+    /// Tint of the dielectric specular reflection, in [0, 1] (1 for UsdPreviewSurface).
+    pub specular_tint: SampledSpectrum,
+    /// Colour the coat gives whatever lies under it, in [0, 1] (1: a clear coat).
+    pub coat_color: SampledSpectrum,
+    /// IOR of the coat ([`CLEARCOAT_IOR`] for UsdPreviewSurface).
+    pub coat_ior: f32,
+    /// Specular anisotropy in [0, 1] (0: isotropic), stretching the lobe along the frame's
+    /// tangent as `anisotropy_model` says.
+    pub anisotropy: f32,
+    pub anisotropy_model: Anisotropy,
 }
 
-/// IOR of the clearcoat layer.
+/// How a roughness r and an anisotropy a become the GGX α along the tangent and bitangent.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Anisotropy {
+    /// Autodesk Standard Surface (MaterialX's `roughness_anisotropy` node): α = r², aspect
+    /// √(1 − min(a, 0.98)), α_t = min(α / aspect, 1), α_b = α × aspect.
+    #[default]
+    StandardSurface,
+    /// OpenPBR Surface: α_t = r² √(2 / (1 + (1 − a)²)), α_b = (1 − a) α_t (the mean square
+    /// slope of the isotropic lobe is kept).
+    OpenPbr,
+}
+
+impl Anisotropy {
+    /// (α_t, α_b) for perceptual roughness `r` and anisotropy `a`.
+    pub fn alphas(self, r: f32, a: f32) -> (f32, f32) {
+        let alpha = roughness_to_alpha(r);
+        let a = a.clamp(0.0, 1.0);
+        if a == 0.0 {
+            return (alpha, alpha);
+        }
+        match self {
+            Anisotropy::StandardSurface => {
+                let aspect = (1.0 - a.min(0.98)).sqrt();
+                ((alpha / aspect).min(1.0), alpha * aspect)
+            }
+            Anisotropy::OpenPbr => {
+                let t = alpha * (2.0 / (1.0 + (1.0 - a) * (1.0 - a))).sqrt();
+                (t, (1.0 - a) * t)
+            }
+        }
+    }
+}
+
+/// IOR of UsdPreviewSurface's clearcoat layer.
 pub const CLEARCOAT_IOR: f32 = 1.5;
 
 /// A layer's index relative to what lies above it, kept just above 1 (a layer of lower index
@@ -64,10 +116,15 @@ pub(crate) struct Preview {
     /// (weight, lobe) of the clearcoat, absent when its weight is 0.
     coat: Option<(f32, MicrofacetReflection)>,
     spec: MicrofacetReflection,
+    /// The specular layer as what lies under it sees it (its reflection untinted), when a tint
+    /// makes the two differ.
+    untinted: Option<MicrofacetReflection>,
     /// Diffuse reflectance including the (1 − metallic) weight.
     diffuse: SampledSpectrum,
-    /// 1 − hemispherical average albedo of the specular layer.
+    /// 1 − hemispherical average albedo of the untinted specular layer.
     spec_loss_avg: SampledSpectrum,
+    /// mix(1, coat colour, coat): the coat's colour on everything beneath it.
+    under_tint: SampledSpectrum,
 }
 
 /// Lobe indices for selection.
@@ -78,22 +135,30 @@ const DIFF: usize = 2;
 impl Preview {
     /// Builds the stack from validated parameters (finite, clamped).
     pub fn new(p: &PreviewParams) -> Self {
-        let alpha = roughness_to_alpha(p.roughness);
-        let (f0, diffuse) = if p.use_specular_workflow {
-            (p.specular_f0.map(|f0| f0_under(f0, p.outside_ior)), p.diffuse)
+        let (alpha_t, alpha_b) = p.anisotropy_model.alphas(p.roughness, p.anisotropy);
+        let distrib = TrowbridgeReitz::new(alpha_t, alpha_b);
+        // Schlick's F0 and F90 of the dielectric part (weighted, then tinted) plus the metal's
+        let w = p.specular_weight;
+        let (dielectric_f0, metal_f0, m) = if p.use_specular_workflow {
+            (p.specular_f0.map(|f0| f0_under(f0, p.outside_ior)), SampledSpectrum::ZERO, 0.0)
         } else {
-            let m = p.metallic;
-            let f0_d = f0_from_ior(relative_ior(p.ior, p.outside_ior));
-            (SampledSpectrum::splat(f0_d) * (1.0 - m) + p.base_for_metal * m, p.diffuse * (1.0 - m))
+            (SampledSpectrum::splat(f0_from_ior(relative_ior(p.ior, p.outside_ior))), p.base_for_metal, p.metallic)
         };
-        let spec = MicrofacetReflection::new(TrowbridgeReitz::new(alpha, alpha), ReflFresnel::Schlick { f0 });
+        let fresnel = |tint: SampledSpectrum| ReflFresnel::Schlick {
+            f0: dielectric_f0 * tint * (w * (1.0 - m)) + metal_f0 * m,
+            f90: tint * (w * (1.0 - m)) + SampledSpectrum::splat(m),
+        };
+        let spec = MicrofacetReflection::new(distrib, fresnel(p.specular_tint));
+        let untinted = (p.specular_tint != SampledSpectrum::ONE).then(|| MicrofacetReflection::new(distrib, fresnel(SampledSpectrum::ONE)));
+        let diffuse = p.diffuse * (1.0 - m);
         let coat = (p.clearcoat > 0.0).then(|| {
             let a = roughness_to_alpha(p.clearcoat_roughness);
-            let f0 = SampledSpectrum::splat(f0_from_ior(relative_ior(CLEARCOAT_IOR, p.outside_ior)));
-            (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(a, a), ReflFresnel::Schlick { f0 }))
+            let f0 = SampledSpectrum::splat(f0_from_ior(relative_ior(p.coat_ior, p.outside_ior)));
+            (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(a, a), ReflFresnel::Schlick { f0, f90: SampledSpectrum::ONE }))
         });
-        let spec_loss_avg = (SampledSpectrum::ONE - spec.albedo_avg()).map(|v| v.max(0.0));
-        Preview { coat, spec, diffuse, spec_loss_avg }
+        let spec_loss_avg = (SampledSpectrum::ONE - untinted.as_ref().unwrap_or(&spec).albedo_avg()).map(|v| v.max(0.0));
+        let under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;
+        Preview { coat, spec, untinted, diffuse, spec_loss_avg, under_tint }
     }
 
     pub fn lobe_flags(&self) -> u8 {
@@ -116,24 +181,39 @@ impl Preview {
         }
     }
 
+    /// What reaches the layers under the coat and comes back: the coat's transmittance both
+    /// ways and its colour.
     #[inline]
-    fn spec_loss(&self, mu: f32) -> SampledSpectrum {
-        (SampledSpectrum::ONE - self.spec.albedo(mu)).map(|v| v.max(0.0))
+    fn under(&self, mu_o: f32, mu_i: f32) -> SampledSpectrum {
+        self.under_tint * (self.coat_transmittance(mu_o) * self.coat_transmittance(mu_i))
+    }
+
+    /// What the specular layer lets through to the base along ω.
+    #[inline]
+    fn spec_loss(&self, w: Vec3) -> SampledSpectrum {
+        (SampledSpectrum::ONE - self.untinted.as_ref().unwrap_or(&self.spec).albedo_along(w)).map(|v| v.max(0.0))
+    }
+
+    /// [`Self::spec_loss`] at μ, for the lobe's mean roughness.
+    #[inline]
+    fn spec_loss_mu(&self, mu: f32) -> SampledSpectrum {
+        (SampledSpectrum::ONE - self.untinted.as_ref().unwrap_or(&self.spec).albedo(mu)).map(|v| v.max(0.0))
     }
 
     fn f_diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         if self.diffuse.is_black() || wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        (self.diffuse * INV_PI * self.spec_loss(wo.z) * self.spec_loss(wi.z)).safe_div(self.spec_loss_avg)
+        (self.diffuse * INV_PI * self.spec_loss(wo) * self.spec_loss(wi)).safe_div(self.spec_loss_avg)
     }
 
     /// Selection probabilities of (coat, spec, diffuse) for ωo, proportional to estimated albedo.
-    fn probabilities(&self, mu_o: f32) -> [f32; 3] {
-        let a = self.coat_transmittance(mu_o);
+    fn probabilities(&self, wo: Vec3) -> [f32; 3] {
+        let mu_o = wo.z;
+        let under = self.under(mu_o, mu_o);
         let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average());
-        let ps = a * a * self.spec.albedo(mu_o).average();
-        let pd = a * a * (self.diffuse * self.spec_loss(mu_o)).average();
+        let ps = (under * self.spec.albedo_along(wo)).average();
+        let pd = (under * self.diffuse * self.spec_loss(wo)).average();
         let sum = pc + ps + pd;
         if !(sum > 0.0) {
             return [0.0; 3];
@@ -146,15 +226,14 @@ impl Preview {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        self.f_diffuse(wo, wi) * self.coat_transmittance(wo.z) * self.coat_transmittance(wi.z)
+        self.f_diffuse(wo, wi) * self.under(wo.z, wi.z)
     }
 
     pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        let under = self.coat_transmittance(wo.z) * self.coat_transmittance(wi.z);
-        let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * under;
+        let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * self.under(wo.z, wi.z);
         if let Some((w, c)) = &self.coat {
             f += c.f(wo, wi) * *w;
         }
@@ -165,7 +244,7 @@ impl Preview {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return 0.0;
         }
-        let p = self.probabilities(wo.z);
+        let p = self.probabilities(wo);
         let mut pdf = p[SPEC] * self.spec.pdf(wo, wi);
         if !self.diffuse.is_black() {
             pdf += p[DIFF] * wi.z * INV_PI;
@@ -180,7 +259,7 @@ impl Preview {
         if wo.z <= 0.0 {
             return None;
         }
-        let p = self.probabilities(wo.z);
+        let p = self.probabilities(wo);
         let (lobe, uc) = if uc < p[COAT] {
             (COAT, uc / p[COAT])
         } else if uc < p[COAT] + p[SPEC] {
@@ -198,11 +277,10 @@ impl Preview {
         };
         if sampled.flags & flags::SPECULAR != 0 {
             // every delta lobe of the stack reflects into the same mirror direction
-            let a = self.coat_transmittance(wo.z);
             let mut f = SampledSpectrum::ZERO;
             let mut pdf = 0.0;
             if self.spec.is_smooth() {
-                f += self.spec.fresnel.eval(wo.z) / wo.z * (a * a);
+                f += self.spec.fresnel.eval(wo.z) / wo.z * self.under(wo.z, wo.z);
                 pdf += p[SPEC];
             }
             if let Some((w, c)) = &self.coat {
@@ -228,14 +306,12 @@ impl Preview {
 
     /// Estimated directional albedo at μ (the layers' albedos, as the lobe selection uses them).
     pub fn albedo_at(&self, mu: f32) -> SampledSpectrum {
-        let a = self.coat_transmittance(mu);
         let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(mu) * *w);
-        coat + (self.spec.albedo(mu) + self.diffuse * self.spec_loss(mu)) * (a * a)
+        coat + (self.spec.albedo(mu) + self.diffuse * self.spec_loss_mu(mu)) * self.under(mu, mu)
     }
 
     /// Directional albedo of the diffuse base as it shows through the layers above it at μ.
     pub fn diffuse_albedo(&self, mu: f32) -> SampledSpectrum {
-        let a = self.coat_transmittance(mu);
-        self.diffuse * self.spec_loss(mu) * (a * a)
+        self.diffuse * self.spec_loss_mu(mu) * self.under(mu, mu)
     }
 }

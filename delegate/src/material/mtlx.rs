@@ -34,7 +34,8 @@
 
 use super::{uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
-use tide_core::scene::{Channel, ColorInput, FloatInput, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
+use tide_core::bsdf::Anisotropy;
+use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
 use tide_core::shader_graph::{Binary, Expr, Unary};
 
 /// The longest chain of MaterialX nodes read into one input.
@@ -128,9 +129,14 @@ pub(super) struct PbrModel {
     /// (weight, colour) of the specular lobe.
     specular: (&'static str, &'static str),
     roughness: (&'static str, f32),
+    /// The specular anisotropy, the turn of its direction if the model has one, and how it
+    /// stretches the roughness.
+    anisotropy: (&'static str, Option<&'static str>, Anisotropy),
     ior: &'static str,
     /// (weight, roughness, roughness default, colour) of the coat.
     coat: (&'static str, &'static str, f32, &'static str),
+    /// The coat's IOR and its default.
+    coat_ior: (&'static str, f32),
     /// (weight, colour): emission = weight × colour.
     emission: (&'static str, &'static str),
     /// The opacity input, and whether it is a colour.
@@ -180,8 +186,10 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     metalness: "metalness",
     specular: ("specular", "specular_color"),
     roughness: ("specular_roughness", 0.2),
+    anisotropy: ("specular_anisotropy", Some("specular_rotation"), Anisotropy::StandardSurface),
     ior: "specular_IOR",
     coat: ("coat", "coat_roughness", 0.1, "coat_color"),
+    coat_ior: ("coat_IOR", 1.5),
     emission: ("emission", "emission_color"),
     opacity: ("opacity", true),
     normal: "normal",
@@ -197,9 +205,11 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
         ("sheen", 0.0, "sheen"),
         ("thin_film_thickness", 0.0, "a thin film"),
         ("diffuse_roughness", 0.0, "diffuse roughness"),
-        ("specular_anisotropy", 0.0, "anisotropy"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion", 0.0, "dispersion"),
+        ("coat_anisotropy", 0.0, "coat anisotropy"),
+        ("coat_affect_color", 0.0, "the coat's darkening and saturation of the base"),
+        ("coat_affect_roughness", 0.0, "the coat's roughening of the base"),
     ],
 };
 
@@ -209,8 +219,10 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     metalness: "base_metalness",
     specular: ("specular_weight", "specular_color"),
     roughness: ("specular_roughness", 0.3),
+    anisotropy: ("specular_roughness_anisotropy", None, Anisotropy::OpenPbr),
     ior: "specular_ior",
     coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
+    coat_ior: ("coat_ior", 1.6),
     emission: ("emission_luminance", "emission_color"),
     opacity: ("geometry_opacity", false),
     normal: "geometry_normal",
@@ -226,9 +238,9 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
         ("fuzz_weight", 0.0, "fuzz"),
         ("thin_film_weight", 0.0, "a thin film"),
         ("base_diffuse_roughness", 0.0, "diffuse roughness"),
-        ("specular_roughness_anisotropy", 0.0, "anisotropy"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion_scale", 0.0, "dispersion"),
+        ("coat_roughness_anisotropy", 0.0, "coat anisotropy"),
     ],
 };
 
@@ -647,7 +659,6 @@ impl Ctx<'_> {
         for (input, neutral, what) in m.unsupported {
             self.unsupported(n, input, &[*neutral], what);
         }
-        self.unsupported(n, m.coat.3, &[1.0], "a tinted coat");
         let ior = self.constant_only(n, m.ior, 1.5);
         let transmission = self.constant_only(n, m.transmission.0, 0.0);
         if transmission > 0.0 {
@@ -671,13 +682,25 @@ impl Ctx<'_> {
             return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), Some(body));
         }
         let metallic = self.float(n, m.metalness, 0.0);
-        let specular = self.constant_only(n, m.specular.0, 1.0);
-        if specular != 0.0 && specular != 1.0 {
-            self.p.add(&format!("{}.inputs:{}", n, m.specular.0), format!("a specular weight of {} renders as 1", specular));
-        }
-        self.unsupported(n, m.specular.1, &[1.0], "a tinted specular");
+        let specular_weight = self.float(n, m.specular.0, 1.0);
         // no specular on a non-metal: UsdPreviewSurface's specular workflow with black specular
-        let plain_diffuse = specular == 0.0 && metallic == FloatInput::Const(0.0);
+        let plain_diffuse = specular_weight == FloatInput::Const(0.0) && metallic == FloatInput::Const(0.0);
+        let (anisotropy, rotation, anisotropy_model) = m.anisotropy;
+        let extras = PbrExtras {
+            specular_weight,
+            specular_tint: self.color(n, m.specular.1, [1.0; 3]),
+            coat_color: self.color(n, m.coat.3, [1.0; 3]),
+            coat_ior: self.constant_only(n, m.coat_ior.0, m.coat_ior.1),
+            anisotropy: self.float(n, anisotropy, 0.0),
+            anisotropy_model,
+            anisotropy_rotation: rotation.map_or(FloatInput::Const(0.0), |r| self.float(n, r, 0.0)),
+        };
+        let clearcoat = self.float(n, m.coat.0, 0.0);
+        // with no coat, the coat's colour and IOR change nothing
+        let neutral = match clearcoat {
+            FloatInput::Const(c) if c == 0.0 => PbrExtras { anisotropy_model, coat_color: extras.coat_color.clone(), coat_ior: extras.coat_ior, ..PbrExtras::default() },
+            _ => PbrExtras { anisotropy_model, ..PbrExtras::default() },
+        };
         let opacity = match m.opacity {
             (input, false) => self.float(n, input, 1.0),
             (input, true) => match self.color(n, input, [1.0; 3]) {
@@ -698,13 +721,14 @@ impl Ctx<'_> {
             specular_color: ColorInput::Const([0.0; 3]),
             metallic,
             roughness: self.float(n, m.roughness.0, m.roughness.1),
-            clearcoat: self.float(n, m.coat.0, 0.0),
+            clearcoat,
             clearcoat_roughness: self.float(n, m.coat.1, m.coat.2),
             opacity,
             opacity_threshold: 0.0,
             ior,
             normal,
             wet: None,
+            extras: (extras != neutral).then(|| Box::new(extras)),
         });
         (surface, None)
     }

@@ -1,0 +1,121 @@
+"""The layers of MaterialX's PBR surfaces beyond UsdPreviewSurface's: the specular's weight
+and tint, the coat's colour and IOR, specular anisotropy and its direction. Each is checked
+against what its definition implies (Fresnel reflectance at normal incidence, a colour
+multiplying what lies beneath, a highlight stretched along the tangent)."""
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from conftest import HALF, RES, bind, near, panel, render, settings, shader_node, top_camera, white_dome
+
+
+def _surface(stage, node_id, **inputs):
+    """A Material at /Looks/M whose mtlx:surface is a `node_id` shader with `inputs`."""
+    mat = UsdShade.Material.Define(stage, "/Looks/M")
+    sh = shader_node(stage, "/Looks/M/S", node_id, **inputs)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    return mat
+
+
+def _seen_from_above(renderer, stage, mat, samples=16):
+    """The mean colour of a panel bound to `mat` under the white dome, seen straight down with
+    one bounce; the material raises no problem."""
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Panel")
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=samples, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
+    return img
+
+
+def _f0(ior):
+    return ((ior - 1) / (ior + 1)) ** 2
+
+
+def test_a_weighted_tinted_specular_reflects_weight_times_tint_times_fresnel(renderer, stage):
+    """A black base under a smooth specular of IOR 3 (F0 = 1/4) with weight 0.6 and colour
+    (1, 0.5, 0.25), seen at normal incidence under a dome of radiance 1: 0.6 x colour x F0.
+    Untinted it would be grey 0.15."""
+    tint = np.array([1.0, 0.5, 0.25])
+    mat = _surface(stage, "ND_standard_surface_surfaceshader", base=0.0, specular=0.6,
+                   specular_color=tuple(tint), specular_roughness=0.0, specular_IOR=3.0)
+    img = _seen_from_above(renderer, stage, mat)
+    ok, why = near(img, 0.6 * _f0(3.0) * tint)
+    assert ok, why
+
+
+def test_a_coat_colour_tints_what_lies_beneath(renderer):
+    """A white diffuse base under a smooth coat: the coat mirrors F0 = 0.04 of the dome, and
+    whatever comes from under it is multiplied by the coat's colour, so (coloured − 0.04) =
+    colour x (clear − 0.04)."""
+    def look(colour):
+        stage = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+        mat = _surface(stage, "ND_standard_surface_surfaceshader", base=1.0,
+                       base_color=(1.0, 1.0, 1.0), specular=0.0, coat=1.0, coat_roughness=0.0,
+                       coat_color=tuple(colour))
+        return _seen_from_above(renderer, stage, mat, samples=32).reshape(-1, 3)
+
+    colour = np.array([0.2, 0.5, 0.8])
+    clear, tinted = look((1, 1, 1)), look(colour)
+    under = clear.mean(axis=0) - _f0(1.5)
+    assert np.all(under > 0.8), under
+    ok, why = near(tinted - _f0(1.5), colour * under)
+    assert ok, why
+
+
+def test_an_open_pbr_coat_has_its_own_ior(renderer, stage):
+    """OpenPBR's coat_ior defaults to 1.6: over a black base with no specular, a smooth coat
+    mirrors F0 = (0.6 / 2.6)^2 = 0.0533 of the dome (a coat of UsdPreviewSurface's 1.5 would
+    give 0.04); coat_ior 2 gives 1/9."""
+    for ior in (None, 2.0):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        inputs = dict(base_weight=0.0, specular_weight=0.0, coat_weight=1.0, coat_roughness=0.0)
+        if ior is not None:
+            inputs["coat_ior"] = ior
+        img = _seen_from_above(renderer, s, _surface(s, "ND_open_pbr_surface_surfaceshader", **inputs))
+        ok, why = near(img, [_f0(ior or 1.6)] * 3)
+        assert ok, (ior, why)
+
+
+def _highlight_spread(renderer, rotation):
+    """Second moments (along x, along z) of the highlight a small light straight above the
+    centre makes on a rough anisotropic white metal panel whose u runs along +x."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    # points (-H, -H), (-H, H), (H, -H), (H, H) in (x, z): u along x, v along z
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (0, 1), (1, 0), (1, 1)])
+    light = UsdLux.SphereLight.Define(stage, "/Light")
+    light.CreateRadiusAttr(0.02)
+    light.CreateIntensityAttr(2000.0)
+    light.AddTranslateOp().Set(Gf.Vec3d(0, 1.0, 0))
+    mat = _surface(stage, "ND_standard_surface_surfaceshader", base=1.0, base_color=(1.0, 1.0, 1.0),
+                   metalness=1.0, specular_roughness=0.35, specular_anisotropy=0.8,
+                   specular_rotation=rotation)
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=32, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64).mean(axis=-1)
+    assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
+    # rows follow z, columns x (top_camera)
+    c = -HALF + (np.arange(RES) + 0.5) * 2 * HALF / RES
+    w = img / img.sum()
+    return float((w * c[None, :] ** 2).sum()), float((w * c[:, None] ** 2).sum())
+
+
+def test_anisotropy_stretches_the_highlight_along_the_turned_tangent(renderer):
+    """specular_anisotropy 0.8 (α along the tangent 2.2 times α across it): with no turn the
+    highlight spreads along u (x) more than along v (z); a quarter turn swaps the two, the
+    spreads trading places (the scene is symmetric under x <-> z)."""
+    x0, z0 = _highlight_spread(renderer, 0.0)
+    x1, z1 = _highlight_spread(renderer, 0.25)
+    assert x0 > 1.5 * z0, (x0, z0)
+    assert z1 > 1.5 * x1, (x1, z1)
+    assert abs(x0 / z1 - 1) < 0.1 and abs(z0 / x1 - 1) < 0.1, (x0, z0, x1, z1)
