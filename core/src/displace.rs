@@ -12,6 +12,7 @@
 use crate::scene::{FloatInput, MeshDesc, PrimvarLookup, TexLookup, TextureDesc};
 use crate::shader_graph::Lookups;
 use glam::{Vec2, Vec3};
+use std::cell::OnceCell;
 use std::collections::HashMap;
 
 /// What the displacement reads at vertex `v`.
@@ -19,9 +20,16 @@ struct AtVertex<'a> {
     mesh: &'a MeshDesc,
     textures: &'a [TextureDesc],
     v: usize,
+    /// Every vertex's unit normal and tangent ([`vertex_frames`]), built when first read.
+    frames: &'a OnceCell<Vec<[Vec3; 2]>>,
 }
 
 impl AtVertex<'_> {
+    /// The vertex's unit normal and tangent.
+    fn frame(&self) -> [Vec3; 2] {
+        self.frames.get_or_init(|| vertex_frames(self.mesh)).get(self.v).copied().unwrap_or([Vec3::ZERO; 2])
+    }
+
     fn st(&self, l: &TexLookup) -> Vec2 {
         match &l.uv_set {
             Some(set) => {
@@ -52,13 +60,50 @@ impl Lookups for AtVertex<'_> {
     fn position(&self, _world: bool) -> Vec3 {
         self.mesh.positions[self.v]
     }
+
+    /// The vertex's own normal, in the mesh's space as the position is.
+    fn normal(&self, _world: bool) -> Vec3 {
+        self.frame()[0]
+    }
+
+    fn tangent(&self, _world: bool) -> Vec3 {
+        self.frame()[1]
+    }
+}
+
+/// Each vertex's unit normal (its authored one, else the smooth normal it is displaced along)
+/// and unit tangent (the sum of its triangles' ∂p/∂u, over their texture coordinates or, as
+/// a hit without them reads, their barycentrics).
+fn vertex_frames(mesh: &MeshDesc) -> Vec<[Vec3; 2]> {
+    let p = &mesh.positions;
+    let normals = match &mesh.normals {
+        Some(n) if n.len() == p.len() => n.iter().map(|n| n.normalize_or_zero()).collect(),
+        _ => smooth_normals(p, &mesh.indices, &by_position(p)),
+    };
+    let mut tangents = vec![Vec3::ZERO; p.len()];
+    for t in mesh.indices.chunks_exact(3) {
+        let k = [0, 1, 2].map(|i| t[i] as usize);
+        if k.iter().any(|&v| v >= p.len()) {
+            continue;
+        }
+        let uv = match &mesh.uvs {
+            Some(uv) if k.iter().all(|&v| v < uv.len()) => k.map(|v| uv[v]),
+            _ => [Vec2::ZERO, Vec2::X, Vec2::Y],
+        };
+        let dpdu = crate::math::triangle_dpdu(k.map(|v| p[v]), uv);
+        for v in k {
+            tangents[v] += dpdu;
+        }
+    }
+    normals.into_iter().zip(tangents).map(|(n, t)| [n, t.normalize_or_zero()]).collect()
 }
 
 /// The displacement at each vertex of `mesh` (0 where not finite).
 fn amounts(mesh: &MeshDesc, d: &FloatInput, textures: &[TextureDesc]) -> Vec<f32> {
+    let frames = OnceCell::new();
     (0..mesh.positions.len())
         .map(|v| {
-            let at = AtVertex { mesh, textures, v };
+            let at = AtVertex { mesh, textures, v, frames: &frames };
             let x = match d {
                 FloatInput::Const(c) => *c,
                 FloatInput::Texture(l) => crate::texture::lookup_float(textures, l, at.st(l)),
@@ -112,15 +157,28 @@ fn shading_normals(p: &[Vec3], indices: &[u32], groups: &[Vec<usize>], before: O
     out
 }
 
-/// Positions `p` moved along their smooth normals by `d` (shared per position group).
-fn moved(p: &[Vec3], indices: &[u32], groups: &[Vec<usize>], d: &[f32]) -> Vec<Vec3> {
+/// The smooth normal at each vertex: the face normals summed over its position group, unit
+/// length.
+fn smooth_normals(p: &[Vec3], indices: &[u32], groups: &[Vec<usize>]) -> Vec<Vec3> {
     let sums = face_sums(p, indices);
-    let mut out = p.to_vec();
+    let mut out = vec![Vec3::ZERO; p.len()];
     for g in groups {
         let n = g.iter().map(|&v| sums[v]).sum::<Vec3>().normalize_or_zero();
+        for &v in g {
+            out[v] = n;
+        }
+    }
+    out
+}
+
+/// Positions `p` moved along their smooth normals by `d` (shared per position group).
+fn moved(p: &[Vec3], indices: &[u32], groups: &[Vec<usize>], d: &[f32]) -> Vec<Vec3> {
+    let n = smooth_normals(p, indices, groups);
+    let mut out = p.to_vec();
+    for g in groups {
         let mean = g.iter().map(|&v| d[v]).sum::<f32>() / g.len() as f32;
         for &v in g {
-            out[v] = p[v] + n * mean;
+            out[v] = p[v] + n[v] * mean;
         }
     }
     out
@@ -187,6 +245,21 @@ mod tests {
         assert_eq!(out.positions.iter().map(|p| p.z).collect::<Vec<_>>(), vec![0.5, 1.0, 1.5, 0.5, 1.5, 2.0]);
         let absent = displace(&m, &FloatInput::Primvar(PrimvarLookup::new("nope", [0.7; 4])), &[]);
         assert!(absent.positions.iter().all(|p| (p.z - 0.7).abs() < 1e-6));
+    }
+
+    /// A graph reads each vertex's normal (the smooth one, or the authored one normalised)
+    /// and its tangent (u runs along +X on both triangles of the square, whatever their uvs).
+    #[test]
+    fn a_graph_reads_each_vertex_normal_and_tangent() {
+        use crate::shader_graph::{Binary, Expr};
+        // normal.z + tangent.x / 2, then normal.y
+        let nz = Expr::splat(Expr::Normal { world: false }, 2);
+        let tx = Expr::binary(Binary::Mul, Expr::splat(Expr::Tangent { world: true }, 0), Expr::Const([0.5; 4]));
+        let d = amounts(&square(), &FloatInput::Graph(Expr::binary(Binary::Add, nz, tx)), &[]);
+        assert!(d.iter().all(|x| (x - 1.5).abs() < 1e-6), "{d:?}");
+        let tilted = MeshDesc { normals: Some(vec![Vec3::new(0.0, 2.0, 0.0); 6]), ..square() };
+        let d = amounts(&tilted, &FloatInput::Graph(Expr::splat(Expr::Normal { world: true }, 1)), &[]);
+        assert!(d.iter().all(|x| (x - 1.0).abs() < 1e-6), "{d:?}");
     }
 
     #[test]

@@ -17,6 +17,7 @@ pub mod integrator;
 pub mod light;
 pub mod math;
 pub mod medium;
+pub mod noise;
 pub mod ocean;
 pub mod render;
 pub mod sampler;

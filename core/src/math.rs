@@ -49,6 +49,14 @@ impl Frame {
     }
 }
 
+/// ∂p/∂u over a triangle with corners `p` at texture coordinates `uv` (its first edge where
+/// the coordinates are degenerate).
+pub fn triangle_dpdu(p: [Vec3; 3], uv: [Vec2; 3]) -> Vec3 {
+    let (du1, du2) = (uv[1] - uv[0], uv[2] - uv[0]);
+    let det = du1.x * du2.y - du1.y * du2.x;
+    if det.abs() > 1e-12 { ((p[1] - p[0]) * du2.y - (p[2] - p[0]) * du1.y) / det } else { p[1] - p[0] }
+}
+
 /// Direction from spherical coordinates (theta from +Z, phi from +X towards +Y).
 #[inline]
 pub fn spherical_direction(sin_theta: f32, cos_theta: f32, phi: f32) -> Vec3 {

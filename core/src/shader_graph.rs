@@ -6,7 +6,12 @@
 //!
 //! Every value has four components. A colour reads the first three, a scalar the first; the
 //! builder broadcasts scalars to all four where a node mixes the two.
+//!
+//! Besides lookups, a graph reads the geometry where it is evaluated (its texture coordinates,
+//! position, normal and tangent) and MaterialX's procedural noises of any point it computes
+//! ([`crate::noise`]).
 
+use crate::noise::Noise;
 use crate::scene::{PrimvarLookup, TexLookup};
 use crate::texture::channel_rgba;
 
@@ -24,6 +29,17 @@ pub enum Expr {
     TexCoord,
     /// The point's position (x, y, z, 0): in the world, or in the geometry's own space.
     Position { world: bool },
+    /// The unit shading normal (x, y, z, 0), in the world or in the geometry's own space.
+    Normal { world: bool },
+    /// The unit tangent (x, y, z, 0), the direction of increasing u (∂p/∂u), in the world or
+    /// in the geometry's own space.
+    Tangent { world: bool },
+    /// The unit bitangent (x, y, z, 0): normal × tangent, normalised, in that space (as
+    /// MaterialX's generated shaders compute it).
+    Bitangent { world: bool },
+    /// A MaterialX noise ([`Noise::eval`]) of `point` (its x, y and, for a noise in space, z),
+    /// with the parameters `params` (components as [`crate::noise::NoiseKind`] lists them).
+    Noise { noise: Noise, point: Box<Expr>, params: Box<Expr> },
     Unary(Unary, Box<Expr>),
     Binary(Binary, Box<Expr>, Box<Expr>),
     /// Component k of the result is component `pick[k]` (0..4) of the operand.
@@ -71,6 +87,11 @@ pub trait Lookups {
     fn uv(&self) -> glam::Vec2;
     /// The point's position in the world (`world`) or in the geometry's own space.
     fn position(&self, world: bool) -> glam::Vec3;
+    /// The unit shading normal there, in the world or in the geometry's own space.
+    fn normal(&self, world: bool) -> glam::Vec3;
+    /// The unit tangent there (the direction of increasing u), in the world or in the
+    /// geometry's own space.
+    fn tangent(&self, world: bool) -> glam::Vec3;
 }
 
 impl Unary {
@@ -149,6 +170,10 @@ impl Expr {
                 [uv.x, uv.y, 0.0, 0.0]
             }
             Expr::Position { world } => at.position(*world).extend(0.0).to_array(),
+            Expr::Normal { world } => at.normal(*world).extend(0.0).to_array(),
+            Expr::Tangent { world } => at.tangent(*world).extend(0.0).to_array(),
+            Expr::Bitangent { world } => at.normal(*world).cross(at.tangent(*world)).normalize_or_zero().extend(0.0).to_array(),
+            Expr::Noise { noise, point, params } => noise.eval(point.eval(at), params.eval(at)),
             Expr::Unary(op, a) => a.eval(at).map(|x| op.apply(x)),
             Expr::Binary(op, a, b) => {
                 let (a, b) = (a.eval(at), b.eval(at));
@@ -161,7 +186,7 @@ impl Expr {
         })
     }
 
-    /// The value, where the expression reads no texture, primvar or texture coordinates.
+    /// The value, where the expression reads no texture, primvar or geometry.
     pub fn constant_value(&self) -> Option<[f32; 4]> {
         struct Nothing;
         impl Lookups for Nothing {
@@ -177,29 +202,36 @@ impl Expr {
             fn position(&self, _: bool) -> glam::Vec3 {
                 glam::Vec3::ZERO
             }
+            fn normal(&self, _: bool) -> glam::Vec3 {
+                glam::Vec3::ZERO
+            }
+            fn tangent(&self, _: bool) -> glam::Vec3 {
+                glam::Vec3::ZERO
+            }
         }
         let mut leaves = 0;
         self.leaves(&mut |_| leaves += 1);
         (leaves == 0 && !self.reads_geometry()).then(|| self.eval(&Nothing))
     }
 
-    /// Whether the expression reads the geometry itself: its texture coordinates or position.
+    /// Whether the expression reads the geometry itself: its texture coordinates, position,
+    /// normal or tangent.
     pub fn reads_geometry(&self) -> bool {
         match self {
-            Expr::TexCoord | Expr::Position { .. } => true,
+            Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => true,
             Expr::Const(_) | Expr::Texture(_) | Expr::Primvar(_) => false,
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.reads_geometry(),
-            Expr::Binary(_, a, b) => a.reads_geometry() || b.reads_geometry(),
+            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => a.reads_geometry() || b.reads_geometry(),
         }
     }
 
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves_mut(&mut self, f: &mut dyn FnMut(&mut Expr)) {
         match self {
-            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } => {}
+            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves_mut(f),
-            Expr::Binary(_, a, b) => {
+            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => {
                 a.leaves_mut(f);
                 b.leaves_mut(f);
             }
@@ -209,10 +241,10 @@ impl Expr {
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves(&self, f: &mut dyn FnMut(&Expr)) {
         match self {
-            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } => {}
+            Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves(f),
-            Expr::Binary(_, a, b) => {
+            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => {
                 a.leaves(f);
                 b.leaves(f);
             }
@@ -256,6 +288,14 @@ mod tests {
         }
         fn position(&self, world: bool) -> glam::Vec3 {
             if world { glam::Vec3::new(1.0, 2.0, 3.0) } else { glam::Vec3::new(-1.0, -2.0, -3.0) }
+        }
+        /// +Z in the world, +Y in the geometry's space.
+        fn normal(&self, world: bool) -> glam::Vec3 {
+            if world { glam::Vec3::Z } else { glam::Vec3::Y }
+        }
+        /// Not perpendicular to the normal in the geometry's space.
+        fn tangent(&self, world: bool) -> glam::Vec3 {
+            if world { glam::Vec3::X } else { glam::Vec3::new(0.6, 0.8, 0.0) }
         }
     }
 
@@ -358,5 +398,55 @@ mod tests {
         // (1 + 2) · 3 once the three leaves are replaced
         assert_eq!(e2.eval(&Fixed), [9.0; 4]);
         assert_eq!(e2.constant_value(), Some([9.0; 4]));
+    }
+
+    /// Normal, tangent and bitangent in both spaces: the bitangent is normal × tangent,
+    /// normalised, also where the tangent leans on the normal; none is a constant.
+    #[test]
+    fn normals_and_tangents_in_both_spaces() {
+        let at = |e: Expr| (e.constant_value(), e.reads_geometry(), e.eval(&Fixed));
+        assert_eq!(at(Expr::Normal { world: true }), (None, true, [0.0, 0.0, 1.0, 0.0]));
+        assert_eq!(at(Expr::Normal { world: false }), (None, true, [0.0, 1.0, 0.0, 0.0]));
+        assert_eq!(at(Expr::Tangent { world: true }), (None, true, [1.0, 0.0, 0.0, 0.0]));
+        assert_eq!(at(Expr::Tangent { world: false }), (None, true, [0.6, 0.8, 0.0, 0.0]));
+        // Z × X = Y; Y × (0.6, 0.8, 0) = (0, 0, −0.6), normalised to −Z
+        assert_eq!(at(Expr::Bitangent { world: true }), (None, true, [0.0, 1.0, 0.0, 0.0]));
+        assert_eq!(at(Expr::Bitangent { world: false }), (None, true, [0.0, 0.0, -1.0, 0.0]));
+        // they are no texture or primvar leaves
+        let e = Expr::binary(Binary::Add, Expr::Normal { world: true }, Expr::Bitangent { world: false });
+        let mut n = 0;
+        e.leaves(&mut |_| n += 1);
+        assert_eq!((n, e.primvar_names().len()), (0, 0));
+    }
+
+    /// A noise evaluates its point's sub-expression where the graph is evaluated: its leaves
+    /// are walked, it reads the geometry through its point, and a noise of a constant point is
+    /// a constant.
+    #[test]
+    fn noise_of_a_computed_point() {
+        use crate::noise::{Noise, NoiseKind};
+        let perlin = Noise { kind: NoiseKind::Perlin, space: true, channels: 1 };
+        let noise = |point: Expr, params: Expr| Expr::Noise { noise: perlin, point: Box::new(point), params: Box::new(params) };
+        // the point: position × 0.5 + a primvar (fallback (0.25, 0.5, 0.75), +100 here)
+        let pv = Expr::Primvar(PrimvarLookup::new("offset", [0.25, 0.5, 0.75, 0.0]));
+        let point = Expr::binary(Binary::Add, Expr::binary(Binary::Mul, Expr::Position { world: true }, c([0.5; 4])), pv);
+        let e = noise(point, c([0.0; 4]));
+        let want = crate::noise::perlin3(glam::Vec3::new(0.5 + 100.25, 1.0 + 100.5, 1.5 + 100.75));
+        assert_eq!(e.eval(&Fixed), [want; 4]);
+        assert!(want != 0.0);
+        assert_eq!((e.reads_geometry(), e.constant_value(), e.primvar_names()), (true, None, vec!["offset".to_string()]));
+        // a texture in the parameters is a leaf too, after the point's
+        let mut e2 = noise(Expr::Primvar(PrimvarLookup::new("p", [0.0; 4])), tex(3, Channel::R));
+        let mut order = Vec::new();
+        e2.leaves_mut(&mut |leaf| {
+            order.push(matches!(leaf, Expr::Texture(_)));
+            *leaf = Expr::Const([2.5; 4]);
+        });
+        assert_eq!(order, [false, true]);
+        // now of the constant point (2.5, 2.5, 2.5): a constant, the noise there
+        assert_eq!(e2.constant_value(), Some([crate::noise::perlin3(glam::Vec3::splat(2.5)); 4]));
+        // of the texture coordinates: reads the geometry without any leaf
+        let uv = noise(Expr::TexCoord, c([0.0; 4]));
+        assert!(uv.reads_geometry() && uv.constant_value().is_none());
     }
 }

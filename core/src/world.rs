@@ -357,6 +357,22 @@ impl Lookups for AtHit<'_> {
             GeometryRef::Spheres(_) => self.w.accel.instance_transform(self.s.instance, 0.0).inverse().transform_point3(self.s.p),
         }
     }
+
+    /// The shading normal; in the geometry's own space through the instance's transform (at
+    /// time 0, as the position's).
+    fn normal(&self, world: bool) -> Vec3 {
+        match world {
+            true => self.s.ns,
+            false => (glam::Mat3::from_mat4(self.w.accel.instance_transform(self.s.instance, 0.0)).transpose() * self.s.ns).normalize_or_zero(),
+        }
+    }
+
+    fn tangent(&self, world: bool) -> Vec3 {
+        match world {
+            true => self.s.dpdu.normalize_or_zero(),
+            false => self.w.accel.instance_transform(self.s.instance, 0.0).inverse().transform_vector3(self.s.dpdu).normalize_or_zero(),
+        }
+    }
 }
 
 /// A lookup's value at each vertex of an instance's mesh (as [`World::primvar`] reads it at a
@@ -728,10 +744,7 @@ impl World {
                     Some(uvs) => {
                         let t = idx.map(|k| uvs[k]);
                         let uv = t[0] * b0 + t[1] * b1 + t[2] * b2;
-                        let (du1, du2) = (t[1] - t[0], t[2] - t[0]);
-                        let det = du1.x * du2.y - du1.y * du2.x;
-                        let dpdu = if det.abs() > 1e-12 { ((v[1] - v[0]) * du2.y - (v[2] - v[0]) * du1.y) / det } else { v[1] - v[0] };
-                        (uv, m.transform_vector3(dpdu))
+                        (uv, m.transform_vector3(crate::math::triangle_dpdu(v, t)))
                     }
                     None => (Vec2::new(b1, b2), m.transform_vector3(v[1] - v[0])),
                 };

@@ -15,6 +15,7 @@
 //! local to the material; the scene assembly maps them to `SceneDesc::textures` indices.
 
 mod mtlx;
+mod mtlx_procedural;
 
 use crate::value::{normalize_name, AttrStore, Problems, Value};
 use glam::{Affine2, Vec2};
@@ -769,17 +770,17 @@ mod tests {
     use tide_core::shader_graph::Binary;
     use tide_core::water::{JerlovSource, JerlovType};
 
-    fn mat(pairs: &[(&str, Value)]) -> AttrStore {
+    pub(super) fn mat(pairs: &[(&str, Value)]) -> AttrStore {
         let mut s = AttrStore::default();
         for (n, v) in pairs {
             s.attrs.insert(normalize_name(n).to_string(), Attr { value: Some(v.clone()), samples: vec![] });
         }
         s
     }
-    fn tok(s: &str) -> Value {
+    pub(super) fn tok(s: &str) -> Value {
         Value::Token(s.into())
     }
-    fn loaded(srgb: bool) -> impl Fn(&str) -> Option<TexState> {
+    pub(super) fn loaded(srgb: bool) -> impl Fn(&str) -> Option<TexState> {
         move |a: &str| {
             (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 2, height: 2, channels: 3, pixels: Default::default(), is_srgb: srgb })
         }
@@ -1358,6 +1359,12 @@ mod tests {
             }
             fn position(&self, world: bool) -> glam::Vec3 {
                 if world { glam::Vec3::new(1.0, 2.0, 3.0) } else { glam::Vec3::new(4.0, 5.0, 6.0) }
+            }
+            fn normal(&self, _: bool) -> glam::Vec3 {
+                unreachable!("no normal here")
+            }
+            fn tangent(&self, _: bool) -> glam::Vec3 {
+                unreachable!("no tangent here")
             }
         }
         let f = |x: f64| Value::Float(x);

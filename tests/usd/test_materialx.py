@@ -4,7 +4,7 @@ transmission as a clear dielectric."""
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import (RES, bind, camera, near, panel, render, settings, shader_node, top_camera,
+from conftest import (HALF, RES, bind, camera, near, panel, render, settings, shader_node, top_camera,
                       white_dome, write_exr)
 
 
@@ -245,3 +245,89 @@ def test_subsurface_is_a_random_walk_in_the_body(renderer):
     assert np.allclose(skin, water, rtol=1e-3, atol=1e-5), np.abs(skin - water).max()
     diffuse = _ball(renderer, lambda s: _standard_surface(s, "/Looks/Clay", base_color=color)[0])
     assert np.abs(skin - diffuse).mean() > 0.01
+
+
+def test_cell_noise_gives_one_uniform_value_per_cell(renderer, stage):
+    """emission_color = cellnoise2d(texture coordinates x N): over the panel's N x N cells
+    (RES / N pixels square each) the image is one value per cell, and the cells' values, as
+    independent draws uniform on [0, 1], have mean 1/2 and variance 1/12 within 4 of their
+    standard errors over N^2 cells: sqrt(1/12) / N for the mean, sqrt((1/80 - 1/144) / N^2)
+    for the variance."""
+    n = 8
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (0, 1), (1, 0), (1, 1)])
+    mat, sh = _standard_surface(stage, "/Looks/Cells", base=0.0, specular=0.0, emission=1.0)
+    vec2 = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Float2)
+    uv = shader_node(stage, "/Looks/Cells/Uv", "ND_texcoord_vector2")
+    scaled = shader_node(stage, "/Looks/Cells/Scale", "ND_multiply_vector2FA", in1=vec2(uv), in2=float(n))
+    cells = shader_node(stage, "/Looks/Cells/Noise", "ND_cellnoise2d_float", texcoord=vec2(scaled))
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        cells.CreateOutput("out", Sdf.ValueTypeNames.Float))
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=16, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64)
+    assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
+    # rows follow v, columns u: cell (i, j) is the block of rows i and columns j
+    k = RES // n
+    blocks = img.reshape(n, k, n, k, 3).transpose(0, 2, 1, 3, 4).reshape(n, n, k * k, 3)
+    grey = blocks.mean(axis=-1)
+    cell = grey.mean(axis=-1)
+    # piecewise constant: every pixel within 5 % of its cell's mean (a pixel's hero-wavelength
+    # noise at 16 samples is about 1 %), while cells differ by about 0.29
+    assert np.all(np.abs(grey - cell[..., None]) <= 0.05 * cell[..., None] + 1e-3), \
+        np.abs(grey / cell[..., None] - 1).max()
+    assert np.all((cell >= 0) & (cell <= 1.05)), (cell.min(), cell.max())
+    se_mean = np.sqrt(1 / 12) / n
+    se_var = np.sqrt((1 / 80 - 1 / 144) / n ** 2)
+    assert abs(cell.mean() - 0.5) < 4 * se_mean, cell.mean()
+    assert abs(cell.var() - 1 / 12) < 4 * se_var, cell.var()
+
+
+def _normal_as_colour(renderer, space):
+    """A unit sphere turned 90 degrees about +Y, seen straight down by `top_camera`, glowing
+    (normal + 1) / 2 of MaterialX's `normal` node in `space`; returns the image, the pixels'
+    mask inside the disc (away from its rim) and the world normal each of them sees."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    top_camera(stage)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(1.0)
+    ball.AddRotateYOp().Set(90.0)
+    mat, sh = _standard_surface(stage, "/Looks/N", base=0.0, specular=0.0, emission=1.0)
+    vec3 = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    n = shader_node(stage, "/Looks/N/Normal", "ND_normal_vector3")
+    n.CreateInput("space", Sdf.ValueTypeNames.String).Set(space)
+    half = shader_node(stage, "/Looks/N/Half", "ND_multiply_vector3FA", in1=vec3(n), in2=0.5)
+    shifted = shader_node(stage, "/Looks/N/Shift", "ND_add_vector3FA", in1=vec3(half), in2=0.5)
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(vec3(shifted))
+    bind(ball.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=16, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
+    c = -HALF + (np.arange(RES) + 0.5) * 2 * HALF / RES
+    x, z = np.meshgrid(c, c)  # rows follow z, columns x
+    r2 = x ** 2 + z ** 2
+    inside = r2 < 0.8 ** 2
+    normal = np.stack([x, np.sqrt(np.clip(1 - r2, 0, 1)), z], axis=-1)
+    return img, inside, normal
+
+
+def test_the_normal_node_reads_the_shading_normal_in_either_space(renderer):
+    """In the world, a sphere's normal where the camera looks down at (x, z) is (x, y, z) on
+    the unit sphere; in the object's space it is turned back by the sphere's 90 degrees about
+    +Y: (x, y, z) -> (-z, y, x). Each quadrant's mean colour is (n + 1) / 2 of the normals
+    it sees."""
+    for space, turn in (("world", lambda n: n), ("object", lambda n: np.stack([-n[..., 2], n[..., 1], n[..., 0]], axis=-1))):
+        img, inside, normal = _normal_as_colour(renderer, space)
+        want = (turn(normal) + 1) / 2
+        h = RES // 2
+        for rows in (slice(0, h), slice(h, RES)):
+            for cols in (slice(0, h), slice(h, RES)):
+                sel = inside[rows, cols]
+                ok, why = near(img[rows, cols][sel], want[rows, cols][sel].mean(axis=0))
+                assert ok, (space, why)

@@ -538,6 +538,16 @@ impl crate::shader_graph::Lookups for OnTriangle<'_> {
         p[0] * self.b[0] + p[1] * self.b[1] + p[2] * self.b[2]
     }
 
+    /// The triangle's own normal (its winding's side), in either space.
+    fn normal(&self, world: bool) -> Vec3 {
+        let p = if world { self.world } else { self.object };
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+    }
+
+    fn tangent(&self, world: bool) -> Vec3 {
+        crate::math::triangle_dpdu(if world { self.world } else { self.object }, self.uv).normalize_or_zero()
+    }
+
     fn primvar(&self, l: &crate::scene::PrimvarLookup) -> [f32; 4] {
         let corners = self.graph.names.iter().position(|n| *n == l.name).and_then(|i| self.corners.get(i).copied().flatten());
         let v = corners.map_or(l.fallback, |c| std::array::from_fn(|k| self.b[0] * c[0][k] + self.b[1] * c[1][k] + self.b[2] * c[2][k]));

@@ -24,7 +24,8 @@
 //! `constant` and `dot`, and the arithmetic of [`ARITHMETIC`] (math, `mix`, `clamp`, `remap`,
 //! `smoothstep`, `luminance`, conversions, channel extraction and combination, `ifgreater`,
 //! ramps and splits over the texture coordinates, which `texcoord` also gives as a value, and
-//! `position` in the object's or the world's space). An
+//! `position` in the object's or the world's space), and MaterialX's noises and the geometric
+//! `normal`, `tangent` and `bitangent` ([`PROCEDURAL`], read in `mtlx_procedural`). An
 //! image's texcoord may pass through `place2d` (both operation orders) and arithmetic by
 //! constants, folded into the lookup's affine transform. Arithmetic folds into a single lookup
 //! where it can (a tint, a gain, an offset of a texture: its scale and bias) and otherwise
@@ -32,6 +33,7 @@
 //! texture, a mask mixing two layers). MaterialX's UsdPreviewSurface nodes (`ND_UsdUVTexture`,
 //! ...) are read as the USD ones.
 
+use super::mtlx_procedural::PROCEDURAL;
 use super::{uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
 use tide_core::bsdf::Anisotropy;
@@ -53,8 +55,8 @@ pub(super) fn canonical_id(id: &str) -> &str {
     }
 }
 
-/// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, and the arithmetic
-/// of [`Ctx::arithmetic`].
+/// The MaterialX node families that [`Ctx::mtlx_source`] reads: lookups, the arithmetic of
+/// [`Ctx::arithmetic`], and the procedural and geometric nodes of [`PROCEDURAL`].
 const LOOKUPS: [&str; 9] = ["image", "tiledimage", "geompropvalue", "texcoord", "position", "constant", "dot", "normalmap", "place2d"];
 const ARITHMETIC: [&str; 38] = [
     "multiply", "add", "subtract", "divide", "min", "max", "power", "modulo", "absval", "floor", "ceil", "sqrt", "exp", "ln", "sin", "cos", "sign", "mix", "clamp",
@@ -65,7 +67,7 @@ const ARITHMETIC: [&str; 38] = [
 /// The node family of a MaterialX node id (`ND_multiply_color3FA` → `multiply`).
 fn family(id: &str) -> Option<&str> {
     let name = id.strip_prefix("ND_")?.split('_').next()?;
-    (LOOKUPS.contains(&name) || ARITHMETIC.contains(&name)).then_some(name)
+    (LOOKUPS.contains(&name) || ARITHMETIC.contains(&name) || PROCEDURAL.contains(&name)).then_some(name)
 }
 
 /// Whether `id` is a MaterialX node this module reads.
@@ -267,7 +269,7 @@ impl Ctx<'_> {
             Some("geompropvalue") => Some(Source::Primvar(self.geomprop(up))),
             Some("texcoord") => Some(Source::Graph(Expr::TexCoord)),
             // `object` (the fallback) and `model` are the geometry's own space
-            Some("position") => Some(Source::Graph(Expr::Position { world: self.input_token(up, "space", &["object", "model", "world"], "object") == "world" })),
+            Some("position") => Some(Source::Graph(Expr::Position { world: self.world_space(up) })),
             Some("constant") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
             Some("dot") => match self.operand(up, "in", [0.0; 4], depth) {
                 Ok(source) => Some(source),
@@ -276,13 +278,19 @@ impl Ctx<'_> {
                     None
                 }
             },
-            Some(name) if ARITHMETIC.contains(&name) => match self.arithmetic(name, &id, up, output, depth) {
-                Ok(source) => Some(source),
-                Err(why) => {
-                    self.p.add(attr, format!("a MaterialX '{}' node {}; using the constant value", id, why));
-                    None
+            Some(name) if ARITHMETIC.contains(&name) || PROCEDURAL.contains(&name) => {
+                let read = match ARITHMETIC.contains(&name) {
+                    true => self.arithmetic(name, &id, up, output, depth),
+                    false => self.procedural(name, &id, up, depth),
+                };
+                match read {
+                    Ok(source) => Some(source),
+                    Err(why) => {
+                        self.p.add(attr, format!("a MaterialX '{}' node {}; using the constant value", id, why));
+                        None
+                    }
                 }
-            },
+            }
             _ => {
                 self.p.add(attr, format!("a MaterialX '{}' node is not supported here; using the constant value", id));
                 None
@@ -291,7 +299,7 @@ impl Ctx<'_> {
     }
 
     /// An operand of a node: what its connection supplies, or its constant.
-    fn operand(&mut self, node: &str, input: &str, default: [f32; 4], depth: u32) -> Result<Source, String> {
+    pub(super) fn operand(&mut self, node: &str, input: &str, default: [f32; 4], depth: u32) -> Result<Source, String> {
         match self.nodes[node].connects.get(input).cloned() {
             None => Ok(Source::Fallback(self.value4(node, input, default))),
             Some(_) if depth >= MAX_DEPTH => Err(format!("chains more than {MAX_DEPTH} nodes")),
@@ -300,7 +308,7 @@ impl Ctx<'_> {
     }
 
     /// An operand as an expression, its default `d` in every component.
-    fn arg(&mut self, node: &str, input: &str, d: f32, depth: u32) -> Result<Expr, String> {
+    pub(super) fn arg(&mut self, node: &str, input: &str, d: f32, depth: u32) -> Result<Expr, String> {
         self.operand(node, input, [d; 4], depth).map(Source::into_expr)
     }
 
