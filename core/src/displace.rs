@@ -29,21 +29,11 @@ impl AtVertex<'_> {
     fn frame(&self) -> [Vec3; 2] {
         self.frames.get_or_init(|| vertex_frames(self.mesh)).get(self.v).copied().unwrap_or([Vec3::ZERO; 2])
     }
-
-    fn st(&self, l: &TexLookup) -> Vec2 {
-        match &l.uv_set {
-            Some(set) => {
-                let p = self.primvar(set);
-                Vec2::new(p[0], p[1])
-            }
-            None => self.uv(),
-        }
-    }
 }
 
 impl Lookups for AtVertex<'_> {
-    fn texture(&self, l: &TexLookup) -> [f32; 4] {
-        crate::texture::lookup_rgba(self.textures, l, self.st(l))
+    fn texture(&self, l: &TexLookup, st: Vec2) -> [f32; 4] {
+        crate::texture::lookup_rgba(self.textures, l, st)
     }
 
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {

@@ -37,6 +37,14 @@ pub enum Expr {
     /// The unit bitangent (x, y, z, 0): normal × tangent, normalised, in that space (as
     /// MaterialX's generated shaders compute it).
     Bitangent { world: bool },
+    /// The texture lookup (an [`Expr::Texture`]) read at the coordinates the second operand
+    /// computes (its x and y) instead of its own.
+    TextureAt(Box<Expr>, Box<Expr>),
+    /// Three values blended by a direction's weights: of [n, s, a, b, c], the weights are
+    /// w = |n| / (|n|·1) over n's x, y and z, raised to the power s (the first component) and
+    /// renormalised to sum 1, and the result w_x a + w_y b + w_z c (MaterialX's triplanar
+    /// blend).
+    Blend3(Box<[Expr; 5]>),
     /// A MaterialX noise ([`Noise::eval`]) of `point` (its x, y and, for a noise in space, z),
     /// with the parameters `params` (components as [`crate::noise::NoiseKind`] lists them).
     Noise { noise: Noise, point: Box<Expr>, params: Box<Expr> },
@@ -79,8 +87,9 @@ pub enum Binary {
 
 /// What an [`Expr`]'s leaves read where it is evaluated.
 pub trait Lookups {
-    /// A texture lookup's scaled and biased RGBA (channel not applied).
-    fn texture(&self, l: &TexLookup) -> [f32; 4];
+    /// A texture lookup's scaled and biased RGBA (channel not applied) at texture coordinates
+    /// `st` (before the lookup's own transform).
+    fn texture(&self, l: &TexLookup, st: glam::Vec2) -> [f32; 4];
     /// A primvar lookup's value (fallback and scale applied).
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4];
     /// The geometry's texture coordinates.
@@ -92,6 +101,17 @@ pub trait Lookups {
     /// The unit tangent there (the direction of increasing u), in the world or in the
     /// geometry's own space.
     fn tangent(&self, world: bool) -> glam::Vec3;
+
+    /// The coordinates a lookup reads by itself: its uv set's primvar, or the geometry's own.
+    fn st(&self, l: &TexLookup) -> glam::Vec2 {
+        match &l.uv_set {
+            Some(set) => {
+                let v = self.primvar(set);
+                glam::Vec2::new(v[0], v[1])
+            }
+            None => self.uv(),
+        }
+    }
 }
 
 impl Unary {
@@ -163,7 +183,15 @@ impl Expr {
         let finite = |v: [f32; 4]| v.map(|x| if x.is_finite() { x } else { 0.0 });
         finite(match self {
             Expr::Const(v) => *v,
-            Expr::Texture(l) => channel_rgba(at.texture(l), l.channel),
+            Expr::Texture(l) => channel_rgba(at.texture(l, at.st(l)), l.channel),
+            Expr::TextureAt(lookup, st) => match &**lookup {
+                Expr::Texture(l) => {
+                    let st = st.eval(at);
+                    channel_rgba(at.texture(l, glam::Vec2::new(st[0], st[1])), l.channel)
+                }
+                // a lookup made constant (a missing texture's fallback)
+                other => other.eval(at),
+            },
             Expr::Primvar(l) => at.primvar(l),
             Expr::TexCoord => {
                 let uv = at.uv();
@@ -174,6 +202,22 @@ impl Expr {
             Expr::Tangent { world } => at.tangent(*world).extend(0.0).to_array(),
             Expr::Bitangent { world } => at.normal(*world).cross(at.tangent(*world)).normalize_or_zero().extend(0.0).to_array(),
             Expr::Noise { noise, point, params } => noise.eval(point.eval(at), params.eval(at)),
+            Expr::Blend3(parts) => {
+                let [n, s, values @ ..] = &**parts;
+                let (n, s) = (n.eval(at), s.eval(at)[0]);
+                let a = [n[0].abs(), n[1].abs(), n[2].abs()];
+                let sum = a[0] + a[1] + a[2];
+                let q = a.map(|x| (x / sum).powf(s));
+                let total = q[0] + q[1] + q[2];
+                let mut out = [0.0; 4];
+                for (w, v) in q.iter().zip(values) {
+                    let v = v.eval(at);
+                    for k in 0..4 {
+                        out[k] += w / total * v[k];
+                    }
+                }
+                out
+            }
             Expr::Unary(op, a) => a.eval(at).map(|x| op.apply(x)),
             Expr::Binary(op, a, b) => {
                 let (a, b) = (a.eval(at), b.eval(at));
@@ -190,7 +234,7 @@ impl Expr {
     pub fn constant_value(&self) -> Option<[f32; 4]> {
         struct Nothing;
         impl Lookups for Nothing {
-            fn texture(&self, l: &TexLookup) -> [f32; 4] {
+            fn texture(&self, l: &TexLookup, _st: glam::Vec2) -> [f32; 4] {
                 l.fallback
             }
             fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
@@ -221,7 +265,8 @@ impl Expr {
             Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => true,
             Expr::Const(_) | Expr::Texture(_) | Expr::Primvar(_) => false,
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.reads_geometry(),
-            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => a.reads_geometry() || b.reads_geometry(),
+            Expr::Binary(_, a, b) | Expr::TextureAt(a, b) | Expr::Noise { point: a, params: b, .. } => a.reads_geometry() || b.reads_geometry(),
+            Expr::Blend3(parts) => parts.iter().any(Expr::reads_geometry),
         }
     }
 
@@ -231,10 +276,11 @@ impl Expr {
             Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves_mut(f),
-            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => {
+            Expr::Binary(_, a, b) | Expr::TextureAt(a, b) | Expr::Noise { point: a, params: b, .. } => {
                 a.leaves_mut(f);
                 b.leaves_mut(f);
             }
+            Expr::Blend3(parts) => parts.iter_mut().for_each(|p| p.leaves_mut(f)),
         }
     }
 
@@ -244,10 +290,11 @@ impl Expr {
             Expr::Const(_) | Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => {}
             Expr::Texture(_) | Expr::Primvar(_) => f(self),
             Expr::Unary(_, a) | Expr::Swizzle(a, _) => a.leaves(f),
-            Expr::Binary(_, a, b) | Expr::Noise { point: a, params: b, .. } => {
+            Expr::Binary(_, a, b) | Expr::TextureAt(a, b) | Expr::Noise { point: a, params: b, .. } => {
                 a.leaves(f);
                 b.leaves(f);
             }
+            Expr::Blend3(parts) => parts.iter().for_each(|p| p.leaves(f)),
         }
     }
 
@@ -277,7 +324,7 @@ mod tests {
     /// Textures answer `texture · 10 + row`, primvars `fallback + 100`.
     struct Fixed;
     impl Lookups for Fixed {
-        fn texture(&self, l: &TexLookup) -> [f32; 4] {
+        fn texture(&self, l: &TexLookup, _st: glam::Vec2) -> [f32; 4] {
             [1.0, 2.0, 3.0, 4.0].map(|v| v + 10.0 * l.texture as f32)
         }
         fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
@@ -448,5 +495,65 @@ mod tests {
         // of the texture coordinates: reads the geometry without any leaf
         let uv = noise(Expr::TexCoord, c([0.0; 4]));
         assert!(uv.reads_geometry() && uv.constant_value().is_none());
+    }
+
+    /// A lookup read at computed coordinates sees those coordinates, not the geometry's; its
+    /// leaves are still visited (so that texture indices are remapped), and one made constant
+    /// (a missing texture) is that constant.
+    #[test]
+    fn a_texture_read_at_computed_coordinates() {
+        /// Textures answer (s, t, index, 1) of the coordinates they are read at.
+        struct Echo;
+        impl Lookups for Echo {
+            fn texture(&self, l: &TexLookup, st: glam::Vec2) -> [f32; 4] {
+                [st.x, st.y, l.texture as f32, 1.0]
+            }
+            fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+                Fixed.primvar(l)
+            }
+            fn uv(&self) -> glam::Vec2 {
+                Fixed.uv()
+            }
+            fn position(&self, world: bool) -> glam::Vec3 {
+                Fixed.position(world)
+            }
+            fn normal(&self, world: bool) -> glam::Vec3 {
+                Fixed.normal(world)
+            }
+            fn tangent(&self, world: bool) -> glam::Vec3 {
+                Fixed.tangent(world)
+            }
+        }
+        let plain = tex(3, Channel::Rgb);
+        assert_eq!(plain.eval(&Echo), [0.25, 0.75, 3.0, 1.0]);
+        // read at 2 uv + the position's (x, y)
+        let st = Expr::binary(Binary::Add, Expr::binary(Binary::Mul, Expr::TexCoord, Expr::Const([2.0; 4])), Expr::Position { world: true });
+        let mut warped = Expr::TextureAt(Box::new(tex(3, Channel::Rgb)), Box::new(st));
+        assert_eq!(warped.eval(&Echo), [1.5, 3.5, 3.0, 1.0]);
+        assert!(warped.constant_value().is_none() && warped.reads_geometry());
+        let mut seen = 0;
+        warped.leaves_mut(&mut |leaf| {
+            if let Expr::Texture(l) = leaf {
+                l.texture = 7;
+                seen += 1;
+            }
+        });
+        assert_eq!((seen, warped.eval(&Echo)), (1, [1.5, 3.5, 7.0, 1.0]));
+        let gone = Expr::TextureAt(Box::new(Expr::Const([0.5; 4])), Box::new(Expr::TexCoord));
+        assert_eq!(gone.eval(&Echo), [0.5; 4]);
+    }
+
+    /// The triplanar blend: one axis's value where the direction lies along it, the weights'
+    /// power and renormalisation elsewhere.
+    #[test]
+    fn blend3_weights_by_the_direction() {
+        let c = |v: [f32; 4]| Expr::Const(v);
+        let blend = |n: [f32; 4], s: f32| Expr::Blend3(Box::new([c(n), c([s; 4]), c([1.0; 4]), c([10.0; 4]), c([100.0; 4])])).eval(&Fixed)[0];
+        assert_eq!(blend([0.0, -3.0, 0.0, 0.0], 1.0), 10.0);
+        assert!((blend([1.0, -1.0, 0.0, 0.0], 1.0) - 5.5).abs() < 1e-5);
+        // w = (1/3, 2/3, 0), squared (1/9, 4/9, 0), renormalised (0.2, 0.8, 0)
+        assert!((blend([-1.0, 2.0, 0.0, 0.0], 2.0) - (0.2 + 8.0)).abs() < 1e-4);
+        // no direction: nothing, not a NaN
+        assert_eq!(blend([0.0; 4], 1.0), 0.0);
     }
 }

@@ -329,8 +329,8 @@ struct AtHit<'a> {
 }
 
 impl Lookups for AtHit<'_> {
-    fn texture(&self, l: &TexLookup) -> [f32; 4] {
-        texture::lookup_rgba(&self.w.textures, l, self.w.st(l, self.s))
+    fn texture(&self, l: &TexLookup, st: Vec2) -> [f32; 4] {
+        texture::lookup_rgba(&self.w.textures, l, st)
     }
 
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
@@ -832,27 +832,10 @@ impl World {
         }
     }
 
-    /// A lookup's value at a hit: the primvar's or the fallback, times the lookup's scale.
-    fn primvar_or(&self, s: &SurfaceHit, l: &PrimvarLookup) -> [f32; 4] {
-        let v = self.primvar(s, &l.name).unwrap_or(l.fallback);
-        std::array::from_fn(|k| v[k] * l.scale[k])
-    }
-
-    /// The texture coordinates a lookup reads at a hit.
-    fn st(&self, l: &TexLookup, s: &SurfaceHit) -> Vec2 {
-        match &l.uv_set {
-            None => s.uv,
-            Some(set) => {
-                let v = self.primvar_or(s, set);
-                Vec2::new(v[0], v[1])
-            }
-        }
-    }
-
     fn rgb(&self, c: &ColorParam, s: &SurfaceHit) -> Option<[f32; 3]> {
         match c {
             ColorParam::Const(_) => None,
-            ColorParam::Tex(l) => Some(texture::lookup_rgb(&self.textures, l, self.st(l, s))),
+            ColorParam::Tex(l) => Some(texture::lookup_rgb(&self.textures, l, AtHit { w: self, s }.st(l))),
             ColorParam::Primvar(l) => {
                 let v = self.primvar_or(s, l);
                 Some([v[0], v[1], v[2]])
@@ -862,6 +845,12 @@ impl World {
                 Some([v[0], v[1], v[2]])
             }
         }
+    }
+
+    /// A lookup's value at a hit: the primvar's or the fallback, times the lookup's scale.
+    fn primvar_or(&self, s: &SurfaceHit, l: &PrimvarLookup) -> [f32; 4] {
+        let v = self.primvar(s, &l.name).unwrap_or(l.fallback);
+        std::array::from_fn(|k| v[k] * l.scale[k])
     }
 
     fn color(&self, c: &ColorParam, s: &SurfaceHit, lambda: &SampledWavelengths) -> SampledSpectrum {
@@ -874,7 +863,7 @@ impl World {
     fn float(&self, c: &FloatParam, s: &SurfaceHit) -> f32 {
         match c {
             FloatParam::Const(v) => *v,
-            FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, self.st(l, s)),
+            FloatParam::Tex(l) => texture::lookup_float(&self.textures, l, AtHit { w: self, s }.st(l)),
             FloatParam::Primvar(l) => self.primvar_or(s, l)[0],
             FloatParam::Graph(e) => e.eval(&AtHit { w: self, s })[0],
         }
@@ -1084,11 +1073,11 @@ mod tests {
         assert_eq!(w.rgb(&ColorParam::Primvar(look("tint")), &sh), Some([0.1, 0.2, 0.3]));
         // a texture's coordinates from another primvar: its first two components
         let mut tex = TexLookup { texture: 0, channel: Channel::Rgb, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
-        assert_eq!(w.st(&tex, &sh), sh.uv);
+        assert_eq!(AtHit { w: &w, s: &sh }.st(&tex), sh.uv);
         tex.uv_set = Some(look("tint"));
-        assert_eq!(w.st(&tex, &sh), Vec2::new(0.1, 0.2));
+        assert_eq!(AtHit { w: &w, s: &sh }.st(&tex), Vec2::new(0.1, 0.2));
         tex.uv_set = Some(look("absent"));
-        assert_eq!(w.st(&tex, &sh), Vec2::new(0.9, 0.8));
+        assert_eq!(AtHit { w: &w, s: &sh }.st(&tex), Vec2::new(0.9, 0.8));
         // an instance's own values come between the geometry's varying and constant ones
         let mut s2 = s.clone();
         s2.instances[0].primvar_row = Some((0, 1));

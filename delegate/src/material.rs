@@ -1144,21 +1144,27 @@ mod tests {
                 assert!((got - want).length() < 1e-5, "order {order}, uv {uv}: {got} vs {want}");
             }
         }
-        // a texcoord that varies otherwise (a texture's value): reported, the mesh's st used
+        // a texcoord that varies otherwise (a texture's value, a warp): the image is read at
+        // the coordinates computed at each hit
         let s = mat(&[
             ("surface", Value::Path("/M/S".into())),
             ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
             ("/M/S.inputs:base_color.connect", tok("/M/Img.outputs:out")),
-            ("/M/Img.info:id", tok("ND_image_color3")),
+            ("/M/Img.info:id", tok("ND_tiledimage_color3")),
             ("/M/Img.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Img.inputs:uvtiling", Value::Floats { data: vec![4.0, 2.0], tuple: 2 }),
             ("/M/Img.inputs:texcoord.connect", tok("/M/Warp.outputs:out")),
             ("/M/Warp.info:id", tok("ND_image_vector2")),
+            ("/M/Warp.inputs:file", Value::Asset("/tex/albedo.png".into())),
         ]);
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(false), &mut p);
-        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["/M/Img.inputs:texcoord"]);
+        assert!(p.list.is_empty(), "{:?}", p.list);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
-        assert!(matches!(&ps.diffuse_color, ColorInput::Texture(t) if t.transform == Affine2::IDENTITY && t.uv_set.is_none()));
+        let ColorInput::Graph(Expr::TextureAt(image, st)) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
+        // the tiling still applies to the computed coordinates; the warp reads the mesh's st
+        assert!(matches!(&**image, Expr::Texture(t) if t.transform == Affine2::from_scale(Vec2::new(4.0, 2.0)) && t.uv_set.is_none()), "{image:?}");
+        assert!(matches!(&**st, Expr::Texture(t) if t.transform == Affine2::IDENTITY), "{st:?}");
     }
 
     /// OpenPBR Surface maps as standard_surface does, under its own input names and defaults.
@@ -1347,7 +1353,7 @@ mod tests {
         const X: [f32; 4] = [0.3, 0.6, 0.9, 0.5];
         struct AtX;
         impl Lookups for AtX {
-            fn texture(&self, _: &TexLookup) -> [f32; 4] {
+            fn texture(&self, _: &TexLookup, _: Vec2) -> [f32; 4] {
                 unreachable!("no texture here")
             }
             fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {

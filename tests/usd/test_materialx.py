@@ -287,23 +287,18 @@ def test_cell_noise_gives_one_uniform_value_per_cell(renderer, stage):
     assert abs(cell.var() - 1 / 12) < 4 * se_var, cell.var()
 
 
-def _normal_as_colour(renderer, space):
-    """A unit sphere turned 90 degrees about +Y, seen straight down by `top_camera`, glowing
-    (normal + 1) / 2 of MaterialX's `normal` node in `space`; returns the image, the pixels'
-    mask inside the disc (away from its rim) and the world normal each of them sees."""
+def _glowing_ball(renderer, glow, turn=0.0):
+    """A unit sphere turned `turn` degrees about +Y, seen straight down by `top_camera`,
+    glowing the colour output `glow(stage, shader_path)` returns; the image, and the world
+    normal (x, y, z) each pixel sees."""
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     top_camera(stage)
     ball = UsdGeom.Sphere.Define(stage, "/Ball")
     ball.CreateRadiusAttr(1.0)
-    ball.AddRotateYOp().Set(90.0)
-    mat, sh = _standard_surface(stage, "/Looks/N", base=0.0, specular=0.0, emission=1.0)
-    vec3 = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Float3)
-    n = shader_node(stage, "/Looks/N/Normal", "ND_normal_vector3")
-    n.CreateInput("space", Sdf.ValueTypeNames.String).Set(space)
-    half = shader_node(stage, "/Looks/N/Half", "ND_multiply_vector3FA", in1=vec3(n), in2=0.5)
-    shifted = shader_node(stage, "/Looks/N/Shift", "ND_add_vector3FA", in1=vec3(half), in2=0.5)
-    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(vec3(shifted))
+    ball.AddRotateYOp().Set(turn)
+    mat, sh = _standard_surface(stage, "/Looks/G", base=0.0, specular=0.0, emission=1.0)
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(glow(stage, "/Looks/G"))
     bind(ball.GetPrim(), mat)
     settings(stage, res=(RES, RES), samples=16, integrator="path", maxDepth=1)
     problems = []
@@ -311,23 +306,63 @@ def _normal_as_colour(renderer, space):
     assert [p for p in problems if p.prim.startswith("/Looks")] == [], problems
     c = -HALF + (np.arange(RES) + 0.5) * 2 * HALF / RES
     x, z = np.meshgrid(c, c)  # rows follow z, columns x
-    r2 = x ** 2 + z ** 2
-    inside = r2 < 0.8 ** 2
-    normal = np.stack([x, np.sqrt(np.clip(1 - r2, 0, 1)), z], axis=-1)
-    return img, inside, normal
+    return img, np.stack([x, np.sqrt(np.clip(1 - x ** 2 - z ** 2, 0, 1)), z], axis=-1)
+
+
+def _quadrants_show(img, normal, want):
+    """Each quadrant's mean colour inside the disc (away from its rim) is the mean of `want`
+    there."""
+    inside = normal[..., 0] ** 2 + normal[..., 2] ** 2 < 0.8 ** 2
+    h = RES // 2
+    for rows in (slice(0, h), slice(h, RES)):
+        for cols in (slice(0, h), slice(h, RES)):
+            sel = inside[rows, cols]
+            ok, why = near(img[rows, cols][sel], want[rows, cols][sel].mean(axis=0))
+            if not ok:
+                return False, why
+    return True, None
 
 
 def test_the_normal_node_reads_the_shading_normal_in_either_space(renderer):
-    """In the world, a sphere's normal where the camera looks down at (x, z) is (x, y, z) on
-    the unit sphere; in the object's space it is turned back by the sphere's 90 degrees about
-    +Y: (x, y, z) -> (-z, y, x). Each quadrant's mean colour is (n + 1) / 2 of the normals
-    it sees."""
+    """A sphere turned 90 degrees about +Y glows (n + 1) / 2 of MaterialX's `normal`. In the
+    world, the normal where the camera looks down at (x, z) is (x, y, z) on the unit sphere;
+    in the object's space it is turned back: (x, y, z) -> (-z, y, x)."""
+    vec3 = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Float3)
+
+    def glow(space):
+        def build(stage, path):
+            n = shader_node(stage, path + "/Normal", "ND_normal_vector3", space=space)
+            half = shader_node(stage, path + "/Half", "ND_multiply_vector3FA", in1=vec3(n), in2=0.5)
+            return vec3(shader_node(stage, path + "/Shift", "ND_add_vector3FA", in1=vec3(half), in2=0.5))
+        return build
+
     for space, turn in (("world", lambda n: n), ("object", lambda n: np.stack([-n[..., 2], n[..., 1], n[..., 0]], axis=-1))):
-        img, inside, normal = _normal_as_colour(renderer, space)
-        want = (turn(normal) + 1) / 2
-        h = RES // 2
-        for rows in (slice(0, h), slice(h, RES)):
-            for cols in (slice(0, h), slice(h, RES)):
-                sel = inside[rows, cols]
-                ok, why = near(img[rows, cols][sel], want[rows, cols][sel].mean(axis=0))
-                assert ok, (space, why)
+        img, normal = _glowing_ball(renderer, glow(space), turn=90.0)
+        ok, why = _quadrants_show(img, normal, (turn(normal) + 1) / 2)
+        assert ok, (space, why)
+
+
+def test_triplanar_projection_blends_three_images_by_the_normal(renderer, tmp_path):
+    """A unit sphere glowing a triplanarprojection of three solid images, red along x, green
+    along y, blue along z: where the camera looking down sees the normal n = (x, y, z), the
+    colour is the weights |n| / (|n|.1) raised to 1 / blend and renormalised. blend 1 gives
+    (|x|, |y|, |z|) / (|x| + |y| + |z|); blend 0.5 squares the weights first."""
+    files = []
+    for k, name in enumerate("xyz"):
+        files.append(str(tmp_path / f"{name}.exr"))
+        write_exr(files[-1], [[tuple(float(j == k) for j in range(3))]])
+
+    def glow(blend):
+        def build(stage, path):
+            tri = shader_node(stage, path + "/Tri", "ND_triplanarprojection_color3", blend=blend)
+            for axis, f in zip("xyz", files):
+                tri.CreateInput("file" + axis, Sdf.ValueTypeNames.Asset).Set(f)
+            return tri.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+        return build
+
+    for blend in (1.0, 0.5):
+        img, normal = _glowing_ball(renderer, glow(blend))
+        n = np.abs(normal)
+        q = (n / n.sum(axis=-1, keepdims=True)) ** (1 / blend)
+        ok, why = _quadrants_show(img, normal, q / q.sum(axis=-1, keepdims=True))
+        assert ok, (blend, why)

@@ -518,14 +518,7 @@ struct OnTriangle<'a> {
 }
 
 impl crate::shader_graph::Lookups for OnTriangle<'_> {
-    fn texture(&self, l: &crate::scene::TexLookup) -> [f32; 4] {
-        let st = match &l.uv_set {
-            Some(set) => {
-                let v = self.primvar(set);
-                Vec2::new(v[0], v[1])
-            }
-            None => self.uv(),
-        };
+    fn texture(&self, l: &crate::scene::TexLookup, st: Vec2) -> [f32; 4] {
         crate::texture::lookup_rgba_in(self.graph.textures.get(l.texture).map(|t| &**t), l, st)
     }
 

@@ -76,9 +76,13 @@ pub(super) fn is_mtlx_node(id: &str) -> bool {
 }
 
 /// `source` × `mul` + `add`, per component, folded into the source where one lookup can carry
-/// it: a constant, a texture's scale and bias (its fallback too), or a primvar's scale. None
-/// where it cannot (a primvar's offset, a single-channel texture scaled unevenly, a graph).
+/// it: a constant, a texture's scale and bias (its fallback too), or a primvar's scale; the
+/// identity leaves any source as it is. None where it cannot (a primvar's offset, a
+/// single-channel texture scaled unevenly, a graph).
 fn affine(source: &Source, mul: [f32; 4], add: [f32; 4]) -> Option<Source> {
+    if mul == [1.0; 4] && add == [0.0; 4] {
+        return Some(source.clone());
+    }
     let map = |v: [f32; 4]| -> [f32; 4] { std::array::from_fn(|k| v[k] * mul[k] + add[k]) };
     let even = |v: [f32; 4]| v[..3].iter().all(|x| *x == v[0]);
     Some(match source.clone() {
@@ -257,12 +261,15 @@ impl Ctx<'_> {
             return None;
         }
         match family(&id) {
-            Some("image" | "tiledimage") => Some(match self.mtlx_image(up) {
-                Ok(mut t) => {
+            Some("image" | "tiledimage") => Some(match self.mtlx_image(up, depth) {
+                Ok((mut t, coordinates)) => {
                     if id.ends_with("_float") {
                         t.channel = Channel::R;
                     }
-                    Source::Texture(t)
+                    match coordinates {
+                        None => Source::Texture(t),
+                        Some(st) => Source::Graph(Expr::TextureAt(Box::new(Expr::Texture(t)), Box::new(st))),
+                    }
                 }
                 Err(fb) => Source::Fallback(fb),
             }),
@@ -483,7 +490,7 @@ impl Ctx<'_> {
 
     /// An input's value as four components: a scalar fills all four (an operand of a node that
     /// mixes scalars and colours applies to each component), three components take alpha 1.
-    fn value4(&mut self, node: &str, input: &str, default: [f32; 4]) -> [f32; 4] {
+    pub(super) fn value4(&mut self, node: &str, input: &str, default: [f32; 4]) -> [f32; 4] {
         match self.nodes[node].inputs.get(input).map(|v| v.to_f32s()) {
             None => default,
             Some(Some(v)) if !v.is_empty() && v.len() <= 4 && v.iter().all(|x| x.is_finite()) => match v[..] {
@@ -510,7 +517,10 @@ impl Ctx<'_> {
 
     /// An `image` or `tiledimage` node as a texture lookup, or its `default` when the file is
     /// unavailable.
-    fn mtlx_image(&mut self, node: &str) -> Result<TexLookup, [f32; 4]> {
+    ///
+    /// Coordinates that no affine map of a set of coordinates gives (a texcoord warped by a
+    /// noise, say) come back as the expression that computes them at each hit.
+    fn mtlx_image(&mut self, node: &str, depth: u32) -> Result<(TexLookup, Option<Expr>), [f32; 4]> {
         let modes = [("periodic", WrapKey::Repeat), ("clamp", WrapKey::Clamp), ("mirror", WrapKey::Mirror), ("constant", WrapKey::Black)];
         let wrap_s = self.wrap_input(node, "uaddressmode", &modes, "periodic");
         let wrap_t = self.wrap_input(node, "vaddressmode", &modes, "periodic");
@@ -522,24 +532,30 @@ impl Ctx<'_> {
         let image_size = Vec2::from(self.input_vec(node, "realworldimagesize", [1.0, 1.0]));
         let tile_size = Vec2::from(self.input_vec(node, "realworldtilesize", [1.0, 1.0]));
         let tiled = Affine2::from_scale(tile_size / image_size) * Affine2::from_translation(-offset) * Affine2::from_scale(tiling);
-        let (chain, uv_set) = match self.nodes[node].connects.get("texcoord").cloned() {
-            None => (Affine2::IDENTITY, None),
-            Some((up, _)) => self.texcoord(&up, 0).unwrap_or_else(|why| {
-                self.p.add(&format!("{}.inputs:texcoord", node), format!("{why}; using the mesh's st"));
-                (Affine2::IDENTITY, None)
-            }),
+        let (chain, uv_set, computed) = match self.nodes[node].connects.get("texcoord").cloned() {
+            None => (Affine2::IDENTITY, None, None),
+            Some((up, _)) => match self.texcoord(&up, 0) {
+                Ok((chain, set)) => (chain, set, None),
+                Err(_) => match self.arg(node, "texcoord", 0.0, depth) {
+                    Ok(st) => (Affine2::IDENTITY, None, Some(st)),
+                    Err(why) => {
+                        self.p.add(&format!("{}.inputs:texcoord", node), format!("the texture coordinates' node {why}; using the mesh's st"));
+                        (Affine2::IDENTITY, None, None)
+                    }
+                },
+            },
         };
         let Some(texture) = self.texture_slot(node, "file", "auto", wrap_s, wrap_t) else { return Err(fallback) };
         let transform = tiled * chain;
         if !(transform.matrix2.is_finite() && transform.translation.is_finite()) {
             self.p.add(&format!("{}.inputs:texcoord", node), "the texture coordinates' transform is not finite; using the mesh's st");
-            return Ok(TexLookup { transform: Affine2::IDENTITY, ..self.plain_lookup(texture, fallback, None) });
+            return Ok((TexLookup { transform: Affine2::IDENTITY, ..self.plain_lookup(texture, fallback, None) }, None));
         }
-        Ok(TexLookup { transform, ..self.plain_lookup(texture, fallback, uv_set) })
+        Ok((TexLookup { transform, ..self.plain_lookup(texture, fallback, uv_set) }, computed))
     }
 
     /// An untransformed RGB lookup of `texture`.
-    fn plain_lookup(&self, texture: usize, fallback: [f32; 4], uv_set: Option<PrimvarLookup>) -> TexLookup {
+    pub(super) fn plain_lookup(&self, texture: usize, fallback: [f32; 4], uv_set: Option<PrimvarLookup>) -> TexLookup {
         TexLookup { texture, channel: Channel::Rgb, transform: Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback, uv_set }
     }
 

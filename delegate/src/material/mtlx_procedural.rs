@@ -1,22 +1,35 @@
 //! MaterialX's procedural nodes and geometric frame: `noise2d`, `noise3d`, `fractal2d`,
 //! `fractal3d`, `cellnoise2d`, `cellnoise3d`, `worleynoise2d` and `worleynoise3d` (every
-//! output type their nodedefs define, every input connected or constant), and `normal`,
-//! `tangent` and `bitangent` in the object's or the world's space, as node graph expressions
-//! evaluated at each hit ([`tide_core::noise`] computes the noises as MaterialX's library
-//! does).
+//! output type their nodedefs define, every input connected or constant), `normal`,
+//! `tangent` and `bitangent` in the object's or the world's space, and
+//! `triplanarprojection`, as node graph expressions evaluated at each hit
+//! ([`tide_core::noise`] computes the noises as MaterialX's library does).
 //!
 //! A 2D noise reads the mesh's texture coordinates and a 3D one the object-space position,
 //! unless its `texcoord` or `position` is connected or set. `noise2d`/`noise3d` give noise ×
 //! amplitude + pivot, the fractals noise × amplitude; an `FA` variant's float amplitude
 //! scales every component.
 
-use super::{Ctx, Source};
+use super::{Ctx, Source, WrapKey};
 use tide_core::noise::{Noise, NoiseKind, MAX_OCTAVES};
+use tide_core::scene::Channel;
 use tide_core::shader_graph::{Binary, Expr};
 
 /// The node families read here.
-pub(super) const PROCEDURAL: [&str; 11] =
-    ["noise2d", "noise3d", "fractal2d", "fractal3d", "cellnoise2d", "cellnoise3d", "worleynoise2d", "worleynoise3d", "normal", "tangent", "bitangent"];
+pub(super) const PROCEDURAL: [&str; 12] = [
+    "noise2d",
+    "noise3d",
+    "fractal2d",
+    "fractal3d",
+    "cellnoise2d",
+    "cellnoise3d",
+    "worleynoise2d",
+    "worleynoise3d",
+    "normal",
+    "tangent",
+    "bitangent",
+    "triplanarprojection",
+];
 
 /// The components of each output type a noise node's id may name (`ND_noise2d_color3FA` →
 /// `color3`).
@@ -64,6 +77,7 @@ impl Ctx<'_> {
                 }
                 return Ok(Source::Graph(if name == "tangent" { Expr::Tangent { world } } else { Expr::Bitangent { world } }));
             }
+            "triplanarprojection" => return self.triplanar(id, node, depth),
             _ => {}
         }
         let space = name.ends_with("3d");
@@ -132,6 +146,51 @@ impl Ctx<'_> {
         Ok(Source::from_expr(e))
     }
 
+    /// `triplanarprojection`, as MaterialX's nodegraph computes it: images `filex`, `filey`
+    /// and `filez` (periodic) read at two of the position's coordinates each (which two, and
+    /// in what order, as `upaxis` says), weighted by the normal's |n| / (|n|·1) raised to
+    /// 1 / clamp(blend, 0.03, 1) and renormalised. Position and normal default to the
+    /// object's own.
+    fn triplanar(&mut self, id: &str, node: &str, depth: u32) -> Result<Source, String> {
+        let p = self.coordinate(node, "position", Expr::Position { world: false }, depth)?;
+        let n = self.coordinate(node, "normal", Expr::Normal { world: false }, depth)?;
+        let up = self.input_f32(node, "upaxis", 2.0);
+        if ![0.0, 1.0, 2.0].contains(&up) {
+            self.p.add(&format!("{}.inputs:upaxis", node), format!("upaxis {up} is none of 0 (X), 1 (Y), 2 (Z); using 2"));
+        }
+        let blend = self.scalar_arg(node, "blend", 1.0, depth)?;
+        let fallback = self.value4(node, "default", [0.0; 4]);
+        let c = |v: f32| Expr::Const([v; 4]);
+        let bin = Expr::binary;
+        let pick = |a: u8, b: u8| Expr::Swizzle(Box::new(p.clone()), [a, b, a, a]);
+        // (x, y, z) = (0, 1, 2); the Z-facing image reads (−y, x) with X up
+        let coordinates = match up as i64 {
+            0 => [pick(2, 1), pick(2, 0), bin(Binary::Mul, pick(1, 0), Expr::Const([-1.0, 1.0, 1.0, 1.0]))],
+            1 => [pick(2, 1), pick(0, 2), pick(0, 1)],
+            _ => [pick(1, 2), pick(0, 2), pick(0, 1)],
+        };
+        let single = id.ends_with("_float");
+        let mut images = Vec::with_capacity(3);
+        for (file, st) in ["filex", "filey", "filez"].into_iter().zip(coordinates) {
+            images.push(match self.texture_slot(node, file, "auto", WrapKey::Repeat, WrapKey::Repeat) {
+                Some(texture) => {
+                    let mut l = self.plain_lookup(texture, fallback, None);
+                    if single {
+                        l.channel = Channel::R;
+                    }
+                    Expr::TextureAt(Box::new(Expr::Texture(l)), Box::new(st))
+                }
+                None => Expr::Const(if single { [fallback[0]; 4] } else { fallback }),
+            });
+        }
+        let power = match blend {
+            Expr::Const(b) => c(1.0 / b[0].clamp(0.03, 1.0)),
+            b => bin(Binary::Div, c(1.0), bin(Binary::Min, bin(Binary::Max, b, c(0.03)), c(1.0))),
+        };
+        let [x, y, z]: [Expr; 3] = images.try_into().expect("three images");
+        Ok(Source::from_expr(Expr::Blend3(Box::new([n, power, x, y, z]))))
+    }
+
     /// Whether a geometric node's `space` is the world's (`object`, the default, and `model`
     /// are the geometry's own).
     pub(super) fn world_space(&mut self, node: &str) -> bool {
@@ -177,7 +236,7 @@ mod tests {
     /// primvar `x` is [`X`].
     struct At;
     impl Lookups for At {
-        fn texture(&self, _: &TexLookup) -> [f32; 4] {
+        fn texture(&self, _: &TexLookup, _: Vec2) -> [f32; 4] {
             unreachable!("no texture here")
         }
         fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
@@ -319,5 +378,37 @@ mod tests {
             let unusable = attrs.contains(&"/M/S.inputs:diffuseColor");
             assert_eq!(matches!(color, ColorInput::Graph(_)), !unusable, "{id}: {color:?}");
         }
+    }
+
+    /// triplanarprojection: each image read at two of the object's coordinates (which two,
+    /// and in what order, by `upaxis`), blended by the object's normal with the power
+    /// 1 / blend; a missing image reads the default.
+    #[test]
+    fn triplanar_projection_reads_three_planes() {
+        let file = || Value::Asset("/tex/albedo.png".into());
+        let planes = |up: i64| {
+            let (c, p) = convert("ND_triplanarprojection_color3", vec![("filex", file()), ("filey", file()), ("filez", file()), ("upaxis", Value::Int(up)), ("blend", Value::Float(0.25))]);
+            assert!(p.is_empty(), "{p:?}");
+            let ColorInput::Graph(Expr::Blend3(parts)) = c else { panic!("{c:?}") };
+            let [n, power, images @ ..] = *parts;
+            assert_eq!((n, power), (Expr::Normal { world: false }, Expr::Const([4.0; 4])));
+            images.map(|e| match e {
+                Expr::TextureAt(t, st) if matches!(*t, Expr::Texture(_)) => st.eval(&At),
+                other => panic!("{other:?}"),
+            })
+        };
+        let (x, y, z) = (OBJECT.x, OBJECT.y, OBJECT.z);
+        let st = |a: f32, b: f32| [a, b, a, a];
+        assert_eq!(planes(2), [st(y, z), st(x, z), st(x, y)]);
+        assert_eq!(planes(1), [st(z, y), st(x, z), st(x, y)]);
+        let xup = planes(0);
+        assert_eq!(&xup[..2], &[st(z, y), st(z, x)]);
+        assert_eq!(&xup[2][..2], &[-y, x]);
+        // no files: the default colour from every plane
+        let (c, p) = convert("ND_triplanarprojection_color3", vec![("default", Value::Floats { data: vec![0.1, 0.2, 0.3], tuple: 3 })]);
+        assert_eq!(p.iter().filter(|q| q.1.ends_with(":filex") || q.1.ends_with(":filey") || q.1.ends_with(":filez")).count(), 3, "{p:?}");
+        let ColorInput::Graph(e) = c else { panic!("{c:?}") };
+        let v = e.eval(&At);
+        assert!(v[..3].iter().zip([0.1, 0.2, 0.3]).all(|(a, b)| (a - b).abs() < 1e-6), "{v:?}");
     }
 }
