@@ -199,10 +199,16 @@ pub struct PbrExtras {
     pub coat_ior: f32,
     /// Specular anisotropy, 0–1, and how it maps to the two roughnesses.
     pub anisotropy: FloatInput,
-    pub anisotropy_model: crate::bsdf::Anisotropy,
+    pub flavour: crate::bsdf::PbrFlavour,
     /// Turn of the anisotropy's tangent about the normal, in revolutions (Standard Surface's
     /// `specular_rotation`); 0 is the direction of increasing u.
     pub anisotropy_rotation: FloatInput,
+    /// Roughness of the diffuse base, 0–1 (Oren–Nayar; 0 is Lambertian).
+    pub diffuse_roughness: FloatInput,
+    /// The sheen (Standard Surface `sheen`, OpenPBR `fuzz`): weight 0–1, colour, roughness.
+    pub sheen_weight: FloatInput,
+    pub sheen_color: ColorInput,
+    pub sheen_roughness: FloatInput,
 }
 
 impl Default for PbrExtras {
@@ -213,8 +219,12 @@ impl Default for PbrExtras {
             coat_color: ColorInput::Const([1.0; 3]),
             coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
             anisotropy: FloatInput::Const(0.0),
-            anisotropy_model: crate::bsdf::Anisotropy::StandardSurface,
+            flavour: crate::bsdf::PbrFlavour::StandardSurface,
             anisotropy_rotation: FloatInput::Const(0.0),
+            diffuse_roughness: FloatInput::Const(0.0),
+            sheen_weight: FloatInput::Const(0.0),
+            sheen_color: ColorInput::Const([1.0; 3]),
+            sheen_roughness: FloatInput::Const(0.3),
         }
     }
 }

@@ -51,8 +51,12 @@ pub struct ExtrasParam {
     pub coat_color: ColorParam,
     pub coat_ior: f32,
     pub anisotropy: FloatParam,
-    pub anisotropy_model: crate::bsdf::Anisotropy,
+    pub flavour: crate::bsdf::PbrFlavour,
     pub anisotropy_rotation: FloatParam,
+    pub diffuse_roughness: FloatParam,
+    pub sheen_weight: FloatParam,
+    pub sheen_color: ColorParam,
+    pub sheen_roughness: FloatParam,
 }
 
 /// A clear dielectric interface (TideWater or any glass).
@@ -501,8 +505,12 @@ impl World {
                                     coat_color: color_param(&x.coat_color, cs),
                                     coat_ior: x.coat_ior,
                                     anisotropy: float_param(&x.anisotropy),
-                                    anisotropy_model: x.anisotropy_model,
+                                    flavour: x.flavour,
                                     anisotropy_rotation: float_param(&x.anisotropy_rotation),
+                                    diffuse_roughness: float_param(&x.diffuse_roughness),
+                                    sheen_weight: float_param(&x.sheen_weight),
+                                    sheen_color: color_param(&x.sheen_color, cs),
+                                    sheen_roughness: float_param(&x.sheen_roughness),
                                 })
                             }),
                         }
@@ -932,7 +940,11 @@ impl World {
                     coat_color: SampledSpectrum::ONE,
                     coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
                     anisotropy: 0.0,
-                    anisotropy_model: crate::bsdf::Anisotropy::StandardSurface,
+                    flavour: crate::bsdf::PbrFlavour::StandardSurface,
+                    diffuse_roughness: 0.0,
+                    sheen_weight: 0.0,
+                    sheen_color: SampledSpectrum::ONE,
+                    sheen_roughness: 0.3,
                 };
                 let params = match extras.as_deref() {
                     Some(x) => {
@@ -947,7 +959,11 @@ impl World {
                             coat_color: self.color(&x.coat_color, s, lambda),
                             coat_ior: x.coat_ior,
                             anisotropy: self.float(&x.anisotropy, s),
-                            anisotropy_model: x.anisotropy_model,
+                            flavour: x.flavour,
+                            diffuse_roughness: self.float(&x.diffuse_roughness, s),
+                            sheen_weight: self.float(&x.sheen_weight, s),
+                            sheen_color: self.color(&x.sheen_color, s, lambda),
+                            sheen_roughness: self.float(&x.sheen_roughness, s),
                             ..params
                         }
                     }

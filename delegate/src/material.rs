@@ -969,7 +969,7 @@ mod tests {
             ("/M/SR.inputs:emission", f(2.0)),
             ("/M/SR.inputs:emission_color", c3([0.1, 0.2, 0.3])),
             ("/M/SR.inputs:opacity", c3([0.5, 0.5, 0.5])),
-            ("/M/SR.inputs:sheen", f(0.5)),
+            ("/M/SR.inputs:transmission_dispersion", f(0.5)),
         ]);
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(false), &mut p);
@@ -985,7 +985,7 @@ mod tests {
         assert_eq!(ps.emissive_color, ColorInput::Const([0.2, 0.4, 0.6]));
         assert_eq!(ps.opacity, FloatInput::Const(0.5));
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["/M/SR.inputs:sheen"], "{:?}", p.list);
+        assert_eq!(attrs, ["/M/SR.inputs:transmission_dispersion"], "{:?}", p.list);
 
         // no specular on a non-metal: a plain diffuse; transmission: a clear dielectric
         let plain = mat(&[("surface", Value::Path("/M/SR".into())), ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/SR.inputs:specular", f(0.0))]);
@@ -1195,7 +1195,7 @@ mod tests {
             ("/M/O.inputs:emission_luminance", f(2.0)),
             ("/M/O.inputs:emission_color", c3([0.1, 0.2, 0.3])),
             ("/M/O.inputs:geometry_opacity", f(0.5)),
-            ("/M/O.inputs:fuzz_weight", f(0.5)),
+            ("/M/O.inputs:transmission_dispersion_scale", f(0.5)),
         ]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
@@ -1203,12 +1203,13 @@ mod tests {
         assert_eq!((ps.metallic.clone(), ps.roughness.clone(), ps.ior), (FloatInput::Const(0.3), FloatInput::Const(0.1), 1.4));
         assert_eq!((ps.clearcoat.clone(), ps.clearcoat_roughness.clone()), (FloatInput::Const(0.2), FloatInput::Const(0.0)));
         assert_eq!((ps.emissive_color.clone(), ps.opacity.clone()), (ColorInput::Const([0.2, 0.4, 0.6]), FloatInput::Const(0.5)));
-        assert_eq!(p, ["/M/O.inputs:fuzz_weight"]);
+        assert_eq!(p, ["/M/O.inputs:transmission_dispersion_scale"]);
     }
 
     /// The inputs UsdPreviewSurface lacks ride along as the surface's extras: the specular's
     /// weight and tint, the coat's colour, the anisotropy (and its turn) with its model's own
-    /// mapping; a surface that leaves them neutral has none.
+    /// mapping, the diffuse roughness, the sheen (OpenPBR's fuzz); a surface that leaves them
+    /// neutral has none.
     #[test]
     fn materialx_extras_map_to_the_layered_surface() {
         let f = |x: f64| Value::Float(x);
@@ -1236,6 +1237,9 @@ mod tests {
                 ("/M/A.info:id", tok("ND_geompropvalue_float")),
                 ("/M/A.inputs:geomprop", Value::String("aniso".into())),
                 ("/M/S.inputs:specular_rotation", f(0.25)),
+                ("/M/S.inputs:diffuse_roughness", f(0.4)),
+                ("/M/S.inputs:sheen", f(0.8)),
+                ("/M/S.inputs:sheen_color", c3([0.9, 0.8, 0.7])),
             ],
         );
         assert!(p.is_empty(), "{p:?}");
@@ -1243,13 +1247,20 @@ mod tests {
         assert_eq!((x.specular_weight, x.specular_tint), (FloatInput::Const(0.6), ColorInput::Const([1.0, 0.5, 0.25])));
         assert_eq!(x.coat_color, ColorInput::Const([0.2, 0.4, 0.8]));
         assert_eq!(x.anisotropy, FloatInput::Primvar(PrimvarLookup::new("aniso", [0.0; 4])));
-        assert_eq!((x.anisotropy_model, x.anisotropy_rotation), (tide_core::bsdf::Anisotropy::StandardSurface, FloatInput::Const(0.25)));
+        assert_eq!((x.flavour, x.anisotropy_rotation), (tide_core::bsdf::PbrFlavour::StandardSurface, FloatInput::Const(0.25)));
         assert!(!ps.use_specular_workflow);
-        let (ps, p) = surface("ND_open_pbr_surface_surfaceshader", &[("/M/S.inputs:specular_roughness_anisotropy", f(0.7)), ("/M/S.inputs:specular_color", c3([0.5, 0.5, 0.5]))]);
+        assert_eq!((x.diffuse_roughness, x.sheen_weight), (FloatInput::Const(0.4), FloatInput::Const(0.8)));
+        assert_eq!((x.sheen_color, x.sheen_roughness), (ColorInput::Const([0.9, 0.8, 0.7]), FloatInput::Const(0.3)));
+        let (ps, p) = surface(
+            "ND_open_pbr_surface_surfaceshader",
+            &[("/M/S.inputs:specular_roughness_anisotropy", f(0.7)), ("/M/S.inputs:specular_color", c3([0.5, 0.5, 0.5])), ("/M/S.inputs:fuzz_weight", f(1.0))],
+        );
         assert!(p.is_empty(), "{p:?}");
         let x = ps.extras.expect("extras");
-        assert_eq!((x.anisotropy, x.anisotropy_model), (FloatInput::Const(0.7), tide_core::bsdf::Anisotropy::OpenPbr));
+        assert_eq!((x.anisotropy, x.flavour), (FloatInput::Const(0.7), tide_core::bsdf::PbrFlavour::OpenPbr));
         assert_eq!((x.specular_tint, x.anisotropy_rotation), (ColorInput::Const([0.5; 3]), FloatInput::Const(0.0)));
+        // fuzz is the sheen, its roughness OpenPBR's default
+        assert_eq!((x.sheen_weight, x.sheen_roughness), (FloatInput::Const(1.0), FloatInput::Const(0.5)));
     }
 
     /// A transmission tinted over a depth fills the body with the absorption that keeps the

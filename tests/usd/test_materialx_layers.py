@@ -119,3 +119,41 @@ def test_anisotropy_stretches_the_highlight_along_the_turned_tangent(renderer):
     assert x0 > 1.5 * z0, (x0, z0)
     assert z1 > 1.5 * x1, (x1, z1)
     assert abs(x0 / z1 - 1) < 0.1 and abs(z0 / x1 - 1) < 0.1, (x0, z0, x1, z1)
+
+
+def test_a_rough_diffuse_base_seen_head_on_reflects_oren_nayar_a(renderer, stage):
+    """Standard Surface's diffuse_roughness is Oren and Nayar's qualitative model with sigma =
+    the roughness: seen at normal incidence under a uniform dome, the B term vanishes (tan of
+    the smaller angle is 0) and a white base reflects A = 1 - 0.5 s^2 / (s^2 + 0.33): 0.7845
+    at 0.5, where a Lambertian one reflects 1."""
+    s = 0.5
+    mat = _surface(stage, "ND_standard_surface_surfaceshader", base=1.0, base_color=(1.0, 1.0, 1.0),
+                   specular=0.0, diffuse_roughness=s)
+    img = _seen_from_above(renderer, stage, mat)
+    ok, why = near(img, [1 - 0.5 * s * s / (s * s + 0.33)] * 3)
+    assert ok, why
+
+
+def _sheen_albedo_head_on(r, n=4000):
+    """The directional albedo at normal incidence of MaterialX's sheen lobe (roughness r, not
+    squared): D = (2 + 1/r) sin^(1/r)(theta_h) / 2 pi, f = D / (4 (mu_i + mu_o - mu_i mu_o)),
+    integrated over the hemisphere by the midpoint rule in theta_i (theta_h = theta_i / 2)."""
+    theta = (np.arange(n) + 0.5) * (np.pi / 2) / n
+    mu = np.cos(theta)
+    d = (2 + 1 / r) * np.sin(theta / 2) ** (1 / r) / (2 * np.pi)
+    f = d / (4 * (mu + 1 - mu))
+    return float(np.sum(f * mu * np.sin(theta)) * 2 * np.pi * (np.pi / 2) / n)
+
+
+def test_a_sheen_over_black_reflects_its_lobe_albedo(renderer, stage):
+    """A sheen (weight 1, colour (1, 0.5, 0.25), roughness 0.5) over a black base with no
+    specular, seen head-on under a dome of radiance 1: colour x the lobe's directional albedo,
+    integrated here from MaterialX's formula."""
+    colour = np.array([1.0, 0.5, 0.25])
+    mat = _surface(stage, "ND_standard_surface_surfaceshader", base=0.0, specular=0.0, sheen=1.0,
+                   sheen_color=tuple(colour), sheen_roughness=0.5)
+    img = _seen_from_above(renderer, stage, mat, samples=64)
+    e = _sheen_albedo_head_on(0.5)
+    assert 0.05 < e < 1, e
+    ok, why = near(img, e * colour)
+    assert ok, why

@@ -15,6 +15,17 @@ use crate::math::{sample_cosine_hemisphere, INV_PI};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
+/// Density μi/π of cosine-weighted directions over the upper hemisphere (0 for either
+/// direction below it).
+#[inline]
+pub(crate) fn cosine_pdf(wo: Vec3, wi: Vec3) -> f32 {
+    if wo.z > 0.0 && wi.z > 0.0 {
+        wi.z * INV_PI
+    } else {
+        0.0
+    }
+}
+
 /// Lambertian reflection.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Lambert {
@@ -32,11 +43,7 @@ impl Lambert {
     }
     #[inline]
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z > 0.0 && wi.z > 0.0 {
-            wi.z * INV_PI
-        } else {
-            0.0
-        }
+        cosine_pdf(wo, wi)
     }
     pub fn sample_f(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
         let wi = sample_cosine_hemisphere(u);

@@ -14,16 +14,19 @@ pub mod albedo;
 pub mod fresnel;
 mod lobes;
 pub mod microfacet;
+pub mod oren_nayar;
 pub mod preview;
 pub mod sea;
 pub mod sea_albedo;
+pub mod sheen;
+pub mod thin_film;
 pub mod wet;
 #[cfg(test)]
 mod tests;
 
 pub use fresnel::{fresnel_complex, fresnel_dielectric, fresnel_dielectric_polarized, fresnel_schlick};
 pub use microfacet::{roughness_to_alpha, TrowbridgeReitz, SMOOTH_ALPHA};
-pub use preview::{Anisotropy, PreviewParams};
+pub use preview::{PbrFlavour, PreviewParams};
 
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -242,7 +245,11 @@ impl Bsdf {
             coat_color: reflectance("coat colour", p.coat_color)?,
             coat_ior: check_positive("coat ior", p.coat_ior)?,
             anisotropy: check_finite("anisotropy", p.anisotropy)?.clamp(0.0, 1.0),
-            anisotropy_model: p.anisotropy_model,
+            flavour: p.flavour,
+            diffuse_roughness: check_finite("diffuse roughness", p.diffuse_roughness)?.clamp(0.0, 1.0),
+            sheen_weight: check_finite("sheen weight", p.sheen_weight)?.clamp(0.0, 1.0),
+            sheen_color: reflectance("sheen colour", p.sheen_color)?,
+            sheen_roughness: check_finite("sheen roughness", p.sheen_roughness)?,
         };
         Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
     }

@@ -10,10 +10,17 @@
 //!   lies beneath sees 1 − weight × albedo (the tint absorbs, it never adds light);
 //! * a coat colour: everything under the coat is multiplied by mix(1, colour, coat), and a
 //!   coat IOR;
-//! * specular anisotropy: two roughnesses along the tangent and bitangent ([`Anisotropy`]).
+//! * specular anisotropy: two roughnesses along the tangent and bitangent ([`PbrFlavour`]);
+//! * a rough diffuse base: Oren–Nayar, the qualitative model for Standard Surface and the
+//!   energy-preserving one (EON) for OpenPBR, as MaterialX's graphs choose;
+//! * a sheen (Standard Surface's `sheen`, OpenPBR's `fuzz`): MaterialX's Charlie sheen lobe
+//!   ([`super::sheen`]) between the coat and the specular layer, over the dielectric part
+//!   (weight × (1 − metallic)); what lies beneath sees 1 − weight × its albedo each way.
 
 use super::fresnel::f0_from_ior;
 use super::lobes::{Lambert, MicrofacetReflection, ReflFresnel};
+use super::oren_nayar::{OrenNayar, OrenNayarModel};
+use super::sheen::Sheen;
 use super::microfacet::{roughness_to_alpha, TrowbridgeReitz};
 use super::{flags, BsdfSample};
 use crate::math::INV_PI;
@@ -52,14 +59,22 @@ pub struct PreviewParams {
     /// IOR of the coat ([`CLEARCOAT_IOR`] for UsdPreviewSurface).
     pub coat_ior: f32,
     /// Specular anisotropy in [0, 1] (0: isotropic), stretching the lobe along the frame's
-    /// tangent as `anisotropy_model` says.
+    /// tangent as `flavour` says.
     pub anisotropy: f32,
-    pub anisotropy_model: Anisotropy,
+    pub flavour: PbrFlavour,
+    /// Roughness of the diffuse base in [0, 1] (0: Lambertian).
+    pub diffuse_roughness: f32,
+    /// The sheen's weight in [0, 1] (0: none), colour in [0, 1] and roughness.
+    pub sheen_weight: f32,
+    pub sheen_color: SampledSpectrum,
+    pub sheen_roughness: f32,
 }
 
-/// How a roughness r and an anisotropy a become the GGX α along the tangent and bitangent.
+/// Whose definitions a MaterialX surface's layers follow: how a roughness r and an anisotropy
+/// a become the GGX α along the tangent and bitangent, and which Oren–Nayar the rough diffuse
+/// base is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Anisotropy {
+pub enum PbrFlavour {
     /// Autodesk Standard Surface (MaterialX's `roughness_anisotropy` node): α = r², aspect
     /// √(1 − min(a, 0.98)), α_t = min(α / aspect, 1), α_b = α × aspect.
     #[default]
@@ -69,7 +84,15 @@ pub enum Anisotropy {
     OpenPbr,
 }
 
-impl Anisotropy {
+impl PbrFlavour {
+    /// The rough diffuse model MaterialX's graph of the surface asks for.
+    pub fn diffuse_model(self) -> OrenNayarModel {
+        match self {
+            PbrFlavour::StandardSurface => OrenNayarModel::Qualitative,
+            PbrFlavour::OpenPbr => OrenNayarModel::EnergyPreserving,
+        }
+    }
+
     /// (α_t, α_b) for perceptual roughness `r` and anisotropy `a`.
     pub fn alphas(self, r: f32, a: f32) -> (f32, f32) {
         let alpha = roughness_to_alpha(r);
@@ -78,11 +101,11 @@ impl Anisotropy {
             return (alpha, alpha);
         }
         match self {
-            Anisotropy::StandardSurface => {
+            PbrFlavour::StandardSurface => {
                 let aspect = (1.0 - a.min(0.98)).sqrt();
                 ((alpha / aspect).min(1.0), alpha * aspect)
             }
-            Anisotropy::OpenPbr => {
+            PbrFlavour::OpenPbr => {
                 let t = alpha * (2.0 / (1.0 + (1.0 - a) * (1.0 - a))).sqrt();
                 (t, (1.0 - a) * t)
             }
@@ -121,6 +144,10 @@ pub(crate) struct Preview {
     untinted: Option<MicrofacetReflection>,
     /// Diffuse reflectance including the (1 − metallic) weight.
     diffuse: SampledSpectrum,
+    /// The rough diffuse lobe of that reflectance, where the base is rough.
+    rough_diffuse: Option<OrenNayar>,
+    /// (weight, lobe) of the sheen, absent when its weight is 0.
+    sheen: Option<(f32, Sheen)>,
     /// 1 − hemispherical average albedo of the untinted specular layer.
     spec_loss_avg: SampledSpectrum,
     /// mix(1, coat colour, coat): the coat's colour on everything beneath it.
@@ -131,11 +158,12 @@ pub(crate) struct Preview {
 const COAT: usize = 0;
 const SPEC: usize = 1;
 const DIFF: usize = 2;
+const SHEEN: usize = 3;
 
 impl Preview {
     /// Builds the stack from validated parameters (finite, clamped).
     pub fn new(p: &PreviewParams) -> Self {
-        let (alpha_t, alpha_b) = p.anisotropy_model.alphas(p.roughness, p.anisotropy);
+        let (alpha_t, alpha_b) = p.flavour.alphas(p.roughness, p.anisotropy);
         let distrib = TrowbridgeReitz::new(alpha_t, alpha_b);
         // Schlick's F0 and F90 of the dielectric part (weighted, then tinted) plus the metal's
         let w = p.specular_weight;
@@ -158,7 +186,10 @@ impl Preview {
         });
         let spec_loss_avg = (SampledSpectrum::ONE - untinted.as_ref().unwrap_or(&spec).albedo_avg()).map(|v| v.max(0.0));
         let under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;
-        Preview { coat, spec, untinted, diffuse, spec_loss_avg, under_tint }
+        let rough_diffuse = (p.diffuse_roughness > 0.0).then(|| OrenNayar::new(diffuse, p.diffuse_roughness, p.flavour.diffuse_model()));
+        let sheen_weight = p.sheen_weight * (1.0 - m);
+        let sheen = (sheen_weight > 0.0).then(|| (sheen_weight, Sheen::new(p.sheen_color, p.sheen_roughness)));
+        Preview { coat, spec, untinted, diffuse, rough_diffuse, sheen, spec_loss_avg, under_tint }
     }
 
     pub fn lobe_flags(&self) -> u8 {
@@ -169,7 +200,16 @@ impl Preview {
         if !self.diffuse.is_black() {
             fl |= flags::DIFFUSE_REFLECTION;
         }
+        if self.sheen.is_some() {
+            fl |= flags::GLOSSY_REFLECTION;
+        }
         fl
+    }
+
+    /// What the sheen lets through to the layers under it, at μ.
+    #[inline]
+    fn sheen_transmittance(&self, mu: f32) -> f32 {
+        self.sheen.as_ref().map_or(1.0, |(w, s)| (1.0 - w * s.albedo(mu)).max(0.0))
     }
 
     /// Transmittance of the clearcoat for a direction at μ.
@@ -184,8 +224,15 @@ impl Preview {
     /// What reaches the layers under the coat and comes back: the coat's transmittance both
     /// ways and its colour.
     #[inline]
-    fn under(&self, mu_o: f32, mu_i: f32) -> SampledSpectrum {
+    fn under_coat(&self, mu_o: f32, mu_i: f32) -> SampledSpectrum {
         self.under_tint * (self.coat_transmittance(mu_o) * self.coat_transmittance(mu_i))
+    }
+
+    /// What reaches the specular layer and the base and comes back: through the coat and
+    /// the sheen, both ways.
+    #[inline]
+    fn under(&self, mu_o: f32, mu_i: f32) -> SampledSpectrum {
+        self.under_coat(mu_o, mu_i) * (self.sheen_transmittance(mu_o) * self.sheen_transmittance(mu_i))
     }
 
     /// What the specular layer lets through to the base along ω.
@@ -204,21 +251,36 @@ impl Preview {
         if self.diffuse.is_black() || wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        (self.diffuse * INV_PI * self.spec_loss(wo) * self.spec_loss(wi)).safe_div(self.spec_loss_avg)
+        let base = match &self.rough_diffuse {
+            Some(on) => on.f(wo, wi),
+            None => self.diffuse * INV_PI,
+        };
+        (base * self.spec_loss(wo) * self.spec_loss(wi)).safe_div(self.spec_loss_avg)
     }
 
-    /// Selection probabilities of (coat, spec, diffuse) for ωo, proportional to estimated albedo.
-    fn probabilities(&self, wo: Vec3) -> [f32; 3] {
+    /// The sheen's part of [`Self::f`].
+    #[inline]
+    fn f_sheen(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        match &self.sheen {
+            Some((w, s)) => s.f(wo, wi) * *w * self.under_coat(wo.z, wi.z),
+            None => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// Selection probabilities of (coat, spec, diffuse, sheen) for ωo, proportional to
+    /// estimated albedo.
+    fn probabilities(&self, wo: Vec3) -> [f32; 4] {
         let mu_o = wo.z;
         let under = self.under(mu_o, mu_o);
         let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average());
         let ps = (under * self.spec.albedo_along(wo)).average();
         let pd = (under * self.diffuse * self.spec_loss(wo)).average();
-        let sum = pc + ps + pd;
+        let ph = self.sheen.as_ref().map_or(0.0, |(w, s)| (self.under_coat(mu_o, mu_o) * s.reflectance(mu_o)).average() * w);
+        let sum = pc + ps + pd + ph;
         if !(sum > 0.0) {
-            return [0.0; 3];
+            return [0.0; 4];
         }
-        [pc / sum, ps / sum, pd / sum]
+        [pc / sum, ps / sum, pd / sum, ph / sum]
     }
 
     /// The diffuse base's share of [`Self::f`] (for the light-path AOVs).
@@ -233,7 +295,7 @@ impl Preview {
         if wo.z <= 0.0 || wi.z <= 0.0 {
             return SampledSpectrum::ZERO;
         }
-        let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * self.under(wo.z, wi.z);
+        let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * self.under(wo.z, wi.z) + self.f_sheen(wo, wi);
         if let Some((w, c)) = &self.coat {
             f += c.f(wo, wi) * *w;
         }
@@ -252,6 +314,9 @@ impl Preview {
         if let Some((_, c)) = &self.coat {
             pdf += p[COAT] * c.pdf(wo, wi);
         }
+        if let Some((_, s)) = &self.sheen {
+            pdf += p[SHEEN] * s.pdf(wo, wi);
+        }
         pdf
     }
 
@@ -264,8 +329,12 @@ impl Preview {
             (COAT, uc / p[COAT])
         } else if uc < p[COAT] + p[SPEC] {
             (SPEC, (uc - p[COAT]) / p[SPEC])
+        } else if uc < p[COAT] + p[SPEC] + p[DIFF] {
+            (DIFF, 0.0)
+        } else if p[SHEEN] > 0.0 {
+            (SHEEN, 0.0)
         } else if p[DIFF] > 0.0 {
-            (DIFF, ((uc - p[COAT] - p[SPEC]) / p[DIFF]).min(1.0))
+            (DIFF, 0.0)
         } else {
             return None;
         };
@@ -273,6 +342,7 @@ impl Preview {
         let sampled = match lobe {
             COAT => self.coat.as_ref()?.1.sample_f(wo, uc, u)?,
             SPEC => self.spec.sample_f(wo, uc, u)?,
+            SHEEN => self.sheen.as_ref()?.1.sample_f(wo, u)?,
             _ => Lambert { reflectance: self.diffuse }.sample_f(wo, u)?,
         };
         if sampled.flags & flags::SPECULAR != 0 {
@@ -307,7 +377,8 @@ impl Preview {
     /// Estimated directional albedo at μ (the layers' albedos, as the lobe selection uses them).
     pub fn albedo_at(&self, mu: f32) -> SampledSpectrum {
         let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(mu) * *w);
-        coat + (self.spec.albedo(mu) + self.diffuse * self.spec_loss_mu(mu)) * self.under(mu, mu)
+        let sheen = self.sheen.as_ref().map_or(SampledSpectrum::ZERO, |(w, s)| s.reflectance(mu) * *w * self.under_coat(mu, mu));
+        coat + sheen + (self.spec.albedo(mu) + self.diffuse * self.spec_loss_mu(mu)) * self.under(mu, mu)
     }
 
     /// Directional albedo of the diffuse base as it shows through the layers above it at μ.

@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 129;
+const N_CHI2: usize = 135;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -129,7 +129,11 @@ fn preview_params() -> PreviewParams {
         coat_color: SampledSpectrum::ONE,
         coat_ior: preview::CLEARCOAT_IOR,
         anisotropy: 0.0,
-        anisotropy_model: Anisotropy::StandardSurface,
+        flavour: PbrFlavour::StandardSurface,
+        diffuse_roughness: 0.0,
+        sheen_weight: 0.0,
+        sheen_color: SampledSpectrum::ONE,
+        sheen_roughness: 0.3,
     }
 }
 
@@ -309,7 +313,10 @@ fn chi2_preview_surface() {
             coat_color: SampledSpectrum([0.9, 0.3, 0.6, 0.1]),
             ..base
         },
-        PreviewParams { anisotropy: 0.9, anisotropy_model: Anisotropy::OpenPbr, roughness: 0.6, metallic: 0.5, ..base },
+        PreviewParams { anisotropy: 0.9, flavour: PbrFlavour::OpenPbr, roughness: 0.6, metallic: 0.5, ..base },
+        // a sheen over a rough diffuse base (both Oren–Nayar variants)
+        PreviewParams { sheen_weight: 0.8, sheen_color: SampledSpectrum([0.9, 0.4, 0.7, 1.0]), sheen_roughness: 0.2, diffuse_roughness: 0.7, clearcoat: 0.3, clearcoat_roughness: 0.3, ..base },
+        PreviewParams { sheen_weight: 1.0, sheen_roughness: 0.6, diffuse_roughness: 1.0, flavour: PbrFlavour::OpenPbr, roughness: 0.0, ..base },
     ];
     for (i, p) in configs.iter().enumerate() {
         let b = Bsdf::preview(*p).unwrap();
@@ -598,8 +605,8 @@ fn furnace_weighted_and_tinted_specular() {
 fn furnace_anisotropic_specular() {
     let white = grey(1.0);
     let base = PreviewParams { diffuse: white, base_for_metal: white, roughness: 0.5, ..preview_params() };
-    for model in [Anisotropy::StandardSurface, Anisotropy::OpenPbr] {
-        for p in [PreviewParams { anisotropy: 0.9, anisotropy_model: model, ..base }, PreviewParams { anisotropy: 0.6, anisotropy_model: model, metallic: 1.0, ..base }] {
+    for model in [PbrFlavour::StandardSurface, PbrFlavour::OpenPbr] {
+        for p in [PreviewParams { anisotropy: 0.9, flavour: model, ..base }, PreviewParams { anisotropy: 0.6, flavour: model, metallic: 1.0, ..base }] {
             let b = Bsdf::preview(p).unwrap();
             for t in FURNACE_THETAS {
                 let (m, s) = furnace(&b, dir(t, 45.0), TransportMode::Radiance, 20_000, false);
@@ -607,6 +614,55 @@ fn furnace_anisotropic_specular() {
                 assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "{model:?} {p:?} θ {t}: {m} ± {s}");
             }
         }
+    }
+}
+
+/// A rough diffuse base under a white specular: EON keeps the white furnace at 1 as Lambert
+/// does. With no specular, the qualitative model reflects exactly its own albedo (which loses
+/// light, and gains up to 1.5 % at grazing). A white sheen over the stack never adds light,
+/// and takes some where it reflects less than it hides.
+#[test]
+fn furnace_rough_diffuse_and_sheen() {
+    let white = grey(1.0);
+    let base = PreviewParams { diffuse: white, base_for_metal: white, roughness: 0.4, ..preview_params() };
+    for r in [0.5, 1.0] {
+        let eon = Bsdf::preview(PreviewParams { diffuse_roughness: r, flavour: PbrFlavour::OpenPbr, ..base }).unwrap();
+        let qualitative = Bsdf::preview(PreviewParams { diffuse_roughness: r, specular_weight: 0.0, ..base }).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&eon, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "EON r {r} θ {t}: {m} ± {s}");
+            let (m, s) = furnace(&qualitative, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            let want = super::oren_nayar::qualitative_albedo(dir(t, 0.0).z, r) as f64;
+            assert!((m - want).abs() < 3.0 * s + 1e-4, "qualitative r {r} θ {t}: {m} ± {s} vs {want}");
+        }
+    }
+    for (w, r) in [(1.0, 0.1), (1.0, 0.5), (0.5, 1.0)] {
+        let b = Bsdf::preview(PreviewParams { sheen_weight: w, sheen_roughness: r, ..base }).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            assert!(m <= 1.0 + COMPENSATION_TOL + 3.0 * s && m > 0.7, "sheen {w} r {r} θ {t}: {m} ± {s}");
+        }
+    }
+}
+
+/// The sheen adds its own lobe over a black base, times its colour; a metal carries none.
+#[test]
+fn sheen_over_black_is_the_sheen_lobe() {
+    let c = SampledSpectrum([0.9, 0.5, 0.2, 1.0]);
+    let black = PreviewParams { diffuse: grey(0.0), specular_weight: 0.0, sheen_weight: 0.6, sheen_color: c, sheen_roughness: 0.4, ..preview_params() };
+    let b = Bsdf::preview(black).unwrap();
+    let lobe = super::sheen::Sheen::new(c, 0.4);
+    let metal = Bsdf::preview(PreviewParams { metallic: 1.0, ..black }).unwrap();
+    let no_sheen = Bsdf::preview(PreviewParams { metallic: 1.0, sheen_weight: 0.0, ..black }).unwrap();
+    let mut rng = TestRng::new(29);
+    for _ in 0..200 {
+        let wo = math::sample_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        let wi = math::sample_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        let (f, want) = (b.f(wo, wi, TransportMode::Radiance), lobe.f(wo, wi) * 0.6);
+        for i in 0..4 {
+            assert!((f[i] - want[i]).abs() <= 1e-5 * want[i].max(1e-3), "{f:?} vs {want:?}");
+        }
+        assert_eq!(metal.f(wo, wi, TransportMode::Radiance), no_sheen.f(wo, wi, TransportMode::Radiance));
     }
 }
 
@@ -655,16 +711,16 @@ fn coat_colour_tints_what_lies_beneath() {
 fn anisotropy_mappings() {
     for r in [0.1f32, 0.5, 0.9] {
         let alpha = r * r;
-        for model in [Anisotropy::StandardSurface, Anisotropy::OpenPbr] {
+        for model in [PbrFlavour::StandardSurface, PbrFlavour::OpenPbr] {
             assert_eq!(model.alphas(r, 0.0), (alpha, alpha));
         }
         for a in [0.3f32, 0.7, 1.0] {
             // Standard Surface: aspect √(1 − min(a, 0.98)) divides and multiplies α
             let aspect = (1.0 - a.min(0.98)).sqrt();
-            let (t, b) = Anisotropy::StandardSurface.alphas(r, a);
+            let (t, b) = PbrFlavour::StandardSurface.alphas(r, a);
             assert!((t - (alpha / aspect).min(1.0)).abs() < 1e-6 && (b - alpha * aspect).abs() < 1e-6);
             // OpenPBR keeps the mean square slope (α_t² + α_b²) / 2 = α², with α_b = (1 − a) α_t
-            let (t, b) = Anisotropy::OpenPbr.alphas(r, a);
+            let (t, b) = PbrFlavour::OpenPbr.alphas(r, a);
             assert!(((t * t + b * b) / 2.0 - alpha * alpha).abs() < 1e-6 * alpha.max(1e-3), "{t} {b}");
             assert!((b - (1.0 - a) * t).abs() < 1e-6);
         }

@@ -36,7 +36,7 @@
 use super::mtlx_procedural::PROCEDURAL;
 use super::{uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
-use tide_core::bsdf::Anisotropy;
+use tide_core::bsdf::PbrFlavour;
 use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
 use tide_core::shader_graph::{Binary, Expr, Unary};
 
@@ -135,9 +135,13 @@ pub(super) struct PbrModel {
     /// (weight, colour) of the specular lobe.
     specular: (&'static str, &'static str),
     roughness: (&'static str, f32),
-    /// The specular anisotropy, the turn of its direction if the model has one, and how it
-    /// stretches the roughness.
-    anisotropy: (&'static str, Option<&'static str>, Anisotropy),
+    /// Whose definitions the layers follow (anisotropy mapping, rough diffuse model).
+    flavour: PbrFlavour,
+    /// The specular anisotropy, and the turn of its direction if the model has one.
+    anisotropy: (&'static str, Option<&'static str>),
+    diffuse_roughness: &'static str,
+    /// (weight, colour, roughness, roughness default) of the sheen.
+    sheen: (&'static str, &'static str, &'static str, f32),
     ior: &'static str,
     /// (weight, roughness, roughness default, colour) of the coat.
     coat: (&'static str, &'static str, f32, &'static str),
@@ -192,7 +196,10 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     metalness: "metalness",
     specular: ("specular", "specular_color"),
     roughness: ("specular_roughness", 0.2),
-    anisotropy: ("specular_anisotropy", Some("specular_rotation"), Anisotropy::StandardSurface),
+    flavour: PbrFlavour::StandardSurface,
+    anisotropy: ("specular_anisotropy", Some("specular_rotation")),
+    diffuse_roughness: "diffuse_roughness",
+    sheen: ("sheen", "sheen_color", "sheen_roughness", 0.3),
     ior: "specular_IOR",
     coat: ("coat", "coat_roughness", 0.1, "coat_color"),
     coat_ior: ("coat_IOR", 1.5),
@@ -208,9 +215,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
         anisotropy: "subsurface_anisotropy",
     },
     unsupported: &[
-        ("sheen", 0.0, "sheen"),
         ("thin_film_thickness", 0.0, "a thin film"),
-        ("diffuse_roughness", 0.0, "diffuse roughness"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion", 0.0, "dispersion"),
         ("coat_anisotropy", 0.0, "coat anisotropy"),
@@ -225,7 +230,11 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     metalness: "base_metalness",
     specular: ("specular_weight", "specular_color"),
     roughness: ("specular_roughness", 0.3),
-    anisotropy: ("specular_roughness_anisotropy", None, Anisotropy::OpenPbr),
+    flavour: PbrFlavour::OpenPbr,
+    anisotropy: ("specular_roughness_anisotropy", None),
+    diffuse_roughness: "base_diffuse_roughness",
+    // OpenPBR's fuzz is rendered with the same Charlie sheen lobe
+    sheen: ("fuzz_weight", "fuzz_color", "fuzz_roughness", 0.5),
     ior: "specular_ior",
     coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
     coat_ior: ("coat_ior", 1.6),
@@ -241,9 +250,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
         anisotropy: "subsurface_scatter_anisotropy",
     },
     unsupported: &[
-        ("fuzz_weight", 0.0, "fuzz"),
         ("thin_film_weight", 0.0, "a thin film"),
-        ("base_diffuse_roughness", 0.0, "diffuse roughness"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion_scale", 0.0, "dispersion"),
         ("coat_roughness_anisotropy", 0.0, "coat anisotropy"),
@@ -709,22 +716,30 @@ impl Ctx<'_> {
         let specular_weight = self.float(n, m.specular.0, 1.0);
         // no specular on a non-metal: UsdPreviewSurface's specular workflow with black specular
         let plain_diffuse = specular_weight == FloatInput::Const(0.0) && metallic == FloatInput::Const(0.0);
-        let (anisotropy, rotation, anisotropy_model) = m.anisotropy;
+        let (anisotropy, rotation) = m.anisotropy;
+        let flavour = m.flavour;
         let extras = PbrExtras {
             specular_weight,
             specular_tint: self.color(n, m.specular.1, [1.0; 3]),
             coat_color: self.color(n, m.coat.3, [1.0; 3]),
             coat_ior: self.constant_only(n, m.coat_ior.0, m.coat_ior.1),
             anisotropy: self.float(n, anisotropy, 0.0),
-            anisotropy_model,
+            flavour,
             anisotropy_rotation: rotation.map_or(FloatInput::Const(0.0), |r| self.float(n, r, 0.0)),
+            diffuse_roughness: self.float(n, m.diffuse_roughness, 0.0),
+            sheen_weight: self.float(n, m.sheen.0, 0.0),
+            sheen_color: self.color(n, m.sheen.1, [1.0; 3]),
+            sheen_roughness: self.float(n, m.sheen.2, m.sheen.3),
         };
         let clearcoat = self.float(n, m.coat.0, 0.0);
         // with no coat, the coat's colour and IOR change nothing
-        let neutral = match clearcoat {
-            FloatInput::Const(c) if c == 0.0 => PbrExtras { anisotropy_model, coat_color: extras.coat_color.clone(), coat_ior: extras.coat_ior, ..PbrExtras::default() },
-            _ => PbrExtras { anisotropy_model, ..PbrExtras::default() },
-        };
+        let mut neutral = PbrExtras { flavour, sheen_roughness: extras.sheen_roughness.clone(), ..PbrExtras::default() };
+        if clearcoat == FloatInput::Const(0.0) {
+            (neutral.coat_color, neutral.coat_ior) = (extras.coat_color.clone(), extras.coat_ior);
+        }
+        if extras.sheen_weight == FloatInput::Const(0.0) {
+            neutral.sheen_color = extras.sheen_color.clone();
+        }
         let opacity = match m.opacity {
             (input, false) => self.float(n, input, 1.0),
             (input, true) => match self.color(n, input, [1.0; 3]) {
