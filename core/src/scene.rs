@@ -209,6 +209,13 @@ pub struct PbrExtras {
     pub sheen_weight: FloatInput,
     pub sheen_color: ColorInput,
     pub sheen_roughness: FloatInput,
+    /// A thin film over the specular layer: its weight 0–1, its thickness in units of
+    /// `thin_film_unit_nm` nanometres (1 for Standard Surface's nanometres, 1000 for OpenPBR's
+    /// micrometres), its IOR.
+    pub thin_film_weight: FloatInput,
+    pub thin_film_thickness: FloatInput,
+    pub thin_film_unit_nm: f32,
+    pub thin_film_ior: f32,
 }
 
 impl Default for PbrExtras {
@@ -225,6 +232,10 @@ impl Default for PbrExtras {
             sheen_weight: FloatInput::Const(0.0),
             sheen_color: ColorInput::Const([1.0; 3]),
             sheen_roughness: FloatInput::Const(0.3),
+            thin_film_weight: FloatInput::Const(0.0),
+            thin_film_thickness: FloatInput::Const(0.0),
+            thin_film_unit_nm: 1.0,
+            thin_film_ior: 1.5,
         }
     }
 }

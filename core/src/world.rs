@@ -57,6 +57,10 @@ pub struct ExtrasParam {
     pub sheen_weight: FloatParam,
     pub sheen_color: ColorParam,
     pub sheen_roughness: FloatParam,
+    pub thin_film_weight: FloatParam,
+    pub thin_film_thickness: FloatParam,
+    pub thin_film_unit_nm: f32,
+    pub thin_film_ior: f32,
 }
 
 /// A clear dielectric interface (TideWater or any glass).
@@ -511,6 +515,10 @@ impl World {
                                     sheen_weight: float_param(&x.sheen_weight),
                                     sheen_color: color_param(&x.sheen_color, cs),
                                     sheen_roughness: float_param(&x.sheen_roughness),
+                                    thin_film_weight: float_param(&x.thin_film_weight),
+                                    thin_film_thickness: float_param(&x.thin_film_thickness),
+                                    thin_film_unit_nm: x.thin_film_unit_nm,
+                                    thin_film_ior: x.thin_film_ior,
                                 })
                             }),
                         }
@@ -945,6 +953,7 @@ impl World {
                     sheen_weight: 0.0,
                     sheen_color: SampledSpectrum::ONE,
                     sheen_roughness: 0.3,
+                    thin_film: None,
                 };
                 let params = match extras.as_deref() {
                     Some(x) => {
@@ -964,6 +973,15 @@ impl World {
                             sheen_weight: self.float(&x.sheen_weight, s),
                             sheen_color: self.color(&x.sheen_color, s, lambda),
                             sheen_roughness: self.float(&x.sheen_roughness, s),
+                            thin_film: match x.thin_film_weight {
+                                FloatParam::Const(w) if w == 0.0 => None,
+                                ref w => Some(crate::bsdf::ThinFilmParams {
+                                    weight: self.float(w, s),
+                                    thickness_nm: self.float(&x.thin_film_thickness, s) * x.thin_film_unit_nm,
+                                    ior: x.thin_film_ior,
+                                    lambda: *lambda,
+                                }),
+                            },
                             ..params
                         }
                     }

@@ -1240,6 +1240,7 @@ mod tests {
                 ("/M/S.inputs:diffuse_roughness", f(0.4)),
                 ("/M/S.inputs:sheen", f(0.8)),
                 ("/M/S.inputs:sheen_color", c3([0.9, 0.8, 0.7])),
+                ("/M/S.inputs:thin_film_thickness", f(350.0)),
             ],
         );
         assert!(p.is_empty(), "{p:?}");
@@ -1251,9 +1252,17 @@ mod tests {
         assert!(!ps.use_specular_workflow);
         assert_eq!((x.diffuse_roughness, x.sheen_weight), (FloatInput::Const(0.4), FloatInput::Const(0.8)));
         assert_eq!((x.sheen_color, x.sheen_roughness), (ColorInput::Const([0.9, 0.8, 0.7]), FloatInput::Const(0.3)));
+        // Standard Surface's film is there where it has a thickness, in nanometres
+        assert_eq!((x.thin_film_weight, x.thin_film_thickness), (FloatInput::Const(1.0), FloatInput::Const(350.0)));
+        assert_eq!((x.thin_film_unit_nm, x.thin_film_ior), (1.0, 1.5));
         let (ps, p) = surface(
             "ND_open_pbr_surface_surfaceshader",
-            &[("/M/S.inputs:specular_roughness_anisotropy", f(0.7)), ("/M/S.inputs:specular_color", c3([0.5, 0.5, 0.5])), ("/M/S.inputs:fuzz_weight", f(1.0))],
+            &[
+                ("/M/S.inputs:specular_roughness_anisotropy", f(0.7)),
+                ("/M/S.inputs:specular_color", c3([0.5, 0.5, 0.5])),
+                ("/M/S.inputs:fuzz_weight", f(1.0)),
+                ("/M/S.inputs:thin_film_weight", f(1.0)),
+            ],
         );
         assert!(p.is_empty(), "{p:?}");
         let x = ps.extras.expect("extras");
@@ -1261,6 +1270,9 @@ mod tests {
         assert_eq!((x.specular_tint, x.anisotropy_rotation), (ColorInput::Const([0.5; 3]), FloatInput::Const(0.0)));
         // fuzz is the sheen, its roughness OpenPBR's default
         assert_eq!((x.sheen_weight, x.sheen_roughness), (FloatInput::Const(1.0), FloatInput::Const(0.5)));
+        // OpenPBR's film: its own weight, micrometres (0.5 by default), index 1.4
+        assert_eq!((x.thin_film_weight, x.thin_film_thickness), (FloatInput::Const(1.0), FloatInput::Const(0.5)));
+        assert_eq!((x.thin_film_unit_nm, x.thin_film_ior), (1000.0, 1.4));
     }
 
     /// A transmission tinted over a depth fills the body with the absorption that keeps the

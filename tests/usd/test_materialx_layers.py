@@ -157,3 +157,30 @@ def test_a_sheen_over_black_reflects_its_lobe_albedo(renderer, stage):
     assert 0.05 < e < 1, e
     ok, why = near(img, e * colour)
     assert ok, why
+
+
+def _film(renderer, film_ior, thickness=400.0):
+    """The mean colour of a black-based smooth specular of IOR 1.5 under a Standard Surface
+    thin film of `film_ior` and `thickness` nm, seen head-on under a dome of radiance 1."""
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    mat = _surface(stage, "ND_standard_surface_surfaceshader", base=0.0, specular_roughness=0.0,
+                   specular_IOR=1.5, thin_film_thickness=thickness, thin_film_IOR=film_ior)
+    return _seen_from_above(renderer, stage, mat)
+
+
+def test_a_thin_film_of_either_neighbours_index_is_invisible(renderer):
+    """A film whose index is the base's (1.5) or the outside's (1) adds no interface: the
+    mirror reflects the plain Fresnel F0 = 0.04 at every wavelength, whatever its thickness."""
+    for n in (1.5, 1.0):
+        ok, why = near(_film(renderer, n), [_f0(1.5)] * 3)
+        assert ok, (n, why)
+
+
+def test_a_thin_film_colours_the_reflection(renderer):
+    """A 400 nm film of index 1.33 over glass reflects some wavelengths far more than others:
+    the mean colour is far from grey, and another thickness gives another colour."""
+    a = _film(renderer, 1.33).reshape(-1, 3).mean(axis=0)
+    b = _film(renderer, 1.33, thickness=250.0).reshape(-1, 3).mean(axis=0)
+    assert a.max() > 1.3 * a.min(), a
+    assert np.abs(a - b).max() > 0.01, (a, b)

@@ -10,6 +10,7 @@ use super::fresnel::{
     fresnel_complex_spectrum, fresnel_dielectric, fresnel_schlick, hemispherical_average, schlick_average,
 };
 use super::microfacet::{reflect, refract, TrowbridgeReitz};
+use super::thin_film::SpectralThinFilm;
 use super::{flags, BsdfSample, TransportMode};
 use crate::math::{sample_cosine_hemisphere, INV_PI};
 use crate::spectrum::SampledSpectrum;
@@ -63,6 +64,34 @@ pub(crate) enum ReflFresnel {
     /// Schlick: F0 at normal incidence, F90 at grazing (1 for a plain dielectric or metal;
     /// less for a tinted or weighted specular).
     Schlick { f0: SampledSpectrum, f90: SampledSpectrum },
+    /// A thin film over the layer ([`FilmFresnel`]).
+    ThinFilm(FilmFresnel),
+}
+
+/// A thin film's interference reflectance over a layer whose Schlick term is (F0, F90):
+/// weight × F90 × the film's reflectance + (1 − weight) × Schlick's, F90 carrying the
+/// layer's weight and tint.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct FilmFresnel {
+    film: SpectralThinFilm,
+    weight: f32,
+    f0: SampledSpectrum,
+    f90: SampledSpectrum,
+    /// Hemispherical average, computed once.
+    avg: SampledSpectrum,
+}
+
+impl FilmFresnel {
+    /// `film_avg` is `film.average()` (shared by the layers built over one film).
+    pub fn new(film: SpectralThinFilm, film_avg: SampledSpectrum, weight: f32, f0: SampledSpectrum, f90: SampledSpectrum) -> Self {
+        let avg = schlick_average(f0, f90) * (1.0 - weight) + film_avg * f90 * weight;
+        FilmFresnel { film, weight, f0, f90, avg }
+    }
+
+    #[inline]
+    fn eval(&self, cos: f32) -> SampledSpectrum {
+        fresnel_schlick(cos, self.f0, self.f90) * (1.0 - self.weight) + self.film.eval(cos) * self.f90 * self.weight
+    }
 }
 
 impl ReflFresnel {
@@ -71,6 +100,7 @@ impl ReflFresnel {
         match *self {
             ReflFresnel::Complex { eta, k } => fresnel_complex_spectrum(cos, eta, k),
             ReflFresnel::Schlick { f0, f90 } => fresnel_schlick(cos, f0, f90),
+            ReflFresnel::ThinFilm(ref t) => t.eval(cos),
         }
     }
     /// Hemispherical average 2∫F(μ)μ dμ.
@@ -80,7 +110,19 @@ impl ReflFresnel {
                 hemispherical_average(|mu| super::fresnel::fresnel_complex(mu, eta[i], k[i]))
             }),
             ReflFresnel::Schlick { f0, f90 } => schlick_average(f0, f90),
+            ReflFresnel::ThinFilm(ref t) => t.avg,
         }
+    }
+}
+
+/// The cosine c between ωo and the microfacets at which Schlick's weight (1 − c)⁵ equals its
+/// average over a lobe whose F = 1 albedo is `e1` and Schlick-weighted albedo `s`.
+#[inline]
+fn mean_cosine(e1: f32, s: f32) -> f32 {
+    if e1 > 0.0 {
+        1.0 - (s / e1).clamp(0.0, 1.0).powf(0.2)
+    } else {
+        1.0
     }
 }
 
@@ -188,6 +230,10 @@ impl MicrofacetReflection {
         let (e1, s) = tables().conductor(mu, r);
         let ss = match self.fresnel {
             ReflFresnel::Schlick { f0, f90 } => f0 * e1 + (f90 - f0) * s,
+            // the film at the microfacets' mean cosine, the one at which Schlick's weight
+            // (1 − c)⁵ is the lobe's average of it: F at the viewing angle alone overstates
+            // what a rough lobe reflects at grazing angles
+            ReflFresnel::ThinFilm(ref t) => t.eval(mean_cosine(e1, s)) * e1,
             ReflFresnel::Complex { .. } => self.fresnel.eval(mu) * e1,
         };
         ss + self.f_ms * (1.0 - e1)
@@ -201,7 +247,7 @@ impl MicrofacetReflection {
         let (e1, s) = self.avg;
         let ss = match self.fresnel {
             ReflFresnel::Schlick { f0, f90 } => f0 * e1 + (f90 - f0) * s,
-            ReflFresnel::Complex { .. } => self.fresnel.average() * e1,
+            ReflFresnel::ThinFilm(_) | ReflFresnel::Complex { .. } => self.fresnel.average() * e1,
         };
         ss + self.f_ms * (1.0 - e1)
     }

@@ -26,7 +26,7 @@ mod tests;
 
 pub use fresnel::{fresnel_complex, fresnel_dielectric, fresnel_dielectric_polarized, fresnel_schlick};
 pub use microfacet::{roughness_to_alpha, TrowbridgeReitz, SMOOTH_ALPHA};
-pub use preview::{PbrFlavour, PreviewParams};
+pub use preview::{PbrFlavour, PreviewParams, ThinFilmParams};
 
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
@@ -250,6 +250,15 @@ impl Bsdf {
             sheen_weight: check_finite("sheen weight", p.sheen_weight)?.clamp(0.0, 1.0),
             sheen_color: reflectance("sheen colour", p.sheen_color)?,
             sheen_roughness: check_finite("sheen roughness", p.sheen_roughness)?,
+            thin_film: match p.thin_film {
+                Some(t) => Some(preview::ThinFilmParams {
+                    weight: check_finite("thin film weight", t.weight)?.clamp(0.0, 1.0),
+                    thickness_nm: check_finite("thin film thickness", t.thickness_nm)?.max(0.0),
+                    ior: check_positive("thin film ior", t.ior)?,
+                    ..t
+                }),
+                None => None,
+            },
         };
         Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
     }

@@ -13,12 +13,16 @@
 //! * specular anisotropy: two roughnesses along the tangent and bitangent ([`PbrFlavour`]);
 //! * a rough diffuse base: Oren–Nayar, the qualitative model for Standard Surface and the
 //!   energy-preserving one (EON) for OpenPBR, as MaterialX's graphs choose;
+//! * a thin film over the specular layer ([`ThinFilmParams`]): exact interference per
+//!   wavelength ([`super::thin_film`]) over the dielectric the layer's F0 implies;
 //! * a sheen (Standard Surface's `sheen`, OpenPBR's `fuzz`): MaterialX's Charlie sheen lobe
 //!   ([`super::sheen`]) between the coat and the specular layer, over the dielectric part
 //!   (weight × (1 − metallic)); what lies beneath sees 1 − weight × its albedo each way.
 
 use super::fresnel::f0_from_ior;
-use super::lobes::{Lambert, MicrofacetReflection, ReflFresnel};
+use super::lobes::{FilmFresnel, Lambert, MicrofacetReflection, ReflFresnel};
+use super::thin_film::SpectralThinFilm;
+use crate::spectrum::SampledWavelengths;
 use super::oren_nayar::{OrenNayar, OrenNayarModel};
 use super::sheen::Sheen;
 use super::microfacet::{roughness_to_alpha, TrowbridgeReitz};
@@ -68,6 +72,19 @@ pub struct PreviewParams {
     pub sheen_weight: f32,
     pub sheen_color: SampledSpectrum,
     pub sheen_roughness: f32,
+    /// A thin film over the specular layer.
+    pub thin_film: Option<ThinFilmParams>,
+}
+
+/// A thin film over the specular layer, at the path's wavelengths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinFilmParams {
+    /// Share of the layer the film covers, in [0, 1].
+    pub weight: f32,
+    pub thickness_nm: f32,
+    /// The film's index.
+    pub ior: f32,
+    pub lambda: SampledWavelengths,
 }
 
 /// Whose definitions a MaterialX surface's layers follow: how a roughness r and an anisotropy
@@ -172,9 +189,25 @@ impl Preview {
         } else {
             (SampledSpectrum::splat(f0_from_ior(relative_ior(p.ior, p.outside_ior))), p.base_for_metal, p.metallic)
         };
-        let fresnel = |tint: SampledSpectrum| ReflFresnel::Schlick {
-            f0: dielectric_f0 * tint * (w * (1.0 - m)) + metal_f0 * m,
-            f90: tint * (w * (1.0 - m)) + SampledSpectrum::splat(m),
+        let schlick = |tint: SampledSpectrum| (dielectric_f0 * tint * (w * (1.0 - m)) + metal_f0 * m, tint * (w * (1.0 - m)) + SampledSpectrum::splat(m));
+        // the film lies over the dielectric whose normal reflectance is the untinted layer's
+        // F0 / F90 (metal included), against the outside
+        let film = p.thin_film.filter(|t| t.weight > 0.0).map(|t| {
+            let (f0, f90) = schlick(SampledSpectrum::ONE);
+            let eta = SampledSpectrum::from_fn(|i| {
+                let r = (f0[i] / f90[i]).clamp(0.0, 0.99).sqrt();
+                if r.is_finite() { p.outside_ior * (1.0 + r) / (1.0 - r) } else { p.outside_ior }
+            });
+            let n = |v: f32| SampledSpectrum::splat(v);
+            let film = SpectralThinFilm::new(&t.lambda, n(p.outside_ior), n(t.ior), t.thickness_nm, eta, SampledSpectrum::ZERO);
+            (film, film.average(), t.weight)
+        });
+        let fresnel = |tint: SampledSpectrum| {
+            let (f0, f90) = schlick(tint);
+            match film {
+                Some((film, avg, weight)) => ReflFresnel::ThinFilm(FilmFresnel::new(film, avg, weight, f0, f90)),
+                None => ReflFresnel::Schlick { f0, f90 },
+            }
         };
         let spec = MicrofacetReflection::new(distrib, fresnel(p.specular_tint));
         let untinted = (p.specular_tint != SampledSpectrum::ONE).then(|| MicrofacetReflection::new(distrib, fresnel(SampledSpectrum::ONE)));

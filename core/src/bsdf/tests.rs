@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 135;
+const N_CHI2: usize = 138;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -112,6 +112,11 @@ fn conductor(r: impl Into<Roughness>) -> Bsdf {
     Bsdf::conductor(eta, k, r).unwrap()
 }
 
+/// A thin film of `weight`, `thickness_nm` and index `ior` at four visible wavelengths.
+fn film(weight: f32, thickness_nm: f32, ior: f32) -> ThinFilmParams {
+    ThinFilmParams { weight, thickness_nm, ior, lambda: crate::spectrum::SampledWavelengths { lambda: [420.0, 510.0, 590.0, 680.0], pdf: [1.0; 4] } }
+}
+
 fn preview_params() -> PreviewParams {
     PreviewParams {
         diffuse: SampledSpectrum([0.8, 0.5, 0.3, 0.9]),
@@ -134,6 +139,7 @@ fn preview_params() -> PreviewParams {
         sheen_weight: 0.0,
         sheen_color: SampledSpectrum::ONE,
         sheen_roughness: 0.3,
+        thin_film: None,
     }
 }
 
@@ -317,6 +323,8 @@ fn chi2_preview_surface() {
         // a sheen over a rough diffuse base (both Oren–Nayar variants)
         PreviewParams { sheen_weight: 0.8, sheen_color: SampledSpectrum([0.9, 0.4, 0.7, 1.0]), sheen_roughness: 0.2, diffuse_roughness: 0.7, clearcoat: 0.3, clearcoat_roughness: 0.3, ..base },
         PreviewParams { sheen_weight: 1.0, sheen_roughness: 0.6, diffuse_roughness: 1.0, flavour: PbrFlavour::OpenPbr, roughness: 0.0, ..base },
+        // a thin film over a rough specular layer
+        PreviewParams { thin_film: Some(film(0.8, 420.0, 1.33)), roughness: 0.35, ..base },
     ];
     for (i, p) in configs.iter().enumerate() {
         let b = Bsdf::preview(*p).unwrap();
@@ -663,6 +671,54 @@ fn sheen_over_black_is_the_sheen_lobe() {
             assert!((f[i] - want[i]).abs() <= 1e-5 * want[i].max(1e-3), "{f:?} vs {want:?}");
         }
         assert_eq!(metal.f(wo, wi, TransportMode::Radiance), no_sheen.f(wo, wi, TransportMode::Radiance));
+    }
+}
+
+/// Smooth, with a film: the mirror reflection is the film's interference reflectance over the
+/// dielectric of the layer's IOR, at each wavelength (weight 1), or its mix with Schlick's
+/// (weight 0.5); a film of the base's own index, or of the outside's, shows the plain Fresnel
+/// reflectance of the base.
+#[test]
+fn a_thin_film_reflects_its_interference() {
+    use super::thin_film::{reflectance, ThinFilm};
+    let lambda = film(1.0, 0.0, 1.0).lambda.lambda;
+    let mirror = |t: ThinFilmParams, wo: Vec3| {
+        let p = PreviewParams { diffuse: grey(0.0), roughness: 0.0, ior: 1.5, thin_film: Some(t), ..preview_params() };
+        let s = Bsdf::preview(p).unwrap().sample_f(wo, 0.5, Vec2::new(0.3, 0.6), TransportMode::Radiance).unwrap();
+        assert!(s.is_specular());
+        s.f * s.wi.z
+    };
+    for t in [0.0f32, 40.0, 75.0] {
+        let wo = dir(t, 20.0);
+        let r = mirror(film(1.0, 380.0, 1.33), wo);
+        let half = mirror(film(0.5, 380.0, 1.33), wo);
+        let schlick = 0.04 + 0.96 * (1.0 - wo.z).powi(5);
+        for i in 0..4 {
+            let want = reflectance(wo.z, lambda[i], &ThinFilm { n_outside: 1.0, n_film: 1.33, thickness_nm: 380.0, base_eta: 1.5, base_k: 0.0 });
+            assert!((r[i] - want).abs() < 1e-4, "θ {t} λ {}: {} vs {want}", lambda[i], r[i]);
+            assert!((half[i] - 0.5 * (want + schlick)).abs() < 1e-4, "θ {t}: {half:?}");
+        }
+        // the film varies with the wavelength: interference colours (strongest head-on)
+        assert!(t > 0.0 || r.0.iter().fold(0.0f32, |a, b| a.max(*b)) > 1.5 * r.0.iter().fold(1.0f32, |a, b| a.min(*b)), "{r:?}");
+        for invisible in [1.5, 1.0] {
+            let r = mirror(film(1.0, 380.0, invisible), wo);
+            let plain = super::fresnel::fresnel_dielectric(wo.z, 1.5);
+            assert!(r.0.iter().all(|v| (v - plain).abs() < 1e-4), "film {invisible} θ {t}: {r:?} vs {plain}");
+        }
+    }
+}
+
+/// A white stack with a film over its specular layer: the film neither absorbs nor adds light.
+#[test]
+fn furnace_thin_film() {
+    let white = grey(1.0);
+    let base = PreviewParams { diffuse: white, base_for_metal: white, thin_film: Some(film(1.0, 300.0, 1.8)), ..preview_params() };
+    for p in [PreviewParams { roughness: 0.3, ..base }, PreviewParams { roughness: 0.0, ..base }] {
+        let b = Bsdf::preview(p).unwrap();
+        for t in FURNACE_THETAS {
+            let (m, s) = furnace(&b, dir(t, 0.0), TransportMode::Radiance, 20_000, false);
+            assert!((m - 1.0).abs() < COMPENSATION_TOL + 3.0 * s, "roughness {} θ {t}: {m} ± {s}", p.roughness);
+        }
     }
 }
 

@@ -142,6 +142,9 @@ pub(super) struct PbrModel {
     diffuse_roughness: &'static str,
     /// (weight, colour, roughness, roughness default) of the sheen.
     sheen: (&'static str, &'static str, &'static str, f32),
+    /// The thin film: its weight (None: the film is there wherever it has a thickness), its
+    /// thickness and default, nanometres per unit of thickness, its IOR and default.
+    thin_film: (Option<&'static str>, &'static str, f32, f32, &'static str, f32),
     ior: &'static str,
     /// (weight, roughness, roughness default, colour) of the coat.
     coat: (&'static str, &'static str, f32, &'static str),
@@ -200,6 +203,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     anisotropy: ("specular_anisotropy", Some("specular_rotation")),
     diffuse_roughness: "diffuse_roughness",
     sheen: ("sheen", "sheen_color", "sheen_roughness", 0.3),
+    thin_film: (None, "thin_film_thickness", 0.0, 1.0, "thin_film_IOR", 1.5),
     ior: "specular_IOR",
     coat: ("coat", "coat_roughness", 0.1, "coat_color"),
     coat_ior: ("coat_IOR", 1.5),
@@ -215,7 +219,6 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
         anisotropy: "subsurface_anisotropy",
     },
     unsupported: &[
-        ("thin_film_thickness", 0.0, "a thin film"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion", 0.0, "dispersion"),
         ("coat_anisotropy", 0.0, "coat anisotropy"),
@@ -235,6 +238,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     diffuse_roughness: "base_diffuse_roughness",
     // OpenPBR's fuzz is rendered with the same Charlie sheen lobe
     sheen: ("fuzz_weight", "fuzz_color", "fuzz_roughness", 0.5),
+    thin_film: (Some("thin_film_weight"), "thin_film_thickness", 0.5, 1000.0, "thin_film_ior", 1.4),
     ior: "specular_ior",
     coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
     coat_ior: ("coat_ior", 1.6),
@@ -250,7 +254,6 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
         anisotropy: "subsurface_scatter_anisotropy",
     },
     unsupported: &[
-        ("thin_film_weight", 0.0, "a thin film"),
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion_scale", 0.0, "dispersion"),
         ("coat_roughness_anisotropy", 0.0, "coat anisotropy"),
@@ -718,7 +721,7 @@ impl Ctx<'_> {
         let plain_diffuse = specular_weight == FloatInput::Const(0.0) && metallic == FloatInput::Const(0.0);
         let (anisotropy, rotation) = m.anisotropy;
         let flavour = m.flavour;
-        let extras = PbrExtras {
+        let mut extras = PbrExtras {
             specular_weight,
             specular_tint: self.color(n, m.specular.1, [1.0; 3]),
             coat_color: self.color(n, m.coat.3, [1.0; 3]),
@@ -730,6 +733,16 @@ impl Ctx<'_> {
             sheen_weight: self.float(n, m.sheen.0, 0.0),
             sheen_color: self.color(n, m.sheen.1, [1.0; 3]),
             sheen_roughness: self.float(n, m.sheen.2, m.sheen.3),
+            thin_film_weight: FloatInput::Const(1.0),
+            thin_film_thickness: self.float(n, m.thin_film.1, m.thin_film.2),
+            thin_film_unit_nm: m.thin_film.3,
+            thin_film_ior: self.constant_only(n, m.thin_film.4, m.thin_film.5),
+        };
+        // Standard Surface's film is there wherever it is thicker than 0
+        extras.thin_film_weight = match m.thin_film.0 {
+            Some(weight) => self.float(n, weight, 0.0),
+            None if extras.thin_film_thickness == FloatInput::Const(0.0) => FloatInput::Const(0.0),
+            None => FloatInput::Const(1.0),
         };
         let clearcoat = self.float(n, m.coat.0, 0.0);
         // with no coat, the coat's colour and IOR change nothing
@@ -739,6 +752,9 @@ impl Ctx<'_> {
         }
         if extras.sheen_weight == FloatInput::Const(0.0) {
             neutral.sheen_color = extras.sheen_color.clone();
+        }
+        if extras.thin_film_weight == FloatInput::Const(0.0) {
+            (neutral.thin_film_thickness, neutral.thin_film_unit_nm, neutral.thin_film_ior) = (extras.thin_film_thickness.clone(), extras.thin_film_unit_nm, extras.thin_film_ior);
         }
         let opacity = match m.opacity {
             (input, false) => self.float(n, input, 1.0),
