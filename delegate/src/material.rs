@@ -1275,6 +1275,46 @@ mod tests {
         assert_eq!((x.thin_film_unit_nm, x.thin_film_ior), (1000.0, 1.4));
     }
 
+    /// Standard Surface's coat darkens and saturates the base colour (raised to 1 + coat ×
+    /// coat_affect_color) and roughens the specular (mixed towards 1 by coat_affect_roughness ×
+    /// coat × coat_roughness), as its graph computes them; with no coat, neither.
+    #[test]
+    fn materialx_coat_affects_the_base_colour_and_roughness() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let surface = |extra: &[(&str, Value)]| {
+            let mut pairs = vec![
+                ("surface", Value::Path("/M/S".into())),
+                ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
+                ("/M/S.inputs:base_color", c3([0.5, 0.25, 1.0])),
+                ("/M/S.inputs:coat_affect_color", f(0.5)),
+                ("/M/S.inputs:coat_affect_roughness", f(1.0)),
+                ("/M/S.inputs:coat_roughness", f(0.1)),
+            ];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            assert!(p.list.is_empty(), "{:?}", p.list);
+            let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
+            (ps.diffuse_color, ps.roughness)
+        };
+        let (color, roughness) = surface(&[("/M/S.inputs:coat", f(1.0))]);
+        let ColorInput::Const(c) = color else { panic!("{color:?}") };
+        for (got, base) in c.iter().zip([0.5f32, 0.25, 1.0]) {
+            assert!((got - base.powf(1.5)).abs() < 1e-6, "{c:?}");
+        }
+        let FloatInput::Const(r) = roughness else { panic!("{roughness:?}") };
+        assert!((r - (0.2 + 0.8 * 0.1)).abs() < 1e-6, "{r}");
+        assert_eq!(surface(&[]), (ColorInput::Const([0.5, 0.25, 1.0]), FloatInput::Const(0.2)));
+        // a coat weight from a primvar: both become graphs of it
+        let (color, roughness) = surface(&[
+            ("/M/S.inputs:coat.connect", tok("/M/Coat.outputs:out")),
+            ("/M/Coat.info:id", tok("ND_geompropvalue_float")),
+            ("/M/Coat.inputs:geomprop", Value::String("coat".into())),
+        ]);
+        assert!(matches!((&color, &roughness), (ColorInput::Graph(_), FloatInput::Graph(_))), "{color:?} {roughness:?}");
+    }
+
     /// A transmission tinted over a depth fills the body with the absorption that keeps the
     /// colour at that depth (Beer–Lambert); a tint without a depth is reported; a material's
     /// own volume wins.

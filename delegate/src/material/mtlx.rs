@@ -34,7 +34,7 @@
 //! ...) are read as the USD ones.
 
 use super::mtlx_procedural::PROCEDURAL;
-use super::{uv_set, Ctx, Source, WrapKey};
+use super::{float_input, uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
 use tide_core::bsdf::PbrFlavour;
 use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
@@ -150,6 +150,9 @@ pub(super) struct PbrModel {
     coat: (&'static str, &'static str, f32, &'static str),
     /// The coat's IOR and its default.
     coat_ior: (&'static str, f32),
+    /// The coat's darkening and saturation of the base colour, and its roughening of the
+    /// specular (Standard Surface's `coat_affect_color`, `coat_affect_roughness`).
+    coat_affect: Option<(&'static str, &'static str)>,
     /// (weight, colour): emission = weight × colour.
     emission: (&'static str, &'static str),
     /// The opacity input, and whether it is a colour.
@@ -207,6 +210,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     ior: "specular_IOR",
     coat: ("coat", "coat_roughness", 0.1, "coat_color"),
     coat_ior: ("coat_IOR", 1.5),
+    coat_affect: Some(("coat_affect_color", "coat_affect_roughness")),
     emission: ("emission", "emission_color"),
     opacity: ("opacity", true),
     normal: "normal",
@@ -222,8 +226,6 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion", 0.0, "dispersion"),
         ("coat_anisotropy", 0.0, "coat anisotropy"),
-        ("coat_affect_color", 0.0, "the coat's darkening and saturation of the base"),
-        ("coat_affect_roughness", 0.0, "the coat's roughening of the base"),
     ],
 };
 
@@ -242,6 +244,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     ior: "specular_ior",
     coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
     coat_ior: ("coat_ior", 1.6),
+    coat_affect: None,
     emission: ("emission_luminance", "emission_color"),
     opacity: ("geometry_opacity", false),
     normal: "geometry_normal",
@@ -635,9 +638,14 @@ impl Ctx<'_> {
     }
 
     /// A colour input times a scalar input (`base` × `base_color`), either constant or not.
-    fn weighted_color(&mut self, node: &str, color: &str, color_default: f32, weight: &str, weight_default: f32) -> ColorInput {
+    /// `weight` × `color` (the colour first raised to `gamma`, where given).
+    fn weighted_color(&mut self, node: &str, color: &str, color_default: f32, weight: &str, weight_default: f32, gamma: Option<Expr>) -> ColorInput {
         let c = self.input_vec(node, color, [color_default; 3]);
         let c = self.source(node, color).unwrap_or(Source::Fallback([c[0], c[1], c[2], 1.0]));
+        let c = match gamma {
+            Some(g) => Source::from_expr(Expr::binary(Binary::Pow, Expr::binary(Binary::Max, c.into_expr(), Expr::Const([0.0; 4])), g)),
+            None => c,
+        };
         let w = self.input_f32(node, weight, weight_default);
         // a scalar: one channel of a texture, the first component of a graph
         let w = match self.source(node, weight).map(Source::scalar) {
@@ -646,6 +654,43 @@ impl Ctx<'_> {
             Some(other) => other,
         };
         product(c, w).into_color()
+    }
+
+    /// The specular roughness, and the power Standard Surface's graph raises the base colour
+    /// to under a coat (None: 1): its `coat_affected_roughness`, mix(roughness, 1,
+    /// coat_affect_roughness × coat × coat_roughness), and its `coat_gamma`, 1 + clamp(coat) ×
+    /// coat_affect_color.
+    fn coat_affected(&mut self, n: &str, m: &PbrModel) -> (Option<Expr>, FloatInput) {
+        let roughness = self.float(n, m.roughness.0, m.roughness.1);
+        let Some((affect_color, affect_roughness)) = m.coat_affect else { return (None, roughness) };
+        let scalar = |this: &mut Self, input: &str, d: f32| match this.operand(n, input, [d; 4], 0) {
+            Ok(s) => Expr::splat(s.scalar().into_expr(), 0),
+            Err(why) => {
+                this.p.add(&format!("{}.inputs:{}", n, input), format!("its node {why}; using {d}"));
+                Expr::Const([d; 4])
+            }
+        };
+        let (c, mul, add) = (|v: f32| Expr::Const([v; 4]), Binary::Mul, Binary::Add);
+        let zero = |e: &Expr| e.constant_value().is_some_and(|v| v[0] == 0.0);
+        let coat = scalar(self, m.coat.0, 0.0);
+        let (affect_color, affect_roughness) = (scalar(self, affect_color, 0.0), scalar(self, affect_roughness, 0.0));
+        if zero(&coat) {
+            return (None, roughness);
+        }
+        let clamped = Expr::binary(Binary::Min, Expr::binary(Binary::Max, coat.clone(), c(0.0)), c(1.0));
+        let gamma = (!zero(&affect_color)).then(|| Source::from_expr(Expr::binary(add, c(1.0), Expr::binary(mul, clamped, affect_color))).into_expr());
+        if zero(&affect_roughness) {
+            return (gamma, roughness);
+        }
+        let t = Expr::binary(mul, Expr::binary(mul, affect_roughness, coat), scalar(self, m.coat.1, m.coat.2));
+        let r = match roughness {
+            FloatInput::Const(v) => c(v),
+            FloatInput::Texture(t) => Expr::Texture(t),
+            FloatInput::Primvar(l) => Expr::Primvar(l),
+            FloatInput::Graph(e) => e,
+        };
+        let mixed = Source::from_expr(Expr::mix(c(1.0), r, t));
+        (gamma, float_input(m.roughness.1, Some(mixed)))
     }
 
     /// A scalar input that only its constant can set (a connection is reported and ignored).
@@ -769,13 +814,14 @@ impl Ctx<'_> {
             },
         };
         let normal = self.mtlx_normal(n, m.normal);
+        let (gamma, roughness) = self.coat_affected(n, m);
         let surface = SurfaceDesc::Preview(PreviewSurfaceDesc {
-            diffuse_color: self.weighted_color(n, m.base.2, m.base.3, m.base.0, m.base.1),
-            emissive_color: self.weighted_color(n, m.emission.1, 1.0, m.emission.0, 0.0),
+            diffuse_color: self.weighted_color(n, m.base.2, m.base.3, m.base.0, m.base.1, gamma),
+            emissive_color: self.weighted_color(n, m.emission.1, 1.0, m.emission.0, 0.0, None),
             use_specular_workflow: plain_diffuse,
             specular_color: ColorInput::Const([0.0; 3]),
             metallic,
-            roughness: self.float(n, m.roughness.0, m.roughness.1),
+            roughness,
             clearcoat,
             clearcoat_roughness: self.float(n, m.coat.1, m.coat.2),
             opacity,
