@@ -16,8 +16,9 @@
 //! * a thin film over the specular layer ([`ThinFilmParams`]): exact interference per
 //!   wavelength ([`super::thin_film`]) over the dielectric the layer's F0 implies;
 //! * a sheen (Standard Surface's `sheen`, OpenPBR's `fuzz`): MaterialX's Charlie sheen lobe
-//!   ([`super::sheen`]) between the coat and the specular layer, over the dielectric part
-//!   (weight × (1 − metallic)); what lies beneath sees 1 − weight × its albedo each way.
+//!   ([`super::sheen`]), between the coat and the specular layer over the dielectric part
+//!   (weight × (1 − metallic)) for Standard Surface, over everything, coat included, for
+//!   OpenPBR; what lies beneath sees 1 − weight × its albedo each way.
 
 use super::fresnel::f0_from_ior;
 use super::lobes::{FilmFresnel, Lambert, MicrofacetReflection, ReflFresnel};
@@ -165,6 +166,8 @@ pub(crate) struct Preview {
     rough_diffuse: Option<OrenNayar>,
     /// (weight, lobe) of the sheen, absent when its weight is 0.
     sheen: Option<(f32, Sheen)>,
+    /// Whether the sheen lies over the coat (OpenPBR's fuzz) rather than under it.
+    sheen_over_coat: bool,
     /// 1 − hemispherical average albedo of the untinted specular layer.
     spec_loss_avg: SampledSpectrum,
     /// mix(1, coat colour, coat): the coat's colour on everything beneath it.
@@ -220,9 +223,10 @@ impl Preview {
         let spec_loss_avg = (SampledSpectrum::ONE - untinted.as_ref().unwrap_or(&spec).albedo_avg()).map(|v| v.max(0.0));
         let under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;
         let rough_diffuse = (p.diffuse_roughness > 0.0).then(|| OrenNayar::new(diffuse, p.diffuse_roughness, p.flavour.diffuse_model()));
-        let sheen_weight = p.sheen_weight * (1.0 - m);
+        let sheen_over_coat = p.flavour == PbrFlavour::OpenPbr;
+        let sheen_weight = if sheen_over_coat { p.sheen_weight } else { p.sheen_weight * (1.0 - m) };
         let sheen = (sheen_weight > 0.0).then(|| (sheen_weight, Sheen::new(p.sheen_color, p.sheen_roughness)));
-        Preview { coat, spec, untinted, diffuse, rough_diffuse, sheen, spec_loss_avg, under_tint }
+        Preview { coat, spec, untinted, diffuse, rough_diffuse, sheen, sheen_over_coat, spec_loss_avg, under_tint }
     }
 
     pub fn lobe_flags(&self) -> u8 {
@@ -243,6 +247,24 @@ impl Preview {
     #[inline]
     fn sheen_transmittance(&self, mu: f32) -> f32 {
         self.sheen.as_ref().map_or(1.0, |(w, s)| (1.0 - w * s.albedo(mu)).max(0.0))
+    }
+
+    /// What reaches the coat and comes back: through a sheen over it, both ways.
+    #[inline]
+    fn above_coat(&self, mu_o: f32, mu_i: f32) -> f32 {
+        match self.sheen_over_coat {
+            true => self.sheen_transmittance(mu_o) * self.sheen_transmittance(mu_i),
+            false => 1.0,
+        }
+    }
+
+    /// What reaches the sheen and comes back: through a coat over it, both ways.
+    #[inline]
+    fn above_sheen(&self, mu_o: f32, mu_i: f32) -> SampledSpectrum {
+        match self.sheen_over_coat {
+            true => SampledSpectrum::ONE,
+            false => self.under_coat(mu_o, mu_i),
+        }
     }
 
     /// Transmittance of the clearcoat for a direction at μ.
@@ -295,7 +317,7 @@ impl Preview {
     #[inline]
     fn f_sheen(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
         match &self.sheen {
-            Some((w, s)) => s.f(wo, wi) * *w * self.under_coat(wo.z, wi.z),
+            Some((w, s)) => s.f(wo, wi) * *w * self.above_sheen(wo.z, wi.z),
             None => SampledSpectrum::ZERO,
         }
     }
@@ -305,10 +327,10 @@ impl Preview {
     fn probabilities(&self, wo: Vec3) -> [f32; 4] {
         let mu_o = wo.z;
         let under = self.under(mu_o, mu_o);
-        let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average());
+        let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average() * self.above_coat(mu_o, mu_o));
         let ps = (under * self.spec.albedo_along(wo)).average();
         let pd = (under * self.diffuse * self.spec_loss(wo)).average();
-        let ph = self.sheen.as_ref().map_or(0.0, |(w, s)| (self.under_coat(mu_o, mu_o) * s.reflectance(mu_o)).average() * w);
+        let ph = self.sheen.as_ref().map_or(0.0, |(w, s)| (self.above_sheen(mu_o, mu_o) * s.reflectance(mu_o)).average() * w);
         let sum = pc + ps + pd + ph;
         if !(sum > 0.0) {
             return [0.0; 4];
@@ -330,7 +352,7 @@ impl Preview {
         }
         let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * self.under(wo.z, wi.z) + self.f_sheen(wo, wi);
         if let Some((w, c)) = &self.coat {
-            f += c.f(wo, wi) * *w;
+            f += c.f(wo, wi) * (*w * self.above_coat(wo.z, wi.z));
         }
         f
     }
@@ -388,7 +410,7 @@ impl Preview {
             }
             if let Some((w, c)) = &self.coat {
                 if c.is_smooth() {
-                    f += c.fresnel.eval(wo.z) / wo.z * *w;
+                    f += c.fresnel.eval(wo.z) / wo.z * (*w * self.above_coat(wo.z, wo.z));
                     pdf += p[COAT];
                 }
             }
@@ -409,8 +431,8 @@ impl Preview {
 
     /// Estimated directional albedo at μ (the layers' albedos, as the lobe selection uses them).
     pub fn albedo_at(&self, mu: f32) -> SampledSpectrum {
-        let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(mu) * *w);
-        let sheen = self.sheen.as_ref().map_or(SampledSpectrum::ZERO, |(w, s)| s.reflectance(mu) * *w * self.under_coat(mu, mu));
+        let coat = self.coat.as_ref().map_or(SampledSpectrum::ZERO, |(w, c)| c.albedo(mu) * (*w * self.above_coat(mu, mu)));
+        let sheen = self.sheen.as_ref().map_or(SampledSpectrum::ZERO, |(w, s)| s.reflectance(mu) * *w * self.above_sheen(mu, mu));
         coat + sheen + (self.spec.albedo(mu) + self.diffuse * self.spec_loss_mu(mu)) * self.under(mu, mu)
     }
 

@@ -653,6 +653,38 @@ fn furnace_rough_diffuse_and_sheen() {
     }
 }
 
+/// OpenPBR's fuzz lies over the coat: over a black base, the coat's reflection is what
+/// passes the fuzz both ways, and the fuzz's own lobe is not dimmed by the coat.
+#[test]
+fn fuzz_lies_over_the_coat() {
+    let c = SampledSpectrum([0.9, 0.5, 0.2, 1.0]);
+    let p = PreviewParams {
+        diffuse: grey(0.0),
+        specular_weight: 0.0,
+        clearcoat: 1.0,
+        clearcoat_roughness: 0.4,
+        sheen_weight: 0.7,
+        sheen_color: c,
+        sheen_roughness: 0.5,
+        flavour: PbrFlavour::OpenPbr,
+        ..preview_params()
+    };
+    let b = Bsdf::preview(p).unwrap();
+    let coat = Bsdf::preview(PreviewParams { sheen_weight: 0.0, ..p }).unwrap();
+    let lobe = super::sheen::Sheen::new(c, 0.5);
+    let mut rng = TestRng::new(31);
+    for _ in 0..200 {
+        let wo = math::sample_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        let wi = math::sample_cosine_hemisphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        let t = |mu: f32| 1.0 - 0.7 * lobe.albedo(mu);
+        let want = lobe.f(wo, wi) * 0.7 + coat.f(wo, wi, TransportMode::Radiance) * (t(wo.z) * t(wi.z));
+        let f = b.f(wo, wi, TransportMode::Radiance);
+        for i in 0..4 {
+            assert!((f[i] - want[i]).abs() <= 1e-5 * want[i].max(1e-3), "{f:?} vs {want:?}");
+        }
+    }
+}
+
 /// The sheen adds its own lobe over a black base, times its colour; a metal carries none.
 #[test]
 fn sheen_over_black_is_the_sheen_lobe() {
