@@ -425,6 +425,7 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
     let graph = std::sync::Arc::new(crate::light::EmissionGraph { expr, textures, names });
     let own = m.uvs.as_deref();
     let to_world = inst.transforms.first().copied().unwrap_or(glam::Mat4::IDENTITY);
+    let normal_to_world = glam::Mat3::from_mat4(to_world).inverse().transpose();
     Box::new(move |t: &[u32]| {
         let corners = sources.iter().map(|s| s.as_ref().map(|f| [0, 1, 2].map(|k| f(t[k])))).collect();
         let uv = match own {
@@ -433,7 +434,11 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
         };
         let object = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
         let world = object.map(|p| to_world.transform_point3(p));
-        let how = crate::light::VaryingEmission::Graph { graph: graph.clone(), corners, uv, object, world, cs };
+        let normals = m.normals.as_deref().map(|n| {
+            let own = [0, 1, 2].map(|k| n.get(t[k] as usize).copied().unwrap_or(Vec3::ZERO));
+            [own, own.map(|v| (normal_to_world * v).normalize_or_zero())]
+        });
+        let how = crate::light::VaryingEmission::Graph { graph: graph.clone(), corners, uv, object, world, normals, cs };
         let third = 1.0 / 3.0;
         let probes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [third; 3]].map(|b| how.rgb(b).0);
         let mean = std::array::from_fn(|c| probes.iter().map(|p| p[c]).sum::<f32>() / 4.0);
@@ -1158,11 +1163,13 @@ mod tests {
     fn emission_from_a_primvar_a_texture_or_a_graph_is_sampled_as_the_surface_glows() {
         // a quad facing down (-Y) whose glow rises from 0 at x = 0 to (1, 0.5, 0.25) at x = 2,
         // or shows a 2 x 2 texture (uv = (x, z) / 2), or a graph of both, of the texture read
-        // through a second uv set, of u and of the position
+        // through a second uv set, of u, of the position and of the interpolated normal
         let mut m = MeshDesc { name: "/glow".into(), ..Default::default() };
         m.positions = vec![Vec3::new(0.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 0.0), Vec3::new(2.0, 1.0, 2.0), Vec3::new(0.0, 1.0, 2.0)];
         m.indices = vec![0, 1, 2, 0, 2, 3];
         m.uvs = Some(m.positions.iter().map(|p| Vec2::new(p.x, p.z) / 2.0).collect());
+        // authored normals leaning apart, so that the interpolated normal is not the face's
+        m.normals = Some(m.positions.iter().map(|p| Vec3::new(0.5 * (p.x - 1.0), -1.0, 0.3 * (p.z - 1.0)).normalize()).collect());
         let hot = [1.0, 0.5, 0.25];
         m.primvars = vec![
             PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() },
@@ -1182,6 +1189,10 @@ mod tests {
         let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::TexCoord, 0));
         let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Position { world: false }, 0));
         let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Position { world: true }, 2));
+        // and the normal's x in the world and z in the object's space, made positive
+        let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Normal { world: true }, 0));
+        let graph = Expr::binary(Binary::Add, graph, Expr::splat(Expr::Normal { world: false }, 2));
+        let graph = Expr::binary(Binary::Add, graph, Expr::Const([2.0; 4]));
         for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup), ColorInput::Graph(graph)] {
             let mut s = SceneDesc::default();
             s.meshes.push(m.clone());

@@ -493,8 +493,17 @@ pub enum VaryingEmission {
     /// A node graph evaluated where the sample lies: its primvars interpolated from the
     /// corners (`corners[i]`: primvar `graph.names[i]` at each corner, None where the geometry
     /// lacks it), its textures looked up at interpolated coordinates (`uv`: the mesh's).
-    /// `object` and `world`: the corners in the mesh's own space and in the world.
-    Graph { graph: std::sync::Arc<EmissionGraph>, corners: Box<[Option<[[f32; 4]; 3]>]>, uv: [Vec2; 3], object: [Vec3; 3], world: [Vec3; 3], cs: ColorSpace },
+    /// `object` and `world`: the corners in the mesh's own space and in the world; `normals`:
+    /// the mesh's own normals at the corners in those two spaces, where it has them.
+    Graph {
+        graph: std::sync::Arc<EmissionGraph>,
+        corners: Box<[Option<[[f32; 4]; 3]>]>,
+        uv: [Vec2; 3],
+        object: [Vec3; 3],
+        world: [Vec3; 3],
+        normals: Option<[[Vec3; 3]; 2]>,
+        cs: ColorSpace,
+    },
 }
 
 /// A node graph's emission as its triangles share it: the graph with its texture indices into
@@ -514,6 +523,7 @@ struct OnTriangle<'a> {
     uv: [Vec2; 3],
     object: [Vec3; 3],
     world: [Vec3; 3],
+    normals: Option<[[Vec3; 3]; 2]>,
     b: [f32; 3],
 }
 
@@ -532,7 +542,13 @@ impl crate::shader_graph::Lookups for OnTriangle<'_> {
     }
 
     /// The triangle's own normal (its winding's side), in either space.
+    /// The mesh's normals interpolated, as a camera ray's hit reads them; the face's where the
+    /// mesh has none.
     fn normal(&self, world: bool) -> Vec3 {
+        if let Some(n) = &self.normals {
+            let n = n[usize::from(world)];
+            return (n[0] * self.b[0] + n[1] * self.b[1] + n[2] * self.b[2]).normalize_or_zero();
+        }
         let p = if world { self.world } else { self.object };
         (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
     }
@@ -557,8 +573,8 @@ impl VaryingEmission {
                 let st = uv[0] * b[0] + uv[1] * b[1] + uv[2] * b[2];
                 (crate::texture::lookup_rgb(std::slice::from_ref(&**texture), lookup, st), *cs)
             }
-            VaryingEmission::Graph { graph, corners, uv, object, world, cs } => {
-                let v = graph.expr.eval(&OnTriangle { graph, corners, uv: *uv, object: *object, world: *world, b });
+            VaryingEmission::Graph { graph, corners, uv, object, world, normals, cs } => {
+                let v = graph.expr.eval(&OnTriangle { graph, corners, uv: *uv, object: *object, world: *world, normals: *normals, b });
                 ([v[0], v[1], v[2]], *cs)
             }
         }
