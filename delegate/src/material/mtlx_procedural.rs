@@ -1,8 +1,8 @@
 //! MaterialX's procedural nodes and geometric frame: `noise2d`, `noise3d`, `fractal2d`,
 //! `fractal3d`, `cellnoise2d`, `cellnoise3d`, `worleynoise2d` and `worleynoise3d` (every
 //! output type their nodedefs define, every input connected or constant), `normal`,
-//! `tangent` and `bitangent` in the object's or the world's space, and
-//! `triplanarprojection`, as node graph expressions evaluated at each hit
+//! `tangent` and `bitangent` in the object's or the world's space, `unifiednoise2d` and
+//! `unifiednoise3d`, and `triplanarprojection`, as node graph expressions evaluated at each hit
 //! ([`tide_core::noise`] computes the noises as MaterialX's library does).
 //!
 //! A 2D noise reads the mesh's texture coordinates and a 3D one the object-space position,
@@ -16,7 +16,9 @@ use tide_core::scene::Channel;
 use tide_core::shader_graph::{Binary, Expr};
 
 /// The node families read here.
-pub(super) const PROCEDURAL: [&str; 12] = [
+pub(super) const PROCEDURAL: [&str; 14] = [
+    "unifiednoise2d",
+    "unifiednoise3d",
     "noise2d",
     "noise3d",
     "fractal2d",
@@ -78,6 +80,7 @@ impl Ctx<'_> {
                 return Ok(Source::Graph(if name == "tangent" { Expr::Tangent { world } } else { Expr::Bitangent { world } }));
             }
             "triplanarprojection" => return self.triplanar(id, node, depth),
+            "unifiednoise2d" | "unifiednoise3d" => return self.unified(name == "unifiednoise3d", id, node, depth),
             _ => {}
         }
         let space = name.ends_with("3d");
@@ -189,6 +192,75 @@ impl Ctx<'_> {
         };
         let [x, y, z]: [Expr; 3] = images.try_into().expect("three images");
         Ok(Source::from_expr(Expr::Blend3(Box::new([n, power, x, y, z]))))
+    }
+
+    /// `unifiednoise2d`/`unifiednoise3d`, as MaterialX's nodegraphs compute them: the point
+    /// scaled by `freq` and moved by `offset`; turned by (jitter − 1) × 90000° (about (0.1, 1,
+    /// 0) in space) for the Perlin, cell and (3D) fractal noises; Perlin as 0.5 noise + 0.5,
+    /// a 2D fractal taking the turn as its third coordinate; mapped from [0, 1] to [outmin,
+    /// outmax], clamped there unless `clampoutput` is false. The type and jitter are
+    /// constants.
+    fn unified(&mut self, space: bool, id: &str, node: &str, depth: u32) -> Result<Source, String> {
+        if !id.ends_with("_float") {
+            return Err("is not a node MaterialX defines".into());
+        }
+        let (c, bin) = (|v: f32| Expr::Const([v; 4]), Expr::binary);
+        let p = match space {
+            true => self.coordinate(node, "position", Expr::Position { world: false }, depth)?,
+            false => self.coordinate(node, "texcoord", Expr::TexCoord, depth)?,
+        };
+        let q = bin(Binary::Add, bin(Binary::Mul, p, self.arg(node, "freq", 1.0, depth)?), self.arg(node, "offset", 0.0, depth)?);
+        let kind = self.input_f32(node, "type", 0.0);
+        let jitter = self.scalar_arg(node, "jitter", 1.0, depth)?;
+        let Some([j, ..]) = jitter.constant_value() else { return Err("has a varying jitter, which is not supported".into()) };
+        let turn = (j - 1.0) * 90000.0;
+        let (s, co) = turn.to_radians().sin_cos();
+        // the turned point, a linear map of q: Σ_k q_k · column_k
+        let columns: Vec<[f32; 4]> = match space {
+            // MaterialX's rotate2d: (c x + s y, −s x + c y)
+            false => vec![[co, -s, 0.0, 0.0], [s, co, 0.0, 0.0]],
+            // its rotate3d: v c + (v × a) s + a (a · v)(1 − c), a the unit axis
+            true => {
+                let a = glam::Vec3::new(0.1, 1.0, 0.0).normalize();
+                (0..3)
+                    .map(|k| {
+                        let v = glam::Vec3::AXES[k];
+                        let r = v * co + v.cross(a) * s + a * a.dot(v) * (1.0 - co);
+                        [r.x, r.y, r.z, 0.0]
+                    })
+                    .collect()
+            }
+        };
+        let turned = match turn == 0.0 {
+            true => q.clone(),
+            false => columns.iter().enumerate().map(|(k, col)| bin(Binary::Mul, Expr::splat(q.clone(), k as u8), Expr::Const(*col))).reduce(|a, b| bin(Binary::Add, a, b)).expect("two or three columns"),
+        };
+        let noise = |kind, space: bool, point: Expr, params: Expr| Expr::Noise { noise: Noise { kind, space, channels: 1 }, point: Box::new(point), params: Box::new(params) };
+        let e = match kind as i64 {
+            0 => bin(Binary::Add, bin(Binary::Mul, noise(NoiseKind::Perlin, space, turned, c(0.0)), c(0.5)), c(0.5)),
+            1 => noise(NoiseKind::Cell, space, turned, c(0.0)),
+            2 => {
+                let style = self.scalar_arg(node, "style", 0.0, depth)?;
+                noise(NoiseKind::Worley, space, q, pack(&[jitter, style]))
+            }
+            3 => {
+                // always the 3D fractal: a 2D point takes the turn as its third coordinate
+                let point = match space {
+                    true => turned,
+                    false => bin(Binary::Add, bin(Binary::Mul, q, Expr::Const([1.0, 1.0, 0.0, 0.0])), Expr::Const([0.0, 0.0, turn, 0.0])),
+                };
+                let params = pack(&[self.scalar_arg(node, "octaves", 3.0, depth)?, self.scalar_arg(node, "lacunarity", 2.0, depth)?, self.scalar_arg(node, "diminish", 0.5, depth)?]);
+                noise(NoiseKind::Fractal, true, point, params)
+            }
+            _ => return Err(format!("has type {kind}, none of 0 (Perlin), 1 (cell), 2 (Worley), 3 (fractal)")),
+        };
+        let (low, high) = (self.scalar_arg(node, "outmin", 0.0, depth)?, self.scalar_arg(node, "outmax", 1.0, depth)?);
+        let ranged = bin(Binary::Add, bin(Binary::Mul, e, bin(Binary::Sub, high.clone(), low.clone())), low.clone());
+        let clamp = self.input_f32(node, "clampoutput", 1.0) != 0.0;
+        Ok(Source::from_expr(match clamp {
+            true => bin(Binary::Min, bin(Binary::Max, ranged, low), high),
+            false => ranged,
+        }))
     }
 
     /// Whether a geometric node's `space` is the world's (`object`, the default, and `model`
@@ -410,5 +482,67 @@ mod tests {
         let ColorInput::Graph(e) = c else { panic!("{c:?}") };
         let v = e.eval(&At);
         assert!(v[..3].iter().zip([0.1, 0.2, 0.3]).all(|(a, b)| (a - b).abs() < 1e-6), "{v:?}");
+    }
+
+    /// unifiednoise2d/3d: each type of noise at the point scaled by `freq`, moved by `offset`
+    /// and turned by (jitter − 1) × 90000° as MaterialX's rotate nodes turn it, mapped to
+    /// [outmin, outmax] and clamped there unless told not to.
+    #[test]
+    fn unified_noise_follows_its_nodegraph() {
+        let f = |x: f64| Value::Float(x);
+        let floats = |a: &[f32]| Value::Floats { data: a.to_vec(), tuple: a.len() as u32 };
+        let eval = |id: &str, inputs: Vec<(&str, Value)>| {
+            let (c, p) = convert(id, inputs);
+            assert!(p.is_empty(), "{id}: {p:?}");
+            match c {
+                ColorInput::Graph(e) => e.eval(&At)[0],
+                ColorInput::Const(v) => v[0],
+                other => panic!("{other:?}"),
+            }
+        };
+        let near = |a: f32, b: f32| assert!((a - b).abs() < 1e-5, "{a} vs {b}");
+        // defaults: Perlin of the texture coordinates as 0.5 n + 0.5, in [0, 1]
+        near(eval("ND_unifiednoise2d_float", vec![]), (0.5 * noise::perlin2(UV) + 0.5).clamp(0.0, 1.0));
+        // a jitter of 0.9995 turns the point by −45° (rotate2d: (c x + s y, −s x + c y))
+        let q = UV * Vec2::new(2.0, 3.0) + Vec2::new(0.1, 0.2);
+        let turn = (0.9995f32 - 1.0) * 90000.0;
+        assert!((turn + 45.0).abs() < 0.01, "{turn}");
+        let (s, c) = turn.to_radians().sin_cos();
+        let turned = Vec2::new(c * q.x + s * q.y, -s * q.x + c * q.y);
+        let common = || vec![("freq", floats(&[2.0, 3.0])), ("offset", floats(&[0.1, 0.2])), ("jitter", f(0.9995)), ("outmin", f(-1.0)), ("outmax", f(2.0)), ("clampoutput", Value::Bool(false))];
+        near(eval("ND_unifiednoise2d_float", common()), (0.5 * noise::perlin2(turned) + 0.5) * 3.0 - 1.0);
+        let with = |kind: i64| {
+            let mut v = common();
+            v.push(("type", Value::Int(kind)));
+            v
+        };
+        near(eval("ND_unifiednoise2d_float", with(1)), noise::cell2(turned) * 3.0 - 1.0);
+        // Worley takes the point before the turn, with the jitter
+        near(eval("ND_unifiednoise2d_float", with(2)), noise::worley2(q, 0.9995, Metric::Euclidean).distances[0] * 3.0 - 1.0);
+        // the 2D fractal is the 3D one at (q, turn)
+        near(eval("ND_unifiednoise2d_float", with(3)), noise::fractal3(q.extend(turn), 3, 2.0, 0.5) * 3.0 - 1.0);
+        // the turn matters: unturned, the Perlin value differs
+        assert!((eval("ND_unifiednoise2d_float", common()) - ((0.5 * noise::perlin2(q) + 0.5) * 3.0 - 1.0)).abs() > 1e-3);
+        // 3D: the object's position, turned about (0.1, 1, 0) by about −90° (rotate3d: v c +
+        // (v × a) s + a (a · v)(1 − c))
+        let a = Vec3::new(0.1, 1.0, 0.0).normalize();
+        let (s, c) = ((0.999f32 - 1.0) * 90000.0).to_radians().sin_cos();
+        let v = OBJECT;
+        let turned3 = v * c + v.cross(a) * s + a * a.dot(v) * (1.0 - c);
+        // the two turn the point through different roundings (a few 1e-6 at |p| ≈ 9): allow
+        // what the fractal changes by over 1e-5 along each axis
+        let fr = |p: Vec3| noise::fractal3(p, 3, 2.0, 0.5);
+        let slack = Vec3::AXES.iter().map(|e| (fr(turned3 + *e * 1e-5) - fr(turned3)).abs()).fold(1e-6f32, f32::max);
+        let got = eval("ND_unifiednoise3d_float", vec![("jitter", f(0.999)), ("type", Value::Int(3)), ("clampoutput", Value::Bool(false))]);
+        assert!((got - fr(turned3)).abs() < 3.0 * slack, "{got} vs {} (slack {slack})", fr(turned3));
+        assert!((got - fr(OBJECT)).abs() > 1e-3 && (got - fr(v * c - v.cross(a) * s + a * a.dot(v) * (1.0 - c))).abs() > 1e-3, "the turn and its sense matter");
+        // clamped by default
+        let clamped = eval("ND_unifiednoise3d_float", vec![("type", Value::Int(3)), ("outmin", f(0.2)), ("outmax", f(0.3))]);
+        near(clamped, (noise::fractal3(OBJECT, 3, 2.0, 0.5) * 0.1 + 0.2).clamp(0.2, 0.3));
+        // an unknown type and a varying jitter are reported at the node
+        for inputs in [vec![("type", Value::Int(7))], vec![("jitter.connect", tok("/M/X.outputs:out"))]] {
+            let (_, p) = convert("ND_unifiednoise3d_float", inputs);
+            assert_eq!(p.len(), 1, "{p:?}");
+        }
     }
 }
