@@ -197,6 +197,8 @@ pub struct PbrExtras {
     pub coat_color: ColorInput,
     /// IOR of the coat.
     pub coat_ior: f32,
+    /// The coat's anisotropy, 0–1, along the specular's tangent.
+    pub coat_anisotropy: FloatInput,
     /// Specular anisotropy, 0–1, and how it maps to the two roughnesses.
     pub anisotropy: FloatInput,
     pub flavour: crate::bsdf::PbrFlavour,
@@ -225,6 +227,7 @@ impl Default for PbrExtras {
             specular_tint: ColorInput::Const([1.0; 3]),
             coat_color: ColorInput::Const([1.0; 3]),
             coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
+            coat_anisotropy: FloatInput::Const(0.0),
             anisotropy: FloatInput::Const(0.0),
             flavour: crate::bsdf::PbrFlavour::StandardSurface,
             anisotropy_rotation: FloatInput::Const(0.0),

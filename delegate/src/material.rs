@@ -1237,6 +1237,8 @@ mod tests {
                 ("/M/A.info:id", tok("ND_geompropvalue_float")),
                 ("/M/A.inputs:geomprop", Value::String("aniso".into())),
                 ("/M/S.inputs:specular_rotation", f(0.25)),
+                ("/M/S.inputs:coat_anisotropy", f(0.6)),
+                ("/M/S.inputs:coat_rotation", f(0.25)),
                 ("/M/S.inputs:diffuse_roughness", f(0.4)),
                 ("/M/S.inputs:sheen", f(0.8)),
                 ("/M/S.inputs:sheen_color", c3([0.9, 0.8, 0.7])),
@@ -1246,7 +1248,7 @@ mod tests {
         assert!(p.is_empty(), "{p:?}");
         let x = ps.extras.expect("extras");
         assert_eq!((x.specular_weight, x.specular_tint), (FloatInput::Const(0.6), ColorInput::Const([1.0, 0.5, 0.25])));
-        assert_eq!(x.coat_color, ColorInput::Const([0.2, 0.4, 0.8]));
+        assert_eq!((x.coat_color, x.coat_anisotropy), (ColorInput::Const([0.2, 0.4, 0.8]), FloatInput::Const(0.6)));
         assert_eq!(x.anisotropy, FloatInput::Primvar(PrimvarLookup::new("aniso", [0.0; 4])));
         assert_eq!((x.flavour, x.anisotropy_rotation), (tide_core::bsdf::PbrFlavour::StandardSurface, FloatInput::Const(0.25)));
         assert!(!ps.use_specular_workflow);
@@ -1255,6 +1257,9 @@ mod tests {
         // Standard Surface's film is there where it has a thickness, in nanometres
         assert_eq!((x.thin_film_weight, x.thin_film_thickness), (FloatInput::Const(1.0), FloatInput::Const(350.0)));
         assert_eq!((x.thin_film_unit_nm, x.thin_film_ior), (1.0, 1.5));
+        // the coat turns with the specular; a turn of its own is reported
+        let (_, p) = surface("ND_standard_surface_surfaceshader", &[("/M/S.inputs:coat", f(1.0)), ("/M/S.inputs:coat_anisotropy", f(0.5)), ("/M/S.inputs:coat_rotation", f(0.1))]);
+        assert_eq!(p, ["/M/S.inputs:coat_rotation"]);
         let (ps, p) = surface(
             "ND_open_pbr_surface_surfaceshader",
             &[

@@ -244,6 +244,7 @@ impl Bsdf {
             specular_tint: reflectance("specular tint", p.specular_tint)?,
             coat_color: reflectance("coat colour", p.coat_color)?,
             coat_ior: check_positive("coat ior", p.coat_ior)?,
+            coat_anisotropy: check_finite("coat anisotropy", p.coat_anisotropy)?.clamp(0.0, 1.0),
             anisotropy: check_finite("anisotropy", p.anisotropy)?.clamp(0.0, 1.0),
             flavour: p.flavour,
             diffuse_roughness: check_finite("diffuse roughness", p.diffuse_roughness)?.clamp(0.0, 1.0),

@@ -8,8 +8,8 @@
 //! The MaterialX surfaces add, as MaterialX's own node graphs compute them:
 //! * a specular weight and tint: the dielectric reflection is weight × tint × F, while what
 //!   lies beneath sees 1 − weight × albedo (the tint absorbs, it never adds light);
-//! * a coat colour: everything under the coat is multiplied by mix(1, colour, coat), and a
-//!   coat IOR;
+//! * a coat colour: everything under the coat is multiplied by mix(1, colour, coat), a coat
+//!   IOR, and coat anisotropy (along the specular's tangent);
 //! * specular anisotropy: two roughnesses along the tangent and bitangent ([`PbrFlavour`]);
 //! * a rough diffuse base: Oren–Nayar, the qualitative model for Standard Surface and the
 //!   energy-preserving one (EON) for OpenPBR, as MaterialX's graphs choose;
@@ -63,6 +63,8 @@ pub struct PreviewParams {
     pub coat_color: SampledSpectrum,
     /// IOR of the coat ([`CLEARCOAT_IOR`] for UsdPreviewSurface).
     pub coat_ior: f32,
+    /// The coat's anisotropy in [0, 1], along the same tangent as the specular's.
+    pub coat_anisotropy: f32,
     /// Specular anisotropy in [0, 1] (0: isotropic), stretching the lobe along the frame's
     /// tangent as `flavour` says.
     pub anisotropy: f32,
@@ -216,9 +218,9 @@ impl Preview {
         let untinted = (p.specular_tint != SampledSpectrum::ONE).then(|| MicrofacetReflection::new(distrib, fresnel(SampledSpectrum::ONE)));
         let diffuse = p.diffuse * (1.0 - m);
         let coat = (p.clearcoat > 0.0).then(|| {
-            let a = roughness_to_alpha(p.clearcoat_roughness);
+            let (at, ab) = p.flavour.alphas(p.clearcoat_roughness, p.coat_anisotropy);
             let f0 = SampledSpectrum::splat(f0_from_ior(relative_ior(p.coat_ior, p.outside_ior)));
-            (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(a, a), ReflFresnel::Schlick { f0, f90: SampledSpectrum::ONE }))
+            (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(at, ab), ReflFresnel::Schlick { f0, f90: SampledSpectrum::ONE }))
         });
         let spec_loss_avg = (SampledSpectrum::ONE - untinted.as_ref().unwrap_or(&spec).albedo_avg()).map(|v| v.max(0.0));
         let under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;

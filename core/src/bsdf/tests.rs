@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 138;
+const N_CHI2: usize = 141;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -133,6 +133,7 @@ fn preview_params() -> PreviewParams {
         specular_tint: SampledSpectrum::ONE,
         coat_color: SampledSpectrum::ONE,
         coat_ior: preview::CLEARCOAT_IOR,
+        coat_anisotropy: 0.0,
         anisotropy: 0.0,
         flavour: PbrFlavour::StandardSurface,
         diffuse_roughness: 0.0,
@@ -323,6 +324,8 @@ fn chi2_preview_surface() {
         // a sheen over a rough diffuse base (both Oren–Nayar variants)
         PreviewParams { sheen_weight: 0.8, sheen_color: SampledSpectrum([0.9, 0.4, 0.7, 1.0]), sheen_roughness: 0.2, diffuse_roughness: 0.7, clearcoat: 0.3, clearcoat_roughness: 0.3, ..base },
         PreviewParams { sheen_weight: 1.0, sheen_roughness: 0.6, diffuse_roughness: 1.0, flavour: PbrFlavour::OpenPbr, roughness: 0.0, ..base },
+        // an anisotropic coat over an anisotropic specular
+        PreviewParams { clearcoat: 0.8, clearcoat_roughness: 0.5, coat_anisotropy: 0.7, anisotropy: 0.5, roughness: 0.5, ..base },
         // a thin film over a rough specular layer
         PreviewParams { thin_film: Some(film(0.8, 420.0, 1.33)), roughness: 0.35, ..base },
     ];

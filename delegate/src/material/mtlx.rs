@@ -150,6 +150,9 @@ pub(super) struct PbrModel {
     coat: (&'static str, &'static str, f32, &'static str),
     /// The coat's IOR and its default.
     coat_ior: (&'static str, f32),
+    /// The coat's anisotropy, and the turn of its direction if the model has one (read only
+    /// where it is the specular's).
+    coat_anisotropy: (&'static str, Option<&'static str>),
     /// The coat's darkening and saturation of the base colour, and its roughening of the
     /// specular (Standard Surface's `coat_affect_color`, `coat_affect_roughness`).
     coat_affect: Option<(&'static str, &'static str)>,
@@ -210,6 +213,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     ior: "specular_IOR",
     coat: ("coat", "coat_roughness", 0.1, "coat_color"),
     coat_ior: ("coat_IOR", 1.5),
+    coat_anisotropy: ("coat_anisotropy", Some("coat_rotation")),
     coat_affect: Some(("coat_affect_color", "coat_affect_roughness")),
     emission: ("emission", "emission_color"),
     opacity: ("opacity", true),
@@ -225,7 +229,6 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     unsupported: &[
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion", 0.0, "dispersion"),
-        ("coat_anisotropy", 0.0, "coat anisotropy"),
     ],
 };
 
@@ -244,6 +247,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     ior: "specular_ior",
     coat: ("coat_weight", "coat_roughness", 0.0, "coat_color"),
     coat_ior: ("coat_ior", 1.6),
+    coat_anisotropy: ("coat_roughness_anisotropy", None),
     coat_affect: None,
     emission: ("emission_luminance", "emission_color"),
     opacity: ("geometry_opacity", false),
@@ -259,7 +263,6 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     unsupported: &[
         ("transmission_scatter", 0.0, "scattering inside the transmission"),
         ("transmission_dispersion_scale", 0.0, "dispersion"),
-        ("coat_roughness_anisotropy", 0.0, "coat anisotropy"),
     ],
 };
 
@@ -771,6 +774,7 @@ impl Ctx<'_> {
             specular_tint: self.color(n, m.specular.1, [1.0; 3]),
             coat_color: self.color(n, m.coat.3, [1.0; 3]),
             coat_ior: self.constant_only(n, m.coat_ior.0, m.coat_ior.1),
+            coat_anisotropy: self.float(n, m.coat_anisotropy.0, 0.0),
             anisotropy: self.float(n, anisotropy, 0.0),
             flavour,
             anisotropy_rotation: rotation.map_or(FloatInput::Const(0.0), |r| self.float(n, r, 0.0)),
@@ -789,11 +793,17 @@ impl Ctx<'_> {
             None if extras.thin_film_thickness == FloatInput::Const(0.0) => FloatInput::Const(0.0),
             None => FloatInput::Const(1.0),
         };
+        if let (Some(coat_turn), Some(turn)) = (m.coat_anisotropy.1, rotation) {
+            let (a, b) = (self.float(n, coat_turn, 0.0), self.float(n, turn, 0.0));
+            if a != b {
+                self.p.add(&format!("{}.inputs:{}", n, coat_turn), format!("a coat turned apart from the specular is not supported; the coat follows {turn}"));
+            }
+        }
         let clearcoat = self.float(n, m.coat.0, 0.0);
         // with no coat, the coat's colour and IOR change nothing
         let mut neutral = PbrExtras { flavour, sheen_roughness: extras.sheen_roughness.clone(), ..PbrExtras::default() };
         if clearcoat == FloatInput::Const(0.0) {
-            (neutral.coat_color, neutral.coat_ior) = (extras.coat_color.clone(), extras.coat_ior);
+            (neutral.coat_color, neutral.coat_ior, neutral.coat_anisotropy) = (extras.coat_color.clone(), extras.coat_ior, extras.coat_anisotropy.clone());
         }
         if extras.sheen_weight == FloatInput::Const(0.0) {
             neutral.sheen_color = extras.sheen_color.clone();
