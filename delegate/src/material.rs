@@ -1257,9 +1257,12 @@ mod tests {
         // Standard Surface's film is there where it has a thickness, in nanometres
         assert_eq!((x.thin_film_weight, x.thin_film_thickness), (FloatInput::Const(1.0), FloatInput::Const(350.0)));
         assert_eq!((x.thin_film_unit_nm, x.thin_film_ior), (1.0, 1.5));
-        // the coat turns with the specular; a turn of its own is reported
+        // the coat turns with the specular; a turn of its own is reported where the coat is
+        // there and stretched
         let (_, p) = surface("ND_standard_surface_surfaceshader", &[("/M/S.inputs:coat", f(1.0)), ("/M/S.inputs:coat_anisotropy", f(0.5)), ("/M/S.inputs:coat_rotation", f(0.1))]);
         assert_eq!(p, ["/M/S.inputs:coat_rotation"]);
+        let (_, p) = surface("ND_standard_surface_surfaceshader", &[("/M/S.inputs:coat_anisotropy", f(0.5)), ("/M/S.inputs:specular_rotation", f(0.1))]);
+        assert!(p.is_empty(), "{p:?}");
         let (ps, p) = surface(
             "ND_open_pbr_surface_surfaceshader",
             &[

@@ -793,13 +793,14 @@ impl Ctx<'_> {
             None if extras.thin_film_thickness == FloatInput::Const(0.0) => FloatInput::Const(0.0),
             None => FloatInput::Const(1.0),
         };
-        if let (Some(coat_turn), Some(turn)) = (m.coat_anisotropy.1, rotation) {
+        let clearcoat = self.float(n, m.coat.0, 0.0);
+        let coat_stretched = clearcoat != FloatInput::Const(0.0) && extras.coat_anisotropy != FloatInput::Const(0.0);
+        if let (Some(coat_turn), Some(turn), true) = (m.coat_anisotropy.1, rotation, coat_stretched) {
             let (a, b) = (self.float(n, coat_turn, 0.0), self.float(n, turn, 0.0));
             if a != b {
                 self.p.add(&format!("{}.inputs:{}", n, coat_turn), format!("a coat turned apart from the specular is not supported; the coat follows {turn}"));
             }
         }
-        let clearcoat = self.float(n, m.coat.0, 0.0);
         // with no coat, the coat's colour and IOR change nothing
         let mut neutral = PbrExtras { flavour, sheen_roughness: extras.sheen_roughness.clone(), ..PbrExtras::default() };
         if clearcoat == FloatInput::Const(0.0) {
