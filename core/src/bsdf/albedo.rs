@@ -54,7 +54,7 @@ pub fn tables() -> &'static AlbedoTables {
 /// μ of node i: nodes are uniform in x = √μ, denser at grazing angles where the albedo of a
 /// rough lobe changes fastest.
 #[inline]
-fn grid_mu(i: usize, n: usize) -> f32 {
+pub(super) fn grid_mu(i: usize, n: usize) -> f32 {
     let x = i as f32 / (n - 1) as f32;
     (x * x).max(1e-4)
 }

@@ -292,16 +292,22 @@ impl Preview {
         self.under_coat(mu_o, mu_i) * (self.sheen_transmittance(mu_o) * self.sheen_transmittance(mu_i))
     }
 
+    /// The specular layer as the base sees it (untinted).
+    #[inline]
+    fn seen_from_below(&self) -> &MicrofacetReflection {
+        self.untinted.as_ref().unwrap_or(&self.spec)
+    }
+
     /// What the specular layer lets through to the base along ω.
     #[inline]
     fn spec_loss(&self, w: Vec3) -> SampledSpectrum {
-        (SampledSpectrum::ONE - self.untinted.as_ref().unwrap_or(&self.spec).albedo_along(w)).map(|v| v.max(0.0))
+        (SampledSpectrum::ONE - self.seen_from_below().albedo_along(w)).map(|v| v.max(0.0))
     }
 
     /// [`Self::spec_loss`] at μ, for the lobe's mean roughness.
     #[inline]
     fn spec_loss_mu(&self, mu: f32) -> SampledSpectrum {
-        (SampledSpectrum::ONE - self.untinted.as_ref().unwrap_or(&self.spec).albedo(mu)).map(|v| v.max(0.0))
+        (SampledSpectrum::ONE - self.seen_from_below().albedo(mu)).map(|v| v.max(0.0))
     }
 
     fn f_diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {

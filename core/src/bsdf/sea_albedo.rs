@@ -147,8 +147,7 @@ pub struct SeaAlbedoKey {
 
 #[inline]
 fn grid_mu(i: usize) -> f32 {
-    let x = i as f32 / (N_MU - 1) as f32;
-    (x * x).max(1e-4)
+    super::albedo::grid_mu(i, N_MU)
 }
 
 #[inline]

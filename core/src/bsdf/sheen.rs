@@ -77,8 +77,7 @@ fn clamp_roughness(r: f32) -> f32 {
 /// μ of node i: uniform in √μ, floored above 0 (the lobe is zero exactly at the horizon).
 #[inline]
 fn grid_mu(i: usize) -> f32 {
-    let x = i as f32 / (N_MU - 1) as f32;
-    (x * x).max(1e-4)
+    super::albedo::grid_mu(i, N_MU)
 }
 
 /// r of node j: uniform in ln r (the exponent 1/r of the distribution changes fastest at small
@@ -150,6 +149,9 @@ pub struct SheenTables {
     scaled: Vec<f32>,
     /// Hemispherical averages of E′ per r node.
     bounded_avg: Vec<f32>,
+    /// Per r node: whether the energy bound divides anywhere in its row (a blend of two rows
+    /// where neither does never needs it).
+    row_bounded: Vec<bool>,
 }
 
 static TABLES: OnceLock<SheenTables> = OnceLock::new();
@@ -183,7 +185,8 @@ impl SheenTables {
             let scaled_row = &scaled[row];
             bounded_avg[j] = hemispherical_integral(|x| bounded_albedo(row_at(scaled_row, x * x), row_at(raw_row, x * x)));
         }
-        SheenTables { raw, scaled, bounded_avg }
+        let row_bounded = (0..N_R).map(|j| raw[j * N_MU..(j + 1) * N_MU].iter().any(|&e| bound(e) > 1.0)).collect();
+        SheenTables { raw, scaled, bounded_avg, row_bounded }
     }
 
     /// White albedo E′(μ, r) of the energy-bounded lobe at μ = cosθo and sheen roughness r.
@@ -266,7 +269,7 @@ pub struct Sheen {
     roughness: f32,
     inv_r: f32,
     rows: RowBlend,
-    /// Whether the divisor exceeds 1 anywhere at this roughness (else the lobe is MaterialX's
+    /// Whether the divisor may exceed 1 at this roughness (else the lobe is MaterialX's
     /// everywhere and no lookup is needed).
     bounded: bool,
 }
@@ -278,11 +281,7 @@ impl Sheen {
         let roughness = clamp_roughness(roughness);
         let rows = RowBlend::new(roughness);
         let t = tables();
-        let bounded = (0..N_MU).any(|i| {
-            let a = t.raw[rows.j0 * N_MU + i];
-            let b = t.raw[rows.j1 * N_MU + i];
-            bound(lerp(rows.t, a, b)) > 1.0
-        });
+        let bounded = t.row_bounded[rows.j0] || t.row_bounded[rows.j1];
         Sheen { color, roughness, inv_r: 1.0 / roughness, rows, bounded }
     }
 
