@@ -780,6 +780,39 @@ mod tests {
     pub(super) fn tok(s: &str) -> Value {
         Value::Token(s.into())
     }
+    /// A hit whose primvar `x` is `x` and whose texture coordinates, positions, normals and
+    /// tangents (in the object's space, then the world's) are the fields'; it reads no texture.
+    pub(super) struct FixedHit {
+        pub x: [f32; 4],
+        pub uv: Vec2,
+        pub object: glam::Vec3,
+        pub world: glam::Vec3,
+        pub normal: [glam::Vec3; 2],
+        pub tangent: [glam::Vec3; 2],
+    }
+
+    impl tide_core::shader_graph::Lookups for FixedHit {
+        fn texture(&self, _: &TexLookup, _: Vec2) -> [f32; 4] {
+            unreachable!("no texture here")
+        }
+        fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
+            assert_eq!(l.name, "x");
+            std::array::from_fn(|k| self.x[k] * l.scale[k])
+        }
+        fn uv(&self) -> Vec2 {
+            self.uv
+        }
+        fn position(&self, world: bool) -> glam::Vec3 {
+            if world { self.world } else { self.object }
+        }
+        fn normal(&self, world: bool) -> glam::Vec3 {
+            self.normal[usize::from(world)]
+        }
+        fn tangent(&self, world: bool) -> glam::Vec3 {
+            self.tangent[usize::from(world)]
+        }
+    }
+
     pub(super) fn loaded(srgb: bool) -> impl Fn(&str) -> Option<TexState> {
         move |a: &str| {
             (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 2, height: 2, channels: 3, pixels: Default::default(), is_srgb: srgb })
@@ -1422,28 +1455,7 @@ mod tests {
     fn materialx_nodes_compute_their_specified_values() {
         use tide_core::shader_graph::Lookups;
         const X: [f32; 4] = [0.3, 0.6, 0.9, 0.5];
-        struct AtX;
-        impl Lookups for AtX {
-            fn texture(&self, _: &TexLookup, _: Vec2) -> [f32; 4] {
-                unreachable!("no texture here")
-            }
-            fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
-                assert_eq!(l.name, "x");
-                std::array::from_fn(|k| X[k] * l.scale[k])
-            }
-            fn uv(&self) -> Vec2 {
-                Vec2::new(0.2, 0.7)
-            }
-            fn position(&self, world: bool) -> glam::Vec3 {
-                if world { glam::Vec3::new(1.0, 2.0, 3.0) } else { glam::Vec3::new(4.0, 5.0, 6.0) }
-            }
-            fn normal(&self, _: bool) -> glam::Vec3 {
-                unreachable!("no normal here")
-            }
-            fn tangent(&self, _: bool) -> glam::Vec3 {
-                unreachable!("no tangent here")
-            }
-        }
+        let at_x = FixedHit { x: X, uv: Vec2::new(0.2, 0.7), object: glam::Vec3::new(4.0, 5.0, 6.0), world: glam::Vec3::new(1.0, 2.0, 3.0), normal: [glam::Vec3::Y; 2], tangent: [glam::Vec3::X; 2] };
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
         let x = || tok("/M/X.outputs:out");
@@ -1515,8 +1527,8 @@ mod tests {
             assert!(p.list.is_empty(), "{id}: {:?}", p.list);
             let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{id}") };
             let got = match &ps.diffuse_color {
-                ColorInput::Graph(e) => e.eval(&AtX),
-                ColorInput::Primvar(l) => AtX.primvar(l),
+                ColorInput::Graph(e) => e.eval(&at_x),
+                ColorInput::Primvar(l) => at_x.primvar(l),
                 other => panic!("{id}: {other:?}"),
             };
             for k in 0..4 {

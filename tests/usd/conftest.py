@@ -225,12 +225,17 @@ def top_camera(stage):
     cam.AddRotateXOp().Set(-90.0)
 
 
-def panel(stage, path, columns=2):
-    """`columns` quads side by side along x, facing up (+Y), covering the square."""
+def panel(stage, path, columns=2, st=False):
+    """`columns` quads side by side along x, facing up (+Y), covering the square; with `st`,
+    texture coordinates u along x and v along z, (0, 0) to (1, 1) over the square."""
     m = UsdGeom.Mesh.Define(stage, path)
     xs = np.linspace(-HALF, HALF, columns + 1)
     pts = [(x, 0, z) for x in xs for z in (-HALF, HALF)]
     m.CreatePointsAttr(pts)
+    if st:
+        UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+            [((x + HALF) / (2 * HALF), (z + HALF) / (2 * HALF)) for x, _, z in pts])
     m.CreateFaceVertexCountsAttr([4] * columns)
     # point 2i is (x_i, -HALF), 2i+1 is (x_i, HALF): counter-clockwise seen from +Y
     m.CreateFaceVertexIndicesAttr([k for i in range(columns) for k in (2 * i, 2 * i + 1, 2 * i + 3, 2 * i + 2)])

@@ -58,10 +58,7 @@ def test_an_image_in_a_node_graph_feeds_the_emission(renderer, stage, tmp_path):
     tex_file = tmp_path / "halves.exr"
     write_exr(tex_file, [[(1, 0, 0), (1, 0, 0), (0, 0, 1), (0, 0, 1)]])
     top_camera(stage)
-    m = panel(stage, "/Panel", columns=1)
-    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
-        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
-        [(0, 0), (0, 1), (1, 0), (1, 1)])
+    m = panel(stage, "/Panel", columns=1, st=True)
     mat, sh = _standard_surface(stage, "/Looks/Sign", base=0.0, specular=0.0, emission=2.0)
     graph = UsdShade.NodeGraph.Define(stage, "/Looks/Sign/Graph")
     img = UsdShade.Shader.Define(stage, "/Looks/Sign/Graph/Image")
@@ -255,10 +252,7 @@ def test_cell_noise_gives_one_uniform_value_per_cell(renderer, stage):
     for the variance."""
     n = 8
     top_camera(stage)
-    m = panel(stage, "/Panel", columns=1)
-    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
-        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
-        [(0, 0), (0, 1), (1, 0), (1, 1)])
+    m = panel(stage, "/Panel", columns=1, st=True)
     mat, sh = _standard_surface(stage, "/Looks/Cells", base=0.0, specular=0.0, emission=1.0)
     vec2 = lambda s: s.CreateOutput("out", Sdf.ValueTypeNames.Float2)
     uv = shader_node(stage, "/Looks/Cells/Uv", "ND_texcoord_vector2")

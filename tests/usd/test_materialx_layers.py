@@ -87,11 +87,7 @@ def _highlight_spread(renderer, rotation):
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
     top_camera(stage)
-    m = panel(stage, "/Panel", columns=1)
-    # points (-H, -H), (-H, H), (H, -H), (H, H) in (x, z): u along x, v along z
-    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
-        "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
-        [(0, 0), (0, 1), (1, 0), (1, 1)])
+    m = panel(stage, "/Panel", columns=1, st=True)  # u along x, v along z
     light = UsdLux.SphereLight.Define(stage, "/Light")
     light.CreateRadiusAttr(0.02)
     light.CreateIntensityAttr(2000.0)

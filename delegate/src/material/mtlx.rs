@@ -666,12 +666,11 @@ impl Ctx<'_> {
     fn coat_affected(&mut self, n: &str, m: &PbrModel) -> (Option<Expr>, FloatInput) {
         let roughness = self.float(n, m.roughness.0, m.roughness.1);
         let Some((affect_color, affect_roughness)) = m.coat_affect else { return (None, roughness) };
-        let scalar = |this: &mut Self, input: &str, d: f32| match this.operand(n, input, [d; 4], 0) {
-            Ok(s) => Expr::splat(s.scalar().into_expr(), 0),
-            Err(why) => {
+        let scalar = |this: &mut Self, input: &str, d: f32| {
+            this.scalar_arg(n, input, d, 0).unwrap_or_else(|why| {
                 this.p.add(&format!("{}.inputs:{}", n, input), format!("its node {why}; using {d}"));
                 Expr::Const([d; 4])
-            }
+            })
         };
         let (c, mul, add) = (|v: f32| Expr::Const([v; 4]), Binary::Mul, Binary::Add);
         let zero = |e: &Expr| e.constant_value().is_some_and(|v| v[0] == 0.0);

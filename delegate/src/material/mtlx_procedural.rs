@@ -270,7 +270,7 @@ impl Ctx<'_> {
     }
 
     /// A scalar input as an expression: its constant, or its connection's first component.
-    fn scalar_arg(&mut self, node: &str, input: &str, default: f32, depth: u32) -> Result<Expr, String> {
+    pub(super) fn scalar_arg(&mut self, node: &str, input: &str, default: f32, depth: u32) -> Result<Expr, String> {
         Ok(match self.operand(node, input, [default; 4], depth)? {
             Source::Fallback(v) => Expr::Const([v[0]; 4]),
             other => Expr::splat(other.scalar().into_expr(), 0),
@@ -290,13 +290,12 @@ impl Ctx<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::{loaded, mat, tok};
+    use super::super::tests::{loaded, mat, tok, FixedHit};
     use crate::material::{convert_material, ColorInput, SurfaceDesc};
     use crate::value::{Problems, Value};
     use glam::{Vec2, Vec3};
     use tide_core::noise::{self, Metric, Noise, NoiseKind};
-    use tide_core::scene::{PrimvarLookup, TexLookup};
-    use tide_core::shader_graph::{Expr, Lookups};
+    use tide_core::shader_graph::Expr;
 
     const X: [f32; 4] = [0.3, 0.6, 0.9, 0.5];
     const UV: Vec2 = Vec2::new(0.37, 1.61);
@@ -306,28 +305,7 @@ mod tests {
     /// A hit at texture coordinates [`UV`], at [`OBJECT`] in its own space and [`WORLD`] in
     /// the world, normal +Y there and +Z here, tangent +X there and (0.6, 0.8, 0) here; the
     /// primvar `x` is [`X`].
-    struct At;
-    impl Lookups for At {
-        fn texture(&self, _: &TexLookup, _: Vec2) -> [f32; 4] {
-            unreachable!("no texture here")
-        }
-        fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
-            assert_eq!(l.name, "x");
-            std::array::from_fn(|k| X[k] * l.scale[k])
-        }
-        fn uv(&self) -> Vec2 {
-            UV
-        }
-        fn position(&self, world: bool) -> Vec3 {
-            if world { WORLD } else { OBJECT }
-        }
-        fn normal(&self, world: bool) -> Vec3 {
-            if world { Vec3::Z } else { Vec3::Y }
-        }
-        fn tangent(&self, world: bool) -> Vec3 {
-            if world { Vec3::new(0.6, 0.8, 0.0) } else { Vec3::X }
-        }
-    }
+    const AT: FixedHit = FixedHit { x: X, uv: UV, object: OBJECT, world: WORLD, normal: [Vec3::Y, Vec3::Z], tangent: [Vec3::X, Vec3::new(0.6, 0.8, 0.0)] };
 
     /// A UsdPreviewSurface whose diffuseColor is node `/M/N` (`id`, `inputs`), beside a
     /// primvar `x` (`/M/X`), the world position (`/M/W`) and the texture coordinates × 8
@@ -405,7 +383,7 @@ mod tests {
             let (color, problems) = convert(id, inputs);
             assert!(problems.is_empty(), "{id}: {problems:?}");
             let got = match color {
-                ColorInput::Graph(e) => e.eval(&At),
+                ColorInput::Graph(e) => e.eval(&AT),
                 ColorInput::Const(c) => [c[0], c[1], c[2], 0.0],
                 other => panic!("{id}: {other:?}"),
             };
@@ -422,7 +400,7 @@ mod tests {
         // amplitude 0: the pivot, wherever the hit is
         let (color, _) = convert("ND_noise2d_float", vec![("amplitude", f(0.0)), ("pivot", f(0.625))]);
         let ColorInput::Graph(e) = color else { panic!() };
-        assert_eq!(e.eval(&At), [0.625; 4]);
+        assert_eq!(e.eval(&AT), [0.625; 4]);
     }
 
     /// What cannot be read, or reads otherwise than authored, is reported naming the material
@@ -465,7 +443,7 @@ mod tests {
             let [n, power, images @ ..] = *parts;
             assert_eq!((n, power), (Expr::Normal { world: false }, Expr::Const([4.0; 4])));
             images.map(|e| match e {
-                Expr::TextureAt(t, st) if matches!(*t, Expr::Texture(_)) => st.eval(&At),
+                Expr::TextureAt(t, st) if matches!(*t, Expr::Texture(_)) => st.eval(&AT),
                 other => panic!("{other:?}"),
             })
         };
@@ -480,7 +458,7 @@ mod tests {
         let (c, p) = convert("ND_triplanarprojection_color3", vec![("default", Value::Floats { data: vec![0.1, 0.2, 0.3], tuple: 3 })]);
         assert_eq!(p.iter().filter(|q| q.1.ends_with(":filex") || q.1.ends_with(":filey") || q.1.ends_with(":filez")).count(), 3, "{p:?}");
         let ColorInput::Graph(e) = c else { panic!("{c:?}") };
-        let v = e.eval(&At);
+        let v = e.eval(&AT);
         assert!(v[..3].iter().zip([0.1, 0.2, 0.3]).all(|(a, b)| (a - b).abs() < 1e-6), "{v:?}");
     }
 
@@ -495,7 +473,7 @@ mod tests {
             let (c, p) = convert(id, inputs);
             assert!(p.is_empty(), "{id}: {p:?}");
             match c {
-                ColorInput::Graph(e) => e.eval(&At)[0],
+                ColorInput::Graph(e) => e.eval(&AT)[0],
                 ColorInput::Const(v) => v[0],
                 other => panic!("{other:?}"),
             }
