@@ -246,6 +246,7 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
                 }
             } else {
                 base = if entering { world.materials[info.material].interior_medium } else { None };
+                tr *= world.transmission_tint(info.material, &s, lambda);
             }
             cur = vols.volume_medium().or(base);
             seg_o = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
@@ -254,9 +255,8 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
         }
         let pass = if boundary || see_through || !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
             1.0
-        } else if world.materials[info.material].dielectric().is_some() {
-            0.0
         } else {
+            // a dielectric blocks but where an opaque part it is blended with is cut out
             1.0 - world.opacity(info.material, &s)
         };
         if pass <= 0.0 {
@@ -580,6 +580,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             // water body's medium still begins and ends at it)
             if world.materials[mat_i].dielectric().is_some() {
                 stack.cross(world, &s, front, lambda);
+                beta *= world.transmission_tint(mat_i, &s, lambda);
             }
             pass_through!();
         }

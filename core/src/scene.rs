@@ -304,6 +304,20 @@ pub struct WaterDesc {
     /// less on a wave mesh that resolves the rest, e.g. a `TideOcean`).
     pub slope_variance_scale: f32,
     pub priority: i32,
+    /// Colour each transmission through the interface multiplies the light by, in and out (a
+    /// surface tint, as MaterialX's `transmission_color` with no depth); None: clear.
+    pub tint: Option<ColorInput>,
+    /// An opaque surface sharing the interface (None: the interface alone); see [`WaterBlend`].
+    pub blend: Option<Box<WaterBlend>>,
+}
+
+/// A dielectric interface over part of a surface: the interface takes the share `transmission`
+/// (0–1) and `surface` the rest, under one specular reflection (a MaterialX surface's partial
+/// transmission or partial subsurface). The object is still a body the interface bounds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WaterBlend {
+    pub transmission: FloatInput,
+    pub surface: PreviewSurfaceDesc,
 }
 
 impl Default for WaterDesc {
@@ -319,6 +333,8 @@ impl Default for WaterDesc {
             wind_direction: 0.0,
             slope_variance_scale: 1.0,
             priority: 0,
+            tint: None,
+            blend: None,
         }
     }
 }

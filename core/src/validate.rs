@@ -363,32 +363,40 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             FloatInput::Primvar(l) => fix_fallback(l, &m.name, attr, p),
             FloatInput::Graph(e) => fix_graph(e, n_tex, &m.name, attr, p),
         };
-        match &mut m.surface {
-            SurfaceDesc::Diffuse { color } => fix_color(color, "inputs:diffuseColor", &mut p, [0.18; 3]),
-            SurfaceDesc::Preview(ps) => {
-                fix_color(&mut ps.diffuse_color, "inputs:diffuseColor", &mut p, [0.18; 3]);
-                fix_color(&mut ps.emissive_color, "inputs:emissiveColor", &mut p, [0.0; 3]);
-                fix_color(&mut ps.specular_color, "inputs:specularColor", &mut p, [0.0; 3]);
-                fix_float(&mut ps.metallic, "inputs:metallic", &mut p, 0.0);
-                fix_float(&mut ps.roughness, "inputs:roughness", &mut p, 0.5);
-                fix_float(&mut ps.clearcoat, "inputs:clearcoat", &mut p, 0.0);
-                fix_float(&mut ps.clearcoat_roughness, "inputs:clearcoatRoughness", &mut p, 0.01);
-                fix_float(&mut ps.opacity, "inputs:opacity", &mut p, 1.0);
-                if let Some(w) = &mut ps.wet {
-                    fix_float(&mut w.amount, "tide:wet:amount", &mut p, 0.0);
-                }
-                if !(ps.ior.is_finite() && ps.ior > 0.0) {
-                    problem(&mut p, &m.name, "inputs:ior", "must be > 0; using 1.5");
-                    ps.ior = 1.5;
-                }
-                if let Some(l) = &ps.normal {
-                    if !tex_ok(l) {
-                        problem(&mut p, &m.name, "inputs:normal", "texture missing; normal map ignored");
-                        ps.normal = None;
-                    }
+        let fix_preview = |ps: &mut PreviewSurfaceDesc, p: &mut Vec<Problem>| {
+            fix_color(&mut ps.diffuse_color, "inputs:diffuseColor", p, [0.18; 3]);
+            fix_color(&mut ps.emissive_color, "inputs:emissiveColor", p, [0.0; 3]);
+            fix_color(&mut ps.specular_color, "inputs:specularColor", p, [0.0; 3]);
+            fix_float(&mut ps.metallic, "inputs:metallic", p, 0.0);
+            fix_float(&mut ps.roughness, "inputs:roughness", p, 0.5);
+            fix_float(&mut ps.clearcoat, "inputs:clearcoat", p, 0.0);
+            fix_float(&mut ps.clearcoat_roughness, "inputs:clearcoatRoughness", p, 0.01);
+            fix_float(&mut ps.opacity, "inputs:opacity", p, 1.0);
+            if let Some(w) = &mut ps.wet {
+                fix_float(&mut w.amount, "tide:wet:amount", p, 0.0);
+            }
+            if !(ps.ior.is_finite() && ps.ior > 0.0) {
+                problem(p, &m.name, "inputs:ior", "must be > 0; using 1.5");
+                ps.ior = 1.5;
+            }
+            if let Some(l) = &ps.normal {
+                if !tex_ok(l) {
+                    problem(p, &m.name, "inputs:normal", "texture missing; normal map ignored");
+                    ps.normal = None;
                 }
             }
+        };
+        match &mut m.surface {
+            SurfaceDesc::Diffuse { color } => fix_color(color, "inputs:diffuseColor", &mut p, [0.18; 3]),
+            SurfaceDesc::Preview(ps) => fix_preview(ps, &mut p),
             SurfaceDesc::Water(w) => {
+                if let Some(t) = &mut w.tint {
+                    fix_color(t, "inputs:transmission_color", &mut p, [1.0; 3]);
+                }
+                if let Some(b) = &mut w.blend {
+                    fix_float(&mut b.transmission, "inputs:transmission", &mut p, 1.0);
+                    fix_preview(&mut b.surface, &mut p);
+                }
                 if !(w.ior.is_finite() && w.ior >= 1.0 && w.ior < 10.0) {
                     problem(&mut p, &m.name, "inputs:ior", format!("ior {} not in [1, 10); using 1.333", w.ior));
                     w.ior = 1.333;

@@ -75,6 +75,10 @@ pub struct DielectricMat {
     pub sea: Option<(f32, Vec3, f32)>,
     /// Spectral IOR n(λ) (Quan–Fry) when the water is dispersive; `ior` is then n(589 nm).
     pub dispersion: Option<Spectrum>,
+    /// What each transmission multiplies the light by (None: clear).
+    pub tint: Option<ColorParam>,
+    /// An opaque preview surface taking the share 1 − transmission (see [`WaterBlend`]).
+    pub blend: Option<Box<(FloatParam, SurfaceKind)>>,
 }
 
 impl DielectricMat {
@@ -120,6 +124,17 @@ pub struct Material {
     pub name: String,
     pub kind: SurfaceKind,
     pub interior_medium: Option<usize>,
+}
+
+impl SurfaceKind {
+    /// The surface whose emission and opacity this one has: its own, or the opaque part of a
+    /// dielectric blended over one.
+    pub fn face(&self) -> &SurfaceKind {
+        match self {
+            SurfaceKind::Dielectric(DielectricMat { blend: Some(b), .. }) => &b.1,
+            k => k,
+        }
+    }
 }
 
 impl Material {
@@ -231,6 +246,51 @@ fn color_param(c: &ColorInput, cs: ColorSpace) -> ColorParam {
         ColorInput::Texture(l) => ColorParam::Tex(l.clone()),
         ColorInput::Primvar(l) => ColorParam::Primvar(l.clone()),
         ColorInput::Graph(e) => ColorParam::Graph(e.clone()),
+    }
+}
+
+/// A UsdPreviewSurface (or MaterialX PBR surface) ready to evaluate.
+fn preview_kind(p: &PreviewSurfaceDesc, cs: ColorSpace) -> SurfaceKind {
+    let emissive = match &p.emissive_color {
+        ColorInput::Const(c) if c.iter().all(|v| *v <= 0.0) => None,
+        ColorInput::Const(c) => Some(ColorParam::Const(uplift::illuminant(*c, cs))),
+        ColorInput::Texture(l) => Some(ColorParam::Tex(l.clone())),
+        ColorInput::Primvar(l) => Some(ColorParam::Primvar(l.clone())),
+        ColorInput::Graph(e) => Some(ColorParam::Graph(e.clone())),
+    };
+    SurfaceKind::Preview {
+        diffuse: color_param(&p.diffuse_color, cs),
+        emissive,
+        specular: color_param(&p.specular_color, cs),
+        use_specular_workflow: p.use_specular_workflow,
+        metallic: float_param(&p.metallic),
+        roughness: float_param(&p.roughness),
+        clearcoat: float_param(&p.clearcoat),
+        clearcoat_roughness: float_param(&p.clearcoat_roughness),
+        opacity: float_param(&p.opacity),
+        opacity_threshold: p.opacity_threshold,
+        ior: p.ior,
+        wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
+        extras: p.extras.as_ref().map(|x| {
+            Box::new(ExtrasParam {
+                specular_weight: float_param(&x.specular_weight),
+                specular_tint: color_param(&x.specular_tint, cs),
+                coat_color: color_param(&x.coat_color, cs),
+                coat_ior: x.coat_ior,
+                coat_anisotropy: float_param(&x.coat_anisotropy),
+                anisotropy: float_param(&x.anisotropy),
+                flavour: x.flavour,
+                anisotropy_rotation: float_param(&x.anisotropy_rotation),
+                diffuse_roughness: float_param(&x.diffuse_roughness),
+                sheen_weight: float_param(&x.sheen_weight),
+                sheen_color: color_param(&x.sheen_color, cs),
+                sheen_roughness: float_param(&x.sheen_roughness),
+                thin_film_weight: float_param(&x.thin_film_weight),
+                thin_film_thickness: float_param(&x.thin_film_thickness),
+                thin_film_unit_nm: x.thin_film_unit_nm,
+                thin_film_ior: x.thin_film_ior,
+            })
+        }),
     }
 }
 
@@ -487,49 +547,7 @@ impl World {
             .map(|m| {
                 let kind = match &m.surface {
                     SurfaceDesc::Diffuse { color } => SurfaceKind::Diffuse(color_param(color, cs)),
-                    SurfaceDesc::Preview(p) => {
-                        let emissive = match &p.emissive_color {
-                            ColorInput::Const(c) if c.iter().all(|v| *v <= 0.0) => None,
-                            ColorInput::Const(c) => Some(ColorParam::Const(uplift::illuminant(*c, cs))),
-                            ColorInput::Texture(l) => Some(ColorParam::Tex(l.clone())),
-                            ColorInput::Primvar(l) => Some(ColorParam::Primvar(l.clone())),
-                            ColorInput::Graph(e) => Some(ColorParam::Graph(e.clone())),
-                        };
-                        SurfaceKind::Preview {
-                            diffuse: color_param(&p.diffuse_color, cs),
-                            emissive,
-                            specular: color_param(&p.specular_color, cs),
-                            use_specular_workflow: p.use_specular_workflow,
-                            metallic: float_param(&p.metallic),
-                            roughness: float_param(&p.roughness),
-                            clearcoat: float_param(&p.clearcoat),
-                            clearcoat_roughness: float_param(&p.clearcoat_roughness),
-                            opacity: float_param(&p.opacity),
-                            opacity_threshold: p.opacity_threshold,
-                            ior: p.ior,
-                            wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
-                            extras: p.extras.as_ref().map(|x| {
-                                Box::new(ExtrasParam {
-                                    specular_weight: float_param(&x.specular_weight),
-                                    specular_tint: color_param(&x.specular_tint, cs),
-                                    coat_color: color_param(&x.coat_color, cs),
-                                    coat_ior: x.coat_ior,
-                                    coat_anisotropy: float_param(&x.coat_anisotropy),
-                                    anisotropy: float_param(&x.anisotropy),
-                                    flavour: x.flavour,
-                                    anisotropy_rotation: float_param(&x.anisotropy_rotation),
-                                    diffuse_roughness: float_param(&x.diffuse_roughness),
-                                    sheen_weight: float_param(&x.sheen_weight),
-                                    sheen_color: color_param(&x.sheen_color, cs),
-                                    sheen_roughness: float_param(&x.sheen_roughness),
-                                    thin_film_weight: float_param(&x.thin_film_weight),
-                                    thin_film_thickness: float_param(&x.thin_film_thickness),
-                                    thin_film_unit_nm: x.thin_film_unit_nm,
-                                    thin_film_ior: x.thin_film_ior,
-                                })
-                            }),
-                        }
-                    }
+                    SurfaceDesc::Preview(p) => preview_kind(p, cs),
                     SurfaceDesc::Water(w) => {
                         let dispersion = if w.dispersion {
                             match crate::water::quan_fry_spectrum(w.salinity, w.temperature) {
@@ -548,7 +566,15 @@ impl World {
                             (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()), w.slope_variance_scale)
                         });
                         let ior = dispersion.as_ref().map_or(w.ior, |n| n.eval(589.0));
-                        SurfaceKind::Dielectric(DielectricMat { ior, roughness: w.roughness, priority: w.priority, sea, dispersion })
+                        SurfaceKind::Dielectric(DielectricMat {
+                            ior,
+                            roughness: w.roughness,
+                            priority: w.priority,
+                            sea,
+                            dispersion,
+                            tint: w.tint.as_ref().map(|c| color_param(c, cs)),
+                            blend: w.blend.as_ref().map(|b| Box::new((float_param(&b.transmission), preview_kind(&b.surface, cs)))),
+                        })
                     }
                     SurfaceDesc::Conductor { eta, k, roughness } => SurfaceKind::Conductor { eta: uplift::unbounded(*eta, cs), k: uplift::unbounded(*k, cs), roughness: *roughness },
                     SurfaceDesc::Emissive { radiance, two_sided } => SurfaceKind::Emissive { radiance: uplift::illuminant(*radiance, cs), two_sided: *two_sided },
@@ -616,7 +642,7 @@ impl World {
         for (ii, inst) in scene.instances.iter().enumerate() {
             let GeometryRef::Mesh(mi) = inst.geometry else { continue };
             let m = &scene.meshes[mi];
-            let (emission, two_sided, varying) = match &materials[inst.material].kind {
+            let (emission, two_sided, varying) = match materials[inst.material].kind.face() {
                 SurfaceKind::Emissive { radiance, two_sided } => (radiance.clone(), *two_sided, None),
                 SurfaceKind::Preview { emissive: Some(ColorParam::Const(s)), .. } => (s.clone(), false, None),
                 SurfaceKind::Preview { emissive: Some(e), .. } => match varying_emission(e, m, inst, scene, &mut shared_textures, cs) {
@@ -892,9 +918,10 @@ impl World {
         }
     }
 
-    /// Opacity of a surface at a hit (1 for everything but a translucent preview surface).
+    /// Opacity of a surface at a hit (1 for everything but a translucent preview surface, or a
+    /// dielectric blended with one).
     pub fn opacity(&self, material: usize, s: &SurfaceHit) -> f32 {
-        match &self.materials[material].kind {
+        match self.materials[material].kind.face() {
             SurfaceKind::Preview { opacity, opacity_threshold, .. } => {
                 let o = self.float(opacity, s).clamp(0.0, 1.0);
                 if *opacity_threshold > 0.0 {
@@ -911,10 +938,19 @@ impl World {
         }
     }
 
+    /// What crossing a dielectric's surface without scattering (switched to transparency)
+    /// multiplies the light by: its transmission tint (1 for a clear one or any other surface).
+    pub fn transmission_tint(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths) -> SampledSpectrum {
+        match self.materials[material].dielectric().and_then(|d| d.tint.as_ref()) {
+            Some(tint) => self.color(tint, s, lambda).map(|v| v.clamp(0.0, 1.0)),
+            None => SampledSpectrum::ONE,
+        }
+    }
+
     /// Emitted radiance of a surface towards `wo` (world), for emissive materials.
     pub fn emitted(&self, material: usize, s: &SurfaceHit, wo: Vec3, lambda: &SampledWavelengths, double_sided: bool) -> SampledSpectrum {
         let front = wo.dot(s.ng) > 0.0;
-        match &self.materials[material].kind {
+        match self.materials[material].kind.face() {
             SurfaceKind::Emissive { radiance, two_sided } if front || *two_sided || double_sided => radiance.sample(lambda),
             SurfaceKind::Preview { emissive: Some(e), .. } if front || double_sided => match e {
                 ColorParam::Const(sp) => sp.sample(lambda),
@@ -930,72 +966,13 @@ impl World {
     /// dielectrics (inside over outside).
     pub fn bsdf(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, eta: f32) -> (Bsdf, Frame) {
         let mut frame = Frame::from_normal_tangent(s.ns, s.dpdu);
-        let bsdf = match &self.materials[material].kind {
+        let kind = &self.materials[material].kind;
+        let bsdf = match kind {
             SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s, lambda).map(|v| v.clamp(0.0, 1.0))),
-            SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, extras, .. } => {
-                let mut d = self.color(diffuse, s, lambda).map(|v| v.clamp(0.0, 1.0));
-                if let Some(w) = wet.as_ref().filter(|w| w.water_compliant) {
-                    d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
-                }
+            SurfaceKind::Preview { wet, .. } => {
                 // the inputs are looked up once; a wet surface builds its layers twice, against
                 // the outside and against the film
-                let params = PreviewParams {
-                    diffuse: d,
-                    specular_f0: self.color(specular, s, lambda).map(|v| v.clamp(0.0, 1.0)),
-                    metallic: self.float(metallic, s).clamp(0.0, 1.0),
-                    base_for_metal: d,
-                    roughness: self.float(roughness, s).clamp(0.0, 1.0),
-                    clearcoat: self.float(clearcoat, s).clamp(0.0, 1.0),
-                    clearcoat_roughness: self.float(clearcoat_roughness, s).clamp(0.0, 1.0),
-                    ior: *ior,
-                    outside_ior,
-                    use_specular_workflow: *use_specular_workflow,
-                    specular_weight: 1.0,
-                    specular_tint: SampledSpectrum::ONE,
-                    coat_color: SampledSpectrum::ONE,
-                    coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
-                    coat_anisotropy: 0.0,
-                    anisotropy: 0.0,
-                    flavour: crate::bsdf::PbrFlavour::StandardSurface,
-                    diffuse_roughness: 0.0,
-                    sheen_weight: 0.0,
-                    sheen_color: SampledSpectrum::ONE,
-                    sheen_roughness: 0.3,
-                    thin_film: None,
-                };
-                let params = match extras.as_deref() {
-                    Some(x) => {
-                        let turn = self.float(&x.anisotropy_rotation, s);
-                        if turn != 0.0 && turn.is_finite() {
-                            let (sin, cos) = (turn * std::f32::consts::TAU).sin_cos();
-                            frame = Frame::from_normal_tangent(s.ns, frame.s * cos + frame.t * sin);
-                        }
-                        PreviewParams {
-                            specular_weight: self.float(&x.specular_weight, s),
-                            specular_tint: self.color(&x.specular_tint, s, lambda),
-                            coat_color: self.color(&x.coat_color, s, lambda),
-                            coat_ior: x.coat_ior,
-                            coat_anisotropy: self.float(&x.coat_anisotropy, s),
-                            anisotropy: self.float(&x.anisotropy, s),
-                            flavour: x.flavour,
-                            diffuse_roughness: self.float(&x.diffuse_roughness, s),
-                            sheen_weight: self.float(&x.sheen_weight, s),
-                            sheen_color: self.color(&x.sheen_color, s, lambda),
-                            sheen_roughness: self.float(&x.sheen_roughness, s),
-                            thin_film: match x.thin_film_weight {
-                                FloatParam::Const(w) if w == 0.0 => None,
-                                ref w => Some(crate::bsdf::ThinFilmParams {
-                                    weight: self.float(w, s),
-                                    thickness_nm: self.float(&x.thin_film_thickness, s) * x.thin_film_unit_nm,
-                                    ior: x.thin_film_ior,
-                                    lambda: *lambda,
-                                }),
-                            },
-                            ..params
-                        }
-                    }
-                    None => params,
-                };
+                let params = self.preview_params(kind, s, lambda, outside_ior, &mut frame);
                 let dry = Bsdf::preview(params);
                 let wet = wet.as_ref().map(|w| (w, self.float(&w.amount, s)));
                 match wet {
@@ -1007,17 +984,96 @@ impl World {
                     _ => dry,
                 }
             }
-            SurfaceKind::Dielectric(dm) => match dm.sea {
-                Some((speed, wind, scale)) => {
-                    let l = frame.to_local(wind);
-                    Bsdf::sea_scaled(eta, speed, l.y.atan2(l.x), scale)
+            SurfaceKind::Dielectric(dm) => {
+                let clear = match dm.sea {
+                    Some((speed, wind, scale)) => {
+                        let l = frame.to_local(wind);
+                        Bsdf::sea_scaled(eta, speed, l.y.atan2(l.x), scale)
+                    }
+                    None => Bsdf::dielectric(eta, dm.roughness),
+                };
+                let clear = match &dm.tint {
+                    Some(tint) => clear.and_then(|c| c.tint_transmission(self.color(tint, s, lambda))),
+                    None => clear,
+                };
+                match &dm.blend {
+                    // MaterialX's metal lies over the whole surface, the transmission under its
+                    // specular layer: the interface's share is (1 − metal) × transmission, and
+                    // the opaque part's metal is rescaled to keep its own share. The opaque
+                    // part meets the index outside the body from either side, as one BSDF
+                    // whichever way it is seen.
+                    Some(b) => clear.and_then(|clear| {
+                        let mut p = self.preview_params(&b.1, s, lambda, dm.ior / eta, &mut frame);
+                        let share = self.float(&b.0, s).clamp(0.0, 1.0) * (1.0 - p.metallic);
+                        p.metallic = if share < 1.0 { (p.metallic / (1.0 - share)).min(1.0) } else { 0.0 };
+                        Bsdf::blend(clear, Bsdf::preview(p)?, share)
+                    }),
+                    None => clear,
                 }
-                None => Bsdf::dielectric(eta, dm.roughness),
-            },
+            }
             SurfaceKind::Conductor { eta: e, k, roughness } => Bsdf::conductor(e.sample(lambda) / outside_ior, k.sample(lambda) / outside_ior, *roughness),
             SurfaceKind::Emissive { .. } | SurfaceKind::MediumBoundary => Bsdf::lambert(SampledSpectrum::ZERO),
         };
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
+    }
+
+    /// A preview surface's inputs at a hit (the default stack for any other kind); the frame's
+    /// tangent turns by its anisotropy's rotation.
+    fn preview_params(&self, kind: &SurfaceKind, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, frame: &mut Frame) -> PreviewParams {
+        let SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, extras, .. } = kind else {
+            return PreviewParams::default();
+        };
+        let mut d = self.color(diffuse, s, lambda).map(|v| v.clamp(0.0, 1.0));
+        if let Some(w) = wet.as_ref().filter(|w| w.water_compliant) {
+            d = crate::bsdf::wet::compliance_boost(d, w.ior, outside_ior);
+        }
+        let params = PreviewParams {
+            diffuse: d,
+            specular_f0: self.color(specular, s, lambda).map(|v| v.clamp(0.0, 1.0)),
+            metallic: self.float(metallic, s).clamp(0.0, 1.0),
+            base_for_metal: d,
+            roughness: self.float(roughness, s).clamp(0.0, 1.0),
+            clearcoat: self.float(clearcoat, s).clamp(0.0, 1.0),
+            clearcoat_roughness: self.float(clearcoat_roughness, s).clamp(0.0, 1.0),
+            ior: *ior,
+            outside_ior,
+            use_specular_workflow: *use_specular_workflow,
+            ..PreviewParams::default()
+        };
+        let params = match extras.as_deref() {
+            Some(x) => {
+                let turn = self.float(&x.anisotropy_rotation, s);
+                if turn != 0.0 && turn.is_finite() {
+                    let (sin, cos) = (turn * std::f32::consts::TAU).sin_cos();
+                    *frame = Frame::from_normal_tangent(s.ns, frame.s * cos + frame.t * sin);
+                }
+                PreviewParams {
+                    specular_weight: self.float(&x.specular_weight, s),
+                    specular_tint: self.color(&x.specular_tint, s, lambda),
+                    coat_color: self.color(&x.coat_color, s, lambda),
+                    coat_ior: x.coat_ior,
+                    coat_anisotropy: self.float(&x.coat_anisotropy, s),
+                    anisotropy: self.float(&x.anisotropy, s),
+                    flavour: x.flavour,
+                    diffuse_roughness: self.float(&x.diffuse_roughness, s),
+                    sheen_weight: self.float(&x.sheen_weight, s),
+                    sheen_color: self.color(&x.sheen_color, s, lambda),
+                    sheen_roughness: self.float(&x.sheen_roughness, s),
+                    thin_film: match x.thin_film_weight {
+                        FloatParam::Const(w) if w == 0.0 => None,
+                        ref w => Some(crate::bsdf::ThinFilmParams {
+                            weight: self.float(w, s),
+                            thickness_nm: self.float(&x.thin_film_thickness, s) * x.thin_film_unit_nm,
+                            ior: x.thin_film_ior,
+                            lambda: *lambda,
+                        }),
+                    },
+                    ..params
+                }
+            }
+            None => params,
+        };
+        params
     }
 }
 

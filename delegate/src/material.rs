@@ -458,8 +458,8 @@ impl Ctx<'_> {
             surface_model: if model == "sea" { SurfaceModel::Sea } else { SurfaceModel::Dielectric },
             wind_speed: self.input_f32(n, "windSpeed", d.wind_speed),
             wind_direction: self.input_f32(n, "windDirection", d.wind_direction),
-            slope_variance_scale: d.slope_variance_scale,
             priority: self.input_f32(n, "priority", 0.0) as i32,
+            ..d
         }
     }
 
@@ -1050,9 +1050,15 @@ mod tests {
         ]);
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &glass, &loaded(false), &mut p);
-        assert_eq!(m.desc.surface, SurfaceDesc::Water(WaterDesc { ior: 1.45, roughness: 0.05, ..WaterDesc::default() }));
-        let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["/M/SR.inputs:transmission", "/M/SR.inputs:transmission_color"], "{:?}", p.list);
+        // a partial transmission: the interface over 0.7 of the surface, tinted at the
+        // surface, the opaque stack over the rest
+        let SurfaceDesc::Water(w) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
+        assert_eq!((w.ior, w.roughness, &w.tint), (1.45, 0.05, &Some(ColorInput::Const([0.9, 1.0, 1.0]))));
+        let b = w.blend.as_ref().expect("an opaque share");
+        assert_eq!(b.transmission, FloatInput::Const(0.7));
+        assert_eq!((&b.surface.diffuse_color, &b.surface.roughness, b.surface.ior), (&ColorInput::Const([0.8; 3]), &FloatInput::Const(0.05), 1.45));
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert!(m.medium.is_none());
     }
 
     /// MaterialX arithmetic with all operands but one constant folds into the lookup; two
@@ -1357,7 +1363,7 @@ mod tests {
     }
 
     /// A transmission tinted over a depth fills the body with the absorption that keeps the
-    /// colour at that depth (Beer–Lambert); a tint without a depth is reported; a material's
+    /// colour at that depth (Beer–Lambert); without a depth it tints the surface; a material's
     /// own volume wins.
     #[test]
     fn materialx_tinted_transmission_fills_the_body_with_an_absorbing_medium() {
@@ -1388,12 +1394,45 @@ mod tests {
                 assert!((sa[k] - want[k]).abs() < 1e-6, "{id}: {sa:?}");
             }
             assert_eq!((med.sigma_s, med.scale), (SpectrumDesc::Rgb([0.0; 3]), 1.0));
+            // no depth: a tint at the surface, and a clear body
             let (m, p) = glass(id, weight, 0.0, &[]);
-            assert_eq!((m.medium, p), (None, vec!["/M/G.inputs:transmission_color".to_string()]), "{id}");
+            assert_eq!((&m.medium, p), (&None, vec![]), "{id}");
+            let SurfaceDesc::Water(w) = &m.desc.surface else { panic!() };
+            assert_eq!((&w.tint, &w.blend), (&Some(ColorInput::Const([0.5, 0.25, 1.0])), &None), "{id}");
             let (m, p) = glass(id, weight, 2.0, &[("volume", Value::Path("/M/V".into())), ("/M/V.info:id", tok("TideMedium")), ("/M/V.inputs:absorption", c3([0.1; 3]))]);
             assert_eq!(m.medium.map(|v| v.sigma_a), Some(SpectrumDesc::Rgb([0.1; 3])), "{id}");
             assert_eq!(p, ["/M/G.inputs:transmission_color"], "{id}");
         }
+    }
+
+    /// What a transmitting surface keeps beside its interface: a metal, an emission or a
+    /// cut-out opacity make an opaque share even at full transmission; the coat and the other
+    /// layers cover only that share (reported); the extra transmission roughness adds to the
+    /// specular's; a varying tint is read as such.
+    #[test]
+    fn materialx_transmission_keeps_what_lies_beside_it() {
+        let f = |x: f64| Value::Float(x);
+        let glass = |inputs: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/G".into())), ("/M/G.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/G.inputs:transmission", f(1.0))];
+            pairs.extend_from_slice(inputs);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let SurfaceDesc::Water(w) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
+            (w, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        let (w, p) = glass(&[]);
+        assert_eq!((w.roughness, &w.tint, &w.blend, p.len()), (0.2, &None, &None, 0));
+        let (w, p) = glass(&[("/M/G.inputs:metalness", f(0.5))]);
+        assert_eq!(w.blend.map(|b| (b.transmission, b.surface.metallic)), Some((FloatInput::Const(1.0), FloatInput::Const(0.5))));
+        assert!(p.is_empty(), "{p:?}");
+        let (w, _) = glass(&[("/M/G.inputs:emission", f(1.0))]);
+        assert!(w.blend.is_some_and(|b| b.surface.emissive_color == ColorInput::Const([1.0; 3])));
+        let (w, p) = glass(&[("/M/G.inputs:coat", f(1.0)), ("/M/G.inputs:sheen", f(0.5)), ("/M/G.inputs:transmission_extra_roughness", f(0.3))]);
+        assert_eq!((w.roughness, &w.blend), (0.5, &None));
+        assert_eq!(p, ["/M/G.inputs:coat", "/M/G.inputs:sheen"]);
+        let (w, p) = glass(&[("/M/G.inputs:transmission_color.connect", tok("/M/C.outputs:out")), ("/M/C.info:id", tok("ND_geompropvalue_color3")), ("/M/C.inputs:geomprop", Value::String("tint".into()))]);
+        assert!(matches!(w.tint, Some(ColorInput::Primvar(_))), "{:?}", w.tint);
+        assert!(p.is_empty(), "{p:?}");
     }
 
     /// A subsurface fills the body with a scattering medium: σt = 1 / (radius × scale) per
@@ -1436,9 +1475,11 @@ mod tests {
         }
         assert_eq!(med.phase, PhaseDesc::HenyeyGreenstein { g: 0.3 });
         // OpenPBR: its defaults (colour 0.8, radius 1 × scale (1, 0.5, 0.25)); a partial weight
-        // is reported
+        // blends the interface over the body with the diffuse base
         let (m, p) = skin("ND_open_pbr_surface_surfaceshader", &[("/M/S.inputs:subsurface_weight", f(0.5))]);
-        assert_eq!(p, ["/M/S.inputs:subsurface_weight"]);
+        assert!(p.is_empty(), "{p:?}");
+        let SurfaceDesc::Water(w) = &m.desc.surface else { panic!() };
+        assert_eq!(w.blend.as_ref().map(|b| &b.transmission), Some(&FloatInput::Const(0.5)));
         let med = m.medium.expect("a scattering body");
         let a = mtlx::single_scattering_albedo(0.8);
         let SpectrumDesc::Rgb(ss) = med.sigma_s else { panic!() };

@@ -1,6 +1,7 @@
 """MaterialX materials (USD's `mtlx` render context), as Houdini Solaris and Maya write them:
 standard_surface read as the surfaces Tide has, its texture nodes inside a NodeGraph, and its
-transmission as a clear dielectric."""
+transmission as a dielectric: absorbing over a depth, tinted at the surface, or blended with
+the opaque stack where it is partial."""
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
@@ -187,6 +188,80 @@ def test_a_tinted_transmission_absorbs_as_beer_lambert(renderer):
     water = _ball(renderer, lambda s: _water_body(s, 1.5, 0.1, (ln2 / 2, ln2, 0), (0, 0, 0)))
     assert np.allclose(tinted, water, rtol=1e-4, atol=1e-6), np.abs(tinted - water).max()
     assert np.abs(tinted - ball((1.0, 1.0, 1.0))).mean() > 0.01
+
+
+def _slab_seen_from_above(renderer, stage, **inputs):
+    """A 0.2-thick slab of a standard_surface with `inputs` filling the view of the top
+    camera, under and over the white dome; returns the colour and the problems raised."""
+    top_camera(stage)
+    white_dome(stage)
+    slab = UsdGeom.Cube.Define(stage, "/Slab")
+    slab.AddScaleOp().Set(Gf.Vec3f(10, 0.1, 10))
+    mat, _ = _standard_surface(stage, "/Looks/Glass", **inputs)
+    bind(slab.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=64, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    return img, problems
+
+
+def test_a_transmission_colour_with_no_depth_tints_each_crossing(renderer, stage):
+    """A smooth glass slab (R = 0.04 head-on) whose transmission_color c tints each crossing,
+    seen head-on against a dome of radiance 1: every path that crosses both faces, however
+    often it reflects inside, carries c^2, so the slab shows R + c^2 (1 - R): 0.28 for a grey
+    c = 0.5, where a clear slab shows 1."""
+    img, problems = _slab_seen_from_above(renderer, stage, transmission=1.0, specular_IOR=1.5,
+                                          specular_roughness=0.0, transmission_color=(0.5, 0.5, 0.5))
+    assert problems == [], problems
+    ok, why = near(img, 0.04 + 0.25 * 0.96)
+    assert ok, why
+
+
+def test_a_partial_transmission_blends_the_glass_with_the_opaque_base(renderer, stage):
+    """A smooth slab transmitting 0.6 over a black base: both shares reflect R = 0.04 from
+    either side; 0.6 (1 - R) of what meets a face crosses it and the rest is absorbed. The
+    paths that cross both faces sum to 0.6^2 (1 - R)^2 / (1 - R), so the slab shows
+    R + 0.36 (1 - R) = 0.3856."""
+    img, problems = _slab_seen_from_above(renderer, stage, transmission=0.6, specular_IOR=1.5,
+                                          specular_roughness=0.0, base=0.0)
+    assert problems == [], problems
+    ok, why = near(img, 0.04 + 0.36 * 0.96)
+    assert ok, why
+
+
+def test_a_transmitting_metal_is_the_metal(renderer):
+    """MaterialX's metal lies over its transmission: at metalness 1 a fully transmitting
+    standard_surface renders, sample for sample, as the same opaque metal; at metalness 0.5
+    it differs from both."""
+    def ball(**inputs):
+        return _ball(renderer, lambda s: _standard_surface(
+            s, "/Looks/M", base_color=(0.9, 0.6, 0.3), specular_roughness=0.3, **inputs)[0])
+
+    metal = ball(metalness=1.0)
+    assert np.array_equal(ball(metalness=1.0, transmission=1.0), metal)
+    # the ball fills the middle quarter of the view
+    mid = (slice(RES // 2 - 4, RES // 2 + 4), slice(RES // 2 - 4, RES // 2 + 4))
+    half = ball(metalness=0.5, transmission=1.0)[mid]
+    assert np.abs(half - metal[mid]).mean() > 0.05
+    assert np.abs(half - ball(transmission=1.0)[mid]).mean() > 0.05
+
+
+def test_a_glowing_glass_shows_its_emission(renderer, stage):
+    """A fully transmitting slab with emission 0.5 under no light at all: the camera sees the
+    top face's glow, and nothing else lights anything (the faces glow outwards only), so every
+    pixel shows 0.5."""
+    top_camera(stage)
+    slab = UsdGeom.Cube.Define(stage, "/Slab")
+    slab.AddScaleOp().Set(Gf.Vec3f(10, 0.1, 10))
+    mat, _ = _standard_surface(stage, "/Looks/Glow", transmission=1.0, emission=0.5,
+                               emission_color=(1.0, 1.0, 1.0))
+    bind(slab.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=4, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert problems == [], problems
+    ok, why = near(img, 0.5)
+    assert ok, why
 
 
 def _ball(renderer, material):

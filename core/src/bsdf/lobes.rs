@@ -345,12 +345,15 @@ pub(crate) struct Dielectric {
     pub distrib: TrowbridgeReitz,
     r: f32,
     ms: Option<DielectricMs>,
+    /// What each transmission multiplies the light by (a surface tint; 1: clear). Reflection
+    /// and the sampling densities are untouched.
+    pub tint: SampledSpectrum,
 }
 
 impl Dielectric {
     pub fn new(eta: f32, distrib: TrowbridgeReitz) -> Self {
         let r = distrib.alpha_iso().sqrt();
-        let mut d = Dielectric { eta, distrib, r, ms: None };
+        let mut d = Dielectric { eta, distrib, r, ms: None, tint: SampledSpectrum::ONE };
         if !d.is_smooth() {
             let t = tables();
             let loss_above = 1.0 - t.dielectric_avg(r, eta);
@@ -451,7 +454,12 @@ impl Dielectric {
         if self.is_smooth() {
             return SampledSpectrum::ZERO;
         }
-        SampledSpectrum::splat(self.f_ss(wo, wi, mode) + self.f_ms(wo, wi, mode))
+        let f = self.f_ss(wo, wi, mode) + self.f_ms(wo, wi, mode);
+        if wo.z * wi.z < 0.0 {
+            self.tint * f
+        } else {
+            SampledSpectrum::splat(f)
+        }
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
@@ -490,6 +498,16 @@ impl Dielectric {
         glossy_dielectric_sample(wo, wi, self.eta, self.pdf(wo, wi), || self.f(wo, wi, mode))
     }
 
+    /// A smooth interface's reflection towards the mirror direction of `wo`: its f over |cosθ|,
+    /// as a delta sample carries it, and the probability of choosing it (zero when rough).
+    pub fn mirror(&self, wo: Vec3) -> (SampledSpectrum, f32) {
+        if !self.is_smooth() || wo.z == 0.0 {
+            return (SampledSpectrum::ZERO, 0.0);
+        }
+        let r = fresnel_dielectric(wo.z, self.eta);
+        (SampledSpectrum::splat(r / wo.z.abs()), r)
+    }
+
     fn sample_smooth(&self, wo: Vec3, uc: f32, mode: TransportMode) -> Option<BsdfSample> {
         let r = fresnel_dielectric(wo.z, self.eta);
         let t = 1.0 - r;
@@ -508,7 +526,7 @@ impl Dielectric {
                 ft /= etap * etap;
             }
             Some(BsdfSample {
-                f: SampledSpectrum::splat(ft),
+                f: self.tint * ft,
                 wi,
                 pdf: t / (r + t),
                 flags: flags::SPECULAR_TRANSMISSION,

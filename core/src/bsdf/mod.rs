@@ -11,6 +11,7 @@
 //! surface both directions are mirrored through the tangent plane.
 
 pub mod albedo;
+mod blend;
 pub mod fresnel;
 mod lobes;
 pub mod microfacet;
@@ -30,6 +31,7 @@ pub use preview::{PbrFlavour, PreviewParams, ThinFilmParams};
 
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
+use blend::Blend;
 use lobes::{Dielectric, Lambert, MicrofacetReflection, ReflFresnel};
 use preview::Preview;
 use sea::{CoxMunk, SeaSurface};
@@ -162,6 +164,7 @@ enum Model {
     Preview(Preview),
     Sea(SeaSurface),
     Wet(Wet),
+    Blend(Blend),
 }
 
 /// A surface's scattering function at one shading point.
@@ -209,6 +212,35 @@ impl Bsdf {
         let eta = check_positive("eta", eta)?;
         let d = roughness.into().distribution()?;
         Ok(Bsdf { model: Model::Dielectric(Dielectric::new(eta, d)) })
+    }
+
+    /// This dielectric with each transmission multiplied by `tint` (a surface tint, clamped to
+    /// [0, 1]); any other model is returned as it is.
+    pub fn tint_transmission(self, tint: SampledSpectrum) -> Result<Bsdf, BsdfError> {
+        let tint = reflectance("transmission tint", tint)?;
+        Ok(match self.model {
+            Model::Dielectric(mut d) => {
+                d.tint = tint;
+                Bsdf { model: Model::Dielectric(d) }
+            }
+            _ => self,
+        })
+    }
+
+    /// A dielectric interface over the share `t` of an opaque preview stack (see [`blend`]):
+    /// `clear` must be a dielectric and `opaque` a preview surface, or `clear` is returned.
+    pub fn blend(clear: Bsdf, opaque: Bsdf, t: f32) -> Result<Bsdf, BsdfError> {
+        let t = check_finite("transmission", t)?.clamp(0.0, 1.0);
+        Ok(match (clear.model, opaque.model) {
+            (Model::Dielectric(c), Model::Preview(o)) if t < 1.0 => {
+                if t > 0.0 {
+                    Bsdf { model: Model::Blend(Blend { clear: c, opaque: o, t }) }
+                } else {
+                    opaque
+                }
+            }
+            _ => clear,
+        })
     }
 
     /// Wind-driven sea surface (see [`sea`]): `eta` = n_water / n_air at the hero wavelength
@@ -276,7 +308,7 @@ impl Bsdf {
             Model::Lambert(l) => Some(wet::Base::Lambert(l)),
             Model::Microfacet(m) => Some(wet::Base::Microfacet(m)),
             Model::Preview(p) => Some(wet::Base::Preview(p)),
-            Model::Dielectric(_) | Model::Sea(_) | Model::Wet(_) => None,
+            Model::Dielectric(_) | Model::Sea(_) | Model::Wet(_) | Model::Blend(_) => None,
         };
         match (base(&dry), base(&covered)) {
             (Some(d), Some(c)) => Ok(Bsdf { model: Model::Wet(Wet::new(d, c, amount, film_eta)) }),
@@ -294,6 +326,7 @@ impl Bsdf {
             Model::Microfacet(m) => m.f(wo2, wi2),
             Model::Preview(p) => p.f(wo2, wi2),
             Model::Wet(w) => w.f(wo2, wi2),
+            Model::Blend(b) => b.f(wo, wi, mode),
         }
     }
 
@@ -307,6 +340,7 @@ impl Bsdf {
             Model::Microfacet(m) => m.pdf(wo2, wi2),
             Model::Preview(p) => p.pdf(wo2, wi2),
             Model::Wet(w) => w.pdf(wo2, wi2),
+            Model::Blend(b) => b.pdf(wo, wi),
         }
     }
 
@@ -318,6 +352,9 @@ impl Bsdf {
         if let Model::Sea(s) = &self.model {
             return s.sample_f(wo, uc, u, mode);
         }
+        if let Model::Blend(b) = &self.model {
+            return b.sample_f(wo, uc, u, mode);
+        }
         let flipped = wo.z < 0.0;
         let wo2 = if flipped { flip(wo) } else { wo };
         let mut s = match &self.model {
@@ -325,7 +362,7 @@ impl Bsdf {
             Model::Microfacet(m) => m.sample_f(wo2, uc, u),
             Model::Preview(p) => p.sample_f(wo2, uc, u),
             Model::Wet(w) => w.sample_f(wo2, uc, u),
-            Model::Dielectric(_) | Model::Sea(_) => None,
+            Model::Dielectric(_) | Model::Sea(_) | Model::Blend(_) => None,
         }?;
         if flipped {
             s.wi = flip(s.wi);
@@ -342,6 +379,7 @@ impl Bsdf {
             Model::Sea(s) => s.lobe_flags(),
             Model::Preview(p) => p.lobe_flags(),
             Model::Wet(w) => w.lobe_flags(),
+            Model::Blend(b) => b.lobe_flags(),
         }
     }
 
@@ -353,6 +391,7 @@ impl Bsdf {
             Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ONE,
             Model::Preview(p) => p.albedo_hint(),
             Model::Wet(w) => w.albedo_hint(),
+            Model::Blend(b) => b.albedo_hint(),
         }
     }
 
@@ -364,6 +403,7 @@ impl Bsdf {
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Preview(p) => p.f_diffuse_share(wo2, wi2),
             Model::Wet(w) => w.f_diffuse_share(wo2, wi2),
+            Model::Blend(b) => b.f_diffuse_share(wo, wi),
             Model::Microfacet(_) | Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ZERO,
         }
     }

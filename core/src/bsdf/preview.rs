@@ -79,6 +79,36 @@ pub struct PreviewParams {
     pub thin_film: Option<ThinFilmParams>,
 }
 
+impl Default for PreviewParams {
+    /// UsdPreviewSurface's defaults in air, every MaterialX layer neutral.
+    fn default() -> Self {
+        PreviewParams {
+            diffuse: SampledSpectrum::splat(0.18),
+            specular_f0: SampledSpectrum::ZERO,
+            metallic: 0.0,
+            base_for_metal: SampledSpectrum::splat(0.18),
+            roughness: 0.5,
+            clearcoat: 0.0,
+            clearcoat_roughness: 0.01,
+            ior: 1.5,
+            outside_ior: 1.0,
+            use_specular_workflow: false,
+            specular_weight: 1.0,
+            specular_tint: SampledSpectrum::ONE,
+            coat_color: SampledSpectrum::ONE,
+            coat_ior: CLEARCOAT_IOR,
+            coat_anisotropy: 0.0,
+            anisotropy: 0.0,
+            flavour: PbrFlavour::StandardSurface,
+            diffuse_roughness: 0.0,
+            sheen_weight: 0.0,
+            sheen_color: SampledSpectrum::ONE,
+            sheen_roughness: 0.3,
+            thin_film: None,
+        }
+    }
+}
+
 /// A thin film over the specular layer, at the path's wavelengths.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ThinFilmParams {
@@ -383,6 +413,29 @@ impl Preview {
         pdf
     }
 
+    /// The stack's delta lobes towards the mirror direction of `wo` (above the surface): their
+    /// f over cosθ, as a delta sample carries it, and the probability of choosing them.
+    pub fn mirror(&self, wo: Vec3) -> (SampledSpectrum, f32) {
+        self.mirror_with(wo, &self.probabilities(wo))
+    }
+
+    fn mirror_with(&self, wo: Vec3, p: &[f32; 4]) -> (SampledSpectrum, f32) {
+        // every delta lobe of the stack reflects into the same mirror direction
+        let mut f = SampledSpectrum::ZERO;
+        let mut pdf = 0.0;
+        if self.spec.is_smooth() {
+            f += self.spec.fresnel.eval(wo.z) / wo.z * self.under(wo.z, wo.z);
+            pdf += p[SPEC];
+        }
+        if let Some((w, c)) = &self.coat {
+            if c.is_smooth() {
+                f += c.fresnel.eval(wo.z) / wo.z * (*w * self.above_coat(wo.z, wo.z));
+                pdf += p[COAT];
+            }
+        }
+        (f, pdf)
+    }
+
     pub fn sample_f(&self, wo: Vec3, uc: f32, u: Vec2) -> Option<BsdfSample> {
         if wo.z <= 0.0 {
             return None;
@@ -409,19 +462,7 @@ impl Preview {
             _ => Lambert { reflectance: self.diffuse }.sample_f(wo, u)?,
         };
         if sampled.flags & flags::SPECULAR != 0 {
-            // every delta lobe of the stack reflects into the same mirror direction
-            let mut f = SampledSpectrum::ZERO;
-            let mut pdf = 0.0;
-            if self.spec.is_smooth() {
-                f += self.spec.fresnel.eval(wo.z) / wo.z * self.under(wo.z, wo.z);
-                pdf += p[SPEC];
-            }
-            if let Some((w, c)) = &self.coat {
-                if c.is_smooth() {
-                    f += c.fresnel.eval(wo.z) / wo.z * (*w * self.above_coat(wo.z, wo.z));
-                    pdf += p[COAT];
-                }
-            }
+            let (f, pdf) = self.mirror_with(wo, &p);
             return Some(BsdfSample { f, pdf, ..sampled });
         }
         let wi = sampled.wi;

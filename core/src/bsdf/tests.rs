@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 141;
+const N_CHI2: usize = 157;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -121,26 +121,9 @@ fn preview_params() -> PreviewParams {
     PreviewParams {
         diffuse: SampledSpectrum([0.8, 0.5, 0.3, 0.9]),
         specular_f0: grey(0.04),
-        metallic: 0.0,
         base_for_metal: SampledSpectrum([0.8, 0.5, 0.3, 0.9]),
-        roughness: 0.5,
-        clearcoat: 0.0,
         clearcoat_roughness: 0.1,
-        ior: 1.5,
-        outside_ior: 1.0,
-        use_specular_workflow: false,
-        specular_weight: 1.0,
-        specular_tint: SampledSpectrum::ONE,
-        coat_color: SampledSpectrum::ONE,
-        coat_ior: preview::CLEARCOAT_IOR,
-        coat_anisotropy: 0.0,
-        anisotropy: 0.0,
-        flavour: PbrFlavour::StandardSurface,
-        diffuse_roughness: 0.0,
-        sheen_weight: 0.0,
-        sheen_color: SampledSpectrum::ONE,
-        sheen_roughness: 0.3,
-        thin_film: None,
+        ..PreviewParams::default()
     }
 }
 
@@ -907,3 +890,6 @@ fn conductor_albedo_table_matches_brute_force() {
 
 #[path = "wet_tests.rs"]
 mod wet_tests;
+
+#[path = "blend_tests.rs"]
+mod blend_tests;

@@ -3,20 +3,23 @@
 //!
 //! Both surfaces map through one table of input names ([`PbrModel`]) onto a UsdPreviewSurface:
 //! base weight × base colour (diffuse), metalness, specular roughness and IOR, coat weight and
-//! roughness (clearcoat, at UsdPreviewSurface's coat IOR), emission weight × emission colour
-//! (`open_pbr_surface`: `emission_luminance` × `emission_color`, as MaterialX's own graph
-//! computes it), opacity, and the normal through `normalmap`; a specular weight of 0 on a
-//! non-metal leaves the diffuse alone. With transmission it becomes a clear dielectric (as
-//! TideWater: specular IOR and roughness), which is what glass and water made in a DCC are; a
-//! transmission colour reached at `transmission_depth` fills the body with the absorption that
-//! keeps that colour there (Beer–Lambert, σa = −ln(colour) / depth), unless the material's
-//! volume output gives the body its medium. A subsurface makes the surface a dielectric of the
-//! specular IOR over a scattering body that the path tracer walks through (σt = 1 / (radius ×
-//! scale), the single-scattering albedo whose multiple-scattering albedo is the subsurface
-//! colour, the anisotropy as a Henyey–Greenstein g). What the mapping cannot carry (sheen or
-//! fuzz, thin film, a partial transmission or subsurface, a tint at the surface, a tinted coat
-//! or specular, diffuse roughness, anisotropy, dispersion, scattering in the transmission) is
-//! reported and left out.
+//! roughness, emission weight × emission colour (`open_pbr_surface`: `emission_luminance` ×
+//! `emission_color`, as MaterialX's own graph computes it), opacity, and the normal through
+//! `normalmap`; a specular weight of 0 on a non-metal leaves the diffuse alone. The layers
+//! UsdPreviewSurface lacks (specular weight and colour, coat colour, IOR and anisotropy,
+//! anisotropy, diffuse roughness, sheen or fuzz, thin film) ride along as [`PbrExtras`].
+//! With transmission it becomes a dielectric (as TideWater: specular IOR and roughness),
+//! which is what glass and water made in a DCC are; a transmission colour reached at
+//! `transmission_depth` fills the body with the absorption that keeps that colour there
+//! (Beer–Lambert, σa = −ln(colour) / depth), unless the material's volume output gives the
+//! body its medium, and with no depth tints each crossing. A subsurface makes the surface a
+//! dielectric of the specular IOR over a scattering body that the path tracer walks through
+//! (σt = 1 / (radius × scale), the single-scattering albedo whose multiple-scattering albedo
+//! is the subsurface colour, the anisotropy as a Henyey–Greenstein g). A partial or varying
+//! transmission or subsurface blends that dielectric with the opaque stack ([`WaterBlend`]).
+//! What the mapping cannot carry (a thin-walled transmission, dispersion, scattering in the
+//! transmission, the coat and other layers over a transmitting share) is reported and left
+//! out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset / realworldimagesize / realworldtilesize as MaterialX's own graph applies them),
@@ -37,7 +40,7 @@ use super::mtlx_procedural::PROCEDURAL;
 use super::{float_input, uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
 use tide_core::bsdf::PbrFlavour;
-use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterDesc};
+use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterBlend, WaterDesc};
 use tide_core::shader_graph::{Binary, Expr, Unary};
 
 /// The longest chain of MaterialX nodes read into one input.
@@ -163,6 +166,8 @@ pub(super) struct PbrModel {
     normal: &'static str,
     /// (weight, colour, depth, thin walled) of the transmission.
     transmission: (&'static str, &'static str, &'static str, &'static str),
+    /// Roughness the transmission adds to the specular's, if the model has it.
+    transmission_extra_roughness: Option<&'static str>,
     /// The subsurface: its weight, colour (default), radius (default) × radius scale (default)
     /// and anisotropy.
     subsurface: Subsurface,
@@ -219,6 +224,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     opacity: ("opacity", true),
     normal: "normal",
     transmission: ("transmission", "transmission_color", "transmission_depth", "thin_walled"),
+    transmission_extra_roughness: Some("transmission_extra_roughness"),
     subsurface: Subsurface {
         weight: "subsurface",
         color: ("subsurface_color", 1.0),
@@ -253,6 +259,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     opacity: ("geometry_opacity", false),
     normal: "geometry_normal",
     transmission: ("transmission_weight", "transmission_color", "transmission_depth", "geometry_thin_walled"),
+    transmission_extra_roughness: None,
     subsurface: Subsurface {
         weight: "subsurface_weight",
         color: ("subsurface_color", 0.8),
@@ -741,27 +748,60 @@ impl Ctx<'_> {
             self.unsupported(n, input, &[*neutral], what);
         }
         let ior = self.constant_only(n, m.ior, 1.5);
-        let transmission = self.constant_only(n, m.transmission.0, 0.0);
-        if transmission > 0.0 {
-            if transmission < 1.0 {
-                self.p.add(&format!("{}.inputs:{}", n, m.transmission.0), format!("partial transmission ({}) renders as a clear dielectric", transmission));
-            }
-            self.unsupported(n, m.transmission.3, &[0.0], "a thin-walled transmission");
-            let roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
-            let attr = format!("{}.inputs:{}", n, m.transmission.1);
-            let body = self.transmission_absorption(n, m).map(|sigma_a| Body { sigma_a, sigma_s: [0.0; 3], g: 0.0, attr });
-            return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), body);
-        }
+        let transmission = self.float(n, m.transmission.0, 0.0);
         let ss = m.subsurface.weight;
-        let subsurface = self.constant_only(n, ss, 0.0);
-        if subsurface > 0.0 {
-            if subsurface < 1.0 {
-                self.p.add(&format!("{}.inputs:{}", n, ss), format!("a partial subsurface ({}) renders as a full one", subsurface));
-            }
-            let roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
-            let body = self.subsurface_medium(n, &m.subsurface);
-            return (SurfaceDesc::Water(WaterDesc { ior, roughness, ..WaterDesc::default() }), Some(body));
+        let subsurface = self.float(n, ss, 0.0);
+        if transmission == FloatInput::Const(0.0) && subsurface == FloatInput::Const(0.0) {
+            return (SurfaceDesc::Preview(self.pbr_preview(n, m)), None);
         }
+        // a dielectric interface over the share that transmits, blended with the rest
+        let mut roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
+        let (share, weight, tint, body) = if transmission != FloatInput::Const(0.0) {
+            self.unsupported(n, m.transmission.3, &[0.0], "a thin-walled transmission");
+            if subsurface != FloatInput::Const(0.0) && transmission != FloatInput::Const(1.0) {
+                self.p.add(&format!("{}.inputs:{}", n, ss), "a subsurface beside a partial transmission renders as the diffuse base");
+            }
+            let attr = format!("{}.inputs:{}", n, m.transmission.1);
+            let (tint, sigma_a) = self.transmission_colour(n, m);
+            let extra = m.transmission_extra_roughness.map_or(0.0, |e| self.constant_only(n, e, 0.0));
+            roughness = (roughness + extra).clamp(0.0, 1.0);
+            (transmission, m.transmission.0, tint, sigma_a.map(|sigma_a| Body { sigma_a, sigma_s: [0.0; 3], g: 0.0, attr }))
+        } else {
+            (subsurface, ss, None, Some(self.subsurface_medium(n, &m.subsurface)))
+        };
+        let opaque = self.pbr_preview(n, m);
+        let plain = share == FloatInput::Const(1.0) && opaque.metallic == FloatInput::Const(0.0) && opaque.emissive_color == ColorInput::Const([0.0; 3]) && opaque.opacity == FloatInput::Const(1.0);
+        self.on_opaque_share(n, m, weight, &opaque);
+        let blend = (!plain).then(|| Box::new(WaterBlend { transmission: share, surface: opaque }));
+        (SurfaceDesc::Water(WaterDesc { ior, roughness, tint, blend, ..WaterDesc::default() }), body)
+    }
+
+    /// Reports the layers of a surface that transmits (or scatters beneath) that cover only the
+    /// share that does not: the coat, sheen, thin film and a weighted or tinted specular.
+    fn on_opaque_share(&mut self, n: &str, m: &PbrModel, weight: &str, opaque: &PreviewSurfaceDesc) {
+        let mut layers = Vec::new();
+        if opaque.clearcoat != FloatInput::Const(0.0) {
+            layers.push(m.coat.0);
+        }
+        if let Some(x) = &opaque.extras {
+            if x.specular_weight != FloatInput::Const(1.0) || x.specular_tint != ColorInput::Const([1.0; 3]) {
+                layers.extend([m.specular.0, m.specular.1]);
+            }
+            if x.sheen_weight != FloatInput::Const(0.0) {
+                layers.push(m.sheen.0);
+            }
+            if x.thin_film_weight != FloatInput::Const(0.0) {
+                layers.push(m.thin_film.1);
+            }
+        }
+        for layer in layers {
+            self.p.add(&format!("{}.inputs:{}", n, layer), format!("covers only the share that {weight} leaves opaque"));
+        }
+    }
+
+    /// A PBR surface's opaque stack: everything but its transmission and subsurface.
+    fn pbr_preview(&mut self, n: &str, m: &PbrModel) -> PreviewSurfaceDesc {
+        let ior = self.input_f32(n, m.ior, 1.5);
         let metallic = self.float(n, m.metalness, 0.0);
         let specular_weight = self.float(n, m.specular.0, 1.0);
         // no specular on a non-metal: UsdPreviewSurface's specular workflow with black specular
@@ -825,7 +865,7 @@ impl Ctx<'_> {
         };
         let normal = self.mtlx_normal(n, m.normal);
         let (gamma, roughness) = self.coat_affected(n, m);
-        let surface = SurfaceDesc::Preview(PreviewSurfaceDesc {
+        PreviewSurfaceDesc {
             diffuse_color: self.weighted_color(n, m.base.2, m.base.3, m.base.0, m.base.1, gamma),
             emissive_color: self.weighted_color(n, m.emission.1, 1.0, m.emission.0, 0.0, None),
             use_specular_workflow: plain_diffuse,
@@ -840,8 +880,7 @@ impl Ctx<'_> {
             normal,
             wet: None,
             extras: (extras != neutral).then(|| Box::new(extras)),
-        });
-        (surface, None)
+        }
     }
 
     /// The medium under a subsurface-scattering surface, which the path tracer walks through:
@@ -868,26 +907,27 @@ impl Ctx<'_> {
         Body { sigma_a, sigma_s, g, attr: format!("{}.inputs:{}", n, s.weight) }
     }
 
-    /// The absorption that a tinted transmission asks of the body: Beer–Lambert, so that light
-    /// crossing `transmission_depth` keeps `transmission_color`, σa = −ln(colour) / depth.
-    /// None for a clear one; a tint without a depth (a surface tint) is reported and left out.
-    fn transmission_absorption(&mut self, n: &str, m: &PbrModel) -> Option<[f32; 3]> {
+    /// What a transmission's colour asks for: with a `transmission_depth` above 0, the body's
+    /// absorption (Beer–Lambert, so that light crossing that depth keeps the colour, σa =
+    /// −ln(colour) / depth); with none, a tint at the surface, which may vary. Neither for a
+    /// clear one.
+    fn transmission_colour(&mut self, n: &str, m: &PbrModel) -> (Option<ColorInput>, Option<[f32; 3]>) {
         let (_, color, depth, _) = m.transmission;
+        let d = self.constant_only(n, depth, 0.0);
+        if !(d > 0.0) {
+            let tint = self.color(n, color, [1.0; 3]);
+            return ((tint != ColorInput::Const([1.0; 3])).then_some(tint), None);
+        }
         if self.nodes[n].connects.contains_key(color) {
             self.p.add(&format!("{}.inputs:{}", n, color), "a varying transmission colour is not supported; its constant is used");
         }
         let c = self.input_vec(n, color, [1.0; 3]);
         if c == [1.0; 3] {
-            return None;
-        }
-        let d = self.constant_only(n, depth, 0.0);
-        if !(d > 0.0) {
-            self.p.add(&format!("{}.inputs:{}", n, color), format!("a tinted transmission needs a {depth} above 0 (a tint at the surface is not supported); left out"));
-            return None;
+            return (None, None);
         }
         if c.iter().any(|x| *x > 1.0) {
             self.p.add(&format!("{}.inputs:{}", n, color), format!("{:?} above 1 would add light; clamped to 1", c));
         }
-        Some(c.map(|x| -x.clamp(1e-4, 1.0).ln() / d))
+        (None, Some(c.map(|x| -x.clamp(1e-4, 1.0).ln() / d)))
     }
 }
