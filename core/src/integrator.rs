@@ -202,7 +202,7 @@ fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &Inter
 
 /// Transmittance along a shadow ray from `o` (already offset) in direction `d` over `dist`,
 /// starting in `medium`. Opaque and dielectric surfaces block; translucent preview surfaces
-/// attenuate by their opacity; surfaces that cast no shadows, or not those of `light` (its
+/// attenuate by their opacity, thin walls by what they let straight through; surfaces that cast no shadows, or not those of `light` (its
 /// shadow-link collection), are skipped. `seed` (a sample
 /// value) seeds the numbers a depth-varying medium's ratio tracking draws.
 /// Crossing a volume's box switches the medium: to the box's on entering; on leaving, to the
@@ -253,16 +253,16 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
             seg_len = 0.0;
             switched = true;
         }
-        let pass = if boundary || see_through || !info.casts_shadows || !world.casts_shadow_of(light, hit.instance) {
-            1.0
-        } else {
-            // a dielectric blocks but where an opaque part it is blended with is cut out
-            1.0 - world.opacity(info.material, &s)
-        };
-        if pass <= 0.0 {
-            return SampledSpectrum::ZERO;
+        if !(boundary || see_through || !info.casts_shadows || !world.casts_shadow_of(light, hit.instance)) {
+            // a dielectric blocks but where an opaque part it is blended with is cut out; a
+            // thin wall lets through what passes it unbent
+            let opacity = world.opacity(info.material, &s);
+            let pass = SampledSpectrum::splat(1.0 - opacity) + world.straight_through(info.material, &s, d, stack.ior(), lambda) * opacity;
+            if pass.is_black() {
+                return SampledSpectrum::ZERO;
+            }
+            tr *= pass;
         }
-        tr *= pass;
         origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
         remaining -= hit.t;
         if remaining <= 0.0 {

@@ -218,6 +218,20 @@ pub struct PbrExtras {
     pub thin_film_thickness: FloatInput,
     pub thin_film_unit_nm: f32,
     pub thin_film_ior: f32,
+    /// A thin wall's transmitting base (None: the base only reflects).
+    pub thin_walled: Option<ThinWalledDesc>,
+}
+
+/// The base of a thin wall (see [`crate::bsdf::preview::ThinWalled`]): the share that passes
+/// straight through and its tint, and of the rest the translucent share, which reflects and
+/// transmits diffusely.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ThinWalledDesc {
+    pub transmission: FloatInput,
+    pub tint: ColorInput,
+    pub subsurface: FloatInput,
+    pub reflect: ColorInput,
+    pub transmit: ColorInput,
 }
 
 impl Default for PbrExtras {
@@ -239,6 +253,7 @@ impl Default for PbrExtras {
             thin_film_thickness: FloatInput::Const(0.0),
             thin_film_unit_nm: 1.0,
             thin_film_ior: 1.5,
+            thin_walled: None,
         }
     }
 }

@@ -62,6 +62,17 @@ pub struct ExtrasParam {
     pub thin_film_thickness: FloatParam,
     pub thin_film_unit_nm: f32,
     pub thin_film_ior: f32,
+    pub thin_walled: Option<ThinWalledParam>,
+}
+
+/// [`ThinWalledDesc`] ready to evaluate.
+#[derive(Clone, Debug)]
+pub struct ThinWalledParam {
+    pub transmission: FloatParam,
+    pub tint: ColorParam,
+    pub subsurface: FloatParam,
+    pub reflect: ColorParam,
+    pub transmit: ColorParam,
 }
 
 /// A clear dielectric interface (TideWater or any glass).
@@ -289,6 +300,13 @@ fn preview_kind(p: &PreviewSurfaceDesc, cs: ColorSpace) -> SurfaceKind {
                 thin_film_thickness: float_param(&x.thin_film_thickness),
                 thin_film_unit_nm: x.thin_film_unit_nm,
                 thin_film_ior: x.thin_film_ior,
+                thin_walled: x.thin_walled.as_ref().map(|t| ThinWalledParam {
+                    transmission: float_param(&t.transmission),
+                    tint: color_param(&t.tint, cs),
+                    subsurface: float_param(&t.subsurface),
+                    reflect: color_param(&t.reflect, cs),
+                    transmit: color_param(&t.transmit, cs),
+                }),
             })
         }),
     }
@@ -938,6 +956,19 @@ impl World {
         }
     }
 
+    /// What a thin wall at a hit lets straight through along `d` (world, either way), in a
+    /// medium of index `outside_ior`; zero for a surface with no straight transmission.
+    pub fn straight_through(&self, material: usize, s: &SurfaceHit, d: Vec3, outside_ior: f32, lambda: &SampledWavelengths) -> SampledSpectrum {
+        let SurfaceKind::Preview { extras: Some(x), .. } = &self.materials[material].kind else {
+            return SampledSpectrum::ZERO;
+        };
+        if x.thin_walled.as_ref().is_none_or(|t| matches!(t.transmission, FloatParam::Const(v) if v == 0.0)) {
+            return SampledSpectrum::ZERO;
+        }
+        let (bsdf, frame) = self.bsdf(material, s, lambda, outside_ior, 1.0);
+        bsdf.straight_through(frame.to_local(d))
+    }
+
     /// What crossing a dielectric's surface without scattering (switched to transparency)
     /// multiplies the light by: its transmission tint (1 for a clear one or any other surface).
     pub fn transmission_tint(&self, material: usize, s: &SurfaceHit, lambda: &SampledWavelengths) -> SampledSpectrum {
@@ -1068,6 +1099,13 @@ impl World {
                             lambda: *lambda,
                         }),
                     },
+                    thin_walled: x.thin_walled.as_ref().map(|t| crate::bsdf::preview::ThinWalled {
+                        transmission: self.float(&t.transmission, s),
+                        tint: self.color(&t.tint, s, lambda),
+                        subsurface: self.float(&t.subsurface, s),
+                        reflect: self.color(&t.reflect, s, lambda),
+                        transmit: self.color(&t.transmit, s, lambda),
+                    }),
                     ..params
                 }
             }

@@ -1435,6 +1435,34 @@ mod tests {
         assert!(p.is_empty(), "{p:?}");
     }
 
+    /// A thin wall has no body: a Standard Surface pane passes its transmission straight
+    /// through, tinted by its colour (a depth is reported: there is no inside), and an OpenPBR
+    /// leaf splits its subsurface colour into half a reflection × (1 − g) and half a
+    /// translucency × (1 + g).
+    #[test]
+    fn materialx_thin_walls_transmit_without_a_body() {
+        let f = |x: f64| Value::Float(x);
+        let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
+        let wall = |id: &str, inputs: &[(&str, Value)]| {
+            let mut pairs = vec![("surface", Value::Path("/M/W".into())), ("/M/W.info:id", tok(id))];
+            pairs.extend_from_slice(inputs);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            assert!(m.medium.is_none());
+            let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
+            (ps.extras.and_then(|x| x.thin_walled), p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        let (t, p) = wall("ND_standard_surface_surfaceshader", &[("/M/W.inputs:thin_walled", Value::Bool(true)), ("/M/W.inputs:transmission", f(0.8)), ("/M/W.inputs:transmission_color", c3([0.2, 0.4, 0.6])), ("/M/W.inputs:transmission_depth", f(1.0))]);
+        let t = t.expect("a thin wall");
+        assert_eq!((t.transmission, t.tint, t.subsurface), (FloatInput::Const(0.8), ColorInput::Const([0.2, 0.4, 0.6]), FloatInput::Const(0.0)));
+        assert_eq!(p, ["/M/W.inputs:transmission_depth"]);
+        let (t, p) = wall("ND_open_pbr_surface_surfaceshader", &[("/M/W.inputs:geometry_thin_walled", Value::Bool(true)), ("/M/W.inputs:subsurface_weight", f(1.0)), ("/M/W.inputs:subsurface_color", c3([0.4, 0.8, 0.2])), ("/M/W.inputs:subsurface_scatter_anisotropy", f(0.5))]);
+        let t = t.expect("a thin wall");
+        assert!(p.is_empty(), "{p:?}");
+        assert_eq!((t.reflect, t.transmit), (ColorInput::Const([0.1, 0.2, 0.05]), ColorInput::Const([0.3, 0.6, 0.15])));
+        assert_eq!((t.transmission, t.subsurface), (FloatInput::Const(0.0), FloatInput::Const(1.0)));
+    }
+
     /// A subsurface fills the body with a scattering medium: σt = 1 / (radius × scale) per
     /// channel, split by the single-scattering albedo that gives the colour as the body's
     /// multiple-scattering albedo; the surface is a dielectric of the specular IOR.

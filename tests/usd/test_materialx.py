@@ -3,7 +3,7 @@ standard_surface read as the surfaces Tide has, its texture nodes inside a NodeG
 transmission as a dielectric: absorbing over a depth, tinted at the surface, or blended with
 the opaque stack where it is partial."""
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from conftest import (HALF, RES, bind, camera, near, panel, render, settings, shader_node, top_camera,
                       white_dome, write_exr)
@@ -262,6 +262,97 @@ def test_a_glowing_glass_shows_its_emission(renderer, stage):
     assert problems == [], problems
     ok, why = near(img, 0.5)
     assert ok, why
+
+
+def _thin(mat_shader):
+    mat_shader.CreateInput("thin_walled", Sdf.ValueTypeNames.Bool).Set(True)
+
+
+def test_a_thin_pane_passes_light_straight_through(renderer, stage):
+    """A single quad of thin-walled smooth glass (transmission 1, colour 0.5) seen head-on
+    against a dome of radiance 1: it reflects its specular layer's F0 = 0.04 and passes the
+    rest unbent, tinted: 0.04 + 0.96 x 0.5 = 0.52."""
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Pane")
+    mat, sh = _standard_surface(stage, "/Looks/Pane", transmission=1.0, specular_roughness=0.0,
+                                transmission_color=(0.5, 0.5, 0.5))
+    _thin(sh)
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=64, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert problems == [], problems
+    ok, why = near(img, 0.04 + 0.96 * 0.5)
+    assert ok, why
+
+
+def test_a_thin_pane_lets_the_sun_through(renderer):
+    """A floor lit by a sun overhead, seen from between it and a thin pane of tinted glass
+    above: the pane lets tint x (1 - F0) = 0.5 x 0.96 of the sun through (direct light only);
+    a pane that is not thin-walled is a glass body's surface and casts a full shadow."""
+    def floor(pane):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        cam = camera(s, pos=(0, 0.5, 0), aperture=(4 * HALF, 4 * HALF), projection="orthographic")
+        cam.AddRotateXOp().Set(-90.0)
+        sun = UsdLux.DistantLight.Define(s, "/Sun")
+        sun.CreateIntensityAttr(3.0)
+        sun.CreateAngleAttr(0.0)
+        sun.AddRotateXOp().Set(-90.0)
+        panel(s, "/Floor").CreateDisplayColorPrimvar().Set([(0.5, 0.5, 0.5)])
+        if pane is not None:
+            glass = panel(s, "/Pane")
+            glass.AddTranslateOp().Set(Gf.Vec3d(0, 1, 0))
+            mat, sh = _standard_surface(s, "/Looks/Pane", transmission=1.0, specular_roughness=0.0,
+                                        transmission_color=(0.5, 0.5, 0.5))
+            if pane:
+                _thin(sh)
+            bind(glass.GetPrim(), mat)
+        settings(s, res=(RES, RES), samples=4, integrator="path", maxDepth=1)
+        return render(renderer, s)["color"][..., :3]
+
+    lit = floor(None)
+    assert lit.mean() > 0.1
+    ok, why = near(floor(True), lit.mean(axis=(0, 1)) * 0.5 * 0.96)
+    assert ok, why
+    assert floor(False).max() == 0.0
+
+
+def test_a_thin_leaf_is_translucent(renderer, stage):
+    """A thin-walled Standard Surface of subsurface 1 (colour c) and no specular, under the
+    white dome with one bounce: its translucent lobe carries the dome below it up through it,
+    so a top view shows c; an OpenPBR leaf of anisotropy 0.5 splits c into a reflection of
+    c (1 - g) / 2 and a translucency of c (1 + g) / 2, which a sun below or above shows in the
+    ratio 3."""
+    c = (0.3, 0.6, 0.2)
+    top_camera(stage)
+    white_dome(stage)
+    m = panel(stage, "/Leaf")
+    mat, sh = _standard_surface(stage, "/Looks/Leaf", subsurface=1.0, subsurface_color=c,
+                                specular=0.0)
+    _thin(sh)
+    _shows_albedo(renderer, stage, m, mat, c)
+
+    def lit(turn):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        top_camera(s)
+        sun = UsdLux.DistantLight.Define(s, "/Sun")
+        sun.CreateAngleAttr(0.0)
+        sun.AddRotateXOp().Set(turn)
+        leaf = panel(s, "/Leaf")
+        mat = _open_pbr(s, "/Looks/Leaf", subsurface_weight=1.0, subsurface_color=c,
+                        subsurface_scatter_anisotropy=0.5, specular_weight=0.0)
+        sh = UsdShade.Shader(s.GetPrimAtPath("/Looks/Leaf/OpenPBR"))
+        sh.CreateInput("geometry_thin_walled", Sdf.ValueTypeNames.Bool).Set(True)
+        bind(leaf.GetPrim(), mat)
+        settings(s, res=(RES, RES), samples=4, integrator="path", maxDepth=1)
+        return render(renderer, s)["color"][..., :3].mean(axis=(0, 1))
+
+    below, above = lit(90.0), lit(-90.0)
+    assert above.min() > 0.01
+    assert np.allclose(below / above, 3.0, rtol=0.01), below / above
 
 
 def _ball(renderer, material):

@@ -292,6 +292,16 @@ impl Bsdf {
                 }),
                 None => None,
             },
+            thin_walled: match p.thin_walled {
+                Some(t) => Some(preview::ThinWalled {
+                    transmission: check_finite("thin-walled transmission", t.transmission)?.clamp(0.0, 1.0),
+                    tint: reflectance("thin-walled transmission tint", t.tint)?,
+                    subsurface: check_finite("thin-walled subsurface", t.subsurface)?.clamp(0.0, 1.0),
+                    reflect: reflectance("translucent reflectance", t.reflect)?,
+                    transmit: reflectance("translucent transmittance", t.transmit)?,
+                }),
+                None => None,
+            },
         };
         Ok(Bsdf { model: Model::Preview(Preview::new(&p)) })
     }
@@ -307,7 +317,8 @@ impl Bsdf {
         let base = |b: &Bsdf| match b.model {
             Model::Lambert(l) => Some(wet::Base::Lambert(l)),
             Model::Microfacet(m) => Some(wet::Base::Microfacet(m)),
-            Model::Preview(p) => Some(wet::Base::Preview(p)),
+            Model::Preview(p) if !p.transmits() => Some(wet::Base::Preview(p)),
+            Model::Preview(_) => None,
             Model::Dielectric(_) | Model::Sea(_) | Model::Wet(_) | Model::Blend(_) => None,
         };
         match (base(&dry), base(&covered)) {
@@ -405,6 +416,15 @@ impl Bsdf {
             Model::Wet(w) => w.f_diffuse_share(wo2, wi2),
             Model::Blend(b) => b.f_diffuse_share(wo, wi),
             Model::Microfacet(_) | Model::Dielectric(_) | Model::Sea(_) => SampledSpectrum::ZERO,
+        }
+    }
+
+    /// What a thin wall lets straight through along ω, either way (zero for anything else):
+    /// the weight its unbent transmission gives a ray that crosses it.
+    pub fn straight_through(&self, w: Vec3) -> SampledSpectrum {
+        match &self.model {
+            Model::Preview(p) => p.straight_through(if w.z < 0.0 { flip(w) } else { w }),
+            _ => SampledSpectrum::ZERO,
         }
     }
 

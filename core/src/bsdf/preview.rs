@@ -18,7 +18,10 @@
 //! * a sheen (Standard Surface's `sheen`, OpenPBR's `fuzz`): MaterialX's Charlie sheen lobe
 //!   ([`super::sheen`]), between the coat and the specular layer over the dielectric part
 //!   (weight × (1 − metallic)) for Standard Surface, over everything, coat included, for
-//!   OpenPBR; what lies beneath sees 1 − weight × its albedo each way.
+//!   OpenPBR; what lies beneath sees 1 − weight × its albedo each way;
+//! * a thin wall's base ([`ThinWalled`]): a share passing straight through, unbent and
+//!   tinted, past the specular layer (what the layer does not reflect), and a translucent
+//!   share transmitting diffusely under the layer as the diffuse base reflects.
 
 use super::fresnel::f0_from_ior;
 use super::lobes::{FilmFresnel, Lambert, MicrofacetReflection, ReflFresnel};
@@ -77,6 +80,23 @@ pub struct PreviewParams {
     pub sheen_roughness: f32,
     /// A thin film over the specular layer.
     pub thin_film: Option<ThinFilmParams>,
+    /// A thin wall's transmitting base (None: the base only reflects).
+    pub thin_walled: Option<ThinWalled>,
+}
+
+/// The base of a thin wall (MaterialX's `thin_walled` surfaces: a window pane, a leaf, a sheet
+/// of paper), at the path's wavelengths. Under the specular layer, as MaterialX mixes them:
+/// the share `transmission` passes straight through, tinted (a shell of no thickness whose one
+/// interface reflects what the specular layer reflects and lets the rest through unbent); of
+/// the rest, the share `subsurface` is translucent, reflecting `reflect` and transmitting
+/// `transmit` diffusely, and the remainder is the diffuse base.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinWalled {
+    pub transmission: f32,
+    pub tint: SampledSpectrum,
+    pub subsurface: f32,
+    pub reflect: SampledSpectrum,
+    pub transmit: SampledSpectrum,
 }
 
 impl Default for PreviewParams {
@@ -105,6 +125,7 @@ impl Default for PreviewParams {
             sheen_color: SampledSpectrum::ONE,
             sheen_roughness: 0.3,
             thin_film: None,
+            thin_walled: None,
         }
     }
 }
@@ -204,6 +225,10 @@ pub(crate) struct Preview {
     spec_loss_avg: SampledSpectrum,
     /// mix(1, coat colour, coat): the coat's colour on everything beneath it.
     under_tint: SampledSpectrum,
+    /// Diffuse transmittance of a thin wall's translucent base, including its weights.
+    translucent: SampledSpectrum,
+    /// What a thin wall lets straight through past its specular layer, including its weights.
+    straight: SampledSpectrum,
 }
 
 /// Lobe indices for selection.
@@ -211,6 +236,10 @@ const COAT: usize = 0;
 const SPEC: usize = 1;
 const DIFF: usize = 2;
 const SHEEN: usize = 3;
+/// A thin wall's diffuse transmission and its straight one.
+const TRANS: usize = 4;
+const STRAIGHT: usize = 5;
+const LOBES: usize = 6;
 
 impl Preview {
     /// Builds the stack from validated parameters (finite, clamped).
@@ -246,7 +275,14 @@ impl Preview {
         };
         let spec = MicrofacetReflection::new(distrib, fresnel(p.specular_tint));
         let untinted = (p.specular_tint != SampledSpectrum::ONE).then(|| MicrofacetReflection::new(distrib, fresnel(SampledSpectrum::ONE)));
-        let diffuse = p.diffuse * (1.0 - m);
+        let (diffuse, translucent, straight) = match p.thin_walled {
+            Some(t) => {
+                let opaque = (1.0 - t.transmission) * (1.0 - m);
+                let diffuse = (p.diffuse * (1.0 - t.subsurface) + t.reflect * t.subsurface) * opaque;
+                (diffuse, t.transmit * (t.subsurface * opaque), t.tint * (t.transmission * (1.0 - m)))
+            }
+            None => (p.diffuse * (1.0 - m), SampledSpectrum::ZERO, SampledSpectrum::ZERO),
+        };
         let coat = (p.clearcoat > 0.0).then(|| {
             let (at, ab) = p.flavour.alphas(p.clearcoat_roughness, p.coat_anisotropy);
             let f0 = SampledSpectrum::splat(f0_from_ior(relative_ior(p.coat_ior, p.outside_ior)));
@@ -258,7 +294,7 @@ impl Preview {
         let sheen_over_coat = p.flavour == PbrFlavour::OpenPbr;
         let sheen_weight = if sheen_over_coat { p.sheen_weight } else { p.sheen_weight * (1.0 - m) };
         let sheen = (sheen_weight > 0.0).then(|| (sheen_weight, Sheen::new(p.sheen_color, p.sheen_roughness)));
-        Preview { coat, spec, untinted, diffuse, rough_diffuse, sheen, sheen_over_coat, spec_loss_avg, under_tint }
+        Preview { coat, spec, untinted, diffuse, rough_diffuse, sheen, sheen_over_coat, spec_loss_avg, under_tint, translucent, straight }
     }
 
     pub fn lobe_flags(&self) -> u8 {
@@ -272,7 +308,36 @@ impl Preview {
         if self.sheen.is_some() {
             fl |= flags::GLOSSY_REFLECTION;
         }
+        if !self.translucent.is_black() {
+            fl |= flags::DIFFUSE | flags::TRANSMISSION;
+        }
+        if !self.straight.is_black() {
+            fl |= flags::SPECULAR_TRANSMISSION;
+        }
         fl
+    }
+
+    /// Whether light may cross the surface (a thin wall's base).
+    pub fn transmits(&self) -> bool {
+        !(self.translucent.is_black() && self.straight.is_black())
+    }
+
+    /// What passes straight through a thin wall along ω (either way, |cosθ| = ω.z): through
+    /// the layers above the base both ways and its one interface.
+    pub fn straight_through(&self, w: Vec3) -> SampledSpectrum {
+        if self.straight.is_black() || w.z <= 0.0 {
+            return SampledSpectrum::ZERO;
+        }
+        self.straight * self.spec_loss(w) * self.under(w.z, w.z)
+    }
+
+    /// The translucent base's part of [`Self::f`] towards ωi below the surface.
+    fn f_translucent(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
+        if self.translucent.is_black() {
+            return SampledSpectrum::ZERO;
+        }
+        let wi = Vec3::new(wi.x, wi.y, -wi.z);
+        (self.translucent * INV_PI * self.spec_loss(wo) * self.spec_loss(wi)).safe_div(self.spec_loss_avg) * self.under(wo.z, wi.z)
     }
 
     /// What the sheen lets through to the layers under it, at μ.
@@ -360,20 +425,23 @@ impl Preview {
         }
     }
 
-    /// Selection probabilities of (coat, spec, diffuse, sheen) for ωo, proportional to
-    /// estimated albedo.
-    fn probabilities(&self, wo: Vec3) -> [f32; 4] {
+    /// Selection probabilities of (coat, spec, diffuse, sheen, translucent, straight) for ωo,
+    /// proportional to estimated albedo.
+    fn probabilities(&self, wo: Vec3) -> [f32; LOBES] {
         let mu_o = wo.z;
         let under = self.under(mu_o, mu_o);
         let pc = self.coat.as_ref().map_or(0.0, |(w, c)| w * c.albedo(mu_o).average() * self.above_coat(mu_o, mu_o));
         let ps = (under * self.spec.albedo_along(wo)).average();
-        let pd = (under * self.diffuse * self.spec_loss(wo)).average();
+        let loss = under * self.spec_loss(wo);
+        let pd = (loss * self.diffuse).average();
         let ph = self.sheen.as_ref().map_or(0.0, |(w, s)| (self.above_sheen(mu_o, mu_o) * s.reflectance(mu_o)).average() * w);
-        let sum = pc + ps + pd + ph;
+        let pt = (loss * self.translucent).average();
+        let pst = (loss * self.straight).average();
+        let sum = pc + ps + pd + ph + pt + pst;
         if !(sum > 0.0) {
-            return [0.0; 4];
+            return [0.0; LOBES];
         }
-        [pc / sum, ps / sum, pd / sum, ph / sum]
+        [pc / sum, ps / sum, pd / sum, ph / sum, pt / sum, pst / sum]
     }
 
     /// The diffuse base's share of [`Self::f`] (for the light-path AOVs).
@@ -385,8 +453,11 @@ impl Preview {
     }
 
     pub fn f(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
             return SampledSpectrum::ZERO;
+        }
+        if wi.z < 0.0 {
+            return self.f_translucent(wo, wi);
         }
         let mut f = (self.spec.f(wo, wi) + self.f_diffuse(wo, wi)) * self.under(wo.z, wi.z) + self.f_sheen(wo, wi);
         if let Some((w, c)) = &self.coat {
@@ -396,10 +467,13 @@ impl Preview {
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
+        if wo.z <= 0.0 || wi.z == 0.0 {
             return 0.0;
         }
         let p = self.probabilities(wo);
+        if wi.z < 0.0 {
+            return p[TRANS] * -wi.z * INV_PI;
+        }
         let mut pdf = p[SPEC] * self.spec.pdf(wo, wi);
         if !self.diffuse.is_black() {
             pdf += p[DIFF] * wi.z * INV_PI;
@@ -419,7 +493,7 @@ impl Preview {
         self.mirror_with(wo, &self.probabilities(wo))
     }
 
-    fn mirror_with(&self, wo: Vec3, p: &[f32; 4]) -> (SampledSpectrum, f32) {
+    fn mirror_with(&self, wo: Vec3, p: &[f32; LOBES]) -> (SampledSpectrum, f32) {
         // every delta lobe of the stack reflects into the same mirror direction
         let mut f = SampledSpectrum::ZERO;
         let mut pdf = 0.0;
@@ -447,10 +521,15 @@ impl Preview {
             (SPEC, (uc - p[COAT]) / p[SPEC])
         } else if uc < p[COAT] + p[SPEC] + p[DIFF] {
             (DIFF, 0.0)
-        } else if p[SHEEN] > 0.0 {
+        } else if uc < p[COAT] + p[SPEC] + p[DIFF] + p[SHEEN] {
             (SHEEN, 0.0)
-        } else if p[DIFF] > 0.0 {
-            (DIFF, 0.0)
+        } else if uc < 1.0 - p[STRAIGHT] && p[TRANS] > 0.0 {
+            (TRANS, 0.0)
+        } else if p[STRAIGHT] > 0.0 {
+            (STRAIGHT, 0.0)
+        } else if let Some(last) = [SHEEN, DIFF].into_iter().find(|&l| p[l] > 0.0) {
+            // rounding past the last lobe
+            (last, 0.0)
         } else {
             return None;
         };
@@ -459,6 +538,14 @@ impl Preview {
             COAT => self.coat.as_ref()?.1.sample_f(wo, uc, u)?,
             SPEC => self.spec.sample_f(wo, uc, u)?,
             SHEEN => self.sheen.as_ref()?.1.sample_f(wo, u)?,
+            STRAIGHT => {
+                let f = self.straight_through(wo) / wo.z;
+                return Some(BsdfSample { f, wi: -wo, pdf: p[STRAIGHT], flags: flags::SPECULAR_TRANSMISSION, eta: 1.0 });
+            }
+            TRANS => {
+                let s = Lambert { reflectance: self.translucent }.sample_f(wo, u)?;
+                BsdfSample { wi: Vec3::new(s.wi.x, s.wi.y, -s.wi.z), flags: flags::DIFFUSE | flags::TRANSMISSION, ..s }
+            }
             _ => Lambert { reflectance: self.diffuse }.sample_f(wo, u)?,
         };
         if sampled.flags & flags::SPECULAR != 0 {

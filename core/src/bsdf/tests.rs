@@ -9,7 +9,7 @@ use crate::math;
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 
 /// Number of χ² tests in this suite, for the Šidák correction of the significance level.
-const N_CHI2: usize = 157;
+const N_CHI2: usize = 173;
 /// Family-wise significance of the χ² suite.
 const ALPHA: f64 = 0.01;
 
@@ -891,5 +891,5 @@ fn conductor_albedo_table_matches_brute_force() {
 #[path = "wet_tests.rs"]
 mod wet_tests;
 
-#[path = "blend_tests.rs"]
-mod blend_tests;
+#[path = "transmit_tests.rs"]
+mod transmit_tests;

@@ -17,9 +17,10 @@
 //! (σt = 1 / (radius × scale), the single-scattering albedo whose multiple-scattering albedo
 //! is the subsurface colour, the anisotropy as a Henyey–Greenstein g). A partial or varying
 //! transmission or subsurface blends that dielectric with the opaque stack ([`WaterBlend`]).
-//! What the mapping cannot carry (a thin-walled transmission, dispersion, scattering in the
-//! transmission, the coat and other layers over a transmitting share) is reported and left
-//! out.
+//! A thin wall (`thin_walled`) has no body: its base passes the transmission straight
+//! through and makes the subsurface translucent ([`ThinWalledDesc`]). What the mapping cannot
+//! carry (dispersion, scattering in the transmission, the coat and other layers over a
+//! transmitting share) is reported and left out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset / realworldimagesize / realworldtilesize as MaterialX's own graph applies them),
@@ -40,7 +41,7 @@ use super::mtlx_procedural::PROCEDURAL;
 use super::{float_input, uv_set, Ctx, Source, WrapKey};
 use glam::{Affine2, Vec2};
 use tide_core::bsdf::PbrFlavour;
-use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, WaterBlend, WaterDesc};
+use tide_core::scene::{Channel, ColorInput, FloatInput, PbrExtras, PreviewSurfaceDesc, PrimvarLookup, SurfaceDesc, TexLookup, ThinWalledDesc, WaterBlend, WaterDesc};
 use tide_core::shader_graph::{Binary, Expr, Unary};
 
 /// The longest chain of MaterialX nodes read into one input.
@@ -754,10 +755,12 @@ impl Ctx<'_> {
         if transmission == FloatInput::Const(0.0) && subsurface == FloatInput::Const(0.0) {
             return (SurfaceDesc::Preview(self.pbr_preview(n, m)), None);
         }
+        if self.constant_only(n, m.transmission.3, 0.0) != 0.0 {
+            return (SurfaceDesc::Preview(self.thin_wall(n, m, transmission, subsurface)), None);
+        }
         // a dielectric interface over the share that transmits, blended with the rest
         let mut roughness = self.constant_only(n, m.roughness.0, m.roughness.1);
         let (share, weight, tint, body) = if transmission != FloatInput::Const(0.0) {
-            self.unsupported(n, m.transmission.3, &[0.0], "a thin-walled transmission");
             if subsurface != FloatInput::Const(0.0) && transmission != FloatInput::Const(1.0) {
                 self.p.add(&format!("{}.inputs:{}", n, ss), "a subsurface beside a partial transmission renders as the diffuse base");
             }
@@ -774,6 +777,40 @@ impl Ctx<'_> {
         self.on_opaque_share(n, m, weight, &opaque);
         let blend = (!plain).then(|| Box::new(WaterBlend { transmission: share, surface: opaque }));
         (SurfaceDesc::Water(WaterDesc { ior, roughness, tint, blend, ..WaterDesc::default() }), body)
+    }
+
+    /// A thin wall (`thin_walled`, `geometry_thin_walled`: a pane, a leaf, a sheet of paper):
+    /// the opaque stack whose base passes the transmission's share straight through, tinted by
+    /// the transmission colour, and makes the subsurface's share of the rest translucent, as
+    /// MaterialX's graphs mix them: Standard Surface's translucent lobe of the subsurface
+    /// colour; OpenPBR's half diffuse reflection of colour × (1 − g) and half translucency of
+    /// colour × (1 + g), g being the subsurface anisotropy.
+    fn thin_wall(&mut self, n: &str, m: &PbrModel, transmission: FloatInput, subsurface: FloatInput) -> PreviewSurfaceDesc {
+        let mut p = self.pbr_preview(n, m);
+        let (_, color, depth, _) = m.transmission;
+        let tint = if transmission == FloatInput::Const(0.0) {
+            ColorInput::Const([1.0; 3])
+        } else {
+            if self.input_f32(n, depth, 0.0) > 0.0 {
+                self.p.add(&format!("{}.inputs:{}", n, depth), format!("a thin wall has no inside to absorb in; {color} tints its surface"));
+            }
+            self.color(n, color, [1.0; 3])
+        };
+        let (reflect, transmit) = if subsurface == FloatInput::Const(0.0) {
+            (ColorInput::Const([0.0; 3]), ColorInput::Const([0.0; 3]))
+        } else {
+            let c = self.color(n, m.subsurface.color.0, [m.subsurface.color.1; 3]);
+            match m.flavour {
+                PbrFlavour::StandardSurface => (ColorInput::Const([0.0; 3]), c),
+                PbrFlavour::OpenPbr => {
+                    let g = self.constant_only(n, m.subsurface.anisotropy, 0.0).clamp(-1.0, 1.0);
+                    (c.clone().scaled([0.5 * (1.0 - g); 3]), c.scaled([0.5 * (1.0 + g); 3]))
+                }
+            }
+        };
+        let extras = p.extras.get_or_insert_with(|| Box::new(PbrExtras { flavour: m.flavour, ..PbrExtras::default() }));
+        extras.thin_walled = Some(ThinWalledDesc { transmission, tint, subsurface, reflect, transmit });
+        p
     }
 
     /// Reports the layers of a surface that transmits (or scatters beneath) that cover only the
@@ -825,6 +862,7 @@ impl Ctx<'_> {
             thin_film_thickness: self.float(n, m.thin_film.1, m.thin_film.2),
             thin_film_unit_nm: m.thin_film.3,
             thin_film_ior: self.constant_only(n, m.thin_film.4, m.thin_film.5),
+            thin_walled: None,
         };
         // Standard Surface's film is there wherever it is thicker than 0
         extras.thin_film_weight = match m.thin_film.0 {
