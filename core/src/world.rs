@@ -1015,41 +1015,42 @@ impl World {
                     _ => dry,
                 }
             }
-            SurfaceKind::Dielectric(dm) => {
-                let clear = match dm.sea {
-                    Some((speed, wind, scale)) => {
-                        let l = frame.to_local(wind);
-                        Bsdf::sea_scaled(eta, speed, l.y.atan2(l.x), scale)
-                    }
-                    None => Bsdf::dielectric(eta, dm.roughness),
-                };
-                let clear = match &dm.tint {
-                    Some(tint) => clear.and_then(|c| c.tint_transmission(self.color(tint, s, lambda))),
-                    None => clear,
-                };
-                match &dm.blend {
-                    // MaterialX's metal lies over the whole surface, the transmission under its
-                    // specular layer: the interface's share is (1 − metal) × transmission, and
-                    // the opaque part's metal is rescaled to keep its own share. The opaque
-                    // part meets the index outside the body from either side, as one BSDF
-                    // whichever way it is seen.
-                    Some(b) => clear.and_then(|clear| {
-                        let mut p = self.preview_params(&b.1, s, lambda, dm.ior / eta, &mut frame);
-                        let share = self.float(&b.0, s).clamp(0.0, 1.0) * (1.0 - p.metallic);
-                        p.metallic = if share < 1.0 { (p.metallic / (1.0 - share)).min(1.0) } else { 0.0 };
-                        Bsdf::blend(clear, Bsdf::preview(p)?, share)
-                    }),
-                    None => clear,
+            SurfaceKind::Dielectric(dm) => match (&dm.sea, &dm.tint, &dm.blend) {
+                (Some((speed, wind, scale)), ..) => {
+                    let l = frame.to_local(*wind);
+                    Bsdf::sea_scaled(eta, *speed, l.y.atan2(l.x), *scale)
                 }
-            }
+                (None, None, None) => Bsdf::dielectric(eta, dm.roughness),
+                _ => self.tinted_or_blended(dm, s, lambda, eta, &mut frame),
+            },
             SurfaceKind::Conductor { eta: e, k, roughness } => Bsdf::conductor(e.sample(lambda) / outside_ior, k.sample(lambda) / outside_ior, *roughness),
             SurfaceKind::Emissive { .. } | SurfaceKind::MediumBoundary => Bsdf::lambert(SampledSpectrum::ZERO),
         };
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
     }
 
+    /// A dielectric with a transmission tint or an opaque part blended with it (the plain one
+    /// stays on [`Self::bsdf`]'s short path: the BSDF is large to move).
+    #[inline(never)]
+    fn tinted_or_blended(&self, dm: &DielectricMat, s: &SurfaceHit, lambda: &SampledWavelengths, eta: f32, frame: &mut Frame) -> Result<Bsdf, crate::bsdf::BsdfError> {
+        let mut clear = Bsdf::dielectric(eta, dm.roughness)?;
+        if let Some(tint) = &dm.tint {
+            clear = clear.tint_transmission(self.color(tint, s, lambda))?;
+        }
+        let Some(b) = &dm.blend else { return Ok(clear) };
+        // MaterialX's metal lies over the whole surface, the transmission under its specular
+        // layer: the interface's share is (1 − metal) × transmission, and the opaque part's
+        // metal is rescaled to keep its own share. The opaque part meets the index outside
+        // the body from either side, as one BSDF whichever way it is seen.
+        let mut p = self.preview_params(&b.1, s, lambda, dm.ior / eta, frame);
+        let share = self.float(&b.0, s).clamp(0.0, 1.0) * (1.0 - p.metallic);
+        p.metallic = if share < 1.0 { (p.metallic / (1.0 - share)).min(1.0) } else { 0.0 };
+        Bsdf::blend(clear, Bsdf::preview(p)?, share)
+    }
+
     /// A preview surface's inputs at a hit (the default stack for any other kind); the frame's
     /// tangent turns by its anisotropy's rotation.
+    #[inline]
     fn preview_params(&self, kind: &SurfaceKind, s: &SurfaceHit, lambda: &SampledWavelengths, outside_ior: f32, frame: &mut Frame) -> PreviewParams {
         let SurfaceKind::Preview { diffuse, specular, use_specular_workflow, metallic, roughness, clearcoat, clearcoat_roughness, ior, wet, extras, .. } = kind else {
             return PreviewParams::default();
