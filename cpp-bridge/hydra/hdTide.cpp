@@ -381,7 +381,9 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         auto full = [&id](SdfPath const& node) { return node.IsAbsolutePath() ? node : id.AppendPath(node); };
         if (res.IsHolding<HdMaterialNetworkMap>()) {
             for (auto const& term : res.UncheckedGet<HdMaterialNetworkMap>().map) {
-                const std::string terminal = term.first == HdMaterialTerminalTokens->volume ? "volume" : "surface";
+                const std::string terminal = term.first == HdMaterialTerminalTokens->volume         ? "volume"
+                                             : term.first == HdMaterialTerminalTokens->displacement ? "displacement"
+                                                                                                    : "surface";
                 HdMaterialNetwork const& net = term.second;
                 if (!net.nodes.empty()) _Put(terminal, VtValue(full(net.nodes.back().path)));
                 for (HdMaterialNode const& n : net.nodes) {

@@ -692,12 +692,13 @@ pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -
         Some(b) => medium = Some(body_medium(path, &b)),
         None => {}
     }
-    // UsdPreviewSurface's displacement, where it moves anything
-    let displacement = surf
-        .as_deref()
-        .filter(|s| ctx.node_id(s) == Some("UsdPreviewSurface"))
-        .map(|s| ctx.float(s, "displacement", 0.0))
-        .filter(|d| *d != FloatInput::Const(0.0));
+    // the displacement, where it moves anything: a displacement terminal's MaterialX node, or
+    // UsdPreviewSurface's own input
+    let displacement = match terminal(store, "displacement").filter(|d| ctx.node_id(d) != Some("UsdPreviewSurface")) {
+        Some(d) => ctx.mtlx_displacement(&d),
+        None => surf.as_deref().filter(|s| ctx.node_id(s) == Some("UsdPreviewSurface")).map(|s| ctx.float(s, "displacement", 0.0)),
+    }
+    .filter(|d| *d != FloatInput::Const(0.0));
     problems.list.extend(ctx.p.list);
     MaterialPiece { desc, medium, textures: ctx.used, displacement }
 }
@@ -1627,6 +1628,40 @@ mod tests {
             ("/M/H.inputs:file", Value::Asset("/tex/albedo.png".into())),
         ]);
         assert!(matches!(tex, Some(FloatInput::Texture(t)) if t.channel == Channel::R && t.texture == 0));
+    }
+
+    /// A displacement terminal's MaterialX node displaces by displacement × scale (a texture
+    /// scaled in its lookup); a vector displacement or an unknown node is reported and displaces
+    /// nothing; a UsdPreviewSurface there reads as its own input.
+    #[test]
+    fn materialx_displacement_node_is_carried() {
+        let with = |extra: &[(&str, Value)]| {
+            let mut pairs = vec![
+                ("surface", Value::Path("/M/S".into())),
+                ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
+                ("displacement", Value::Path("/M/D".into())),
+                ("/M/D.info:id", tok("ND_displacement_float")),
+            ];
+            pairs.extend_from_slice(extra);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            (m.displacement, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+        };
+        assert_eq!(with(&[]), (None, vec![]));
+        assert_eq!(with(&[("/M/D.inputs:displacement", Value::Float(0.25)), ("/M/D.inputs:scale", Value::Float(2.0))]), (Some(FloatInput::Const(0.5)), vec![]));
+        let (tex, p) = with(&[
+            ("/M/D.inputs:displacement.connect", tok("/M/H.outputs:out")),
+            ("/M/D.inputs:scale", Value::Float(0.1)),
+            ("/M/H.info:id", tok("ND_image_float")),
+            ("/M/H.inputs:file", Value::Asset("/tex/albedo.png".into())),
+        ]);
+        assert!(p.is_empty(), "{p:?}");
+        let Some(FloatInput::Texture(t)) = tex else { panic!("{tex:?}") };
+        assert_eq!((t.channel, t.tex_scale[0], t.bias[0]), (Channel::R, 0.1, 0.0));
+        assert_eq!(with(&[("/M/D.info:id", tok("ND_displacement_vector3"))]), (None, vec!["/M/D.info:id".to_string()]));
+        assert_eq!(with(&[("/M/D.info:id", tok("ND_bump_vector3"))]), (None, vec!["/M/D.info:id".to_string()]));
+        let (d, p) = with(&[("surface", Value::Path("/M/D".into())), ("/M/D.info:id", tok("UsdPreviewSurface")), ("/M/D.inputs:displacement", Value::Float(0.3))]);
+        assert_eq!((d, p), (Some(FloatInput::Const(0.3)), vec![]));
     }
 
     /// MaterialX's own UsdPreviewSurface nodes read as USD's.

@@ -1,4 +1,5 @@
-"""UsdPreviewSurface displacement: a mesh bound to a displacing material moves along its normals.
+"""Displacement (UsdPreviewSurface's input, or MaterialX's displacement node): a mesh bound to a
+displacing material moves along its normals.
 The expectation comes from the camera model: a black 2 x 2 square facing the camera at distance
 D, seen against a white dome, covers 2 F / D / (AP / 2) of the image's width; displaced by d
 towards the camera it covers 2 F / (D - d) / (AP / 2)."""
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, darkness, load, render, settings, shader_node, write_exr
+from conftest import bind, camera, darkness, render, settings, shader_node, write_exr
 from test_render import _white_dome
 
 F, AP, D, W = 50.0, 36.0, 8.0, 96
@@ -73,20 +74,27 @@ def test_a_displaced_square_comes_closer(renderer, tmp_path, lift):
         assert _width(renderer, tex_file=tex) == pytest.approx(want, abs=0.5)
 
 
-def test_a_materialx_displacement_shader_is_reported(stage, delegate):
-    """A material whose mtlx displacement terminal is a MaterialX displacement node: reported
-    on the material (only UsdPreviewSurface's own input displaces); a UsdPreviewSurface on the
-    displacement terminal is not."""
-    camera(stage)
-    bind(_square(stage).GetPrim(), _black_displacing(stage, displacement=1.0))
-    mat = UsdShade.Material(stage.GetPrimAtPath("/Looks/Black"))
-    ps = UsdShade.Shader(stage.GetPrimAtPath("/Looks/Black/S"))
-    mat.CreateDisplacementOutput().ConnectToSource(
-        ps.CreateOutput("displacement", Sdf.ValueTypeNames.Token))
-    _, problems = load(stage, delegate)
-    assert problems == []
-    d = shader_node(stage, "/Looks/Black/D", "ND_displacement_float", displacement=0.5)
-    mat.CreateDisplacementOutput("mtlx").ConnectToSource(
-        d.CreateOutput("out", Sdf.ValueTypeNames.Token))
-    _, problems = load(stage, type(delegate)())
-    assert [(p.prim, p.attribute) for p in problems] == [("/Looks/Black", "outputs:displacement")]
+def test_a_materialx_displacement_node_displaces(renderer):
+    """A material whose mtlx displacement terminal is MaterialX's displacement node (0.5 x
+    scale 4) displaces by 2, not by its UsdPreviewSurface's own input (1), which the
+    universal displacement terminal would use; a vector displacement is reported and moves
+    nothing."""
+    px_per_unit = lambda dist: F / dist / (AP / 2) * W / 2
+
+    def width(node_id):
+        s = Usd.Stage.CreateInMemory()
+        camera(s, focal=F, aperture=(AP, AP))
+        _white_dome(s)
+        mat = _black_displacing(s, displacement=1.0)
+        bind(_square(s).GetPrim(), mat)
+        d = shader_node(s, "/Looks/Black/D", node_id, displacement=0.5, scale=4.0)
+        mat.CreateDisplacementOutput("mtlx").ConnectToSource(d.CreateOutput("out", Sdf.ValueTypeNames.Token))
+        settings(s, res=(W, W), samples=16)
+        problems = []
+        dark = darkness(render(renderer, s, problems)["color"])
+        return dark[W // 2 - 1:W // 2 + 1].mean(axis=0).sum(), [(p.prim, p.attribute) for p in problems]
+
+    assert width("ND_displacement_float") == (pytest.approx(2 * px_per_unit(D - 2.0), abs=0.5), [])
+    flat, problems = width("ND_displacement_vector3")
+    assert flat == pytest.approx(2 * px_per_unit(D), abs=0.5)
+    assert problems == [("/Looks/Black", "/Looks/Black/D.info:id")]

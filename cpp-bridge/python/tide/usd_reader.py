@@ -1910,14 +1910,13 @@ class Reader:
                 queue.append(shader)
             else:
                 st.set(key, ("path", ""))
-        # displacement is UsdPreviewSurface's own input; a displacement terminal leading
-        # elsewhere (a MaterialX displacementshader) is not read
+        # a UsdPreviewSurface displaces by its own input; a displacement terminal leading
+        # elsewhere (a MaterialX displacement node) is passed on as the material's displacement
         src = mat.ComputeDisplacementSource(_render_context(mat.GetDisplacementOutput))
         shader = src[0] if src else None
         if shader and shader.GetPrim().IsValid() and shader.GetShaderId() != "UsdPreviewSurface":
-            self.problem(path, "outputs:displacement", "a displacement shader ('%s') is not "
-                         "read; only UsdPreviewSurface's displacement input displaces"
-                         % shader.GetShaderId())
+            st.set("displacement", ("path", str(shader.GetPath())))
+            queue.append(shader)
         # the material's own tide: attributes (TideWetAPI's, fallbacks included once applied)
         self._tide_attrs(prim, st)
         # a wetness mask: tide:wet:amount connected to a shader output of the material

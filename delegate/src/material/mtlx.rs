@@ -779,6 +779,30 @@ impl Ctx<'_> {
         (SurfaceDesc::Water(WaterDesc { ior, roughness, tint, blend, ..WaterDesc::default() }), body)
     }
 
+    /// A material's MaterialX displacement node (`ND_displacement_float`): displacement ×
+    /// scale along the normal, as UsdPreviewSurface's displacement goes. A vector displacement
+    /// or another node is reported and displaces nothing.
+    pub(super) fn mtlx_displacement(&mut self, n: &str) -> Option<FloatInput> {
+        match self.node_id(n) {
+            Some("ND_displacement_float") => {
+                let mut scalar = |input: &str, default: f32| {
+                    let v = self.input_f32(n, input, default);
+                    self.source(n, input).map_or(Source::Fallback([v; 4]), Source::scalar)
+                };
+                let (d, scale) = (scalar("displacement", 0.0), scalar("scale", 1.0));
+                Some(float_input(0.0, Some(product(d, scale))))
+            }
+            Some("ND_displacement_vector3") => {
+                self.p.add(&format!("{n}.info:id"), "a vector displacement is not supported (only a scalar one, along the normal); the surface is not displaced");
+                None
+            }
+            other => {
+                self.p.add(&format!("{n}.info:id"), format!("unknown displacement shader id '{}'; the surface is not displaced", other.unwrap_or("")));
+                None
+            }
+        }
+    }
+
     /// A thin wall (`thin_walled`, `geometry_thin_walled`: a pane, a leaf, a sheet of paper):
     /// the opaque stack whose base passes the transmission's share straight through, tinted by
     /// the transmission colour, and makes the subsurface's share of the rest translucent, as
