@@ -199,6 +199,9 @@ pub struct PbrExtras {
     pub coat_ior: f32,
     /// The coat's anisotropy, 0–1, along the specular's tangent.
     pub coat_anisotropy: FloatInput,
+    /// OpenPBR's coat darkening, 0–1, and the base albedo it is estimated from.
+    pub coat_darkening: FloatInput,
+    pub darkening_albedo: ColorInput,
     /// Specular anisotropy, 0–1, and how it maps to the two roughnesses.
     pub anisotropy: FloatInput,
     pub flavour: crate::bsdf::PbrFlavour,
@@ -242,6 +245,8 @@ impl Default for PbrExtras {
             coat_color: ColorInput::Const([1.0; 3]),
             coat_ior: crate::bsdf::preview::CLEARCOAT_IOR,
             coat_anisotropy: FloatInput::Const(0.0),
+            coat_darkening: FloatInput::Const(0.0),
+            darkening_albedo: ColorInput::Const([0.0; 3]),
             anisotropy: FloatInput::Const(0.0),
             flavour: crate::bsdf::PbrFlavour::StandardSurface,
             anisotropy_rotation: FloatInput::Const(0.0),

@@ -1,5 +1,5 @@
 """The layers of MaterialX's PBR surfaces beyond UsdPreviewSurface's: the specular's weight
-and tint, the coat's colour and IOR, specular anisotropy and its direction. Each is checked
+and tint, the coat's colour, IOR and darkening, specular anisotropy and its direction. Each is checked
 against what its definition implies (Fresnel reflectance at normal incidence, a colour
 multiplying what lies beneath, a highlight stretched along the tangent)."""
 import numpy as np
@@ -79,6 +79,28 @@ def test_an_open_pbr_coat_has_its_own_ior(renderer, stage):
         img = _seen_from_above(renderer, s, _surface(s, "ND_open_pbr_surface_surfaceshader", **inputs))
         ok, why = near(img, [_f0(ior or 1.6)] * 3)
         assert ok, (ior, why)
+
+
+def test_an_open_pbr_coat_darkens_what_lies_beneath(renderer):
+    """OpenPBR's coat darkening (on by default): under a smooth coat of IOR 1.6, whose
+    underside sends back K = 1 - (1 - F0) / 1.6^2 of the light the base reflects, a grey base
+    of colour 0.5 shows (1 - K) / (1 - 0.5 K) = 0.540 of what it shows with coat_darkening 0;
+    the coat's own reflection (a black base) is left as it is."""
+    def look(**inputs):
+        stage = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+        mat = _surface(stage, "ND_open_pbr_surface_surfaceshader", base_color=(0.5, 0.5, 0.5),
+                       specular_weight=0.0, coat_weight=1.0, coat_roughness=0.0, **inputs)
+        px = _seen_from_above(renderer, stage, mat, samples=32).reshape(-1, 3).astype(np.float64)
+        return px.mean(axis=0), px.std(axis=0, ddof=1) / np.sqrt(len(px))
+
+    k = 1 - (1 - _f0(1.6)) / 1.6 ** 2
+    want = (1 - k) / (1 - 0.5 * k)
+    (dark, se_d), (plain, se_p), (coat, se_c) = look(), look(coat_darkening=0.0), look(base_weight=0.0)
+    assert np.all(plain - coat > 0.3), (plain, coat)
+    expect = coat + want * (plain - coat)
+    se = np.sqrt(se_d ** 2 + (want * se_p) ** 2 + ((1 - want) * se_c) ** 2)
+    assert np.all(np.abs(dark - expect) < 4 * se + 1e-3), (dark, expect, se)
 
 
 def _highlight_spread(renderer, rotation):

@@ -277,6 +277,8 @@ impl Bsdf {
             coat_color: reflectance("coat colour", p.coat_color)?,
             coat_ior: check_positive("coat ior", p.coat_ior)?,
             coat_anisotropy: check_finite("coat anisotropy", p.coat_anisotropy)?.clamp(0.0, 1.0),
+            coat_darkening: check_finite("coat darkening", p.coat_darkening)?.clamp(0.0, 1.0),
+            darkening_albedo: reflectance("coat darkening albedo", p.darkening_albedo)?,
             anisotropy: check_finite("anisotropy", p.anisotropy)?.clamp(0.0, 1.0),
             flavour: p.flavour,
             diffuse_roughness: check_finite("diffuse roughness", p.diffuse_roughness)?.clamp(0.0, 1.0),

@@ -9,7 +9,8 @@
 //! * a specular weight and tint: the dielectric reflection is weight × tint × F, while what
 //!   lies beneath sees 1 − weight × albedo (the tint absorbs, it never adds light);
 //! * a coat colour: everything under the coat is multiplied by mix(1, colour, coat), a coat
-//!   IOR, and coat anisotropy (along the specular's tangent);
+//!   IOR, and coat anisotropy (along the specular's tangent); OpenPBR's coat darkening of
+//!   what lies beneath (the coat's underside sending light back to the base);
 //! * specular anisotropy: two roughnesses along the tangent and bitangent ([`PbrFlavour`]);
 //! * a rough diffuse base: Oren–Nayar, the qualitative model for Standard Surface and the
 //!   energy-preserving one (EON) for OpenPBR, as MaterialX's graphs choose;
@@ -68,6 +69,10 @@ pub struct PreviewParams {
     pub coat_ior: f32,
     /// The coat's anisotropy in [0, 1], along the same tangent as the specular's.
     pub coat_anisotropy: f32,
+    /// OpenPBR's coat darkening in [0, 1] (0: none) and the base albedo it estimates it from
+    /// (OpenPBR's E_dielectric: the base colour).
+    pub coat_darkening: f32,
+    pub darkening_albedo: SampledSpectrum,
     /// Specular anisotropy in [0, 1] (0: isotropic), stretching the lobe along the frame's
     /// tangent as `flavour` says.
     pub anisotropy: f32,
@@ -118,6 +123,8 @@ impl Default for PreviewParams {
             coat_color: SampledSpectrum::ONE,
             coat_ior: CLEARCOAT_IOR,
             coat_anisotropy: 0.0,
+            coat_darkening: 0.0,
+            darkening_albedo: SampledSpectrum::ZERO,
             anisotropy: 0.0,
             flavour: PbrFlavour::StandardSurface,
             diffuse_roughness: 0.0,
@@ -186,6 +193,19 @@ impl PbrFlavour {
 
 /// IOR of UsdPreviewSurface's clearcoat layer.
 pub const CLEARCOAT_IOR: f32 = 1.5;
+
+/// OpenPBR's darkening of what lies under a coat, as its graph computes it: light the base
+/// reflects is partly reflected back by the coat's underside (K = 1 − (1 − F0) / η² of it,
+/// diffusely) and meets the base again, so the base's albedo E shows as (1 − K) / (1 − E K),
+/// mixed in by coat × coat_darkening. E is the metal's (albedo × specular weight) or the
+/// dielectric base's (the albedo) by metalness; a white base is not darkened.
+fn coat_darkening(p: &PreviewParams, metallic: f32) -> SampledSpectrum {
+    let eta = relative_ior(p.coat_ior, p.outside_ior);
+    let k = 1.0 - (1.0 - f0_from_ior(eta)) / (eta * eta);
+    let e = p.darkening_albedo * (1.0 - metallic + metallic * p.specular_weight);
+    let dark = (SampledSpectrum::ONE - e * k).map(|v| (1.0 - k) / v.max(1e-6));
+    SampledSpectrum::ONE + (dark - SampledSpectrum::ONE) * (p.clearcoat * p.coat_darkening)
+}
 
 /// A layer's index relative to what lies above it, kept just above 1 (a layer of lower index
 /// than its surroundings is not modelled).
@@ -289,7 +309,10 @@ impl Preview {
             (p.clearcoat, MicrofacetReflection::new(TrowbridgeReitz::new(at, ab), ReflFresnel::Schlick { f0, f90: SampledSpectrum::ONE }))
         });
         let spec_loss_avg = (SampledSpectrum::ONE - untinted.as_ref().unwrap_or(&spec).albedo_avg()).map(|v| v.max(0.0));
-        let under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;
+        let mut under_tint = SampledSpectrum::ONE + (p.coat_color - SampledSpectrum::ONE) * p.clearcoat;
+        if p.clearcoat > 0.0 && p.coat_darkening > 0.0 {
+            under_tint *= coat_darkening(p, m);
+        }
         let rough_diffuse = (p.diffuse_roughness > 0.0).then(|| OrenNayar::new(diffuse, p.diffuse_roughness, p.flavour.diffuse_model()));
         let sheen_over_coat = p.flavour == PbrFlavour::OpenPbr;
         let sheen_weight = if sheen_over_coat { p.sheen_weight } else { p.sheen_weight * (1.0 - m) };

@@ -893,3 +893,39 @@ mod wet_tests;
 
 #[path = "transmit_tests.rs"]
 mod transmit_tests;
+
+/// OpenPBR's coat darkening multiplies what lies under the coat by (1 − K) / (1 − E K), K =
+/// 1 − (1 − F0) / η² of the coat and E the base's albedo estimate (the dielectric base's
+/// colour, or the metal's × the specular weight): exactly, on the part of the albedo under the
+/// coat; a white base is not darkened.
+#[test]
+fn openpbr_coat_darkening_matches_its_graph() {
+    let eta = 1.5f32;
+    let k = 1.0 - (1.0 - ((eta - 1.0) / (eta + 1.0)).powi(2)) / (eta * eta);
+    let coated = PreviewParams { clearcoat: 1.0, clearcoat_roughness: 0.2, coat_ior: eta, roughness: 0.4, flavour: PbrFlavour::OpenPbr, ..preview_params() };
+    // (the base, its colour, E)
+    let cases = [
+        // a grey dielectric base: E = 0.5
+        (PreviewParams { diffuse: grey(0.5), ..coated }, 0.5, 0.5f32),
+        // a grey metal at specular weight 0.5: E = 0.5 × 0.5
+        (PreviewParams { metallic: 1.0, base_for_metal: grey(0.5), specular_weight: 0.5, ..coated }, 0.5, 0.25),
+        // a white base: E = 1, no darkening
+        (PreviewParams { diffuse: grey(1.0), ..coated }, 1.0, 1.0),
+    ];
+    let coat_only = preview::Preview::new(&PreviewParams { diffuse: grey(0.0), specular_weight: 0.0, ..coated });
+    for (p, colour, e) in cases {
+        let plain = preview::Preview::new(&p);
+        let dark = preview::Preview::new(&PreviewParams { coat_darkening: 1.0, darkening_albedo: grey(colour), ..p });
+        let half = preview::Preview::new(&PreviewParams { coat_darkening: 0.5, darkening_albedo: grey(colour), ..p });
+        let want = (1.0 - k) / (1.0 - e * k);
+        for mu in [1.0f32, 0.6, 0.2] {
+            let (a, b, h, c) = (dark.albedo_at(mu), plain.albedo_at(mu), half.albedo_at(mu), coat_only.albedo_at(mu));
+            for i in 0..4 {
+                let ratio = (a[i] - c[i]) / (b[i] - c[i]);
+                assert!((ratio - want).abs() < 1e-4, "E {e} μ {mu}: {ratio} vs {want}");
+                let ratio = (h[i] - c[i]) / (b[i] - c[i]);
+                assert!((ratio - (1.0 + 0.5 * (want - 1.0))).abs() < 1e-4, "half, E {e} μ {mu}: {ratio}");
+            }
+        }
+    }
+}

@@ -160,6 +160,8 @@ pub(super) struct PbrModel {
     /// The coat's darkening and saturation of the base colour, and its roughening of the
     /// specular (Standard Surface's `coat_affect_color`, `coat_affect_roughness`).
     coat_affect: Option<(&'static str, &'static str)>,
+    /// OpenPBR's darkening of what lies under the coat (default 1).
+    coat_darkening: Option<&'static str>,
     /// (weight, colour): emission = weight × colour.
     emission: (&'static str, &'static str),
     /// The opacity input, and whether it is a colour.
@@ -221,6 +223,7 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
     coat_ior: ("coat_IOR", 1.5),
     coat_anisotropy: ("coat_anisotropy", Some("coat_rotation")),
     coat_affect: Some(("coat_affect_color", "coat_affect_roughness")),
+    coat_darkening: None,
     emission: ("emission", "emission_color"),
     opacity: ("opacity", true),
     normal: "normal",
@@ -256,6 +259,7 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
     coat_ior: ("coat_ior", 1.6),
     coat_anisotropy: ("coat_roughness_anisotropy", None),
     coat_affect: None,
+    coat_darkening: Some("coat_darkening"),
     emission: ("emission_luminance", "emission_color"),
     opacity: ("geometry_opacity", false),
     normal: "geometry_normal",
@@ -875,6 +879,11 @@ impl Ctx<'_> {
             coat_color: self.color(n, m.coat.3, [1.0; 3]),
             coat_ior: self.constant_only(n, m.coat_ior.0, m.coat_ior.1),
             coat_anisotropy: self.float(n, m.coat_anisotropy.0, 0.0),
+            coat_darkening: m.coat_darkening.map_or(FloatInput::Const(0.0), |d| self.float(n, d, 1.0)),
+            darkening_albedo: match m.coat_darkening {
+                Some(_) => self.color(n, m.base.2, [m.base.3; 3]),
+                None => ColorInput::Const([0.0; 3]),
+            },
             anisotropy: self.float(n, anisotropy, 0.0),
             flavour,
             anisotropy_rotation: rotation.map_or(FloatInput::Const(0.0), |r| self.float(n, r, 0.0)),
@@ -902,10 +911,11 @@ impl Ctx<'_> {
                 self.p.add(&format!("{}.inputs:{}", n, coat_turn), format!("a coat turned apart from the specular is not supported; the coat follows {turn}"));
             }
         }
-        // with no coat, the coat's colour and IOR change nothing
+        // with no coat, the coat's colour, IOR and darkening change nothing
         let mut neutral = PbrExtras { flavour, sheen_roughness: extras.sheen_roughness.clone(), ..PbrExtras::default() };
         if clearcoat == FloatInput::Const(0.0) {
             (neutral.coat_color, neutral.coat_ior, neutral.coat_anisotropy) = (extras.coat_color.clone(), extras.coat_ior, extras.coat_anisotropy.clone());
+            (neutral.coat_darkening, neutral.darkening_albedo) = (extras.coat_darkening.clone(), extras.darkening_albedo.clone());
         }
         if extras.sheen_weight == FloatInput::Const(0.0) {
             neutral.sheen_color = extras.sheen_color.clone();
