@@ -209,8 +209,22 @@ fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &Inter
 /// medium of the boxes still entered (from `stack`, the path's, and those entered along the
 /// ray), else to `medium` or, if the ray started inside a box, to the medium of `stack`'s
 /// dielectrics.
+/// A light's shadow controls (`UsdLuxShadowAPI`: colour, distance, falloff) apply here: the ray
+/// looks for occluders only as far as they reach, and the shadowed part keeps its colour.
 #[allow(clippy::too_many_arguments)]
 fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, stack: &InteriorStack, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
+    match world.shadow_controls(light) {
+        None => unshadowed_share(world, light, o, d, dist, time, medium, stack, lambda, seed, path_flags),
+        Some(c) => {
+            let reach = c.reach(dist, StreamRng::new(seed, 0x5d15).next_f32());
+            c.shade(unshadowed_share(world, light, o, d, reach, time, medium, stack, lambda, seed, path_flags), lambda)
+        }
+    }
+}
+
+/// [`shadow_transmittance`] before the light's shadow controls.
+#[allow(clippy::too_many_arguments)]
+fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, stack: &InteriorStack, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
     let mut tr = SampledSpectrum::ONE;
     let mut origin = o;
     let mut remaining = dist;

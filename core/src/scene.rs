@@ -687,6 +687,26 @@ pub enum LightShape {
     SkySun { zenith: Vec3, turbidity: f32, scale: f32 },
 }
 
+/// `UsdLuxShadowAPI`'s non-physical controls of a light's shadows ([`Default`]: black shadows
+/// reaching as far as the light).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadowDesc {
+    /// `shadow:color`: what the shadowed part of the light keeps (RGB, 0–1).
+    pub color: Rgb,
+    /// `shadow:distance`: how far from the lit point occluders cast shadows (≤ 0: no limit).
+    pub distance: f32,
+    /// `shadow:falloff`: the share of that distance, at its far end, over which shadows fade
+    /// (≤ 0: none, a hard cut), and `shadow:falloffGamma`, the fade's exponent.
+    pub falloff: f32,
+    pub falloff_gamma: f32,
+}
+
+impl Default for ShadowDesc {
+    fn default() -> Self {
+        ShadowDesc { color: [0.0; 3], distance: -1.0, falloff: -1.0, falloff_gamma: 1.0 }
+    }
+}
+
 /// A light as UsdLux states it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightDesc {
@@ -707,6 +727,8 @@ pub struct LightDesc {
     /// Names of the instances that cast the light's shadows (`collection:shadowLink`); None:
     /// all (that cast shadows at all).
     pub shadow_link: Option<Vec<String>>,
+    /// `UsdLuxShadowAPI`'s non-physical controls: shadow colour, distance and falloff.
+    pub shadow: ShadowDesc,
     /// `UsdLuxShapingAPI` (sphere, rect, disk and cylinder lights); None: unshaped.
     pub shaping: Option<ShapingDesc>,
     /// UsdLux's non-physical `diffuse` and `specular` multipliers.

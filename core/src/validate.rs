@@ -643,7 +643,7 @@ mod tests {
         });
         s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() });
         s.lights.push(LightDesc {
-            shaping: None, response: Default::default(), motion: Vec::new(),
+            shaping: None, response: Default::default(), motion: Vec::new(), shadow: Default::default(),
             name: "/World/Rect".into(),
             shape: LightShape::Rect { width: 0.0, height: 1.0, texture: None },
             transform: Mat4::IDENTITY,

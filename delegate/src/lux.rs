@@ -10,7 +10,7 @@ use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::light::ies::IesProfile;
-use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShapingDesc};
+use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShadowDesc, ShapingDesc};
 use tide_core::{IntegratorKind, RenderSettings};
 
 /// Light prim types of the protocol.
@@ -219,19 +219,26 @@ fn convert_shaping(kind: LightKind, store: &AttrStore, p: &mut Problems) -> Opti
     })
 }
 
-/// `UsdLuxShadowAPI`: whether the light casts shadows at all (`shadow:enable`). Its softer,
-/// non-physical controls (a shadow colour, distance and falloff) are not rendered: authored
-/// away from their fallbacks they are problems.
+/// `UsdLuxShadowAPI`: whether the light casts shadows at all (`shadow:enable`).
 fn shadows_enabled(store: &AttrStore, p: &mut Problems) -> bool {
-    if store.get("shadow:color").is_some_and(|v| v.as_vec3() != Some(Vec3::ZERO)) {
-        p.add("shadow:color", "coloured shadows are not supported; shadows stay black");
-    }
-    for (name, fallback) in [("shadow:distance", -1.0), ("shadow:falloff", -1.0), ("shadow:falloffGamma", 1.0)] {
-        if store.get(name).is_some_and(|v| v.as_f64() != Some(fallback)) {
-            p.add(name, "shadow distance limits and falloff are not supported; shadows reach as far as the light");
-        }
-    }
     store.bool_or("shadow:enable", true, p)
+}
+
+/// `UsdLuxShadowAPI`'s non-physical controls: the shadow colour (0–1), how far occluders cast
+/// shadows, and the falloff zone at that distance's far end and its exponent.
+fn shadow_controls(store: &AttrStore, p: &mut Problems) -> ShadowDesc {
+    let d = ShadowDesc::default();
+    let mut color = store.vec3_or("shadow:color", Vec3::from(d.color), p).to_array();
+    if color.iter().any(|c| !(0.0..=1.0).contains(c)) {
+        p.add("shadow:color", format!("{color:?} is outside [0, 1]; clamped"));
+        color = color.map(|c| if c.is_finite() { c.clamp(0.0, 1.0) } else { 0.0 });
+    }
+    let mut falloff_gamma = store.f32_or("shadow:falloffGamma", d.falloff_gamma, p);
+    if !(falloff_gamma > 0.0) {
+        p.add("shadow:falloffGamma", format!("must be above 0, got {falloff_gamma}; using 1"));
+        falloff_gamma = 1.0;
+    }
+    ShadowDesc { color, distance: store.f32_or("shadow:distance", d.distance, p), falloff: store.f32_or("shadow:falloff", d.falloff, p), falloff_gamma }
 }
 
 fn nonneg(store: &AttrStore, name: &str, default: f32, p: &mut Problems) -> f32 {
@@ -339,6 +346,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             visible_to_camera: true,
             light_link: None,
             shadow_link: None,
+            shadow: shadow_controls(store, p),
         },
         texture,
         sky,
@@ -907,7 +915,7 @@ mod tests {
     }
 
     #[test]
-    fn shadow_api_turns_the_lights_shadows_off() {
+    fn shadow_api_turns_the_lights_shadows_off_and_shapes_them() {
         let mut p = Problems::new("/L");
         let on = convert_light("/L", LightKind::Sphere, &st(&[("inputs:shadow:enable", Value::Bool(true)), ("inputs:shadow:color", Value::Floats { data: vec![0.0; 3], tuple: 3 }), ("inputs:shadow:distance", f(-1.0))]), &mut p).unwrap();
         assert!(on.shadow_link.is_none());
@@ -917,10 +925,16 @@ mod tests {
         let off = convert_light("/L", LightKind::Rect, &st(&[("inputs:shadow:enable", Value::Bool(false)), ("collection:shadowLink:includeRoot", Value::Bool(true))]), &mut p).unwrap();
         let c = off.shadow_link.unwrap();
         assert!(!c.contains("/World") && !c.contains("/World/Ball"));
-        // the controls Tide does not render are named
-        convert_light("/L", LightKind::Disk, &st(&[("inputs:shadow:color", Value::Floats { data: vec![0.2, 0.0, 0.0], tuple: 3 }), ("inputs:shadow:falloff", f(2.0))]), &mut p).unwrap();
+        // the colour, distance and falloff are carried; a colour outside [0, 1] and a gamma
+        // not above 0 are named
+        let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shadow:color", Value::Floats { data: vec![0.2, 0.0, 0.0], tuple: 3 }), ("inputs:shadow:distance", f(3.0)), ("inputs:shadow:falloff", f(0.5)), ("inputs:shadow:falloffGamma", f(2.0))]), &mut p).unwrap();
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        assert_eq!(l.desc.shadow, ShadowDesc { color: [0.2, 0.0, 0.0], distance: 3.0, falloff: 0.5, falloff_gamma: 2.0 });
+        assert_eq!(on.desc.shadow, ShadowDesc::default());
+        let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shadow:color", Value::Floats { data: vec![2.0, -1.0, 0.5], tuple: 3 }), ("inputs:shadow:falloffGamma", f(0.0))]), &mut p).unwrap();
+        assert_eq!((l.desc.shadow.color, l.desc.shadow.falloff_gamma), ([1.0, 0.0, 0.5], 1.0));
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["shadow:color", "shadow:falloff"]);
+        assert_eq!(attrs, ["shadow:color", "shadow:falloffGamma"]);
     }
 
     #[test]

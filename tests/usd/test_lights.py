@@ -278,6 +278,61 @@ def test_shadow_api_turns_a_lights_shadows_off(renderer, stage):
     assert img[shadow].mean() > 0.9 * img[open_floor].mean(), (img[shadow].mean(), img[open_floor].mean())
 
 
+def _half_shadowed_floor(renderer, **shadow):
+    """A grey floor under a sun straight overhead, seen straight down from below an opaque
+    board 1 m up that covers the half x < 0, with direct light only; the sun's ShadowAPI
+    attributes as `shadow` gives them. Returns (mean colour of the shadowed half's pixels,
+    their standard errors, mean colour of the open half)."""
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    cam = camera(s, pos=(0, 0.5, 0), aperture=(40.0, 40.0), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    floor = UsdGeom.Mesh.Define(s, "/Floor")
+    floor.CreatePointsAttr([(-3, 0, -3), (-3, 0, 3), (3, 0, 3), (3, 0, -3)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    floor.CreateDisplayColorPrimvar().Set([(0.5, 0.5, 0.5)])
+    board = UsdGeom.Mesh.Define(s, "/Board")
+    board.CreatePointsAttr([(-3, 1, -3), (-3, 1, 3), (0, 1, 3), (0, 1, -3)])
+    board.CreateFaceVertexCountsAttr([4])
+    board.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    sun = UsdLux.DistantLight.Define(s, "/Sun")
+    sun.CreateAngleAttr(0.0)
+    sun.AddRotateXOp().Set(-90.0)
+    api = UsdLux.ShadowAPI.Apply(sun.GetPrim())
+    for name, value in shadow.items():
+        if name == "color":
+            api.CreateShadowColorAttr(Gf.Vec3f(*value))
+        else:
+            getattr(api, "CreateShadow%sAttr" % (name[0].upper() + name[1:]))(value)
+    settings(s, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, s, problems)["color"][..., :3].astype(np.float64)
+    assert problems == [], problems
+    # the view spans x in [-2, 2]: columns below RES / 2 look at x < 0
+    dark = img[:, 1:RES // 2 - 1].reshape(-1, 3)
+    lit = img[:, RES // 2 + 1:-1].reshape(-1, 3)
+    return dark.mean(axis=0), dark.std(axis=0, ddof=1) / np.sqrt(len(dark)), lit.mean(axis=0)
+
+
+def test_shadow_api_colours_limits_and_fades_shadows(renderer):
+    """UsdLuxShadowAPI's non-physical controls, on a board 1 m above the lit point: the shadow
+    keeps shadow:color of the light; occluders beyond shadow:distance cast none; within the
+    falloff zone (the last shadow:falloff of the distance) an occluder a fraction x in shadows
+    by (1 - x)^falloffGamma: a board at x = 1/2 takes 1/2 of the light, and 1/4 at gamma 2."""
+    def check(want, **shadow):
+        dark, se, lit = _half_shadowed_floor(renderer, **shadow)
+        assert np.all(lit > 0.05), lit
+        assert np.all(np.abs(dark - want * lit) < 4 * se + 0.005 * lit + 1e-4), (shadow, dark, want * lit, se)
+
+    check(np.zeros(3))
+    check(np.array([0.5, 0.25, 0.0]), color=(0.5, 0.25, 0.0))
+    check(np.ones(3), distance=0.5)
+    check(np.zeros(3), distance=1.5)
+    check(np.full(3, 0.5), distance=2.0, falloff=1.0)
+    check(np.full(3, 0.75), distance=2.0, falloff=1.0, falloffGamma=2.0)
+
+
 def test_light_diffuse_and_specular_multipliers(renderer, stage):
     """A straight-down sun over the Lambertian floor: inputs:diffuse = 0.5 halves the image.
     Over a polished metal floor (all specular): inputs:specular = 0 leaves it black, while

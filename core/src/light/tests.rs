@@ -15,7 +15,7 @@ const ALPHA: f64 = 0.01;
 
 pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     LightDesc {
-        shaping: None, response: Default::default(), motion: Vec::new(),
+        shaping: None, response: Default::default(), motion: Vec::new(), shadow: Default::default(),
         name: "/light".into(),
         shape,
         transform,
