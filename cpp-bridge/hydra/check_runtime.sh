@@ -17,7 +17,7 @@
 #       -DPXR_ENABLE_GL_SUPPORT=OFF -DPXR_BUILD_GPU_SUPPORT=OFF -DPXR_BUILD_TESTS=OFF \
 #       -DPXR_BUILD_EXAMPLES=OFF -DPXR_BUILD_TUTORIALS=OFF -DPXR_BUILD_USD_TOOLS=OFF \
 #       -DPXR_ENABLE_MATERIALX_SUPPORT=OFF -DPXR_ENABLE_OPENVDB_SUPPORT=OFF -DPXR_ENABLE_PTEX_SUPPORT=OFF
-#   ninja -C OPENUSD_DIR hd usdShade usdImaging usdShaders
+#   ninja -C OPENUSD_DIR hd hdsi usdShade usdImaging usdSkelImaging usdShaders
 #
 # Needs g++ (or $CXX), libtbb-dev, OpenImageIO and OpenColorIO dev packages, and a release build
 # of the bridge (`cargo build --release -p tide-bridge`, for target/release/libtide_bridge.a and
