@@ -490,7 +490,7 @@ impl Preview {
     }
 
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z == 0.0 {
+        if wo.z <= 0.0 || wi.z == 0.0 || (wi.z < 0.0 && self.translucent.is_black()) {
             return 0.0;
         }
         let p = self.probabilities(wo);
