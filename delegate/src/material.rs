@@ -781,6 +781,14 @@ mod tests {
     pub(super) fn tok(s: &str) -> Value {
         Value::Token(s.into())
     }
+    /// Converts material `/M` of the attributes `base` and then `extra` (a later one wins):
+    /// the piece and the attributes of the problems it raised.
+    pub(super) fn convert(base: &[(&str, Value)], extra: &[(&str, Value)]) -> (MaterialPiece, Vec<String>) {
+        let pairs: Vec<(&str, Value)> = base.iter().chain(extra).cloned().collect();
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+        (m, p.list.into_iter().map(|q| q.attribute).collect())
+    }
     /// A hit whose primvar `x` is `x` and whose texture coordinates, positions, normals and
     /// tangents (in the object's space, then the world's) are the fields'; it reads no texture.
     pub(super) struct FixedHit {
@@ -1212,13 +1220,7 @@ mod tests {
     fn materialx_open_pbr_surface_maps_to_a_preview_surface() {
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
-        let open_pbr = |extra: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/O".into())), ("/M/O.info:id", tok("ND_open_pbr_surface_surfaceshader"))];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
-        };
+        let open_pbr = |extra: &[(&str, Value)]| convert(&[("surface", Value::Path("/M/O".into())), ("/M/O.info:id", tok("ND_open_pbr_surface_surfaceshader"))], extra);
         let (m, p) = open_pbr(&[]);
         assert!(p.is_empty(), "{p:?}");
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
@@ -1255,12 +1257,9 @@ mod tests {
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
         let surface = |id: &str, extra: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let (m, p) = convert(&[("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))], extra);
             let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
-            (ps, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+            (ps, p)
         };
         for id in ["ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader"] {
             let (ps, p) = surface(id, &[]);
@@ -1331,7 +1330,7 @@ mod tests {
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
         let surface = |extra: &[(&str, Value)]| {
-            let mut pairs = vec![
+            let base = [
                 ("surface", Value::Path("/M/S".into())),
                 ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
                 ("/M/S.inputs:base_color", c3([0.5, 0.25, 1.0])),
@@ -1339,10 +1338,8 @@ mod tests {
                 ("/M/S.inputs:coat_affect_roughness", f(1.0)),
                 ("/M/S.inputs:coat_roughness", f(0.1)),
             ];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            assert!(p.list.is_empty(), "{:?}", p.list);
+            let (m, p) = convert(&base, extra);
+            assert!(p.is_empty(), "{p:?}");
             let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
             (ps.diffuse_color, ps.roughness)
         };
@@ -1371,17 +1368,14 @@ mod tests {
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
         let glass = |id: &str, weight: &str, depth: f64, extra: &[(&str, Value)]| {
-            let mut pairs = vec![
+            let base = [
                 ("surface", Value::Path("/M/G".into())),
                 ("/M/G.info:id", tok(id)),
                 (weight, f(1.0)),
                 ("/M/G.inputs:transmission_color", c3([0.5, 0.25, 1.0])),
                 ("/M/G.inputs:transmission_depth", f(depth)),
             ];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+            convert(&base, extra)
         };
         // σa = −ln(colour) / depth: exp(−σa · 2) is (0.5, 0.25, 1)
         let want = [std::f32::consts::LN_2 / 2.0, 2.0 * std::f32::consts::LN_2 / 2.0, 0.0];
@@ -1414,12 +1408,9 @@ mod tests {
     fn materialx_transmission_keeps_what_lies_beside_it() {
         let f = |x: f64| Value::Float(x);
         let glass = |inputs: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/G".into())), ("/M/G.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/G.inputs:transmission", f(1.0))];
-            pairs.extend_from_slice(inputs);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let (m, p) = convert(&[("surface", Value::Path("/M/G".into())), ("/M/G.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/G.inputs:transmission", f(1.0))], inputs);
             let SurfaceDesc::Water(w) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
-            (w, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+            (w, p)
         };
         let (w, p) = glass(&[]);
         assert_eq!((w.roughness, &w.tint, &w.blend, p.len()), (0.2, &None, &None, 0));
@@ -1445,13 +1436,10 @@ mod tests {
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
         let wall = |id: &str, inputs: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/W".into())), ("/M/W.info:id", tok(id))];
-            pairs.extend_from_slice(inputs);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
+            let (m, p) = convert(&[("surface", Value::Path("/M/W".into())), ("/M/W.info:id", tok(id))], inputs);
             assert!(m.medium.is_none());
             let SurfaceDesc::Preview(ps) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
-            (ps.extras.and_then(|x| x.thin_walled), p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+            (ps.extras.and_then(|x| x.thin_walled), p)
         };
         let (t, p) = wall("ND_standard_surface_surfaceshader", &[("/M/W.inputs:thin_walled", Value::Bool(true)), ("/M/W.inputs:transmission", f(0.8)), ("/M/W.inputs:transmission_color", c3([0.2, 0.4, 0.6])), ("/M/W.inputs:transmission_depth", f(1.0))]);
         let t = t.expect("a thin wall");
@@ -1474,13 +1462,7 @@ mod tests {
         assert!((mtlx::single_scattering_albedo(0.5) - 0.911709).abs() < 1e-5);
         let f = |x: f64| Value::Float(x);
         let c3 = |a: [f32; 3]| Value::Floats { data: a.to_vec(), tuple: 3 };
-        let skin = |id: &str, inputs: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))];
-            pairs.extend_from_slice(inputs);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            (m, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
-        };
+        let skin = |id: &str, inputs: &[(&str, Value)]| convert(&[("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok(id))], inputs);
         let (m, p) = skin(
             "ND_standard_surface_surfaceshader",
             &[
@@ -1612,11 +1594,8 @@ mod tests {
     #[test]
     fn preview_surface_displacement_is_carried() {
         let with = |extra: &[(&str, Value)]| {
-            let mut pairs = vec![("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok("UsdPreviewSurface"))];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            assert!(p.list.is_empty(), "{:?}", p.list);
+            let (m, p) = convert(&[("surface", Value::Path("/M/S".into())), ("/M/S.info:id", tok("UsdPreviewSurface"))], extra);
+            assert!(p.is_empty(), "{p:?}");
             m.displacement
         };
         assert_eq!(with(&[]), None);
@@ -1636,16 +1615,14 @@ mod tests {
     #[test]
     fn materialx_displacement_node_is_carried() {
         let with = |extra: &[(&str, Value)]| {
-            let mut pairs = vec![
+            let base = [
                 ("surface", Value::Path("/M/S".into())),
                 ("/M/S.info:id", tok("ND_standard_surface_surfaceshader")),
                 ("displacement", Value::Path("/M/D".into())),
                 ("/M/D.info:id", tok("ND_displacement_float")),
             ];
-            pairs.extend_from_slice(extra);
-            let mut p = Problems::new("/M");
-            let m = convert_material("/M", &mat(&pairs), &loaded(false), &mut p);
-            (m.displacement, p.list.into_iter().map(|q| q.attribute).collect::<Vec<_>>())
+            let (m, p) = convert(&base, extra);
+            (m.displacement, p)
         };
         assert_eq!(with(&[]), (None, vec![]));
         assert_eq!(with(&[("/M/D.inputs:displacement", Value::Float(0.25)), ("/M/D.inputs:scale", Value::Float(2.0))]), (Some(FloatInput::Const(0.5)), vec![]));
