@@ -202,9 +202,9 @@ fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &Inter
 
 /// Transmittance along a shadow ray from `o` (already offset) in direction `d` over `dist`,
 /// starting in `medium`. Opaque and dielectric surfaces block; translucent preview surfaces
-/// attenuate by their opacity, thin walls by what they let straight through; surfaces that cast no shadows, or not those of `light` (its
-/// shadow-link collection), are skipped. `seed` (a sample
-/// value) seeds the numbers a depth-varying medium's ratio tracking draws.
+/// attenuate by their opacity, thin walls by what they let straight through; surfaces that
+/// cast no shadows, or not those of `light` (its shadow-link collection), are skipped. `seed`
+/// (a sample value) seeds the numbers a depth-varying medium's ratio tracking draws.
 /// Crossing a volume's box switches the medium: to the box's on entering; on leaving, to the
 /// medium of the boxes still entered (from `stack`, the path's, and those entered along the
 /// ray), else to `medium` or, if the ray started inside a box, to the medium of `stack`'s

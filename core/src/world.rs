@@ -826,14 +826,14 @@ impl World {
         }
     }
 
-    /// Whether instance `instance` casts the shadows of light `light` (its shadow-link
-    /// collection; the instance's own `casts_shadows` is separate).
     /// A light's shadow controls, where set.
     #[inline]
     pub fn shadow_controls(&self, light: usize) -> Option<&ShadowControls> {
         self.shadow_controls.get(light).and_then(Option::as_ref)
     }
 
+    /// Whether instance `instance` casts the shadows of light `light` (its shadow-link
+    /// collection; the instance's own `casts_shadows` is separate).
     pub fn casts_shadow_of(&self, light: usize, instance: u32) -> bool {
         self.shadow_links[light].as_ref().is_none_or(|m| m.get(instance as usize).copied().unwrap_or(false))
     }
@@ -1127,7 +1127,7 @@ impl World {
             use_specular_workflow: *use_specular_workflow,
             ..PreviewParams::default()
         };
-        let params = match extras.as_deref() {
+        match extras.as_deref() {
             Some(x) => {
                 let turn = self.float(&x.anisotropy_rotation, s);
                 if turn != 0.0 && turn.is_finite() {
@@ -1168,8 +1168,7 @@ impl World {
                 }
             }
             None => params,
-        };
-        params
+        }
     }
 }
 

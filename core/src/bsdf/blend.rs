@@ -9,7 +9,7 @@
 
 use super::lobes::Dielectric;
 use super::preview::Preview;
-use super::{flip, BsdfSample, TransportMode};
+use super::{flip, upper, BsdfSample, TransportMode};
 use crate::spectrum::SampledSpectrum;
 use glam::{Vec2, Vec3};
 
@@ -19,16 +19,6 @@ pub(crate) struct Blend {
     pub opaque: Preview,
     /// The dielectric's share, in (0, 1).
     pub t: f32,
-}
-
-/// ω mirrored to the upper side, where the preview stack is defined.
-#[inline]
-fn upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
-    if wo.z < 0.0 {
-        (flip(wo), flip(wi))
-    } else {
-        (wo, wi)
-    }
 }
 
 impl Blend {

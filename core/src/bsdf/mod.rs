@@ -179,6 +179,17 @@ fn flip(w: Vec3) -> Vec3 {
     Vec3::new(w.x, w.y, -w.z)
 }
 
+/// (ωo, ωi) mirrored to the upper side when ωo is below, where the reflection-only models
+/// are defined.
+#[inline]
+fn upper(wo: Vec3, wi: Vec3) -> (Vec3, Vec3) {
+    if wo.z < 0.0 {
+        (flip(wo), flip(wi))
+    } else {
+        (wo, wi)
+    }
+}
+
 impl Bsdf {
     /// Lambertian diffuse reflection.
     pub fn lambert(reflectance_: SampledSpectrum) -> Result<Bsdf, BsdfError> {
@@ -331,7 +342,7 @@ impl Bsdf {
 
     /// BSDF value (cosine excluded); zero for delta lobes.
     pub fn f(&self, wo: Vec3, wi: Vec3, mode: TransportMode) -> SampledSpectrum {
-        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        let (wo2, wi2) = upper(wo, wi);
         match &self.model {
             Model::Dielectric(d) => d.f(wo, wi, mode),
             Model::Sea(s) => s.f(wo, wi, mode),
@@ -345,7 +356,7 @@ impl Bsdf {
 
     /// Solid-angle density with which [`Self::sample_f`] produces ωi (delta lobes excluded).
     pub fn pdf(&self, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
-        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        let (wo2, wi2) = upper(wo, wi);
         match &self.model {
             Model::Dielectric(d) => d.pdf(wo, wi),
             Model::Sea(s) => s.pdf(wo, wi),
@@ -411,7 +422,7 @@ impl Bsdf {
     /// The diffuse lobes' share of [`Self::f`] (radiance mode), for splitting a contribution
     /// into the diffuse and specular light-path AOVs.
     pub fn f_diffuse(&self, wo: Vec3, wi: Vec3) -> SampledSpectrum {
-        let (wo2, wi2) = if wo.z < 0.0 { (flip(wo), flip(wi)) } else { (wo, wi) };
+        let (wo2, wi2) = upper(wo, wi);
         match &self.model {
             Model::Lambert(l) => l.f(wo2, wi2),
             Model::Preview(p) => p.f_diffuse_share(wo2, wi2),
