@@ -63,7 +63,7 @@ fn look_at(eye: Vec3, target: Vec3) -> Mat4 {
 }
 
 fn light(name: &str, shape: LightShape, transform: Mat4, intensity: f32) -> LightDesc {
-    LightDesc { name: name.into(), shape, transform, color: [1.0; 3], intensity, exposure: 0.0, normalize: true, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new() }
+    LightDesc { name: name.into(), shape, transform, color: [1.0; 3], intensity, exposure: 0.0, normalize: true, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() }
 }
 
 fn scene() -> SceneDesc {

@@ -30,7 +30,7 @@ pub fn scene(method: MediumMethod, target: Vec3, view_width: f32) -> SceneDesc {
     }
     // a uniform white sky of radiance 1 (irradiance π on the top): escaping paths of the
     // volumetric reference always find it, so the reference converges
-    s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: false, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new() });
+    s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: false, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
     // straight down onto `target`, the view `view_width` wide at the surface
     let eye = target + Vec3::Y * 4.0;
     let focal = 50.0;

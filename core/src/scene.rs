@@ -736,6 +736,21 @@ pub struct LightDesc {
     /// Light-to-world over the shutter as (time in seconds, matrix) keys when the light moves
     /// (empty: it stays at `transform`). Taken as a rigid move of the light from `transform`.
     pub motion: Vec<(f32, Mat4)>,
+    /// A dome's (or the sky's) `UsdLuxPortalLight`s, which guide its sampling
+    /// ([`crate::light::portal`]); ignored on other lights.
+    pub portals: Vec<PortalDesc>,
+}
+
+/// A `UsdLuxPortalLight`: the rectangle of `width` × `height` centred in its local XY plane,
+/// through which light passes towards its local −Z.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PortalDesc {
+    /// The portal's prim path, for messages.
+    pub name: String,
+    /// Portal-to-world (where the dome moves, the portal is where it is at `transform`).
+    pub transform: Mat4,
+    pub width: f32,
+    pub height: f32,
 }
 
 /// How strongly a light shows in materials' diffuse and specular responses (UsdLux `diffuse`,

@@ -501,6 +501,15 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
             problem(&mut p, &l.name, attr, "zero-area or invalid light shape; light dropped");
             return false;
         }
+        // a portal that cannot guide is dropped; the dome still lights everything
+        l.portals.retain(|portal| match crate::light::portal::Portals::new(&[(portal.transform, portal.width, portal.height)], 0.5) {
+            Ok(_) => true,
+            Err((_, e)) => {
+                let attr = if e.starts_with("size") { "inputs:width" } else { "xformOp" };
+                problem(&mut p, &portal.name, attr, format!("{}; the portal is dropped (the dome lights the scene without its guidance)", e.split_once(": ").map_or(e.as_str(), |x| x.1)));
+                false
+            }
+        });
         true
     });
 
@@ -643,7 +652,7 @@ mod tests {
         });
         s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() });
         s.lights.push(LightDesc {
-            shaping: None, response: Default::default(), motion: Vec::new(), shadow: Default::default(),
+            shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new(), shadow: Default::default(),
             name: "/World/Rect".into(),
             shape: LightShape::Rect { width: 0.0, height: 1.0, texture: None },
             transform: Mat4::IDENTITY,
@@ -656,9 +665,20 @@ mod tests {
             light_link: None,
             shadow_link: None,
         });
+        // a dome with a good portal and two bad ones
+        let portal = |name: &str, transform: Mat4, width: f32| crate::scene::PortalDesc { name: name.into(), transform, width, height: 1.0 };
+        let mut dome = s.lights[0].clone();
+        dome.name = "/World/Dome".into();
+        dome.shape = LightShape::Dome { texture: None };
+        dome.portals = vec![portal("/World/Window", Mat4::IDENTITY, 1.0), portal("/World/Thin", Mat4::IDENTITY, 0.0), portal("/World/Flat", Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0)), 1.0)];
+        s.lights.push(dome);
         s.camera.horizontal_aperture = 0.0;
         let (clean, probs) = validate(&s);
         let has = |item: &str, attr: &str| probs.iter().any(|p| p.item == item && p.attribute == attr);
+        assert!(has("/World/Thin", "inputs:width") && has("/World/Flat", "xformOp"), "{probs:?}");
+        // the rect is dropped, the dome stays with its good portal
+        assert_eq!(clean.lights.len(), 1);
+        assert_eq!(clean.lights[0].portals.iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["/World/Window"]);
         assert!(has("/World/Mesh", "points"), "{probs:?}");
         assert!(has("/World/Mesh", "faceVertexIndices"));
         assert!(has("/World/Points", "widths"));
@@ -667,7 +687,6 @@ mod tests {
         // only the good triangle survives; the degenerate (collinear) one is dropped too
         assert_eq!(clean.meshes[0].indices, vec![0, 1, 2]);
         assert_eq!(clean.spheres[0].centers, vec![Vec3::ONE]);
-        assert!(clean.lights.is_empty());
         assert_eq!(clean.camera.horizontal_aperture, 20.955);
     }
 

@@ -56,7 +56,7 @@ pub fn instance(name: &str, g: GeometryRef, m: Mat4, material: usize) -> Instanc
 }
 
 pub fn light(name: &str, shape: LightShape, transform: Mat4, intensity: f32, normalize: bool) -> LightDesc {
-    LightDesc { name: name.into(), shape, transform, color: [1.0; 3], intensity, exposure: 0.0, normalize, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new() }
+    LightDesc { name: name.into(), shape, transform, color: [1.0; 3], intensity, exposure: 0.0, normalize, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() }
 }
 
 pub fn dome(radiance: f32) -> LightDesc {

@@ -39,7 +39,7 @@ const std::vector<std::string>& RenderDelegate::GetSupportedRprimTypes() const {
 const std::vector<std::string>& RenderDelegate::GetSupportedSprimTypes() const {
     static const std::vector<std::string> types = {"camera", "material", "distantLight", "domeLight",
                                                    "sphereLight", "rectLight", "diskLight", "cylinderLight",
-                                                   "renderSettings"};
+                                                   "portalLight", "renderSettings"};
     return types;
 }
 

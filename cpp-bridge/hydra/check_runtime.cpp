@@ -256,7 +256,15 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
         const double m = s / (w * h);
         std::printf(" %.6f %.6f", m, std::sqrt(std::max(0.0, s2 / (w * h) - m * m) / (w * h)));
     }
-    std::printf("\n");
+    // the pixel noise of red: the RMS difference of horizontal neighbours over √2 (noise
+    // where the image is smooth)
+    double d2 = 0;
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x + 1 < w; ++x) {
+            const double d = double(px[(y * w + x + 1) * ch]) - px[(y * w + x) * ch];
+            d2 += d * d;
+        }
+    std::printf(" %.6f\n", std::sqrt(d2 / (2.0 * h * (w - 1))));
     buffer->Unmap();
     delegate->DestroyBprim(buffer);
     return 0;

@@ -424,6 +424,12 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         _tideBits |= ChangeTracker::DirtyDescription;
     } else {
         for (Param const& p : LightParams()) _Put(p.key, sd->GetLightParamValue(id, p.hd));
+        // a dome's portals (UsdImaging's scene indices answer them, empty where none are
+        // named: the dome then takes the portals no dome names)
+        if (typeId == "domeLight") {
+            VtValue const portals = sd->GetLightParamValue(id, HdTokens->portals);
+            if (portals.IsHolding<SdfPathVector>() && !portals.UncheckedGet<SdfPathVector>().empty()) _Put("portals", portals);
+        }
         _PutTideAttributes(sd, id);
         // Without the scene indices' `tide` container (UsdImaging's scene delegate, whose Get
         // reads attributes only) a sky's tide:sky:sun relationship cannot arrive: say so, and
@@ -1021,8 +1027,9 @@ TfTokenVector const& HdTideRenderDelegate::GetSupportedSprimTypes() const {
     // Hydra's renderSettings prims are bprims (HdRenderSettings; see CreateBprim).
     static const TfTokenVector t = [this] {
         TfTokenVector types;
+        // UsdImaging makes PortalLights `light` sprims
         for (std::string const& s : _tide->GetSupportedSprimTypes())
-            if (s != "renderSettings") types.emplace_back(s);
+            if (s != "renderSettings") types.emplace_back(s == "portalLight" ? HdPrimTypeTokens->light.GetString() : s);
         types.push_back(HdPrimTypeTokens->extComputation);
         return types;
     }();
@@ -1073,6 +1080,11 @@ void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
 HdSprim* HdTideRenderDelegate::CreateSprim(TfToken const& typeId, SdfPath const& sprimId) {
     // computations (skinning) stay in Hydra: rprims evaluate them when they sync
     if (typeId == HdPrimTypeTokens->extComputation) return new HdExtComputation(sprimId);
+    // UsdImaging gives only PortalLights the generic `light` type
+    if (typeId == HdPrimTypeTokens->light) {
+        tide::Sprim* portal = _tide->CreateSprim("portalLight", sprimId.GetString());
+        return portal ? new HdTideSprim<HdLight>(sprimId, "portalLight", portal) : nullptr;
+    }
     tide::Sprim* prim = _tide->CreateSprim(typeId.GetString(), sprimId.GetString());
     if (!prim) return nullptr;
     if (typeId == HdPrimTypeTokens->camera) return new HdTideSprim<HdCamera>(sprimId, typeId.GetString(), prim);

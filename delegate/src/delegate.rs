@@ -53,6 +53,8 @@ pub enum PrimType {
     Camera,
     Material,
     Light(LightKind),
+    /// A `UsdLuxPortalLight`: it guides domes' sampling and emits nothing.
+    Portal,
     RenderSettings,
     RenderBuffer,
 }
@@ -79,6 +81,7 @@ impl PrimType {
             "rectLight" => PrimType::Light(LightKind::Rect),
             "diskLight" => PrimType::Light(LightKind::Disk),
             "cylinderLight" => PrimType::Light(LightKind::Cylinder),
+            "portalLight" => PrimType::Portal,
             "renderSettings" => PrimType::RenderSettings,
             "renderBuffer" => PrimType::RenderBuffer,
             _ => return None,
@@ -87,7 +90,7 @@ impl PrimType {
 
     pub fn class(self) -> PrimClass {
         match self {
-            PrimType::Camera | PrimType::Material | PrimType::Light(_) | PrimType::RenderSettings => PrimClass::Sprim,
+            PrimType::Camera | PrimType::Material | PrimType::Light(_) | PrimType::Portal | PrimType::RenderSettings => PrimClass::Sprim,
             PrimType::RenderBuffer => PrimClass::Bprim,
             _ => PrimClass::Rprim,
         }
@@ -169,6 +172,7 @@ enum Piece {
     Rprim(RprimPiece),
     Material(MaterialPiece),
     Light(Option<LightPiece>),
+    Portal(Option<lux::PortalPiece>),
     Camera(CameraPiece),
     Settings(SettingsPiece),
     Buffer,
@@ -472,6 +476,7 @@ impl Delegate {
                 Piece::Material(material::convert_material(path, s, &textures, &mut p))
             }
             PrimType::Light(k) => Piece::Light(lux::convert_light(path, k, s, &mut p)),
+            PrimType::Portal => Piece::Portal(lux::convert_portal(s, &mut p)),
             PrimType::Camera => Piece::Camera(lux::convert_camera(path, s, &mut p)),
             PrimType::RenderSettings => Piece::Settings(lux::convert_settings(s, &mut p)),
             PrimType::RenderBuffer => {
@@ -1121,9 +1126,33 @@ impl Delegate {
             emitter_links.push(tide_core::scene::EmitterLinks { instance: inst.name.clone(), light_link: members(&scene.instances, &ml.light_link), shadow_link: members(&scene.instances, &ml.shadow_link) });
         }
         scene.emitter_links = emitter_links;
+        // portals: those a dome names, else those no dome names
+        let named: BTreeSet<&str> = self.cache.values().filter_map(|c| match &c.piece {
+            Piece::Light(Some(l)) => l.portals.as_ref(),
+            _ => None,
+        }).flatten().map(String::as_str).collect();
+        let portal_desc = |path: &str, pp: &lux::PortalPiece| tide_core::scene::PortalDesc { name: path.into(), transform: pp.transform, width: pp.width, height: pp.height };
+        let unnamed: Vec<_> = self.cache.iter().filter_map(|(path, c)| match &c.piece {
+            Piece::Portal(Some(pp)) if !named.contains(path.as_str()) => Some(portal_desc(path, pp)),
+            _ => None,
+        }).collect();
         for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
+            if matches!(desc.shape, LightShape::Dome { .. } | LightShape::Sky { .. }) {
+                desc.portals = match &l.portals {
+                    None => unnamed.clone(),
+                    Some(names) => names.iter().filter_map(|n| match self.cache.get(n).map(|c| &c.piece) {
+                        Some(Piece::Portal(Some(pp))) => Some(portal_desc(n, pp)),
+                        // an invisible or empty portal guides nothing, as it renders nothing
+                        Some(Piece::Portal(None)) => None,
+                        _ => {
+                            ap.push(problem(path, "portals", format!("'{n}' is not a PortalLight; ignored")));
+                            None
+                        }
+                    }).collect(),
+                };
+            }
             desc.light_link = members(&scene.instances, &l.light_link);
             desc.shadow_link = members(&scene.instances, &l.shadow_link);
             // a light that moves over the shutter (keys in seconds, as the instances')
@@ -1685,6 +1714,37 @@ mod tests {
         let i0 = &d.scene().instances[0];
         assert_eq!((i0.transforms.len(), i0.times.clone()), (1, vec![0.0]));
         assert_eq!(i0.transforms[0].w_axis.x, 1.0);
+    }
+
+    #[test]
+    fn domes_take_the_portals_they_name_else_those_no_dome_names() {
+        let mut d = Delegate::new();
+        let m = |x: f64| Value::Matrix([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, x, 0.0, 0.0, 1.0]);
+        for (path, x) in [("/Window", 1.0), ("/Door", 2.0), ("/Skylight", 3.0)] {
+            d.create_prim("portalLight", path);
+            d.set_attribute(path, "transform", m(x), None);
+        }
+        d.set_attribute("/Door", "inputs:width", Value::Float(0.8), None);
+        d.set_attribute("/Door", "inputs:height", Value::Float(2.0), None);
+        d.create_prim("domeLight", "/Named");
+        d.set_attribute("/Named", "portals", Value::Paths(vec!["/Door".into(), "/Nothing".into()]), None);
+        d.create_prim("domeLight", "/Unnamed");
+        d.create_prim("sphereLight", "/Lamp");
+        let p = d.commit_resources();
+        assert!(p.iter().any(|q| q.item == "/Named" && q.attribute == "portals" && q.message.contains("'/Nothing' is not a PortalLight")), "{p:?}");
+        let portals = |d: &Delegate, name: &str| d.scene().lights.iter().find(|l| l.name == name).unwrap().portals.clone();
+        let named = portals(&d, "/Named");
+        assert_eq!(named.len(), 1);
+        assert_eq!((named[0].name.as_str(), named[0].width, named[0].height, named[0].transform.w_axis.x), ("/Door", 0.8, 2.0, 2.0));
+        assert_eq!(portals(&d, "/Unnamed").iter().map(|p| p.name.as_str()).collect::<Vec<_>>(), ["/Skylight", "/Window"]);
+        assert!(portals(&d, "/Lamp").is_empty());
+        // a portal of zero area is reported and guides nothing; an invisible one is quietly out
+        d.set_attribute("/Window", "inputs:width", Value::Float(0.0), None);
+        d.set_attribute("/Skylight", "visibility", tok("invisible"), None);
+        let p = d.commit_resources();
+        assert!(p.iter().any(|q| q.item == "/Window" && q.attribute == "width"), "{p:?}");
+        assert!(portals(&d, "/Unnamed").is_empty());
+        assert!(d.scene().lights.len() == 3, "portals are not lights");
     }
 
     #[test]

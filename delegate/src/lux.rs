@@ -40,6 +40,45 @@ pub struct LightPiece {
     /// The light's light-to-world samples (frame offsets; one at 0 when it does not move): the
     /// assembly keys `desc.motion` from those over the shutter.
     pub transforms: Vec<(f64, Mat4)>,
+    /// A dome's `portals` relationship: the `portalLight` prims that guide its sampling (None:
+    /// unauthored; the assembly then gives it the portals no dome names).
+    pub portals: Option<Vec<String>>,
+}
+
+/// A `UsdLuxPortalLight`: where it is and its size (see [`tide_core::scene::PortalDesc`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PortalPiece {
+    pub transform: Mat4,
+    pub width: f32,
+    pub height: f32,
+}
+
+/// Converts a portal; None (with a problem) for one of zero size, None for an invisible one.
+pub fn convert_portal(store: &AttrStore, p: &mut Problems) -> Option<PortalPiece> {
+    if store.token_or("visibility", &["inherited", "invisible"], "inherited", p) == "invisible" {
+        return None;
+    }
+    let transform = light_transform(store, p);
+    let (width, height) = (nonneg(store, "width", 1.0, p), nonneg(store, "height", 1.0, p));
+    if width * height == 0.0 {
+        p.add(if width == 0.0 { "width" } else { "height" }, "the portal has zero area; dropped (its dome lights the scene without it)");
+        return None;
+    }
+    Some(PortalPiece { transform, width, height })
+}
+
+/// A light's `transform` (identity, reported, when it is not a finite matrix).
+fn light_transform(store: &AttrStore, p: &mut Problems) -> Mat4 {
+    match store.get("transform") {
+        None => Mat4::IDENTITY,
+        Some(v) => match v.as_matrix() {
+            Some(m) if m.is_finite() => m,
+            _ => {
+                p.add("transform", "expected a finite 4x4 matrix; using identity");
+                Mat4::IDENTITY
+            }
+        },
+    }
 }
 
 /// A UsdCollectionAPI collection of prim paths as the reader sends it
@@ -257,16 +296,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     if store.token_or("visibility", &["inherited", "invisible"], "inherited", p) == "invisible" {
         return None;
     }
-    let transform = match store.get("transform") {
-        None => Mat4::IDENTITY,
-        Some(v) => match v.as_matrix() {
-            Some(m) if m.is_finite() => m,
-            _ => {
-                p.add("transform", "expected a finite 4x4 matrix; using identity");
-                Mat4::IDENTITY
-            }
-        },
-    };
+    let transform = light_transform(store, p);
     let mut texture = None;
     let mut sky = None;
     let tex_key = |wrap_s, wrap_t, dome| {
@@ -334,7 +364,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         desc: LightDesc {
             shaping,
             response,
-            motion: Vec::new(),
+            motion: Vec::new(), portals: Vec::new(),
             name: path.into(),
             shape,
             transform,
@@ -359,6 +389,15 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         },
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
         transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p) } else { vec![(0.0, transform)] },
+        portals: match kind {
+            LightKind::Dome => store.get("portals").map(|v| {
+                v.to_strings().unwrap_or_else(|| {
+                    p.add("portals", format!("expected paths, got a {}; no portals", v.kind()));
+                    Vec::new()
+                })
+            }),
+            _ => None,
+        },
     })
 }
 

@@ -5,7 +5,7 @@ import math
 import pytest
 from pxr import Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import bind, camera, load, preview_material, settings
+from conftest import bind, camera, lambert_material, load, preview_material, render, settings
 
 
 def _good(stage):
@@ -251,12 +251,18 @@ def test_value_rejected_by_the_delegate(stage, delegate):
     assert delegate.prims["/Other"] == "sphere" and delegate.value("/Good", "radius") == 1.0
 
 
-def test_a_portal_light_is_reported_and_the_dome_still_lights(stage, delegate):
+def test_a_portal_of_zero_area_is_reported_and_the_dome_still_lights(renderer, stage):
+    """A portal of zero width is reported on its width; the dome lights the scene as it would
+    with no portal: a diffuse panel under it shows its albedo."""
     from pxr import UsdLux
-    _good(stage)
-    UsdLux.DomeLight.Define(stage, "/Dome")
-    UsdLux.PortalLight.Define(stage, "/Window")
-    _, problems = load(stage, delegate)
-    assert [(p.prim, p.attribute) for p in problems] == [("/Window", "type")]
-    assert "dome" in problems[0].message
-    assert delegate.prims["/Dome"] == "domeLight" and "/Window" not in delegate.prims
+    from conftest import near, panel, top_camera, white_dome
+    top_camera(stage)
+    white_dome(stage)
+    bind(panel(stage, "/Panel").GetPrim(), lambert_material(stage, "/Looks/Grey", (0.5, 0.5, 0.5)))
+    UsdLux.PortalLight.Define(stage, "/Window").CreateWidthAttr(0.0)
+    settings(stage, res=(8, 8), samples=16, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert [(p.prim, p.attribute) for p in problems] == [("/Window", "width")], problems
+    ok, why = near(img, (0.5, 0.5, 0.5))
+    assert ok, why

@@ -304,7 +304,7 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
     let x = Vec3::Y.cross(z).normalize();
     let y = z.cross(x);
     let xf = glam::Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), glam::Vec4::W);
-    s.lights.push(LightDesc { name: "/sun".into(), shape: LightShape::Distant { angle_deg: 0.53 }, transform: xf, color: [1.0; 3], intensity: 2.0, exposure: 0.0, normalize: true, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new() });
+    s.lights.push(LightDesc { name: "/sun".into(), shape: LightShape::Distant { angle_deg: 0.53 }, transform: xf, color: [1.0; 3], intensity: 2.0, exposure: 0.0, normalize: true, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
     let mut problems = Vec::new();
     let world = World::build(&s, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
     assert!(problems.is_empty(), "{problems:?}");
@@ -359,7 +359,7 @@ fn diffusion_box(lo: Vec3, hi: Vec3, sigma_s: f32) -> crate::scene::SceneDesc {
 fn dome_box_world() -> World {
     use crate::scene::*;
     let mut s = diffusion_box(Vec3::new(-1.0, -0.5, -1.5), Vec3::new(1.0, 0.0, 1.5), 10.0);
-    s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: glam::Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new() });
+    s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: glam::Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
     let mut problems = Vec::new();
     let w = World::build(&s, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
     assert!(problems.is_empty(), "{problems:?}");

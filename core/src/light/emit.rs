@@ -22,7 +22,7 @@
 //! | sphere, rect, disk, cylinder side, triangle | uniform by area, 1/A | cosine about the emitting normal, cos/π (two-sided triangles: either side with probability ½, cos/2π) |
 //! | point | the point (delta, `pdf_pos` 1) | uniform sphere, 1/4π |
 //! | distant | uniform on a disk perpendicular to the sun, 1/(πR′²) | uniform in the sun's cone, 1/(2π(1 − cos θ)) (delta for angle 0: `pdf_dir` 1) |
-//! | dome, sky | uniform on a disk perpendicular to the sampled direction, 1/(πR²) | the dome's own distribution (as for `sample_li`) |
+//! | dome, sky | uniform on a disk perpendicular to the sampled direction, 1/(πR²) | the dome's own distribution (as for `sample_li`; portals aside) |
 //!
 //! Infinite lights start their rays on a disk derived from an [`EmissionDisk`] `{center,
 //! radius}` (a sphere the caller wants lit: the scene's bounding sphere, or the bounds of the
@@ -306,8 +306,9 @@ impl Light {
                 Some(LeSample { ray_o, ray_d: d, l: li.l, pdf_pos: 1.0 / (PI * r * r), pdf_dir: li.pdf, n_light, delta_pos: false, delta_dir: li.is_delta })
             }
             Light::Dome(_) | Light::Sky(_) => {
+                // the dome's own directions: portals guide receivers, not emission
                 let ctx = LightSampleContext::new(disk.center, Vec3::ZERO);
-                let li = self.sample_li(&ctx, u_dir, lambda)?;
+                let li = self.sample_environment(&ctx, u_dir, lambda, false)?;
                 if li.l.is_black() {
                     return None;
                 }
@@ -376,7 +377,7 @@ impl Light {
                 (1.0 / (PI * r * r), pdf_dir)
             }
             Light::Dome(_) | Light::Sky(_) => {
-                let pdf_dir = self.pdf_li(&LightSampleContext::new(disk.center, Vec3::ZERO), -ray_d, None);
+                let pdf_dir = self.environment_pdf((-ray_d).normalize());
                 let r = disk.radius;
                 let pdf_pos = if line_hits_disk(ray_o, ray_d, disk.center, ray_d, r) { 1.0 / (PI * r * r) } else { 0.0 };
                 (pdf_pos, pdf_dir)

@@ -26,7 +26,8 @@
 //! cylinders and triangles by area; distant lights uniformly in their cone; domes by a 2D
 //! piecewise-constant distribution of texel luminance × sin θ (uniformly without a texture);
 //! the Hošek–Wilkie sky (`LightShape::Sky`) by its tabulated luminance over the upper
-//! hemisphere ([`crate::sky::SkySampler`]).
+//! hemisphere ([`crate::sky::SkySampler`]); a dome or sky with portals partly through the
+//! portals that face the receiver ([`portal`]).
 //!
 //! The sky and its physical sun: `LightShape::Sky` is [`Light::Sky`], an infinite light like
 //! a dome (not delta, `le`/`pdf_li` over the upper hemisphere, zero below the horizon, power
@@ -50,6 +51,7 @@ pub mod distrib;
 pub mod dome_format;
 pub mod emit;
 pub mod ies;
+pub mod portal;
 pub mod sampler;
 pub mod shaping;
 
@@ -164,6 +166,8 @@ pub struct DomeLight {
     pub emission: Emission,
     pub map: Option<Box<DomeMap>>,
     pub visible_to_camera: bool,
+    /// Portals guiding the sampling ([`portal`]); None: the dome's own sampling only.
+    pub portals: Option<Box<portal::Portals>>,
     scene_center: Vec3,
     scene_radius: f32,
 }
@@ -178,6 +182,8 @@ pub struct SkyDomeLight {
     /// formulas (4π · mean · πR²); `luminance` is that spectrum's exact Y (scale 1).
     pub emission: Emission,
     pub visible_to_camera: bool,
+    /// Portals guiding the sampling ([`portal`]).
+    pub portals: Option<Box<portal::Portals>>,
     scene_center: Vec3,
     scene_radius: f32,
 }
@@ -203,7 +209,7 @@ impl SkyDomeLight {
             .collect();
         let spectrum = Spectrum::tabulated(&lambda, &value).map_err(|e| err("tide:sky:model", format!("mean sky spectrum: {e}")))?;
         let light = crate::sky::SkyLight::new(sky, scale).map_err(|e| e.to_string())?;
-        Ok(SkyDomeLight { sky: light, emission: Emission { spectrum, scale: 1.0, luminance }, visible_to_camera, scene_center: Vec3::ZERO, scene_radius: 1.0 })
+        Ok(SkyDomeLight { sky: light, emission: Emission { spectrum, scale: 1.0, luminance }, visible_to_camera, portals: None, scene_center: Vec3::ZERO, scene_radius: 1.0 })
     }
 }
 
@@ -866,6 +872,91 @@ impl DomeLight {
     }
 }
 
+/// The portals of a dome's description, world space, sampled with `share`; None without any.
+fn portals_of(desc: &LightDesc, share: f32) -> Result<Option<Box<portal::Portals>>, String> {
+    if desc.portals.is_empty() {
+        return Ok(None);
+    }
+    let rects: Vec<_> = desc.portals.iter().map(|p| (p.transform, p.width, p.height)).collect();
+    match portal::Portals::new(&rects, share) {
+        Ok(ps) => Ok(Some(Box::new(ps))),
+        Err((i, e)) => Err(err("portals", format!("'{}': {e}", desc.portals[i].name))),
+    }
+}
+
+impl Light {
+    /// A dome's or the sky's portals.
+    #[inline]
+    fn portals(&self) -> Option<&portal::Portals> {
+        match self {
+            Light::Dome(d) => d.portals.as_deref(),
+            Light::Sky(d) => d.portals.as_deref(),
+            _ => None,
+        }
+    }
+
+    /// An infinite light's own density of unit direction `wi`, portals aside.
+    #[inline]
+    pub(crate) fn environment_pdf(&self, wi: Vec3) -> f32 {
+        match self {
+            Light::Dome(d) => d.pdf(wi),
+            Light::Sky(d) => d.sky.pdf_li(wi),
+            _ => 0.0,
+        }
+    }
+
+    /// A direction by an infinite light's own sampling, portals aside.
+    #[inline]
+    fn environment_direction(&self, u: Vec2) -> Option<Vec3> {
+        match self {
+            Light::Dome(d) => match &d.map {
+                None => Some(sample_uniform_sphere(u)),
+                Some(m) => {
+                    if !(m.distrib.integral() > 0.0) {
+                        return None;
+                    }
+                    let (uv, _) = m.distrib.sample([u.x, u.y]);
+                    Some((d.rot * latlong_direction(uv[0], uv[1])).normalize())
+                }
+            },
+            Light::Sky(d) => d.sky.sampler.sample(u).map(|(wi, _)| wi),
+            _ => None,
+        }
+    }
+
+    /// `sample_li` of a dome or the sky; `guided`: through its portals where they face
+    /// `ctx.p` (else by its own sampling alone, as light emission samples it).
+    pub(crate) fn sample_environment(&self, ctx: &LightSampleContext, u: Vec2, lambda: &SampledWavelengths, guided: bool) -> Option<LightLiSample> {
+        let (centre, radius) = match self {
+            Light::Dome(d) => (d.scene_center, d.scene_radius),
+            Light::Sky(d) => (d.scene_center, d.scene_radius),
+            _ => return None,
+        };
+        let (wi, pdf) = match self.portals().filter(|_| guided) {
+            None => {
+                let wi = self.environment_direction(u)?;
+                (wi, self.environment_pdf(wi.normalize()))
+            }
+            Some(ps) => {
+                let (strategy, total) = ps.sample(ctx.p, u);
+                let (wi, through) = match strategy {
+                    portal::Strategy::Portal(wi, i) => (wi?, Some(i)),
+                    portal::Strategy::Own(u) => (self.environment_direction(u)?, None),
+                };
+                // the density of the direction itself, as `pdf_li` gives it
+                let wn = wi.normalize();
+                (wi, ps.mix(ctx.p, wn, self.environment_pdf(wn), total, through))
+            }
+        };
+        if !(pdf > 0.0) {
+            return None;
+        }
+        let l = self.le(wi, lambda);
+        let far = (ctx.p - centre).length() + 2.0 * radius;
+        Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
+    }
+}
+
 impl Light {
     /// Builds a light from its UsdLux description. `textures` is the scene's texture table
     /// (the dome's lat-long map indexes into it). Errors name the attribute: "radius: ...".
@@ -963,7 +1054,8 @@ impl Light {
                 if let Some(mp) = &map {
                     em.luminance = mp.mean_luminance;
                 }
-                Light::Dome(DomeLight { rot, emission: em, map, visible_to_camera: vis, scene_center: Vec3::ZERO, scene_radius: 1.0 })
+                let portals = portals_of(desc, if map.is_some() { portal::PORTAL_SHARE_MAPPED } else { portal::PORTAL_SHARE })?;
+                Light::Dome(DomeLight { rot, emission: em, map, visible_to_camera: vis, portals, scene_center: Vec3::ZERO, scene_radius: 1.0 })
             }
             LightShape::Sky { turbidity, ground_albedo, sun_direction, scale: units } => {
                 let units = check_length("tide:sky:scale", *units)?;
@@ -973,7 +1065,8 @@ impl Light {
                 if !s.is_finite() {
                     return Err(err("exposure", format!("intensity × 2^exposure × sky scale overflows ({intensity} × 2^{exposure} × {units})")));
                 }
-                Light::Sky(Box::new(SkyDomeLight::new(sky, s, vis)?))
+                let portals = portals_of(desc, portal::PORTAL_SHARE_MAPPED)?;
+                Light::Sky(Box::new(SkyDomeLight { portals, ..SkyDomeLight::new(sky, s, vis)? }))
             }
             LightShape::SkySun { zenith, turbidity, scale: units } => {
                 let units = check_length("tide:sky:scale", *units)?;
@@ -1411,37 +1504,7 @@ impl Light {
                 };
                 Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta, p_light: ctx.p + wi * (2.0 * d.scene_radius), n_light: -wi })
             }
-            Light::Dome(d) => {
-                let wi = match &d.map {
-                    None => sample_uniform_sphere(u),
-                    Some(m) => {
-                        if !(m.distrib.integral() > 0.0) {
-                            return None;
-                        }
-                        let (uv, _) = m.distrib.sample([u.x, u.y]);
-                        (d.rot * latlong_direction(uv[0], uv[1])).normalize()
-                    }
-                };
-                // radiance and density from the direction itself, exactly as `le` and `pdf_li` see it
-                let pdf = d.pdf(wi);
-                if !(pdf > 0.0) {
-                    return None;
-                }
-                let l = d.le(wi, lambda);
-                let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
-                Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
-            }
-            Light::Sky(d) => {
-                let (wi, _) = d.sky.sampler.sample(u)?;
-                // radiance and density through `le` and `pdf_li` themselves, bit for bit
-                let pdf = self.pdf_li(ctx, wi, None);
-                if !(pdf > 0.0) {
-                    return None;
-                }
-                let l = self.le(wi, lambda);
-                let far = (ctx.p - d.scene_center).length() + 2.0 * d.scene_radius;
-                Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
-            }
+            Light::Dome(_) | Light::Sky(_) => self.sample_environment(ctx, u, lambda, true),
             Light::Sphere(s) => {
                 let v = s.center - ctx.p;
                 let d2 = v.length_squared();
@@ -1531,8 +1594,11 @@ impl Light {
                     0.0
                 }
             }
-            Light::Dome(d) => d.pdf(wi.normalize()),
-            Light::Sky(d) => d.sky.pdf_li(wi.normalize()),
+            Light::Dome(_) | Light::Sky(_) => {
+                let wi = wi.normalize();
+                let own = self.environment_pdf(wi);
+                self.portals().map_or(own, |ps| ps.pdf(ctx.p, wi, own))
+            }
             Light::Sphere(s) => {
                 let v = s.center - ctx.p;
                 let d2 = v.length_squared();

@@ -9,13 +9,14 @@ use crate::spectrum::{uplift, SampledWavelengths};
 use crate::testing::chi2::{chi2_sphere, Chi2Config, TestRng};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
-/// Number of χ² runs in this file, for the Šidák correction of the significance level.
-const N_CHI2: usize = 31;
+/// Number of χ² runs through `check_sampling` (here and in `portal/tests.rs`), for the Šidák
+/// correction of the significance level.
+const N_CHI2: usize = 35;
 const ALPHA: f64 = 0.01;
 
 pub(crate) fn desc(shape: LightShape, transform: Mat4) -> LightDesc {
     LightDesc {
-        shaping: None, response: Default::default(), motion: Vec::new(), shadow: Default::default(),
+        shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new(), shadow: Default::default(),
         name: "/light".into(),
         shape,
         transform,
@@ -55,7 +56,7 @@ fn cfg(seed: u64) -> Chi2Config {
 /// χ² of `sample_li` against `pdf_li` seen from `p`, plus per-sample consistency of the
 /// returned pdf, radiance and geometry with `pdf_li`, `l`/`le` and `intersect`.
 /// Returns (pdf integral, success rate).
-fn check_sampling(name: &str, light: &Light, p: Vec3, seed: u64) -> (f64, f64) {
+pub(crate) fn check_sampling(name: &str, light: &Light, p: Vec3, seed: u64) -> (f64, f64) {
     let ctx = LightSampleContext::new(p, Vec3::ZERO);
     let lam = lambda();
     // consistency on a few thousand samples
@@ -241,7 +242,7 @@ fn constant_dome_sampling_matches_its_pdf() {
 }
 
 /// A Hošek–Wilkie sky whose zenith is the tilted frame's +Y, the sun `elev` above its horizon.
-fn sky_desc(elev_deg: f32, intensity: f32) -> LightDesc {
+pub(crate) fn sky_desc(elev_deg: f32, intensity: f32) -> LightDesc {
     let m = tilt();
     let up = m.transform_vector3(Vec3::Y).normalize();
     let f = crate::math::Frame::from_normal(up);
@@ -306,7 +307,7 @@ fn physical_sun_irradiance_is_the_solar_models() {
 }
 
 /// A 64×32 lat-long map: dim background, a bright 3×2-texel hot spot, and a black band.
-fn hot_spot_texture() -> TextureDesc {
+pub(crate) fn hot_spot_texture() -> TextureDesc {
     let (w, h) = (64usize, 32usize);
     let mut pixels = Vec::with_capacity(w * h * 3);
     for y in 0..h {

@@ -12,7 +12,7 @@ import zlib
 RPRIMS = {"mesh", "basisCurves", "points", "sphere", "cube", "cylinder", "cone", "capsule", "plane",
           "tideOcean", "volume"}
 SPRIMS = {"camera", "material", "distantLight", "domeLight", "sphereLight", "rectLight",
-          "diskLight", "cylinderLight", "renderSettings"}
+          "diskLight", "cylinderLight", "portalLight", "renderSettings"}
 BPRIMS = {"renderBuffer"}
 _CHANNELS = {"float": 1, "float2": 2, "float3": 3, "float4": 4}
 

@@ -625,9 +625,7 @@ class Reader:
             elif prim.IsA(UsdGeom.Camera):
                 self._eval_camera(prim)
             elif prim.IsA(UsdLux.PortalLight):
-                # a portal only guides the dome's sampling: the image is the same without it
-                self.problem(prim.GetPath(), "type", "portal lights are not used; the dome "
-                             "lights through the scene's openings without it (with more noise)")
+                self._eval_portal(prim)
             elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
                 self.problem(prim.GetPath(), "type",
                              "light type '%s' is not supported; dropped" % type_name)
@@ -2047,8 +2045,27 @@ class Reader:
         if zero:
             self.problem(path, zero, "zero-area light; dropped")
             return
+        if type_name == "domeLight":
+            # the portals that guide the dome's sampling (unauthored: those no dome names)
+            rel = prim.GetRelationship("portals")
+            if rel and rel.HasAuthoredTargets():
+                st.set("portals", ("paths", tuple(str(t) for t in rel.GetForwardedTargets())))
         self._tide_attrs(prim, st)
         _link_collections(UsdLux.LightAPI(prim), st)
+        self._desired[path] = st
+
+    def _eval_portal(self, prim):
+        """A PortalLight: a rectangle that guides domes' sampling; it emits nothing."""
+        path = str(prim.GetPath())
+        st = _PrimState("sprim", "portalLight", path)
+        st.set("transform", None, self._xform_samples(self._world(prim), [prim]))
+        st.set("visibility", ("token", "inherited"))
+        for name in ("inputs:width", "inputs:height"):
+            v = self._attr(prim, name, 1.0)
+            if not math.isfinite(v):
+                self.problem(path, name, "not a finite number; using 1")
+                v = 1.0
+            st.set(name, ("float", float(v)))
         self._desired[path] = st
 
     def _eval_camera(self, prim):
