@@ -182,7 +182,7 @@ fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &Inter
                 return Boundary::False;
             }
         }
-        Boundary::Real { eta: d.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
+        Boundary::Real { eta: me.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
     } else {
         // leaving
         if stack.contains(s.instance) {
@@ -190,12 +190,12 @@ fn classify_dielectric(world: &World, s: &SurfaceHit, front: bool, stack: &Inter
                 return Boundary::False;
             }
             let after = stack.without(s.instance);
-            Boundary::Real { eta: d.ior / after.ior(), medium_front: after.medium(), medium_back: me.medium, enter: me }
+            Boundary::Real { eta: me.ior / after.ior(), medium_front: after.medium(), medium_back: me.medium, enter: me }
         } else {
             // leaving an object the path was not known to be inside (an open surface seen
             // from behind, or a camera placed inside without a medium): treat the back as
             // this object and the front as the current surroundings
-            Boundary::Real { eta: d.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
+            Boundary::Real { eta: me.ior / stack.ior(), medium_front: stack.medium(), medium_back: me.medium, enter: me }
         }
     }
 }

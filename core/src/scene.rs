@@ -314,6 +314,10 @@ pub enum SurfaceModel {
 pub struct WaterDesc {
     pub ior: f32,
     pub dispersion: bool,
+    /// A glass's dispersion: its Abbe number, n(λ) then Cauchy's through `ior` at 587.56 nm
+    /// ([`crate::water::abbe_spectrum`]; MaterialX's transmission dispersion). Unused with
+    /// `dispersion` (Quan–Fry); None: `ior` at every wavelength.
+    pub abbe: Option<f32>,
     pub temperature: f32,
     pub salinity: f32,
     pub roughness: f32,
@@ -345,6 +349,7 @@ impl Default for WaterDesc {
         WaterDesc {
             ior: 1.333,
             dispersion: false,
+            abbe: None,
             temperature: 20.0,
             salinity: 0.0,
             roughness: 0.0,

@@ -125,7 +125,8 @@ pub struct DielectricMat {
     /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane, share
     /// of the Cox–Munk slope variance the facets carry).
     pub sea: Option<(f32, Vec3, f32)>,
-    /// Spectral IOR n(λ) (Quan–Fry) when the water is dispersive; `ior` is then n(589 nm).
+    /// Spectral IOR n(λ) (Quan–Fry, or a glass's from its Abbe number) when the interface is
+    /// dispersive; `ior` is then n(589 nm).
     pub dispersion: Option<Spectrum>,
     /// What each transmission multiplies the light by (None: clear).
     pub tint: Option<ColorParam>,
@@ -621,6 +622,14 @@ impl World {
                                     None
                                 }
                             }
+                        } else if let Some(v) = w.abbe {
+                            match crate::water::abbe_spectrum(w.ior, v) {
+                                Ok(n) => Some(n),
+                                Err(e) => {
+                                    problems.push(Problem { item: m.name.clone(), attribute: "abbe".into(), message: format!("{e}; no dispersion") });
+                                    None
+                                }
+                            }
                         } else {
                             None
                         };
@@ -1097,7 +1106,7 @@ impl World {
         // layer: the interface's share is (1 − metal) × transmission, and the opaque part's
         // metal is rescaled to keep its own share. The opaque part meets the index outside
         // the body from either side, as one BSDF whichever way it is seen.
-        let mut p = self.preview_params(&b.1, s, lambda, dm.ior / eta, frame);
+        let mut p = self.preview_params(&b.1, s, lambda, dm.ior_at(lambda) / eta, frame);
         let share = self.float(&b.0, s).clamp(0.0, 1.0) * (1.0 - p.metallic);
         p.metallic = if share < 1.0 { (p.metallic / (1.0 - share)).min(1.0) } else { 0.0 };
         Bsdf::blend(clear, Bsdf::preview(p)?, share)

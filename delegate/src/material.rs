@@ -1011,7 +1011,7 @@ mod tests {
             ("/M/SR.inputs:emission", f(2.0)),
             ("/M/SR.inputs:emission_color", c3([0.1, 0.2, 0.3])),
             ("/M/SR.inputs:opacity", c3([0.5, 0.5, 0.5])),
-            ("/M/SR.inputs:transmission_dispersion", f(0.5)),
+            ("/M/SR.inputs:transmission_scatter", c3([0.5, 0.5, 0.5])),
         ]);
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(false), &mut p);
@@ -1027,7 +1027,7 @@ mod tests {
         assert_eq!(ps.emissive_color, ColorInput::Const([0.2, 0.4, 0.6]));
         assert_eq!(ps.opacity, FloatInput::Const(0.5));
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();
-        assert_eq!(attrs, ["/M/SR.inputs:transmission_dispersion"], "{:?}", p.list);
+        assert_eq!(attrs, ["/M/SR.inputs:transmission_scatter"], "{:?}", p.list);
 
         // no specular on a non-metal: a plain diffuse; transmission: a clear dielectric
         let plain = mat(&[("surface", Value::Path("/M/SR".into())), ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader")), ("/M/SR.inputs:specular", f(0.0))]);
@@ -1237,7 +1237,7 @@ mod tests {
             ("/M/O.inputs:emission_luminance", f(2.0)),
             ("/M/O.inputs:emission_color", c3([0.1, 0.2, 0.3])),
             ("/M/O.inputs:geometry_opacity", f(0.5)),
-            ("/M/O.inputs:transmission_dispersion_scale", f(0.5)),
+            ("/M/O.inputs:transmission_scatter", c3([0.5, 0.5, 0.5])),
         ]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!("{:?}", m.desc.surface) };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
@@ -1245,7 +1245,7 @@ mod tests {
         assert_eq!((ps.metallic.clone(), ps.roughness.clone(), ps.ior), (FloatInput::Const(0.3), FloatInput::Const(0.1), 1.4));
         assert_eq!((ps.clearcoat.clone(), ps.clearcoat_roughness.clone()), (FloatInput::Const(0.2), FloatInput::Const(0.0)));
         assert_eq!((ps.emissive_color.clone(), ps.opacity.clone()), (ColorInput::Const([0.2, 0.4, 0.6]), FloatInput::Const(0.5)));
-        assert_eq!(p, ["/M/O.inputs:transmission_dispersion_scale"]);
+        assert_eq!(p, ["/M/O.inputs:transmission_scatter"]);
     }
 
     /// The inputs UsdPreviewSurface lacks ride along as the surface's extras: the specular's
@@ -1425,6 +1425,32 @@ mod tests {
         let (w, p) = glass(&[("/M/G.inputs:transmission_color.connect", tok("/M/C.outputs:out")), ("/M/C.info:id", tok("ND_geompropvalue_color3")), ("/M/C.inputs:geomprop", Value::String("tint".into()))]);
         assert!(matches!(w.tint, Some(ColorInput::Primvar(_))), "{:?}", w.tint);
         assert!(p.is_empty(), "{p:?}");
+    }
+
+    /// A transmission's dispersion gives the interface an Abbe number: Standard Surface's input
+    /// is the number, OpenPBR's number is divided by its scale; 0 is none, a negative one is
+    /// reported.
+    #[test]
+    fn materialx_dispersion_is_an_abbe_number() {
+        let f = |x: f64| Value::Float(x);
+        let abbe = |id: &str, inputs: &[(&str, Value)]| {
+            let weight = if id.contains("open_pbr") { "/M/G.inputs:transmission_weight" } else { "/M/G.inputs:transmission" };
+            let (m, p) = convert(&[("surface", Value::Path("/M/G".into())), ("/M/G.info:id", tok(id)), (weight, f(1.0))], inputs);
+            let SurfaceDesc::Water(w) = m.desc.surface else { panic!("{:?}", m.desc.surface) };
+            (w.abbe, p)
+        };
+        let (ss, pbr) = ("ND_standard_surface_surfaceshader", "ND_open_pbr_surface_surfaceshader");
+        assert_eq!(abbe(ss, &[]), (None, vec![]));
+        assert_eq!(abbe(ss, &[("/M/G.inputs:transmission_dispersion", f(40.0))]), (Some(40.0), vec![]));
+        assert_eq!(abbe(ss, &[("/M/G.inputs:transmission_dispersion", f(-3.0))]), (None, vec!["/M/G.inputs:transmission_dispersion".to_string()]));
+        assert_eq!(abbe(pbr, &[]), (None, vec![]));
+        assert_eq!(abbe(pbr, &[("/M/G.inputs:transmission_dispersion_scale", f(0.5))]), (Some(40.0), vec![]));
+        assert_eq!(abbe(pbr, &[("/M/G.inputs:transmission_dispersion_scale", f(0.5)), ("/M/G.inputs:transmission_dispersion_abbe_number", f(30.0))]), (Some(60.0), vec![]));
+        assert_eq!(abbe(pbr, &[("/M/G.inputs:transmission_dispersion_scale", f(-1.0))]), (None, vec!["/M/G.inputs:transmission_dispersion_scale".to_string()]));
+        // a subsurface-only surface has no transmission to disperse
+        let (m, _) = convert(&[("surface", Value::Path("/M/G".into())), ("/M/G.info:id", tok(ss)), ("/M/G.inputs:subsurface", f(1.0)), ("/M/G.inputs:transmission_dispersion", f(40.0))], &[]);
+        let SurfaceDesc::Water(w) = m.desc.surface else { panic!() };
+        assert_eq!(w.abbe, None);
     }
 
     /// A thin wall has no body: a Standard Surface pane passes its transmission straight

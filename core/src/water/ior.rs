@@ -62,3 +62,25 @@ pub fn quan_fry_spectrum(salinity: f32, temperature: f32) -> Result<crate::spect
         lambda.iter().map(|&l| quan_fry_unchecked(salinity as f64, temperature as f64, l as f64) as f32).collect();
     Ok(crate::spectrum::Spectrum::tabulated(&lambda, &value)?)
 }
+
+/// Fraunhofer lines (nm) of the Abbe number V = (n_d − 1) / (n_F − n_C).
+pub const ABBE_LINES: (f64, f64, f64) = (486.13, 587.56, 656.27);
+
+/// n(λ) of a glass of index `n_d` at the d line and Abbe number `abbe`, as OpenPBR defines it:
+/// Cauchy's n(λ) = A + B / λ² through n_d, with B = (n_d − 1) / (V (λ_F⁻² − λ_C⁻²)) (so that
+/// its Abbe number is V exactly), tabulated over 360–830 nm (1 nm nodes). Errors name the
+/// argument that is not a positive finite number (`n_d` must be at least 1).
+pub fn abbe_spectrum(n_d: f32, abbe: f32) -> Result<crate::spectrum::Spectrum, String> {
+    if !(abbe.is_finite() && abbe > 0.0) {
+        return Err(format!("Abbe number {abbe}: must be a positive number"));
+    }
+    if !(n_d.is_finite() && n_d >= 1.0) {
+        return Err(format!("ior {n_d}: must be at least 1 for a dispersive interface"));
+    }
+    let (f, d, c) = ABBE_LINES;
+    let b = (n_d as f64 - 1.0) / (abbe as f64 * (1.0 / (f * f) - 1.0 / (c * c)));
+    let a = n_d as f64 - b / (d * d);
+    let lambda: Vec<f32> = (360..=830).map(|l| l as f32).collect();
+    let value: Vec<f32> = lambda.iter().map(|&l| (a + b / (l as f64 * l as f64)) as f32).collect();
+    crate::spectrum::Spectrum::tabulated(&lambda, &value).map_err(|e| e.to_string())
+}

@@ -6,7 +6,8 @@
 //! # API
 //!
 //! * [`ior`] — Quan–Fry n(S, T, λ): [`quan_fry_ior`] (one wavelength, checked ranges) and
-//!   [`quan_fry_spectrum`] (n(λ) as a `Tabulated` spectrum for `dispersion = true`).
+//!   [`quan_fry_spectrum`] (n(λ) as a `Tabulated` spectrum for `dispersion = true`); a glass's
+//!   n(λ) from its Abbe number, [`abbe_spectrum`] (`WaterDesc::abbe`).
 //! * [`jerlov`] — [`JerlovType`], [`JerlovSource`], [`jerlov_iop`] → [`JerlovIop`] with total
 //!   a(λ), b(λ) (pure water included) over 360–830 nm; [`jerlov_table`] for the raw table and
 //!   [`jerlov_kd`] for Solonenko's Kd column. A type missing from a source (Williamson 2022
@@ -53,7 +54,7 @@ pub mod phase;
 mod tests;
 
 pub use bio::{BioOptical, BioOpticalParams, Constituent, DepthProfile};
-pub use ior::{quan_fry_ior, quan_fry_spectrum};
+pub use ior::{abbe_spectrum, quan_fry_ior, quan_fry_spectrum};
 pub use jerlov::{jerlov_iop, jerlov_kd, jerlov_table, JerlovIop, JerlovSource, JerlovType};
 pub use phase::{phase_desc, phase_function, FournierForand, ParticlePhase, PetzoldStation, PhaseTable};
 

@@ -64,6 +64,24 @@ fn quan_fry_rejects_out_of_range_input() {
 // ---------------------------------------------------------------- Jerlov
 
 #[test]
+fn an_abbe_glass_has_its_index_and_abbe_number() {
+    let (f, d, c) = ior::ABBE_LINES;
+    for (n_d, v) in [(1.5f32, 64.0f32), (1.7, 20.0), (2.42, 55.0)] {
+        let n = abbe_spectrum(n_d, v).unwrap();
+        // the table's nodes are whole nanometres: interpolate the lines between them
+        let (nf, nd, nc) = (n.eval(f as f32), n.eval(d as f32), n.eval(c as f32));
+        assert!((nd - n_d).abs() < 2e-5, "n_d {nd} vs {n_d}");
+        let abbe = (nd - 1.0) / (nf - nc);
+        assert!((abbe - v).abs() < 2e-3 * v, "V {abbe} vs {v}");
+        // normal dispersion: blue bends more
+        assert!(n.eval(400.0) > n.eval(500.0) && n.eval(500.0) > n.eval(700.0));
+    }
+    assert!(abbe_spectrum(1.5, 0.0).unwrap_err().contains("Abbe number"));
+    assert!(abbe_spectrum(1.5, f32::NAN).is_err());
+    assert!(abbe_spectrum(0.9, 30.0).unwrap_err().contains("ior"));
+}
+
+#[test]
 fn jerlov_spectra_equal_the_tables_at_their_wavelengths() {
     for src in [JerlovSource::Williamson2022, JerlovSource::Solonenko2015] {
         for t in JerlovType::ALL.into_iter().filter(|t| src.has_type(*t)) {

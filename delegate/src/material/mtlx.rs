@@ -18,9 +18,13 @@
 //! is the subsurface colour, the anisotropy as a Henyey–Greenstein g). A partial or varying
 //! transmission or subsurface blends that dielectric with the opaque stack ([`WaterBlend`]).
 //! A thin wall (`thin_walled`) has no body: its base passes the transmission straight
-//! through and makes the subsurface translucent ([`ThinWalledDesc`]). What the mapping cannot
-//! carry (dispersion, scattering in the transmission, the coat and other layers over a
-//! transmitting share) is reported and left out.
+//! through and makes the subsurface translucent ([`ThinWalledDesc`]). A transmission's
+//! dispersion makes the interface's IOR follow Cauchy's formula through the specular IOR with
+//! the Abbe number the model gives (Standard Surface's `transmission_dispersion` is that
+//! number; OpenPBR's is `transmission_dispersion_abbe_number` / `transmission_dispersion_scale`;
+//! 0 is none), rendered spectrally ([`WaterDesc::abbe`]). What the mapping cannot carry
+//! (scattering in the transmission, the coat and other layers over a transmitting share) is
+//! reported and left out.
 //!
 //! Nodes: `image` / `tiledimage` (file, default, u/vaddressmode, texcoord, uvtiling /
 //! uvoffset / realworldimagesize / realworldtilesize as MaterialX's own graph applies them),
@@ -171,11 +175,21 @@ pub(super) struct PbrModel {
     transmission: (&'static str, &'static str, &'static str, &'static str),
     /// Roughness the transmission adds to the specular's, if the model has it.
     transmission_extra_roughness: Option<&'static str>,
+    /// How the model gives the transmission's dispersion.
+    dispersion: Dispersion,
     /// The subsurface: its weight, colour (default), radius (default) × radius scale (default)
     /// and anisotropy.
     subsurface: Subsurface,
     /// Inputs the mapping cannot carry: (input, its neutral value, what it is).
     unsupported: &'static [(&'static str, f32, &'static str)],
+}
+
+/// How a PBR surface gives its transmission's dispersion.
+pub(super) enum Dispersion {
+    /// The Abbe number itself (0: none), Standard Surface's.
+    Abbe(&'static str),
+    /// An Abbe number (and its default) divided by a scale (0: none), OpenPBR's.
+    Scaled { scale: &'static str, abbe: (&'static str, f32) },
 }
 
 /// How a PBR surface names its subsurface inputs.
@@ -236,10 +250,8 @@ pub(super) const STANDARD_SURFACE: PbrModel = PbrModel {
         scale: ("subsurface_scale", [1.0; 3]),
         anisotropy: "subsurface_anisotropy",
     },
-    unsupported: &[
-        ("transmission_scatter", 0.0, "scattering inside the transmission"),
-        ("transmission_dispersion", 0.0, "dispersion"),
-    ],
+    dispersion: Dispersion::Abbe("transmission_dispersion"),
+    unsupported: &[("transmission_scatter", 0.0, "scattering inside the transmission")],
 };
 
 /// `ND_open_pbr_surface_surfaceshader` (OpenPBR Surface).
@@ -272,10 +284,8 @@ pub(super) const OPEN_PBR_SURFACE: PbrModel = PbrModel {
         scale: ("subsurface_radius_scale", [1.0, 0.5, 0.25]),
         anisotropy: "subsurface_scatter_anisotropy",
     },
-    unsupported: &[
-        ("transmission_scatter", 0.0, "scattering inside the transmission"),
-        ("transmission_dispersion_scale", 0.0, "dispersion"),
-    ],
+    dispersion: Dispersion::Scaled { scale: "transmission_dispersion_scale", abbe: ("transmission_dispersion_abbe_number", 20.0) },
+    unsupported: &[("transmission_scatter", 0.0, "scattering inside the transmission")],
 };
 
 impl Ctx<'_> {
@@ -780,7 +790,35 @@ impl Ctx<'_> {
         let plain = share == FloatInput::Const(1.0) && opaque.metallic == FloatInput::Const(0.0) && opaque.emissive_color == ColorInput::Const([0.0; 3]) && opaque.opacity == FloatInput::Const(1.0);
         self.on_opaque_share(n, m, weight, &opaque);
         let blend = (!plain).then(|| Box::new(WaterBlend { transmission: share, surface: opaque }));
-        (SurfaceDesc::Water(WaterDesc { ior, roughness, tint, blend, ..WaterDesc::default() }), body)
+        let abbe = if weight == m.transmission.0 { self.abbe_number(n, &m.dispersion) } else { None };
+        (SurfaceDesc::Water(WaterDesc { ior, roughness, tint, blend, abbe, ..WaterDesc::default() }), body)
+    }
+
+    /// The Abbe number of a transmission's dispersion (None: no dispersion); a negative or
+    /// non-finite one is reported and left out.
+    fn abbe_number(&mut self, n: &str, d: &Dispersion) -> Option<f32> {
+        let (input, v) = match *d {
+            Dispersion::Abbe(input) => (input, self.constant_only(n, input, 0.0)),
+            Dispersion::Scaled { scale, abbe } => {
+                let k = self.constant_only(n, scale, 0.0);
+                if k == 0.0 {
+                    return None;
+                }
+                if !(k > 0.0 && k.is_finite()) {
+                    self.p.add(&format!("{}.inputs:{}", n, scale), format!("a dispersion scale of {k} is not positive; no dispersion"));
+                    return None;
+                }
+                (abbe.0, self.constant_only(n, abbe.0, abbe.1) / k)
+            }
+        };
+        if v == 0.0 {
+            return None;
+        }
+        if !(v > 0.0 && v.is_finite()) {
+            self.p.add(&format!("{}.inputs:{}", n, input), format!("an Abbe number of {v} is not positive; no dispersion"));
+            return None;
+        }
+        Some(v)
     }
 
     /// A material's MaterialX displacement node (`ND_displacement_float`): displacement ×
