@@ -134,6 +134,18 @@ impl InteriorStack {
         }
     }
 
+    /// Sets the index of every dispersive object on the stack to its index at the hero
+    /// wavelength of `lambda`: a stack found once for all paths (the camera's, a light's) holds
+    /// the objects' constant indices.
+    pub(crate) fn at_wavelengths(&mut self, world: &World, lambda: &SampledWavelengths) {
+        for it in &mut self.items[..self.len] {
+            let mat = &world.materials[world.instances[it.instance as usize].material];
+            if let Some(d) = mat.dielectric().filter(|d| d.dispersion.is_some() && !it.volume) {
+                it.ior = d.ior_at(lambda);
+            }
+        }
+    }
+
     /// The stack as it would be after removing `instance`.
     pub fn without(&self, instance: u32) -> InteriorStack {
         let mut s = *self;
@@ -317,7 +329,8 @@ pub fn diffuse_share(bsdf: &Bsdf, wo: Vec3, wi: Vec3) -> SampledSpectrum {
 }
 
 /// Finds the dielectric objects that contain point `p` (by the side of each object's first
-/// hit along a fixed direction), outermost first.
+/// hit along a fixed direction), outermost first, with their constant indices (see
+/// [`InteriorStack::at_wavelengths`]).
 pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
     let d = Vec3::new(0.301_511_35, 0.904_534, 0.301_511_35);
     let mut stack = InteriorStack::default();
@@ -379,6 +392,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     };
     let mut beta = SampledSpectrum::ONE;
     let mut stack = *camera_stack;
+    stack.at_wavelengths(world, lambda);
     let mut depth = 0u32;
     let mut null_events = 0u32;
     let mut specular_bounce = false;
@@ -813,3 +827,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     }
     (split, aov)
 }
+
+#[cfg(test)]
+#[path = "integrator_tests.rs"]
+mod tests;

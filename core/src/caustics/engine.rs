@@ -585,6 +585,7 @@ impl Caustics {
         if !beta.is_finite() || beta.is_black() {
             return;
         }
+        stack.at_wavelengths(world, &lambda);
         let mut ray = Ray { o: origin, d: dir, t_max: f32::INFINITY, time };
         let mut first = true;
         let mut bounces = 0u32;
