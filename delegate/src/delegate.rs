@@ -1126,31 +1126,14 @@ impl Delegate {
             emitter_links.push(tide_core::scene::EmitterLinks { instance: inst.name.clone(), light_link: members(&scene.instances, &ml.light_link), shadow_link: members(&scene.instances, &ml.shadow_link) });
         }
         scene.emitter_links = emitter_links;
-        // portals: those a dome names, else those no dome names
-        let named: BTreeSet<&str> = self.cache.values().filter_map(|c| match &c.piece {
-            Piece::Light(Some(l)) => l.portals.as_ref(),
-            _ => None,
-        }).flatten().map(String::as_str).collect();
-        let portal_desc = |path: &str, pp: &lux::PortalPiece| tide_core::scene::PortalDesc { name: path.into(), transform: pp.transform, width: pp.width, height: pp.height };
-        let unnamed: Vec<_> = self.cache.iter().filter_map(|(path, c)| match &c.piece {
-            Piece::Portal(Some(pp)) if !named.contains(path.as_str()) => Some(portal_desc(path, pp)),
-            _ => None,
-        }).collect();
+        let unnamed = self.unnamed_portals();
         for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
             if matches!(desc.shape, LightShape::Dome { .. } | LightShape::Sky { .. }) {
                 desc.portals = match &l.portals {
                     None => unnamed.clone(),
-                    Some(names) => names.iter().filter_map(|n| match self.cache.get(n).map(|c| &c.piece) {
-                        Some(Piece::Portal(Some(pp))) => Some(portal_desc(n, pp)),
-                        // an invisible or empty portal guides nothing, as it renders nothing
-                        Some(Piece::Portal(None)) => None,
-                        _ => {
-                            ap.push(problem(path, "portals", format!("'{n}' is not a PortalLight; ignored")));
-                            None
-                        }
-                    }).collect(),
+                    Some(names) => self.named_portals(path, names, &mut ap),
                 };
             }
             desc.light_link = members(&scene.instances, &l.light_link);
@@ -1213,6 +1196,43 @@ impl Delegate {
         self.settings = sp;
         self.scene = Arc::new(scene);
         self.scene_generation += 1;
+    }
+
+    /// The portals that no dome's `portals` relationship names (a dome naming none takes them).
+    fn unnamed_portals(&self) -> Vec<tide_core::scene::PortalDesc> {
+        let named: BTreeSet<&str> = self
+            .cache
+            .values()
+            .filter_map(|c| match &c.piece {
+                Piece::Light(Some(l)) => l.portals.as_ref(),
+                _ => None,
+            })
+            .flatten()
+            .map(String::as_str)
+            .collect();
+        self.cache
+            .iter()
+            .filter_map(|(path, c)| match &c.piece {
+                Piece::Portal(Some(pp)) if !named.contains(path.as_str()) => Some(pp.desc(path)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The portals dome `path` names; a name that is not a portal is a problem.
+    fn named_portals(&self, path: &str, names: &[String], ap: &mut Vec<Problem>) -> Vec<tide_core::scene::PortalDesc> {
+        names
+            .iter()
+            .filter_map(|n| match self.cache.get(n).map(|c| &c.piece) {
+                Some(Piece::Portal(Some(pp))) => Some(pp.desc(n)),
+                // an invisible or empty portal guides nothing, as it renders nothing
+                Some(Piece::Portal(None)) => None,
+                _ => {
+                    ap.push(problem(path, "portals", format!("'{n}' is not a PortalLight; ignored")));
+                    None
+                }
+            })
+            .collect()
     }
 
     /// The settings of a job: resolution from the settings prim, else the first bound buffer.

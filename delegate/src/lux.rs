@@ -53,6 +53,13 @@ pub struct PortalPiece {
     pub height: f32,
 }
 
+impl PortalPiece {
+    /// The core's description of the portal at `path`.
+    pub fn desc(&self, path: &str) -> tide_core::scene::PortalDesc {
+        tide_core::scene::PortalDesc { name: path.into(), transform: self.transform, width: self.width, height: self.height }
+    }
+}
+
 /// Converts a portal; None (with a problem) for one of zero size, None for an invisible one.
 pub fn convert_portal(store: &AttrStore, p: &mut Problems) -> Option<PortalPiece> {
     if store.token_or("visibility", &["inherited", "invisible"], "inherited", p) == "invisible" {
