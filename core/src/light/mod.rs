@@ -932,10 +932,11 @@ impl Light {
             Light::Sky(d) => (d.scene_center, d.scene_radius),
             _ => return None,
         };
+        // the directions drawn are unit vectors already
         let (wi, pdf) = match self.portals().filter(|_| guided) {
             None => {
                 let wi = self.environment_direction(u)?;
-                (wi, self.environment_pdf(wi.normalize()))
+                (wi, self.environment_pdf(wi))
             }
             Some(ps) => {
                 let (strategy, total) = ps.sample(ctx.p, u);
@@ -944,14 +945,17 @@ impl Light {
                     portal::Strategy::Own(u) => (self.environment_direction(u)?, None),
                 };
                 // the density of the direction itself, as `pdf_li` gives it
-                let wn = wi.normalize();
-                (wi, ps.mix(ctx.p, wn, self.environment_pdf(wn), total, through))
+                (wi, ps.mix(ctx.p, wi, self.environment_pdf(wi), total, through))
             }
         };
         if !(pdf > 0.0) {
             return None;
         }
-        let l = self.le(wi, lambda);
+        let l = match self {
+            Light::Dome(d) => d.le(wi, lambda),
+            // the sky's radiance as `le` gives it, bit for bit
+            _ => self.le(wi, lambda),
+        };
         let far = (ctx.p - centre).length() + 2.0 * radius;
         Some(LightLiSample { l, wi, dist: f32::INFINITY, pdf, is_delta: false, p_light: ctx.p + wi * far, n_light: -wi })
     }
