@@ -81,6 +81,14 @@ def test_info_lists_prims_and_problems(tmp_path):
     assert os.listdir(tmp_path) == ["scene.usda"]
 
 
+def test_info_names_a_domes_portals():
+    out = run(["info", os.path.join(ROOT, "docs", "stages", "window_room.usda")], ROOT)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert "domeLight      /World/Dome  portals: /World/Window" in lines, out.stdout
+    assert "portalLight    /World/Window" in lines, out.stdout
+
+
 def test_info_names_the_fx_shapes_and_the_delegates_problems(tmp_path):
     path = str(tmp_path / "fx.usda")
     s = Usd.Stage.CreateNew(path)

@@ -411,6 +411,8 @@ def cmd_info(args):
             extra += "  material: %s" % values["material"][0][1][1]
         if "transform" in values and len(values["transform"]) > 1:
             extra += "  motion samples: %d" % len(values["transform"])
+        if "portals" in values:
+            extra += "  portals: %s" % ", ".join(values["portals"][0][1][1])
         if "apiSchemas" in values:
             extra += "  as: %s" % ", ".join(values["apiSchemas"][0][1][1])
         out.write("%-14s %s%s\n" % (type_name, path, extra))
