@@ -174,6 +174,7 @@ check check_stage_instances.usda "per-instance primvars of a PointInstancer and 
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
+check check_stage_pole.usda "DomeLight_1's pole axis on a Z-up stage" delegate sceneIndex || exit $?
 # portals change only the noise: compared there too
 noise=1 check check_stage_portal.usda "UsdLuxPortalLight and a dome's portals" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate makes no renderSettings prims: only the scene indices are compared

@@ -427,6 +427,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         // a dome's portals (UsdImaging's scene indices answer them, empty where none are
         // named: the dome then takes the portals no dome names)
         if (typeId == "domeLight") {
+            // DomeLight_1's pole axis, as a turn of the dome before its transform
+            _Put("domeOffset", sd->GetLightParamValue(id, HdLightTokens->domeOffset));
             VtValue const portals = sd->GetLightParamValue(id, HdTokens->portals);
             if (portals.IsHolding<SdfPathVector>() && !portals.UncheckedGet<SdfPathVector>().empty()) _Put("portals", portals);
         }

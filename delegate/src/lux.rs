@@ -303,7 +303,17 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     if store.token_or("visibility", &["inherited", "invisible"], "inherited", p) == "invisible" {
         return None;
     }
-    let transform = light_transform(store, p);
+    // DomeLight_1's pole axis (Hydra's `domeOffset`): a turn of the dome alone, before its
+    // transform
+    let offset = match store.get("domeOffset").filter(|_| kind == LightKind::Dome).map(|v| v.as_matrix()) {
+        None => Mat4::IDENTITY,
+        Some(Some(m)) if m.is_finite() && m.determinant() != 0.0 => m,
+        Some(_) => {
+            p.add("domeOffset", "expected an invertible 4x4 matrix; the dome is not turned");
+            Mat4::IDENTITY
+        }
+    };
+    let transform = light_transform(store, p) * offset;
     let mut texture = None;
     let mut sky = None;
     let tex_key = |wrap_s, wrap_t, dome| {
@@ -395,7 +405,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             Some(Collection { includes: vec![], excludes: vec![], include_root: false, explicit_only: true })
         },
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
-        transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p) } else { vec![(0.0, transform)] },
+        transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p).into_iter().map(|(t, m)| (t, m * offset)).collect() } else { vec![(0.0, transform)] },
         portals: match kind {
             LightKind::Dome => store.get("portals").map(|v| {
                 v.to_strings().unwrap_or_else(|| {
@@ -837,6 +847,28 @@ mod tests {
         assert!(convert_light("/Z", LightKind::Disk, &st(&[("inputs:radius", f(0.0))]), &mut p).is_none());
         assert_eq!(p.list.len(), 1);
         assert_eq!(p.list[0].attribute, "radius");
+    }
+
+    /// DomeLight_1's pole axis arrives as `domeOffset` (USD's row-vector matrix), turning the
+    /// dome before its transform: a Z pole takes the image's up (+Y) to +Z and its centre (+Z)
+    /// to −Y, and the transform then applies.
+    #[test]
+    fn a_dome_offset_turns_the_dome_before_its_transform() {
+        let m = |a: [f64; 16]| Value::Matrix(a);
+        let z_pole = m([1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        let spin = m([0.0, 1.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        let mut p = Problems::new("/D");
+        let d = convert_light("/D", LightKind::Dome, &st(&[("domeOffset", z_pole.clone())]), &mut p).unwrap().desc.transform;
+        assert!((d.transform_vector3(Vec3::Y) - Vec3::Z).length() < 1e-6 && (d.transform_vector3(Vec3::Z) + Vec3::Y).length() < 1e-6, "{d}");
+        // with a transform turning +X to +Y about Z: the offset first
+        let d = convert_light("/D", LightKind::Dome, &st(&[("domeOffset", z_pole.clone()), ("transform", spin)]), &mut p).unwrap().desc.transform;
+        assert!((d.transform_vector3(Vec3::Z) - Vec3::X).length() < 1e-6, "{d}");
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        // not on other lights; a singular one is reported
+        let r = convert_light("/R", LightKind::Rect, &st(&[("domeOffset", z_pole)]), &mut p).unwrap().desc.transform;
+        assert_eq!(r, Mat4::IDENTITY);
+        convert_light("/D", LightKind::Dome, &st(&[("domeOffset", m([0.0; 16]))]), &mut p).unwrap();
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["domeOffset"]);
     }
 
     #[test]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
-from conftest import bind, camera, fwhm, lambert_material, load, preview_material, render, settings
+from conftest import (bind, camera, fwhm, lambert_material, load, near, preview_material, render, settings,
+                      write_exr)
 
 HEIGHT = 2.0          # the light above the floor
 WIDTH = 4.0           # the floor seen by the orthographic camera (metres across the image)
@@ -475,3 +476,74 @@ def test_a_moving_light_streaks_over_the_shutter(renderer, stage):
 def test_a_moving_light_stands_still_without_motion_blur(renderer, stage):
     length, per_unit = _light_streak(renderer, stage, disable_motion=True)
     assert length == pytest.approx(0.5 * per_unit, abs=1.5)
+
+
+def _dome_lit_panel(renderer, tmp_path, normal, texture, pole=None, dome_1=True):
+    """A Lambertian panel (albedo 0.5, standard_surface with no specular) facing `normal` on a
+    Z-up stage, lit only by a dome of lat-long `texture` (a DomeLight_1 with `pole` when
+    given), seen head-on by an orthographic camera with one bounce; returns its mean colour."""
+    from pxr import Usd, UsdShade
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
+    path = tmp_path / "dome.exr"
+    write_exr(path, texture)
+    dome = (UsdLux.DomeLight_1 if dome_1 else UsdLux.DomeLight).Define(stage, "/Dome")
+    dome.CreateTextureFileAttr(str(path))
+    if pole:
+        dome.CreatePoleAxisAttr(pole)
+    n = np.asarray(normal, dtype=float)
+    u = np.cross(n, (1.0, 0.0, 0.0)) if abs(n[0]) < 0.9 else np.cross(n, (0.0, 1.0, 0.0))
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    corners = [tuple(a * u + b * v) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    panel = UsdGeom.Mesh.Define(stage, "/Panel")
+    panel.CreatePointsAttr(corners)
+    panel.CreateFaceVertexCountsAttr([4])
+    panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    panel.CreateDoubleSidedAttr(True)
+    mat = UsdShade.Material.Define(stage, "/Looks/Grey")
+    sh = UsdShade.Shader.Define(stage, "/Looks/Grey/SR")
+    sh.CreateIdAttr("ND_standard_surface_surfaceshader")
+    sh.CreateInput("base", Sdf.ValueTypeNames.Float).Set(1.0)
+    sh.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
+    sh.CreateInput("specular", Sdf.ValueTypeNames.Float).Set(0.0)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    bind(panel.GetPrim(), mat)
+    cam = camera(stage, pos=tuple(5.0 * n), aperture=(10.0, 10.0), projection="orthographic")
+    # the camera looks along its -Z: turn it to look along -normal
+    turn = {(0, 0, 1): 0.0, (0, -1, 0): 90.0, (0, 1, 0): -90.0}[tuple(int(x) for x in n)]
+    if turn:
+        cam.AddRotateXOp().Set(turn)
+    settings(stage, res=(8, 8), samples=64, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert not problems, problems
+    return img
+
+
+def _half_bright(rows):
+    """A 64 x 32 lat-long map, 1 in `rows` (a slice of rows) or where rows(y, x) says, else 0."""
+    tex = np.zeros((32, 64, 3))
+    for y in range(32):
+        for x in range(64):
+            if rows(y, x):
+                tex[y, x] = 1.0
+    return tex
+
+
+def test_dome_light_1_pole_axis_turns_the_dome(renderer, tmp_path):
+    """DomeLight_1's poleAxis: on a Z-up stage its fallback `scene` (and `Z`) puts the image's
+    top pole at +Z and its centre (longitude 0) at -Y; `Y` keeps OpenEXR's layout, as a plain
+    DomeLight does. A panel under radiance 1 over a hemisphere centred on its normal shows
+    albedo × 1 = 0.5; over half of that hemisphere, 0.25; over none, 0."""
+    upper = _half_bright(lambda y, x: y < 16)
+    for pole, want in ((None, 0.5), ("Z", 0.5), ("Y", 0.25)):
+        ok, why = near(_dome_lit_panel(renderer, tmp_path, (0, 0, 1), upper, pole), (want,) * 3)
+        assert ok, (pole, why)
+    ok, why = near(_dome_lit_panel(renderer, tmp_path, (0, 0, 1), upper, dome_1=False), (0.25,) * 3)
+    assert ok, ("DomeLight", why)
+    # the longitudes within 90° of 0 (columns 16 to 47): the hemisphere about -Y
+    front = _half_bright(lambda y, x: 16 <= x < 48)
+    for normal, want in (((0, -1, 0), 0.5), ((0, 1, 0), 0.0)):
+        ok, why = near(_dome_lit_panel(renderer, tmp_path, normal, front, "Z"), (want,) * 3)
+        assert ok, (normal, why)

@@ -2045,6 +2045,12 @@ class Reader:
         if zero:
             self.problem(path, zero, "zero-area light; dropped")
             return
+        if prim.GetTypeName() == "DomeLight_1":
+            # DomeLight_1's poleAxis turns the dome alone (not its children), as Hydra's
+            # domeOffset does: a Z pole maps the image's +Y to +Z and its centre to -Y
+            pole = self._attr(prim, "poleAxis", "scene")
+            if pole == "Z" or (pole == "scene" and UsdGeom.GetStageUpAxis(self.stage) == UsdGeom.Tokens.z):
+                st.set("domeOffset", _matrix(Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90.0))))
         if type_name == "domeLight":
             # the portals that guide the dome's sampling (unauthored: those no dome names)
             rel = prim.GetRelationship("portals")
