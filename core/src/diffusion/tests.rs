@@ -305,9 +305,7 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
     let y = z.cross(x);
     let xf = glam::Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), glam::Vec4::W);
     s.lights.push(LightDesc { name: "/sun".into(), shape: LightShape::Distant { angle_deg: 0.53 }, transform: xf, color: [1.0; 3], intensity: 2.0, exposure: 0.0, normalize: true, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
-    let mut problems = Vec::new();
-    let world = World::build(&s, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
-    assert!(problems.is_empty(), "{problems:?}");
+    let world = crate::testing::world_of(&s);
     let ray = Ray { o: Vec3::new(0.3, 5.0, -0.2), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 };
     let hit = world.accel.intersect(&ray).unwrap();
     let sh = world.surface(&ray, &hit);
@@ -343,13 +341,7 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
 fn diffusion_box(lo: Vec3, hi: Vec3, sigma_s: f32) -> crate::scene::SceneDesc {
     use crate::scene::*;
     let mut s = SceneDesc::default();
-    let p = |x: usize, y: usize, z: usize| Vec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    let quads = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
-    let mut indices = Vec::new();
-    for q in quads {
-        indices.extend([q[0], q[1], q[2], q[0], q[2], q[3]]);
-    }
-    s.meshes.push(MeshDesc { name: "/b".into(), positions: (0..8).map(|i| p(i & 1, (i >> 1) & 1, (i >> 2) & 1)).collect(), indices, ..Default::default() });
+    s.meshes.push(crate::volume::box_mesh("/b", lo, hi, false));
     s.media.push(MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([sigma_s; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: MediumMethod::Diffusion });
     s.materials.push(MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(InstanceDesc { name: "/b".into(), geometry: GeometryRef::Mesh(0), transforms: vec![glam::Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None });
@@ -360,10 +352,7 @@ fn dome_box_world() -> World {
     use crate::scene::*;
     let mut s = diffusion_box(Vec3::new(-1.0, -0.5, -1.5), Vec3::new(1.0, 0.0, 1.5), 10.0);
     s.lights.push(LightDesc { name: "/sky".into(), shape: LightShape::Dome { texture: None }, transform: glam::Mat4::IDENTITY, color: [1.0; 3], intensity: 1.0, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
-    let mut problems = Vec::new();
-    let w = World::build(&s, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
-    assert!(problems.is_empty(), "{problems:?}");
-    w
+    crate::testing::world_of(&s)
 }
 
 #[test]

@@ -17,3 +17,11 @@ pub fn random_upper(rng: &mut chi2::TestRng) -> Vec3 {
     w.z = w.z.abs().max(1e-4);
     w.normalize()
 }
+
+/// The world of `scene` at 4 × 4 pixels, which must build without a problem.
+pub fn world_of(scene: &crate::scene::SceneDesc) -> crate::world::World {
+    let mut problems = Vec::new();
+    let w = crate::world::World::build(scene, &crate::render::RenderSettings { width: 4, height: 4, ..Default::default() }, &mut problems);
+    assert!(problems.is_empty(), "{problems:?}");
+    w
+}
