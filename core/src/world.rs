@@ -614,24 +614,19 @@ impl World {
                     SurfaceDesc::Diffuse { color } => SurfaceKind::Diffuse(color_param(color, cs)),
                     SurfaceDesc::Preview(p) => preview_kind(p, cs),
                     SurfaceDesc::Water(w) => {
-                        let dispersion = if w.dispersion {
-                            match crate::water::quan_fry_spectrum(w.salinity, w.temperature) {
-                                Ok(n) => Some(n),
-                                Err(e) => {
-                                    problems.push(Problem { item: m.name.clone(), attribute: "inputs:temperature".into(), message: format!("{e}; dispersion off, constant ior used") });
-                                    None
-                                }
-                            }
-                        } else if let Some(v) = w.abbe {
-                            match crate::water::abbe_spectrum(w.ior, v) {
-                                Ok(n) => Some(n),
-                                Err(e) => {
-                                    problems.push(Problem { item: m.name.clone(), attribute: "abbe".into(), message: format!("{e}; no dispersion") });
-                                    None
-                                }
-                            }
+                        // Quan–Fry water, or a glass of an Abbe number; where the model
+                        // cannot be built, the constant ior
+                        let model = if w.dispersion {
+                            Some(crate::water::quan_fry_spectrum(w.salinity, w.temperature).map_err(|e| ("inputs:temperature", e.to_string())))
                         } else {
-                            None
+                            w.abbe.map(|v| crate::water::abbe_spectrum(w.ior, v).map_err(|e| ("abbe", e)))
+                        };
+                        let dispersion = match model {
+                            Some(Err((attribute, e))) => {
+                                problems.push(Problem { item: m.name.clone(), attribute: attribute.into(), message: format!("{e}; dispersion off, constant ior used") });
+                                None
+                            }
+                            m => m.and_then(Result::ok),
                         };
                         let sea = (w.surface_model == SurfaceModel::Sea).then(|| {
                             // degrees about +Y from +X: the rotated +X axis
