@@ -85,6 +85,20 @@ def lambert_material(stage, path, color):
     return mat
 
 
+def exact_lambert_material(stage, path, albedo):
+    """An exactly Lambertian material of grey `albedo`: MaterialX standard_surface with no
+    specular layer (a UsdPreviewSurface's diffuse lies under a Fresnel layer that darkens it in
+    grazing light, even with a black specular colour)."""
+    mat = UsdShade.Material.Define(stage, path)
+    sh = UsdShade.Shader.Define(stage, path + "/SR")
+    sh.CreateIdAttr("ND_standard_surface_surfaceshader")
+    sh.CreateInput("base", Sdf.ValueTypeNames.Float).Set(1.0)
+    sh.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(albedo, albedo, albedo))
+    sh.CreateInput("specular", Sdf.ValueTypeNames.Float).Set(0.0)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    return mat
+
+
 def bind(prim, mat, purpose=None):
     api = UsdShade.MaterialBindingAPI.Apply(prim)
     if purpose:

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
-from conftest import (bind, camera, fwhm, lambert_material, load, near, preview_material, render, settings,
-                      write_exr)
+from conftest import (bind, camera, exact_lambert_material, fwhm, lambert_material, load, near,
+                      preview_material, render, settings, write_exr)
 
 HEIGHT = 2.0          # the light above the floor
 WIDTH = 4.0           # the floor seen by the orthographic camera (metres across the image)
@@ -482,7 +482,6 @@ def _dome_lit_panel(renderer, tmp_path, normal, texture, pole=None, dome_1=True)
     """A Lambertian panel (albedo 0.5, standard_surface with no specular) facing `normal` on a
     Z-up stage, lit only by a dome of lat-long `texture` (a DomeLight_1 with `pole` when
     given), seen head-on by an orthographic camera with one bounce; returns its mean colour."""
-    from pxr import Usd, UsdShade
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z)
     path = tmp_path / "dome.exr"
@@ -501,14 +500,7 @@ def _dome_lit_panel(renderer, tmp_path, normal, texture, pole=None, dome_1=True)
     panel.CreateFaceVertexCountsAttr([4])
     panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
     panel.CreateDoubleSidedAttr(True)
-    mat = UsdShade.Material.Define(stage, "/Looks/Grey")
-    sh = UsdShade.Shader.Define(stage, "/Looks/Grey/SR")
-    sh.CreateIdAttr("ND_standard_surface_surfaceshader")
-    sh.CreateInput("base", Sdf.ValueTypeNames.Float).Set(1.0)
-    sh.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.5, 0.5, 0.5))
-    sh.CreateInput("specular", Sdf.ValueTypeNames.Float).Set(0.0)
-    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
-    bind(panel.GetPrim(), mat)
+    bind(panel.GetPrim(), exact_lambert_material(stage, "/Looks/Grey", 0.5))
     cam = camera(stage, pos=tuple(5.0 * n), aperture=(10.0, 10.0), projection="orthographic")
     # the camera looks along its -Z: turn it to look along -normal
     turn = {(0, 0, 1): 0.0, (0, -1, 0): 90.0, (0, 1, 0): -90.0}[tuple(int(x) for x in n)]

@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, UsdGeom, UsdLux
 
-from conftest import bind, camera, lambert_material, load, matrix, render, settings
+from conftest import bind, camera, exact_lambert_material, lambert_material, load, matrix, render, settings
 
 ALBEDO = 0.5
 HALF = 2.0                       # the room spans x, z in [-2, 2], y in [0, 3]
@@ -17,19 +17,6 @@ TOP = 3.0
 WINDOW = ((1.0, 2.0), (-0.75, 0.75))      # y and z ranges of the window in the wall x = 2
 SEEN = 3.0                       # metres of floor across the image
 RES = 24
-
-
-def _diffuse(stage, path, albedo):
-    """An exactly Lambertian material: MaterialX standard_surface with no specular layer (a
-    UsdPreviewSurface's diffuse lies under a Fresnel layer that darkens it at grazing light)."""
-    mat = UsdShade.Material.Define(stage, path)
-    sh = UsdShade.Shader.Define(stage, path + "/SR")
-    sh.CreateIdAttr("ND_standard_surface_surfaceshader")
-    sh.CreateInput("base", Sdf.ValueTypeNames.Float).Set(1.0)
-    sh.CreateInput("base_color", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(albedo, albedo, albedo))
-    sh.CreateInput("specular", Sdf.ValueTypeNames.Float).Set(0.0)
-    mat.CreateSurfaceOutput("mtlx").ConnectToSource(sh.CreateOutput("out", Sdf.ValueTypeNames.Token))
-    return mat
 
 
 def _quad(stage, path, pts, material):
@@ -45,7 +32,7 @@ def _room(stage, portal):
     """The room, its floor seen from above by an orthographic camera inside it; `portal`:
     None, or the portal's path (a PortalLight in the window)."""
     black = lambert_material(stage, "/Looks/Black", (0, 0, 0))
-    grey = _diffuse(stage, "/Looks/Floor", ALBEDO)
+    grey = exact_lambert_material(stage, "/Looks/Floor", ALBEDO)
     h, t = HALF, TOP
     (y0, y1), (z0, z1) = WINDOW
     _quad(stage, "/Room/Floor", [(-h, 0, -h), (-h, 0, h), (h, 0, h), (h, 0, -h)], grey)
