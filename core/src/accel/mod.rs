@@ -11,7 +11,7 @@ pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
 use implicit::{Bubble, Kernel};
-use tribvh::TriBvh;
+use tribvh::{TriBvh, TriMesh};
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;
@@ -19,7 +19,6 @@ use obvhs::{
     aabb::Aabb,
     cwbvh::{builder::build_cwbvh, CwBvh},
     ray::{Ray as BvhRay, RayHit},
-    triangle::Triangle,
     Boundable, BvhBuildParams,
 };
 use std::collections::HashMap;
@@ -285,13 +284,7 @@ fn build_tri_blas(mesh: &MeshDesc) -> Blas {
     if mesh.motion.is_some() {
         return MotionTriBlas::build(mesh).map_or(Blas::Empty, Blas::MotionTri);
     }
-    let tris: Vec<Triangle> = (0..ntri)
-        .map(|i| {
-            let v = |k: usize| Vec3A::from(mesh.positions[mesh.indices[3 * i + k] as usize]);
-            Triangle { v0: v(0), v1: v(1), v2: v(2) }
-        })
-        .collect();
-    Blas::Tri(TriBvh::build(&tris))
+    Blas::Tri(TriBvh::build(TriMesh { positions: &mesh.positions, indices: &mesh.indices }))
 }
 
 fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {

@@ -6,7 +6,6 @@
 //! its largest inner child until it has eight.
 
 use glam::{Vec3, Vec3A};
-use obvhs::triangle::Triangle;
 use std::mem::MaybeUninit;
 
 /// Four f32 lanes: SSE on x86-64, plain arrays elsewhere (same results lane for lane: min/max
@@ -293,27 +292,75 @@ fn build_node(prims: &mut [PrimRef], offset: u32) -> BNode {
     BNode { lo, hi, kind: BKind::Inner(Box::new((a, b))) }
 }
 
+/// The children a W-wide node takes for binary build node `k` (None for a leaf): its two
+/// children, then the largest inner child opened until there are W.
+fn fold(k: &BNode) -> Option<Vec<&BNode>> {
+    let BKind::Inner(ab) = &k.kind else { return None };
+    let mut kids: Vec<&BNode> = Vec::with_capacity(W);
+    kids.extend([&ab.0, &ab.1]);
+    while kids.len() < W {
+        let open = (0..kids.len())
+            .filter(|&i| matches!(kids[i].kind, BKind::Inner(_)))
+            .max_by(|&x, &y| half_area(kids[x].lo, kids[x].hi).total_cmp(&half_area(kids[y].lo, kids[y].hi)));
+        let Some(i) = open else { break };
+        let BKind::Inner(ab) = &kids[i].kind else { unreachable!() };
+        kids[i] = &ab.0;
+        kids.insert(i + 1, &ab.1);
+    }
+    Some(kids)
+}
+
+/// (W-wide nodes, leaf blocks) that build node `k` becomes: the output's exact sizes, so the
+/// build allocates them once.
+fn count(k: &BNode) -> (usize, usize) {
+    match fold(k) {
+        None => match k.kind {
+            BKind::Leaf { count, .. } => (0, (count as usize).div_ceil(BLOCK)),
+            BKind::Inner(_) => unreachable!(),
+        },
+        Some(kids) => kids.into_iter().map(count).fold((1, 0), |(n, b), (cn, cb)| (n + cn, b + cb)),
+    }
+}
+
+/// A mesh's triangles as the build reads them: three indices per triangle into `positions`.
+#[derive(Clone, Copy)]
+pub struct TriMesh<'a> {
+    pub positions: &'a [Vec3],
+    pub indices: &'a [u32],
+}
+
+impl TriMesh<'_> {
+    #[inline]
+    fn len(&self) -> usize {
+        self.indices.len() / 3
+    }
+    #[inline]
+    fn tri(&self, i: usize) -> [Vec3A; 3] {
+        [0, 1, 2].map(|k| Vec3A::from(self.positions[self.indices[3 * i + k] as usize]))
+    }
+}
+
 struct Builder<'a> {
-    prims: &'a [PrimRef],
-    tris: &'a [Triangle],
+    /// Triangle ids in build order: a leaf is a range of them.
+    ids: &'a [u32],
+    mesh: TriMesh<'a>,
     nodes: Vec<Node>,
     blocks: Vec<Tri4>,
 }
 
 impl Builder<'_> {
     fn leaf(&mut self, start: u32, count: u32) -> u32 {
-        let prims: Vec<u32> = self.prims[start as usize..(start + count) as usize].iter().map(|p| p.id).collect();
+        let ids = &self.ids[start as usize..(start + count) as usize];
         let first = self.blocks.len() as u32;
-        let nblocks = prims.len().div_ceil(BLOCK);
-        for c in prims.chunks(BLOCK) {
+        for c in ids.chunks(BLOCK) {
             let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], ids: [0; 4] };
             for lane in 0..4 {
                 // short blocks repeat their last triangle: a duplicate never wins a strict `<`
                 let id = c[lane.min(c.len() - 1)];
-                let t = &self.tris[id as usize];
-                let (e1, e2) = (t.v1 - t.v0, t.v2 - t.v0);
+                let [v0, v1, v2] = self.mesh.tri(id as usize);
+                let (e1, e2) = (v1 - v0, v2 - v0);
                 for a in 0..3 {
-                    blk.v0[a][lane] = t.v0[a];
+                    blk.v0[a][lane] = v0[a];
                     blk.e1[a][lane] = e1[a];
                     blk.e2[a][lane] = e2[a];
                 }
@@ -321,25 +368,15 @@ impl Builder<'_> {
             }
             self.blocks.push(blk);
         }
-        LEAF | ((nblocks as u32 - 1) << 28) | first
+        LEAF | ((ids.len().div_ceil(BLOCK) as u32 - 1) << 28) | first
     }
 
     /// Makes the child slot for build node `k`; returns the slot and the depth below it.
     fn slot(&mut self, k: &BNode) -> (u32, usize) {
-        let (a, b) = match &k.kind {
-            BKind::Leaf { start, count } => return (self.leaf(*start, *count), 0),
-            BKind::Inner(ab) => (&ab.0, &ab.1),
+        let Some(kids) = fold(k) else {
+            let BKind::Leaf { start, count } = k.kind else { unreachable!() };
+            return (self.leaf(start, count), 0);
         };
-        let mut kids: Vec<&BNode> = vec![a, b];
-        while kids.len() < W {
-            let open = (0..kids.len())
-                .filter(|&i| matches!(kids[i].kind, BKind::Inner(_)))
-                .max_by(|&x, &y| half_area(kids[x].lo, kids[x].hi).total_cmp(&half_area(kids[y].lo, kids[y].hi)));
-            let Some(i) = open else { break };
-            let BKind::Inner(ab) = &kids[i].kind else { unreachable!() };
-            kids[i] = &ab.0;
-            kids.insert(i + 1, &ab.1);
-        }
         let me = self.nodes.len();
         let (inf, ninf) = ([f32::INFINITY; W], [f32::NEG_INFINITY; W]);
         self.nodes.push(Node { b: [inf, ninf, inf, ninf, inf, ninf], child: [EMPTY; W] });
@@ -368,18 +405,26 @@ struct PreRay {
 }
 
 impl TriBvh {
-    pub fn build(tris: &[Triangle]) -> TriBvh {
-        if tris.is_empty() {
+    /// Builds over every triangle of `mesh`. The largest arrays live one at a time: the
+    /// triangles' boxes while the binary tree is built, the output (allocated at its exact
+    /// size) while the tree is folded into it.
+    pub fn build(mesh: TriMesh) -> TriBvh {
+        if mesh.len() == 0 {
             return TriBvh { nodes: vec![], blocks: vec![], root: EMPTY, depth: 0, bounds: (Vec3::ZERO, Vec3::ZERO) };
         }
-        let mut prims: Vec<PrimRef> = tris
-            .iter()
-            .enumerate()
-            .map(|(i, t)| PrimRef { lo: t.v0.min(t.v1).min(t.v2), hi: t.v0.max(t.v1).max(t.v2), id: i as u32 })
+        let mut prims: Vec<PrimRef> = (0..mesh.len())
+            .map(|i| {
+                let [v0, v1, v2] = mesh.tri(i);
+                PrimRef { lo: v0.min(v1).min(v2), hi: v0.max(v1).max(v2), id: i as u32 }
+            })
             .collect();
         let tree = build_node(&mut prims, 0);
-        let mut b = Builder { prims: &prims, tris, nodes: vec![], blocks: vec![] };
+        let ids: Vec<u32> = prims.iter().map(|p| p.id).collect();
+        drop(prims);
+        let (nodes, blocks) = count(&tree);
+        let mut b = Builder { ids: &ids, mesh, nodes: Vec::with_capacity(nodes), blocks: Vec::with_capacity(blocks) };
         let (root, depth) = b.slot(&tree);
+        debug_assert_eq!((b.nodes.len(), b.blocks.len()), (nodes, blocks));
         if std::env::var("TIDE_BVH_STATS").is_ok() {
             eprintln!("nodes {} blocks {} depth {}", b.nodes.len(), b.blocks.len(), depth);
         }
@@ -555,5 +600,46 @@ impl TriBvh {
             }
         }
         best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A bumpy grid of `n`×`n` quads sharing their vertices.
+    fn grid(n: u32) -> (Vec<Vec3>, Vec<u32>) {
+        let pos = (0..=n).flat_map(|j| (0..=n).map(move |i| Vec3::new(i as f32, ((i * 7 + j * 3) % 5) as f32 * 0.1, j as f32))).collect();
+        let mut idx = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let a = j * (n + 1) + i;
+                idx.extend([a, a + n + 1, a + 1, a + 1, a + n + 1, a + n + 2]);
+            }
+        }
+        (pos, idx)
+    }
+
+    #[test]
+    fn the_output_is_allocated_once_and_holds_every_triangle() {
+        for n in [1, 2, 9, 40] {
+            let (positions, indices) = grid(n);
+            let bvh = TriBvh::build(TriMesh { positions: &positions, indices: &indices });
+            assert_eq!(bvh.nodes.len(), bvh.nodes.capacity(), "n = {n}");
+            assert_eq!(bvh.blocks.len(), bvh.blocks.capacity(), "n = {n}");
+            let mut ids: Vec<u32> = bvh.blocks.iter().flat_map(|b| b.ids).collect();
+            ids.sort_unstable();
+            ids.dedup();
+            assert_eq!(ids, (0..2 * n * n).collect::<Vec<_>>(), "n = {n}");
+            // straight down through the middle of each quad's second triangle
+            for (k, (i, j)) in [(0, 0), (n - 1, n - 1), (n / 2, n / 3)].into_iter().enumerate() {
+                let o = Vec3A::new(i as f32 + 0.75, 5.0, j as f32 + 0.75);
+                let (t, tri, _, _) = bvh.intersect(o, Vec3A::NEG_Y, f32::INFINITY).unwrap_or_else(|| panic!("ray {k} missed"));
+                assert_eq!(tri, 2 * (j * n + i) + 1, "ray {k}");
+                let [v0, v1, v2] = TriMesh { positions: &positions, indices: &indices }.tri(tri as usize);
+                let y = (v0.y + v1.y + v2.y) / 3.0;
+                assert!((5.0 - t - y).abs() < 0.5, "ray {k}: t {t}");
+            }
+        }
     }
 }
