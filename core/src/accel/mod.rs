@@ -1,10 +1,13 @@
-//! The BVH: Tide's two-level acceleration structure. One compressed-wide BVH (obvhs `CwBvh`)
-//! per geometry (a mesh's triangles, or a points set's spheres, intersected by callback), and
-//! one over the instances that place them. Instances may move (transform motion blur with any
-//! number of samples, rotations interpolated on the sphere), spheres may move by velocity and
-//! meshes may deform (vertex position keys, `motion_mesh.rs`).
+//! The BVH: Tide's two-level acceleration structure. One BVH per geometry: a static mesh's
+//! triangles in an eight-wide tree of four-triangle blocks (`tribvh.rs`), a points set's
+//! spheres, bubbles or blobby kernels in the same eight-wide tree with primitive ids in its
+//! leaves, intersected by callback (`wide.rs`), a deforming mesh in obvhs' `CwBvh`
+//! (`motion_mesh.rs`); and one `CwBvh` over the instances that place them. Instances may move
+//! (transform motion blur with any number of samples, rotations interpolated on the sphere),
+//! spheres may move by velocity and meshes may deform (vertex position keys).
 
 mod tribvh;
+mod wide;
 pub mod implicit;
 mod motion_mesh;
 pub mod motion;
@@ -12,6 +15,7 @@ pub mod motion;
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
 use implicit::{Bubble, Kernel};
 use tribvh::{TriBvh, TriMesh};
+use wide::PointBvh;
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;
@@ -88,17 +92,8 @@ impl TriPre {
 }
 
 
-#[derive(Clone, Copy)]
-struct SphereBound(Aabb);
-
-impl Boundable for SphereBound {
-    fn aabb(&self) -> Aabb {
-        self.0
-    }
-}
-
 struct SphereBlas {
-    bvh: CwBvh,
+    bvh: PointBvh,
     centers: Vec<Vec3>,
     radii: Vec<f32>,
     velocities: Option<Vec<Vec3>>,
@@ -323,24 +318,18 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
         }
         _ => s.radii[i],
     };
-    let mut bounds: Vec<SphereBound> = s
-        .centers
-        .iter()
-        .enumerate()
-        .map(|(i, &c)| {
-            let r = Vec3A::splat(bound_radius(i));
-            let mut bb = Aabb::new(Vec3A::from(c) - r, Vec3A::from(c) + r);
-            if let Some(v) = &s.velocities {
-                for t in [shutter.0, shutter.1] {
-                    let cc = Vec3A::from(c + v[i] * t);
-                    bb = bb.union(&Aabb::new(cc - r, cc + r));
-                }
+    let bounds = s.centers.iter().enumerate().map(|(i, &c)| {
+        let r = Vec3A::splat(bound_radius(i));
+        let (mut lo, mut hi) = (Vec3A::from(c) - r, Vec3A::from(c) + r);
+        if let Some(v) = &s.velocities {
+            for t in [shutter.0, shutter.1] {
+                let cc = Vec3A::from(c + v[i] * t);
+                (lo, hi) = (lo.min(cc - r), hi.max(cc + r));
             }
-            SphereBound(bb)
-        })
-        .collect();
-    pad_single(&mut bounds);
-    let bvh = build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
+        }
+        (lo, hi)
+    });
+    let bvh = PointBvh::build(bounds);
     Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone(), shape })
 }
 
@@ -422,7 +411,10 @@ impl Accel {
                     let (lo, hi) = t.bounds();
                     Aabb::new(lo.into(), hi.into())
                 }
-                Blas::Sphere(s) => s.bvh.total_aabb,
+                Blas::Sphere(s) => {
+                    let (lo, hi) = s.bvh.bounds();
+                    Aabb::new(lo.into(), hi.into())
+                }
                 Blas::Empty => Aabb::empty(),
             };
             let mut wb = Aabb::empty();
@@ -460,7 +452,7 @@ impl Accel {
             .map(|b| match b.as_ref() {
                 Blas::Tri(t) => t.bytes(),
                 Blas::MotionTri(t) => t.bytes(),
-                Blas::Sphere(s) => s.bvh.nodes.len() * 80 + s.centers.len() * 16 + s.bvh.primitive_indices.len() * 4,
+                Blas::Sphere(s) => s.bvh.bytes() + s.centers.len() * 16,
                 Blas::Empty => 0,
             })
             .sum::<usize>()
@@ -523,37 +515,25 @@ impl Accel {
             Blas::MotionTri(mb) => mb.intersect(o, d, t_max, time),
             Blas::Sphere(sb) => {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
-                let r = bvh_ray(o, d, t_max);
-                let mut rh = RayHit::none();
                 let center = |i: usize| match &sb.velocities {
                     Some(v) => sb.centers[i] + v[i] * time,
                     None => sb.centers[i],
                 };
                 match &sb.shape {
                     PointsBlasShape::Spheres => {
-                        sb.bvh.ray_traverse(r, &mut rh, |r, id| {
-                            let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
-                            match intersect_sphere(center(i).into(), sb.radii[i], o, d, 0.0, r.tmax) {
-                                Some(t) => {
-                                    best = Some((t, i as u32, 0.0, 0.0));
-                                    t
-                                }
-                                None => f32::INFINITY,
-                            }
+                        sb.bvh.traverse(o, d, t_max, |i, t_max| {
+                            let t = intersect_sphere(center(i as usize).into(), sb.radii[i as usize], o, d, 0.0, t_max)?;
+                            best = Some((t, i, 0.0, 0.0));
+                            Some(t)
                         });
                     }
                     PointsBlasShape::Bubbles(bubbles) => {
-                        sb.bvh.ray_traverse(r, &mut rh, |r, id| {
-                            let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
-                            let b = Bubble { center: center(i), ..bubbles[i] };
-                            match b.intersect(o.into(), d.into(), 0.0, r.tmax) {
-                                Some(t) => {
-                                    let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
-                                    best = Some((t, i as u32, u, v));
-                                    t
-                                }
-                                None => f32::INFINITY,
-                            }
+                        sb.bvh.traverse(o, d, t_max, |i, t_max| {
+                            let b = Bubble { center: center(i as usize), ..bubbles[i as usize] };
+                            let t = b.intersect(o.into(), d.into(), 0.0, t_max)?;
+                            let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
+                            best = Some((t, i, u, v));
+                            Some(t)
                         });
                     }
                     PointsBlasShape::Blobby { a, threshold } => {
@@ -565,22 +545,16 @@ impl Accel {
                         let core = 1.0 - threshold.cbrt();
                         let gather = |prune: bool| {
                             let mut ids: Vec<u32> = Vec::new();
-                            let mut rh = RayHit::none();
                             let mut reach = t_max;
-                            sb.bvh.ray_traverse(bvh_ray(o, d, t_max), &mut rh, |r, id| {
-                                let i = sb.bvh.primitive_indices[id] as usize % sb.centers.len();
-                                ids.push(i as u32);
+                            sb.bvh.traverse(o, d, t_max, |i, t_max| {
+                                ids.push(i);
                                 if !prune {
-                                    return f32::INFINITY;
+                                    return None;
                                 }
-                                let k = Kernel { center: center(i), a: a[i] };
-                                match k.entry(o.into(), d.into(), core) {
-                                    Some(t) if t > 0.0 && t < r.tmax => {
-                                        reach = reach.min(t);
-                                        t
-                                    }
-                                    _ => f32::INFINITY,
-                                }
+                                let k = Kernel { center: center(i as usize), a: a[i as usize] };
+                                let t = k.entry(o.into(), d.into(), core).filter(|&t| t > 0.0 && t < t_max)?;
+                                reach = reach.min(t);
+                                Some(t)
                             });
                             ids.sort_unstable();
                             ids.dedup();
