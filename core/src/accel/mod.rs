@@ -2,7 +2,7 @@
 //! triangles in an eight-wide tree of four-triangle blocks (`tribvh.rs`), a points set's
 //! spheres, bubbles or blobby kernels in the same eight-wide tree with primitive ids in its
 //! leaves, intersected by callback (`wide.rs`), a deforming mesh in obvhs' `CwBvh`
-//! (`motion_mesh.rs`); and one `CwBvh` over the instances that place them. Instances may move
+//! (`motion_mesh.rs`); and one eight-wide tree over the instances that place them. Instances may move
 //! (transform motion blur with any number of samples, rotations interpolated on the sphere),
 //! spheres may move by velocity and meshes may deform (vertex position keys).
 
@@ -19,16 +19,10 @@ use wide::PointBvh;
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;
-use obvhs::{
-    aabb::Aabb,
-    cwbvh::{builder::build_cwbvh, CwBvh},
-    ray::{Ray as BvhRay, RayHit},
-    Boundable, BvhBuildParams,
-};
+use obvhs::{aabb::Aabb, ray::Ray as BvhRay};
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 /// A ray with a time (seconds of shutter time) and a maximum distance.
 #[derive(Clone, Copy, Debug)]
@@ -219,7 +213,7 @@ impl BlasCache {
 
 /// The scene's acceleration structure.
 pub struct Accel {
-    tlas: Option<CwBvh>,
+    tlas: Option<PointBvh>,
     blas: Vec<Arc<Blas>>,
     instances: Vec<InstanceRec>,
     bounds: (Vec3, Vec3),
@@ -333,14 +327,6 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
     Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone(), shape })
 }
 
-#[derive(Clone, Copy)]
-struct InstBound(Aabb);
-impl Boundable for InstBound {
-    fn aabb(&self) -> Aabb {
-        self.0
-    }
-}
-
 fn transform_aabb(m: &Mat4, bb: &Aabb) -> Aabb {
     let mut out = Aabb::empty();
     for k in 0..8 {
@@ -425,21 +411,20 @@ impl Accel {
             }
             let identity = inst.transforms.len() == 1 && inst.transforms[0] == Mat4::IDENTITY;
             recs.push(InstanceRec { blas: b, xf, identity });
-            ibounds.push(InstBound(wb));
+            ibounds.push(wb);
         }
-        let tlas = if ibounds.iter().any(|b| b.0.valid()) {
-            let mut ibounds = ibounds.clone();
-            pad_single(&mut ibounds);
-            Some(build_cwbvh(&ibounds, BvhBuildParams::slow_build(), &mut Duration::default()))
+        let tlas = if ibounds.iter().any(|b| b.valid()) {
+            // instances with nothing to hit are left out
+            Some(PointBvh::build(ibounds.iter().map(|b| (b.min, b.max))))
         } else {
             None
         };
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for b in &ibounds {
-            if b.0.valid() {
-                lo = lo.min(b.0.min.into());
-                hi = hi.max(b.0.max.into());
+            if b.valid() {
+                lo = lo.min(b.min.into());
+                hi = hi.max(b.max.into());
             }
         }
         if !(lo.x <= hi.x) {
@@ -456,7 +441,7 @@ impl Accel {
                 Blas::Empty => 0,
             })
             .sum::<usize>()
-            + tlas.as_ref().map_or(0, |t| t.nodes.len() * 80);
+            + tlas.as_ref().map_or(0, |t| t.bytes());
         stats.seconds = start.elapsed().as_secs_f64();
         Accel { tlas, blas, instances: recs, bounds: (lo, hi), stats }
     }
@@ -486,26 +471,15 @@ impl Accel {
             let (t, prim, u, v) = self.intersect_blas(inst.blas, o.into(), d.into(), ray.t_max, ray.time)?;
             return Some(Hit { t, instance: 0, prim, u, v });
         }
-        let mut best = Hit { t: ray.t_max, instance: u32::MAX, prim: 0, u: 0.0, v: 0.0 };
-        let wray = bvh_ray(ray.o.into(), ray.d.into(), ray.t_max);
-        let mut rh = RayHit::none();
-        tlas.ray_traverse(wray, &mut rh, |r, id| {
-            let inst_idx = tlas.primitive_indices[id] as usize % self.instances.len();
-            let inst = &self.instances[inst_idx];
+        let mut best = None;
+        tlas.traverse(ray.o.into(), ray.d.into(), ray.t_max, |i, t_max| {
+            let inst = &self.instances[i as usize];
             let (o, d) = inst.xf.ray_to_local(ray.o, ray.d, ray.time);
-            match self.intersect_blas(inst.blas, o.into(), d.into(), r.tmax, ray.time) {
-                Some((t, prim, u, v)) if t < best.t => {
-                    best = Hit { t, instance: inst_idx as u32, prim, u, v };
-                    t
-                }
-                _ => f32::INFINITY,
-            }
+            let (t, prim, u, v) = self.intersect_blas(inst.blas, o.into(), d.into(), t_max, ray.time)?;
+            best = Some(Hit { t, instance: i, prim, u, v });
+            Some(t)
         });
-        if best.instance == u32::MAX {
-            None
-        } else {
-            Some(best)
-        }
+        best
     }
 
     #[inline]

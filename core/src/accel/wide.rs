@@ -543,19 +543,22 @@ pub(super) fn prefetch_lines(p: *const u8, bytes: usize) {
 }
 
 /// A wide BVH over primitives the caller intersects (points, for spheres, bubbles and
-/// blobby kernels): leaves hold up to [`MAX_LEAF`] primitive ids, each tested on its own.
+/// blobby kernels; instances, for the top level): leaves hold up to [`MAX_LEAF`] primitive ids,
+/// each tested on its own.
 pub(super) struct PointBvh {
     tree: WideTree,
     ids: Vec<u32>,
 }
 
 impl PointBvh {
-    /// Builds over the primitives' boxes (`bounds[i]` = (lo, hi) of primitive i).
-    pub fn build(bounds: impl ExactSizeIterator<Item = (Vec3A, Vec3A)>) -> PointBvh {
-        if bounds.len() == 0 {
+    /// Builds over the primitives' boxes (`bounds[i]` = (lo, hi) of primitive i); an empty box
+    /// (lo > hi on an axis) leaves its primitive out.
+    pub fn build(bounds: impl Iterator<Item = (Vec3A, Vec3A)>) -> PointBvh {
+        let prims: Vec<PrimRef> =
+            bounds.enumerate().filter(|(_, (lo, hi))| lo.cmple(*hi).all()).map(|(i, (lo, hi))| PrimRef { lo, hi, id: i as u32 }).collect();
+        if prims.is_empty() {
             return PointBvh { tree: WideTree::empty(), ids: vec![] };
         }
-        let prims = bounds.enumerate().map(|(i, (lo, hi))| PrimRef { lo, hi, id: i as u32 }).collect();
         // one test per primitive
         let bin = Binary::build(prims, |c| c as f32);
         let tree = bin.fold(|ids, start| leaf_slot(start, ids.len()));
