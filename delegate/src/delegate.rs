@@ -824,13 +824,13 @@ impl Delegate {
                         parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
                         part_names.push((String::new(), None));
                     } else {
-                        // one core mesh per material: each keeps every vertex (and motion key)
-                        // and only its own triangles
+                        // one core mesh per material: its own triangles over the vertices
+                        // they use
                         for (indices, subset) in std::iter::once((&g.rest, None)).chain(g.subsets.iter().map(|s| (&s.indices, Some(s)))) {
                             if indices.is_empty() {
                                 continue;
                             }
-                            scene.meshes.push(MeshDesc { indices: indices.clone(), ..m.clone() });
+                            scene.meshes.push(mesh::sub_mesh(&m, indices));
                             parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
                             part_names.push((subset.map_or(String::new(), |s| format!(" {}", s.path)), subset));
                         }
@@ -1664,8 +1664,8 @@ mod tests {
         // face 1 keeps the mesh's (default) material, face 2 takes /Red, face 0 is in b whose
         // material is gone (the mesh's material)
         assert_eq!(parts, [("/Strip", 2, "default".to_string()), ("/Strip /Strip/a", 2, "/Red".to_string()), ("/Strip /Strip/b", 2, "default".to_string())]);
-        // every part keeps all the mesh's vertices
-        assert!(s.meshes.iter().all(|m| m.positions.len() == 8));
+        // each part holds only its own quad's four vertices
+        assert!(s.meshes.iter().all(|m| m.positions.len() == 4));
     }
 
     #[test]

@@ -287,6 +287,52 @@ pub struct SubsetPart {
     pub indices: Vec<u32>,
 }
 
+/// The part of `m` that triangles `indices` (into `m`'s vertices) use: those triangles over
+/// only the vertices they reference, renumbered in first-use order, with every per-vertex
+/// array (normals, uvs, primvars, motion keys) cut to match. A subset's mesh is this, so a mesh
+/// split among many materials holds each vertex about once, not once per material.
+pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
+    let mut new_of = vec![u32::MAX; m.positions.len()];
+    let mut old: Vec<u32> = Vec::new();
+    let indices = indices
+        .iter()
+        .map(|&i| {
+            let slot = &mut new_of[i as usize];
+            if *slot == u32::MAX {
+                *slot = old.len() as u32;
+                old.push(i);
+            }
+            *slot
+        })
+        .collect();
+    let pick = |v: &[Vec3]| old.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+    MeshDesc {
+        name: m.name.clone(),
+        positions: pick(&m.positions),
+        indices,
+        normals: m.normals.as_deref().map(pick),
+        uvs: m.uvs.as_ref().map(|uv| old.iter().map(|&i| uv[i as usize]).collect()),
+        primvars: m
+            .primvars
+            .iter()
+            .map(|pv| {
+                if pv.constant {
+                    return pv.clone();
+                }
+                let t = pv.tuple as usize;
+                let data = old.iter().flat_map(|&i| pv.data[i as usize * t..(i as usize + 1) * t].iter().copied()).collect();
+                PrimvarData { data, ..pv.clone() }
+            })
+            .collect(),
+        double_sided: m.double_sided,
+        motion: m.motion.as_ref().map(|mo| MeshMotion {
+            times: mo.times.clone(),
+            positions: mo.positions.iter().map(|k| pick(k)).collect(),
+            normals: mo.normals.as_ref().map(|n| n.iter().map(|k| pick(k)).collect()),
+        }),
+    }
+}
+
 /// A mesh prim converted: the triangles at the current frame, how the points move, and the
 /// triangles of each `materialBind` subset (`geomSubsets`); `rest` holds the triangles of
 /// faces in no subset (all of them without subsets).
@@ -686,6 +732,48 @@ mod tests {
         put("faceVertexCounts", Value::Ints(counts.to_vec()));
         put("faceVertexIndices", Value::Ints(idx.to_vec()));
         s
+    }
+
+    #[test]
+    fn a_subset_mesh_keeps_only_its_vertices_with_their_data() {
+        // a strip of four triangles over six vertices, with every per-vertex array
+        let positions: Vec<Vec3> = (0..6).map(|i| Vec3::new(i as f32, (i % 2) as f32, 0.0)).collect();
+        let m = MeshDesc {
+            name: "/Strip".into(),
+            positions: positions.clone(),
+            indices: vec![0, 1, 2, 2, 1, 3, 2, 3, 4, 4, 3, 5],
+            normals: Some(positions.iter().map(|p| Vec3::new(0.0, 0.0, 1.0 + p.x)).collect()),
+            uvs: Some(positions.iter().map(|p| Vec2::new(p.x, p.y)).collect()),
+            primvars: vec![
+                PrimvarData { name: "rgb".into(), tuple: 3, constant: false, data: (0..18).map(|k| k as f32).collect() },
+                PrimvarData { name: "k".into(), tuple: 1, constant: true, data: vec![7.0] },
+            ],
+            double_sided: true,
+            motion: Some(MeshMotion {
+                times: vec![0.0, 1.0],
+                positions: vec![positions.clone(), positions.iter().map(|p| *p + Vec3::Z).collect()],
+                normals: None,
+            }),
+        };
+        // the last two triangles: vertices 2, 3, 4, 5 in first-use order
+        let s = sub_mesh(&m, &m.indices[6..]);
+        assert_eq!(s.indices, vec![0, 1, 2, 2, 1, 3]);
+        assert_eq!(s.positions, m.positions[2..].to_vec());
+        assert_eq!(s.normals.as_deref(), Some(&m.normals.as_ref().unwrap()[2..]));
+        assert_eq!(s.uvs.as_deref(), Some(&m.uvs.as_ref().unwrap()[2..]));
+        assert_eq!(s.primvars[0].data, (6..18).map(|k| k as f32).collect::<Vec<_>>());
+        assert_eq!(s.primvars[1], m.primvars[1]);
+        let mo = s.motion.as_ref().unwrap();
+        assert_eq!((mo.times.clone(), mo.positions[1].clone()), (vec![0.0, 1.0], m.motion.as_ref().unwrap().positions[1][2..].to_vec()));
+        assert!(s.double_sided && s.name == m.name);
+        // every triangle is where it was
+        for t in 0..2 {
+            for k in 0..3 {
+                assert_eq!(s.positions[s.indices[3 * t + k] as usize], m.positions[m.indices[6 + 3 * t + k] as usize]);
+            }
+        }
+        // first use decides the order: a triangle listed as (4, 3, 5) comes first
+        assert_eq!(sub_mesh(&m, &[4, 3, 5, 0, 1, 2]).positions, [4, 3, 5, 0, 1, 2].map(|i| m.positions[i]).to_vec());
     }
 
     fn tri_normal(m: &MeshDesc, t: usize) -> Vec3 {
