@@ -177,7 +177,8 @@ mod tests {
         for n in [1, 2, 9, 40] {
             let (positions, indices) = grid(n);
             let bvh = TriBvh::build(TriMesh { positions: &positions, indices: &indices });
-                        assert_eq!(bvh.blocks.len(), bvh.blocks.capacity(), "n = {n}");
+                        assert!(bvh.tree.allocated_exactly(), "n = {n}");
+            assert_eq!(bvh.blocks.len(), bvh.blocks.capacity(), "n = {n}");
             let mut ids: Vec<u32> = bvh.blocks.iter().flat_map(|b| b.ids).collect();
             ids.sort_unstable();
             ids.dedup();

@@ -143,7 +143,8 @@ const W: usize = 8;
 /// A leaf slot for `count` (1 to 8) items from `first` on.
 #[inline]
 pub(super) fn leaf_slot(first: usize, count: usize) -> u32 {
-    debug_assert!((1..=8).contains(&count) && first < 1 << 28);
+    debug_assert!((1..=8).contains(&count));
+    assert!(first < 1 << 28, "a BVH holds at most 2^28 leaf items (blocks of four triangles, or points)");
     LEAF | ((count as u32 - 1) << 28) | first as u32
 }
 
@@ -422,6 +423,12 @@ impl WideTree {
 
     pub fn bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node>()
+    }
+
+    /// Whether the nodes were allocated once, at their exact count.
+    #[cfg(test)]
+    pub fn allocated_exactly(&self) -> bool {
+        self.nodes.len() == self.nodes.capacity()
     }
 
     /// Visits, nearest first, the leaves whose boxes the ray crosses before the nearest hit:
