@@ -8,6 +8,8 @@ CASE:
   points1m    one UsdGeomPoints, 1M points with per-point widths
   resync1000  1000 meshes of 200 triangles (+ camera); one prim's transform is edited and the
               reader's update() re-syncs it
+  camera2m    mesh2m's grid; the camera is moved five times, each move followed by the
+              restarted pass (the renderer keeps its BVH and takes the new camera)
 
 Each repeat runs in a fresh child process, so the peak RSS (VmHWM, which only grows) belongs
 to that case alone. Phases, per process:
@@ -20,6 +22,8 @@ to that case alone. Phases, per process:
   resync1000 only: edit one prim's translate op, reader.update() (notice -> re-read of that
            prim -> commit; `resync_synced` is the delegate's last_synced()), then the
            restarted pass until it finishes (`rebuild_s`)
+  camera2m only: the median over five camera moves of reader.update() (`camera_update_s`)
+           and of the restarted pass until it finishes (`camera_pass_s`)
 The medians over the repeats are printed last.
 """
 import argparse
@@ -76,7 +80,7 @@ def author(case):
             m.AddTranslateOp().Set(Gf.Vec3d(*offset))
         return m
 
-    if case == "mesh2m":
+    if case in ("mesh2m", "camera2m"):
         mesh("/World/Grid", 1000)
     elif case == "points1m":
         n = 1_000_000
@@ -91,7 +95,7 @@ def author(case):
         for k in range(1000):
             mesh("/World/M%04d" % k, 10, ((k % 40) * 1.1, 0.0, (k // 40) * 1.1))
     else:
-        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000)" % case)
+        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000, camera2m)" % case)
     return stage
 
 
@@ -148,6 +152,20 @@ def child(case):
         t = time.perf_counter()
         wait_pass(rp)
         out["rebuild_s"] = time.perf_counter() - t
+    if case == "camera2m":
+        op = UsdGeom.Xformable(stage.GetPrimAtPath("/Camera")).GetOrderedXformOps()[0]
+        updates, passes = [], []
+        for k in range(5):
+            op.Set(Gf.Vec3d(0.5 + 0.01 * (k + 1), 0.5, 3.0))
+            t = time.perf_counter()
+            reader.update()
+            updates.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            wait_pass(rp)
+            passes.append(time.perf_counter() - t)
+        out["camera_update_s"] = statistics.median(updates)
+        out["camera_pass_s"] = statistics.median(passes)
+        out["camera_synced"] = list(delegate.last_synced())
     reader.close()
     print(json.dumps(out))
 

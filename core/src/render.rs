@@ -1,7 +1,7 @@
 //! The public rendering API: build a [`Renderer`] from a [`SceneDesc`] and settings, run
 //! progressive passes, read AOVs, write EXR.
 
-use crate::scene::SceneDesc;
+use crate::scene::{CameraDesc, SceneDesc};
 use std::sync::atomic::AtomicBool;
 
 /// A problem found in the input: which item (prim path), which attribute, what is wrong.
@@ -233,6 +233,8 @@ pub struct Renderer {
     caustics: Option<crate::caustics::engine::Caustics>,
     /// Which pixels still sample (None: adaptive sampling is off).
     adaptive: Option<crate::adaptive::Adaptive>,
+    /// The camera prim's name, which its problems carry.
+    camera_name: String,
 }
 
 impl Renderer {
@@ -277,17 +279,58 @@ impl Renderer {
             .build()
             .map_err(|e| RenderError(format!("cannot start render threads: {e}")))?;
         let camera_stack = crate::integrator::initial_stack(&world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
-        let mut caustics = match settings.integrator {
-            IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(&world, w, h, settings.caustics),
-            IntegratorKind::Path => None,
-        };
-        if let Some(c) = caustics.as_mut() {
-            c.set_image(settings.pixel_filter, film.window);
-        }
+        let caustics = Self::caustics_for(&world, &settings, film.window);
         let mut stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), ..Default::default() };
         stats.caustics = caustics.as_ref().map(|c| c.stats().clone());
         let adaptive = crate::adaptive::Adaptive::new(settings.adaptive_threshold, settings.adaptive_min_spp, &film);
-        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive })
+        let camera_name = clean.camera.name.clone();
+        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive, camera_name })
+    }
+
+    /// The caustics integrator's state for `world`'s camera (None for the path integrator).
+    fn caustics_for(world: &crate::world::World, settings: &RenderSettings, window: [u32; 4]) -> Option<crate::caustics::engine::Caustics> {
+        let mut caustics = match settings.integrator {
+            IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(world, settings.width, settings.height, settings.caustics),
+            IntegratorKind::Path => None,
+        };
+        if let Some(c) = caustics.as_mut() {
+            c.set_image(settings.pixel_filter, window);
+        }
+        caustics
+    }
+
+    /// Points the renderer at `camera` (another camera, or the same one moved or changed),
+    /// keeping everything else it built: BVHs, lights, media. The image starts over and is the
+    /// one a new renderer of the scene with that camera makes, sample for sample. Returns
+    /// false, changing nothing, when the settings differ from the renderer's or the camera's
+    /// shutter differs from the one the scene was built over (instances and lights are placed
+    /// over it): the caller then builds a new renderer. The camera's problems replace those of
+    /// the camera before.
+    pub fn set_camera(&mut self, camera: &CameraDesc, settings: &RenderSettings) -> bool {
+        let start = std::time::Instant::now();
+        if *settings != self.settings {
+            return false;
+        }
+        let mut desc = camera.clone();
+        let mut problems = Vec::new();
+        crate::validate::validate_camera(&mut desc, self.world.media.len(), &mut problems);
+        let s = settings;
+        let cam = crate::camera::Camera::with_conform(&desc, s.width, s.height, s.pixel_aspect_ratio, s.aspect_conform, s.disable_depth_of_field, s.disable_motion_blur);
+        if cam.shutter != self.world.camera.shutter {
+            return false;
+        }
+        self.world.camera = cam;
+        let old = std::mem::replace(&mut self.camera_name, desc.name);
+        self.problems.retain(|p| p.item != old);
+        self.problems.extend(problems);
+        let world = &self.world;
+        self.camera_stack = crate::integrator::initial_stack(world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
+        self.film = crate::film::Film::new(s.width, s.height, self.film.window);
+        self.film.scale = world.camera.exposure_scale;
+        self.caustics = Self::caustics_for(world, s, self.film.window);
+        self.adaptive = crate::adaptive::Adaptive::new(s.adaptive_threshold, s.adaptive_min_spp, &self.film);
+        self.stats = RenderStats { build_seconds: start.elapsed().as_secs_f64(), caustics: self.caustics.as_ref().map(|c| c.stats().clone()), ..Default::default() };
+        true
     }
 
     /// Problems found in the input.

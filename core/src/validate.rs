@@ -513,31 +513,36 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
         true
     });
 
-    // camera
-    let c = &mut s.camera;
+    validate_camera(&mut s.camera, s.media.len(), &mut p);
+    (s, p)
+}
+
+/// A camera made safe to render: invalid values replaced (each a problem naming the camera),
+/// a medium index past `n_media` dropped.
+pub(crate) fn validate_camera(c: &mut CameraDesc, n_media: usize, p: &mut Vec<Problem>) {
     let cam_name = c.name.clone();
     if !(c.horizontal_aperture > 0.0 && c.horizontal_aperture.is_finite()) {
-        problem(&mut p, &cam_name, "horizontalAperture", "zero or invalid aperture; using 20.955");
+        problem(p, &cam_name, "horizontalAperture", "zero or invalid aperture; using 20.955");
         c.horizontal_aperture = 20.955;
     }
     if !(c.vertical_aperture > 0.0 && c.vertical_aperture.is_finite()) {
-        problem(&mut p, &cam_name, "verticalAperture", "zero or invalid aperture; using 15.2908");
+        problem(p, &cam_name, "verticalAperture", "zero or invalid aperture; using 15.2908");
         c.vertical_aperture = 15.2908;
     }
     if !(c.focal_length > 0.0 && c.focal_length.is_finite()) {
-        problem(&mut p, &cam_name, "focalLength", "zero or invalid focal length; using 50");
+        problem(p, &cam_name, "focalLength", "zero or invalid focal length; using 50");
         c.focal_length = 50.0;
     }
     if !(c.clipping_range[0] >= 0.0 && c.clipping_range[1] > c.clipping_range[0]) {
-        problem(&mut p, &cam_name, "clippingRange", "invalid range; using (1, 1e6)");
+        problem(p, &cam_name, "clippingRange", "invalid range; using (1, 1e6)");
         c.clipping_range = [1.0, 1e6];
     }
     if !(c.f_stop >= 0.0 && c.f_stop.is_finite()) || !(c.focus_distance >= 0.0 && c.focus_distance.is_finite()) {
-        problem(&mut p, &cam_name, "fStop", "invalid depth of field; pinhole used");
+        problem(p, &cam_name, "fStop", "invalid depth of field; pinhole used");
         c.f_stop = 0.0;
     }
     if !(c.shutter_open.is_finite() && c.shutter_close.is_finite()) || c.shutter_close < c.shutter_open {
-        problem(&mut p, &cam_name, "shutter:close", "shutter closes before it opens; motion blur off");
+        problem(p, &cam_name, "shutter:close", "shutter closes before it opens; motion blur off");
         c.shutter_close = c.shutter_open;
     }
     for (v, attr, d) in [
@@ -547,24 +552,23 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
         (&mut c.exposure_responsivity, "exposure:responsivity", 1.0),
     ] {
         if !(*v > 0.0 && v.is_finite()) {
-            problem(&mut p, &cam_name, attr, format!("must be > 0; using {d}"));
+            problem(p, &cam_name, attr, format!("must be > 0; using {d}"));
             *v = d;
         }
     }
     if !c.exposure.is_finite() {
-        problem(&mut p, &cam_name, "exposure", "non-finite; using 0");
+        problem(p, &cam_name, "exposure", "non-finite; using 0");
         c.exposure = 0.0;
     }
     if c.transforms.is_empty() || !c.transforms.iter().all(mat_ok) || c.times.len() != c.transforms.len() {
-        problem(&mut p, &cam_name, "xformOp", "invalid camera transform; identity used");
+        problem(p, &cam_name, "xformOp", "invalid camera transform; identity used");
         c.transforms = vec![Mat4::IDENTITY];
         c.times = vec![0.0];
     }
     if c.medium.is_some_and(|m| m >= n_media) {
-        problem(&mut p, &cam_name, "tide:medium", "refers to a medium that does not exist; ignored");
+        problem(p, &cam_name, "tide:medium", "refers to a medium that does not exist; ignored");
         c.medium = None;
     }
-    (s, p)
 }
 
 /// Makes a points set's shape data agree with its points: one value per point, heights and

@@ -9,7 +9,7 @@ use common::*;
 use glam::{Mat4, Vec3};
 use tide_core::render::IntegratorKind;
 use tide_core::scene::*;
-use tide_core::{Aov, Renderer};
+use tide_core::{Aov, RenderSettings, Renderer};
 
 /// A closed water body over [-h, h]² from y = `bottom` to a wavy top around y = 0.
 fn wavy_water(h: f32, n: u32, amp: f32, bottom: f32) -> MeshDesc {
@@ -570,3 +570,34 @@ fn the_learned_guiding_table_shows_the_casters() {
 
 
 
+
+#[test]
+fn a_new_camera_renders_what_a_new_renderer_of_it_would() {
+    let scene = pool(5.0);
+    // from above the water, then from inside it (the camera's medium changes), then a camera
+    // with a shutter of its own, which the renderer refuses (its scene was placed over another)
+    let under = CameraDesc { name: "/under".into(), ..camera(Vec3::new(0.3, -0.4, 0.9), Vec3::new(-0.2, -0.7, -0.5), 60.0) };
+    for kind in [IntegratorKind::Path, IntegratorKind::Caustics] {
+        let s = settings_for(kind, 24, 16, 4, 2);
+        let mut r = Renderer::new(&scene, s.clone()).expect("renderer");
+        assert!(r.render_pass(2, None));
+        assert!(r.set_camera(&under, &s));
+        assert_eq!(r.samples_per_pixel(), 0, "{kind:?}: the image starts over");
+        assert!(r.render_pass(4, None));
+        let moved = SceneDesc { camera: under.clone(), ..scene.clone() };
+        let fresh = render(&moved, s.clone());
+        assert_eq!(r.aov_pixels(Aov::Color), fresh.aov_pixels(Aov::Color), "{kind:?}");
+        assert!(r.aov_pixels(Aov::Color) != render(&scene, s.clone()).aov_pixels(Aov::Color));
+        let blurred = CameraDesc { shutter_close: 0.5, ..under.clone() };
+        assert!(!r.set_camera(&blurred, &s), "{kind:?}: another shutter needs a new renderer");
+        assert!(!r.set_camera(&under, &RenderSettings { seed: 2, ..s.clone() }), "{kind:?}: other settings too");
+        assert_eq!(r.aov_pixels(Aov::Color), fresh.aov_pixels(Aov::Color), "{kind:?}: a refusal changes nothing");
+    }
+    // the camera's problems are its own: a bad aperture is reported, then gone with the camera
+    let s = settings_for(IntegratorKind::Path, 8, 8, 1, 1);
+    let mut r = Renderer::new(&scene, s.clone()).expect("renderer");
+    assert!(r.set_camera(&CameraDesc { horizontal_aperture: -1.0, ..under.clone() }, &s));
+    assert!(r.problems().iter().any(|p| p.item == "/under" && p.attribute == "horizontalAperture"));
+    assert!(r.set_camera(&CameraDesc { name: "/other".into(), ..under.clone() }, &s));
+    assert!(!r.problems().iter().any(|p| p.item == "/under"));
+}

@@ -202,6 +202,12 @@ pub struct Delegate {
     ids: HashMap<String, u32>,
     scene: Arc<SceneDesc>,
     scene_generation: u64,
+    /// Bumped by every assembly whose scene differs from the one before in more than its
+    /// camera: a render job's [`crate::render_pass::Job::world`].
+    world_generation: u64,
+    /// The camera-side inputs of the last assembly that place the rest of the scene: shutter
+    /// open and close (frames), time codes per second, motion blur on.
+    view_inputs: Option<(u64, u64, u64, bool)>,
     settings: SettingsPiece,
     active_camera: Option<String>,
     active_settings: Option<String>,
@@ -285,6 +291,8 @@ impl Delegate {
             ids: HashMap::new(),
             scene: Arc::new(SceneDesc::default()),
             scene_generation: 0,
+            world_generation: 0,
+            view_inputs: None,
             settings: SettingsPiece::default(),
             active_camera: None,
             active_settings: None,
@@ -627,10 +635,11 @@ impl Delegate {
             self.cache.insert(path.clone(), cached);
         }
         let changed = !dirty.is_empty() || self.structure_changed;
+        let camera_only = !self.structure_changed && dirty.iter().all(|p| self.prims[p].ty == PrimType::Camera);
         self.structure_changed = false;
         self.last_synced = dirty;
         if changed {
-            self.assemble();
+            self.assemble(camera_only);
             problems.extend(self.assembly_problems.iter().cloned());
             self.restart_if_running();
         }
@@ -674,7 +683,10 @@ impl Delegate {
         self.cache.iter().find(|(_, c)| matches!(c.piece, Piece::Settings(_))).map(|(p, _)| p.clone())
     }
 
-    fn assemble(&mut self) {
+    /// Builds the scene the renderer gets from the synced prims. `camera_only`: what changed
+    /// since the last assembly is a camera or which camera is active (the rest of the scene
+    /// then stays the same unless the camera moves it: a new shutter, an ocean's detail).
+    fn assemble(&mut self, camera_only: bool) {
         let mut ap: Vec<Problem> = Vec::new();
         let sp = match self.settings_path().and_then(|p| self.cache.get(&p)) {
             Some(Cached { piece: Piece::Settings(s), .. }) => s.clone(),
@@ -704,6 +716,9 @@ impl Delegate {
         let (open, close) = cam.as_ref().map_or((0.0, 0.0), |c| (c.desc.shutter_open as f64, c.desc.shutter_close as f64));
         let motion = !sp.settings.disable_motion_blur && close > open;
         let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
+        let view = (open.to_bits(), close.to_bits(), tcps.to_bits(), motion);
+        let mut world_changed = !camera_only || self.view_inputs != Some(view);
+        self.view_inputs = Some(view);
         // Transform samples: inside the shutter plus one on either side, or the value now.
         let place = |samples: &[(f64, Mat4)]| -> (Vec<Mat4>, Vec<f32>) {
             if !motion || samples.len() < 2 {
@@ -889,6 +904,7 @@ impl Delegate {
                             m.clone()
                         }
                         _ => {
+                            world_changed = true;
                             let mut p = Problems::new(path);
                             let m = Arc::new(ocean::build(&key, &mut p));
                             ap.extend(p.list.iter().cloned());
@@ -1196,6 +1212,9 @@ impl Delegate {
         self.settings = sp;
         self.scene = Arc::new(scene);
         self.scene_generation += 1;
+        if world_changed {
+            self.world_generation += 1;
+        }
     }
 
     /// The portals that no dome's `portals` relationship names (a dome naming none takes them).
@@ -1257,6 +1276,7 @@ impl Delegate {
             scene: self.scene.clone(),
             settings,
             bindings: bindings.iter().filter_map(|(a, b)| self.buffers.get(b).map(|buf| (*a, buf.clone()))).collect(),
+            world: self.world_generation,
         };
         let factory = self.factory.clone();
         self.pass.get_or_insert_with(|| RenderPass::new(factory)).start(job);
@@ -1278,9 +1298,10 @@ impl Delegate {
         let cam = camera.filter(|c| !c.is_empty()).map(String::from);
         let set = settings.filter(|c| !c.is_empty()).map(String::from);
         if cam != self.active_camera || set != self.active_settings || self.scene_generation == 0 {
+            let camera_only = set == self.active_settings && self.scene_generation != 0;
             self.active_camera = cam;
             self.active_settings = set;
-            self.assemble();
+            self.assemble(camera_only);
             problems.extend(self.assembly_problems.iter().cloned());
         }
         let mut bindings = Vec::new();
@@ -2066,6 +2087,55 @@ mod tests {
         d.commit_resources();
         assert!(!d.problems().iter().any(|q| q.attribute == "faceVertexCounts"));
         assert_eq!(d.scene().meshes[0].indices.len(), 6);
+    }
+
+    /// A delegate on the core renderer that counts its builds: a quad under a dome, a camera
+    /// at (x, 0.5, z), an 8×6 colour buffer, 2 spp.
+    fn counted_core_delegate(x: f64, z: f64) -> (Delegate, Arc<AtomicU32>) {
+        let builds = Arc::new(AtomicU32::new(0));
+        let (inner, n) = (crate::render_pass::core_factory(), builds.clone());
+        let factory: EngineFactory = Arc::new(move |scene, settings| {
+            n.fetch_add(1, Ordering::SeqCst);
+            inner(scene, settings)
+        });
+        let mut d = Delegate::with_engine(factory);
+        quad(&mut d, "/A");
+        d.create_prim("domeLight", "/Dome");
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "transform", translate(x, 0.5, z), None);
+        d.create_prim("renderBuffer", "/buf");
+        d.set_attribute("/buf", "dimensions", Value::Ints(vec![8, 6]), None);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "tide:samples", Value::Int(2), None);
+        d.commit_resources();
+        d.execute(Some("/cam"), &[("color".into(), "/buf".into())], Some("/S"));
+        assert!(d.wait(Duration::from_secs(20)) && d.is_converged());
+        (d, builds)
+    }
+
+    #[test]
+    fn a_moved_camera_keeps_the_engine_and_renders_as_a_new_one() {
+        let (mut d, builds) = counted_core_delegate(0.5, 3.0);
+        let first = d.map_buffer("/buf").unwrap().pixels;
+        d.set_attribute("/cam", "transform", translate(0.4, 0.5, 2.0), None);
+        d.commit_resources();
+        assert!(d.wait(Duration::from_secs(20)) && d.is_converged());
+        let moved = d.map_buffer("/buf").unwrap();
+        assert_eq!(builds.load(Ordering::SeqCst), 1, "the camera move re-aimed the engine");
+        assert_eq!(moved.samples, 2);
+        assert_ne!(moved.pixels, first);
+        // a delegate that starts with the camera there renders the same pixels
+        let (fresh, _) = counted_core_delegate(0.4, 2.0);
+        assert_eq!(fresh.map_buffer("/buf").unwrap().pixels, moved.pixels);
+        // anything else builds anew: the quad moved, or a shutter that places the scene anew
+        d.set_attribute("/A", "transform", translate(0.0, 0.1, 0.0), None);
+        d.commit_resources();
+        assert!(d.wait(Duration::from_secs(20)));
+        assert_eq!(builds.load(Ordering::SeqCst), 2);
+        d.set_attribute("/cam", "shutter:close", Value::Float(0.5), None);
+        d.commit_resources();
+        assert!(d.wait(Duration::from_secs(20)));
+        assert_eq!(builds.load(Ordering::SeqCst), 3);
     }
 
     #[test]

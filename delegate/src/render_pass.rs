@@ -41,6 +41,13 @@ pub trait Engine {
     fn converged(&self) -> bool {
         false
     }
+    /// Takes `scene`'s camera, for a scene that differs from the engine's only there, keeping
+    /// the rest of what it built; false (nothing changed) when it cannot, and a new engine is
+    /// needed.
+    fn set_camera(&mut self, scene: &SceneDesc, settings: &RenderSettings) -> bool {
+        let _ = (scene, settings);
+        false
+    }
 }
 
 impl Engine for Renderer {
@@ -49,6 +56,9 @@ impl Engine for Renderer {
     }
     fn samples_per_pixel(&self) -> u32 {
         Renderer::samples_per_pixel(self)
+    }
+    fn set_camera(&mut self, scene: &SceneDesc, settings: &RenderSettings) -> bool {
+        Renderer::set_camera(self, &scene.camera, settings)
     }
     fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
         Renderer::aov_pixels(self, aov)
@@ -156,6 +166,9 @@ pub struct Job {
     pub scene: Arc<SceneDesc>,
     pub settings: RenderSettings,
     pub bindings: Vec<(Aov, RenderBuffer)>,
+    /// Jobs with the same `world` have scenes that differ at most in their camera: the engine
+    /// of the one before is kept and given the new camera ([`Engine::set_camera`]).
+    pub world: u64,
 }
 
 type ExrReply = std::sync::mpsc::Sender<std::io::Result<()>>;
@@ -396,6 +409,8 @@ fn serve_exr(shared: &Shared, engine: Option<&dyn Engine>) {
 
 fn thread_main(shared: &Shared, factory: &EngineFactory) {
     let mut engine: Option<Box<dyn Engine>> = None;
+    // the `world` of the job `engine` was built or last re-aimed for
+    let mut engine_world: Option<u64> = None;
     loop {
         // Wait for a new job, serving EXR requests against the last engine meanwhile.
         let (job, generation) = {
@@ -424,8 +439,12 @@ fn thread_main(shared: &Shared, factory: &EngineFactory) {
                 st = shared.cond.wait(st).unwrap_or_else(|e| e.into_inner());
             }
         };
-        engine = None;
+        if engine_world != Some(job.world) {
+            // freed before the next engine is built
+            engine = None;
+        }
         let outcome = catch_unwind(AssertUnwindSafe(|| run_job(shared, factory, &job, generation, &mut engine)));
+        engine_world = engine.as_ref().map(|_| job.world);
         let mut st = shared.lock();
         if st.generation == generation {
             match outcome {
@@ -446,7 +465,13 @@ fn thread_main(shared: &Shared, factory: &EngineFactory) {
 fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64, slot: &mut Option<Box<dyn Engine>>) -> Result<bool, String> {
     let target = job.settings.spp;
     let budget = job.settings.time_budget_s;
-    let e = slot.insert(factory(&job.scene, &job.settings).map_err(|e| format!("the scene could not be prepared: {}", e))?);
+    let reaimed = slot.as_mut().is_some_and(|e| e.set_camera(&job.scene, &job.settings));
+    if !reaimed {
+        // the old engine is freed before the new one is built
+        *slot = None;
+        *slot = Some(factory(&job.scene, &job.settings).map_err(|e| format!("the scene could not be prepared: {}", e))?);
+    }
+    let Some(e) = slot.as_mut() else { unreachable!() };
     let start = Instant::now();
     let mut next = 1u32;
     let mut done = 0u32;
@@ -556,7 +581,7 @@ pub(crate) mod tests {
 
     fn job(spp: u32, buf: &RenderBuffer) -> Job {
         let settings = RenderSettings { width: 4, height: 2, spp, ..Default::default() };
-        Job { scene: Arc::new(SceneDesc::default()), settings, bindings: vec![(Aov::Color, buf.clone())] }
+        Job { scene: Arc::new(SceneDesc::default()), settings, bindings: vec![(Aov::Color, buf.clone())], world: 0 }
     }
 
     #[test]
