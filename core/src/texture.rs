@@ -105,7 +105,7 @@ mod tests {
             width: 2,
             height: 2,
             channels: 3,
-            pixels: vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.],
+            pixels: vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.].into(),
             wrap_s: wrap,
             wrap_t: wrap,
         }

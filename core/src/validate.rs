@@ -223,10 +223,10 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
         let need = (t.width as usize) * (t.height as usize) * (t.channels as usize);
         if !(1..=4).contains(&t.channels) || t.pixels.len() != need || t.width == 0 || t.height == 0 {
             problem(&mut p, &t.name, "pixels", "texture size does not match its data; replaced by a 1×1 grey texture");
-            *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18], wrap_s: t.wrap_s, wrap_t: t.wrap_t };
+            *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18].into(), wrap_s: t.wrap_s, wrap_t: t.wrap_t };
         } else if t.pixels.iter().any(|v| !v.is_finite()) {
             problem(&mut p, &t.name, "pixels", "NaN/inf texels replaced by 0");
-            t.pixels.iter_mut().for_each(|v| {
+            std::sync::Arc::make_mut(&mut t.pixels).iter_mut().for_each(|v| {
                 if !v.is_finite() {
                     *v = 0.0
                 }
@@ -702,7 +702,7 @@ mod tests {
         bad_pv.scale = [2.0; 4];
         let graph = Expr::binary(Binary::Mul, Expr::Texture(lookup(0)), Expr::binary(Binary::Add, Expr::Texture(lookup(1)), Expr::Primvar(bad_pv)));
         let mut s = SceneDesc::default();
-        s.textures.push(TextureDesc { name: "t".into(), width: 1, height: 1, channels: 1, pixels: vec![1.0], wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat });
+        s.textures.push(TextureDesc { name: "t".into(), width: 1, height: 1, channels: 1, pixels: vec![1.0].into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat });
         let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Graph(graph), roughness: FloatInput::Graph(Expr::Texture(lookup(5))), ..Default::default() };
         s.materials.push(MaterialDesc { name: "/M".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
         let (clean, probs) = validate(&s);

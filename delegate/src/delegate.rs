@@ -218,6 +218,9 @@ pub struct Delegate {
     job_key: Option<JobKey>,
     /// Built ocean meshes by prim path, with the key they were built for and their problems.
     oceans: HashMap<String, (OceanKey, Arc<OceanMeshes>, Vec<Problem>)>,
+    /// Textures as the last assembly used them (linearised, domes made lat-long), each with the
+    /// decoded pixels it was made from: an assembly shares them instead of converting again.
+    converted_textures: HashMap<TexKey, (Arc<Vec<f32>>, TextureDesc)>,
     /// Grids of volumes by (file, field name, field index), each read once.
     grids: HashMap<GridKey, GridState>,
 }
@@ -301,6 +304,7 @@ impl Delegate {
             pass: None,
             job_key: None,
             oceans: HashMap::new(),
+            converted_textures: HashMap::new(),
             grids: HashMap::new(),
         }
     }
@@ -736,31 +740,18 @@ impl Delegate {
         scene.materials.push(default_material("default"));
         let mut tex_index: BTreeMap<TexKey, usize> = BTreeMap::new();
         let textures = &self.textures;
+        let mut before = std::mem::take(&mut self.converted_textures);
+        let mut converted = HashMap::new();
         let mut texture = |key: &TexKey, scene: &mut SceneDesc| -> Option<usize> {
             if let Some(&i) = tex_index.get(key) {
                 return Some(i);
             }
             let Some(TexState::Loaded { width, height, channels, pixels, .. }) = textures.get(&key.asset) else { return None };
-            let mut px: Vec<f32> = pixels.as_ref().clone();
-            if key.linearize {
-                let ch = *channels as usize;
-                for texel in px.chunks_exact_mut(ch) {
-                    for c in texel.iter_mut().take(ch.min(3)) {
-                        *c = srgb_to_linear(*c);
-                    }
-                }
-            }
-            let tex = TextureDesc {
-                name: key.asset.clone(),
-                width: *width,
-                height: *height,
-                channels: *channels,
-                pixels: px,
-                wrap_s: key.wrap_s.wrap(),
-                wrap_t: key.wrap_t.wrap(),
+            let tex = match before.remove(key) {
+                Some((source, tex)) if Arc::ptr_eq(&source, pixels) => tex,
+                _ => convert_texture(key, *width, *height, *channels, pixels)?,
             };
-            // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
-            let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
+            converted.insert(key.clone(), (pixels.clone(), tex.clone()));
             scene.textures.push(tex);
             tex_index.insert(key.clone(), scene.textures.len() - 1);
             Some(scene.textures.len() - 1)
@@ -1208,6 +1199,7 @@ impl Delegate {
             }
             scene.camera = d;
         }
+        self.converted_textures = converted;
         self.assembly_problems = ap;
         self.settings = sp;
         self.scene = Arc::new(scene);
@@ -1419,6 +1411,14 @@ mod tests {
         d.set_attribute(path, &format!("{}/S.inputs:diffuseColor", path), floats(&[1., 0., 0.], 3), None);
     }
 
+    /// A UsdPreviewSurface material at `path` whose diffuse colour reads the texture `file`.
+    fn textured_material(d: &mut Delegate, path: &str, file: &str) {
+        red_material(d, path);
+        d.set_attribute(path, &format!("{path}/S.inputs:diffuseColor.connect"), tok(&format!("{path}/T.outputs:rgb")), None);
+        d.set_attribute(path, &format!("{path}/T.info:id"), tok("UsdUVTexture"), None);
+        d.set_attribute(path, &format!("{path}/T.inputs:file"), Value::Asset(file.into()), None);
+    }
+
     fn material_of<'a>(d: &'a Delegate, inst: &str) -> &'a tide_core::scene::MaterialDesc {
         let i = d.scene().instances.iter().find(|i| i.name == inst).unwrap();
         &d.scene().materials[i.material]
@@ -1490,12 +1490,34 @@ mod tests {
     }
 
     #[test]
+    fn assemblies_share_converted_textures_until_the_file_changes() {
+        let mut d = Delegate::new();
+        textured_material(&mut d, "/M", "/t.png");
+        assert!(d.add_texture("/t.png", 2, 1, 3, vec![0.5, 0.5, 0.5, 1.0, 1.0, 1.0], true));
+        quad(&mut d, "/A");
+        d.set_attribute("/A", "material", Value::Path("/M".into()), None);
+        d.commit_resources();
+        let first = d.scene().textures[0].pixels.clone();
+        assert!((first[0] - 0.214_041).abs() < 1e-5, "linearised once: {}", first[0]);
+        // another prim's edit re-assembles the scene: the same pixels, not a copy
+        d.set_attribute("/A", "transform", translate(1.0, 0.0, 0.0), None);
+        d.commit_resources();
+        assert!(Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
+        // new pixels for the file are converted anew
+        assert!(d.add_texture("/t.png", 2, 1, 3, vec![1.0; 6], true));
+        d.commit_resources();
+        assert!(!Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
+        assert_eq!(*d.scene().textures[0].pixels, vec![1.0; 6]);
+        // a texture no material uses any more is let go
+        d.set_attribute("/M", "/M/T.inputs:file", Value::Asset("/u.png".into()), None);
+        d.commit_resources();
+        assert!(d.converted_textures.is_empty());
+    }
+
+    #[test]
     fn textures_added_after_the_material_resync_it() {
         let mut d = Delegate::new();
-        red_material(&mut d, "/M");
-        d.set_attribute("/M", "/M/S.inputs:diffuseColor.connect", tok("/M/T.outputs:rgb"), None);
-        d.set_attribute("/M", "/M/T.info:id", tok("UsdUVTexture"), None);
-        d.set_attribute("/M", "/M/T.inputs:file", Value::Asset("/t.png".into()), None);
+        textured_material(&mut d, "/M", "/t.png");
         let p = d.commit_resources();
         assert_eq!(p[0].attribute, "/M/T.inputs:file");
         assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], true));
@@ -2169,6 +2191,32 @@ mod tests {
         assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into())], &[]).is_ok());
         drop(d);
     }
+}
+
+/// A decoded texture as materials read it: linearised where its key asks, a dome's image
+/// resampled to lat-long (None where it cannot be).
+fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &[f32]) -> Option<TextureDesc> {
+    let mut px = pixels.to_vec();
+    if key.linearize {
+        let ch = channels as usize;
+        for texel in px.chunks_exact_mut(ch) {
+            for c in texel.iter_mut().take(ch.min(3)) {
+                *c = srgb_to_linear(*c);
+            }
+        }
+    }
+    let tex = TextureDesc {
+        name: key.asset.clone(),
+        width,
+        height,
+        channels,
+        pixels: px.into(),
+        wrap_s: key.wrap_s.wrap(),
+        wrap_t: key.wrap_t.wrap(),
+    };
+    // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
+    let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
+    Some(tex)
 }
 
 /// A display primvar (`displayColor`, `displayOpacity`) of N components: its value, or its
