@@ -247,7 +247,7 @@ impl Renderer {
     /// [`Renderer::new`], taking the BVHs of geometry that is unchanged since the last build
     /// with the same `cache` from it (an interactive session passes the same cache to every
     /// rebuild, so an edit rebuilds only the geometry it touched).
-    pub fn with_cache(scene: &SceneDesc, settings: RenderSettings, cache: Option<&crate::accel::BlasCache>) -> Result<Renderer, RenderError> {
+    pub fn with_cache(scene: &SceneDesc, settings: RenderSettings, cache: Option<&crate::world::BuildCache>) -> Result<Renderer, RenderError> {
         let start = std::time::Instant::now();
         if settings.width == 0 || settings.height == 0 || settings.width > 65_536 || settings.height > 65_536 {
             return Err(RenderError(format!("resolution {}×{} is not renderable", settings.width, settings.height)));

@@ -592,20 +592,30 @@ fn primvar_source<'a>(own: &'a [PrimvarData], row: Option<(u32, u32)>, tables: &
     }
 }
 
+/// What a build keeps for the next: per-geometry BVHs and dome maps. An interactive session
+/// passes the same cache to every rebuild, so an edit rebuilds only what it touched. Cloning
+/// shares the cache.
+#[derive(Clone, Default)]
+pub struct BuildCache {
+    pub bvh: crate::accel::BlasCache,
+    pub maps: crate::light::map_cache::MapCache,
+}
+
 impl World {
     /// Builds the world from a validated scene. Problems met here are appended to `problems`.
     pub fn build(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>) -> World {
         World::build_cached(scene, settings, problems, None)
     }
 
-    /// [`World::build`] reusing the per-geometry BVHs of unchanged geometry from `cache`.
-    pub fn build_cached(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>, cache: Option<&crate::accel::BlasCache>) -> World {
+    /// [`World::build`] reusing from `cache` the per-geometry BVHs of unchanged geometry and
+    /// the maps of unchanged domes.
+    pub fn build_cached(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>, cache: Option<&BuildCache>) -> World {
         let cs = scene.color_space;
         // volumes become boxes with a medium-boundary material and a grid medium
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
         let camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
-        let accel = Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache);
+        let accel = Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache.map(|c| &c.bvh));
         let mut materials: Vec<Material> = scene
             .materials
             .iter()
@@ -687,8 +697,9 @@ impl World {
                 scene.instances.iter().map(|i| names.contains(i.name.as_str())).collect::<std::sync::Arc<[bool]>>()
             })
         };
+        let mut maps = cache.map(|c| c.maps.begin());
         for l in &scene.lights {
-            match Light::from_desc(l, &scene.textures, cs) {
+            match Light::from_desc_with(l, &scene.textures, cs, maps.as_mut()) {
                 Ok(light) => {
                     let tag = scene.caustics.emitter(&l.name);
                     let default = matches!(l.shape, crate::scene::LightShape::Distant { .. } | crate::scene::LightShape::SkySun { .. } | crate::scene::LightShape::Sphere { .. });
@@ -704,6 +715,9 @@ impl World {
                     problems.push(Problem { item: l.name.clone(), attribute: attr, message: format!("{msg}; light dropped") });
                 }
             }
+        }
+        if let (Some(c), Some(m)) = (cache, maps) {
+            c.maps.end(m);
         }
         // emissive triangles of meshes whose material emits a constant colour, or one from a
         // primvar or a texture

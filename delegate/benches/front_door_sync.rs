@@ -10,12 +10,12 @@
 //! repeat; peak RSS is the process's VmHWM after each phase (it only grows, so run one case
 //! per process). `bench/front_door_rust.sh` runs every case and takes medians.
 //!
-//! Core builds pass one [`BlasCache`] along, as the delegate's render passes do: after the
+//! Core builds pass one [`BuildCache`] along, as the delegate's render passes do: after the
 //! first build, `mesh2m` / `points1m` move the prim and rebuild (`move_*`), `resync1000`
 //! moves one of its meshes.
 
 use std::time::Instant;
-use tide_core::accel::BlasCache;
+use tide_core::world::BuildCache;
 use tide_core::{RenderSettings, Renderer};
 use tide_delegate::{Delegate, Value};
 
@@ -104,7 +104,7 @@ fn run(case: &str) -> String {
             let problems = d.commit_resources();
             let commit = secs(t);
             let hwm_commit = vm_hwm_mib();
-            let cache = BlasCache::default();
+            let cache = BuildCache::default();
             let t = Instant::now();
             let r = Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer");
             let build = secs(t);
@@ -138,7 +138,7 @@ fn run(case: &str) -> String {
             d.commit_resources();
             let commit0 = secs(t);
             let synced0 = d.last_synced().len();
-            let cache = BlasCache::default();
+            let cache = BuildCache::default();
             let t = Instant::now();
             drop(Renderer::with_cache(d.scene(), settings(), Some(&cache)).expect("renderer"));
             let build0 = secs(t);

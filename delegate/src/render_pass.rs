@@ -18,7 +18,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Condvar, Mutex, RwLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
-use tide_core::accel::{BlasCache, BuildStats};
+use tide_core::accel::BuildStats;
+use tide_core::world::BuildCache;
 use tide_core::{Aov, RenderError, RenderSettings, Renderer, SceneDesc};
 
 /// What a render pass drives.
@@ -97,7 +98,7 @@ pub type EngineFactory = Arc<dyn Fn(&SceneDesc, &RenderSettings) -> Result<Box<d
 /// The core renderer as the engine. The factory keeps the per-geometry BVHs of its last build,
 /// so a job that follows an edit rebuilds only the geometry whose points or triangles changed.
 pub fn core_factory() -> EngineFactory {
-    let cache = BlasCache::default();
+    let cache = BuildCache::default();
     Arc::new(move |scene, settings| Ok(Box::new(Renderer::with_cache(scene, settings.clone(), Some(&cache))?) as Box<dyn Engine>))
 }
 

@@ -51,6 +51,7 @@ pub mod distrib;
 pub mod dome_format;
 pub mod emit;
 pub mod ies;
+pub mod map_cache;
 pub mod portal;
 pub mod sampler;
 pub mod shaping;
@@ -61,6 +62,7 @@ pub(crate) mod tests;
 pub use sampler::LightSampler;
 pub use shaping::Shaping;
 
+use std::sync::Arc;
 use glam::{Mat3, Mat4, Vec2, Vec3};
 
 use crate::math::{sample_concentric_disk, sample_uniform_sphere, Frame, INV_4PI, PI};
@@ -164,7 +166,7 @@ pub struct DomeLight {
     rot: Mat3,
     /// Constant colour (no map), or the map's scale (with a map: spectrum unused, scale used).
     pub emission: Emission,
-    pub map: Option<Box<DomeMap>>,
+    pub map: Option<Arc<DomeMap>>,
     pub visible_to_camera: bool,
     /// Portals guiding the sampling ([`portal`]); None: the dome's own sampling only.
     pub portals: Option<Box<portal::Portals>>,
@@ -965,6 +967,11 @@ impl Light {
     /// Builds a light from its UsdLux description. `textures` is the scene's texture table
     /// (the dome's lat-long map indexes into it). Errors name the attribute: "radius: ...".
     pub fn from_desc(desc: &LightDesc, textures: &[TextureDesc], cs: ColorSpace) -> Result<Light, String> {
+        Light::from_desc_with(desc, textures, cs, None)
+    }
+
+    /// [`Light::from_desc`], taking a dome's map from `maps` where an earlier build made it.
+    pub(crate) fn from_desc_with(desc: &LightDesc, textures: &[TextureDesc], cs: ColorSpace, maps: Option<&mut map_cache::MapSession>) -> Result<Light, String> {
         let m = desc.transform;
         if !m.is_finite() {
             return Err(err("transform", "not finite"));
@@ -1052,7 +1059,10 @@ impl Light {
                 let rot = Mat3::from_cols(x, y, x.cross(y));
                 let map = match texture_of(texture)? {
                     None => None,
-                    Some(tex) => Some(Box::new(DomeMap::new(tex, rgb, cs)?)),
+                    Some(tex) => Some(match maps {
+                        Some(maps) => maps.dome(tex, rgb, cs)?,
+                        None => Arc::new(DomeMap::new(tex, rgb, cs)?),
+                    }),
                 };
                 let mut em = emission(scale);
                 if let Some(mp) = &map {
