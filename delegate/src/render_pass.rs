@@ -95,8 +95,9 @@ impl Engine for Renderer {
 /// Builds an engine for a job (called on the render thread).
 pub type EngineFactory = Arc<dyn Fn(&SceneDesc, &RenderSettings) -> Result<Box<dyn Engine>, RenderError> + Send + Sync>;
 
-/// The core renderer as the engine. The factory keeps the per-geometry BVHs of its last build,
-/// so a job that follows an edit rebuilds only the geometry whose points or triangles changed.
+/// The core renderer as the engine. The factory keeps the per-geometry BVHs and dome maps of
+/// its last build, so a job that follows an edit rebuilds only the geometry whose points or
+/// triangles changed, and a dome's tables only when its image changed.
 pub fn core_factory() -> EngineFactory {
     let cache = BuildCache::default();
     Arc::new(move |scene, settings| Ok(Box::new(Renderer::with_cache(scene, settings.clone(), Some(&cache))?) as Box<dyn Engine>))
