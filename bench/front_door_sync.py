@@ -10,6 +10,8 @@ CASE:
               reader's update() re-syncs it
   camera2m    mesh2m's grid; the camera is moved five times, each move followed by the
               restarted pass (the renderer keeps its BVH and takes the new camera)
+  edit2m      mesh2m's grid and a small 200-triangle mesh; the small mesh is moved five times,
+              each move followed by the restarted pass (a new world around the grid's BVH)
 
 Each repeat runs in a fresh child process, so the peak RSS (VmHWM, which only grows) belongs
 to that case alone. Phases, per process:
@@ -24,6 +26,8 @@ to that case alone. Phases, per process:
            restarted pass until it finishes (`rebuild_s`)
   camera2m only: the median over five camera moves of reader.update() (`camera_update_s`)
            and of the restarted pass until it finishes (`camera_pass_s`)
+  edit2m only: the same medians over five moves of the small mesh (`edit_update_s`,
+           `edit_pass_s`)
 The medians over the repeats are printed last.
 """
 import argparse
@@ -80,8 +84,10 @@ def author(case):
             m.AddTranslateOp().Set(Gf.Vec3d(*offset))
         return m
 
-    if case in ("mesh2m", "camera2m"):
+    if case in ("mesh2m", "camera2m", "edit2m"):
         mesh("/World/Grid", 1000)
+        if case == "edit2m":
+            mesh("/World/Small", 10, (0.2, 0.1, 0.2))
     elif case == "points1m":
         n = 1_000_000
         i = np.arange(n)
@@ -95,7 +101,7 @@ def author(case):
         for k in range(1000):
             mesh("/World/M%04d" % k, 10, ((k % 40) * 1.1, 0.0, (k // 40) * 1.1))
     else:
-        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000, camera2m)" % case)
+        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000, camera2m, edit2m)" % case)
     return stage
 
 
@@ -152,20 +158,23 @@ def child(case):
         t = time.perf_counter()
         wait_pass(rp)
         out["rebuild_s"] = time.perf_counter() - t
-    if case == "camera2m":
-        op = UsdGeom.Xformable(stage.GetPrimAtPath("/Camera")).GetOrderedXformOps()[0]
+    if case in ("camera2m", "edit2m"):
+        moved = "/Camera" if case == "camera2m" else "/World/Small"
+        start = Gf.Vec3d(0.5, 0.5, 3.0) if case == "camera2m" else Gf.Vec3d(0.2, 0.1, 0.2)
+        op = UsdGeom.Xformable(stage.GetPrimAtPath(moved)).GetOrderedXformOps()[0]
         updates, passes = [], []
         for k in range(5):
-            op.Set(Gf.Vec3d(0.5 + 0.01 * (k + 1), 0.5, 3.0))
+            op.Set(start + Gf.Vec3d(0.01 * (k + 1), 0.0, 0.0))
             t = time.perf_counter()
             reader.update()
             updates.append(time.perf_counter() - t)
             t = time.perf_counter()
             wait_pass(rp)
             passes.append(time.perf_counter() - t)
-        out["camera_update_s"] = statistics.median(updates)
-        out["camera_pass_s"] = statistics.median(passes)
-        out["camera_synced"] = list(delegate.last_synced())
+        what = case[:-2]
+        out[what + "_update_s"] = statistics.median(updates)
+        out[what + "_pass_s"] = statistics.median(passes)
+        out[what + "_synced"] = list(delegate.last_synced())
     reader.close()
     print(json.dumps(out))
 

@@ -112,7 +112,7 @@ fn main() {
         casts_shadows: true,
         primvar_row: None,
     };
-    let accel = Accel::build(&[mesh], &[], &[inst], (0.0, 0.0));
+    let accel = Accel::build(&[std::sync::Arc::new(mesh)], &[], &[inst], (0.0, 0.0));
     let st = &accel.stats;
     print!(
         "{{\"tide\": true, \"triangles\": {ntri}, \"build_s\": {:.4}, \"bytes\": {}, \"bytes_per_triangle\": {:.1}",

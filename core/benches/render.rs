@@ -68,14 +68,14 @@ fn light(name: &str, shape: LightShape, transform: Mat4, intensity: f32) -> Ligh
 
 fn scene() -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(water_body(128));
+    s.meshes.push(std::sync::Arc::new(water_body(128)));
     // the floor, just above the water body's bottom: a diffuse sand seen through the water
-    s.meshes.push(MeshDesc {
+    s.meshes.push(std::sync::Arc::new(MeshDesc {
         name: "/floor".into(),
         positions: vec![Vec3::new(-1.99, -0.99, -1.99), Vec3::new(1.99, -0.99, -1.99), Vec3::new(1.99, -0.99, 1.99), Vec3::new(-1.99, -0.99, 1.99)],
         indices: vec![0, 2, 1, 0, 3, 2],
         ..Default::default()
-    });
+    }));
     s.media.push(MediumDesc {
         name: "/water/medium".into(),
         sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]),

@@ -21,8 +21,8 @@ use common::{box_mesh, look_at};
 /// path) thick, 2 × 2 m, at x = 10. A uniform white sky of radiance 1.
 pub fn scene(method: MediumMethod, target: Vec3, view_width: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/body", Vec3::new(-4.0, -2.0, -4.0), Vec3::new(4.0, 0.0, 4.0)));
-    s.meshes.push(box_mesh("/slab", Vec3::new(9.0, -0.1, -1.0), Vec3::new(11.0, 0.0, 1.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/body", Vec3::new(-4.0, -2.0, -4.0), Vec3::new(4.0, 0.0, 4.0))));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/slab", Vec3::new(9.0, -0.1, -1.0), Vec3::new(11.0, 0.0, 1.0))));
     s.media.push(MediumDesc { name: "/milk".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([10.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     for (i, n) in ["/body", "/slab"].iter().enumerate() {

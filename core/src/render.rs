@@ -255,7 +255,7 @@ impl Renderer {
         if !(settings.pixel_aspect_ratio > 0.0 && settings.pixel_aspect_ratio.is_finite()) {
             return Err(RenderError(format!("pixelAspectRatio {} must be > 0", settings.pixel_aspect_ratio)));
         }
-        let (clean, mut problems) = crate::validate::validate(scene);
+        let (clean, mut problems) = crate::validate::validate_cached(scene, cache.map(|c| &c.checks));
         let world = crate::world::World::build_cached(&clean, &settings, &mut problems, cache);
         let w = settings.width;
         let h = settings.height;

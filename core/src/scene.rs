@@ -3,6 +3,7 @@
 //! a world matrix. [`SceneDesc::validate`] rejects bad input with a message naming the item.
 
 use glam::{Mat4, Vec2, Vec3};
+use std::sync::Arc;
 
 /// An RGB triple in the scene's working colour space (linear).
 pub type Rgb = [f32; 3];
@@ -907,7 +908,9 @@ pub struct EmitterLinks {
 /// Everything the renderer needs.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct SceneDesc {
-    pub meshes: Vec<MeshDesc>,
+    /// Shared, so that a scene assembled anew around unchanged meshes copies none of them
+    /// (and caches recognise them by identity).
+    pub meshes: Vec<Arc<MeshDesc>>,
     pub spheres: Vec<SpheresDesc>,
     pub instances: Vec<InstanceDesc>,
     /// Per-instance primvar tables ([`InstanceDesc::primvar_row`]).

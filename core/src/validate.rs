@@ -21,8 +21,7 @@ fn mat_ok(m: &Mat4) -> bool {
 /// Drops primvars whose data does not fit `n` elements (one when constant) or is not finite.
 fn check_primvars(pvs: &mut Vec<PrimvarData>, n: usize, item: &str, p: &mut Vec<Problem>) {
     pvs.retain(|pv| {
-        let need = pv.tuple as usize * if pv.constant { 1 } else { n };
-        let ok = pv.tuple >= 1 && pv.data.len() == need && pv.data.iter().all(|x| x.is_finite());
+        let ok = primvar_fits(pv, n);
         if !ok {
             problem(p, item, &format!("primvars:{}", pv.name), format!("{} values for {} elements of {}, or not finite; ignored", pv.data.len(), if pv.constant { 1 } else { n }, pv.tuple));
         }
@@ -62,93 +61,190 @@ fn fix_graph(e: &mut crate::shader_graph::Expr, n_tex: usize, item: &str, attr: 
     });
 }
 
+/// Whether a primvar's data fits `n` elements (one when constant) and is finite.
+fn primvar_fits(pv: &PrimvarData, n: usize) -> bool {
+    let need = pv.tuple as usize * if pv.constant { 1 } else { n };
+    pv.tuple >= 1 && pv.data.len() == need && pv.data.iter().all(|x| x.is_finite())
+}
+
+/// A shading normal as the renderer takes it: normalised (exactly what normalising it again
+/// gives), or zero, which marks "use the geometric normal".
+fn normal_ok(n: Vec3) -> bool {
+    n == Vec3::ZERO || n == n.normalize_or_zero()
+}
+
+/// Why a deforming mesh's keys cannot be used, if they cannot.
+fn motion_fault(mo: &MeshMotion, nv: usize) -> Option<&'static str> {
+    let times_ok = mo.times.len() >= 2 && mo.times.iter().all(|t| t.is_finite()) && mo.times.windows(2).all(|w| w[0] < w[1]);
+    let keys_ok = mo.positions.len() == mo.times.len() && mo.positions.iter().all(|k| k.len() == nv && k.iter().all(|&x| finite3(x)));
+    let normals_ok = mo.normals.as_ref().is_none_or(|n| n.len() == mo.times.len() && n.iter().all(|k| k.len() == nv));
+    if !times_ok {
+        Some("motion key times are not finite and increasing")
+    } else if !keys_ok {
+        Some("a motion key has another point count or NaN/inf points")
+    } else if !normals_ok {
+        Some("motion normals do not match the point keys")
+    } else {
+        None
+    }
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum TriangleFault {
+    Index,
+    Point,
+    Degenerate,
+}
+
+fn triangle_fault(positions: &[Vec3], t: &[u32]) -> Option<TriangleFault> {
+    if t.iter().any(|&i| i as usize >= positions.len()) {
+        return Some(TriangleFault::Index);
+    }
+    let v = [positions[t[0] as usize], positions[t[1] as usize], positions[t[2] as usize]];
+    if !v.iter().all(|&x| finite3(x)) {
+        return Some(TriangleFault::Point);
+    }
+    let area2 = (v[1] - v[0]).cross(v[2] - v[0]).length();
+    if !(area2 > 0.0) {
+        return Some(TriangleFault::Degenerate);
+    }
+    None
+}
+
+/// Whether [`mend_mesh`] would find nothing to report or change: the common case, where the
+/// mesh is taken as it is, shared and not copied.
+fn mesh_is_clean(m: &MeshDesc) -> bool {
+    let nv = m.positions.len();
+    if m.indices.len() % 3 != 0 || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
+        return false;
+    }
+    if !m.primvars.iter().all(|pv| primvar_fits(pv, nv)) {
+        return false;
+    }
+    if let Some(mo) = &m.motion {
+        if motion_fault(mo, nv).is_some() || (m.normals.is_none() && mo.normals.is_some()) || !mo.normals.iter().flatten().flatten().all(|&n| normal_ok(n)) {
+            return false;
+        }
+    }
+    m.normals.iter().flatten().all(|&n| normal_ok(n)) && m.indices.chunks_exact(3).all(|t| triangle_fault(&m.positions, t).is_none())
+}
+
+/// Drops triangles with bad indices, non-finite vertices or zero area, and whatever else of
+/// the mesh does not fit its points, reporting each.
+fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
+    let nv = m.positions.len();
+    if m.indices.len() % 3 != 0 {
+        problem(p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
+        m.indices.truncate(m.indices.len() / 3 * 3);
+    }
+    if let Some(n) = &m.normals {
+        if n.len() != nv {
+            problem(p, &m.name, "normals", format!("{} normals for {} points; normals ignored", n.len(), nv));
+            m.normals = None;
+        }
+    }
+    if let Some(uv) = &m.uvs {
+        if uv.len() != nv {
+            problem(p, &m.name, "primvars:st", format!("{} uvs for {} points; uvs ignored", uv.len(), nv));
+            m.uvs = None;
+        }
+    }
+    check_primvars(&mut m.primvars, nv, &m.name, p);
+    if let Some(what) = m.motion.as_ref().and_then(|mo| motion_fault(mo, nv)) {
+        problem(p, &m.name, "points", format!("{what}; the mesh renders static"));
+        m.motion = None;
+    } else if m.normals.is_none() {
+        if let Some(mo) = m.motion.as_mut() {
+            mo.normals = None;
+        }
+    }
+    let (mut bad_index, mut bad_point, mut degenerate) = (0usize, 0usize, 0usize);
+    let mut kept = Vec::with_capacity(m.indices.len());
+    for t in m.indices.chunks_exact(3) {
+        match triangle_fault(&m.positions, t) {
+            Some(TriangleFault::Index) => bad_index += 1,
+            Some(TriangleFault::Point) => bad_point += 1,
+            Some(TriangleFault::Degenerate) => degenerate += 1,
+            None => kept.extend_from_slice(t),
+        }
+    }
+    if bad_index > 0 {
+        problem(p, &m.name, "faceVertexIndices", format!("{bad_index} triangles index points out of range; dropped"));
+    }
+    if bad_point > 0 {
+        problem(p, &m.name, "points", format!("{bad_point} triangles use NaN/inf points; dropped"));
+    }
+    if degenerate > 0 {
+        // degenerate triangles are common in production meshes: dropped quietly but counted
+        problem(p, &m.name, "points", format!("{degenerate} degenerate (zero-area) triangles dropped"));
+    }
+    m.indices = kept;
+    // normals are normalised; one that cannot be is zero ("use the geometric normal")
+    let fix_normal = |v: &mut Vec3| *v = v.normalize_or_zero();
+    if let Some(n) = &mut m.normals {
+        n.iter_mut().for_each(fix_normal);
+    }
+    if let Some(n) = m.motion.as_mut().and_then(|mo| mo.normals.as_mut()) {
+        n.iter_mut().flatten().for_each(fix_normal);
+    }
+}
+
+/// What earlier validations found, kept so that the next one does not check again what is
+/// unchanged: meshes recognised by identity (the same shared mesh) with the mesh validation
+/// made of them and its problems, and texture pixels known to be finite. After each
+/// validation the cache holds exactly what that validation used. Cloning shares it.
+#[derive(Clone, Default)]
+pub struct CheckCache {
+    inner: std::sync::Arc<std::sync::Mutex<Checked>>,
+}
+
+#[derive(Default)]
+struct Checked {
+    /// By the input's address: (input, held so the address is not reused; output; problems).
+    meshes: std::collections::HashMap<usize, (std::sync::Arc<MeshDesc>, std::sync::Arc<MeshDesc>, Vec<Problem>)>,
+    /// By the pixels' address: pixels whose every texel is finite.
+    finite_pixels: std::collections::HashMap<usize, std::sync::Arc<Vec<f32>>>,
+}
+
+impl CheckCache {
+    /// Meshes held.
+    pub fn meshes(&self) -> usize {
+        self.inner.lock().unwrap_or_else(|e| e.into_inner()).meshes.len()
+    }
+}
+
 /// Returns a cleaned copy of the scene and the problems found.
 pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
+    validate_cached(scene, None)
+}
+
+/// [`validate`], taking what `cache` knows of unchanged meshes and textures and leaving in it
+/// what this validation found. A mesh with nothing to mend is shared, not copied.
+pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneDesc, Vec<Problem>) {
+    use std::sync::Arc;
     let mut p = Vec::new();
     let mut s = scene.clone();
+    let mut old = cache.map(|c| std::mem::take(&mut *c.inner.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default();
+    let mut now = Checked::default();
 
-    // meshes: drop triangles with bad indices, non-finite vertices or zero area
     for m in &mut s.meshes {
-        let nv = m.positions.len();
-        if m.indices.len() % 3 != 0 {
-            problem(&mut p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
-            m.indices.truncate(m.indices.len() / 3 * 3);
-        }
-        if let Some(n) = &m.normals {
-            if n.len() != nv {
-                problem(&mut p, &m.name, "normals", format!("{} normals for {} points; normals ignored", n.len(), nv));
-                m.normals = None;
+        let key = Arc::as_ptr(m) as usize;
+        if let Some(e) = now.meshes.get(&key).or_else(|| old.meshes.get(&key)).filter(|e| Arc::ptr_eq(&e.0, m)) {
+            p.extend(e.2.iter().cloned());
+            *m = e.1.clone();
+            if let Some(e) = old.meshes.remove(&key) {
+                now.meshes.insert(key, e);
             }
+            continue;
         }
-        if let Some(uv) = &m.uvs {
-            if uv.len() != nv {
-                problem(&mut p, &m.name, "primvars:st", format!("{} uvs for {} points; uvs ignored", uv.len(), nv));
-                m.uvs = None;
-            }
+        let input = m.clone();
+        let mut found = Vec::new();
+        if !mesh_is_clean(m) {
+            mend_mesh(Arc::make_mut(m), &mut found);
         }
-        check_primvars(&mut m.primvars, nv, &m.name, &mut p);
-        if let Some(mo) = &m.motion {
-            let times_ok = mo.times.len() >= 2 && mo.times.iter().all(|t| t.is_finite()) && mo.times.windows(2).all(|w| w[0] < w[1]);
-            let keys_ok = mo.positions.len() == mo.times.len() && mo.positions.iter().all(|k| k.len() == nv && k.iter().all(|&x| finite3(x)));
-            let normals_ok = mo.normals.as_ref().is_none_or(|n| n.len() == mo.times.len() && n.iter().all(|k| k.len() == nv));
-            if !(times_ok && keys_ok && normals_ok) {
-                let what = if !times_ok {
-                    "motion key times are not finite and increasing"
-                } else if !keys_ok {
-                    "a motion key has another point count or NaN/inf points"
-                } else {
-                    "motion normals do not match the point keys"
-                };
-                problem(&mut p, &m.name, "points", format!("{what}; the mesh renders static"));
-                m.motion = None;
-            } else if m.normals.is_none() {
-                if let Some(mo) = m.motion.as_mut() {
-                    mo.normals = None;
-                }
-            }
-        }
-        let (mut bad_index, mut bad_point, mut degenerate) = (0usize, 0usize, 0usize);
-        let mut kept = Vec::with_capacity(m.indices.len());
-        for t in m.indices.chunks_exact(3) {
-            if t.iter().any(|&i| i as usize >= nv) {
-                bad_index += 1;
-                continue;
-            }
-            let v = [m.positions[t[0] as usize], m.positions[t[1] as usize], m.positions[t[2] as usize]];
-            if !v.iter().all(|&x| finite3(x)) {
-                bad_point += 1;
-                continue;
-            }
-            let area2 = (v[1] - v[0]).cross(v[2] - v[0]).length();
-            if !(area2 > 0.0) {
-                degenerate += 1;
-                continue;
-            }
-            kept.extend_from_slice(t);
-        }
-        if bad_index > 0 {
-            problem(&mut p, &m.name, "faceVertexIndices", format!("{bad_index} triangles index points out of range; dropped"));
-        }
-        if bad_point > 0 {
-            problem(&mut p, &m.name, "points", format!("{bad_point} triangles use NaN/inf points; dropped"));
-        }
-        if degenerate > 0 {
-            // degenerate triangles are common in production meshes: dropped quietly but counted
-            problem(&mut p, &m.name, "points", format!("{degenerate} degenerate (zero-area) triangles dropped"));
-        }
-        m.indices = kept;
-        let fix_normal = |v: &mut Vec3| {
-            if !finite3(*v) || v.length_squared() == 0.0 {
-                *v = Vec3::ZERO; // marks "use the geometric normal"
-            } else {
-                *v = v.normalize();
-            }
-        };
-        if let Some(n) = &mut m.normals {
-            n.iter_mut().for_each(fix_normal);
-        }
-        if let Some(n) = m.motion.as_mut().and_then(|mo| mo.normals.as_mut()) {
-            n.iter_mut().flatten().for_each(fix_normal);
+        p.extend(found.iter().cloned());
+        if cache.is_some() {
+            now.meshes.insert(key, (input, m.clone(), found));
         }
     }
 
@@ -224,13 +320,21 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
         if !(1..=4).contains(&t.channels) || t.pixels.len() != need || t.width == 0 || t.height == 0 {
             problem(&mut p, &t.name, "pixels", "texture size does not match its data; replaced by a 1×1 grey texture");
             *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18].into(), wrap_s: t.wrap_s, wrap_t: t.wrap_t };
-        } else if t.pixels.iter().any(|v| !v.is_finite()) {
-            problem(&mut p, &t.name, "pixels", "NaN/inf texels replaced by 0");
-            std::sync::Arc::make_mut(&mut t.pixels).iter_mut().for_each(|v| {
-                if !v.is_finite() {
-                    *v = 0.0
+        } else {
+            let key = Arc::as_ptr(&t.pixels) as usize;
+            let known = now.finite_pixels.get(&key).or_else(|| old.finite_pixels.get(&key)).is_some_and(|k| Arc::ptr_eq(k, &t.pixels));
+            if known || t.pixels.iter().all(|v| v.is_finite()) {
+                if cache.is_some() {
+                    now.finite_pixels.insert(key, t.pixels.clone());
                 }
-            });
+            } else {
+                problem(&mut p, &t.name, "pixels", "NaN/inf texels replaced by 0");
+                Arc::make_mut(&mut t.pixels).iter_mut().for_each(|v| {
+                    if !v.is_finite() {
+                        *v = 0.0
+                    }
+                });
+            }
         }
     }
 
@@ -514,6 +618,10 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
     });
 
     validate_camera(&mut s.camera, s.media.len(), &mut p);
+    drop(old);
+    if let Some(c) = cache {
+        *c.inner.lock().unwrap_or_else(|e| e.into_inner()) = now;
+    }
     (s, p)
 }
 
@@ -622,6 +730,93 @@ fn fix_point_shape(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::sync::Arc;
+
+    /// A small mesh with each kind of fault drawn at random (or none).
+    fn random_mesh(rng: &mut crate::testing::chi2::TestRng) -> MeshDesc {
+        let mut pick = |n: u64| rng.next_u64() % n;
+        let nv = 4 + pick(4) as usize;
+        let mut m = MeshDesc { name: "/m".into(), ..Default::default() };
+        m.positions = (0..nv).map(|i| Vec3::new(i as f32, (i * i % 5) as f32, (i % 3) as f32)).collect();
+        m.indices = (0..3 * (1 + pick(4) as u32)).map(|k| (k * 7 + 1) % nv as u32).collect();
+        let fault = pick(16);
+        match fault {
+            0 => m.indices.push(0),
+            1 => m.indices[1] = nv as u32 + 2,
+            2 => m.positions[m.indices[0] as usize].x = f32::NAN,
+            3 => m.indices[2] = m.indices[1],
+            _ => {}
+        }
+        let normals: Vec<Vec3> = m.positions.iter().map(|p| (*p + Vec3::new(0.3, 1.0, 0.2)).normalize()).collect();
+        m.normals = match fault {
+            4 => Some(normals.iter().map(|n| *n * 1.5).collect()),
+            5 => Some(normals.iter().enumerate().map(|(i, n)| if i == 0 { Vec3::splat(f32::INFINITY) } else { *n }).collect()),
+            6 => Some(normals[1..].to_vec()),
+            7 => Some(normals.iter().enumerate().map(|(i, n)| if i == 0 { Vec3::ZERO } else { *n }).collect()),
+            _ if pick(2) == 0 => Some(normals),
+            _ => None,
+        };
+        if fault == 8 {
+            m.uvs = Some(vec![glam::Vec2::ZERO; nv + 1]);
+        }
+        let data = if fault == 9 { vec![0.5; nv + 1] } else { vec![0.5; nv] };
+        m.primvars.push(PrimvarData { name: "w".into(), tuple: 1, constant: false, data });
+        if fault == 10 || fault == 11 {
+            let times = if fault == 10 { vec![0.0, 0.0] } else { vec![0.0, 1.0] };
+            let normals = m.normals.clone().map(|n| vec![n.clone(), n]);
+            m.motion = Some(MeshMotion { times, positions: vec![m.positions.clone(), m.positions.clone()], normals });
+        }
+        m
+    }
+
+    #[test]
+    fn the_clean_check_agrees_with_mending() {
+        // a mesh judged clean is one mending would neither report nor change: checked over
+        // meshes with every kind of fault, and the check must see each kind
+        let mut rng = crate::testing::chi2::TestRng::new(7);
+        let (mut clean, mut dirty) = (0, 0);
+        for _ in 0..2000 {
+            let m = random_mesh(&mut rng);
+            let mut mended = m.clone();
+            let mut p = Vec::new();
+            mend_mesh(&mut mended, &mut p);
+            let unchanged = p.is_empty() && mended == m;
+            assert_eq!(mesh_is_clean(&m), unchanged, "{m:?}: {p:?}");
+            if unchanged {
+                clean += 1;
+            } else {
+                dirty += 1;
+            }
+        }
+        // (about a third of normalised vectors are not exactly what normalising them again
+        // gives: such meshes count as dirty)
+        assert!(clean > 100 && dirty > 1000, "{clean} clean, {dirty} dirty");
+    }
+
+    #[test]
+    fn validation_shares_clean_meshes_and_remembers_mended_ones() {
+        let good: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/good".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], normals: Some(vec![Vec3::Z; 3]), ..Default::default() });
+        let bad: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/bad".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2, 0, 1, 7], ..Default::default() });
+        let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: Arc::new(vec![f32::NAN, 1.0]), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat };
+        let fine = TextureDesc { name: "/u".into(), pixels: Arc::new(vec![0.5, 1.0]), ..nan.clone() };
+        let scene = SceneDesc { meshes: vec![good.clone(), bad.clone()], textures: vec![nan, fine.clone()], ..Default::default() };
+        let cache = CheckCache::default();
+        let (a, pa) = validate_cached(&scene, Some(&cache));
+        assert!(Arc::ptr_eq(&a.meshes[0], &good), "a clean mesh is shared");
+        assert!(!Arc::ptr_eq(&a.meshes[1], &bad) && a.meshes[1].indices == [0, 1, 2]);
+        assert!(Arc::ptr_eq(&a.textures[1].pixels, &fine.pixels) && a.textures[0].pixels[0] == 0.0);
+        // again: the mended mesh is the one made before, with the same problems
+        let (b, pb) = validate_cached(&scene, Some(&cache));
+        assert!(Arc::ptr_eq(&b.meshes[1], &a.meshes[1]));
+        assert_eq!(format!("{pa:?}"), format!("{pb:?}"));
+        assert_eq!(pa.iter().filter(|p| p.item == "/bad").count(), 1);
+        assert_eq!(pa.iter().filter(|p| p.item == "/t").count(), 1, "NaN texels are mended each time: {pa:?}");
+        assert_eq!(format!("{:?}", validate(&scene).1), format!("{pa:?}"), "the same problems without a cache");
+        // the cache keeps what the last validation used
+        assert_eq!(cache.meshes(), 2);
+        validate_cached(&SceneDesc { meshes: vec![good.clone()], ..Default::default() }, Some(&cache));
+        assert_eq!(cache.meshes(), 1);
+    }
 
     #[test]
     fn motion_keys_with_another_point_count_leave_the_mesh_static() {
@@ -636,7 +831,7 @@ mod tests {
         let good = mesh(vec![tri.clone(), tri.iter().map(|p| *p + Vec3::Z).collect()], vec![0.0, 0.5]);
         let short = mesh(vec![tri.clone(), tri[..2].to_vec()], vec![0.0, 0.5]);
         let unordered = mesh(vec![tri.clone(), tri.clone()], vec![0.5, 0.0]);
-        let s = SceneDesc { meshes: vec![good.clone(), short, unordered], ..Default::default() };
+        let s = SceneDesc { meshes: vec![good.clone().into(), short.into(), unordered.into()], ..Default::default() };
         let (clean, p) = validate(&s);
         assert_eq!(clean.meshes[0].motion, good.motion);
         assert!(clean.meshes[1].motion.is_none() && clean.meshes[2].motion.is_none());
@@ -653,7 +848,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X * 2.0],
             indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 9, 0, 1, 4],
             ..Default::default()
-        });
+        }.into());
         s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() });
         s.lights.push(LightDesc {
             shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new(), shadow: Default::default(),

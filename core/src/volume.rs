@@ -83,7 +83,7 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         boundary_materials.push(material);
         let (lo, hi) = (Vec3::splat(-1.0), Vec3::new(g.dims[0] as f32, g.dims[1] as f32, g.dims[2] as f32));
         let mesh = s.meshes.len();
-        s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0));
+        s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0).into());
         // the box moves with the grid (the same keys, interpolated the same way)
         s.instances.push(InstanceDesc {
             name: v.name.clone(),

@@ -15,6 +15,7 @@ use crate::spectrum::{uplift, SampledSpectrum, SampledWavelengths, Spectrum};
 use crate::texture;
 use glam::{Mat3, Vec2, Vec3};
 use std::collections::HashMap;
+use std::sync::Arc;
 
 /// A colour input with its constant spectrum uplifted once.
 #[derive(Clone, Debug)]
@@ -248,7 +249,7 @@ pub enum Lobe {
 pub struct World {
     pub accel: Accel,
     pub instances: Vec<InstanceInfo>,
-    pub meshes: Vec<MeshDesc>,
+    pub meshes: Vec<Arc<MeshDesc>>,
     /// Per sphere set, its primvars (the meshes carry theirs).
     pub sphere_primvars: Vec<Vec<PrimvarData>>,
     /// Per-instance primvar tables ([`InstanceInfo::primvar_row`]).
@@ -592,11 +593,13 @@ fn primvar_source<'a>(own: &'a [PrimvarData], row: Option<(u32, u32)>, tables: &
     }
 }
 
-/// What a build keeps for the next: per-geometry BVHs and dome maps. An interactive session
+/// What a build keeps for the next: the meshes and textures validation checked, per-geometry
+/// BVHs and dome maps. An interactive session
 /// passes the same cache to every rebuild, so an edit rebuilds only what it touched. Cloning
 /// shares the cache.
 #[derive(Clone, Default)]
 pub struct BuildCache {
+    pub checks: crate::validate::CheckCache,
     pub bvh: crate::accel::BlasCache,
     pub maps: crate::light::map_cache::MapCache,
 }
@@ -1244,7 +1247,7 @@ mod tests {
         let lifted: Vec<Vec3> = m.positions.iter().map(|p| *p + Vec3::Y * 2.0).collect();
         m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: vec![m.positions.clone(), lifted], normals: Some(vec![vec![Vec3::Y; 3], vec![Vec3::X; 3]]) });
         let mut s = SceneDesc::default();
-        s.meshes.push(m);
+        s.meshes.push(m.into());
         s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
         s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.camera.shutter_close = 1.0;
@@ -1260,7 +1263,7 @@ mod tests {
     #[test]
     fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
         let mut s = SceneDesc::default();
-        s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]));
+        s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]).into());
         s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None, ..Default::default() });
         let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
         s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
@@ -1285,7 +1288,7 @@ mod tests {
             PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
         ];
         let mut s = SceneDesc::default();
-        s.meshes.push(m);
+        s.meshes.push(m.into());
         s.spheres.push(SpheresDesc {
             name: "/s".into(),
             centers: vec![Vec3::new(10.0, 0.0, 0.0), Vec3::new(20.0, 0.0, 0.0)],
@@ -1347,7 +1350,7 @@ mod tests {
     #[test]
     fn a_mesh_lights_links_reach_its_triangles() {
         let mut s = SceneDesc::default();
-        s.meshes.push(MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)], indices: vec![0, 1, 2, 1, 3, 2], ..Default::default() });
+        s.meshes.push(MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)], indices: vec![0, 1, 2, 1, 3, 2], ..Default::default() }.into());
         s.materials.push(MaterialDesc { name: "/glow".into(), surface: SurfaceDesc::Emissive { radiance: [1.0; 3], two_sided: true }, interior_medium: None });
         for (name, y) in [("/glow", 2.0), ("/a", 0.0), ("/b", -1.0), ("/plain", 5.0)] {
             s.instances.push(InstanceDesc { name: name.into(), ..inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * y), 0) });
@@ -1399,7 +1402,7 @@ mod tests {
         let graph = Expr::binary(Binary::Add, graph, Expr::Const([2.0; 4]));
         for glow in [ColorInput::Primvar(tinted), ColorInput::Texture(lookup), ColorInput::Graph(graph)] {
             let mut s = SceneDesc::default();
-            s.meshes.push(m.clone());
+            s.meshes.push(m.clone().into());
             s.textures.push(texture.clone());
             let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: glow.clone(), ..Default::default() };
             s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });

@@ -22,7 +22,7 @@ fn beer_lambert_through_an_index_matched_slab() {
     let sigma = [3.0f32, 0.6, 0.1];
     let d = 0.5;
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/slab", Vec3::new(-5.0, -5.0, -d / 2.0), Vec3::new(5.0, 5.0, d / 2.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/slab", Vec3::new(-5.0, -5.0, -d / 2.0), Vec3::new(5.0, 5.0, d / 2.0))));
     s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
@@ -49,7 +49,7 @@ fn diffuse_plane_under_a_distant_light_has_radiance_albedo_e_cos_over_pi() {
     let e = 3.0;
     let elevation = 60f32.to_radians();
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/plane", 100.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo; 3]) }, interior_medium: None });
     s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     // light shines along its −Z; +Z points to the sun
@@ -69,8 +69,8 @@ fn diffuse_plane_under_a_distant_light_has_radiance_albedo_e_cos_over_pi() {
 
 fn busy_scene() -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(uv_sphere("/ball", 0.5, 16));
-    s.meshes.push(quad_y("/floor", 5.0));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/ball", 0.5, 16)));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 5.0)));
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.5, 0.3]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.2, ..Default::default() }), interior_medium: Some(0) });
@@ -192,7 +192,7 @@ fn light_path_split_sums_to_color() {
     let above = split_nonzero(&busy_scene());
     // the same seen from a camera inside a big body of scattering water
     let mut s = busy_scene();
-    s.meshes.push(box_mesh("/sea", Vec3::splat(-20.0), Vec3::new(20.0, 1.5, 20.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/sea", Vec3::splat(-20.0), Vec3::new(20.0, 1.5, 20.0))));
     s.instances.push(instance("/sea", GeometryRef::Mesh(2), Mat4::IDENTITY, 1));
     let under = split_nonzero(&s);
     let any: Vec<bool> = (0..5).map(|k| above[k] || under[k]).collect();
@@ -218,7 +218,7 @@ fn spectral_estimates_are_consistent_for_a_single_wavelength_set() {
 fn jerlov_body_rgb(t: tide_core::water::JerlovType) -> [(f64, f64); 3] {
     use tide_core::water::{phase_desc, JerlovSource, ParticlePhase, PetzoldStation};
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/sea", Vec3::new(-60.0, -40.0, -60.0), Vec3::new(60.0, 0.0, 60.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/sea", Vec3::new(-60.0, -40.0, -60.0), Vec3::new(60.0, 0.0, 60.0))));
     s.media.push(MediumDesc {
         name: "/sea/medium".into(),
         sigma_a: SpectrumDesc::Rgb([0.0; 3]),

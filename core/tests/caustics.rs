@@ -67,8 +67,8 @@ fn sun(angle_deg: f32, elevation_deg: f32, azimuth_deg: f32) -> LightDesc {
 /// above, under a sun of the given angle and a dim sky.
 pub fn pool(sun_angle: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/floor", 2.0));
-    s.meshes.push(wavy_water(2.0, 48, 0.04, -0.801));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 2.0)));
+    s.meshes.push(std::sync::Arc::new(wavy_water(2.0, 48, 0.04, -0.801)));
     s.media.push(MediumDesc { name: "/clear".into(), sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.6, 0.6]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
@@ -83,8 +83,8 @@ pub fn pool(sun_angle: f32) -> SceneDesc {
 /// A glass sphere on a diffuse floor under a small sphere light.
 pub fn glass_sphere(light_radius: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/floor", 3.0));
-    s.meshes.push(uv_sphere("/ball", 0.3, 48));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 3.0)));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/ball", 0.3, 48)));
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.7, 0.7]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/glass".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.5, ..Default::default() }), interior_medium: None });
     s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
@@ -327,11 +327,11 @@ fn caustics_are_deterministic_across_thread_counts() {
 fn transparency_lets_shadow_rays_through_water() {
     let mk = |water: bool| {
         let mut s = SceneDesc::default();
-        s.meshes.push(quad_y("/floor", 4.0));
+        s.meshes.push(std::sync::Arc::new(quad_y("/floor", 4.0)));
         s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.6, 0.6]) }, interior_medium: None });
         s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
         if water {
-            s.meshes.push(box_mesh("/water", Vec3::new(-4.0, -0.801, -4.0), Vec3::new(4.0, 0.0, 4.0)));
+            s.meshes.push(std::sync::Arc::new(box_mesh("/water", Vec3::new(-4.0, -0.801, -4.0), Vec3::new(4.0, 0.0, 4.0))));
             s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: None });
             s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
             s.caustics.objects.push(("/water".into(), ObjectCaustics { caster: None, receiver: true, transparency: CausticsTransparency::All }));
@@ -356,8 +356,8 @@ fn transparency_lets_shadow_rays_through_water() {
 /// god rays (sun → surface → medium → camera) and surface caustics on a sand floor.
 pub fn underwater(sun_angle: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/sand", 6.0));
-    s.meshes.push(wavy_water(6.0, 64, 0.05, -3.01));
+    s.meshes.push(std::sync::Arc::new(quad_y("/sand", 6.0)));
+    s.meshes.push(std::sync::Arc::new(wavy_water(6.0, 64, 0.05, -3.01)));
     s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
@@ -501,8 +501,8 @@ fn light_traced_god_rays_agree_with_beams() {
 fn two_lights_three_casters() -> SceneDesc {
     let mut s = glass_sphere(0.02);
     s.lights.push(light("/bulb2", LightShape::Sphere { radius: 0.02, treat_as_point: false }, Mat4::from_translation(Vec3::new(-0.8, 1.8, -0.4)), 2400.0, false));
-    s.meshes.push(uv_sphere("/small", 0.12, 24));
-    s.meshes.push(uv_sphere("/large", 0.45, 32));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/small", 0.12, 24)));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/large", 0.45, 32)));
     s.instances.push(instance("/small", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(-0.6, 0.12, 0.5)), 1));
     s.instances.push(instance("/large", GeometryRef::Mesh(3), Mat4::from_translation(Vec3::new(0.9, 0.45, -0.7)), 1));
     s

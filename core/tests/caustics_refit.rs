@@ -16,8 +16,8 @@ const FOV_DEG: f32 = 30.0;
 /// Clear, slightly absorbing water 1 m deep over a 40 m × 40 m sand floor, a sun 60° high.
 fn ocean_patch() -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/sand", 20.0));
-    s.meshes.push(box_mesh("/water", Vec3::new(-20.0, -1.001, -20.0), Vec3::new(20.0, 0.0, 20.0)));
+    s.meshes.push(std::sync::Arc::new(quad_y("/sand", 20.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/water", Vec3::new(-20.0, -1.001, -20.0), Vec3::new(20.0, 0.0, 20.0))));
     s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.05, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.55, 0.45]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });

@@ -25,7 +25,7 @@ fn scene_at(method: MediumMethod, target: Vec3, view: f32) -> SceneDesc {
     let mut s = SceneDesc::default();
     // 4 × 2 × 4 m: the edges and the bottom (lit by the lower half of the sky) are 2 m
     // (7.7 diffusion lengths 1/σtr) from the viewed patch
-    s.meshes.push(box_mesh("/body", Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 0.0, 2.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/body", Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 0.0, 2.0))));
     s.media.push(MediumDesc { name: "/milk".into(), sigma_a: SpectrumDesc::Rgb([SIGMA_A; 3]), sigma_s: SpectrumDesc::Rgb([SIGMA_S; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: ETA, ..Default::default() }), interior_medium: Some(0) });
     s.instances.push(instance("/body", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));

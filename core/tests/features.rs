@@ -29,8 +29,8 @@ fn mean_rgb(r: &tide_core::Renderer) -> [f64; 3] {
 /// adds objects inside the water.
 fn underwater(extra: impl Fn(&mut SceneDesc)) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/sea", Vec3::new(-10.0, -2.0, -10.0), Vec3::new(10.0, 3.0, 10.0)));
-    s.meshes.push(quad_y("/floor", 9.0));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/sea", Vec3::new(-10.0, -2.0, -10.0), Vec3::new(10.0, 3.0, 10.0))));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 9.0)));
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.08, 0.04]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: water(1.333, 0), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.6, 0.4]) }, interior_medium: None });
@@ -50,7 +50,7 @@ fn an_index_matched_object_inside_water_is_invisible() {
     // (eta = 1) at its boundary and keep the water medium inside (equal priority: the
     // sphere wins, but it has no medium; so give it the water medium too)
     let with = underwater(|s| {
-        s.meshes.push(uv_sphere("/ghost", 0.6, 24));
+        s.meshes.push(std::sync::Arc::new(uv_sphere("/ghost", 0.6, 24)));
         s.materials.push(MaterialDesc { name: "/ghost".into(), surface: water(1.333, 0), interior_medium: Some(0) });
         s.instances.push(instance("/ghost", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
     });
@@ -69,7 +69,7 @@ fn an_index_matched_object_inside_water_is_invisible() {
     }
     // and a glass sphere (ior 1.5) in the same place is visible: the test can fail
     let glass = underwater(|s| {
-        s.meshes.push(uv_sphere("/glass", 0.6, 24));
+        s.meshes.push(std::sync::Arc::new(uv_sphere("/glass", 0.6, 24)));
         s.materials.push(MaterialDesc { name: "/glass".into(), surface: water(1.5, 0), interior_medium: None });
         s.instances.push(instance("/glass", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
     });
@@ -87,7 +87,7 @@ fn higher_priority_glass_wins_where_it_overlaps_water() {
     let scene = |prio: i32| {
         let mut s = underwater(|_| {});
         s.camera = camera(Vec3::new(0.0, 5.0, 0.001), Vec3::new(0.0, 0.0, 0.0), 8.0);
-        s.meshes.push(box_mesh("/block", Vec3::new(-1.0, -0.9, -1.0), Vec3::new(1.0, 4.0, 1.0)));
+        s.meshes.push(std::sync::Arc::new(box_mesh("/block", Vec3::new(-1.0, -0.9, -1.0), Vec3::new(1.0, 4.0, 1.0))));
         s.materials.push(MaterialDesc { name: "/glass".into(), surface: water(1.5, prio), interior_medium: None });
         s.instances.push(instance("/block", GeometryRef::Mesh(2), Mat4::IDENTITY, 2));
         s.lights.clear();
@@ -105,7 +105,7 @@ fn higher_priority_glass_wins_where_it_overlaps_water() {
 fn thin_transparency_lets_through_one_minus_opacity() {
     // a black, non-reflective card of opacity 0.3 in front of a white environment of radiance 1
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/card", 50.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/card", 50.0)));
     let mut p = PreviewSurfaceDesc::default();
     p.diffuse_color = ColorInput::Const([0.0; 3]);
     p.use_specular_workflow = true;
@@ -127,7 +127,7 @@ fn thin_transparency_lets_through_one_minus_opacity() {
 #[test]
 fn emissive_surface_seen_directly_has_its_radiance() {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/panel", 10.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/panel", 10.0)));
     s.materials.push(MaterialDesc { name: "/panel".into(), surface: SurfaceDesc::Emissive { radiance: [2.0, 1.0, 0.5], two_sided: false }, interior_medium: None });
     s.instances.push(instance("/panel", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.camera = camera(Vec3::new(0.0, 2.0, 0.001), Vec3::ZERO, 10.0);
@@ -147,7 +147,7 @@ fn no_acne_on_an_ocean_sized_plane_far_from_the_origin() {
     // (self-intersection would darken pixels at random)
     let far = Vec3::new(8000.0, 0.0, -6000.0);
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/ocean", 10_000.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/ocean", 10_000.0)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
     // slightly tilted and raised so hit points are not exactly representable on the plane
     let tilt = Mat4::from_rotation_x(0.013) * Mat4::from_rotation_z(-0.007);
@@ -179,7 +179,7 @@ fn a_closed_mesh_invisible_to_the_camera_is_not_seen_from_either_side() {
     // a black box hidden from camera rays in front of a white environment: both its faces
     // along a camera ray must be skipped, so every pixel sees the environment (radiance 1)
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/box", Vec3::splat(-1.0), Vec3::splat(1.0)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/box", Vec3::splat(-1.0), Vec3::splat(1.0))));
     s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
     let mut inst = instance("/box", GeometryRef::Mesh(0), Mat4::IDENTITY, 0);
     inst.visible_to_camera = false;

@@ -8,7 +8,7 @@ use tide_core::scene::*;
 
 fn furnace(surface: SurfaceDesc) -> (f64, f64, f64, f64) {
     let mut s = SceneDesc::default();
-    s.meshes.push(uv_sphere("/sphere", 1.0, 48));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/sphere", 1.0, 48)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface, interior_medium: None });
     s.instances.push(instance("/sphere", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));

@@ -14,7 +14,7 @@ const W: u32 = 32;
 /// side, out of the camera's view.
 fn patches(light_link: Option<Vec<String>>, with_dome: bool) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/patch", 1.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/patch", 1.0)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
     for (name, x, id) in [("/left", -1.5f32, 1), ("/right", 1.5, 2)] {
         let mut i = instance(name, GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0);
@@ -79,7 +79,7 @@ fn a_shadow_link_names_the_instances_that_block_a_light() {
     // a black blocker, invisible to the camera, between the lamp and the left patch
     let scene = |shadow_link: Option<Vec<String>>| {
         let mut s = patches(None, false);
-        s.meshes.push(quad_y("/blocker", 1.5));
+        s.meshes.push(std::sync::Arc::new(quad_y("/blocker", 1.5)));
         s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
         let mut b = instance("/blocker", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(-1.5, 1.0, 1.5)), 1);
         b.visible_to_camera = false;
@@ -102,8 +102,8 @@ fn a_shadow_link_names_the_instances_that_block_a_light() {
 /// must not light the water's scattering vertices, by light sampling or phase-sampled rays.
 fn tank(light_link: Option<Vec<String>>) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/tank", Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0)));
-    s.meshes.push(quad_y("/patch", 0.2));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/tank", Vec3::new(-1.0, -1.0, -1.0), Vec3::new(1.0, 1.0, 1.0))));
+    s.meshes.push(std::sync::Arc::new(quad_y("/patch", 0.2)));
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.1; 3]), sigma_s: SpectrumDesc::Rgb([1.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
@@ -139,7 +139,7 @@ fn a_light_linked_away_from_a_water_body_does_not_light_its_medium() {
 /// the given multipliers, seen from above at an angle that catches the highlight.
 fn glossy_floor(response: LightResponse, lambert: bool) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/floor", 3.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 3.0)));
     let surface = if lambert {
         SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }
     } else {

@@ -41,7 +41,7 @@ fn expected(rx: f64, rz: f64) -> f64 {
 /// adds the moving light.
 fn scene(emitter: impl Fn(&mut SceneDesc)) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/floor", 10.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/floor", 10.0)));
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([ALBEDO; 3]) }, interior_medium: None });
     s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.materials.push(MaterialDesc { name: "/lamp".into(), surface: SurfaceDesc::Emissive { radiance: [1.0; 3], two_sided: true }, interior_medium: None });
@@ -84,7 +84,7 @@ fn lamp_mesh(dx: f32) -> MeshDesc {
 #[test]
 fn a_moving_emissive_instance_lights_from_where_it_is_at_each_time() {
     let s = scene(|s| {
-        s.meshes.push(lamp_mesh(0.0));
+        s.meshes.push(std::sync::Arc::new(lamp_mesh(0.0)));
         let mut inst = instance("/lamp", GeometryRef::Mesh(1), Mat4::IDENTITY, 1);
         inst.transforms = vec![Mat4::from_translation(Vec3::new(-SWEEP, 0.0, 0.0)), Mat4::from_translation(Vec3::new(SWEEP, 0.0, 0.0))];
         inst.times = vec![0.0, 1.0];
@@ -100,7 +100,7 @@ fn a_deforming_emissive_mesh_lights_from_where_it_is_at_each_time() {
         let mut m = lamp_mesh(0.0);
         let (a, b) = (lamp_mesh(-SWEEP), lamp_mesh(SWEEP));
         m.motion = Some(MeshMotion { times: vec![0.0, 1.0], positions: vec![a.positions, b.positions], normals: None });
-        s.meshes.push(m);
+        s.meshes.push(std::sync::Arc::new(m));
         let mut inst = instance("/lamp", GeometryRef::Mesh(1), Mat4::IDENTITY, 1);
         inst.visible_to_camera = false;
         s.instances.push(inst);

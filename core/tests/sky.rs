@@ -40,7 +40,7 @@ fn grey_card_under_the_physical_sun_and_sky_reads_its_albedo_at_the_seed_exposur
     assert!((6.0e4..1.3e5).contains(&e_v), "{e_v} lx");
 
     let mut s = SceneDesc::default();
-    s.meshes.push(quad_y("/card", 100.0));
+    s.meshes.push(std::sync::Arc::new(quad_y("/card", 100.0)));
     s.materials.push(MaterialDesc { name: "/grey".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None });
     s.instances.push(instance("/card", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     let units = nits_per_model_unit();

@@ -99,7 +99,7 @@ fn inside_its_box_a_volume_replaces_the_water_medium() {
     // only the water outside the box absorbs
     let sigma_w = [2.0f32, 1.0, 0.5];
     let mut s = SceneDesc::default();
-    s.meshes.push(box_mesh("/slab", Vec3::new(-5.0, -5.0, -0.5), Vec3::new(5.0, 5.0, 0.5)));
+    s.meshes.push(std::sync::Arc::new(box_mesh("/slab", Vec3::new(-5.0, -5.0, -0.5), Vec3::new(5.0, 5.0, 0.5))));
     s.media.push(absorbing("/water", sigma_w, 1.0));
     s.media.push(absorbing("/fog", [0.0; 3], 1.0));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
@@ -123,7 +123,7 @@ fn shadow_rays_are_attenuated_by_a_volume_between_light_and_plane() {
     // drops by e^{−0.5}
     let scene = |with: bool| {
         let mut s = SceneDesc::default();
-        s.meshes.push(quad_y("/plane", 50.0));
+        s.meshes.push(std::sync::Arc::new(quad_y("/plane", 50.0)));
         s.materials.push(MaterialDesc { name: "/white".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.8; 3]) }, interior_medium: None });
         s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.media.push(absorbing("/fog", [1.0; 3], 1.0));

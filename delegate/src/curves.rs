@@ -434,7 +434,7 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
 /// basis). A curve whose vertex count its type cannot draw, or that has a point that is not
 /// finite, is dropped with a problem; the others render.
 pub fn convert_curves(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGeom {
-    let empty = |mesh: MeshDesc| MeshGeom { mesh, deformation: None, subsets: Vec::new(), rest: Vec::new() };
+    let empty = |mesh: MeshDesc| MeshGeom::new(mesh, None, Vec::new(), Vec::new());
     let (pts, bad) = read_points(store, p);
     let blank = MeshDesc { name: name.into(), ..Default::default() };
     let counts: Vec<i32> = match store.get("curveVertexCounts") {
@@ -513,7 +513,7 @@ pub fn convert_curves(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGe
     built.mesh.primvars = shading_primvars(store, &plan, &built, shape, p);
     let deformation = curve_deformation(name, &plan, &built, store, pts.len(), double_sided, p);
     let rest = built.mesh.indices.clone();
-    MeshGeom { mesh: built.mesh, deformation, subsets: Vec::new(), rest }
+    MeshGeom::new(built.mesh, deformation, Vec::new(), rest)
 }
 
 /// The primvars a material may read, carried to every output vertex through the curves'

@@ -108,11 +108,40 @@ struct Prim {
 /// these re-syncs the prim but keeps its converted points and triangles.
 const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms"];
 
+/// A material's displacement in one assembly.
+struct Displacement<'a> {
+    /// Over the scene's textures.
+    d: tide_core::scene::FloatInput,
+    /// Over the material's own texture list, and that list.
+    local: tide_core::scene::FloatInput,
+    textures: Vec<TextureDesc>,
+    material: &'a str,
+}
+
+/// A mesh displaced by a material, kept for the next assembly.
+struct Displaced {
+    src: Arc<MeshDesc>,
+    local: tide_core::scene::FloatInput,
+    textures: Vec<TextureDesc>,
+    out: Arc<MeshDesc>,
+}
+
+impl Displaced {
+    /// Whether displacing `src` by `d` makes this mesh: the same mesh (shared), the same
+    /// displacement over the same textures (the same shared pixels).
+    fn made_of(&self, src: &Arc<MeshDesc>, d: &Displacement) -> bool {
+        let same = |a: &TextureDesc, b: &TextureDesc| {
+            Arc::ptr_eq(&a.pixels, &b.pixels) && (&a.name, a.width, a.height, a.channels, a.wrap_s, a.wrap_t) == (&b.name, b.width, b.height, b.channels, b.wrap_s, b.wrap_t)
+        };
+        Arc::ptr_eq(&self.src, src) && self.local == d.local && self.textures.len() == d.textures.len() && self.textures.iter().zip(&d.textures).all(|(a, b)| same(a, b))
+    }
+}
+
 /// Geometry of a converted rprim.
 #[derive(Clone, Debug, PartialEq)]
 enum Geometry {
     None,
-    Mesh(MeshDesc),
+    Mesh(Arc<MeshDesc>),
     /// A mesh prim: its points may move (time samples or velocities; keys are made at
     /// assembly, for the shutter) and GeomSubsets may bind other materials to some faces.
     UsdMesh(Box<mesh::MeshGeom>),
@@ -221,6 +250,8 @@ pub struct Delegate {
     /// Textures as the last assembly used them (linearised, domes made lat-long), each with the
     /// decoded pixels it was made from: an assembly shares them instead of converting again.
     converted_textures: HashMap<TexKey, (Arc<Vec<f32>>, TextureDesc)>,
+    /// Meshes as the last assembly displaced them, by (source mesh, material path).
+    displaced_meshes: HashMap<(usize, String), Displaced>,
     /// Grids of volumes by (file, field name, field index), each read once.
     grids: HashMap<GridKey, GridState>,
 }
@@ -305,6 +336,7 @@ impl Delegate {
             job_key: None,
             oceans: HashMap::new(),
             converted_textures: HashMap::new(),
+            displaced_meshes: HashMap::new(),
             grids: HashMap::new(),
         }
     }
@@ -520,11 +552,11 @@ impl Delegate {
             PrimType::BasisCurves => Geometry::UsdMesh(Box::new(crate::curves::convert_curves(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
             PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
-            PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p)),
-            PrimType::Cylinder => Geometry::Mesh(implicit::cylinder(path, s, p)),
-            PrimType::Cone => Geometry::Mesh(implicit::cone(path, s, p)),
-            PrimType::Capsule => Geometry::Mesh(implicit::capsule(path, s, p)),
-            PrimType::Plane => Geometry::Mesh(implicit::plane(path, s, p)),
+            PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p).into()),
+            PrimType::Cylinder => Geometry::Mesh(implicit::cylinder(path, s, p).into()),
+            PrimType::Cone => Geometry::Mesh(implicit::cone(path, s, p).into()),
+            PrimType::Capsule => Geometry::Mesh(implicit::capsule(path, s, p).into()),
+            PrimType::Plane => Geometry::Mesh(implicit::plane(path, s, p).into()),
             PrimType::TideOcean => Geometry::Ocean(ocean::ocean_spec(s, p)),
             PrimType::Volume => volume::volume_spec(s, p).map_or(Geometry::None, Geometry::Volume),
             _ => Geometry::None,
@@ -532,7 +564,7 @@ impl Delegate {
         // implicit gprims carry their constant primvars (meshes, curves and points carry every
         // interpolation)
         match &mut g {
-            Geometry::Mesh(m) => m.primvars = mesh::constant_primvars(s, p),
+            Geometry::Mesh(m) => Arc::make_mut(m).primvars = mesh::constant_primvars(s, p),
             Geometry::Spheres(sp) => sp.primvars = mesh::constant_primvars(s, p),
             _ => {}
         }
@@ -760,7 +792,7 @@ impl Delegate {
         let mut mat_index: HashMap<&str, usize> = HashMap::new();
         let mut medium_of: HashMap<&str, usize> = HashMap::new();
         // scene material → its displacement (textures in the scene's list)
-        let mut displacement_of: HashMap<usize, tide_core::scene::FloatInput> = HashMap::new();
+        let mut displacement_of: HashMap<usize, Displacement> = HashMap::new();
         for (path, c) in &self.cache {
             let Piece::Material(m) = &c.piece else { continue };
             let map: Option<Vec<usize>> = m.textures.iter().map(|k| texture(k, &mut scene)).collect();
@@ -779,13 +811,18 @@ impl Delegate {
             }
             scene.materials.push(desc);
             mat_index.insert(path, scene.materials.len() - 1);
-            if let (Some(mut d), Some(map)) = (m.displacement.clone(), &map) {
+            if let (Some(local), Some(map)) = (&m.displacement, &map) {
+                let mut d = local.clone();
                 material::remap_float(&mut d, map);
-                displacement_of.insert(scene.materials.len() - 1, d);
+                let textures = map.iter().map(|&i| scene.textures[i].clone()).collect();
+                displacement_of.insert(scene.materials.len() - 1, Displacement { d, local: local.clone(), textures, material: path });
             }
         }
-        // (mesh, material) → the mesh displaced by the material, made once per assembly
+        // (mesh, material) → the mesh displaced by the material, made once per assembly and
+        // taken from the last assembly when its mesh, displacement and textures are the same
         let mut displaced: HashMap<(usize, usize), usize> = HashMap::new();
+        let displaced_before = std::mem::take(&mut self.displaced_meshes);
+        let mut displaced_now: HashMap<(usize, String), Displaced> = HashMap::new();
 
         let included = &sp.included_purposes;
         let mut color_mats: HashMap<([u32; 3], bool, u32, bool), usize> = HashMap::new();
@@ -821,25 +858,13 @@ impl Delegate {
                     parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
                 }
                 Geometry::UsdMesh(g) if !g.mesh.indices.is_empty() => {
-                    let mut m = g.mesh.clone();
-                    if let (true, Some(d)) = (motion, &g.deformation) {
-                        m.motion = mesh::motion_keys(&m, d, open, close, tcps);
-                    }
-                    if g.subsets.is_empty() {
+                    // one core mesh per material (GeomSubsets): its own triangles over the
+                    // vertices they use; made once per shutter and shared by later assemblies
+                    for (m, subset) in g.core_meshes(motion.then_some((open, close, tcps))) {
+                        let subset = subset.map(|k| &g.subsets[k]);
                         scene.meshes.push(m);
                         parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
-                        part_names.push((String::new(), None));
-                    } else {
-                        // one core mesh per material: its own triangles over the vertices
-                        // they use
-                        for (indices, subset) in std::iter::once((&g.rest, None)).chain(g.subsets.iter().map(|s| (&s.indices, Some(s)))) {
-                            if indices.is_empty() {
-                                continue;
-                            }
-                            scene.meshes.push(mesh::sub_mesh(&m, indices));
-                            parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), None));
-                            part_names.push((subset.map_or(String::new(), |s| format!(" {}", s.path)), subset));
-                        }
+                        part_names.push((subset.map_or(String::new(), |s| format!(" {}", s.path)), subset));
                     }
                 }
                 Geometry::Spheres(s) if !s.centers.is_empty() => {
@@ -972,8 +997,12 @@ impl Delegate {
                 // a displacing material moves the mesh's points (a copy per mesh and material)
                 let geometry = match (geometry, displacement_of.get(&material)) {
                     (GeometryRef::Mesh(mi), Some(d)) => GeometryRef::Mesh(*displaced.entry((mi, material)).or_insert_with(|| {
-                        let m = tide_core::displace::displace(&scene.meshes[mi], d, &scene.textures);
-                        scene.meshes.push(m);
+                        let src = scene.meshes[mi].clone();
+                        let key = (Arc::as_ptr(&src) as usize, d.material.to_string());
+                        let kept = displaced_now.get(&key).or(displaced_before.get(&key)).filter(|e| e.made_of(&src, d)).map(|e| e.out.clone());
+                        let out = kept.unwrap_or_else(|| Arc::new(tide_core::displace::displace(&src, &d.d, &scene.textures)));
+                        displaced_now.insert(key, Displaced { src, local: d.local.clone(), textures: d.textures.clone(), out: out.clone() });
+                        scene.meshes.push(out);
                         scene.meshes.len() - 1
                     })),
                     (g, _) => g,
@@ -1200,6 +1229,8 @@ impl Delegate {
             scene.camera = d;
         }
         self.converted_textures = converted;
+        drop(displaced_before);
+        self.displaced_meshes = displaced_now;
         self.assembly_problems = ap;
         self.settings = sp;
         self.scene = Arc::new(scene);
@@ -1512,6 +1543,61 @@ mod tests {
         d.set_attribute("/M", "/M/T.inputs:file", Value::Asset("/u.png".into()), None);
         d.commit_resources();
         assert!(d.converted_textures.is_empty());
+    }
+
+    #[test]
+    fn assemblies_share_unchanged_meshes_their_parts_and_displaced_copies() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/A");
+        quad(&mut d, "/B");
+        // a mesh whose second face takes another material through a GeomSubset
+        red_material(&mut d, "/Red");
+        quad(&mut d, "/S");
+        d.set_attribute("/S", "faceVertexCounts", Value::Ints(vec![3, 3]), None);
+        d.set_attribute("/S", "faceVertexIndices", Value::Ints(vec![0, 1, 2, 0, 2, 3]), None);
+        d.set_attribute("/S", "geomSubsets", Value::Paths(vec!["/S/a".into()]), None);
+        d.set_attribute("/S", "/S/a.indices", Value::Ints(vec![1]), None);
+        d.set_attribute("/S", "/S/a.material", Value::Path("/Red".into()), None);
+        // a mesh displaced by a texture
+        textured_material(&mut d, "/M", "/h.png");
+        d.set_attribute("/M", "/M/S.inputs:displacement.connect", tok("/M/T.outputs:r"), None);
+        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.5], false));
+        quad(&mut d, "/D");
+        d.set_attribute("/D", "material", Value::Path("/M".into()), None);
+        d.commit_resources();
+        let names = ["/A", "/S", "/S /S/a", "/D"];
+        let meshes = |d: &Delegate| names.map(|n| {
+            let i = d.scene().instances.iter().find(|i| i.name == n).unwrap();
+            let GeometryRef::Mesh(m) = i.geometry else { unreachable!() };
+            d.scene().meshes[m].clone()
+        });
+        let first = meshes(&d);
+        assert!((first[3].positions[0].z - 0.5).abs() < 1e-6, "displaced by the texel: {:?}", first[3].positions[0]);
+        // another prim moved: every mesh is the one the last assembly made, not a copy
+        d.set_attribute("/B", "transform", translate(1.0, 0.0, 0.0), None);
+        d.commit_resources();
+        let second = meshes(&d);
+        assert!(first.iter().zip(&second).all(|(a, b)| Arc::ptr_eq(a, b)));
+        // new pixels for the displacement's texture: that mesh is displaced again, alone
+        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.25], false));
+        d.commit_resources();
+        let third = meshes(&d);
+        assert!(!Arc::ptr_eq(&third[3], &second[3]) && (third[3].positions[0].z - 0.25).abs() < 1e-6);
+        assert!(third[..3].iter().zip(&second[..3]).all(|(a, b)| Arc::ptr_eq(a, b)));
+        // another displacement amount over the same texture: displaced again
+        d.set_attribute("/M", "/M/T.inputs:scale", floats(&[2.0, 2.0, 2.0, 2.0], 4), None);
+        d.commit_resources();
+        let fourth = meshes(&d);
+        assert!(!Arc::ptr_eq(&fourth[3], &third[3]) && (fourth[3].positions[0].z - 0.5).abs() < 1e-6, "{:?}", fourth[3].positions[0]);
+        // the subset mesh's points edited: its parts are made anew
+        d.set_attribute("/S", "points", floats(&[0., 0., 0., 2., 0., 0., 2., 2., 0., 0., 2., 0.], 3), None);
+        d.commit_resources();
+        let fifth = meshes(&d);
+        assert!(!Arc::ptr_eq(&fifth[1], &fourth[1]) && !Arc::ptr_eq(&fifth[2], &fourth[2]) && Arc::ptr_eq(&fifth[0], &fourth[0]));
+        // displaced copies no longer used are let go
+        d.set_attribute("/D", "material", Value::Path("/Red".into()), None);
+        d.commit_resources();
+        assert!(d.displaced_meshes.is_empty());
     }
 
     #[test]

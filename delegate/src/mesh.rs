@@ -20,6 +20,7 @@
 use crate::subdiv::{self, Refinement, Scheme, Stencil};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
+use std::sync::{Arc, Mutex};
 use tide_core::scene::{MeshDesc, MeshMotion, PrimvarData};
 
 /// Triangulates one simple polygon (possibly concave) given its corner positions. Returns
@@ -338,10 +339,83 @@ pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
 /// faces in no subset (all of them without subsets).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshGeom {
-    pub mesh: MeshDesc,
+    /// Shared with the scenes assembled from it.
+    pub mesh: Arc<MeshDesc>,
     pub deformation: Option<Deformation>,
     pub subsets: Vec<SubsetPart>,
     pub rest: Vec<u32>,
+    made: Made,
+}
+
+/// A shutter as the assembly places a deforming mesh over it: open and close in frames, and
+/// frames per second.
+pub type Shutter = (f64, f64, f64);
+
+/// The core meshes last made of a [`MeshGeom`] and the shutter they were made for, so that
+/// assemblies that follow (another prim edited) share them rather than make them again. Not
+/// part of the geometry's value: clones start empty and equality ignores it.
+#[derive(Default)]
+struct Made(Mutex<Option<(Option<[u64; 3]>, Vec<CorePart>)>>);
+
+impl Clone for Made {
+    fn clone(&self) -> Made {
+        Made::default()
+    }
+}
+
+impl PartialEq for Made {
+    fn eq(&self, _: &Made) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for Made {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Made")
+    }
+}
+
+/// One core mesh of a [`MeshGeom`]: its triangles of one material, and the subset (index
+/// into `subsets`) they belong to (None: the faces in no subset, or the whole mesh).
+pub type CorePart = (Arc<MeshDesc>, Option<usize>);
+
+impl MeshGeom {
+    pub fn new(mesh: MeshDesc, deformation: Option<Deformation>, subsets: Vec<SubsetPart>, rest: Vec<u32>) -> MeshGeom {
+        MeshGeom { mesh: Arc::new(mesh), deformation, subsets, rest, made: Made::default() }
+    }
+
+    /// The core meshes of the geometry, with motion keys over `shutter` when it deforms
+    /// (None: static): the whole mesh, or one part per material when GeomSubsets bind
+    /// materials (the faces in no subset first, then each subset's; empty ones are left out).
+    /// Made once per shutter and shared after.
+    pub fn core_meshes(&self, shutter: Option<Shutter>) -> Vec<CorePart> {
+        let shutter = shutter.filter(|_| self.deformation.is_some());
+        let key = shutter.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()]);
+        let mut made = self.made.0.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((k, parts)) = made.as_ref().filter(|m| m.0 == key) {
+            debug_assert!(*k == key);
+            return parts.clone();
+        }
+        let whole = match (shutter, &self.deformation) {
+            (Some((open, close, tcps)), Some(d)) => {
+                let mut m = (*self.mesh).clone();
+                m.motion = motion_keys(&m, d, open, close, tcps);
+                Arc::new(m)
+            }
+            _ => self.mesh.clone(),
+        };
+        let parts: Vec<CorePart> = if self.subsets.is_empty() {
+            vec![(whole, None)]
+        } else {
+            std::iter::once((&self.rest, None))
+                .chain(self.subsets.iter().enumerate().map(|(k, s)| (&s.indices, Some(k))))
+                .filter(|(indices, _)| !indices.is_empty())
+                .map(|(indices, k)| (Arc::new(sub_mesh(&whole, indices)), k))
+                .collect()
+        };
+        *made = Some((key, parts.clone()));
+        parts
+    }
 }
 
 /// Converts a mesh prim: its triangles, their motion ([`Deformation`]) and its GeomSubsets. `geomSubsets`
@@ -391,7 +465,7 @@ pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> Mesh
             None => rest.extend_from_slice(t),
         }
     }
-    MeshGeom { mesh, deformation, subsets, rest }
+    MeshGeom::new(mesh, deformation, subsets, rest)
 }
 
 /// How the points of a converted mesh move: time samples of `points` (all with the same
@@ -732,6 +806,38 @@ mod tests {
         put("faceVertexCounts", Value::Ints(counts.to_vec()));
         put("faceVertexIndices", Value::Ints(idx.to_vec()));
         s
+    }
+
+    #[test]
+    fn core_meshes_are_made_once_per_shutter_and_shared() {
+        // two quads: face 1 in a subset; the points move by a velocity
+        let mut st = store(&[0., 0., 0., 1., 0., 0., 1., 1., 0., 0., 1., 0., 2., 0., 0., 2., 1., 0.], &[4, 4], &[0, 1, 2, 3, 1, 4, 5, 2]);
+        st.attrs.insert("velocities".into(), Attr { value: Some(Value::Floats { data: [1.0f32, 0.0, 0.0].repeat(6), tuple: 3 }), samples: vec![] });
+        st.attrs.insert("geomSubsets".into(), Attr { value: Some(Value::Paths(vec!["/M/s".into()])), samples: vec![] });
+        st.attrs.insert("/M/s.indices".into(), Attr { value: Some(Value::Ints(vec![1])), samples: vec![] });
+        let mut p = Problems::new("/M");
+        let g = convert_usd_mesh("/M", &st, &mut p);
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        let ptrs = |parts: &[CorePart]| parts.iter().map(|(m, k)| (Arc::as_ptr(m), *k)).collect::<Vec<_>>();
+        let a = g.core_meshes(Some((0.0, 1.0, 25.0)));
+        // the faces in no subset, then the subset's
+        assert_eq!(a.iter().map(|(m, k)| (m.indices.len(), *k)).collect::<Vec<_>>(), [(6, None), (6, Some(0))]);
+        assert!(a.iter().all(|(m, _)| m.motion.is_some()));
+        // the same shutter again: the same meshes, not copies
+        assert_eq!(ptrs(&g.core_meshes(Some((0.0, 1.0, 25.0)))), ptrs(&a));
+        // another shutter makes other keys; no shutter gives static parts
+        let b = g.core_meshes(Some((0.0, 2.0, 25.0)));
+        assert!(b.iter().zip(&a).all(|((x, _), (y, _))| !Arc::ptr_eq(x, y) && x.motion != y.motion));
+        let s = g.core_meshes(None);
+        assert!(s.iter().all(|(m, _)| m.motion.is_none()));
+        assert_eq!(ptrs(&g.core_meshes(None)), ptrs(&s));
+        // a clone of the geometry starts without them, and is still equal
+        let c = g.clone();
+        assert_eq!(c, g);
+        assert_ne!(ptrs(&c.core_meshes(None)), ptrs(&s));
+        // without subsets, a static mesh is the geometry's own
+        let plain = convert_usd_mesh("/P", &store(&[0., 0., 0., 1., 0., 0., 1., 1., 0.], &[3], &[0, 1, 2]), &mut p);
+        assert!(Arc::ptr_eq(&plain.core_meshes(Some((0.0, 1.0, 25.0)))[0].0, &plain.mesh));
     }
 
     #[test]

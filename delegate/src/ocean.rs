@@ -16,6 +16,7 @@
 use glam::{Mat4, Vec3};
 use tide_core::bsdf::sea::CoxMunk;
 use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams, SpectrumKind};
+use std::sync::Arc;
 use tide_core::scene::MeshDesc;
 
 use crate::value::{AttrStore, Problems};
@@ -30,8 +31,8 @@ pub struct OceanSpec {
 /// The surface mesh (and, for an open sea, the horizon skirt) of an ocean for one camera key.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OceanMeshes {
-    pub surface: MeshDesc,
-    pub skirt: Option<MeshDesc>,
+    pub surface: Arc<MeshDesc>,
+    pub skirt: Option<Arc<MeshDesc>>,
 }
 
 /// What the built mesh depends on besides the spec: the camera's patch and the skirt's reach.
@@ -151,12 +152,12 @@ pub fn build(key: &OceanKey, p: &mut Problems) -> OceanMeshes {
     // the LOD depends on the camera's patch only: build about its centre
     let cam = Vec3::new((key.tile.0 as f32 + 0.5) * l, 0.0, (key.tile.1 as f32 + 0.5) * l);
     match ocean_mesh_with_horizon(&key.spec.params, key.spec.time, Some(cam), key.reach) {
-        Ok((surface, skirt)) => OceanMeshes { surface, skirt },
+        Ok((surface, skirt)) => OceanMeshes { surface: surface.into(), skirt: skirt.map(Arc::new) },
         Err(e) => {
             p.add(e.parameter, format!("{}; using 0 (an open sea)", e.message));
             let open = OceanParams { depth: 0.0, ..key.spec.params.clone() };
             let (surface, skirt) = ocean_mesh_with_horizon(&open, key.spec.time, Some(cam), key.reach).expect("validated open sea");
-            OceanMeshes { surface, skirt }
+            OceanMeshes { surface: surface.into(), skirt: skirt.map(Arc::new) }
         }
     }
 }

@@ -198,6 +198,9 @@ impl BlasKey {
 #[derive(Clone, Default)]
 pub struct BlasCache {
     entries: Arc<Mutex<HashMap<BlasKey, Arc<Blas>>>>,
+    /// The keys of meshes seen by the last build, by the mesh's address (the mesh is held so
+    /// that the address is not reused): an unchanged shared mesh is not hashed again.
+    mesh_keys: Arc<Mutex<HashMap<usize, (Arc<MeshDesc>, BlasKey)>>>,
 }
 
 impl BlasCache {
@@ -343,13 +346,13 @@ fn transform_aabb(m: &Mat4, bb: &Aabb) -> Aabb {
 impl Accel {
     /// Builds the structure. `shutter` is the time interval rays will sample.
     /// Inputs must be validated (finite, well-indexed): see `SceneDesc::validate`.
-    pub fn build(meshes: &[MeshDesc], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
+    pub fn build(meshes: &[Arc<MeshDesc>], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
         Accel::build_cached(meshes, spheres, instances, shutter, None)
     }
 
     /// [`Accel::build`], taking the per-geometry BVHs of unchanged geometry from `cache` and
     /// leaving in it those of this build.
-    pub fn build_cached(meshes: &[MeshDesc], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32), cache: Option<&BlasCache>) -> Accel {
+    pub fn build_cached(meshes: &[Arc<MeshDesc>], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32), cache: Option<&BlasCache>) -> Accel {
         let start = std::time::Instant::now();
         let mut blas: Vec<Arc<Blas>> = Vec::with_capacity(meshes.len() + spheres.len());
         let mut stats = BuildStats::default();
@@ -371,10 +374,20 @@ impl Accel {
             kept.insert(key, b.clone());
             b
         };
+        let mut old_keys = cache.map(|c| std::mem::take(&mut *c.mesh_keys.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default();
+        let mut keys: HashMap<usize, (Arc<MeshDesc>, BlasKey)> = HashMap::new();
         for m in meshes {
             stats.triangles += m.indices.len() / 3;
-            blas.push(get(cache.map(|_| BlasKey::mesh(m)), &|| build_tri_blas(m), &mut stats));
+            let key = cache.map(|_| {
+                let addr = Arc::as_ptr(m) as usize;
+                let known = keys.get(&addr).or_else(|| old_keys.get(&addr)).filter(|e| Arc::ptr_eq(&e.0, m)).map(|e| e.1);
+                let key = known.unwrap_or_else(|| BlasKey::mesh(m));
+                keys.insert(addr, (m.clone(), key));
+                key
+            });
+            blas.push(get(key, &|| build_tri_blas(m), &mut stats));
         }
+        old_keys.clear();
         for s in spheres {
             stats.spheres += s.centers.len();
             blas.push(get(cache.map(|_| BlasKey::spheres(s, shutter)), &|| build_sphere_blas(s, shutter), &mut stats));
@@ -382,6 +395,7 @@ impl Accel {
         drop(old);
         if let Some(c) = cache {
             *c.entries.lock().unwrap_or_else(|e| e.into_inner()) = kept;
+            *c.mesh_keys.lock().unwrap_or_else(|e| e.into_inner()) = keys;
         }
         let mut recs = Vec::with_capacity(instances.len());
         let mut ibounds = Vec::with_capacity(instances.len());

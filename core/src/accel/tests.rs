@@ -17,7 +17,7 @@ fn inst(g: GeometryRef, m: Vec<Mat4>, times: Vec<f32>) -> InstanceDesc {
 
 #[test]
 fn hits_a_translated_quad_and_a_sphere_in_order() {
-    let meshes = vec![quad()];
+    let meshes = vec![Arc::new(quad())];
     let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
     let instances = vec![
         inst(GeometryRef::Mesh(0), vec![Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0))], vec![0.0]),
@@ -45,7 +45,7 @@ fn ocean_scale_quads_are_hit_exactly() {
     for p in &mut m.positions {
         *p *= 5000.0;
     }
-    let a = Accel::build(&[m], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
+    let a = Accel::build(&[m.into()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
     let r = Ray { o: Vec3::new(3000.0, 2.0, -2500.0), d: Vec3::new(0.0, -1.0, 0.0), t_max: f32::INFINITY, time: 0.0 };
     let h = a.intersect(&r).unwrap();
     assert!((h.t - 2.0).abs() < 1e-3);
@@ -55,7 +55,7 @@ fn ocean_scale_quads_are_hit_exactly() {
 fn moving_instance_is_hit_where_it_is_at_the_ray_time() {
     let m0 = Mat4::from_translation(Vec3::new(-5.0, 0.0, 0.0));
     let m1 = Mat4::from_translation(Vec3::new(5.0, 0.0, 0.0));
-    let a = Accel::build(&[quad()], &[], &[inst(GeometryRef::Mesh(0), vec![m0, m1], vec![0.0, 1.0])], (0.0, 1.0));
+    let a = Accel::build(&[quad().into()], &[], &[inst(GeometryRef::Mesh(0), vec![m0, m1], vec![0.0, 1.0])], (0.0, 1.0));
     let r = |time| Ray { o: Vec3::new(0.0, 1.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert!(a.intersect(&r(0.0)).is_none());
     assert!(a.intersect(&r(0.5)).is_some());
@@ -96,7 +96,7 @@ fn brute_force_agrees_on_random_rays() {
         }
         m.indices.extend([3 * i, 3 * i + 1, 3 * i + 2]);
     }
-    let a = Accel::build(&[m.clone()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
+    let a = Accel::build(&[m.clone().into()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.0));
     for _ in 0..500 {
         let o = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 14.0 - 2.0;
         let d = crate::math::sample_uniform_sphere(glam::Vec2::new(rng.next_f32(), rng.next_f32()));
@@ -125,7 +125,7 @@ fn a_cache_reuses_the_bvh_of_unchanged_geometry_and_rebuilds_the_edited() {
         }
         m
     };
-    let meshes = vec![lifted(0.0), lifted(1.0), lifted(2.0)];
+    let meshes: Vec<Arc<MeshDesc>> = vec![lifted(0.0).into(), lifted(1.0).into(), lifted(2.0).into()];
     let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 5.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
     let instances = |x: f32| {
         vec![
@@ -148,7 +148,7 @@ fn a_cache_reuses_the_bvh_of_unchanged_geometry_and_rebuilds_the_edited() {
 
     // One mesh's points edited (and the order of geometry changed): only that BVH is built,
     // and the stale one leaves the cache.
-    let edited = vec![lifted(2.0), lifted(1.0), lifted(-3.0)];
+    let edited: Vec<Arc<MeshDesc>> = vec![lifted(2.0).into(), lifted(1.0).into(), lifted(-3.0).into()];
     let c = Accel::build_cached(&edited, &spheres, &instances(0.0), (0.0, 0.0), Some(&cache));
     assert_eq!((c.stats.blas_built, c.stats.blas_reused, cache.len()), (1, 3, 4));
     let h = c.intersect(&Ray { o: Vec3::new(0.9, 10.0, 0.9), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 }).unwrap();
@@ -223,7 +223,7 @@ fn brute_force_at(m: &MeshDesc, o: Vec3, d: Vec3, time: f32) -> Option<(f32, u32
 fn deforming_mesh_agrees_with_brute_force_at_the_ray_time() {
     let mut rng = crate::testing::chi2::TestRng::new(11);
     let m = deforming_soup(&mut rng, 300);
-    let a = Accel::build(std::slice::from_ref(&m), &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 1.0));
+    let a = Accel::build(&[m.clone().into()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 1.0));
     assert!(matches!(a.blas[0].as_ref(), Blas::MotionTri(_)));
     let (mut hits, mut moved) = (0, 0);
     for _ in 0..1500 {
@@ -254,7 +254,7 @@ fn deforming_mesh_agrees_with_brute_force_at_the_ray_time() {
 
 #[test]
 fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
-    let a = Accel::build(&[quad()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 1.0));
+    let a = Accel::build(&[quad().into()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 1.0));
     assert!(matches!(a.blas[0].as_ref(), Blas::Tri(_)));
     // the quad slides from x = -5 to x = +5 by its points alone
     let mut m = quad();
@@ -263,7 +263,7 @@ fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
     m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: keys, normals: None });
     let both = [inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0]), inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])];
     let far = SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, -50.0, 30.0)], radii: vec![0.5], velocities: None, ..Default::default() };
-    let a = Accel::build(&[m], &[far], &both, (0.0, 1.0));
+    let a = Accel::build(&[m.into()], &[far], &both, (0.0, 1.0));
     let r = |x: f32, time| Ray { o: Vec3::new(x, 1.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert_eq!(a.intersect(&r(0.0, 0.5)).map(|h| h.instance), Some(0));
     assert!(a.intersect(&r(0.0, 0.0)).is_none());

@@ -355,7 +355,7 @@ mod tests {
 
         pub fn world(geometry: GeometryRef, mesh: Option<MeshDesc>, sphere: Option<(Vec3, f32)>, xf: Mat4) -> World {
             let mut s = SceneDesc::default();
-            s.meshes.extend(mesh);
+            s.meshes.extend(mesh.map(std::sync::Arc::new));
             if let Some((c, r)) = sphere {
                 s.spheres.push(SpheresDesc { name: "/ball".into(), centers: vec![c], radii: vec![r], velocities: None, ..Default::default() });
             }
