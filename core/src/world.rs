@@ -594,9 +594,8 @@ fn primvar_source<'a>(own: &'a [PrimvarData], row: Option<(u32, u32)>, tables: &
 }
 
 /// What a build keeps for the next: the meshes and textures validation checked, per-geometry
-/// BVHs and dome maps. An interactive session
-/// passes the same cache to every rebuild, so an edit rebuilds only what it touched. Cloning
-/// shares the cache.
+/// BVHs, and dome and rect-light maps. An interactive session passes the same cache to every
+/// rebuild, so an edit rebuilds only what it touched. Cloning shares the cache.
 #[derive(Clone, Default)]
 pub struct BuildCache {
     pub checks: crate::validate::CheckCache,

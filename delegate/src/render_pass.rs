@@ -95,9 +95,10 @@ impl Engine for Renderer {
 /// Builds an engine for a job (called on the render thread).
 pub type EngineFactory = Arc<dyn Fn(&SceneDesc, &RenderSettings) -> Result<Box<dyn Engine>, RenderError> + Send + Sync>;
 
-/// The core renderer as the engine. The factory keeps the per-geometry BVHs and dome maps of
-/// its last build, so a job that follows an edit rebuilds only the geometry whose points or
-/// triangles changed, and a dome's tables only when its image changed.
+/// The core renderer as the engine. The factory keeps what its last build checked and made
+/// (validated meshes, per-geometry BVHs, dome and rect-light maps), so a job that follows an
+/// edit checks and rebuilds only the geometry whose points or triangles changed, and a
+/// light's map only when its image changed.
 pub fn core_factory() -> EngineFactory {
     let cache = BuildCache::default();
     Arc::new(move |scene, settings| Ok(Box::new(Renderer::with_cache(scene, settings.clone(), Some(&cache))?) as Box<dyn Engine>))

@@ -296,7 +296,7 @@ pub struct RectLight {
     rectangular: bool,
     pub shaping: Option<Box<Shaping>>,
     /// `texture:file`: the image over the rectangle (texels × the light's colour).
-    pub map: Option<Box<RectMap>>,
+    pub map: Option<Arc<RectMap>>,
 }
 
 /// A rect light's image: column s along the light's +X, row t from its +Y edge down (the
@@ -1136,7 +1136,10 @@ impl Light {
                 let shaping = shaping(shape.n, shaping::Spread::Cosine(shape.n))?;
                 let map = match texture_of(texture)? {
                     None => None,
-                    Some(tex) => Some(Box::new(RectMap::new(tex, rgb, cs)?)),
+                    Some(tex) => Some(match maps {
+                        Some(maps) => maps.rect(tex, rgb, cs)?,
+                        None => Arc::new(RectMap::new(tex, rgb, cs)?),
+                    }),
                 };
                 let mut em = emission(s);
                 if let Some(m) = &map {
