@@ -12,6 +12,7 @@ CASE:
               restarted pass (the renderer keeps its BVH and takes the new camera)
   edit2m      mesh2m's grid and a small 200-triangle mesh; the small mesh is moved five times,
               each move followed by the restarted pass (a new world around the grid's BVH)
+  edit1mpts   the same beside points1m's points
 
 Each repeat runs in a fresh child process, so the peak RSS (VmHWM, which only grows) belongs
 to that case alone. Phases, per process:
@@ -26,8 +27,8 @@ to that case alone. Phases, per process:
            restarted pass until it finishes (`rebuild_s`)
   camera2m only: the median over five camera moves of reader.update() (`camera_update_s`)
            and of the restarted pass until it finishes (`camera_pass_s`)
-  edit2m only: the same medians over five moves of the small mesh (`edit_update_s`,
-           `edit_pass_s`)
+  edit2m, edit1mpts only: the same medians over five moves of the small mesh
+           (`edit_update_s`, `edit_pass_s`)
 The medians over the repeats are printed last.
 """
 import argparse
@@ -88,7 +89,9 @@ def author(case):
         mesh("/World/Grid", 1000)
         if case == "edit2m":
             mesh("/World/Small", 10, (0.2, 0.1, 0.2))
-    elif case == "points1m":
+    elif case in ("points1m", "edit1mpts"):
+        if case == "edit1mpts":
+            mesh("/World/Small", 10, (0.2, 0.1, 0.2))
         n = 1_000_000
         i = np.arange(n)
         pts = np.stack([(i % 1000) * 1e-3, ((i // 1000) % 1000) * 1e-3, np.zeros(n)],
@@ -101,7 +104,7 @@ def author(case):
         for k in range(1000):
             mesh("/World/M%04d" % k, 10, ((k % 40) * 1.1, 0.0, (k // 40) * 1.1))
     else:
-        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000, camera2m, edit2m)" % case)
+        raise SystemExit("unknown case %r (mesh2m, points1m, resync1000, camera2m, edit2m, edit1mpts)" % case)
     return stage
 
 
@@ -158,7 +161,7 @@ def child(case):
         t = time.perf_counter()
         wait_pass(rp)
         out["rebuild_s"] = time.perf_counter() - t
-    if case in ("camera2m", "edit2m"):
+    if case in ("camera2m", "edit2m", "edit1mpts"):
         moved = "/Camera" if case == "camera2m" else "/World/Small"
         start = Gf.Vec3d(0.5, 0.5, 3.0) if case == "camera2m" else Gf.Vec3d(0.2, 0.1, 0.2)
         op = UsdGeom.Xformable(stage.GetPrimAtPath(moved)).GetOrderedXformOps()[0]
@@ -171,7 +174,7 @@ def child(case):
             t = time.perf_counter()
             wait_pass(rp)
             passes.append(time.perf_counter() - t)
-        what = case[:-2]
+        what = "camera" if case == "camera2m" else "edit"
         out[what + "_update_s"] = statistics.median(updates)
         out[what + "_pass_s"] = statistics.median(passes)
         out[what + "_synced"] = list(delegate.last_synced())

@@ -79,8 +79,9 @@ fn main() {
     let mut out = Vec::new();
     let mut rates = Vec::new();
     for (name, s) in [("spheres", &spheres), ("bubbles", &bubbles), ("blobbies", &blobby)] {
+        let s = [std::sync::Arc::new(s.clone())];
         let t = Instant::now();
-        let accel = Accel::build(&[], std::slice::from_ref(s), &inst, (0.0, 0.0));
+        let accel = Accel::build(&[], &s, &inst, (0.0, 0.0));
         let build = t.elapsed().as_secs_f64();
         let (mrays, frac) = time_rays(&accel, &rays);
         rates.push(mrays);

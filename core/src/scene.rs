@@ -911,7 +911,8 @@ pub struct SceneDesc {
     /// Shared, so that a scene assembled anew around unchanged meshes copies none of them
     /// (and caches recognise them by identity).
     pub meshes: Vec<Arc<MeshDesc>>,
-    pub spheres: Vec<SpheresDesc>,
+    /// Shared as the meshes are.
+    pub spheres: Vec<Arc<SpheresDesc>>,
     pub instances: Vec<InstanceDesc>,
     /// Per-instance primvar tables ([`InstanceDesc::primvar_row`]).
     pub instance_primvars: Vec<InstancePrimvars>,

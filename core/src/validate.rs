@@ -189,9 +189,123 @@ fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
     }
 }
 
+/// Drops points that are not finite or whose radius is not positive and finite, and whatever
+/// else of a sphere set does not fit its points, reporting each.
+fn mend_spheres(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
+    let n = sp.centers.len();
+    if sp.radii.len() != n {
+        problem(p, &sp.name, "widths", format!("{} widths for {} points; missing ones use the first or 1", sp.radii.len(), n));
+        let r0 = sp.radii.first().copied().unwrap_or(0.5);
+        sp.radii.resize(n, r0);
+    }
+    if let Some(v) = &sp.velocities {
+        if v.len() != n || v.iter().any(|x| !finite3(*x)) {
+            problem(p, &sp.name, "velocities", "wrong count or non-finite velocities; motion ignored");
+            sp.velocities = None;
+        }
+    }
+    fix_point_shape(sp, p);
+    check_primvars(&mut sp.primvars, n, &sp.name, p);
+    let mut keep = vec![true; n];
+    let (mut bad_c, mut bad_r) = (0, 0);
+    for i in 0..n {
+        if !finite3(sp.centers[i]) {
+            keep[i] = false;
+            bad_c += 1;
+        } else if !(sp.radii[i] > 0.0 && sp.radii[i].is_finite()) {
+            keep[i] = false;
+            bad_r += 1;
+        }
+    }
+    if bad_c > 0 {
+        problem(p, &sp.name, "points", format!("{bad_c} NaN/inf points dropped"));
+    }
+    if bad_r > 0 {
+        problem(p, &sp.name, "widths", format!("{bad_r} points with zero, negative or non-finite width dropped"));
+    }
+    if bad_c + bad_r > 0 {
+        let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+        sp.centers = idx.iter().map(|&i| sp.centers[i]).collect();
+        sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
+        if let Some(v) = &sp.velocities {
+            sp.velocities = Some(idx.iter().map(|&i| v[i]).collect());
+        }
+        for pv in sp.primvars.iter_mut().filter(|pv| !pv.constant) {
+            let t = pv.tuple as usize;
+            pv.data = idx.iter().flat_map(|&i| pv.data[i * t..i * t + t].to_vec()).collect();
+        }
+        let pick = |v: &mut Vec<f32>| *v = idx.iter().map(|&i| v[i]).collect();
+        match &mut sp.shape {
+            PointShape::Spheres => {}
+            PointShape::Bubbles { top, bottom, orientations } => {
+                pick(top);
+                pick(bottom);
+                if let Some(o) = orientations {
+                    *o = idx.iter().map(|&i| o[i]).collect();
+                }
+            }
+            PointShape::Blobby { orientations, scales, .. } => {
+                if let Some(o) = orientations {
+                    *o = idx.iter().map(|&i| o[i]).collect();
+                }
+                if let Some(sc) = scales {
+                    *sc = idx.iter().map(|&i| sc[i]).collect();
+                }
+            }
+        }
+    }
+}
+
+/// Whether [`mend_spheres`] would find nothing to report or change.
+fn spheres_are_clean(sp: &SpheresDesc) -> bool {
+    let n = sp.centers.len();
+    let quats_ok = |o: &Option<Vec<Quat>>| o.as_ref().is_none_or(|q| q.len() == n && q.iter().all(|q| q.is_finite() && q.length_squared() > 0.0 && *q == q.normalize()));
+    let shape_ok = match &sp.shape {
+        PointShape::Spheres => true,
+        PointShape::Bubbles { top, bottom, orientations } => [top, bottom].iter().all(|v| v.len() == n && v.iter().all(|h| *h > 0.0 && h.is_finite())) && quats_ok(orientations),
+        PointShape::Blobby { threshold, orientations, scales } => {
+            *threshold > 0.0 && *threshold < 1.0 && quats_ok(orientations) && scales.as_ref().is_none_or(|sc| sc.len() == n && sc.iter().all(|s| s.is_finite() && s.min_element() > 0.0))
+        }
+    };
+    sp.radii.len() == n
+        && sp.velocities.as_ref().is_none_or(|v| v.len() == n && v.iter().all(|x| finite3(*x)))
+        && shape_ok
+        && sp.primvars.iter().all(|pv| primvar_fits(pv, n))
+        && sp.centers.iter().zip(&sp.radii).all(|(c, r)| finite3(*c) && *r > 0.0 && r.is_finite())
+}
+
+/// Validates one shared item (a mesh, a sphere set): the result an earlier validation made of
+/// the same item (by identity, with its problems) if `old` or `now` holds one; else the item
+/// itself when `clean` finds nothing to mend, or a mended copy. Recorded in `now` when `keep`.
+fn check_shared<T: Clone>(item: &mut std::sync::Arc<T>, old: &mut Memo<T>, now: &mut Memo<T>, keep: bool, p: &mut Vec<Problem>, clean: fn(&T) -> bool, mend: fn(&mut T, &mut Vec<Problem>)) {
+    use std::sync::Arc;
+    let key = Arc::as_ptr(item) as usize;
+    if let Some(e) = now.get(&key).or_else(|| old.get(&key)).filter(|e| Arc::ptr_eq(&e.0, item)) {
+        p.extend(e.2.iter().cloned());
+        *item = e.1.clone();
+        if let Some(e) = old.remove(&key) {
+            now.insert(key, e);
+        }
+        return;
+    }
+    let input = item.clone();
+    let mut found = Vec::new();
+    if !clean(item) {
+        mend(Arc::make_mut(item), &mut found);
+    }
+    p.extend(found.iter().cloned());
+    if keep {
+        now.insert(key, (input, item.clone(), found));
+    }
+}
+
+/// Items checked, by the input's address: (the input, held so the address is not reused; what
+/// validation made of it; its problems).
+type Memo<T> = std::collections::HashMap<usize, (std::sync::Arc<T>, std::sync::Arc<T>, Vec<Problem>)>;
+
 /// What earlier validations found, kept so that the next one does not check again what is
-/// unchanged: meshes recognised by identity (the same shared mesh) with the mesh validation
-/// made of them and its problems, and texture pixels known to be finite. After each
+/// unchanged: meshes and sphere sets recognised by identity (the same shared item) with what
+/// validation made of them and its problems, and texture pixels known to be finite. After each
 /// validation the cache holds exactly what that validation used. Cloning shares it.
 #[derive(Clone, Default)]
 pub struct CheckCache {
@@ -200,16 +314,17 @@ pub struct CheckCache {
 
 #[derive(Default)]
 struct Checked {
-    /// By the input's address: (input, held so the address is not reused; output; problems).
-    meshes: std::collections::HashMap<usize, (std::sync::Arc<MeshDesc>, std::sync::Arc<MeshDesc>, Vec<Problem>)>,
+    meshes: Memo<MeshDesc>,
+    spheres: Memo<SpheresDesc>,
     /// By the pixels' address: pixels whose every texel is finite.
     finite_pixels: std::collections::HashMap<usize, std::sync::Arc<Vec<f32>>>,
 }
 
 impl CheckCache {
-    /// Meshes held.
-    pub fn meshes(&self) -> usize {
-        self.inner.lock().unwrap_or_else(|e| e.into_inner()).meshes.len()
+    /// Meshes and sphere sets held.
+    pub fn len(&self) -> (usize, usize) {
+        let c = self.inner.lock().unwrap_or_else(|e| e.into_inner());
+        (c.meshes.len(), c.spheres.len())
     }
 }
 
@@ -228,90 +343,12 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
     let mut now = Checked::default();
 
     for m in &mut s.meshes {
-        let key = Arc::as_ptr(m) as usize;
-        if let Some(e) = now.meshes.get(&key).or_else(|| old.meshes.get(&key)).filter(|e| Arc::ptr_eq(&e.0, m)) {
-            p.extend(e.2.iter().cloned());
-            *m = e.1.clone();
-            if let Some(e) = old.meshes.remove(&key) {
-                now.meshes.insert(key, e);
-            }
-            continue;
-        }
-        let input = m.clone();
-        let mut found = Vec::new();
-        if !mesh_is_clean(m) {
-            mend_mesh(Arc::make_mut(m), &mut found);
-        }
-        p.extend(found.iter().cloned());
-        if cache.is_some() {
-            now.meshes.insert(key, (input, m.clone(), found));
-        }
+        check_shared(m, &mut old.meshes, &mut now.meshes, cache.is_some(), &mut p, mesh_is_clean, mend_mesh);
     }
 
     // spheres: drop non-finite or non-positive radii
     for sp in &mut s.spheres {
-        let n = sp.centers.len();
-        if sp.radii.len() != n {
-            problem(&mut p, &sp.name, "widths", format!("{} widths for {} points; missing ones use the first or 1", sp.radii.len(), n));
-            let r0 = sp.radii.first().copied().unwrap_or(0.5);
-            sp.radii.resize(n, r0);
-        }
-        if let Some(v) = &sp.velocities {
-            if v.len() != n || v.iter().any(|x| !finite3(*x)) {
-                problem(&mut p, &sp.name, "velocities", "wrong count or non-finite velocities; motion ignored");
-                sp.velocities = None;
-            }
-        }
-        fix_point_shape(sp, &mut p);
-        check_primvars(&mut sp.primvars, n, &sp.name, &mut p);
-        let mut keep = vec![true; n];
-        let (mut bad_c, mut bad_r) = (0, 0);
-        for i in 0..n {
-            if !finite3(sp.centers[i]) {
-                keep[i] = false;
-                bad_c += 1;
-            } else if !(sp.radii[i] > 0.0 && sp.radii[i].is_finite()) {
-                keep[i] = false;
-                bad_r += 1;
-            }
-        }
-        if bad_c > 0 {
-            problem(&mut p, &sp.name, "points", format!("{bad_c} NaN/inf points dropped"));
-        }
-        if bad_r > 0 {
-            problem(&mut p, &sp.name, "widths", format!("{bad_r} points with zero, negative or non-finite width dropped"));
-        }
-        if bad_c + bad_r > 0 {
-            let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
-            sp.centers = idx.iter().map(|&i| sp.centers[i]).collect();
-            sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
-            if let Some(v) = &sp.velocities {
-                sp.velocities = Some(idx.iter().map(|&i| v[i]).collect());
-            }
-            for pv in sp.primvars.iter_mut().filter(|pv| !pv.constant) {
-                let t = pv.tuple as usize;
-                pv.data = idx.iter().flat_map(|&i| pv.data[i * t..i * t + t].to_vec()).collect();
-            }
-            let pick = |v: &mut Vec<f32>| *v = idx.iter().map(|&i| v[i]).collect();
-            match &mut sp.shape {
-                PointShape::Spheres => {}
-                PointShape::Bubbles { top, bottom, orientations } => {
-                    pick(top);
-                    pick(bottom);
-                    if let Some(o) = orientations {
-                        *o = idx.iter().map(|&i| o[i]).collect();
-                    }
-                }
-                PointShape::Blobby { orientations, scales, .. } => {
-                    if let Some(o) = orientations {
-                        *o = idx.iter().map(|&i| o[i]).collect();
-                    }
-                    if let Some(sc) = scales {
-                        *sc = idx.iter().map(|&i| sc[i]).collect();
-                    }
-                }
-            }
-        }
+        check_shared(sp, &mut old.spheres, &mut now.spheres, cache.is_some(), &mut p, spheres_are_clean, mend_spheres);
     }
 
     // textures
@@ -793,16 +830,82 @@ mod tests {
         assert!(clean > 100 && dirty > 1000, "{clean} clean, {dirty} dirty");
     }
 
+    /// A small sphere set (plain, bubbles or blobbies) with each kind of fault drawn at random
+    /// (or none).
+    fn random_spheres(rng: &mut crate::testing::chi2::TestRng) -> SpheresDesc {
+        let mut pick = |n: u64| rng.next_u64() % n;
+        let n = 2 + pick(4) as usize;
+        let fault = pick(20);
+        let quats: Vec<Quat> = (0..n).map(|i| Quat::from_rotation_y(0.3 * i as f32)).collect();
+        let quats = match fault {
+            0 => Some(quats.iter().map(|q| *q * 2.0).collect()),
+            1 => Some(quats[1..].to_vec()),
+            2 => Some(vec![Quat::from_xyzw(0.0, 0.0, 0.0, 0.0); n]),
+            _ => (pick(2) == 0).then_some(quats),
+        };
+        let shape = match pick(3) {
+            0 => PointShape::Spheres,
+            1 => PointShape::Bubbles {
+                top: if fault == 3 { vec![0.5; n - 1] } else { vec![0.5; n] },
+                bottom: if fault == 4 { vec![-1.0; n] } else { vec![0.2; n] },
+                orientations: quats,
+            },
+            _ => PointShape::Blobby {
+                threshold: if fault == 5 { 1.5 } else { 0.5 },
+                orientations: quats,
+                scales: match fault {
+                    6 => Some(vec![Vec3::new(1.0, 0.0, 1.0); n]),
+                    _ if pick(2) == 0 => Some(vec![Vec3::ONE; n]),
+                    _ => None,
+                },
+            },
+        };
+        let mut sp = SpheresDesc { name: "/p".into(), centers: (0..n).map(|i| Vec3::new(i as f32, 0.0, 0.0)).collect(), radii: vec![0.25; n], velocities: None, shape, ..Default::default() };
+        match fault {
+            7 => sp.radii.pop().map(|_| ()).unwrap_or(()),
+            8 => sp.radii[0] = 0.0,
+            9 => sp.centers[1].y = f32::NAN,
+            10 => sp.velocities = Some(vec![Vec3::X; n + 1]),
+            11 => sp.velocities = Some(vec![Vec3::splat(f32::INFINITY); n]),
+            12 => sp.primvars.push(PrimvarData { name: "w".into(), tuple: 2, constant: false, data: vec![0.5; n] }),
+            13 => sp.velocities = Some(vec![Vec3::X; n]),
+            _ => {}
+        }
+        sp
+    }
+
+    #[test]
+    fn the_clean_check_of_sphere_sets_agrees_with_mending() {
+        let mut rng = crate::testing::chi2::TestRng::new(11);
+        let (mut clean, mut dirty) = (0, 0);
+        for _ in 0..2000 {
+            let sp = random_spheres(&mut rng);
+            let mut mended = sp.clone();
+            let mut p = Vec::new();
+            mend_spheres(&mut mended, &mut p);
+            let unchanged = p.is_empty() && mended == sp;
+            assert_eq!(spheres_are_clean(&sp), unchanged, "{sp:?}: {p:?}");
+            if unchanged {
+                clean += 1;
+            } else {
+                dirty += 1;
+            }
+        }
+        assert!(clean > 300 && dirty > 600, "{clean} clean, {dirty} dirty");
+    }
+
     #[test]
     fn validation_shares_clean_meshes_and_remembers_mended_ones() {
         let good: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/good".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], normals: Some(vec![Vec3::Z; 3]), ..Default::default() });
         let bad: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/bad".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2, 0, 1, 7], ..Default::default() });
         let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: Arc::new(vec![f32::NAN, 1.0]), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat };
         let fine = TextureDesc { name: "/u".into(), pixels: Arc::new(vec![0.5, 1.0]), ..nan.clone() };
-        let scene = SceneDesc { meshes: vec![good.clone(), bad.clone()], textures: vec![nan, fine.clone()], ..Default::default() };
+        let points = Arc::new(SpheresDesc { name: "/points".into(), centers: vec![Vec3::ZERO, Vec3::X], radii: vec![0.5, 0.5], ..Default::default() });
+        let scene = SceneDesc { meshes: vec![good.clone(), bad.clone()], spheres: vec![points.clone()], textures: vec![nan, fine.clone()], ..Default::default() };
         let cache = CheckCache::default();
         let (a, pa) = validate_cached(&scene, Some(&cache));
         assert!(Arc::ptr_eq(&a.meshes[0], &good), "a clean mesh is shared");
+        assert!(Arc::ptr_eq(&a.spheres[0], &points), "and a clean sphere set");
         assert!(!Arc::ptr_eq(&a.meshes[1], &bad) && a.meshes[1].indices == [0, 1, 2]);
         assert!(Arc::ptr_eq(&a.textures[1].pixels, &fine.pixels) && a.textures[0].pixels[0] == 0.0);
         // again: the mended mesh is the one made before, with the same problems
@@ -813,9 +916,9 @@ mod tests {
         assert_eq!(pa.iter().filter(|p| p.item == "/t").count(), 1, "NaN texels are mended each time: {pa:?}");
         assert_eq!(format!("{:?}", validate(&scene).1), format!("{pa:?}"), "the same problems without a cache");
         // the cache keeps what the last validation used
-        assert_eq!(cache.meshes(), 2);
+        assert_eq!(cache.len(), (2, 1));
         validate_cached(&SceneDesc { meshes: vec![good.clone()], ..Default::default() }, Some(&cache));
-        assert_eq!(cache.meshes(), 1);
+        assert_eq!(cache.len(), (1, 0));
     }
 
     #[test]
@@ -849,7 +952,7 @@ mod tests {
             indices: vec![0, 1, 2, 0, 1, 3, 0, 1, 9, 0, 1, 4],
             ..Default::default()
         }.into());
-        s.spheres.push(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() });
+        s.spheres.push(std::sync::Arc::new(SpheresDesc { name: "/World/Points".into(), centers: vec![Vec3::ZERO, Vec3::ONE], radii: vec![0.0, 1.0], velocities: None, ..Default::default() }));
         s.lights.push(LightDesc {
             shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new(), shadow: Default::default(),
             name: "/World/Rect".into(),
@@ -955,7 +1058,7 @@ mod tests {
     fn point_shapes_are_checked_and_follow_their_points() {
         let mut s = SceneDesc::default();
         let pts = vec![Vec3::ZERO, Vec3::ONE, Vec3::X];
-        s.spheres.push(SpheresDesc {
+        s.spheres.push(std::sync::Arc::new(SpheresDesc {
             name: "/Bubbles".into(),
             centers: pts.clone(),
             radii: vec![0.0, 1.0, 2.0],
@@ -966,15 +1069,15 @@ mod tests {
                 PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
                 PrimvarData { name: "short".into(), tuple: 2, constant: false, data: vec![0.0; 4] },
             ],
-        });
-        s.spheres.push(SpheresDesc {
+        }));
+        s.spheres.push(std::sync::Arc::new(SpheresDesc {
             name: "/Blobs".into(),
             centers: pts,
             radii: vec![1.0; 3],
             velocities: None,
             shape: PointShape::Blobby { threshold: 1.5, orientations: None, scales: Some(vec![Vec3::ONE, Vec3::new(1.0, 0.0, 1.0), Vec3::ONE]) },
             primvars: Vec::new(),
-        });
+        }));
         let (clean, probs) = validate(&s);
         let attrs: Vec<(&str, &str)> = probs.iter().map(|p| (p.item.as_str(), p.attribute.as_str())).collect();
         for want in [

@@ -1263,7 +1263,7 @@ mod tests {
     fn water_top_is_the_highest_point_of_the_bodies_filled_with_the_medium() {
         let mut s = SceneDesc::default();
         s.meshes.push(tri("/a", [-5.0, 1.0, -2.0]).into());
-        s.spheres.push(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None, ..Default::default() });
+        s.spheres.push(std::sync::Arc::new(SpheresDesc { name: "/s".into(), centers: vec![Vec3::ZERO], radii: vec![1.0], velocities: None, ..Default::default() }));
         let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
         s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
         // medium 0: the mesh lifted by 2 (top 3) and a unit sphere scaled by 2.5 at y = 1 (top 3.5)
@@ -1288,13 +1288,13 @@ mod tests {
         ];
         let mut s = SceneDesc::default();
         s.meshes.push(m.into());
-        s.spheres.push(SpheresDesc {
+        s.spheres.push(std::sync::Arc::new(SpheresDesc {
             name: "/s".into(),
             centers: vec![Vec3::new(10.0, 0.0, 0.0), Vec3::new(20.0, 0.0, 0.0)],
             radii: vec![1.0; 2],
             primvars: vec![PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![5.0, 7.0] }],
             ..Default::default()
-        });
+        }));
         s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
         s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.instances.push(inst(GeometryRef::Spheres(0), Mat4::IDENTITY, 0));

@@ -145,7 +145,7 @@ enum Geometry {
     /// A mesh prim: its points may move (time samples or velocities; keys are made at
     /// assembly, for the shutter) and GeomSubsets may bind other materials to some faces.
     UsdMesh(Box<mesh::MeshGeom>),
-    Spheres(SpheresDesc),
+    Spheres(Arc<SpheresDesc>),
     Points(PointsData),
     /// A `tideOcean`: its mesh is built at assembly, around the render camera.
     Ocean(OceanSpec),
@@ -551,7 +551,7 @@ impl Delegate {
             PrimType::Mesh => Geometry::UsdMesh(Box::new(mesh::convert_usd_mesh(path, s, p))),
             PrimType::BasisCurves => Geometry::UsdMesh(Box::new(crate::curves::convert_curves(path, s, p))),
             PrimType::Points => Geometry::Points(implicit::points(path, s, p)),
-            PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p)),
+            PrimType::Sphere => Geometry::Spheres(implicit::sphere(path, s, p).into()),
             PrimType::Cube => Geometry::Mesh(implicit::cube(path, s, p).into()),
             PrimType::Cylinder => Geometry::Mesh(implicit::cylinder(path, s, p).into()),
             PrimType::Cone => Geometry::Mesh(implicit::cone(path, s, p).into()),
@@ -565,7 +565,7 @@ impl Delegate {
         // interpolation)
         match &mut g {
             Geometry::Mesh(m) => Arc::make_mut(m).primvars = mesh::constant_primvars(s, p),
-            Geometry::Spheres(sp) => sp.primvars = mesh::constant_primvars(s, p),
+            Geometry::Spheres(sp) => Arc::make_mut(sp).primvars = mesh::constant_primvars(s, p),
             _ => {}
         }
         g
@@ -872,40 +872,34 @@ impl Delegate {
                     parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
                 }
                 Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
-                    let mut s = implicit::fold_acceleration(pd, t0, t1);
-                    if !motion {
-                        s.velocities = None;
-                    }
-                    if let Some((voxel, shell)) = pd.droplets {
+                    // made once per shutter and shared by later assemblies
+                    let made = pd.made(t0, t1, motion);
+                    match &made.droplets {
                         // droplets inside the cloud become a scattering medium; the shell stays spheres
-                        match tide_core::droplets::split(&s, voxel, shell) {
-                            Ok(split) => {
-                                if let Some(grid) = &split.grid {
-                                    scene.media.push(tide_core::scene::MediumDesc {
-                                        name: format!("{path} (droplets)"),
-                                        sigma_a: tide_core::scene::SpectrumDesc::Rgb([0.0; 3]),
-                                        sigma_s: tide_core::scene::SpectrumDesc::Rgb([1.0; 3]),
-                                        scale: 1.0,
-                                        phase: tide_core::droplets::droplet_phase(),
-                                        water: None,
-                                        method: tide_core::scene::MediumMethod::Volumetric,
-                                    });
-                                    let medium = scene.media.len() - 1;
-                                    let (mats, times) = place(&r.transforms);
-                                    for inst in &r.instance_transforms {
-                                        let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
-                                        scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
-                                    }
-                                }
-                                s = split.spheres;
+                        Some(Ok(Some(grid))) => {
+                            scene.media.push(tide_core::scene::MediumDesc {
+                                name: format!("{path} (droplets)"),
+                                sigma_a: tide_core::scene::SpectrumDesc::Rgb([0.0; 3]),
+                                sigma_s: tide_core::scene::SpectrumDesc::Rgb([1.0; 3]),
+                                scale: 1.0,
+                                phase: tide_core::droplets::droplet_phase(),
+                                water: None,
+                                method: tide_core::scene::MediumMethod::Volumetric,
+                            });
+                            let medium = scene.media.len() - 1;
+                            let (mats, times) = place(&r.transforms);
+                            for inst in &r.instance_transforms {
+                                let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
+                                scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
                             }
-                            Err(e) => ap.push(problem(path, "tide:droplets:voxelSize", format!("{e}; the droplets render as spheres"))),
                         }
+                        Some(Err(e)) => ap.push(problem(path, "tide:droplets:voxelSize", format!("{e}; the droplets render as spheres"))),
+                        _ => {}
                     }
-                    if s.centers.is_empty() {
+                    if made.spheres.centers.is_empty() {
                         continue;
                     }
-                    scene.spheres.push(s);
+                    scene.spheres.push(made.spheres);
                     parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
                 }
                 Geometry::Ocean(spec) => {

@@ -15,6 +15,7 @@ use crate::mesh::read_points;
 use crate::value::{AttrStore, Interpolation, Problems};
 use glam::{Quat, Vec2, Vec3};
 use std::f32::consts::{PI, TAU};
+use std::sync::Arc;
 use tide_core::scene::{MeshDesc, PointShape, SpheresDesc};
 
 /// Angular segments of tessellated round shapes.
@@ -233,10 +234,49 @@ pub fn plane(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
 /// Per-point data of UsdGeomPoints before the shutter is known.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PointsData {
-    pub spheres: SpheresDesc,
+    pub spheres: Arc<SpheresDesc>,
     pub accelerations: Option<Vec<Vec3>>,
     /// `TideDropletsAPI` with `asVolume`: (voxel size, shell) in metres.
     pub droplets: Option<(f32, f32)>,
+    /// What the last assembly made of the points, and for which shutter (and whether it
+    /// blurs).
+    made: crate::memo::Memo<(u32, u32, bool), PointsMade>,
+}
+
+/// The points as an assembly places them over a shutter.
+#[derive(Clone, Debug)]
+pub struct PointsMade {
+    /// The spheres to render (the droplets that stay spheres, with `TideDropletsAPI`).
+    pub spheres: Arc<SpheresDesc>,
+    /// With `TideDropletsAPI`: the scattering grid of the droplets that became a medium (None
+    /// when none did), or why the points could not be split.
+    pub droplets: Option<Result<Option<tide_core::scene::GridDesc>, String>>,
+}
+
+impl PointsData {
+    /// The points over the shutter [t0, t1] (seconds), moving if `motion`: accelerations
+    /// folded into the velocities, then the droplets split off. Made once per shutter and
+    /// shared after; points that neither accelerate nor lose their motion nor split are the
+    /// converted ones, shared.
+    pub fn made(&self, t0: f32, t1: f32, motion: bool) -> PointsMade {
+        self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion), || {
+            let still = !motion && self.spheres.velocities.is_some();
+            if self.accelerations.is_none() && !still && self.droplets.is_none() {
+                return PointsMade { spheres: self.spheres.clone(), droplets: None };
+            }
+            let mut s = fold_acceleration(self, t0, t1);
+            if !motion {
+                s.velocities = None;
+            }
+            let Some((voxel, shell)) = self.droplets else {
+                return PointsMade { spheres: Arc::new(s), droplets: None };
+            };
+            match tide_core::droplets::split(&s, voxel, shell) {
+                Ok(split) => PointsMade { spheres: Arc::new(split.spheres), droplets: Some(Ok(split.grid)) },
+                Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(e)) },
+            }
+        })
+    }
 }
 
 /// A per-point primvar's flattened values and tuple size, or None (absent, or unreadable:
@@ -283,7 +323,8 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     };
     let vel = per_point_vec3(store, "velocities", n, p);
     let acc = per_point_vec3(store, "accelerations", n, p);
-    let mut out = PointsData { spheres: SpheresDesc { name: name.into(), ..Default::default() }, accelerations: None, droplets: None };
+    let mut spheres = SpheresDesc { name: name.into(), ..Default::default() };
+    let mut out = PointsData::default();
     let mut n_bad_w = 0;
     let (mut vs, mut as_) = (Vec::new(), Vec::new());
     for i in 0..n {
@@ -294,8 +335,8 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
             n_bad_w += 1;
             continue;
         }
-        out.spheres.centers.push(pts[i]);
-        out.spheres.radii.push(0.5 * widths[i]);
+        spheres.centers.push(pts[i]);
+        spheres.radii.push(0.5 * widths[i]);
         if let Some(v) = &vel {
             vs.push(v[i]);
         }
@@ -306,14 +347,14 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     if n_bad_w > 0 {
         p.add("widths", format!("{} point(s) have a width that is not positive and finite; dropped", n_bad_w));
     }
-    out.spheres.velocities = vel.map(|_| vs);
+    spheres.velocities = vel.map(|_| vs);
     out.accelerations = acc.map(|_| as_);
     // the points kept, for the per-point shape data
     let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
-    out.spheres.shape = point_shape(store, n, &kept, &out.spheres.radii, p);
-    out.spheres.primvars = crate::mesh::point_primvars(store, n, &kept, p);
+    spheres.shape = point_shape(store, n, &kept, &spheres.radii, p);
+    spheres.primvars = crate::mesh::point_primvars(store, n, &kept, p);
     if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
-        if out.spheres.shape != PointShape::Spheres {
+        if spheres.shape != PointShape::Spheres {
             p.add("tide:droplets:asVolume", "droplets become a medium only as plain spheres, not as bubbles or blobbies; ignored");
         } else {
             let mut voxel = store.f32_or("tide:droplets:voxelSize", 0.01, p);
@@ -329,6 +370,7 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
             out.droplets = Some((voxel, shell));
         }
     }
+    out.spheres = Arc::new(spheres);
     out
 }
 
@@ -386,7 +428,7 @@ fn point_shape(store: &AttrStore, n: usize, kept: &[usize], radii: &[f32], p: &m
 /// Folds accelerations into linear motion over the shutter [t0, t1] (seconds): the chord of
 /// each point's parabola p(t) = c + v·t + a·t²/2.
 pub fn fold_acceleration(data: &PointsData, t0: f32, t1: f32) -> SpheresDesc {
-    let mut s = data.spheres.clone();
+    let mut s = (*data.spheres).clone();
     if let Some(acc) = &data.accelerations {
         let vel = s.velocities.get_or_insert_with(|| vec![Vec3::ZERO; s.centers.len()]);
         for ((c, v), a) in s.centers.iter_mut().zip(vel.iter_mut()).zip(acc) {
@@ -551,5 +593,34 @@ mod tests {
         let mut p = Problems::new("/d");
         assert_eq!(points("/d", &s, &mut p).droplets, None);
         assert!(p.list.iter().any(|q| q.attribute == "tide:droplets:asVolume"));
+    }
+
+    #[test]
+    fn points_are_placed_once_per_shutter_and_shared() {
+        // a cloud of 27 touching droplets: the inner ones become a medium
+        let data: Vec<f32> = (0..27).flat_map(|i| [(i % 3) as f32 * 0.01, (i / 3 % 3) as f32 * 0.01, (i / 9) as f32 * 0.01]).collect();
+        let pts = Value::Floats { data, tuple: 3 };
+        let mut s = st(&[("points", pts.clone()), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:droplets:voxelSize", Value::Float(0.005))]);
+        s.primvars.insert("widths".into(), Primvar { interpolation: Interpolation::Constant, data: vec![0.012], tuple: 1, indices: None });
+        let d = points("/d", &s, &mut Problems::new("/d"));
+        let a = d.made(0.0, 0.0, false);
+        let Some(Ok(Some(grid))) = &a.droplets else { panic!("no droplet medium: {:?}", a.droplets) };
+        assert!(a.spheres.centers.len() < 27 && grid.values.iter().any(|&v| v > 0.0));
+        let b = d.made(0.0, 0.0, false);
+        assert!(Arc::ptr_eq(&a.spheres, &b.spheres), "split once, then shared");
+        // plain points that need nothing done are the converted ones
+        let plain = points("/p", &st(&[("points", pts.clone())]), &mut Problems::new("/p"));
+        assert!(Arc::ptr_eq(&plain.made(0.0, 0.1, true).spheres, &plain.spheres));
+        // accelerating points: folded per shutter, the same shutter shared, another made anew
+        let mut s = st(&[("points", pts)]);
+        s.primvars.insert("accelerations".into(), Primvar { interpolation: Interpolation::Vertex, data: [0.0f32, -10.0, 0.0].repeat(27), tuple: 3, indices: None });
+        let d = points("/a", &s, &mut Problems::new("/a"));
+        let m = d.made(-0.02, 0.03, true);
+        assert_eq!(*m.spheres, fold_acceleration(&d, -0.02, 0.03));
+        assert!(Arc::ptr_eq(&m.spheres, &d.made(-0.02, 0.03, true).spheres));
+        let other = d.made(0.0, 0.04, true);
+        assert!(!Arc::ptr_eq(&m.spheres, &other.spheres) && *other.spheres == fold_acceleration(&d, 0.0, 0.04));
+        // without motion blur the velocities go
+        assert!(d.made(-0.02, 0.03, false).spheres.velocities.is_none());
     }
 }

@@ -10,6 +10,7 @@ pub mod delegate;
 pub mod implicit;
 pub mod lux;
 pub mod material;
+pub mod memo;
 pub mod mesh;
 pub mod ocean;
 pub mod render_pass;

@@ -20,7 +20,7 @@
 use crate::subdiv::{self, Refinement, Scheme, Stencil};
 use crate::value::{AttrStore, Interpolation, Primvar, Problems};
 use glam::{Quat, Vec2, Vec3};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use tide_core::scene::{MeshDesc, MeshMotion, PrimvarData};
 
 /// Triangulates one simple polygon (possibly concave) given its corner positions. Returns
@@ -344,36 +344,13 @@ pub struct MeshGeom {
     pub deformation: Option<Deformation>,
     pub subsets: Vec<SubsetPart>,
     pub rest: Vec<u32>,
-    made: Made,
+    /// The core meshes last made, and the shutter they were made for.
+    made: crate::memo::Memo<Option<[u64; 3]>, Vec<CorePart>>,
 }
 
 /// A shutter as the assembly places a deforming mesh over it: open and close in frames, and
 /// frames per second.
 pub type Shutter = (f64, f64, f64);
-
-/// The core meshes last made of a [`MeshGeom`] and the shutter they were made for, so that
-/// assemblies that follow (another prim edited) share them rather than make them again. Not
-/// part of the geometry's value: clones start empty and equality ignores it.
-#[derive(Default)]
-struct Made(Mutex<Option<(Option<[u64; 3]>, Vec<CorePart>)>>);
-
-impl Clone for Made {
-    fn clone(&self) -> Made {
-        Made::default()
-    }
-}
-
-impl PartialEq for Made {
-    fn eq(&self, _: &Made) -> bool {
-        true
-    }
-}
-
-impl std::fmt::Debug for Made {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Made")
-    }
-}
 
 /// One core mesh of a [`MeshGeom`]: its triangles of one material, and the subset (index
 /// into `subsets`) they belong to (None: the faces in no subset, or the whole mesh).
@@ -381,7 +358,7 @@ pub type CorePart = (Arc<MeshDesc>, Option<usize>);
 
 impl MeshGeom {
     pub fn new(mesh: MeshDesc, deformation: Option<Deformation>, subsets: Vec<SubsetPart>, rest: Vec<u32>) -> MeshGeom {
-        MeshGeom { mesh: Arc::new(mesh), deformation, subsets, rest, made: Made::default() }
+        MeshGeom { mesh: Arc::new(mesh), deformation, subsets, rest, made: Default::default() }
     }
 
     /// The core meshes of the geometry, with motion keys over `shutter` when it deforms
@@ -391,30 +368,24 @@ impl MeshGeom {
     pub fn core_meshes(&self, shutter: Option<Shutter>) -> Vec<CorePart> {
         let shutter = shutter.filter(|_| self.deformation.is_some());
         let key = shutter.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()]);
-        let mut made = self.made.0.lock().unwrap_or_else(|e| e.into_inner());
-        if let Some((k, parts)) = made.as_ref().filter(|m| m.0 == key) {
-            debug_assert!(*k == key);
-            return parts.clone();
-        }
-        let whole = match (shutter, &self.deformation) {
-            (Some((open, close, tcps)), Some(d)) => {
-                let mut m = (*self.mesh).clone();
-                m.motion = motion_keys(&m, d, open, close, tcps);
-                Arc::new(m)
+        self.made.get_or_make(key, || {
+            let whole = match (shutter, &self.deformation) {
+                (Some((open, close, tcps)), Some(d)) => {
+                    let mut m = (*self.mesh).clone();
+                    m.motion = motion_keys(&m, d, open, close, tcps);
+                    Arc::new(m)
+                }
+                _ => self.mesh.clone(),
+            };
+            if self.subsets.is_empty() {
+                return vec![(whole, None)];
             }
-            _ => self.mesh.clone(),
-        };
-        let parts: Vec<CorePart> = if self.subsets.is_empty() {
-            vec![(whole, None)]
-        } else {
             std::iter::once((&self.rest, None))
                 .chain(self.subsets.iter().enumerate().map(|(k, s)| (&s.indices, Some(k))))
                 .filter(|(indices, _)| !indices.is_empty())
                 .map(|(indices, k)| (Arc::new(sub_mesh(&whole, indices)), k))
                 .collect()
-        };
-        *made = Some((key, parts.clone()));
-        parts
+        })
     }
 }
 

@@ -275,7 +275,7 @@ fn the_bvh_finds_what_the_primitives_say() {
         InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![m], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None },
         InstanceDesc { name: "j".into(), geometry: GeometryRef::Spheres(1), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None },
     ];
-    let a = Accel::build(&[], &[blob, bub], &instances, (0.0, 1.0));
+    let a = Accel::build(&[], &[std::sync::Arc::new(blob), std::sync::Arc::new(bub)], &instances, (0.0, 1.0));
     assert!(a.hit_carries_normal(0) && a.hit_carries_normal(1));
     let mut rng = TestRng::new(5);
     let mut hits = 0;

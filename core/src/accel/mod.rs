@@ -201,6 +201,8 @@ pub struct BlasCache {
     /// The keys of meshes seen by the last build, by the mesh's address (the mesh is held so
     /// that the address is not reused): an unchanged shared mesh is not hashed again.
     mesh_keys: Arc<Mutex<HashMap<usize, (Arc<MeshDesc>, BlasKey)>>>,
+    /// The same for sphere sets (whose keys also hold the shutter).
+    sphere_keys: Arc<Mutex<HashMap<usize, (Arc<SpheresDesc>, BlasKey)>>>,
 }
 
 impl BlasCache {
@@ -211,6 +213,27 @@ impl BlasCache {
 
     pub fn is_empty(&self) -> bool {
         self.len() == 0
+    }
+}
+
+/// The content keys of one build's shared geometry, taken from the last build's where the
+/// geometry is the same (by identity) and the key still applies.
+struct KeyMemo<T> {
+    old: HashMap<usize, (Arc<T>, BlasKey)>,
+    now: HashMap<usize, (Arc<T>, BlasKey)>,
+}
+
+impl<T> KeyMemo<T> {
+    fn begin(last: Option<&Mutex<HashMap<usize, (Arc<T>, BlasKey)>>>) -> KeyMemo<T> {
+        KeyMemo { old: last.map(|m| std::mem::take(&mut *m.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default(), now: HashMap::new() }
+    }
+
+    fn key(&mut self, item: &Arc<T>, applies: impl Fn(&BlasKey) -> bool, hash: impl FnOnce() -> BlasKey) -> BlasKey {
+        let addr = Arc::as_ptr(item) as usize;
+        let known = self.now.get(&addr).or_else(|| self.old.get(&addr)).filter(|e| Arc::ptr_eq(&e.0, item) && applies(&e.1)).map(|e| e.1);
+        let key = known.unwrap_or_else(hash);
+        self.now.insert(addr, (item.clone(), key));
+        key
     }
 }
 
@@ -346,13 +369,13 @@ fn transform_aabb(m: &Mat4, bb: &Aabb) -> Aabb {
 impl Accel {
     /// Builds the structure. `shutter` is the time interval rays will sample.
     /// Inputs must be validated (finite, well-indexed): see `SceneDesc::validate`.
-    pub fn build(meshes: &[Arc<MeshDesc>], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
+    pub fn build(meshes: &[Arc<MeshDesc>], spheres: &[Arc<SpheresDesc>], instances: &[InstanceDesc], shutter: (f32, f32)) -> Accel {
         Accel::build_cached(meshes, spheres, instances, shutter, None)
     }
 
     /// [`Accel::build`], taking the per-geometry BVHs of unchanged geometry from `cache` and
     /// leaving in it those of this build.
-    pub fn build_cached(meshes: &[Arc<MeshDesc>], spheres: &[SpheresDesc], instances: &[InstanceDesc], shutter: (f32, f32), cache: Option<&BlasCache>) -> Accel {
+    pub fn build_cached(meshes: &[Arc<MeshDesc>], spheres: &[Arc<SpheresDesc>], instances: &[InstanceDesc], shutter: (f32, f32), cache: Option<&BlasCache>) -> Accel {
         let start = std::time::Instant::now();
         let mut blas: Vec<Arc<Blas>> = Vec::with_capacity(meshes.len() + spheres.len());
         let mut stats = BuildStats::default();
@@ -374,28 +397,24 @@ impl Accel {
             kept.insert(key, b.clone());
             b
         };
-        let mut old_keys = cache.map(|c| std::mem::take(&mut *c.mesh_keys.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default();
-        let mut keys: HashMap<usize, (Arc<MeshDesc>, BlasKey)> = HashMap::new();
+        let mut mesh_keys = KeyMemo::begin(cache.map(|c| &*c.mesh_keys));
         for m in meshes {
             stats.triangles += m.indices.len() / 3;
-            let key = cache.map(|_| {
-                let addr = Arc::as_ptr(m) as usize;
-                let known = keys.get(&addr).or_else(|| old_keys.get(&addr)).filter(|e| Arc::ptr_eq(&e.0, m)).map(|e| e.1);
-                let key = known.unwrap_or_else(|| BlasKey::mesh(m));
-                keys.insert(addr, (m.clone(), key));
-                key
-            });
+            let key = cache.map(|_| mesh_keys.key(m, |k| matches!(k, BlasKey::Tri { .. } | BlasKey::MotionTri { .. }), || BlasKey::mesh(m)));
             blas.push(get(key, &|| build_tri_blas(m), &mut stats));
         }
-        old_keys.clear();
+        let bits = (shutter.0.to_bits(), shutter.1.to_bits());
+        let mut sphere_keys = KeyMemo::begin(cache.map(|c| &*c.sphere_keys));
         for s in spheres {
             stats.spheres += s.centers.len();
-            blas.push(get(cache.map(|_| BlasKey::spheres(s, shutter)), &|| build_sphere_blas(s, shutter), &mut stats));
+            let key = cache.map(|_| sphere_keys.key(s, |k| matches!(k, BlasKey::Sphere { shutter, .. } if *shutter == bits), || BlasKey::spheres(s, shutter)));
+            blas.push(get(key, &|| build_sphere_blas(s, shutter), &mut stats));
         }
         drop(old);
         if let Some(c) = cache {
             *c.entries.lock().unwrap_or_else(|e| e.into_inner()) = kept;
-            *c.mesh_keys.lock().unwrap_or_else(|e| e.into_inner()) = keys;
+            *c.mesh_keys.lock().unwrap_or_else(|e| e.into_inner()) = mesh_keys.now;
+            *c.sphere_keys.lock().unwrap_or_else(|e| e.into_inner()) = sphere_keys.now;
         }
         let mut recs = Vec::with_capacity(instances.len());
         let mut ibounds = Vec::with_capacity(instances.len());

@@ -18,7 +18,7 @@ fn inst(g: GeometryRef, m: Vec<Mat4>, times: Vec<f32>) -> InstanceDesc {
 #[test]
 fn hits_a_translated_quad_and_a_sphere_in_order() {
     let meshes = vec![Arc::new(quad())];
-    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
+    let spheres = vec![Arc::new(SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 3.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() })];
     let instances = vec![
         inst(GeometryRef::Mesh(0), vec![Mat4::from_translation(Vec3::new(0.0, 1.0, 0.0))], vec![0.0]),
         inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0]),
@@ -77,7 +77,7 @@ fn rotation_is_interpolated_on_an_arc() {
 #[test]
 fn moving_spheres_follow_their_velocity() {
     let s = SpheresDesc { name: "s".into(), centers: vec![Vec3::ZERO], radii: vec![0.1], velocities: Some(vec![Vec3::new(2.0, 0.0, 0.0)]), ..Default::default() };
-    let a = Accel::build(&[], &[s], &[inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.5));
+    let a = Accel::build(&[], &[std::sync::Arc::new(s)], &[inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 0.5));
     let r = |x: f32, time| Ray { o: Vec3::new(x, 5.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert!(a.intersect(&r(0.0, 0.0)).is_some());
     assert!(a.intersect(&r(1.0, 0.0)).is_none());
@@ -126,7 +126,7 @@ fn a_cache_reuses_the_bvh_of_unchanged_geometry_and_rebuilds_the_edited() {
         m
     };
     let meshes: Vec<Arc<MeshDesc>> = vec![lifted(0.0).into(), lifted(1.0).into(), lifted(2.0).into()];
-    let spheres = vec![SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 5.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() }];
+    let spheres = vec![Arc::new(SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, 5.0, 0.0)], radii: vec![0.5], velocities: None, ..Default::default() })];
     let instances = |x: f32| {
         vec![
             inst(GeometryRef::Mesh(0), vec![moved(x)], vec![0.0]),
@@ -160,8 +160,7 @@ fn a_cache_reuses_the_bvh_of_unchanged_geometry_and_rebuilds_the_edited() {
     }
 
     // Moving spheres depend on the shutter: a new shutter rebuilds them, not the meshes.
-    let mut moving = spheres.clone();
-    moving[0].velocities = Some(vec![Vec3::X]);
+    let moving = vec![Arc::new(SpheresDesc { velocities: Some(vec![Vec3::X]), ..(*spheres[0]).clone() })];
     Accel::build_cached(&edited, &moving, &instances(0.0), (0.0, 0.5), Some(&cache));
     let d = Accel::build_cached(&edited, &moving, &instances(0.0), (0.0, 1.0), Some(&cache));
     assert_eq!((d.stats.blas_built, d.stats.blas_reused), (1, 3));
@@ -263,7 +262,7 @@ fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
     m.motion = Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: keys, normals: None });
     let both = [inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0]), inst(GeometryRef::Spheres(0), vec![Mat4::IDENTITY], vec![0.0])];
     let far = SpheresDesc { name: "s".into(), centers: vec![Vec3::new(0.0, -50.0, 30.0)], radii: vec![0.5], velocities: None, ..Default::default() };
-    let a = Accel::build(&[m.into()], &[far], &both, (0.0, 1.0));
+    let a = Accel::build(&[m.into()], &[std::sync::Arc::new(far)], &both, (0.0, 1.0));
     let r = |x: f32, time| Ray { o: Vec3::new(x, 1.0, 0.0), d: -Vec3::Y, t_max: f32::INFINITY, time };
     assert_eq!(a.intersect(&r(0.0, 0.5)).map(|h| h.instance), Some(0));
     assert!(a.intersect(&r(0.0, 0.0)).is_none());

@@ -357,7 +357,7 @@ mod tests {
             let mut s = SceneDesc::default();
             s.meshes.extend(mesh.map(std::sync::Arc::new));
             if let Some((c, r)) = sphere {
-                s.spheres.push(SpheresDesc { name: "/ball".into(), centers: vec![c], radii: vec![r], velocities: None, ..Default::default() });
+                s.spheres.push(std::sync::Arc::new(SpheresDesc { name: "/ball".into(), centers: vec![c], radii: vec![r], velocities: None, ..Default::default() }));
             }
             s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
             s.instances.push(InstanceDesc { name: "/ball".into(), geometry, transforms: vec![xf], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None });
