@@ -900,7 +900,7 @@ mod tests {
         let good = dir.join("good.ies");
         std::fs::write(&good, "TILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n300 100\n").unwrap();
         let bad = dir.join("bad.ies");
-        std::fs::write(&bad, "TILT=NONE\n1 -1 1 2 1 3 2 0 0 0\n1 1 0\n0 90\n0\n300 100\n").unwrap();
+        std::fs::write(&bad, "TILT=NONE\n1 -1 1 2 1 4 2 0 0 0\n1 1 0\n0 90\n0\n300 100\n").unwrap();
         let mut q = Problems::new("/L");
         let asset = |f: &std::path::Path| Value::Asset(f.to_string_lossy().into_owned());
         let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shaping:ies:file", asset(&good)), ("inputs:shaping:ies:normalize", Value::Bool(true)), ("inputs:shaping:ies:angleScale", f(0.5))]), &mut q).unwrap();
@@ -909,7 +909,7 @@ mod tests {
         assert!(q.list.is_empty(), "{:?}", q.list);
         let l = convert_light("/L", LightKind::Disk, &st(&[("inputs:shaping:ies:file", asset(&bad))]), &mut q).unwrap();
         assert!(l.desc.shaping.unwrap().ies.is_none());
-        assert!(q.list[0].attribute == "shaping:ies:file" && q.list[0].message.contains("type 3 (A) is not supported"), "{:?}", q.list);
+        assert!(q.list[0].attribute == "shaping:ies:file" && q.list[0].message.contains("type 4 is none of 1 (C), 2 (B) and 3 (A)"), "{:?}", q.list);
         std::fs::remove_dir_all(&dir).unwrap();
         let sun = convert_light("/L", LightKind::Distant, &st(&[("inputs:shaping:focus", f(2.0))]), &mut p).unwrap();
         assert!(sun.desc.shaping.is_none());

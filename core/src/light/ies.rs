@@ -1,12 +1,16 @@
 //! IES photometric profiles (ANSI/IES LM-63, the `.ies` files of `shaping:ies:file`).
 //!
 //! [`IesProfile::parse`] reads the text of an LM-63 file (1986, 1991, 1995, 2002 and 2019
-//! layouts: an optional `IESNA` first line, keyword lines, `TILT=`, then the numbers) of
-//! photometric type C, the type of nearly every architectural and theatrical profile.
+//! layouts: an optional `IESNA` first line, keyword lines, `TILT=`, then the numbers).
 //! [`IesProfile::eval`] gives the luminous intensity in candela (values × the file's candela
 //! multiplier, ballast factor and ballast-lamp factor; `TILT` data is read and ignored) at a
-//! vertical angle `v` (0 = nadir, the light's primary axis) and horizontal angle `h` (radians),
-//! interpolating bilinearly and unfolding the file's symmetry:
+//! vertical angle `v` (0 = nadir, the light's primary axis) and horizontal angle `h` (radians,
+//! 0 along the light's +X, 90° along its +Y), interpolating bilinearly in the file's own
+//! angles.
+//!
+//! Photometric type C (1), the type of nearly every architectural and theatrical profile,
+//! measures in vertical planes about the axis: its angles are `v` and `h` themselves, and the
+//! file's symmetry is unfolded:
 //!
 //! | horizontal angles | symmetry |
 //! |---|---|
@@ -16,10 +20,19 @@
 //! | 90 to 270° | about the 90–270° plane |
 //! | anything else starting at 0° | none; between the last angle and 360° the values go back to those at 0° |
 //!
-//! Directions outside the file's vertical range (e.g. above the horizon for a 0–90° file)
-//! have zero intensity. [`IesProfile::mean_intensity`] is the intensity averaged over the
-//! sphere, or over the hemisphere for files whose vertical angles span at most a hemisphere
-//! (as UsdLux's `shaping:ies:normalize` divides by).
+//! Types B (2, floodlights) and A (3, automotive lamps) aim their photometric zero (0°, 0°)
+//! along the axis. Type B's planes share the axis through the light's ±Y: a direction's
+//! horizontal angle is its turn about ±Y, from the axis towards +X (−90° to 90°), and its
+//! vertical angle its elevation out of the axis–X plane towards +Y (tan H = cos h tan v,
+//! sin V = sin h sin v). Type A's planes share the axis through ±X: the horizontal angle
+//! turns from the axis towards +Y, the vertical angle rises towards +X. Horizontal angles
+//! from 0° to 90° are mirrored (the same at −H); both kinds light at most the hemisphere in
+//! front of the light.
+//!
+//! Directions outside the file's range (e.g. above the horizon for a type C 0–90° file, or
+//! behind a type B light) have zero intensity. [`IesProfile::mean_intensity`] is the intensity averaged over the
+//! sphere, or over the hemisphere for type C files whose vertical angles span at most a
+//! hemisphere and for types A and B (as UsdLux's `shaping:ies:normalize` divides by).
 
 use std::f64::consts::PI;
 
@@ -32,7 +45,16 @@ pub struct IesProfile {
     /// Candela, `h.len()` rows of `v.len()` values.
     cd: Vec<f32>,
     symmetry: Symmetry,
+    kind: Kind,
     mean: f32,
+}
+
+/// The photometric type: how a file's angles lie about the light.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    C,
+    B,
+    A,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,11 +121,12 @@ impl IesProfile {
         let multiplier = n.next("the candela multiplier")?;
         let nv = n.count("the number of vertical angles", 100_000)?;
         let nh = n.count("the number of horizontal angles", 100_000)?;
-        let kind = n.next("the photometric type")?;
-        if kind != 1.0 {
-            let name = if kind == 2.0 { "B" } else if kind == 3.0 { "A" } else { "unknown" };
-            return Err(format!("photometric type {kind} ({name}) is not supported (type C only)"));
-        }
+        let kind = match n.next("the photometric type")? {
+            1.0 => Kind::C,
+            2.0 => Kind::B,
+            3.0 => Kind::A,
+            k => return Err(format!("photometric type {k} is none of 1 (C), 2 (B) and 3 (A)")),
+        };
         for what in ["the units type", "the width", "the length", "the height"] {
             n.next(what)?;
         }
@@ -120,11 +143,20 @@ impl IesProfile {
         };
         let v = read_angles(&mut n, nv, "the vertical angles")?;
         let h = read_angles(&mut n, nh, "the horizontal angles")?;
-        if v[0] < 0.0 || v[nv - 1] > 180.0 {
-            return Err(format!("vertical angles must lie in [0, 180] degrees (got {} to {})", v[0], v[nv - 1]));
+        let (v_range, h_range) = match kind {
+            Kind::C => ((0.0, 180.0), (0.0, 360.0)),
+            Kind::A | Kind::B => ((-90.0, 90.0), (-90.0, 90.0)),
+        };
+        let t = match kind {
+            Kind::C => "C",
+            Kind::B => "B",
+            Kind::A => "A",
+        };
+        if v[0] < v_range.0 || v[nv - 1] > v_range.1 {
+            return Err(format!("vertical angles must lie in [{}, {}] degrees for type {t} (got {} to {})", v_range.0, v_range.1, v[0], v[nv - 1]));
         }
-        if h[0] < 0.0 || h[nh - 1] > 360.0 {
-            return Err(format!("horizontal angles must lie in [0, 360] degrees (got {} to {})", h[0], h[nh - 1]));
+        if h[0] < h_range.0 || h[nh - 1] > h_range.1 {
+            return Err(format!("horizontal angles must lie in [{}, {}] degrees for type {t} (got {} to {})", h_range.0, h_range.1, h[0], h[nh - 1]));
         }
         let mut cd = Vec::with_capacity(nv * nh);
         for _ in 0..nv * nh {
@@ -132,6 +164,13 @@ impl IesProfile {
             cd.push(c.max(0.0) as f32);
         }
         let symmetry = match (h[0], h[nh - 1]) {
+            _ if kind != Kind::C => {
+                if h[0] == 0.0 {
+                    Symmetry::Bilateral0
+                } else {
+                    Symmetry::Full
+                }
+            }
             _ if nh == 1 => Symmetry::Axial,
             (a, b) if a == 0.0 && b == 90.0 => Symmetry::Quadrant,
             (a, b) if a == 0.0 && b == 180.0 => Symmetry::Bilateral0,
@@ -140,13 +179,16 @@ impl IesProfile {
             (a, b) => return Err(format!("horizontal angles from {a} to {b} degrees are not an LM-63 type C layout")),
         };
         let rad = |a: &Vec<f64>| a.iter().map(|d| d.to_radians() as f32).collect::<Vec<f32>>();
-        let mut p = IesProfile { v: rad(&v), h: rad(&h), cd, symmetry, mean: 0.0 };
+        let mut p = IesProfile { v: rad(&v), h: rad(&h), cd, symmetry, kind, mean: 0.0 };
         p.mean = p.integrate_mean() as f32;
         Ok(p)
     }
 
     /// Candela at vertical angle `v` from the nadir and horizontal angle `h` (radians).
     pub fn eval(&self, v: f32, h: f32) -> f32 {
+        if self.kind != Kind::C {
+            return self.eval_ab(v, h);
+        }
         let nv = self.v.len();
         if !(v >= self.v[0] && v <= self.v[nv - 1]) {
             // a single vertical angle is a ring of measure zero; outside the range: dark
@@ -211,15 +253,43 @@ impl IesProfile {
         }
     }
 
-    /// Mean candela over the sphere, or over the hemisphere when the vertical angles span at
-    /// most 90° (plus a 0.1 rad margin).
+    /// Type A or B: the direction at (`v`, `h`) in the file's angles, then bilinear.
+    fn eval_ab(&self, v: f32, h: f32) -> f32 {
+        let (sv, cv) = v.sin_cos();
+        let (sh, ch) = h.sin_cos();
+        // along the axis, +X and +Y
+        let (a, x, y) = (cv, sv * ch, sv * sh);
+        let (across, along) = if self.kind == Kind::B { (x, y) } else { (y, x) };
+        let mut hh = across.atan2(a);
+        let vv = along.clamp(-1.0, 1.0).asin();
+        if self.symmetry == Symmetry::Bilateral0 {
+            hh = hh.abs();
+        }
+        let (nv, nh) = (self.v.len(), self.h.len());
+        if !(vv >= self.v[0] && vv <= self.v[nv - 1] && hh >= self.h[0] && hh <= self.h[nh - 1]) {
+            return 0.0;
+        }
+        let (iv, tv) = bracket(&self.v, vv);
+        let (ih, th) = bracket(&self.h, hh);
+        let at = |j: usize, i: usize| self.cd[j.min(nh - 1) * nv + i.min(nv - 1)];
+        let row = |j: usize| at(j, iv) * (1.0 - tv) + if tv > 0.0 { at(j, iv + 1) * tv } else { 0.0 };
+        row(ih) * (1.0 - th) + if th > 0.0 { row(ih + 1) * th } else { 0.0 }
+    }
+
+    /// Mean candela over the sphere, or over the hemisphere when the vertical angles of a type
+    /// C file span at most 90° (plus a 0.1 rad margin) and for types A and B.
     pub fn mean_intensity(&self) -> f32 {
         self.mean
     }
 
-    /// The vertical angles (radians), where the profile has kinks.
+    /// The angles from the axis (radians) where the profile has kinks: a type C file's
+    /// vertical angles (none are known for types A and B, whose kinks are not cones).
     pub fn vertical_angles(&self) -> &[f32] {
-        &self.v
+        if self.kind == Kind::C {
+            &self.v
+        } else {
+            &[]
+        }
     }
 
     /// Whether the profile depends on the horizontal angle.
@@ -237,7 +307,7 @@ impl IesProfile {
             acc += ring * v.sin() * (PI / nv as f64) * 2.0 * PI;
         }
         let span = (self.v[self.v.len() - 1] - self.v[0]) as f64;
-        acc / if span > PI / 2.0 + 0.1 { 4.0 * PI } else { 2.0 * PI }
+        acc / if self.kind == Kind::C && span > PI / 2.0 + 0.1 { 4.0 * PI } else { 2.0 * PI }
     }
 }
 

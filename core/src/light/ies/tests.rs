@@ -8,9 +8,14 @@ use super::*;
 /// horizontal angle), candela multiplier 2, ballast factor 0.5 and ballast-lamp factor 1 (so
 /// the values read back as written).
 pub(crate) fn file(v: &[f64], h: &[f64], rows: &[Vec<f64>]) -> String {
+    file_of_type(1, v, h, rows)
+}
+
+/// [`file`] of photometric type `kind` (1 C, 2 B, 3 A).
+fn file_of_type(kind: u32, v: &[f64], h: &[f64], rows: &[Vec<f64>]) -> String {
     let join = |a: &[f64]| a.iter().map(|x| x.to_string()).collect::<Vec<_>>().join(" ");
     let mut s = String::from("IESNA:LM-63-2002\n[TEST] synthetic\n[MANUFAC] none\nTILT=NONE\n");
-    s += &format!("1 -1 2.0 {} {} 1 2 0.1 0.1 0.0\n0.5 1.0 10\n", v.len(), h.len());
+    s += &format!("1 -1 2.0 {} {} {kind} 2 0.1 0.1 0.0\n0.5 1.0 10\n", v.len(), h.len());
     s += &join(v);
     s += "\n";
     s += &join(h);
@@ -103,7 +108,9 @@ fn malformed_files_are_errors_saying_why() {
     let good = file(&[0.0, 90.0], &[0.0], &[vec![1.0, 2.0]]);
     let cases = [
         (good.replace("TILT=NONE", "TILTED"), "TILT"),
-        (good.replace(" 1 2 0.1", " 2 2 0.1"), "type 2 (B)"),
+        (good.replace(" 1 2 0.1", " 4 2 0.1"), "type 4 is none of"),
+        (file_of_type(2, &[0.0, 100.0], &[0.0], &[vec![1.0, 2.0]]), "[-90, 90] degrees for type B"),
+        (file_of_type(3, &[0.0, 90.0], &[-100.0, 0.0], &[vec![1.0, 2.0], vec![1.0, 2.0]]), "horizontal angles must lie in [-90, 90] degrees for type A"),
         (good.replace("1, 2\n", "1\n"), "ends before the candela values"),
         (good.replace("\n0 90\n", "\n90 0\n"), "vertical angles must increase"),
         (good.replace("1, 2\n", "1, x\n"), "'x' is not a number"),
@@ -113,4 +120,57 @@ fn malformed_files_are_errors_saying_why() {
         let e = IesProfile::parse(&text).unwrap_err();
         assert!(e.contains(want), "{want}: {e}");
     }
+}
+
+/// Types B and A: a profile written on their grids as a function of the angle from the axis
+/// alone (cos ψ = cos H cos V for both) reads back as that function of the vertical angle `v`
+/// in every direction in front of the light, and nothing behind it; the mean over the
+/// hemisphere matches the closed form.
+#[test]
+fn types_b_and_a_read_their_angles_about_the_axis() {
+    let grid: Vec<f64> = (0..=180).map(|i| -90.0 + i as f64).collect();
+    let rows: Vec<Vec<f64>> = grid.iter().map(|h| grid.iter().map(|v| 100.0 * h.to_radians().cos() * v.to_radians().cos()).collect()).collect();
+    let mut rng = crate::testing::chi2::TestRng::new(5);
+    for kind in [2, 3] {
+        let p = IesProfile::parse(&file_of_type(kind, &grid, &grid, &rows)).unwrap();
+        assert!(!p.is_axial());
+        for _ in 0..500 {
+            let (v, h) = (rng.next_f32() * std::f32::consts::PI, rng.next_f32() * 2.0 * std::f32::consts::PI);
+            let want = 100.0 * v.cos().max(0.0);
+            // bilinear over 1° cells of a cosine: within 0.02 cd
+            assert!((p.eval(v, h) - want).abs() < 0.02, "type {kind} at v {v} h {h}: {} vs {want}", p.eval(v, h));
+        }
+        // (1/2π) ∫ 100 cos ψ over the front hemisphere = 50
+        assert!((p.mean_intensity() - 50.0).abs() < 0.05, "type {kind} mean {}", p.mean_intensity());
+    }
+}
+
+/// Which way a type B or A file's angles turn: an asymmetric B profile brightens towards +X,
+/// an A profile towards +Y; a 0–90° horizontal range is mirrored; a 0–90° vertical range
+/// leaves the other side dark.
+#[test]
+fn types_b_and_a_turn_towards_x_and_y() {
+    let h: Vec<f64> = (0..=18).map(|i| -90.0 + 10.0 * i as f64).collect();
+    let v = [-90.0, 0.0, 90.0];
+    let rows: Vec<Vec<f64>> = h.iter().map(|h| vec![100.0 + 50.0 * h.to_radians().sin(); 3]).collect();
+    let b = IesProfile::parse(&file_of_type(2, &v, &h, &rows)).unwrap();
+    let a = IesProfile::parse(&file_of_type(3, &v, &h, &rows)).unwrap();
+    // 30° from the axis towards +X (h = 0) and towards +Y (h = 90°)
+    let (toward_x, toward_y) = ((deg(30.0), 0.0), (deg(30.0), deg(90.0)));
+    let sin30 = 50.0 * 0.5;
+    assert!((b.eval(toward_x.0, toward_x.1) - (100.0 + sin30)).abs() < 0.5, "{}", b.eval(toward_x.0, toward_x.1));
+    assert!((b.eval(deg(30.0), deg(180.0)) - (100.0 - sin30)).abs() < 0.5);
+    assert!((b.eval(toward_y.0, toward_y.1) - 100.0).abs() < 1e-3, "a B file's planes turn about Y");
+    assert!((a.eval(toward_y.0, toward_y.1) - (100.0 + sin30)).abs() < 0.5, "{}", a.eval(toward_y.0, toward_y.1));
+    assert!((a.eval(toward_x.0, toward_x.1) - 100.0).abs() < 1e-3, "an A file's planes turn about X");
+    // mirrored horizontal angles; a vertical range of 0–90° lights one side only
+    let half: Vec<f64> = h.iter().copied().filter(|&x| x >= 0.0).collect();
+    let m = IesProfile::parse(&file_of_type(2, &[0.0, 90.0], &half, &vec![vec![100.0, 100.0]; half.len()])).unwrap();
+    // (towards +X and −X, both a little towards +Y)
+    assert_eq!(m.eval(deg(40.0), deg(10.0)), m.eval(deg(40.0), deg(170.0)));
+    assert!(m.eval(deg(40.0), deg(10.0)) > 99.0);
+    let mirrored_y = m.eval(deg(40.0), deg(-90.0));
+    assert!(mirrored_y == 0.0, "below the B file's 0° elevation is dark: {mirrored_y}");
+    // behind the light: dark
+    assert_eq!(b.eval(deg(120.0), 0.0), 0.0);
 }
