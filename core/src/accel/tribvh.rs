@@ -51,34 +51,37 @@ impl TriBvh {
         if mesh.len() == 0 {
             return TriBvh { tree: WideTree::empty(), blocks: vec![], bounds: (Vec3::ZERO, Vec3::ZERO) };
         }
+        use rayon::prelude::*;
         let prims = (0..mesh.len())
+            .into_par_iter()
             .map(|i| {
                 let [v0, v1, v2] = mesh.tri(i);
-                PrimRef { lo: v0.min(v1).min(v2), hi: v0.max(v1).max(v2), id: i as u32 }
+                PrimRef::new(v0.min(v1).min(v2), v0.max(v1).max(v2), i as u32)
             })
             .collect();
         let bin = Binary::build(prims, |c| c.div_ceil(BLOCK as u32) as f32);
-        let mut blocks = Vec::with_capacity(bin.leaf_total(|n| n.div_ceil(BLOCK)));
-        let tree = bin.fold(|ids, _| {
-            let first = blocks.len();
-            for c in ids.chunks(BLOCK) {
-                let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], ids: [0; 4] };
-                for lane in 0..4 {
-                    // short blocks repeat their last triangle: a duplicate never wins a strict `<`
-                    let id = c[lane.min(c.len() - 1)];
-                    let [v0, v1, v2] = mesh.tri(id as usize);
-                    let (e1, e2) = (v1 - v0, v2 - v0);
-                    for a in 0..3 {
-                        blk.v0[a][lane] = v0[a];
-                        blk.e1[a][lane] = e1[a];
-                        blk.e2[a][lane] = e2[a];
+        let (tree, blocks) = bin.fold(
+            |n| n.div_ceil(BLOCK),
+            |ids, _, first, out| {
+                for c in ids.chunks(BLOCK) {
+                    let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], ids: [0; 4] };
+                    for lane in 0..4 {
+                        // short blocks repeat their last triangle: a duplicate never wins a strict `<`
+                        let id = c[lane.min(c.len() - 1)];
+                        let [v0, v1, v2] = mesh.tri(id as usize);
+                        let (e1, e2) = (v1 - v0, v2 - v0);
+                        for a in 0..3 {
+                            blk.v0[a][lane] = v0[a];
+                            blk.e1[a][lane] = e1[a];
+                            blk.e2[a][lane] = e2[a];
+                        }
+                        blk.ids[lane] = id;
                     }
-                    blk.ids[lane] = id;
+                    out.push(blk);
                 }
-                blocks.push(blk);
-            }
-            leaf_slot(first, blocks.len() - first)
-        });
+                leaf_slot(first, ids.len().div_ceil(BLOCK))
+            },
+        );
         let bounds = tree.bounds;
         TriBvh { tree, blocks, bounds }
     }
@@ -177,7 +180,7 @@ mod tests {
         for n in [1, 2, 9, 40] {
             let (positions, indices) = grid(n);
             let bvh = TriBvh::build(TriMesh { positions: &positions, indices: &indices });
-                        assert!(bvh.tree.allocated_exactly(), "n = {n}");
+            assert!(bvh.tree.allocated_exactly(), "n = {n}");
             assert_eq!(bvh.blocks.len(), bvh.blocks.capacity(), "n = {n}");
             let mut ids: Vec<u32> = bvh.blocks.iter().flat_map(|b| b.ids).collect();
             ids.sort_unstable();
@@ -192,6 +195,37 @@ mod tests {
                 let y = (v0.y + v1.y + v2.y) / 3.0;
                 assert!((5.0 - t - y).abs() < 0.5, "ray {k}: t {t}");
             }
+        }
+    }
+
+    /// Every bit of a build: tree and blocks.
+    fn bits(bvh: &TriBvh) -> Vec<u32> {
+        let mut v = bvh.tree.bits();
+        for b in &bvh.blocks {
+            v.extend(b.v0.iter().chain(&b.e1).chain(&b.e2).flatten().map(|x| x.to_bits()));
+            v.extend(b.ids);
+        }
+        v
+    }
+
+    #[test]
+    fn the_build_is_the_same_whatever_the_thread_count() {
+        // 80 000 triangles: binned and folded in parallel at the top
+        let (positions, indices) = grid(200);
+        let mesh = TriMesh { positions: &positions, indices: &indices };
+        let build = |threads| rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(|| TriBvh::build(mesh));
+        let one = build(1);
+        assert!(one.tree.allocated_exactly() && one.blocks.len() == one.blocks.capacity());
+        let b1 = bits(&one);
+        for threads in [2, 5] {
+            assert!(b1 == bits(&build(threads)), "{threads} threads");
+        }
+        // and it is a BVH of the mesh: rays down through quads hit their triangles
+        let n = 200;
+        for (i, j) in [(0, 0), (199, 199), (17, 123), (150, 3), (99, 100)] {
+            let o = Vec3A::new(i as f32 + 0.25, 5.0, j as f32 + 0.25);
+            let (_, tri, _, _) = one.intersect(o, Vec3A::NEG_Y, f32::INFINITY).expect("hit");
+            assert_eq!(tri, 2 * (j * n + i), "quad ({i}, {j})");
         }
     }
 }

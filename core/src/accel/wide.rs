@@ -4,8 +4,12 @@
 //! then folded into eight-wide nodes: each node takes the two children of a binary node and
 //! keeps opening its largest inner child until it has eight. What a leaf holds is the user's:
 //! [`super::tribvh`] packs triangles four to a block, [`PointBvh`] keeps primitive ids.
+//!
+//! The build reads each range twice per split (binned, then partitioned while gathering its
+//! sides' bounds), sweeps only occupied bins, bins large ranges and folds the top levels in
+//! parallel; the tree is the same whatever the thread count.
 
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 use std::mem::MaybeUninit;
 
 /// Four f32 lanes: SSE on x86-64, plain arrays elsewhere (same results lane for lane: min/max
@@ -162,18 +166,63 @@ struct Node {
     child: [u32; W],
 }
 
-/// A primitive's box during the build.
+/// A primitive's box during the build: 32 bytes, its id in the w lane of `lo` (the builder's
+/// passes over these are what a build spends its time on).
 #[derive(Clone, Copy)]
 pub(super) struct PrimRef {
-    pub lo: Vec3A,
-    pub hi: Vec3A,
-    pub id: u32,
+    lo: Vec4,
+    hi: Vec4,
 }
 
 impl PrimRef {
     #[inline]
-    fn centroid2(&self) -> Vec3A {
+    pub fn new(lo: Vec3A, hi: Vec3A, id: u32) -> PrimRef {
+        PrimRef { lo: lo.extend(f32::from_bits(id)), hi: hi.extend(0.0) }
+    }
+
+    #[inline]
+    pub fn id(&self) -> u32 {
+        self.lo.w.to_bits()
+    }
+
+    /// Twice the centroid (x, y, z; w is meaningless).
+    #[inline(always)]
+    fn centroid2(&self) -> Vec4 {
         self.lo + self.hi
+    }
+}
+
+/// Boxes of a range of primitives and of their (doubled) centroids; w lanes are meaningless.
+#[derive(Clone, Copy)]
+struct Bounds {
+    lo: Vec4,
+    hi: Vec4,
+    clo: Vec4,
+    chi: Vec4,
+}
+
+impl Bounds {
+    const EMPTY: Bounds = Bounds { lo: Vec4::INFINITY, hi: Vec4::NEG_INFINITY, clo: Vec4::INFINITY, chi: Vec4::NEG_INFINITY };
+
+    #[inline(always)]
+    fn add(&mut self, p: &PrimRef) {
+        self.lo = self.lo.min(p.lo);
+        self.hi = self.hi.max(p.hi);
+        let c = p.centroid2();
+        self.clo = self.clo.min(c);
+        self.chi = self.chi.max(c);
+    }
+
+    fn of(prims: &[PrimRef]) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for p in prims {
+            b.add(p);
+        }
+        b
+    }
+
+    fn merge(self, o: Bounds) -> Bounds {
+        Bounds { lo: self.lo.min(o.lo), hi: self.hi.max(o.hi), clo: self.clo.min(o.clo), chi: self.chi.max(o.chi) }
     }
 }
 
@@ -197,76 +246,136 @@ fn half_area(lo: Vec3A, hi: Vec3A) -> f32 {
 const BINS: usize = 32;
 /// Subtrees above this size build their halves in parallel.
 const PARALLEL: usize = 16 * 1024;
+/// Ranges above this size are binned in parallel chunks of this size.
+const PARALLEL_BINNING: usize = 64 * 1024;
+
+/// The bins of the x, y, z lanes of `v`, scaled centroid coordinates: truncated and clamped
+/// to the last bin (in [0, BINS) for finite input; NaN goes to the last bin).
+#[inline(always)]
+fn bins4(v: Vec4) -> [usize; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86-64; the store target is 16 bytes
+        let mut k = [0u32; 4];
+        unsafe { _mm_storeu_si128(k.as_mut_ptr() as *mut __m128i, _mm_cvttps_epi32(v.into())) };
+        let top = BINS as u32 - 1;
+        [k[0].min(top) as usize, k[1].min(top) as usize, k[2].min(top) as usize]
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        // as cvttps2dq: NaN becomes i32::MIN, which the clamp sends to the last bin
+        let b = |x: f32| if x.is_nan() { BINS - 1 } else { (x as i32 as u32).min(BINS as u32 - 1) as usize };
+        [b(v.x), b(v.y), b(v.z)]
+    }
+}
+
+/// Per-axis bins: boxes (w meaningless) and counts.
+#[derive(Clone, Copy)]
+struct Bins {
+    lo: [[Vec4; BINS]; 3],
+    hi: [[Vec4; BINS]; 3],
+    cnt: [[u32; BINS]; 3],
+}
+
+impl Bins {
+    fn of(prims: &[PrimRef], clo: Vec4, scale: Vec4) -> Bins {
+        let mut b = Bins { lo: [[Vec4::INFINITY; BINS]; 3], hi: [[Vec4::NEG_INFINITY; BINS]; 3], cnt: [[0; BINS]; 3] };
+        for p in prims {
+            let k = bins4((p.centroid2() - clo) * scale);
+            for a in 0..3 {
+                let i = k[a];
+                b.lo[a][i] = b.lo[a][i].min(p.lo);
+                b.hi[a][i] = b.hi[a][i].max(p.hi);
+                b.cnt[a][i] += 1;
+            }
+        }
+        b
+    }
+
+    fn merge(mut self, o: &Bins) -> Bins {
+        for a in 0..3 {
+            for i in 0..BINS {
+                self.lo[a][i] = self.lo[a][i].min(o.lo[a][i]);
+                self.hi[a][i] = self.hi[a][i].max(o.hi[a][i]);
+                self.cnt[a][i] += o.cnt[a][i];
+            }
+        }
+        self
+    }
+}
 
 /// Top-down binned SAH over primitive boxes, a side of c primitives costing `cost(c)` tests;
-/// ranges of at most [`MAX_LEAF`] become leaves. Deterministic: the tree does not depend on
-/// thread timing.
-fn build_node<C: Fn(u32) -> f32 + Copy + Sync>(prims: &mut [PrimRef], offset: u32, cost: C) -> BNode {
-    let mut lo = Vec3A::splat(f32::INFINITY);
-    let mut hi = Vec3A::splat(f32::NEG_INFINITY);
-    let mut clo = lo;
-    let mut chi = hi;
-    for p in prims.iter() {
-        lo = lo.min(p.lo);
-        hi = hi.max(p.hi);
-        clo = clo.min(p.centroid2());
-        chi = chi.max(p.centroid2());
-    }
+/// ranges of at most [`MAX_LEAF`] become leaves. `b` is the bounds of `prims`; each split's
+/// partition gathers its sides' bounds, so a range is read twice (binned, partitioned).
+/// Deterministic: the tree does not depend on thread timing (bins merge exactly: minima,
+/// maxima and counts).
+fn build_node<C: Fn(u32) -> f32 + Copy + Sync>(prims: &mut [PrimRef], offset: u32, cost: C, b: Bounds) -> BNode {
+    let (lo, hi) = (Vec3A::from_vec4(b.lo), Vec3A::from_vec4(b.hi));
     let n = prims.len();
     if n <= MAX_LEAF {
         return BNode { lo, hi, kind: BKind::Leaf { start: offset, count: n as u32 } };
     }
+    let (clo, chi) = (Vec3A::from_vec4(b.clo), Vec3A::from_vec4(b.chi));
     let extent = chi - clo;
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), Vec3A::splat(BINS as f32 * (1.0 - 1e-6)) / extent, Vec3A::ZERO);
-    let bin = |p: &PrimRef, a: usize| (((p.centroid2()[a] - clo[a]) * scale[a]) as usize).min(BINS - 1);
-    // per axis: bin boxes and counts
-    let mut blo = [[Vec3A::splat(f32::INFINITY); BINS]; 3];
-    let mut bhi = [[Vec3A::splat(f32::NEG_INFINITY); BINS]; 3];
-    let mut cnt = [[0u32; BINS]; 3];
-    for p in prims.iter() {
-        for a in 0..3 {
-            let b = bin(p, a);
-            blo[a][b] = blo[a][b].min(p.lo);
-            bhi[a][b] = bhi[a][b].max(p.hi);
-            cnt[a][b] += 1;
-        }
-    }
+    let (clo4, scale4) = (clo.extend(0.0), scale.extend(0.0));
+    let bins = if n > PARALLEL_BINNING {
+        use rayon::prelude::*;
+        let parts: Vec<Bins> = prims.par_chunks(PARALLEL_BINNING).map(|c| Bins::of(c, clo4, scale4)).collect();
+        let (first, rest) = parts.split_first().expect("a range above the chunk size has chunks");
+        rest.iter().fold(*first, |acc, p| acc.merge(p))
+    } else {
+        Bins::of(prims, clo4, scale4)
+    };
+    let v3 = Vec3A::from_vec4;
     let mut best = (f32::INFINITY, 0usize, 0usize);
+    let mut occupied = [0usize; BINS];
+    let mut right = [0f32; BINS];
     for a in 0..3 {
         if extent[a] <= 0.0 {
             continue;
         }
-        // right sweep: cost of bins i.. on the right
-        let mut right = [0f32; BINS];
-        let (mut rl, mut rh, mut rc) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY), 0u32);
-        for i in (1..BINS).rev() {
-            rl = rl.min(blo[a][i]);
-            rh = rh.max(bhi[a][i]);
-            rc += cnt[a][i];
-            right[i] = if rc == 0 { f32::INFINITY } else { half_area(rl, rh) * cost(rc) };
+        // Only the occupied bins are swept: a split anywhere in a run of empty bins parts the
+        // primitives alike at the same cost, and the first split of the run is the one taken.
+        let mut k = 0;
+        for i in 0..BINS {
+            occupied[k] = i;
+            k += (bins.cnt[a][i] != 0) as usize;
         }
-        let (mut ll, mut lh, mut lc) = (Vec3A::splat(f32::INFINITY), Vec3A::splat(f32::NEG_INFINITY), 0u32);
-        for i in 1..BINS {
-            ll = ll.min(blo[a][i - 1]);
-            lh = lh.max(bhi[a][i - 1]);
-            lc += cnt[a][i - 1];
-            if lc == 0 {
-                continue;
-            }
-            let c = half_area(ll, lh) * cost(lc) + right[i];
+        // right sweep: right[j] = cost of occupied bins j.. on the right
+        let (mut rl, mut rh, mut rc) = (Vec4::INFINITY, Vec4::NEG_INFINITY, 0u32);
+        for j in (1..k).rev() {
+            let i = occupied[j];
+            rl = rl.min(bins.lo[a][i]);
+            rh = rh.max(bins.hi[a][i]);
+            rc += bins.cnt[a][i];
+            right[j] = half_area(v3(rl), v3(rh)) * cost(rc);
+        }
+        let (mut ll, mut lh, mut lc) = (Vec4::INFINITY, Vec4::NEG_INFINITY, 0u32);
+        for j in 1..k {
+            let i = occupied[j - 1];
+            ll = ll.min(bins.lo[a][i]);
+            lh = lh.max(bins.hi[a][i]);
+            lc += bins.cnt[a][i];
+            let c = half_area(v3(ll), v3(lh)) * cost(lc) + right[j];
             if c < best.0 {
-                best = (c, a, i);
+                best = (c, a, i + 1);
             }
         }
     }
+    let (mut lb, mut rb) = (Bounds::EMPTY, Bounds::EMPTY);
     let mid = if best.0.is_finite() {
         let (_, a, split) = best;
-        // in-place partition: bins below `split` first
+        // in-place partition: bins below `split` first, each side's bounds gathered on the way
         let (mut i, mut j) = (0, n);
         while i < j {
-            if bin(&prims[i], a) < split {
+            let p = prims[i];
+            if bins4((p.centroid2() - clo4) * scale4)[a] < split {
+                lb.add(&p);
                 i += 1;
             } else {
+                rb.add(&p);
                 j -= 1;
                 prims.swap(i, j);
             }
@@ -276,32 +385,48 @@ fn build_node<C: Fn(u32) -> f32 + Copy + Sync>(prims: &mut [PrimRef], offset: u3
         0
     };
     // all centroids in one bin (coincident triangles): halve by position
-    let mid = if mid == 0 || mid == n { n / 2 } else { mid };
+    let mid = if mid == 0 || mid == n {
+        lb = Bounds::of(&prims[..n / 2]);
+        rb = Bounds::of(&prims[n / 2..]);
+        n / 2
+    } else {
+        mid
+    };
     let (l, r) = prims.split_at_mut(mid);
     let (a, b) = if n > PARALLEL {
-        rayon::join(|| build_node(l, offset, cost), || build_node(r, offset + mid as u32, cost))
+        rayon::join(|| build_node(l, offset, cost, lb), || build_node(r, offset + mid as u32, cost, rb))
     } else {
-        (build_node(l, offset, cost), build_node(r, offset + mid as u32, cost))
+        (build_node(l, offset, cost, lb), build_node(r, offset + mid as u32, cost, rb))
     };
     BNode { lo, hi, kind: BKind::Inner(Box::new((a, b))) }
 }
 
 /// The children a W-wide node takes for binary build node `k` (None for a leaf): its two
 /// children, then the largest inner child opened until there are W.
-fn fold(k: &BNode) -> Option<Vec<&BNode>> {
+fn fold(k: &BNode) -> Option<([&BNode; W], usize)> {
     let BKind::Inner(ab) = &k.kind else { return None };
-    let mut kids: Vec<&BNode> = Vec::with_capacity(W);
-    kids.extend([&ab.0, &ab.1]);
-    while kids.len() < W {
-        let open = (0..kids.len())
-            .filter(|&i| matches!(kids[i].kind, BKind::Inner(_)))
-            .max_by(|&x, &y| half_area(kids[x].lo, kids[x].hi).total_cmp(&half_area(kids[y].lo, kids[y].hi)));
-        let Some(i) = open else { break };
+    let mut kids = [&ab.0; W];
+    kids[1] = &ab.1;
+    let mut n = 2;
+    while n < W {
+        // the largest inner child; the last of equals
+        let mut open: Option<(usize, f32)> = None;
+        for (i, c) in kids[..n].iter().enumerate() {
+            if matches!(c.kind, BKind::Inner(_)) {
+                let area = half_area(c.lo, c.hi);
+                if open.is_none_or(|(_, best)| area.total_cmp(&best).is_ge()) {
+                    open = Some((i, area));
+                }
+            }
+        }
+        let Some((i, _)) = open else { break };
         let BKind::Inner(ab) = &kids[i].kind else { unreachable!() };
+        kids.copy_within(i + 1..n, i + 2);
         kids[i] = &ab.0;
-        kids.insert(i + 1, &ab.1);
+        kids[i + 1] = &ab.1;
+        n += 1;
     }
-    Some(kids)
+    Some((kids, n))
 }
 
 /// (W-wide nodes, Σ `per_leaf`(leaf size)) that build node `k` becomes.
@@ -311,7 +436,7 @@ fn count(k: &BNode, per_leaf: &impl Fn(usize) -> usize) -> (usize, usize) {
             BKind::Leaf { count, .. } => (0, per_leaf(count as usize)),
             BKind::Inner(_) => unreachable!(),
         },
-        Some(kids) => kids.into_iter().map(|c| count(c, per_leaf)).fold((1, 0), |(n, b), (cn, cb)| (n + cn, b + cb)),
+        Some((kids, n)) => kids[..n].iter().map(|c| count(c, per_leaf)).fold((1, 0), |(n, b), (cn, cb)| (n + cn, b + cb)),
     }
 }
 
@@ -325,60 +450,128 @@ pub(super) struct Binary {
 impl Binary {
     /// Builds over `prims` (not empty), freeing them before it returns.
     pub fn build(mut prims: Vec<PrimRef>, cost: impl Fn(u32) -> f32 + Copy + Sync) -> Binary {
-        let tree = build_node(&mut prims, 0, cost);
-        let ids = prims.iter().map(|p| p.id).collect();
+        let b = if prims.len() > PARALLEL_BINNING {
+            use rayon::prelude::*;
+            let parts: Vec<Bounds> = prims.par_chunks(PARALLEL_BINNING).map(Bounds::of).collect();
+            parts.into_iter().fold(Bounds::EMPTY, Bounds::merge)
+        } else {
+            Bounds::of(&prims)
+        };
+        let tree = build_node(&mut prims, 0, cost, b);
+        use rayon::prelude::*;
+        let ids = prims.par_iter().map(|p| p.id()).collect();
         Binary { tree, ids }
     }
 
-    /// Σ `per_leaf`(leaf size) over the leaves (to size what the leaves will be packed into).
-    pub fn leaf_total(&self, per_leaf: impl Fn(usize) -> usize) -> usize {
-        count(&self.tree, &per_leaf).1
-    }
-
-    /// Folds the tree into wide nodes (allocated once, at their exact count); `leaf(ids,
-    /// start)` makes the child slot of the leaf holding `ids`, which begin at `start` of
-    /// [`Self::ids`].
-    pub fn fold(&self, mut leaf: impl FnMut(&[u32], usize) -> u32) -> WideTree {
-        let (n, _) = count(&self.tree, &|_| 0);
-        let mut f = Folder { ids: &self.ids, nodes: Vec::with_capacity(n), leaf: &mut leaf };
-        let (root, depth) = f.slot(&self.tree);
-        debug_assert_eq!(f.nodes.len(), n);
-        if std::env::var("TIDE_BVH_STATS").is_ok() {
-            eprintln!("nodes {} leaves' items {} depth {}", f.nodes.len(), self.ids.len(), depth);
+    /// Folds the tree into wide nodes and packs the leaves' items, each output allocated once
+    /// at its exact size. A leaf of `ids` (beginning at `start` of [`Self::ids`]) takes
+    /// `per_leaf(ids.len())` items; `leaf(ids, start, first, out)` pushes that many to `out`
+    /// (items `first..` of the output) and returns the leaf's child slot. The top
+    /// levels fold in parallel; node and item order do not depend on it (depth first).
+    pub fn fold<T: Send>(
+        &self,
+        per_leaf: impl Fn(usize) -> usize + Sync,
+        leaf: impl Fn(&[u32], usize, usize, &mut Sink<T>) -> u32 + Sync,
+    ) -> (WideTree, Vec<T>) {
+        let (n, m) = count(&self.tree, &per_leaf);
+        let mut nodes: Vec<Node> = Vec::with_capacity(n);
+        let mut items: Vec<T> = Vec::with_capacity(m);
+        let f = Folder { ids: &self.ids, per_leaf: &per_leaf, leaf: &leaf, item: std::marker::PhantomData };
+        let (root, depth, nu, mu) = f.slot(&self.tree, &mut nodes.spare_capacity_mut()[..n], 0, &mut items.spare_capacity_mut()[..m], 0, 0);
+        assert!(nu == n && mu == m, "the fold writes every node and item it counted");
+        // SAFETY: `slot` wrote a gapless prefix of n nodes and m items (each subtree writes a
+        // prefix of what it is handed, and each leaf's sink is full: asserted)
+        unsafe {
+            nodes.set_len(n);
+            items.set_len(m);
         }
-        WideTree { nodes: f.nodes, root, depth, bounds: (self.tree.lo.into(), self.tree.hi.into()) }
+        if std::env::var("TIDE_BVH_STATS").is_ok() {
+            eprintln!("nodes {} leaves' items {} depth {}", nodes.len(), self.ids.len(), depth);
+        }
+        (WideTree { nodes, root, depth, bounds: (self.tree.lo.into(), self.tree.hi.into()) }, items)
     }
 }
 
-struct Folder<'a, F> {
-    ids: &'a [u32],
-    nodes: Vec<Node>,
-    leaf: &'a mut F,
+/// Where a leaf's items go: exactly as many as its share.
+pub(super) struct Sink<'a, T> {
+    out: &'a mut [MaybeUninit<T>],
+    len: usize,
 }
 
-impl<F: FnMut(&[u32], usize) -> u32> Folder<'_, F> {
-    /// Makes the child slot for build node `k`; returns the slot and the depth below it.
-    fn slot(&mut self, k: &BNode) -> (u32, usize) {
-        let Some(kids) = fold(k) else {
+impl<T> Sink<'_, T> {
+    #[inline]
+    pub fn push(&mut self, item: T) {
+        self.out[self.len].write(item);
+        self.len += 1;
+    }
+}
+
+/// Wide levels folded in parallel (8 subtrees at the first, 64 at the second).
+const PARALLEL_FOLD_LEVELS: usize = 2;
+
+struct Folder<'a, T, P, L> {
+    ids: &'a [u32],
+    per_leaf: &'a P,
+    leaf: &'a L,
+    item: std::marker::PhantomData<fn() -> T>,
+}
+
+impl<T: Send, P: Fn(usize) -> usize + Sync, L: Fn(&[u32], usize, usize, &mut Sink<T>) -> u32 + Sync> Folder<'_, T, P, L> {
+    /// Writes build node `k`'s subtree at the front of `nodes` (node `at` of the output) and
+    /// of `items` (item `first` of the output); returns the child slot for `k`, the depth
+    /// below it, and how many nodes and items it wrote (a prefix of each slice, with no gaps).
+    fn slot(&self, k: &BNode, nodes: &mut [MaybeUninit<Node>], at: usize, items: &mut [MaybeUninit<T>], first: usize, level: usize) -> (u32, usize, usize, usize) {
+        let Some((kids, n)) = fold(k) else {
             let BKind::Leaf { start, count } = k.kind else { unreachable!() };
             let (s, c) = (start as usize, count as usize);
-            return ((self.leaf)(&self.ids[s..s + c], s), 0);
+            let m = (self.per_leaf)(c);
+            let mut sink = Sink { out: &mut items[..m], len: 0 };
+            let slot = (self.leaf)(&self.ids[s..s + c], s, first, &mut sink);
+            assert_eq!(sink.len, m, "a leaf writes the items it counted");
+            return (slot, 0, 0, m);
         };
-        let me = self.nodes.len();
+        let (me, rest) = nodes.split_first_mut().expect("a wide node has its slot");
+        let mut out = [(EMPTY, 0usize, 0usize, 0usize); W];
+        if level < PARALLEL_FOLD_LEVELS {
+            use rayon::prelude::*;
+            // each kid's share of the output, from its counts, filled in parallel
+            let counts: Vec<(usize, usize)> = kids[..n].par_iter().map(|c| count(c, self.per_leaf)).collect();
+            let mut parts = Vec::with_capacity(n);
+            let (mut rest, mut items) = (rest, items);
+            let (mut node_at, mut item_at) = (at + 1, first);
+            for (&c, &(cn, cm)) in kids[..n].iter().zip(&counts) {
+                let (kn, r) = std::mem::take(&mut rest).split_at_mut(cn);
+                let (km, ri) = std::mem::take(&mut items).split_at_mut(cm);
+                parts.push((c, kn, node_at, km, item_at));
+                (rest, items) = (r, ri);
+                (node_at, item_at) = (node_at + cn, item_at + cm);
+            }
+            let done: Vec<_> = parts.into_par_iter().map(|(c, kn, na, km, ia)| self.slot(c, kn, na, km, ia, level + 1)).collect();
+            for (lane, (d, &(cn, cm))) in done.into_iter().zip(&counts).enumerate() {
+                assert!(d.2 == cn && d.3 == cm, "a subtree fills the share its counts gave it");
+                out[lane] = d;
+            }
+        } else {
+            let (mut nu, mut mu) = (0, 0);
+            for (lane, &c) in kids[..n].iter().enumerate() {
+                let d = self.slot(c, &mut rest[nu..], at + 1 + nu, &mut items[mu..], first + mu, level + 1);
+                (nu, mu) = (nu + d.2, mu + d.3);
+                out[lane] = d;
+            }
+        }
         let (inf, ninf) = ([f32::INFINITY; W], [f32::NEG_INFINITY; W]);
-        self.nodes.push(Node { b: [inf, ninf, inf, ninf, inf, ninf], child: [EMPTY; W] });
-        let mut depth = 0;
-        for (lane, c) in kids.into_iter().enumerate() {
-            let (s, d) = self.slot(c);
-            depth = depth.max(d);
-            let node = &mut self.nodes[me];
+        let mut node = Node { b: [inf, ninf, inf, ninf, inf, ninf], child: [EMPTY; W] };
+        let (mut depth, mut nu, mut mu) = (0, 1, 0);
+        for (lane, (&c, &(s, d, cn, cm))) in kids[..n].iter().zip(&out).enumerate() {
+            (depth, nu, mu) = (depth.max(d), nu + cn, mu + cm);
             for a in 0..3 {
                 node.b[2 * a][lane] = c.lo[a];
                 node.b[2 * a + 1][lane] = c.hi[a];
             }
             node.child[lane] = s;
         }
-        (me as u32, depth + 1)
+        me.write(node);
+        (at as u32, depth + 1, nu, mu)
     }
 }
 
@@ -429,6 +622,17 @@ impl WideTree {
     #[cfg(test)]
     pub fn allocated_exactly(&self) -> bool {
         self.nodes.len() == self.nodes.capacity()
+    }
+
+    /// Every bit of the tree, for tests that two builds made the same one.
+    #[cfg(test)]
+    pub fn bits(&self) -> Vec<u32> {
+        let mut v = vec![self.root, self.depth as u32];
+        for n in &self.nodes {
+            v.extend(n.b.iter().flatten().map(|x| x.to_bits()));
+            v.extend(n.child);
+        }
+        v
     }
 
     /// Visits, nearest first, the leaves whose boxes the ray crosses before the nearest hit:
@@ -562,13 +766,13 @@ impl PointBvh {
     /// (lo > hi on an axis) leaves its primitive out.
     pub fn build(bounds: impl Iterator<Item = (Vec3A, Vec3A)>) -> PointBvh {
         let prims: Vec<PrimRef> =
-            bounds.enumerate().filter(|(_, (lo, hi))| lo.cmple(*hi).all()).map(|(i, (lo, hi))| PrimRef { lo, hi, id: i as u32 }).collect();
+            bounds.enumerate().filter(|(_, (lo, hi))| lo.cmple(*hi).all()).map(|(i, (lo, hi))| PrimRef::new(lo, hi, i as u32)).collect();
         if prims.is_empty() {
             return PointBvh { tree: WideTree::empty(), ids: vec![] };
         }
         // one test per primitive
         let bin = Binary::build(prims, |c| c as f32);
-        let tree = bin.fold(|ids, start| leaf_slot(start, ids.len()));
+        let (tree, _) = bin.fold::<()>(|_| 0, |ids, start, _, _| leaf_slot(start, ids.len()));
         PointBvh { tree, ids: bin.ids }
     }
 
