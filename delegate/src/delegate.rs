@@ -106,7 +106,7 @@ struct Prim {
 
 /// Rprim attributes that place or bind a prim without changing its geometry: editing only
 /// these re-syncs the prim but keeps its converted points and triangles.
-const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms"];
+const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms", "instancePaths"];
 
 /// A material's displacement in one assembly.
 struct Displacement<'a> {
@@ -194,6 +194,10 @@ struct RprimPiece {
     mesh_light: Option<lux::MeshLight>,
     /// Per-instance primvars, one row per kept instance.
     instance_primvars: Vec<PrimvarData>,
+    /// The prim path each kept instance stands for in collections (`instancePaths`: a native
+    /// instance's proxy path, so a light can link some instances of a prototype and not
+    /// others); empty: the prim's own path for all.
+    instance_link_paths: Vec<String>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -652,6 +656,7 @@ impl Delegate {
             caustics: read_caustics(s, p),
             mesh_light: lux::read_mesh_light(s, p),
             instance_primvars: read_instance_primvars(s, n_instances, &kept, p),
+            instance_link_paths: read_instance_paths(s, n_instances, &kept, p),
         }
     }
 
@@ -767,8 +772,9 @@ impl Delegate {
         };
 
         let mut scene = SceneDesc { color_space: sp.color_space, ..Default::default() };
-        // the prim path of each instance, for light-link collections
+        // the prim path of each instance, and the path it stands for in light-link collections
         let mut instance_paths: Vec<String> = Vec::new();
+        let mut link_paths: Vec<String> = Vec::new();
         scene.materials.push(default_material("default"));
         let mut tex_index: BTreeMap<TexKey, usize> = BTreeMap::new();
         let textures = &self.textures;
@@ -1026,6 +1032,7 @@ impl Delegate {
                     let material = material_of(k, &mut scene, &mut ap);
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
                     instance_paths.push(path.clone());
+                    link_paths.push(r.instance_link_paths.get(k).unwrap_or(path).clone());
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {
                         place(&moving_instance(&r.transforms, &r.instance_samples, k))
                     } else {
@@ -1146,7 +1153,7 @@ impl Delegate {
 
         // collections of prim paths → the names of the instances of member prims
         let members = |instances: &[InstanceDesc], c: &Option<lux::Collection>| {
-            c.as_ref().map(|c| instances.iter().zip(&instance_paths).filter(|(_, p)| c.contains(p)).map(|(i, _)| i.name.clone()).collect::<Vec<_>>())
+            c.as_ref().map(|c| instances.iter().zip(&link_paths).filter(|(_, p)| c.contains(p)).map(|(i, _)| i.name.clone()).collect::<Vec<_>>())
         };
         // mesh lights' links, per instance of the mesh
         let mut emitter_links = Vec::new();
@@ -1860,6 +1867,45 @@ mod tests {
     }
 
     #[test]
+    fn instances_stand_for_their_own_paths_in_light_links() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/Proto/m");
+        let mut inst = Vec::new();
+        for k in 0..3 {
+            let Value::Matrix(m) = translate(2. * k as f64, 0., 0.) else { unreachable!() };
+            inst.extend_from_slice(&m);
+        }
+        // the middle instance's matrix is not finite: dropped, and its path with it
+        inst[16 + 12] = f64::NAN;
+        d.set_attribute("/Proto/m", "instanceTransforms", Value::Doubles { data: inst, tuple: 16 }, None);
+        let paths = |v: &[&str]| Value::Paths(v.iter().map(|s| s.to_string()).collect());
+        d.set_attribute("/Proto/m", "instancePaths", paths(&["/W/A/m", "/W/B/m", "/W/C/m"]), None);
+        d.create_prim("distantLight", "/Sun");
+        d.set_attribute("/Sun", "collection:lightLink:includes", paths(&["/W/C"]), None);
+        d.set_attribute("/Sun", "collection:lightLink:includeRoot", Value::Bool(false), None);
+        d.set_attribute("/Sun", "collection:shadowLink:excludes", paths(&["/W/A"]), None);
+        let problems = d.commit_resources();
+        assert_eq!(problems.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["instanceTransforms"], "{problems:?}");
+        let s = d.scene();
+        let names: Vec<&str> = s.instances.iter().map(|i| i.name.as_str()).collect();
+        assert_eq!(names, ["/Proto/m[0]", "/Proto/m[1]"]);
+        assert_eq!(s.instances[1].transforms[0].w_axis.x, 4.0, "the kept second instance is the third authored");
+        let sun = s.lights.iter().find(|l| l.name == "/Sun").unwrap();
+        assert_eq!(sun.light_link.as_deref(), Some(&["/Proto/m[1]".to_string()][..]), "only C's instance is linked");
+        assert_eq!(sun.shadow_link.as_deref(), Some(&["/Proto/m[1]".to_string()][..]), "A's instance casts no shadow");
+        // a path list that does not match the instances: reported, the prim's path for all
+        d.set_attribute("/Proto/m", "instancePaths", paths(&["/W/A/m"]), None);
+        let problems = d.commit_resources();
+        assert!(problems.iter().any(|q| q.item == "/Proto/m" && q.attribute == "instancePaths" && q.message.contains("1 paths for 3 instances")), "{problems:?}");
+        let sun = d.scene().lights.iter().find(|l| l.name == "/Sun").unwrap().clone();
+        assert_eq!(sun.light_link.as_deref(), Some(&[][..]));
+        d.set_attribute("/Sun", "collection:lightLink:includes", paths(&["/Proto"]), None);
+        d.commit_resources();
+        let sun = d.scene().lights.iter().find(|l| l.name == "/Sun").unwrap().clone();
+        assert_eq!(sun.light_link.map(|v| v.len()), Some(2));
+    }
+
+    #[test]
     fn domes_take_the_portals_they_name_else_those_no_dome_names() {
         let mut d = Delegate::new();
         let m = |x: f64| Value::Matrix([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, x, 0.0, 0.0, 1.0]);
@@ -2348,6 +2394,23 @@ fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_v
         }),
     };
     m
+}
+
+/// `instancePaths`: the path each instance stands for in collections, one per authored
+/// instance (kept in `kept`); anything else is reported and the prim's own path is used.
+fn read_instance_paths(s: &AttrStore, n_instances: usize, kept: &[usize], p: &mut Problems) -> Vec<String> {
+    match s.get("instancePaths") {
+        None => vec![],
+        Some(Value::Paths(v)) if v.len() == n_instances => kept.iter().map(|&i| v[i].clone()).collect(),
+        Some(Value::Paths(v)) => {
+            p.add("instancePaths", format!("{} paths for {} instances; the prim's own path stands for every instance", v.len(), n_instances));
+            vec![]
+        }
+        Some(v) => {
+            p.add("instancePaths", format!("expected paths, got {}; the prim's own path stands for every instance", v.kind()));
+            vec![]
+        }
+    }
 }
 
 /// The per-instance primvars of an rprim with `n` authored instances, rows picked for those

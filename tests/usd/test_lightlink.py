@@ -100,3 +100,68 @@ def test_a_prim_outside_the_shadow_link_casts_no_shadow(renderer, stage):
     lit = _halves(render(renderer, stage)["color"])
     for s, l in zip(shadowed, lit):
         assert l.mean() > 0.3 and s.mean() < 0.1 * l.mean(), (s, l)
+
+
+def _two_instanced_walls(stage):
+    """`_two_walls`' scene with the walls as two native instances of one prototype wall
+    (/World/Left and /World/Right, instanceable references to the class /Protos/Wall): the
+    renderer gets one mesh drawn twice, so links must resolve instance by instance."""
+    camera(stage, focal=F, aperture=(AP, AP))
+    mat = _grey(stage)
+    proto = stage.CreateClassPrim("/Protos/Wall")
+    m = UsdGeom.Mesh.Define(stage, "/Protos/Wall/Mesh")
+    m.CreatePointsAttr([(0, -10, -5), (9.9, -10, -5), (9.9, 10, -5), (0, 10, -5)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    for name, x in (("Left", -10.0), ("Right", 0.1)):
+        x_form = UsdGeom.Xform.Define(stage, "/World/" + name)
+        x_form.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        prim = x_form.GetPrim()
+        prim.GetReferences().AddInternalReference(proto.GetPath())
+        prim.SetInstanceable(True)
+        bind(prim, mat)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(math.pi)
+    sun.CreateNormalizeAttr(True)
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateIntensityAttr(0.2)
+    return sun
+
+
+@pytest.mark.parametrize("target, lit", [("/World/Left", (True, False)),
+                                         ("/World/Right/Mesh", (False, True)),
+                                         ("/World", (True, True))])
+def test_a_light_links_native_instances_one_by_one(renderer, stage, target, lit):
+    w = h = 32
+    sun = _two_instanced_walls(stage)
+    coll = UsdLux.LightAPI(sun).GetLightLinkCollectionAPI()
+    coll.CreateIncludesRel().AddTarget(target)
+    coll.CreateIncludeRootAttr(False)
+    settings(stage, res=(w, h), samples=32, maxDepth=2)
+    halves = _halves(render(renderer, stage)["color"])
+    for side, on, got in zip(("left", "right"), lit, halves):
+        want = 0.6 if on else 0.1
+        assert got == pytest.approx([want] * 3, rel=0.05), "%s instance, sun linked to %s" % (side, target)
+
+
+def test_a_native_instance_outside_the_shadow_link_casts_no_shadow(renderer, stage):
+    """Two instances of one roof prototype over the two walls' halves of the view; the sun's
+    shadow link leaves out the right one, so only the left wall is shadowed."""
+    w = h = 32
+    sun = _two_walls(stage)
+    stage.RemovePrim("/Dome")
+    UsdGeom.Xformable(sun).AddRotateXOp().Set(-30.0)
+    proto = stage.CreateClassPrim("/Protos/Roof")
+    roof = UsdGeom.Mesh.Define(stage, "/Protos/Roof/Mesh")
+    roof.CreatePointsAttr([(0, 4, -20), (20, 4, -20), (20, 4, 20), (0, 4, 20)])
+    roof.CreateFaceVertexCountsAttr([4])
+    roof.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    for name, x in (("RoofL", -20.0), ("RoofR", 0.0)):
+        x_form = UsdGeom.Xform.Define(stage, "/World/" + name)
+        x_form.AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+        x_form.GetPrim().GetReferences().AddInternalReference(proto.GetPath())
+        x_form.GetPrim().SetInstanceable(True)
+    UsdLux.LightAPI(sun).GetShadowLinkCollectionAPI().CreateExcludesRel().AddTarget("/World/RoofR")
+    settings(stage, res=(w, h), samples=16, maxDepth=1)
+    left, right = _halves(render(renderer, stage)["color"])
+    assert right.mean() > 0.3 and left.mean() < 0.1 * right.mean(), (left, right)

@@ -1612,6 +1612,10 @@ class Reader:
             if st is None:
                 continue
             st.set("material", ("path", material))
+            # the path each instance stands for in light-link collections: its proxy's
+            rel = prim.GetPath().MakeRelativePath(root.GetPath())
+            st.set("instancePaths", ("paths", tuple(str(r.GetPath().AppendPath(rel))
+                                                    for r in grp["roots"])))
             self._inherited_by_instances(prim, st, grp["roots"])
             # each instance root's world matrix over the shutter (motion of the instances
             # themselves; the prototype's own motion is in `transform`)
