@@ -23,6 +23,17 @@ def _wall(stage, path, x0, x1, z, mat):
     return m
 
 
+def _sun_and_dome(stage):
+    """A sun shining straight down the camera's view (radiance 0.5 off an albedo of 0.5) and
+    a dim white dome (0.2: radiance 0.1 off the walls)."""
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(math.pi)
+    sun.CreateNormalizeAttr(True)
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateIntensityAttr(0.2)
+    return sun
+
+
 def _two_walls(stage):
     """Two grey walls facing the camera, left and right of the view's centre, each inside
     a group (/World/Left, /World/Right); a sun shining straight onto them (radiance 0.5 off
@@ -33,12 +44,7 @@ def _two_walls(stage):
     UsdGeom.Xform.Define(stage, "/World/Right")
     _wall(stage, "/World/Left/Wall", -10, -0.1, -5, mat)
     _wall(stage, "/World/Right/Wall", 0.1, 10, -5, mat)
-    sun = UsdLux.DistantLight.Define(stage, "/Sun")
-    sun.CreateIntensityAttr(math.pi)
-    sun.CreateNormalizeAttr(True)
-    dome = UsdLux.DomeLight.Define(stage, "/Dome")
-    dome.CreateIntensityAttr(0.2)
-    return sun
+    return _sun_and_dome(stage)
 
 
 def _halves(img):
@@ -120,12 +126,7 @@ def _two_instanced_walls(stage):
         prim.GetReferences().AddInternalReference(proto.GetPath())
         prim.SetInstanceable(True)
         bind(prim, mat)
-    sun = UsdLux.DistantLight.Define(stage, "/Sun")
-    sun.CreateIntensityAttr(math.pi)
-    sun.CreateNormalizeAttr(True)
-    dome = UsdLux.DomeLight.Define(stage, "/Dome")
-    dome.CreateIntensityAttr(0.2)
-    return sun
+    return _sun_and_dome(stage)
 
 
 @pytest.mark.parametrize("target, lit", [("/World/Left", (True, False)),
