@@ -172,6 +172,9 @@ check check_stage_displace.usda "UsdPreviewSurface displacement" delegate sceneI
 check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
+check check_stage_lightlink.usda "a light linked to one of two walls" delegate sceneIndex || exit $?
+# HdsiLightLinkingSceneIndex (v24.08) gives instanced prims no categories: the scene delegate only
+check check_stage_lightlink_instances.usda "a light linked to one of two native instances" delegate || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
 check check_stage_pole.usda "DomeLight_1's pole axis on a Z-up stage" delegate sceneIndex || exit $?

@@ -588,9 +588,24 @@ void HdTideLightLinks::SetCategories(std::string const& rprim, VtArray<TfToken> 
     _changed = true;
 }
 
+void HdTideLightLinks::SetInstanceCategories(std::string const& rprim, std::vector<std::set<TfToken>> categories) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    auto it = _instanceCategories.find(rprim);
+    if (it == _instanceCategories.end() ? categories.empty() : it->second == categories) return;
+    if (categories.empty()) _instanceCategories.erase(rprim);
+    else _instanceCategories[rprim] = std::move(categories);
+    _changed = true;
+}
+
 void HdTideLightLinks::RemoveRprim(std::string const& rprim) {
     std::lock_guard<std::mutex> lock(_mutex);
     if (_categories.erase(rprim)) _changed = true;
+    if (_instanceCategories.erase(rprim)) _changed = true;
+}
+
+/// The name instance k of an instanced rprim stands for in collections (its `instancePaths`).
+static std::string HdTideInstanceName(std::string const& rprim, size_t k) {
+    return rprim + "[" + std::to_string(k) + "]";
 }
 
 void HdTideLightLinks::Forward(tide::RenderParam& param) {
@@ -602,9 +617,17 @@ void HdTideLightLinks::Forward(tide::RenderParam& param) {
         for (int which = 0; which < 2; ++which) {
             Sent now;
             now.everything = tokens[which].IsEmpty();
-            if (!now.everything)
+            if (!now.everything) {
+                TfToken const& token = tokens[which];
                 for (auto const& [rprim, categories] : _categories)
-                    if (categories.count(tokens[which])) now.includes.push_back(rprim);
+                    if (categories.count(token) && !_instanceCategories.count(rprim)) now.includes.push_back(rprim);
+                for (auto const& [rprim, instances] : _instanceCategories) {
+                    auto const own = _categories.find(rprim);
+                    const bool all = own != _categories.end() && own->second.count(token);
+                    for (size_t k = 0; k < instances.size(); ++k)
+                        if (all || instances[k].count(token)) now.includes.push_back(HdTideInstanceName(rprim, k));
+                }
+            }
             auto const sent = _sent.find({light, which});
             // nothing sent yet and the light reaches everything: the delegate's default already
             if (sent == _sent.end() ? now.everything : sent->second == now) continue;
@@ -708,6 +731,22 @@ public:
                                  tide::TimedValue{s.times.size() > 1, double(s.times[i]), HdTideToValue(VtValue(s.transforms[i]))},
                                  tide::ChangeTracker::DirtyInstancer);
                 for (auto& [name, pv] : inst->InstancePrimvars(id)) snapshot.AddInstancePrimvar(name, std::move(pv));
+            }
+        }
+        if (!instancerId.IsEmpty() && (*dirtyBits & (CT::DirtyInstancer | CT::DirtyInstanceIndex | CT::DirtyCategories))) {
+            if (auto* inst = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(instancerId))) {
+                // per-instance light-link categories: each instance then stands for itself in
+                // the lights' collections (an empty list: the rprim for all of them)
+                std::vector<std::set<TfToken>> categories = inst->InstanceCategories(id);
+                std::vector<std::string> names;
+                if (std::any_of(categories.begin(), categories.end(), [](auto const& c) { return !c.empty(); })) {
+                    for (size_t k = 0; k < categories.size(); ++k) names.push_back(HdTideInstanceName(id.GetString(), k));
+                } else {
+                    categories.clear();
+                }
+                _shared->links.SetInstanceCategories(id.GetString(), std::move(categories));
+                snapshot.Add("instancePaths", tide::TimedValue{false, 0.0, tide::Value::MakePaths(std::move(names))},
+                             tide::ChangeTracker::DirtyInstancer);
             }
         }
         if (_typeId == "volume" && (*dirtyBits & (CT::DirtyVolumeField | CT::DirtyTransform)))

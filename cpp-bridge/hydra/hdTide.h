@@ -88,7 +88,8 @@ private:
 /// category per link (`lightLink`, `shadowLink`: a collection token, empty when it reaches
 /// everything); rprims list their categories (HdSceneDelegate::GetCategories). Prims record
 /// what they read during Sync (in parallel); Forward, at commit, sends each light whose member
-/// set changed `collection:<link>:includes` (the member rprims' paths), `:excludes` (none),
+/// set changed `collection:<link>:includes` (the member rprims' paths, or instances' names),
+/// `:excludes` (none),
 /// `:includeRoot` (false) and `:expansionRule` (explicitOnly), or, once its token is empty
 /// again, a collection that includes everything.
 class HdTideLightLinks {
@@ -96,6 +97,10 @@ public:
     void SetLight(std::string const& light, TfToken const& lightLink, TfToken const& shadowLink);
     void RemoveLight(std::string const& light);
     void SetCategories(std::string const& rprim, VtArray<TfToken> const& categories);
+    /// An instanced rprim's per-instance categories (empty when no instance has any): its
+    /// instance k is then a member as `rprim[k]`, the name the rprim's `instancePaths` gives
+    /// it, when it or the rprim holds the light's token.
+    void SetInstanceCategories(std::string const& rprim, std::vector<std::set<TfToken>> categories);
     void RemoveRprim(std::string const& rprim);
     /// Forwards the collections that changed since the last call.
     void Forward(tide::RenderParam& param);
@@ -110,6 +115,7 @@ private:
     bool _changed = false;
     std::map<std::string, std::array<TfToken, 2>> _lights;
     std::map<std::string, std::set<TfToken>> _categories;
+    std::map<std::string, std::vector<std::set<TfToken>>> _instanceCategories;
     /// (light, link) -> what was last forwarded.
     std::map<std::pair<std::string, int>, Sent> _sent;
 };

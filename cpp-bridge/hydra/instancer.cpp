@@ -227,4 +227,28 @@ std::vector<std::pair<std::string, tide::Primvar>> HdTideInstancer::InstancePrim
     return out;
 }
 
+std::vector<std::set<TfToken>> HdTideInstancer::InstanceCategories(SdfPath const& prototypeId) {
+    HdSceneDelegate* sd = GetDelegate();
+    VtIntArray const indices = sd->GetInstanceIndices(GetId(), prototypeId);
+    std::vector<VtArray<TfToken>> const all = sd->GetInstanceCategories(GetId());
+    std::vector<std::set<TfToken>> level(indices.size());
+    for (size_t i = 0; i < indices.size(); ++i) {
+        const size_t k = size_t(std::max(indices[i], 0));
+        if (k < all.size()) level[i].insert(all[k].begin(), all[k].end());
+    }
+    if (GetParentId().IsEmpty()) return level;
+    auto* parent = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(GetParentId()));
+    if (!parent) return level;
+    // parent-major, as _TransformsAt flattens
+    std::vector<std::set<TfToken>> const outer = parent->InstanceCategories(GetId());
+    std::vector<std::set<TfToken>> flat;
+    flat.reserve(outer.size() * level.size());
+    for (auto const& o : outer)
+        for (auto const& l : level) {
+            flat.push_back(l);
+            flat.back().insert(o.begin(), o.end());
+        }
+    return flat;
+}
+
 PXR_NAMESPACE_CLOSE_SCOPE

@@ -9,6 +9,7 @@
 #include "pxr/pxr.h"
 #include "tide/value.h"
 
+#include <set>
 #include <string>
 #include <utility>
 #include <vector>
@@ -43,6 +44,11 @@ public:
     /// instance's value over the instances it places), as `instance` primvars of floats;
     /// unreadable ones are skipped.
     std::vector<std::pair<std::string, tide::Primvar>> InstancePrimvars(SdfPath const& prototypeId);
+
+    /// The light-link categories of `prototypeId`'s instances, in the order of
+    /// SampleInstanceTransforms: each instance's own (HdSceneDelegate::GetInstanceCategories)
+    /// with those of the parent instances that place it.
+    std::vector<std::set<TfToken>> InstanceCategories(SdfPath const& prototypeId);
 
 private:
     /// Every sample time of this level and its parents.

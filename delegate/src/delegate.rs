@@ -1899,8 +1899,9 @@ mod tests {
         assert!(problems.iter().any(|q| q.item == "/Proto/m" && q.attribute == "instancePaths" && q.message.contains("1 paths for 3 instances")), "{problems:?}");
         let sun = d.scene().lights.iter().find(|l| l.name == "/Sun").unwrap().clone();
         assert_eq!(sun.light_link.as_deref(), Some(&[][..]));
+        d.set_attribute("/Proto/m", "instancePaths", paths(&[]), None);
         d.set_attribute("/Sun", "collection:lightLink:includes", paths(&["/Proto"]), None);
-        d.commit_resources();
+        assert!(d.commit_resources().iter().all(|q| q.attribute != "instancePaths"));
         let sun = d.scene().lights.iter().find(|l| l.name == "/Sun").unwrap().clone();
         assert_eq!(sun.light_link.map(|v| v.len()), Some(2));
     }
@@ -2397,10 +2398,13 @@ fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_v
 }
 
 /// `instancePaths`: the path each instance stands for in collections, one per authored
-/// instance (kept in `kept`); anything else is reported and the prim's own path is used.
+/// instance (kept in `kept`); none (or an empty list): the prim's own path; anything else is
+/// reported and the prim's own path is used.
 fn read_instance_paths(s: &AttrStore, n_instances: usize, kept: &[usize], p: &mut Problems) -> Vec<String> {
     match s.get("instancePaths") {
         None => vec![],
+        // an empty list takes the paths back (the bridge's way to clear them)
+        Some(Value::Paths(v)) if v.is_empty() => vec![],
         Some(Value::Paths(v)) if v.len() == n_instances => kept.iter().map(|&i| v[i].clone()).collect(),
         Some(Value::Paths(v)) => {
             p.add("instancePaths", format!("{} paths for {} instances; the prim's own path stands for every instance", v.len(), n_instances));
