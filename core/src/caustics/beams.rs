@@ -20,7 +20,9 @@
 //! Beams are cut into pieces of at most [`PIECE_LENGTH_WIDTHS`] widths; an obvhs `CwBvh` holds
 //! the pieces' boxes grown by their beam's width. A query walks every piece whose box the
 //! camera ray crosses; a beam contributes through the piece that holds its closest point, so
-//! nothing is counted twice.
+//! nothing is counted twice. Each piece carries its beam's line and width, stored in the BVH's
+//! leaf order, so the walk reads pieces in sequence and a beam's own record only when it
+//! contributes.
 
 // `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -53,7 +55,7 @@ pub struct Beam {
     pub medium: u32,
 }
 
-/// Bytes a beam takes (its BVH pieces come on top: about 40 bytes each).
+/// Bytes a beam takes (its BVH pieces come on top: about 84 bytes each).
 pub const BYTES_PER_BEAM: usize = std::mem::size_of::<Beam>();
 
 struct PieceBound(Aabb);
@@ -91,12 +93,26 @@ pub fn closest_approach(a: Vec3, c: Vec3, o: Vec3, d: Vec3) -> Option<Approach> 
     Some(Approach { t, s, h, sin_theta })
 }
 
+/// A piece of a beam as a query tests it: the beam's line, the stretch [s0, s1] of it this
+/// piece answers for, the beam's width and index.
+#[derive(Clone, Copy, Debug)]
+struct Piece {
+    o: Vec3,
+    d: Vec3,
+    s0: f32,
+    s1: f32,
+    width: f32,
+    beam: u32,
+    /// Whether s1 is the beam's end (the piece then holds s = s1 too).
+    closes: bool,
+}
+
 /// Beams of one pass with their BVH.
 #[derive(Default)]
 pub struct BeamMap {
     beams: Vec<Beam>,
-    /// (beam, s0, s1) of each piece.
-    pieces: Vec<(u32, f32, f32)>,
+    /// The pieces in the BVH's primitive order: piece `i` is primitive `i`.
+    pieces: Vec<Piece>,
     bvh: Option<CwBvh>,
 }
 
@@ -119,16 +135,21 @@ impl BeamMap {
                 let p1 = b.photon.position + b.dir * s1;
                 let g = Vec3A::splat(b.width);
                 bounds.push(PieceBound(Aabb::new(Vec3A::from(p0.min(p1)) - g, Vec3A::from(p0.max(p1)) + g)));
-                pieces.push((i as u32, s0, s1));
+                pieces.push(Piece { o: b.photon.position, d: b.dir, s0, s1, width: b.width, beam: i as u32, closes: s1 == b.len });
             }
         }
         if bounds.len() == 1 {
-            // a one-primitive CwBvh is a lone leaf traversal never enters
+            // a one-primitive CwBvh is a lone leaf traversal never enters: a second, empty
+            // piece (it holds no point of the beam, so the beam still counts once)
             bounds.push(PieceBound(bounds[0].0));
-            pieces.push(pieces[0]);
+            pieces.push(Piece { s0: f32::INFINITY, closes: false, ..pieces[0] });
         }
-        let bvh = (!bounds.is_empty()).then(|| build_cwbvh(&bounds, BvhBuildParams::fast_build(), &mut std::time::Duration::default()));
-        BeamMap { beams, pieces, bvh }
+        let Some(bvh) = (!bounds.is_empty()).then(|| build_cwbvh(&bounds, BvhBuildParams::fast_build(), &mut std::time::Duration::default())) else {
+            return BeamMap { beams, pieces: vec![], bvh: None };
+        };
+        let n = pieces.len();
+        let pieces = bvh.primitive_indices.iter().map(|&k| pieces[k as usize % n]).collect();
+        BeamMap { beams, pieces, bvh: Some(bvh) }
     }
 
     pub fn len(&self) -> usize {
@@ -141,7 +162,7 @@ impl BeamMap {
 
     /// Bytes held (beams, pieces, BVH nodes approximately).
     pub fn memory_bytes(&self) -> usize {
-        self.beams.capacity() * BYTES_PER_BEAM + self.pieces.capacity() * (12 + 40)
+        self.beams.capacity() * BYTES_PER_BEAM + self.pieces.capacity() * (std::mem::size_of::<Piece>() + 40)
     }
 
     /// Calls `f(beam, approach)` for every beam whose closest approach to the camera ray
@@ -151,16 +172,14 @@ impl BeamMap {
         let Some(bvh) = &self.bvh else { return };
         let ray = BvhRay::new(Vec3A::from(a), Vec3A::from(c), 0.0, t_max.min(1e30));
         let mut rh = RayHit::none();
-        let n = self.pieces.len();
         bvh.ray_traverse(ray, &mut rh, |_, id| {
-            let (bi, s0, s1) = self.pieces[bvh.primitive_indices[id] as usize % n];
-            let b = &self.beams[bi as usize];
-            if let Some(ap) = closest_approach(a, c, b.photon.position, b.dir) {
+            let p = &self.pieces[id];
+            if let Some(ap) = closest_approach(a, c, p.o, p.d) {
                 // the piece that holds the closest point answers for its beam (the last
                 // piece closes its end)
-                let inside = ap.s >= s0 && (ap.s < s1 || (s1 == b.len && ap.s <= s1));
-                if inside && ap.t >= 0.0 && ap.t <= t_max && ap.h < b.width {
-                    f(b, &ap);
+                let inside = ap.s >= p.s0 && (ap.s < p.s1 || (p.closes && ap.s <= p.s1));
+                if inside && ap.t >= 0.0 && ap.t <= t_max && ap.h < p.width {
+                    f(&self.beams[p.beam as usize], &ap);
                 }
             }
             f32::INFINITY
@@ -227,6 +246,18 @@ mod tests {
                 assert_eq!(found.iter().filter(|q| *q == p).count(), 1);
             }
         }
+    }
+
+    // A map of one short beam (one piece, which the BVH needs a second box for) reports it once.
+    #[test]
+    fn a_lone_beam_is_found_once() {
+        let map = BeamMap::build(vec![beam(Vec3::ZERO, Vec3::X, 1.0, 0.1)]);
+        let mut found = 0;
+        map.for_each_near(Vec3::new(0.5, -1.0, 0.05), Vec3::Y, 5.0, |_, ap| {
+            assert!((ap.t - 1.0).abs() < 1e-5 && (ap.s - 0.5).abs() < 1e-5 && (ap.h - 0.05).abs() < 1e-5, "{ap:?}");
+            found += 1;
+        });
+        assert_eq!(found, 1);
     }
 
     // The 1D kernel with a randomised width integrates to one across the beam: the expected
