@@ -160,9 +160,11 @@ fn blackbody(lambda: f32, kelvin: f32) -> f32 {
     r2 * r2 * r * PEAK_DENOM / (PLANCK_C2 / (lambda * kelvin)).exp_m1()
 }
 
+/// c0·l² + c1·l + c2 (Horner; plain products and sums: `mul_add` is a library call where the
+/// build does not target FMA, and this runs for every wavelength of every spectral lookup).
 #[inline]
 fn poly(c0: f32, c1: f32, c2: f32, l: f32) -> f32 {
-    c0.mul_add(l, c1).mul_add(l, c2)
+    (c0 * l + c1) * l + c2
 }
 
 /// Largest value of sigmoid(c0·λ² + c1·λ + c2) over [360, 830] nm (sigmoid is increasing, so
