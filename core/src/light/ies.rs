@@ -143,14 +143,10 @@ impl IesProfile {
         };
         let v = read_angles(&mut n, nv, "the vertical angles")?;
         let h = read_angles(&mut n, nh, "the horizontal angles")?;
-        let (v_range, h_range) = match kind {
-            Kind::C => ((0.0, 180.0), (0.0, 360.0)),
-            Kind::A | Kind::B => ((-90.0, 90.0), (-90.0, 90.0)),
-        };
-        let t = match kind {
-            Kind::C => "C",
-            Kind::B => "B",
-            Kind::A => "A",
+        let (t, v_range, h_range) = match kind {
+            Kind::C => ("C", (0.0, 180.0), (0.0, 360.0)),
+            Kind::B => ("B", (-90.0, 90.0), (-90.0, 90.0)),
+            Kind::A => ("A", (-90.0, 90.0), (-90.0, 90.0)),
         };
         if v[0] < v_range.0 || v[nv - 1] > v_range.1 {
             return Err(format!("vertical angles must lie in [{}, {}] degrees for type {t} (got {} to {})", v_range.0, v_range.1, v[0], v[nv - 1]));
@@ -226,30 +222,40 @@ impl IesProfile {
             Symmetry::Full => h,
         };
         let nh = self.h.len();
-        let (iv, tv) = bracket(&self.v, v);
-        let row = |j: usize| {
-            let r = &self.cd[j * nv..(j + 1) * nv];
-            if tv == 0.0 || iv + 1 >= nv {
-                r[iv]
-            } else {
-                r[iv] * (1.0 - tv) + r[iv + 1] * tv
-            }
-        };
-        if nh == 1 || matches!(self.symmetry, Symmetry::Axial) {
-            return row(0);
+        if matches!(self.symmetry, Symmetry::Axial) {
+            return self.row(0, bracket(&self.v, v));
         }
-        if matches!(self.symmetry, Symmetry::Full) && h > self.h[nh - 1] {
+        if matches!(self.symmetry, Symmetry::Full) && nh > 1 && h > self.h[nh - 1] {
             // from the last angle back round to 360° = the first row
             let span = two_pi - self.h[nh - 1];
             let t = if span > 0.0 { (h - self.h[nh - 1]) / span } else { 0.0 };
-            return row(nh - 1) * (1.0 - t) + row(0) * t;
+            let bv = bracket(&self.v, v);
+            return self.row(nh - 1, bv) * (1.0 - t) + self.row(0, bv) * t;
         }
-        let h = h.clamp(self.h[0], self.h[nh - 1]);
+        self.bilinear(v, h.clamp(self.h[0], self.h[nh - 1]))
+    }
+
+    /// Candela of horizontal row `j` at the vertical bracket (`iv`, `tv`).
+    #[inline]
+    fn row(&self, j: usize, (iv, tv): (usize, f32)) -> f32 {
+        let nv = self.v.len();
+        let r = &self.cd[j * nv..(j + 1) * nv];
+        if tv == 0.0 || iv + 1 >= nv {
+            r[iv]
+        } else {
+            r[iv] * (1.0 - tv) + r[iv + 1] * tv
+        }
+    }
+
+    /// Bilinear in the file's own angles (radians), `v` and `h` within their ranges.
+    fn bilinear(&self, v: f32, h: f32) -> f32 {
+        let nh = self.h.len();
+        let bv = bracket(&self.v, v);
         let (ih, th) = bracket(&self.h, h);
         if th == 0.0 || ih + 1 >= nh {
-            row(ih)
+            self.row(ih, bv)
         } else {
-            row(ih) * (1.0 - th) + row(ih + 1) * th
+            self.row(ih, bv) * (1.0 - th) + self.row(ih + 1, bv) * th
         }
     }
 
@@ -269,11 +275,7 @@ impl IesProfile {
         if !(vv >= self.v[0] && vv <= self.v[nv - 1] && hh >= self.h[0] && hh <= self.h[nh - 1]) {
             return 0.0;
         }
-        let (iv, tv) = bracket(&self.v, vv);
-        let (ih, th) = bracket(&self.h, hh);
-        let at = |j: usize, i: usize| self.cd[j.min(nh - 1) * nv + i.min(nv - 1)];
-        let row = |j: usize| at(j, iv) * (1.0 - tv) + if tv > 0.0 { at(j, iv + 1) * tv } else { 0.0 };
-        row(ih) * (1.0 - th) + if th > 0.0 { row(ih + 1) * th } else { 0.0 }
+        self.bilinear(vv, hh)
     }
 
     /// Mean candela over the sphere, or over the hemisphere when the vertical angles of a type
