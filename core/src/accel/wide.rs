@@ -450,15 +450,14 @@ pub(super) struct Binary {
 impl Binary {
     /// Builds over `prims` (not empty), freeing them before it returns.
     pub fn build(mut prims: Vec<PrimRef>, cost: impl Fn(u32) -> f32 + Copy + Sync) -> Binary {
+        use rayon::prelude::*;
         let b = if prims.len() > PARALLEL_BINNING {
-            use rayon::prelude::*;
             let parts: Vec<Bounds> = prims.par_chunks(PARALLEL_BINNING).map(Bounds::of).collect();
             parts.into_iter().fold(Bounds::EMPTY, Bounds::merge)
         } else {
             Bounds::of(&prims)
         };
         let tree = build_node(&mut prims, 0, cost, b);
-        use rayon::prelude::*;
         let ids = prims.par_iter().map(|p| p.id()).collect();
         Binary { tree, ids }
     }
@@ -473,11 +472,16 @@ impl Binary {
         per_leaf: impl Fn(usize) -> usize + Sync,
         leaf: impl Fn(&[u32], usize, usize, &mut Sink<T>) -> u32 + Sync,
     ) -> (WideTree, Vec<T>) {
-        let (n, m) = count(&self.tree, &per_leaf);
+        // the root's children's counts size the outputs and split them for the first level
+        let kids = fold(&self.tree).map(|(kids, k)| kid_counts(&kids[..k], &per_leaf));
+        let (n, m) = match &kids {
+            Some(c) => c.iter().fold((1, 0), |(n, m), (cn, cm)| (n + cn, m + cm)),
+            None => count(&self.tree, &per_leaf),
+        };
         let mut nodes: Vec<Node> = Vec::with_capacity(n);
         let mut items: Vec<T> = Vec::with_capacity(m);
         let f = Folder { ids: &self.ids, per_leaf: &per_leaf, leaf: &leaf, item: std::marker::PhantomData };
-        let (root, depth, nu, mu) = f.slot(&self.tree, &mut nodes.spare_capacity_mut()[..n], 0, &mut items.spare_capacity_mut()[..m], 0, 0);
+        let (root, depth, nu, mu) = f.slot(&self.tree, &mut nodes.spare_capacity_mut()[..n], 0, &mut items.spare_capacity_mut()[..m], 0, 0, kids);
         assert!(nu == n && mu == m, "the fold writes every node and item it counted");
         // SAFETY: `slot` wrote a gapless prefix of n nodes and m items (each subtree writes a
         // prefix of what it is handed, and each leaf's sink is full: asserted)
@@ -506,6 +510,12 @@ impl<T> Sink<'_, T> {
     }
 }
 
+/// (wide nodes, items) of each of `kids`, counted in parallel.
+fn kid_counts(kids: &[&BNode], per_leaf: &(impl Fn(usize) -> usize + Sync)) -> Vec<(usize, usize)> {
+    use rayon::prelude::*;
+    kids.par_iter().map(|c| count(c, per_leaf)).collect()
+}
+
 /// Wide levels folded in parallel (8 subtrees at the first, 64 at the second).
 const PARALLEL_FOLD_LEVELS: usize = 2;
 
@@ -520,7 +530,9 @@ impl<T: Send, P: Fn(usize) -> usize + Sync, L: Fn(&[u32], usize, usize, &mut Sin
     /// Writes build node `k`'s subtree at the front of `nodes` (node `at` of the output) and
     /// of `items` (item `first` of the output); returns the child slot for `k`, the depth
     /// below it, and how many nodes and items it wrote (a prefix of each slice, with no gaps).
-    fn slot(&self, k: &BNode, nodes: &mut [MaybeUninit<Node>], at: usize, items: &mut [MaybeUninit<T>], first: usize, level: usize) -> (u32, usize, usize, usize) {
+    /// `counts`: its children's counts, where the caller has them.
+    #[allow(clippy::too_many_arguments)]
+    fn slot(&self, k: &BNode, nodes: &mut [MaybeUninit<Node>], at: usize, items: &mut [MaybeUninit<T>], first: usize, level: usize, counts: Option<Vec<(usize, usize)>>) -> (u32, usize, usize, usize) {
         let Some((kids, n)) = fold(k) else {
             let BKind::Leaf { start, count } = k.kind else { unreachable!() };
             let (s, c) = (start as usize, count as usize);
@@ -535,7 +547,7 @@ impl<T: Send, P: Fn(usize) -> usize + Sync, L: Fn(&[u32], usize, usize, &mut Sin
         if level < PARALLEL_FOLD_LEVELS {
             use rayon::prelude::*;
             // each kid's share of the output, from its counts, filled in parallel
-            let counts: Vec<(usize, usize)> = kids[..n].par_iter().map(|c| count(c, self.per_leaf)).collect();
+            let counts = counts.unwrap_or_else(|| kid_counts(&kids[..n], self.per_leaf));
             let mut parts = Vec::with_capacity(n);
             let (mut rest, mut items) = (rest, items);
             let (mut node_at, mut item_at) = (at + 1, first);
@@ -546,7 +558,7 @@ impl<T: Send, P: Fn(usize) -> usize + Sync, L: Fn(&[u32], usize, usize, &mut Sin
                 (rest, items) = (r, ri);
                 (node_at, item_at) = (node_at + cn, item_at + cm);
             }
-            let done: Vec<_> = parts.into_par_iter().map(|(c, kn, na, km, ia)| self.slot(c, kn, na, km, ia, level + 1)).collect();
+            let done: Vec<_> = parts.into_par_iter().map(|(c, kn, na, km, ia)| self.slot(c, kn, na, km, ia, level + 1, None)).collect();
             for (lane, (d, &(cn, cm))) in done.into_iter().zip(&counts).enumerate() {
                 assert!(d.2 == cn && d.3 == cm, "a subtree fills the share its counts gave it");
                 out[lane] = d;
@@ -554,7 +566,7 @@ impl<T: Send, P: Fn(usize) -> usize + Sync, L: Fn(&[u32], usize, usize, &mut Sin
         } else {
             let (mut nu, mut mu) = (0, 0);
             for (lane, &c) in kids[..n].iter().enumerate() {
-                let d = self.slot(c, &mut rest[nu..], at + 1 + nu, &mut items[mu..], first + mu, level + 1);
+                let d = self.slot(c, &mut rest[nu..], at + 1 + nu, &mut items[mu..], first + mu, level + 1, None);
                 (nu, mu) = (nu + d.2, mu + d.3);
                 out[lane] = d;
             }
