@@ -773,8 +773,8 @@ impl Delegate {
 
         let mut scene = SceneDesc { color_space: sp.color_space, ..Default::default() };
         // the prim path of each instance, and the path it stands for in light-link collections
-        let mut instance_paths: Vec<String> = Vec::new();
-        let mut link_paths: Vec<String> = Vec::new();
+        let mut instance_paths: Vec<&str> = Vec::new();
+        let mut link_paths: Vec<&str> = Vec::new();
         scene.materials.push(default_material("default"));
         let mut tex_index: BTreeMap<TexKey, usize> = BTreeMap::new();
         let textures = &self.textures;
@@ -1031,8 +1031,8 @@ impl Delegate {
                 for (k, inst) in r.instance_transforms.iter().enumerate() {
                     let material = material_of(k, &mut scene, &mut ap);
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
-                    instance_paths.push(path.clone());
-                    link_paths.push(r.instance_link_paths.get(k).unwrap_or(path).clone());
+                    instance_paths.push(path);
+                    link_paths.push(r.instance_link_paths.get(k).unwrap_or(path));
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {
                         place(&moving_instance(&r.transforms, &r.instance_samples, k))
                     } else {
@@ -1158,7 +1158,7 @@ impl Delegate {
         // mesh lights' links, per instance of the mesh
         let mut emitter_links = Vec::new();
         for (inst, path) in scene.instances.iter().zip(&instance_paths) {
-            let Some(Cached { piece: Piece::Rprim(r), .. }) = self.cache.get(path) else { continue };
+            let Some(Cached { piece: Piece::Rprim(r), .. }) = self.cache.get(*path) else { continue };
             let Some(ml) = r.mesh_light.as_ref().filter(|ml| ml.light_link.is_some() || ml.shadow_link.is_some()) else { continue };
             emitter_links.push(tide_core::scene::EmitterLinks { instance: inst.name.clone(), light_link: members(&scene.instances, &ml.light_link), shadow_link: members(&scene.instances, &ml.shadow_link) });
         }
