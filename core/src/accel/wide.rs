@@ -1,6 +1,7 @@
 //! The wide BVH that rays spend their time in, over any primitives with boxes: eight-wide
-//! nodes with full-precision child boxes in SoA layout (two 4-lane box tests per node, fewer
-//! dependent loads per ray than a binary or four-wide tree). Built top-down with binned SAH,
+//! nodes with full-precision child boxes in SoA layout (one 8-lane AVX box test per node, or
+//! two 4-lane ones without AVX; fewer dependent loads per ray than a binary or four-wide tree),
+//! on 2 MiB pages where the system gives them. Built top-down with binned SAH,
 //! then folded into eight-wide nodes: each node takes the two children of a binary node and
 //! keeps opening its largest inner child until it has eight. What a leaf holds is the user's:
 //! [`super::tribvh`] packs triangles four to a block, [`PointBvh`] keeps primitive ids.
@@ -480,6 +481,9 @@ impl Binary {
         };
         let mut nodes: Vec<Node> = Vec::with_capacity(n);
         let mut items: Vec<T> = Vec::with_capacity(m);
+        // (where the system refuses, the tree is the same on small pages)
+        let _ = advise_huge_pages(&mut nodes);
+        let _ = advise_huge_pages(&mut items);
         let f = Folder { ids: &self.ids, per_leaf: &per_leaf, leaf: &leaf, item: std::marker::PhantomData };
         let (root, depth, nu, mu) = f.slot(&self.tree, &mut nodes.spare_capacity_mut()[..n], 0, &mut items.spare_capacity_mut()[..m], 0, 0, kids);
         assert!(nu == n && mu == m, "the fold writes every node and item it counted");
@@ -611,6 +615,73 @@ impl PreRay {
     }
 }
 
+/// How a node's W child boxes are tested against a ray: which children it crosses within
+/// [0, t_far] (bit i for child i) and where it enters each. Both ways do the same operations
+/// lane for lane, so they give the same bits.
+trait BoxTest {
+    /// SAFETY: the implementation's CPU features must be present.
+    unsafe fn hits(n: &Node, ray: &PreRay, t_far: f32) -> (u32, [f32; W]);
+}
+
+/// Two four-lane halves (any CPU).
+struct Halves;
+
+impl BoxTest for Halves {
+    #[inline(always)]
+    unsafe fn hits(n: &Node, ray: &PreRay, t_far: f32) -> (u32, [f32; W]) {
+        let [nx, ny, nz] = ray.near;
+        let mut mask = 0u32;
+        let mut tn = [0f32; W];
+        for h in 0..W / 4 {
+            let row = |r: usize| F4::load(n.b[r][4 * h..4 * h + 4].try_into().unwrap());
+            let tx0 = row(nx).sub(ray.o[0]).mul(ray.inv[0]);
+            let tx1 = row(1 - nx).sub(ray.o[0]).mul(ray.inv[0]);
+            let ty0 = row(2 + ny).sub(ray.o[1]).mul(ray.inv[1]);
+            let ty1 = row(3 - ny).sub(ray.o[1]).mul(ray.inv[1]);
+            let tz0 = row(4 + nz).sub(ray.o[2]).mul(ray.inv[2]);
+            let tz1 = row(5 - nz).sub(ray.o[2]).mul(ray.inv[2]);
+            // NaN (origin on a slab plane with a zero direction component) leaves the bound open
+            let tnear = tz0.max(ty0.max(tx0.max(F4::splat(0.0))));
+            let tfar = tz1.min(ty1.min(tx1.min(F4::splat(t_far))));
+            mask |= tnear.le(tfar) << (4 * h);
+            tn[4 * h..4 * h + 4].copy_from_slice(&tnear.to_array());
+        }
+        (mask, tn)
+    }
+}
+
+/// All eight lanes at once (x86-64 with AVX).
+#[cfg(target_arch = "x86_64")]
+struct Avx;
+
+#[cfg(target_arch = "x86_64")]
+impl BoxTest for Avx {
+    // Not a `target_feature` function itself (those cannot be forced inline): it inlines into
+    // `traverse_avx`, where the AVX intrinsics inline in turn.
+    #[inline(always)]
+    unsafe fn hits(n: &Node, ray: &PreRay, t_far: f32) -> (u32, [f32; W]) {
+        use std::arch::x86_64::*;
+        const _: () = assert!(W == 8, "one AVX register per row");
+        let [nx, ny, nz] = ray.near;
+        let (o, inv) = (ray.o.map(|v| v.to_array()[0]), ray.inv.map(|v| v.to_array()[0]));
+        // the operations of `Halves`, in the same order and with the same operand order
+        macro_rules! slab {
+            ($row:expr, $a:expr) => {
+                _mm256_mul_ps(_mm256_sub_ps(_mm256_loadu_ps(n.b[$row].as_ptr()), _mm256_set1_ps(o[$a])), _mm256_set1_ps(inv[$a]))
+            };
+        }
+        let (tx0, tx1) = (slab!(nx, 0), slab!(1 - nx, 0));
+        let (ty0, ty1) = (slab!(2 + ny, 1), slab!(3 - ny, 1));
+        let (tz0, tz1) = (slab!(4 + nz, 2), slab!(5 - nz, 2));
+        let tnear = _mm256_max_ps(tz0, _mm256_max_ps(ty0, _mm256_max_ps(tx0, _mm256_setzero_ps())));
+        let tfar = _mm256_min_ps(tz1, _mm256_min_ps(ty1, _mm256_min_ps(tx1, _mm256_set1_ps(t_far))));
+        let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(tnear, tfar)) as u32;
+        let mut tn = [0f32; W];
+        _mm256_storeu_ps(tn.as_mut_ptr(), tnear);
+        (mask, tn)
+    }
+}
+
 /// Wide nodes over leaves whose contents live elsewhere.
 pub(super) struct WideTree {
     nodes: Vec<Node>,
@@ -656,43 +727,49 @@ impl WideTree {
         if self.root == EMPTY {
             return;
         }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx") {
+            // SAFETY: the CPU has AVX
+            return unsafe { self.traverse_avx(ray, t_max, &mut leaf, &prefetch) };
+        }
+        self.stacked::<Halves>(ray, t_max, &mut leaf, &prefetch)
+    }
+
+    /// [`Self::traverse`] compiled for AVX: the whole walk, leaf tests included, so that the
+    /// eight-lane box test inlines.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn traverse_avx(&self, ray: &PreRay, t_max: f32, leaf: &mut impl FnMut(u32, f32) -> f32, prefetch: &impl Fn(u32)) {
+        self.stacked::<Avx>(ray, t_max, leaf, prefetch)
+    }
+
+    #[inline(always)]
+    fn stacked<B: BoxTest>(&self, ray: &PreRay, t_max: f32, leaf: &mut impl FnMut(u32, f32) -> f32, prefetch: &impl Fn(u32)) {
         // Each node visited pushes at most W - 1 siblings.
         const FIXED: usize = (W - 1) * 24 + 1;
         if self.depth <= 24 {
             // left uninitialised: zeroing it would cost more than a short ray's traversal
             let mut stack = [MaybeUninit::<(u32, f32)>::uninit(); FIXED];
-            self.walk(ray, t_max, &mut stack, &mut leaf, &prefetch)
+            self.walk::<B>(ray, t_max, &mut stack, leaf, prefetch)
         } else {
             let mut stack = vec![MaybeUninit::<(u32, f32)>::uninit(); (W - 1) * self.depth + 1];
-            self.walk(ray, t_max, &mut stack, &mut leaf, &prefetch)
+            self.walk::<B>(ray, t_max, &mut stack, leaf, prefetch)
         }
     }
 
     #[inline(always)]
-    fn walk(&self, ray: &PreRay, t_max: f32, stack: &mut [MaybeUninit<(u32, f32)>], leaf: &mut impl FnMut(u32, f32) -> f32, prefetch: &impl Fn(u32)) {
+    fn walk<B: BoxTest>(&self, ray: &PreRay, t_max: f32, stack: &mut [MaybeUninit<(u32, f32)>], leaf: &mut impl FnMut(u32, f32) -> f32, prefetch: &impl Fn(u32)) {
         let mut best_t = t_max;
         let mut sp = 0usize;
         let mut cur = self.root;
-        let [nx, ny, nz] = ray.near;
         loop {
             if cur & LEAF == 0 {
                 let n = &self.nodes[cur as usize];
-                let mut mask = 0u32;
-                let mut tn = [0f32; W];
-                for h in 0..W / 4 {
-                    let row = |r: usize| F4::load(n.b[r][4 * h..4 * h + 4].try_into().unwrap());
-                    let tx0 = row(nx).sub(ray.o[0]).mul(ray.inv[0]);
-                    let tx1 = row(1 - nx).sub(ray.o[0]).mul(ray.inv[0]);
-                    let ty0 = row(2 + ny).sub(ray.o[1]).mul(ray.inv[1]);
-                    let ty1 = row(3 - ny).sub(ray.o[1]).mul(ray.inv[1]);
-                    let tz0 = row(4 + nz).sub(ray.o[2]).mul(ray.inv[2]);
-                    let tz1 = row(5 - nz).sub(ray.o[2]).mul(ray.inv[2]);
-                    // NaN (origin on a slab plane with a zero direction component) leaves the bound open
-                    let tnear = tz0.max(ty0.max(tx0.max(F4::splat(0.0))));
-                    let tfar = tz1.min(ty1.min(tx1.min(F4::splat(best_t))));
-                    mask |= tnear.le(tfar) << (4 * h);
-                    tn[4 * h..4 * h + 4].copy_from_slice(&tnear.to_array());
-                }
+                // the child slots share no cache line with the boxes and are read only after
+                // the box tests: start their load with the boxes' loads
+                prefetch_lines(n.child.as_ptr() as *const u8, 1);
+                // SAFETY: `B` is `Avx` only in `traverse_avx`, on CPUs with AVX
+                let (mut mask, tn) = unsafe { B::hits(n, ray, best_t) };
                 if mask != 0 {
                     // nearest hit child next, the others onto the stack farthest first
                     let mut kids = [(0u32, 0f32); W];
@@ -765,6 +842,33 @@ pub(super) fn prefetch_lines(p: *const u8, bytes: usize) {
     let _ = (p, bytes);
 }
 
+/// Asks for the not yet written capacity of `v` to be backed by 2 MiB pages (Linux, where
+/// transparent huge pages are given on request); returns whether the advice was taken. Rays
+/// read a large BVH's nodes and leaves in no order the TLB can follow: over tens of megabytes
+/// of 4 KiB pages most node visits would also wait for a page walk. Arrays under 4 MiB and
+/// other systems: nothing.
+pub(super) fn advise_huge_pages<T>(v: &mut Vec<T>) -> bool {
+    #[cfg(target_os = "linux")]
+    {
+        const HUGE: usize = 2 << 20;
+        let begin = v.as_mut_ptr() as usize;
+        let bytes = v.capacity() * std::mem::size_of::<T>();
+        // only whole 2 MiB pages inside the allocation can be huge
+        let (start, end) = (begin.next_multiple_of(HUGE), (begin + bytes) / HUGE * HUGE);
+        if bytes < 2 * HUGE || end <= start {
+            return false;
+        }
+        // SAFETY: advice on address ranges the vector owns; it changes no memory (and fails
+        // harmlessly where huge pages are off)
+        unsafe { libc::madvise(start as *mut libc::c_void, end - start, libc::MADV_HUGEPAGE) == 0 }
+    }
+    #[cfg(not(target_os = "linux"))]
+    {
+        let _ = v;
+        false
+    }
+}
+
 /// A wide BVH over primitives the caller intersects (points, for spheres, bubbles and
 /// blobby kernels; instances, for the top level): leaves hold up to [`MAX_LEAF`] primitive ids,
 /// each tested on its own.
@@ -832,6 +936,74 @@ mod tests {
         let near = a.min(b).max_element().max(0.0);
         let far = a.max(b).min_element().min(t_max);
         (near <= far).then_some(near)
+    }
+
+    #[test]
+    #[cfg(target_arch = "x86_64")]
+    fn both_box_tests_give_the_same_bits_and_visit_the_same_leaves() {
+        if !std::arch::is_x86_feature_detected!("avx") {
+            eprintln!("no AVX here: only the four-lane box test runs");
+            return;
+        }
+        let mut rng = TestRng::new(5);
+        let mut v = || Vec3A::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let boxes: Vec<(Vec3A, Vec3A)> = (0..3000)
+            .map(|i| {
+                let (c, e) = (v() * 10.0, v() * 0.4);
+                // some flat boxes, some on whole-number planes a ray can start on
+                if i % 5 == 0 { (c.floor(), c.floor() + e * Vec3A::new(1.0, 0.0, 1.0)) } else { (c - e, c + e) }
+            })
+            .collect();
+        let bvh = PointBvh::build(boxes.iter().copied());
+        let mut rays = Vec::new();
+        for i in 0..400 {
+            let (mut o, mut d) = (v() * 12.0 - 1.0, (v() - 0.5).normalize());
+            // axis-parallel rays, zero components of both signs, origins on slab planes
+            match i % 4 {
+                1 => d = Vec3A::new(0.0, -0.0, 1.0) * d.z.signum(),
+                2 => {
+                    d.x = -0.0;
+                    o = o.floor();
+                }
+                _ => {}
+            }
+            rays.push((o, d));
+        }
+        let mut visits = 0;
+        for (o, d) in rays {
+            let ray = PreRay::new(o, d);
+            for n in &bvh.tree.nodes {
+                for t_far in [f32::INFINITY, 3.0] {
+                    // SAFETY: the CPU has AVX (checked above)
+                    let (a, b) = unsafe { (Halves::hits(n, &ray, t_far), Avx::hits(n, &ray, t_far)) };
+                    assert_eq!(a.0, b.0, "masks, ray {o} {d}");
+                    assert_eq!(a.1.map(f32::to_bits), b.1.map(f32::to_bits), "entry distances, ray {o} {d}");
+                }
+            }
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            bvh.tree.stacked::<Halves>(&ray, 15.0, &mut |slot, t| { a.push(slot); t * 0.999 }, &|_| {});
+            // SAFETY: as above
+            unsafe { bvh.tree.traverse_avx(&ray, 15.0, &mut |slot, t| { b.push(slot); t * 0.999 }, &|_| {}) };
+            assert_eq!(a, b, "leaves visited, ray {o} {d}");
+            visits += a.len();
+        }
+        assert!(visits > 1000, "the rays cross the boxes ({visits} leaf visits)");
+    }
+
+    #[test]
+    #[cfg(target_os = "linux")]
+    fn large_arrays_are_advised_onto_huge_pages_where_the_system_allows_it() {
+        let mode = std::fs::read_to_string("/sys/kernel/mm/transparent_hugepage/enabled").unwrap_or_default();
+        // an allocation not on a 2 MiB boundary, as the allocator hands them out
+        let mut big: Vec<[f32; 8]> = Vec::with_capacity((9 << 20) / 32 + 3);
+        let taken = advise_huge_pages(&mut big);
+        if mode.contains("[always]") || mode.contains("[madvise]") {
+            assert!(taken, "madvise refused the aligned interior of a 9 MiB array (THP: {})", mode.trim());
+        } else {
+            eprintln!("transparent huge pages unavailable ({}): advice not checked", mode.trim());
+        }
+        // small arrays are left alone
+        assert!(!advise_huge_pages(&mut Vec::<u8>::with_capacity(1 << 20)));
     }
 
     #[test]
