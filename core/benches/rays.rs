@@ -5,7 +5,9 @@
 //!
 //! (DATA_DIR may also come from `TIDE_BENCH_DATA`; threads default to `1,2`; each timing is the
 //! best of `TIDE_BENCH_REPEATS` passes, default 1; `TIDE_BENCH_CHECKS` rays per set, default 64,
-//! are checked by brute force.) Prints one JSON
+//! are checked by brute force. `TIDE_BENCH_MOTION=A` makes the mesh deform: a second position
+//! key, time 1, moves every vertex by a smooth field of amplitude A metres, and each ray gets its
+//! own time in [0, 1); the brute force then tests the mesh as it stands at the ray's time.) Prints one JSON
 //! line: build seconds, bytes per triangle, and per ray set and thread count Mrays/s and hit
 //! fraction. Every run checks that all thread counts give bit-identical hits and that a strided
 //! subset of rays agrees with a brute-force search over every triangle; a failed check exits 1.
@@ -50,11 +52,23 @@ fn thread_cpu_seconds() -> f64 {
 /// One ray's answer: distance bits and triangle, or `u32::MAX` for a miss.
 type Answer = (u32, u32);
 
-fn trace(accel: &Accel, o: &[Vec3], d: &[Vec3], out: &mut [Answer]) {
+/// Ray i's shutter time in a deforming run: well spread over [0, 1), the same on every run.
+fn ray_time(i: usize) -> f32 {
+    ((i as f64 * 0.618_033_988_749_894_9).fract()) as f32
+}
+
+/// The second key of a deforming run: each vertex moved by a smooth field of amplitude `a`
+/// (waves' motion over a shutter is centimetres on a mesh of 0.34 m edges).
+fn moved(positions: &[Vec3], a: f32) -> Vec<Vec3> {
+    positions.iter().map(|p| *p + a * Vec3::new((p.z * 0.3).sin(), (p.x * 0.21 + p.z * 0.17).cos(), (p.x * 0.25).sin())).collect()
+}
+
+fn trace(accel: &Accel, o: &[Vec3], d: &[Vec3], motion: bool, out: &mut [Answer]) {
     out.par_chunks_mut(1024).enumerate().for_each(|(c, chunk)| {
         for (k, a) in chunk.iter_mut().enumerate() {
             let i = c * 1024 + k;
-            let ray = Ray { o: o[i], d: d[i], t_max: f32::INFINITY, time: 0.0 };
+            let time = if motion { ray_time(i) } else { 0.0 };
+            let ray = Ray { o: o[i], d: d[i], t_max: f32::INFINITY, time };
             *a = match accel.intersect(&ray) {
                 Some(h) => (h.t.to_bits(), h.prim),
                 None => (0, u32::MAX),
@@ -100,7 +114,12 @@ fn main() {
     let positions = read_vec3s(&dir.join("ocean_vertices.npy"));
     let indices = read_npy_u32(&dir.join("ocean_indices.npy"));
     let ntri = indices.len() / 3;
-    let mesh = MeshDesc { name: "ocean".into(), positions: positions.clone(), indices: indices.clone(), ..Default::default() };
+    let motion: Option<f32> = std::env::var("TIDE_BENCH_MOTION").ok().map(|s| s.parse().expect("TIDE_BENCH_MOTION"));
+    let second = motion.map(|a| moved(&positions, a));
+    let mut mesh = MeshDesc { name: "ocean".into(), positions: positions.clone(), indices: indices.clone(), ..Default::default() };
+    if let Some(p1) = &second {
+        mesh.motion = Some(tide_core::scene::MeshMotion { times: vec![0.0, 1.0], positions: vec![positions.clone(), p1.clone()], normals: None });
+    }
     let inst = InstanceDesc {
         name: "ocean".into(),
         geometry: GeometryRef::Mesh(0),
@@ -112,10 +131,11 @@ fn main() {
         casts_shadows: true,
         primvar_row: None,
     };
-    let accel = Accel::build(&[std::sync::Arc::new(mesh)], &[], &[inst], (0.0, 0.0));
+    let accel = Accel::build(&[std::sync::Arc::new(mesh)], &[], &[inst], (0.0, if motion.is_some() { 1.0 } else { 0.0 }));
     let st = &accel.stats;
     print!(
-        "{{\"tide\": true, \"triangles\": {ntri}, \"build_s\": {:.4}, \"bytes\": {}, \"bytes_per_triangle\": {:.1}",
+        "{{\"tide\": true, \"triangles\": {ntri}, \"motion_amplitude\": {}, \"build_s\": {:.4}, \"bytes\": {}, \"bytes_per_triangle\": {:.1}",
+        motion.unwrap_or(0.0),
         st.seconds,
         st.bytes,
         st.bytes as f64 / ntri as f64
@@ -131,13 +151,13 @@ fn main() {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build().unwrap();
             let mut out = vec![(0u32, 0u32); n];
             pool.install(|| {
-                trace(&accel, &o[..n / 10], &d[..n / 10], &mut out[..n / 10]); // warm-up
+                trace(&accel, &o[..n / 10], &d[..n / 10], motion.is_some(), &mut out[..n / 10]); // warm-up
                 // best of `repeats`: other work on a shared machine only ever adds time
                 let mut s = f64::INFINITY;
                 let mut cpu = f64::INFINITY;
                 for _ in 0..repeats {
                     let (start, c0) = (Instant::now(), thread_cpu_seconds());
-                    trace(&accel, &o, &d, &mut out);
+                    trace(&accel, &o, &d, motion.is_some(), &mut out);
                     s = s.min(start.elapsed().as_secs_f64());
                     cpu = cpu.min(thread_cpu_seconds() - c0);
                 }
@@ -168,7 +188,15 @@ fn main() {
         let mut bad = 0;
         for k in 0..checks {
             let i = k * (n / checks) + 7;
-            let want = brute_force(&positions, &indices, o[i], d[i]);
+            let want = match &second {
+                // the mesh at the ray's time, interpolated as the renderer does
+                Some(p1) => {
+                    let w = ray_time(i);
+                    let at: Vec<Vec3> = positions.iter().zip(p1).map(|(a, b)| a.lerp(*b, w)).collect();
+                    brute_force(&at, &indices, o[i], d[i])
+                }
+                None => brute_force(&positions, &indices, o[i], d[i]),
+            };
             let got = out[i];
             let agree = match want {
                 None => got.1 == u32::MAX,

@@ -1,8 +1,9 @@
 //! The BVH: Tide's two-level acceleration structure. One BVH per geometry: a static mesh's
 //! triangles in an eight-wide tree of four-triangle blocks (`tribvh.rs`), a points set's
 //! spheres, bubbles or blobby kernels in the same eight-wide tree with primitive ids in its
-//! leaves, intersected by callback (`wide.rs`), a deforming mesh in obvhs' `CwBvh`
-//! (`motion_mesh.rs`); and one eight-wide tree over the instances that place them. Instances may move
+//! leaves, intersected by callback (`wide.rs`), a deforming mesh in the same tree with
+//! four-triangle blocks stored per position key (`motion_mesh.rs`); and one eight-wide tree over
+//! the instances that place them. Instances may move
 //! (transform motion blur with any number of samples, rotations interpolated on the sphere),
 //! spheres may move by velocity and meshes may deform (vertex position keys).
 
@@ -19,7 +20,7 @@ use wide::PointBvh;
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;
-use obvhs::{aabb::Aabb, ray::Ray as BvhRay};
+use obvhs::aabb::Aabb;
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
 use std::sync::{Arc, Mutex};
@@ -272,22 +273,6 @@ fn intersect_sphere(c: Vec3A, r: f32, o: Vec3A, d: Vec3A, t_min: f32, t_max: f32
         Some(t1)
     } else {
         None
-    }
-}
-
-/// The traversal's ray. Negative zeros in the direction are made positive: the traversal picks
-/// a ray octant from the sign test `d < 0` while the reciprocal keeps the sign of −0, and the two
-/// must agree (an axis-aligned ray such as −Y would otherwise miss everything).
-#[inline(always)]
-fn bvh_ray(o: Vec3A, d: Vec3A, t_max: f32) -> BvhRay {
-    BvhRay::new(o, d + Vec3A::ZERO, 0.0, t_max)
-}
-
-/// A CwBvh over a single primitive is a lone leaf that traversal never enters: give such a
-/// build a duplicate (indices are taken modulo the true count).
-fn pad_single<T: Clone>(v: &mut Vec<T>) {
-    if v.len() == 1 {
-        v.push(v[0].clone());
     }
 }
 

@@ -273,5 +273,27 @@ fn a_static_mesh_keeps_the_static_path_and_a_deforming_quad_moves() {
     assert!(a.bounds().0.x <= -6.0 && a.bounds().1.x >= 6.0);
 }
 
+#[test]
+fn a_lone_deforming_triangle_is_found_at_every_time() {
+    // one triangle (the tree's root is its leaf) rising from y = 0 to y = 2 over the shutter
+    let tri = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 1.0)];
+    let key = |y: f32| tri.iter().map(|p| *p + Vec3::Y * y).collect::<Vec<_>>();
+    let m = MeshDesc {
+        name: "lone".into(),
+        positions: key(0.0),
+        indices: vec![0, 1, 2],
+        motion: Some(crate::scene::MeshMotion { times: vec![0.0, 1.0], positions: vec![key(0.0), key(2.0)], normals: None }),
+        ..Default::default()
+    };
+    let a = Accel::build(&[m.into()], &[], &[inst(GeometryRef::Mesh(0), vec![Mat4::IDENTITY], vec![0.0])], (0.0, 1.0));
+    assert!(matches!(a.blas[0].as_ref(), Blas::MotionTri(_)));
+    for (time, y) in [(0.0, 0.0), (0.25, 0.5), (1.0, 2.0), (7.0, 2.0), (-1.0, 0.0)] {
+        let h = a.intersect(&Ray { o: Vec3::new(0.2, 5.0, 0.3), d: -Vec3::Y, t_max: f32::INFINITY, time }).expect("hit");
+        assert!((h.t - (5.0 - y)).abs() < 1e-5, "time {time}: t {}", h.t);
+        // outside the triangle at that time: a miss
+        assert!(a.intersect(&Ray { o: Vec3::new(0.8, 5.0, 0.8), d: -Vec3::Y, t_max: f32::INFINITY, time }).is_none());
+    }
+}
+
 #[path = "implicit_tests.rs"]
 mod implicit_tests;

@@ -9,13 +9,48 @@ use glam::{Vec3, Vec3A};
 const BLOCK: usize = 4;
 const _: () = assert!(MAX_LEAF <= BLOCK * 8, "a leaf's blocks must fit its slot's count");
 
-/// Four triangles, SoA: a vertex and two edges per lane, and the input index of each.
+/// Four triangles' geometry, SoA: a vertex and two edges per lane.
 #[derive(Clone, Copy)]
-#[repr(C, align(32))]
-struct Tri4 {
+#[repr(C, align(16))]
+pub(super) struct Tri4Geom {
     v0: [[f32; 4]; 3],
     e1: [[f32; 4]; 3],
     e2: [[f32; 4]; 3],
+}
+
+impl Tri4Geom {
+    /// Lane i holds triangle `tris[i]` (vertices 0, 1, 2).
+    pub(super) fn new(tris: [[Vec3A; 3]; 4]) -> Tri4Geom {
+        let mut g = Tri4Geom { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3] };
+        for (lane, [v0, v1, v2]) in tris.into_iter().enumerate() {
+            let (e1, e2) = (v1 - v0, v2 - v0);
+            for a in 0..3 {
+                g.v0[a][lane] = v0[a];
+                g.e1[a][lane] = e1[a];
+                g.e2[a][lane] = e2[a];
+            }
+        }
+        g
+    }
+
+    /// Rows v0, e1, e2, each as x, y, z lanes.
+    #[inline(always)]
+    pub(super) fn load(&self) -> [[F4; 3]; 3] {
+        let l = |r: &[[f32; 4]; 3]| [F4::load(&r[0]), F4::load(&r[1]), F4::load(&r[2])];
+        [l(&self.v0), l(&self.e1), l(&self.e2)]
+    }
+
+    #[cfg(test)]
+    fn bits(&self) -> impl Iterator<Item = u32> + '_ {
+        self.v0.iter().chain(&self.e1).chain(&self.e2).flatten().map(|x| x.to_bits())
+    }
+}
+
+/// Four triangles and the input index of each.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Tri4 {
+    g: Tri4Geom,
     ids: [u32; 4],
 }
 
@@ -64,20 +99,10 @@ impl TriBvh {
             |n| n.div_ceil(BLOCK),
             |ids, _, first, out| {
                 for c in ids.chunks(BLOCK) {
-                    let mut blk = Tri4 { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3], ids: [0; 4] };
-                    for lane in 0..4 {
-                        // short blocks repeat their last triangle: a duplicate never wins a strict `<`
-                        let id = c[lane.min(c.len() - 1)];
-                        let [v0, v1, v2] = mesh.tri(id as usize);
-                        let (e1, e2) = (v1 - v0, v2 - v0);
-                        for a in 0..3 {
-                            blk.v0[a][lane] = v0[a];
-                            blk.e1[a][lane] = e1[a];
-                            blk.e2[a][lane] = e2[a];
-                        }
-                        blk.ids[lane] = id;
-                    }
-                    out.push(blk);
+                    // a short block repeats its last triangle
+                    let lane = |l: usize| c[l.min(c.len() - 1)];
+                    let g = Tri4Geom::new([0, 1, 2, 3].map(|l| mesh.tri(lane(l) as usize)));
+                    out.push(Tri4 { g, ids: [0, 1, 2, 3].map(lane) });
                 }
                 leaf_slot(first, ids.len().div_ceil(BLOCK))
             },
@@ -94,68 +119,89 @@ impl TriBvh {
     #[inline]
     pub fn intersect(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<(f32, u32, f32, f32)> {
         let ray = PreRay::new(o, d);
-        let mut best: Option<(f32, u32, f32, f32)> = None;
-        self.tree.traverse(
+        nearest_in_blocks(
+            &self.tree,
             &ray,
             t_max,
-            |slot, mut t_max| {
-                let (first, count) = leaf_items(slot);
-                for b in first..first + count {
-                    if let Some((t, lane, u, v)) = self.intersect_block(b, &ray, t_max) {
-                        t_max = t;
-                        best = Some((t, self.blocks[b].ids[lane], u, v));
-                    }
-                }
-                t_max
-            },
-            |slot| {
-                let (first, _) = leaf_items(slot);
-                prefetch_lines(self.blocks.as_ptr().wrapping_add(first) as *const u8, std::mem::size_of::<Tri4>());
-            },
-        );
-        best
+            |b, t_max| self.intersect_block(b, &ray, t_max).map(|(t, lane, u, v)| (t, self.blocks[b].ids[lane], u, v)),
+            |first| prefetch_lines(self.blocks.as_ptr().wrapping_add(first) as *const u8, std::mem::size_of::<Tri4>()),
+        )
     }
 
     /// Nearest of a block's four triangles with t in (0, t_max), lanes tested in order.
     #[inline(always)]
     fn intersect_block(&self, b: usize, ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
-        let blk = &self.blocks[b];
-        let l = |r: &[[f32; 4]; 3]| [F4::load(&r[0]), F4::load(&r[1]), F4::load(&r[2])];
-        let (v0, e1, e2) = (l(&blk.v0), l(&blk.e1), l(&blk.e2));
-        let cross = |a: [F4; 3], b: [F4; 3]| {
-            [
-                a[1].mul(b[2]).sub(a[2].mul(b[1])),
-                a[2].mul(b[0]).sub(a[0].mul(b[2])),
-                a[0].mul(b[1]).sub(a[1].mul(b[0])),
-            ]
-        };
-        let dot = |a: [F4; 3], b: [F4; 3]| a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]));
-        let p = cross(ray.d, e2);
-        let det = dot(e1, p);
-        let inv = F4::splat(1.0).div(det);
-        let s = [ray.o[0].sub(v0[0]), ray.o[1].sub(v0[1]), ray.o[2].sub(v0[2])];
-        let u = dot(s, p).mul(inv);
-        let q = cross(s, e1);
-        let v = dot(ray.d, q).mul(inv);
-        let t = dot(e2, q).mul(inv);
-        let zero = F4::splat(0.0);
-        let one = F4::splat(1.0);
-        // det = 0 or non-finite gives NaN or infinite u, v, t, which every test below rejects
-        let mut mask = zero.le(u) & zero.le(v) & u.add(v).le(one) & zero.lt(t) & t.lt(F4::splat(t_max));
-        if mask == 0 {
-            return None;
-        }
-        let (ta, ua, va) = (t.to_array(), u.to_array(), v.to_array());
-        let mut best: Option<(f32, usize, f32, f32)> = None;
-        while mask != 0 {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            if best.is_none_or(|b| ta[i] < b.0) {
-                best = Some((ta[i], i, ua[i], va[i]));
-            }
-        }
-        best
+        hit4(self.blocks[b].g.load(), ray, t_max)
     }
+}
+
+/// The nearest hit (t, triangle, u, v) in (0, t_max) over the blocks of the leaves of `tree`
+/// that the ray reaches: `block(b, t)` tests block b up to t; `prefetch(b)` starts the loads of a
+/// leaf whose first block is b.
+#[inline(always)]
+pub(super) fn nearest_in_blocks(
+    tree: &WideTree,
+    ray: &PreRay,
+    t_max: f32,
+    block: impl Fn(usize, f32) -> Option<(f32, u32, f32, f32)>,
+    prefetch: impl Fn(usize),
+) -> Option<(f32, u32, f32, f32)> {
+    let mut best = None;
+    tree.traverse(
+        ray,
+        t_max,
+        |slot, mut t_max| {
+            let (first, count) = leaf_items(slot);
+            for b in first..first + count {
+                if let Some(h) = block(b, t_max) {
+                    t_max = h.0;
+                    best = Some(h);
+                }
+            }
+            t_max
+        },
+        |slot| prefetch(leaf_items(slot).0),
+    );
+    best
+}
+
+/// Möller–Trumbore on four triangles at once (rows v0, e1, e2 as from [`Tri4Geom::load`]): the
+/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2.
+#[inline(always)]
+pub(super) fn hit4([v0, e1, e2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
+    let cross = |a: [F4; 3], b: [F4; 3]| {
+        [
+            a[1].mul(b[2]).sub(a[2].mul(b[1])),
+            a[2].mul(b[0]).sub(a[0].mul(b[2])),
+            a[0].mul(b[1]).sub(a[1].mul(b[0])),
+        ]
+    };
+    let dot = |a: [F4; 3], b: [F4; 3]| a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]));
+    let p = cross(ray.d, e2);
+    let det = dot(e1, p);
+    let inv = F4::splat(1.0).div(det);
+    let s = [ray.o[0].sub(v0[0]), ray.o[1].sub(v0[1]), ray.o[2].sub(v0[2])];
+    let u = dot(s, p).mul(inv);
+    let q = cross(s, e1);
+    let v = dot(ray.d, q).mul(inv);
+    let t = dot(e2, q).mul(inv);
+    let zero = F4::splat(0.0);
+    let one = F4::splat(1.0);
+    // det = 0 or non-finite gives NaN or infinite u, v, t, which every test below rejects
+    let mut mask = zero.le(u) & zero.le(v) & u.add(v).le(one) & zero.lt(t) & t.lt(F4::splat(t_max));
+    if mask == 0 {
+        return None;
+    }
+    let (ta, ua, va) = (t.to_array(), u.to_array(), v.to_array());
+    let mut best: Option<(f32, usize, f32, f32)> = None;
+    while mask != 0 {
+        let i = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        if best.is_none_or(|b| ta[i] < b.0) {
+            best = Some((ta[i], i, ua[i], va[i]));
+        }
+    }
+    best
 }
 
 #[cfg(test)]
@@ -202,7 +248,7 @@ mod tests {
     fn bits(bvh: &TriBvh) -> Vec<u32> {
         let mut v = bvh.tree.bits();
         for b in &bvh.blocks {
-            v.extend(b.v0.iter().chain(&b.e1).chain(&b.e2).flatten().map(|x| x.to_bits()));
+            v.extend(b.g.bits());
             v.extend(b.ids);
         }
         v
