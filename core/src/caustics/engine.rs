@@ -843,6 +843,7 @@ impl Caustics {
     #[allow(clippy::too_many_arguments)]
     pub fn gather_beams(&self, world: &World, a: Vec3, c: Vec3, t_max: f32, m: usize, lambda: &SampledWavelengths, throughput: f32, fp: &Footprint, u: f32) -> SampledSpectrum {
         let med = &world.media[m];
+        let at = crate::medium::MediumAt::new(med, lambda);
         let lookup = self.kernel.at(lambda);
         let mut rng_state = StreamRng::new(u, 0xbea5);
         let sq = u.sqrt();
@@ -883,10 +884,10 @@ impl Caustics {
                 return;
             }
             let mut rng = || rng_state.next_f32();
-            let tr_b = med.transmittance(b.photon.position, b.dir, ap.s, &mut rng, lambda);
-            let tr_c = med.transmittance(a, c, ap.t, &mut rng, lambda);
+            let tr_b = at.transmittance(b.photon.position, b.dir, ap.s, &mut rng);
+            let tr_c = at.transmittance(a, c, ap.t, &mut rng);
             let k = (sigma_c * ap.t).exp() / (2.0 * w * ap.sin_theta);
-            sum += b.photon.spectral_flux(&lookup) * med.sigma_s_at(x, lambda) * tr_b * tr_c * (fp * k * mis);
+            sum += b.photon.spectral_flux(&lookup) * at.sigma_s_at(x) * tr_b * tr_c * (fp * k * mis);
         });
         sum * self.weight
     }

@@ -212,3 +212,42 @@ impl Medium {
         }
     }
 }
+
+/// A medium seen at one path's wavelengths: a homogeneous medium's coefficients are looked up
+/// once (a spectrum evaluation at every wavelength, per call otherwise), for loops that query it
+/// many times with the same wavelengths, such as gathering photon beams. Gives the same bits as
+/// the medium's own queries.
+pub struct MediumAt<'a> {
+    medium: &'a Medium,
+    lambda: &'a SampledWavelengths,
+    /// (σa, σs) of a homogeneous medium.
+    fixed: Option<(SampledSpectrum, SampledSpectrum)>,
+}
+
+impl<'a> MediumAt<'a> {
+    pub fn new(medium: &'a Medium, lambda: &'a SampledWavelengths) -> MediumAt<'a> {
+        let fixed = match medium {
+            Medium::Homogeneous(m) => Some(m.coefficients(lambda)),
+            _ => None,
+        };
+        MediumAt { medium, lambda, fixed }
+    }
+
+    /// [`Medium::sigma_s_at`].
+    #[inline]
+    pub fn sigma_s_at(&self, p: Vec3) -> SampledSpectrum {
+        match self.fixed {
+            Some((_, s)) => s,
+            None => self.medium.sigma_s_at(p, self.lambda),
+        }
+    }
+
+    /// [`Medium::transmittance`].
+    #[inline]
+    pub fn transmittance(&self, origin: Vec3, dir: Vec3, t: f32, rng: &mut impl FnMut() -> f32) -> SampledSpectrum {
+        match self.fixed {
+            Some((a, s)) => homogeneous::transmittance_spectral(a + s, t),
+            None => self.medium.transmittance(origin, dir, t, rng, self.lambda),
+        }
+    }
+}

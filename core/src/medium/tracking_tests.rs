@@ -613,3 +613,32 @@ fn depth_varying_free_flight_weights_are_unbiased_per_wavelength() {
     }
     assert!(pass_checked >= 3, "only {pass_checked} rays pass often enough to check");
 }
+
+#[test]
+fn a_medium_seen_at_fixed_wavelengths_gives_the_media_own_bits() {
+    let rgb = MediumDesc { water: None, sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]), sigma_s: SpectrumDesc::Rgb([0.02, 0.03, 0.03]), ..water_desc(None, 0.0) };
+    let media = [
+        Medium::from_desc(&rgb, ColorSpace::LinearRec709).unwrap(),
+        // uniform water becomes a tabulated homogeneous medium; a profile keeps it depth-varying
+        Medium::from_desc(&water_desc(None, 2.0), ColorSpace::LinearRec709).unwrap(),
+        Medium::from_desc(&water_desc(Some(DCM), 2.0), ColorSpace::LinearRec709).unwrap(),
+    ];
+    assert!(matches!(media[0], Medium::Homogeneous(_)) && matches!(media[2], Medium::BioOptical(_)));
+    let mut rng = TestRng::new(3);
+    for med in &media {
+        for k in 0..50 {
+            let lambda = SampledWavelengths::sample_uniform(rng.next_f32());
+            let at = MediumAt::new(med, &lambda);
+            let p = Vec3::new(rng.next_f32(), -12.0 * rng.next_f32(), rng.next_f32());
+            let dir = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 0.3).normalize();
+            let t = 20.0 * rng.next_f32();
+            let bits = |s: SampledSpectrum| (0..N_SPECTRUM).map(|j| s[j].to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(at.sigma_s_at(p)), bits(med.sigma_s_at(p, &lambda)), "sample {k}");
+            // the same random numbers for both (tracking media draw some)
+            let (mut r1, mut r2) = (TestRng::new(k), TestRng::new(k));
+            let got = at.transmittance(p, dir, t, &mut || r1.next_f32());
+            let want = med.transmittance(p, dir, t, &mut || r2.next_f32(), &lambda);
+            assert_eq!(bits(got), bits(want), "sample {k}");
+        }
+    }
+}
