@@ -343,7 +343,19 @@ pub struct PhotonMap {
 #[inline]
 fn cell_coord(p: Vec3, inv_cell: f32) -> [i32; 3] {
     // `as` saturates: far-off photons share the outermost cells, which only costs speed
-    [(p.x * inv_cell).floor() as i32, (p.y * inv_cell).floor() as i32, (p.z * inv_cell).floor() as i32]
+    [floor_i32(p.x * inv_cell), floor_i32(p.y * inv_cell), floor_i32(p.z * inv_cell)]
+}
+
+/// `x.floor() as i32` (saturating, NaN to 0) without `floorf`, a library call on x86-64
+/// without SSE4.1: truncate, then step down where that rounded up.
+#[inline(always)]
+fn floor_i32(x: f32) -> i32 {
+    let i = x as i32;
+    if (i as f32) > x {
+        i.saturating_sub(1)
+    } else {
+        i
+    }
 }
 
 #[inline]
@@ -450,8 +462,9 @@ impl PhotonMap {
                     let b = hash_cell(c, self.mask) as usize;
                     let range = self.bucket_start[b] as usize..self.bucket_start[b + 1] as usize;
                     for p in &self.photons[range] {
-                        // buckets are shared by colliding cells: visit each photon from its own cell only
-                        if cell_coord(p.position, self.inv_cell) == c {
+                        // buckets are shared by colliding cells: visit each photon from its own
+                        // cell only (tested after the cheaper distance test)
+                        if p.position.distance_squared(q.position) <= r2 && cell_coord(p.position, self.inv_cell) == c {
                             visit(p);
                         }
                     }
@@ -540,4 +553,21 @@ fn oct_encode(v: Vec3) -> u32 {
 fn oct_decode(e: u32) -> Vec3 {
     let d = |q: u32| (q as f32 / 65535.0) * 2.0 - 1.0;
     crate::math::oct_decode(glam::Vec2::new(d(e >> 16), d(e & 0xffff)))
+}
+
+#[cfg(test)]
+mod floor_tests {
+    use super::floor_i32;
+
+    #[test]
+    fn floor_without_floorf_is_floor_as_i32() {
+        let mut xs = vec![0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999_999_8, -2.999_999_8, 1e-30, -1e-30, 8_388_607.5, -8_388_607.5];
+        xs.extend([2.1e9, -2.1e9, 3e9, -3e9, f32::MAX, f32::MIN, f32::INFINITY, f32::NEG_INFINITY, f32::NAN]);
+        // every 2^-8 step over [-40, 40], and neighbours of whole numbers
+        xs.extend((-10240..=10240).map(|k| k as f32 / 256.0));
+        xs.extend((-40..=40).flat_map(|k| [f32::from_bits((k as f32).to_bits().wrapping_sub(1)), f32::from_bits((k as f32).to_bits() + 1)]));
+        for x in xs {
+            assert_eq!(floor_i32(x), x.floor() as i32, "x = {x:e}");
+        }
+    }
 }
