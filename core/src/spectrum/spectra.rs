@@ -40,6 +40,9 @@ struct TabulatedData {
     /// holding a wavelength, corrected by a step or two (or a binary search) where the grid is
     /// uneven, so the interval found is always the one a search would find.
     inv_step: f32,
+    /// The samples sit on consecutive whole nanometres (water tabulated at 1 nm): the interval
+    /// and the fraction within it come from one subtraction, with the bits of the search.
+    unit: bool,
 }
 
 impl Tabulated {
@@ -58,6 +61,14 @@ impl Tabulated {
 }
 
 impl TabulatedData {
+    /// Two or more samples, wavelengths increasing.
+    fn new(lambda: &[f32], value: &[f32]) -> TabulatedData {
+        let n = lambda.len();
+        let unit = lambda[0].fract() == 0.0 && lambda.iter().enumerate().all(|(k, &x)| x == lambda[0] + k as f32);
+        let inv_step = (n - 1) as f32 / (lambda[n - 1] - lambda[0]);
+        TabulatedData { lambda: lambda.into(), value: value.into(), max: 0.0, inv_step, unit }
+    }
+
     #[inline]
     fn eval(&self, l: f32) -> f32 {
         let (xs, ys) = (&*self.lambda, &*self.value);
@@ -67,6 +78,13 @@ impl TabulatedData {
         }
         if l >= xs[n - 1] {
             return ys[n - 1];
+        }
+        if self.unit {
+            // l − xs[0] is exact (xs[0] a whole number no larger than l, the difference no
+            // larger than l), so are its integer part i and u − i = (l − xs[i]) / 1
+            let u = l - xs[0];
+            let i = (u as usize).min(n - 2);
+            return ys[i] + (u - i as f32) * (ys[i + 1] - ys[i]);
         }
         // the interval i with xs[i] <= l < xs[i + 1]
         let mut i = (((l - xs[0]) * self.inv_step) as usize).min(n - 2);
@@ -261,11 +279,7 @@ impl Spectrum {
             return Ok(Spectrum::Constant(value[0]));
         }
         // the maximum over [360, 830]: interior samples plus the curve at the two ends
-        let mut t = TabulatedData { lambda: lambda.into(), value: value.into(), max: 0.0, inv_step: 0.0 };
-        let n = t.lambda.len();
-        if n > 1 {
-            t.inv_step = (n - 1) as f32 / (t.lambda[n - 1] - t.lambda[0]);
-        }
+        let mut t = TabulatedData::new(lambda, value);
         let mut max = t.eval(LAMBDA_MIN).max(t.eval(LAMBDA_MAX));
         for (&l, &v) in lambda.iter().zip(value) {
             if (LAMBDA_MIN..=LAMBDA_MAX).contains(&l) {
@@ -332,9 +346,14 @@ mod tests {
             let last = *uneven.last().unwrap();
             uneven.push(last + 0.1 + 20.0 * next() * next());
         }
-        for xs in [even, uneven] {
+        // whole nanometres (the unit-grid path), and a grid at 0.5 nm that must not take it
+        let unit: Vec<f32> = (360..=830).map(|l| l as f32).collect();
+        let half: Vec<f32> = (0..200).map(|i| 400.0 + 0.5 * i as f32).collect();
+        let offset: Vec<f32> = (0..200).map(|i| 400.25 + i as f32).collect();
+        for (g, xs) in [even, uneven, unit, half, offset].into_iter().enumerate() {
             let ys: Vec<f32> = xs.iter().map(|l| (l * 0.01).sin().abs()).collect();
-            let t = TabulatedData { lambda: xs.clone().into(), value: ys.clone().into(), max: 0.0, inv_step: (xs.len() - 1) as f32 / (xs[xs.len() - 1] - xs[0]) };
+            let t = TabulatedData::new(&xs, &ys);
+            assert_eq!(t.unit, g == 2, "grid {g}");
             for k in 0..20_000 {
                 let l = if k % 7 == 0 { xs[k % xs.len()] } else { xs[0] - 5.0 + (xs[xs.len() - 1] - xs[0] + 10.0) * next() };
                 // the reference: binary search
