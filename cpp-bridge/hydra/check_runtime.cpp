@@ -35,6 +35,7 @@
 #include "pxr/imaging/hd/tokens.h"
 #include "pxr/imaging/pxOsd/tokens.h"
 #ifdef TIDE_CHECK_USD_IMAGING
+#include "pxr/usd/usd/relationship.h"
 #include "pxr/usd/usd/stage.h"
 #include "pxr/usdImaging/usdImaging/delegate.h"
 #include "pxr/imaging/hd/sceneIndexPluginRegistry.h"
@@ -245,6 +246,22 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
     Bind(state, buffer, camera, w, h);
     const float* px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(300));
     if (!px) return Fail("no convergence in 300 s, or no pixels");
+    // TIDE_CHECK_ADD_TARGET="REL_PATH TARGET": then a live edit, the target added to that
+    // relationship through usd-core's stage as an application would, and the image after it
+    if (const char* edit = std::getenv("TIDE_CHECK_ADD_TARGET")) {
+        const std::string spec(edit);
+        const size_t space = spec.find(' ');
+        UsdRelationship rel = space == std::string::npos ? UsdRelationship() : stage->GetRelationshipAtPath(SdfPath(spec.substr(0, space)));
+        if (!rel || !rel.AddTarget(SdfPath(spec.substr(space + 1)))) return Fail("TIDE_CHECK_ADD_TARGET: no such relationship, or a bad target");
+        buffer->Unmap();
+        if (sceneIndex) {
+            sceneIndices.stageSceneIndex->ApplyPendingUpdates();
+        } else {
+            scene->ApplyPendingUpdates();
+        }
+        px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(300));
+        if (!px) return Fail("after the edit: no convergence in 300 s, or no pixels");
+    }
     const int ch = HdGetComponentCount(buffer->GetFormat());
     std::printf("hydra");
     for (int c = 0; c < 3; ++c) {

@@ -104,7 +104,8 @@ compare() {
         line=$(TIDE_CHECK_REFINE=$refine PXR_PLUGINPATH_NAME="$paths" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_stage" "$stage" /World/Cam 32 32 64 "$mode") || return $?
         hydra+=("$mode ${line#hydra }")
     done
-    "$repo/tide" render "$stage" -c "${complexity:-low}" -o "$out/core.exr" >/dev/null || return $?
+    # $reference: the stage tide render reads instead (what $stage is after a live edit)
+    "$repo/tide" render "${reference:-$stage}" -c "${complexity:-low}" -o "$out/core.exr" >/dev/null || return $?
     noise="${noise:-}" "$repo/.venv/bin/python" - "$out/core.exr" "${hydra[@]}" <<'PY'
 import os
 import sys
@@ -144,6 +145,8 @@ check() {
     # (not named `paths`: compare reads the plugin search path of that name)
     local stage=$1 what=$2 via
     shift 2
+    # TIDE_CHECK_ONLY=STAGE compares that stage alone
+    [ -z "${TIDE_CHECK_ONLY:-}" ] || [ "$stage" = "$TIDE_CHECK_ONLY" ] || return 0
     case "$*" in
         "delegate sceneIndex") via="UsdImaging (scene delegate, then scene indices)" ;;
         delegate) via="UsdImaging's scene delegate" ;;
@@ -151,6 +154,17 @@ check() {
     esac
     echo "rendering $stage${what:+ ($what)} through $via and through tide render"
     compare "$here/$stage" "$@"
+}
+# check_linked_to_both STAGE WHAT: STAGE rendered, then its sun's lightLink collection given
+# /World/Right too by a live edit through usd-core, through both paths; compared with tide render
+# of the stage as edited
+check_linked_to_both() {
+    local stage=$1 what=$2 edited=$out/edited_$1
+    sed 's|rel collection:lightLink:includes = </World/Left>|rel collection:lightLink:includes = [</World/Left>, </World/Right>]|' \
+        "$here/$stage" > "$edited"
+    grep -q '</World/Right>\]' "$edited" || { echo "$edited lacks its edit" >&2; return 1; }
+    TIDE_CHECK_ADD_TARGET="/World/Sun.collection:lightLink:includes /World/Right" reference=$edited \
+        check "$stage" "$what" delegate sceneIndex
 }
 # Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
 # the plugin's own discovery plugin
@@ -173,8 +187,15 @@ check check_stage_primvars.usda "primvars read by a material, a varying displayC
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
 check check_stage_lightlink.usda "a light linked to one of two walls" delegate sceneIndex || exit $?
-# HdsiLightLinkingSceneIndex (v24.08) gives instanced prims no categories: the scene delegate only
-check check_stage_lightlink_instances.usda "a light linked to one of two native instances" delegate || exit $?
+# a live edit of the collection: through the scene indices it arrives by usdImagingTide's adapter
+# (UsdImaging's CollectionAPI adapter, v24.08, misses collection properties)
+check_linked_to_both check_stage_lightlink.usda "then linked to both walls by a live edit" || exit $?
+# through the scene indices, HdTideInstanceCategoriesSceneIndex gives the instancer its instances'
+# categories (HdsiLightLinkingSceneIndex, v24.08, gives instanced prims none)
+check check_stage_lightlink_instances.usda "a light linked to one of two native instances" delegate sceneIndex || exit $?
+# a live edit linking the sun to the second instance too: the instancer's categories are dirtied
+# and re-read
+check_linked_to_both check_stage_lightlink_instances.usda "then linked to both instances by a live edit" || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
 check check_stage_pole.usda "DomeLight_1's pole axis on a Z-up stage" delegate sceneIndex || exit $?

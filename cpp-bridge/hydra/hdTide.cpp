@@ -601,6 +601,46 @@ void HdTideLightLinks::RemoveRprim(std::string const& rprim) {
     std::lock_guard<std::mutex> lock(_mutex);
     if (_categories.erase(rprim)) _changed = true;
     if (_instanceCategories.erase(rprim)) _changed = true;
+    _instanced.erase(rprim);
+    _pending.erase(rprim);
+}
+
+void HdTideLightLinks::SetInstanced(std::string const& rprim, bool instanced) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    if (instanced) _instanced.insert(rprim);
+    else _instanced.erase(rprim);
+}
+
+void HdTideLightLinks::RequestInstanceRefresh() {
+    std::lock_guard<std::mutex> lock(_mutex);
+    _refresh = true;
+}
+
+std::vector<std::string> HdTideLightLinks::TakeInstanceRefresh() {
+    std::lock_guard<std::mutex> lock(_mutex);
+    if (!_refresh) {
+        // a whole sync has passed since the rprims were marked: what did not sync will not
+        _pending.clear();
+        return {};
+    }
+    _refresh = false;
+    _pending.insert(_instanced.begin(), _instanced.end());
+    return {_instanced.begin(), _instanced.end()};
+}
+
+void HdTideLightLinks::Refreshed(std::string const& rprim) {
+    std::lock_guard<std::mutex> lock(_mutex);
+    _pending.erase(rprim);
+}
+
+bool HdTideLightLinks::RefreshPending() {
+    std::lock_guard<std::mutex> lock(_mutex);
+    return _refresh || !_pending.empty();
+}
+
+bool HdTideLightLinks::Committed() {
+    std::lock_guard<std::mutex> lock(_mutex);
+    return _committed;
 }
 
 /// The name instance k of an instanced rprim stands for in collections (its `instancePaths`).
@@ -610,6 +650,7 @@ static std::string HdTideInstanceName(std::string const& rprim, size_t k) {
 
 void HdTideLightLinks::Forward(tide::RenderParam& param) {
     std::lock_guard<std::mutex> lock(_mutex);
+    _committed = true;
     if (!_changed) return;
     _changed = false;
     static const char* const names[2] = {"lightLink", "shadowLink"};
@@ -733,6 +774,7 @@ public:
                 for (auto& [name, pv] : inst->InstancePrimvars(id)) snapshot.AddInstancePrimvar(name, std::move(pv));
             }
         }
+        if (*dirtyBits & (CT::DirtyInstancer | CT::DirtyInstanceIndex)) _shared->links.SetInstanced(id.GetString(), !instancerId.IsEmpty());
         if (!instancerId.IsEmpty() && (*dirtyBits & (CT::DirtyInstancer | CT::DirtyInstanceIndex | CT::DirtyCategories))) {
             if (auto* inst = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(instancerId))) {
                 // per-instance light-link categories: each instance then stands for itself in
@@ -745,6 +787,7 @@ public:
                     categories.clear();
                 }
                 _shared->links.SetInstanceCategories(id.GetString(), std::move(categories));
+                _shared->links.Refreshed(id.GetString());
                 snapshot.Add("instancePaths", tide::TimedValue{false, 0.0, tide::Value::MakePaths(std::move(names))},
                              tide::ChangeTracker::DirtyInstancer);
             }
@@ -802,6 +845,10 @@ public:
         tide::DirtyBits bits = snapshot.TideBits();
         _prim->Sync(snapshot, &bits);
         if (_links) {
+            // a changed collection, or a light made after the first sync (made again, as
+            // UsdImaging does on a resync): native instances' categories may have changed
+            if ((hdBits & HdLight::DirtyCollection) && (_synced || _links->Committed())) _links->RequestInstanceRefresh();
+            _synced = true;
             auto token = [&](TfToken const& name) {
                 VtValue const v = sd->GetLightParamValue(Base::GetId(), name);
                 return v.IsHolding<TfToken>() ? v.UncheckedGet<TfToken>() : TfToken();
@@ -812,6 +859,7 @@ public:
     }
 
 private:
+    bool _synced = false;
     std::string _typeId;
     tide::Sprim* _prim;
     HdTideLightLinks* _links;
@@ -939,7 +987,9 @@ public:
     HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass,
                      HdTideRenderDelegate const* delegate)
         : HdRenderPass(index, collection), _pass(std::move(pass)), _delegate(delegate) {}
-    bool IsConverged() const override { return _pass->IsConverged(); }
+    // not while instanced rprims are still to read their categories again (they sync on the
+    // next execution)
+    bool IsConverged() const override { return !_delegate->InstanceRefreshPending() && _pass->IsConverged(); }
 
 protected:
     void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
@@ -1162,7 +1212,11 @@ void HdTideRenderDelegate::DestroyBprim(HdBprim* bPrim) {
     delete bPrim;
 }
 
-void HdTideRenderDelegate::CommitResources(HdChangeTracker*) {
+void HdTideRenderDelegate::CommitResources(HdChangeTracker* tracker) {
+    // instanced rprims read their instances' categories again on the next sync
+    if (tracker)
+        for (std::string const& rprim : _shared->links.TakeInstanceRefresh())
+            tracker->MarkRprimDirty(SdfPath(rprim), HdChangeTracker::DirtyCategories);
     // every prim has synced: the light links' member sets are complete
     _shared->links.Forward(*_tide->GetRenderParam());
     _tide->CommitResources();

@@ -102,6 +102,20 @@ public:
     /// it, when it or the rprim holds the light's token.
     void SetInstanceCategories(std::string const& rprim, std::vector<std::set<TfToken>> categories);
     void RemoveRprim(std::string const& rprim);
+    /// Whether an rprim is instanced (its instancer's categories can change without it).
+    void SetInstanced(std::string const& rprim, bool instanced);
+    /// A light's collection changed (or a light came after the first commit): instances' categories
+    /// are to be read again. UsdImaging's scene delegate (v24.08) marks gprims' categories dirty
+    /// when a collection changes, but not native instances'.
+    void RequestInstanceRefresh();
+    /// The instanced rprims whose categories are to be read again (once per request); they
+    /// stay pending until their next sync (`Refreshed`).
+    std::vector<std::string> TakeInstanceRefresh();
+    void Refreshed(std::string const& rprim);
+    /// Whether a refresh is requested or awaits syncs: the render is not converged then.
+    bool RefreshPending();
+    /// Whether the collections were forwarded at least once (the first sync is over).
+    bool Committed();
     /// Forwards the collections that changed since the last call.
     void Forward(tide::RenderParam& param);
 
@@ -113,6 +127,10 @@ private:
     };
     std::mutex _mutex;
     bool _changed = false;
+    bool _refresh = false;
+    bool _committed = false;
+    std::set<std::string> _instanced;
+    std::set<std::string> _pending;
     std::map<std::string, std::array<TfToken, 2>> _lights;
     std::map<std::string, std::set<TfToken>> _categories;
     std::map<std::string, std::vector<std::set<TfToken>>> _instanceCategories;
@@ -176,6 +194,8 @@ public:
     /// The settings prim a render pass uses: the active renderSettings bprim, else the one
     /// holding the HdRenderSettingsMap's settings.
     std::string SettingsPathForPass() const;
+    /// Whether instanced rprims are still to read their light-link categories again.
+    bool InstanceRefreshPending() const { return _shared->links.RefreshPending(); }
 
 private:
     /// Forwards the settings map's Tide settings to the renderSettings prim.

@@ -10,14 +10,38 @@
 //! - HdTideLightLinkingPlugin inserts HdsiLightLinkingSceneIndex, which turns the lights'
 //!   `lightLink` / `shadowLink` collections into the category tokens lights and geometry carry
 //!   (what the render delegate reads as with a scene delegate). Without it UsdImaging's scene
-//!   indices carried no light linking: every light reached everything. (In OpenUSD v24.08 it
-//!   gives instanced prims no categories: linked lights miss them.)
+//!   indices carried no light linking: every light reached everything.
+//! - HdTideInstanceCategoriesPlugin appends HdTideInstanceCategoriesSceneIndex after it: OpenUSD
+//!   v24.08's HdsiLightLinkingSceneIndex gives instanced prims no categories (its instancer data
+//!   source leaves `instanceCategories` out), so a linked light missed every native instance.
+//!   This filter gives each instancer the categories of its instances: for each instance
+//!   location (HdInstancerTopologySchema's `instanceLocations`, the instance prims' paths), the
+//!   category ids the lights carry (`light.lightLink`, `light.shadowLink`, as HdsiLightLinking
+//!   SceneIndex set them) whose collection's membership expression matches it, as
+//!   UsdImaging's scene delegate answers GetInstanceCategories.
+#include "pxr/imaging/hd/categoriesSchema.h"
+#include "pxr/imaging/hd/collectionExpressionEvaluator.h"
+#include "pxr/imaging/hd/collectionPredicateLibrary.h"
+#include "pxr/imaging/hd/collectionSchema.h"
+#include "pxr/imaging/hd/collectionsSchema.h"
+#include "pxr/imaging/hd/filteringSceneIndex.h"
+#include "pxr/imaging/hd/instanceCategoriesSchema.h"
+#include "pxr/imaging/hd/instancerTopologySchema.h"
+#include "pxr/imaging/hd/lightSchema.h"
+#include "pxr/imaging/hd/overlayContainerDataSource.h"
 #include "pxr/imaging/hd/retainedDataSource.h"
+#include "pxr/imaging/hd/sceneIndexPrimView.h"
+#include "pxr/imaging/hd/tokens.h"
 #include "pxr/imaging/hd/sceneIndexPlugin.h"
 #include "pxr/imaging/hd/sceneIndexPluginRegistry.h"
 #include "pxr/imaging/hdsi/lightLinkingSceneIndex.h"
 #include "pxr/imaging/hdsi/renderSettingsFilteringSceneIndex.h"
 #include "pxr/pxr.h"
+
+#include <mutex>
+#include <set>
+#include <utility>
+#include <vector>
 
 PXR_NAMESPACE_OPEN_SCOPE
 
@@ -37,9 +61,204 @@ protected:
     }
 };
 
+TF_DECLARE_REF_PTRS(HdTideInstanceCategoriesSceneIndex);
+
+/// Gives instancers the light-link categories of their instances (see the file's comment).
+class HdTideInstanceCategoriesSceneIndex final : public HdSingleInputFilteringSceneIndexBase {
+public:
+    static HdTideInstanceCategoriesSceneIndexRefPtr New(HdSceneIndexBaseRefPtr const& input) {
+        return TfCreateRefPtr(new HdTideInstanceCategoriesSceneIndex(input));
+    }
+
+    HdSceneIndexPrim GetPrim(SdfPath const& path) const override {
+        HdSceneIndexPrim prim = _GetInputSceneIndex()->GetPrim(path);
+        if (prim.dataSource && prim.primType == HdPrimTypeTokens->instancer) {
+            if (HdContainerDataSourceHandle cats = _InstanceCategories(prim.dataSource)) {
+                prim.dataSource = HdOverlayContainerDataSource::New(
+                    HdRetainedContainerDataSource::New(HdInstanceCategoriesSchemaTokens->instanceCategories, cats),
+                    prim.dataSource);
+            }
+        }
+        return prim;
+    }
+
+    SdfPathVector GetChildPrimPaths(SdfPath const& path) const override {
+        return _GetInputSceneIndex()->GetChildPrimPaths(path);
+    }
+
+protected:
+    void _PrimsAdded(HdSceneIndexBase const&, HdSceneIndexObserver::AddedPrimEntries const& entries) override {
+        bool lights = false;
+        {
+            std::lock_guard<std::mutex> lock(_mutex);
+            for (auto const& e : entries) {
+                // a prim added again may have changed type
+                lights |= _lights.erase(e.primPath) > 0;
+                _instancers.erase(e.primPath);
+                if (HdPrimTypeIsLight(e.primType)) {
+                    _lights.insert(e.primPath);
+                    lights = true;
+                } else if (e.primType == HdPrimTypeTokens->instancer) {
+                    _instancers.insert(e.primPath);
+                }
+            }
+            if (lights) _stale = true;
+        }
+        _SendPrimsAdded(entries);
+        if (lights) _DirtyInstancers({});
+    }
+
+    void _PrimsRemoved(HdSceneIndexBase const&, HdSceneIndexObserver::RemovedPrimEntries const& entries) override {
+        bool lights = false;
+        {
+            std::lock_guard<std::mutex> lock(_mutex);
+            for (auto const& e : entries) {
+                lights |= _EraseUnder(_lights, e.primPath);
+                _EraseUnder(_instancers, e.primPath);
+            }
+            if (lights) _stale = true;
+        }
+        _SendPrimsRemoved(entries);
+        if (lights) _DirtyInstancers({});
+    }
+
+    void _PrimsDirtied(HdSceneIndexBase const&, HdSceneIndexObserver::DirtiedPrimEntries const& entries) override {
+        static HdDataSourceLocatorSet const linkLocators{HdLightSchema::GetDefaultLocator(), HdCollectionsSchema::GetDefaultLocator()};
+        bool lights = false;
+        HdSceneIndexObserver::DirtiedPrimEntries extra;
+        {
+            std::lock_guard<std::mutex> lock(_mutex);
+            for (auto const& e : entries) {
+                if (_lights.count(e.primPath) && e.dirtyLocators.Intersects(linkLocators)) {
+                    lights = true;
+                } else if (_instancers.count(e.primPath) && e.dirtyLocators.Intersects(HdInstancerTopologySchema::GetDefaultLocator())) {
+                    // other instances, other categories
+                    extra.emplace_back(e.primPath, HdInstanceCategoriesSchema::GetDefaultLocator());
+                }
+            }
+            if (lights) _stale = true;
+        }
+        _SendPrimsDirtied(entries);
+        if (lights) {
+            _DirtyInstancers(std::move(extra));
+        } else if (!extra.empty()) {
+            _SendPrimsDirtied(extra);
+        }
+    }
+
+private:
+    explicit HdTideInstanceCategoriesSceneIndex(HdSceneIndexBaseRefPtr const& input)
+        : HdSingleInputFilteringSceneIndexBase(input) {
+        // what the input already holds (it may have been populated before this filter)
+        for (SdfPath const& path : HdSceneIndexPrimView(input)) {
+            TfToken const type = input->GetPrim(path).primType;
+            if (HdPrimTypeIsLight(type)) {
+                _lights.insert(path);
+            } else if (type == HdPrimTypeTokens->instancer) {
+                _instancers.insert(path);
+            }
+        }
+    }
+
+    static bool _EraseUnder(std::set<SdfPath>& paths, SdfPath const& root) {
+        auto it = paths.lower_bound(root);
+        bool any = false;
+        while (it != paths.end() && it->HasPrefix(root)) {
+            it = paths.erase(it);
+            any = true;
+        }
+        return any;
+    }
+
+    /// Every instancer's categories changed (a light's link did). Hydra's emulation turns no
+    /// instancer locator of categories into a dirty bit, so the prims of its prototypes are
+    /// dirtied too (their `categories`: a render delegate's rprims then read them again, with
+    /// their instancer's).
+    void _DirtyInstancers(HdSceneIndexObserver::DirtiedPrimEntries entries) {
+        std::vector<SdfPath> instancers;
+        {
+            std::lock_guard<std::mutex> lock(_mutex);
+            instancers.assign(_instancers.begin(), _instancers.end());
+        }
+        HdSceneIndexBaseRefPtr const& input = _GetInputSceneIndex();
+        for (SdfPath const& p : instancers) {
+            entries.emplace_back(p, HdInstanceCategoriesSchema::GetDefaultLocator());
+            HdContainerDataSourceHandle const ds = input->GetPrim(p).dataSource;
+            HdPathArrayDataSourceHandle const protos = HdInstancerTopologySchema::GetFromParent(ds).GetPrototypes();
+            if (!protos) continue;
+            for (SdfPath const& root : protos->GetTypedValue(0.0f))
+                for (SdfPath const& q : HdSceneIndexPrimView(input, root))
+                    entries.emplace_back(q, HdCategoriesSchema::GetDefaultLocator());
+        }
+        if (!entries.empty()) _SendPrimsDirtied(entries);
+    }
+
+    using _Links = std::vector<std::pair<TfToken, HdCollectionExpressionEvaluator>>;
+
+    /// (category id, membership) of every light's lightLink and shadowLink collection that
+    /// the light-linking scene index gave an id (trivial collections have none).
+    std::shared_ptr<_Links const> _CurrentLinks() const {
+        std::lock_guard<std::mutex> lock(_mutex);
+        if (!_stale && _links) return _links;
+        auto links = std::make_shared<_Links>();
+        std::set<TfToken> seen;
+        for (SdfPath const& path : _lights) {
+            HdContainerDataSourceHandle const ds = _GetInputSceneIndex()->GetPrim(path).dataSource;
+            HdContainerDataSourceHandle const light = HdLightSchema::GetFromParent(ds).GetContainer();
+            HdCollectionsSchema const collections = HdCollectionsSchema::GetFromParent(ds);
+            if (!light || !collections) continue;
+            for (TfToken const& name : {HdTokens->lightLink, HdTokens->shadowLink}) {
+                auto const idDs = HdTypedSampledDataSource<TfToken>::Cast(light->Get(name));
+                TfToken const id = idDs ? idDs->GetTypedValue(0.0f) : TfToken();
+                if (id.IsEmpty() || !seen.insert(id).second) continue;
+                HdPathExpressionDataSourceHandle const expr = collections.GetCollection(name).GetMembershipExpression();
+                if (!expr) continue;
+                links->emplace_back(id, HdCollectionExpressionEvaluator(_GetInputSceneIndex(), expr->GetTypedValue(0.0f),
+                                                                        HdGetCollectionPredicateLibrary()));
+            }
+        }
+        _links = links;
+        _stale = false;
+        return _links;
+    }
+
+    HdContainerDataSourceHandle _InstanceCategories(HdContainerDataSourceHandle const& instancer) const {
+        HdPathArrayDataSourceHandle const locationsDs = HdInstancerTopologySchema::GetFromParent(instancer).GetInstanceLocations();
+        if (!locationsDs) return nullptr;
+        VtArray<SdfPath> const locations = locationsDs->GetTypedValue(0.0f);
+        std::shared_ptr<_Links const> const links = _CurrentLinks();
+        std::vector<HdDataSourceBaseHandle> values;
+        values.reserve(locations.size());
+        TfTokenVector included;
+        for (SdfPath const& location : locations) {
+            included.clear();
+            for (auto const& [id, eval] : *links) {
+                if (eval.Match(location)) included.push_back(id);
+            }
+            values.push_back(HdCategoriesSchema::BuildRetained(included.size(), included.data(), 0, nullptr));
+        }
+        return HdInstanceCategoriesSchema::BuildRetained(HdRetainedSmallVectorDataSource::New(values.size(), values.data()));
+    }
+
+    mutable std::mutex _mutex;
+    std::set<SdfPath> _lights;
+    std::set<SdfPath> _instancers;
+    mutable bool _stale = true;
+    mutable std::shared_ptr<_Links const> _links;
+};
+
+class HdTideInstanceCategoriesPlugin final : public HdSceneIndexPlugin {
+protected:
+    HdSceneIndexBaseRefPtr _AppendSceneIndex(HdSceneIndexBaseRefPtr const& inputScene,
+                                             HdContainerDataSourceHandle const&) override {
+        return HdTideInstanceCategoriesSceneIndex::New(inputScene);
+    }
+};
+
 TF_REGISTRY_FUNCTION(TfType) {
     HdSceneIndexPluginRegistry::Define<HdTideRenderSettingsFilterPlugin>();
     HdSceneIndexPluginRegistry::Define<HdTideLightLinkingPlugin>();
+    HdSceneIndexPluginRegistry::Define<HdTideInstanceCategoriesPlugin>();
 }
 
 TF_REGISTRY_FUNCTION(HdSceneIndexPlugin) {
@@ -54,6 +273,10 @@ TF_REGISTRY_FUNCTION(HdSceneIndexPlugin) {
     HdSceneIndexPluginRegistry::GetInstance().RegisterSceneIndexForRenderer(
         "Tide", TfToken("HdTideLightLinkingPlugin"), nullptr, /* insertionPhase = */ 4,
         HdSceneIndexPluginRegistry::InsertionOrderAtStart);
+    // right after it (same phase, appended at its end)
+    HdSceneIndexPluginRegistry::GetInstance().RegisterSceneIndexForRenderer(
+        "Tide", TfToken("HdTideInstanceCategoriesPlugin"), nullptr, /* insertionPhase = */ 4,
+        HdSceneIndexPluginRegistry::InsertionOrderAtEnd);
 }
 
 PXR_NAMESPACE_CLOSE_SCOPE

@@ -1,8 +1,10 @@
 // usdImagingTide's adapters (see adapters.h).
 #include "adapters.h"
 
+#include "pxr/base/tf/stringUtils.h"
 #include "pxr/base/tf/type.h"
 #include "pxr/imaging/hd/cameraSchema.h"
+#include "pxr/imaging/hd/collectionsSchema.h"
 #include "pxr/imaging/hd/lightSchema.h"
 #include "pxr/imaging/hd/materialSchema.h"
 #include "pxr/imaging/hd/overlayContainerDataSource.h"
@@ -224,6 +226,15 @@ HdDataSourceLocatorSet UsdImagingTideAttributesAdapter::InvalidateImagingSubprim
     HdDataSourceLocatorSet locators;
     if (!subprim.IsEmpty()) return locators;
     for (TfToken const& p : properties) {
+        // UsdImaging v24.08's CollectionAPI adapter invalidates on properties named
+        // "collections:NAME:…", where CollectionAPI's are "collection:NAME:…": an edited
+        // collection (a light's lightLink includes) reached no scene index. Its locator here.
+        if (TfStringStartsWith(p.GetString(), "collection:")) {
+            std::vector<std::string> const parts = TfStringSplit(p.GetString(), ":");
+            if (parts.size() >= 3)
+                locators.insert(HdDataSourceLocator(HdCollectionsSchemaTokens->collections, TfToken(parts[1])));
+            continue;
+        }
         if (!TfStringStartsWith(p.GetString(), "tide:")) continue;
         // a new or removed property changes the container's names
         if (invalidationType == UsdImagingPropertyInvalidationType::Resync)

@@ -8,7 +8,9 @@
 // * UsdImagingTideAttributesAdapter: a keyless API-schema adapter (it sees every prim) that, for
 //   UsdImaging's scene indices, publishes a prim's `tide:` attributes and relationships in a
 //   `tide` container, as the usd-core reader sends them. UsdImaging's scene delegate has no such
-//   channel; the plugin asks it for the `tide:` attributes it knows by name instead.
+//   channel; the plugin asks it for the `tide:` attributes it knows by name instead. It also
+//   invalidates a prim's `collections` when a `collection:` property changes, which UsdImaging's
+//   own CollectionAPI adapter (v24.08) misses.
 #pragma once
 
 #include "pxr/pxr.h"
