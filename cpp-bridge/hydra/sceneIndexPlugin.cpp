@@ -87,59 +87,71 @@ public:
     }
 
 protected:
+    // Instancers' categories change only when a light with a link (a non-empty lightLink or
+    // shadowLink id) comes, goes or changes: lights that reach everything dirty nothing.
     void _PrimsAdded(HdSceneIndexBase const&, HdSceneIndexObserver::AddedPrimEntries const& entries) override {
-        bool lights = false;
+        bool changed = false;
         {
             std::lock_guard<std::mutex> lock(_mutex);
             for (auto const& e : entries) {
                 // a prim added again may have changed type
-                lights |= _lights.erase(e.primPath) > 0;
+                _lights.erase(e.primPath);
+                changed |= _linked.erase(e.primPath) > 0;
                 _instancers.erase(e.primPath);
                 if (HdPrimTypeIsLight(e.primType)) {
                     _lights.insert(e.primPath);
-                    lights = true;
+                    if (_IsLinked(e.primPath)) {
+                        _linked.insert(e.primPath);
+                        changed = true;
+                    }
                 } else if (e.primType == HdPrimTypeTokens->instancer) {
                     _instancers.insert(e.primPath);
                 }
             }
-            if (lights) _stale = true;
+            if (changed) _stale = true;
         }
         _SendPrimsAdded(entries);
-        if (lights) _DirtyInstancers({});
+        if (changed) _DirtyInstancers({});
     }
 
     void _PrimsRemoved(HdSceneIndexBase const&, HdSceneIndexObserver::RemovedPrimEntries const& entries) override {
-        bool lights = false;
+        bool changed = false;
         {
             std::lock_guard<std::mutex> lock(_mutex);
             for (auto const& e : entries) {
-                lights |= _EraseUnder(_lights, e.primPath);
+                _EraseUnder(_lights, e.primPath);
+                changed |= _EraseUnder(_linked, e.primPath);
                 _EraseUnder(_instancers, e.primPath);
             }
-            if (lights) _stale = true;
+            if (changed) _stale = true;
         }
         _SendPrimsRemoved(entries);
-        if (lights) _DirtyInstancers({});
+        if (changed) _DirtyInstancers({});
     }
 
     void _PrimsDirtied(HdSceneIndexBase const&, HdSceneIndexObserver::DirtiedPrimEntries const& entries) override {
         static HdDataSourceLocatorSet const linkLocators{HdLightSchema::GetDefaultLocator(), HdCollectionsSchema::GetDefaultLocator()};
-        bool lights = false;
+        bool changed = false;
         HdSceneIndexObserver::DirtiedPrimEntries extra;
         {
             std::lock_guard<std::mutex> lock(_mutex);
             for (auto const& e : entries) {
                 if (_lights.count(e.primPath) && e.dirtyLocators.Intersects(linkLocators)) {
-                    lights = true;
+                    // linked before or now: its id or its membership may have changed
+                    changed |= _linked.erase(e.primPath) > 0;
+                    if (_IsLinked(e.primPath)) {
+                        _linked.insert(e.primPath);
+                        changed = true;
+                    }
                 } else if (_instancers.count(e.primPath) && e.dirtyLocators.Intersects(HdInstancerTopologySchema::GetDefaultLocator())) {
                     // other instances, other categories
                     extra.emplace_back(e.primPath, HdInstanceCategoriesSchema::GetDefaultLocator());
                 }
             }
-            if (lights) _stale = true;
+            if (changed) _stale = true;
         }
         _SendPrimsDirtied(entries);
-        if (lights) {
+        if (changed) {
             _DirtyInstancers(std::move(extra));
         } else if (!extra.empty()) {
             _SendPrimsDirtied(extra);
@@ -154,10 +166,25 @@ private:
             TfToken const type = input->GetPrim(path).primType;
             if (HdPrimTypeIsLight(type)) {
                 _lights.insert(path);
+                if (_IsLinked(path)) _linked.insert(path);
             } else if (type == HdPrimTypeTokens->instancer) {
                 _instancers.insert(path);
             }
         }
+    }
+
+    /// The id the light-linking scene index gave a light's `name` collection (empty: the light
+    /// reaches everything).
+    static TfToken _LinkId(HdContainerDataSourceHandle const& light, TfToken const& name) {
+        auto const id = light ? HdTypedSampledDataSource<TfToken>::Cast(light->Get(name)) : nullptr;
+        return id ? id->GetTypedValue(0.0f) : TfToken();
+    }
+
+    /// Whether the light at `path` has a lightLink or shadowLink id.
+    bool _IsLinked(SdfPath const& path) const {
+        HdContainerDataSourceHandle const light =
+            HdLightSchema::GetFromParent(_GetInputSceneIndex()->GetPrim(path).dataSource).GetContainer();
+        return !_LinkId(light, HdTokens->lightLink).IsEmpty() || !_LinkId(light, HdTokens->shadowLink).IsEmpty();
     }
 
     static bool _EraseUnder(std::set<SdfPath>& paths, SdfPath const& root) {
@@ -202,14 +229,13 @@ private:
         if (!_stale && _links) return _links;
         auto links = std::make_shared<_Links>();
         std::set<TfToken> seen;
-        for (SdfPath const& path : _lights) {
+        for (SdfPath const& path : _linked) {
             HdContainerDataSourceHandle const ds = _GetInputSceneIndex()->GetPrim(path).dataSource;
             HdContainerDataSourceHandle const light = HdLightSchema::GetFromParent(ds).GetContainer();
             HdCollectionsSchema const collections = HdCollectionsSchema::GetFromParent(ds);
             if (!light || !collections) continue;
             for (TfToken const& name : {HdTokens->lightLink, HdTokens->shadowLink}) {
-                auto const idDs = HdTypedSampledDataSource<TfToken>::Cast(light->Get(name));
-                TfToken const id = idDs ? idDs->GetTypedValue(0.0f) : TfToken();
+                TfToken const id = _LinkId(light, name);
                 if (id.IsEmpty() || !seen.insert(id).second) continue;
                 HdPathExpressionDataSourceHandle const expr = collections.GetCollection(name).GetMembershipExpression();
                 if (!expr) continue;
@@ -242,6 +268,8 @@ private:
 
     mutable std::mutex _mutex;
     std::set<SdfPath> _lights;
+    /// The lights with a lightLink or shadowLink id.
+    std::set<SdfPath> _linked;
     std::set<SdfPath> _instancers;
     mutable bool _stale = true;
     mutable std::shared_ptr<_Links const> _links;
