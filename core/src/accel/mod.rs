@@ -87,12 +87,16 @@ impl TriPre {
 }
 
 
+/// A points set's BVH with the points' data in the BVH's leaf order (slot k holds point
+/// `bvh.ids()[k]`): a leaf's points sit side by side instead of scattered over the input order.
 struct SphereBlas {
     bvh: PointBvh,
     centers: Vec<Vec3>,
     radii: Vec<f32>,
     velocities: Option<Vec<Vec3>>,
     shape: PointsBlasShape,
+    /// Point i's slot (u32::MAX for a point left out of the BVH).
+    slot_of: Vec<u32>,
 }
 
 /// What a points BVH's primitives are.
@@ -335,7 +339,26 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
         (lo, hi)
     });
     let bvh = PointBvh::build(bounds);
-    Blas::Sphere(SphereBlas { bvh, centers: s.centers.clone(), radii: s.radii.clone(), velocities: s.velocities.clone(), shape })
+    // the points' data in leaf order
+    let ids = bvh.ids();
+    let order = |v: &[Vec3]| ids.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+    let mut slot_of = vec![u32::MAX; s.centers.len()];
+    for (k, &i) in ids.iter().enumerate() {
+        slot_of[i as usize] = k as u32;
+    }
+    let shape = match shape {
+        PointsBlasShape::Spheres => PointsBlasShape::Spheres,
+        PointsBlasShape::Bubbles(b) => PointsBlasShape::Bubbles(ids.iter().map(|&i| b[i as usize]).collect()),
+        PointsBlasShape::Blobby { a, threshold } => PointsBlasShape::Blobby { a: ids.iter().map(|&i| a[i as usize]).collect(), threshold },
+    };
+    Blas::Sphere(SphereBlas {
+        centers: order(&s.centers),
+        radii: ids.iter().map(|&i| s.radii[i as usize]).collect(),
+        velocities: s.velocities.as_deref().map(order),
+        shape,
+        slot_of,
+        bvh,
+    })
 }
 
 fn transform_aabb(m: &Mat4, bb: &Aabb) -> Aabb {
@@ -455,7 +478,7 @@ impl Accel {
             .map(|b| match b.as_ref() {
                 Blas::Tri(t) => t.bytes(),
                 Blas::MotionTri(t) => t.bytes(),
-                Blas::Sphere(s) => s.bvh.bytes() + s.centers.len() * 16,
+                Blas::Sphere(s) => s.bvh.bytes() + s.centers.len() * 16 + s.slot_of.len() * 4,
                 Blas::Empty => 0,
             })
             .sum::<usize>()
@@ -507,26 +530,41 @@ impl Accel {
             Blas::MotionTri(mb) => mb.intersect(o, d, t_max, time),
             Blas::Sphere(sb) => {
                 let mut best: Option<(f32, u32, f32, f32)> = None;
-                let center = |i: usize| match &sb.velocities {
-                    Some(v) => sb.centers[i] + v[i] * time,
-                    None => sb.centers[i],
+                // by slot k (the data's leaf order); hits report the point's own index
+                let ids = sb.bvh.ids();
+                let center = |k: usize| match &sb.velocities {
+                    Some(v) => sb.centers[k] + v[k] * time,
+                    None => sb.centers[k],
                 };
+                let prefetch = |k: usize| wide::prefetch_lines(sb.centers.as_ptr().wrapping_add(k) as *const u8, 4 * 12);
                 match &sb.shape {
                     PointsBlasShape::Spheres => {
-                        sb.bvh.traverse(o, d, t_max, |i, t_max| {
-                            let t = intersect_sphere(center(i as usize).into(), sb.radii[i as usize], o, d, 0.0, t_max)?;
-                            best = Some((t, i, 0.0, 0.0));
-                            Some(t)
-                        });
+                        sb.bvh.traverse_slots(
+                            o,
+                            d,
+                            t_max,
+                            |k, t_max| {
+                                let t = intersect_sphere(center(k).into(), sb.radii[k], o, d, 0.0, t_max)?;
+                                best = Some((t, ids[k], 0.0, 0.0));
+                                Some(t)
+                            },
+                            prefetch,
+                        );
                     }
                     PointsBlasShape::Bubbles(bubbles) => {
-                        sb.bvh.traverse(o, d, t_max, |i, t_max| {
-                            let b = Bubble { center: center(i as usize), ..bubbles[i as usize] };
-                            let t = b.intersect(o.into(), d.into(), 0.0, t_max)?;
-                            let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
-                            best = Some((t, i, u, v));
-                            Some(t)
-                        });
+                        sb.bvh.traverse_slots(
+                            o,
+                            d,
+                            t_max,
+                            |k, t_max| {
+                                let b = Bubble { center: center(k), ..bubbles[k] };
+                                let t = b.intersect(o.into(), d.into(), 0.0, t_max)?;
+                                let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
+                                best = Some((t, ids[k], u, v));
+                                Some(t)
+                            },
+                            prefetch,
+                        );
                     }
                     PointsBlasShape::Blobby { a, threshold } => {
                         // Every kernel whose bounds the ray crosses, then the sweep along the ray.
@@ -535,26 +573,34 @@ impl Accel {
                         // core it enters: the gathering stops there. A ray from inside (no root
                         // before that core) gathers everything in a second pass.
                         let core = 1.0 - threshold.cbrt();
+                        // (point index, slot) of every kernel met, in index order: the kernels'
+                        // order (their sum's) is the points', whatever the leaf order
                         let gather = |prune: bool| {
-                            let mut ids: Vec<u32> = Vec::new();
+                            let mut met: Vec<(u32, usize)> = Vec::new();
                             let mut reach = t_max;
-                            sb.bvh.traverse(o, d, t_max, |i, t_max| {
-                                ids.push(i);
-                                if !prune {
-                                    return None;
-                                }
-                                let k = Kernel { center: center(i as usize), a: a[i as usize] };
-                                let t = k.entry(o.into(), d.into(), core).filter(|&t| t > 0.0 && t < t_max)?;
-                                reach = reach.min(t);
-                                Some(t)
-                            });
-                            ids.sort_unstable();
-                            ids.dedup();
-                            (ids, reach)
+                            sb.bvh.traverse_slots(
+                                o,
+                                d,
+                                t_max,
+                                |k, t_max| {
+                                    met.push((ids[k], k));
+                                    if !prune {
+                                        return None;
+                                    }
+                                    let kernel = Kernel { center: center(k), a: a[k] };
+                                    let t = kernel.entry(o.into(), d.into(), core).filter(|&t| t > 0.0 && t < t_max)?;
+                                    reach = reach.min(t);
+                                    Some(t)
+                                },
+                                prefetch,
+                            );
+                            met.sort_unstable();
+                            met.dedup();
+                            (met, reach)
                         };
-                        let solve = |ids: &[u32], reach: f32| {
-                            let kernels: Vec<Kernel> = ids.iter().map(|&i| Kernel { center: center(i as usize), a: a[i as usize] }).collect();
-                            implicit::blobby_intersect(&kernels, *threshold, o.into(), d.into(), 0.0, reach).map(|(t, k, n)| (t, ids[k], n))
+                        let solve = |met: &[(u32, usize)], reach: f32| {
+                            let kernels: Vec<Kernel> = met.iter().map(|&(_, k)| Kernel { center: center(k), a: a[k] }).collect();
+                            implicit::blobby_intersect(&kernels, *threshold, o.into(), d.into(), 0.0, reach).map(|(t, j, n)| (t, met[j].0, n))
                         };
                         let (ids, reach) = gather(true);
                         // a little past the core's entry, where φ ≥ 0 holds strictly
@@ -587,12 +633,12 @@ impl Accel {
         let inst = &self.instances[instance as usize];
         match self.blas[inst.blas].as_ref() {
             Blas::Sphere(sb) => {
-                let i = prim as usize;
-                let mut c = sb.centers[i];
+                let k = *sb.slot_of.get(prim as usize).filter(|&&k| k != u32::MAX)? as usize;
+                let mut c = sb.centers[k];
                 if let Some(v) = &sb.velocities {
-                    c += v[i] * time;
+                    c += v[k] * time;
                 }
-                Some((c, sb.radii[i]))
+                Some((c, sb.radii[k]))
             }
             _ => None,
         }

@@ -900,27 +900,40 @@ impl PointBvh {
         self.tree.bytes() + self.ids.len() * 4
     }
 
+    /// The primitive ids in leaf order: slot k of [`Self::traverse_slots`] holds primitive
+    /// `ids()[k]` (primitives left out by an empty box have no slot).
+    pub fn ids(&self) -> &[u32] {
+        &self.ids
+    }
+
     /// Calls `hit(i, t)` for every primitive i whose leaf the ray reaches before the nearest
     /// hit so far (t); `hit` returns the primitive's hit distance below t, if any.
     #[inline]
     pub fn traverse(&self, o: Vec3A, d: Vec3A, t_max: f32, mut hit: impl FnMut(u32, f32) -> Option<f32>) {
+        self.traverse_slots(o, d, t_max, |k, t| hit(self.ids[k], t), |k| {
+            prefetch_lines(self.ids.as_ptr().wrapping_add(k) as *const u8, 16)
+        });
+    }
+
+    /// [`Self::traverse`] by slot: `hit(k, t)` for the primitive in slot k (for callers that
+    /// keep their primitives' data in leaf order, where a leaf's primitives sit side by side);
+    /// `prefetch(k)` starts the loads of a leaf whose first slot is k.
+    #[inline]
+    pub fn traverse_slots(&self, o: Vec3A, d: Vec3A, t_max: f32, mut hit: impl FnMut(usize, f32) -> Option<f32>, prefetch: impl Fn(usize)) {
         let ray = PreRay::new(o, d);
         self.tree.traverse(
             &ray,
             t_max,
             |slot, mut t_max| {
                 let (first, count) = leaf_items(slot);
-                for &i in &self.ids[first..first + count] {
-                    if let Some(t) = hit(i, t_max) {
+                for k in first..first + count {
+                    if let Some(t) = hit(k, t_max) {
                         t_max = t;
                     }
                 }
                 t_max
             },
-            |slot| {
-                let (first, _) = leaf_items(slot);
-                prefetch_lines(self.ids.as_ptr().wrapping_add(first) as *const u8, 16);
-            },
+            |slot| prefetch(leaf_items(slot).0),
         );
     }
 }
