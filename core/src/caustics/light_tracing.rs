@@ -150,8 +150,9 @@ impl LightTracer {
         if world.hittable_lights.iter().any(|&li| world.lights[li].intersect_at(x, wc, dist, time).is_some()) {
             return;
         }
-        let tr = med.transmittance(o, d, t, rng, lambda) * med.transmittance(x, wc, dist, rng, lambda);
-        let mut l = beta * tr * med.sigma_s_at(x, lambda) * (fp * w_mis / (dist * dist * pdf) * area_per_sr);
+        let at = crate::medium::MediumAt::new(med, lambda);
+        let tr = at.transmittance(o, d, t, rng) * at.transmittance(x, wc, dist, rng);
+        let mut l = beta * tr * at.sigma_s_at(x) * (fp * w_mis / (dist * dist * pdf) * area_per_sr);
         if let Some(f) = cam.filter {
             l *= f.sample(lambda);
         }

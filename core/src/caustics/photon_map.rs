@@ -441,8 +441,10 @@ impl PhotonMap {
         }
         let r2 = q.radius * q.radius;
         let kernel = 1.0 / (std::f32::consts::PI * r2);
+        let within = |p: &Photon| p.position.distance_squared(q.position) <= r2;
+        // a photon within the radius
         let mut visit = |p: &Photon| {
-            if p.position.distance_squared(q.position) <= r2 && q.normal_check.accepts(q.normal, p.normal()) {
+            if q.normal_check.accepts(q.normal, p.normal()) {
                 f(p, kernel);
             }
         };
@@ -452,7 +454,7 @@ impl PhotonMap {
         let n_cells = span(lo[0], hi[0]).saturating_mul(span(lo[1], hi[1])).saturating_mul(span(lo[2], hi[2]));
         if n_cells >= self.bucket_start.len() as u64 {
             // a radius far beyond the cell size: scanning everything is cheaper
-            self.photons.iter().for_each(visit);
+            self.photons.iter().filter(|p| within(p)).for_each(visit);
             return;
         }
         for z in lo[2]..=hi[2] {
@@ -464,7 +466,7 @@ impl PhotonMap {
                     for p in &self.photons[range] {
                         // buckets are shared by colliding cells: visit each photon from its own
                         // cell only (tested after the cheaper distance test)
-                        if p.position.distance_squared(q.position) <= r2 && cell_coord(p.position, self.inv_cell) == c {
+                        if within(p) && cell_coord(p.position, self.inv_cell) == c {
                             visit(p);
                         }
                     }
