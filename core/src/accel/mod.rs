@@ -341,20 +341,22 @@ fn build_sphere_blas(s: &SpheresDesc, shutter: (f32, f32)) -> Blas {
     let bvh = PointBvh::build(bounds);
     // the points' data in leaf order
     let ids = bvh.ids();
-    let order = |v: &[Vec3]| ids.iter().map(|&i| v[i as usize]).collect::<Vec<_>>();
+    fn in_slots<T: Copy>(ids: &[u32], v: &[T]) -> Vec<T> {
+        ids.iter().map(|&i| v[i as usize]).collect()
+    }
     let mut slot_of = vec![u32::MAX; s.centers.len()];
     for (k, &i) in ids.iter().enumerate() {
         slot_of[i as usize] = k as u32;
     }
     let shape = match shape {
         PointsBlasShape::Spheres => PointsBlasShape::Spheres,
-        PointsBlasShape::Bubbles(b) => PointsBlasShape::Bubbles(ids.iter().map(|&i| b[i as usize]).collect()),
-        PointsBlasShape::Blobby { a, threshold } => PointsBlasShape::Blobby { a: ids.iter().map(|&i| a[i as usize]).collect(), threshold },
+        PointsBlasShape::Bubbles(b) => PointsBlasShape::Bubbles(in_slots(ids, &b)),
+        PointsBlasShape::Blobby { a, threshold } => PointsBlasShape::Blobby { a: in_slots(ids, &a), threshold },
     };
     Blas::Sphere(SphereBlas {
-        centers: order(&s.centers),
-        radii: ids.iter().map(|&i| s.radii[i as usize]).collect(),
-        velocities: s.velocities.as_deref().map(order),
+        centers: in_slots(ids, &s.centers),
+        radii: in_slots(ids, &s.radii),
+        velocities: s.velocities.as_deref().map(|v| in_slots(ids, v)),
         shape,
         slot_of,
         bvh,

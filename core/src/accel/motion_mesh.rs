@@ -6,15 +6,11 @@
 //! around its time and tests the four triangles at once with Möller–Trumbore ([`super::tribvh`]).
 //! Static meshes never come here.
 
-use super::tribvh::{hit4, nearest_in_blocks, Tri4Geom};
-use super::wide::{advise_huge_pages, leaf_slot, prefetch_lines, Binary, PreRay, PrimRef, WideTree, F4, MAX_LEAF};
+use super::tribvh::{block_ids, hit4, nearest_in_blocks, Tri4Geom, TriMesh, BLOCK};
+use super::wide::{advise_huge_pages, leaf_slot, prefetch_lines, Binary, PreRay, PrimRef, WideTree, F4};
 use crate::scene::MeshDesc;
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
-
-/// Triangles per block.
-const BLOCK: usize = 4;
-const _: () = assert!(MAX_LEAF <= BLOCK * 8, "a leaf's blocks must fit its slot's count");
 
 /// The BVH of one deforming mesh.
 pub(super) struct MotionTriBlas {
@@ -35,7 +31,7 @@ impl MotionTriBlas {
             return None;
         }
         let keys = &mo.positions;
-        let tri = |key: &[Vec3], i: usize| [0, 1, 2].map(|k| Vec3A::from(key[mesh.indices[3 * i + k] as usize]));
+        let tri = |key: &[Vec3], i: usize| TriMesh { positions: key, indices: &mesh.indices }.tri(i);
         let prims: Vec<PrimRef> = (0..ntri)
             .into_par_iter()
             .map(|i| {
@@ -53,7 +49,7 @@ impl MotionTriBlas {
             |n| n.div_ceil(BLOCK),
             |ids, _, first, out| {
                 for c in ids.chunks(BLOCK) {
-                    out.push([0, 1, 2, 3].map(|l| c[l.min(c.len() - 1)]));
+                    out.push(block_ids(c));
                 }
                 leaf_slot(first, ids.len().div_ceil(BLOCK))
             },

@@ -6,7 +6,14 @@ use super::wide::{leaf_items, leaf_slot, prefetch_lines, Binary, PreRay, PrimRef
 use glam::{Vec3, Vec3A};
 
 /// Triangles per block.
-const BLOCK: usize = 4;
+pub(super) const BLOCK: usize = 4;
+
+/// The triangle of each lane of a block made of `ids` (one to four): a short block repeats its
+/// last triangle.
+#[inline]
+pub(super) fn block_ids(ids: &[u32]) -> [u32; BLOCK] {
+    [0, 1, 2, 3].map(|l| ids[l.min(ids.len() - 1)])
+}
 const _: () = assert!(MAX_LEAF <= BLOCK * 8, "a leaf's blocks must fit its slot's count");
 
 /// Four triangles' geometry, SoA: a vertex and two edges per lane.
@@ -73,7 +80,7 @@ impl TriMesh<'_> {
         self.indices.len() / 3
     }
     #[inline]
-    fn tri(&self, i: usize) -> [Vec3A; 3] {
+    pub(super) fn tri(&self, i: usize) -> [Vec3A; 3] {
         [0, 1, 2].map(|k| Vec3A::from(self.positions[self.indices[3 * i + k] as usize]))
     }
 }
@@ -99,10 +106,8 @@ impl TriBvh {
             |n| n.div_ceil(BLOCK),
             |ids, _, first, out| {
                 for c in ids.chunks(BLOCK) {
-                    // a short block repeats its last triangle
-                    let lane = |l: usize| c[l.min(c.len() - 1)];
-                    let g = Tri4Geom::new([0, 1, 2, 3].map(|l| mesh.tri(lane(l) as usize)));
-                    out.push(Tri4 { g, ids: [0, 1, 2, 3].map(lane) });
+                    let ids = block_ids(c);
+                    out.push(Tri4 { g: Tri4Geom::new(ids.map(|i| mesh.tri(i as usize))), ids });
                 }
                 leaf_slot(first, ids.len().div_ceil(BLOCK))
             },
