@@ -578,23 +578,25 @@ void HdTideLightLinks::RemoveLight(std::string const& light) {
     _sent.erase({light, 1});
 }
 
+/// Sets `map[key]` to `value` (an empty value: no entry); returns whether that changed it.
+template <typename Map, typename Value>
+static bool HdTideAssign(Map& map, std::string const& key, Value value) {
+    auto it = map.find(key);
+    if (it == map.end() ? value.empty() : it->second == value) return false;
+    if (value.empty()) map.erase(key);
+    else map[key] = std::move(value);
+    return true;
+}
+
 void HdTideLightLinks::SetCategories(std::string const& rprim, VtArray<TfToken> const& categories) {
     std::set<TfToken> c(categories.begin(), categories.end());
     std::lock_guard<std::mutex> lock(_mutex);
-    auto it = _categories.find(rprim);
-    if (it == _categories.end() ? c.empty() : it->second == c) return;
-    if (c.empty()) _categories.erase(rprim);
-    else _categories[rprim] = std::move(c);
-    _changed = true;
+    if (HdTideAssign(_categories, rprim, std::move(c))) _changed = true;
 }
 
 void HdTideLightLinks::SetInstanceCategories(std::string const& rprim, std::vector<std::set<TfToken>> categories) {
     std::lock_guard<std::mutex> lock(_mutex);
-    auto it = _instanceCategories.find(rprim);
-    if (it == _instanceCategories.end() ? categories.empty() : it->second == categories) return;
-    if (categories.empty()) _instanceCategories.erase(rprim);
-    else _instanceCategories[rprim] = std::move(categories);
-    _changed = true;
+    if (HdTideAssign(_instanceCategories, rprim, std::move(categories))) _changed = true;
 }
 
 void HdTideLightLinks::RemoveRprim(std::string const& rprim) {

@@ -96,16 +96,13 @@ protected:
             for (auto const& e : entries) {
                 // a prim added again may have changed type
                 _lights.erase(e.primPath);
-                changed |= _linked.erase(e.primPath) > 0;
                 _instancers.erase(e.primPath);
                 if (HdPrimTypeIsLight(e.primType)) {
                     _lights.insert(e.primPath);
-                    if (_IsLinked(e.primPath)) {
-                        _linked.insert(e.primPath);
-                        changed = true;
-                    }
-                } else if (e.primType == HdPrimTypeTokens->instancer) {
-                    _instancers.insert(e.primPath);
+                    changed |= _Relink(e.primPath);
+                } else {
+                    changed |= _linked.erase(e.primPath) > 0;
+                    if (e.primType == HdPrimTypeTokens->instancer) _instancers.insert(e.primPath);
                 }
             }
             if (changed) _stale = true;
@@ -137,12 +134,7 @@ protected:
             std::lock_guard<std::mutex> lock(_mutex);
             for (auto const& e : entries) {
                 if (_lights.count(e.primPath) && e.dirtyLocators.Intersects(linkLocators)) {
-                    // linked before or now: its id or its membership may have changed
-                    changed |= _linked.erase(e.primPath) > 0;
-                    if (_IsLinked(e.primPath)) {
-                        _linked.insert(e.primPath);
-                        changed = true;
-                    }
+                    changed |= _Relink(e.primPath);
                 } else if (_instancers.count(e.primPath) && e.dirtyLocators.Intersects(HdInstancerTopologySchema::GetDefaultLocator())) {
                     // other instances, other categories
                     extra.emplace_back(e.primPath, HdInstanceCategoriesSchema::GetDefaultLocator());
@@ -166,7 +158,7 @@ private:
             TfToken const type = input->GetPrim(path).primType;
             if (HdPrimTypeIsLight(type)) {
                 _lights.insert(path);
-                if (_IsLinked(path)) _linked.insert(path);
+                _Relink(path);
             } else if (type == HdPrimTypeTokens->instancer) {
                 _instancers.insert(path);
             }
@@ -185,6 +177,15 @@ private:
         HdContainerDataSourceHandle const light =
             HdLightSchema::GetFromParent(_GetInputSceneIndex()->GetPrim(path).dataSource).GetContainer();
         return !_LinkId(light, HdTokens->lightLink).IsEmpty() || !_LinkId(light, HdTokens->shadowLink).IsEmpty();
+    }
+
+    /// Reads again whether the light at `path` has a link; returns whether it had or has one
+    /// (its id or its membership may then have changed instances' categories).
+    bool _Relink(SdfPath const& path) {
+        const bool had = _linked.erase(path) > 0;
+        if (!_IsLinked(path)) return had;
+        _linked.insert(path);
+        return true;
     }
 
     static bool _EraseUnder(std::set<SdfPath>& paths, SdfPath const& root) {
