@@ -3,7 +3,8 @@
 //!     cargo bench -p tide-core --bench fx
 //!
 //! (`TIDE_BENCH_POINTS=N`: N points instead of 20000, e.g. a million droplets;
-//! `TIDE_BENCH_SHAPES=spheres,bubbles`: only those shapes, the ratios then left out.)
+//! `TIDE_BENCH_SHAPES=spheres,bubbles`: only those shapes, the ratios then left out;
+//! `TIDE_BENCH_RAYS=N`: the first N of the rays, for slow cases.)
 //!
 //! A splash sheet of 20000 points (the shape of `docs/stages/splash.py`'s, radii 1–3 cm) is
 //! built three ways: as spheres, as bubbles (h₁ = 0.9 r, h₂ = 0.35 r) and as blobbies
@@ -63,7 +64,8 @@ fn main() {
     let (lo, hi) = spheres.centers.iter().fold((Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)), |(a, b), &c| (a.min(c), b.max(c)));
     let center = 0.5 * (lo + hi);
     let radius = (hi - lo).length();
-    let rays: Vec<Ray> = (0..200_000)
+    let count_rays: usize = std::env::var("TIDE_BENCH_RAYS").ok().map_or(200_000, |s| s.parse().expect("TIDE_BENCH_RAYS"));
+    let rays: Vec<Ray> = (0..count_rays)
         .map(|_| {
             let o = center + rng.dir() * radius;
             let target = lo + (hi - lo) * Vec3::new(rng.next(), rng.next(), rng.next());

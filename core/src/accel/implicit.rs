@@ -12,7 +12,10 @@
 //!   point's orientation, R its bounding radii). The bounding radius follows from the inner
 //!   radius r (the surface of an isolated blobby) and T: (1 − r²/R²)³ = T. Along a ray each
 //!   kernel is a polynomial of degree 6 in t between its entry and exit, so φ is piecewise
-//!   polynomial: the pieces are swept front to back and the first root of each is isolated.
+//!   polynomial: [`Sweep`] keeps the sum as kernels enter and leave, bounds each piece by its
+//!   Bernstein coefficients and isolates roots only where the bound straddles zero. Through the
+//!   BVH the ray is swept in segments of a bounded number of kernels, so the work follows the
+//!   kernels in front of the hit, not all those the ray would pass.
 //!
 //! Hits on these primitives carry their object-space normal in the hit's (u, v), octahedrally
 //! encoded ([`oct_encode`]), so shading needs no second query.
@@ -334,46 +337,281 @@ impl Kernel {
     }
 
     /// Where the ray o + t·d first enters the set q ≤ `level` (None if it misses it).
-    pub fn entry(&self, o: Vec3, d: Vec3, level: f32) -> Option<f32> {
-        let (al, be, ga) = self.along(o, d);
-        if !(ga > 0.0) {
-            return None;
-        }
-        solve_quadratic(ga, be, al - level as f64).map(|(t0, _)| t0 as f32)
+    pub fn entry(&self, o: Vec3, d: Vec3, level: f32) -> Option<f64> {
+        let (tm, qm, ga) = self.vertex(o, d)?;
+        (qm <= level as f64).then(|| tm - ((level as f64 - qm) / ga).sqrt())
     }
 
-    /// q along the ray as γt² + βt + α: (α, β, γ).
+    /// q along the ray o + t·d in vertex form, γ·(t − t_m)² + q_m: (t_m, q_m, γ), or None for
+    /// a degenerate direction. q_m is computed from the part of A(o − c) across the ray, not as
+    /// a difference of large terms, so far origins keep their precision.
     #[inline]
-    fn along(&self, o: Vec3, d: Vec3) -> (f64, f64, f64) {
-        let w = (self.a * (o - self.center)).as_dvec3();
-        let e = (self.a * d).as_dvec3();
-        (w.length_squared(), 2.0 * w.dot(e), e.length_squared())
+    fn vertex(&self, o: Vec3, d: Vec3) -> Option<(f64, f64, f64)> {
+        let a = self.a.as_dmat3();
+        let w = a * (o.as_dvec3() - self.center.as_dvec3());
+        let e = a * d.as_dvec3();
+        let ga = e.length_squared();
+        if !(ga > 0.0) || !ga.is_finite() {
+            return None;
+        }
+        let s = w.dot(e) / ga;
+        Some((-s, (w - e * s).length_squared(), ga))
+    }
+
+    /// The kernel's stretch of the ray o + t·d (None where the ray misses its support);
+    /// `key` is the caller's name for the kernel.
+    #[inline]
+    pub fn span(&self, o: Vec3, d: Vec3, key: usize) -> Option<Span> {
+        let (tm, qm, ga) = self.vertex(o, d)?;
+        if !(qm < 1.0) {
+            return None;
+        }
+        let half = ((1.0 - qm) / ga).sqrt();
+        Some(Span { t0: tm - half, t1: tm + half, key, tm, qm, ga })
+    }
+}
+
+/// A kernel's stretch of a ray, where its ψ is not zero: q(t) = γ·(t − t_m)² + q_m < 1 for
+/// t0 < t < t1.
+#[derive(Clone, Copy, Debug)]
+pub struct Span {
+    pub t0: f64,
+    pub t1: f64,
+    /// The caller's name for the kernel.
+    pub key: usize,
+    tm: f64,
+    qm: f64,
+    ga: f64,
+}
+
+impl Span {
+    /// ψ(r + u) as a polynomial in u (lowest degree first).
+    #[inline]
+    fn psi_about(&self, r: f64) -> [f64; MAX_COEFFS] {
+        let x = r - self.tm;
+        let w = [1.0 - (self.ga * x * x + self.qm), -2.0 * self.ga * x, -self.ga];
+        let (w2, n2) = mul(&w, &w);
+        mul(&w2[..n2], &w).0
+    }
+}
+
+/// A span in the sweep's active set, ordered so that the first to leave is on top.
+struct Leaving(Span);
+
+impl PartialEq for Leaving {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+impl Eq for Leaving {}
+impl PartialOrd for Leaving {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Leaving {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        other.0.t1.total_cmp(&self.0.t1).then(other.0.key.cmp(&self.0.key))
+    }
+}
+
+/// Bernstein weights C(i, k) / C(6, k): the Bernstein coefficients of a degree-6 polynomial on
+/// [0, 1] from its power coefficients (row i, column k ≤ i).
+const BERNSTEIN6: [[f64; MAX_COEFFS]; MAX_COEFFS] = {
+    const C6: [f64; MAX_COEFFS] = [1.0, 6.0, 15.0, 20.0, 15.0, 6.0, 1.0];
+    let mut m = [[0.0; MAX_COEFFS]; MAX_COEFFS];
+    let mut i = 0;
+    while i < MAX_COEFFS {
+        let mut k = 0;
+        let mut c = 1.0; // C(i, k)
+        while k <= i {
+            m[i][k] = c / C6[k];
+            c = c * (i - k) as f64 / (k + 1) as f64;
+            k += 1;
+        }
+        i += 1;
+    }
+    m
+};
+
+/// φ = Σψ − T swept front to back along one ray.
+///
+/// Kernels join as the sweep passes their entry and leave at their exit; between two such
+/// events φ is one polynomial of degree 6, kept as a sum about a reference point and updated
+/// per event (rebuilt from the active kernels once the updates outnumber them, so rounding does
+/// not pile up and the reference stays near). Each piece is first bounded by its Bernstein
+/// coefficients; only a piece whose bound straddles zero has its roots isolated. The sweep can
+/// be fed in segments ([`Sweep::advance`]): a caller that gathers kernels front to back with a
+/// bounded buffer stops as soon as the first crossing is found.
+pub struct Sweep {
+    threshold: f64,
+    at: f64,
+    active: std::collections::BinaryHeap<Leaving>,
+    reference: f64,
+    poly: [f64; MAX_COEFFS],
+    updates: usize,
+    /// φ < 0 at the end of the last piece looked at.
+    below: Option<bool>,
+}
+
+impl Sweep {
+    /// A sweep standing at `start` with no kernel yet.
+    pub fn new(threshold: f32, start: f64) -> Sweep {
+        let mut poly = [0.0; MAX_COEFFS];
+        poly[0] = -(threshold as f64);
+        Sweep { threshold: threshold as f64, at: start, active: Default::default(), reference: start, poly, updates: 0, below: None }
+    }
+
+    /// Where the sweep stands.
+    pub fn at(&self) -> f64 {
+        self.at
+    }
+
+    /// The kernels active where the sweep stands (at a crossing it returned: those reaching it).
+    pub fn active(&self) -> impl Iterator<Item = &Span> {
+        self.active.iter().map(|l| &l.0)
+    }
+
+    fn add(&mut self, s: &Span, sign: f64) {
+        for (c, v) in self.poly.iter_mut().zip(s.psi_about(self.reference)) {
+            *c += sign * v;
+        }
+        self.updates += 1;
+    }
+
+    /// Adds a kernel met before where the sweep stands (its entry may lie behind it).
+    pub fn enter(&mut self, s: Span) {
+        if self.active.is_empty() {
+            self.rebase();
+        }
+        self.add(&s, 1.0);
+        self.active.push(Leaving(s));
+    }
+
+    /// The sum rebuilt about where the sweep stands.
+    fn rebase(&mut self) {
+        self.reference = self.at;
+        self.poly = [0.0; MAX_COEFFS];
+        self.poly[0] = -self.threshold;
+        self.updates = 0;
+        for l in self.active.iter() {
+            for (c, v) in self.poly.iter_mut().zip(l.0.psi_about(self.reference)) {
+                *c += v;
+            }
+        }
+    }
+
+    /// Sweeps on to `end` with `entering`: every kernel whose entry lies in [where the sweep
+    /// stands, `end`), sorted by entry (all kernels entering earlier must have been given
+    /// before). Returns the first crossing of φ = 0 beyond `t_lo`, the sweep then standing at its
+    /// piece; otherwise the sweep stands at `end` with the kernels still active kept.
+    pub fn advance(&mut self, entering: &[Span], end: f64, t_lo: f64) -> Option<f64> {
+        let mut next_in = 0;
+        loop {
+            while next_in < entering.len() && entering[next_in].t0 <= self.at {
+                self.enter(entering[next_in]);
+                next_in += 1;
+            }
+            while self.active.peek().is_some_and(|l| l.0.t1 <= self.at) {
+                let Leaving(s) = self.active.pop().unwrap();
+                if self.active.is_empty() {
+                    self.rebase();
+                } else {
+                    self.add(&s, -1.0);
+                }
+            }
+            if self.at >= end {
+                return None;
+            }
+            let mut next = end;
+            if let Some(s) = entering.get(next_in) {
+                next = next.min(s.t0);
+            }
+            if let Some(l) = self.active.peek() {
+                next = next.min(l.0.t1);
+            } else if next_in == entering.len() {
+                // nothing reaches the rest of the segment: φ = −T there
+                self.below = Some(self.threshold > 0.0);
+                self.at = end;
+                return None;
+            }
+            if self.active.is_empty() {
+                self.below = Some(self.threshold > 0.0);
+            } else if next > self.at {
+                if let Some(t) = self.crossing(self.at, next, t_lo) {
+                    return Some(t);
+                }
+            }
+            self.at = next;
+        }
+    }
+
+    /// The first root of the current piece's polynomial in [a, b] beyond `t_lo`.
+    fn crossing(&mut self, a: f64, b: f64, t_lo: f64) -> Option<f64> {
+        if self.updates > 2 * self.active.len() + 16 {
+            self.rebase();
+        }
+        // φ(a + h·v) for v in [0, 1]: Taylor shift to a, then scale
+        let mut c = self.poly;
+        let shift = a - self.reference;
+        for i in 0..MAX_COEFFS - 1 {
+            for j in (i..MAX_COEFFS - 1).rev() {
+                c[j] += shift * c[j + 1];
+            }
+        }
+        let h = b - a;
+        let mut hk = 1.0;
+        for ck in c.iter_mut() {
+            *ck *= hk;
+            hk *= h;
+        }
+        let below_a = c[0] < 0.0;
+        let was_below = self.below.replace(below_a);
+        // a sign change between the last piece's end and this one's start (rounding at an event)
+        if was_below.is_some_and(|w| w != below_a) && a > t_lo {
+            return Some(a);
+        }
+        // the Bernstein coefficients bound φ on the piece
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for row in &BERNSTEIN6 {
+            let bi: f64 = row.iter().zip(&c).map(|(w, x)| w * x).sum();
+            lo = lo.min(bi);
+            hi = hi.max(bi);
+        }
+        let end_value: f64 = c.iter().sum();
+        if lo > 0.0 || hi < 0.0 {
+            self.below = Some(end_value < 0.0);
+            return None;
+        }
+        let (r, n) = roots_in(&c, 0.0, 1.0);
+        if let Some(t) = r[..n].iter().map(|v| a + h * v).find(|&t| t > t_lo && t <= b) {
+            return Some(t);
+        }
+        self.below = Some(end_value < 0.0);
+        None
+    }
+
+    /// Outward unit normal (−∇φ) at p from the active kernels, and the key of the one
+    /// contributing most there (the smallest key among equals).
+    pub fn normal(&self, p: Vec3, kernel: impl Fn(usize) -> Kernel) -> (Vec3, usize) {
+        let mut g = Vec3::ZERO;
+        let (mut best, mut best_psi) = (usize::MAX, -1.0);
+        for s in self.active() {
+            let k = kernel(s.key);
+            g += k.grad(p);
+            let psi = k.psi(p);
+            if psi > best_psi || (psi == best_psi && s.key < best) {
+                best_psi = psi;
+                best = s.key;
+            }
+        }
+        ((-g).normalize_or_zero(), best)
     }
 }
 
 /// φ = Σψ − T at p over `kernels`.
 pub fn blobby_value(kernels: &[Kernel], threshold: f32, p: Vec3) -> f32 {
     kernels.iter().map(|k| k.psi(p)).sum::<f32>() - threshold
-}
-
-/// Outward unit normal (−∇φ) at p and the kernel contributing most there.
-pub fn blobby_normal(kernels: &[Kernel], p: Vec3) -> (Vec3, usize) {
-    normal_over(kernels.iter().enumerate(), p)
-}
-
-/// [`blobby_normal`] over (index, kernel) pairs; the index returned is the pair's.
-fn normal_over<'a>(kernels: impl Iterator<Item = (usize, &'a Kernel)>, p: Vec3) -> (Vec3, usize) {
-    let mut g = Vec3::ZERO;
-    let (mut best, mut best_psi) = (0, -1.0);
-    for (i, k) in kernels {
-        g += k.grad(p);
-        let psi = k.psi(p);
-        if psi > best_psi {
-            best_psi = psi;
-            best = i;
-        }
-    }
-    ((-g).normalize_or_zero(), best)
 }
 
 /// The first crossing of φ = 0 in (t_min, t_max) along o + t·d, with the kernels the caller
@@ -387,88 +625,11 @@ pub fn blobby_intersect(
     t_min: f32,
     t_max: f32,
 ) -> Option<(f32, usize, Vec3)> {
-    // each kernel's stretch of the ray: q(t) < 1
-    let mut spans: Vec<(f64, f64, usize, (f64, f64, f64))> = Vec::with_capacity(kernels.len());
     let (t_lo, t_hi) = (t_min as f64, t_max as f64);
-    for (i, k) in kernels.iter().enumerate() {
-        let (al, be, ga) = k.along(o, d);
-        if !(ga > 0.0) {
-            continue;
-        }
-        let Some((t0, t1)) = solve_quadratic(ga, be, al - 1.0) else { continue };
-        if t1 <= t0 || t1 <= t_lo || t0 >= t_hi {
-            continue;
-        }
-        spans.push((t0, t1, i, (al, be, ga)));
-    }
-    if spans.is_empty() {
-        return None;
-    }
-    // segment boundaries: every entry and exit inside (t_lo, t_hi)
-    let mut cuts: Vec<f64> = Vec::with_capacity(2 * spans.len() + 2);
-    cuts.push(t_lo);
-    cuts.push(t_hi);
-    for s in &spans {
-        for t in [s.0, s.1] {
-            if t > t_lo && t < t_hi {
-                cuts.push(t);
-            }
-        }
-    }
-    cuts.sort_by(|a, b| a.total_cmp(b));
-    cuts.dedup();
-    spans.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut active: Vec<usize> = Vec::new();
-    let mut next = 0;
-    for w in cuts.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let mid = 0.5 * (a + b);
-        active.retain(|&j| spans[j].1 > mid);
-        while next < spans.len() && spans[next].0 <= mid {
-            if spans[next].1 > mid {
-                active.push(next);
-            }
-            next += 1;
-        }
-        if active.is_empty() {
-            continue;
-        }
-        // bounds of φ over the piece from each kernel's q range on it (q is a convex quadratic:
-        // its least value at the vertex or an end, its largest at an end): where φ cannot
-        // change sign, there is no root to look for
-        let (mut upper, mut lower) = (-(threshold as f64), -(threshold as f64));
-        for &j in &active {
-            let (al, be, ga) = spans[j].3;
-            let q = |t: f64| al + be * t + ga * t * t;
-            let vertex = (-be / (2.0 * ga)).clamp(a, b);
-            let (qa, qb) = (q(a), q(b));
-            let (q_lo, q_hi) = (q(vertex).min(qa).min(qb).max(0.0), qa.max(qb).min(1.0));
-            upper += (1.0 - q_lo).powi(3);
-            lower += (1.0 - q_hi).max(0.0).powi(3);
-        }
-        if upper < 0.0 || lower > 0.0 {
-            continue;
-        }
-        // φ(a + u) = Σ (1 − q(a + u))³ − T
-        let mut poly = [0.0f64; MAX_COEFFS];
-        poly[0] = -(threshold as f64);
-        for &j in &active {
-            let (al, be, ga) = spans[j].3;
-            let u = [1.0 - (al + be * a + ga * a * a), -(be + 2.0 * ga * a), -ga];
-            let (u2, n2) = mul(&u, &u);
-            let (u3, n3) = mul(&u2[..n2], &u);
-            for k in 0..n3 {
-                poly[k] += u3[k];
-            }
-        }
-        let (r, n) = roots_in(&poly, 0.0, b - a);
-        if let Some(t) = r[..n].iter().map(|u| a + u).find(|&t| t > t_lo) {
-            if t < t_hi {
-                let p = o + d * t as f32;
-                let (n, k) = normal_over(active.iter().map(|&j| (spans[j].2, &kernels[spans[j].2])), p);
-                return Some((t as f32, k, n));
-            }
-        }
-    }
-    None
+    let mut spans: Vec<Span> = kernels.iter().enumerate().filter_map(|(i, k)| k.span(o, d, i)).filter(|s| s.t1 > t_lo && s.t0 < t_hi).collect();
+    spans.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.key.cmp(&b.key)));
+    let mut sweep = Sweep::new(threshold, t_lo);
+    let t = sweep.advance(&spans, t_hi, t_lo)?;
+    let (n, i) = sweep.normal(o + d * t as f32, |i| kernels[i]);
+    Some((t as f32, i, n))
 }

@@ -321,3 +321,63 @@ fn the_bvh_finds_what_the_primitives_say() {
     }
     assert!(hits > 300, "{hits}");
 }
+
+/// Through the BVH over a dense slab of overlapping kernels, where rays from inside pass many
+/// more kernels than one segment of the gathering holds on their way to the exit (rays from
+/// outside skim the top, through many kernels' outer parts, but meet the surface within a
+/// segment: a kernel's inner core is entered about once per five supports): the hits are the
+/// sweep's over all kernels at once, and that sweep agrees with a march of φ.
+#[test]
+fn dense_blobbies_through_the_bvh_agree_with_all_kernels_at_once() {
+    let threshold = 0.5;
+    let mut rng = TestRng::new(11);
+    let n = 6000;
+    let mut desc = SpheresDesc { name: "dense".into(), ..Default::default() };
+    desc.shape = PointShape::Blobby { threshold, orientations: None, scales: None };
+    for _ in 0..n {
+        desc.centers.push(Vec3::new(rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 0.3, rng.next_f32() * 2.0 - 1.0));
+        desc.radii.push(0.03 + 0.03 * rng.next_f32());
+    }
+    let kernels: Vec<Kernel> = desc.centers.iter().zip(&desc.radii).map(|(&c, &r)| Kernel::new(c, r, Vec3::ONE, Quat::IDENTITY, threshold)).collect();
+    let phi = |p: Vec3| blobby_value(&kernels, threshold, p);
+    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }];
+    let a = Accel::build(&[], &[std::sync::Arc::new(desc)], &inst, (0.0, 0.0));
+    let segment = crate::accel::BLOBBY_SEGMENT;
+    let (mut hits_from_outside, mut long_from_inside) = (0, 0);
+    for i in 0..600 {
+        let from_inside = i % 2 == 1;
+        let (o, d) = if from_inside {
+            // from inside the slab, at a shallow angle: a long way to the exit
+            let o = Vec3::new(rng.next_f32() - 0.5, 0.1 + 0.1 * rng.next_f32(), rng.next_f32() - 0.5);
+            let a = rng.next_f32() * std::f32::consts::TAU;
+            (o, Vec3::new(a.cos(), 0.2 * (rng.next_f32() - 0.5), a.sin()).normalize())
+        } else {
+            // from outside, skimming the slab's top through the kernels' outer parts
+            let o = Vec3::new(rng.next_f32() - 0.5, 0.32 + 0.08 * rng.next_f32(), -1.2);
+            (o, Vec3::new(0.3 * (rng.next_f32() - 0.5), -0.08 * rng.next_f32(), 1.0).normalize())
+        };
+        if from_inside != (phi(o) > 0.0) {
+            continue;
+        }
+        let want = blobby_intersect(&kernels, threshold, o, d, 0.0, 10.0);
+        let got = a.intersect(&Ray { o, d, t_max: 10.0, time: 0.0 });
+        match (got, want) {
+            (Some(h), Some((t, k, nrm))) => {
+                hits_from_outside += !from_inside as usize;
+                assert!((h.t - t).abs() < 1e-5 * (1.0 + t), "{} vs {t}", h.t);
+                assert_eq!(h.prim as usize, k);
+                assert!((oct_decode(h.u, h.v) - nrm).length() < 1e-4);
+                // the kernels entered before the hit, against one segment's worth
+                let before = kernels.iter().filter_map(|q| q.span(o, d, 0)).filter(|s| s.t0 < t as f64 && s.t1 > 0.0).count();
+                long_from_inside += (from_inside && before > 2 * segment) as usize;
+                // the sweep over all kernels against a march of φ (over the kernels the ray meets)
+                let met: Vec<Kernel> = kernels.iter().filter(|q| q.span(o, d, 0).is_some()).copied().collect();
+                let w = march(|p| blobby_value(&met, threshold, p), o, d, 0.0, t + 0.01, 5_000).expect("the march crosses too");
+                assert!((w - t).abs() < 1e-4, "march {w} vs {t}");
+            }
+            (None, None) => {}
+            (h, w) => panic!("{o:?} {d:?}: {h:?} vs {w:?}"),
+        }
+    }
+    assert!(hits_from_outside > 200 && long_from_inside > 100, "{hits_from_outside} hits from outside, {long_from_inside} exits past two segments");
+}
