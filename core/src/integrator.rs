@@ -509,7 +509,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                                     let dist = if ls.dist.is_finite() { ls.dist * (1.0 - 1e-4) } else { f32::INFINITY };
                                     let tr = shadow_transmittance(world, li, p, ls.wi, dist, ray.time, Some(mi), &stack, lambda, u_tr, path_flags);
                                     if !tr.is_black() {
-                                        let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, phase.pdf(wo, ls.wi)) };
+                                        let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, fp) }; // the phase function's pdf is its value
                                         add!(beta * tr * ls.l * (fp * w / (ls.pdf * pmf)));
                                     }
                                 }

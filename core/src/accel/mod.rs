@@ -16,7 +16,7 @@ pub mod motion;
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
 use implicit::{Bubble, Kernel, Span, Sweep};
 use tribvh::{TriBvh, TriMesh};
-use wide::PointBvh;
+pub(crate) use wide::{prefetch_lines, PointBvh};
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;

@@ -829,7 +829,7 @@ impl WideTree {
 
 /// Starts loading the `bytes` from `p` into the cache (nothing off x86-64).
 #[inline(always)]
-pub(super) fn prefetch_lines(p: *const u8, bytes: usize) {
+pub(crate) fn prefetch_lines(p: *const u8, bytes: usize) {
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
@@ -870,9 +870,9 @@ pub(super) fn advise_huge_pages<T>(v: &mut Vec<T>) -> bool {
 }
 
 /// A wide BVH over primitives the caller intersects (points, for spheres, bubbles and
-/// blobby kernels; instances, for the top level): leaves hold up to [`MAX_LEAF`] primitive ids,
+/// blobby kernels; instances, for the top level; pieces of photon beams): leaves hold up to [`MAX_LEAF`] primitive ids,
 /// each tested on its own.
-pub(super) struct PointBvh {
+pub(crate) struct PointBvh {
     tree: WideTree,
     ids: Vec<u32>,
 }

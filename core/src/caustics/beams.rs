@@ -17,8 +17,8 @@
 //! `h`, so the estimate converges to the single-scattered radiance as widths shrink.
 //!
 //! # Storage and queries
-//! Beams are cut into pieces of at most [`PIECE_LENGTH_WIDTHS`] widths; an obvhs `CwBvh` holds
-//! the pieces' boxes grown by their beam's width. A query walks every piece whose box the
+//! Beams are cut into pieces of at most [`PIECE_LENGTH_WIDTHS`] widths; the eight-wide points
+//! BVH of the ray tracer ([`crate::accel`]) holds the pieces' boxes grown by their beam's width. A query walks every piece whose box the
 //! camera ray crosses; a beam contributes through the piece that holds its closest point, so
 //! nothing is counted twice. Each piece carries its beam's line and width, stored in the BVH's
 //! leaf order, so the walk reads pieces in sequence and a beam's own record only when it
@@ -27,13 +27,8 @@
 // `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+use crate::accel::{prefetch_lines, PointBvh};
 use glam::{Vec3, Vec3A};
-use obvhs::{
-    aabb::Aabb,
-    cwbvh::{builder::build_cwbvh, CwBvh},
-    ray::{Ray as BvhRay, RayHit},
-    Boundable, BvhBuildParams,
-};
 
 use super::photon_map::Photon;
 
@@ -55,15 +50,8 @@ pub struct Beam {
     pub medium: u32,
 }
 
-/// Bytes a beam takes (its BVH pieces come on top: about 84 bytes each).
+/// Bytes a beam takes (its pieces and their BVH come on top: [`BeamMap::memory_bytes`]).
 pub const BYTES_PER_BEAM: usize = std::mem::size_of::<Beam>();
-
-struct PieceBound(Aabb);
-impl Boundable for PieceBound {
-    fn aabb(&self) -> Aabb {
-        self.0
-    }
-}
 
 /// A beam's closest approach to a camera ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,7 +101,7 @@ pub struct BeamMap {
     beams: Vec<Beam>,
     /// The pieces in the BVH's primitive order: piece `i` is primitive `i`.
     pieces: Vec<Piece>,
-    bvh: Option<CwBvh>,
+    bvh: Option<PointBvh>,
 }
 
 impl BeamMap {
@@ -134,21 +122,15 @@ impl BeamMap {
                 let p0 = b.photon.position + b.dir * s0;
                 let p1 = b.photon.position + b.dir * s1;
                 let g = Vec3A::splat(b.width);
-                bounds.push(PieceBound(Aabb::new(Vec3A::from(p0.min(p1)) - g, Vec3A::from(p0.max(p1)) + g)));
+                bounds.push((Vec3A::from(p0.min(p1)) - g, Vec3A::from(p0.max(p1)) + g));
                 pieces.push(Piece { o: b.photon.position, d: b.dir, s0, s1, width: b.width, beam: i as u32, closes: s1 == b.len });
             }
         }
-        if bounds.len() == 1 {
-            // a one-primitive CwBvh is a lone leaf traversal never enters: a second, empty
-            // piece (it holds no point of the beam, so the beam still counts once)
-            bounds.push(PieceBound(bounds[0].0));
-            pieces.push(Piece { s0: f32::INFINITY, closes: false, ..pieces[0] });
+        if pieces.is_empty() {
+            return BeamMap { beams, pieces, bvh: None };
         }
-        let Some(bvh) = (!bounds.is_empty()).then(|| build_cwbvh(&bounds, BvhBuildParams::fast_build(), &mut std::time::Duration::default())) else {
-            return BeamMap { beams, pieces: vec![], bvh: None };
-        };
-        let n = pieces.len();
-        let pieces = bvh.primitive_indices.iter().map(|&k| pieces[k as usize % n]).collect();
+        let bvh = PointBvh::build(bounds.into_iter());
+        let pieces = bvh.ids().iter().map(|&k| pieces[k as usize]).collect();
         BeamMap { beams, pieces, bvh: Some(bvh) }
     }
 
@@ -162,7 +144,7 @@ impl BeamMap {
 
     /// Bytes held (beams, pieces, BVH nodes approximately).
     pub fn memory_bytes(&self) -> usize {
-        self.beams.capacity() * BYTES_PER_BEAM + self.pieces.capacity() * (std::mem::size_of::<Piece>() + 40)
+        self.beams.capacity() * BYTES_PER_BEAM + self.pieces.capacity() * std::mem::size_of::<Piece>() + self.bvh.as_ref().map_or(0, |b| b.bytes())
     }
 
     /// Calls `f(beam, approach)` for every beam whose closest approach to the camera ray
@@ -170,20 +152,24 @@ impl BeamMap {
     /// lines… as seen through the pieces' boxes: each beam at most once.
     pub fn for_each_near(&self, a: Vec3, c: Vec3, t_max: f32, mut f: impl FnMut(&Beam, &Approach)) {
         let Some(bvh) = &self.bvh else { return };
-        let ray = BvhRay::new(Vec3A::from(a), Vec3A::from(c), 0.0, t_max.min(1e30));
-        let mut rh = RayHit::none();
-        bvh.ray_traverse(ray, &mut rh, |_, id| {
-            let p = &self.pieces[id];
-            if let Some(ap) = closest_approach(a, c, p.o, p.d) {
-                // the piece that holds the closest point answers for its beam (the last
-                // piece closes its end)
-                let inside = ap.s >= p.s0 && (ap.s < p.s1 || (p.closes && ap.s <= p.s1));
-                if inside && ap.t >= 0.0 && ap.t <= t_max && ap.h < p.width {
-                    f(&self.beams[p.beam as usize], &ap);
+        bvh.traverse_slots(
+            Vec3A::from(a),
+            Vec3A::from(c),
+            t_max.min(1e30),
+            |k, _| {
+                let p = &self.pieces[k];
+                if let Some(ap) = closest_approach(a, c, p.o, p.d) {
+                    // the piece that holds the closest point answers for its beam (the last
+                    // piece closes its end)
+                    let inside = ap.s >= p.s0 && (ap.s < p.s1 || (p.closes && ap.s <= p.s1));
+                    if inside && ap.t >= 0.0 && ap.t <= t_max && ap.h < p.width {
+                        f(&self.beams[p.beam as usize], &ap);
+                    }
                 }
-            }
-            f32::INFINITY
-        });
+                None
+            },
+            |k| prefetch_lines(self.pieces.as_ptr().wrapping_add(k) as *const u8, 4 * std::mem::size_of::<Piece>()),
+        );
     }
 }
 
@@ -248,7 +234,7 @@ mod tests {
         }
     }
 
-    // A map of one short beam (one piece, which the BVH needs a second box for) reports it once.
+    // A map of one short beam (one piece: the BVH is a lone leaf) reports it once.
     #[test]
     fn a_lone_beam_is_found_once() {
         let map = BeamMap::build(vec![beam(Vec3::ZERO, Vec3::X, 1.0, 0.1)]);

@@ -879,7 +879,8 @@ impl Caustics {
             if !(fp > 0.0) {
                 return;
             }
-            let mis = self.photon_weight_mis(b.photon.cell, phase.pdf(wo, wi));
+            // a phase function samples its own density: its pdf is `fp`
+            let mis = self.photon_weight_mis(b.photon.cell, fp);
             if mis <= 0.0 {
                 return;
             }

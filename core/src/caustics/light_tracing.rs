@@ -137,7 +137,8 @@ impl LightTracer {
         if !(fp > 0.0) {
             return;
         }
-        let w_mis = mis(phase.pdf(wc, -d));
+        // a phase function samples its own density: its pdf is `fp`
+        let w_mis = mis(fp);
         if !(w_mis > 0.0) {
             return;
         }
