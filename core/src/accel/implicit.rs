@@ -336,36 +336,33 @@ impl Kernel {
         (self.a.transpose() * (self.a * w)) * (-6.0 * (1.0 - q) * (1.0 - q))
     }
 
-    /// Where the ray o + t·d first enters the set q ≤ `level` (None if it misses it).
-    pub fn entry(&self, o: Vec3, d: Vec3, level: f32) -> Option<f64> {
-        let (tm, qm, ga) = self.vertex(o, d)?;
-        (qm <= level as f64).then(|| tm - ((level as f64 - qm) / ga).sqrt())
+    /// The kernel's stretch of the ray o + t·d (None where the ray misses its support);
+    /// `key` is the caller's name for the kernel.
+    #[inline]
+    pub fn span(&self, o: Vec3, d: Vec3, key: usize) -> Option<Span> {
+        let v = self.center - o;
+        let ts = v.dot(d) / d.length_squared();
+        self.span_near(ts, d * ts - v, d, key)
     }
 
-    /// q along the ray o + t·d in vertex form, γ·(t − t_m)² + q_m: (t_m, q_m, γ), or None for
-    /// a degenerate direction. q_m is computed from the part of A(o − c) across the ray, not as
-    /// a difference of large terms, so far origins keep their precision.
+    /// [`Self::span`] from the ray's closest approach to the centre: its distance `ts` along
+    /// the ray and the offset `p` of that point from the centre. Only that small offset goes
+    /// through A, so q's vertex form (γ·(t − t_m)² + q_m) keeps the kernel's precision however far
+    /// the origin is (the closest approach itself carries the ray's).
     #[inline]
-    fn vertex(&self, o: Vec3, d: Vec3) -> Option<(f64, f64, f64)> {
-        let a = self.a.as_dmat3();
-        let w = a * (o.as_dvec3() - self.center.as_dvec3());
-        let e = a * d.as_dvec3();
+    pub fn span_near(&self, ts: f32, p: Vec3, d: Vec3, key: usize) -> Option<Span> {
+        let w = self.a * p;
+        let e = self.a * d;
         let ga = e.length_squared();
         if !(ga > 0.0) || !ga.is_finite() {
             return None;
         }
         let s = w.dot(e) / ga;
-        Some((-s, (w - e * s).length_squared(), ga))
-    }
-
-    /// The kernel's stretch of the ray o + t·d (None where the ray misses its support);
-    /// `key` is the caller's name for the kernel.
-    #[inline]
-    pub fn span(&self, o: Vec3, d: Vec3, key: usize) -> Option<Span> {
-        let (tm, qm, ga) = self.vertex(o, d)?;
+        let qm = (w - e * s).length_squared() as f64;
         if !(qm < 1.0) {
             return None;
         }
+        let (tm, ga) = (ts as f64 - s as f64, ga as f64);
         let half = ((1.0 - qm) / ga).sqrt();
         Some(Span { t0: tm - half, t1: tm + half, key, tm, qm, ga })
     }
@@ -385,6 +382,12 @@ pub struct Span {
 }
 
 impl Span {
+    /// Where the ray enters the kernel's level set q ≤ `level` (None if it misses it).
+    #[inline]
+    pub fn entry(&self, level: f32) -> Option<f64> {
+        (self.qm <= level as f64).then(|| self.tm - ((level as f64 - self.qm) / self.ga).sqrt())
+    }
+
     /// ψ(r + u) as a polynomial in u (lowest degree first).
     #[inline]
     fn psi_about(&self, r: f64) -> [f64; MAX_COEFFS] {

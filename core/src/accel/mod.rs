@@ -607,6 +607,26 @@ impl Accel {
     }
 }
 
+/// A kernel's span ordered by entry (then key), for the gathering's heap.
+struct ByEntry(Span);
+
+impl PartialEq for ByEntry {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == std::cmp::Ordering::Equal
+    }
+}
+impl Eq for ByEntry {}
+impl PartialOrd for ByEntry {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for ByEntry {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        self.0.t0.total_cmp(&other.0.t0).then(self.0.key.cmp(&other.0.key))
+    }
+}
+
 /// Kernels a blobby ray's segment gathers beyond those it already met. Each segment's traversal
 /// visits the kernels already met again, so fewer segments of more kernels pay where kernels
 /// overlap many times (`cargo bench -p tide-core --bench fx`: 24 is best at 20000 points, 128
@@ -633,12 +653,13 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
     let (dd, o_size) = (d3.length_squared(), o3.abs().max_element());
     let inv_len = 1.0 / (dd as f64).sqrt();
     let mut sweep = Sweep::new(threshold, 0.0);
-    let mut entering: Vec<Span> = Vec::with_capacity(BLOBBY_SEGMENT + 1);
+    // the kernels entering in the segment, latest on top while gathering
+    let mut entering: std::collections::BinaryHeap<ByEntry> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
     let mut first = true;
     loop {
         let s = sweep.at();
         let mut e = t_end;
-        entering.clear();
+        let mut t_first = f64::INFINITY;
         // the traversal starts a little before s (boxes behind it are skipped)
         let shift = if first { 0.0 } else { s as f32 * (1.0 - 4.0 * f32::EPSILON) };
         sb.bvh.traverse_slots(
@@ -650,13 +671,12 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
                 let c = center(k);
                 let v = c - o3;
                 let tc = v.dot(d3) / dd;
+                let p = d3 * tc - v;
                 let r = reach[k] * 1.001 + 1e-6 * (v.abs().max_element() + o_size);
-                let miss = (v - d3 * tc).length_squared() - r * r;
-                if miss > 0.0 || (tc as f64 - r as f64 * inv_len) >= e || (tc as f64 + r as f64 * inv_len) <= s {
+                if p.length_squared() > r * r || (tc as f64 - r as f64 * inv_len) >= e || (tc as f64 + r as f64 * inv_len) <= s {
                     return None;
                 }
-                let kn = Kernel { center: c, a: a[k] };
-                let sp = kn.span(o3, d3, k)?;
+                let sp = Kernel { center: c, a: a[k] }.span_near(tc, p, d3, k)?;
                 if sp.t1 <= s || sp.t0 >= e {
                     return None;
                 }
@@ -667,21 +687,24 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
                     }
                     return None;
                 }
-                let mut cut = kn.entry(o3, d3, core).filter(|&tc| tc > s).map_or(e, |tc| tc.min(e));
-                let at = entering.partition_point(|x| x.t0.total_cmp(&sp.t0).then(x.key.cmp(&sp.key)).is_lt());
-                entering.insert(at, sp);
+                let mut cut = sp.entry(core).filter(|&tc| tc > s).map_or(e, |tc| tc.min(e));
+                t_first = t_first.min(sp.t0);
+                entering.push(ByEntry(sp));
                 if entering.len() > BLOBBY_SEGMENT {
                     // the first entry past the kept ones, never cutting kernels that enter together
                     // with the first (a segment always moves the sweep on)
-                    let t_first = entering[0].t0;
-                    if let Some(x) = entering[BLOBBY_SEGMENT..].iter().find(|x| x.t0 > t_first) {
-                        cut = cut.min(x.t0);
+                    let last = entering.peek().unwrap().0.t0;
+                    if last > t_first {
+                        cut = cut.min(last);
                     }
                 }
                 if cut < e {
                     e = cut;
-                    while entering.last().is_some_and(|x| x.t0 >= e) {
+                    while entering.peek().is_some_and(|x| x.0.t0 >= e) {
                         entering.pop();
+                    }
+                    if entering.is_empty() {
+                        t_first = f64::INFINITY;
                     }
                     return Some((e - shift as f64) as f32 * (1.0 + 1e-6));
                 }
@@ -689,8 +712,9 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
             },
             prefetch,
         );
+        let sorted: Vec<Span> = std::mem::take(&mut entering).into_sorted_vec().into_iter().map(|x| x.0).collect();
         first = false;
-        if let Some(t) = sweep.advance(&entering, e, 0.0) {
+        if let Some(t) = sweep.advance(&sorted, e, 0.0) {
             let (n, k) = sweep.normal(o3 + d3 * t as f32, kernel);
             let (u, v) = implicit::oct_encode(n);
             return Some((t as f32, sb.bvh.ids()[k], u, v));
