@@ -398,23 +398,32 @@ impl Span {
     }
 }
 
-/// A span in the sweep's active set, ordered so that the first to leave is on top.
-struct Leaving(Span);
+/// A span ordered for a max-heap: by entry (then key) with `BY_EXIT = false`, the latest entry
+/// on top (a blobby ray's gathering); reversed by exit (then key) with `BY_EXIT = true`, the first
+/// to leave on top (the sweep's active set).
+pub struct Ordered<const BY_EXIT: bool>(pub Span);
 
-impl PartialEq for Leaving {
+/// The sweep's active set's order.
+type Leaving = Ordered<true>;
+
+impl<const BY_EXIT: bool> PartialEq for Ordered<BY_EXIT> {
     fn eq(&self, other: &Self) -> bool {
         self.cmp(other) == std::cmp::Ordering::Equal
     }
 }
-impl Eq for Leaving {}
-impl PartialOrd for Leaving {
+impl<const BY_EXIT: bool> Eq for Ordered<BY_EXIT> {}
+impl<const BY_EXIT: bool> PartialOrd for Ordered<BY_EXIT> {
     fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
         Some(self.cmp(other))
     }
 }
-impl Ord for Leaving {
+impl<const BY_EXIT: bool> Ord for Ordered<BY_EXIT> {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        other.0.t1.total_cmp(&self.0.t1).then(other.0.key.cmp(&self.0.key))
+        if BY_EXIT {
+            other.0.t1.total_cmp(&self.0.t1).then(other.0.key.cmp(&self.0.key))
+        } else {
+            self.0.t0.total_cmp(&other.0.t0).then(self.0.key.cmp(&other.0.key))
+        }
     }
 }
 
@@ -488,7 +497,7 @@ impl Sweep {
             self.rebase();
         }
         self.add(&s, 1.0);
-        self.active.push(Leaving(s));
+        self.active.push(Ordered(s));
     }
 
     /// The sum rebuilt about where the sweep stands.
@@ -516,7 +525,7 @@ impl Sweep {
                 next_in += 1;
             }
             while self.active.peek().is_some_and(|l| l.0.t1 <= self.at) {
-                let Leaving(s) = self.active.pop().unwrap();
+                let Ordered(s) = self.active.pop().unwrap();
                 if self.active.is_empty() {
                     self.rebase();
                 } else {

@@ -14,7 +14,7 @@ mod motion_mesh;
 pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
-use implicit::{Bubble, Kernel, Span, Sweep};
+use implicit::{Bubble, Kernel, Ordered, Span, Sweep};
 use tribvh::{TriBvh, TriMesh};
 pub(crate) use wide::{prefetch_lines, PointBvh};
 use motion_mesh::MotionTriBlas;
@@ -607,26 +607,6 @@ impl Accel {
     }
 }
 
-/// A kernel's span ordered by entry (then key), for the gathering's heap.
-struct ByEntry(Span);
-
-impl PartialEq for ByEntry {
-    fn eq(&self, other: &Self) -> bool {
-        self.cmp(other) == std::cmp::Ordering::Equal
-    }
-}
-impl Eq for ByEntry {}
-impl PartialOrd for ByEntry {
-    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(other))
-    }
-}
-impl Ord for ByEntry {
-    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-        self.0.t0.total_cmp(&other.0.t0).then(self.0.key.cmp(&other.0.key))
-    }
-}
-
 /// Kernels a blobby ray's segment gathers beyond those it already met. Each segment's traversal
 /// visits the kernels already met again, so fewer segments of more kernels pay where kernels
 /// overlap many times (`cargo bench -p tide-core --bench fx`: 24 is best at 20000 points, 128
@@ -654,7 +634,7 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
     let inv_len = 1.0 / (dd as f64).sqrt();
     let mut sweep = Sweep::new(threshold, 0.0);
     // the kernels entering in the segment, latest on top while gathering
-    let mut entering: std::collections::BinaryHeap<ByEntry> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
+    let mut entering: std::collections::BinaryHeap<Ordered<false>> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
     let mut first = true;
     loop {
         let s = sweep.at();
@@ -689,7 +669,7 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
                 }
                 let mut cut = sp.entry(core).filter(|&tc| tc > s).map_or(e, |tc| tc.min(e));
                 t_first = t_first.min(sp.t0);
-                entering.push(ByEntry(sp));
+                entering.push(Ordered(sp));
                 if entering.len() > BLOBBY_SEGMENT {
                     // the first entry past the kept ones, never cutting kernels that enter together
                     // with the first (a segment always moves the sweep on)
