@@ -2,6 +2,7 @@
 //! [`Problem`] naming the item and attribute, and replaced by something renderable (dropped,
 //! or a documented default). Never a panic.
 
+use crate::accel::MAX_LEAF_ITEMS;
 use crate::render::Problem;
 use crate::scene::*;
 use glam::{Mat4, Quat, Vec3};
@@ -115,7 +116,7 @@ fn triangle_fault(positions: &[Vec3], t: &[u32]) -> Option<TriangleFault> {
 /// mesh is taken as it is, shared and not copied.
 fn mesh_is_clean(m: &MeshDesc) -> bool {
     let nv = m.positions.len();
-    if m.indices.len() % 3 != 0 || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
+    if m.indices.len() % 3 != 0 || m.indices.len() / 3 > MAX_LEAF_ITEMS || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
         return false;
     }
     if !m.primvars.iter().all(|pv| primvar_fits(pv, nv)) {
@@ -129,9 +130,14 @@ fn mesh_is_clean(m: &MeshDesc) -> bool {
     m.normals.iter().flatten().all(|&n| normal_ok(n)) && m.indices.chunks_exact(3).all(|t| triangle_fault(&m.positions, t).is_none())
 }
 
-/// Drops triangles with bad indices, non-finite vertices or zero area, and whatever else of
-/// the mesh does not fit its points, reporting each.
+/// Drops triangles with bad indices, non-finite vertices or zero area, those past the most one
+/// BVH holds, and whatever else of the mesh does not fit its points, reporting each.
 fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
+    mend_mesh_within(m, p, MAX_LEAF_ITEMS)
+}
+
+/// [`mend_mesh`] keeping at most `max_triangles`.
+fn mend_mesh_within(m: &mut MeshDesc, p: &mut Vec<Problem>, max_triangles: usize) {
     let nv = m.positions.len();
     if m.indices.len() % 3 != 0 {
         problem(p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
@@ -178,6 +184,10 @@ fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
         // degenerate triangles are common in production meshes: dropped quietly but counted
         problem(p, &m.name, "points", format!("{degenerate} degenerate (zero-area) triangles dropped"));
     }
+    if kept.len() / 3 > max_triangles {
+        problem(p, &m.name, "faceVertexIndices", format!("{} triangles exceed the {max_triangles} one mesh can hold; the last {} are dropped (split the mesh)", kept.len() / 3, kept.len() / 3 - max_triangles));
+        kept.truncate(max_triangles * 3);
+    }
     m.indices = kept;
     // normals are normalised; one that cannot be is zero ("use the geometric normal")
     let fix_normal = |v: &mut Vec3| *v = v.normalize_or_zero();
@@ -189,9 +199,14 @@ fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
     }
 }
 
-/// Drops points that are not finite or whose radius is not positive and finite, and whatever
-/// else of a sphere set does not fit its points, reporting each.
+/// Drops points that are not finite or whose radius is not positive and finite, those past the
+/// most one BVH holds, and whatever else of a sphere set does not fit its points, reporting each.
 fn mend_spheres(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
+    mend_spheres_within(sp, p, MAX_LEAF_ITEMS)
+}
+
+/// [`mend_spheres`] keeping at most `max_points`.
+fn mend_spheres_within(sp: &mut SpheresDesc, p: &mut Vec<Problem>, max_points: usize) {
     let n = sp.centers.len();
     if sp.radii.len() != n {
         problem(p, &sp.name, "widths", format!("{} widths for {} points; missing ones use the first or 1", sp.radii.len(), n));
@@ -223,7 +238,16 @@ fn mend_spheres(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
     if bad_r > 0 {
         problem(p, &sp.name, "widths", format!("{bad_r} points with zero, negative or non-finite width dropped"));
     }
-    if bad_c + bad_r > 0 {
+    let good = n - bad_c - bad_r;
+    if good > max_points {
+        problem(p, &sp.name, "points", format!("{good} points exceed the {max_points} one points prim can hold; the last {} are dropped (split the prim)", good - max_points));
+        let mut left = max_points;
+        for k in keep.iter_mut().filter(|k| **k) {
+            *k = left > 0;
+            left = left.saturating_sub(1);
+        }
+    }
+    if good != n || good > max_points {
         let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
         sp.centers = idx.iter().map(|&i| sp.centers[i]).collect();
         sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
@@ -267,7 +291,8 @@ fn spheres_are_clean(sp: &SpheresDesc) -> bool {
             *threshold > 0.0 && *threshold < 1.0 && quats_ok(orientations) && scales.as_ref().is_none_or(|sc| sc.len() == n && sc.iter().all(|s| s.is_finite() && s.min_element() > 0.0))
         }
     };
-    sp.radii.len() == n
+    n <= MAX_LEAF_ITEMS
+        && sp.radii.len() == n
         && sp.velocities.as_ref().is_none_or(|v| v.len() == n && v.iter().all(|x| finite3(*x)))
         && shape_ok
         && sp.primvars.iter().all(|pv| primvar_fits(pv, n))
@@ -1050,6 +1075,47 @@ mod tests {
         assert_eq!(w.jerlov.unwrap().source, JerlovSource::Solonenko2015);
         // what is left builds
         crate::medium::Medium::from_desc(m, ColorSpace::LinearRec709).unwrap();
+    }
+
+    /// Past the most one BVH holds (2^29 points, or triangles, per prim; here a smaller limit),
+    /// the tail is dropped and named, the data of the points kept following them.
+    #[test]
+    fn prims_past_the_bvh_limit_keep_their_head_and_say_so() {
+        let mut sp = SpheresDesc {
+            name: "/Spray".into(),
+            centers: vec![Vec3::ZERO, Vec3::splat(f32::NAN), Vec3::X, Vec3::Y, Vec3::Z],
+            radii: vec![1.0, 1.0, 2.0, 3.0, 4.0],
+            velocities: Some(vec![Vec3::ZERO, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]),
+            shape: PointShape::Spheres,
+            primvars: vec![PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![10.0, 11.0, 12.0, 13.0, 14.0] }],
+        };
+        let mut probs = Vec::new();
+        mend_spheres_within(&mut sp, &mut probs, 2);
+        assert_eq!(sp.centers, vec![Vec3::ZERO, Vec3::X]);
+        assert_eq!(sp.radii, vec![1.0, 2.0]);
+        assert_eq!(sp.velocities, Some(vec![Vec3::ZERO, Vec3::X]));
+        assert_eq!(sp.primvars[0].data, vec![10.0, 12.0]);
+        let over: Vec<&Problem> = probs.iter().filter(|p| p.message.contains("exceed")).collect();
+        assert_eq!(over.len(), 1, "{probs:?}");
+        assert_eq!((over[0].item.as_str(), over[0].attribute.as_str()), ("/Spray", "points"));
+        assert!(over[0].message.contains("4 points exceed the 2") && over[0].message.contains("last 2"), "{}", over[0].message);
+        // within the limit nothing is said
+        let mut probs = Vec::new();
+        mend_spheres_within(&mut sp, &mut probs, 2);
+        assert!(probs.is_empty(), "{probs:?}");
+
+        let mut m = MeshDesc {
+            name: "/Sea".into(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            indices: vec![0, 1, 2, 0, 2, 3, 0, 3, 1],
+            ..Default::default()
+        };
+        let mut probs = Vec::new();
+        mend_mesh_within(&mut m, &mut probs, 2);
+        assert_eq!(m.indices, vec![0, 1, 2, 0, 2, 3]);
+        assert_eq!(probs.len(), 1, "{probs:?}");
+        assert_eq!((probs[0].item.as_str(), probs[0].attribute.as_str()), ("/Sea", "faceVertexIndices"));
+        assert!(mesh_is_clean(&m) && spheres_are_clean(&sp));
     }
 
     /// Shape data follows the points that survive; bad heights, scales, orientations and

@@ -17,6 +17,7 @@ use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc}
 use implicit::{Bubble, Kernel, Ordered, Span, Sweep};
 use tribvh::{TriBvh, TriMesh};
 pub(crate) use wide::{prefetch_lines, PointBvh};
+pub use wide::MAX_LEAF_ITEMS;
 use motion_mesh::MotionTriBlas;
 use glam::{Mat3, Mat4, Quat, Vec3, Vec3A};
 use motion::MotionTransform;

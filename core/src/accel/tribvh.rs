@@ -14,7 +14,7 @@ pub(super) const BLOCK: usize = 4;
 pub(super) fn block_ids(ids: &[u32]) -> [u32; BLOCK] {
     [0, 1, 2, 3].map(|l| ids[l.min(ids.len() - 1)])
 }
-const _: () = assert!(MAX_LEAF <= BLOCK * 8, "a leaf's blocks must fit its slot's count");
+const _: () = assert!(MAX_LEAF <= BLOCK * 4, "a leaf's blocks must fit its slot's count");
 
 /// Four triangles' geometry, SoA: a vertex and two edges per lane.
 #[derive(Clone, Copy)]

@@ -145,18 +145,24 @@ pub(super) const MAX_LEAF: usize = 4;
 /// Children per node.
 const W: usize = 8;
 
-/// A leaf slot for `count` (1 to 8) items from `first` on.
+/// Most items (blocks of four triangles, or points) one BVH's leaves address: a leaf slot is
+/// the leaf bit, two bits of count and 29 of first item. Validation keeps meshes and points sets
+/// within it (`crate::validate`).
+pub const MAX_LEAF_ITEMS: usize = 1 << 29;
+const _: () = assert!(MAX_LEAF <= 4, "a points leaf's count must fit its slot");
+
+/// A leaf slot for `count` (1 to 4) items from `first` on.
 #[inline]
 pub(super) fn leaf_slot(first: usize, count: usize) -> u32 {
-    debug_assert!((1..=8).contains(&count));
-    assert!(first < 1 << 28, "a BVH holds at most 2^28 leaf items (blocks of four triangles, or points)");
-    LEAF | ((count as u32 - 1) << 28) | first as u32
+    debug_assert!((1..=4).contains(&count));
+    assert!(first < MAX_LEAF_ITEMS, "a BVH holds at most 2^29 leaf items (blocks of four triangles, or points)");
+    LEAF | ((count as u32 - 1) << 29) | first as u32
 }
 
 /// The (first, count) items of leaf slot `slot`.
 #[inline(always)]
 pub(super) fn leaf_items(slot: u32) -> (usize, usize) {
-    ((slot & 0x0fff_ffff) as usize, ((slot >> 28) & 7) as usize + 1)
+    ((slot as usize & (MAX_LEAF_ITEMS - 1)), ((slot >> 29) & 3) as usize + 1)
 }
 
 /// W child boxes, SoA: rows are min x, max x, min y, max y, min z, max z.
@@ -949,6 +955,23 @@ mod tests {
         let near = a.min(b).max_element().max(0.0);
         let far = a.max(b).min_element().min(t_max);
         (near <= far).then_some(near)
+    }
+
+    #[test]
+    fn leaf_slots_round_trip_up_to_the_last_addressable_item() {
+        for first in [0, 1, 12345, MAX_LEAF_ITEMS - 4, MAX_LEAF_ITEMS - 1] {
+            for count in 1..=4 {
+                let slot = leaf_slot(first, count);
+                assert!(slot & LEAF != 0);
+                assert_eq!(leaf_items(slot), (first, count));
+            }
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "at most 2^29 leaf items")]
+    fn a_leaf_past_the_last_addressable_item_is_refused() {
+        leaf_slot(MAX_LEAF_ITEMS, 1);
     }
 
     #[test]
