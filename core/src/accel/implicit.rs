@@ -341,7 +341,7 @@ impl Kernel {
     #[inline]
     pub fn span(&self, o: Vec3, d: Vec3, key: usize) -> Option<Span> {
         let v = self.center - o;
-        let ts = v.dot(d) / d.length_squared();
+        let ts = v.dot(d) * (1.0 / d.length_squared());
         self.span_near(ts, d * ts - v, d, key)
     }
 

@@ -560,12 +560,14 @@ impl Accel {
                         );
                     }
                     PointsBlasShape::Bubbles(bubbles) => {
+                        let near = Approach::new(o.into(), d.into());
                         sb.bvh.traverse_slots(
                             o,
                             d,
                             t_max,
                             |k, t_max| {
                                 let b = Bubble { center: center(k), ..bubbles[k] };
+                                near.approach(b.center, b.bounding_radius(), 0.0, t_max as f64)?;
                                 let t = b.intersect(o.into(), d.into(), 0.0, t_max)?;
                                 let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
                                 best = Some((t, ids[k], u, v));
@@ -608,6 +610,36 @@ impl Accel {
     }
 }
 
+/// A ray's closest approach to the centres of points' bounding spheres, in single precision
+/// with a margin for rounding: the cheap test before a primitive's own.
+struct Approach {
+    o: Vec3,
+    d: Vec3,
+    inv_dd: f32,
+    inv_len: f64,
+    o_size: f32,
+}
+
+impl Approach {
+    fn new(o: Vec3, d: Vec3) -> Approach {
+        let dd = d.length_squared();
+        Approach { o, d, inv_dd: 1.0 / dd, inv_len: 1.0 / (dd as f64).sqrt(), o_size: o.abs().max_element() }
+    }
+
+    /// Where the ray passes nearest the centre `c` (its distance along the ray, and that point's
+    /// offset from `c`), if the ray may cross the sphere of radius `r` about `c` within
+    /// (t_lo, t_hi); None where it surely does not.
+    #[inline]
+    fn approach(&self, c: Vec3, r: f32, t_lo: f64, t_hi: f64) -> Option<(f32, Vec3)> {
+        let v = c - self.o;
+        let tc = v.dot(self.d) * self.inv_dd;
+        let p = self.d * tc - v;
+        let r = r * 1.001 + 1e-6 * (v.abs().max_element() + self.o_size);
+        let half = r as f64 * self.inv_len;
+        (p.length_squared() <= r * r && (tc as f64 - half) < t_hi && (tc as f64 + half) > t_lo).then_some((tc, p))
+    }
+}
+
 /// Kernels a blobby ray's segment gathers beyond those it already met. Each segment's traversal
 /// visits the kernels already met again, so fewer segments of more kernels pay where kernels
 /// overlap many times (`cargo bench -p tide-core --bench fx`: 24 is best at 20000 points, 128
@@ -631,8 +663,7 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
     let (o3, d3): (Vec3, Vec3) = (o.into(), d.into());
     let core = 1.0 - threshold.cbrt();
     let t_end = t_max as f64;
-    let (dd, o_size) = (d3.length_squared(), o3.abs().max_element());
-    let inv_len = 1.0 / (dd as f64).sqrt();
+    let near = Approach::new(o3, d3);
     let mut sweep = Sweep::new(threshold, 0.0);
     // the kernels entering in the segment, latest on top while gathering
     let mut entering: std::collections::BinaryHeap<Ordered<false>> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
@@ -648,15 +679,9 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
             d,
             t_max - shift,
             |k, _| {
-                // first the bounding sphere, in single precision with a margin
+                // first the bounding sphere
                 let c = center(k);
-                let v = c - o3;
-                let tc = v.dot(d3) / dd;
-                let p = d3 * tc - v;
-                let r = reach[k] * 1.001 + 1e-6 * (v.abs().max_element() + o_size);
-                if p.length_squared() > r * r || (tc as f64 - r as f64 * inv_len) >= e || (tc as f64 + r as f64 * inv_len) <= s {
-                    return None;
-                }
+                let (tc, p) = near.approach(c, reach[k], s, e)?;
                 let sp = Kernel { center: c, a: a[k] }.span_near(tc, p, d3, k)?;
                 if sp.t1 <= s || sp.t0 >= e {
                     return None;
