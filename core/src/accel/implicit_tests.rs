@@ -381,3 +381,43 @@ fn dense_blobbies_through_the_bvh_agree_with_all_kernels_at_once() {
     }
     assert!(hits_from_outside > 200 && long_from_inside > 100, "{hits_from_outside} hits from outside, {long_from_inside} exits past two segments");
 }
+
+/// Points simulations repeat positions: a hundred and fifty kernels on one spot (more than a
+/// gathering segment holds, all entering together) and a few elsewhere. Through the BVH the
+/// sweep moves on past the tie and finds what the sweep over all kernels finds, from outside
+/// and from inside.
+#[test]
+fn coincident_blobbies_more_than_a_segment_are_swept_past() {
+    let threshold = 0.5;
+    let mut desc = SpheresDesc { name: "dup".into(), ..Default::default() };
+    desc.shape = PointShape::Blobby { threshold, orientations: None, scales: None };
+    for i in 0..160 {
+        desc.centers.push(if i < 150 { Vec3::ZERO } else { Vec3::new(0.3 * (i - 150) as f32, 0.1, 0.0) });
+        desc.radii.push(if i < 150 { 0.02 } else { 0.1 });
+    }
+    let kernels: Vec<Kernel> = desc.centers.iter().zip(&desc.radii).map(|(&c, &r)| Kernel::new(c, r, Vec3::ONE, Quat::IDENTITY, threshold)).collect();
+    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }];
+    let a = Accel::build(&[], &[std::sync::Arc::new(desc)], &inst, (0.0, 0.0));
+    assert!(150 > crate::accel::BLOBBY_SEGMENT);
+    let mut rng = TestRng::new(21);
+    let mut hits = 0;
+    for i in 0..400 {
+        let (o, d) = if i % 2 == 0 {
+            let o = unit(&mut rng) * 3.0;
+            (o, (Vec3::new(rng.next_f32() * 3.0 - 0.3, 0.0, 0.0) + unit(&mut rng) * 0.15 * rng.next_f32() - o).normalize())
+        } else {
+            (unit(&mut rng) * 0.01, unit(&mut rng))
+        };
+        let want = blobby_intersect(&kernels, threshold, o, d, 0.0, 10.0);
+        match (a.intersect(&Ray { o, d, t_max: 10.0, time: 0.0 }), want) {
+            (Some(h), Some((t, k, _))) => {
+                hits += 1;
+                assert!((h.t - t).abs() < 1e-6 * (1.0 + t), "{} vs {t}", h.t);
+                assert_eq!(h.prim as usize, k);
+            }
+            (None, None) => {}
+            (h, w) => panic!("{o:?} {d:?}: {h:?} vs {w:?}"),
+        }
+    }
+    assert!(hits > 250, "{hits}");
+}
