@@ -1,7 +1,8 @@
 //! Directional-albedo tables of the single-scattering GGX lobes, used for multiple-scattering
 //! energy compensation (Kulla & Conty 2017) and for energy-conserving layering. They are built
-//! once, at first use, by deterministic quasi-Monte Carlo (a Fibonacci lattice over the
-//! visible-normal sampler), so no generated data is committed.
+//! once per process by deterministic quasi-Monte Carlo (a Fibonacci lattice over the
+//! visible-normal sampler), so no generated data is committed: their rows in parallel
+//! ([`rows_in_parallel`]), started by the world's build beside the BVH's.
 //!
 //! The tables live on grids over μ = |cosθo| ∈ [0, 1] (uniform in √μ, denser at grazing
 //! angles), perceptual roughness r = √α ∈ [0, 1] and, for the dielectric, relative IOR η ∈
@@ -49,6 +50,26 @@ static TABLES: OnceLock<AlbedoTables> = OnceLock::new();
 /// The tables, built on first call.
 pub fn tables() -> &'static AlbedoTables {
     TABLES.get_or_init(AlbedoTables::build)
+}
+
+/// `f(0)`, …, `f(n − 1)` computed on scoped threads, one per core (rows dealt round robin),
+/// returned in order. Not on rayon's pool: the tables are built inside a `OnceLock`, and a rayon
+/// thread waiting there for its rows could pick up render work that asks for the same table,
+/// initialising it re-entrantly (a deadlock); these threads only ever run the rows.
+pub(crate) fn rows_in_parallel<T: Send>(n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    rows_on(std::thread::available_parallelism().map_or(1, |c| c.get()), n, f)
+}
+
+/// [`rows_in_parallel`] on `threads` threads (at least one, at most one per row).
+pub(crate) fn rows_on<T: Send>(threads: usize, n: usize, f: impl Fn(usize) -> T + Sync) -> Vec<T> {
+    let threads = threads.clamp(1, n.max(1));
+    let mut done: Vec<(usize, T)> = std::thread::scope(|s| {
+        let f = &f;
+        let workers: Vec<_> = (0..threads).map(|t| s.spawn(move || (t..n).step_by(threads).map(|i| (i, f(i))).collect::<Vec<_>>())).collect();
+        workers.into_iter().flat_map(|w| w.join().expect("a table row panicked")).collect()
+    });
+    done.sort_by_key(|x| x.0);
+    done.into_iter().map(|x| x.1).collect()
 }
 
 /// μ of node i: nodes are uniform in x = √μ, denser at grazing angles where the albedo of a
@@ -157,37 +178,33 @@ pub(crate) fn dielectric_albedo(mu: f32, alpha: f32, eta: f32) -> f32 {
 }
 
 impl AlbedoTables {
+    /// Builds the tables, rows in parallel (each row's values do not depend on the others, so
+    /// the tables are the same whatever the thread count).
     pub(crate) fn build() -> Self {
-        let mut cond_e1 = vec![0.0; COND_R * COND_MU];
-        let mut cond_s = vec![0.0; COND_R * COND_MU];
-        let mut cond_e1_avg = vec![0.0; COND_R];
-        let mut cond_s_avg = vec![0.0; COND_R];
-        for j in 0..COND_R {
+        let cond_rows: Vec<(Vec<f32>, Vec<f32>)> = rows_in_parallel(COND_R, |j| {
             let alpha = grid_alpha(j, COND_R);
-            for i in 0..COND_MU {
-                let (e, s) = conductor_albedo(grid_mu(i, COND_MU), alpha);
-                cond_e1[j * COND_MU + i] = e.min(1.0);
-                cond_s[j * COND_MU + i] = s.min(1.0);
-            }
-            cond_e1_avg[j] = hemispherical_integral(&cond_e1[j * COND_MU..(j + 1) * COND_MU]);
-            cond_s_avg[j] = hemispherical_integral(&cond_s[j * COND_MU..(j + 1) * COND_MU]);
-        }
-        let mut diel = [vec![0.0; DIEL_ETA * DIEL_R * DIEL_MU], vec![0.0; DIEL_ETA * DIEL_R * DIEL_MU]];
-        let mut diel_avg = [vec![0.0; DIEL_ETA * DIEL_R], vec![0.0; DIEL_ETA * DIEL_R]];
-        for side in 0..2 {
-            for k in 0..DIEL_ETA {
-                let eta = if side == 0 { grid_eta(k) } else { 1.0 / grid_eta(k) };
-                for j in 0..DIEL_R {
-                    let alpha = grid_alpha(j, DIEL_R);
-                    let row = (k * DIEL_R + j) * DIEL_MU;
-                    for i in 0..DIEL_MU {
-                        diel[side][row + i] = dielectric_albedo(grid_mu(i, DIEL_MU), alpha, eta).min(1.0);
-                    }
-                    diel_avg[side][k * DIEL_R + j] = hemispherical_integral(&diel[side][row..row + DIEL_MU]);
-                }
-            }
-        }
-        AlbedoTables { cond_e1, cond_s, cond_e1_avg, cond_s_avg, diel, diel_avg }
+            (0..COND_MU)
+                .map(|i| {
+                    let (e, s) = conductor_albedo(grid_mu(i, COND_MU), alpha);
+                    (e.min(1.0), s.min(1.0))
+                })
+                .unzip()
+        });
+        let cond_e1: Vec<f32> = cond_rows.iter().flat_map(|r| r.0.iter().copied()).collect();
+        let cond_s: Vec<f32> = cond_rows.iter().flat_map(|r| r.1.iter().copied()).collect();
+        let cond_e1_avg = cond_rows.iter().map(|r| hemispherical_integral(&r.0)).collect();
+        let cond_s_avg = cond_rows.iter().map(|r| hemispherical_integral(&r.1)).collect();
+        // rows (side, η, roughness), side-major
+        let diel_rows: Vec<Vec<f32>> = rows_in_parallel(2 * DIEL_ETA * DIEL_R, |row| {
+            let (side, k, j) = (row / (DIEL_ETA * DIEL_R), row / DIEL_R % DIEL_ETA, row % DIEL_R);
+            let eta = if side == 0 { grid_eta(k) } else { 1.0 / grid_eta(k) };
+            let alpha = grid_alpha(j, DIEL_R);
+            (0..DIEL_MU).map(|i| dielectric_albedo(grid_mu(i, DIEL_MU), alpha, eta).min(1.0)).collect()
+        });
+        let (near, far) = diel_rows.split_at(DIEL_ETA * DIEL_R);
+        let flat = |rows: &[Vec<f32>]| rows.iter().flatten().copied().collect::<Vec<f32>>();
+        let avg = |rows: &[Vec<f32>]| rows.iter().map(|r| hemispherical_integral(r)).collect::<Vec<f32>>();
+        AlbedoTables { cond_e1, cond_s, cond_e1_avg, cond_s_avg, diel: [flat(near), flat(far)], diel_avg: [avg(near), avg(far)] }
     }
 
     /// Conductor albedos (E1, S) at μ = |cosθo| and perceptual roughness r.
@@ -263,3 +280,4 @@ pub(super) fn coord(x: f32, n: usize) -> (usize, usize, f32) {
     let i0 = (x as usize).min(n - 2);
     (i0, i0 + 1, x - i0 as f32)
 }
+

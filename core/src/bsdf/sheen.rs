@@ -165,26 +165,24 @@ impl SheenTables {
     /// Builds the tables (about 4·10⁶ evaluations of the lobe).
     pub fn build() -> SheenTables {
         let gl = gauss_legendre(QUAD_ORDER);
-        let mut raw = vec![0.0f32; N_R * N_MU];
-        let mut scaled = vec![0.0f32; N_R * N_MU];
-        let mut bounded_avg = vec![0.0f32; N_R];
-        for j in 0..N_R {
+        // rows of roughness in parallel (each depends on nothing but its own: the same tables
+        // whatever the thread count)
+        let rows: Vec<(Vec<f32>, Vec<f32>, f32)> = super::albedo::rows_in_parallel(N_R, |j| {
             let inv_r = 1.0 / grid_r(j);
-            let row = j * N_MU..(j + 1) * N_MU;
-            for i in 0..N_MU {
-                raw[j * N_MU + i] = integrate(grid_mu(i), &gl, |wo, wi| sheen_raw(wo, wi, inv_r)) as f32;
-            }
-            let raw_row = &raw[row.clone()];
-            for i in 0..N_MU {
-                let n_o = bound(raw_row[i]);
-                let e = integrate(grid_mu(i), &gl, |wo, wi| {
-                    sheen_raw(wo, wi, inv_r) / n_o.max(bound(row_at(raw_row, wi.z)))
-                });
-                scaled[j * N_MU + i] = (e * n_o as f64) as f32;
-            }
-            let scaled_row = &scaled[row];
-            bounded_avg[j] = hemispherical_integral(|x| bounded_albedo(row_at(scaled_row, x * x), row_at(raw_row, x * x)));
-        }
+            let raw_row: Vec<f32> = (0..N_MU).map(|i| integrate(grid_mu(i), &gl, |wo, wi| sheen_raw(wo, wi, inv_r)) as f32).collect();
+            let scaled_row: Vec<f32> = (0..N_MU)
+                .map(|i| {
+                    let n_o = bound(raw_row[i]);
+                    let e = integrate(grid_mu(i), &gl, |wo, wi| sheen_raw(wo, wi, inv_r) / n_o.max(bound(row_at(&raw_row, wi.z))));
+                    (e * n_o as f64) as f32
+                })
+                .collect();
+            let avg = hemispherical_integral(|x| bounded_albedo(row_at(&scaled_row, x * x), row_at(&raw_row, x * x)));
+            (raw_row, scaled_row, avg)
+        });
+        let raw: Vec<f32> = rows.iter().flat_map(|r| r.0.iter().copied()).collect();
+        let scaled: Vec<f32> = rows.iter().flat_map(|r| r.1.iter().copied()).collect();
+        let bounded_avg: Vec<f32> = rows.iter().map(|r| r.2).collect();
         let row_bounded = (0..N_R).map(|j| raw[j * N_MU..(j + 1) * N_MU].iter().any(|&e| bound(e) > 1.0)).collect();
         SheenTables { raw, scaled, bounded_avg, row_bounded }
     }

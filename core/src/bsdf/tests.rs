@@ -847,8 +847,9 @@ fn flags_classify_lobes() {
     assert!(gold().albedo_hint().max_component() > 0.5);
 }
 
-/// The tables are deterministic (a rebuild reproduces the shared copy bit for bit); the build
-/// time is reported (about 0.1 s single-threaded in the test profile).
+/// The tables are deterministic: a rebuild reproduces the shared copy bit for bit, for the GGX
+/// albedos and the sheen's (the build times are reported). Their rows are built in parallel,
+/// each a function of its index alone, and gathered in order whatever the thread count.
 #[test]
 fn albedo_tables_are_deterministic() {
     let shared = super::albedo::tables();
@@ -856,6 +857,17 @@ fn albedo_tables_are_deterministic() {
     let fresh = super::albedo::AlbedoTables::build();
     eprintln!("albedo tables built in {:?}", t.elapsed());
     assert!(fresh == *shared);
+    let shared = super::sheen::tables();
+    let t = std::time::Instant::now();
+    let fresh = super::sheen::SheenTables::build();
+    eprintln!("sheen tables built in {:?}", t.elapsed());
+    assert!(fresh == *shared);
+    let row = |i: usize| (0..=i).map(|k| (k as f32).sqrt()).sum::<f32>();
+    let want: Vec<f32> = (0..37).map(row).collect();
+    for threads in [0, 1, 2, 3, 8, 64] {
+        assert_eq!(super::albedo::rows_on(threads, 37, row), want, "{threads} threads");
+    }
+    assert!(super::albedo::rows_on(4, 0, row).is_empty());
 }
 /// The conductor albedo table (built with visible-normal sampling) agrees with a brute-force
 /// uniform-sphere integral of D·G2/(4 cosθo), an estimator that shares nothing with it but D
