@@ -617,9 +617,8 @@ impl World {
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
         let camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
-        // the BSDFs' albedo tables are built once per process, at first use: built here, beside
-        // the BVH, their rows run on every core (built on first use inside the render, the
-        // other workers would wait for them and could not help)
+        // the BSDFs' albedo tables are built once per process; started here, beside the BVH,
+        // the first pass does not wait for them
         let uses_sheen = scene.materials.iter().any(|m| matches!(&m.surface, SurfaceDesc::Preview(p) if p.extras.as_ref().is_some_and(|x| !matches!(x.sheen_weight, FloatInput::Const(w) if w <= 0.0))));
         let (accel, ()) = rayon::join(
             || Accel::build_cached(&scene.meshes, &scene.spheres, &scene.instances, camera.shutter, cache.map(|c| &c.bvh)),

@@ -406,6 +406,9 @@ pub struct Ordered<const BY_EXIT: bool>(pub Span);
 /// The sweep's active set's order.
 type Leaving = Ordered<true>;
 
+/// The order of the kernels given to [`Sweep::advance`] (sorted ascending: by entry, then key).
+pub type Entering = Ordered<false>;
+
 impl<const BY_EXIT: bool> PartialEq for Ordered<BY_EXIT> {
     fn eq(&self, other: &Self) -> bool {
         self.cmp(other) == std::cmp::Ordering::Equal
@@ -514,14 +517,14 @@ impl Sweep {
     }
 
     /// Sweeps on to `end` with `entering`: every kernel whose entry lies in [where the sweep
-    /// stands, `end`), sorted by entry (all kernels entering earlier must have been given
+    /// stands, `end`), sorted ([`Entering`]: by entry) (all kernels entering earlier must have been given
     /// before). Returns the first crossing of φ = 0 beyond `t_lo`, the sweep then standing at its
     /// piece; otherwise the sweep stands at `end` with the kernels still active kept.
-    pub fn advance(&mut self, entering: &[Span], end: f64, t_lo: f64) -> Option<f64> {
+    pub fn advance(&mut self, entering: &[Entering], end: f64, t_lo: f64) -> Option<f64> {
         let mut next_in = 0;
         loop {
-            while next_in < entering.len() && entering[next_in].t0 <= self.at {
-                self.enter(entering[next_in]);
+            while next_in < entering.len() && entering[next_in].0.t0 <= self.at {
+                self.enter(entering[next_in].0);
                 next_in += 1;
             }
             while self.active.peek().is_some_and(|l| l.0.t1 <= self.at) {
@@ -537,7 +540,7 @@ impl Sweep {
             }
             let mut next = end;
             if let Some(s) = entering.get(next_in) {
-                next = next.min(s.t0);
+                next = next.min(s.0.t0);
             }
             if let Some(l) = self.active.peek() {
                 next = next.min(l.0.t1);
@@ -638,8 +641,8 @@ pub fn blobby_intersect(
     t_max: f32,
 ) -> Option<(f32, usize, Vec3)> {
     let (t_lo, t_hi) = (t_min as f64, t_max as f64);
-    let mut spans: Vec<Span> = kernels.iter().enumerate().filter_map(|(i, k)| k.span(o, d, i)).filter(|s| s.t1 > t_lo && s.t0 < t_hi).collect();
-    spans.sort_by(|a, b| a.t0.total_cmp(&b.t0).then(a.key.cmp(&b.key)));
+    let mut spans: Vec<Entering> = kernels.iter().enumerate().filter_map(|(i, k)| k.span(o, d, i)).filter(|s| s.t1 > t_lo && s.t0 < t_hi).map(Ordered).collect();
+    spans.sort_unstable();
     let mut sweep = Sweep::new(threshold, t_lo);
     let t = sweep.advance(&spans, t_hi, t_lo)?;
     let (n, i) = sweep.normal(o + d * t as f32, |i| kernels[i]);

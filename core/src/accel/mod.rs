@@ -14,7 +14,7 @@ mod motion_mesh;
 pub mod motion;
 
 use crate::scene::{GeometryRef, InstanceDesc, MeshDesc, PointShape, SpheresDesc};
-use implicit::{Bubble, Kernel, Ordered, Span, Sweep};
+use implicit::{Bubble, Entering, Kernel, Ordered, Sweep};
 use tribvh::{TriBvh, TriMesh};
 pub(crate) use wide::{prefetch_lines, PointBvh};
 pub use wide::MAX_LEAF_ITEMS;
@@ -560,14 +560,14 @@ impl Accel {
                         );
                     }
                     PointsBlasShape::Bubbles(bubbles) => {
-                        let near = Approach::new(o.into(), d.into());
+                        let bound = BoundingTest::new(o.into(), d.into());
                         sb.bvh.traverse_slots(
                             o,
                             d,
                             t_max,
                             |k, t_max| {
                                 let b = Bubble { center: center(k), ..bubbles[k] };
-                                near.approach(b.center, b.bounding_radius(), 0.0, t_max as f64)?;
+                                bound.near(b.center, b.bounding_radius(), 0.0, t_max as f64)?;
                                 let t = b.intersect(o.into(), d.into(), 0.0, t_max)?;
                                 let (u, v) = implicit::oct_encode(b.normal(Vec3::from(o + d * t)));
                                 best = Some((t, ids[k], u, v));
@@ -610,9 +610,9 @@ impl Accel {
     }
 }
 
-/// A ray's closest approach to the centres of points' bounding spheres, in single precision
-/// with a margin for rounding: the cheap test before a primitive's own.
-struct Approach {
+/// A ray against points' bounding spheres, by its closest approach to their centres, in single
+/// precision with a margin for rounding: the cheap test before a primitive's own.
+struct BoundingTest {
     o: Vec3,
     d: Vec3,
     inv_dd: f32,
@@ -620,17 +620,17 @@ struct Approach {
     o_size: f32,
 }
 
-impl Approach {
-    fn new(o: Vec3, d: Vec3) -> Approach {
+impl BoundingTest {
+    fn new(o: Vec3, d: Vec3) -> BoundingTest {
         let dd = d.length_squared();
-        Approach { o, d, inv_dd: 1.0 / dd, inv_len: 1.0 / (dd as f64).sqrt(), o_size: o.abs().max_element() }
+        BoundingTest { o, d, inv_dd: 1.0 / dd, inv_len: 1.0 / (dd as f64).sqrt(), o_size: o.abs().max_element() }
     }
 
     /// Where the ray passes nearest the centre `c` (its distance along the ray, and that point's
     /// offset from `c`), if the ray may cross the sphere of radius `r` about `c` within
     /// (t_lo, t_hi); None where it surely does not.
     #[inline]
-    fn approach(&self, c: Vec3, r: f32, t_lo: f64, t_hi: f64) -> Option<(f32, Vec3)> {
+    fn near(&self, c: Vec3, r: f32, t_lo: f64, t_hi: f64) -> Option<(f32, Vec3)> {
         let v = c - self.o;
         let tc = v.dot(self.d) * self.inv_dd;
         let p = self.d * tc - v;
@@ -663,10 +663,11 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
     let (o3, d3): (Vec3, Vec3) = (o.into(), d.into());
     let core = 1.0 - threshold.cbrt();
     let t_end = t_max as f64;
-    let near = Approach::new(o3, d3);
+    let bound = BoundingTest::new(o3, d3);
     let mut sweep = Sweep::new(threshold, 0.0);
-    // the kernels entering in the segment, latest on top while gathering
-    let mut entering: std::collections::BinaryHeap<Ordered<false>> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
+    // the kernels entering in the segment, latest on top while gathering (one buffer for all
+    // segments: sorted for the sweep, then cleared and made a heap again)
+    let mut entering: std::collections::BinaryHeap<Entering> = std::collections::BinaryHeap::with_capacity(BLOBBY_SEGMENT + 1);
     let mut first = true;
     loop {
         let s = sweep.at();
@@ -681,7 +682,7 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
             |k, _| {
                 // first the bounding sphere
                 let c = center(k);
-                let (tc, p) = near.approach(c, reach[k], s, e)?;
+                let (tc, p) = bound.near(c, reach[k], s, e)?;
                 let sp = Kernel { center: c, a: a[k] }.span_near(tc, p, d3, k)?;
                 if sp.t1 <= s || sp.t0 >= e {
                     return None;
@@ -718,7 +719,7 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
             },
             prefetch,
         );
-        let sorted: Vec<Span> = std::mem::take(&mut entering).into_sorted_vec().into_iter().map(|x| x.0).collect();
+        let mut sorted = std::mem::take(&mut entering).into_sorted_vec();
         first = false;
         if let Some(t) = sweep.advance(&sorted, e, 0.0) {
             let (n, k) = sweep.normal(o3 + d3 * t as f32, kernel);
@@ -728,6 +729,8 @@ fn blobby_hit(sb: &SphereBlas, a: &[Mat3], reach: &[f32], threshold: f32, o: Vec
         if e >= t_end {
             return None;
         }
+        sorted.clear();
+        entering = sorted.into();
     }
 }
 

@@ -280,4 +280,3 @@ pub(super) fn coord(x: f32, n: usize) -> (usize, usize, f32) {
     let i0 = (x as usize).min(n - 2);
     (i0, i0 + 1, x - i0 as f32)
 }
-
