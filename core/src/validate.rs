@@ -280,6 +280,16 @@ fn mend_spheres_within(sp: &mut SpheresDesc, p: &mut Vec<Problem>, max_points: u
     }
 }
 
+/// Keeps the first `max` instances (the top-level BVH addresses at most [`MAX_LEAF_ITEMS`]),
+/// naming the first one dropped and how many follow it.
+fn cap_instances(instances: &mut Vec<InstanceDesc>, p: &mut Vec<Problem>, max: usize) {
+    if instances.len() > max {
+        let n = instances.len();
+        problem(p, &instances[max].name, "instances", format!("{n} instances exceed the {max} one scene holds; this one and the {} after it are dropped", n - max - 1));
+        instances.truncate(max);
+    }
+}
+
 /// Whether [`mend_spheres`] would find nothing to report or change.
 fn spheres_are_clean(sp: &SpheresDesc) -> bool {
     let n = sp.centers.len();
@@ -634,6 +644,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
         }
         true
     });
+    cap_instances(&mut s.instances, &mut p, MAX_LEAF_ITEMS);
 
     // lights
     s.lights.retain_mut(|l| {
@@ -1116,6 +1127,33 @@ mod tests {
         assert_eq!(probs.len(), 1, "{probs:?}");
         assert_eq!((probs[0].item.as_str(), probs[0].attribute.as_str()), ("/Sea", "faceVertexIndices"));
         assert!(mesh_is_clean(&m) && spheres_are_clean(&sp));
+    }
+
+    /// Instances past the most the top-level BVH holds (here a smaller limit) are dropped and
+    /// the first of them named.
+    #[test]
+    fn instances_past_the_top_level_limit_are_dropped_and_named() {
+        let inst = |k: usize| InstanceDesc {
+            name: format!("/Reef/Corals[{k}]"),
+            geometry: GeometryRef::Mesh(0),
+            transforms: vec![Mat4::from_translation(Vec3::X * k as f32)],
+            times: vec![0.0],
+            material: 0,
+            id: 1,
+            visible_to_camera: true,
+            casts_shadows: true,
+            primvar_row: None,
+        };
+        let mut all: Vec<InstanceDesc> = (0..5).map(inst).collect();
+        let mut probs = Vec::new();
+        cap_instances(&mut all, &mut probs, 3);
+        assert_eq!(all.iter().map(|i| i.name.as_str()).collect::<Vec<_>>(), ["/Reef/Corals[0]", "/Reef/Corals[1]", "/Reef/Corals[2]"]);
+        assert_eq!(probs.len(), 1, "{probs:?}");
+        assert_eq!((probs[0].item.as_str(), probs[0].attribute.as_str()), ("/Reef/Corals[3]", "instances"));
+        assert!(probs[0].message.contains("5 instances exceed the 3") && probs[0].message.contains("the 1 after it"), "{}", probs[0].message);
+        let mut probs = Vec::new();
+        cap_instances(&mut all, &mut probs, 3);
+        assert!(probs.is_empty() && all.len() == 3, "{probs:?}");
     }
 
     /// Shape data follows the points that survive; bad heights, scales, orientations and
