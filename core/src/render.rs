@@ -6,7 +6,7 @@ use std::sync::atomic::AtomicBool;
 
 /// A problem found in the input: which item (prim path), which attribute, what is wrong.
 /// The offending item (or input) was dropped or replaced by its documented default.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Problem {
     pub item: String,
     pub attribute: String,

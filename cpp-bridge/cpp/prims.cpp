@@ -147,16 +147,16 @@ void Prim::Finalize() {
 }
 
 bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::string& attribute,
-                    const std::string& asset, const std::string& sourceColorSpace) {
+                    const std::string& asset) {
     TextureCache& cache = param.GetTextureCache();
-    if (cache.AlreadySent(asset, sourceColorSpace)) return true;
+    if (cache.AlreadySent(asset)) return true;
     TextureImage image;
     std::string error;
-    bool ok = cache.Read(asset, sourceColorSpace, &image, &error);
+    bool ok = cache.Read(asset, &image, &error);
     try {
         if (ok) {
             param.GetDelegate().add_texture(Str(asset), uint32_t(image.width), uint32_t(image.height),
-                                            uint32_t(image.channels), SliceOf(image.pixels), image.wasSrgb);
+                                            uint32_t(image.channels), SliceOf(image.pixels), image.isSrgb);
             return true;
         }
         param.GetDelegate().texture_failed(Str(asset), Str(error));
@@ -174,10 +174,7 @@ void Material::Sync(SceneSource& source, DirtyBits* dirtyBits) {
             if (!EndsWith(key, ".inputs:file") && !EndsWith(key, ".file")) continue;
             Value v = source.Get(_id, key);
             if (v.type != ValueType::Asset || v.s.empty()) continue;
-            const std::string node = key.substr(0, key.rfind('.'));
-            std::string cs = source.Get(_id, node + ".inputs:sourceColorSpace").Text();
-            if (cs.empty()) cs = source.Get(_id, node + ".sourceColorSpace").Text();
-            LoadTextureFor(*_param, _id, key, v.s, cs.empty() ? "auto" : cs);
+            LoadTextureFor(*_param, _id, key, v.s);
         }
     }
     Prim::Sync(source, dirtyBits);
@@ -187,7 +184,7 @@ void Light::Sync(SceneSource& source, DirtyBits* dirtyBits) {
     if (dirtyBits && (*dirtyBits & ChangeTracker::DirtyResource)) {
         for (const char* key : {"inputs:texture:file", "texture:file"}) {
             Value v = source.Get(_id, key);
-            if (v.type == ValueType::Asset && !v.s.empty()) LoadTextureFor(*_param, _id, key, v.s, "auto");
+            if (v.type == ValueType::Asset && !v.s.empty()) LoadTextureFor(*_param, _id, key, v.s);
         }
     }
     Prim::Sync(source, dirtyBits);

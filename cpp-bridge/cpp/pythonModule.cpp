@@ -474,24 +474,23 @@ PyObject* Delegate_set_primvar(PyObject* self, PyObject* args, PyObject* kw) {
 }
 
 PyObject* Delegate_load_texture(PyObject* self, PyObject* args, PyObject* kw) {
-    static const char* names[] = {"asset_path", "source_color_space", nullptr};
+    static const char* names[] = {"asset_path", nullptr};
     const char* asset = nullptr;
-    const char* cs = "auto";
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "s|s", const_cast<char**>(names), &asset, &cs)) return nullptr;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "s", const_cast<char**>(names), &asset)) return nullptr;
     TIDE_TRY
     State& s = S(self);
     bool ok = WithoutGil([&] {
         std::lock_guard<std::mutex> lock(s.mutex);
         tide::RenderParam& param = *s.delegate->GetRenderParam();
         tide::TextureCache& cache = param.GetTextureCache();
-        if (cache.AlreadySent(asset, cs)) return true;
+        if (cache.AlreadySent(asset)) return true;
         tide::TextureImage image;
         std::string error;
-        if (cache.Read(asset, cs, &image, &error)) {
+        if (cache.Read(asset, &image, &error)) {
             param.GetDelegate().add_texture(asset, uint32_t(image.width), uint32_t(image.height),
                                             uint32_t(image.channels),
                                             rust::Slice<const float>(image.pixels.data(), image.pixels.size()),
-                                            image.wasSrgb);
+                                            image.isSrgb);
             return true;
         }
         cache.ForgetSent(asset);
@@ -574,14 +573,7 @@ PyObject* Delegate_texture_pixels(PyObject* self, PyObject* args) {
     TIDE_CATCH
 }
 
-PyObject* Delegate_commit_resources(PyObject* self, PyObject*) {
-    TIDE_TRY
-    State& s = S(self);
-    std::vector<tide::Problem> problems = WithoutGil([&] {
-        std::lock_guard<std::mutex> lock(s.mutex);
-        s.index->SyncAll();
-        return s.delegate->TakeProblems();
-    });
+PyObject* ProblemList(const std::vector<tide::Problem>& problems) {
     PyObject* list = PyList_New(0);
     if (!list) return nullptr;
     for (const auto& p : problems) {
@@ -594,7 +586,28 @@ PyObject* Delegate_commit_resources(PyObject* self, PyObject*) {
         Py_DECREF(t);
     }
     return list;
+}
+
+/// Syncs what is dirty and commits; with `check`, then prepares the scene as a render would.
+PyObject* CommitAndTakeProblems(PyObject* self, bool check) {
+    TIDE_TRY
+    State& s = S(self);
+    std::vector<tide::Problem> problems = WithoutGil([&] {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        s.index->SyncAll();
+        if (check) s.delegate->CheckRender();
+        return s.delegate->TakeProblems();
+    });
+    return ProblemList(problems);
     TIDE_CATCH
+}
+
+PyObject* Delegate_commit_resources(PyObject* self, PyObject*) {
+    return CommitAndTakeProblems(self, false);
+}
+
+PyObject* Delegate_check_render(PyObject* self, PyObject*) {
+    return CommitAndTakeProblems(self, true);
 }
 
 PyObject* StringList(const std::vector<std::string>& v) {
@@ -885,10 +898,11 @@ PyMethodDef DelegateMethods[] = {
     {"set_array", KW(Delegate_set_array), "set_array(path, key, buffer, tuple_size=1, kind='f', time=None); kind 'f', 'd' or 'i'"},
     {"set_matrix", KW(Delegate_set_matrix), "set_matrix(path, key, matrix (16 numbers or 4x4), time=None)"},
     {"set_primvar", KW(Delegate_set_primvar), "set_primvar(path, name, interpolation, buffer, tuple_size=1, indices=None, kind=None)"},
-    {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path, source_color_space='auto') -> bool"},
+    {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path) -> bool: reads the file once (again when it changes on disk); each material decodes it by its own sourceColorSpace"},
     {"load_vdb", KW(Delegate_load_vdb), "load_vdb(asset_path, field_name, field_index=0) -> bool: reads a volume's grid once per (file, field, index)"},
     {"texture_pixels", Delegate_texture_pixels, METH_VARARGS, "texture_pixels(asset_path) -> (w, h, channels, float32 bytes) as the delegate holds them"},
     {"commit_resources", Delegate_commit_resources, METH_NOARGS, "commit_resources() -> [(prim, attribute, message)]"},
+    {"check_render", Delegate_check_render, METH_NOARGS, "check_render() -> [(prim, attribute, message)]: commits, then prepares the scene as a render would (the renderer's validation and world build) without rendering"},
     {"last_synced", Delegate_last_synced, METH_NOARGS, "last_synced() -> [path]"},
     {"supported_types", Delegate_supported_types, METH_NOARGS, "supported_types() -> {'rprims': [...], 'sprims': [...], 'bprims': [...]}"},
     {"create_render_pass", Delegate_create_render_pass, METH_NOARGS, "create_render_pass() -> RenderPass"},

@@ -111,8 +111,17 @@ void RenderDelegate::DestroyBprim(Bprim* bprim) {
 }
 
 void RenderDelegate::CommitResources() {
+    _PendRows(false);
+}
+
+void RenderDelegate::CheckRender() {
+    _PendRows(true);
+}
+
+void RenderDelegate::_PendRows(bool check) {
     try {
-        rust::Vec<rs::ProblemRow> rows = _param->GetDelegate().commit_resources();
+        rs::Delegate const& d = _param->GetDelegate();
+        rust::Vec<rs::ProblemRow> rows = check ? d.check_render() : d.commit_resources();
         for (const auto& r : rows)
             _pending.push_back(Problem{std::string(r.prim), std::string(r.attribute), std::string(r.message)});
     } catch (const std::exception& e) {

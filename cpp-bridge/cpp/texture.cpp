@@ -1,4 +1,4 @@
-//! TextureCache: OpenImageIO ImageCache reads converted to linear float.
+//! TextureCache: OpenImageIO ImageCache reads as float, undecoded.
 #include "tide/texture.h"
 
 #include <OpenImageIO/imagecache.h>
@@ -11,16 +11,11 @@
 
 namespace tide {
 
-float SrgbToLinear(float v) {
-    if (v <= 0.04045f) return v / 12.92f;
-    return std::pow((v + 0.055f) / 1.055f, 2.4f);
-}
-
 struct TextureCache::Impl {
     OIIO::ImageCache* cache = nullptr;
     std::mutex mutex;
-    /// asset → (colour space, modification time) of what was handed to the delegate.
-    std::map<std::string, std::pair<std::string, std::filesystem::file_time_type>> sent;
+    /// asset → modification time of what was handed to the delegate.
+    std::map<std::string, std::filesystem::file_time_type> sent;
 };
 
 TextureCache::TextureCache() : _impl(new Impl()) {
@@ -41,14 +36,13 @@ static bool ModificationTime(const std::string& path, std::filesystem::file_time
     return !ec;
 }
 
-bool TextureCache::AlreadySent(const std::string& path, const std::string& sourceColorSpace) {
+bool TextureCache::AlreadySent(const std::string& path) {
     std::filesystem::file_time_type t{};
     const bool exists = ModificationTime(path, &t);
     std::lock_guard<std::mutex> lock(_impl->mutex);
     auto it = _impl->sent.find(path);
-    if (exists && it != _impl->sent.end() && it->second.first == sourceColorSpace && it->second.second == t)
-        return true;
-    if (exists) _impl->sent[path] = {sourceColorSpace, t};
+    if (exists && it != _impl->sent.end() && it->second == t) return true;
+    if (exists) _impl->sent[path] = t;
     return false;
 }
 
@@ -57,8 +51,7 @@ void TextureCache::ForgetSent(const std::string& path) {
     _impl->sent.erase(path);
 }
 
-bool TextureCache::Read(const std::string& path, const std::string& sourceColorSpace, TextureImage* out,
-                        std::string* error) {
+bool TextureCache::Read(const std::string& path, TextureImage* out, std::string* error) {
     auto fail = [&](const std::string& msg) {
         if (error) *error = msg;
         return false;
@@ -66,9 +59,6 @@ bool TextureCache::Read(const std::string& path, const std::string& sourceColorS
     if (path.empty()) return fail("empty asset path");
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) return fail("no such file");
-    if (sourceColorSpace != "auto" && sourceColorSpace != "" && sourceColorSpace != "raw" &&
-        sourceColorSpace != "sRGB")
-        return fail("unknown sourceColorSpace '" + sourceColorSpace + "' (auto, raw or sRGB)");
 
     OIIO::ImageCache* cache = _impl->cache;
     const OIIO::ustring name(path);
@@ -95,24 +85,7 @@ bool TextureCache::Read(const std::string& path, const std::string& sourceColorS
         return fail(e.empty() ? "cannot read pixels" : e);
     }
 
-    const std::string tagged = spec.get_string_attribute("oiio:ColorSpace");
-    const bool integer8 = spec.format == OIIO::TypeDesc::UINT8;
-    bool srgb = false;
-    if (sourceColorSpace == "sRGB") {
-        srgb = true;
-    } else if (sourceColorSpace != "raw") {
-        srgb = OIIO::Strutil::iequals(tagged, "sRGB") || (tagged.empty() && integer8);
-    }
-    if (srgb) {
-        const int alpha = spec.alpha_channel;
-        for (size_t p = 0; p < size_t(img.width) * img.height; ++p)
-            for (int c = 0; c < img.channels; ++c)
-                if (c != alpha) {
-                    float& v = img.pixels[p * img.channels + c];
-                    v = SrgbToLinear(v);
-                }
-    }
-    img.wasSrgb = srgb;
+    img.isSrgb = spec.format == OIIO::TypeDesc::UINT8 && (spec.nchannels == 3 || spec.nchannels == 4);
     *out = std::move(img);
     return true;
 }

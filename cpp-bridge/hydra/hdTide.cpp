@@ -232,7 +232,8 @@ const std::vector<TfToken>& MaterialParams() {
 
 const std::vector<TfToken>& GprimParams() {
     static const std::vector<TfToken> p = {
-        TfToken("radius"), TfToken("size"), TfToken("height"), TfToken("axis"), TfToken("width"),
+        TfToken("radius"), TfToken("radiusTop"), TfToken("radiusBottom"), TfToken("size"), TfToken("height"),
+        TfToken("axis"), TfToken("width"),
         TfToken("length"), TfToken("tide:caustics:caster"), TfToken("tide:caustics:receiver"),
         TfToken("tide:caustics:transparency"), TfToken("tide:blobby:threshold"), TfToken("tide:droplets:asVolume"),
         TfToken("tide:droplets:voxelSize"), TfToken("tide:droplets:shell"), TfToken("tide:subdivision:level")};

@@ -224,6 +224,17 @@ impl Delegate {
         })
     }
 
+    /// Prepares the scene as a render would, without rendering: what that found wrong.
+    pub fn check_render(&self) -> Result<Vec<ProblemRow>, String> {
+        guard("check_render", || {
+            let mut s = lock(&self.shared);
+            let mut out = std::mem::take(&mut s.pending);
+            out.extend(s.delegate.commit_resources().into_iter().map(row));
+            out.extend(s.delegate.check_render().into_iter().map(row));
+            Ok(out)
+        })
+    }
+
     pub fn last_synced(&self) -> Result<Vec<String>, String> {
         guard("last_synced", || Ok(lock(&self.shared).delegate.last_synced().to_vec()))
     }

@@ -100,6 +100,8 @@ pub mod ffi {
             indices: &[i32],
         ) -> Result<()>;
 
+        /// A texture's values as the file holds them (not decoded); `is_srgb`: whether
+        /// `sourceColorSpace = "auto"` reads it as sRGB-encoded.
         fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool) -> Result<()>;
         fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
         /// The pixels the delegate holds for a texture (for checks; empty if none).
@@ -112,6 +114,9 @@ pub mod ffi {
         fn has_grid(self: &Delegate, asset: &str, field: &str, index: i64) -> Result<bool>;
 
         fn commit_resources(self: &Delegate) -> Result<Vec<ProblemRow>>;
+        /// Commits, then prepares the scene as a render would (validation, world build)
+        /// without rendering: the problems of both.
+        fn check_render(self: &Delegate) -> Result<Vec<ProblemRow>>;
         fn last_synced(self: &Delegate) -> Result<Vec<String>>;
         fn map_buffer(self: &Delegate, path: &str) -> Result<MappedBuffer>;
         fn write_exr(self: &Delegate, path: &str, layers: &Vec<StringPair>, header: &Vec<StringPair>) -> Result<()>;

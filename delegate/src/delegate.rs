@@ -21,7 +21,7 @@ use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassSta
 use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use crate::volume::{self, GridKey, GridState, VolumeSpec};
 use glam::{Mat4, Vec3};
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
 use tide_core::light::dome_format::DomeFormat;
@@ -247,6 +247,9 @@ pub struct Delegate {
     buffers: BTreeMap<String, RenderBuffer>,
     factory: EngineFactory,
     pass: Option<RenderPass>,
+    /// The engines' problems already returned by [`Delegate::commit_resources`] or
+    /// [`Delegate::check_render`] (each is returned once).
+    engine_reported: HashSet<Problem>,
     /// What the running job was started from: (scene generation, bindings, settings).
     job_key: Option<JobKey>,
     /// Built ocean meshes by prim path, with the key they were built for and their problems.
@@ -337,6 +340,7 @@ impl Delegate {
             buffers: BTreeMap::new(),
             factory,
             pass: None,
+            engine_reported: HashSet::new(),
             job_key: None,
             oceans: HashMap::new(),
             converted_textures: HashMap::new(),
@@ -684,6 +688,10 @@ impl Delegate {
             problems.extend(self.assembly_problems.iter().cloned());
             self.restart_if_running();
         }
+        // what the running render's engine found while preparing the scene (its validation
+        // and world build), once it is built: returned by the next commit
+        let found = self.watcher().map(|w| w.problems()).unwrap_or_default();
+        problems.extend(self.engine_new(found));
         let mut seen = Vec::with_capacity(problems.len());
         for p in problems {
             if !seen.contains(&p) {
@@ -691,6 +699,32 @@ impl Delegate {
             }
         }
         seen
+    }
+
+    /// The engine problems in `found` not returned before.
+    fn engine_new(&mut self, found: Vec<Problem>) -> Vec<Problem> {
+        found.into_iter().filter(|p| self.engine_reported.insert(p.clone())).collect()
+    }
+
+    /// Prepares the scene for rendering as a render of the active camera and settings would
+    /// (the engine's validation and world build, on this thread), without rendering, and returns
+    /// what that found wrong and had not been returned before: `tide info`'s full check. What it
+    /// builds is kept for the next render (the engine factory's cache).
+    pub fn check_render(&mut self) -> Vec<Problem> {
+        let mut problems = Vec::new();
+        if self.scene_generation == 0 {
+            self.assemble(false);
+            problems.extend(self.assembly_problems.iter().cloned());
+        }
+        let settings = self.job_settings(&[]);
+        match (self.factory)(&self.scene, &settings) {
+            Ok(engine) => {
+                let found = engine.problems();
+                problems.extend(self.engine_new(found));
+            }
+            Err(e) => problems.push(problem("", "", format!("the scene could not be prepared: {e}"))),
+        }
+        problems
     }
 
     /// Prims synced by the last commit, sorted by path.
@@ -712,6 +746,11 @@ impl Delegate {
     pub fn problems(&self) -> Vec<Problem> {
         let mut out: Vec<Problem> = self.cache.values().flat_map(|c| c.problems.iter().cloned()).collect();
         out.extend(self.assembly_problems.iter().cloned());
+        for p in self.watcher().map(|w| w.problems()).unwrap_or_default() {
+            if !out.contains(&p) {
+                out.push(p);
+            }
+        }
         out
     }
 
@@ -784,10 +823,10 @@ impl Delegate {
             if let Some(&i) = tex_index.get(key) {
                 return Some(i);
             }
-            let Some(TexState::Loaded { width, height, channels, pixels, .. }) = textures.get(&key.asset) else { return None };
+            let Some(TexState::Loaded { width, height, channels, pixels, is_srgb }) = textures.get(&key.asset) else { return None };
             let tex = match before.remove(key) {
                 Some((source, tex)) if Arc::ptr_eq(&source, pixels) => tex,
-                _ => convert_texture(key, *width, *height, *channels, pixels)?,
+                _ => convert_texture(key, *width, *height, *channels, pixels, *is_srgb)?,
             };
             converted.insert(key.clone(), (pixels.clone(), tex.clone()));
             scene.textures.push(tex);
@@ -1601,6 +1640,36 @@ mod tests {
         assert!(d.displaced_meshes.is_empty());
     }
 
+    /// One file, read once, is decoded by each user's own `sourceColorSpace`: `raw` keeps the
+    /// values, `sRGB` decodes them, `auto` decodes a file read as sRGB-encoded (8 bits, 3 or 4
+    /// channels) and keeps another's; a dome light's image is read as `auto`.
+    #[test]
+    fn one_file_is_decoded_by_each_users_colour_space() {
+        let decoded = 0.214_041f32; // sRGB 0.5 (IEC 61966-2-1)
+        for (file_srgb, auto) in [(true, decoded), (false, 0.5)] {
+            let mut d = Delegate::new();
+            assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], file_srgb));
+            for (k, cs) in ["raw", "auto", "sRGB"].iter().enumerate() {
+                let (m, prim) = (format!("/M{k}"), format!("/A{k}"));
+                textured_material(&mut d, &m, "/t.png");
+                d.set_attribute(&m, &format!("{m}/T.inputs:sourceColorSpace"), tok(cs), None);
+                quad(&mut d, &prim);
+                d.set_attribute(&prim, "material", Value::Path(m), None);
+            }
+            d.create_prim("domeLight", "/Dome");
+            d.set_attribute("/Dome", "inputs:texture:file", Value::Asset("/t.png".into()), None);
+            assert!(d.commit_resources().is_empty());
+            let mut values: Vec<f32> = d.scene().textures.iter().map(|t| t.pixels[0]).collect();
+            values.sort_by(f32::total_cmp);
+            let mut want = vec![0.5, auto, decoded, auto];
+            want.sort_by(f32::total_cmp);
+            assert_eq!(values.len(), 4, "a texture per colour space and the dome's");
+            for (v, w) in values.iter().zip(&want) {
+                assert!((v - w).abs() < 1e-5, "file sRGB {file_srgb}: {values:?} against {want:?}");
+            }
+        }
+    }
+
     #[test]
     fn textures_added_after_the_material_resync_it() {
         let mut d = Delegate::new();
@@ -2287,6 +2356,40 @@ mod tests {
         assert_eq!(builds.load(Ordering::SeqCst), 3);
     }
 
+    /// What the engine finds while preparing its scene (here the core's validation dropping a
+    /// zero-area triangle) reaches the first commit after the engine is built, once; a check
+    /// without rendering finds it too.
+    #[test]
+    fn problems_the_engine_finds_are_returned_once() {
+        let flat = |d: &mut Delegate| {
+            d.create_prim("mesh", "/Flat");
+            d.set_attribute("/Flat", "points", floats(&[0., 0., 0., 1., 0., 0., 2., 0., 0.], 3), None);
+            d.set_attribute("/Flat", "faceVertexCounts", Value::Ints(vec![3]), None);
+            d.set_attribute("/Flat", "faceVertexIndices", Value::Ints(vec![0, 1, 2]), None);
+        };
+        let (mut d, _) = counted_core_delegate(0.5, 3.0);
+        assert!(d.commit_resources().is_empty() && d.problems().is_empty());
+        flat(&mut d);
+        let mut found = d.commit_resources();
+        assert!(d.wait(Duration::from_secs(20)));
+        found.extend(d.commit_resources());
+        let flat_problems: Vec<&Problem> = found.iter().filter(|p| p.item == "/Flat").collect();
+        assert_eq!(flat_problems.len(), 1, "{found:?}");
+        assert_eq!(flat_problems[0].attribute, "points");
+        assert!(flat_problems[0].message.contains("1 degenerate"), "{}", flat_problems[0].message);
+        assert!(d.commit_resources().is_empty(), "returned once");
+        assert!(d.problems().iter().any(|p| p.item == "/Flat"));
+
+        let mut fresh = Delegate::new();
+        quad(&mut fresh, "/A");
+        flat(&mut fresh);
+        fresh.create_prim("camera", "/cam");
+        fresh.commit_resources();
+        let checked = fresh.check_render();
+        assert_eq!(checked.iter().filter(|p| p.item == "/Flat").count(), 1, "{checked:?}");
+        assert!(fresh.check_render().is_empty());
+    }
+
     #[test]
     fn render_pass_lifecycle_through_the_delegate() {
         let builds = Arc::new(AtomicU32::new(0));
@@ -2320,11 +2423,11 @@ mod tests {
     }
 }
 
-/// A decoded texture as materials read it: linearised where its key asks, a dome's image
-/// resampled to lat-long (None where it cannot be).
-fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &[f32]) -> Option<TextureDesc> {
+/// A decoded texture as materials read it: linearised where its key's encoding asks (`auto`
+/// by `file_srgb`), a dome's image resampled to lat-long (None where it cannot be).
+fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &[f32], file_srgb: bool) -> Option<TextureDesc> {
     let mut px = pixels.to_vec();
-    if key.linearize {
+    if key.encoding.linearize(file_srgb) {
         let ch = channels as usize;
         for texel in px.chunks_exact_mut(ch) {
             for c in texel.iter_mut().take(ch.min(3)) {

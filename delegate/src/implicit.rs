@@ -102,11 +102,24 @@ impl Builder {
         }
     }
 
+    /// The mesh turned to `axis`, without the triangles of no area a grid makes where a row
+    /// closes into a point (a cone's apex, a capsule's poles).
     fn finish(self, name: &str, axis: Axis, double_sided: bool) -> MeshDesc {
+        let positions: Vec<Vec3> = self.p.into_iter().map(|p| axis.map(p)).collect();
+        let mut indices = self.idx;
+        indices = indices
+            .chunks_exact(3)
+            .filter(|t| {
+                let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);
+                (b - a).cross(c - a).length() > 0.0
+            })
+            .flatten()
+            .copied()
+            .collect();
         MeshDesc {
             name: name.to_string(),
-            positions: self.p.into_iter().map(|p| axis.map(p)).collect(),
-            indices: self.idx,
+            positions,
+            indices,
             normals: Some(self.n.into_iter().map(|n| axis.map(n)).collect()),
             uvs: Some(self.uv),
             double_sided,
@@ -148,19 +161,53 @@ pub fn cube(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
     b.finish(name, Axis::Z, ds)
 }
 
-/// UsdGeomCylinder: `radius` 1, `height` 2 along `axis`, centred, both ends capped.
+/// The (bottom, top) radii of a shape: `radiusBottom` and `radiusTop` where either is
+/// authored (UsdGeomCylinder_1, UsdGeomCapsule_1; each ≥ 0, not both 0), else `radius` at both
+/// ends.
+fn end_radii(store: &AttrStore, default: f32, p: &mut Problems) -> (f32, f32) {
+    if store.get("radiusBottom").is_none() && store.get("radiusTop").is_none() {
+        let r = positive(store, "radius", default, p);
+        return (r, r);
+    }
+    let mut end = |name: &str| {
+        let v = store.f32_or(name, default, p);
+        if v >= 0.0 && v.is_finite() {
+            v
+        } else {
+            p.add(name, format!("must not be negative, got {}; using {}", v, default));
+            default
+        }
+    };
+    let (rb, rt) = (end("radiusBottom"), end("radiusTop"));
+    if rb > 0.0 || rt > 0.0 {
+        (rb, rt)
+    } else {
+        p.add("radiusBottom", format!("both end radii are 0; using {default}"));
+        (default, default)
+    }
+}
+
+/// UsdGeomCylinder: `radius` 1, `height` 2 along `axis`, centred, both ends capped;
+/// UsdGeomCylinder_1: `radiusBottom` at −height/2 and `radiusTop` at +height/2 (a frustum).
 pub fn cylinder(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
-    let r = positive(store, "radius", 1.0, p);
-    let hh = positive(store, "height", 2.0, p) * 0.5;
+    let (rb, rt) = end_radii(store, 1.0, p);
+    let h = positive(store, "height", 2.0, p);
+    let hh = h * 0.5;
     let axis = Axis::read(store, p);
     let ds = store.bool_or("doubleSided", false, p);
     let mut b = Builder::default();
+    // the side's normal ∝ (h·cosφ, h·sinφ, rb − rt)
     b.grid(1, SEGMENTS, |u, v| {
         let (s, c) = (TAU * u).sin_cos();
-        (Vec3::new(r * c, r * s, hh * (2.0 * v - 1.0)), Vec3::new(c, s, 0.0))
+        let r = rb + (rt - rb) * v;
+        (Vec3::new(r * c, r * s, hh * (2.0 * v - 1.0)), Vec3::new(h * c, h * s, rb - rt).normalize())
     });
-    b.disk(r, hh, true);
-    b.disk(r, -hh, false);
+    if rt > 0.0 {
+        b.disk(rt, hh, true);
+    }
+    if rb > 0.0 {
+        b.disk(rb, -hh, false);
+    }
     b.finish(name, axis, ds)
 }
 
@@ -183,26 +230,37 @@ pub fn cone(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
 }
 
 /// UsdGeomCapsule: a cylinder of `height` (default 1) with hemispherical ends of `radius`
-/// (default 0.5) along `axis`; total extent height + 2·radius.
+/// (default 0.5) along `axis`; total extent height + 2·radius. UsdGeomCapsule_1: spheres of
+/// `radiusBottom` and `radiusTop` on the ends of the spine, joined by the cone tangent to both
+/// (the hull of the two spheres).
 pub fn capsule(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc {
-    let r = positive(store, "radius", 0.5, p);
-    let hh = store.f32_or("height", 1.0, p).max(0.0) * 0.5;
+    let (mut rb, mut rt) = end_radii(store, 0.5, p);
+    let mut hh = store.f32_or("height", 1.0, p).max(0.0) * 0.5;
     let axis = Axis::read(store, p);
     let ds = store.bool_or("doubleSided", false, p);
+    // where one sphere holds the other, the hull is the larger sphere: a capsule of no height
+    // about that end
+    let mut shift = 0.0;
+    if (rb - rt).abs() >= 2.0 * hh && rb != rt {
+        (shift, rb, rt, hh) = if rb > rt { (-hh, rb, rb, 0.0) } else { (hh, rt, rt, 0.0) };
+    }
+    // latitude where the tangent cone meets both spheres: sin φ = (rb − rt) / height
+    let phi = if hh > 0.0 { ((rb - rt) / (2.0 * hh)).asin() } else { 0.0 };
     let rings = 2 * CAP_RINGS + 1;
     let mut b = Builder::default();
-    // Latitude θ from −π/2 to π/2; the middle ring band is the cylinder (θ = 0 at both ends).
+    // Latitude θ from −π/2 to φ on the bottom sphere, then φ to π/2 on the top one; the middle
+    // ring band is the cone between them (a cylinder where the radii agree).
     b.grid(rings, SEGMENTS, |u, v| {
         let (s, c) = (TAU * u).sin_cos();
         let k = (v * rings as f32).round() as u32;
-        let (theta, z0) = if k <= CAP_RINGS {
-            (-0.5 * PI * (1.0 - k as f32 / CAP_RINGS as f32), -hh)
+        let (theta, z0, r) = if k <= CAP_RINGS {
+            (-0.5 * PI + (phi + 0.5 * PI) * (k as f32 / CAP_RINGS as f32), -hh, rb)
         } else {
-            (0.5 * PI * ((k - CAP_RINGS - 1) as f32 / CAP_RINGS as f32), hh)
+            (phi + (0.5 * PI - phi) * ((k - CAP_RINGS - 1) as f32 / CAP_RINGS as f32), hh, rt)
         };
         let (st, ct) = theta.sin_cos();
         let n = Vec3::new(ct * c, ct * s, st);
-        (Vec3::new(0.0, 0.0, z0) + r * n, n)
+        (Vec3::new(0.0, 0.0, z0 + shift) + r * n, n)
     });
     b.finish(name, axis, ds)
 }
@@ -518,6 +576,73 @@ mod tests {
         let sp = sphere("/s", &st(&[("radius", Value::Float(2.5))]), &mut p);
         assert_eq!(sp.radii, vec![2.5]);
         assert!(p.list.is_empty(), "{:?}", p.list);
+    }
+
+    /// Cylinder_1 and Capsule_1: different end radii. The frustum's rim lies on both radii,
+    /// its side normals are perpendicular to the side; the capsule's surface lies on the hull of
+    /// its two end spheres (every vertex on one sphere and outside the other, or on the tangent
+    /// cone between them), with normals continuous across the cone. No triangle has zero area
+    /// (a cone's apex, the poles).
+    #[test]
+    fn tapered_cylinders_and_capsules_follow_their_end_radii() {
+        let mut p = Problems::new("/g");
+        let f = cylinder("/f", &st(&[("radiusBottom", Value::Float(1.5)), ("radiusTop", Value::Float(0.3)), ("height", Value::Float(3.0)), ("axis", Value::Token("Y".into()))]), &mut p);
+        assert!(close(bounds(&f).0, Vec3::new(-1.5, -1.5, -1.5)) && close(bounds(&f).1, Vec3::new(1.5, 1.5, 1.5)), "{:?}", bounds(&f));
+        let ns = f.normals.as_ref().unwrap();
+        for (q, n) in f.positions.iter().zip(ns) {
+            let radial = Vec2::new(q.z, q.x).length();
+            let want = 1.5 + (0.3 - 1.5) * (q.y + 1.5) / 3.0;
+            if n.y.abs() < 0.99 {
+                // side vertex: on the frustum, normal perpendicular to its generator line
+                assert!((radial - want).abs() < 1e-5, "{q:?} at radius {radial}, want {want}");
+                let generator = Vec3::new(q.x / radial * (0.3 - 1.5), 3.0, q.z / radial * (0.3 - 1.5));
+                assert!(n.dot(generator).abs() < 1e-5);
+            }
+        }
+        check_outward(&f);
+        // a cone as a Cylinder_1 with radiusTop 0: no slivers at the apex
+        let cn = cylinder("/c", &st(&[("radiusBottom", Value::Float(1.0)), ("radiusTop", Value::Float(0.0))]), &mut p);
+        let cb = cone("/cb", &st(&[]), &mut p);
+        for m in [&cn, &cb, &f] {
+            assert!(m.indices.chunks_exact(3).all(|t| {
+                let [a, b, d] = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+                (b - a).cross(d - a).length() > 0.0
+            }), "{} has a triangle of no area", m.name);
+        }
+
+        let (rb, rt, h) = (1.0f32, 0.4f32, 2.0f32);
+        let cap = capsule("/cap", &st(&[("radiusBottom", Value::Float(rb as f64)), ("radiusTop", Value::Float(rt as f64)), ("height", Value::Float(h as f64))]), &mut p);
+        // the poles are vertices; the widest ring, the bottom sphere's equator, lies between two
+        // of its rings (1.1e-3 short of rb with 16 rings to the tangent latitude)
+        let (lo, hi) = bounds(&cap);
+        assert!(close(Vec3::new(lo.z, hi.z, 0.0), Vec3::new(-1.0 - rb, 1.0 + rt, 0.0)) && hi.x <= rb && hi.x > rb * (1.0 - 2e-3), "{:?}", (lo, hi));
+        let (cb0, ct0) = (Vec3::new(0.0, 0.0, -1.0), Vec3::new(0.0, 0.0, 1.0));
+        let sin_phi = (rb - rt) / h;
+        for (q, n) in cap.positions.iter().zip(cap.normals.as_ref().unwrap()) {
+            let on_bottom = ((*q - cb0).length() - rb).abs() < 1e-5;
+            let on_top = ((*q - ct0).length() - rt).abs() < 1e-5;
+            assert!(on_bottom || on_top, "{q:?} on neither sphere");
+            // the surface is the hull: no vertex inside either sphere
+            assert!((*q - cb0).length() > rb - 1e-5 && (*q - ct0).length() > rt - 1e-5);
+            // a sphere's vertex has that sphere's normal; the tangent ring has the cone's
+            let (centre, r) = if on_bottom { (cb0, rb) } else { (ct0, rt) };
+            assert!(close(centre + r * *n, *q), "{q:?} normal {n:?}");
+        }
+        // the cone meets each sphere on its tangent circle: both rings carry the cone's normal,
+        // whose latitude is asin((rb − rt) / height)
+        let ring = |centre: Vec3, r: f32| cap.positions.iter().zip(cap.normals.as_ref().unwrap()).filter(|(q, n)| (n.z - sin_phi).abs() < 1e-5 && close(centre + r * **n, **q)).count();
+        assert!(ring(cb0, rb) > 0 && ring(ct0, rt) > 0);
+        check_outward(&cap);
+        // one sphere holding the other: the hull is the larger sphere
+        let ball = capsule("/b", &st(&[("radiusBottom", Value::Float(2.0)), ("radiusTop", Value::Float(0.5)), ("height", Value::Float(1.0))]), &mut p);
+        assert!(!ball.indices.is_empty());
+        assert!(ball.indices.iter().all(|&i| ((ball.positions[i as usize] - Vec3::new(0.0, 0.0, -0.5)).length() - 2.0).abs() < 1e-5));
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        // bad end radii are named
+        let mut p = Problems::new("/s");
+        cylinder("/s", &st(&[("radiusTop", Value::Float(-1.0))]), &mut p);
+        capsule("/s", &st(&[("radiusTop", Value::Float(0.0)), ("radiusBottom", Value::Float(0.0))]), &mut p);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["radiusTop", "radiusBottom"]);
     }
 
     #[test]

@@ -5,7 +5,7 @@
 //! which is the core's convention. Shutter times stay in frames here; the scene assembly turns
 //! them (and transform sample times) into seconds with `timeCodesPerSecond`.
 
-use crate::material::{TexKey, WrapKey};
+use crate::material::{Encoding, TexKey, WrapKey};
 use crate::value::{AttrStore, Problems};
 use glam::{Mat4, Vec3};
 use tide_core::light::dome_format::DomeFormat;
@@ -317,7 +317,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     let mut texture = None;
     let mut sky = None;
     let tex_key = |wrap_s, wrap_t, dome| {
-        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, linearize: false, dome })
+        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding: Encoding::Auto, dome })
     };
     let zero_area = |p: &mut Problems, attr: &str| {
         p.add(attr, "the light has zero area; dropped");

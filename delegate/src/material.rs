@@ -38,10 +38,30 @@ pub struct TexKey {
     pub asset: String,
     pub wrap_s: WrapKey,
     pub wrap_t: WrapKey,
-    /// Apply the sRGB decoding curve to the colour channels.
-    pub linearize: bool,
+    /// How the file's values are decoded (a UsdUVTexture's `sourceColorSpace`).
+    pub encoding: Encoding,
     /// A dome light's image layout (resampled to lat-long); `LatLong` for everything else.
     pub dome: DomeFormat,
+}
+
+/// How a texture's values are decoded: `sourceColorSpace` `raw`, `sRGB`, or `auto` (sRGB where
+/// the file is 8 bits per channel with 3 or 4 channels, as UsdImaging decides; raw otherwise).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Encoding {
+    Raw,
+    Srgb,
+    Auto,
+}
+
+impl Encoding {
+    /// Whether the sRGB curve is undone for a file that `auto` reads as sRGB (`file_srgb`) or not.
+    pub fn linearize(self, file_srgb: bool) -> bool {
+        match self {
+            Encoding::Raw => false,
+            Encoding::Srgb => true,
+            Encoding::Auto => file_srgb,
+        }
+    }
 }
 
 /// `Wrap` with an ordering, for use in keys.
@@ -359,7 +379,7 @@ impl Ctx<'_> {
         if asset.is_empty() {
             return None;
         }
-        let linearize = match (self.textures)(&asset) {
+        match (self.textures)(&asset) {
             None => {
                 self.p.add(&file_attr, format!("texture '{}' was not provided; using the fallback value", asset));
                 return None;
@@ -368,9 +388,14 @@ impl Ctx<'_> {
                 self.p.add(&file_attr, format!("texture '{}' could not be read ({}); using the fallback value", asset, msg));
                 return None;
             }
-            Some(TexState::Loaded { is_srgb, .. }) => cs == "sRGB" || (cs == "auto" && is_srgb),
+            Some(TexState::Loaded { .. }) => {}
+        }
+        let encoding = match cs {
+            "sRGB" => Encoding::Srgb,
+            "raw" => Encoding::Raw,
+            _ => Encoding::Auto,
         };
-        let key = TexKey { asset, wrap_s, wrap_t, linearize, dome: DomeFormat::LatLong };
+        let key = TexKey { asset, wrap_s, wrap_t, encoding, dome: DomeFormat::LatLong };
         Some(match self.used.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
@@ -852,7 +877,7 @@ mod tests {
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
-        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, linearize: true, dome: DomeFormat::LatLong }]);
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, encoding: Encoding::Auto, dome: DomeFormat::LatLong }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
         assert_eq!((t.texture, t.channel), (0, Channel::Rgb));

@@ -20,7 +20,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use tide_core::accel::BuildStats;
 use tide_core::world::BuildCache;
-use tide_core::{Aov, RenderError, RenderSettings, Renderer, SceneDesc};
+use tide_core::{Aov, Problem, RenderError, RenderSettings, Renderer, SceneDesc};
 
 /// What a render pass drives.
 pub trait Engine {
@@ -41,6 +41,11 @@ pub trait Engine {
     /// Whether adaptive sampling has stopped every pixel (the job then ends early).
     fn converged(&self) -> bool {
         false
+    }
+    /// What the engine found wrong in its scene and replaced or dropped while preparing it
+    /// (the core renderer's validation and world build), camera included.
+    fn problems(&self) -> Vec<Problem> {
+        Vec::new()
     }
     /// Takes `scene`'s camera, for a scene that differs from the engine's only there, keeping
     /// the rest of what it built; false (nothing changed) when it cannot, and a new engine is
@@ -72,6 +77,9 @@ impl Engine for Renderer {
     }
     fn converged(&self) -> bool {
         Renderer::converged(self)
+    }
+    fn problems(&self) -> Vec<Problem> {
+        Renderer::problems(self).to_vec()
     }
     fn summary(&self) -> Vec<(String, String)> {
         let st = self.stats();
@@ -190,6 +198,8 @@ struct State {
     exr: Vec<ExrRequest>,
     /// The engine's summary after the last finished pass.
     summary: Vec<(String, String)>,
+    /// The problems of the engine the running job was prepared with.
+    problems: Vec<Problem>,
 }
 
 struct Shared {
@@ -234,6 +244,12 @@ impl PassWatcher {
     /// The engine's figures after the last finished pass (photons, memory, …).
     pub fn summary(&self) -> Vec<(String, String)> {
         self.shared.lock().summary.clone()
+    }
+
+    /// What the engine of the running (or last) job found wrong while preparing its scene;
+    /// empty until that engine is built.
+    pub fn problems(&self) -> Vec<Problem> {
+        self.shared.lock().problems.clone()
     }
 
     /// Waits until the job converges or fails (or `timeout` passes); true if converged.
@@ -293,6 +309,7 @@ impl RenderPass {
                 shutdown: false,
                 exr: Vec::new(),
                 summary: Vec::new(),
+                problems: Vec::new(),
             }),
             cond: Condvar::new(),
             cancel: AtomicBool::new(false),
@@ -475,6 +492,15 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         *slot = Some(factory(&job.scene, &job.settings).map_err(|e| format!("the scene could not be prepared: {}", e))?);
     }
     let Some(e) = slot.as_mut() else { unreachable!() };
+    {
+        let problems = e.problems();
+        let mut st = shared.lock();
+        if st.generation != generation {
+            return Ok(false);
+        }
+        st.problems = problems;
+        shared.cond.notify_all();
+    }
     let start = Instant::now();
     let mut next = 1u32;
     let mut done = 0u32;

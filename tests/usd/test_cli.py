@@ -113,6 +113,41 @@ def test_info_names_the_fx_shapes_and_the_delegates_problems(tmp_path):
     assert "/Spray: tide:droplets:voxelSize: -2 is not positive" in out.stdout, out.stdout
 
 
+def _renderer_problem_stage(tmp_path):
+    """A stage whose only fault is one the renderer's own checks find (the reader and the
+    delegate pass a water material's ior on as authored): ior -1.5, replaced by 1.333."""
+    from pxr import UsdShade
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    ball = UsdGeom.Sphere.Define(s, "/Ball")
+    ball.AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    settings(s, product="scene_out.exr")
+    mat = UsdShade.Material.Define(s, "/Looks/Water")
+    sh = UsdShade.Shader.Define(s, "/Looks/Water/Surface")
+    sh.CreateIdAttr("TideWater")
+    sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(-1.5)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(mat)
+    s.GetRootLayer().Save()
+    return path
+
+
+def test_problems_the_renderer_finds_are_printed_counted_and_listed(tmp_path):
+    stage = _renderer_problem_stage(tmp_path)
+    out = run(["render", stage, "--spp", "1", "--width", "16"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    lines = [l for l in out.stderr.splitlines() if l.startswith("tide: problem:")]
+    assert lines == ["tide: problem: /Looks/Water: inputs:ior: ior -1.5 not in [1, 10); using 1.333"], out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    assert header["tide:problems"] == "1"
+    out = run(["info", stage], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    assert "problems: 1\n" in out.stdout and "/Looks/Water: inputs:ior: ior -1.5" in out.stdout, out.stdout
+
+
 @pytest.mark.parametrize("args", [["render", "--spp", "0"], ["render", "--width", "x"],
                                   ["frobnicate"], ["render", "--nope"], ["info"],
                                   ["render", "--integrator", "bdpt"],

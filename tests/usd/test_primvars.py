@@ -144,6 +144,42 @@ def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
         assert ok, why
 
 
+def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(renderer, stage, tmp_path):
+    """One 8-bit RGB PNG glows through three quads whose UsdUVTextures read it as `raw`, `auto`
+    and `sRGB`: raw shows the stored values, the other two their sRGB decoding (an 8-bit RGB
+    file without other tags is sRGB to `auto`, as UsdImaging reads it), each decoded once
+    whatever the order the materials load it in."""
+    from images import write_png
+    texel = (90, 40, 200)
+    png = str(tmp_path / "swatch.png")
+    write_png(png, 1, 1, [[texel]])
+    stored = np.array(texel) / 255.0
+    decoded = np.where(stored <= 0.04045, stored / 12.92, ((stored + 0.055) / 1.055) ** 2.4)
+    top_camera(stage)
+    third = 2 * HALF / 3
+    for k, space in enumerate(("raw", "auto", "sRGB")):
+        m = UsdGeom.Mesh.Define(stage, "/Q%d" % k)
+        x0 = -HALF + k * third
+        m.CreatePointsAttr([(x0, 0, -HALF), (x0, 0, HALF), (x0 + third, 0, HALF), (x0 + third, 0, -HALF)])
+        m.CreateFaceVertexCountsAttr([4])
+        m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        mat, sh = _black(stage, "/Looks/M%d" % k)
+        tex = UsdShade.Shader.Define(stage, "/Looks/M%d/Tex" % k)
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(space)
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(m.GetPrim(), mat)
+    _seen(stage, samples=4)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    cols = RES // 3
+    for k, want in enumerate((stored, decoded, decoded)):
+        part = img[:, k * cols + 2:(k + 1) * cols - 2]
+        ok, why = near(part, want)
+        assert ok, (("raw", "auto", "sRGB")[k], why)
+
+
 def _wet_stage(amount, connect=None):
     """A grey Lambertian panel under the white dome wearing TideWetAPI with `amount` (the
     authored value) and, with `connect`, a function that authors its mask and connects it."""

@@ -217,6 +217,21 @@ def test_inherited_visibility_and_purposes(stage, delegate):
     assert delegate.value("/Render", "purpose") == ("token", "render")
 
 
+def test_an_authored_purpose_overrides_the_inherited_one(stage, delegate):
+    # USD: a prim's own authored purpose wins over the purpose its ancestors pass down, so a
+    # render-purpose child of a proxy group is drawn and its default-purpose sibling is not
+    camera(stage)
+    UsdGeom.Xform.Define(stage, "/F").CreatePurposeAttr("proxy")
+    UsdGeom.Sphere.Define(stage, "/F/Own").CreatePurposeAttr("render")
+    UsdGeom.Sphere.Define(stage, "/F/Inherits")
+    UsdGeom.Xform.Define(stage, "/F/G")
+    UsdGeom.Sphere.Define(stage, "/F/G/Deep").CreatePurposeAttr("default")
+    load(stage, delegate)
+    assert sorted(delegate.of_type("sphere")) == ["/F/G/Deep", "/F/Own"]
+    assert [UsdGeom.Imageable(stage.GetPrimAtPath(p)).ComputePurpose()
+            for p in ("/F/Own", "/F/Inherits", "/F/G/Deep")] == ["render", "proxy", "default"]
+
+
 def test_included_purposes_from_settings(stage, delegate):
     camera(stage)
     for name, purpose in (("Render", "render"), ("Proxy", "proxy"), ("Default", "default")):
@@ -349,6 +364,42 @@ def test_point_instancer(stage, delegate):
     assert np.allclose(p[:3], expect, atol=tol)
 
 
+def test_point_instancer_prototypes_under_an_over_are_drawn(stage, delegate):
+    # prototypes often live under an `over` (or a class) so that they are not drawn on their
+    # own; UsdImaging walks a prototype whether or not it is defined (active, loaded and not
+    # abstract), and so does the reader
+    stage.GetRootLayer().ImportFromString("""#usda 1.0
+def PointInstancer "PI"
+{
+    point3f[] positions = [(-6, 0, 0), (-2, 0, 0), (2, 0, 0), (6, 0, 0)]
+    int[] protoIndices = [0, 1, 0, 1]
+    rel prototypes = [</PI/Protos/Ball>, </Hidden/Box>]
+    over "Protos"
+    {
+        def Sphere "Ball"
+        {
+            double radius = 0.8
+        }
+    }
+}
+over "Hidden"
+{
+    def Cube "Box"
+    {
+        double size = 1.2
+    }
+}
+""")
+    camera(stage)
+    load(stage, delegate)
+    assert delegate.of_type("sphere") == ["/PI/proto0_Ball"]
+    assert delegate.of_type("cube") == ["/PI/proto1_Box"]
+    for path in ("/PI/proto0_Ball", "/PI/proto1_Box"):
+        assert len(floats(delegate.value(path, "instanceTransforms")).reshape(-1, 4, 4)) == 2
+    # and not on their own
+    assert "/Hidden/Box" not in delegate.prims and "/PI/Protos/Ball" not in delegate.prims
+
+
 def test_nested_point_instancers_place_every_inner_instance_under_every_outer_one(stage, delegate):
     """An instancer whose prototype holds another: each of the outer instances (translated
     along x, turned 90 degrees about Y) places the inner instancer's, which sits 1 above its
@@ -423,7 +474,8 @@ def test_material_network_and_connections(stage, delegate, tmp_path):
         ("token", "/Looks/M/Tex.outputs:rgb")
     assert v("/Looks/M/Surface.inputs:roughness") == 0.25
     assert v("/Looks/M/Tex.inputs:file") == ("asset", str(tex_file))
-    assert delegate.textures == {str(tex_file): "sRGB"}
+    assert delegate.textures == {str(tex_file)}
+    assert v("/Looks/M/Tex.inputs:sourceColorSpace") == ("token", "sRGB")
     # the texture is loaded before the material's values are set
     calls = [c[0] for c in delegate.calls]
     assert calls.index("load_texture") < max(i for i, c in enumerate(delegate.calls)

@@ -106,8 +106,9 @@ public:
 };
 
 /// Reads `asset` with the cache and hands it to Rust (add_texture or texture_failed); a
-/// failure is recorded as a problem naming `prim` and `attribute`.
+/// failure is recorded as a problem naming `prim` and `attribute`. The values go as the file
+/// holds them: the delegate decodes them by each user's `sourceColorSpace`.
 bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::string& attribute,
-                    const std::string& asset, const std::string& sourceColorSpace);
+                    const std::string& asset);
 
 }  // namespace tide

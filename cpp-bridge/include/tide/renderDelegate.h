@@ -45,6 +45,10 @@ public:
 
     /// Converts what was synced since the last commit into the core scene.
     void CommitResources();
+    /// Commits, then prepares the scene as a render of the active camera and settings would
+    /// (the renderer's validation and world build) without rendering; what both find goes
+    /// to TakeProblems.
+    void CheckRender();
     /// Problems found by the last commits (C++ and Rust), each reported once.
     std::vector<Problem> TakeProblems();
     /// Prims synced by the last commit.
@@ -57,6 +61,10 @@ public:
     const RenderSettingsMap& GetRenderSettings() const { return _settings; }
 
 private:
+    /// Adds the rows of the Rust delegate's commit (or, with `check`, of its check) to
+    /// `_pending`.
+    void _PendRows(bool check);
+
     std::unique_ptr<RenderParam> _param;
     RenderSettingsMap _settings;
     std::vector<Problem> _pending;

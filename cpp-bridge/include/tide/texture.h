@@ -1,5 +1,6 @@
 //! tide::TextureCache: textures read with OpenImageIO through an ImageCache (any format it
-//! reads; tiled / mip-mapped files are cached), converted to linear float.
+//! reads; tiled / mip-mapped files are cached), as float values the file holds. Decoding is the
+//! delegate's: each material (or light) decodes by its own `sourceColorSpace`.
 #pragma once
 
 #include <map>
@@ -9,18 +10,17 @@
 
 namespace tide {
 
-/// A texture as handed to the delegate: linear float, row-major from the top row.
+/// A texture as handed to the delegate: the file's values as float (integers scaled to
+/// [0, 1], not decoded), row-major from the top row.
 struct TextureImage {
     int width = 0;
     int height = 0;
     int channels = 0;
     std::vector<float> pixels;
-    /// The file's values were sRGB-encoded and have been linearised.
-    bool wasSrgb = false;
+    /// Whether `sourceColorSpace = "auto"` reads the file as sRGB-encoded: 8 bits per channel
+    /// with 3 or 4 channels, as UsdImaging's image readers decide (other files are raw).
+    bool isSrgb = false;
 };
-
-/// The sRGB transfer function, decoded.
-float SrgbToLinear(float v);
 
 class TextureCache {
 public:
@@ -29,15 +29,12 @@ public:
     TextureCache(const TextureCache&) = delete;
     TextureCache& operator=(const TextureCache&) = delete;
 
-    /// Reads mip level 0 of `path`. `sourceColorSpace`: "raw" keeps values, "sRGB"
-    /// linearises, "auto" (or "") linearises 8-bit files and files tagged sRGB. False with
-    /// `*error` set if the file cannot be read.
-    bool Read(const std::string& path, const std::string& sourceColorSpace, TextureImage* out,
-              std::string* error);
+    /// Reads mip level 0 of `path`. False with `*error` set if the file cannot be read.
+    bool Read(const std::string& path, TextureImage* out, std::string* error);
 
-    /// True if `path` was already sent with this colour space and is unchanged on disk;
-    /// otherwise remembers it as sent.
-    bool AlreadySent(const std::string& path, const std::string& sourceColorSpace);
+    /// True if `path` was already sent and is unchanged on disk; otherwise remembers it as
+    /// sent.
+    bool AlreadySent(const std::string& path);
     void ForgetSent(const std::string& path);
 
 private:

@@ -191,6 +191,12 @@ class Progress:
             self.stream.write("tide: rendering %3d%%%s %.1fs\n" % (decile * 10, spp, elapsed))
         self.stream.flush()
 
+    def clear(self):
+        """Clears the bar's line, so that a message can be printed before the next update."""
+        if self.tty:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+
     def done(self):
         if self.tty:
             self.stream.write("\n")
@@ -268,6 +274,11 @@ def _render_one(reader, delegate, args, outputs, load_s):
     try:
         while not rp.is_converged():
             stopped = rp.wait(0.25)
+            # what the renderer found while preparing the scene, once it has
+            found = reader.commit()
+            if found:
+                bar.clear()
+                _print_problems(found)
             if stopped and not rp.is_converged():
                 raise RuntimeError("the render stopped before reaching its target: %s"
                                    % (rp.error() or "cancelled"))
@@ -377,6 +388,8 @@ def cmd_info(args):
         module = env.load_module(fake=True)
         note = " (the renderer module is not built: only the reader's checks ran)"
     reader, problems = _make_reader(args, stage, module.RenderDelegate())
+    # the renderer's own checks (validation, media, lights, volumes), as a render would run them
+    reader.check()
     out = sys.stdout
     w, h = reader.resolution
     out.write("stage: %s\n" % args.stage)

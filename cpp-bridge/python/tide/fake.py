@@ -34,7 +34,7 @@ class RenderDelegate:
         self.prims = {}          # path -> type
         self.values = {}         # path -> {key: {time: value}}
         self.primvars = {}       # path -> {name: (interpolation, data, tuple, indices)}
-        self.textures = {}       # asset path -> source colour space
+        self.textures = set()    # asset paths loaded
         self.calls = []          # (method, path, key) in call order
         self._dirty = set()
         self._synced = []
@@ -109,12 +109,12 @@ class RenderDelegate:
         self.primvars.setdefault(path, {})[name] = (interpolation, data, int(tuple_size), idx)
         self._dirty.add(path)
 
-    def load_texture(self, asset_path, source_color_space="auto"):
-        self.calls.append(("load_texture", asset_path, source_color_space))
+    def load_texture(self, asset_path):
+        self.calls.append(("load_texture", asset_path))
         if not asset_path or not os.path.isfile(asset_path):
             self._problems.append((asset_path, "file", "cannot read texture '%s'" % asset_path))
             return False
-        self.textures[asset_path] = source_color_space
+        self.textures.add(asset_path)
         return True
 
     def load_vdb(self, asset_path, field_name, field_index=0):
@@ -122,6 +122,9 @@ class RenderDelegate:
         return bool(asset_path) and os.path.isfile(asset_path)
 
     # -- sync -----------------------------------------------------------------------------
+    def check_render(self):
+        return self.commit_resources()
+
     def commit_resources(self):
         self.commits += 1
         self._synced = sorted(self._dirty)

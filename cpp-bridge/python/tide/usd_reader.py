@@ -58,6 +58,11 @@ IMPLICIT_ATTRS = {
     "capsule": {"radius": 0.5, "height": 1.0, "axis": "Z"},
     "plane": {"width": 2.0, "length": 2.0, "axis": "Z"},
 }
+# The schemas with a radius per end (a tapered cylinder, a capsule of two spheres) send those.
+IMPLICIT_ATTRS_BY_SCHEMA = {
+    "Cylinder_1": {"radiusBottom": 1.0, "radiusTop": 1.0, "height": 2.0, "axis": "Z"},
+    "Capsule_1": {"radiusBottom": 0.5, "radiusTop": 0.5, "height": 1.0, "axis": "Z"},
+}
 LIGHT_COMMON = {
     "inputs:intensity": 1.0, "inputs:exposure": 0.0, "inputs:color": (1.0, 1.0, 1.0),
     "inputs:normalize": False, "inputs:enableColorTemperature": False,
@@ -388,10 +393,21 @@ class Reader:
         return list(self._pending)
 
     def commit(self):
-        """Commits to the delegate; returns the problems not reported before."""
+        """Commits to the delegate; returns the problems not reported before (a render's
+        engine reports what it found while preparing the scene to the first commit after it
+        is built)."""
+        return self._take(self.delegate.commit_resources())
+
+    def check(self):
+        """Commits, then has the delegate prepare the scene as a render would (the renderer's
+        validation and world build) without rendering; returns the problems not reported
+        before."""
+        return self._take(self.delegate.check_render())
+
+    def _take(self, items):
         found = list(self._pending)
         self._pending = []
-        for item in self.delegate.commit_resources() or []:
+        for item in items or []:
             found.append(Problem(*item))
         new = []
         for p in found:
@@ -602,9 +618,12 @@ class Reader:
                 if img.ComputeVisibility(self._time(0)) == UsdGeom.Tokens.invisible:
                     it.PruneChildren()
                     continue
-                ok, purpose = self._included(img)
+                ok, _ = self._included(img)
                 if not ok:
-                    if purpose != UsdGeom.Tokens.default_:
+                    # not drawn, but a descendant that authors its own purpose may be (an
+                    # authored purpose overrides the inherited one); an instancer's prototypes
+                    # are drawn only through it
+                    if prim.IsA(UsdGeom.PointInstancer):
                         it.PruneChildren()
                     continue
             if prim.IsA(UsdGeom.PointInstancer):
@@ -1502,7 +1521,8 @@ class Reader:
         return True
 
     def _eval_implicit(self, prim, st):
-        for name, fb in IMPLICIT_ATTRS[st.type].items():
+        attrs = IMPLICIT_ATTRS_BY_SCHEMA.get(str(prim.GetTypeName()), IMPLICIT_ATTRS[st.type])
+        for name, fb in attrs.items():
             if name == "axis":
                 self._token(prim, st, name, fb)
             else:
@@ -1691,7 +1711,10 @@ class Reader:
                 rows.setdefault(name, (np.repeat(outer_rows, len(sel), axis=0), tsize))
             base = path.AppendChild("proto%d_%s" % (k, proto.GetName()))
             parent = proto.GetParent()
-            pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+            # as UsdImaging walks prototypes: defined or not (a prototype under an `over`
+            # is drawn), but active, loaded and not abstract
+            pred = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimIsLoaded &
+                                               ~Usd.PrimIsAbstract)
             it = iter(Usd.PrimRange(proto, pred))
             for g in it:
                 if g.IsA(UsdGeom.PointInstancer):
@@ -1975,10 +1998,8 @@ class Reader:
                 self.problem(shader.GetPath(), name, "cannot find texture '%s'; the input's "
                              "default is used" % asset.path)
             return Sdf.AssetPath("")
-        csp = shader.GetInput("sourceColorSpace")
-        space = str(csp.Get()) if csp and csp.Get() else "auto"
         if resolved not in self._textures_loaded():
-            ok = self._load_texture(resolved, space)
+            ok = self._load_texture(resolved)
             if ok is False:
                 self.problem(shader.GetPath(), name, "cannot read texture '%s'; the input's "
                              "default is used" % resolved)
@@ -1986,9 +2007,9 @@ class Reader:
             self._loaded.add(resolved)
         return asset
 
-    def _load_texture(self, path, space):
+    def _load_texture(self, path):
         try:
-            return self.delegate.load_texture(path, space)
+            return self.delegate.load_texture(path)
         except Exception:  # the module reports a failure as an exception or as False
             return False
 
@@ -2016,7 +2037,7 @@ class Reader:
                     self.problem(path, name, "cannot find texture '%s'; the light uses its "
                                  "colour" % v.path)
                 elif v.resolvedPath and v.resolvedPath not in self._textures_loaded():
-                    if self._load_texture(v.resolvedPath, "auto") is False:
+                    if self._load_texture(v.resolvedPath) is False:
                         self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
                         v = Sdf.AssetPath("")
                     else:
