@@ -534,7 +534,9 @@ impl Renderer {
     /// Like [`Renderer::write_exr`] with an output name per AOV (UsdRenderVar names).
     pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
         // the renderer's own figures replace any the caller passed under the same keys
-        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator", "tide:pixelFilter", "tide:pixelFilter:width"];
+        // what the render used, whatever a caller's header says (a rejected value replaced by
+        // its default is recorded as the default)
+        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator", "tide:pixelFilter", "tide:pixelFilter:width", "tide:maxDepth", "tide:time:budget", "renderingColorSpace"];
         let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:") && !k.starts_with("tide:adaptive:")).cloned().collect();
         h.push(("tide:spp".into(), self.film.spp.to_string()));
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
@@ -543,6 +545,13 @@ impl Renderer {
         h.push(("tide:integrator".into(), self.settings.integrator.token().into()));
         h.push(("tide:pixelFilter".into(), self.settings.pixel_filter.kind.token().into()));
         h.push(("tide:pixelFilter:width".into(), format!("{}", self.settings.pixel_filter.width)));
+        h.push(("tide:maxDepth".into(), self.settings.max_depth.to_string()));
+        h.push(("tide:time:budget".into(), format!("{}", self.settings.time_budget_s)));
+        let space = match self.world.cs {
+            crate::scene::ColorSpace::LinearRec709 => "lin_rec709",
+            crate::scene::ColorSpace::AcesCg => "ACEScg",
+        };
+        h.push(("renderingColorSpace".into(), space.into()));
         if self.adaptive.is_some() {
             h.push(("tide:adaptive:threshold".into(), format!("{}", self.settings.adaptive_threshold)));
             h.push(("tide:adaptive:meanSpp".into(), format!("{:.2}", self.film.mean_samples())));

@@ -726,10 +726,22 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
             v
         }
     };
-    s.spp = nonneg_int("tide:samples", 64, p).min(u32::MAX as i64) as u32;
+    s.spp = match store.i64_or("tide:samples", 64, p) {
+        v if v >= 1 => v.min(u32::MAX as i64) as u32,
+        v => {
+            p.add("tide:samples", format!("{v} is not a positive sample count; using 64"));
+            64
+        }
+    };
     s.max_depth = nonneg_int("tide:maxDepth", 64, p).min(u32::MAX as i64) as u32;
     s.seed = nonneg_int("tide:seed", 0, p) as u64;
-    s.time_budget_s = store.f32_or("tide:time:budget", 0.0, p).max(0.0);
+    s.time_budget_s = match store.f32_or("tide:time:budget", 0.0, p) {
+        b if b >= 0.0 && b.is_finite() => b,
+        b => {
+            p.add("tide:time:budget", format!("{b} is not a number of seconds >= 0; no budget (0)"));
+            0.0
+        }
+    };
     let adaptive_threshold = store.f32_or("tide:adaptive:threshold", 0.0, p);
     s.adaptive_threshold = if adaptive_threshold >= 0.0 {
         adaptive_threshold
@@ -1069,6 +1081,23 @@ mod tests {
         assert_eq!(c.medium.as_deref(), Some("/Looks/Sea"));
         assert_eq!(p.list.len(), 1);
         assert_eq!((p.list[0].item.as_str(), p.list[0].attribute.as_str()), ("/cam", "verticalAperture"));
+    }
+
+    /// No samples, a negative or non-finite budget are named and replaced (0 samples rendered
+    /// a black image).
+    #[test]
+    fn degenerate_sample_counts_and_budgets_are_named_and_replaced() {
+        for (samples, budget, spp, kept_budget, named) in [
+            (0, 1.5, 64, 1.5, vec!["tide:samples"]),
+            (-5, -1.0, 64, 0.0, vec!["tide:samples", "tide:time:budget"]),
+            (3, f64::NAN, 3, 0.0, vec!["tide:time:budget"]),
+            (1, 0.0, 1, 0.0, vec![]),
+        ] {
+            let mut p = Problems::new("/Render/S");
+            let s = convert_settings(&st(&[("tide:samples", Value::Int(samples)), ("tide:time:budget", f(budget))]), &mut p);
+            assert_eq!((s.settings.spp, s.settings.time_budget_s), (spp, kept_budget));
+            assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), named, "{:?}", p.list);
+        }
     }
 
     #[test]

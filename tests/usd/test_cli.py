@@ -148,6 +148,28 @@ def test_problems_the_renderer_finds_are_printed_counted_and_listed(tmp_path):
     assert "problems: 1\n" in out.stdout and "/Looks/Water: inputs:ior: ior -1.5" in out.stdout, out.stdout
 
 
+def test_the_header_records_the_settings_used_not_the_rejected_ones(tmp_path):
+    # a negative depth, a negative budget, no samples and an unknown colour space are each
+    # named and replaced; the EXR says what the render used and the preview is written
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    st = settings(s, product="scene_out.exr", maxDepth=-3, time__budget=-1.0, samples=0)
+    st.GetPrim().CreateAttribute("renderingColorSpace", Sdf.ValueTypeNames.Token).Set("rec2020_weird")
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--width", "16"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    named = sorted(l.split(": ")[3] for l in out.stderr.splitlines() if l.startswith("tide: problem:"))
+    assert named == ["renderingColorSpace", "tide:maxDepth", "tide:samples", "tide:time:budget"], out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    assert (header["tide:maxDepth"], header["tide:time:budget"], header["tide:spp"],
+            header["renderingColorSpace"]) == ("64", "0", "64", "lin_rec709")
+    assert os.path.exists(tmp_path / "scene_out.png")
+
+
 @pytest.mark.parametrize("args", [["render", "--spp", "0"], ["render", "--width", "x"],
                                   ["frobnicate"], ["render", "--nope"], ["info"],
                                   ["render", "--integrator", "bdpt"],

@@ -47,7 +47,7 @@ def test_bad_method_names_the_input_and_falls_back_to_volumetric(stage, renderer
     settings(stage, res=(4, 4), samples=4, integrator="path")
     d = renderer.RenderDelegate()
     problems = list(usd_reader.Reader(stage, d, usd_reader.Options()).load())
-    assert any("/Looks/Milk/V.inputs:method" in str(p) and "volumetric" in str(p)
+    assert any((p.prim, p.attribute) == ("/Looks/Milk/V", "inputs:method") and "volumetric" in str(p)
                for p in problems), problems
 
 

@@ -97,4 +97,4 @@ def test_a_materialx_displacement_node_displaces(renderer):
     assert width("ND_displacement_float") == (pytest.approx(2 * px_per_unit(D - 2.0), abs=0.5), [])
     flat, problems = width("ND_displacement_vector3")
     assert flat == pytest.approx(2 * px_per_unit(D), abs=0.5)
-    assert problems == [("/Looks/Black", "/Looks/Black/D.info:id")]
+    assert problems == [("/Looks/Black/D", "info:id")]

@@ -77,6 +77,18 @@ def _missing_texture(stage):
     return "/Looks/T/Tex", "inputs:file", None
 
 
+def _unknown_purpose(stage):
+    UsdGeom.Sphere.Define(stage, "/Odd").GetPrim().CreateAttribute(
+        "purpose", Sdf.ValueTypeNames.Token).Set("weird")
+    return "/Odd", "purpose", None
+
+
+def _unknown_visibility(stage):
+    UsdGeom.Sphere.Define(stage, "/Odd").GetPrim().CreateAttribute(
+        "visibility", Sdf.ValueTypeNames.Token).Set("sometimes")
+    return "/Odd", "visibility", None
+
+
 def _zero_area_rect(stage):
     UsdLux.RectLight.Define(stage, "/Bad").CreateWidthAttr(0.0)
     return "/Bad", "inputs:width", "Bad"
@@ -138,10 +150,53 @@ def _missing_vdb(stage):
     return "/Cloud/density", "filePath", None
 
 
+def _mistyped(stage, path, name, type_name, value):
+    """An attribute authored with another type than its schema declares (USD's API refuses
+    that; a layer written by another tool may hold it)."""
+    spec = Sdf.AttributeSpec(stage.GetRootLayer().GetPrimAtPath(path), name, type_name)
+    spec.default = value
+
+
+def _mistyped_radius(stage):
+    UsdGeom.Sphere.Define(stage, "/Odd")
+    _mistyped(stage, "/Odd", "radius", Sdf.ValueTypeNames.String, "big")
+    return "/Odd", "radius", None
+
+
+def _mistyped_points(stage):
+    m = _mesh(stage, "/Bad", TRI, [3], [0, 1, 2])
+    m.GetPrim().RemoveProperty("points")
+    _mistyped(stage, "/Bad", "points", Sdf.ValueTypeNames.FloatArray, [0.0, 1.0, 2.0, 3.0])
+    return "/Bad", "points", "Bad"
+
+
+def _mistyped_xform_op(stage):
+    g = UsdGeom.Xform.Define(stage, "/Moved")
+    g.GetPrim().CreateAttribute("xformOpOrder", Sdf.ValueTypeNames.TokenArray).Set(
+        ["xformOp:translate"])
+    _mistyped(stage, "/Moved", "xformOp:translate", Sdf.ValueTypeNames.String, "left")
+    UsdGeom.Sphere.Define(stage, "/Moved/Ball")
+    return "/Moved", "xformOp:translate", "Moved/Ball"
+
+
+def _mistyped_light(stage):
+    UsdLux.SphereLight.Define(stage, "/Lamp")
+    _mistyped(stage, "/Lamp", "inputs:intensity", Sdf.ValueTypeNames.String, "bright")
+    return "/Lamp", "inputs:intensity", None
+
+
+def _mistyped_setting(stage):
+    settings(stage)
+    _mistyped(stage, "/Render/Settings", "tide:samples", Sdf.ValueTypeNames.String, "many")
+    return "/Render/Settings", "tide:samples", None
+
+
 CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_face, _count_mismatch,
          _unknown_token, _unknown_shader, _missing_texture, _zero_area_rect, _zero_radius_disk,
          _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
-         _missing_dome_texture, _unknown_aov, _negative_radius]
+         _missing_dome_texture, _unknown_aov, _negative_radius, _mistyped_radius,
+         _mistyped_points, _mistyped_xform_op, _mistyped_light, _mistyped_setting,
+         _unknown_purpose, _unknown_visibility]
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.__name__.strip("_") for c in CASES])
@@ -172,6 +227,37 @@ def test_replaced_by_default(stage, delegate):
     assert delegate.value("/Odd", "orientation") == ("token", "rightHanded")
     assert delegate.value("/BadCam", "horizontalAperture") == pytest.approx(20.955)
     assert delegate.value("/Render/Settings", "tide:integrator") == ("token", "caustics")
+
+
+@pytest.mark.parametrize("case", [_unknown_purpose, _unknown_visibility])
+def test_an_unknown_purpose_or_visibility_reads_as_the_default(stage, delegate, case):
+    _good(stage)
+    case(stage)
+    load(stage, delegate)
+    assert delegate.prims.get("/Odd") == "sphere"
+
+
+def test_mistyped_values_are_replaced_by_their_defaults(stage, delegate):
+    _good(stage)
+    _mistyped_radius(stage)
+    _mistyped_light(stage)
+    _mistyped_setting(stage)
+    reader, _ = load(stage, delegate)
+    assert delegate.value("/Odd", "radius") == 1.0
+    assert delegate.value("/Lamp", "inputs:intensity") == 1.0
+    assert delegate.value("/Render/Settings", "tide:samples") == 64
+    assert reader.sample_target == 64
+
+
+def test_a_fault_the_reader_and_the_delegate_both_find_is_reported_once(renderer, stage):
+    # the delegate names a material's node input as (material, "/node.input"): the reader
+    # reads that as the node's prim and input, as it names them itself
+    from conftest import load
+    _good(stage)
+    _unknown_shader(stage)
+    _, problems = load(stage, renderer.RenderDelegate())
+    ids = [p for p in problems if p.attribute == "info:id"]
+    assert [(p.prim, p.attribute) for p in ids] == [("/Looks/M/S", "info:id")], problems
 
 
 def test_delegate_problems_are_merged_once(stage, delegate):

@@ -306,15 +306,14 @@ def _render_one(reader, delegate, args, outputs, load_s):
 
     spp = target
     sps, header = make_header(spp)
-    color_space = header.get("renderingColorSpace", "lin_rec709")
-    written = _write(delegate, outputs, header, color_space)
+    written = _write(delegate, outputs, header)
     # A time budget may stop the render short of its target: the film's own count, which the
     # renderer writes into the header, is the truth; the header is rewritten to agree with it.
-    reached = _spp_written(outputs[0][0])
-    if reached is not None and reached != spp:
-        spp = reached
+    reached = _written(outputs[0][0], "tide:spp")
+    if reached is not None and int(reached) != spp:
+        spp = int(reached)
         sps, header = make_header(spp)
-        _write(delegate, outputs, header, color_space, png=False)
+        _write(delegate, outputs, header, png=False)
     adaptive = " (adaptive: mean %.1f)" % mean_spp if mean_spp is not None else ""
     sys.stdout.write("tide: wrote %s (%dx%d, %d spp%s, load %.2fs, render %.2fs, %.3g samples/s)\n"
                      % (", ".join(written), w, h, spp, adaptive, load_s, render_s, sps))
@@ -333,11 +332,12 @@ def _render_one(reader, delegate, args, outputs, load_s):
     return EXIT_OK
 
 
-def _spp_written(path):
+def _written(path, key):
+    """A value of the header the renderer wrote (it records what it used), or None."""
     from tide import exr_header
 
     try:
-        return int(exr_header.read_header(path).get("tide:spp", ""))
+        return exr_header.read_header(path).get(key)
     except (OSError, ValueError):
         return None
 
@@ -363,7 +363,7 @@ def _header(args, reader, spp, load_s, render_s, sps):
     return header
 
 
-def _write(delegate, outputs, header, color_space, png=True):
+def _write(delegate, outputs, header, png=True):
     written = []
     for name, vars_ in outputs:
         delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
@@ -371,7 +371,9 @@ def _write(delegate, outputs, header, color_space, png=True):
         color = [buf for aov, buf in vars_ if aov == "color"]
         if color and png:
             png_name = os.path.splitext(name)[0] + ".png"
-            delegate.write_preview_png(png_name, color[0], color_space, "Standard")
+            # the colour space the render used (an unknown one authored was replaced)
+            space = _written(name, "renderingColorSpace") or "lin_rec709"
+            delegate.write_preview_png(png_name, color[0], space, "Standard")
             written.append(png_name)
     return written
 

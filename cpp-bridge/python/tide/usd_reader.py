@@ -34,6 +34,21 @@ class Problem(namedtuple("Problem", "prim attribute message")):
     def __str__(self):
         return "%s: %s: %s" % (self.prim, self.attribute, self.message)
 
+    @classmethod
+    def of_delegate(cls, prim, attribute, message):
+        """A problem the delegate found. It names a material's node input as (material,
+        "/node/path.input"): that is the node's prim and its input, as the reader names them
+        (so that one fault found by both is reported once)."""
+        if attribute.startswith("/"):
+            dot = attribute.find(".", attribute.rfind("/"))
+            if dot > 0:
+                return cls(attribute[:dot], attribute[dot + 1:], message)
+        return cls(prim, attribute, message)
+
+
+# UsdGeomImageable's tokens.
+PURPOSES = ("default", "render", "proxy", "guide")
+VISIBILITIES = ("inherited", "invisible")
 
 # USD prim type -> delegate rprim type.
 GPRIMS = {
@@ -229,6 +244,47 @@ def _matrix(m):
     return ("matrix", tuple(float(m[i][j]) for i in range(4) for j in range(4)))
 
 
+def _kind_ok(value, fallback):
+    """Whether a USD value is of the kind of `fallback`, the value the reader expects: a bool
+    for a bool, a whole number for an int, a number for a float, text for a token or string,
+    an asset path for an asset, a sequence as long, of the same kinds, for a vector (a list: of
+    any length)."""
+    if isinstance(fallback, bool):
+        return isinstance(value, bool)
+    if isinstance(fallback, int):
+        return (isinstance(value, int) and not isinstance(value, bool)) or \
+            (isinstance(value, float) and value.is_integer())
+    if isinstance(fallback, float):
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if isinstance(fallback, str):
+        return isinstance(value, str)
+    if isinstance(fallback, Sdf.AssetPath):
+        return isinstance(value, Sdf.AssetPath)
+    if hasattr(fallback, "__len__"):
+        if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
+            return False
+        if not isinstance(fallback, list) and len(value) != len(fallback):
+            return False
+        return len(fallback) == 0 or all(_kind_ok(v, fallback[0]) for v in value)
+    return True
+
+
+def _kind_name(fallback):
+    if isinstance(fallback, bool):
+        return "a bool"
+    if isinstance(fallback, int):
+        return "a whole number"
+    if isinstance(fallback, float):
+        return "a number"
+    if isinstance(fallback, str):
+        return "a token"
+    if isinstance(fallback, Sdf.AssetPath):
+        return "an asset path"
+    if isinstance(fallback, list):
+        return "a list"
+    return "%d numbers" % len(fallback)
+
+
 def _floats(data, tuple_size):
     arr = np.ascontiguousarray(np.asarray(data, dtype=np.float32).reshape(-1))
     return ("floats", int(tuple_size), arr.tobytes())
@@ -408,7 +464,7 @@ class Reader:
         found = list(self._pending)
         self._pending = []
         for item in items or []:
-            found.append(Problem(*item))
+            found.append(Problem.of_delegate(*item))
         new = []
         for p in found:
             key = (p.prim, p.attribute)
@@ -598,59 +654,90 @@ class Reader:
     # -- traversal ------------------------------------------------------------------------
     def _included(self, imageable):
         purpose = imageable.ComputePurpose()
+        if purpose not in PURPOSES:
+            # an unknown token (reported where it is authored) reads as the default
+            purpose = UsdGeom.Tokens.default_
         return purpose in self._purposes, purpose
+
+    def _check_imageable_tokens(self, prim, imageable):
+        """Names an authored visibility or purpose that is not one of USD's tokens (they then
+        read as `inherited` and `default`)."""
+        for attr, allowed, fallback in ((imageable.GetVisibilityAttr(), VISIBILITIES, "inherited"),
+                                        (imageable.GetPurposeAttr(), PURPOSES, "default")):
+            if attr and attr.HasAuthoredValue():
+                v = attr.Get(self._time(0))
+                if v not in allowed:
+                    self.problem(prim.GetPath(), attr.GetName(),
+                                 "unknown token '%s'; using '%s'" % (v, fallback))
 
     def _walk(self, root):
         pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
         it = iter(Usd.PrimRange(root, pred))
         for prim in it:
-            type_name = prim.GetTypeName()
-            if prim.IsA(UsdShade.Material):
-                if str(prim.GetPath()) in self._sent:
-                    self._eval_material(prim)
+            try:
+                self._visit(prim, it)
+            except Exception as e:  # a value the reader cannot use (a wrongly typed attribute)
+                found = self._culprit(prim)
+                if found is None:
+                    why = (str(e).strip().splitlines() or [type(e).__name__])[-1].strip()
+                    found = (prim.GetPath(), "", "cannot be read (%s)" % why)
+                where, attr, why = found
+                self.problem(where, attr, "%s; %s dropped" % (why, "the prim is" if where ==
+                                                              prim.GetPath() else
+                                                              "%s is" % prim.GetPath()))
+                self._desired.pop(str(prim.GetPath()), None)
                 it.PruneChildren()
-                continue
-            if prim.IsA(UsdRender.SettingsBase) or prim.IsA(UsdRender.Var):
+
+    def _visit(self, prim, it):
+        """Reads one prim of the walk (`it` prunes what it need not enter)."""
+        type_name = prim.GetTypeName()
+        if prim.IsA(UsdShade.Material):
+            if str(prim.GetPath()) in self._sent:
+                self._eval_material(prim)
+            it.PruneChildren()
+            return
+        if prim.IsA(UsdRender.SettingsBase) or prim.IsA(UsdRender.Var):
+            it.PruneChildren()
+            return
+        img = UsdGeom.Imageable(prim)
+        if img:
+            self._check_imageable_tokens(prim, img)
+            if img.ComputeVisibility(self._time(0)) == UsdGeom.Tokens.invisible:
                 it.PruneChildren()
-                continue
-            img = UsdGeom.Imageable(prim)
-            if img:
-                if img.ComputeVisibility(self._time(0)) == UsdGeom.Tokens.invisible:
+                return
+            ok, _ = self._included(img)
+            if not ok:
+                # not drawn, but a descendant that authors its own purpose may be (an
+                # authored purpose overrides the inherited one); an instancer's prototypes
+                # are drawn only through it
+                if prim.IsA(UsdGeom.PointInstancer):
                     it.PruneChildren()
-                    continue
-                ok, _ = self._included(img)
-                if not ok:
-                    # not drawn, but a descendant that authors its own purpose may be (an
-                    # authored purpose overrides the inherited one); an instancer's prototypes
-                    # are drawn only through it
-                    if prim.IsA(UsdGeom.PointInstancer):
-                        it.PruneChildren()
-                    continue
-            if prim.IsA(UsdGeom.PointInstancer):
-                self._eval_instancer(prim)
-                it.PruneChildren()
-                continue
-            if prim.IsInstance():
-                self._instance_sources.add(prim.GetPath())
-            if type_name in GPRIMS:
-                # a skinned gprim in a native instance is posed by that instance's skeleton
-                # and animation: sent on its own, at its instance proxy's path
-                if prim.IsInstanceProxy() and not self._posed_apart(prim):
-                    self._collect_instanced(prim)
-                else:
-                    self._eval_gprim(prim, str(prim.GetPath()), str(prim.GetPath()))
-            elif type_name in LIGHTS:
-                self._eval_light(prim)
-            elif prim.IsA(UsdGeom.Camera):
-                self._eval_camera(prim)
-            elif prim.IsA(UsdLux.PortalLight):
-                self._eval_portal(prim)
-            elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
-                self.problem(prim.GetPath(), "type",
-                             "light type '%s' is not supported; dropped" % type_name)
-            elif prim.IsA(UsdGeom.Gprim):
-                self.problem(prim.GetPath(), "type",
-                             "prim type '%s' is not supported; dropped" % type_name)
+                return
+        if prim.IsA(UsdGeom.PointInstancer):
+            self._eval_instancer(prim)
+            it.PruneChildren()
+            return
+        if prim.IsInstance():
+            self._instance_sources.add(prim.GetPath())
+        if type_name in GPRIMS:
+            # a skinned gprim in a native instance is posed by that instance's skeleton
+            # and animation: sent on its own, at its instance proxy's path
+            if prim.IsInstanceProxy() and not self._posed_apart(prim):
+                self._collect_instanced(prim)
+            else:
+                self._eval_gprim(prim, str(prim.GetPath()), str(prim.GetPath()))
+        elif type_name in LIGHTS:
+            self._eval_light(prim)
+        elif prim.IsA(UsdGeom.Camera):
+            self._eval_camera(prim)
+        elif prim.IsA(UsdLux.PortalLight):
+            self._eval_portal(prim)
+        elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
+            self.problem(prim.GetPath(), "type",
+                         "light type '%s' is not supported; dropped" % type_name)
+        elif prim.IsA(UsdGeom.Gprim):
+            self.problem(prim.GetPath(), "type",
+                         "prim type '%s' is not supported; dropped" % type_name)
 
     # -- time and transforms --------------------------------------------------------------
     def _time(self, offset):
@@ -716,8 +803,7 @@ class Reader:
         def get(attr, fallback):
             if settings is None or not attr:
                 return fallback
-            v = attr.Get()
-            return fallback if v is None else v
+            return self._checked(spath, attr.GetName(), attr.Get(), fallback)
 
         sp = settings.GetPrim() if settings else None
         # UsdRenderSettingsBase attributes a product authors override the settings' for it.
@@ -731,7 +817,7 @@ class Reader:
             if q is not None:
                 a = q.GetAttribute(name)
                 if a and a.HasAuthoredValue():
-                    return a.Get()
+                    return self._checked(str(q.GetPath()), name, a.Get(), fallback)
             return get(sp.GetAttribute(name) if sp else None, fallback)
 
         def camera_for(q):
@@ -807,6 +893,9 @@ class Reader:
                 v = int(v)
             elif isinstance(fb, float):
                 v = float(v)
+            if key == "tide:samples" and v < 1:
+                self.problem(spath, key, "%d is not a positive sample count; using %d" % (v, fb))
+                v = fb
             st.set(key, convert(v))
         if o.spp is not None:
             st.set("tide:samples", ("int", int(o.spp)))
@@ -1051,7 +1140,43 @@ class Reader:
     def _attr(self, prim, name, fallback=None, offset=0.0):
         attr = prim.GetAttribute(name)
         v = attr.Get(self._time(offset)) if attr else None
-        return fallback if v is None else v
+        return self._checked(prim.GetPath(), name, v, fallback)
+
+    def _checked(self, where, name, value, fallback):
+        """`value`, or `fallback` when it is None, or (with a problem) when it is not of the
+        fallback's kind (an attribute authored with another type than its schema's)."""
+        if value is None:
+            return fallback
+        if fallback is not None and not _kind_ok(value, fallback):
+            self.problem(where, name, "%r is not %s; using %r"
+                         % (value, _kind_name(fallback), fallback))
+            return fallback
+        return value
+
+    def _culprit(self, prim):
+        """(path, attribute, why) of the first value on `prim` or an ancestor whose authored
+        type is not its schema's, or of an xformOp whose value does not fit its op; None if
+        none: what a failed read of `prim` is blamed on."""
+        p = prim
+        while p and not p.IsPseudoRoot():
+            defn = p.GetPrimDefinition()
+            for a in p.GetAuthoredAttributes():
+                name = a.GetName()
+                d = defn.GetAttributeDefinition(name) if defn else None
+                # the type the strongest opinion was authored with (the attribute reports its
+                # schema's)
+                stack = a.GetPropertyStack(Usd.TimeCode.Default())
+                authored = getattr(stack[0], "typeName", None) if stack else None
+                if d and authored and d.GetTypeName().type != authored.type:
+                    return p.GetPath(), name, "authored as %s where its schema declares %s" % (
+                        authored, d.GetTypeName())
+                if name.startswith("xformOp:"):
+                    try:
+                        UsdGeom.XformOp(a).GetOpTransform(self._time(0))
+                    except Tf.ErrorException:
+                        return p.GetPath(), name, "a %s value does not fit its op" % authored
+            p = p.GetParent()
+        return None
 
     def _token(self, prim, st, name, fallback):
         v = str(self._attr(prim, name, fallback))
@@ -2028,10 +2153,13 @@ class Reader:
         attrs = dict(LIGHT_COMMON)
         attrs.update(LIGHT_SPECIFIC[type_name])
         vals = {}
+        defn = prim.GetPrimDefinition()
         for name, fb in attrs.items():
+            v = self._attr(prim, name, fb)
+            # the schema's type (an attribute authored with another was replaced above)
+            spec = defn.GetAttributeDefinition(name) if defn else None
             a = prim.GetAttribute(name)
-            v = a.Get(self._time(0)) if a else None
-            v = fb if v is None else v
+            value_type = spec.GetTypeName() if spec else (a.GetTypeName() if a else None)
             if isinstance(v, Sdf.AssetPath):
                 if v.path and not v.resolvedPath:
                     self.problem(path, name, "cannot find texture '%s'; the light uses its "
@@ -2048,7 +2176,7 @@ class Reader:
                     self.problem(path, name, "not a finite number; using %r" % fb)
                     v = fb
             vals[name] = v
-            st.set(name, convert(v, a.GetTypeName() if a else None))
+            st.set(name, convert(v, value_type))
         for name in LIGHT_API_ATTRS:
             a = prim.GetAttribute(name)
             if a and a.HasValue():
