@@ -176,6 +176,7 @@ check check_stage_motion.usda "the stage's frame rate, with the camera" sceneInd
 check check_stage_spot.usda "UsdLuxShapingAPI: cone, focus, IES profile" delegate sceneIndex || exit $?
 check check_stage_movinglight.usda "transform samples over the shutter: a light and a gprim" delegate sceneIndex || exit $?
 check check_stage_curves.usda "BasisCurves: topology, widths, normals" delegate sceneIndex || exit $?
+check check_stage_tapered.usda "Cylinder_1 and Capsule_1 end radii; one 8-bit texture read raw and auto" delegate sceneIndex || exit $?
 # UsdSkelImaging (v24.08) has adapters for the scene delegate only: its scene indices drop skinned
 # meshes ("Datasource support not yet added"), so only the scene delegate is compared
 check check_stage_skel.usda "a skinned mesh: UsdSkelImaging's computations" delegate || exit $?

@@ -170,6 +170,38 @@ def test_the_header_records_the_settings_used_not_the_rejected_ones(tmp_path):
     assert os.path.exists(tmp_path / "scene_out.png")
 
 
+@pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
+def test_a_stopped_render_exits_130_and_writes_nothing(tmp_path, signum):
+    import signal
+    import time
+    stage = _stage(tmp_path)
+    env = dict(os.environ)
+    proc = subprocess.Popen([TIDE, "render", stage, "--spp", "1000000", "--width", "64"], cwd=tmp_path,
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        # wait for the render to be under way (its first progress line)
+        line = ""
+        while "rendering" not in line and time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line and proc.poll() is not None:
+                break
+        if "rendering" not in line:
+            proc.kill()
+            out, err = proc.communicate()
+            if "module" in err:
+                pytest.skip("needs the built module")
+            pytest.fail("no progress: " + err)
+        proc.send_signal(getattr(signal, signum))
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, (proc.returncode, err)
+    assert "interrupted" in err
+    assert sorted(os.listdir(tmp_path)) == ["scene.usda"]
+
+
 @pytest.mark.parametrize("args", [["render", "--spp", "0"], ["render", "--width", "x"],
                                   ["frobnicate"], ["render", "--nope"], ["info"],
                                   ["render", "--integrator", "bdpt"],

@@ -24,10 +24,12 @@ problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIB
 and that prim or input is dropped or replaced by its documented default (contract section 7);
 1 when the stage could not be opened or rendered at all (no file is left under the final
 name); 2 for usage errors (bad flags, a --settings or --camera path that names no such prim);
-130 when interrupted.
+130 when interrupted (Ctrl-C, or SIGTERM as a render farm stops a job: the render is
+cancelled and this render's files are not written).
 """
 import argparse
 import os
+import signal
 import sys
 import time
 
@@ -437,7 +439,14 @@ def cmd_info(args):
     return EXIT_OK
 
 
+def _terminate(signum, frame):
+    # SIGTERM stops the command as Ctrl-C does: the render is cancelled, nothing half-written
+    raise KeyboardInterrupt
+
+
 def main(argv=None):
+    if signal.getsignal(signal.SIGTERM) == signal.SIG_DFL:
+        signal.signal(signal.SIGTERM, _terminate)
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
