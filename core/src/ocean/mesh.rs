@@ -44,11 +44,13 @@ struct Builder<'a> {
     patch: &'a OceanPatch,
     /// fine-grid samples per tile side (N)
     n: u64,
-    /// fine-grid samples across the whole surface
-    max: u64,
-    /// grid spacing L/N and the offset T·L of the surface's corner from the origin
+    /// grid spacing L/N and the offset T·L of the patches' corner from the origin
     delta: f64,
     offset: f64,
+    /// the surface's rim on the fine grid: it spans [lo, hi] along both axes (the patches'
+    /// [0, max] cut to `extent`)
+    lo: u64,
+    hi: u64,
     closed: bool,
     map: HashMap<u64, u32>,
     positions: Vec<Vec3>,
@@ -60,13 +62,19 @@ struct Builder<'a> {
 }
 
 impl Builder<'_> {
+    /// A fine-grid coordinate moved onto the surface: points past the rim onto the rim.
+    fn clip(&self, g: u64) -> u64 {
+        g.clamp(self.lo, self.hi)
+    }
+
+    /// The vertex at fine-grid point (gx, gz), which must lie on the surface ([`Self::clip`]).
     fn vertex(&mut self, gx: u64, gz: u64) -> u32 {
         let key = (gx << 32) | gz;
         if let Some(&i) = self.map.get(&key) {
             return i;
         }
         let (p, q) = ((gx % self.n) as i64, (gz % self.n) as i64);
-        let on_rim = gx == 0 || gz == 0 || gx == self.max || gz == self.max;
+        let on_rim = gx == self.lo || gz == self.lo || gx == self.hi || gz == self.hi;
         let disp = if self.closed && on_rim { Vec2::ZERO } else { self.patch.displacement(p, q) };
         let x = gx as f64 * self.delta - self.offset;
         let z = gz as f64 * self.delta - self.offset;
@@ -100,7 +108,10 @@ impl Builder<'_> {
 }
 
 /// The ocean surface of `params` at `time` seconds as one mesh in the prim's local space (Y up,
-/// mean sea level y = 0), tiled over x, z ∈ [−T·L, T·L] with T = ⌈extent / patchSize⌉, finest
+/// mean sea level y = 0), over x, z ∈ [−E, E] with E = extent on the patch's grid
+/// ([`OceanParams::half_side`]): tiled with T = ⌈extent / patchSize⌉ patches each way and cut
+/// at E (grid points past it are moved onto it, and the triangles that then have no area are
+/// left out), finest
 /// around `camera_position` (local space; the origin when `None`), closed down to y = −depth
 /// when `depth > 0`. Triangles are counter-clockwise seen from above (outside for the body).
 /// uvs are the undisplaced (x, z) over `patchSize`, so a texture repeats with the patch.
@@ -121,19 +132,19 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
     if !reach.is_finite() {
         return Err(OceanError { parameter: "horizon reach", message: format!("must be finite, got {reach}") });
     }
-    let (mesh, rim, max, delta, offset) = build(params, time, camera_position)?;
+    let (mesh, rim, (lo, hi), delta, offset) = build(params, time, camera_position)?;
     if params.depth > 0.0 {
         return Ok((mesh, None));
     }
     // the rim in order round the square: south (z = 0) west to east, then east, north, west
     let side = |v: &(u64, u64, u32)| -> (u8, i64) {
         let (gx, gz) = (v.0 as i64, v.1 as i64);
-        let m = max as i64;
-        if gz == 0 && gx < m {
+        let (a, m) = (lo as i64, hi as i64);
+        if gz == a && gx < m {
             (0, gx)
         } else if gx == m && gz < m {
             (1, gz)
-        } else if gz == m && gx > 0 {
+        } else if gz == m && gx > a {
             (2, -gx)
         } else {
             (3, -gz)
@@ -141,7 +152,8 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
     };
     let mut ring = rim;
     ring.sort_by_key(side);
-    let reach = (reach as f64).max(offset);
+    let half = (hi - lo) as f64 * 0.5 * delta;
+    let reach = (reach as f64).max(half);
     let l = params.patch_size as f64;
     let mut positions = Vec::with_capacity(2 * ring.len());
     let mut uvs = Vec::with_capacity(2 * ring.len());
@@ -149,7 +161,7 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
         let (x, z) = (gx as f64 * delta - offset, gz as f64 * delta - offset);
         positions.push(mesh.positions[i as usize]);
         uvs.push(Vec2::new((x / l) as f32, (z / l) as f32));
-        let (fx, fz) = (x * reach / offset, z * reach / offset);
+        let (fx, fz) = (x * reach / half, z * reach / half);
         positions.push(Vec3::new(fx as f32, 0.0, fz as f32));
         uvs.push(Vec2::new((fx / l) as f32, (fz / l) as f32));
     }
@@ -169,10 +181,10 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
     Ok((mesh, Some(skirt)))
 }
 
-/// The tiled surface with its rim vertices (fine-grid x, z, index), the fine-grid samples across
-/// the surface, the grid spacing and the offset of its corner from the origin.
+/// The tiled surface with its rim vertices (fine-grid x, z, index), the fine-grid span [lo, hi]
+/// of the surface, the grid spacing and the offset of the patches' corner from the origin.
 #[allow(clippy::type_complexity)]
-fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<(MeshDesc, Vec<(u64, u64, u32)>, u64, f64, f64), OceanError> {
+fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<(MeshDesc, Vec<(u64, u64, u32)>, (u64, u64), f64, f64), OceanError> {
     let patch = OceanPatch::new(params, time)?;
     let cam = camera_position.unwrap_or(Vec3::ZERO);
     if !cam.is_finite() {
@@ -200,12 +212,15 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
         Some(lod_level(d, params.resolution))
     };
 
+    let max = 2 * t as u64 * n;
+    let inset = params.rim_grid_inset();
     let mut b = Builder {
         patch: &patch,
         n,
-        max: 2 * t as u64 * n,
         delta: l / n as f64,
         offset: t as f64 * l,
+        lo: inset,
+        hi: max - inset,
         closed,
         map: HashMap::new(),
         positions: Vec::new(),
@@ -231,7 +246,15 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
             for br in 0..cells / 2 {
                 for bc in 0..cells / 2 {
                     let (c0, r0) = (2 * bc, 2 * br);
-                    let center = b.vertex(gx0 + (c0 + 1) * step, gz0 + (r0 + 1) * step);
+                    // a block wholly past the rim collapses onto it: nothing to draw
+                    let (x0, x1) = (b.clip(gx0 + c0 * step), b.clip(gx0 + (c0 + 2) * step));
+                    let (z0, z1) = (b.clip(gz0 + r0 * step), b.clip(gz0 + (r0 + 2) * step));
+                    if x0 == x1 || z0 == z1 {
+                        continue;
+                    }
+                    let at = |b: &Builder, dc: u64, dr: u64| (b.clip(gx0 + (c0 + dc) * step), b.clip(gz0 + (r0 + dr) * step));
+                    let c = at(&b, 1, 1);
+                    let center = (b.vertex(c.0, c.1), c);
                     ring.clear();
                     for &(dc, dr) in &RING {
                         let skip = (dc == 0 && dr == 1 && bc == 0 && west)
@@ -239,11 +262,19 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
                             || (dr == 0 && dc == 1 && br == 0 && south)
                             || (dr == 2 && dc == 1 && br + 1 == cells / 2 && north);
                         if !skip {
-                            ring.push(b.vertex(gx0 + (c0 + dc) * step, gz0 + (r0 + dr) * step));
+                            let g = at(&b, dc, dr);
+                            ring.push((b.vertex(g.0, g.1), g));
                         }
                     }
                     for k in 0..ring.len() {
-                        b.indices.extend_from_slice(&[center, ring[k], ring[(k + 1) % ring.len()]]);
+                        let tri = [center, ring[k], ring[(k + 1) % ring.len()]];
+                        // cut at the rim, a triangle whose corners moved onto it may have no
+                        // area left on the grid (the same test as the vertices': exact)
+                        let [(_, a), (_, p), (_, q)] = tri;
+                        let cross = (p.0 as i64 - a.0 as i64) * (q.1 as i64 - a.1 as i64) - (p.1 as i64 - a.1 as i64) * (q.0 as i64 - a.0 as i64);
+                        if cross != 0 {
+                            b.indices.extend_from_slice(&tri.map(|v| v.0));
+                        }
                     }
                 }
             }
@@ -254,22 +285,22 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
         close_body(&mut b, params.depth);
     }
 
-    let (max, delta, offset) = (b.max, b.delta, b.offset);
+    let (span, delta, offset) = ((b.lo, b.hi), b.delta, b.offset);
     let mesh = MeshDesc { name: "TideOcean".to_string(), positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars: Vec::new() };
-    Ok((mesh, b.rim, max, delta, offset))
+    Ok((mesh, b.rim, span, delta, offset))
 }
 
 /// Walls from the rim down to y = −depth and a floor, each with its own copies of the rim.
 fn close_body(b: &mut Builder<'_>, depth: f32) {
-    let max = b.max;
+    let (lo, hi) = (b.lo, b.hi);
     let pick = |f: &dyn Fn(&(u64, u64, u32)) -> bool| -> Vec<(u64, u64, u32)> { b.rim.iter().copied().filter(|v| f(v)).collect() };
-    let mut south = pick(&|v| v.1 == 0);
+    let mut south = pick(&|v| v.1 == lo);
     south.sort_by_key(|v| v.0);
-    let mut east = pick(&|v| v.0 == max);
+    let mut east = pick(&|v| v.0 == hi);
     east.sort_by_key(|v| v.1);
-    let mut north = pick(&|v| v.1 == max);
+    let mut north = pick(&|v| v.1 == hi);
     north.sort_by_key(|v| std::cmp::Reverse(v.0));
-    let mut west = pick(&|v| v.0 == 0);
+    let mut west = pick(&|v| v.0 == lo);
     west.sort_by_key(|v| std::cmp::Reverse(v.1));
     let l = b.patch.patch_size();
     let y0 = -depth;

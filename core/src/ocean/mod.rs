@@ -89,8 +89,9 @@ pub struct OceanParams {
     pub choppiness: f32,
     /// `seed` (default 0): selects the random sea.
     pub seed: i64,
-    /// `extent` (m, > 0, default 1000): the tiled surface reaches at least this far from the
-    /// prim's origin along X and Z (whole patches: rounded up to a multiple of `patchSize`).
+    /// `extent` (m, > 0, default 1000): the tiled surface reaches this far from the prim's
+    /// origin along X and Z (to the nearest point of the patch's grid, `patchSize / resolution`;
+    /// the patches are tiled to cover it and cut there).
     pub extent: f32,
     /// `depth` (m, ≥ 0, default 0): 0 is an open surface over an infinitely deep sea; otherwise
     /// the mesh is a closed body reaching down to y = −depth.
@@ -172,13 +173,33 @@ impl OceanParams {
         Ok(())
     }
 
+    /// Half the side of the surface: `extent` to the nearest point of the patch's grid (at
+    /// least one grid step), within the patches [`Self::tiles_per_half_side`] lays.
+    pub fn half_side(&self) -> f64 {
+        let (t, n) = (self.tiles_per_half_side(), self.resolution as u64);
+        let delta = self.patch_size as f64 / n as f64;
+        (self.rim_grid_inset() as f64).mul_add(-delta, t as f64 * self.patch_size as f64)
+    }
+
+    /// Fine-grid steps from the outermost patches' edge in to the surface's rim.
+    pub(crate) fn rim_grid_inset(&self) -> u64 {
+        let (t, n) = (self.tiles_per_half_side(), self.resolution as u64);
+        let delta = self.patch_size as f64 / n as f64;
+        let inset = ((t as f64 * self.patch_size as f64 - self.extent as f64) / delta).round();
+        if inset.is_finite() && inset > 0.0 {
+            (inset as u64).min(t * n - 1)
+        } else {
+            0
+        }
+    }
+
     /// Unit vector (x, z) the wind blows towards.
     pub fn wind_vector(&self) -> [f64; 2] {
         let phi = (self.wind_direction as f64).to_radians();
         [libm::cos(phi), -libm::sin(phi)]
     }
 
-    /// Patches from the origin to the edge of the tiled surface along X (and Z).
+    /// Patches from the origin out to cover `extent` along X (and Z).
     pub fn tiles_per_half_side(&self) -> u64 {
         let t = (self.extent as f64 / self.patch_size as f64).ceil();
         if t.is_finite() && t >= 1.0 {

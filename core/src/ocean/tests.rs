@@ -421,10 +421,14 @@ fn edge_counts<K: std::hash::Hash + Eq + Copy>(indices: &[u32], key: impl Fn(u32
 #[test]
 fn open_surface_has_no_cracks() {
     // LOD levels 0..4 meet; the camera off-centre so levels differ on every side
-    let p = OceanParams { extent: 600.0, choppiness: 0.6, ..params(6.0, 40.0, 32) };
+    // the extent is cut inside the outermost patches (590 m of 15 patches of 40 m)
+    let p = OceanParams { extent: 590.0, choppiness: 0.6, ..params(6.0, 40.0, 32) };
     let mesh = ocean_mesh(&p, 2.0, Some(Vec3::new(-130.0, 2.0, 75.0))).unwrap();
     let edges = edge_counts(&mesh.indices, |i| i);
-    let half = (p.tiles_per_half_side() as f32) * p.patch_size;
+    let half = p.half_side() as f32;
+    assert_eq!(half, 590.0);
+    let reach = mesh.uvs.as_ref().unwrap().iter().fold(0.0f32, |m, w| m.max(w.x.abs()).max(w.y.abs())) * p.patch_size;
+    assert!((reach - half).abs() < 1e-3, "the surface reaches {reach}, not {half}");
     let mut boundary = 0;
     for (&(a, b), &c) in &edges {
         assert_eq!(c, 1, "directed edge used {c} times");
@@ -486,7 +490,7 @@ fn closed_body_is_watertight_with_outward_normals() {
         assert_eq!(c, 1, "edge used {c} times one way");
         assert_eq!(edges.get(&(b, a)), Some(&1), "edge without its opposite");
     }
-    // outward: the signed volume is positive and the body's (2T·L)²·depth, the waves adding
+    // outward: the signed volume is positive and the body's (2E)²·depth, the waves adding
     // their mean height over the square (zero mean per tile, up to the coarse tiles' sampling)
     let vol: f64 = mesh
         .indices
@@ -496,7 +500,8 @@ fn closed_body_is_watertight_with_outward_normals() {
             a.dot(b.cross(c)) / 6.0
         })
         .sum();
-    let side = 2.0 * p.tiles_per_half_side() as f64 * p.patch_size as f64;
+    let side = 2.0 * p.half_side();
+    assert_eq!(side, 400.0, "200 m each way, inside 7 patches of 32 m");
     let hs = OceanPatch::new(&p, 5.0).unwrap().significant_wave_height();
     assert!((vol - side * side * p.depth as f64).abs() < side * side * hs * 0.1, "volume {vol}");
     // walls and floor carry outward normals
@@ -509,6 +514,31 @@ fn closed_body_is_watertight_with_outward_normals() {
         if n.y == 0.0 {
             assert!(n.dot(Vec3::new(q.x, 0.0, q.z)) > 0.0);
         }
+    }
+}
+
+/// The surface ends at `extent` (on the patch's grid), not at the next whole patch: a closed
+/// body of any extent spans exactly ±E and stays watertight, choppy waves and the cut through
+/// whole and partial patches included; an extent under one grid step keeps one step.
+#[test]
+fn the_surface_ends_at_its_extent() {
+    for (extent, want) in [(3.0f32, 3.0f32), (2.5, 2.5), (0.3, 0.25), (0.001, 0.125), (4.0, 4.0)] {
+        let p = OceanParams { extent, depth: 1.0, choppiness: 0.7, ..params(5.0, 2.0, 16) };
+        assert_eq!(p.half_side() as f32, want, "extent {extent}");
+        let mesh = ocean_mesh(&p, 1.0, Some(Vec3::new(0.4, 1.0, -0.2))).unwrap();
+        let (lo, hi) = mesh.positions.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), q| (lo.min(*q), hi.max(*q)));
+        for v in [lo.x, lo.z, -hi.x, -hi.z] {
+            assert!((v + want).abs() < 1e-5, "extent {extent}: bounds {lo} – {hi}");
+        }
+        let pos = |i: u32| mesh.positions[i as usize].to_array().map(f32::to_bits);
+        let edges = edge_counts(&mesh.indices, pos);
+        for (&(a, b), &c) in &edges {
+            assert_eq!((c, edges.get(&(b, a))), (1, Some(&1)), "extent {extent}: open or doubled edge");
+        }
+        assert!(mesh.indices.chunks(3).all(|t| {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| mesh.positions[i as usize]);
+            (b - a).cross(c - a).length() > 0.0
+        }));
     }
 }
 
