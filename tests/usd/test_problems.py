@@ -260,6 +260,16 @@ def test_a_fault_the_reader_and_the_delegate_both_find_is_reported_once(renderer
     assert [(p.prim, p.attribute) for p in ids] == [("/Looks/M/S", "info:id")], problems
 
 
+def test_a_primvar_the_delegate_rejects_is_named_as_authored(renderer, stage):
+    from conftest import load
+    _good(stage)
+    m = _mesh(stage, "/Quad", [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [4], [0, 1, 2, 3])
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+        "displayColor", Sdf.ValueTypeNames.Color3fArray, UsdGeom.Tokens.vertex).Set([(1, 0, 0)] * 2)
+    _, problems = load(stage, renderer.RenderDelegate())
+    assert ("/Quad", "primvars:displayColor") in [(p.prim, p.attribute) for p in problems], problems
+
+
 def test_delegate_problems_are_merged_once(stage, delegate):
     _good(stage)
     reader, _ = load(stage, delegate)

@@ -464,7 +464,13 @@ class Reader:
         found = list(self._pending)
         self._pending = []
         for item in items or []:
-            found.append(Problem.of_delegate(*item))
+            p = Problem.of_delegate(*item)
+            # the delegate names a primvar without its namespace: name the attribute authored
+            prim = self.stage.GetPrimAtPath(p.prim) if Sdf.Path.IsValidPathString(p.prim) else None
+            if prim and p.attribute and not prim.HasAttribute(p.attribute) and \
+                    prim.HasAttribute("primvars:" + p.attribute):
+                p = Problem(p.prim, "primvars:" + p.attribute, p.message)
+            found.append(p)
         new = []
         for p in found:
             key = (p.prim, p.attribute)
