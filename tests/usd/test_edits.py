@@ -67,6 +67,44 @@ def test_edit_a_shader_input(stage, delegate):
     assert delegate.last_synced() == ["/Looks/Red"]
 
 
+def test_deleting_or_deactivating_a_material_or_its_shader_reaches_the_delegate(stage, delegate):
+    # removed, deactivated, or left without its surface shader: the delegate no longer holds
+    # the material as it was (its gprims then take the default, with a problem)
+    for edit in ("delete", "deactivate", "delete shader"):
+        stage.RemovePrim("/Looks")
+        stage.RemovePrim("/World")
+        _scene(stage)
+        reader, _ = load(stage, delegate)
+        assert "/Looks/Red" in delegate.prims
+        if edit == "delete":
+            stage.RemovePrim("/Looks/Red")
+        elif edit == "deactivate":
+            stage.GetPrimAtPath("/Looks/Red").SetActive(False)
+        else:
+            stage.RemovePrim("/Looks/Red/Surface")
+        reader.update()
+        if edit == "delete shader":
+            assert "/Looks/Red" in delegate.last_synced(), edit
+            assert delegate.value("/Looks/Red", "surface") in (None, ("path", "")), edit
+        else:
+            assert "/Looks/Red" not in delegate.prims, edit
+        reader.close()
+
+
+def test_a_shutter_edit_samples_every_prim_anew(stage, delegate):
+    # motion blur off, then the shutter opened by a live edit: a moving prim the edit did not
+    # touch gets its transform samples over the new shutter
+    _scene(stage)
+    op = UsdGeom.Xformable(stage.GetPrimAtPath("/World/C")).GetOrderedXformOps()[0]
+    op.Set(Gf.Vec3d(0, 0, -5), 0)
+    op.Set(Gf.Vec3d(1, 0, -5), 1)
+    reader, _ = load(stage, delegate)
+    assert sorted(delegate.samples("/World/C", "transform")) == [None]
+    stage.GetPrimAtPath("/Cam").GetAttribute("shutter:close").Set(1.0)
+    reader.update()
+    assert sorted(delegate.samples("/World/C", "transform"), key=str) == [0.0, 1.0]
+
+
 def test_wet_a_material(stage, delegate):
     """Applying TideWetAPI to a material and editing its amount re-syncs that material only."""
     _scene(stage)

@@ -77,6 +77,23 @@ def test_points_samples_with_another_count_are_a_problem_and_the_mesh_is_static(
     assert np.allclose(floats(samples[None]), pts)
 
 
+def test_points_sampled_only_outside_the_shutter_still_move_across_it(stage, delegate):
+    # samples at frames 0 and 10; rendered at frame 5 with the shutter [0, 1]: USD interpolates,
+    # so the points move 0.1 units per frame across the shutter and are sent at both its ends
+    _shutter_cam(stage)
+    m = UsdGeom.Mesh.Define(stage, "/Quad")
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    quad = np.array([(0, 0, -5), (1, 0, -5), (1, 1, -5), (0, 1, -5)], dtype=float)
+    m.GetPointsAttr().Set(_vec3s(quad), 0)
+    m.GetPointsAttr().Set(_vec3s(quad + (1.0, 0, 0)), 10)
+    load(stage, delegate, frame=5)
+    sent = delegate.samples("/Quad", "points")
+    assert sorted(sent) == [0.0, 1.0], sent
+    for t, shift in ((0.0, 0.5), (1.0, 0.6)):
+        assert np.allclose(floats(sent[t]), quad + (shift, 0, 0), atol=1e-6)
+
+
 def test_mesh_velocities_and_accelerations_are_sent_and_checked(stage, delegate):
     _shutter_cam(stage)
     m, pts = _mesh_ball(stage, "/Blob", 0.5, _black(stage))

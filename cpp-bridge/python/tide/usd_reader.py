@@ -358,6 +358,16 @@ def convert(value, type_name=None):
     return _floats(arr, _tuple_size(arr))
 
 
+def _stale_keys(old, new):
+    """Whether `old` (the state last sent) has a key `new` lacks, or a key whose sample times
+    differ from `new`'s."""
+    for key, samples in old.values.items():
+        now = new.values.get(key)
+        if now is None or [t for t, _ in samples] != [t for t, _ in now]:
+            return True
+    return False
+
+
 def send(delegate, path, key, value, time=None):
     """Sends one protocol value to the delegate."""
     tag = value[0]
@@ -567,6 +577,10 @@ class Reader:
             if prim and prim.IsA(UsdGeom.Subset):
                 root = prim_path.GetParentPath()
             p = prim
+            if not p:
+                # a prim removed (or deactivated): what held it is read again, e.g. the
+                # material a deleted shader belonged to
+                p = self.stage.GetPrimAtPath(prim_path.GetParentPath())
             while p and p.GetPath() != Sdf.Path.absoluteRootPath:
                 if p.IsA(UsdShade.Material):
                     root = p.GetPath()
@@ -601,7 +615,11 @@ class Reader:
             self._skel_sources = set()
         self._desired = desired
         self._skinning = skel.Skinning(self.stage, self.problem)
+        placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None))
         self._eval_settings()
+        if not full and placed != (self._motion, self._shutter):
+            # the shutter (or motion blur) changed: every prim's samples over it are taken anew
+            return self._sync(None)
         self._groups = {}
         for root in roots:
             prim = self.stage.GetPrimAtPath(root)
@@ -617,17 +635,26 @@ class Reader:
             if path in desired:
                 continue
             if any(Sdf.Path(st.source).HasPrefix(r) for r in roots):
-                if st.type == "material" and not full:
+                if st.type == "material" and not full and self._material_exists(path):
+                    # still bound by prims outside the walked subtrees
                     continue
                 self.delegate.destroy_prim(path)
                 del self._sent[path]
         for path, st in desired.items():
             self._apply(path, st)
 
+    def _material_exists(self, path):
+        prim = self.stage.GetPrimAtPath(path)
+        return bool(prim) and prim.IsActive() and prim.IsA(UsdShade.Material)
+
     def _apply(self, path, st):
         old = self._sent.get(path)
         d = self.delegate
-        if old is not None and (old.type != st.type or set(old.primvars) != set(st.primvars)):
+        if old is not None and (old.type != st.type or set(old.primvars) != set(st.primvars)
+                                or _stale_keys(old, st)):
+            # the delegate keeps what it was sent: a prim that lost an attribute, or whose
+            # samples are now at other times (a static value that starts moving, a shutter
+            # edit), is sent anew so that no old value or sample lingers
             d.destroy_prim(path)
             old = None
         if old is None:
@@ -1245,7 +1272,9 @@ class Reader:
             attr = prim.GetAttribute(name)
             lo, hi = self._shutter
             times = attr.GetTimeSamplesInInterval(Gf.Interval(self.frame + lo, self.frame + hi))
-            if times:
+            # samples outside the shutter still move the points across it (USD interpolates
+            # between the samples around each time): sampled at its ends and at those within
+            if attr.GetNumTimeSamples() > 1:
                 offs = sorted({lo, hi} | {t - self.frame for t in times})
                 got = [np.asarray(attr.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
                        for o in offs]
