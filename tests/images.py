@@ -4,7 +4,9 @@ import zlib
 
 
 def write_png(path, width, height, rows):
-    """A minimal 8-bit RGB PNG writer (rows: lists of (r, g, b) byte triples)."""
+    """A minimal 8-bit PNG writer (rows: lists of (r, g, b) byte triples, or of (r, g, b, a)
+    quadruples for RGBA with straight alpha, as PNG stores it)."""
+    channels = len(rows[0][0])
     raw = b"".join(b"\x00" + bytes(c for px in row for c in px) for row in rows)
 
     def chunk(tag, data):
@@ -12,6 +14,7 @@ def write_png(path, width, height, rows):
 
     with open(path, "wb") as f:
         f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)))
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 6 if channels == 4 else 2,
+                                           0, 0, 0)))
         f.write(chunk(b"IDAT", zlib.compress(raw)))
         f.write(chunk(b"IEND", b""))

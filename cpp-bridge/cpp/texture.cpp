@@ -23,6 +23,9 @@ TextureCache::TextureCache() : _impl(new Impl()) {
     _impl->cache->attribute("max_memory_MB", 1024.0f);
     // Keep untiled files readable without holding every scanline file open.
     _impl->cache->attribute("max_open_files", 64);
+    // Pixels as the file stores them: a PNG's alpha is not multiplied into its (still encoded)
+    // colour; the delegate decodes the colour and keeps alpha apart.
+    _impl->cache->attribute("unassociatedalpha", 1);
 }
 
 TextureCache::~TextureCache() {

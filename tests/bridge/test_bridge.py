@@ -200,6 +200,19 @@ def test_texture_read_with_oiio_reaches_the_delegate(tmp_path):
     assert array.array("f", d.texture_pixels(path)[3]) == got
 
 
+def test_an_rgba_png_reaches_the_delegate_with_straight_alpha(tmp_path):
+    # PNG stores colour and alpha apart: the colour must not come multiplied by alpha (and
+    # certainly not before its sRGB decoding, which the delegate does)
+    path = str(tmp_path / "rgba.png")
+    write_png(path, 1, 1, [[(255, 64, 0, 128)]])
+    d = _tide.RenderDelegate()
+    assert d.load_texture(path)
+    w, h, c, data = d.texture_pixels(path)
+    assert (w, h, c) == (1, 1, 4)
+    got = array.array("f", data)
+    assert all(math.isclose(a, b, abs_tol=1e-6) for a, b in zip(got, [1.0, 64 / 255, 0.0, 128 / 255])), list(got)
+
+
 def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
     path = str(tmp_path / "albedo.png")
     write_png(path, 1, 1, [[(255, 0, 0)]])

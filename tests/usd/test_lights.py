@@ -424,9 +424,9 @@ def test_dome_texture_formats(renderer, stage, tmp_path, fmt, size):
 
 
 def test_rect_light_texture(renderer, stage, tmp_path):
-    """A rect light's image, seen from the side it lights: its columns run along the light's +X
-    and its top row is the +Y edge (the image upright from behind the light), so turned to face
-    the camera its left half shows on the right."""
+    """A rect light's image, seen from the side it lights, reads upright: UsdLux puts the
+    image's min coordinates at the light's (+X, +Y) corner, and turned to face the camera the
+    light's +X is on the camera's left, so the image's left half shows on the left."""
     import OpenEXR
     img = np.array([[0.2, 0.2, 1.0, 1.0], [0.2, 0.2, 1.0, 1.0]], dtype=np.float32)
     path = str(tmp_path / "panel.exr")
@@ -444,7 +444,7 @@ def test_rect_light_texture(renderer, stage, tmp_path):
     settings(stage, res=(16, 8), samples=8, integrator="path")
     px = render(renderer, stage)["color"][..., 0]
     left, right = px[:, 1:7].mean(), px[:, 9:15].mean()
-    assert abs(left - 0.5) < 0.015 and abs(right - 0.1) < 0.003, (left, right)
+    assert abs(left - 0.1) < 0.003 and abs(right - 0.5) < 0.015, (left, right)
 
 
 # -- lights that move over the shutter ------------------------------------------------------

@@ -299,9 +299,9 @@ pub struct RectLight {
     pub map: Option<Arc<RectMap>>,
 }
 
-/// A rect light's image: column s along the light's +X, row t from its +Y edge down (the
-/// image upright seen from behind the light, looking along its −Z, as UsdLux's reference
-/// renderer maps it), looked up nearest-texel.
+/// A rect light's image: its first column at the light's +X edge and its top row at the +Y
+/// edge (UsdLux: "a texture file's min coordinates should be at (+X, +Y) and max coordinates
+/// at (−X, −Y)"), so that it reads upright from the side it lights; looked up nearest-texel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RectMap {
     width: usize,
@@ -349,7 +349,7 @@ impl RectLight {
             None => self.emission.sample(lambda),
             Some(m) => {
                 let q = p - self.shape.origin;
-                let c = m.at(self.shape.da.dot(q), 1.0 - self.shape.db.dot(q));
+                let c = m.at(1.0 - self.shape.da.dot(q), 1.0 - self.shape.db.dot(q));
                 if c == [0.0; 3] {
                     return SampledSpectrum::ZERO;
                 }

@@ -603,8 +603,8 @@ fn exposure_scales_the_radiance() {
 
 
 
-/// A rect light 2 × 1 with an image of 4 × 2 texels: columns grow along the light's +X, the
-/// top row is its +Y edge; one texel is black.
+/// A rect light 2 × 1 with an image of 4 × 2 texels: the first column at its +X edge, the top
+/// row at its +Y edge (UsdLux's min coordinates at (+X, +Y)); one texel is black.
 pub(crate) fn textured_rect(m: Mat4) -> Light {
     let px: Vec<f32> = [[1.0, 2.0, 3.0, 4.0], [5.0, 0.0, 7.0, 8.0]].iter().flatten().flat_map(|&v| [v, 0.5 * v, 0.25 * v]).collect();
     let tex = TextureDesc { name: "rect".into(), width: 4, height: 2, channels: 3, pixels: px.into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
@@ -618,9 +618,10 @@ fn a_rect_lights_image_lies_on_it_as_usd_maps_it() {
     let lam = lambda();
     let l = textured_rect(Mat4::IDENTITY);
     let grey = |v: f32| uplift::illuminant([v, 0.5 * v, 0.25 * v], ColorSpace::LinearRec709).sample(&lam) * 2.0;
-    // the light emits along −Z; texel (column c, row r) covers x ∈ [−1 + c/2, −1 + (c+1)/2],
+    // the light emits along −Z; texel (column c, row r) covers x ∈ [1 − (c+1)/2, 1 − c/2] (seen
+    // from the lit side, looking along +Z, +X is on the left: the image reads upright there),
     // y from +½ (row 0) down
-    for (x, y, v) in [(-0.75, 0.25, 1.0), (0.75, 0.25, 4.0), (-0.75, -0.25, 5.0), (0.25, -0.25, 7.0), (-0.25, -0.25, 0.0)] {
+    for (x, y, v) in [(0.75, 0.25, 1.0), (-0.75, 0.25, 4.0), (0.75, -0.25, 5.0), (-0.25, -0.25, 7.0), (0.25, -0.25, 0.0)] {
         let p = Vec3::new(x, y, 0.0);
         let got = l.l(p, -Vec3::Z, -Vec3::Z, &lam);
         let want = if v == 0.0 { SampledSpectrum::ZERO } else { grey(v) };
