@@ -164,6 +164,10 @@ pub enum SurfaceKind {
         ior: f32,
         wet: Option<WetParam>,
         extras: Option<Box<ExtrasParam>>,
+        /// A tangent-space normal map (UsdPreviewSurface `normal`, already scaled and biased
+        /// to [−1, 1] by its texture node): x along the surface's dp/du, y along dp/dv, z the
+        /// shading normal.
+        normal: Option<TexLookup>,
     },
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
@@ -327,6 +331,7 @@ fn preview_kind(p: &PreviewSurfaceDesc, cs: ColorSpace) -> SurfaceKind {
         opacity: float_param(&p.opacity),
         opacity_threshold: p.opacity_threshold,
         ior: p.ior,
+        normal: p.normal.clone(),
         wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
         extras: p.extras.as_ref().map(|x| {
             Box::new(ExtrasParam {
@@ -857,6 +862,22 @@ impl World {
         }
     }
 
+    /// Whether a mesh hit's texture coordinates run clockwise round its triangle (seen from the
+    /// side its normal faces; a mirroring instance transform turns them once more): dp/dv then
+    /// lies on the side of −(n × dp/du).
+    fn uv_mirrored(&self, s: &SurfaceHit) -> bool {
+        let Some(info) = self.instances.get(s.instance as usize) else { return false };
+        let GeometryRef::Mesh(mi) = info.geometry else { return false };
+        let mesh = &self.meshes[mi];
+        let Some(uvs) = &mesh.uvs else { return false };
+        let i = 3 * s.prim as usize;
+        let Some(tri) = mesh.indices.get(i..i + 3) else { return false };
+        let t = [0, 1, 2].map(|k| uvs[tri[k] as usize]);
+        let (a, b) = (t[1] - t[0], t[2] - t[0]);
+        let mirrors = self.accel.instance_transform(s.instance, 0.0).determinant() < 0.0;
+        (a.x * b.y - a.y * b.x < 0.0) != mirrors
+    }
+
     /// A light's shadow controls, where set.
     #[inline]
     pub fn shadow_controls(&self, light: usize) -> Option<&ShadowControls> {
@@ -1086,7 +1107,10 @@ impl World {
         let kind = &self.materials[material].kind;
         let bsdf = match kind {
             SurfaceKind::Diffuse(c) => Bsdf::lambert(self.color(c, s, lambda).map(|v| v.clamp(0.0, 1.0))),
-            SurfaceKind::Preview { wet, .. } => {
+            SurfaceKind::Preview { wet, normal, .. } => {
+                if let Some(map) = normal {
+                    frame = self.normal_mapped(map, s, &frame);
+                }
                 // the inputs are looked up once; a wet surface builds its layers twice, against
                 // the outside and against the film
                 let params = self.preview_params(kind, s, lambda, outside_ior, &mut frame);
@@ -1113,6 +1137,21 @@ impl World {
             SurfaceKind::Emissive { .. } | SurfaceKind::MediumBoundary => Bsdf::lambert(SampledSpectrum::ZERO),
         };
         (bsdf.unwrap_or_else(|_| Bsdf::lambert(SampledSpectrum::splat(0.18)).expect("grey lambert")), frame)
+    }
+
+    /// The shading frame turned to a tangent-space normal map's normal at the hit: its x along
+    /// the frame's tangent (dp/du), y along dp/dv's side of n × x (the other side where the
+    /// texture coordinates are mirrored), z along n. A normal that is not finite, or that
+    /// points below the tangent plane, leaves the frame as it is.
+    fn normal_mapped(&self, map: &TexLookup, s: &SurfaceHit, frame: &Frame) -> Frame {
+        let [x, y, z] = texture::lookup_rgb(&self.textures, map, AtHit { w: self, s }.st(map));
+        let y = if self.uv_mirrored(s) { -y } else { y };
+        let n = (frame.s * x + frame.t * y + frame.n * z).normalize_or_zero();
+        if n.dot(frame.n) > 0.0 && n.is_finite() {
+            Frame::from_normal_tangent(n, frame.s)
+        } else {
+            *frame
+        }
     }
 
     /// A dielectric with a transmission tint or an opaque part blended with it (the plain one

@@ -180,6 +180,61 @@ def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(rendere
         assert ok, (("raw", "auto", "sRGB")[k], why)
 
 
+@pytest.mark.parametrize("tilt,n_dot_l", [((1, 0), 0.25), ((0, 1), 1.0), ((0, -1), 0.0)])
+def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_path, tilt, n_dot_l):
+    """A white UsdPreviewSurface panel facing +Y (u along +x, v along +z), seen from above under
+    a sun from (0, cos 60, sin 60), with a tangent-space normal map tilting its normal 60 degrees
+    towards +u, +v or -v, shades as the same panel turned by 60 degrees that way without a map:
+    same normal, light and view, so the same radiance (the texture holds (n + 1) / 2, turned back
+    by UsdUVTexture's scale and bias as UsdPreviewSurface's `normal` expects). Towards -v the
+    normal faces away from the sun: black."""
+    import math
+    from pxr import Usd, UsdLux
+
+    def scene(mapped):
+        stage = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+        top_camera(stage)
+        m = panel(stage, "/Panel", columns=1, st=True)
+        mat, sh = _white_specless(stage)
+        s60, c60 = math.sin(math.radians(60)), math.cos(math.radians(60))
+        if mapped:
+            n = (tilt[0] * s60, tilt[1] * s60, c60)
+            f = tmp_path / "normal.exr"
+            write_exr(f, [[tuple((c + 1) / 2 for c in n)]])
+            tex = UsdShade.Shader.Define(stage, "/Looks/W/N")
+            tex.CreateIdAttr("UsdUVTexture")
+            tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(f))
+            tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
+            tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+            tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
+            out = tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+            sh.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(out)
+        elif tilt[0]:
+            m.AddRotateZOp().Set(-60.0 * tilt[0])        # +Y turned towards +x
+        else:
+            m.AddRotateXOp().Set(60.0 * tilt[1])         # +Y turned towards +z
+        bind(m.GetPrim(), mat)
+        sun = UsdLux.DistantLight.Define(stage, "/Sun")
+        sun.CreateIntensityAttr(math.pi)
+        sun.CreateAngleAttr(0.0)
+        sun.AddRotateXOp().Set(-30.0)                   # arriving from (0, cos 60, sin 60)
+        settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+        img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+        # the middle, which the turned panel (half as wide seen from above) covers too
+        return img[3 * RES // 8:5 * RES // 8, 3 * RES // 8:5 * RES // 8]
+
+    mapped, turned = scene(True), scene(False)
+    assert abs(mapped.mean() - turned.mean()) <= 0.02 * turned.mean() + 1e-3, (mapped.mean(), turned.mean())
+    # the turned panel itself: black where it faces away from the sun, lit otherwise
+    assert (turned.mean() > 0.1) == (n_dot_l > 0), turned.mean()
+
+
+def _white_specless(stage):
+    mat = lambert_material(stage, "/Looks/W", (1, 1, 1))
+    return mat, UsdShade.Shader(stage.GetPrimAtPath("/Looks/W/S"))
+
+
 def _wet_stage(amount, connect=None):
     """A grey Lambertian panel under the white dome wearing TideWetAPI with `amount` (the
     authored value) and, with `connect`, a function that authors its mask and connects it."""
