@@ -166,12 +166,10 @@ Value RenderDelegate::GetRenderSetting(const std::string& key) const {
 
 RenderPass::RenderPass(RenderParam* param) : _param(param), _pass(param->GetDelegate().create_render_pass()) {}
 
-RenderPass::~RenderPass() {
-    try {
-        _pass->cancel();
-    } catch (const std::exception&) {
-    }
-}
+// The Rust pass, dropped with this one, cancels the render only if it is the pass that
+// started it: a pass replaced by a newer one (a viewport's next frame) must not stop that
+// one's render.
+RenderPass::~RenderPass() = default;
 
 bool RenderPass::Execute(const RenderPassState& state, std::string* error) {
     rust::Vec<rs::AovBinding> bindings;

@@ -183,6 +183,32 @@ def test_buffers_mapped_while_a_pass_runs():
     gc.collect()
 
 
+def test_dropping_a_replaced_pass_leaves_its_successors_render_running():
+    # a viewport makes a new pass while a render runs (after an edit restarted it) and then
+    # lets the old one go: the render it now owns goes on to converge
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    assert d.create_sprim("renderSettings", "/S")
+    d.set("/S", "tide:samples", 2000)
+    d.commit_resources()
+    old = d.create_render_pass()
+    old.execute("/Cam", [("color", "/Out/color")], "/S")
+    d.set("/S", "tide:samples", 100000)        # restarts the running render (a few seconds)
+    d.commit_resources()
+    new = d.create_render_pass()
+    new.execute("/Cam", [("color", "/Out/color")], "/S")
+    del old
+    gc.collect()
+    assert new.wait(60) and new.is_converged(), new.error()
+    # dropping the pass that runs the render does stop it
+    d.set("/S", "tide:samples", 1000000)
+    d.commit_resources()
+    del new
+    gc.collect()
+    w, h, c, _ = d.map_buffer("/Out/color")
+    assert (w, h, c) == (8, 4, 4)
+
+
 def test_texture_read_with_oiio_reaches_the_delegate(tmp_path):
     # the file's values go as they are: each material decodes them by its own sourceColorSpace
     path = str(tmp_path / "checker.png")
