@@ -707,9 +707,24 @@ def test_render_pass_binds_buffers(stage, delegate):
     r, _ = load(stage, delegate)
     rp = r.render_pass()
     cam, bindings, sp = rp.executed[0]
-    assert cam == "/Cam" and sp == "/Render/Settings"
+    # the camera is the settings sprim's (the reader sends it there), so that an edit of the
+    # settings' camera reaches the running pass
+    assert cam == "" and sp == "/Render/Settings"
+    assert delegate.value(sp, "camera") == ("path", "/Cam")
     assert [a for a, _ in bindings] == ["color", "normal", "tide:diffuse"]
     assert delegate.value(bindings[1][1], "format") == ("token", "float3")
+
+
+def test_retargeting_the_settings_camera_reaches_the_delegate(stage, delegate):
+    camera(stage)
+    camera(stage, "/Cam2", pos=(0, 1, 0))
+    st = settings(stage)
+    r, _ = load(stage, delegate)
+    r.render_pass()
+    st.GetCameraRel().SetTargets(["/Cam2"])
+    r.update()
+    assert r.camera_path == "/Cam2"
+    assert delegate.value("/Render/Settings", "camera") == ("path", "/Cam2")
 
 
 def test_no_settings_prim_uses_defaults_and_first_camera(stage, delegate):

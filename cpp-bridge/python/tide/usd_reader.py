@@ -520,7 +520,9 @@ class Reader:
         if self.camera_path is None:
             raise RuntimeError("the stage has no camera to render from")
         rp = self.delegate.create_render_pass()
-        rp.execute(self.camera_path, self.bindings(), self.settings_path)
+        # the camera as the settings sprim names it (the reader sends the one it resolved):
+        # an edit that retargets the settings' camera then reaches the running pass
+        rp.execute("", self.bindings(), self.settings_path)
         return rp
 
     def bindings(self, every_product=False):
