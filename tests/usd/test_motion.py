@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from conftest import bind, camera, darkness, floats, fwhm, lambert_material, load, render, settings
+from conftest import (bind, camera, darkness, floats, fwhm, lambert_material, load, matrix, render,
+                      settings)
 from test_render import AP, F, _black, _px_per_unit_at, _white_dome
 
 TCPS = 24.0
@@ -92,6 +93,41 @@ def test_points_sampled_only_outside_the_shutter_still_move_across_it(stage, del
     assert sorted(sent) == [0.0, 1.0], sent
     for t, shift in ((0.0, 0.5), (1.0, 0.6)):
         assert np.allclose(floats(sent[t]), quad + (shift, 0, 0), atol=1e-6)
+
+
+@pytest.mark.parametrize("turn", [90.0, 180.0, 270.0, 360.0])
+def test_a_child_of_a_turning_parent_is_sampled_along_its_arc(stage, delegate, turn):
+    # the parent turns `turn` degrees about Y over the shutter (two samples, at its ends); USD
+    # interpolates the angle, so the child 1.2 from the pivot runs along an arc. The reader
+    # sends samples close enough that the renderer's rigid interpolation between them (chords)
+    # stays on it: every sample on the circle at USD's angle, none more than 1/32 turn apart
+    _shutter_cam(stage)
+    parent = UsdGeom.Xform.Define(stage, "/Spin")
+    op = parent.AddRotateYOp()
+    op.Set(0.0, 0)
+    op.Set(turn, 1)
+    UsdGeom.Sphere.Define(stage, "/Spin/Ball").AddTranslateOp().Set(Gf.Vec3d(1.2, 0, 0))
+    load(stage, delegate, frame=0)
+    sent = delegate.samples("/Spin/Ball", "transform")
+    times = sorted(sent)
+    assert times[0] == 0.0 and times[-1] == 1.0
+    gaps = np.diff(times)
+    assert gaps.max() * turn <= 360.0 / 32 + 1e-9, (turn, times)
+    for t in times:
+        p = np.array([0, 0, 0, 1.0]) @ matrix(sent[t])
+        angle = math.radians(turn * t)
+        # rotateY: +x turns towards -z
+        assert np.allclose(p[:3], [1.2 * math.cos(angle), 0, -1.2 * math.sin(angle)], atol=1e-6), (t, p)
+
+
+def test_a_straight_move_needs_no_more_samples_than_its_ends(stage, delegate):
+    _shutter_cam(stage)
+    s = UsdGeom.Sphere.Define(stage, "/Ball")
+    op = s.AddTranslateOp()
+    op.Set(Gf.Vec3d(0, 0, -5), 0)
+    op.Set(Gf.Vec3d(2, 0, -5), 1)
+    load(stage, delegate, frame=0)
+    assert sorted(delegate.samples("/Ball", "transform")) == [0.0, 1.0]
 
 
 def test_mesh_velocities_and_accelerations_are_sent_and_checked(stage, delegate):

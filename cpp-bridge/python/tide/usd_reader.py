@@ -358,6 +358,26 @@ def convert(value, type_name=None):
     return _floats(arr, _tuple_size(arr))
 
 
+def _rigidly_between(ma, mb, mm):
+    """Whether matrix `mm` is (to 1e-4 of the motion and 0.25 degrees) what a rigid
+    interpolation halfway from `ma` to `mb` gives: translations and scales averaged, rotations
+    by the shortest arc."""
+    ta, tb, tm = Gf.Transform(ma), Gf.Transform(mb), Gf.Transform(mm)
+    pa, pb, pm = ta.GetTranslation(), tb.GetTranslation(), tm.GetTranslation()
+    reach = max((pb - pa).GetLength(), 1e-3 * max(pa.GetLength(), pb.GetLength(), 1.0))
+    if ((pa + pb) * 0.5 - pm).GetLength() > 1e-4 * reach + 1e-9:
+        return False
+    if ((ta.GetScale() + tb.GetScale()) * 0.5 - tm.GetScale()).GetLength() > 1e-4:
+        return False
+    qa, qb = ta.GetRotation().GetQuat(), tb.GetRotation().GetQuat()
+    if Gf.Dot(qa, qb) < 0:
+        qb = -qb
+    half = Gf.Slerp(0.5, qa, qb)
+    turn = (half.GetInverse() * tm.GetRotation().GetQuat()).GetNormalized()
+    angle = 2.0 * math.degrees(math.acos(min(1.0, abs(turn.GetReal()))))
+    return angle <= 0.25
+
+
 def _stale_keys(old, new):
     """Whether `old` (the state last sent) has a key `new` lacks, or a key whose sample times
     differ from `new`'s."""
@@ -795,13 +815,35 @@ class Reader:
         return sorted(times)
 
     def _xform_samples(self, fn, prims):
-        """[(offset|None, matrix value)] of fn(time): one sample unless it moves."""
+        """[(offset|None, matrix value)] of fn(time): one sample unless it moves. Between two
+        samples the renderer interpolates a rigid motion (translation along the chord, rotation
+        by the shortest arc); where USD's own transform at the middle differs from that (a
+        child turning round its parent's pivot, a turn of 180 degrees or more, a whole turn
+        whose ends agree) the interval is halved, down to 1/32 of it."""
         offsets = self._motion_offsets(prims)
         mats = [(o, fn(self._time(o))) for o in offsets]
+        if len(mats) > 1:
+            refined = [mats[0]]
+            for (a, ma), (b, mb) in zip(mats, mats[1:]):
+                refined.extend(self._between(fn, a, ma, b, mb, 5))
+                refined.append((b, mb))
+            mats = refined
         keys = [_mat_key(m) for _, m in mats]
         if all(k == keys[0] for k in keys):
             return [(None, ("matrix", keys[0]))]
         return [(o, ("matrix", k)) for (o, _), k in zip(mats, keys)]
+
+    def _between(self, fn, a, ma, b, mb, depth):
+        """The samples of fn strictly between offsets a and b needed for the renderer's
+        interpolation to follow it (see _xform_samples)."""
+        if depth == 0:
+            return []
+        m = 0.5 * (a + b)
+        mm = fn(self._time(m))
+        if _rigidly_between(ma, mb, mm):
+            return []
+        return (self._between(fn, a, ma, m, mm, depth - 1) + [(m, mm)] +
+                self._between(fn, m, mm, b, mb, depth - 1))
 
     def _world(self, prim):
         x = UsdGeom.Xformable(prim)
