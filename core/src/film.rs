@@ -247,6 +247,12 @@ impl Film {
     /// Writes AOVs to `path` atomically: a temporary file beside it, then a rename.
     /// `aovs` pairs an output name (the channel prefix) with the AOV it holds.
     pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
+        self.write_exr_with_aspect(path, aovs, header, 1.0)
+    }
+
+    /// [`Self::write_exr`] with the image's pixel aspect ratio in OpenEXR's own attribute (what
+    /// viewers display by).
+    pub fn write_exr_with_aspect(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
@@ -277,7 +283,8 @@ impl Film {
             attrs.other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
         }
         let layer = Layer::new((w, h), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
-        let image = Image::from_layer(layer);
+        let mut image = Image::from_layer(layer);
+        image.attributes.pixel_aspect = pixel_aspect;
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let fname = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
         let tmp = dir.join(format!(".{fname}.tmp{}.exr", std::process::id()));
@@ -315,13 +322,14 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("t.exr");
         let aovs: Vec<(String, Aov)> = [Aov::Color, Aov::Depth, Aov::Normal, Aov::Diffuse].iter().map(|a| (a.source_name().to_string(), *a)).collect();
-        f.write_exr(&p, &aovs, &[("tide:spp".into(), "2".into())]).unwrap();
+        f.write_exr_with_aspect(&p, &aovs, &[("tide:spp".into(), "2".into())], 2.0).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
         let names: Vec<String> = img.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
         for n in ["R", "G", "B", "A", "depth.Z", "normal.X", "normal.Y", "normal.Z", "tide:diffuse.R", "tide:diffuse.B"] {
             assert!(names.contains(&n.to_string()), "{n} missing from {names:?}");
         }
         assert!(img.layer_data[0].attributes.other.contains_key(&exr::prelude::Text::from("tide:spp")));
+        assert_eq!(img.attributes.pixel_aspect, 2.0);
         // nothing but the final file is left in the directory
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(&dir).unwrap();

@@ -691,7 +691,10 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let frame = if flip < 0.0 { Frame::from_normal(-s.ns) } else { frame };
         let wo = frame.to_local(wo_w);
         if depth == 0 {
-            aov.albedo = color::xyz_to_rgb(color::to_xyz(bsdf.albedo_hint(), lambda), world.cs);
+            // a reflectance, seen under the colour space's white: a white surface reads (1, 1, 1)
+            let white = color::white_illuminant(world.cs);
+            let lit = bsdf.albedo_hint() * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
+            aov.albedo = color::xyz_to_rgb(color::to_xyz(lit, lambda), world.cs);
         }
 
         let non_specular = !bsdf.is_specular();

@@ -170,6 +170,24 @@ def test_the_header_records_the_settings_used_not_the_rejected_ones(tmp_path):
     assert os.path.exists(tmp_path / "scene_out.png")
 
 
+def test_a_product_named_png_keeps_its_exr(tmp_path):
+    # the product is the EXR at productName, whatever its extension; the preview goes beside
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    settings(s, product="img.png")
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1", "--width", "8"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    with open(tmp_path / "img.png", "rb") as f:
+        assert f.read(4) == b"\x76\x2f\x31\x01"          # OpenEXR's magic number
+    with open(tmp_path / "img.png.png", "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
 @pytest.mark.parametrize("signum", ["SIGINT", "SIGTERM"])
 def test_a_stopped_render_exits_130_and_writes_nothing(tmp_path, signum):
     import signal

@@ -619,6 +619,32 @@ def test_settings_products_and_camera_selection(stage, delegate):
     assert floats(d2.value("/Render/B", "resolution")).tolist() == [20, 20]
 
 
+def test_products_vars_names_and_frames_are_checked(stage, delegate):
+    # a var repeated, a var of an unsupported sourceType, a product with no usable var, two
+    # products of one name, and a productName sampled per frame
+    from pxr import UsdRender
+    camera(stage)
+    s = settings(stage, vars_=("color", "depth", "depth"))
+    first = UsdRender.Product(stage.GetPrimAtPath("/Render/Settings_Product"))
+    first.GetProductNameAttr().Set("shot.0001.exr", 1)
+    first.GetProductNameAttr().Set("shot.0002.exr", 2)
+    UsdRender.Var(stage.GetPrimAtPath("/Render/Settings_Var0")).CreateSourceTypeAttr("lpe")
+    other = UsdRender.Product.Define(stage, "/Render/Other")
+    other.CreateProductNameAttr("shot.0002.exr")
+    bad = UsdRender.Var.Define(stage, "/Render/Bad")
+    bad.CreateSourceNameAttr("nothing")
+    other.CreateOrderedVarsRel().SetTargets([bad.GetPath()])
+    s.GetProductsRel().SetTargets([first.GetPath(), other.GetPath()])
+    r, problems = load(stage, delegate, frame=2)
+    named = {(p.prim, p.attribute) for p in problems}
+    assert ("/Render/Settings_Var2", "sourceName") in named          # depth twice: once
+    assert ("/Render/Settings_Var0", "sourceType") in named
+    assert ("/Render/Bad", "sourceName") in named and ("/Render/Other", "orderedVars") in named
+    assert ("/Render/Other", "productName") in named
+    assert [(p.name, [a for a, _ in p.vars]) for p in r.products] == [
+        ("shot.0002.exr", ["color", "depth"]), ("shot.0002_2.exr", ["color"])]
+
+
 def _products_stage(stage):
     camera(stage, "/CamA")
     camera(stage, "/CamB")

@@ -91,6 +91,20 @@ def test_sphere_projects_where_the_camera_says(renderer, stage):
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.10)
 
 
+@pytest.mark.parametrize("rgb", [(0.5, 0.5, 0.5), (0.8, 0.2, 0.2), (0.1, 0.4, 0.9)])
+def test_the_albedo_aov_reads_the_diffuse_colour(renderer, stage, rgb):
+    """A Lambertian panel filling the view: the albedo AOV is its diffuse colour (a reflectance,
+    read under the colour space's white, so grey stays grey), to the spectral round trip."""
+    from conftest import RES, lambert_material, near, panel, top_camera
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    bind(m.GetPrim(), lambert_material(stage, "/Looks/C", rgb))
+    settings(stage, res=(RES, RES), samples=4, vars_=("color", "albedo"), integrator="path")
+    albedo = render(renderer, stage)["albedo"][..., :3].astype(np.float64)
+    ok, why = near(albedo, rgb)
+    assert ok, why
+
+
 @pytest.mark.parametrize("schema", ["Cylinder_1", "Capsule_1"])
 def test_tapered_cylinder_and_capsule_silhouettes(renderer, stage, schema):
     """Cylinder_1 and Capsule_1 with different end radii, axis Y, seen side-on through an

@@ -371,8 +371,10 @@ def _write(delegate, outputs, header, png=True):
         delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
         written.append(name)
         color = [buf for aov, buf in vars_ if aov == "color"]
+        png_name = os.path.splitext(name)[0] + ".png"
+        if os.path.abspath(png_name) == os.path.abspath(name):
+            png_name = name + ".png"     # a product named *.png keeps its EXR
         if color and png:
-            png_name = os.path.splitext(name)[0] + ".png"
             # the colour space the render used (an unknown one authored was replaced)
             space = _written(name, "renderingColorSpace") or "lin_rec709"
             delegate.write_preview_png(png_name, color[0], space, "Standard")

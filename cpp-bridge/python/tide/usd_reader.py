@@ -1046,27 +1046,51 @@ class Reader:
         # Products and their vars -> render buffers.
         products = []
         if settings is not None:
+            names = {}
             for ppath in settings.GetProductsRel().GetForwardedTargets():
                 pprim = stage.GetPrimAtPath(ppath)
                 if not (pprim and pprim.IsA(UsdRender.Product)):
                     self.problem(spath, "products", "%s is not a UsdRenderProduct" % ppath)
                     continue
                 prod = UsdRender.Product(pprim)
-                name = prod.GetProductNameAttr().Get() or pprim.GetName() + ".exr"
+                # a file name per frame is a time-sampled productName
+                name = str(prod.GetProductNameAttr().Get(self._time(0)) or pprim.GetName() + ".exr")
+                if name in names:
+                    stem, ext = os.path.splitext(name)
+                    other, k = names[name], 2
+                    while "%s_%d%s" % (stem, k, ext) in names:
+                        k += 1
+                    renamed = "%s_%d%s" % (stem, k, ext)
+                    self.problem(ppath, "productName", "'%s' is %s's too; written as '%s'"
+                                 % (name, other, renamed))
+                    name = renamed
+                names[name] = str(ppath)
                 vars_ = []
                 for vpath in prod.GetOrderedVarsRel().GetForwardedTargets():
                     vprim = stage.GetPrimAtPath(vpath)
                     if not (vprim and vprim.IsA(UsdRender.Var)):
                         self.problem(ppath, "orderedVars", "%s is not a UsdRenderVar" % vpath)
                         continue
-                    source = UsdRender.Var(vprim).GetSourceNameAttr().Get() or ""
+                    var = UsdRender.Var(vprim)
+                    source = var.GetSourceNameAttr().Get() or ""
                     if source not in AOVS:
                         self.problem(vpath, "sourceName", "unknown AOV '%s'; dropped" % source)
                         continue
+                    kind = var.GetSourceTypeAttr().Get() or "raw"
+                    if kind != "raw":
+                        self.problem(vpath, "sourceType", "'%s' is not supported; '%s' is read "
+                                     "as Tide's own AOV of that name" % (kind, source))
+                    if source in vars_:
+                        self.problem(vpath, "sourceName", "'%s' is already in %s; written once"
+                                     % (source, ppath))
+                        continue
                     vars_.append(source)
                 if not vars_:
+                    if prod.GetOrderedVarsRel().GetForwardedTargets():
+                        self.problem(ppath, "orderedVars", "no AOV left to write; colour is "
+                                     "written instead")
                     vars_ = ["color"]
-                products.append((str(ppath), str(name), vars_))
+                products.append((str(ppath), name, vars_))
         if not products:
             products.append(("", "", ["color"]))
         self.products = []
