@@ -251,10 +251,15 @@ impl Film {
     }
 
     /// [`Self::write_exr`] with the image's pixel aspect ratio in OpenEXR's own attribute (what
-    /// viewers display by).
+    /// viewers display by). The file's data window is the film's window (the rendered part, as
+    /// `dataWindowNDC` asks), inside a display window of the whole image.
     pub fn write_exr_with_aspect(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
+        let [x0, y0, x1, y1] = self.window.map(|v| v as usize);
+        let (x1, y1) = (x1.min(w), y1.min(h));
+        let (x0, y0) = (x0.min(x1.saturating_sub(1)), y0.min(y1.saturating_sub(1)));
+        let (dw, dh) = (x1 - x0, y1 - y0);
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
         for (name, aov) in aovs {
             let px = self.resolve(*aov);
@@ -271,7 +276,7 @@ impl Film {
                     .collect()
             };
             for (k, cname) in names.iter().enumerate() {
-                let data: Vec<f32> = (0..w * h).map(|i| px[i * ch + k]).collect();
+                let data: Vec<f32> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * w + x) * ch + k)).map(|i| px[i]).collect();
                 channels.push(AnyChannel::new(cname.as_str(), FlatSamples::F32(data)));
             }
         }
@@ -282,9 +287,11 @@ impl Film {
         for (k, v) in header {
             attrs.other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
         }
-        let layer = Layer::new((w, h), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
+        attrs.layer_position = Vec2(x0 as i32, y0 as i32);
+        let layer = Layer::new((dw, dh), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
         let mut image = Image::from_layer(layer);
         image.attributes.pixel_aspect = pixel_aspect;
+        image.attributes.display_window = IntegerBounds::new((0, 0), (w, h));
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let fname = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
         let tmp = dir.join(format!(".{fname}.tmp{}.exr", std::process::id()));
@@ -302,6 +309,34 @@ impl Film {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A film rendering only a window writes that window as the file's data window, inside a
+    /// display window of the whole image, with the window's pixels in place.
+    #[test]
+    fn a_windowed_film_writes_its_window_as_the_data_window() {
+        let mut f = Film::new(4, 3, [1, 1, 3, 3]);
+        let mut t = FilmTile::new(0, 0, 4, 3, true);
+        for (x, y) in [(1, 1), (2, 1), (1, 2), (2, 2)] {
+            let v = (10 * x + y) as f32;
+            t.add(x, y, &SampleValue { color: [v, v, v], alpha: 1.0, depth: v, ..Default::default() }, true);
+        }
+        f.merge(&t);
+        f.spp = 1;
+        let dir = std::env::temp_dir().join(format!("tide-film-window-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("w.exr");
+        f.write_exr(&p, &[("color".to_string(), Aov::Color), ("depth".to_string(), Aov::Depth)], &[]).unwrap();
+        let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
+        let layer = &img.layer_data[0];
+        assert_eq!((layer.attributes.layer_position.0, layer.attributes.layer_position.1), (1, 1));
+        assert_eq!((layer.size.0, layer.size.1), (2, 2));
+        assert_eq!((img.attributes.display_window.size.0, img.attributes.display_window.size.1), (4, 3));
+        let red = layer.channel_data.list.iter().find(|c| c.name.to_string() == "R").unwrap();
+        let exr::prelude::FlatSamples::F32(r) = &red.sample_data else { panic!("not f32") };
+        // rows from the window's top: (1, 1), (2, 1), then (1, 2), (2, 2)
+        assert_eq!(r, &vec![11.0, 21.0, 12.0, 22.0]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn accumulates_resolves_and_writes_named_channels() {
