@@ -123,6 +123,32 @@ def _sunlit_pool(stage, cloud):
         p.GetPrim().GetAttribute("tide:droplets:voxelSize").Set(0.25)
 
 
+def test_a_floor_transparent_after_diffuse_still_receives_the_caustic(renderer):
+    """The sand under flat water tagged tide:caustics:transparency = afterDiffuse: the camera
+    sees it before any bounce, so it is not transparent there and the sun's light refracted by
+    the water (photons) must land on it; only paths after a bounce pass through it (the light
+    the water's underside reflects back is then lost). The caustics integrator agrees with the
+    path tracer on the same stage (it stored no photon there, leaving the sand black)."""
+    from pxr import Usd
+
+    def sand(integrator, spp):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        _sunlit_pool(s, False)
+        floor = s.GetPrimAtPath("/Floor")
+        floor.ApplyAPI("TideCausticsAPI")
+        floor.GetAttribute("tide:caustics:transparency").Set("afterDiffuse")
+        # a wide sun, so that the path tracer finds it through the water often enough
+        UsdLux.DistantLight(s.GetPrimAtPath("/Sun")).GetAngleAttr().Set(20.0)
+        settings(s, res=(24, 24), samples=spp, integrator=integrator, maxDepth=8)
+        img = render(renderer, s)["color"][6:18, 6:18, :3].mean(axis=2).ravel()
+        return float(img.mean()), float(img.std() / np.sqrt(img.size))
+
+    (c, c_se), (p, p_se) = sand("caustics", 256), sand("path", 1024)
+    assert c > 0.05, c
+    assert abs(c - p) <= 4 * np.hypot(c_se, p_se), ((c, c_se), (p, p_se))
+
+
 def test_sun_through_flat_water_and_through_a_volume_box(renderer, stage):
     """The sand under flat water, lit only through the water's surface (photons): its radiance
     seen from above is rho E T^2 / (pi n^2 (1 - rho r_i)) — transmitted in and out at normal

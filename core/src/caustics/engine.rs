@@ -637,8 +637,18 @@ impl Caustics {
                 }};
             }
             // surfaces transparent to paths after a non-specular bounce are not seen by light
-            // paths that end on receivers either
+            // paths that end on receivers behind them (camera paths gathering there have
+            // bounced): the photon goes on. A receiver so tagged still takes the photon that
+            // arrives on its outside: the camera sees it directly, before any bounce
             if matches!(roles.transparency, CausticsTransparency::AfterDiffuse | CausticsTransparency::All) {
+                if front && !roles.caster && roles.receiver && bounces > 0 && world.illuminates(li, hit.instance) {
+                    let (bsdf, _) = world.bsdf(world.instances[inst].material, &s_hit, &lambda, stack.ior(), 1.0);
+                    if !bsdf.is_specular() {
+                        if let Ok(p) = Photon::new(s_hit.p, -ray.d, s_hit.ng, beta, &lambda, s.cell) {
+                            out.0.push(p);
+                        }
+                    }
+                }
                 cross_on!();
             }
             // a volume's box is no surface: the photon goes on in (or out of) its medium, the
