@@ -29,6 +29,8 @@ pub const TUBE_SIDES: usize = 8;
 pub const MAX_TURN: f32 = PI / 16.0;
 /// Most steps per cubic segment.
 pub const MAX_STEPS: usize = 32;
+/// Fewest steps per cubic segment where per-vertex widths vary (they blend through the basis).
+pub const WIDTH_STEPS: usize = 8;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Basis {
@@ -300,6 +302,25 @@ fn tangents(pos: &[Vec3], closed: bool) -> Vec<Vec3> {
         .collect()
 }
 
+/// At point `i` of a linear curve, the directions of the segments before and after it (None at an
+/// open curve's ends, or where a segment has no length).
+fn joint(pos: &[Vec3], i: usize, closed: bool) -> Option<(Vec3, Vec3)> {
+    let n = pos.len();
+    if !closed && (i == 0 || i + 1 >= n) || n < 3 {
+        return None;
+    }
+    let (a, b) = ((i + n - 1) % n, (i + 1) % n);
+    Some(((pos[i] - pos[a]).try_normalize()?, (pos[b] - pos[i]).try_normalize()?))
+}
+
+/// How far out along `dir` (perpendicular to the joint's mean tangent) a point must lie to be on
+/// the surface of the segment of direction `d` and radius 1: the miter that keeps both segments
+/// at their full width through a corner (at most 4, the miter limit).
+fn miter(dir: Vec3, d: Vec3) -> f32 {
+    let c = dir.dot(d);
+    1.0 / (1.0 - c * c).max(1.0 / 16.0).sqrt()
+}
+
 fn any_perpendicular(t: Vec3) -> Vec3 {
     let a = t.abs();
     let axis = if a.x <= a.y && a.x <= a.z {
@@ -344,6 +365,9 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
         let radius: Vec<f32> = cps.iter().map(|cp| 0.5 * plan.widths.as_ref().map_or(1.0, |w| w.at(c, cp, 0.0)).max(0.0)).collect();
         let tan = tangents(&pos, c.closed);
         let rings = cps.len() + c.closed as usize;
+        // a linear curve's corners: its segments keep their width up to the joint
+        let joints: Vec<Option<(Vec3, Vec3)>> = (0..cps.len()).map(|i| if plan.basis == Basis::Linear { joint(&pos, i, c.closed) } else { None }).collect();
+        let stretch = |i: usize, dir: Vec3| joints[i].map_or(1.0, |(d0, _)| miter(dir, d0));
         let base = mesh.positions.len() as u32;
         let across = match &plan.normals {
             Some(nv) => {
@@ -351,8 +375,9 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                 for (i, cp) in cps.iter().enumerate() {
                     let n = nv.at(c, cp, Vec3::ZERO).try_normalize().unwrap_or_else(|| any_perpendicular(tan[i]));
                     let side = tan[i].cross(n).try_normalize().unwrap_or_else(|| any_perpendicular(tan[i]));
+                    let reach = radius[i] * stretch(i, side);
                     for (k, s) in [-1.0f32, 1.0].into_iter().enumerate() {
-                        mesh.positions.push(pos[i] + side * (s * radius[i]));
+                        mesh.positions.push(pos[i] + side * (s * reach));
                         normals.push(n);
                         uvs.push(Vec2::new(cp.u, k as f32));
                         vertex_point.push((ci, *cp));
@@ -378,7 +403,7 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                     for k in 0..=TUBE_SIDES {
                         let phi = TAU * k as f32 / TUBE_SIDES as f32;
                         let dir = n * phi.cos() + b * phi.sin();
-                        mesh.positions.push(pos[i] + dir * radius[i]);
+                        mesh.positions.push(pos[i] + dir * (radius[i] * stretch(i, dir)));
                         normals.push(dir);
                         uvs.push(Vec2::new(u, k as f32 / TUBE_SIDES as f32));
                         vertex_point.push((ci, cps[i]));
@@ -507,6 +532,14 @@ pub fn convert_curves(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGe
         ok
     });
     let normals = read_primvar(store.primvar("normals", Interpolation::Vertex), "normals", 3, shape, |c| Vec3::new(c[0], c[1], c[2]), p);
+    // widths blended through a cubic basis vary between the turns' samples: sample each segment
+    // often enough to follow them
+    let mut curves = curves;
+    if basis != Basis::Linear && widths.as_ref().is_some_and(|w| w.interp == Interpolation::Vertex && w.values.windows(2).any(|v| v[0] != v[1])) {
+        for c in &mut curves {
+            c.steps.iter_mut().for_each(|s| *s = (*s).max(WIDTH_STEPS));
+        }
+    }
     let plan = Plan { basis, curves, widths, normals };
     let double_sided = store.get("doubleSided").and_then(|v| v.as_bool()).unwrap_or(false);
     let mut built = build(name, &plan, &pts, double_sided);

@@ -318,3 +318,54 @@ fn primvars_reach_every_vertex_through_the_curves_rules() {
         assert!((heat.data[v] - want_heat).abs() < 1e-5, "vertex {v} at {p}: {}", heat.data[v]);
     }
 }
+
+/// A linear curve keeps its full width through a corner: the ring at the joint lies on both
+/// segments' tubes (a miter), so each segment is as wide as its width all along (each ring had
+/// been perpendicular to the mean tangent at the radius, narrowing both segments by
+/// cos(turn / 2)); a ribbon's edge is mitred the same way.
+#[test]
+fn linear_corners_keep_the_segments_width() {
+    let pts = [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0), Vec3::new(2.0, 2.0, 0.0)];
+    let (r, dist_to_line) = (0.15f32, |q: Vec3, o: Vec3, d: Vec3| (q - o).reject_from(d).length());
+    let s = store(&pts, &[3], &[("type", tok("linear")), ("widths", floats(&[0.3], 1))]);
+    let (g, problems) = convert(&s);
+    assert!(problems.is_empty(), "{problems:?}");
+    let m = &g.mesh;
+    for k in 0..TUBE_SIDES {
+        let q = m.positions[TUBE_SIDES + 1 + k]; // the corner's ring
+        assert!((dist_to_line(q, pts[0], Vec3::X) - r).abs() < 1e-5, "vertex {k}: {q}");
+        assert!((dist_to_line(q, pts[2], Vec3::Y) - r).abs() < 1e-5, "vertex {k}: {q}");
+    }
+    // a ribbon facing +Z: its corner edge points are r from both segments' centre lines
+    let mut s = store(&pts, &[3], &[("type", tok("linear")), ("widths", floats(&[0.3], 1))]);
+    primvar(&mut s, "normals", Interpolation::Constant, &[0.0, 0.0, 1.0], 3);
+    let (g, _) = convert(&s);
+    for q in &g.mesh.positions[2..4] {
+        assert!((dist_to_line(*q, pts[0], Vec3::X) - r).abs() < 1e-5 && (dist_to_line(*q, pts[2], Vec3::Y) - r).abs() < 1e-5, "{q}");
+    }
+}
+
+/// Per-vertex widths blend through a cubic basis: a straight bezier's width follows the basis
+/// between its ends (0.494 at a quarter for widths 0.1, 0.8, 0.8, 0.1), not a line between a
+/// few samples.
+#[test]
+fn cubic_vertex_widths_follow_the_basis() {
+    let pts = [Vec3::ZERO, Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(3.0, 0.0, 0.0)];
+    let mut s = store(&pts, &[4], &[("type", tok("cubic")), ("basis", tok("bezier"))]);
+    primvar(&mut s, "widths", Interpolation::Vertex, &[0.1, 0.8, 0.8, 0.1], 1);
+    let (g, _) = convert(&s);
+    let m = &g.mesh;
+    // the tube's radius at each x, from its vertices (all rings; caps at the ends excluded)
+    let w = |t: f32| {
+        let s = 1.0 - t;
+        0.1 * s * s * s + 0.8 * 3.0 * s * s * t + 0.8 * 3.0 * s * t * t + 0.1 * t * t * t
+    };
+    let rings = (m.positions.len() - 2 * (TUBE_SIDES + 1)) / (TUBE_SIDES + 1);
+    assert!(rings >= WIDTH_STEPS + 1, "{rings} rings");
+    for ring in 0..rings {
+        let q = m.positions[ring * (TUBE_SIDES + 1)];
+        let t = q.x / 3.0; // a straight bezier with evenly spaced points: x runs with t
+        let radius = Vec2::new(q.y, q.z).length();
+        assert!((radius - 0.5 * w(t)).abs() < 1e-4, "ring {ring} at t {t}: radius {radius}, want {}", 0.5 * w(t));
+    }
+}
