@@ -117,3 +117,13 @@ def test_face_varying_primvars_are_smooth_by_default(renderer):
     assert centre(None) == pytest.approx(19.6 / 36, abs=0.002)
     assert centre("cornersPlus1") == centre(None)
     assert 0.59 < centre("all") <= 0.6
+
+
+def test_an_unsupported_triangle_rule_is_reported(stage, delegate):
+    # OpenSubdiv's smooth triangle rule is not implemented: said, not silently ignored
+    from conftest import load
+    camera(stage)
+    _cube(stage, 2)
+    UsdGeom.Mesh(stage.GetPrimAtPath("/Cube")).CreateTriangleSubdivisionRuleAttr("smooth")
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Cube", "triangleSubdivisionRule")]

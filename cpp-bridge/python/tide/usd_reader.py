@@ -1388,7 +1388,11 @@ class Reader:
         st.set("faceVertexIndices", _ints(idx))
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
-        self._token(prim, st, "subdivisionScheme", "catmullClark")
+        scheme = self._token(prim, st, "subdivisionScheme", "catmullClark")
+        rule = mesh.GetTriangleSubdivisionRuleAttr()
+        if scheme == "catmullClark" and rule.HasAuthoredValue() and rule.Get(t) == "smooth":
+            self.problem(prim.GetPath(), "triangleSubdivisionRule", "'smooth' is not supported; "
+                         "triangles subdivide by Catmull-Clark's own rule")
         # subdivision tags (used where `tide:subdivision:level`, or the refinement asked for
         # where it is not authored, refines the mesh)
         if self.options.refine_level:
