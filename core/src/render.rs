@@ -47,7 +47,8 @@ pub enum Aov {
     Depth,
     /// World-space shading normal of the first hit (X, Y, Z).
     Normal,
-    /// Albedo of the first non-specular hit (RGB).
+    /// Albedo of the first surface the camera ray hits (RGB, its reflectance seen under the colour
+    /// space's white; a mirror or glass gives its own, not what it shows).
     Albedo,
     /// `InstanceDesc::id` of the first hit, or -1 (one channel, stored as f32).
     PrimId,
