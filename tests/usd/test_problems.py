@@ -185,6 +185,12 @@ def _mistyped_light(stage):
     return "/Lamp", "inputs:intensity", None
 
 
+def _mistyped_tide_attribute(stage):
+    UsdGeom.Sphere.Define(stage, "/Odd").GetPrim().ApplyAPI("TideCausticsAPI")
+    _mistyped(stage, "/Odd", "tide:caustics:receiver", Sdf.ValueTypeNames.Int, 7)
+    return "/Odd", "tide:caustics:receiver", None
+
+
 def _mistyped_setting(stage):
     settings(stage)
     _mistyped(stage, "/Render/Settings", "tide:samples", Sdf.ValueTypeNames.String, "many")
@@ -196,6 +202,7 @@ CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_fac
          _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
          _missing_dome_texture, _unknown_aov, _negative_radius, _mistyped_radius,
          _mistyped_points, _mistyped_xform_op, _mistyped_light, _mistyped_setting,
+         _mistyped_tide_attribute,
          _unknown_purpose, _unknown_visibility]
 
 
@@ -247,6 +254,14 @@ def test_mistyped_values_are_replaced_by_their_defaults(stage, delegate):
     assert delegate.value("/Lamp", "inputs:intensity") == 1.0
     assert delegate.value("/Render/Settings", "tide:samples") == 64
     assert reader.sample_target == 64
+
+
+def test_a_mistyped_tide_attribute_is_not_sent(stage, delegate):
+    _good(stage)
+    _mistyped_tide_attribute(stage)
+    load(stage, delegate)
+    assert delegate.prims["/Odd"] == "sphere"
+    assert delegate.value("/Odd", "tide:caustics:receiver") is None    # its default, true
 
 
 def test_a_fault_the_reader_and_the_delegate_both_find_is_reported_once(renderer, stage):

@@ -358,6 +358,21 @@ def convert(value, type_name=None):
     return _floats(arr, _tuple_size(arr))
 
 
+def _mistyped(prim, attr):
+    """Why `attr` cannot be read as its schema declares it: authored with another value type
+    (the attribute reports the schema's type; the strongest opinion keeps its own); None when it
+    is fine or no schema declares it."""
+    defn = prim.GetPrimDefinition()
+    d = defn.GetAttributeDefinition(attr.GetName()) if defn else None
+    if not d:
+        return None
+    stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+    authored = getattr(stack[0], "typeName", None) if stack else None
+    if authored and d.GetTypeName().type != authored.type:
+        return "authored as %s where its schema declares %s" % (authored, d.GetTypeName())
+    return None
+
+
 def _rigidly_between(ma, mb, mm):
     """Whether matrix `mm` is (to 1e-4 of the motion and 0.25 degrees) what a rigid
     interpolation halfway from `ma` to `mb` gives: translations and scales averaged, rotations
@@ -1224,6 +1239,10 @@ class Reader:
         for attr in prim.GetAttributes():
             name = attr.GetName()
             if name.startswith("tide:"):
+                why = _mistyped(prim, attr)
+                if why:
+                    self.problem(prim.GetPath(), name, "%s; its default is used" % why)
+                    continue
                 v = convert(attr.Get(self._time(0)), attr.GetTypeName())
                 if v is not None:
                     allowed = ALLOWED_TOKENS.get(name)
@@ -1260,18 +1279,14 @@ class Reader:
         none: what a failed read of `prim` is blamed on."""
         p = prim
         while p and not p.IsPseudoRoot():
-            defn = p.GetPrimDefinition()
             for a in p.GetAuthoredAttributes():
                 name = a.GetName()
-                d = defn.GetAttributeDefinition(name) if defn else None
-                # the type the strongest opinion was authored with (the attribute reports its
-                # schema's)
-                stack = a.GetPropertyStack(Usd.TimeCode.Default())
-                authored = getattr(stack[0], "typeName", None) if stack else None
-                if d and authored and d.GetTypeName().type != authored.type:
-                    return p.GetPath(), name, "authored as %s where its schema declares %s" % (
-                        authored, d.GetTypeName())
+                why = _mistyped(p, a)
+                if why:
+                    return p.GetPath(), name, why
                 if name.startswith("xformOp:"):
+                    stack = a.GetPropertyStack(Usd.TimeCode.Default())
+                    authored = getattr(stack[0], "typeName", None) if stack else None
                     try:
                         UsdGeom.XformOp(a).GetOpTransform(self._time(0))
                     except Tf.ErrorException:
