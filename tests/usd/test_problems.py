@@ -191,6 +191,14 @@ def _mistyped_tide_attribute(stage):
     return "/Odd", "tide:caustics:receiver", None
 
 
+def _mistyped_schema_primvar(stage):
+    p = UsdGeom.Points.Define(stage, "/Odd")
+    p.CreatePointsAttr([(0, 0, -5)])
+    p.GetPrim().ApplyAPI("TideBubbleAPI")
+    _mistyped(stage, "/Odd", "primvars:tide:bubble:top", Sdf.ValueTypeNames.StringArray, ["high"])
+    return "/Odd", "primvars:tide:bubble:top", None
+
+
 def _mistyped_setting(stage):
     settings(stage)
     _mistyped(stage, "/Render/Settings", "tide:samples", Sdf.ValueTypeNames.String, "many")
@@ -202,7 +210,7 @@ CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_fac
          _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
          _missing_dome_texture, _unknown_aov, _negative_radius, _mistyped_radius,
          _mistyped_points, _mistyped_xform_op, _mistyped_light, _mistyped_setting,
-         _mistyped_tide_attribute,
+         _mistyped_tide_attribute, _mistyped_schema_primvar,
          _unknown_purpose, _unknown_visibility]
 
 

@@ -1333,6 +1333,11 @@ class Reader:
             name = pv.GetPrimvarName()
             if name in skip:
                 continue
+            why = _mistyped(prim, pv.GetAttr())
+            if why:
+                # a schema's primvar (a bubble's heights, a blobby's scales) of another type
+                self.problem(prim.GetPath(), pv.GetAttr().GetName(), "%s; ignored" % why)
+                continue
             got = self._primvar_values(prim.GetPath(), pv)
             if got is None:
                 continue
