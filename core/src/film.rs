@@ -246,14 +246,10 @@ impl Film {
 
     /// Writes AOVs to `path` atomically: a temporary file beside it, then a rename.
     /// `aovs` pairs an output name (the channel prefix) with the AOV it holds.
-    pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
-        self.write_exr_with_aspect(path, aovs, header, 1.0)
-    }
-
-    /// [`Self::write_exr`] with the image's pixel aspect ratio in OpenEXR's own attribute (what
-    /// viewers display by). The file's data window is the film's window (the rendered part, as
-    /// `dataWindowNDC` asks), inside a display window of the whole image.
-    pub fn write_exr_with_aspect(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
+    /// `pixel_aspect` goes to OpenEXR's own attribute (what viewers display by). The file's data
+    /// window is the film's window (the rendered part, as `dataWindowNDC` asks), inside a
+    /// display window of the whole image.
+    pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
         let [x0, y0, x1, y1] = self.window.map(|v| v as usize);
@@ -325,7 +321,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("tide-film-window-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("w.exr");
-        f.write_exr(&p, &[("color".to_string(), Aov::Color), ("depth".to_string(), Aov::Depth)], &[]).unwrap();
+        f.write_exr(&p, &[("color".to_string(), Aov::Color), ("depth".to_string(), Aov::Depth)], &[], 1.0).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
         let layer = &img.layer_data[0];
         assert_eq!((layer.attributes.layer_position.0, layer.attributes.layer_position.1), (1, 1));
@@ -357,7 +353,7 @@ mod tests {
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("t.exr");
         let aovs: Vec<(String, Aov)> = [Aov::Color, Aov::Depth, Aov::Normal, Aov::Diffuse].iter().map(|a| (a.source_name().to_string(), *a)).collect();
-        f.write_exr_with_aspect(&p, &aovs, &[("tide:spp".into(), "2".into())], 2.0).unwrap();
+        f.write_exr(&p, &aovs, &[("tide:spp".into(), "2".into())], 2.0).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
         let names: Vec<String> = img.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
         for n in ["R", "G", "B", "A", "depth.Z", "normal.X", "normal.Y", "normal.Z", "tide:diffuse.R", "tide:diffuse.B"] {

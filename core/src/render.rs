@@ -568,7 +568,7 @@ impl Renderer {
                 h.push(("tide:caustics:diskRefit".into(), format!("{r:.6}")));
             }
         }
-        self.film.write_exr_with_aspect(path, aovs, &h, self.settings.pixel_aspect_ratio)
+        self.film.write_exr(path, aovs, &h, self.settings.pixel_aspect_ratio)
     }
 
     /// The caustics state (None for the path integrator, or when no light casts caustics).

@@ -106,8 +106,8 @@ impl Builder {
     /// closes into a point (a cone's apex, a capsule's poles).
     fn finish(self, name: &str, axis: Axis, double_sided: bool) -> MeshDesc {
         let positions: Vec<Vec3> = self.p.into_iter().map(|p| axis.map(p)).collect();
-        let mut indices = self.idx;
-        indices = indices
+        let indices: Vec<u32> = self
+            .idx
             .chunks_exact(3)
             .filter(|t| {
                 let [a, b, c] = [t[0], t[1], t[2]].map(|i| positions[i as usize]);

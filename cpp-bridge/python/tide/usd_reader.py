@@ -46,10 +46,6 @@ class Problem(namedtuple("Problem", "prim attribute message")):
         return cls(prim, attribute, message)
 
 
-# UsdGeomImageable's tokens.
-PURPOSES = ("default", "render", "proxy", "guide")
-VISIBILITIES = ("inherited", "invisible")
-
 # USD prim type -> delegate rprim type.
 GPRIMS = {
     "Mesh": "mesh", "BasisCurves": "basisCurves", "NurbsCurves": "basisCurves",
@@ -130,6 +126,8 @@ ALLOWED_TOKENS = {
     "basis": ("bezier", "bspline", "catmullRom", "hermite"),
     "wrap": ("nonperiodic", "periodic", "pinned"),
     "tide:caustics:transparency": ("off", "afterDiffuse", "volume", "all"),
+    "visibility": ("inherited", "invisible"),
+    "purpose": ("default", "render", "proxy", "guide"),
 }
 AOVS = {
     "color": "float4", "depth": "float", "normal": "float3",
@@ -724,7 +722,7 @@ class Reader:
     # -- traversal ------------------------------------------------------------------------
     def _included(self, imageable):
         purpose = imageable.ComputePurpose()
-        if purpose not in PURPOSES:
+        if purpose not in ALLOWED_TOKENS["purpose"]:
             # an unknown token (reported where it is authored) reads as the default
             purpose = UsdGeom.Tokens.default_
         return purpose in self._purposes, purpose
@@ -732,13 +730,13 @@ class Reader:
     def _check_imageable_tokens(self, prim, imageable):
         """Names an authored visibility or purpose that is not one of USD's tokens (they then
         read as `inherited` and `default`)."""
-        for attr, allowed, fallback in ((imageable.GetVisibilityAttr(), VISIBILITIES, "inherited"),
-                                        (imageable.GetPurposeAttr(), PURPOSES, "default")):
+        for attr in (imageable.GetVisibilityAttr(), imageable.GetPurposeAttr()):
             if attr and attr.HasAuthoredValue():
                 v = attr.Get(self._time(0))
+                allowed = ALLOWED_TOKENS[attr.GetName()]
                 if v not in allowed:
                     self.problem(prim.GetPath(), attr.GetName(),
-                                 "unknown token '%s'; using '%s'" % (v, fallback))
+                                 "unknown token '%s'; using '%s'" % (v, allowed[0]))
 
     def _walk(self, root):
         pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
