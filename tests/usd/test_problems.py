@@ -199,6 +199,13 @@ def _mistyped_schema_primvar(stage):
     return "/Odd", "primvars:tide:bubble:top", None
 
 
+def _mistyped_camera(stage):
+    stage.GetRootLayer().GetPrimAtPath("/Cam").RemoveProperty(
+        stage.GetRootLayer().GetPropertyAtPath("/Cam.focalLength"))
+    _mistyped(stage, "/Cam", "focalLength", Sdf.ValueTypeNames.String, "long")
+    return "/Cam", "focalLength", None
+
+
 def _mistyped_setting(stage):
     settings(stage)
     _mistyped(stage, "/Render/Settings", "tide:samples", Sdf.ValueTypeNames.String, "many")
@@ -210,7 +217,7 @@ CASES = [_missing_vdb, _nan_points, _inf_points, _index_out_of_range, _short_fac
          _zero_aperture, _unknown_integrator, _bad_proto_index, _missing_material,
          _missing_dome_texture, _unknown_aov, _negative_radius, _mistyped_radius,
          _mistyped_points, _mistyped_xform_op, _mistyped_light, _mistyped_setting,
-         _mistyped_tide_attribute, _mistyped_schema_primvar,
+         _mistyped_tide_attribute, _mistyped_schema_primvar, _mistyped_camera,
          _unknown_purpose, _unknown_visibility]
 
 
@@ -262,6 +269,14 @@ def test_mistyped_values_are_replaced_by_their_defaults(stage, delegate):
     assert delegate.value("/Lamp", "inputs:intensity") == 1.0
     assert delegate.value("/Render/Settings", "tide:samples") == 64
     assert reader.sample_target == 64
+
+
+def test_a_camera_with_a_mistyped_lens_keeps_rendering_with_the_default(stage, delegate):
+    _good(stage)
+    _mistyped_camera(stage)
+    reader, _ = load(stage, delegate)
+    assert reader.camera_path == "/Cam"
+    assert delegate.value("/Cam", "focalLength") == 50.0
 
 
 def test_a_mistyped_tide_attribute_is_not_sent(stage, delegate):

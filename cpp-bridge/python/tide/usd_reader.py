@@ -1439,8 +1439,7 @@ class Reader:
         for name, attr, fb in (("inputs:intensity", light.GetIntensityAttr(), 1.0),
                                ("inputs:exposure", light.GetExposureAttr(), 0.0),
                                ("inputs:colorTemperature", light.GetColorTemperatureAttr(), 6500.0)):
-            v = attr.Get(self._time(0)) if attr else None
-            st.set(name, ("float", float(fb if v is None else v)))
+            st.set(name, ("float", float(self._attr(prim, name, fb))))
         for name, attr in (("inputs:normalize", light.GetNormalizeAttr()),
                            ("inputs:enableColorTemperature", light.GetEnableColorTemperatureAttr())):
             v = attr.Get(self._time(0)) if attr else None
@@ -2357,9 +2356,7 @@ class Reader:
         st = _PrimState("sprim", "camera", path)
         st.set("transform", None, self._xform_samples(self._world(prim), [prim]))
         for name, fb in CAMERA_ATTRS.items():
-            a = prim.GetAttribute(name)
-            v = a.Get(self._time(0)) if a else None
-            v = fb if v is None else v
+            v = self._attr(prim, name, fb)
             if name in ("focalLength", "horizontalAperture", "verticalAperture"):
                 if not (math.isfinite(v) and v > 0):
                     self.problem(path, name, "%s = %r must be positive; using %r" % (name, v, fb))
