@@ -9,7 +9,7 @@ use crate::accel::Ray;
 use crate::bsdf::{flags, Bsdf, TransportMode};
 use crate::film::SampleValue;
 use crate::light::LightSampleContext;
-use crate::math::{offset_ray_origin, power_heuristic, Frame};
+use crate::math::{power_heuristic, Frame};
 use crate::sampler::{PixelSampler, StreamRng};
 use crate::spectrum::{color, SampledSpectrum, SampledWavelengths};
 use crate::medium::DistanceSample;
@@ -275,7 +275,7 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
                 tr *= world.transmission_tint(info.material, &s, lambda);
             }
             cur = vols.volume_medium().or(base);
-            seg_o = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+            seg_o = s.origin_towards(d);
             seg_len = 0.0;
             switched = true;
         }
@@ -289,7 +289,7 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
             }
             tr *= pass;
         }
-        origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        origin = s.origin_towards(d);
         remaining -= hit.t;
         if remaining <= 0.0 {
             break;
@@ -355,7 +355,7 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
                 found.push((travelled, Interior { instance: hit.instance, priority: i32::MIN, ior: 1.0, medium: mat.interior_medium, volume: true }));
             }
         }
-        origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        origin = s.origin_towards(d);
     }
     found.sort_by(|a, b| b.0.partial_cmp(&a.0).unwrap_or(std::cmp::Ordering::Equal));
     for (_, it) in found {
@@ -594,7 +594,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         // the path goes on through the surface unchanged (a null event)
         macro_rules! pass_through {
             () => {{
-                ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+                ray.o = s.origin_on(if front { -s.ng } else { s.ng });
                 ray.t_max -= hit.t;
                 null_events += 1;
                 if null_events > MAX_NULL_EVENTS {
@@ -626,7 +626,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let boundary = classify_boundary(world, &s, front, &stack, lambda);
         if let Boundary::False = boundary {
             stack.cross(world, &s, front, lambda);
-            ray.o = offset_ray_origin(s.p, if front { -s.ng } else { s.ng });
+            ray.o = s.origin_on(if front { -s.ng } else { s.ng });
             ray.t_max = f32::INFINITY;
             null_events += 1;
             if null_events > MAX_NULL_EVENTS {
@@ -726,7 +726,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                         if !f.is_black() && same_side {
                             let out_front = ls.wi.dot(s.ng) > 0.0;
                             let med = if out_front { medium_front } else { medium_back };
-                            let o = offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng });
+                            let o = s.origin_on(if out_front { s.ng } else { -s.ng });
                             let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
                             let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, &stack, lambda, u_tr, path_flags);
                             if !tr.is_black() {
@@ -811,7 +811,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 }
             }
         }
-        ray = Ray { o: offset_ray_origin(s.p, if out_front { s.ng } else { -s.ng }), d: wi_w, t_max: f32::INFINITY, time: ray.time };
+        ray = Ray { o: s.origin_on(if out_front { s.ng } else { -s.ng }), d: wi_w, t_max: f32::INFINITY, time: ray.time };
         depth += 1;
         if depth > world.max_depth {
             break;

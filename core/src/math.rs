@@ -160,37 +160,66 @@ pub fn power_heuristic(nf: f32, f_pdf: f32, ng: f32, g_pdf: f32) -> f32 {
     }
 }
 
-/// Offsets a ray origin off a surface so the new ray does not re-hit the surface it leaves,
-/// while staying close enough that it cannot tunnel through thin shells. Integer-ULP offset
-/// along the geometric normal (Wächter & Binder, "A Fast and Robust Method for Avoiding
-/// Self-Intersection", Ray Tracing Gems, 2019): scale-independent, so it works on a small
-/// droplet and on an ocean mesh kilometres from the origin alike.
-/// `n` must be the geometric normal, flipped to the side the new ray leaves towards.
+/// γ(n) = nu/(1 − nu), u = 2⁻²⁴ the unit roundoff of f32: the relative error bound of n
+/// rounded operations (Higham; pbrt's error analysis uses the same bound).
 #[inline]
-pub fn offset_ray_origin(p: Vec3, n: Vec3) -> Vec3 {
-    const ORIGIN: f32 = 1.0 / 32.0;
-    const FLOAT_SCALE: f32 = 1.0 / 65536.0;
-    const INT_SCALE: f32 = 256.0;
-    let of_i = [(INT_SCALE * n.x) as i32, (INT_SCALE * n.y) as i32, (INT_SCALE * n.z) as i32];
-    let pa = p.to_array();
-    let na = n.to_array();
-    let mut out = [0.0f32; 3];
-    for k in 0..3 {
-        let bits = pa[k].to_bits() as i32;
-        let moved = bits.wrapping_add(if pa[k] < 0.0 { -of_i[k] } else { of_i[k] });
-        let p_i = f32::from_bits(moved as u32);
-        out[k] = if pa[k].abs() < ORIGIN { pa[k] + FLOAT_SCALE * na[k] } else { p_i };
-    }
-    Vec3::from_array(out)
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
+}
+
+/// An error bound for a point computed in a few rounded operations from values of its own
+/// magnitude (a light's sample point, a point sampled on a surface): γ(8)·|p| per component.
+#[inline]
+pub fn point_error(p: Vec3) -> Vec3 {
+    p.abs() * gamma(8)
+}
+
+/// The error bound of `m·p` for an affine `m` and a point `p` carrying the bound `err`:
+/// `|M|·err` grown by the product's rounding, plus the rounding of the product itself
+/// (γ(8), which also covers the round trip through the inverse that takes a ray back into the
+/// object's space).
+#[inline]
+pub fn transformed_error(m: &glam::Mat4, p: Vec3, err: Vec3) -> Vec3 {
+    let a = glam::Mat3::from_cols(m.x_axis.truncate().abs(), m.y_axis.truncate().abs(), m.z_axis.truncate().abs());
+    a * err * (1.0 + gamma(3)) + (a * p.abs() + m.w_axis.truncate().abs()) * gamma(8)
+}
+
+/// Offsets a ray origin off a surface so that the new ray cannot meet the surface it leaves
+/// again, while staying as close as the arithmetic allows, so that it cannot tunnel through
+/// thin shells or miss a contact shadow. `p` is the computed point and `err` the bound of its
+/// error per component (the hit's [`crate::world::SurfaceHit::err`], or [`point_error`]): the
+/// origin moves along the geometric normal `n` (flipped to the side the new ray leaves towards)
+/// past the box of that error, then one float further away from `p` in each component. The
+/// offset follows the point's own precision: a micrometre droplet and an ocean mesh kilometres
+/// from the origin alike (pbrt-v4's `OffsetRayOrigin` reasoning; twice its distance, as the
+/// intersectors are not written with conservative rounding).
+#[inline]
+pub fn offset_ray_origin(p: Vec3, err: Vec3, n: Vec3) -> Vec3 {
+    // at least the smallest normal float, so that a point computed exactly (an axis-aligned
+    // plane's) still steps one float off its surface
+    let d = (2.0 * n.abs().dot(err)).max(f32::MIN_POSITIVE);
+    let offset = n * d;
+    let po = p + offset;
+    let away = |x: f32, o: f32| {
+        if o > 0.0 {
+            x.next_up()
+        } else if o < 0.0 {
+            x.next_down()
+        } else {
+            x
+        }
+    };
+    Vec3::new(away(po.x, offset.x), away(po.y, offset.y), away(po.z, offset.z))
 }
 
 /// Offset towards the side of `n` that `w` points into.
 #[inline]
-pub fn offset_towards(p: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
+pub fn offset_towards(p: Vec3, err: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
     if ng.dot(w) >= 0.0 {
-        offset_ray_origin(p, ng)
+        offset_ray_origin(p, err, ng)
     } else {
-        offset_ray_origin(p, -ng)
+        offset_ray_origin(p, err, -ng)
     }
 }
 
@@ -211,15 +240,40 @@ mod tests {
 
     #[test]
     fn offset_moves_off_the_plane_on_the_right_side_at_any_scale() {
-        for &scale in &[1e-4f32, 1.0, 1e3, 1e5] {
+        for &scale in &[1e-9f32, 1e-4, 1.0, 1e3, 1e5] {
             let p = Vec3::new(0.37, 0.0, -0.81) * scale;
-            let n = Vec3::Y;
-            let q = offset_ray_origin(p, n);
-            assert!(q.y > 0.0, "scale {scale}: {q:?}");
-            // close: far less than a millimetre at kilometre scale
-            assert!((q - p).length() < 1e-3 * scale.max(1.0));
-            let q2 = offset_ray_origin(p, -n);
-            assert!(q2.y < 0.0);
+            let e = point_error(p);
+            for n in [Vec3::Y, Vec3::new(0.3, 0.9, -0.2).normalize()] {
+                let q = offset_ray_origin(p, e, n);
+                assert!((q - p).dot(n) > 0.0, "scale {scale}: {q:?}");
+                // close: within a few dozen ulps of the point's size, wherever it is
+                assert!((q - p).length() < 64.0 * f32::EPSILON * p.length(), "scale {scale}: {:?}", q - p);
+                let q2 = offset_ray_origin(p, e, -n);
+                assert!((q2 - p).dot(n) < 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn transformed_error_bounds_the_rounding_of_a_transformed_point() {
+        // the f32 product against the exact one in f64, for points and matrices of every size
+        let mut rng = 0x1234_5678u64;
+        let mut next = || {
+            rng = rng.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (rng >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        for k in 0..2000 {
+            let s = 10f32.powi(k % 13 - 6);
+            let t = Vec3::new(next(), next(), next()) * 10f32.powi(k % 7 - 1) * 1e3;
+            let m = glam::Mat4::from_scale_rotation_translation(Vec3::splat(s), glam::Quat::from_euler(glam::EulerRot::XYZ, next() * 3.0, next() * 3.0, next()), t);
+            let p = Vec3::new(next(), next(), next()) * 10f32.powi(k % 5);
+            let q = m.transform_point3(p);
+            let md = glam::DMat4::from_cols_array(&m.to_cols_array().map(f64::from));
+            let exact = md.transform_point3(p.as_dvec3());
+            let e = transformed_error(&m, p, Vec3::ZERO);
+            for c in 0..3 {
+                assert!((q[c] as f64 - exact[c]).abs() <= e[c] as f64, "{k}: component {c}: {} vs {} ± {}", q[c], exact[c], e[c]);
+            }
         }
     }
 }

@@ -225,6 +225,9 @@ pub struct InstanceInfo {
 #[derive(Clone, Copy, Debug)]
 pub struct SurfaceHit {
     pub p: Vec3,
+    /// Bound of the rounding error in `p`, per component (world space), for offsetting rays
+    /// that leave it ([`crate::math::offset_ray_origin`]).
+    pub err: Vec3,
     /// Geometric normal on the object's outside (the side its winding/authored normals face).
     pub ng: Vec3,
     /// Shading normal, on the same side as `ng`.
@@ -236,6 +239,20 @@ pub struct SurfaceHit {
     /// Barycentric coordinates (b1, b2) of a triangle hit (zero for spheres), for primvars.
     pub bary: Vec2,
     pub t: f32,
+}
+
+impl SurfaceHit {
+    /// The origin of a ray leaving the surface towards `w`'s side of it.
+    #[inline]
+    pub fn origin_towards(&self, w: Vec3) -> Vec3 {
+        crate::math::offset_towards(self.p, self.err, self.ng, w)
+    }
+
+    /// The origin of a ray leaving the surface on the side `n` (± the geometric normal) faces.
+    #[inline]
+    pub fn origin_on(&self, n: Vec3) -> Vec3 {
+        crate::math::offset_ray_origin(self.p, self.err, n)
+    }
 }
 
 /// The kind of scattering at the vertex that gathers a light's emission, which picks the
@@ -904,6 +921,9 @@ impl World {
                 let b0 = 1.0 - b1 - b2;
                 let v = idx.map(|k| mesh.position_at(k, ray.time));
                 let p_obj = v[0] * b0 + v[1] * b1 + v[2] * b2;
+                // the weighted sum's rounding (the barycentrics' own error moves the point
+                // within the triangle's plane, not off it)
+                let err_obj = ((v[0] * b0).abs() + (v[1] * b1).abs() + (v[2] * b2).abs()) * crate::math::gamma(7);
                 let ng_obj = (v[1] - v[0]).cross(v[2] - v[0]);
                 let ng = (nm * ng_obj).normalize();
                 let mut ns = ng;
@@ -922,24 +942,29 @@ impl World {
                     }
                     None => (Vec2::new(b1, b2), m.transform_vector3(v[1] - v[0])),
                 };
-                SurfaceHit { p: m.transform_point3(p_obj), ng, ns, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::new(b1, b2), t: hit.t }
+                let err = crate::math::transformed_error(&m, p_obj, err_obj);
+                SurfaceHit { p: m.transform_point3(p_obj), err, ng, ns, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::new(b1, b2), t: hit.t }
             }
             GeometryRef::Spheres(_) => {
                 let (c, r) = self.accel.sphere_center(hit.instance, hit.prim, ray.time).unwrap_or((Vec3::ZERO, 1.0));
                 let inv = m.inverse();
                 let p_obj_ray = inv.transform_point3(ray.o + ray.d * hit.t);
-                let (n_obj, p_obj) = if self.accel.hit_carries_normal(hit.instance) {
+                let (n_obj, p_obj, err_obj) = if self.accel.hit_carries_normal(hit.instance) {
                     // bubbles and blobbies: the normal the intersection found, the ray's point
-                    (crate::accel::implicit::oct_decode(hit.u, hit.v), p_obj_ray)
+                    // (its distance found in f64; o + t·d, brought into the object's space)
+                    let w = ray.o.abs() + ray.d.abs() * hit.t;
+                    (crate::accel::implicit::oct_decode(hit.u, hit.v), p_obj_ray, crate::math::transformed_error(&inv, w, Vec3::ZERO) + p_obj_ray.abs() * crate::math::gamma(4))
                 } else {
                     let n = (p_obj_ray - c).normalize_or_zero();
-                    (n, c + n * r) // reproject onto the surface
+                    // reprojected onto the surface
+                    (n, c + n * r, (c.abs() + (n * r).abs()) * crate::math::gamma(6))
                 };
                 let ng = (nm * n_obj).normalize();
                 let phi = n_obj.z.atan2(n_obj.x);
                 let uv = Vec2::new(0.5 + phi / (2.0 * std::f32::consts::PI), 1.0 - n_obj.y.clamp(-1.0, 1.0).acos() / std::f32::consts::PI);
                 let dpdu = m.transform_vector3(Vec3::new(-n_obj.z, 0.0, n_obj.x));
-                SurfaceHit { p: m.transform_point3(p_obj), ng, ns: ng, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::ZERO, t: hit.t }
+                let err = crate::math::transformed_error(&m, p_obj, err_obj);
+                SurfaceHit { p: m.transform_point3(p_obj), err, ng, ns: ng, uv, dpdu, instance: hit.instance, prim: hit.prim, bary: Vec2::ZERO, t: hit.t }
             }
         }
     }

@@ -47,7 +47,7 @@ use crate::accel::Ray;
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::integrator::{classify_boundary, Boundary, InteriorStack};
 use crate::light::emit::EmissionDisk;
-use crate::math::{offset_ray_origin, Frame};
+use crate::math::{offset_ray_origin, point_error, Frame};
 use crate::sampler::{PixelSampler, StreamRng};
 use super::light_tracing::{LightTracer, Splat};
 use crate::scene::CausticsTransparency;
@@ -344,7 +344,7 @@ impl Caustics {
                         break;
                     }
                     let s = world.surface(&ray, &hit);
-                    ray = Ray { o: offset_ray_origin(s.p, if ray.d.dot(s.ng) > 0.0 { s.ng } else { -s.ng }), d: ray.d, t_max: f32::INFINITY, time: ray.time };
+                    ray = Ray { o: s.origin_towards(ray.d), d: ray.d, t_max: f32::INFINITY, time: ray.time };
                 }
             }
         }
@@ -567,7 +567,7 @@ impl Caustics {
                 };
                 let n = if ls.delta_pos { Vec3::ZERO } else { ls.n_light * ls.n_light.dot(e.dir).signum() };
                 spread = (1.0 / (std::f32::consts::PI * n_emitted as f32 * e.pdf)).sqrt();
-                (offset_ray_origin(e.origin, n), e.dir, power, self.light_stack[s.light as usize])
+                (offset_ray_origin(e.origin, point_error(e.origin), n), e.dir, power, self.light_stack[s.light as usize])
             }
             AtlasLight::Distant { to_light, .. } => {
                 let Some(e) = self.atlas.emit_mixture(&mut s, Vec3::ZERO, u_mix, [u_disk.x, u_disk.y]) else { return };
@@ -622,7 +622,7 @@ impl Caustics {
             let roles = world.caustic_instances[inst];
             let front = ray.d.dot(s_hit.ng) < 0.0;
             let pass_through = |ray: &mut Ray| {
-                ray.o = offset_ray_origin(s_hit.p, if front { -s_hit.ng } else { s_hit.ng });
+                ray.o = s_hit.origin_on(if front { -s_hit.ng } else { s_hit.ng });
                 ray.t_max = f32::INFINITY;
             };
             // a crossing without scattering: counted (at most 128 per photon), the ray goes on
@@ -731,7 +731,7 @@ impl Caustics {
                     }
                 }
             }
-            ray = Ray { o: offset_ray_origin(s_hit.p, if out_front { s_hit.ng } else { -s_hit.ng }), d: wi_w, t_max: f32::INFINITY, time };
+            ray = Ray { o: s_hit.origin_on(if out_front { s_hit.ng } else { -s_hit.ng }), d: wi_w, t_max: f32::INFINITY, time };
         }
     }
 

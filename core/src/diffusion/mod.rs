@@ -34,7 +34,7 @@ use crate::accel::Ray;
 use crate::bsdf::fresnel::fresnel_dielectric;
 use crate::bsdf::microfacet::refract;
 use crate::light::LightSampleContext;
-use crate::math::offset_ray_origin;
+use crate::math::{offset_ray_origin, point_error};
 use crate::medium::{sample_distance_spectral, DistanceSample, Medium};
 use crate::sampler::{hash_u32, sobol_u32, PixelSampler, StreamRng};
 use crate::scene::{GeometryRef, MediumMethod, SceneDesc};
@@ -205,7 +205,7 @@ fn visible(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32) -> bool {
             return false;
         }
         let s = world.surface(&ray, &hit);
-        origin = offset_ray_origin(s.p, if d.dot(s.ng) > 0.0 { s.ng } else { -s.ng });
+        origin = s.origin_towards(d);
         remaining -= hit.t;
         if remaining <= 0.0 {
             return true;
@@ -227,7 +227,7 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
         // hashed seeds: streams of neighbouring points must not be shifted copies of each other
         let h = hash_u32(i as u32 ^ 0x0d1f_f05e);
         let mut rng = StreamRng::new((h >> 8) as f32 * (1.0 / 16_777_216.0), hash_u32(h));
-        let o = offset_ray_origin(q.p, q.n);
+        let o = offset_ray_origin(q.p, point_error(q.p), q.n);
         let ctx = LightSampleContext::new(q.p, q.n);
         let mut e = [0.0f32; N_BINS];
         let mut dir = Vec3::ZERO;
@@ -354,7 +354,7 @@ impl World {
 /// of solid angle across the interface (cosθ_out / cosθ_in).
 fn single_scatter(world: &World, body: &DiffusionBody, s: &SurfaceHit, wi: Vec3, lambda: &SampledWavelengths, u: [f32; 6]) -> SampledSpectrum {
     let m = &world.media[body.medium];
-    let o = offset_ray_origin(s.p, -s.ng);
+    let o = s.origin_on(-s.ng);
     // the far side along the camera ray (inside the body)
     let far = exit_hit(world, body.instance, o, wi).map_or(f32::INFINITY, |h| h.t);
     let (sa, ss) = coefficients(m, s.p, lambda);
@@ -378,7 +378,7 @@ fn single_scatter(world: &World, body: &DiffusionBody, s: &SurfaceHit, wi: Vec3,
         return SampledSpectrum::ZERO;
     }
     let ft = 1.0 - fresnel_dielectric(cos_out, body.eta);
-    let xo = offset_ray_origin(h.p, h.ng);
+    let xo = h.origin_on(h.ng);
     let dist = if ls.dist.is_finite() { (ls.p_light - xo).length() * (1.0 - 1e-4) } else { f32::INFINITY };
     if !visible(world, li, xo, w_ext, dist) {
         return SampledSpectrum::ZERO;
@@ -404,7 +404,7 @@ fn exit_hit(world: &World, instance: u32, o: Vec3, d: Vec3) -> Option<SurfaceHit
             sh.t = travelled;
             return Some(sh);
         }
-        origin = offset_ray_origin(sh.p, if d.dot(sh.ng) > 0.0 { sh.ng } else { -sh.ng });
+        origin = sh.origin_towards(d);
     }
     None
 }
