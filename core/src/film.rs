@@ -83,6 +83,15 @@ impl FilmTile {
     }
 }
 
+/// How an AOV's samples are stored in the EXR: 32-bit float, or 16-bit half (a `UsdRenderVar`
+/// whose `dataType` is a half type: `half3`, `color3h`, ...).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum SampleFormat {
+    #[default]
+    F32,
+    F16,
+}
+
 /// The whole image's accumulators.
 #[derive(Clone, Debug)]
 pub struct Film {
@@ -249,7 +258,7 @@ impl Film {
     /// `pixel_aspect` goes to OpenEXR's own attribute (what viewers display by). The file's data
     /// window is the film's window (the rendered part, as `dataWindowNDC` asks), inside a
     /// display window of the whole image.
-    pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
+    pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov, SampleFormat)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
         let [x0, y0, x1, y1] = self.window.map(|v| v as usize);
@@ -257,7 +266,7 @@ impl Film {
         let (x0, y0) = (x0.min(x1.saturating_sub(1)), y0.min(y1.saturating_sub(1)));
         let (dw, dh) = (x1 - x0, y1 - y0);
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
-        for (name, aov) in aovs {
+        for (name, aov, format) in aovs {
             let px = self.resolve(*aov);
             let ch = aov.channels();
             let names: Vec<String> = if *aov == Aov::Color && name == "color" {
@@ -272,8 +281,12 @@ impl Film {
                     .collect()
             };
             for (k, cname) in names.iter().enumerate() {
-                let data: Vec<f32> = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * w + x) * ch + k)).map(|i| px[i]).collect();
-                channels.push(AnyChannel::new(cname.as_str(), FlatSamples::F32(data)));
+                let data = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * w + x) * ch + k)).map(|i| px[i]);
+                let samples = match format {
+                    SampleFormat::F32 => FlatSamples::F32(data.collect()),
+                    SampleFormat::F16 => FlatSamples::F16(data.map(f16::from_f32).collect()),
+                };
+                channels.push(AnyChannel::new(cname.as_str(), samples));
             }
         }
         if channels.is_empty() {
@@ -321,7 +334,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("tide-film-window-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("w.exr");
-        f.write_exr(&p, &[("color".to_string(), Aov::Color), ("depth".to_string(), Aov::Depth)], &[], 1.0).unwrap();
+        f.write_exr(&p, &[("color".to_string(), Aov::Color, SampleFormat::F32), ("depth".to_string(), Aov::Depth, SampleFormat::F32)], &[], 1.0).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
         let layer = &img.layer_data[0];
         assert_eq!((layer.attributes.layer_position.0, layer.attributes.layer_position.1), (1, 1));
@@ -352,7 +365,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("tide-film-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let p = dir.join("t.exr");
-        let aovs: Vec<(String, Aov)> = [Aov::Color, Aov::Depth, Aov::Normal, Aov::Diffuse].iter().map(|a| (a.source_name().to_string(), *a)).collect();
+        let aovs: Vec<(String, Aov, SampleFormat)> = [Aov::Color, Aov::Depth, Aov::Normal, Aov::Diffuse].iter().map(|a| (a.source_name().to_string(), *a, if *a == Aov::Depth { SampleFormat::F16 } else { SampleFormat::F32 })).collect();
         f.write_exr(&p, &aovs, &[("tide:spp".into(), "2".into())], 2.0).unwrap();
         let img = exr::prelude::read_all_flat_layers_from_file(&p).unwrap();
         let names: Vec<String> = img.layer_data[0].channel_data.list.iter().map(|c| c.name.to_string()).collect();
@@ -361,6 +374,14 @@ mod tests {
         }
         assert!(img.layer_data[0].attributes.other.contains_key(&exr::prelude::Text::from("tide:spp")));
         assert_eq!(img.attributes.pixel_aspect, 2.0);
+        // the half AOV is stored as halves, with its value; the others as floats
+        for c in &img.layer_data[0].channel_data.list {
+            let half = matches!(c.sample_data, exr::prelude::FlatSamples::F16(_));
+            assert_eq!(half, c.name.to_string() == "depth.Z", "{}", c.name);
+            if let exr::prelude::FlatSamples::F16(v) = &c.sample_data {
+                assert_eq!(v[9].to_f32(), 5.0);
+            }
+        }
         // nothing but the final file is left in the directory
         assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1);
         std::fs::remove_dir_all(&dir).unwrap();

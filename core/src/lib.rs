@@ -32,5 +32,6 @@ pub mod volume;
 pub mod water;
 pub mod world;
 
+pub use film::SampleFormat;
 pub use render::{Aov, IntegratorKind, Problem, RenderError, RenderSettings, RenderStats, Renderer};
 pub use scene::SceneDesc;

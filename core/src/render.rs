@@ -1,6 +1,7 @@
 //! The public rendering API: build a [`Renderer`] from a [`SceneDesc`] and settings, run
 //! progressive passes, read AOVs, write EXR.
 
+use crate::film::SampleFormat;
 use crate::scene::{CameraDesc, SceneDesc};
 use std::sync::atomic::AtomicBool;
 
@@ -528,12 +529,12 @@ impl Renderer {
     /// Writes the chosen AOVs to an OpenEXR file atomically (temporary name, then rename).
     /// Each AOV is named by its source name; `header` entries are stored as string attributes.
     pub fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
-        let named: Vec<(String, Aov)> = aovs.iter().map(|a| (a.source_name().to_string(), *a)).collect();
+        let named: Vec<(String, Aov, SampleFormat)> = aovs.iter().map(|a| (a.source_name().to_string(), *a, SampleFormat::F32)).collect();
         self.write_exr_named(path, &named, header)
     }
 
-    /// Like [`Renderer::write_exr`] with an output name per AOV (UsdRenderVar names).
-    pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov)], header: &[(String, String)]) -> std::io::Result<()> {
+    /// Like [`Renderer::write_exr`] with an output name and a sample format per AOV.
+    pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()> {
         // the renderer's own figures replace any the caller passed under the same keys
         // what the render used, whatever a caller's header says (a rejected value replaced by
         // its default is recorded as the default)

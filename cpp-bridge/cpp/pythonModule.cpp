@@ -717,6 +717,28 @@ std::vector<std::pair<std::string, std::string>> Pairs(PyObject* obj, const char
     return out;
 }
 
+/// An EXR file's layers: (name, aov) or (name, aov, dataType) sequences.
+rust::Vec<tide::rs::ExrLayer> Layers(PyObject* obj) {
+    rust::Vec<tide::rs::ExrLayer> out;
+    PyObject* seq = PySequence_Fast(obj, "layers: expected a sequence of (name, aov[, dataType])");
+    if (!seq) throw PythonError();
+    std::unique_ptr<PyObject, void (*)(PyObject*)> guard(seq, [](PyObject* o) { Py_DECREF(o); });
+    for (Py_ssize_t i = 0; i < PySequence_Fast_GET_SIZE(seq); ++i) {
+        PyObject* item = PySequence_Fast_GET_ITEM(seq, i);
+        Py_ssize_t n = (PyTuple_Check(item) || PyList_Check(item)) ? PySequence_Size(item) : -1;
+        if (n != 2 && n != 3) throw ArgError(PyExc_TypeError, "layers: expected (name, aov[, dataType]) tuples");
+        std::string parts[3];
+        for (Py_ssize_t k = 0; k < n; ++k) {
+            PyObject* v = PySequence_GetItem(item, k);
+            if (!v) throw PythonError();
+            std::unique_ptr<PyObject, void (*)(PyObject*)> gv(v, [](PyObject* o) { Py_DECREF(o); });
+            parts[k] = ToString(v, "layers");
+        }
+        out.push_back(tide::rs::ExrLayer{rust::String(parts[0]), rust::String(parts[1]), rust::String(parts[2])});
+    }
+    return out;
+}
+
 PyObject* Delegate_write_exr(PyObject* self, PyObject* args, PyObject* kw) {
     static const char* names[] = {"path", "layers", "header", nullptr};
     const char* path = nullptr;
@@ -725,8 +747,8 @@ PyObject* Delegate_write_exr(PyObject* self, PyObject* args, PyObject* kw) {
     if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|O", const_cast<char**>(names), &path, &layers, &header))
         return nullptr;
     TIDE_TRY
-    rust::Vec<tide::rs::StringPair> l, h;
-    for (auto& p : Pairs(layers, "layers")) l.push_back(tide::rs::StringPair{rust::String(p.first), rust::String(p.second)});
+    rust::Vec<tide::rs::ExrLayer> l = Layers(layers);
+    rust::Vec<tide::rs::StringPair> h;
     for (auto& p : Pairs(header, "header")) h.push_back(tide::rs::StringPair{rust::String(p.first), rust::String(p.second)});
     State& s = S(self);
     WithoutGil([&] {
@@ -907,7 +929,7 @@ PyMethodDef DelegateMethods[] = {
     {"supported_types", Delegate_supported_types, METH_NOARGS, "supported_types() -> {'rprims': [...], 'sprims': [...], 'bprims': [...]}"},
     {"create_render_pass", Delegate_create_render_pass, METH_NOARGS, "create_render_pass() -> RenderPass"},
     {"map_buffer", Delegate_map_buffer, METH_VARARGS, "map_buffer(path) -> (w, h, channels, float32 bytes)"},
-    {"write_exr", KW(Delegate_write_exr), "write_exr(path, [(name, aov)], header: dict)"},
+    {"write_exr", KW(Delegate_write_exr), "write_exr(path, [(name, aov[, dataType])], header: dict)"},
     {"write_preview_png", KW(Delegate_write_preview_png), "write_preview_png(path, buffer_path, color_space='lin_rec709', view='Standard')"},
     {nullptr, nullptr, 0, nullptr}};
 

@@ -8,7 +8,7 @@
 //! exist, malformed arrays, an unknown camera or AOV); bad scene values are problems that
 //! `commit_resources` returns. Every entry point is wrapped in [`crate::guard`].
 
-use crate::ffi::{AovBinding, MappedBuffer, ProblemRow, StringPair};
+use crate::ffi::{AovBinding, ExrLayer, MappedBuffer, ProblemRow, StringPair};
 use crate::guard;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
@@ -247,14 +247,14 @@ impl Delegate {
         })
     }
 
-    pub fn write_exr(&self, path: &str, layers: &Vec<StringPair>, header: &Vec<StringPair>) -> Result<(), String> {
+    pub fn write_exr(&self, path: &str, layers: &Vec<ExrLayer>, header: &Vec<StringPair>) -> Result<(), String> {
         guard("write_exr", || {
             let mut aovs = Vec::with_capacity(layers.len());
             for l in layers {
-                if Aov::from_source_name(&l.second).is_none() {
-                    return Err(format!("{path}: layer '{}': unknown AOV '{}'", l.first, l.second));
+                if Aov::from_source_name(&l.aov).is_none() {
+                    return Err(format!("{path}: layer '{}': unknown AOV '{}'", l.name, l.aov));
                 }
-                aovs.push((l.first.clone(), l.second.clone()));
+                aovs.push((l.name.clone(), l.aov.clone(), l.data_type.clone()));
             }
             let header: Vec<(String, String)> = header.iter().map(|p| (p.first.clone(), p.second.clone())).collect();
             lock(&self.shared).delegate.write_exr(std::path::Path::new(path), &aovs, &header).map_err(|e| format!("{path}: {e}"))

@@ -58,11 +58,20 @@ pub mod ffi {
         pub buffer: String,
     }
 
-    /// A string pair (EXR layer name and AOV, or header key and value).
+    /// A string pair (a header key and value, ...).
     #[derive(Clone, Debug)]
     pub struct StringPair {
         pub first: String,
         pub second: String,
+    }
+
+    /// One AOV of an EXR file: its name (the RenderVar's), its AOV (`sourceName`) and the
+    /// RenderVar's `dataType` (a half type stores halves; empty: 32-bit float).
+    #[derive(Clone, Debug)]
+    pub struct ExrLayer {
+        pub name: String,
+        pub aov: String,
+        pub data_type: String,
     }
 
     extern "Rust" {
@@ -119,7 +128,7 @@ pub mod ffi {
         fn check_render(self: &Delegate) -> Result<Vec<ProblemRow>>;
         fn last_synced(self: &Delegate) -> Result<Vec<String>>;
         fn map_buffer(self: &Delegate, path: &str) -> Result<MappedBuffer>;
-        fn write_exr(self: &Delegate, path: &str, layers: &Vec<StringPair>, header: &Vec<StringPair>) -> Result<()>;
+        fn write_exr(self: &Delegate, path: &str, layers: &Vec<ExrLayer>, header: &Vec<StringPair>) -> Result<()>;
 
         fn create_render_pass(self: &Delegate) -> Result<Box<Pass>>;
         fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<()>;

@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::scene::{GeometryRef, InstanceDesc, InstancePrimvars, LightShape, MeshDesc, PrimvarData, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
-use tide_core::{Aov, Problem, RenderSettings, SceneDesc};
+use tide_core::{Aov, Problem, RenderSettings, SampleFormat, SceneDesc};
 
 /// Which Hydra prim family a type belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -1426,20 +1426,36 @@ impl Delegate {
         self.buffers.get(path).map(|b| b.map())
     }
 
-    /// Writes AOVs (`(name, sourceName)`) of the current render to EXR through the core,
-    /// atomically. The names are recorded in the header as `tide:aov:<name>`.
-    pub fn write_exr(&self, path: &std::path::Path, aovs: &[(String, String)], header: &[(String, String)]) -> std::io::Result<()> {
+    /// Writes AOVs (`(name, sourceName, dataType)`) of the current render to EXR through the
+    /// core, atomically: a half `dataType` ([`sample_format`]) stores that AOV's channels as
+    /// halves, any other as 32-bit floats. The names are recorded in the header as
+    /// `tide:aov:<name>`.
+    pub fn write_exr(&self, path: &std::path::Path, aovs: &[(String, String, String)], header: &[(String, String)]) -> std::io::Result<()> {
         let mut list = Vec::new();
         let mut hdr = header.to_vec();
-        for (name, src) in aovs {
+        for (name, src, data_type) in aovs {
             let a = Aov::from_source_name(src).ok_or_else(|| std::io::Error::other(format!("unknown AOV '{}' for '{}'", src, name)))?;
-            list.push(a);
+            list.push((a, sample_format(data_type)));
             hdr.push((format!("tide:aov:{}", name), src.clone()));
         }
         match &self.pass {
             Some(p) => p.write_exr(path, &list, &hdr),
             None => Err(std::io::Error::other("no render to write: execute a render pass first")),
         }
+    }
+}
+
+/// The EXR sample format for a `UsdRenderVar`'s `dataType` (an Sdf value type name): halves
+/// for the half types (`half`, `half3`, `color3h`, `color4h`, `normal3h`, ...), 32-bit floats
+/// for everything else, the unauthored fallback `color3f` included. Integer types (`int` for
+/// `primId`) are written as floats too, exact to 2^24.
+pub fn sample_format(data_type: &str) -> SampleFormat {
+    let t = data_type.trim().trim_end_matches("[]");
+    let half = t.starts_with("half") || (t.ends_with('h') && ["color", "normal", "point", "vector", "texCoord"].iter().any(|p| t.starts_with(p)));
+    if half {
+        SampleFormat::F16
+    } else {
+        SampleFormat::F32
     }
 }
 
@@ -2418,7 +2434,7 @@ mod tests {
         assert!(d.wait(Duration::from_secs(5)));
         assert_eq!(builds.load(Ordering::SeqCst), 2);
         assert_eq!(d.map_buffer("/buf").unwrap().samples, 2);
-        assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into())], &[]).is_ok());
+        assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into(), "color3f".into())], &[]).is_ok());
         drop(d);
     }
 }

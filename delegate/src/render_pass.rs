@@ -20,7 +20,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use tide_core::accel::BuildStats;
 use tide_core::world::BuildCache;
-use tide_core::{Aov, Problem, RenderError, RenderSettings, Renderer, SceneDesc};
+use tide_core::{Aov, Problem, RenderError, RenderSettings, Renderer, SampleFormat, SceneDesc};
 
 /// What a render pass drives.
 pub trait Engine {
@@ -29,7 +29,8 @@ pub trait Engine {
     fn samples_per_pixel(&self) -> u32;
     /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
     fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
-    fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()>;
+    /// Writes the AOVs, each in its sample format, named by their source names.
+    fn write_exr(&self, path: &std::path::Path, aovs: &[(Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()>;
     /// How the engine's acceleration structure was built (None for engines without one).
     fn build_stats(&self) -> Option<BuildStats> {
         None
@@ -69,8 +70,9 @@ impl Engine for Renderer {
     fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
         Renderer::aov_pixels(self, aov)
     }
-    fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
-        Renderer::write_exr(self, path, aovs, header)
+    fn write_exr(&self, path: &std::path::Path, aovs: &[(Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()> {
+        let named: Vec<(String, Aov, SampleFormat)> = aovs.iter().map(|&(a, f)| (a.source_name().to_string(), a, f)).collect();
+        Renderer::write_exr_named(self, path, &named, header)
     }
     fn build_stats(&self) -> Option<BuildStats> {
         Some(Renderer::build_stats(self).clone())
@@ -184,7 +186,7 @@ pub struct Job {
 
 type ExrReply = std::sync::mpsc::Sender<std::io::Result<()>>;
 /// A queued EXR write: path, AOVs, header, where to send the result.
-type ExrRequest = (std::path::PathBuf, Vec<Aov>, Vec<(String, String)>, ExrReply);
+type ExrRequest = (std::path::PathBuf, Vec<(Aov, SampleFormat)>, Vec<(String, String)>, ExrReply);
 
 struct State {
     job: Option<Job>,
@@ -384,7 +386,7 @@ impl RenderPass {
     }
 
     /// Writes the current film of the running (or finished) job to EXR through the engine.
-    pub fn write_exr(&self, path: &std::path::Path, aovs: &[Aov], header: &[(String, String)]) -> std::io::Result<()> {
+    pub fn write_exr(&self, path: &std::path::Path, aovs: &[(Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()> {
         let (tx, rx) = std::sync::mpsc::channel();
         {
             let mut st = self.shared.lock();
@@ -596,7 +598,7 @@ pub(crate) mod tests {
         fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
             vec![self.spp as f32; (self.w * self.h) as usize * aov.channels()]
         }
-        fn write_exr(&self, _: &std::path::Path, _: &[Aov], _: &[(String, String)]) -> std::io::Result<()> {
+        fn write_exr(&self, _: &std::path::Path, _: &[(Aov, SampleFormat)], _: &[(String, String)]) -> std::io::Result<()> {
             Ok(())
         }
     }

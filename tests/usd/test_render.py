@@ -13,7 +13,7 @@ import subprocess
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdRender, UsdShade
 
 from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel, fwhm,
                       lambert_material, render, settings)
@@ -329,12 +329,17 @@ def _tide(args, cwd):
                           text=True, stdin=subprocess.DEVNULL, timeout=300)
 
 
-def test_exr_channels_and_header(renderer, stage, tmp_path):
+def _aov_stage(stage, tmp_path):
+    """A black ball 5 units in front of the camera under a white dome, with four AOVs."""
     camera(stage)
     _white_dome(stage)
     _ball(stage, "/Ball", (0, 0, -5), 1.0, _black(stage))
     settings(stage, res=(16, 16), vars_=("color", "depth", "normal", "tide:diffuse"),
              product=str(tmp_path / "aovs.exr"), samples=2)
+
+
+def test_exr_channels_and_header(renderer, stage, tmp_path):
+    _aov_stage(stage, tmp_path)
     path = str(tmp_path / "scene.usda")
     stage.GetRootLayer().Export(path)
     out = _tide(["render", path], tmp_path)
@@ -352,6 +357,33 @@ def test_exr_channels_and_header(renderer, stage, tmp_path):
     # the centre pixel sees the sphere's front at camera-space depth 5 - 1 = 4
     assert depth[8, 8] == pytest.approx(4.0, abs=0.05)
     assert os.path.exists(tmp_path / "aovs.png")
+
+
+def test_a_render_vars_half_data_type_writes_halves(renderer, stage, tmp_path):
+    # UsdRenderVar.dataType: a half type (color4h, half) is stored as 16-bit halves, a float
+    # type or an unauthored one as 32-bit floats; a token that is no value type is named
+    _aov_stage(stage, tmp_path)
+    floats = str(tmp_path / "floats.usda")
+    stage.GetRootLayer().Export(floats)
+    for i, t in {0: "color4h", 1: "half", 3: "banana"}.items():
+        UsdRender.Var(stage.GetPrimAtPath("/Render/Settings_Var%d" % i)).CreateDataTypeAttr(t)
+    halves = str(tmp_path / "halves.usda")
+    stage.GetRootLayer().Export(halves)
+    out = _tide(["render", floats, "-o", str(tmp_path / "floats.exr")], tmp_path)
+    assert out.returncode == 0, out.stderr
+    out = _tide(["render", halves], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "/Render/Settings_Var3" in out.stderr and "dataType" in out.stderr, out.stderr
+    import OpenEXR
+    with OpenEXR.File(str(tmp_path / "aovs.exr"), separate_channels=True) as f:
+        got = {k: np.asarray(c.pixels) for k, c in f.channels().items()}
+    want, _ = _exr(str(tmp_path / "floats.exr"))
+    assert set(got) == set(want)
+    for c in got:
+        half = c in ("R", "G", "B", "A", "depth.Z")
+        assert got[c].dtype == (np.float16 if half else np.float32), (c, got[c].dtype)
+        # the same render, its values rounded to the nearest half where halves were asked for
+        assert np.array_equal(got[c], want[c].astype(got[c].dtype)), c
 
 
 def _exr(path):

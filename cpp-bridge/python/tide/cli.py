@@ -215,15 +215,19 @@ def _fraction(progress, target):
 
 
 def _outputs(reader, args, stem):
-    """[(file name, [(aov, buffer)])] of the current render: its products' EXRs, or everything
-    in -o."""
+    """[(file name, [(aov, buffer)], {aov: dataType})] of the current render: its products'
+    EXRs, or everything in -o (an AOV in several products takes the first one's dataType)."""
     if args.output:
-        return [(args.output, reader.bindings(every_product=True))]
+        types = {}
+        for prod in reader.products:
+            for aov, t in prod.types.items():
+                types.setdefault(aov, t)
+        return [(args.output, reader.bindings(every_product=True), types)]
     out = []
     for prod in reader.renders[reader.render_index]:
         i = reader.products.index(prod)
         name = prod.name or ("%s.exr" % stem if i == 0 else "%s_%d.exr" % (stem, i))
-        out.append((name, prod.vars))
+        out.append((name, prod.vars, prod.types))
     return out
 
 
@@ -367,8 +371,8 @@ def _header(args, reader, spp, load_s, render_s, sps):
 
 def _write(delegate, outputs, header, png=True):
     written = []
-    for name, vars_ in outputs:
-        delegate.write_exr(name, [(aov, aov) for aov, _ in vars_], header)
+    for name, vars_, types in outputs:
+        delegate.write_exr(name, [(aov, aov, types.get(aov, "")) for aov, _ in vars_], header)
         written.append(name)
         color = [buf for aov, buf in vars_ if aov == "color"]
         png_name = os.path.splitext(name)[0] + ".png"

@@ -171,7 +171,8 @@ class RenderDelegate:
         return (w, h, c, bytes(4 * w * h * c))
 
     def write_exr(self, path, layers, header):
-        """layers: [(name, aov sourceName)] of the current render, as the real module."""
+        """layers: [(name, aov sourceName[, dataType])] of the current render, as the real
+        module (this stand-in writes floats whatever the dataType)."""
         if not layers:
             raise ValueError("no channels to write")
         bound = {}
@@ -179,7 +180,7 @@ class RenderDelegate:
             for _, bindings, _ in p.executed[-1:]:
                 bound.update(dict(bindings))
         buffers = []
-        for name, aov in layers:
+        for name, aov, *_ in layers:
             if aov not in bound:
                 raise RuntimeError("%s: layer '%s': AOV '%s' was not rendered" % (path, name, aov))
             buffers.append((name, bound[aov]))

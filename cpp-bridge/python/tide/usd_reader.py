@@ -197,7 +197,8 @@ IDENTITY = tuple(float(x) for x in (1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0,
 SETTINGS_FALLBACK_PATH = "/Render/__TideSettings"
 BUFFER_ROOT = "/Render/__TideBuffers"
 
-Product = namedtuple("Product", "path name vars")   # vars: [(sourceName, buffer path)]
+# vars: [(sourceName, buffer path)]; types: {sourceName: the RenderVar's authored dataType}
+Product = namedtuple("Product", "path name vars types")
 # Options attributes that override a render setting for every product alike.
 OPTION_KEYS = {"spp": "tide:samples", "seed": "tide:seed", "integrator": "tide:integrator",
                "time_budget": "tide:time:budget", "max_depth": "tide:maxDepth",
@@ -1078,7 +1079,7 @@ class Reader:
                                  % (name, other, renamed))
                     name = renamed
                 names[name] = str(ppath)
-                vars_ = []
+                vars_, types = [], {}
                 for vpath in prod.GetOrderedVarsRel().GetForwardedTargets():
                     vprim = stage.GetPrimAtPath(vpath)
                     if not (vprim and vprim.IsA(UsdRender.Var)):
@@ -1098,16 +1099,25 @@ class Reader:
                                      % (source, ppath))
                         continue
                     vars_.append(source)
+                    # the sample format (halves for a half type); unauthored, Tide's own
+                    dtype = var.GetDataTypeAttr()
+                    if dtype.HasAuthoredValue():
+                        tok = str(dtype.Get() or "")
+                        if Sdf.ValueTypeNames.Find(tok):
+                            types[source] = tok
+                        else:
+                            self.problem(vpath, "dataType", "'%s' is not a value type; written "
+                                         "as 32-bit float" % tok)
                 if not vars_:
                     if prod.GetOrderedVarsRel().GetForwardedTargets():
                         self.problem(ppath, "orderedVars", "no AOV left to write; colour is "
                                      "written instead")
                     vars_ = ["color"]
-                products.append((str(ppath), name, vars_))
+                products.append((str(ppath), name, vars_, types))
         if not products:
-            products.append(("", "", ["color"]))
+            products.append(("", "", ["color"], {}))
         self.products = []
-        for ppath, name, vars_ in products:
+        for ppath, name, vars_, types in products:
             bound = []
             for source in vars_:
                 buf = BUFFER_ROOT + "/" + source.replace(":", "_")
@@ -1117,7 +1127,7 @@ class Reader:
                     b.set("format", ("token", AOVS[source]))
                     self._desired[buf] = b
                 bound.append((source, buf))
-            self.products.append(Product(ppath, name, bound))
+            self.products.append(Product(ppath, name, bound, types))
         if len(self.products) == len(products_):
             self.renders = [[self.products[i] for i in g] for g in self._render_groups]
         else:   # no valid product: the default one
