@@ -661,7 +661,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
             LightShape::Rect { width, height, .. } => !(*width > 0.0 && *height > 0.0 && width.is_finite() && height.is_finite()),
             LightShape::Disk { radius } => !(*radius > 0.0 && radius.is_finite()),
             LightShape::Cylinder { radius, length, treat_as_line } => !(*length > 0.0 && length.is_finite()) || (!treat_as_line && !(*radius > 0.0 && radius.is_finite())),
-            LightShape::Distant { angle_deg } => !(angle_deg.is_finite() && *angle_deg >= 0.0 && *angle_deg < 180.0),
+            LightShape::Distant { angle_deg } => !(angle_deg.is_finite() && *angle_deg >= 0.0 && *angle_deg <= 360.0),
             LightShape::Dome { texture } => texture.is_some_and(|t| t >= n_tex),
             // checked when the light is built (errors name the tide:sky attribute)
             LightShape::Sky { .. } | LightShape::SkySun { .. } => false,

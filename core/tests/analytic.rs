@@ -67,6 +67,35 @@ fn diffuse_plane_under_a_distant_light_has_radiance_albedo_e_cos_over_pi() {
     }
 }
 
+/// UsdLux's distant light at any angle in [0, 360]: normalized, a facing surface receives the
+/// intensity up to a hemisphere and intensity / (2 − sin²θmax) past it (the sizeFactor is
+/// ∫|cos| over the cap); a cone of a few arcseconds still lights (its power was lost to the
+/// rounding of 1 − cos²), normalized or not (π sin²θmax · intensity).
+#[test]
+fn a_distant_light_of_any_angle_gives_usdluxs_irradiance() {
+    let albedo = 0.5;
+    let e = 2.0;
+    for (angle, normalize) in [(0.01f32, true), (0.01, false), (0.02, true), (120.0, true), (180.0, true), (200.0, true), (270.0, true), (359.0, true), (200.0, false)] {
+        let mut s = SceneDesc::default();
+        s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
+        s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo; 3]) }, interior_medium: None });
+        s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.lights.push(light("/sun", LightShape::Distant { angle_deg: angle }, look_at(Vec3::ZERO, -Vec3::Y), e, normalize));
+        s.camera = camera(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 20.0);
+        let (w, h) = (8, 8);
+        let r = render(&s, settings(w, h, 64));
+        let half = (0.5 * angle as f64).to_radians();
+        let sin2 = half.sin().powi(2);
+        // the part of the cap above the plane: all of it up to 90°, a hemisphere beyond
+        let cosine_integral = std::f64::consts::PI * if half > std::f64::consts::FRAC_PI_2 { 1.0 } else { sin2 };
+        let size_factor = std::f64::consts::PI * if half > std::f64::consts::FRAC_PI_2 { 2.0 - sin2 } else { sin2 };
+        let irradiance = e as f64 * cosine_integral / if normalize { size_factor } else { 1.0 };
+        let expect = albedo as f64 * irradiance / std::f64::consts::PI;
+        let (m, se, _) = channel_stats(&r, 1, |_, _| true, w);
+        assert!((m - expect).abs() < 3.0 * se + 0.01 * expect, "angle {angle}, normalize {normalize}: {m} ± {se} vs {expect}");
+    }
+}
+
 fn busy_scene() -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(uv_sphere("/ball", 0.5, 16)));

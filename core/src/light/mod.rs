@@ -1034,9 +1034,11 @@ impl Light {
                     // delta light: intensity is the irradiance on a facing surface either way
                     scale
                 } else if desc.normalize {
-                    // ∫_cone cos dω = π sin²(half) (π beyond a hemisphere)
-                    let sin2 = if half >= 0.5 * PI { 1.0 } else { half.sin().powi(2) };
-                    scale / (PI * sin2)
+                    // UsdLux's sizeFactor: ∫_cone |cos| dω, π sin²(half) up to a hemisphere and
+                    // π (2 − sin²(half)) beyond, so that a facing surface receives the
+                    // intensity up to 90° and less past it
+                    let sin2 = half.sin().powi(2);
+                    scale / (PI * if half > 0.5 * PI { 2.0 - sin2 } else { sin2 })
                 } else {
                     scale
                 };
@@ -1354,9 +1356,10 @@ impl Light {
                 let irradiance = if d.one_minus_cos == 0.0 {
                     base
                 } else {
-                    // π sin²(half) = π (1 − cos²) for half ≤ 90°, π beyond
-                    let c = 1.0 - d.one_minus_cos;
-                    base * PI * if c > 0.0 { 1.0 - c * c } else { 1.0 }
+                    // π sin²(half) = π (1 − cos²) = π omc (2 − omc) for half ≤ 90° (without
+                    // the cancellation of 1 − cos² for a cone of a few arcseconds), π beyond
+                    let omc = d.one_minus_cos;
+                    base * PI * if omc < 1.0 { omc * (2.0 - omc) } else { 1.0 }
                 };
                 irradiance * PI * d.scene_radius * d.scene_radius
             }
