@@ -159,6 +159,11 @@ impl AspectConform {
 }
 
 impl Camera {
+    /// The aperture (width, height) after conforming to the image.
+    pub fn aperture(&self) -> Vec2 {
+        self.aperture
+    }
+
     /// Builds the camera for an image of `width`×`height` pixels with the given pixel aspect,
     /// its aperture expanded to the image's aspect. The description must be validated.
     pub fn new(desc: &CameraDesc, width: u32, height: u32, pixel_aspect: f32, disable_dof: bool, disable_motion: bool) -> Camera {

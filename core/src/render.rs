@@ -239,6 +239,25 @@ pub struct Renderer {
     camera_name: String,
 }
 
+/// The film's pixels (x0, y0, x1, y1; rows from the top, ends exclusive) inside a
+/// `dataWindowNDC` (xmin, ymin, xmax, ymax; y up): those whose centres lie in the window, as
+/// UsdRenderSettings defines, cut at the image. None when no pixel centre is inside.
+fn data_window(dw: [f32; 4], w: u32, h: u32) -> Option<[u32; 4]> {
+    if !(dw.iter().all(|v| v.is_finite()) && dw[2] > dw[0] && dw[3] > dw[1]) {
+        return None;
+    }
+    // centre (i + ½)/n ∈ [lo, hi]  ⇔  i ∈ [lo·n − ½, hi·n − ½]
+    let span = |lo: f32, hi: f32, n: u32| -> Option<(u32, u32)> {
+        let a = (lo as f64 * n as f64 - 0.5).ceil().max(0.0);
+        let b = ((hi as f64 * n as f64 - 0.5).floor() + 1.0).min(n as f64);
+        (b > a).then_some((a as u32, b as u32))
+    };
+    let (x0, x1) = span(dw[0], dw[2], w)?;
+    // y up: NDC y = 1 − (row + ½)/h
+    let (y0, y1) = span(1.0 - dw[3], 1.0 - dw[1], h)?;
+    Some([x0, y0, x1, y1])
+}
+
 impl Renderer {
     /// Validates the scene (problems are kept, see [`Renderer::problems`]) and builds the
     /// acceleration structures.
@@ -262,16 +281,17 @@ impl Renderer {
         let w = settings.width;
         let h = settings.height;
         let dw = settings.data_window_ndc;
-        let win = if dw.iter().all(|v| v.is_finite()) && dw[2] > dw[0] && dw[3] > dw[1] {
-            // dataWindowNDC has y up (0 at the bottom); the film's rows go down
-            let x0 = ((dw[0].clamp(0.0, 1.0) * w as f32).floor() as u32).min(w);
-            let x1 = ((dw[2].clamp(0.0, 1.0) * w as f32).ceil() as u32).min(w);
-            let y0 = (((1.0 - dw[3].clamp(0.0, 1.0)) * h as f32).floor() as u32).min(h);
-            let y1 = (((1.0 - dw[1].clamp(0.0, 1.0)) * h as f32).ceil() as u32).min(h);
-            [x0, y0, x1, y1]
-        } else {
-            problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "empty or invalid window; the whole image is rendered".into() });
-            [0, 0, w, h]
+        let win = match data_window(dw, w, h) {
+            Some(win) => {
+                if dw[0] < 0.0 || dw[1] < 0.0 || dw[2] > 1.0 || dw[3] > 1.0 {
+                    problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "overscan (a window past the image) is not rendered; the window is cut at the image".into() });
+                }
+                win
+            }
+            None => {
+                problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "empty or invalid window (no pixel centre inside); the whole image is rendered".into() });
+                [0, 0, w, h]
+            }
         };
         let mut film = crate::film::Film::new(w, h, win);
         film.scale = world.camera.exposure_scale;
@@ -569,7 +589,15 @@ impl Renderer {
                 h.push(("tide:caustics:diskRefit".into(), format!("{r:.6}")));
             }
         }
-        self.film.write_exr(path, aovs, &h, self.settings.pixel_aspect_ratio)
+        // adjustPixelAspectRatio keeps the aperture: the pixels' aspect is the one that fits it
+        let pixel_aspect = match self.settings.aspect_conform {
+            crate::camera::AspectConform::AdjustPixelAspectRatio => {
+                let ap = self.world.camera.aperture();
+                (ap.x / ap.y) * self.settings.height as f32 / self.settings.width as f32
+            }
+            _ => self.settings.pixel_aspect_ratio,
+        };
+        self.film.write_exr(path, aovs, &h, pixel_aspect)
     }
 
     /// The caustics state (None for the path integrator, or when no light casts caustics).
@@ -579,5 +607,26 @@ impl Renderer {
 
     pub fn stats(&self) -> RenderStats {
         self.stats.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// dataWindowNDC takes the pixels whose centres lie in the window (UsdRenderSettings), y up.
+    #[test]
+    fn the_data_window_holds_the_pixels_whose_centres_it_contains() {
+        assert_eq!(data_window([0.0, 0.0, 1.0, 1.0], 20, 10), Some([0, 0, 20, 10]));
+        // centres at (i + ½)/20: 0.28 → 5.1 → the first is 6, 0.72 → 13.9 → the last is 13
+        assert_eq!(data_window([0.28, 0.28, 0.72, 0.72], 20, 20), Some([6, 6, 14, 14]));
+        // y up: the window's bottom quarter is the film's last rows; a centre on the edge is in
+        assert_eq!(data_window([0.0, 0.0, 1.0, 0.25], 8, 8), Some([0, 6, 8, 8]));
+        assert_eq!(data_window([0.0, 0.0, 0.0625, 1.0], 8, 8), Some([0, 0, 1, 8]));
+        // between two centres: no pixel; past the image: cut at it
+        assert_eq!(data_window([0.0, 0.0, 0.05, 1.0], 8, 8), None);
+        assert_eq!(data_window([-0.25, -0.25, 1.25, 1.25], 20, 20), Some([0, 0, 20, 20]));
+        assert_eq!(data_window([0.5, 0.0, 0.5, 1.0], 8, 8), None);
+        assert_eq!(data_window([f32::NAN, 0.0, 1.0, 1.0], 8, 8), None);
     }
 }

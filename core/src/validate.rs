@@ -722,10 +722,6 @@ pub(crate) fn validate_camera(c: &mut CameraDesc, n_media: usize, p: &mut Vec<Pr
         problem(p, &cam_name, "fStop", "invalid depth of field; pinhole used");
         c.f_stop = 0.0;
     }
-    if !(c.shutter_open.is_finite() && c.shutter_close.is_finite()) || c.shutter_close < c.shutter_open {
-        problem(p, &cam_name, "shutter:close", "shutter closes before it opens; motion blur off");
-        c.shutter_close = c.shutter_open;
-    }
     for (v, attr, d) in [
         (&mut c.exposure_f_stop, "exposure:fStop", 1.0),
         (&mut c.exposure_time, "exposure:time", 1.0),
@@ -740,6 +736,17 @@ pub(crate) fn validate_camera(c: &mut CameraDesc, n_media: usize, p: &mut Vec<Pr
     if !c.exposure.is_finite() {
         problem(p, &cam_name, "exposure", "non-finite; using 0");
         c.exposure = 0.0;
+    }
+    if !(c.shutter_open.is_finite() && c.shutter_close.is_finite()) {
+        problem(p, &cam_name, "shutter:close", "non-finite shutter; motion blur off");
+        c.shutter_open = 0.0;
+        c.shutter_close = 0.0;
+    } else if c.shutter_close < c.shutter_open {
+        // UsdGeomCamera: a shutter that closes before it opens exposes nothing, and a renderer
+        // should produce a black image
+        problem(p, &cam_name, "shutter:close", "the shutter closes before it opens: nothing is exposed and the image is black");
+        c.shutter_close = c.shutter_open;
+        c.exposure = f32::NEG_INFINITY;
     }
     if c.transforms.is_empty() || !c.transforms.iter().all(mat_ok) || c.times.len() != c.transforms.len() {
         problem(p, &cam_name, "xformOp", "invalid camera transform; identity used");

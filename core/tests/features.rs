@@ -194,3 +194,38 @@ fn a_closed_mesh_invisible_to_the_camera_is_not_seen_from_either_side() {
         assert!((m - 1.0).abs() < 3.0 * se + 0.005, "channel {ch}: {m} ± {se}");
     }
 }
+
+/// UsdGeomCamera: a shutter that closes before it opens exposes nothing: the image is black
+/// (and the problem is named); the same camera with its shutter the right way round sees the
+/// dome. With `adjustPixelAspectRatio` the EXR records the pixel aspect that fits the aperture,
+/// not the settings' own.
+#[test]
+fn a_shutter_closing_before_it_opens_renders_black() {
+    let mut s = SceneDesc::default();
+    s.lights.push(dome(1.0));
+    s.camera = camera(Vec3::ZERO, -Vec3::Z, 40.0);
+    s.camera.shutter_open = 0.25;
+    s.camera.shutter_close = -0.25;
+    let r = render(&s, settings(4, 4, 2));
+    assert!(r.aov_pixels(Aov::Color).iter().all(|&v| v == 0.0));
+    assert!(r.problems().iter().any(|p| p.attribute == "shutter:close" && p.message.contains("black")), "{:?}", r.problems());
+    s.camera.shutter_close = 0.5;
+    let r = render(&s, settings(4, 4, 16));
+    for ch in 0..3 {
+        let (m, se, _) = channel_stats(&r, ch, |_, _| true, 4);
+        assert!((m - 1.0).abs() < 3.0 * se + 0.01, "channel {ch}: {m} ± {se}");
+    }
+
+    // a 36 × 24 aperture on a square image: pixels 1.5 wide for 1 high
+    s.camera.horizontal_aperture = 36.0;
+    s.camera.vertical_aperture = 24.0;
+    let mut st = settings(4, 4, 1);
+    st.aspect_conform = tide_core::camera::AspectConform::AdjustPixelAspectRatio;
+    st.pixel_aspect_ratio = 2.0;
+    let r = render(&s, st);
+    let path = std::env::temp_dir().join(format!("tide-par-{}.exr", std::process::id()));
+    r.write_exr(&path, &[Aov::Color], &[]).unwrap();
+    let img = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+    std::fs::remove_file(&path).unwrap();
+    assert!((img.attributes.pixel_aspect - 1.5).abs() < 1e-6, "{}", img.attributes.pixel_aspect);
+}

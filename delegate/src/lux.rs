@@ -584,12 +584,9 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         "underwaterRed" => CameraFilter::UnderwaterRed,
         _ => CameraFilter::None,
     };
+    // a shutter closing before it opens goes to the renderer as authored: it renders black
     let shutter_open = store.f32_or("shutter:open", 0.0, p);
-    let mut shutter_close = store.f32_or("shutter:close", 0.0, p);
-    if shutter_close < shutter_open {
-        p.add("shutter:close", format!("close ({}) is before open ({}); using open", shutter_close, shutter_open));
-        shutter_close = shutter_open;
-    }
+    let shutter_close = store.f32_or("shutter:close", 0.0, p);
     let desc = CameraDesc {
         name: path.into(),
         transforms: vec![Mat4::IDENTITY],

@@ -7,6 +7,7 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from conftest import bind, camera, floats, load, matrix, preview_material, settings
+from tide import fake
 
 
 def _quad(stage, path, orientation=None):
@@ -240,6 +241,66 @@ def test_included_purposes_from_settings(stage, delegate):
     s.CreateIncludedPurposesAttr(["default", "proxy"])
     load(stage, delegate)
     assert sorted(delegate.of_type("sphere")) == ["/Default", "/Proxy"]
+
+
+def test_cameras_and_lights_are_not_chosen_by_purpose_and_cameras_not_by_visibility(stage, delegate):
+    # includedPurposes chooses geometry (UsdRenderSettings: "which geometry is present"; in
+    # Hydra render tags filter rprims only): a guide-purpose camera, a camera under an invisible
+    # parent and a light of the default purpose all stay when only guides are included, while
+    # an invisible light is off
+    camera(stage, "/Hidden/Cam")
+    UsdGeom.Imageable(stage.GetPrimAtPath("/Hidden")).CreateVisibilityAttr("invisible")
+    camera(stage, "/GuideCam").GetPrim().GetAttribute("purpose").Set("guide")
+    UsdLux.DomeLight.Define(stage, "/Dome")
+    UsdLux.SphereLight.Define(stage, "/Off").CreateVisibilityAttr("invisible")
+    UsdGeom.Sphere.Define(stage, "/Ball")
+    UsdGeom.Sphere.Define(stage, "/Guide").CreatePurposeAttr("guide")
+    s = settings(stage, cam="/Hidden/Cam")
+    s.CreateIncludedPurposesAttr(["guide"])
+    reader, problems = load(stage, delegate)
+    assert reader.camera_path == "/Hidden/Cam"
+    assert {"/Hidden/Cam", "/GuideCam"} <= set(delegate.of_type("camera"))
+    assert "/Dome" in delegate.prims and "/Off" not in delegate.prims
+    assert sorted(delegate.of_type("sphere")) == ["/Guide"]
+    assert not [p for p in problems if "camera" in p[1]], problems
+
+
+def test_material_binding_purposes_of_the_settings(stage, delegate):
+    # UsdRenderSettings.materialBindingPurposes: the first purpose in the list with a binding
+    # wins, "" being the all-purpose binding (default ["full", ""])
+    camera(stage)
+    mats = {k: preview_material(stage, "/Looks/" + k) for k in ("Full", "Preview", "All")}
+    s = UsdGeom.Sphere.Define(stage, "/S")
+    api = UsdShade.MaterialBindingAPI.Apply(s.GetPrim())
+    api.Bind(mats["Full"], UsdShade.Tokens.fallbackStrength, UsdShade.Tokens.full)
+    api.Bind(mats["Preview"], UsdShade.Tokens.fallbackStrength, UsdShade.Tokens.preview)
+    api.Bind(mats["All"])
+    t = UsdGeom.Sphere.Define(stage, "/T")
+    UsdShade.MaterialBindingAPI.Apply(t.GetPrim()).Bind(mats["All"])
+    rs = settings(stage)
+    for purposes, want_s, want_t in ((None, "Full", "All"), (["preview", ""], "Preview", "All"),
+                                     ([""], "All", "All"), (["preview"], "Preview", None),
+                                     (["full"], "Full", None)):
+        d = fake.RenderDelegate()
+        if purposes is not None:
+            rs.CreateMaterialBindingPurposesAttr(purposes)
+        load(stage, d)
+        assert d.value("/S", "material") == ("path", "/Looks/" + want_s), purposes
+        assert d.value("/T", "material") == ("path", "/Looks/" + want_t if want_t else ""), \
+            purposes
+
+
+def test_instantaneous_shutter_and_clipping_planes(stage, delegate):
+    # instantaneousShutter (deprecated) closes the shutter as it opens; clipping planes are
+    # named as not supported
+    _moving_sphere(stage)
+    cam = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))
+    cam.CreateClippingPlanesAttr([Gf.Vec4f(1, 0, 0, 0)])
+    settings(stage).CreateInstantaneousShutterAttr(True)
+    _, problems = load(stage, delegate, frame=0)
+    assert delegate.value("/Cam", "shutter:close") == delegate.value("/Cam", "shutter:open")
+    assert len(delegate.samples("/S", "transform")) == 1
+    assert [p for p in problems if p[0] == "/Cam" and p[1] == "clippingPlanes"], problems
 
 
 def _moving_sphere(stage, open_=-0.25, close=0.25):

@@ -651,9 +651,10 @@ class Reader:
             self._skel_sources = set()
         self._desired = desired
         self._skinning = skel.Skinning(self.stage, self.problem)
-        placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None))
+        placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None),
+                  getattr(self, "_binding_purposes", None))
         self._eval_settings()
-        if not full and placed != (self._motion, self._shutter):
+        if not full and placed != (self._motion, self._shutter, self._binding_purposes):
             # the shutter (or motion blur) changed: every prim's samples over it are taken anew
             return self._sync(None)
         self._groups = {}
@@ -772,10 +773,16 @@ class Reader:
         if img:
             self._check_imageable_tokens(prim, img)
             if img.ComputeVisibility(self._time(0)) == UsdGeom.Tokens.invisible:
+                # visibility hides geometry and lights; a camera is looked through all the same
+                for p in Usd.PrimRange(prim, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
+                    if p.IsA(UsdGeom.Camera):
+                        self._eval_camera(p)
                 it.PruneChildren()
                 return
             ok, _ = self._included(img)
-            if not ok:
+            # includedPurposes chooses geometry (Hydra's render tags): cameras and lights are
+            # read whatever their purpose
+            if not ok and not (prim.IsA(UsdGeom.Camera) or type_name in LIGHTS):
                 # not drawn, but a descendant that authors its own purpose may be (an
                 # authored purpose overrides the inherited one); an instancer's prototypes
                 # are drawn only through it
@@ -965,9 +972,17 @@ class Reader:
                                                              "expandAperture"))))
         st.set("dataWindowNDC", _floats(list(base("dataWindowNDC", Gf.Vec4f(0, 0, 1, 1))), 4))
         dmb = bool(base("disableMotionBlur", False))
+        self._instantaneous = bool(get(settings.GetInstantaneousShutterAttr() if settings
+                                       else None, False))
         ddof = bool(base("disableDepthOfField", False))
         st.set("disableMotionBlur", ("bool", dmb))
         st.set("disableDepthOfField", ("bool", ddof))
+        binding = [str(t) for t in get(settings.GetMaterialBindingPurposesAttr() if settings
+                                       else None, ["full", ""])]
+        for t in binding:
+            if t not in ("full", "preview", ""):
+                self.problem(spath, "materialBindingPurposes", "unknown purpose '%s'; ignored" % t)
+        self._binding_purposes = [t for t in binding if t in ("full", "preview", "")]
         purposes = list(get(settings.GetIncludedPurposesAttr() if settings else None,
                             ["default", "render"]))
         self._purposes = set(purposes)
@@ -1050,8 +1065,9 @@ class Reader:
             hi = c.GetShutterCloseAttr().Get(self._time(0))
             lo = 0.0 if lo is None else float(lo)
             hi = 0.0 if hi is None else float(hi)
-            if hi < lo:
-                self.problem(cam.GetPath(), "shutter:close", "shutter closes before it opens")
+            # closing before it opens, the camera sees nothing (the renderer reports it and
+            # renders black); instantaneousShutter (deprecated) closes it as it opens
+            if hi < lo or self._instantaneous:
                 hi = lo
             self._shutter = (lo, hi)
         self._motion = (not dmb) and self._shutter[1] > self._shutter[0]
@@ -1141,9 +1157,12 @@ class Reader:
 
     def _material_for(self, prim):
         api = UsdShade.MaterialBindingAPI(prim)
-        mat, rel = api.ComputeBoundMaterial(UsdShade.Tokens.full)
-        if mat:
-            return str(self._eval_material(mat.GetPrim()))
+        # the settings' materialBindingPurposes in order; "" is the all-purpose binding (a
+        # purpose's own resolution falls back to it, taken only where "" is listed)
+        for purpose in self._binding_purposes:
+            mat, rel = api.ComputeBoundMaterial(purpose or UsdShade.Tokens.allPurpose)
+            if mat and (not purpose or _binding_purpose(rel) == purpose):
+                return str(self._eval_material(mat.GetPrim()))
         direct = prim.GetRelationship("material:binding")
         if direct and direct.GetTargets():
             target = direct.GetTargets()[0]
@@ -2367,6 +2386,8 @@ class Reader:
         st.set("transform", None, self._xform_samples(self._world(prim), [prim]))
         for name, fb in CAMERA_ATTRS.items():
             v = self._attr(prim, name, fb)
+            if name == "shutter:close" and self._instantaneous:
+                v = self._attr(prim, "shutter:open", 0.0)
             if name in ("focalLength", "horizontalAperture", "verticalAperture"):
                 if not (math.isfinite(v) and v > 0):
                     self.problem(path, name, "%s = %r must be positive; using %r" % (name, v, fb))
@@ -2381,6 +2402,9 @@ class Reader:
                 st.set(name, _floats(list(v), len(fb)))
             else:
                 st.set(name, ("float", float(v)))
+        planes = UsdGeom.Camera(prim).GetClippingPlanesAttr().Get(self._time(0))
+        if planes:
+            self.problem(path, "clippingPlanes", "clipping planes are not supported; ignored")
         rel = prim.GetRelationship("tide:medium")
         targets = rel.GetForwardedTargets() if rel else []
         if targets:
@@ -2390,6 +2414,15 @@ class Reader:
             else:
                 self.problem(path, "tide:medium", "%s is not a material" % targets[0])
         self._desired[path] = st
+
+
+def _binding_purpose(rel):
+    """The material purpose of a binding relationship (material:binding:full, or a
+    collection's material:binding:collection:full:NAME); "" for an all-purpose one."""
+    parts = rel.GetName().split(":") if rel else []
+    if parts[2:3] == ["collection"]:
+        return parts[3] if len(parts) > 4 else ""
+    return parts[2] if len(parts) > 2 else ""
 
 
 def open_stage(path):
