@@ -166,6 +166,7 @@ DirtyBits ChangeTracker::BitsForKey(const std::string& typeId, const std::string
         key == "orientation" || key == "subdivisionScheme" || key == "curveVertexCounts" ||
         key == "interpolateBoundary" || key.rfind("crease", 0) == 0 || key.rfind("corner", 0) == 0 ||
         key == "displayStyle:refineLevel" || key == "faceVaryingLinearInterpolation" ||
+        key == "triangleSubdivisionRule" ||
         (typeId == "basisCurves" && (key == "type" || key == "basis" || key == "wrap")))
         return DirtyTopology;
     if (key == "material") return DirtyMaterialId;

@@ -320,6 +320,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
                 _Put("interpolateBoundary", VtValue(tags.GetVertexInterpolationRule()));
             if (!tags.GetFaceVaryingInterpolationRule().IsEmpty())
                 _Put("faceVaryingLinearInterpolation", VtValue(tags.GetFaceVaryingInterpolationRule()));
+            if (!tags.GetTriangleSubdivision().IsEmpty())
+                _Put("triangleSubdivisionRule", VtValue(tags.GetTriangleSubdivision()));
             _Put("creaseIndices", VtValue(tags.GetCreaseIndices()));
             _Put("creaseLengths", VtValue(tags.GetCreaseLengths()));
             _Put("creaseSharpnesses", VtValue(tags.GetCreaseWeights()));

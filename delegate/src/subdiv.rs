@@ -61,6 +61,10 @@ pub const REFINE_ATTR: &str = "displayStyle:refineLevel";
 pub const MAX_LEVEL: u32 = 6;
 /// A crease or corner sharpness from which on the feature is sharp at every level.
 pub const INFINITELY_SHARP: f32 = 10.0;
+/// A triangle's face-point weight in a smooth edge point under the smooth triangle rule
+/// (OpenSubdiv's `TRI_SUB_SMOOTH`, in place of ¼).
+const SMOOTH_TRIANGLE_EDGE_WEIGHT: f64 = 0.47;
+
 /// At most this many refined faces per mesh (about 4 million quads, 8 million triangles; the
 /// refinement peaks near 0.6 kB per refined face): a higher level is lowered (with a problem).
 const MAX_REFINED_FACES: u64 = 1 << 22;
@@ -122,13 +126,16 @@ pub struct Options {
     /// Corner points and their sharpness.
     pub corners: Vec<(u32, f32)>,
     pub face_varying: FaceVarying,
+    /// `triangleSubdivisionRule = smooth`: edge points next to triangles take OpenSubdiv's
+    /// smooth-triangle weights (Catmull-Clark only).
+    pub smooth_triangles: bool,
 }
 
 impl Options {
     /// Smooth Catmull-Clark at `level` with USD's fallbacks (no creases, `edgeAndCorner`,
     /// `cornersPlus1`).
     pub fn catmull_clark(level: u32) -> Options {
-        Options { scheme: Scheme::CatmullClark, level, boundary: Boundary::EdgeAndCorner, creases: Vec::new(), corners: Vec::new(), face_varying: FaceVarying::CornersPlus1 }
+        Options { scheme: Scheme::CatmullClark, level, boundary: Boundary::EdgeAndCorner, creases: Vec::new(), corners: Vec::new(), face_varying: FaceVarying::CornersPlus1, smooth_triangles: false }
     }
 }
 
@@ -192,7 +199,8 @@ pub fn read_options(store: &AttrStore, scheme: &str, counts: &[i32], n_points: u
     let fv = store.token_or("faceVaryingLinearInterpolation", &FACE_VARYING_TOKENS, "cornersPlus1", p);
     let face_varying = [FaceVarying::None, FaceVarying::CornersOnly, FaceVarying::CornersPlus1, FaceVarying::CornersPlus2, FaceVarying::Boundaries, FaceVarying::All]
         [FACE_VARYING_TOKENS.iter().position(|t| *t == fv).unwrap_or(2)];
-    Some(Options { scheme, level, boundary, creases, corners, face_varying })
+    let smooth_triangles = scheme == Scheme::CatmullClark && store.token_or("triangleSubdivisionRule", &["catmullClark", "smooth"], "catmullClark", p) == "smooth";
+    Some(Options { scheme, level, boundary, creases, corners, face_varying, smooth_triangles })
 }
 
 /// The faces (of `counts` corners, indexing `indices` into `n_points` points) that touch the
@@ -664,7 +672,10 @@ impl Topo {
 
     /// The Catmull-Clark edge point: the midpoint on a sharp edge, the average of the end
     /// points and the two face points on a smooth one, blended by a sharpness in (0, 1).
-    fn edge_point(&self, e: usize, out: &mut impl FnMut(u32, f64)) {
+    /// With `smooth_triangles` (USD's `triangleSubdivisionRule = smooth`, OpenSubdiv's smooth
+    /// triangle option) a triangle's face point weighs 0.47 instead of ¼ in the smooth rule:
+    /// both face points take the mean of their faces' weights, the end points what is left.
+    fn edge_point(&self, e: usize, smooth_triangles: bool, out: &mut impl FnMut(u32, f64)) {
         let [a, b] = self.edges[e];
         let faces = self.edge_faces.get(e);
         let sharp = if faces.len() == 2 { (self.edge_sharp[e] as f64).clamp(0.0, 1.0) } else { 1.0 };
@@ -672,10 +683,13 @@ impl Topo {
         out(b, 0.5 * sharp);
         if sharp < 1.0 {
             let w = 1.0 - sharp;
-            out(a, 0.25 * w);
-            out(b, 0.25 * w);
+            let face_weight = |f: u32| if smooth_triangles && self.face(f as usize).len() == 3 { SMOOTH_TRIANGLE_EDGE_WEIGHT } else { 0.25 };
+            let fw = faces.iter().map(|&f| face_weight(f)).sum::<f64>() / faces.len() as f64;
+            let vw = 0.5 * (1.0 - 2.0 * fw);
+            out(a, vw * w);
+            out(b, vw * w);
             for &f in faces {
-                self.face_point(f as usize, 0.25 * w, out);
+                self.face_point(f as usize, fw * w, out);
             }
         }
     }
@@ -773,12 +787,12 @@ impl Topo {
 
     /// This control level refined `level` times by `scheme`, and the stencil giving its
     /// vertices over the control vertices (at their limit for Catmull-Clark).
-    fn refined(self, level: u32, scheme: Scheme) -> (Topo, Stencil) {
+    fn refined(self, level: u32, scheme: Scheme, smooth_triangles: bool) -> (Topo, Stencil) {
         let n = self.n_verts;
         let mut topo = self;
         let mut rows: Option<Stencil> = None;
         for _ in 0..level {
-            let next = topo.refine_rows(rows.as_ref(), scheme, n);
+            let next = topo.refine_rows(rows.as_ref(), scheme, n, smooth_triangles);
             topo = topo.refine();
             rows = Some(next);
         }
@@ -791,7 +805,7 @@ impl Topo {
 
     /// The next level's vertices as rows over the control points: vertex points (child of
     /// vertex v is v), then face points, then edge points.
-    fn refine_rows(&self, prev: Option<&Stencil>, scheme: Scheme, n_control: usize) -> Stencil {
+    fn refine_rows(&self, prev: Option<&Stencil>, scheme: Scheme, n_control: usize, smooth_triangles: bool) -> Stencil {
         let (nv, nf, ne) = (self.n_verts, self.n_faces(), self.edges.len());
         let per_row = prev.map_or(1, |s| s.weights.len().div_ceil(s.len().max(1)));
         let mut out = Stencil::empty(n_control, nv + nf + ne, (nv + nf + ne) * (per_row + 4));
@@ -823,7 +837,7 @@ impl Topo {
         }
         for e in 0..ne {
             match scheme {
-                Scheme::CatmullClark => self.edge_point(e, &mut |u, w| push(&mut mask, u, w)),
+                Scheme::CatmullClark => self.edge_point(e, smooth_triangles, &mut |u, w| push(&mut mask, u, w)),
                 Scheme::Bilinear => {
                     let [a, b] = self.edges[e];
                     push(&mut mask, a, 0.5);
@@ -942,7 +956,7 @@ pub fn refine(counts: &[i32], indices: &[i32], points: &[Vec3], opts: &Options, 
         child_offsets.push(child_offsets.last().copied().unwrap_or(0) + m * descendants);
     }
 
-    let (topo, stencil) = Topo::from_cage(n, &ranges, indices, opts, p).refined(level, opts.scheme);
+    let (topo, stencil) = Topo::from_cage(n, &ranges, indices, opts, p).refined(level, opts.scheme, opts.smooth_triangles);
     let points = stencil.apply_vec3(points);
     let face_vertex_indices = topo.face_verts.iter().map(|&v| v as i32).collect();
 
@@ -1051,7 +1065,7 @@ impl Refinement {
             }
             ranges.push(r);
         }
-        let (t, stencil) = self.value_mesh(owner.len(), &ranges, &fv_indices, &owner).refined(self.level, Scheme::CatmullClark);
+        let (t, stencil) = self.value_mesh(owner.len(), &ranges, &fv_indices, &owner).refined(self.level, Scheme::CatmullClark, self.opts.smooth_triangles);
         let refined = stencil.apply(&values, tuple);
         for (corner, &v) in t.face_verts.iter().enumerate() {
             out[corner * tuple..(corner + 1) * tuple].copy_from_slice(&refined[v as usize * tuple..(v as usize + 1) * tuple]);
@@ -1077,7 +1091,7 @@ impl Refinement {
         let pinned: HashMap<i32, f32> = self.opts.corners.iter().map(|&(v, s)| (v as i32, s)).collect();
         let corners = (0..n).filter_map(|i| pinned.get(&owner[i]).map(|&s| (i as u32, s))).collect();
         let boundary = if rule == FaceVarying::None { Boundary::EdgeOnly } else { Boundary::EdgeAndCorner };
-        let opts = Options { scheme: Scheme::CatmullClark, level: self.level, boundary, creases, corners, face_varying: rule };
+        let opts = Options { scheme: Scheme::CatmullClark, level: self.level, boundary, creases, corners, face_varying: rule, smooth_triangles: self.opts.smooth_triangles };
         let mut t = Topo::from_cage(n, ranges, fv, &opts, &mut Problems::new(""));
         // values per point (junctions: 3 or more), and the points on the mesh's own boundary
         let mut per_point: HashMap<i32, u32> = HashMap::new();

@@ -119,11 +119,17 @@ def test_face_varying_primvars_are_smooth_by_default(renderer):
     assert 0.59 < centre("all") <= 0.6
 
 
-def test_an_unsupported_triangle_rule_is_reported(stage, delegate):
-    # OpenSubdiv's smooth triangle rule is not implemented: said, not silently ignored
+def test_the_triangle_rule_reaches_the_delegate(stage, delegate):
+    # triangleSubdivisionRule is sent as authored (the delegate's refinement applies it); an
+    # unknown token is named and read as catmullClark
     from conftest import load
     camera(stage)
     _cube(stage, 2)
-    UsdGeom.Mesh(stage.GetPrimAtPath("/Cube")).CreateTriangleSubdivisionRuleAttr("smooth")
+    rule = UsdGeom.Mesh(stage.GetPrimAtPath("/Cube")).CreateTriangleSubdivisionRuleAttr("smooth")
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.value("/Cube", "triangleSubdivisionRule") == ("token", "smooth")
+    rule.Set("loopy")
     _, problems = load(stage, delegate)
     assert [(p.prim, p.attribute) for p in problems] == [("/Cube", "triangleSubdivisionRule")]
+    assert delegate.value("/Cube", "triangleSubdivisionRule") == ("token", "catmullClark")

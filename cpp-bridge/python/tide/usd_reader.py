@@ -121,6 +121,7 @@ ALLOWED_TOKENS = {
     "subdivisionScheme": ("catmullClark", "loop", "bilinear", "none"),
     "axis": ("X", "Y", "Z"),
     "interpolateBoundary": ("edgeAndCorner", "edgeOnly", "none"),
+    "triangleSubdivisionRule": ("catmullClark", "smooth"),
     "light:materialSyncMode": ("materialGlowTintsLight", "independent", "noMaterialResponse"),
     "type": ("linear", "cubic"),
     "basis": ("bezier", "bspline", "catmullRom", "hermite"),
@@ -1436,10 +1437,7 @@ class Reader:
         st.set("holeIndices", _ints(mesh.GetHoleIndicesAttr().Get(t) or []))
         self._token(prim, st, "orientation", "rightHanded")
         scheme = self._token(prim, st, "subdivisionScheme", "catmullClark")
-        rule = mesh.GetTriangleSubdivisionRuleAttr()
-        if scheme == "catmullClark" and rule.HasAuthoredValue() and rule.Get(t) == "smooth":
-            self.problem(prim.GetPath(), "triangleSubdivisionRule", "'smooth' is not supported; "
-                         "triangles subdivide by Catmull-Clark's own rule")
+        self._token(prim, st, "triangleSubdivisionRule", "catmullClark")
         # subdivision tags (used where `tide:subdivision:level`, or the refinement asked for
         # where it is not authored, refines the mesh)
         if self.options.refine_level:

@@ -861,3 +861,63 @@ fn face_varying_rules_pin_corners_junctions_darts_and_boundaries() {
     let (r, fv) = refine(CornersPlus1, &dart);
     assert!((at_control_corner(&r, &fv, 0, 2) - Vec2::new(1.0, 1.5)).length() > 0.05, "{}", at_control_corner(&r, &fv, 0, 2));
 }
+
+/// `triangleSubdivisionRule = smooth` (OpenSubdiv's smooth triangle option): in a smooth edge
+/// point each adjacent triangle's face point weighs 0.47 instead of ¼, both face points take
+/// the mean of their faces' weights and the end points share what is left; edges between quads
+/// keep Catmull-Clark's own rule, and nothing changes without the option.
+#[test]
+fn the_smooth_triangle_rule_reweights_edge_points_next_to_triangles() {
+    // a square pyramid: four triangles about the apex 4 and a quad base
+    let counts = [3, 3, 3, 3, 4];
+    let idx = [0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4, 0, 3, 2, 1];
+    let ranges: Vec<Range<usize>> = vec![0..3, 3..6, 6..9, 9..12, 12..16];
+    let opts = Options::catmull_clark(1);
+    let topo = Topo::from_cage(5, &ranges, &idx, &opts, &mut Problems::new(""));
+    let weights = |smooth: bool| -> Vec<Vec<f64>> {
+        let rows = topo.refine_rows(None, Scheme::CatmullClark, 5, smooth);
+        (0..5).map(|k| rows.apply(&(0..5).map(|i| (i == k) as u32 as f32).collect::<Vec<_>>(), 1).iter().map(|&w| w as f64).collect()).collect()
+    };
+    let (plain, smooth) = (weights(false), weights(true));
+    let (nv, nf) = (5, counts.len());
+    for (e, &[a, b]) in topo.edges.iter().enumerate() {
+        let row = nv + nf + e;
+        let faces: Vec<usize> = topo.edge_faces.get(e).iter().map(|&f| f as usize).collect();
+        let tri = |f: usize| counts[f] == 3;
+        // expected weights over the control points, from the rule's definition: face points
+        // of weight fw each, the end points (1 − 2 fw)/2 each
+        let want = |fw: f64| {
+            let mut w = [0.0f64; 5];
+            w[a as usize] += 0.5 * (1.0 - 2.0 * fw);
+            w[b as usize] += 0.5 * (1.0 - 2.0 * fw);
+            for &f in &faces {
+                for &v in &idx[ranges[f].clone()] {
+                    w[v as usize] += fw / counts[f] as f64;
+                }
+            }
+            w
+        };
+        // 0.47 between two triangles, (0.47 + 0.25)/2 between a triangle and the quad
+        let fw = if faces.iter().all(|&f| tri(f)) { 0.47 } else { 0.36 };
+        for k in 0..5 {
+            assert!((smooth[k][row] - want(fw)[k]).abs() < 1e-6, "edge {a}-{b}, point {k}: {} vs {}", smooth[k][row], want(fw)[k]);
+            assert!((plain[k][row] - want(0.25)[k]).abs() < 1e-6, "edge {a}-{b}, point {k}: {} vs {}", plain[k][row], want(0.25)[k]);
+        }
+    }
+    // vertex and face points are the same either way
+    for k in 0..5 {
+        assert_eq!(plain[k][..nv + nf], smooth[k][..nv + nf]);
+    }
+    // the mesh's token turns the option on (Catmull-Clark only); an unknown one is named
+    let mut s = AttrStore::default();
+    put(&mut s, LEVEL_ATTR, Value::Int(1));
+    let rule = |s: &mut AttrStore, t: &str, scheme: &str| {
+        put(s, "triangleSubdivisionRule", Value::Token(t.into()));
+        let mut p = Problems::new("/m");
+        (read_options(s, scheme, &counts, 5, &mut p).map(|o| o.smooth_triangles), p.list.len())
+    };
+    assert_eq!(rule(&mut s, "smooth", "catmullClark"), (Some(true), 0));
+    assert_eq!(rule(&mut s, "catmullClark", "catmullClark"), (Some(false), 0));
+    assert_eq!(rule(&mut s, "smooth", "bilinear"), (Some(false), 0));
+    assert_eq!(rule(&mut s, "loopy", "catmullClark"), (Some(false), 1));
+}
