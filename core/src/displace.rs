@@ -37,7 +37,12 @@ impl Lookups for AtVertex<'_> {
     }
 
     fn primvar(&self, l: &PrimvarLookup) -> [f32; 4] {
-        let v = self.mesh.primvars.iter().find(|p| p.name == l.name).map_or(l.fallback, |p| p.element(self.v));
+        let v = if self.mesh.uvs_answer(&l.name) {
+            let uv = self.uv();
+            [uv.x, uv.y, 0.0, 0.0]
+        } else {
+            self.mesh.primvars.iter().find(|p| p.name == l.name).map_or(l.fallback, |p| p.element(self.v))
+        };
         std::array::from_fn(|k| v[k] * l.scale[k])
     }
 

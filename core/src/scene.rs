@@ -493,6 +493,10 @@ pub struct MeshDesc {
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates.
     pub uvs: Option<Vec<Vec2>>,
+    /// The primvar `uvs` was read from (`st`, `st0` or `uv`): a primvar reader of that name
+    /// reads `uvs`. None for coordinates made by Tide (implicit shapes, curves), which answer
+    /// every one of [`UV_PRIMVAR_NAMES`].
+    pub uv_name: Option<String>,
     /// Other primvars, per vertex or constant, for materials that read them.
     pub primvars: Vec<PrimvarData>,
     /// Rendered from both sides (affects only the facing test of one-sided emitters/culling).
@@ -501,6 +505,20 @@ pub struct MeshDesc {
     /// and `normals` above stay the pose at time 0 (used where a single pose is needed:
     /// emissive triangles, the water's top).
     pub motion: Option<MeshMotion>,
+}
+
+/// The primvar names texture coordinates are looked for under, in order.
+pub const UV_PRIMVAR_NAMES: [&str; 3] = ["st", "st0", "uv"];
+
+impl MeshDesc {
+    /// Whether a primvar reader of `name` reads this mesh's own texture coordinates.
+    pub fn uvs_answer(&self, name: &str) -> bool {
+        self.uvs.is_some()
+            && match &self.uv_name {
+                Some(n) => n == name,
+                None => UV_PRIMVAR_NAMES.contains(&name),
+            }
+    }
 }
 
 /// The keys of a deforming mesh: the same vertices (and triangles) at increasing times. A

@@ -23,12 +23,13 @@ pub fn transform_st(l: &TexLookup, st: Vec2) -> Vec2 {
     l.transform.transform_point2(st)
 }
 
-/// The texel values (4 channels; missing ones filled: grey → RGB, alpha → 1) at (x, y).
+/// The texel values (4 channels; missing ones filled: grey → RGB, alpha → 1) at (x, y); black
+/// (zero, alpha included) outside the image under `black` wrapping, as UsdUVTexture says.
 #[inline]
-fn texel(t: &TextureDesc, x: i64, y: i64, fallback: &[f32; 4]) -> [f32; 4] {
+fn texel(t: &TextureDesc, x: i64, y: i64) -> [f32; 4] {
     let (w, h) = (t.width as i64, t.height as i64);
     let (Some(x), Some(y)) = (wrap_coord(x, w, t.wrap_s), wrap_coord(y, h, t.wrap_t)) else {
-        return *fallback;
+        return [0.0; 4];
     };
     let c = t.channels as usize;
     let i = (y as usize * t.width as usize + x as usize) * c;
@@ -61,10 +62,10 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (xi, yi) = (x0 as i64, y0 as i64);
-    let a = texel(t, xi, yi, &l.fallback);
-    let b = texel(t, xi + 1, yi, &l.fallback);
-    let c = texel(t, xi, yi + 1, &l.fallback);
-    let d = texel(t, xi + 1, yi + 1, &l.fallback);
+    let a = texel(t, xi, yi);
+    let b = texel(t, xi + 1, yi);
+    let c = texel(t, xi, yi + 1);
+    let d = texel(t, xi + 1, yi + 1);
     std::array::from_fn(|k| {
         let v = (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
         v * l.tex_scale[k] + l.bias[k]
@@ -124,9 +125,10 @@ mod tests {
         assert_eq!(lookup_rgb(&t, &l, Vec2::new(0.25, 0.25)), [0.0, 0.0, 1.0]);
         // repeat: one period further is the same texel
         assert_eq!(lookup_rgb(&t, &l, Vec2::new(1.25, -0.75)), [0.0, 0.0, 1.0]);
-        // black wrap reads the fallback outside [0, 1]
+        // black wrap reads black outside [0, 1] (UsdUVTexture: "returns black outside unit
+        // square"), not the fallback, which is for a texture that cannot be read
         let tb = [tex(Wrap::Black)];
-        assert_eq!(lookup_rgb(&tb, &l, Vec2::new(-3.0, 0.5)), [0.5, 0.5, 0.5]);
+        assert_eq!(lookup_rgb(&tb, &l, Vec2::new(-3.0, 0.5)), [0.0, 0.0, 0.0]);
         // midway between red and green: bilinear average
         let m = lookup_rgb(&t, &l, Vec2::new(0.5, 0.75));
         assert!((m[0] - 0.5).abs() < 1e-6 && (m[1] - 0.5).abs() < 1e-6);

@@ -1006,6 +1006,12 @@ impl World {
     /// where there is no such primvar.
     pub fn primvar(&self, s: &SurfaceHit, name: &str) -> Option<[f32; 4]> {
         let info = self.instances.get(s.instance as usize)?;
+        if let GeometryRef::Mesh(mi) = info.geometry {
+            if self.meshes[mi].uvs_answer(name) {
+                // the mesh's texture coordinates, as the hit interpolated them
+                return Some([s.uv.x, s.uv.y, 0.0, 0.0]);
+            }
+        }
         let own = match info.geometry {
             GeometryRef::Mesh(mi) => &self.meshes[mi].primvars[..],
             GeometryRef::Spheres(si) => &self.sphere_primvars.get(si)?[..],
@@ -1220,6 +1226,8 @@ impl World {
             ior: *ior,
             outside_ior,
             use_specular_workflow: *use_specular_workflow,
+            // UsdPreviewSurface's ior serves the clearcoat too (MaterialX extras set their own)
+            coat_ior: *ior,
             ..PreviewParams::default()
         };
         match extras.as_deref() {

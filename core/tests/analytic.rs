@@ -285,3 +285,32 @@ fn jerlov_ocean_water_is_bluer_than_coastal_water() {
     let ratio = |c: &[(f64, f64); 3]| c[2].0 / c[1].0;
     assert!(ratio(&ib) > 1.5 * ratio(&c5), "b/g: IB {} vs 5C {}", ratio(&ib), ratio(&c5));
 }
+
+/// UsdPreviewSurface's `ior` serves its clearcoat too ("including the clearcoat if clearcoat >
+/// 0"): a smooth coat over a black base, seen head-on under a uniform white dome, reflects the
+/// Fresnel reflectance ((ior − 1)/(ior + 1))² of that ior, 1/9 at ior 2.
+#[test]
+fn a_clearcoat_reflects_by_the_surfaces_ior() {
+    for ior in [1.5f32, 2.0] {
+        let mut s = SceneDesc::default();
+        s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
+        let coat = PreviewSurfaceDesc {
+            diffuse_color: ColorInput::Const([0.0; 3]),
+            use_specular_workflow: true,
+            specular_color: ColorInput::Const([0.0; 3]),
+            clearcoat: FloatInput::Const(1.0),
+            clearcoat_roughness: FloatInput::Const(0.0),
+            ior,
+            ..Default::default()
+        };
+        s.materials.push(MaterialDesc { name: "/coat".into(), surface: SurfaceDesc::Preview(coat), interior_medium: None });
+        s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.lights.push(dome(1.0));
+        s.camera = camera(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 5.0);
+        let (w, h) = (8, 8);
+        let r = render(&s, settings(w, h, 16));
+        let expect = (((ior - 1.0) / (ior + 1.0)) as f64).powi(2);
+        let (m, se, _) = channel_stats(&r, 1, |_, _| true, w);
+        assert!((m - expect).abs() < 3.0 * se + 0.02 * expect, "ior {ior}: {m} ± {se} vs {expect}");
+    }
+}

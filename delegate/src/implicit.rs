@@ -122,6 +122,7 @@ impl Builder {
             indices,
             normals: Some(self.n.into_iter().map(|n| axis.map(n)).collect()),
             uvs: Some(self.uv),
+            uv_name: None,
             double_sided,
             motion: None,
             primvars: Vec::new(),

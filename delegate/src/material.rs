@@ -198,10 +198,12 @@ impl Source {
     }
 }
 
-/// A primvar lookup giving a texture's coordinates as a uv set, or None where it names the
-/// mesh's own texture coordinates (`uvs`: `st`, `st0`, `uv`, or no name).
+/// A primvar lookup giving a texture's coordinates as a uv set, or None where it names no
+/// primvar (the geometry's own texture coordinates). A mesh answers the name of the primvar its
+/// own coordinates came from (`st`, `st0` or `uv`) with them, any other name with that primvar,
+/// and a name it lacks with the reader's fallback.
 fn uv_set(l: PrimvarLookup) -> Option<PrimvarLookup> {
-    (!l.name.is_empty() && !crate::mesh::UV_NAMES.contains(&l.name.as_str())).then_some(l)
+    (!l.name.is_empty()).then_some(l)
 }
 
 /// A scalar input: its constant, or what its connection supplies (a texture's `rgb` read as
@@ -330,7 +332,14 @@ impl Ctx<'_> {
         };
         Some(match self.uv_texture(up, channel) {
             Ok(t) => Source::Texture(t),
-            Err(fb) => Source::Fallback(fb),
+            // the fallback stands for the texture's texel: each output its own channel
+            Err(fb) => Source::Fallback(match channel {
+                Channel::Rgb => fb,
+                Channel::R => [fb[0]; 4],
+                Channel::G => [fb[1]; 4],
+                Channel::B => [fb[2]; 4],
+                Channel::A => [fb[3]; 4],
+            }),
         })
     }
 
@@ -355,6 +364,9 @@ impl Ctx<'_> {
 
     /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
     fn uv_texture(&mut self, tex: &str, channel: Channel) -> Result<TexLookup, [f32; 4]> {
+        // useMetadata asks for the file's own wrap mode, which Tide does not read: it repeats
+        // (UsdUVTexture says black for a file without one; a black border darkens every texture
+        // that leaves its wrap unauthored along its edges, small swatches all over)
         let modes = [("repeat", WrapKey::Repeat), ("mirror", WrapKey::Mirror), ("clamp", WrapKey::Clamp), ("black", WrapKey::Black), ("useMetadata", WrapKey::Repeat)];
         let wrap_s = self.wrap_input(tex, "wrapS", &modes, "useMetadata");
         let wrap_t = self.wrap_input(tex, "wrapT", &modes, "useMetadata");
@@ -853,6 +865,30 @@ mod tests {
         }
     }
 
+    /// A texture that cannot be read gives its fallback as it would its texel: each output its
+    /// own channel (`a` feeding a float input or a colour, `g` a float).
+    #[test]
+    fn a_missing_textures_fallback_answers_each_output_with_its_channel() {
+        let s = mat(&[
+            ("surface", Value::Path("/M/PBR.outputs:surface".into())),
+            ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+            ("/M/PBR.inputs:opacity.connect", tok("/M/Tex.outputs:a")),
+            ("/M/PBR.inputs:roughness.connect", tok("/M/Tex.outputs:g")),
+            ("/M/PBR.inputs:emissiveColor.connect", tok("/M/Tex.outputs:a")),
+            ("/M/PBR.inputs:diffuseColor.connect", tok("/M/Tex.outputs:rgb")),
+            ("/M/Tex.info:id", tok("UsdUVTexture")),
+            ("/M/Tex.inputs:file", Value::Asset("/tex/missing.png".into())),
+            ("/M/Tex.inputs:fallback", Value::Floats { data: vec![0.1, 0.2, 0.3, 0.4], tuple: 4 }),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+        assert_eq!(ps.opacity, FloatInput::Const(0.4));
+        assert_eq!(ps.roughness, FloatInput::Const(0.2));
+        assert_eq!(ps.emissive_color, ColorInput::Const([0.4; 3]));
+        assert_eq!(ps.diffuse_color, ColorInput::Const([0.1, 0.2, 0.3]));
+    }
+
     #[test]
     fn preview_surface_with_texture_connection_through_transform2d() {
         let s = mat(&[
@@ -877,6 +913,7 @@ mod tests {
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
+        // wrapT unauthored (useMetadata): repeat
         assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, encoding: Encoding::Auto, dome: DomeFormat::LatLong }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
@@ -1747,7 +1784,8 @@ mod tests {
         let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
         assert_eq!(t.uv_set, Some(PrimvarLookup::new("st1", [0.0; 4])));
         let FloatInput::Texture(t) = &ps.clearcoat else { panic!("{:?}", ps.clearcoat) };
-        assert_eq!(t.uv_set, None, "st is the mesh's own texture coordinates");
+        // st too is looked up by name: the mesh whose coordinates came from st answers it
+        assert_eq!(t.uv_set, Some(PrimvarLookup::new("st", [0.0; 4])));
         // a reader's output other than `result` is named and the constant kept
         assert_eq!(ps.metallic, FloatInput::Const(0.0));
         let attrs: Vec<&str> = p.list.iter().map(|q| q.attribute.as_str()).collect();

@@ -190,7 +190,7 @@ fn refine_primvar(e: Expanded, r: Option<&Refinement>) -> Expanded {
 }
 
 /// The primvars a mesh takes its texture coordinates (`uvs`) from, the first found.
-pub(crate) const UV_NAMES: [&str; 3] = ["st", "st0", "uv"];
+pub(crate) const UV_NAMES: [&str; 3] = tide_core::scene::UV_PRIMVAR_NAMES;
 
 /// The primvars a material may read (every primvar of 1 to 4 components but the geometry's
 /// own: `normals`, `widths`, the texture coordinates `uvs_from`, `tide:` and `skel:` ones),
@@ -313,6 +313,7 @@ pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
         indices,
         normals: m.normals.as_deref().map(pick),
         uvs: m.uvs.as_ref().map(|uv| old.iter().map(|&i| uv[i as usize]).collect()),
+        uv_name: m.uv_name.clone(),
         primvars: m
             .primvars
             .iter()
@@ -754,6 +755,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         positions,
         indices,
         normals: normals.map(|_| out_n),
+        uv_name: st.as_ref().and(st_name).map(String::from),
         uvs: st.map(|_| out_uv),
         double_sided,
         motion: None,
@@ -821,6 +823,7 @@ mod tests {
             indices: vec![0, 1, 2, 2, 1, 3, 2, 3, 4, 4, 3, 5],
             normals: Some(positions.iter().map(|p| Vec3::new(0.0, 0.0, 1.0 + p.x)).collect()),
             uvs: Some(positions.iter().map(|p| Vec2::new(p.x, p.y)).collect()),
+            uv_name: Some("st".into()),
             primvars: vec![
                 PrimvarData { name: "rgb".into(), tuple: 3, constant: false, data: (0..18).map(|k| k as f32).collect() },
                 PrimvarData { name: "k".into(), tuple: 1, constant: true, data: vec![7.0] },

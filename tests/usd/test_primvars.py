@@ -415,3 +415,49 @@ def test_emission_varying_over_a_mesh_lights_as_it_glows(renderer, stage):
         x = -HALF + (i + 0.5) * 2 * HALF / RES
         ok, why = near(img[:, i], 0.5 * (0.5 + x / 40))
         assert ok, (i, why)
+
+
+def test_a_primvar_reader_reads_the_texture_coordinates_it_names(renderer, stage, tmp_path):
+    """UsdPrimvarReader: varname names the primvar read. The panel's st runs over the square
+    (left texel red, right blue) and a constant `uv` sits on the right texel: a reader of `st`
+    shows both halves, one of `uv` the blue texel everywhere, one of `st0` (which the panel
+    lacks) its fallback (0.25, 0.5): the red texel."""
+    tex_file = tmp_path / "halves.exr"
+    write_exr(tex_file, [[(1, 0, 0), (0, 0, 1)]])
+    top_camera(stage)
+    panels = {}
+    for k, name in enumerate(("st", "uv", "st0")):
+        m = panel(stage, "/P_" + name, columns=1, st=True)
+        UsdGeom.Xformable(m).AddTranslateOp().Set(Gf.Vec3d(0, -10 * k, 0))
+        UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "uv", Sdf.ValueTypeNames.TexCoord2f, UsdGeom.Tokens.constant).Set((0.75, 0.5))
+        mat, sh = _black(stage, "/Looks/" + name)
+        tex = UsdShade.Shader.Define(stage, "/Looks/%s/Tex" % name)
+        tex.CreateIdAttr("UsdUVTexture")
+        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
+        tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+        tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+        rd = UsdShade.Shader.Define(stage, "/Looks/%s/Uv" % name)
+        rd.CreateIdAttr("UsdPrimvarReader_float2")
+        rd.CreateInput("varname", Sdf.ValueTypeNames.Token).Set(name)
+        rd.CreateInput("fallback", Sdf.ValueTypeNames.Float2).Set((0.25, 0.5))
+        rd.CreateOutput("result", Sdf.ValueTypeNames.Float2)
+        tex.CreateInput("st", Sdf.ValueTypeNames.Float2).ConnectToSource(rd.ConnectableAPI(), "result")
+        sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+        bind(m.GetPrim(), mat)
+        panels[name] = m
+    _seen(stage, samples=4)
+    images = {}
+    for k, name in enumerate(("st", "uv", "st0")):
+        # only one panel in view at a time: the others below it are hidden
+        for other, m in panels.items():
+            UsdGeom.Imageable(m).GetVisibilityAttr().Set("inherited" if other == name else "invisible")
+        images[name] = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    quarter = RES // 4
+    for name, left, right in (("st", (1, 0, 0), (0, 0, 1)), ("uv", (0, 0, 1), (0, 0, 1)),
+                              ("st0", (1, 0, 0), (1, 0, 0))):
+        img = images[name]
+        for part, want in ((img[:, :quarter], left), (img[:, -quarter:], right)):
+            ok, why = near(part, want)
+            assert ok, (name, why)

@@ -177,7 +177,7 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
         }
     }
     let normals = vec![Vec3::Y; positions.len()];
-    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), double_sided: false, motion: None, primvars: Vec::new() };
+    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), uv_name: None, double_sided: false, motion: None, primvars: Vec::new() };
     Ok((mesh, Some(skirt)))
 }
 
@@ -286,7 +286,7 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
     }
 
     let (span, delta, offset) = ((b.lo, b.hi), b.delta, b.offset);
-    let mesh = MeshDesc { name: "TideOcean".to_string(), positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars: Vec::new() };
+    let mesh = MeshDesc { name: "TideOcean".to_string(), uv_name: None, positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars: Vec::new() };
     Ok((mesh, b.rim, span, delta, offset))
 }
 
