@@ -662,7 +662,13 @@ impl World {
                         // Quan–Fry water, or a glass of an Abbe number; where the model
                         // cannot be built, the constant ior
                         let model = if w.dispersion {
-                            Some(crate::water::quan_fry_spectrum(w.salinity, w.temperature).map_err(|e| ("inputs:temperature", e.to_string())))
+                            Some(crate::water::quan_fry_spectrum(w.salinity, w.temperature).map_err(|e| {
+                                let attribute = match e {
+                                    crate::water::WaterError::OutOfRange { name: "salinity", .. } => "inputs:salinity",
+                                    _ => "inputs:temperature",
+                                };
+                                (attribute, e.to_string())
+                            }))
                         } else {
                             w.abbe.map(|v| crate::water::abbe_spectrum(w.ior, v).map_err(|e| ("abbe", e)))
                         };

@@ -463,7 +463,14 @@ impl Ctx<'_> {
                 self.p.add(&format!("{}.inputs:normal", n), "a normal from a primvar or a node graph is not supported; the surface's own normal is used");
                 None
             }
-            _ => None,
+            _ => {
+                // a constant tangent-space normal other than straight up is not applied: said
+                let v = self.input_vec(n, "normal", [0.0, 0.0, 1.0]);
+                if v != [0.0, 0.0, 1.0] {
+                    self.p.add(&format!("{}.inputs:normal", n), "a constant normal is not supported (only one from a texture); the surface's own normal is used");
+                }
+                None
+            }
         };
         PreviewSurfaceDesc {
             diffuse_color: self.color(n, "diffuseColor", [0.18; 3]),
@@ -486,14 +493,23 @@ impl Ctx<'_> {
     fn water(&mut self, n: &str) -> WaterDesc {
         let d = WaterDesc::default();
         let model = self.input_token(n, "surfaceModel", &["dielectric", "sea"], "dielectric");
+        use tide_core::water::{IOR_SALINITY_RANGE as S, IOR_TEMPERATURE_RANGE as T};
+        // values outside what the models take are named on the shader and replaced by the
+        // defaults; a wind past the sea BSDF's range is held at its top
+        let max_wind = tide_core::bsdf::sea::MAX_WIND_SPEED;
+        let mut wind_speed = self.checked_f32(n, "windSpeed", d.wind_speed, |v| v.is_finite() && v >= 0.0, "[0, ∞) m/s");
+        if wind_speed > max_wind {
+            self.p.add(&format!("{}.inputs:windSpeed", n), format!("{} m/s is past the sea surface model's {} m/s; using {}", wind_speed, max_wind, max_wind));
+            wind_speed = max_wind;
+        }
         WaterDesc {
-            ior: self.input_f32(n, "ior", d.ior),
+            ior: self.checked_f32(n, "ior", d.ior, |v| (1.0..10.0).contains(&v), "[1, 10)"),
             dispersion: self.nodes[n].inputs.get("dispersion").and_then(|v| v.as_bool()).unwrap_or(false),
-            temperature: self.input_f32(n, "temperature", d.temperature),
-            salinity: self.input_f32(n, "salinity", d.salinity),
-            roughness: self.input_f32(n, "roughness", d.roughness),
+            temperature: self.checked_f32(n, "temperature", d.temperature, |v| (T.0..=T.1).contains(&v), &format!("[{}, {}] °C", T.0, T.1)),
+            salinity: self.checked_f32(n, "salinity", d.salinity, |v| (S.0..=S.1).contains(&v), &format!("[{}, {}] PSU", S.0, S.1)),
+            roughness: self.checked_f32(n, "roughness", d.roughness, |v| (0.0..=1.0).contains(&v), "[0, 1]"),
             surface_model: if model == "sea" { SurfaceModel::Sea } else { SurfaceModel::Dielectric },
-            wind_speed: self.input_f32(n, "windSpeed", d.wind_speed),
+            wind_speed,
             wind_direction: self.input_f32(n, "windDirection", d.wind_direction),
             priority: self.input_f32(n, "priority", 0.0) as i32,
             ..d
@@ -550,10 +566,11 @@ impl Ctx<'_> {
         let scale = self.checked_f32(n, "densityScale", 1.0, nonneg, "[0, ∞)");
 
         // phase function
-        let unit = |v: f32| v.is_finite() && v.abs() <= 1.0;
+        // |g| = 1 is a delta lobe, which the phase functions do not take
+        let unit = |v: f32| v.is_finite() && v.abs() < 1.0;
         let token = self.input_token(n, "phase", &["hg", "dualHG", "fournierForand", "petzold"], "hg");
-        let g = self.checked_f32(n, "g", 0.0, unit, "[-1, 1]");
-        let g2 = self.checked_f32(n, "g2", -0.3, unit, "[-1, 1]");
+        let g = self.checked_f32(n, "g", 0.0, unit, "(-1, 1)");
+        let g2 = self.checked_f32(n, "g2", -0.3, unit, "(-1, 1)");
         let lobe_mix = self.checked_f32(n, "lobeMix", 0.9, |v| (0.0..=1.0).contains(&v), "[0, 1]");
         let w = self.checked_f32(n, "molecularWeight", 0.0, |v| (0.0..=1.0).contains(&v), "[0, 1]");
         let phase = ParticlePhase::from_contract(token, g, g2, lobe_mix)
@@ -887,6 +904,23 @@ mod tests {
         assert_eq!(ps.roughness, FloatInput::Const(0.2));
         assert_eq!(ps.emissive_color, ColorInput::Const([0.4; 3]));
         assert_eq!(ps.diffuse_color, ColorInput::Const([0.1, 0.2, 0.3]));
+    }
+
+    /// A constant `normal` other than straight up is named (only a texture's turns the frame).
+    #[test]
+    fn a_constant_tilted_normal_is_named() {
+        for (n, said) in [([0.8, 0.0, 0.6], true), ([0.0, 0.0, 1.0], false)] {
+            let s = mat(&[
+                ("surface", Value::Path("/M/PBR.outputs:surface".into())),
+                ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+                ("/M/PBR.inputs:normal", Value::Floats { data: n.to_vec(), tuple: 3 }),
+            ]);
+            let mut p = Problems::new("/M");
+            let m = convert_material("/M", &s, &loaded(false), &mut p);
+            let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
+            assert!(ps.normal.is_none());
+            assert_eq!(p.list.iter().any(|q| q.attribute == "/M/PBR.inputs:normal"), said, "{:?}", p.list);
+        }
     }
 
     #[test]
@@ -1950,5 +1984,40 @@ mod tests {
         let (med, problems) = medium_of(&[("profilePeak", Value::Float(3.0))]);
         assert_eq!(problems[0].0, "/W/Med.inputs:profileWidth");
         assert_eq!(med.unwrap().water, None);
+        // |g| = 1 is no phase function: the default too
+        let (med, problems) = medium_of(&[("g", Value::Float(1.0))]);
+        assert_eq!(problems.iter().map(|q| q.0.as_str()).collect::<Vec<_>>(), ["/W/Med.inputs:g"]);
+        assert_eq!(med.unwrap().phase, PhaseDesc::HenyeyGreenstein { g: 0.0 });
+    }
+
+    /// TideWater values outside what its models take are named on the shader and replaced by
+    /// the defaults (salinity leaving dispersion on); a wind past the sea model's range is held
+    /// at its top.
+    #[test]
+    fn bad_water_values_name_the_shader_input_and_use_the_defaults() {
+        let max_wind = tide_core::bsdf::sea::MAX_WIND_SPEED;
+        let cases: Vec<(&str, f64, fn(&WaterDesc) -> f32, f32)> = vec![
+            ("salinity", -10.0, |w| w.salinity, 0.0),
+            ("temperature", 90.0, |w| w.temperature, 20.0),
+            ("ior", 0.5, |w| w.ior, 1.333),
+            ("roughness", 2.0, |w| w.roughness, 0.0),
+            ("windSpeed", -3.0, |w| w.wind_speed, 5.0),
+            ("windSpeed", 500.0, |w| w.wind_speed, max_wind),
+        ];
+        for (name, v, get, want) in cases {
+            let input = format!("/W/Water.inputs:{name}");
+            let pairs = vec![
+                ("surface", Value::Path("/W/Water".into())),
+                ("/W/Water.info:id", tok("TideWater")),
+                ("/W/Water.inputs:dispersion", Value::Bool(true)),
+                ("/W/Water.inputs:surfaceModel", tok("sea")),
+                (input.as_str(), Value::Float(v)),
+            ];
+            let mut p = Problems::new("/W");
+            let m = convert_material("/W", &mat(&pairs), &loaded(false), &mut p);
+            assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), [input.as_str()], "{name}");
+            let SurfaceDesc::Water(w) = &m.desc.surface else { panic!() };
+            assert_eq!((get(w), w.dispersion), (want, true), "{name} = {v}");
+        }
     }
 }

@@ -115,20 +115,15 @@ def test_info_names_the_fx_shapes_and_the_delegates_problems(tmp_path):
 
 def _renderer_problem_stage(tmp_path):
     """A stage whose only fault is one the renderer's own checks find (the reader and the
-    delegate pass a water material's ior on as authored): ior -1.5, replaced by 1.333."""
-    from pxr import UsdShade
+    delegate pass a mesh's triangles on as authored): a zero-area triangle, dropped."""
     path = str(tmp_path / "scene.usda")
     s = Usd.Stage.CreateNew(path)
     camera(s)
-    ball = UsdGeom.Sphere.Define(s, "/Ball")
-    ball.AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    m = UsdGeom.Mesh.Define(s, "/Tri")
+    m.CreatePointsAttr([(0, 0, -5), (1, 0, -5), (0, 1, -5), (2, 0, -5)])
+    m.CreateFaceVertexCountsAttr([3, 3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 0, 1, 3])
     settings(s, product="scene_out.exr")
-    mat = UsdShade.Material.Define(s, "/Looks/Water")
-    sh = UsdShade.Shader.Define(s, "/Looks/Water/Surface")
-    sh.CreateIdAttr("TideWater")
-    sh.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(-1.5)
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
-    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(mat)
     s.GetRootLayer().Save()
     return path
 
@@ -140,12 +135,12 @@ def test_problems_the_renderer_finds_are_printed_counted_and_listed(tmp_path):
         pytest.skip("needs the built module")
     assert out.returncode == 0, out.stderr
     lines = [l for l in out.stderr.splitlines() if l.startswith("tide: problem:")]
-    assert lines == ["tide: problem: /Looks/Water: inputs:ior: ior -1.5 not in [1, 10); using 1.333"], out.stderr
+    assert lines == ["tide: problem: /Tri: points: 1 degenerate (zero-area) triangles dropped"], out.stderr
     _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
     assert header["tide:problems"] == "1"
     out = run(["info", stage], tmp_path, fake=False)
     assert out.returncode == 0, out.stderr
-    assert "problems: 1\n" in out.stdout and "/Looks/Water: inputs:ior: ior -1.5" in out.stdout, out.stdout
+    assert "problems: 1\n" in out.stdout and "/Tri: points: 1 degenerate" in out.stdout, out.stdout
 
 
 def test_the_header_records_the_settings_used_not_the_rejected_ones(tmp_path):

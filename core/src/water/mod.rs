@@ -54,7 +54,7 @@ pub mod phase;
 mod tests;
 
 pub use bio::{BioOptical, BioOpticalParams, Constituent, DepthProfile};
-pub use ior::{abbe_spectrum, quan_fry_ior, quan_fry_spectrum};
+pub use ior::{abbe_spectrum, quan_fry_ior, quan_fry_spectrum, IOR_SALINITY_RANGE, IOR_TEMPERATURE_RANGE};
 pub use jerlov::{jerlov_iop, jerlov_kd, jerlov_table, JerlovIop, JerlovSource, JerlovType};
 pub use phase::{phase_desc, phase_function, FournierForand, ParticlePhase, PetzoldStation, PhaseTable};
 
