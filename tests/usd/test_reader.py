@@ -303,6 +303,14 @@ def test_instantaneous_shutter_and_clipping_planes(stage, delegate):
     assert [p for p in problems if p[0] == "/Cam" and p[1] == "clippingPlanes"], problems
 
 
+def test_exposure_f_number_is_read_as_the_f_stop(stage, delegate):
+    # newer OpenUSD spells UsdGeomCamera's exposure:fStop as exposure:fNumber
+    cam = camera(stage)
+    cam.GetPrim().CreateAttribute("exposure:fNumber", Sdf.ValueTypeNames.Float).Set(2.8)
+    load(stage, delegate)
+    assert delegate.value("/Cam", "exposure:fStop") == pytest.approx(2.8)
+
+
 def _moving_sphere(stage, open_=-0.25, close=0.25):
     camera(stage, **{"shutter__open": open_, "shutter__close": close})
     s = UsdGeom.Sphere.Define(stage, "/S")

@@ -2386,6 +2386,11 @@ class Reader:
             v = self._attr(prim, name, fb)
             if name == "shutter:close" and self._instantaneous:
                 v = self._attr(prim, "shutter:open", 0.0)
+            if name == "exposure:fStop":
+                # newer OpenUSD names it exposure:fNumber; an authored one of those wins
+                a = prim.GetAttribute("exposure:fNumber")
+                if a and a.HasAuthoredValue():
+                    v = self._attr(prim, "exposure:fNumber", fb)
             if name in ("focalLength", "horizontalAperture", "verticalAperture"):
                 if not (math.isfinite(v) and v > 0):
                     self.problem(path, name, "%s = %r must be positive; using %r" % (name, v, fb))
