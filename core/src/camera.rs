@@ -89,6 +89,8 @@ pub struct Camera {
     offset: Vec2,
     near: f32,
     far: f32,
+    /// Clipping planes (camera space), as (normal, offset).
+    planes: Vec<glam::Vec4>,
     lens_radius: f32,
     focus_distance: f32,
     pub shutter: (f32, f32),
@@ -108,8 +110,11 @@ pub struct CameraRay {
     pub d: Vec3,
     pub t_max: f32,
     pub time: f32,
-    /// Distance along the camera's view axis per unit t (depth = t · depth_per_t).
+    /// Distance along the camera's view axis per unit t.
     pub depth_per_t: f32,
+    /// The view-axis distance of the ray's origin (the near plane, or a clipping plane past
+    /// it): depth = depth_at_origin + t · depth_per_t.
+    pub depth_at_origin: f32,
 }
 
 /// UsdRenderSettings' `aspectRatioConformPolicy`: how an aperture whose aspect differs from
@@ -190,6 +195,7 @@ impl Camera {
             offset: Vec2::new(desc.horizontal_aperture_offset, desc.vertical_aperture_offset),
             near: desc.clipping_range[0].max(0.0),
             far: desc.clipping_range[1],
+            planes: desc.clipping_planes.iter().map(|p| glam::Vec4::from_array(*p)).collect(),
             lens_radius,
             focus_distance: desc.focus_distance,
             shutter,
@@ -226,10 +232,21 @@ impl Camera {
             }
             Projection::Orthographic => (Vec3::new(f.x * LENS_UNIT, f.y * LENS_UNIT, 0.0), Vec3::new(0.0, 0.0, -1.0)),
         };
-        // clip: start on the near plane, stop on the far plane
+        // clip: start on the near plane (or where the clipping planes let the ray in), stop on
+        // the far plane (or where they cut it off); a ray they cut away entirely sees nothing
         let dz = -d_cam.z;
-        let t_near = self.near / dz;
-        let t_far = self.far / dz;
+        let (mut t_near, mut t_far) = (self.near / dz, self.far / dz);
+        for p in &self.planes {
+            let (c0, c1) = (p.truncate().dot(o_cam) + p.w, p.truncate().dot(d_cam));
+            if c1 > 0.0 {
+                t_near = t_near.max(-c0 / c1);
+            } else if c1 < 0.0 {
+                t_far = t_far.min(-c0 / c1);
+            } else if c0 < 0.0 {
+                t_far = t_near;
+            }
+        }
+        let t_far = t_far.max(t_near);
         let o_cam = o_cam + d_cam * t_near;
         let m = self.xf.at(time);
         let d = m.transform_vector3(d_cam);
@@ -240,7 +257,14 @@ impl Camera {
             t_max: (t_far - t_near) * len,
             time,
             depth_per_t: dz / len,
+            depth_at_origin: t_near * dz,
         }
+    }
+
+    /// Whether a camera-space point is kept by every clipping plane.
+    #[inline]
+    fn unclipped(&self, q: Vec3) -> bool {
+        self.planes.iter().all(|p| p.truncate().dot(q) + p.w >= 0.0)
     }
 
     /// Camera-space distance of the near plane (added to depth along the clipped ray).
@@ -293,7 +317,7 @@ impl Camera {
         }
         let q = self.xf.at(time).inverse().transform_point3(p);
         let depth = -q.z;
-        if !(depth >= self.near && depth <= self.far) || depth <= 0.0 {
+        if !(depth >= self.near && depth <= self.far) || depth <= 0.0 || !self.unclipped(q) {
             return None;
         }
         let raster = self.raster_of(q)?;
@@ -328,7 +352,9 @@ impl Camera {
             (-qo.z - self.near, -qd.z),
             (self.far + qo.z, qd.z),
         ];
-        for (c0, c1) in cons {
+        // and the clipping planes: n·q + w ≥ 0
+        let planes = self.planes.iter().map(|p| (p.truncate().dot(qo) + p.w, p.truncate().dot(qd)));
+        for (c0, c1) in cons.into_iter().chain(planes) {
             if c1 == 0.0 {
                 if c0 < 0.0 {
                     return None;
@@ -398,6 +424,38 @@ mod tests {
 
     fn desc() -> CameraDesc {
         CameraDesc { focal_length: 50.0, horizontal_aperture: 36.0, vertical_aperture: 24.0, clipping_range: [0.1, 1000.0], ..Default::default() }
+    }
+
+    /// UsdGeomCamera clippingPlanes: a camera ray starts where every plane lets it in and ends
+    /// where one cuts it off (its depth counted from the camera), rays wholly cut away see
+    /// nothing, and light paths connect only to points the planes keep.
+    #[test]
+    fn clipping_planes_cut_the_camera_rays() {
+        // camera at (0, 0, 10) looking down −Z; keep x ≥ 0 and z ≥ −7 (camera space: depth ≤ 7)
+        let mut d = desc();
+        d.transforms = vec![Mat4::from_translation(Vec3::new(0.0, 0.0, 10.0))];
+        d.clipping_planes = vec![[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, 1.0, 7.0]];
+        let cam = Camera::new(&d, 360, 240, 1.0, false, false);
+        // the centre column's ray runs from the near plane to depth 7
+        let r = cam.generate_ray(Vec2::new(180.0, 120.0), Vec2::ZERO, 0.0);
+        assert!((r.depth_at_origin - 0.1).abs() < 1e-5 && (r.depth_at_origin + r.t_max * r.depth_per_t - 7.0).abs() < 1e-4, "{r:?}");
+        // a ray to the left of the axis is cut away entirely
+        let left = cam.generate_ray(Vec2::new(90.0, 120.0), Vec2::ZERO, 0.0);
+        assert_eq!(left.t_max, 0.0);
+        // a plane across the view: x ≥ z + 8 (camera space) lets the right ray in past its
+        // crossing, at the depth the plane meets it
+        d.clipping_planes = vec![[1.0, 0.0, -1.0, -8.0]];
+        let cam = Camera::new(&d, 360, 240, 1.0, false, false);
+        let r = cam.generate_ray(Vec2::new(270.0, 120.0), Vec2::ZERO, 0.0);
+        // the ray's camera-space direction is (9, 0, −50) / |·| (film x = 9 of 18): it meets
+        // x = z + 8 where 9s = −50s + 8, s = 8/59, depth 50·8/59
+        assert!((r.depth_at_origin - 400.0 / 59.0).abs() < 1e-3, "{r:?}");
+        let q = r.o + r.d * 1e-3;
+        assert!((q.x - 9.0 * 8.0 / 59.0).abs() < 1e-2, "{q}");
+        // connections: a kept point projects, a cut one does not
+        assert!(cam.connect(Vec3::new(9.0, 0.0, 0.0), 0.0).is_some());
+        // (1, 0, 7) is (1, 0, −3) to the camera: 1 + 3 − 8 < 0, cut
+        assert!(cam.connect(Vec3::new(1.0, 0.0, 7.0), 0.0).is_none());
     }
 
     #[test]

@@ -557,7 +557,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 }
             }
             if depth == 0 {
-                aov.depth = t * cr.depth_per_t + world.camera.near();
+                aov.depth = t * cr.depth_per_t + cr.depth_at_origin;
             }
             break;
         }
@@ -649,7 +649,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             first_surface = false;
             if depth == 0 {
                 aov.alpha = 1.0;
-                aov.depth = hit.t * cr.depth_per_t + world.camera.near();
+                aov.depth = hit.t * cr.depth_per_t + cr.depth_at_origin;
                 aov.prim_id = info.id as f32;
                 aov.normal = s.ns.to_array();
             }

@@ -860,6 +860,9 @@ pub struct CameraDesc {
     pub horizontal_aperture_offset: f32,
     pub vertical_aperture_offset: f32,
     pub clipping_range: [f32; 2],
+    /// UsdGeomCamera `clippingPlanes`: (a, b, c, d) cuts away, from the camera's view, the
+    /// camera-space points where a·x + b·y + c·z + d < 0.
+    pub clipping_planes: Vec<[f32; 4]>,
     /// 0 = pinhole.
     pub f_stop: f32,
     pub focus_distance: f32,
@@ -889,6 +892,7 @@ impl Default for CameraDesc {
             horizontal_aperture_offset: 0.0,
             vertical_aperture_offset: 0.0,
             clipping_range: [1.0, 1_000_000.0],
+            clipping_planes: Vec::new(),
             f_stop: 0.0,
             focus_distance: 0.0,
             shutter_open: 0.0,

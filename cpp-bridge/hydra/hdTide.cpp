@@ -108,6 +108,12 @@ tide::Value HdTideToValue(VtValue const& v) {
     if (v.IsHolding<VtVec2fArray>()) return FloatTuples<GfVec2f, 2>(v.UncheckedGet<VtVec2fArray>());
     if (v.IsHolding<VtVec3fArray>()) return FloatTuples<GfVec3f, 3>(v.UncheckedGet<VtVec3fArray>());
     if (v.IsHolding<VtVec4fArray>()) return FloatTuples<GfVec4f, 4>(v.UncheckedGet<VtVec4fArray>());
+    if (v.IsHolding<std::vector<GfVec4d>>()) {  // HdCamera's clipPlanes
+        std::vector<float> f;
+        for (auto const& p : v.UncheckedGet<std::vector<GfVec4d>>())
+            for (int k = 0; k < 4; ++k) f.push_back(float(p[k]));
+        return Value::MakeFloats(std::move(f), 4);
+    }
     if (v.IsHolding<VtMatrix4dArray>()) {
         std::vector<double> d;
         for (auto const& m : v.UncheckedGet<VtMatrix4dArray>()) d.insert(d.end(), m.GetArray(), m.GetArray() + 16);
@@ -206,6 +212,7 @@ const std::vector<Param>& CameraParams() {
         {HdCameraTokens->horizontalApertureOffset, "horizontalApertureOffset", GfCamera::APERTURE_UNIT},
         {HdCameraTokens->verticalApertureOffset, "verticalApertureOffset", GfCamera::APERTURE_UNIT},
         {HdCameraTokens->clippingRange, "clippingRange"},
+        {HdCameraTokens->clipPlanes, "clippingPlanes"},
         {HdCameraTokens->fStop, "fStop"},
         {HdCameraTokens->focusDistance, "focusDistance"},
         {HdCameraTokens->shutterOpen, "shutter:open"},

@@ -580,6 +580,15 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
             d.clipping_range
         }
     };
+    // clippingPlanes: float4 (a, b, c, d) each, camera space; non-finite ones are dropped
+    let clipping_planes = match store.get("clippingPlanes").map(|v| (v.to_f32s(), v)) {
+        None => Vec::new(),
+        Some((Some(f), _)) if f.len() % 4 == 0 && f.iter().all(|x| x.is_finite()) => f.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect(),
+        Some((_, v)) => {
+            p.add("clippingPlanes", format!("expected finite float4 planes, got {}; none used", v.kind()));
+            Vec::new()
+        }
+    };
     let filter = match store.token_or("tide:camera:filter", &["none", "underwaterRed"], "none", p) {
         "underwaterRed" => CameraFilter::UnderwaterRed,
         _ => CameraFilter::None,
@@ -598,6 +607,7 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         horizontal_aperture_offset: store.f32_or("horizontalApertureOffset", 0.0, p),
         vertical_aperture_offset: store.f32_or("verticalApertureOffset", 0.0, p),
         clipping_range,
+        clipping_planes,
         f_stop: store.f32_or("fStop", 0.0, p).max(0.0),
         focus_distance: store.f32_or("focusDistance", 0.0, p).max(0.0),
         shutter_open,

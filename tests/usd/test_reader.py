@@ -292,15 +292,16 @@ def test_material_binding_purposes_of_the_settings(stage, delegate):
 
 def test_instantaneous_shutter_and_clipping_planes(stage, delegate):
     # instantaneousShutter (deprecated) closes the shutter as it opens; clipping planes are
-    # named as not supported
+    # sent as float4s
     _moving_sphere(stage)
     cam = UsdGeom.Camera(stage.GetPrimAtPath("/Cam"))
-    cam.CreateClippingPlanesAttr([Gf.Vec4f(1, 0, 0, 0)])
+    cam.CreateClippingPlanesAttr([Gf.Vec4f(1, 0, 0, 0), Gf.Vec4f(0, 0, 1, 7)])
     settings(stage).CreateInstantaneousShutterAttr(True)
     _, problems = load(stage, delegate, frame=0)
     assert delegate.value("/Cam", "shutter:close") == delegate.value("/Cam", "shutter:open")
     assert len(delegate.samples("/S", "transform")) == 1
-    assert [p for p in problems if p[0] == "/Cam" and p[1] == "clippingPlanes"], problems
+    assert floats(delegate.value("/Cam", "clippingPlanes")).reshape(-1).tolist() == [1, 0, 0, 0, 0, 0, 1, 7]
+    assert not problems, problems
 
 
 def test_exposure_f_number_is_read_as_the_f_stop(stage, delegate):

@@ -329,6 +329,21 @@ def _tide(args, cwd):
                           text=True, stdin=subprocess.DEVNULL, timeout=300)
 
 
+def test_clipping_planes_cut_away_what_the_camera_sees(renderer, stage):
+    # UsdGeomCamera.clippingPlanes (a, b, c, d) cut away camera-space points where
+    # a x + b y + c z + d < 0: with (1, 0, 0, 0) the black ball's left half is gone and the
+    # white dome shows there; its right half stays
+    cam = camera(stage)
+    cam.CreateClippingPlanesAttr([Gf.Vec4f(1, 0, 0, 0)])
+    _white_dome(stage)
+    _ball(stage, "/Ball", (0, 0, -5), 1.0, _black(stage))
+    settings(stage, res=(16, 16), samples=16, integrator="path")
+    img = render(renderer, stage)["color"]
+    # the ball spans 4.4 pixels either side of the centre (8 + (50/5)/18·8 x)
+    assert img[7:9, 5:7, :3].min() > 0.9, img[7:9, 5:7, 0]
+    assert img[7:9, 9:11, :3].max() < 0.05, img[7:9, 9:11, 0]
+
+
 def _aov_stage(stage, tmp_path):
     """A black ball 5 units in front of the camera under a white dome, with four AOVs."""
     camera(stage)

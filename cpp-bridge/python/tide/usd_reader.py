@@ -2407,7 +2407,7 @@ class Reader:
                 st.set(name, ("float", float(v)))
         planes = UsdGeom.Camera(prim).GetClippingPlanesAttr().Get(self._time(0))
         if planes:
-            self.problem(path, "clippingPlanes", "clipping planes are not supported; ignored")
+            st.set("clippingPlanes", _floats([float(x) for p in planes for x in p], 4))
         rel = prim.GetRelationship("tide:medium")
         targets = rel.GetForwardedTargets() if rel else []
         if targets:
