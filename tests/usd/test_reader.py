@@ -312,6 +312,20 @@ def test_exposure_f_number_is_read_as_the_f_stop(stage, delegate):
     assert delegate.value("/Cam", "exposure:fStop") == pytest.approx(2.8)
 
 
+def test_render_settings_are_read_at_the_frame(stage, delegate):
+    # time-sampled UsdRenderSettings attributes take their value at the frame rendered
+    camera(stage)
+    s = settings(stage)
+    s.GetResolutionAttr().Set(Gf.Vec2i(64, 8), 0)
+    s.GetResolutionAttr().Set(Gf.Vec2i(32, 16), 10)
+    s.CreateDisableMotionBlurAttr().Set(True, 0)
+    reader, _ = load(stage, delegate, frame=0)
+    assert reader.resolution == (64, 8)
+    assert delegate.value("/Render/Settings", "disableMotionBlur") is True
+    reader, _ = load(stage, fake.RenderDelegate(), frame=10)
+    assert reader.resolution == (32, 16)
+
+
 def _moving_sphere(stage, open_=-0.25, close=0.25):
     camera(stage, **{"shutter__open": open_, "shutter__close": close})
     s = UsdGeom.Sphere.Define(stage, "/S")
@@ -434,6 +448,13 @@ def test_point_instancer(stage, delegate):
     assert np.allclose(p[:3], expect, atol=tol)
 
 
+def _drawn(stage, delegate):
+    """The spheres and cubes a load of `stage` sends (with a camera added)."""
+    camera(stage)
+    load(stage, delegate)
+    return delegate.of_type("sphere"), delegate.of_type("cube")
+
+
 def test_point_instancer_prototypes_under_an_over_are_drawn(stage, delegate):
     # prototypes often live under an `over` (or a class) so that they are not drawn on their
     # own; UsdImaging walks a prototype whether or not it is defined (active, loaded and not
@@ -460,14 +481,50 @@ over "Hidden"
     }
 }
 """)
-    camera(stage)
-    load(stage, delegate)
-    assert delegate.of_type("sphere") == ["/PI/proto0_Ball"]
-    assert delegate.of_type("cube") == ["/PI/proto1_Box"]
+    assert _drawn(stage, delegate) == (["/PI/proto0_Ball"], ["/PI/proto1_Box"])
     for path in ("/PI/proto0_Ball", "/PI/proto1_Box"):
         assert len(floats(delegate.value(path, "instanceTransforms")).reshape(-1, 4, 4)) == 2
     # and not on their own
     assert "/Hidden/Box" not in delegate.prims and "/PI/Protos/Ball" not in delegate.prims
+
+
+def test_visibility_and_purpose_above_a_prototype_do_not_hide_its_instances(stage, delegate):
+    # UsdImaging takes a prototype's visibility and purpose from its own root down: an invisible
+    # (or guide) scope holding the prototypes keeps them from drawing in place only; an
+    # invisible prim inside a prototype is hidden in every instance
+    stage.GetRootLayer().ImportFromString("""#usda 1.0
+def PointInstancer "PI"
+{
+    point3f[] positions = [(-2, 0, 0), (2, 0, 0)]
+    int[] protoIndices = [0, 1]
+    rel prototypes = [</Protos/Ball>, </Guides/Box>]
+}
+def Scope "Protos"
+{
+    token visibility = "invisible"
+    def Xform "Ball"
+    {
+        def Sphere "Shown"
+        {
+            double radius = 0.5
+        }
+        def Sphere "Hidden"
+        {
+            token visibility = "invisible"
+        }
+    }
+}
+def Scope "Guides"
+{
+    uniform token purpose = "guide"
+    def Cube "Box"
+    {
+        double size = 1
+    }
+}
+""")
+    assert _drawn(stage, delegate) == (["/PI/proto0_Ball/Shown"], ["/PI/proto1_Box"])
+    assert "/Protos/Ball/Shown" not in delegate.prims and "/Guides/Box" not in delegate.prims
 
 
 def test_nested_point_instancers_place_every_inner_instance_under_every_outer_one(stage, delegate):

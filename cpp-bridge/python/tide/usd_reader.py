@@ -902,7 +902,8 @@ class Reader:
         def get(attr, fallback):
             if settings is None or not attr:
                 return fallback
-            return self._checked(spath, attr.GetName(), attr.Get(), fallback)
+            # at the frame: settings may be animated (a resolution, disableMotionBlur, ...)
+            return self._checked(spath, attr.GetName(), attr.Get(self._time(0)), fallback)
 
         sp = settings.GetPrim() if settings else None
         # UsdRenderSettingsBase attributes a product authors override the settings' for it.
@@ -916,7 +917,7 @@ class Reader:
             if q is not None:
                 a = q.GetAttribute(name)
                 if a and a.HasAuthoredValue():
-                    return self._checked(str(q.GetPath()), name, a.Get(), fallback)
+                    return self._checked(str(q.GetPath()), name, a.Get(self._time(0)), fallback)
             return get(sp.GetAttribute(name) if sp else None, fallback)
 
         def camera_for(q):
@@ -1928,6 +1929,29 @@ class Reader:
                        [(o, ("doubles", 16, w.tobytes())) for o, w in zip(offsets, worlds)])
             self._desired[dpath] = st
 
+    def _shown_in_prototype(self, g, proto, t):
+        """Whether prim `g` of prototype `proto` is drawn, as UsdImaging takes it: visibility and
+        purpose from `g` up to the prototype's root only (what lies above the root, such as an
+        invisible scope that keeps the prototypes from drawing in place, does not apply; the
+        instancer's own do)."""
+        p, purpose = g, None
+        while p:
+            img = UsdGeom.Imageable(p)
+            if img:
+                if img.GetVisibilityAttr().Get(t) == UsdGeom.Tokens.invisible:
+                    return False
+                a = img.GetPurposeAttr()
+                if purpose is None and a.HasAuthoredValue():
+                    purpose = a.Get()
+            if p.GetPath() == proto.GetPath():
+                break
+            p = p.GetParent()
+        if purpose is None:
+            return True
+        if purpose not in ALLOWED_TOKENS["purpose"]:
+            purpose = UsdGeom.Tokens.default_
+        return purpose in self._purposes
+
     def _eval_instancer(self, prim, outer=None):
         """A PointInstancer's prototypes, each gprim sent once with the world matrices of its
         instances. `outer`, for an instancer inside another's prototype: (offsets, a function
@@ -1995,17 +2019,14 @@ class Reader:
             for g in it:
                 if g.IsA(UsdGeom.PointInstancer):
                     # a nested instancer: placed by each of this prototype's instances
-                    img = UsdGeom.Imageable(g)
-                    if img.ComputeVisibility(t) != UsdGeom.Tokens.invisible and self._included(img)[0]:
+                    if self._shown_in_prototype(g, proto, t):
                         self._eval_instancer(g, (offsets, lambda o, s=sel_all: place(o)[s], parent,
                                                  rows))
                     it.PruneChildren()
                     continue
                 if g.GetTypeName() not in GPRIMS:
                     continue
-                img = UsdGeom.Imageable(g)
-                if img.ComputeVisibility(t) == UsdGeom.Tokens.invisible or \
-                        not self._included(img)[0]:
+                if not self._shown_in_prototype(g, proto, t):
                     continue
                 relp = g.GetPath().MakeRelativePath(proto.GetPath())
                 dpath = str(base if str(relp) == "." else base.AppendPath(relp))
