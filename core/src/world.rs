@@ -796,6 +796,8 @@ impl World {
                 } else {
                     Light::triangle([0, 1, 2].map(|k| xf.transform_point3(m.positions[t[k] as usize])), emission.clone(), two)
                 };
+                // a mirroring placement keeps the mesh's front (its winding turns in the world)
+                let light = if xf.determinant() < 0.0 { light.map(Light::mirrored) } else { light };
                 let light = match (&varying, light) {
                     (Some(v), Some(l)) => {
                         let (how, mean) = v(t);

@@ -229,3 +229,33 @@ fn a_shutter_closing_before_it_opens_renders_black() {
     std::fs::remove_file(&path).unwrap();
     assert!((img.attributes.pixel_aspect - 1.5).abs() < 1e-6, "{}", img.attributes.pixel_aspect);
 }
+
+/// A one-sided emissive quad keeps its mesh's front under a mirroring transform (Hydra keeps
+/// it; the winding turns in the world): mirrored across x it still lights the floor below it
+/// as the plain one does; mirrored across y its front turns up and the floor stays dark.
+#[test]
+fn a_mirrored_emitter_keeps_its_front() {
+    let floor_mean = |placement: Mat4| {
+        let mut s = SceneDesc::default();
+        s.meshes.push(std::sync::Arc::new(quad_y("/floor", 2.0)));
+        s.meshes.push(std::sync::Arc::new(quad_y("/panel", 0.1)));
+        s.materials.push(MaterialDesc { name: "/grey".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+        let glow = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: ColorInput::Const([20.0; 3]), ..Default::default() };
+        s.materials.push(MaterialDesc { name: "/glow".into(), surface: SurfaceDesc::Preview(glow), interior_medium: None });
+        s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        // the panel faces down (−Y) at height 0.5, then the placement under test
+        let down = Mat4::from_translation(Vec3::Y * 0.5) * placement * Mat4::from_rotation_x(std::f32::consts::PI);
+        s.instances.push(instance("/panel", GeometryRef::Mesh(1), down, 1));
+        s.camera = camera(Vec3::new(0.0, 3.0, 0.01), Vec3::ZERO, 40.0);
+        let (w, h) = (16, 16);
+        let r = render(&s, settings(w, h, 16));
+        // the floor around the panel (the panel itself, at the centre, left out)
+        channel_stats(&r, 1, |x, y| !(5..11).contains(&x) || !(5..11).contains(&y), w)
+    };
+    let (plain, se, _) = floor_mean(Mat4::IDENTITY);
+    assert!(plain > 0.01, "{plain}");
+    let (mirror_x, se_x, _) = floor_mean(Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)));
+    assert!((mirror_x - plain).abs() < 4.0 * (se + se_x) + 0.01 * plain, "{mirror_x} vs {plain}");
+    let (mirror_y, _, _) = floor_mean(Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0)));
+    assert!(mirror_y < 1e-3 * plain, "{mirror_y} vs {plain}");
+}

@@ -478,8 +478,12 @@ pub struct CylinderLight {
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriangleLight {
     pub p: [Vec3; 3],
-    /// Unit normal of the counter-clockwise front.
+    /// Unit normal of the front: the counter-clockwise side, or the clockwise one where
+    /// `mirrored`.
     pub n: Vec3,
+    /// A mirroring transform placed the triangle: its front (its mesh's counter-clockwise side
+    /// in the mesh's own space) is the clockwise side of its placed vertices.
+    pub mirrored: bool,
     pub area: f32,
     pub two_sided: bool,
     /// The radiance; an estimate of its mean where it varies (for the light's power).
@@ -651,7 +655,8 @@ impl TriangleLight {
         let p = m.at(time);
         let c = (p[1] - p[0]).cross(p[2] - p[0]);
         let len = c.length();
-        (len > 0.0 && len.is_finite() && c.length_squared().is_normal()).then(|| (p, c / len, 0.5 * len))
+        let side = if self.mirrored { -1.0 } else { 1.0 };
+        (len > 0.0 && len.is_finite() && c.length_squared().is_normal()).then(|| (p, c * (side / len), 0.5 * len))
     }
 }
 
@@ -1213,7 +1218,20 @@ impl Light {
         if !(len > 0.0) || !len.is_finite() || !c.length_squared().is_normal() {
             return None;
         }
-        Some(Light::Triangle(TriangleLight { p, n: c / len, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None, varying: None }))
+        Some(Light::Triangle(TriangleLight { p, n: c / len, mirrored: false, area: 0.5 * len, two_sided, emission: Emission::new(emission, 1.0), motion: None, varying: None }))
+    }
+
+    /// The same light with its front on the other side: a triangle a mirroring transform
+    /// placed (its mesh's front stays its front, as Hydra keeps it).
+    pub fn mirrored(self) -> Light {
+        match self {
+            Light::Triangle(mut t) => {
+                t.mirrored = !t.mirrored;
+                t.n = -t.n;
+                Light::Triangle(t)
+            }
+            other => other,
+        }
     }
 
     /// An emissive triangle that moves over the shutter: placed by `motion` at each sample's
