@@ -382,6 +382,11 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     };
     let vel = per_point_vec3(store, "velocities", n, p);
     let acc = per_point_vec3(store, "accelerations", n, p);
+    // points blur by their velocities; time samples of their positions are not interpolated
+    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
+    if vel.is_none() && samples.windows(2).any(|w| w[0].1 != w[1].1) {
+        p.add("points", "time samples of a points prim's positions do not blur it (its velocities do); rendered as at the frame");
+    }
     let mut spheres = SpheresDesc { name: name.into(), ..Default::default() };
     let mut out = PointsData::default();
     let mut n_bad_w = 0;
@@ -653,6 +658,28 @@ mod tests {
         cylinder("/s", &st(&[("axis", Value::Token("W".into()))]), &mut p);
         let attrs: Vec<_> = p.list.iter().map(|q| q.attribute.as_str()).collect();
         assert_eq!(attrs, vec!["radius", "axis"]);
+    }
+
+    /// Time samples of a points prim's positions do not move its spheres (velocities do): said,
+    /// once, where they differ; equal samples or velocities say nothing.
+    #[test]
+    fn moving_point_samples_without_velocities_are_named() {
+        let at = |x: f32| Value::Floats { data: vec![x, 0., 0.], tuple: 3 };
+        let sampled = |a: f32, b: f32| {
+            let mut s = st(&[("points", at(a))]);
+            s.attrs.get_mut("points").unwrap().samples = vec![(0.0, at(a)), (1.0, at(b))];
+            s
+        };
+        let said = |s: &AttrStore| {
+            let mut p = Problems::new("/p");
+            points("/p", s, &mut p);
+            p.list.iter().filter(|q| q.attribute == "points").count()
+        };
+        assert_eq!(said(&sampled(0.0, 1.0)), 1);
+        assert_eq!(said(&sampled(0.0, 0.0)), 0);
+        let mut v = sampled(0.0, 1.0);
+        v.primvars.insert("velocities".into(), Primvar { interpolation: Interpolation::Vertex, data: vec![1.0, 0.0, 0.0], tuple: 3, indices: None });
+        assert_eq!(said(&v), 0);
     }
 
     #[test]

@@ -335,6 +335,14 @@ def _moving_sphere(stage, open_=-0.25, close=0.25):
     return s
 
 
+def test_an_unsupported_motion_blur_scale_is_named(stage, delegate):
+    # UsdGeomMotionAPI motion:blurScale (inherited) is not applied: said on the prims it reaches
+    _moving_sphere(stage)
+    UsdGeom.MotionAPI.Apply(stage.GetPrimAtPath("/S")).CreateMotionBlurScaleAttr(0.5)
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [("/S", "motion:blurScale")], problems
+
+
 def test_motion_samples_over_shutter(stage, delegate):
     _moving_sphere(stage)
     load(stage, delegate, frame=0)

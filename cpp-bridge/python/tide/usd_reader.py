@@ -1174,6 +1174,11 @@ class Reader:
 
     def _gprim_state(self, prim, dpath, source, transform_fn, motion_prims):
         type_name = GPRIMS[prim.GetTypeName()]
+        if self._motion:
+            scale = UsdGeom.MotionAPI(prim).ComputeMotionBlurScale(self._time(0))
+            if scale != 1.0:
+                self.problem(prim.GetPath(), "motion:blurScale", "%g is not supported; the prim "
+                             "blurs over the whole shutter (scale 1)" % scale)
         st = _PrimState("rprim", type_name, source)
         st.set("transform", None, self._xform_samples(transform_fn, motion_prims))
         st.set("visibility", ("token", "inherited"))
@@ -1397,10 +1402,12 @@ class Reader:
                        for o in offs]
                 other = [(o, g) for o, g in zip(offs, got) if g.shape != arr.shape]
                 if other:
+                    vel = prim.GetAttribute("velocities")
+                    then = "its samples are not used (its velocities move it)" \
+                        if vel and vel.HasAuthoredValue() else "the prim renders static at frame 0"
                     self.problem(prim.GetPath(), name, "the time sample at frame offset %g has %d "
                                  "points, frame 0 has %d; the topology must not change over "
-                                 "the shutter, so the prim renders static at frame 0"
-                                 % (other[0][0], len(other[0][1]), len(arr)))
+                                 "the shutter, so %s" % (other[0][0], len(other[0][1]), len(arr), then))
                 elif not all(np.all(np.isfinite(g)) for g in got):
                     self.problem(prim.GetPath(), name, "NaN or infinite values in a time sample; "
                                  "the prim renders static at frame 0")
