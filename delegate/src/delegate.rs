@@ -918,7 +918,7 @@ impl Delegate {
                 }
                 Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
                     // made once per shutter and shared by later assemblies
-                    let made = pd.made(t0, t1, motion);
+                    let made = pd.made(t0, t1, motion, tcps);
                     match &made.droplets {
                         // droplets inside the cloud become a scattering medium; the shell stays spheres
                         Some(Ok(Some(grid))) => {

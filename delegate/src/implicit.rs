@@ -297,9 +297,12 @@ pub struct PointsData {
     pub accelerations: Option<Vec<Vec3>>,
     /// `TideDropletsAPI` with `asVolume`: (voxel size, shell) in metres.
     pub droplets: Option<(f32, f32)>,
+    /// Without velocities: the points at the first and last time samples of their positions
+    /// (frame offsets in time codes), which move them over the shutter along the chord.
+    pub ends: Option<[(f64, Vec<Vec3>); 2]>,
     /// What the last assembly made of the points, and for which shutter (and whether it
     /// blurs).
-    made: crate::memo::Memo<(u32, u32, bool), PointsMade>,
+    made: crate::memo::Memo<(u32, u32, bool, u64), PointsMade>,
 }
 
 /// The points as an assembly places them over a shutter.
@@ -317,15 +320,27 @@ impl PointsData {
     /// folded into the velocities, then the droplets split off. Made once per shutter and
     /// shared after; points that neither accelerate nor lose their motion nor split are the
     /// converted ones, shared.
-    pub fn made(&self, t0: f32, t1: f32, motion: bool) -> PointsMade {
-        self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion), || {
+    pub fn made(&self, t0: f32, t1: f32, motion: bool, time_codes_per_second: f64) -> PointsMade {
+        let tcps = time_codes_per_second;
+        self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion, tcps.to_bits()), || {
             let still = !motion && self.spheres.velocities.is_some();
-            if self.accelerations.is_none() && !still && self.droplets.is_none() {
+            let sampled = motion && self.ends.is_some();
+            if self.accelerations.is_none() && !still && !sampled && self.droplets.is_none() {
                 return PointsMade { spheres: self.spheres.clone(), droplets: None };
             }
             let mut s = fold_acceleration(self, t0, t1);
             if !motion {
                 s.velocities = None;
+            }
+            if let Some([(ta, a), (tb, b)]) = self.ends.as_ref().filter(|_| motion) {
+                // the chord from the first sample to the last, in seconds of shutter time:
+                // centre + v·t passes a at ta and b at tb
+                let (sa, sb) = ((ta / tcps) as f32, (tb / tcps) as f32);
+                if sb > sa {
+                    let v: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*b - *a) / (sb - sa)).collect();
+                    s.centers = a.iter().zip(&v).map(|(a, v)| *a - *v * sa).collect();
+                    s.velocities = Some(v);
+                }
             }
             let Some((voxel, shell)) = self.droplets else {
                 return PointsMade { spheres: Arc::new(s), droplets: None };
@@ -382,11 +397,7 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     };
     let vel = per_point_vec3(store, "velocities", n, p);
     let acc = per_point_vec3(store, "accelerations", n, p);
-    // points blur by their velocities; time samples of their positions are not interpolated
-    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
-    if vel.is_none() && samples.windows(2).any(|w| w[0].1 != w[1].1) {
-        p.add("points", "time samples of a points prim's positions do not blur it (its velocities do); rendered as at the frame");
-    }
+
     let mut spheres = SpheresDesc { name: name.into(), ..Default::default() };
     let mut out = PointsData::default();
     let mut n_bad_w = 0;
@@ -417,6 +428,9 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
     spheres.shape = point_shape(store, n, &kept, &spheres.radii, p);
     spheres.primvars = crate::mesh::point_primvars(store, n, &kept, p);
+    if spheres.velocities.is_none() {
+        out.ends = sample_ends(store, n, &kept, p);
+    }
     if store.get("tide:droplets:asVolume").and_then(|v| v.as_bool()) == Some(true) {
         if spheres.shape != PointShape::Spheres {
             p.add("tide:droplets:asVolume", "droplets become a medium only as plain spheres, not as bubbles or blobbies; ignored");
@@ -436,6 +450,29 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     }
     out.spheres = Arc::new(spheres);
     out
+}
+
+/// The kept points at the first and last time samples of `points` (frame offsets, in time
+/// codes), where they differ: what moves points without velocities (USD interpolates their
+/// positions). Samples of another point count or with non-finite points are a problem, and
+/// the points render as at the frame.
+fn sample_ends(store: &AttrStore, n: usize, kept: &[usize], p: &mut Problems) -> Option<[(f64, Vec<Vec3>); 2]> {
+    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
+    let (first, last) = (samples.first()?, samples.last()?);
+    if samples.len() < 2 || first.1 == last.1 {
+        return None;
+    }
+    let mut ends = Vec::with_capacity(2);
+    for (t, v) in [first, last] {
+        let d = v.to_f32s().unwrap_or_default();
+        if d.len() != 3 * n || d.iter().any(|x| !x.is_finite()) {
+            p.add("points", format!("the time sample at frame offset {} has {} points (the frame {}) or non-finite ones; the points render as at the frame", t, d.len() / 3, n));
+            return None;
+        }
+        ends.push((*t, kept.iter().map(|&i| Vec3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2])).collect::<Vec<_>>()));
+    }
+    let last = ends.pop()?;
+    Some([ends.pop()?, last])
 }
 
 /// Per-point floats of a primvar (one per point, or one for all), or None (absent or bad:
@@ -660,26 +697,35 @@ mod tests {
         assert_eq!(attrs, vec!["radius", "axis"]);
     }
 
-    /// Time samples of a points prim's positions do not move its spheres (velocities do): said,
-    /// once, where they differ; equal samples or velocities say nothing.
+    /// Points without velocities move between the time samples of their positions (USD
+    /// interpolates them): along the chord from the first sample to the last, in seconds of
+    /// shutter time; without motion blur they stand at the frame. A sample of another point
+    /// count is named and the points stand still.
     #[test]
-    fn moving_point_samples_without_velocities_are_named() {
-        let at = |x: f32| Value::Floats { data: vec![x, 0., 0.], tuple: 3 };
-        let sampled = |a: f32, b: f32| {
-            let mut s = st(&[("points", at(a))]);
-            s.attrs.get_mut("points").unwrap().samples = vec![(0.0, at(a)), (1.0, at(b))];
+    fn points_move_between_their_position_samples() {
+        let at = |x: f32| Value::Floats { data: vec![x, 0., 0., x, 1., 0.], tuple: 3 };
+        let sampled = |a: Value, b: Value| {
+            let mut s = st(&[("points", at(0.5))]);
+            s.attrs.get_mut("points").unwrap().samples = vec![(-0.5, a), (0.5, b)];
             s
         };
-        let said = |s: &AttrStore| {
-            let mut p = Problems::new("/p");
-            points("/p", s, &mut p);
-            p.list.iter().filter(|q| q.attribute == "points").count()
-        };
-        assert_eq!(said(&sampled(0.0, 1.0)), 1);
-        assert_eq!(said(&sampled(0.0, 0.0)), 0);
-        let mut v = sampled(0.0, 1.0);
-        v.primvars.insert("velocities".into(), Primvar { interpolation: Interpolation::Vertex, data: vec![1.0, 0.0, 0.0], tuple: 3, indices: None });
-        assert_eq!(said(&v), 0);
+        let mut p = Problems::new("/p");
+        let d = points("/p", &sampled(at(0.0), at(2.0)), &mut p);
+        assert!(p.list.is_empty(), "{:?}", p.list);
+        // 24 time codes a second: the shutter [-0.5, 0.5] is 1/24 s, the points move 2 units
+        let m = d.made(-0.5 / 24.0, 0.5 / 24.0, true, 24.0);
+        let v = m.spheres.velocities.clone().unwrap();
+        assert!(v.iter().all(|v| (*v - Vec3::new(48.0, 0.0, 0.0)).length() < 1e-3), "{v:?}");
+        let c = &m.spheres.centers;
+        assert!((c[0] - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-5 && (c[1] - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-5, "{c:?}");
+        // no motion blur: at the frame, still
+        let still = d.made(0.0, 0.0, false, 24.0);
+        assert!(still.spheres.velocities.is_none() && still.spheres.centers[0] == Vec3::new(0.5, 0.0, 0.0));
+        // another count: named, still
+        let mut p = Problems::new("/p");
+        let d = points("/p", &sampled(at(0.0), Value::Floats { data: vec![0.0; 3], tuple: 3 }), &mut p);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["points"]);
+        assert!(d.made(-0.02, 0.02, true, 24.0).spheres.velocities.is_none());
     }
 
     #[test]
@@ -756,24 +802,24 @@ mod tests {
         let mut s = st(&[("points", pts.clone()), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:droplets:voxelSize", Value::Float(0.005))]);
         s.primvars.insert("widths".into(), Primvar { interpolation: Interpolation::Constant, data: vec![0.012], tuple: 1, indices: None });
         let d = points("/d", &s, &mut Problems::new("/d"));
-        let a = d.made(0.0, 0.0, false);
+        let a = d.made(0.0, 0.0, false, 24.0);
         let Some(Ok(Some(grid))) = &a.droplets else { panic!("no droplet medium: {:?}", a.droplets) };
         assert!(a.spheres.centers.len() < 27 && grid.values.iter().any(|&v| v > 0.0));
-        let b = d.made(0.0, 0.0, false);
+        let b = d.made(0.0, 0.0, false, 24.0);
         assert!(Arc::ptr_eq(&a.spheres, &b.spheres), "split once, then shared");
         // plain points that need nothing done are the converted ones
         let plain = points("/p", &st(&[("points", pts.clone())]), &mut Problems::new("/p"));
-        assert!(Arc::ptr_eq(&plain.made(0.0, 0.1, true).spheres, &plain.spheres));
+        assert!(Arc::ptr_eq(&plain.made(0.0, 0.1, true, 24.0).spheres, &plain.spheres));
         // accelerating points: folded per shutter, the same shutter shared, another made anew
         let mut s = st(&[("points", pts)]);
         s.primvars.insert("accelerations".into(), Primvar { interpolation: Interpolation::Vertex, data: [0.0f32, -10.0, 0.0].repeat(27), tuple: 3, indices: None });
         let d = points("/a", &s, &mut Problems::new("/a"));
-        let m = d.made(-0.02, 0.03, true);
+        let m = d.made(-0.02, 0.03, true, 24.0);
         assert_eq!(*m.spheres, fold_acceleration(&d, -0.02, 0.03));
-        assert!(Arc::ptr_eq(&m.spheres, &d.made(-0.02, 0.03, true).spheres));
-        let other = d.made(0.0, 0.04, true);
+        assert!(Arc::ptr_eq(&m.spheres, &d.made(-0.02, 0.03, true, 24.0).spheres));
+        let other = d.made(0.0, 0.04, true, 24.0);
         assert!(!Arc::ptr_eq(&m.spheres, &other.spheres) && *other.spheres == fold_acceleration(&d, 0.0, 0.04));
         // without motion blur the velocities go
-        assert!(d.made(-0.02, 0.03, false).spheres.velocities.is_none());
+        assert!(d.made(-0.02, 0.03, false, 24.0).spheres.velocities.is_none());
     }
 }
