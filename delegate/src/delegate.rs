@@ -1736,7 +1736,7 @@ mod tests {
     }
 
     #[test]
-    fn mesh_velocities_and_accelerations_become_keys_at_open_and_close() {
+    fn mesh_velocities_and_accelerations_become_keys_over_the_shutter() {
         let mut d = Delegate::new();
         shutter(&mut d, -0.5, 0.5);
         quad(&mut d, "/Still");
@@ -1747,10 +1747,11 @@ mod tests {
         assert_eq!(d.commit_resources(), []);
         assert!(motion_of(&d, "/Still").is_none());
         let m = motion_of(&d, "/Moving").unwrap();
-        // shutter ±0.5 frame = ±0.02 s; p + v·t + a·t²/2 with v = 2 (x), a = 50 (y)
-        assert_eq!(m.times, vec![-0.02, 0.02]);
+        // shutter ±0.5 frame = ±0.02 s; p + v·t + a·t²/2 with v = 2 (x), a = 50 (y), keyed at
+        // the ends and the middle (accelerations curve the path)
+        assert_eq!(m.times, vec![-0.02, 0.0, 0.02]);
         let p0 = mesh_of(&d, "/Moving").positions[0];
-        for (k, t) in [-0.02f32, 0.02].into_iter().enumerate() {
+        for (k, t) in [-0.02f32, 0.0, 0.02].into_iter().enumerate() {
             let want = p0 + Vec3::new(2.0 * t, 25.0 * t * t, 0.0);
             assert!((m.positions[k][0] - want).length() < 1e-6, "{:?} vs {want:?}", m.positions[k][0]);
         }

@@ -522,6 +522,10 @@ fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
 /// parabola). Authored normals turn with the surface: each key's normal is the authored one
 /// rotated by the shortest arc from the vertex's geometric normal at the current frame to
 /// its geometric normal at the key (exact for rigid motion).
+/// Keys of a motion with accelerations over the shutter (UsdGeomMotionAPI's default
+/// `motion:nonlinearSampleCount`).
+const NONLINEAR_SAMPLES: usize = 3;
+
 pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps: f64) -> Option<MeshMotion> {
     let (times, positions): (Vec<f32>, Vec<Vec<Vec3>>) = match d {
         Deformation::Samples(samples) => {
@@ -540,7 +544,12 @@ pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps
                     .collect()
             };
             let (t0, t1) = ((open / tcps) as f32, (close / tcps) as f32);
-            (vec![t0, t1], vec![key(t0), key(t1)])
+            // accelerations curve the path: USD's default motion:nonlinearSampleCount of 3
+            // keys (the middle one is where a symmetric shutter's turning point lies)
+            let n = if accelerations.is_some() && t1 > t0 { NONLINEAR_SAMPLES } else { 2 };
+            let times: Vec<f32> = (0..n).map(|k| t0 + (t1 - t0) * k as f32 / (n - 1) as f32).collect();
+            let keys = times.iter().map(|&t| key(t)).collect();
+            (times, keys)
         }
     };
     if !(times.windows(2).all(|w| w[0] < w[1])) {
@@ -769,6 +778,25 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
 mod tests {
     use super::*;
     use crate::value::{Attr, Value};
+
+/// Velocities alone move a mesh along straight lines (two keys); accelerations curve the
+    /// path, so it is keyed at three times (USD's default nonlinear sample count), each key
+    /// on the parabola p + v t + a t²/2: a symmetric shutter with no velocity turns back at
+    /// the middle instead of standing still.
+    #[test]
+    fn accelerations_key_the_curved_path() {
+        let mesh = MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], ..Default::default() };
+        let still = vec![Vec3::ZERO; 3];
+        let a = vec![Vec3::new(9216.0, 0.0, 0.0); 3];
+        let d = Deformation::Velocity { velocities: still.clone(), accelerations: Some(a) };
+        let m = motion_keys(&mesh, &d, -0.5, 0.5, 24.0).unwrap();
+        assert_eq!(m.times, vec![-0.5 / 24.0, 0.0, 0.5 / 24.0]);
+        // x = ½ · 9216 · (1/48)² = 2 at the shutter's ends, 0 in the middle
+        let xs: Vec<f32> = m.positions.iter().map(|k| k[0].x).collect();
+        assert!((xs[0] - 2.0).abs() < 1e-4 && xs[1].abs() < 1e-6 && (xs[2] - 2.0).abs() < 1e-4, "{xs:?}");
+        let lin = Deformation::Velocity { velocities: vec![Vec3::X; 3], accelerations: None };
+        assert_eq!(motion_keys(&mesh, &lin, -0.5, 0.5, 24.0).unwrap().times.len(), 2);
+    }
 
     fn store(points: &[f32], counts: &[i32], idx: &[i32]) -> AttrStore {
         let mut s = AttrStore::default();
