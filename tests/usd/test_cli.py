@@ -4,7 +4,7 @@ import os
 import subprocess
 
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
 
 from conftest import ROOT, camera, settings
 
@@ -398,3 +398,49 @@ def test_complexity_subdivides_as_usdrecords_does(tmp_path, renderer):
     assert not np.array_equal(pixels["high"], pixels["low"])
     out = run(["render", stages["plain"], "--complexity", "ultra"], tmp_path)
     assert out.returncode == 2 and "complexity" in out.stderr
+
+
+def test_a_file_that_cannot_be_written_leaves_none_of_the_render(tmp_path):
+    # two products, the second's name taken by a directory: exit 1, and the first product's
+    # files are not left behind either (every file is written aside, then named)
+    path = str(tmp_path / "two.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    st = settings(s, product="first.exr")
+    second = UsdRender.Product.Define(s, "/Render/Second")
+    second.CreateProductNameAttr("second.exr")
+    second.CreateOrderedVarsRel().SetTargets(["/Render/Settings_Var0"])
+    st.GetProductsRel().AddTarget(second.GetPath())
+    s.GetRootLayer().Save()
+    os.mkdir(tmp_path / "second.exr")
+    out = run(["render", path, "--spp", "1", "--width", "16"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 1, out.stderr
+    assert "second.exr" in out.stderr, out.stderr
+    assert sorted(os.listdir(tmp_path)) == ["second.exr", "two.usda"], os.listdir(tmp_path)
+
+
+@pytest.mark.parametrize("flags", [["--frame", "nan"], ["--frame", "inf"], ["--seed", "-1"],
+                                   ["--spp", "99999999999999999999"], ["--seed", "4294967296"],
+                                   ["--max-depth", "99999999999"]])
+def test_flags_the_renderer_cannot_take_are_usage_errors(tmp_path, flags):
+    out = run(["render", _stage(tmp_path), "--width", "8"] + flags, tmp_path)
+    assert out.returncode == 2, (flags, out.returncode, out.stderr)
+    assert not os.path.exists(tmp_path / "scene_out.exr")
+
+
+def test_the_summary_counts_rendering_apart_from_building(tmp_path):
+    # the summary line's render time is the renderer's own (the EXR's tide:renderSeconds),
+    # building the acceleration structures shown apart
+    out = run(["render", _stage(tmp_path), "--spp", "2", "--width", "16"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    line = [l for l in out.stdout.splitlines() if l.startswith("tide: wrote")][0]
+    render_s = float(line.split("render ")[1].split("s,")[0])
+    build_s = float(line.split("build ")[1].split("s,")[0])
+    assert render_s == pytest.approx(float(header["tide:renderSeconds"]), abs=0.006), line
+    assert build_s == pytest.approx(float(header["tide:buildSeconds"]), abs=0.006), line

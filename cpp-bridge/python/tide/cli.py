@@ -20,15 +20,17 @@ agree are rendered together; the others are rendered one after the other, each w
 time budget. With -o everything goes into one image at the first product's settings.
 
 Exit status: 0 when the image was written (or the listing printed), even if the stage has
-problems: each problem is printed once on stderr as `tide: problem: PRIM: ATTRIBUTE: MESSAGE`
-and that prim or input is dropped or replaced by its documented default (contract section 7);
-1 when the stage could not be opened or rendered at all (no file is left under the final
-name); 2 for usage errors (bad flags, a --settings or --camera path that names no such prim);
+problems: each problem is printed once (`tide render` on stderr as
+`tide: problem: PRIM: ATTRIBUTE: MESSAGE`, `tide info` in its listing on stdout) and that prim
+or input is dropped or replaced by its documented default (contract section 7); 1 when the
+stage could not be opened or rendered at all, or a file could not be written (no file of that
+render is left under its final name); 2 for usage errors (bad flags, a --settings or --camera path that names no such prim);
 130 when interrupted (Ctrl-C, or SIGTERM as a render farm stops a job: the render is
 cancelled and this render's files are not written).
 """
 import argparse
 import os
+import math
 import signal
 import sys
 import time
@@ -40,13 +42,18 @@ class UsageError(Exception):
     pass
 
 
+# the renderer's integers are 32-bit: larger flags are usage errors, not stage problems
+INT_MAX = 2**31 - 1
+
+
 def _positive_int(text):
     try:
         v = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError("expected a positive integer, got %r" % text)
-    if v <= 0:
-        raise argparse.ArgumentTypeError("expected a positive integer, got %r" % text)
+    if not 0 < v <= INT_MAX:
+        raise argparse.ArgumentTypeError("expected a positive integer up to %d, got %r"
+                                         % (INT_MAX, text))
     return v
 
 
@@ -59,15 +66,23 @@ def _int(text):
 
 def _nonneg_int(text):
     v = _int(text)
-    if v < 0:
-        raise argparse.ArgumentTypeError("expected a non-negative integer, got %r" % text)
+    if not 0 <= v <= INT_MAX:
+        raise argparse.ArgumentTypeError("expected a non-negative integer up to %d, got %r"
+                                         % (INT_MAX, text))
     return v
 
 
 def _nonneg_float(text):
     v = _float(text)
     if not v >= 0.0 or v == float("inf"):
-        raise argparse.ArgumentTypeError("expected a non-negative number of seconds, got %r" % text)
+        raise argparse.ArgumentTypeError("expected a non-negative finite number, got %r" % text)
+    return v
+
+
+def _finite_float(text):
+    v = _float(text)
+    if not math.isfinite(v):
+        raise argparse.ArgumentTypeError("expected a finite number, got %r" % text)
     return v
 
 
@@ -102,12 +117,12 @@ def build_parser():
     r.add_argument("-o", "--output", metavar="OUT.exr", help="write all AOVs to this EXR")
     r.add_argument("--settings", metavar="PRIM", help="UsdRenderSettings prim to use")
     r.add_argument("--camera", metavar="PATH", help="camera prim (overrides the settings')")
-    r.add_argument("--frame", type=_float, metavar="F", help="time code to render")
+    r.add_argument("--frame", type=_finite_float, metavar="F", help="time code to render")
     r.add_argument("--spp", type=_positive_int, metavar="N", help="samples per pixel")
     r.add_argument("--width", type=_positive_int, metavar="W",
                    help="image width (height keeps the aspect ratio)")
     r.add_argument("--threads", type=_positive_int, metavar="N", help="render threads")
-    r.add_argument("--seed", type=_int, metavar="S", help="random seed")
+    r.add_argument("--seed", type=_nonneg_int, metavar="S", help="random seed")
     r.add_argument("--integrator", choices=("path", "caustics"),
                    help="light transport (tide:integrator)")
     r.add_argument("--time-budget", type=_nonneg_float, metavar="SECONDS",
@@ -127,7 +142,7 @@ def build_parser():
     i.add_argument("stage", help="USD stage")
     i.add_argument("--settings", metavar="PRIM")
     i.add_argument("--camera", metavar="PATH")
-    i.add_argument("--frame", type=_float, metavar="F")
+    i.add_argument("--frame", type=_finite_float, metavar="F")
     _complexity_arg(i)
     return p
 
@@ -299,9 +314,11 @@ def _render_one(reader, delegate, args, outputs, load_s):
         return EXIT_INTERRUPTED
     bar.done()
     render_s = time.monotonic() - t1
+    summary = rp.summary() if hasattr(rp, "summary") else {}
+    # the renderer's own time: sampling only, building the acceleration structures apart
+    render_s = float(summary.get("renderSeconds", render_s))
     _print_problems(reader.commit())
     w, h = reader.resolution
-    summary = rp.summary() if hasattr(rp, "summary") else {}
     # with adaptive sampling the pixels' mean sample count is below the passes' count
     mean_spp = float(summary["meanSpp"]) if "meanSpp" in summary else None
 
@@ -321,8 +338,10 @@ def _render_one(reader, delegate, args, outputs, load_s):
         sps, header = make_header(spp)
         _write(delegate, outputs, header, png=False)
     adaptive = " (adaptive: mean %.1f)" % mean_spp if mean_spp is not None else ""
-    sys.stdout.write("tide: wrote %s (%dx%d, %d spp%s, load %.2fs, render %.2fs, %.3g samples/s)\n"
-                     % (", ".join(written), w, h, spp, adaptive, load_s, render_s, sps))
+    build = _written(outputs[0][0], "tide:buildSeconds")
+    build = ", build %.2fs" % float(build) if build is not None else ""
+    sys.stdout.write("tide: wrote %s (%dx%d, %d spp%s, load %.2fs%s, render %.2fs, %.3g samples/s)\n"
+                     % (", ".join(written), w, h, spp, adaptive, load_s, build, render_s, sps))
     if "photonsStored" in summary:
         mib = int(summary.get("photonMapPeakBytes", "0")) / float(1 << 20)
         capped = int(summary.get("photonPassesCapped", "0"))
@@ -369,21 +388,43 @@ def _header(args, reader, spp, load_s, render_s, sps):
     return header
 
 
+def _staging(name):
+    """A temporary name beside `name` (same directory and extension) to write it under."""
+    d, base = os.path.split(name)
+    stem, ext = os.path.splitext(base)
+    return os.path.join(d, ".%s.tide%d%s" % (stem, os.getpid(), ext))
+
+
 def _write(delegate, outputs, header, png=True):
-    written = []
-    for name, vars_, types in outputs:
-        delegate.write_exr(name, [(aov, aov, types.get(aov, "")) for aov, _ in vars_], header)
-        written.append(name)
-        color = [buf for aov, buf in vars_ if aov == "color"]
-        png_name = os.path.splitext(name)[0] + ".png"
-        if os.path.abspath(png_name) == os.path.abspath(name):
-            png_name = name + ".png"     # a product named *.png keeps its EXR
-        if color and png:
-            # the colour space the render used (an unknown one authored was replaced)
-            space = _written(name, "renderingColorSpace") or "lin_rec709"
-            delegate.write_preview_png(png_name, color[0], space, "Standard")
-            written.append(png_name)
-    return written
+    """Writes every file of the render under a temporary name beside its own, then gives them
+    their names: a file that cannot be written leaves none of this render's files behind."""
+    staged = []
+    try:
+        for name, vars_, types in outputs:
+            tmp = _staging(name)
+            staged.append((tmp, name))
+            delegate.write_exr(tmp, [(aov, aov, types.get(aov, "")) for aov, _ in vars_], header)
+            color = [buf for aov, buf in vars_ if aov == "color"]
+            png_name = os.path.splitext(name)[0] + ".png"
+            if os.path.abspath(png_name) == os.path.abspath(name):
+                png_name = name + ".png"     # a product named *.png keeps its EXR
+            if color and png:
+                # the colour space the render used (an unknown one authored was replaced)
+                space = _written(tmp, "renderingColorSpace") or "lin_rec709"
+                tmp_png = _staging(png_name)
+                staged.append((tmp_png, png_name))
+                delegate.write_preview_png(tmp_png, color[0], space, "Standard")
+        for _, final in staged:
+            if os.path.isdir(final):
+                raise OSError("%s: is a directory" % final)
+        for tmp, final in staged:
+            os.replace(tmp, final)
+    except BaseException:
+        for tmp, _ in staged:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        raise
+    return [final for _, final in staged]
 
 
 def cmd_info(args):
