@@ -326,6 +326,25 @@ def test_render_settings_are_read_at_the_frame(stage, delegate):
     assert reader.resolution == (32, 16)
 
 
+def test_an_applied_caustics_api_leaves_unauthored_roles_untagged(stage, delegate):
+    # TideCausticsAPI's fallback caster/emitter `false` is no explicit `false`: applying the API
+    # to author only a transparency (or nothing) must not exclude the object or the light
+    camera(stage)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball").GetPrim()
+    ball.ApplyAPI("TideCausticsAPI")
+    ball.CreateAttribute("tide:caustics:transparency", Sdf.ValueTypeNames.Token).Set("off")
+    sun = UsdLux.DistantLight.Define(stage, "/Sun").GetPrim()
+    sun.ApplyAPI("TideCausticsAPI")
+    tagged = UsdGeom.Sphere.Define(stage, "/Tagged").GetPrim()
+    tagged.ApplyAPI("TideCausticsAPI")
+    tagged.CreateAttribute("tide:caustics:caster", Sdf.ValueTypeNames.Bool).Set(False)
+    load(stage, delegate)
+    assert "/Ball" in delegate.prims and "/Sun" in delegate.prims
+    assert delegate.value("/Ball", "tide:caustics:caster") is None
+    assert delegate.value("/Sun", "tide:caustics:emitter") is None
+    assert delegate.value("/Tagged", "tide:caustics:caster") is False
+
+
 def _moving_sphere(stage, open_=-0.25, close=0.25):
     camera(stage, **{"shutter__open": open_, "shutter__close": close})
     s = UsdGeom.Sphere.Define(stage, "/S")

@@ -28,6 +28,8 @@ TF_DEFINE_PRIVATE_TOKENS(_tokens,
     (tideOcean)
     (tide)
     (time)
+    ((causticsCaster, "tide:caustics:caster"))
+    ((causticsEmitter, "tide:caustics:emitter"))
 );
 
 namespace {
@@ -198,6 +200,10 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
         const TfToken name = prop.GetName();
         if (UsdAttribute attr = prop.As<UsdAttribute>()) {
             if (!attr.HasValue()) continue;
+            // an applied TideCausticsAPI's fallback `false` is no explicit `false`: an unauthored
+            // caster or emitter role leaves the object or light untagged (as the reader sends it)
+            if ((name == _tokens->causticsCaster || name == _tokens->causticsEmitter) && !attr.HasAuthoredValue())
+                continue;
             names.push_back(name);
             values.push_back(UsdImagingDataSourceAttributeNew(attr, stageGlobals, prim.GetPath(),
                                                               HdDataSourceLocator(_tokens->tide, name)));

@@ -130,6 +130,9 @@ ALLOWED_TOKENS = {
     "visibility": ("inherited", "invisible"),
     "purpose": ("default", "render", "proxy", "guide"),
 }
+# Tide's roles whose absence means "not tagged" (the one-click caustics default applies),
+# unlike their schema's fallback
+UNTAGGED_UNLESS_AUTHORED = ("tide:caustics:caster", "tide:caustics:emitter")
 AOVS = {
     "color": "float4", "depth": "float", "normal": "float3",
     "albedo": "float3", "primId": "float", "tide:diffuse": "float3",
@@ -1272,6 +1275,10 @@ class Reader:
     def _tide_attrs(self, prim, st):
         for attr in prim.GetAttributes():
             name = attr.GetName()
+            if name in UNTAGGED_UNLESS_AUTHORED and not attr.HasAuthoredValue():
+                # an applied TideCausticsAPI's fallback `false` is no explicit `false`: a caster
+                # or emitter role not authored leaves the object or light untagged
+                continue
             if name.startswith("tide:"):
                 why = _mistyped(prim, attr)
                 if why:
