@@ -189,8 +189,11 @@ def test_a_stopped_render_exits_130_and_writes_nothing(tmp_path, signum):
     import time
     stage = _stage(tmp_path)
     env = dict(os.environ)
+    # a command started in the background of a shell inherits SIGINT ignored (and keeps
+    # ignoring it, as Unix has it): the render is given the default disposition, as a terminal's is
     proc = subprocess.Popen([TIDE, "render", stage, "--spp", "1000000", "--width", "64"], cwd=tmp_path,
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 60
         # wait for the render to be under way (its first progress line)
