@@ -267,11 +267,6 @@ impl Camera {
         self.planes.iter().all(|p| p.truncate().dot(q) + p.w >= 0.0)
     }
 
-    /// Camera-space distance of the near plane (added to depth along the clipped ray).
-    pub fn near(&self) -> f32 {
-        self.near
-    }
-
     /// Pixel position (x right, y down) where a world point projects at `time` (pinhole), or
     /// None when it is behind the camera.
     pub fn project(&self, p: Vec3, time: f32) -> Option<Vec2> {

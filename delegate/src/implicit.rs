@@ -453,26 +453,21 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
 }
 
 /// The kept points at the first and last time samples of `points` (frame offsets, in time
-/// codes), where they differ: what moves points without velocities (USD interpolates their
-/// positions). Samples of another point count or with non-finite points are a problem, and
-/// the points render as at the frame.
+/// codes), where they move: what moves points without velocities (USD interpolates their
+/// positions). The samples are checked as a mesh's are ([`crate::mesh::point_motion`]: another
+/// point count or non-finite points are a problem, and the points render as at the frame).
 fn sample_ends(store: &AttrStore, n: usize, kept: &[usize], p: &mut Problems) -> Option<[(f64, Vec<Vec3>); 2]> {
-    let samples = store.attr("points").map_or(&[][..], |a| &a.samples[..]);
-    let (first, last) = (samples.first()?, samples.last()?);
-    if samples.len() < 2 || first.1 == last.1 {
+    if store.attr("points").map_or(0, |a| a.samples.len()) < 2 {
         return None;
     }
-    let mut ends = Vec::with_capacity(2);
-    for (t, v) in [first, last] {
-        let d = v.to_f32s().unwrap_or_default();
-        if d.len() != 3 * n || d.iter().any(|x| !x.is_finite()) {
-            p.add("points", format!("the time sample at frame offset {} has {} points (the frame {}) or non-finite ones; the points render as at the frame", t, d.len() / 3, n));
-            return None;
+    let key = |d: &[f32]| kept.iter().map(|&i| Vec3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2])).collect();
+    match crate::mesh::point_motion(store, n, kept.len(), "the points prim", key, key, p)? {
+        crate::mesh::Deformation::Samples(mut keys) => {
+            let last = keys.pop()?;
+            Some([keys.into_iter().next()?, last])
         }
-        ends.push((*t, kept.iter().map(|&i| Vec3::new(d[3 * i], d[3 * i + 1], d[3 * i + 2])).collect::<Vec<_>>()));
+        crate::mesh::Deformation::Velocity { .. } => None,
     }
-    let last = ends.pop()?;
-    Some([ends.pop()?, last])
 }
 
 /// Per-point floats of a primvar (one per point, or one for all), or None (absent or bad:

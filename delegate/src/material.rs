@@ -333,13 +333,7 @@ impl Ctx<'_> {
         Some(match self.uv_texture(up, channel) {
             Ok(t) => Source::Texture(t),
             // the fallback stands for the texture's texel: each output its own channel
-            Err(fb) => Source::Fallback(match channel {
-                Channel::Rgb => fb,
-                Channel::R => [fb[0]; 4],
-                Channel::G => [fb[1]; 4],
-                Channel::B => [fb[2]; 4],
-                Channel::A => [fb[3]; 4],
-            }),
+            Err(fb) => Source::Fallback(tide_core::texture::channel_rgba(fb, channel)),
         })
     }
 

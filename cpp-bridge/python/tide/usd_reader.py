@@ -130,6 +130,8 @@ ALLOWED_TOKENS = {
     "visibility": ("inherited", "invisible"),
     "purpose": ("default", "render", "proxy", "guide"),
 }
+# UsdRenderSettings.materialBindingPurposes' tokens ("" the all-purpose binding)
+BINDING_PURPOSES = ("full", "preview", "")
 # Tide's roles whose absence means "not tagged" (the one-click caustics default applies),
 # unlike their schema's fallback
 UNTAGGED_UNLESS_AUTHORED = ("tide:caustics:caster", "tide:caustics:emitter")
@@ -728,10 +730,14 @@ class Reader:
     # -- traversal ------------------------------------------------------------------------
     def _included(self, imageable):
         purpose = imageable.ComputePurpose()
+        return self._purpose_included(purpose), purpose
+
+    def _purpose_included(self, purpose):
+        """Whether the settings' includedPurposes take `purpose` (an unknown token, reported
+        where it is authored, reads as the default)."""
         if purpose not in ALLOWED_TOKENS["purpose"]:
-            # an unknown token (reported where it is authored) reads as the default
             purpose = UsdGeom.Tokens.default_
-        return purpose in self._purposes, purpose
+        return purpose in self._purposes
 
     def _check_imageable_tokens(self, prim, imageable):
         """Names an authored visibility or purpose that is not one of USD's tokens (they then
@@ -985,9 +991,9 @@ class Reader:
         binding = [str(t) for t in get(settings.GetMaterialBindingPurposesAttr() if settings
                                        else None, ["full", ""])]
         for t in binding:
-            if t not in ("full", "preview", ""):
+            if t not in BINDING_PURPOSES:
                 self.problem(spath, "materialBindingPurposes", "unknown purpose '%s'; ignored" % t)
-        self._binding_purposes = [t for t in binding if t in ("full", "preview", "")]
+        self._binding_purposes = [t for t in binding if t in BINDING_PURPOSES]
         purposes = list(get(settings.GetIncludedPurposesAttr() if settings else None,
                             ["default", "render"]))
         self._purposes = set(purposes)
@@ -1960,11 +1966,7 @@ class Reader:
             if p.GetPath() == proto.GetPath():
                 break
             p = p.GetParent()
-        if purpose is None:
-            return True
-        if purpose not in ALLOWED_TOKENS["purpose"]:
-            purpose = UsdGeom.Tokens.default_
-        return purpose in self._purposes
+        return purpose is None or self._purpose_included(purpose)
 
     def _eval_instancer(self, prim, outer=None):
         """A PointInstancer's prototypes, each gprim sent once with the world matrices of its
