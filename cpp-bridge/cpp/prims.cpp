@@ -156,7 +156,8 @@ bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::stri
     try {
         if (ok) {
             param.GetDelegate().add_texture(Str(asset), uint32_t(image.width), uint32_t(image.height),
-                                            uint32_t(image.channels), SliceOf(image.pixels), image.isSrgb);
+                                            uint32_t(image.channels), SliceOf(image.pixels), image.isSrgb,
+                                            Str(image.wrapmodes));
             return true;
         }
         param.GetDelegate().texture_failed(Str(asset), Str(error));

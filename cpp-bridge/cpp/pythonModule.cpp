@@ -490,7 +490,7 @@ PyObject* Delegate_load_texture(PyObject* self, PyObject* args, PyObject* kw) {
             param.GetDelegate().add_texture(asset, uint32_t(image.width), uint32_t(image.height),
                                             uint32_t(image.channels),
                                             rust::Slice<const float>(image.pixels.data(), image.pixels.size()),
-                                            image.isSrgb);
+                                            image.isSrgb, image.wrapmodes);
             return true;
         }
         cache.ForgetSent(asset);

@@ -103,6 +103,19 @@ void Textures(Checker& c, const std::string& dir) {
     for (size_t i = 0; same && i < 12; ++i) same = m.pixels[i] == pixels[i];  // float EXR: exact
     c.Check(same, "float EXR pixels reach the delegate unchanged (no sRGB decode)");
 
+    // A file's wrap metadata (what maketx writes) comes through; a file without names none.
+    TextureCache cache;
+    TextureImage plain, wrapped;
+    std::string error;
+    c.Check(cache.Read(path, &plain, &error) && plain.wrapmodes.empty(), "a file without wrap metadata names none");
+    const std::string wrappedPath = dir + "/selftest_wrapped.exr";
+    auto wout = OIIO::ImageOutput::create(wrappedPath);
+    spec.attribute("wrapmodes", "clamp,periodic");
+    c.Check(wout && wout->open(wrappedPath, spec) && wout->write_image(OIIO::TypeDesc::FLOAT, pixels) && wout->close(),
+            "EXR with wrapmodes written");
+    c.Check(cache.Read(wrappedPath, &wrapped, &error) && wrapped.wrapmodes == "clamp,periodic",
+            "a file's wrapmodes metadata is read (got '" + wrapped.wrapmodes + "')");
+
     c.Check(!LoadTextureFor(param, "/Looks/M", "/Looks/M/Other.inputs:file", dir + "/missing.png"),
             "missing texture fails");
     c.Check(HasProblem(param.TakeProblems(), "/Looks/M", "/Looks/M/Other.inputs:file"),

@@ -89,6 +89,7 @@ bool TextureCache::Read(const std::string& path, TextureImage* out, std::string*
     }
 
     img.isSrgb = spec.format == OIIO::TypeDesc::UINT8 && (spec.nchannels == 3 || spec.nchannels == 4);
+    img.wrapmodes = spec.get_string_attribute("wrapmodes");
     *out = std::move(img);
     return true;
 }

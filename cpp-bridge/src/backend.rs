@@ -169,10 +169,10 @@ impl Delegate {
         })
     }
 
-    pub fn add_texture(&self, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool) -> Result<(), String> {
+    pub fn add_texture(&self, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool, wrapmodes: &str) -> Result<(), String> {
         guard("add_texture", || {
             // A refused size becomes a problem on the asset (returned by the next commit).
-            lock(&self.shared).delegate.add_texture(asset, width, height, channels, pixels.to_vec(), is_srgb);
+            lock(&self.shared).delegate.add_texture(asset, width, height, channels, pixels.to_vec(), is_srgb, wrapmodes);
             Ok(())
         })
     }
@@ -415,11 +415,11 @@ mod tests {
     #[test]
     fn textures_read_back_and_bad_sizes_are_problems() {
         let d = Delegate::new();
-        d.add_texture("/t.exr", 1, 1, 3, &[0.5, 0.25, 1.0], false).unwrap();
+        d.add_texture("/t.exr", 1, 1, 3, &[0.5, 0.25, 1.0], false, "").unwrap();
         let t = d.texture_pixels("/t.exr").unwrap();
         assert_eq!((t.width, t.height, t.channels, t.pixels), (1, 1, 3, vec![0.5, 0.25, 1.0]));
         assert!(d.texture_pixels("/none.exr").unwrap().pixels.is_empty());
-        d.add_texture("/bad.exr", 2, 2, 3, &[0.0; 5], false).unwrap();
+        d.add_texture("/bad.exr", 2, 2, 3, &[0.0; 5], false, "").unwrap();
         assert!(d.commit_resources().unwrap().iter().any(|p| p.prim == "/bad.exr"));
     }
 

@@ -110,8 +110,9 @@ pub mod ffi {
         ) -> Result<()>;
 
         /// A texture's values as the file holds them (not decoded); `is_srgb`: whether
-        /// `sourceColorSpace = "auto"` reads it as sRGB-encoded.
-        fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool) -> Result<()>;
+        /// `sourceColorSpace = "auto"` reads it as sRGB-encoded; `wrapmodes`: the file's wrap
+        /// metadata as OpenImageIO reports it (empty if none).
+        fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool, wrapmodes: &str) -> Result<()>;
         fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
         /// The pixels the delegate holds for a texture (for checks; empty if none).
         fn texture_pixels(self: &Delegate, asset: &str) -> Result<MappedBuffer>;

@@ -453,9 +453,11 @@ impl Delegate {
     }
 
     /// Provides a texture's decoded pixels (row-major from the top row). `is_srgb`: the file's
-    /// colour space is sRGB (used when a UsdUVTexture's `sourceColorSpace` is `auto`).
-    /// 2-channel (grey, alpha) images are expanded to RGBA. Bad sizes → false + problem.
-    pub fn add_texture(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Vec<f32>, is_srgb: bool) -> bool {
+    /// colour space is sRGB (used when a UsdUVTexture's `sourceColorSpace` is `auto`);
+    /// `wrapmodes`: the file's wrap metadata as OpenImageIO names it ("periodic,clamp"; empty
+    /// if none), which a UsdUVTexture's `useMetadata` wrap follows. 2-channel (grey, alpha)
+    /// images are expanded to RGBA. Bad sizes → false + problem.
+    pub fn add_texture(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Vec<f32>, is_srgb: bool, wrapmodes: &str) -> bool {
         let n = width as usize * height as usize;
         let state = if !(1..=4).contains(&channels) || n == 0 || pixels.len() != n * channels as usize {
             let msg = format!("{}x{} with {} channels does not match {} values", width, height, channels, pixels.len());
@@ -467,7 +469,7 @@ impl Delegate {
             } else {
                 (channels, pixels)
             };
-            TexState::Loaded { width, height, channels, pixels: Arc::new(pixels), is_srgb }
+            TexState::Loaded { width, height, channels, pixels: Arc::new(pixels), is_srgb, file_wrap: material::file_wrap_modes(wrapmodes) }
         };
         let ok = matches!(state, TexState::Loaded { .. });
         self.textures.insert(asset.to_string(), state);
@@ -823,7 +825,7 @@ impl Delegate {
             if let Some(&i) = tex_index.get(key) {
                 return Some(i);
             }
-            let Some(TexState::Loaded { width, height, channels, pixels, is_srgb }) = textures.get(&key.asset) else { return None };
+            let Some(TexState::Loaded { width, height, channels, pixels, is_srgb, .. }) = textures.get(&key.asset) else { return None };
             let tex = match before.remove(key) {
                 Some((source, tex)) if Arc::ptr_eq(&source, pixels) => tex,
                 _ => convert_texture(key, *width, *height, *channels, pixels, *is_srgb)?,
@@ -1504,6 +1506,10 @@ mod tests {
         d.set_attribute(path, &format!("{path}/S.inputs:diffuseColor.connect"), tok(&format!("{path}/T.outputs:rgb")), None);
         d.set_attribute(path, &format!("{path}/T.info:id"), tok("UsdUVTexture"), None);
         d.set_attribute(path, &format!("{path}/T.inputs:file"), Value::Asset(file.into()), None);
+        // repeating, so a texel covers the whole quad (useMetadata would blend in a black border)
+        for wrap in ["wrapS", "wrapT"] {
+            d.set_attribute(path, &format!("{path}/T.inputs:{wrap}"), tok("repeat"), None);
+        }
     }
 
     fn material_of<'a>(d: &'a Delegate, inst: &str) -> &'a tide_core::scene::MaterialDesc {
@@ -1580,7 +1586,7 @@ mod tests {
     fn assemblies_share_converted_textures_until_the_file_changes() {
         let mut d = Delegate::new();
         textured_material(&mut d, "/M", "/t.png");
-        assert!(d.add_texture("/t.png", 2, 1, 3, vec![0.5, 0.5, 0.5, 1.0, 1.0, 1.0], true));
+        assert!(d.add_texture("/t.png", 2, 1, 3, vec![0.5, 0.5, 0.5, 1.0, 1.0, 1.0], true, ""));
         quad(&mut d, "/A");
         d.set_attribute("/A", "material", Value::Path("/M".into()), None);
         d.commit_resources();
@@ -1591,7 +1597,7 @@ mod tests {
         d.commit_resources();
         assert!(Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
         // new pixels for the file are converted anew
-        assert!(d.add_texture("/t.png", 2, 1, 3, vec![1.0; 6], true));
+        assert!(d.add_texture("/t.png", 2, 1, 3, vec![1.0; 6], true, ""));
         d.commit_resources();
         assert!(!Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
         assert_eq!(*d.scene().textures[0].pixels, vec![1.0; 6]);
@@ -1617,7 +1623,7 @@ mod tests {
         // a mesh displaced by a texture
         textured_material(&mut d, "/M", "/h.png");
         d.set_attribute("/M", "/M/S.inputs:displacement.connect", tok("/M/T.outputs:r"), None);
-        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.5], false));
+        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.5], false, ""));
         quad(&mut d, "/D");
         d.set_attribute("/D", "material", Value::Path("/M".into()), None);
         d.commit_resources();
@@ -1635,7 +1641,7 @@ mod tests {
         let second = meshes(&d);
         assert!(first.iter().zip(&second).all(|(a, b)| Arc::ptr_eq(a, b)));
         // new pixels for the displacement's texture: that mesh is displaced again, alone
-        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.25], false));
+        assert!(d.add_texture("/h.png", 1, 1, 1, vec![0.25], false, ""));
         d.commit_resources();
         let third = meshes(&d);
         assert!(!Arc::ptr_eq(&third[3], &second[3]) && (third[3].positions[0].z - 0.25).abs() < 1e-6);
@@ -1664,7 +1670,7 @@ mod tests {
         let decoded = 0.214_041f32; // sRGB 0.5 (IEC 61966-2-1)
         for (file_srgb, auto) in [(true, decoded), (false, 0.5)] {
             let mut d = Delegate::new();
-            assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], file_srgb));
+            assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], file_srgb, ""));
             for (k, cs) in ["raw", "auto", "sRGB"].iter().enumerate() {
                 let (m, prim) = (format!("/M{k}"), format!("/A{k}"));
                 textured_material(&mut d, &m, "/t.png");
@@ -1692,14 +1698,14 @@ mod tests {
         textured_material(&mut d, "/M", "/t.png");
         let p = d.commit_resources();
         assert_eq!(p[0].attribute, "/M/T.inputs:file");
-        assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], true));
+        assert!(d.add_texture("/t.png", 1, 1, 3, vec![0.5, 0.5, 0.5], true, ""));
         let p = d.commit_resources();
         assert!(p.is_empty(), "{:?}", p);
         assert_eq!(d.last_synced(), ["/M"]);
         let t = &d.scene().textures[0];
         // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
         assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
-        assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false));
+        assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false, ""));
     }
 
     /// A camera with the shutter [open, close] (frames) at 25 frames per second.
@@ -1907,7 +1913,7 @@ mod tests {
     #[test]
     fn textures_read_back_as_held() {
         let mut d = Delegate::new();
-        assert!(d.add_texture("/g.png", 2, 1, 2, vec![0.1, 0.9, 0.3, 0.7], false));
+        assert!(d.add_texture("/g.png", 2, 1, 2, vec![0.1, 0.9, 0.3, 0.7], false, ""));
         let t = d.texture("/g.png").unwrap();
         assert_eq!((t.width, t.height, t.channels), (2, 1, 4));
         assert_eq!(t.pixels, vec![0.1, 0.1, 0.1, 0.9, 0.3, 0.3, 0.3, 0.7]);
@@ -2028,7 +2034,7 @@ mod tests {
         let mut d = Delegate::new();
         d.create_prim("domeLight", "/Dome");
         d.set_attribute("/Dome", "inputs:texture:file", Value::Asset("/sky.exr".into()), None);
-        d.add_texture("/sky.exr", 2, 1, 3, vec![1.0; 6], false);
+        d.add_texture("/sky.exr", 2, 1, 3, vec![1.0; 6], false, "");
         d.create_prim("material", "/Sea");
         d.set_attribute("/Sea", "volume", Value::Path("/Sea/V".into()), None);
         d.set_attribute("/Sea", "/Sea/V.info:id", tok("TideMedium"), None);

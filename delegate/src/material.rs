@@ -87,9 +87,29 @@ impl WrapKey {
 /// What the delegate knows of a texture file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TexState {
-    /// Decoded pixels as the file holds them; `is_srgb`: the file's colour space is sRGB.
-    Loaded { width: u32, height: u32, channels: u32, pixels: std::sync::Arc<Vec<f32>>, is_srgb: bool },
+    /// Decoded pixels as the file holds them; `is_srgb`: the file's colour space is sRGB;
+    /// `file_wrap`: the wrap modes (s, t) the file's metadata names, if any.
+    Loaded { width: u32, height: u32, channels: u32, pixels: std::sync::Arc<Vec<f32>>, is_srgb: bool, file_wrap: [Option<WrapKey>; 2] },
     Failed(String),
+}
+
+/// The wrap modes (s, t) of a texture file's `wrapmodes` metadata as OpenImageIO reports it
+/// ("periodic,clamp"; one token serves both axes): `default`, empty or unknown tokens are no
+/// opinion.
+pub fn file_wrap_modes(wrapmodes: &str) -> [Option<WrapKey>; 2] {
+    let mode = |t: &str| match t.trim() {
+        "periodic" | "periodic_pow2" | "periodic_sharedborder" => Some(WrapKey::Repeat),
+        "mirror" => Some(WrapKey::Mirror),
+        "clamp" => Some(WrapKey::Clamp),
+        "black" => Some(WrapKey::Black),
+        _ => None,
+    };
+    let mut tokens = wrapmodes.split(',');
+    let s = mode(tokens.next().unwrap_or(""));
+    match tokens.next() {
+        Some(t) => [s, mode(t)],
+        None => [s, s],
+    }
 }
 
 /// A converted material: texture indices in `desc` refer to `textures`.
@@ -271,10 +291,10 @@ impl Ctx<'_> {
 
     /// A wrap-mode input: the wrap of its token among `modes`, of `default` when unauthored
     /// or unknown (reported).
-    fn wrap_input(&mut self, node: &str, input: &str, modes: &[(&'static str, WrapKey)], default: &'static str) -> WrapKey {
+    fn wrap_input(&mut self, node: &str, input: &str, modes: &[(&'static str, Option<WrapKey>)], default: &'static str) -> Option<WrapKey> {
         let names: Vec<&'static str> = modes.iter().map(|m| m.0).collect();
         let token = self.input_token(node, input, &names, default);
-        modes.iter().find(|m| m.0 == token).map_or(WrapKey::Repeat, |m| m.1)
+        modes.iter().find(|m| m.0 == token).map_or(Some(WrapKey::Repeat), |m| m.1)
     }
 
     /// A node's id; MaterialX's UsdPreviewSurface nodes read as the USD ones.
@@ -358,10 +378,9 @@ impl Ctx<'_> {
 
     /// UsdUVTexture `tex`: a lookup, or its fallback when the file is unavailable.
     fn uv_texture(&mut self, tex: &str, channel: Channel) -> Result<TexLookup, [f32; 4]> {
-        // useMetadata asks for the file's own wrap mode, which Tide does not read: it repeats
-        // (UsdUVTexture says black for a file without one; a black border darkens every texture
-        // that leaves its wrap unauthored along its edges, small swatches all over)
-        let modes = [("repeat", WrapKey::Repeat), ("mirror", WrapKey::Mirror), ("clamp", WrapKey::Clamp), ("black", WrapKey::Black), ("useMetadata", WrapKey::Repeat)];
+        // useMetadata (the default): the file's own wrap mode, black where it names none
+        // (UsdUVTexture; Storm's sampler does the same)
+        let modes = [("repeat", Some(WrapKey::Repeat)), ("mirror", Some(WrapKey::Mirror)), ("clamp", Some(WrapKey::Clamp)), ("black", Some(WrapKey::Black)), ("useMetadata", None)];
         let wrap_s = self.wrap_input(tex, "wrapS", &modes, "useMetadata");
         let wrap_t = self.wrap_input(tex, "wrapT", &modes, "useMetadata");
         let fallback = self.input_vec(tex, "fallback", [0.0, 0.0, 0.0, 1.0]);
@@ -374,9 +393,10 @@ impl Ctx<'_> {
     }
 
     /// The texture that input `file` of node `tex` names, as an index into this material's list
-    /// (`cs`: `sRGB`, `raw`, or `auto` for the file's own encoding); None when there is no
-    /// usable file (a problem names the input, but for an empty path).
-    fn texture_slot(&mut self, tex: &str, file: &str, cs: &str, wrap_s: WrapKey, wrap_t: WrapKey) -> Option<usize> {
+    /// (`cs`: `sRGB`, `raw`, or `auto` for the file's own encoding; a wrap of None: the file's
+    /// metadata's, else black); None when there is no usable file (a problem names the input,
+    /// but for an empty path).
+    fn texture_slot(&mut self, tex: &str, file: &str, cs: &str, wrap_s: Option<WrapKey>, wrap_t: Option<WrapKey>) -> Option<usize> {
         let file_attr = format!("{}.inputs:{}", tex, file);
         let Some(asset) = self.nodes[tex].inputs.get(file).and_then(|v| v.as_str()).map(String::from) else {
             self.p.add(&file_attr, "no texture file; using the fallback value");
@@ -385,7 +405,7 @@ impl Ctx<'_> {
         if asset.is_empty() {
             return None;
         }
-        match (self.textures)(&asset) {
+        let file_wrap = match (self.textures)(&asset) {
             None => {
                 self.p.add(&file_attr, format!("texture '{}' was not provided; using the fallback value", asset));
                 return None;
@@ -394,8 +414,10 @@ impl Ctx<'_> {
                 self.p.add(&file_attr, format!("texture '{}' could not be read ({}); using the fallback value", asset, msg));
                 return None;
             }
-            Some(TexState::Loaded { .. }) => {}
-        }
+            Some(TexState::Loaded { file_wrap, .. }) => file_wrap,
+        };
+        let wrap_s = wrap_s.or(file_wrap[0]).unwrap_or(WrapKey::Black);
+        let wrap_t = wrap_t.or(file_wrap[1]).unwrap_or(WrapKey::Black);
         let encoding = match cs {
             "sRGB" => Encoding::Srgb,
             "raw" => Encoding::Raw,
@@ -872,7 +894,7 @@ mod tests {
 
     pub(super) fn loaded(srgb: bool) -> impl Fn(&str) -> Option<TexState> {
         move |a: &str| {
-            (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 2, height: 2, channels: 3, pixels: Default::default(), is_srgb: srgb })
+            (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 2, height: 2, channels: 3, pixels: Default::default(), is_srgb: srgb, file_wrap: [None; 2] })
         }
     }
 
@@ -918,6 +940,32 @@ mod tests {
     }
 
     #[test]
+    fn use_metadata_wrap_follows_the_files_metadata_else_black() {
+        assert_eq!(file_wrap_modes(""), [None, None]);
+        assert_eq!(file_wrap_modes("periodic"), [Some(WrapKey::Repeat); 2]);
+        assert_eq!(file_wrap_modes("clamp,mirror"), [Some(WrapKey::Clamp), Some(WrapKey::Mirror)]);
+        assert_eq!(file_wrap_modes("default,black"), [None, Some(WrapKey::Black)]);
+        assert_eq!(file_wrap_modes("periodic_pow2,bogus"), [Some(WrapKey::Repeat), None]);
+        let s = mat(&[
+            ("surface", Value::Path("/M/PBR.outputs:surface".into())),
+            ("/M/PBR.info:id", tok("UsdPreviewSurface")),
+            ("/M/PBR.inputs:diffuseColor.connect", tok("/M/Tex.outputs:rgb")),
+            ("/M/Tex.info:id", tok("UsdUVTexture")),
+            ("/M/Tex.inputs:file", Value::Asset("/tex/albedo.png".into())),
+            ("/M/Tex.inputs:wrapT", tok("mirror")),
+        ]);
+        // wrapS unauthored: the file's opinion; an authored wrapT overrides the file's
+        for (metadata, want_s) in [("", WrapKey::Black), ("clamp,periodic", WrapKey::Clamp), ("periodic", WrapKey::Repeat), ("default,clamp", WrapKey::Black)] {
+            let file_wrap = file_wrap_modes(metadata);
+            let textures = |a: &str| {
+                (a == "/tex/albedo.png").then(|| TexState::Loaded { width: 1, height: 1, channels: 3, pixels: Default::default(), is_srgb: false, file_wrap })
+            };
+            let m = convert_material("/M", &s, &textures, &mut Problems::new("/M"));
+            assert_eq!((m.textures[0].wrap_s, m.textures[0].wrap_t), (want_s, WrapKey::Mirror), "metadata {metadata:?}");
+        }
+    }
+
+    #[test]
     fn preview_surface_with_texture_connection_through_transform2d() {
         let s = mat(&[
             ("surface", Value::Path("/M/PBR.outputs:surface".into())),
@@ -941,8 +989,8 @@ mod tests {
         let mut p = Problems::new("/M");
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
-        // wrapT unauthored (useMetadata): repeat
-        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Repeat, encoding: Encoding::Auto, dome: DomeFormat::LatLong }]);
+        // wrapT unauthored (useMetadata) on a file without wrap metadata: black
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Black, encoding: Encoding::Auto, dome: DomeFormat::LatLong }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
         assert_eq!((t.texture, t.channel), (0, Channel::Rgb));

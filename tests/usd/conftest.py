@@ -289,8 +289,8 @@ def white_dome(stage):
     UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
 
 
-def write_exr(path, rgb):
-    """An RGB float EXR of `rgb` (rows of (r, g, b))."""
+def write_exr(path, rgb, **header):
+    """An RGB float EXR of `rgb` (rows of (r, g, b)), with extra `header` attributes."""
     rgb = np.ascontiguousarray(rgb, dtype=np.float32)
-    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage},
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **header},
                  {"RGB": rgb}).write(str(path))

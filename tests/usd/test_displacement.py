@@ -43,6 +43,9 @@ def _black_displacing(stage, displacement=None, tex_file=None):
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
         tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(4, 4, 4, 1))
+        # repeating: the texel everywhere (the default, useMetadata, blends a black border in)
+        for wrap in ("wrapS", "wrapT"):
+            tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("repeat")
         sh.CreateInput("displacement", Sdf.ValueTypeNames.Float).ConnectToSource(
             tex.CreateOutput("r", Sdf.ValueTypeNames.Float))
     mat.CreateSurfaceOutput().ConnectToSource(sh.CreateOutput("surface", Sdf.ValueTypeNames.Token))

@@ -146,6 +146,7 @@ def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
 
 def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(renderer, stage, tmp_path):
     """One 8-bit RGB PNG glows through three quads whose UsdUVTextures read it as `raw`, `auto`
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
     and `sRGB`: raw shows the stored values, the other two their sRGB decoding (an 8-bit RGB
     file without other tags is sRGB to `auto`, as UsdImaging reads it), each decoded once
     whatever the order the materials load it in."""
@@ -161,6 +162,42 @@ def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(rendere
         m = UsdGeom.Mesh.Define(stage, "/Q%d" % k)
         x0 = -HALF + k * third
         m.CreatePointsAttr([(x0, 0, -HALF), (x0, 0, HALF), (x0 + third, 0, HALF), (x0 + third, 0, -HALF)])
+@pytest.mark.parametrize("wrap_s, metadata, beyond", [
+    (None, None, 0.0),                  # useMetadata, a file without wrap metadata: black
+    (None, "periodic,periodic", 1.0),   # the file's own wrap mode (what maketx writes)
+    (None, "black,periodic", 0.0),
+    ("repeat", "black,black", 1.0),     # an authored wrap overrides the file's
+])
+def test_use_metadata_wrap_is_the_files_own_else_black(renderer, stage, tmp_path, wrap_s, metadata, beyond):
+    """UsdUVTexture's default wrap, useMetadata, takes the file's wrap metadata, and is black
+    where the file names none. A green texture glows through a quad whose s runs from 0 to 2:
+    the half within [0, 1] is green; the half beyond shows the wrap."""
+    tex_file = tmp_path / "green.exr"
+    write_exr(tex_file, [[(0, 1, 0)] * 4] * 4, **({"wrapmodes": metadata} if metadata else {}))
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
+        [(0, 0), (0, 1), (2, 0), (2, 1)])
+    mat, sh = _black(stage, "/Looks/T")
+    tex = UsdShade.Shader.Define(stage, "/Looks/T/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
+    if wrap_s:
+        tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set(wrap_s)
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    bind(m.GetPrim(), mat)
+    _seen(stage, samples=4)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64)
+    # columns RES/8 .. 3 RES/8 see s in [0.25, 0.75]; 5 RES/8 .. 7 RES/8 see s in [1.25, 1.75];
+    # rows within t in [0.125, 0.875] are clear of the black border t's wrap blends in
+    rows = img[RES // 8 + 1:7 * RES // 8 - 1]
+    inside, outside = rows[:, RES // 8 + 1:3 * RES // 8 - 1], rows[:, 5 * RES // 8 + 1:7 * RES // 8 - 1]
+    for part, want in ((inside, (0, 1, 0)), (outside, (0, beyond, 0))):
+        ok, why = near(part, want)
+        assert ok, why
+
+
         m.CreateFaceVertexCountsAttr([4])
         m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
         mat, sh = _black(stage, "/Looks/M%d" % k)
@@ -185,6 +222,8 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
     """A white UsdPreviewSurface panel facing +Y (u along +x, v along +z), seen from above under
     a sun from (0, cos 60, sin 60), with a tangent-space normal map tilting its normal 60 degrees
     towards +u, +v or -v, shades as the same panel turned by 60 degrees that way without a map:
+        for wrap in ("wrapS", "wrapT"):
+            tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
     same normal, light and view, so the same radiance (the texture holds (n + 1) / 2, turned back
     by UsdUVTexture's scale and bias as UsdPreviewSurface's `normal` expects). Towards -v the
     normal faces away from the sun: black."""
@@ -224,6 +263,8 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
         # the middle, which the turned panel (half as wide seen from above) covers too
         return img[3 * RES // 8:5 * RES // 8, 3 * RES // 8:5 * RES // 8]
 
+            for wrap in ("wrapS", "wrapT"):
+                tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
     mapped, turned = scene(True), scene(False)
     assert abs(mapped.mean() - turned.mean()) <= 0.02 * turned.mean() + 1e-3, (mapped.mean(), turned.mean())
     # the turned panel itself: black where it faces away from the sun, lit otherwise
@@ -284,6 +325,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
 
     def by_position(s, m, mat, attr):
         node = lambda name, node_id, **inputs: shader_node(s, "/Looks/Grey/" + name, node_id, **inputs)
+        tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
         p = node("P", "ND_position_vector3").CreateOutput("out", Sdf.ValueTypeNames.Float3)
         x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
         below = node("Below", "ND_ifgreater_float", value1=0.0, value2=x, in1=1.0, in2=0.0)

@@ -20,6 +20,9 @@ struct TextureImage {
     /// Whether `sourceColorSpace = "auto"` reads the file as sRGB-encoded: 8 bits per channel
     /// with 3 or 4 channels, as UsdImaging's image readers decide (other files are raw).
     bool isSrgb = false;
+    /// The file's wrap-mode metadata as OpenImageIO reports it ("periodic,clamp"), empty if
+    /// the file names none; a UsdUVTexture's `useMetadata` wrap follows it.
+    std::string wrapmodes;
 };
 
 class TextureCache {

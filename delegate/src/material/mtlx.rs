@@ -559,7 +559,7 @@ impl Ctx<'_> {
     /// Coordinates that no affine map of a set of coordinates gives (a texcoord warped by a
     /// noise, say) come back as the expression that computes them at each hit.
     fn mtlx_image(&mut self, node: &str, depth: u32) -> Result<(TexLookup, Option<Expr>), [f32; 4]> {
-        let modes = [("periodic", WrapKey::Repeat), ("clamp", WrapKey::Clamp), ("mirror", WrapKey::Mirror), ("constant", WrapKey::Black)];
+        let modes = [("periodic", Some(WrapKey::Repeat)), ("clamp", Some(WrapKey::Clamp)), ("mirror", Some(WrapKey::Mirror)), ("constant", Some(WrapKey::Black))];
         let wrap_s = self.wrap_input(node, "uaddressmode", &modes, "periodic");
         let wrap_t = self.wrap_input(node, "vaddressmode", &modes, "periodic");
         let fallback = self.value4(node, "default", [0.0, 0.0, 0.0, 1.0]);

@@ -175,7 +175,7 @@ impl Ctx<'_> {
         let single = id.ends_with("_float");
         let mut images = Vec::with_capacity(3);
         for (file, st) in ["filex", "filey", "filez"].into_iter().zip(coordinates) {
-            images.push(match self.texture_slot(node, file, "auto", WrapKey::Repeat, WrapKey::Repeat) {
+            images.push(match self.texture_slot(node, file, "auto", Some(WrapKey::Repeat), Some(WrapKey::Repeat)) {
                 Some(texture) => {
                     let mut l = self.plain_lookup(texture, fallback, None);
                     if single {
