@@ -53,6 +53,23 @@ def test_a_per_face_primvar_colours_each_face(renderer, stage):
     assert ok, why
 
 
+@pytest.mark.parametrize("on_parent", [False, True])
+def test_a_primvar_of_one_vector_value_is_that_vector(renderer, stage, on_parent):
+    """A constant primvar authored as one color3f (not an array), on the gprim or inherited
+    from its parent, reads as that colour through UsdPrimvarReader_float3."""
+    top_camera(stage)
+    UsdGeom.Xform.Define(stage, "/G")
+    m = panel(stage, "/G/Panel")
+    owner = stage.GetPrimAtPath("/G") if on_parent else m.GetPrim()
+    glow = (0.2, 0.9, 0.3)
+    UsdGeom.PrimvarsAPI(owner).CreatePrimvar("glow", Sdf.ValueTypeNames.Color3f,
+                                             UsdGeom.Tokens.constant).Set(Gf.Vec3f(*glow))
+    bind(m.GetPrim(), _glow(stage, "UsdPrimvarReader_float3", "glow", Sdf.ValueTypeNames.Float3))
+    _seen(stage)
+    ok, why = near(render(renderer, stage)["color"][..., :3], glow)
+    assert ok, why
+
+
 def test_a_per_vertex_primvar_is_interpolated_across_the_face(renderer, stage):
     """A scalar 0 at x = -HALF and 1 at x = HALF, read by UsdPrimvarReader_float into a colour
     input (a scalar fills the three components): each column glows (x + HALF) / (2 HALF)."""
@@ -129,6 +146,7 @@ def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
     tex.CreateIdAttr("UsdUVTexture")
     tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
     tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
     tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
     uv = UsdShade.Shader.Define(stage, "/Looks/T/Uv")
     uv.CreateIdAttr("UsdPrimvarReader_float2")
@@ -144,24 +162,6 @@ def test_texture_coordinates_from_another_primvar(renderer, stage, tmp_path):
         assert ok, why
 
 
-def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(renderer, stage, tmp_path):
-    """One 8-bit RGB PNG glows through three quads whose UsdUVTextures read it as `raw`, `auto`
-    tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
-    and `sRGB`: raw shows the stored values, the other two their sRGB decoding (an 8-bit RGB
-    file without other tags is sRGB to `auto`, as UsdImaging reads it), each decoded once
-    whatever the order the materials load it in."""
-    from images import write_png
-    texel = (90, 40, 200)
-    png = str(tmp_path / "swatch.png")
-    write_png(png, 1, 1, [[texel]])
-    stored = np.array(texel) / 255.0
-    decoded = np.where(stored <= 0.04045, stored / 12.92, ((stored + 0.055) / 1.055) ** 2.4)
-    top_camera(stage)
-    third = 2 * HALF / 3
-    for k, space in enumerate(("raw", "auto", "sRGB")):
-        m = UsdGeom.Mesh.Define(stage, "/Q%d" % k)
-        x0 = -HALF + k * third
-        m.CreatePointsAttr([(x0, 0, -HALF), (x0, 0, HALF), (x0 + third, 0, HALF), (x0 + third, 0, -HALF)])
 @pytest.mark.parametrize("wrap_s, metadata, beyond", [
     (None, None, 0.0),                  # useMetadata, a file without wrap metadata: black
     (None, "periodic,periodic", 1.0),   # the file's own wrap mode (what maketx writes)
@@ -198,6 +198,23 @@ def test_use_metadata_wrap_is_the_files_own_else_black(renderer, stage, tmp_path
         assert ok, why
 
 
+def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(renderer, stage, tmp_path):
+    """One 8-bit RGB PNG glows through three quads whose UsdUVTextures read it as `raw`, `auto`
+    and `sRGB`: raw shows the stored values, the other two their sRGB decoding (an 8-bit RGB
+    file without other tags is sRGB to `auto`, as UsdImaging reads it), each decoded once
+    whatever the order the materials load it in."""
+    from images import write_png
+    texel = (90, 40, 200)
+    png = str(tmp_path / "swatch.png")
+    write_png(png, 1, 1, [[texel]])
+    stored = np.array(texel) / 255.0
+    decoded = np.where(stored <= 0.04045, stored / 12.92, ((stored + 0.055) / 1.055) ** 2.4)
+    top_camera(stage)
+    third = 2 * HALF / 3
+    for k, space in enumerate(("raw", "auto", "sRGB")):
+        m = UsdGeom.Mesh.Define(stage, "/Q%d" % k)
+        x0 = -HALF + k * third
+        m.CreatePointsAttr([(x0, 0, -HALF), (x0, 0, HALF), (x0 + third, 0, HALF), (x0 + third, 0, -HALF)])
         m.CreateFaceVertexCountsAttr([4])
         m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
         mat, sh = _black(stage, "/Looks/M%d" % k)
@@ -205,6 +222,8 @@ def test_use_metadata_wrap_is_the_files_own_else_black(renderer, stage, tmp_path
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
         tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(space)
+        for wrap in ("wrapS", "wrapT"):
+            tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
         tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
         sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
         bind(m.GetPrim(), mat)
@@ -222,8 +241,6 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
     """A white UsdPreviewSurface panel facing +Y (u along +x, v along +z), seen from above under
     a sun from (0, cos 60, sin 60), with a tangent-space normal map tilting its normal 60 degrees
     towards +u, +v or -v, shades as the same panel turned by 60 degrees that way without a map:
-        for wrap in ("wrapS", "wrapT"):
-            tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
     same normal, light and view, so the same radiance (the texture holds (n + 1) / 2, turned back
     by UsdUVTexture's scale and bias as UsdPreviewSurface's `normal` expects). Towards -v the
     normal faces away from the sun: black."""
@@ -246,6 +263,8 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
             tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(f))
             tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set("raw")
             tex.CreateInput("scale", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(2, 2, 2, 1))
+            for wrap in ("wrapS", "wrapT"):
+                tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
             tex.CreateInput("bias", Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(-1, -1, -1, 0))
             out = tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
             sh.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(out)
@@ -263,8 +282,6 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
         # the middle, which the turned panel (half as wide seen from above) covers too
         return img[3 * RES // 8:5 * RES // 8, 3 * RES // 8:5 * RES // 8]
 
-            for wrap in ("wrapS", "wrapT"):
-                tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
     mapped, turned = scene(True), scene(False)
     assert abs(mapped.mean() - turned.mean()) <= 0.02 * turned.mean() + 1e-3, (mapped.mean(), turned.mean())
     # the turned panel itself: black where it faces away from the sun, lit otherwise
@@ -308,6 +325,7 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
         tex.CreateIdAttr("UsdUVTexture")
         tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(f))
         tex.CreateInput("wrapS", Sdf.ValueTypeNames.Token).Set("clamp")
+        tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
         out = tex.CreateOutput("r", Sdf.ValueTypeNames.Float)
         UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
             "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(
@@ -325,7 +343,6 @@ def test_a_wetness_mask_wets_where_it_says(renderer, tmp_path, mask):
 
     def by_position(s, m, mat, attr):
         node = lambda name, node_id, **inputs: shader_node(s, "/Looks/Grey/" + name, node_id, **inputs)
-        tex.CreateInput("wrapT", Sdf.ValueTypeNames.Token).Set("clamp")
         p = node("P", "ND_position_vector3").CreateOutput("out", Sdf.ValueTypeNames.Float3)
         x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
         below = node("Below", "ND_ifgreater_float", value1=0.0, value2=x, in1=1.0, in2=0.0)
@@ -381,9 +398,12 @@ def test_a_point_instancers_per_instance_colours(renderer, stage):
         assert ok, why
 
 
-def test_native_instances_inherit_their_own_colours(renderer, stage):
+@pytest.mark.parametrize("missing", [None, 0, 1])
+def test_native_instances_inherit_their_own_colours(renderer, stage, missing):
     """Instanceable prims sharing one prototype, each with its own displayColor: every
-    instance shows the colour its instance prim gives (the prototype authors none)."""
+    instance shows the colour its instance prim gives (the prototype authors none). An
+    instance whose prim gives none (`missing`) is an unbound gprim without displayColor
+    (grey 0.18) and changes no other's colour."""
     top_camera(stage)
     white_dome(stage)
     proto = stage.DefinePrim("/Proto", "Xform")
@@ -396,8 +416,11 @@ def test_native_instances_inherit_their_own_colours(renderer, stage):
         p = x_.GetPrim()
         p.GetReferences().AddInternalReference(proto.GetPath())
         p.SetInstanceable(True)
-        UsdGeom.PrimvarsAPI(p).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
-                                             UsdGeom.Tokens.constant).Set([c])
+        if i != missing:
+            UsdGeom.PrimvarsAPI(p).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                 UsdGeom.Tokens.constant).Set([c])
+    if missing is not None:
+        colours[missing] = (0.18, 0.18, 0.18)
     proto.SetSpecifier(Sdf.SpecifierClass)
     settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
     problems = []

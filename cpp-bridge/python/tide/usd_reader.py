@@ -308,6 +308,18 @@ def _is_quat_array(value):
     return hasattr(value, "__len__") and len(value) and isinstance(
         value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath))
 
+def _outside_primvar_names(prim, root):
+    """The constant primvars gprim `prim` (an instance proxy under instance prim `root`)
+    inherits from `root` or above: the ones its instances may each hold apart."""
+    names = []
+    for pv in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
+        owner = pv.GetAttr().GetPrim().GetPath()
+        if pv.GetInterpolation() == UsdGeom.Tokens.constant and \
+                (owner == root or not owner.HasPrefix(root)):
+            names.append(str(pv.GetPrimvarName()))
+    return tuple(sorted(names))
+
+
 
 def _quat_rows(value):
     """Quaternions as (i, j, k, real) rows, as every quaternion is sent."""
@@ -1360,8 +1372,9 @@ class Reader:
         arr = np.array(_quat_rows(value)) if _is_quat_array(value) else np.asarray(value)
         if arr.dtype == object or arr.dtype.kind in "USO":
             return None
-        if arr.ndim == 0:
-            arr = arr.reshape(1)
+        if not pv.GetTypeName().isArray:
+            # one value of its type (a color3f, a matrix4d): one row of all its components
+            arr = arr.reshape(1, -1)
         rows = arr.astype(np.float32).reshape(-1, _tuple_size(arr))
         idx = None
         if pv.IsIndexed():
@@ -1399,6 +1412,8 @@ class Reader:
             self.problem(prim.GetPath(), name, "no %s; prim dropped" % name)
             return None
         arr = np.asarray(pts, dtype=np.float32).reshape(-1, 3)
+        if isinstance(value, (Gf.Quatf, Gf.Quatd, Gf.Quath)):
+            value = [value]
         if not np.all(np.isfinite(arr)):
             self.problem(prim.GetPath(), name, "NaN or infinite values; prim dropped")
             return None
@@ -1908,13 +1923,16 @@ class Reader:
         self._instance_sources.add(root.GetPath())
         proto = prim.GetPrimInPrototype().GetPath()
         material = self._material_for(prim)
-        key = (str(proto), material)
+        # instances inheriting different sets of constant primvars from outside the prototype
+        # are told apart (UsdImaging's instancers split so): each group's instances all hold a
+        # value of each name it sends per instance
+        key = (str(proto), material, _outside_primvar_names(prim, root.GetPath()))
         grp = self._groups.setdefault(key, {"prim": prim, "root": root, "roots": []})
         grp["roots"].append(root)
 
     def _emit_instance_groups(self):
         per_proto = {}
-        for (proto, material), grp in sorted(self._groups.items()):
+        for (proto, material, _), grp in sorted(self._groups.items()):
             n = per_proto.get(proto, 0)
             per_proto[proto] = n + 1
             dpath = proto if n == 0 else "%s_m%d" % (proto, n)
@@ -2093,13 +2111,7 @@ class Reader:
         above) and that differ between the instances: one value per instance."""
         if len(roots) < 2:
             return
-        first = roots[0].GetPath()
-        for pv in UsdGeom.PrimvarsAPI(prim).FindPrimvarsWithInheritance():
-            owner = pv.GetAttr().GetPrim().GetPath()
-            if pv.GetInterpolation() != UsdGeom.Tokens.constant or \
-                    (owner.HasPrefix(first) and owner != first):
-                continue
-            name = pv.GetPrimvarName()
+        for name in _outside_primvar_names(prim, roots[0].GetPath()):
             vals = []
             for r in roots:
                 q = UsdGeom.PrimvarsAPI(r).FindPrimvarWithInheritance(name)
