@@ -3,7 +3,7 @@ prims it illuminates, its shadowLink collection which prims cast its shadows."""
 import math
 
 import pytest
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from conftest import bind, camera, lambert_material, load, render, settings
 
@@ -76,6 +76,52 @@ def test_a_light_linked_to_one_prim_leaves_the_other_to_the_dome(renderer, stage
     left, right = _halves(render(renderer, stage)["color"])
     assert left == pytest.approx([0.6] * 3, rel=0.05), "sun and dome on the linked wall"
     assert right == pytest.approx([0.1] * 3, rel=0.05), "the dome alone on the unlinked wall"
+
+
+def _link_by(stage, sun, how):
+    """The sun's light link by a path expression or by another collection (membership only
+    USD's query resolves); the walls it takes by usd-core's own membership query."""
+    coll = UsdLux.LightAPI(sun).GetLightLinkCollectionAPI()
+    coll.CreateIncludeRootAttr(False)
+    if how == "expression":
+        coll.CreateMembershipExpressionAttr(Sdf.PathExpression("/World/Left/Wall"))
+    else:
+        sets = Usd.CollectionAPI.Apply(stage.DefinePrim("/Sets"), "grp")
+        sets.CreateIncludesRel().AddTarget("/World/Right")
+        coll.CreateIncludesRel().AddTarget(sets.GetCollectionPath())
+    query = coll.ComputeMembershipQuery()
+    return [query.IsPathIncluded(Sdf.Path(p)) for p in ("/World/Left/Wall", "/World/Right/Wall")]
+
+
+@pytest.mark.parametrize("how, lit", [("expression", [True, False]), ("collection", [False, True])])
+def test_a_light_link_by_expression_or_by_another_collection(renderer, stage, how, lit):
+    w = h = 32
+    sun = _two_walls(stage)
+    assert _link_by(stage, sun, how) == lit, "usd-core's membership query"
+    settings(stage, res=(w, h), samples=32, maxDepth=2)
+    problems = []
+    halves = _halves(render(renderer, stage, problems)["color"])
+    assert problems == [], problems
+    for on, got in zip(lit, halves):
+        assert got == pytest.approx([0.6 if on else 0.1] * 3, rel=0.05), how
+
+
+def test_an_expression_link_takes_in_prims_added_later(stage, delegate):
+    """A light whose expression matches every wall takes in a wall added after the load (the
+    light itself unedited), and lets go of one removed."""
+    sun = _two_walls(stage)
+    coll = UsdLux.LightAPI(sun).GetLightLinkCollectionAPI()
+    coll.CreateIncludeRootAttr(False)
+    coll.CreateMembershipExpressionAttr(Sdf.PathExpression("/World/*/Wall"))
+    reader, problems = load(stage, delegate)
+    key = "collection:lightLink:includes"
+    assert delegate.value("/Sun", key) == ("paths", ["/World/Left/Wall", "/World/Right/Wall"])
+    _wall(stage, "/World/Middle/Wall", -0.1, 0.1, -6, _grey(stage))
+    reader.update()
+    assert delegate.value("/Sun", key) == ("paths", ["/World/Left/Wall", "/World/Middle/Wall", "/World/Right/Wall"])
+    stage.RemovePrim("/World/Left")
+    reader.update()
+    assert delegate.value("/Sun", key) == ("paths", ["/World/Middle/Wall", "/World/Right/Wall"])
 
 
 def test_excluding_a_prim_from_the_light_link(renderer, stage):

@@ -166,9 +166,18 @@ def _skinnable(prim, st):
 
 
 def _link_collections(light, st):
-    """A light's (or a mesh light's) light- and shadow-link collections, where authored."""
+    """A light's (or a mesh light's) light- and shadow-link collections, where authored. A
+    collection whose members only USD's own query can tell (a path expression, or includes /
+    excludes naming other collections) is kept on `st.queries` as (name, query): the reader
+    sends it as the list of its members once it knows every prim (_resolve_link_queries)."""
+    st.queries = []
     for which, coll in (("lightLink", light.GetLightLinkCollectionAPI()),
                         ("shadowLink", light.GetShadowLinkCollectionAPI())):
+        if coll.IsInExpressionMode() or any(
+                t.IsPropertyPath() for rel in (coll.GetIncludesRel(), coll.GetExcludesRel())
+                for t in rel.GetTargets()):
+            st.queries.append((which, coll.ComputeMembershipQuery()))
+            continue
         inc = coll.GetIncludesRel().GetTargets()
         exc = coll.GetExcludesRel().GetTargets()
         root_attr = coll.GetIncludeRootAttr()
@@ -299,15 +308,6 @@ def _ints(data):
     return ("ints", np.ascontiguousarray(np.asarray(data, dtype=np.int32).reshape(-1)).tobytes())
 
 
-def _tuple_size(arr):
-    a = np.asarray(arr)
-    return 1 if a.ndim <= 1 else int(np.prod(a.shape[1:]))
-
-
-def _is_quat_array(value):
-    return hasattr(value, "__len__") and len(value) and isinstance(
-        value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath))
-
 def _outside_primvar_names(prim, root):
     """The constant primvars gprim `prim` (an instance proxy under instance prim `root`)
     inherits from `root` or above: the ones its instances may each hold apart."""
@@ -319,6 +319,15 @@ def _outside_primvar_names(prim, root):
             names.append(str(pv.GetPrimvarName()))
     return tuple(sorted(names))
 
+
+def _tuple_size(arr):
+    a = np.asarray(arr)
+    return 1 if a.ndim <= 1 else int(np.prod(a.shape[1:]))
+
+
+def _is_quat_array(value):
+    return hasattr(value, "__len__") and len(value) and isinstance(
+        value[0], (Gf.Quatf, Gf.Quatd, Gf.Quath))
 
 
 def _quat_rows(value):
@@ -458,7 +467,7 @@ def decode(value):
 class _PrimState:
     """What one delegate prim should hold: type, values (key -> [(time, value)]), primvars."""
 
-    __slots__ = ("kind", "type", "source", "values", "primvars")
+    __slots__ = ("kind", "type", "source", "values", "primvars", "queries")
 
     def __init__(self, kind, type_name, source):
         self.kind = kind          # rprim | sprim | bprim
@@ -466,6 +475,7 @@ class _PrimState:
         self.source = source      # the USD path it comes from
         self.values = {}
         self.primvars = {}        # name -> (interpolation, floats bytes, tuple, indices bytes|None)
+        self.queries = []         # a light's link collections that need USD's query: (name, query)
 
     def set(self, key, value, samples=None):
         if samples is not None:
@@ -684,6 +694,7 @@ class Reader:
             return self._sync(None)
         if full:
             self._emit_instance_groups()
+        self._resolve_link_queries(desired, roots)
         # Destroy what came from the walked subtrees and is gone.
         for path in list(self._sent):
             st = self._sent[path]
@@ -697,6 +708,37 @@ class Reader:
                 del self._sent[path]
         for path, st in desired.items():
             self._apply(path, st)
+
+    def _resolve_link_queries(self, desired, roots):
+        """Sends the link collections only USD's membership query can resolve as explicit lists
+        of the names collections match (a prim's path, or each native instance's): of every
+        prim the delegate will hold after this sync (what it held outside the synced subtrees
+        `roots`, and what they now give), so a light outside them is updated too."""
+        if not any(st.queries for st in desired.values()) and \
+                not any(st.queries for st in self._sent.values()):
+            return
+        states = {p: st for p, st in self._sent.items()
+                  if not any(Sdf.Path(st.source).HasPrefix(r) for r in roots)}
+        states.update(desired)
+        lights = [(p, st) for p, st in states.items() if st.queries]
+        names = []
+        for p, st in states.items():
+            if st.kind == "rprim":
+                inst = st.values.get("instancePaths")
+                names.extend(inst[0][1][1] if inst else (p,))
+        paths = [(n, Sdf.Path(n)) for n in names]
+        for p, st in lights:
+            new = _PrimState(st.kind, st.type, st.source)
+            new.values, new.primvars, new.queries = dict(st.values), st.primvars, st.queries
+            for which, query in st.queries:
+                base = "collection:%s:" % which
+                new.set(base + "includes", ("paths", tuple(sorted(
+                    n for n, sp in paths if query.IsPathIncluded(sp)))))
+                new.set(base + "excludes", ("paths", ()))
+                new.set(base + "includeRoot", ("bool", False))
+                new.set(base + "expansionRule", ("token", "explicitOnly"))
+            if p in desired or new.values != st.values:
+                desired[p] = new
 
     def _material_exists(self, path):
         prim = self.stage.GetPrimAtPath(path)
@@ -1369,6 +1411,8 @@ class Reader:
         value = pv.Get(self._time(0))
         if value is None:
             return None
+        if isinstance(value, (Gf.Quatf, Gf.Quatd, Gf.Quath)):
+            value = [value]
         arr = np.array(_quat_rows(value)) if _is_quat_array(value) else np.asarray(value)
         if arr.dtype == object or arr.dtype.kind in "USO":
             return None
@@ -1412,8 +1456,6 @@ class Reader:
             self.problem(prim.GetPath(), name, "no %s; prim dropped" % name)
             return None
         arr = np.asarray(pts, dtype=np.float32).reshape(-1, 3)
-        if isinstance(value, (Gf.Quatf, Gf.Quatd, Gf.Quath)):
-            value = [value]
         if not np.all(np.isfinite(arr)):
             self.problem(prim.GetPath(), name, "NaN or infinite values; prim dropped")
             return None
