@@ -798,6 +798,8 @@ impl Delegate {
         let (open, close) = cam.as_ref().map_or((0.0, 0.0), |c| (c.desc.shutter_open as f64, c.desc.shutter_close as f64));
         let motion = !sp.settings.disable_motion_blur && close > open;
         let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
+        // metres per scene unit: the settings' (the reader's), else the camera's (a Hydra plugin's)
+        let mpu = sp.meters_per_unit.or(cam.as_ref().and_then(|c| c.meters_per_unit)).unwrap_or(1.0) as f32;
         let view = (open.to_bits(), close.to_bits(), tcps.to_bits(), motion);
         let mut world_changed = !camera_only || self.view_inputs != Some(view);
         self.view_inputs = Some(view);
@@ -852,7 +854,7 @@ impl Delegate {
                 None => default_material(path),
             };
             if let Some(med) = &m.medium {
-                scene.media.push(med.clone());
+                scene.media.push(material::medium_in_units(med, mpu));
                 desc.interior_medium = Some(scene.media.len() - 1);
                 medium_of.insert(path, scene.media.len() - 1);
             }
@@ -920,7 +922,7 @@ impl Delegate {
                 }
                 Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
                     // made once per shutter and shared by later assemblies
-                    let made = pd.made(t0, t1, motion, tcps);
+                    let made = pd.made(t0, t1, motion, tcps, mpu);
                     match &made.droplets {
                         // droplets inside the cloud become a scattering medium; the shell stays spheres
                         Some(Ok(Some(grid))) => {
@@ -954,7 +956,7 @@ impl Delegate {
                     let xf0 = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
                     let inv = xf0.inverse();
                     let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c));
-                    let key = ocean::ocean_key(spec, cam_local);
+                    let key = ocean::ocean_key(spec, cam_local, mpu);
                     let meshes = match self.oceans.get(path.as_str()) {
                         Some((k, m, probs)) if *k == key => {
                             ap.extend(probs.iter().cloned());
@@ -2122,6 +2124,45 @@ mod tests {
         assert!(d.commit_resources().is_empty());
         assert!(d.scene().instances.iter().all(|i| i.name != "/Sea horizon"));
         assert_eq!(mesh_of(&d, "/Sea").positions.iter().fold(0.0f32, |m, q| m.min(q.y)), -30.0);
+    }
+
+    /// In a centimetre stage (`metersPerUnit` 0.01, from the settings, or from the camera as a
+    /// Hydra plugin sends it) the ocean is the metre one scaled into units, a medium's
+    /// coefficients per metre are per unit a hundredth, its profile's lengths a hundredfold.
+    #[test]
+    fn metres_become_units_by_the_stages_meters_per_unit() {
+        use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams};
+        for on_camera in [false, true] {
+            let mut d = Delegate::new();
+            ocean(&mut d, "/Sea");
+            d.create_prim("camera", "/cam");
+            d.set_attribute("/cam", "transform", translate(300., 100., 200.), None);
+            let holder = if on_camera { "/cam" } else { "/S" };
+            if !on_camera {
+                d.create_prim("renderSettings", "/S");
+            }
+            d.set_attribute(holder, "metersPerUnit", Value::Float(0.01), None);
+            d.create_prim("material", "/Sea/M");
+            d.set_attribute("/Sea/M", "volume", Value::Path("/Sea/M/V.outputs:volume".into()), None);
+            d.set_attribute("/Sea/M", "/Sea/M/V.info:id", tok("TideMedium"), None);
+            for (k, v) in [("absorption", [0.5, 0.5, 0.5]), ("scattering", [0.1, 0.1, 0.1])] {
+                d.set_attribute("/Sea/M", &format!("/Sea/M/V.inputs:{k}"), floats(&v, 3), None);
+            }
+            for (k, v) in [("chlorophyll", 1.0), ("profileDepth", 10.0), ("profileWidth", 2.0), ("profilePeak", 3.0)] {
+                d.set_attribute("/Sea/M", &format!("/Sea/M/V.inputs:{k}"), Value::Float(v), None);
+            }
+            let p = d.commit_resources();
+            assert!(p.is_empty(), "{p:?}");
+            let params = OceanParams { wind_speed: 7.0, wind_direction: 30.0, patch_size: 8.0, extent: 20.0, resolution: 16, ..Default::default() };
+            // the camera (3, 1, 2) m away: the metre mesh about patch (0, 0), a hundred units a metre
+            let (surface, _) = ocean_mesh_with_horizon(&params, 1.5, Some(Vec3::new(4.0, 0.0, 4.0)), 262_144.0).unwrap();
+            let want: Vec<Vec3> = surface.positions.iter().map(|v| *v / 0.01).collect();
+            assert_eq!(mesh_of(&d, "/Sea").positions, want, "on the camera: {on_camera}");
+            let m = &d.scene().media[0];
+            assert_eq!(m.scale, 0.01);
+            let profile = m.water.as_ref().and_then(|w| w.chlorophyll_profile).unwrap();
+            assert_eq!((profile.depth, profile.width, profile.peak), (1000.0, 200.0, 3.0));
+        }
     }
 
     #[test]

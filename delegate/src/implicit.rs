@@ -302,7 +302,7 @@ pub struct PointsData {
     pub ends: Option<[(f64, Vec<Vec3>); 2]>,
     /// What the last assembly made of the points, and for which shutter (and whether it
     /// blurs).
-    made: crate::memo::Memo<(u32, u32, bool, u64), PointsMade>,
+    made: crate::memo::Memo<(u32, u32, bool, u64, u32), PointsMade>,
 }
 
 /// The points as an assembly places them over a shutter.
@@ -317,12 +317,13 @@ pub struct PointsMade {
 
 impl PointsData {
     /// The points over the shutter [t0, t1] (seconds), moving if `motion`: accelerations
-    /// folded into the velocities, then the droplets split off. Made once per shutter and
-    /// shared after; points that neither accelerate nor lose their motion nor split are the
+    /// folded into the velocities, then the droplets split off (their voxel size and shell
+    /// in metres, of which a unit is `meters_per_unit`). Made once per shutter and shared
+    /// after; points that neither accelerate nor lose their motion nor split are the
     /// converted ones, shared.
-    pub fn made(&self, t0: f32, t1: f32, motion: bool, time_codes_per_second: f64) -> PointsMade {
+    pub fn made(&self, t0: f32, t1: f32, motion: bool, time_codes_per_second: f64, meters_per_unit: f32) -> PointsMade {
         let tcps = time_codes_per_second;
-        self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion, tcps.to_bits()), || {
+        self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion, tcps.to_bits(), meters_per_unit.to_bits()), || {
             let still = !motion && self.spheres.velocities.is_some();
             let sampled = motion && self.ends.is_some();
             if self.accelerations.is_none() && !still && !sampled && self.droplets.is_none() {
@@ -345,7 +346,7 @@ impl PointsData {
             let Some((voxel, shell)) = self.droplets else {
                 return PointsMade { spheres: Arc::new(s), droplets: None };
             };
-            match tide_core::droplets::split(&s, voxel, shell) {
+            match tide_core::droplets::split(&s, voxel / meters_per_unit, shell / meters_per_unit) {
                 Ok(split) => PointsMade { spheres: Arc::new(split.spheres), droplets: Some(Ok(split.grid)) },
                 Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(e)) },
             }
@@ -708,19 +709,19 @@ mod tests {
         let d = points("/p", &sampled(at(0.0), at(2.0)), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
         // 24 time codes a second: the shutter [-0.5, 0.5] is 1/24 s, the points move 2 units
-        let m = d.made(-0.5 / 24.0, 0.5 / 24.0, true, 24.0);
+        let m = d.made(-0.5 / 24.0, 0.5 / 24.0, true, 24.0, 1.0);
         let v = m.spheres.velocities.clone().unwrap();
         assert!(v.iter().all(|v| (*v - Vec3::new(48.0, 0.0, 0.0)).length() < 1e-3), "{v:?}");
         let c = &m.spheres.centers;
         assert!((c[0] - Vec3::new(1.0, 0.0, 0.0)).length() < 1e-5 && (c[1] - Vec3::new(1.0, 1.0, 0.0)).length() < 1e-5, "{c:?}");
         // no motion blur: at the frame, still
-        let still = d.made(0.0, 0.0, false, 24.0);
+        let still = d.made(0.0, 0.0, false, 24.0, 1.0);
         assert!(still.spheres.velocities.is_none() && still.spheres.centers[0] == Vec3::new(0.5, 0.0, 0.0));
         // another count: named, still
         let mut p = Problems::new("/p");
         let d = points("/p", &sampled(at(0.0), Value::Floats { data: vec![0.0; 3], tuple: 3 }), &mut p);
         assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["points"]);
-        assert!(d.made(-0.02, 0.02, true, 24.0).spheres.velocities.is_none());
+        assert!(d.made(-0.02, 0.02, true, 24.0, 1.0).spheres.velocities.is_none());
     }
 
     #[test]
@@ -797,24 +798,35 @@ mod tests {
         let mut s = st(&[("points", pts.clone()), ("tide:droplets:asVolume", Value::Bool(true)), ("tide:droplets:voxelSize", Value::Float(0.005))]);
         s.primvars.insert("widths".into(), Primvar { interpolation: Interpolation::Constant, data: vec![0.012], tuple: 1, indices: None });
         let d = points("/d", &s, &mut Problems::new("/d"));
-        let a = d.made(0.0, 0.0, false, 24.0);
+        let a = d.made(0.0, 0.0, false, 24.0, 1.0);
         let Some(Ok(Some(grid))) = &a.droplets else { panic!("no droplet medium: {:?}", a.droplets) };
         assert!(a.spheres.centers.len() < 27 && grid.values.iter().any(|&v| v > 0.0));
-        let b = d.made(0.0, 0.0, false, 24.0);
+        let b = d.made(0.0, 0.0, false, 24.0, 1.0);
         assert!(Arc::ptr_eq(&a.spheres, &b.spheres), "split once, then shared");
+        // the voxel size is in metres: 0.005 m in a stage of 0.5 m units is 0.01 units
+        let mut s2 = s.clone();
+        s2.attrs.insert("tide:droplets:voxelSize".into(), Attr { value: Some(Value::Float(0.01)), samples: vec![] });
+        let d2 = points("/d2", &s2, &mut Problems::new("/d2"));
+        let grid_of = |m: &PointsMade| match &m.droplets {
+            Some(Ok(Some(g))) => (g.dims, g.values.clone(), g.local_to_world),
+            other => panic!("no droplet medium: {other:?}"),
+        };
+        let unit = grid_of(&d2.made(0.0, 0.0, false, 24.0, 1.0));
+        assert_eq!(grid_of(&d.made(0.0, 0.0, false, 24.0, 0.5)), unit);
+        assert_ne!(grid_of(&a), unit);
         // plain points that need nothing done are the converted ones
         let plain = points("/p", &st(&[("points", pts.clone())]), &mut Problems::new("/p"));
-        assert!(Arc::ptr_eq(&plain.made(0.0, 0.1, true, 24.0).spheres, &plain.spheres));
+        assert!(Arc::ptr_eq(&plain.made(0.0, 0.1, true, 24.0, 1.0).spheres, &plain.spheres));
         // accelerating points: folded per shutter, the same shutter shared, another made anew
         let mut s = st(&[("points", pts)]);
         s.primvars.insert("accelerations".into(), Primvar { interpolation: Interpolation::Vertex, data: [0.0f32, -10.0, 0.0].repeat(27), tuple: 3, indices: None });
         let d = points("/a", &s, &mut Problems::new("/a"));
-        let m = d.made(-0.02, 0.03, true, 24.0);
+        let m = d.made(-0.02, 0.03, true, 24.0, 1.0);
         assert_eq!(*m.spheres, fold_acceleration(&d, -0.02, 0.03));
-        assert!(Arc::ptr_eq(&m.spheres, &d.made(-0.02, 0.03, true, 24.0).spheres));
-        let other = d.made(0.0, 0.04, true, 24.0);
+        assert!(Arc::ptr_eq(&m.spheres, &d.made(-0.02, 0.03, true, 24.0, 1.0).spheres));
+        let other = d.made(0.0, 0.04, true, 24.0, 1.0);
         assert!(!Arc::ptr_eq(&m.spheres, &other.spheres) && *other.spheres == fold_acceleration(&d, 0.0, 0.04));
         // without motion blur the velocities go
-        assert!(d.made(-0.02, 0.03, false, 24.0).spheres.velocities.is_none());
+        assert!(d.made(-0.02, 0.03, false, 24.0, 1.0).spheres.velocities.is_none());
     }
 }

@@ -554,6 +554,19 @@ pub struct CameraPiece {
     /// The stage's `timeCodesPerSecond` as a Hydra plugin hands it on with the camera (the
     /// usdImagingTide adapter); the settings' value wins where the reader authored one.
     pub time_codes_per_second: Option<f64>,
+    /// The stage's authored `metersPerUnit`, handed on the same way.
+    pub meters_per_unit: Option<f64>,
+}
+
+/// A stage's `metersPerUnit` where given: positive and finite, else named and ignored.
+fn meters_per_unit(store: &AttrStore, p: &mut Problems) -> Option<f64> {
+    store.has("metersPerUnit").then(|| store.f32_or("metersPerUnit", 1.0, p) as f64).filter(|m| {
+        let ok = *m > 0.0 && m.is_finite();
+        if !ok {
+            p.add("metersPerUnit", format!("{m} must be positive; one unit is one metre"));
+        }
+        ok
+    })
 }
 
 /// Converts a camera. Zero or negative apertures / focal length become problems and defaults.
@@ -632,6 +645,7 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         transforms: store.matrix_samples("transform", p),
         medium: store.str_opt("tide:medium").filter(|s| !s.is_empty()).map(String::from),
         time_codes_per_second,
+        meters_per_unit: meters_per_unit(store, p),
     }
 }
 
@@ -666,6 +680,9 @@ pub struct SettingsPiece {
     pub time_codes_per_second: f64,
     /// Whether `timeCodesPerSecond` was given (the reader always gives it; Hydra does not).
     pub time_codes_authored: bool,
+    /// The stage's `metersPerUnit` where authored (the reader gives it so): lengths and
+    /// coefficients the contract gives in metres are converted to scene units with it.
+    pub meters_per_unit: Option<f64>,
     pub adaptive_threshold: f32,
     pub products: Vec<RenderProductDesc>,
 }
@@ -680,6 +697,7 @@ impl Default for SettingsPiece {
             color_space: ColorSpace::LinearRec709,
             time_codes_per_second: 24.0,
             time_codes_authored: false,
+            meters_per_unit: None,
             adaptive_threshold: 0.0,
             products: Vec::new(),
         }
@@ -822,6 +840,7 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
         color_space,
         time_codes_per_second,
         time_codes_authored: store.has("timeCodesPerSecond"),
+        meters_per_unit: meters_per_unit(store, p),
         adaptive_threshold,
         products,
     }

@@ -32,6 +32,20 @@ pub fn default_material(name: &str) -> MaterialDesc {
     MaterialDesc { name: name.into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None }
 }
 
+/// `med` in a stage of `meters_per_unit` metres per unit: its coefficients (per metre, by the
+/// contract) per unit, its depth profile's depth and width in units.
+pub fn medium_in_units(med: &MediumDesc, meters_per_unit: f32) -> MediumDesc {
+    let mut m = med.clone();
+    if meters_per_unit != 1.0 {
+        m.scale *= meters_per_unit;
+        if let Some(profile) = m.water.as_mut().and_then(|w| w.chlorophyll_profile.as_mut()) {
+            profile.depth /= meters_per_unit;
+            profile.width /= meters_per_unit;
+        }
+    }
+    m
+}
+
 /// A texture as a material uses it.
 #[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct TexKey {

@@ -41,6 +41,8 @@ pub struct OceanKey {
     pub spec: OceanSpec,
     pub tile: (i64, i64),
     pub reach: f32,
+    /// The stage's metres per unit: the ocean is made in metres and scaled into units.
+    pub meters_per_unit: f32,
 }
 
 /// How far below the horizontal the skirt leaves sky: the skirt reaches 10⁵ camera heights past
@@ -132,34 +134,38 @@ pub fn ocean_spec(store: &AttrStore, p: &mut Problems) -> OceanSpec {
     OceanSpec { params, time }
 }
 
-/// The key of the mesh for a camera at `camera_local` (the ocean's local space; None: at the
-/// origin, 2 m up).
-pub fn ocean_key(spec: &OceanSpec, camera_local: Option<Vec3>) -> OceanKey {
-    let cam = camera_local.filter(|c| c.is_finite()).unwrap_or(Vec3::new(0.0, 2.0, 0.0));
+/// The key of the mesh for a camera at `camera_local` (the ocean's local space, in units of
+/// `meters_per_unit` metres; None: at the origin, 2 m up).
+pub fn ocean_key(spec: &OceanSpec, camera_local: Option<Vec3>, meters_per_unit: f32) -> OceanKey {
+    let cam = camera_local.filter(|c| c.is_finite()).map_or(Vec3::new(0.0, 2.0, 0.0), |c| c * meters_per_unit);
     let l = spec.params.patch_size as f64;
     let tile = ((cam.x as f64 / l).floor() as i64, (cam.z as f64 / l).floor() as i64);
     let away = cam.x.abs().max(cam.z.abs());
     let want = away + HORIZON_HEIGHTS * cam.y.abs().max(1.0);
     // a power of two: the mesh is rebuilt when the camera's height changes it by a factor 2
     let reach = if want.is_finite() { want.min(MAX_REACH).log2().ceil().exp2().min(MAX_REACH) } else { MAX_REACH };
-    OceanKey { spec: spec.clone(), tile, reach }
+    OceanKey { spec: spec.clone(), tile, reach, meters_per_unit }
 }
 
-/// Builds the meshes for a key. A `depth` that does not reach below the deepest trough is a
-/// problem and the sea is built open (`depth` 0).
+/// Builds the meshes for a key (in metres, then scaled into the stage's units). A `depth`
+/// that does not reach below the deepest trough is a problem and the sea is built open
+/// (`depth` 0).
 pub fn build(key: &OceanKey, p: &mut Problems) -> OceanMeshes {
     let l = key.spec.params.patch_size;
     // the LOD depends on the camera's patch only: build about its centre
     let cam = Vec3::new((key.tile.0 as f32 + 0.5) * l, 0.0, (key.tile.1 as f32 + 0.5) * l);
-    match ocean_mesh_with_horizon(&key.spec.params, key.spec.time, Some(cam), key.reach) {
-        Ok((surface, skirt)) => OceanMeshes { surface: surface.into(), skirt: skirt.map(Arc::new) },
-        Err(e) => {
-            p.add(e.parameter, format!("{}; using 0 (an open sea)", e.message));
-            let open = OceanParams { depth: 0.0, ..key.spec.params.clone() };
-            let (surface, skirt) = ocean_mesh_with_horizon(&open, key.spec.time, Some(cam), key.reach).expect("validated open sea");
-            OceanMeshes { surface: surface.into(), skirt: skirt.map(Arc::new) }
+    let (surface, skirt) = ocean_mesh_with_horizon(&key.spec.params, key.spec.time, Some(cam), key.reach).unwrap_or_else(|e| {
+        p.add(e.parameter, format!("{}; using 0 (an open sea)", e.message));
+        let open = OceanParams { depth: 0.0, ..key.spec.params.clone() };
+        ocean_mesh_with_horizon(&open, key.spec.time, Some(cam), key.reach).expect("validated open sea")
+    });
+    let units = |mut m: MeshDesc| {
+        if key.meters_per_unit != 1.0 {
+            m.positions.iter_mut().for_each(|v| *v /= key.meters_per_unit);
         }
-    }
+        m
+    };
+    OceanMeshes { surface: units(surface).into(), skirt: skirt.map(|s| Arc::new(units(s))) }
 }
 
 /// The share of the sea BSDF's Cox–Munk slope variance left when the mesh of `params` resolves

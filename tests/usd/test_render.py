@@ -525,6 +525,19 @@ def test_water_medium_through_its_medium_input(renderer, stage, link):
     assert render(renderer, empty_stage)["color"][..., :3].mean() > 0.95
 
 
+@pytest.mark.parametrize("meters_per_unit", [None, 1.0, 0.5, 0.01])
+def test_coefficients_per_metre_follow_the_stages_meters_per_unit(renderer, stage, meters_per_unit):
+    """σa is per metre (contract §3): through the 1-unit tank, exp(-σa · metersPerUnit). A
+    stage that does not author metersPerUnit is in metres (not USD's fallback, centimetres)."""
+    _water_tank(stage, "volume")
+    if meters_per_unit is not None:
+        UsdGeom.SetStageMetersPerUnit(stage, meters_per_unit)
+    rgb = render(renderer, stage)["color"][..., :3].reshape(-1, 3).astype(np.float64)
+    mean, se = rgb.mean(axis=0), rgb.std(axis=0, ddof=1) / math.sqrt(len(rgb))
+    want = math.exp(-1.0 * (meters_per_unit or 1.0))
+    assert np.all(np.abs(mean - want) < 4 * se + 2e-3), (mean, se, want)
+
+
 def _wet_wall(stage, wet):
     """The grey wall of the sun test, lit by a sun 30 degrees off its normal (so that the film's
     mirror image of the sun misses the camera); `wet`: TideWetAPI attributes, or None."""

@@ -13,6 +13,7 @@
 #include "pxr/usd/usd/relationship.h"
 #include "pxr/usd/usd/stage.h"
 #include "pxr/usd/usdGeom/camera.h"
+#include "pxr/usd/usdGeom/metrics.h"
 #include "pxr/usd/usdShade/material.h"
 #include "pxr/usdImaging/usdImaging/dataSourceAttribute.h"
 #include "pxr/usdImaging/usdImaging/dataSourceGprim.h"
@@ -217,9 +218,15 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
     }
     // a camera also carries the stage's frame rate: Hydra's shutter is in frames, and nothing
     // else tells a render delegate how long a frame is
+    // and the stage's metres per unit where authored (what the contract gives in metres is
+    // converted with it; USD's fallback, centimetres, is not taken for an unauthored stage)
     if (prim.IsA<UsdGeomCamera>()) {
         names.push_back(TfToken("timeCodesPerSecond"));
         values.push_back(HdRetainedTypedSampledDataSource<double>::New(prim.GetStage()->GetTimeCodesPerSecond()));
+        if (UsdGeomStageHasAuthoredMetersPerUnit(prim.GetStage())) {
+            names.push_back(TfToken("metersPerUnit"));
+            values.push_back(HdRetainedTypedSampledDataSource<double>::New(UsdGeomGetStageMetersPerUnit(prim.GetStage())));
+        }
     }
     if (names.empty()) return nullptr;
     return HdRetainedContainerDataSource::New(

@@ -1097,6 +1097,10 @@ class Reader:
             st.set("tide:adaptive:threshold", ("float", float(o.adaptive_threshold)))
         self.sample_target = st.values["tide:samples"][0][1][1]
         st.set("timeCodesPerSecond", ("float", float(stage.GetTimeCodesPerSecond())))
+        # only where authored: USD's fallback (0.01, centimetres) would shrink every unauthored
+        # stage's metres a hundredfold
+        if UsdGeom.StageHasAuthoredMetersPerUnit(stage):
+            st.set("metersPerUnit", ("float", float(UsdGeom.GetStageMetersPerUnit(stage))))
 
         # Camera selection: --camera, the settings' camera, else the first camera.
         cam = None
