@@ -354,12 +354,52 @@ def _moving_sphere(stage, open_=-0.25, close=0.25):
     return s
 
 
-def test_an_unsupported_motion_blur_scale_is_named(stage, delegate):
-    # UsdGeomMotionAPI motion:blurScale (inherited) is not applied: said on the prims it reaches
+@pytest.mark.parametrize("scale, on_parent", [(0.5, False), (0.5, True), (2.0, False)])
+def test_motion_blur_scale_samples_a_scaled_window(stage, delegate, scale, on_parent):
+    """motion:blurScale s (inherited) samples the prim over the shutter scaled by s and hands
+    each sample on at its time over s (UsdGeomMotionAPI's guidance): x = 4 t (t in [0, 1],
+    held before 0) over a ±0.25 shutter has x = 4 · 0.25 s at the shutter's close."""
     _moving_sphere(stage)
-    UsdGeom.MotionAPI.Apply(stage.GetPrimAtPath("/S")).CreateMotionBlurScaleAttr(0.5)
+    holder = stage.DefinePrim("/G", "Xform") if on_parent else stage.GetPrimAtPath("/S")
+    if on_parent:
+        UsdGeom.Sphere.Define(stage, "/G/S2").AddTranslateOp().Set(Gf.Vec3d(4, 0, 0), 1)
+        UsdGeom.Xformable(stage.GetPrimAtPath("/G/S2")).GetOrderedXformOps()[0].Set(Gf.Vec3d(0, 0, 0), 0)
+    UsdGeom.MotionAPI.Apply(holder).CreateMotionBlurScaleAttr(scale)
+    _, problems = load(stage, delegate, frame=0)
+    assert problems == [], problems
+    path = "/G/S2" if on_parent else "/S"
+    samples = delegate.samples(path, "transform")
+    assert sorted(samples) == [-0.25, 0.0, 0.25]
+    assert matrix(samples[0.25])[3, 0] == pytest.approx(4 * 0.25 * scale)
+    assert matrix(samples[-0.25])[3, 0] == 0.0
+    if on_parent:
+        # the prim outside the scaled namespace blurs over the whole shutter
+        assert matrix(delegate.samples("/S", "transform")[0.25])[3, 0] == pytest.approx(1.0)
+
+
+def test_motion_blur_scale_zero_holds_still_and_a_negative_one_is_named(stage, delegate):
+    _moving_sphere(stage)
+    api = UsdGeom.MotionAPI.Apply(stage.GetPrimAtPath("/S"))
+    api.CreateMotionBlurScaleAttr(0.0)
+    load(stage, delegate, frame=0)
+    assert list(delegate.samples("/S", "transform")) == [None]
+    api.GetMotionBlurScaleAttr().Set(-1.0)
     _, problems = load(stage, delegate, frame=0)
     assert [(p.prim, p.attribute) for p in problems] == [("/S", "motion:blurScale")], problems
+    assert matrix(delegate.samples("/S", "transform")[0.25])[3, 0] == pytest.approx(1.0)
+
+
+def test_motion_blur_scale_scales_velocities_and_accelerations(stage, delegate):
+    camera(stage, **{"shutter__open": -0.25, "shutter__close": 0.25})
+    pts = UsdGeom.Points.Define(stage, "/P")
+    pts.CreatePointsAttr([(0, 0, 0)])
+    pts.CreateWidthsAttr([0.1])
+    pts.CreateVelocitiesAttr([(1, 2, 3)])
+    pts.CreateAccelerationsAttr([(0, -10, 0)])
+    UsdGeom.MotionAPI.Apply(pts.GetPrim()).CreateMotionBlurScaleAttr(2.0)
+    load(stage, delegate, frame=0)
+    assert floats(delegate.value("/P", "velocities")).tolist() == [[2, 4, 6]]
+    assert floats(delegate.value("/P", "accelerations")).tolist() == [[0, -40, 0]]
 
 
 def test_motion_samples_over_shutter(stage, delegate):

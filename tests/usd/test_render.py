@@ -243,7 +243,7 @@ def test_native_instances_and_point_instancer_counts(renderer, stage):
     assert _components(d > 0.5) == 5
 
 
-def _streak_fwhm(renderer, stage, disable_motion=False):
+def _streak_fwhm(renderer, stage, disable_motion=False, blur_scale=None):
     w, h = 128, 16
     camera(stage, focal=F, aperture=(AP, AP * h / w),
            **{"shutter__open": 0.0, "shutter__close": 1.0})
@@ -252,6 +252,8 @@ def _streak_fwhm(renderer, stage, disable_motion=False):
     op = s.GetOrderedXformOps()[0]
     op.Set(Gf.Vec3d(-1, 0, -10), 0)
     op.Set(Gf.Vec3d(1, 0, -10), 1)
+    if blur_scale is not None:
+        UsdGeom.MotionAPI.Apply(s.GetPrim()).CreateMotionBlurScaleAttr(blur_scale)
     st = settings(stage, res=(w, h), samples=256)
     if disable_motion:
         st.GetPrim().CreateAttribute("disableMotionBlur", Sdf.ValueTypeNames.Bool).Set(True)
@@ -267,6 +269,13 @@ def test_motion_blur_streak_length(renderer, stage):
     # 256 spp: per-pixel coverage noise ~2.7 %, slope of the ramps ~3 %/px: crossings to
     # ~1 px each side
     assert length == pytest.approx(expect, abs=1.5)
+
+
+def test_motion_blur_scale_scales_the_streak(renderer, stage):
+    """motion:blurScale 0.5 samples the ball over half the shutter (UsdGeomMotionAPI): it
+    sweeps from x = -1 to 0, a streak of 1 unit."""
+    length, w = _streak_fwhm(renderer, stage, blur_scale=0.5)
+    assert length == pytest.approx(1.0 * _px_per_unit_at(-10.0, w), abs=1.5)
 
 
 def test_no_streak_when_motion_blur_disabled(renderer, stage):

@@ -12,6 +12,7 @@ Every value sent to the delegate is remembered, so a later sync sends only what 
 the delegate marks only those prims dirty. Problems in the stage (contract section 7) are
 collected as `Problem(prim, attribute, message)`, each reported once; the rest renders.
 """
+import contextlib
 import math
 import os
 from collections import namedtuple
@@ -500,6 +501,7 @@ class Reader:
         self._pending = []            # problems found since the last commit
         self._sent = {}               # delegate path -> _PrimState last sent
         self._prim_ids = {}
+        self._blur = 1.0              # motion:blurScale of the prim being read
         self._changed = []
         self._instance_sources = set()
         self._skel_sources = set()    # Skeleton, SkelAnimation, BlendShape paths skinning read
@@ -881,20 +883,54 @@ class Reader:
 
     # -- time and transforms --------------------------------------------------------------
     def _time(self, offset):
-        return Usd.TimeCode(self.frame + offset)
+        return Usd.TimeCode(self.frame + self._blur * offset)
+
+    # motion:blurScale (UsdGeomMotionAPI), as its guidance says: a prim with scale s is sampled
+    # over the shutter window scaled by s about the frame, and its samples are handed on at
+    # their times over s (velocities times s, accelerations times s squared); s = 0 holds it
+    # still. `_blur` is the scale of the prim being read (1 elsewhere).
+    @property
+    def _moving(self):
+        return self._motion and self._blur > 0.0
+
+    def _window(self):
+        """The scene times a moving prim is sampled over: the shutter scaled by its blurScale."""
+        lo, hi = self._shutter
+        return Gf.Interval(self.frame + self._blur * lo, self.frame + self._blur * hi)
+
+    def _offset(self, t):
+        """The shutter offset (frames) at which the sample at scene time `t` is handed on."""
+        return (t - self.frame) / self._blur
+
+    @contextlib.contextmanager
+    def _blurred(self, prim):
+        """Reads `prim` (and what it places) with its inherited motion:blurScale."""
+        before = self._blur
+        scale = 1.0
+        if self._motion:
+            scale = float(UsdGeom.MotionAPI(prim).ComputeMotionBlurScale(Usd.TimeCode(self.frame)))
+            if not (scale >= 0.0 and math.isfinite(scale)):
+                self.problem(prim.GetPath(), "motion:blurScale", "%g is not in [0, inf); using 1"
+                             % scale)
+                scale = 1.0
+        self._blur = scale
+        try:
+            yield
+        finally:
+            self._blur = before
 
     def _motion_offsets(self, prims):
         """Offsets (frames) at which to sample transforms: shutter ends + authored samples."""
-        if not self._motion:
+        if not self._moving:
             return [0.0]
         lo, hi = self._shutter
-        interval = Gf.Interval(self.frame + lo, self.frame + hi)
+        interval = self._window()
         times = {lo, hi}
         for p in prims:
             x = UsdGeom.Xformable(p)
             while x:
                 for t in x.GetTimeSamplesInInterval(interval):
-                    times.add(t - self.frame)
+                    times.add(self._offset(t))
                 parent = x.GetPrim().GetParent()
                 x = UsdGeom.Xformable(parent) if parent else None
         return sorted(times)
@@ -1241,11 +1277,6 @@ class Reader:
 
     def _gprim_state(self, prim, dpath, source, transform_fn, motion_prims):
         type_name = GPRIMS[prim.GetTypeName()]
-        if self._motion:
-            scale = UsdGeom.MotionAPI(prim).ComputeMotionBlurScale(self._time(0))
-            if scale != 1.0:
-                self.problem(prim.GetPath(), "motion:blurScale", "%g is not supported; the prim "
-                             "blurs over the whole shutter (scale 1)" % scale)
         st = _PrimState("rprim", type_name, source)
         st.set("transform", None, self._xform_samples(transform_fn, motion_prims))
         st.set("visibility", ("token", "inherited"))
@@ -1262,14 +1293,22 @@ class Reader:
         tide_apis = [str(a) for a in prim.GetAppliedSchemas() if str(a).startswith("Tide")]
         if tide_apis:
             st.set("apiSchemas", ("paths", tuple(tide_apis)))
+        if self._blur != 1.0:
+            # rates over the scaled window: velocities times s, accelerations times s squared
+            for name, power in (("velocities", 1), ("accelerations", 2)):
+                if name in st.values:
+                    kind, tsize, data = st.values[name][0][1]
+                    rate = np.frombuffer(data, dtype=np.float32) * np.float32(self._blur ** power)
+                    st.set(name, (kind, tsize, rate.tobytes()))
         return st
 
     def _eval_gprim(self, prim, dpath, source):
-        st = self._gprim_state(prim, dpath, source, self._world(prim), [prim])
-        if st is not None:
-            if _skinnable(prim, st):
-                self._skin(prim, st)
-            self._desired[dpath] = st
+        with self._blurred(prim):
+            st = self._gprim_state(prim, dpath, source, self._world(prim), [prim])
+            if st is not None:
+                if _skinnable(prim, st):
+                    self._skin(prim, st)
+                self._desired[dpath] = st
 
     def _posed_apart(self, prim):
         """Whether an instance proxy is a gprim that a skeleton poses (each instance its own)."""
@@ -1294,10 +1333,10 @@ class Reader:
         for name in [n for n in st.primvars if n.startswith("skel:")]:
             del st.primvars[name]
         offsets = [0.0]
-        if self._motion:
+        if self._moving:
             lo, hi = self._shutter
-            times = target.time_samples(Gf.Interval(self.frame + lo, self.frame + hi))
-            offsets = sorted({lo, hi} | {t - self.frame for t in times})
+            times = target.time_samples(self._window())
+            offsets = sorted({lo, hi} | {self._offset(t) for t in times})
         posed = target.compute([self._time(o) for o in offsets])
         if posed is None:
             return
@@ -1464,14 +1503,14 @@ class Reader:
             self.problem(prim.GetPath(), name, "NaN or infinite values; prim dropped")
             return None
         samples = [(None, _floats(arr, 3))]
-        if self._motion:
+        if self._moving:
             attr = prim.GetAttribute(name)
             lo, hi = self._shutter
-            times = attr.GetTimeSamplesInInterval(Gf.Interval(self.frame + lo, self.frame + hi))
+            times = attr.GetTimeSamplesInInterval(self._window())
             # samples outside the shutter still move the points across it (USD interpolates
             # between the samples around each time): sampled at its ends and at those within
             if attr.GetNumTimeSamples() > 1:
-                offs = sorted({lo, hi} | {t - self.frame for t in times})
+                offs = sorted({lo, hi} | {self._offset(t) for t in times})
                 got = [np.asarray(attr.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
                        for o in offs]
                 other = [(o, g) for o, g in zip(offs, got) if g.shape != arr.shape]
@@ -1983,35 +2022,41 @@ class Reader:
             per_proto[proto] = n + 1
             dpath = proto if n == 0 else "%s_m%d" % (proto, n)
             prim, root = grp["prim"], grp["root"]
+            with self._blurred(prim):
+                st = self._instance_group(prim, root, dpath, material, grp["roots"])
+            if st is not None:
+                self._desired[dpath] = st
 
-            def rel(t, prim=prim, root=root):
-                cache = UsdGeom.XformCache(t)
-                return cache.GetLocalToWorldTransform(prim) * \
-                    cache.GetLocalToWorldTransform(root).GetInverse()
+    def _instance_group(self, prim, root, dpath, material, roots):
+        """The state of a prototype's gprim drawn at every instance root of `roots`."""
+        def rel(t, prim=prim, root=root):
+            cache = UsdGeom.XformCache(t)
+            return cache.GetLocalToWorldTransform(prim) * \
+                cache.GetLocalToWorldTransform(root).GetInverse()
 
-            st = self._gprim_state(prim, dpath, "/", rel, [prim])
-            if st is None:
-                continue
-            st.set("material", ("path", material))
-            # the path each instance stands for in light-link collections: its proxy's
-            rel = prim.GetPath().MakeRelativePath(root.GetPath())
-            st.set("instancePaths", ("paths", tuple(str(r.GetPath().AppendPath(rel))
-                                                    for r in grp["roots"])))
-            self._inherited_by_instances(prim, st, grp["roots"])
-            # each instance root's world matrix over the shutter (motion of the instances
-            # themselves; the prototype's own motion is in `transform`)
-            offsets = sorted({o for r in grp["roots"] for o in self._motion_offsets([r])})
-            worlds = []
-            for o in offsets:
-                cache = UsdGeom.XformCache(self._time(o))
-                worlds.append(np.asarray([_mat_key(cache.GetLocalToWorldTransform(r))
-                                          for r in grp["roots"]], np.float64))
-            if all(np.array_equal(w, worlds[0]) for w in worlds):
-                st.set("instanceTransforms", ("doubles", 16, worlds[0].tobytes()))
-            else:
-                st.set("instanceTransforms", None,
-                       [(o, ("doubles", 16, w.tobytes())) for o, w in zip(offsets, worlds)])
-            self._desired[dpath] = st
+        st = self._gprim_state(prim, dpath, "/", rel, [prim])
+        if st is None:
+            return None
+        st.set("material", ("path", material))
+        # the path each instance stands for in light-link collections: its proxy's
+        inner = prim.GetPath().MakeRelativePath(root.GetPath())
+        st.set("instancePaths", ("paths", tuple(str(r.GetPath().AppendPath(inner))
+                                                for r in roots)))
+        self._inherited_by_instances(prim, st, roots)
+        # each instance root's world matrix over the shutter (motion of the instances
+        # themselves; the prototype's own motion is in `transform`)
+        offsets = sorted({o for r in roots for o in self._motion_offsets([r])})
+        worlds = []
+        for o in offsets:
+            cache = UsdGeom.XformCache(self._time(o))
+            worlds.append(np.asarray([_mat_key(cache.GetLocalToWorldTransform(r))
+                                      for r in roots], np.float64))
+        if all(np.array_equal(w, worlds[0]) for w in worlds):
+            st.set("instanceTransforms", ("doubles", 16, worlds[0].tobytes()))
+        else:
+            st.set("instanceTransforms", None,
+                   [(o, ("doubles", 16, w.tobytes())) for o, w in zip(offsets, worlds)])
+        return st
 
     def _shown_in_prototype(self, g, proto, t):
         """Whether prim `g` of prototype `proto` is drawn, as UsdImaging takes it: visibility and
@@ -2038,7 +2083,12 @@ class Reader:
         of an offset giving the world matrices of the instances placing that prototype, the
         prototype's parent, their per-instance primvars {name: (rows, tuple)}); each of those
         instances then places all of this one's, which take its primvars where they have none
-        of that name."""
+        of that name. The instances move over the window of the instancer's blurScale."""
+        with self._blurred(prim):
+            self._place_instances(prim, outer)
+
+    def _place_instances(self, prim, outer):
+        """_eval_instancer's work, within the instancer's blurScale."""
         inst = UsdGeom.PointInstancer(prim)
         path = prim.GetPath()
         self._instance_sources.add(path)
@@ -2118,7 +2168,8 @@ class Reader:
                         m = m * cache.GetLocalToWorldTransform(parent).GetInverse()
                     return m
 
-                st = self._gprim_state(g, dpath, str(path), rel, [g])
+                with self._blurred(g):
+                    st = self._gprim_state(g, dpath, str(path), rel, [g])
                 if st is None:
                     continue
                 if _skinnable(g, st):
@@ -2182,7 +2233,10 @@ class Reader:
         chord's sag."""
         t = self._time(0)
         tcps = self.stage.GetTimeCodesPerSecond() or 24.0
-        world_at = lambda o: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(self._time(o))
+        # the functions below may be called for a nested instancer, under another's scale
+        blur = self._blur
+        time = lambda o: Usd.TimeCode(self.frame + blur * o)
+        world_at = lambda o: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time(o))
         rates = {}
         pos_attr = inst.GetPositionsAttr()
         if pos_attr.GetNumTimeSamples() == 0:
@@ -2200,7 +2254,7 @@ class Reader:
         p0 = np.asarray(pos_attr.Get(t) or [], dtype=np.float64).reshape(-1, 3)
 
         def extrapolated(o):
-            dt = o / tcps
+            dt = blur * o / tcps
             out = []
             for i, m in enumerate(base):
                 m = Gf.Matrix4d(m)
@@ -2225,7 +2279,7 @@ class Reader:
                 xf = extrapolated(o)
             else:
                 xf = inst.ComputeInstanceTransformsAtTime(
-                    self._time(o), t, UsdGeom.PointInstancer.ExcludeProtoXform,
+                    time(o), t, UsdGeom.PointInstancer.ExcludeProtoXform,
                     UsdGeom.PointInstancer.IgnoreMask)
             if n and (xf is None or len(xf) != n):
                 return None
@@ -2234,18 +2288,18 @@ class Reader:
                               if n else np.zeros((0, 4, 4)), dtype=np.float64)
 
         still = [(0.0, at(0.0))]
-        if not self._motion or not n:
+        if not self._moving or not n:
             return [o for o, _ in still], [m for _, m in still], at
         lo, hi = self._shutter
         offs = set(self._motion_offsets([prim]))
-        interval = Gf.Interval(self.frame + lo, self.frame + hi)
+        interval = self._window()
         stepped = False
         for name in ("positions", "orientations", "orientationsf", "scales", "velocities",
                      "angularVelocities", "accelerations"):
             a = prim.GetAttribute(name)
             if not a or not a.HasAuthoredValue():
                 continue
-            offs.update(x - self.frame for x in a.GetTimeSamplesInInterval(interval))
+            offs.update(self._offset(x) for x in a.GetTimeSamplesInInterval(interval))
             if name in ("angularVelocities", "accelerations"):
                 stepped = True
         if stepped:
@@ -2271,12 +2325,14 @@ class Reader:
         if moving:
             offsets = sorted(set().union(*moving))
 
+        blur = self._blur
+
         def nested(o):
             inner = place(o)
             if inner is None:
                 return None
-            q = np.asarray(UsdGeom.XformCache(self._time(o)).GetLocalToWorldTransform(o_parent),
-                           dtype=np.float64)
+            cache = UsdGeom.XformCache(Usd.TimeCode(self.frame + blur * o))
+            q = np.asarray(cache.GetLocalToWorldTransform(o_parent), dtype=np.float64)
             rel = inner @ np.linalg.inv(q)
             return np.einsum("jab,ibc->ijac", rel, o_place(o)).reshape(-1, 4, 4)
 
