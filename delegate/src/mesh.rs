@@ -273,8 +273,9 @@ pub fn convert_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshDesc
 pub enum Deformation {
     /// Time samples of `points`: (frame offset, positions), two or more, sorted by time.
     Samples(Vec<(f64, Vec<Vec3>)>),
-    /// `velocities` and `accelerations`, units per second (and per second²).
-    Velocity { velocities: Vec<Vec3>, accelerations: Option<Vec<Vec3>> },
+    /// `velocities` and `accelerations`, units per second (and per second²), and the keys
+    /// that follow a path the accelerations curve (`motion:nonlinearSampleCount`).
+    Velocity { velocities: Vec<Vec3>, accelerations: Option<Vec<Vec3>>, nonlinear_samples: usize },
 }
 
 /// A `materialBind` GeomSubset's share of a mesh.
@@ -500,7 +501,28 @@ pub(crate) fn point_motion(store: &AttrStore, n_points: usize, n_vertices: usize
         return None;
     }
     let velocities = velocities.unwrap_or_else(|| vec![Vec3::ZERO; n_vertices]);
-    Some(Deformation::Velocity { velocities, accelerations })
+    let nonlinear_samples = nonlinear_sample_count(store, p);
+    Some(Deformation::Velocity { velocities, accelerations, nonlinear_samples })
+}
+
+/// Most keys a curved motion gets.
+const MAX_NONLINEAR_SAMPLES: i64 = 64;
+
+/// UsdGeomMotionAPI's `motion:nonlinearSampleCount` (inherited; the reader sends it where a
+/// prim has accelerations): 3 unless given, at least 2 (fewer named, 3 used) and at most 64
+/// (more named and cut).
+pub(crate) fn nonlinear_sample_count(store: &AttrStore, p: &mut Problems) -> usize {
+    const NAME: &str = "motion:nonlinearSampleCount";
+    let n = store.get(NAME).and_then(|v| v.to_ints()).and_then(|v| v.first().copied()).map_or(NONLINEAR_SAMPLES as i64, i64::from);
+    if n < 2 {
+        p.add(NAME, format!("{n} is fewer than 2 samples; using {NONLINEAR_SAMPLES}"));
+        NONLINEAR_SAMPLES
+    } else if n > MAX_NONLINEAR_SAMPLES {
+        p.add(NAME, format!("{n} samples are more than Tide keys a motion with; using {MAX_NONLINEAR_SAMPLES}"));
+        MAX_NONLINEAR_SAMPLES as usize
+    } else {
+        n as usize
+    }
 }
 
 /// Area-weighted vertex normals of a triangle mesh at given positions.
@@ -516,16 +538,17 @@ fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     n
 }
 
-/// The deformation keys over the shutter [open, close] (frame offsets; seconds =
-/// frames / `tcps`): the samples inside the shutter plus one on either side, or for
-/// velocities the positions at open and close (p + v·t + a·t²/2, the chord of each point's
-/// parabola). Authored normals turn with the surface: each key's normal is the authored one
-/// rotated by the shortest arc from the vertex's geometric normal at the current frame to
-/// its geometric normal at the key (exact for rigid motion).
 /// Keys of a motion with accelerations over the shutter (UsdGeomMotionAPI's default
 /// `motion:nonlinearSampleCount`).
 const NONLINEAR_SAMPLES: usize = 3;
 
+/// The deformation keys over the shutter [open, close] (frame offsets; seconds =
+/// frames / `tcps`): the samples inside the shutter plus one on either side, or for
+/// velocities the positions at open and close (p + v·t + a·t²/2), and with accelerations
+/// `nonlinear_samples` keys evenly over the shutter along each point's parabola. Authored
+/// normals turn with the surface: each key's normal is the authored one rotated by the
+/// shortest arc from the vertex's geometric normal at the current frame to its geometric
+/// normal at the key (exact for rigid motion).
 pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps: f64) -> Option<MeshMotion> {
     let (times, positions): (Vec<f32>, Vec<Vec<Vec3>>) = match d {
         Deformation::Samples(samples) => {
@@ -537,16 +560,16 @@ pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps
             }
             kept.iter().map(|s| ((s.0 / tcps) as f32, s.1.clone())).unzip()
         }
-        Deformation::Velocity { velocities, accelerations } => {
+        Deformation::Velocity { velocities, accelerations, nonlinear_samples } => {
             let key = |t: f32| -> Vec<Vec3> {
                 (0..mesh.positions.len())
                     .map(|i| mesh.positions[i] + velocities[i] * t + accelerations.as_ref().map_or(Vec3::ZERO, |a| a[i] * (0.5 * t * t)))
                     .collect()
             };
             let (t0, t1) = ((open / tcps) as f32, (close / tcps) as f32);
-            // accelerations curve the path: USD's default motion:nonlinearSampleCount of 3
-            // keys (the middle one is where a symmetric shutter's turning point lies)
-            let n = if accelerations.is_some() && t1 > t0 { NONLINEAR_SAMPLES } else { 2 };
+            // accelerations curve the path: motion:nonlinearSampleCount keys (USD's default 3
+            // puts the middle one where a symmetric shutter's turning point lies)
+            let n = if accelerations.is_some() && t1 > t0 { (*nonlinear_samples).max(2) } else { 2 };
             let times: Vec<f32> = (0..n).map(|k| t0 + (t1 - t0) * k as f32 / (n - 1) as f32).collect();
             let keys = times.iter().map(|&t| key(t)).collect();
             (times, keys)
@@ -779,23 +802,47 @@ mod tests {
     use super::*;
     use crate::value::{Attr, Value};
 
-/// Velocities alone move a mesh along straight lines (two keys); accelerations curve the
+    /// Velocities alone move a mesh along straight lines (two keys); accelerations curve the
     /// path, so it is keyed at three times (USD's default nonlinear sample count), each key
     /// on the parabola p + v t + a t²/2: a symmetric shutter with no velocity turns back at
-    /// the middle instead of standing still.
+    /// the middle instead of standing still; an authored motion:nonlinearSampleCount keys it
+    /// that many times.
+    #[test]
+    fn a_nonlinear_sample_count_below_2_or_past_64_is_named() {
+        let count = |n: Option<i64>| {
+            let mut store = AttrStore::default();
+            if let Some(n) = n {
+                store.attrs.insert("motion:nonlinearSampleCount".into(), Attr { value: Some(Value::Int(n)), samples: vec![] });
+            }
+            let mut p = Problems::new("/m");
+            (nonlinear_sample_count(&store, &mut p), p.list.len())
+        };
+        assert_eq!(count(None), (3, 0));
+        assert_eq!(count(Some(7)), (7, 0));
+        assert_eq!(count(Some(1)), (3, 1));
+        assert_eq!(count(Some(1000)), (64, 1));
+    }
+
     #[test]
     fn accelerations_key_the_curved_path() {
         let mesh = MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], ..Default::default() };
         let still = vec![Vec3::ZERO; 3];
         let a = vec![Vec3::new(9216.0, 0.0, 0.0); 3];
-        let d = Deformation::Velocity { velocities: still.clone(), accelerations: Some(a) };
+        let d = Deformation::Velocity { velocities: still.clone(), accelerations: Some(a.clone()), nonlinear_samples: 3 };
         let m = motion_keys(&mesh, &d, -0.5, 0.5, 24.0).unwrap();
         assert_eq!(m.times, vec![-0.5 / 24.0, 0.0, 0.5 / 24.0]);
         // x = ½ · 9216 · (1/48)² = 2 at the shutter's ends, 0 in the middle
         let xs: Vec<f32> = m.positions.iter().map(|k| k[0].x).collect();
         assert!((xs[0] - 2.0).abs() < 1e-4 && xs[1].abs() < 1e-6 && (xs[2] - 2.0).abs() < 1e-4, "{xs:?}");
-        let lin = Deformation::Velocity { velocities: vec![Vec3::X; 3], accelerations: None };
+        let lin = Deformation::Velocity { velocities: vec![Vec3::X; 3], accelerations: None, nonlinear_samples: 3 };
         assert_eq!(motion_keys(&mesh, &lin, -0.5, 0.5, 24.0).unwrap().times.len(), 2);
+        // motion:nonlinearSampleCount 5: five keys along the parabola
+        let five = Deformation::Velocity { velocities: still.clone(), accelerations: Some(a), nonlinear_samples: 5 };
+        let m = motion_keys(&mesh, &five, -0.5, 0.5, 24.0).unwrap();
+        let want = [-2.0f32, -1.0, 0.0, 1.0, 2.0].map(|k| k * 0.25 / 24.0);
+        assert!(m.times.iter().zip(&want).all(|(t, w)| (t - w).abs() < 1e-9), "{:?}", m.times);
+        let xs: Vec<f32> = m.positions.iter().map(|k| k[0].x).collect();
+        assert!(xs.iter().zip([2.0, 0.5, 0.0, 0.5, 2.0]).all(|(x, w)| (x - w).abs() < 1e-5), "{xs:?}");
     }
 
     fn store(points: &[f32], counts: &[i32], idx: &[i32]) -> AttrStore {

@@ -189,19 +189,39 @@ def test_a_nested_instancer_moves_with_the_outer_instances(stage, delegate):
         assert np.allclose([m[3, :3] for m in mats], [(x, 0, -10), (x, 3, -10)], atol=1e-6)
 
 
-def test_point_instancer_angular_velocities_sweep_an_arc(stage, delegate):
+@pytest.mark.parametrize("count", [None, 9])
+def test_point_instancer_angular_velocities_sweep_an_arc(stage, delegate, count):
     _shutter_cam(stage, 0.0, 1.0)
     inst = _instancer(stage)
     inst.CreateAngularVelocitiesAttr([(0, 0, 24 * 90.0), (0, 0, 0)])   # degrees per second
+    if count:
+        UsdGeom.MotionAPI.Apply(inst.GetPrim()).CreateNonlinearSampleCountAttr(count)
     load(stage, delegate)
     got = _instance_samples(delegate, "/PI/proto0_Ball")
-    # 4 steps over the shutter; the angle at offset t is 90° * t (one frame = 1/24 s)
-    assert [t for t, _ in got] == [0.0, 0.25, 0.5, 0.75, 1.0]
+    # 4 steps over the shutter (or the 8 that motion:nonlinearSampleCount 9 asks for); the
+    # angle at offset t is 90° * t (one frame = 1/24 s)
+    steps = (count or 5) - 1
+    assert [t for t, _ in got] == [k / steps for k in range(steps + 1)]
     for t, mats in got:
         a = math.radians(90.0 * t)
         x_axis = mats[0][0, :3]
         assert np.allclose(x_axis, [math.cos(a), math.sin(a), 0], atol=1e-4), (t, x_axis)
         assert np.allclose(mats[1][:3, :3], np.eye(3), atol=1e-6)
+
+
+def test_a_meshs_nonlinear_sample_count_is_sent_with_its_accelerations(stage, delegate):
+    """motion:nonlinearSampleCount (inherited from an ancestor) reaches the delegate with a
+    mesh's accelerations, which it keys that many times."""
+    _shutter_cam(stage, -0.5, 0.5)
+    g = stage.DefinePrim("/G", "Xform")
+    UsdGeom.MotionAPI.Apply(g).CreateNonlinearSampleCountAttr(7)
+    m = UsdGeom.Mesh.Define(stage, "/G/M")
+    m.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    m.CreateFaceVertexCountsAttr([3])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2])
+    m.CreateAccelerationsAttr([(0, -10, 0)] * 3)
+    load(stage, delegate)
+    assert delegate.value("/G/M", "motion:nonlinearSampleCount") == 7
 
 
 def test_time_sampled_positions_move_the_instances(stage, delegate):

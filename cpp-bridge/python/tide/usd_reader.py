@@ -1293,6 +1293,10 @@ class Reader:
         tide_apis = [str(a) for a in prim.GetAppliedSchemas() if str(a).startswith("Tide")]
         if tide_apis:
             st.set("apiSchemas", ("paths", tuple(tide_apis)))
+        if "accelerations" in st.values:
+            # how many keys follow the curved path (UsdGeomMotionAPI, inherited)
+            count = UsdGeom.MotionAPI(prim).ComputeNonlinearSampleCount(Usd.TimeCode(self.frame))
+            st.set("motion:nonlinearSampleCount", ("int", int(count)))
         if self._blur != 1.0:
             # rates over the scaled window: velocities times s, accelerations times s squared
             for name, power in (("velocities", 1), ("accelerations", 2)):
@@ -2303,7 +2307,11 @@ class Reader:
             if name in ("angularVelocities", "accelerations"):
                 stepped = True
         if stepped:
-            offs.update(lo + (hi - lo) * k / 4.0 for k in range(5))
+            # at least 4 steps (a spin's arc, a parabola within 1/16 of its sag), more where
+            # motion:nonlinearSampleCount asks for more samples
+            count = UsdGeom.MotionAPI(prim).ComputeNonlinearSampleCount(Usd.TimeCode(self.frame))
+            steps = max(4, int(count) - 1)
+            offs.update(lo + (hi - lo) * k / float(steps) for k in range(steps + 1))
         offs = sorted(offs)
         mats = [at(o) for o in offs]
         if any(m is None for m in mats):
