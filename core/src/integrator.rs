@@ -691,10 +691,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let frame = if flip < 0.0 { Frame::from_normal(-s.ns) } else { frame };
         let wo = frame.to_local(wo_w);
         if depth == 0 {
-            // a reflectance, seen under the colour space's white: a white surface reads (1, 1, 1)
-            let white = color::white_illuminant(world.cs);
+            // a reflectance, seen under the authored colours' white: a white surface reads
+            // (1, 1, 1) in any rendering colour space
+            let white = color::white_illuminant(crate::scene::AUTHORED_COLOR_SPACE);
             let lit = bsdf.albedo_hint() * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
-            aov.albedo = color::xyz_to_rgb(color::to_xyz(lit, lambda), world.cs);
+            aov.albedo = color::xyz_to_output(color::to_xyz(lit, lambda), world.cs);
         }
 
         let non_specular = !bsdf.is_specular();

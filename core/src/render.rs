@@ -443,7 +443,7 @@ impl Renderer {
                                         Some(t) => x * *t,
                                         None => x,
                                     };
-                                    let rgb = color::xyz_to_rgb(color::to_xyz(x, &lambda), cs);
+                                    let rgb = color::xyz_to_output(color::to_xyz(x, &lambda), cs);
                                     if rgb.iter().all(|c| c.is_finite()) {
                                         rgb
                                     } else {
@@ -572,6 +572,7 @@ impl Renderer {
         let space = match self.world.cs {
             crate::scene::ColorSpace::LinearRec709 => "lin_rec709",
             crate::scene::ColorSpace::AcesCg => "ACEScg",
+            crate::scene::ColorSpace::LinearRec2020 => "lin_rec2020",
         };
         h.push(("renderingColorSpace".into(), space.into()));
         if self.adaptive.is_some() {

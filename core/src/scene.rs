@@ -908,13 +908,21 @@ impl Default for CameraDesc {
     }
 }
 
-/// Working colour space of RGB inputs and the `color` output.
+/// A linear RGB colour space: of the authored colours ([`AUTHORED_COLOR_SPACE`]) or of the
+/// rendering (`SceneDesc::color_space`: the AOVs are written in it).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum ColorSpace {
     #[default]
     LinearRec709,
     AcesCg,
+    /// Linear ITU-R BT.2020 (D65); a rendering colour space only.
+    LinearRec2020,
 }
+
+/// The colour space of every authored colour (UsdPreviewSurface, UsdLux, TideMedium inputs,
+/// linear textures): linear Rec.709, USD's default colour space (`lin_rec709_scene`). The
+/// rendering colour space changes how the result is written, not what the scene looks like.
+pub const AUTHORED_COLOR_SPACE: ColorSpace = ColorSpace::LinearRec709;
 
 /// The links of an instance whose surface is a light (UsdLuxMeshLightAPI), as a light's
 /// ([`LightDesc::light_link`], [`LightDesc::shadow_link`]): the instances its emissive
@@ -945,6 +953,7 @@ pub struct SceneDesc {
     pub textures: Vec<TextureDesc>,
     pub lights: Vec<LightDesc>,
     pub camera: CameraDesc,
+    /// The rendering colour space (UsdRenderSettings `renderingColorSpace`) the AOVs are in.
     pub color_space: ColorSpace,
     pub volumes: Vec<VolumeDesc>,
     /// `TideCausticsAPI` tags (contract §4), by light and instance name.

@@ -299,6 +299,8 @@ pub struct World {
     /// Some light's multipliers are not 1 (paths then track what they need for them).
     pub any_light_response: bool,
     pub camera: Camera,
+    /// The rendering colour space the AOVs are written in (authored colours are in
+    /// [`crate::scene::AUTHORED_COLOR_SPACE`]).
     pub cs: ColorSpace,
     pub max_depth: u32,
     /// Cached surface irradiance of the bodies whose medium renders in diffusion mode.
@@ -634,7 +636,8 @@ impl World {
     /// [`World::build`] reusing from `cache` the per-geometry BVHs of unchanged geometry and
     /// the maps of unchanged domes.
     pub fn build_cached(scene: &SceneDesc, settings: &RenderSettings, problems: &mut Vec<Problem>, cache: Option<&BuildCache>) -> World {
-        let cs = scene.color_space;
+        // authored colours are uplifted from their own space; AOVs are written in the scene's
+        let cs = crate::scene::AUTHORED_COLOR_SPACE;
         // volumes become boxes with a medium-boundary material and a grid medium
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
@@ -863,7 +866,7 @@ impl World {
             light_response,
             shadow_controls,
             camera,
-            cs,
+            cs: scene.color_space,
             max_depth: settings.max_depth,
             diffusion: Default::default(),
         };
@@ -1069,7 +1072,7 @@ impl World {
     fn color(&self, c: &ColorParam, s: &SurfaceHit, lambda: &SampledWavelengths) -> SampledSpectrum {
         match (c, self.rgb(c, s)) {
             (ColorParam::Const(sp), _) => sp.sample(lambda),
-            (_, rgb) => uplift::albedo(rgb.unwrap_or_default(), self.cs).sample(lambda),
+            (_, rgb) => uplift::albedo(rgb.unwrap_or_default(), crate::scene::AUTHORED_COLOR_SPACE).sample(lambda),
         }
     }
 
@@ -1132,7 +1135,7 @@ impl World {
             SurfaceKind::Preview { emissive: Some(e), .. } if front || double_sided => match e {
                 ColorParam::Const(sp) => sp.sample(lambda),
                 // as an emissive triangle light evaluates it: negative values emit nothing
-                _ => uplift::illuminant(self.rgb(e, s).unwrap_or_default().map(|v| v.max(0.0)), self.cs).sample(lambda),
+                _ => uplift::illuminant(self.rgb(e, s).unwrap_or_default().map(|v| v.max(0.0)), crate::scene::AUTHORED_COLOR_SPACE).sample(lambda),
             },
             _ => SampledSpectrum::ZERO,
         }

@@ -29,10 +29,14 @@ std::string PreviewConfigPath() {
 static std::string CanonicalColorSpace(const std::string& name) {
     std::string n;
     for (char c : name) n += char(std::tolower(static_cast<unsigned char>(c)));
+    const std::string suffix = "_scene";
+    if (n.size() > suffix.size() && n.compare(n.size() - suffix.size(), suffix.size(), suffix) == 0)
+        n.resize(n.size() - suffix.size());
     if (n.empty() || n == "scene_linear" || n == "lin_rec709" || n == "linear" || n == "lin_srgb" ||
         n == "linear rec.709 (srgb)" || n == "rec709" || n == "srgb_linear")
         return "lin_rec709";
     if (n == "acescg" || n == "lin_ap1" || n == "aces - acescg") return "ACEScg";
+    if (n == "lin_rec2020" || n == "linear rec.2020") return "lin_rec2020";
     return name;
 }
 

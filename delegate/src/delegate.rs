@@ -1060,7 +1060,7 @@ impl Delegate {
                         if let Some(&(_, m)) = emitting.iter().find(|e| e.0 == key) {
                             return m;
                         }
-                        let (m, problem) = lux::mesh_light_material(ml, &scene.materials[material], &scene.meshes[mi], world, scene.color_space, path);
+                        let (m, problem) = lux::mesh_light_material(ml, &scene.materials[material], &scene.meshes[mi], world, tide_core::scene::AUTHORED_COLOR_SPACE, path);
                         // reported once per mesh
                         if emitting.is_empty() {
                             ap.extend(problem);

@@ -704,6 +704,20 @@ impl Default for SettingsPiece {
     }
 }
 
+/// A rendering colour space by its name: OpenUSD's (`lin_rec709_scene`, `lin_ap1_scene`,
+/// `lin_rec2020_scene`, also without `_scene`) or the usual OpenColorIO ones, any case; None
+/// for any other (a non-linear space such as `srgb_rec709_scene` is no rendering space).
+pub fn rendering_color_space(name: &str) -> Option<ColorSpace> {
+    let n = name.trim().to_ascii_lowercase();
+    let n = n.strip_suffix("_scene").unwrap_or(&n);
+    match n {
+        "lin_rec709" | "lin_srgb" | "srgb_linear" | "linear" | "linear rec.709 (srgb)" | "utility - linear - srgb" | "linear rec.709" => Some(ColorSpace::LinearRec709),
+        "lin_ap1" | "acescg" | "aces - acescg" | "aces cg" => Some(ColorSpace::AcesCg),
+        "lin_rec2020" | "linear rec.2020" | "utility - linear - rec.2020" => Some(ColorSpace::LinearRec2020),
+        _ => None,
+    }
+}
+
 /// Converts a render settings prim. Products and vars are read from attributes prefixed with
 /// their paths: `products` (Paths), `<P>.productName`, `<P>.camera`, `<P>.resolution`,
 /// `<P>.orderedVars` (Paths), `<V>.sourceName`.
@@ -789,17 +803,10 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
     let included_purposes = store.get("includedPurposes").and_then(|v| v.to_strings()).unwrap_or(d.included_purposes);
     let color_space = match store.str_opt("renderingColorSpace") {
         None | Some("") => ColorSpace::LinearRec709,
-        Some(c) => {
-            let l = c.to_ascii_lowercase();
-            if l.contains("acescg") || l.contains("ap1") {
-                ColorSpace::AcesCg
-            } else if l.contains("709") || l.contains("srgb") {
-                ColorSpace::LinearRec709
-            } else {
-                p.add("renderingColorSpace", format!("unknown colour space '{}'; using linear Rec.709", c));
-                ColorSpace::LinearRec709
-            }
-        }
+        Some(c) => rendering_color_space(c).unwrap_or_else(|| {
+            p.add("renderingColorSpace", format!("'{}' is not a linear colour space Tide renders in (lin_rec709_scene, lin_ap1_scene / ACEScg, lin_rec2020_scene); using linear Rec.709", c));
+            ColorSpace::LinearRec709
+        }),
     };
     let tcps = store.f32_or("timeCodesPerSecond", 24.0, p) as f64;
     let time_codes_per_second = if tcps > 0.0 {
@@ -1154,6 +1161,28 @@ mod tests {
         assert_eq!(s.products[0].product_name, "out.exr");
         let aovs: Vec<_> = s.products[0].vars.iter().map(|v| v.aov).collect();
         assert_eq!(aovs, vec![Some(tide_core::Aov::Color), Some(tide_core::Aov::Depth)]);
+    }
+
+    #[test]
+    fn rendering_color_spaces_by_their_names() {
+        for (name, want) in [
+            ("lin_rec709_scene", Some(ColorSpace::LinearRec709)),
+            ("Linear Rec.709 (sRGB)", Some(ColorSpace::LinearRec709)),
+            ("ACEScg", Some(ColorSpace::AcesCg)),
+            ("lin_ap1_scene", Some(ColorSpace::AcesCg)),
+            ("lin_rec2020_scene", Some(ColorSpace::LinearRec2020)),
+            ("lin_rec2020", Some(ColorSpace::LinearRec2020)),
+            ("srgb_texture", None),
+            ("srgb_rec709_scene", None),
+            ("g22_rec709_scene", None),
+            ("lin_ap0_scene", None),
+        ] {
+            assert_eq!(rendering_color_space(name), want, "{name}");
+        }
+        let mut p = Problems::new("/Render/S");
+        let s = convert_settings(&st(&[("renderingColorSpace", Value::Token("srgb_rec709_scene".into()))]), &mut p);
+        assert_eq!(s.color_space, ColorSpace::LinearRec709);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["renderingColorSpace"]);
     }
 
     #[test]

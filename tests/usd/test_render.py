@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdRender, UsdShade
 
-from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel, fwhm,
+from conftest import (ROOT, bind, camera, darkness, diffuse_reflectances, fresnel, fwhm, near, preview_material,
                       lambert_material, render, settings)
 
 F, AP = 50.0, 36.0            # focal length, square aperture: tan(half fov) = 18/50
@@ -545,6 +545,38 @@ def test_coefficients_per_metre_follow_the_stages_meters_per_unit(renderer, stag
     mean, se = rgb.mean(axis=0), rgb.std(axis=0, ddof=1) / math.sqrt(len(rgb))
     want = math.exp(-1.0 * (meters_per_unit or 1.0))
     assert np.all(np.abs(mean - want) < 4 * se + 2e-3), (mean, se, want)
+
+
+# linear Rec.709 → the rendering space, as published (ACES' Bradford-adapted AP1 matrix; ITU-R
+# BT.2087 for Rec.2020), 4 decimals
+_FROM_REC709 = {"ACEScg": [[0.6131, 0.3395, 0.0474], [0.0702, 0.9164, 0.0134], [0.0206, 0.1096, 0.8698]],
+                "lin_rec2020_scene": [[0.6274, 0.3293, 0.0433], [0.0691, 0.9195, 0.0114], [0.0164, 0.0880, 0.8956]],
+                "lin_rec709_scene": np.eye(3).tolist()}
+
+
+@pytest.mark.parametrize("space", sorted(_FROM_REC709))
+def test_the_rendering_colour_space_converts_authored_rec709(renderer, stage, space):
+    """An emitter authored (0.2, 0.6, 0.9) and a white dome (1, 0.5, 0.25), seen directly:
+    `color` holds them converted from linear Rec.709 (USD's default colour space of authored
+    values) to the settings' renderingColorSpace."""
+    camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0))
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 0.5, 0.25))
+    glow = (0.2, 0.6, 0.9)
+    card = UsdGeom.Mesh.Define(stage, "/Card")
+    card.CreatePointsAttr([(-1, -1, 0), (0, -1, 0), (0, 1, 0), (-1, 1, 0)])
+    card.CreateFaceVertexCountsAttr([4])
+    card.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    bind(card.GetPrim(), preview_material(stage, "/Looks/Glow", (0, 0, 0), emissiveColor=Gf.Vec3f(*glow),
+                                          specularColor=Gf.Vec3f(0, 0, 0), useSpecularWorkflow=1.0))
+    st = settings(stage, res=(16, 16), samples=16, integrator="path")
+    st.CreateRenderingColorSpaceAttr(space)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64)
+    assert problems == [], problems
+    m = np.array(_FROM_REC709[space])
+    for part, authored in ((img[2:-2, 1:6], glow), (img[2:-2, -6:-1], (1, 0.5, 0.25))):
+        ok, why = near(part, m @ np.array(authored))
+        assert ok, (space, why)
 
 
 def _wet_wall(stage, wet):

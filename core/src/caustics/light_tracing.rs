@@ -157,7 +157,7 @@ impl LightTracer {
         if let Some(f) = cam.filter {
             l *= f.sample(lambda);
         }
-        let rgb = color::xyz_to_rgb(color::to_xyz(l, lambda), world.cs);
+        let rgb = color::xyz_to_output(color::to_xyz(l, lambda), world.cs);
         if !rgb.iter().all(|v| v.is_finite()) {
             return;
         }

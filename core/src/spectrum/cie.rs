@@ -112,7 +112,7 @@ impl Cie {
     /// The white illuminant of a colour space.
     pub fn white(&self, cs: ColorSpace) -> &DenseSpectrum {
         match cs {
-            ColorSpace::LinearRec709 => &self.d65,
+            ColorSpace::LinearRec709 | ColorSpace::LinearRec2020 => &self.d65,
             ColorSpace::AcesCg => &self.aces_white,
         }
     }

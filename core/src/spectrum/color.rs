@@ -160,15 +160,46 @@ impl ColorSpaceData {
 pub const REC709_PRIMARIES: [[f64; 2]; 3] = [[0.64, 0.33], [0.30, 0.60], [0.15, 0.06]];
 /// Primaries of ACES AP1 (ACEScg).
 pub const AP1_PRIMARIES: [[f64; 2]; 3] = [[0.713, 0.293], [0.165, 0.830], [0.128, 0.044]];
+/// Primaries of ITU-R BT.2020.
+pub const REC2020_PRIMARIES: [[f64; 2]; 3] = [[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]];
 
 /// Matrices and white of a working colour space (built on first use).
 pub fn color_space(cs: ColorSpace) -> &'static ColorSpaceData {
     static REC709: OnceLock<ColorSpaceData> = OnceLock::new();
     static ACESCG: OnceLock<ColorSpaceData> = OnceLock::new();
+    static REC2020: OnceLock<ColorSpaceData> = OnceLock::new();
     match cs {
         ColorSpace::LinearRec709 => REC709.get_or_init(|| ColorSpaceData::new(REC709_PRIMARIES, &cie().d65)),
         ColorSpace::AcesCg => ACESCG.get_or_init(|| ColorSpaceData::new(AP1_PRIMARIES, &cie().aces_white)),
+        ColorSpace::LinearRec2020 => REC2020.get_or_init(|| ColorSpaceData::new(REC2020_PRIMARIES, &cie().d65)),
     }
+}
+
+/// XYZ of rendered light → RGB of the rendering colour space `cs`. Light of the authored
+/// colours' white (D65, [`crate::scene::AUTHORED_COLOR_SPACE`]) is white: a space with another
+/// white (ACEScg's) is reached through a Bradford adaptation, as colour management converts
+/// linear Rec.709 to ACEScg, so an authored colour comes out as that conversion of it.
+pub fn xyz_to_output(xyz: [f32; 3], cs: ColorSpace) -> [f32; 3] {
+    static OUT: [OnceLock<[[f32; 3]; 3]>; 3] = [OnceLock::new(), OnceLock::new(), OnceLock::new()];
+    let i = match cs {
+        ColorSpace::LinearRec709 => 0,
+        ColorSpace::AcesCg => 1,
+        ColorSpace::LinearRec2020 => 2,
+    };
+    let m = OUT[i].get_or_init(|| {
+        let white = DVec3::from(color_space(crate::scene::AUTHORED_COLOR_SPACE).white_xyz);
+        let target = color_space(cs);
+        let m = target.xyz_to_rgb * bradford(white, DVec3::from(target.white_xyz));
+        std::array::from_fn(|r| std::array::from_fn(|k| m.col(k)[r] as f32))
+    });
+    mul3(m, xyz)
+}
+
+/// The Bradford chromatic adaptation of XYZ from white `from` to white `to`.
+fn bradford(from: DVec3, to: DVec3) -> DMat3 {
+    let mb = DMat3::from_cols(DVec3::new(0.8951, -0.7502, 0.0389), DVec3::new(0.2664, 1.7135, -0.0685), DVec3::new(-0.1614, 0.0367, 1.0296));
+    let (s, d) = (mb * from, mb * to);
+    mb.inverse() * DMat3::from_diagonal(d / s) * mb
 }
 
 /// The white illuminant of a colour space (normalised so that ∫ȳ·W = ∫ȳ).
@@ -231,6 +262,28 @@ mod tests {
     use glam::Vec3;
 
     const SPACES: [ColorSpace; 2] = [ColorSpace::LinearRec709, ColorSpace::AcesCg];
+
+    /// Rendered light is written in the rendering colour space as colour management converts
+    /// linear Rec.709 (the authored colours' space) to it: white stays white (ACEScg through a
+    /// Bradford adaptation), and colours follow the published conversion matrices.
+    #[test]
+    fn output_spaces_convert_authored_rec709_as_colour_management_does() {
+        // lin_rec709 → ACEScg (Bradford D65 → ACES white) and → lin_rec2020, as published
+        // (ACES / ITU-R BT.2087), 4 decimals
+        let to_ap1 = [[0.6131, 0.3395, 0.0474], [0.0702, 0.9164, 0.0134], [0.0206, 0.1096, 0.8698]];
+        let to_2020 = [[0.6274, 0.3293, 0.0433], [0.0691, 0.9195, 0.0114], [0.0164, 0.0880, 0.8956]];
+        for (cs, m) in [(ColorSpace::AcesCg, to_ap1), (ColorSpace::LinearRec2020, to_2020)] {
+            for rgb in [[1.0, 1.0, 1.0], [1.0, 0.5, 0.25], [0.2, 0.6, 0.9], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]] {
+                let got = xyz_to_output(rgb_to_xyz(rgb, ColorSpace::LinearRec709), cs);
+                let want: [f32; 3] = std::array::from_fn(|r| (0..3).map(|k| m[r][k] * rgb[k]).sum());
+                for k in 0..3 {
+                    assert!((got[k] - want[k]).abs() < 1.5e-3, "{cs:?} {rgb:?}: {got:?} vs {want:?}");
+                }
+            }
+        }
+        let same = xyz_to_output(rgb_to_xyz([0.3, 0.5, 0.7], ColorSpace::LinearRec709), ColorSpace::LinearRec709);
+        assert!(same.iter().zip([0.3, 0.5, 0.7]).all(|(a, b)| (a - b).abs() < 1e-5), "{same:?}");
+    }
 
     #[test]
     fn wavelength_pdf_integrates_to_one() {

@@ -328,13 +328,15 @@ pub fn t_to_nm([a, b, c]: [f64; 3]) -> [f32; 3] {
     [c0 as f32, c1 as f32, c2 as f32]
 }
 
-/// The embedded table of a colour space.
+/// The embedded table of a colour space. Rec.2020 has none: `uplift` takes its colours
+/// to Rec.709 first.
 pub fn table(cs: ColorSpace) -> &'static Rgb2SpecTable {
     static REC709: OnceLock<Rgb2SpecTable> = OnceLock::new();
     static ACESCG: OnceLock<Rgb2SpecTable> = OnceLock::new();
     let (cell, bytes) = match cs {
         ColorSpace::LinearRec709 => (&REC709, REC709_BIN),
         ColorSpace::AcesCg => (&ACESCG, ACESCG_BIN),
+        ColorSpace::LinearRec2020 => unreachable!("uplift takes Rec.2020 colours to Rec.709"),
     };
     cell.get_or_init(|| {
         Rgb2SpecTable::from_bytes(bytes).unwrap_or_else(|e| {

@@ -12,9 +12,23 @@ fn non_negative(rgb: [f32; 3]) -> [f32; 3] {
     rgb.map(|v| if v > 0.0 { v } else { 0.0 })
 }
 
+/// A colour in a space with a table: Rec.2020 (no table; the same white) is taken to Rec.709,
+/// where colours outside Rec.709's gamut lose their negative part.
+#[inline]
+fn tabled(rgb: [f32; 3], cs: ColorSpace) -> ([f32; 3], ColorSpace) {
+    match cs {
+        ColorSpace::LinearRec2020 => {
+            let to709 = super::color::xyz_to_rgb(super::color::rgb_to_xyz(rgb, cs), ColorSpace::LinearRec709);
+            (to709, ColorSpace::LinearRec709)
+        }
+        _ => (rgb, cs),
+    }
+}
+
 /// Coefficients (nm) and scale of an unbounded RGB: the table is read at rgb/(2·max) so the
 /// fit stays well inside (0, 1), and `scale` = 2·max restores the magnitude. None for black.
 fn scaled(rgb: [f32; 3], cs: ColorSpace) -> Option<([f32; 3], f32)> {
+    let (rgb, cs) = tabled(rgb, cs);
     let rgb = non_negative(rgb);
     let m = rgb[0].max(rgb[1]).max(rgb[2]);
     if !(m > 0.0) || !m.is_finite() {
@@ -31,6 +45,7 @@ fn scaled(rgb: [f32; 3], cs: ColorSpace) -> Option<([f32; 3], f32)> {
 /// A reflectance-like colour (each channel clamped to [0,1]) as a smooth spectrum bounded by
 /// [0,1]. Greys give a constant spectrum.
 pub fn albedo(rgb: [f32; 3], cs: ColorSpace) -> Spectrum {
+    let (rgb, cs) = tabled(rgb, cs);
     let rgb = non_negative(rgb).map(|v| v.min(1.0));
     if rgb[0] == rgb[1] && rgb[1] == rgb[2] {
         return Spectrum::Constant(rgb[0]);
