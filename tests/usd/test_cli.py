@@ -249,8 +249,9 @@ def test_unopenable_stage_exit_1_no_file(tmp_path):
 
 
 def test_unwritable_output_exit_1_no_partial_file(tmp_path):
+    # a missing directory is made; one under a file cannot be
     stage = _stage(tmp_path)
-    out = run(["render", stage, "-o", str(tmp_path / "no" / "dir" / "x.exr")], tmp_path)
+    out = run(["render", stage, "-o", str(tmp_path / "scene.usda" / "dir" / "x.exr")], tmp_path)
     assert out.returncode == 1
     assert sorted(os.listdir(tmp_path)) == ["scene.usda"]
 
@@ -423,6 +424,28 @@ def test_a_file_that_cannot_be_written_leaves_none_of_the_render(tmp_path):
     assert out.returncode == 1, out.stderr
     assert "second.exr" in out.stderr, out.stderr
     assert sorted(os.listdir(tmp_path)) == ["second.exr", "two.usda"], os.listdir(tmp_path)
+
+
+def test_a_products_missing_directory_is_made(tmp_path):
+    # two products at different resolutions (two renders), the second in a directory that does
+    # not exist yet: it is made, and both products are written
+    path = str(tmp_path / "dirs.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    st = settings(s, product="first.exr", res=(16, 16))
+    second = UsdRender.Product.Define(s, "/Render/Second")
+    second.CreateProductNameAttr("shots/sh010/second.exr")
+    second.CreateResolutionAttr(Gf.Vec2i(8, 8))
+    second.CreateOrderedVarsRel().SetTargets(["/Render/Settings_Var0"])
+    st.GetProductsRel().AddTarget(second.GetPath())
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    assert os.path.isfile(tmp_path / "first.exr")
+    assert os.path.isfile(tmp_path / "shots" / "sh010" / "second.exr")
 
 
 @pytest.mark.parametrize("flags", [["--frame", "nan"], ["--frame", "inf"], ["--seed", "-1"],

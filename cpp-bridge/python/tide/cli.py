@@ -266,8 +266,13 @@ def cmd_render(args):
     for prod in reader.products:
         name = args.output or prod.name
         parent = os.path.dirname(os.path.abspath(name)) if name else "."
-        if not os.path.isdir(parent):
-            raise RuntimeError("cannot write '%s': no such directory" % name)
+        # a product's directory is made where it is missing (as husk does); one that cannot
+        # be made stops the render before anything is written
+        try:
+            os.makedirs(parent, exist_ok=True)
+        except OSError as e:
+            raise RuntimeError("cannot write '%s': cannot make its directory (%s)"
+                               % (name, e.strerror or e))
     count = len(reader.renders)
     for index in range(count):
         if index > 0:
