@@ -170,7 +170,8 @@ bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::stri
 }
 
 void Material::Sync(SceneSource& source, DirtyBits* dirtyBits) {
-    if (dirtyBits && (*dirtyBits & ChangeTracker::DirtyResource)) {
+    // as a light's: any sync picks up texture files rewritten on disk
+    if (dirtyBits && *dirtyBits) {
         for (const std::string& key : source.GetKeys(_id)) {
             if (!EndsWith(key, ".inputs:file") && !EndsWith(key, ".file")) continue;
             Value v = source.Get(_id, key);
@@ -182,7 +183,9 @@ void Material::Sync(SceneSource& source, DirtyBits* dirtyBits) {
 }
 
 void Light::Sync(SceneSource& source, DirtyBits* dirtyBits) {
-    if (dirtyBits && (*dirtyBits & ChangeTracker::DirtyResource)) {
+    // on any sync, not only a resource change: an edit to the light (its intensity, say) also
+    // picks up its texture file rewritten on disk (an unchanged file costs a stat)
+    if (dirtyBits && *dirtyBits) {
         for (const char* key : {"inputs:texture:file", "texture:file"}) {
             Value v = source.Get(_id, key);
             if (v.type == ValueType::Asset && !v.s.empty()) LoadTextureFor(*_param, _id, key, v.s);

@@ -1,8 +1,10 @@
 """Edit and resync: after an edit through usd-core, Reader.update() re-sets only the affected
 prims, the delegate syncs only those, and a running pass restarts."""
-from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
+import os
 
-from conftest import bind, camera, load, matrix, preview_material
+from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdRender, UsdShade, UsdVol
+
+from conftest import bind, camera, floats, load, matrix, preview_material
 
 
 def _scene(stage):
@@ -170,3 +172,113 @@ def test_instancing_edit_resyncs_instances(stage, delegate):
     assert delegate.last_synced() == [sphere]
     assert stage.GetPrimAtPath("/I1").GetAttribute("xformOp:translate").GetTypeName() == \
         Sdf.ValueTypeNames.Double3
+
+
+def test_widening_included_purposes_reads_the_prims_now_included(stage, delegate):
+    _scene(stage)
+    UsdGeom.Sphere.Define(stage, "/World/Proxy").CreatePurposeAttr(UsdGeom.Tokens.proxy)
+    st = UsdRender.Settings.Define(stage, "/Render/S")
+    st.CreateIncludedPurposesAttr(["default", "render"])
+    stage.SetMetadata("renderSettingsPrimPath", "/Render/S")
+    reader, _ = load(stage, delegate)
+    assert "/World/Proxy" not in delegate.prims
+    st.GetIncludedPurposesAttr().Set(["default", "render", "proxy"])
+    reader.update()
+    assert delegate.prims.get("/World/Proxy") == "sphere"
+
+
+def test_an_edit_to_a_shader_outside_its_material_reads_the_material_again(stage, delegate):
+    _scene(stage)
+    mat = UsdShade.Material.Define(stage, "/Looks/T")
+    sh = UsdShade.Shader.Define(stage, "/Looks/T/S")
+    sh.CreateIdAttr("UsdPreviewSurface")
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
+    outside = UsdShade.Shader.Define(stage, "/Graphs/Glow")
+    outside.CreateIdAttr("UsdPrimvarReader_float3")
+    outside.CreateInput("fallback", Sdf.ValueTypeNames.Float3).Set(Gf.Vec3f(0.1, 0.2, 0.3))
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        outside.CreateOutput("result", Sdf.ValueTypeNames.Float3))
+    bind(stage.GetPrimAtPath("/World/C"), mat)
+    reader, _ = load(stage, delegate)
+    outside.GetInput("fallback").Set(Gf.Vec3f(0.5, 0.5, 0.5))
+    reader.update()
+    assert delegate.last_synced() == ["/Looks/T"]
+    assert floats(delegate.value("/Looks/T", "/Graphs/Glow.inputs:fallback")).tolist() == [[0.5, 0.5, 0.5]]
+
+
+def test_an_edit_to_a_point_instancer_prototype_outside_it_places_it_anew(stage, delegate):
+    camera(stage)
+    protos = UsdGeom.Scope.Define(stage, "/Protos")
+    protos.MakeInvisible()
+    ball = UsdGeom.Sphere.Define(stage, "/Protos/Ball")
+    inst = UsdGeom.PointInstancer.Define(stage, "/World/PI")
+    inst.CreatePrototypesRel().SetTargets([ball.GetPath()])
+    inst.CreateProtoIndicesAttr([0, 0])
+    inst.CreatePositionsAttr([(0, 0, -5), (2, 0, -5)])
+    reader, _ = load(stage, delegate)
+    (proto,) = [p for p, t in delegate.prims.items() if t == "sphere"]
+    ball.CreateRadiusAttr(0.25)
+    reader.update()
+    assert delegate.value(proto, "radius") == 0.25
+
+
+def test_an_edit_to_a_volumes_field_prim_reads_the_volume_again(stage, delegate, tmp_path):
+    camera(stage)
+    vdbs = []
+    for name in ("a.vdb", "b.vdb"):
+        vdbs.append(str(tmp_path / name))
+        open(vdbs[-1], "wb").close()
+    vol = UsdVol.Volume.Define(stage, "/Cloud")
+    field = UsdVol.OpenVDBAsset.Define(stage, "/Cloud/density")
+    field.CreateFilePathAttr(vdbs[0])
+    field.CreateFieldNameAttr("density")
+    vol.CreateFieldRelationship("density", field.GetPath())
+    reader, _ = load(stage, delegate)
+    field.GetFilePathAttr().Set(vdbs[1])
+    reader.update()
+    assert delegate.last_synced() == ["/Cloud"]
+    assert delegate.value("/Cloud", "field:density")[1] == vdbs[1]
+
+
+def test_a_texture_rewritten_on_disk_is_read_again(stage, delegate, tmp_path):
+    _scene(stage)
+    tex_file = str(tmp_path / "t.png")
+    with open(tex_file, "wb") as f:
+        f.write(b"one")
+    mat = preview_material(stage, "/Looks/T")
+    tex = UsdShade.Shader.Define(stage, "/Looks/T/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(tex_file)
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/T/Surface")).CreateInput(
+        "diffuseColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3))
+    bind(stage.GetPrimAtPath("/World/C"), mat)
+    reader, _ = load(stage, delegate)
+    reads = lambda: [c for c in delegate.calls if c == ("load_texture", tex_file)]
+    assert len(reads()) == 1
+    reader.update()
+    assert len(reads()) == 1, "unchanged: not read again"
+    st = os.stat(tex_file)
+    with open(tex_file, "wb") as f:
+        f.write(b"two")
+    os.utime(tex_file, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    reader.update()
+    assert len(reads()) == 2
+
+
+def test_set_frame_reads_the_stage_at_another_time_and_start_time_code_moves_the_frame(stage, delegate):
+    _scene(stage)
+    op = UsdGeom.Xformable(stage.GetPrimAtPath("/World/A")).GetOrderedXformOps()[0]
+    op.Set(Gf.Vec3d(0, 0, -5), 1)
+    op.Set(Gf.Vec3d(9, 0, -5), 10)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(10)
+    reader, _ = load(stage, delegate)
+    x = lambda: matrix(delegate.value("/World/A", "transform"))[3, 0]
+    assert x() == 0.0
+    stage.SetStartTimeCode(10)
+    reader.update()
+    assert reader.frame == 10.0 and x() == 9.0
+    reader.set_frame(4)
+    assert x() == 3.0
+    assert delegate.last_synced() == ["/World/A"], "only what differs at the new time"

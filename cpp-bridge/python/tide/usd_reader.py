@@ -321,6 +321,14 @@ def _outside_primvar_names(prim, root):
     return tuple(sorted(names))
 
 
+def _mtime(path):
+    """A file's modification time (ns), None if it cannot be read."""
+    try:
+        return os.stat(path).st_mtime_ns
+    except OSError:
+        return None
+
+
 def _tuple_size(arr):
     a = np.asarray(arr)
     return 1 if a.ndim <= 1 else int(np.prod(a.shape[1:]))
@@ -504,6 +512,7 @@ class Reader:
         self._blur = 1.0              # motion:blurScale of the prim being read
         self._changed = []
         self._instance_sources = set()
+        self._depends = {}            # prim read on others' behalf -> the prims read from it
         self._skel_sources = set()    # Skeleton, SkelAnimation, BlendShape paths skinning read
         self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
         self.frame = self._initial_frame()
@@ -564,10 +573,31 @@ class Reader:
         """Re-sets the prims affected by edits made through usd-core since the last sync,
         then commits. Returns the new problems (the delegate restarts a running pass)."""
         changed, self._changed = self._changed, []
+        # texture files rewritten on disk are read again (no USD edit tells of them)
+        reread = self._reread_textures()
         if not changed:
-            return []
+            return self.commit() if reread else []
         roots = self._roots_for(changed)
+        if self.options.frame is None and self._initial_frame() != self.frame:
+            # the stage's startTimeCode moved the frame rendered: everything is read there
+            self.frame = self._initial_frame()
+            roots = None
         self._sync(roots)
+        return self.commit()
+
+    def set_frame(self, frame):
+        """Renders time code `frame` from now on (a viewer's time scrubbing): every prim is
+        read at it and only what differs reaches the delegate, which restarts a running pass.
+        Returns the new problems."""
+        frame = float(frame)
+        if not math.isfinite(frame):
+            raise ValueError("frame must be finite, got %r" % frame)
+        self.options.frame = frame
+        if frame == self.frame:
+            return []
+        self.frame = frame
+        self._changed = []
+        self._sync(None)
         return self.commit()
 
     def select_render(self, index):
@@ -634,6 +664,11 @@ class Reader:
             for src in self._instance_sources:
                 if prim_path.HasPrefix(src) or src.HasPrefix(prim_path):
                     return None
+            # prims read on another's behalf (a shader outside the material that uses it, a
+            # volume's field prims): that prim is read again
+            for dep, dependents in self._depends.items():
+                if prim_path.HasPrefix(dep) or dep.HasPrefix(prim_path):
+                    roots.update(dependents)
             # skinned meshes read Skeleton, SkelAnimation and BlendShape prims that may lie
             # anywhere: an edit to one (or to a prim that was one) re-syncs everything
             if skel.is_source(prim) or any(prim_path.HasPrefix(s) or s.HasPrefix(prim_path)
@@ -679,13 +714,17 @@ class Reader:
             roots = [Sdf.Path.absoluteRootPath]
             self._instance_sources = set()
             self._skel_sources = set()
+            self._depends = {}
         self._desired = desired
         self._skinning = skel.Skinning(self.stage, self.problem)
         placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None),
-                  getattr(self, "_binding_purposes", None))
+                  getattr(self, "_binding_purposes", None), getattr(self, "_purposes", None))
         self._eval_settings()
-        if not full and placed != (self._motion, self._shutter, self._binding_purposes):
-            # the shutter (or motion blur) changed: every prim's samples over it are taken anew
+        if not full and placed != (self._motion, self._shutter, self._binding_purposes,
+                                   self._purposes):
+            # the shutter (or motion blur) changed: every prim's samples over it are taken
+            # anew; other binding purposes or included purposes: every prim is read again
+            # (prims of a purpose newly included were never read)
             return self._sync(None)
         self._groups = {}
         for root in roots:
@@ -1968,6 +2007,7 @@ class Reader:
                              % fpath)
                 continue
             field = UsdVol.OpenVDBAsset(fprim)
+            self._depend(fpath, prim.GetPath())
             asset = field.GetFilePathAttr().Get(self._time(0))
             resolved = asset.resolvedPath if asset else ""
             if not resolved:
@@ -1988,6 +2028,11 @@ class Reader:
             if name == "density":
                 self._load_vdb(resolved, field_name, index)
         return True
+
+    def _depend(self, source, dependent):
+        """Records that prim `dependent` was read from prim `source` too: an edit to `source`
+        reads `dependent` again."""
+        self._depends.setdefault(Sdf.Path(source), set()).add(Sdf.Path(dependent))
 
     def _load_vdb(self, path, field_name, index):
         """Has the module read a grid, once per (file, field, index); a failure reaches the
@@ -2098,6 +2143,8 @@ class Reader:
         self._instance_sources.add(path)
         t = self._time(0)
         protos = inst.GetPrototypesRel().GetForwardedTargets()
+        # prototypes may lie outside the instancer: an edit to one places its instances anew
+        self._instance_sources.update(protos)
         idx = np.asarray(inst.GetProtoIndicesAttr().Get(t) or [], dtype=np.int64)
         pos = inst.GetPositionsAttr().Get(t)
         n = idx.size
@@ -2398,6 +2445,8 @@ class Reader:
             if spath in done:
                 continue
             done.add(spath)
+            if not shader.GetPath().HasPrefix(prim.GetPath()):
+                self._depend(shader.GetPath(), prim.GetPath())
             sid = shader.GetShaderId()
             if not sid:
                 self.problem(spath, "info:id", "shader has no info:id; the material's default "
@@ -2417,6 +2466,8 @@ class Reader:
                     queue.append(UsdShade.Shader(up.GetPrim()))
                     continue
                 src_attr = attrs[0] if attrs else inp.GetAttr()
+                if not src_attr.GetPrimPath().HasPrefix(prim.GetPath()):
+                    self._depend(src_attr.GetPrimPath(), prim.GetPath())
                 value = src_attr.Get(self._time(0))
                 if value is None:
                     continue
@@ -2439,19 +2490,36 @@ class Reader:
                 self.problem(shader.GetPath(), name, "cannot read texture '%s'; the input's "
                              "default is used" % resolved)
                 return Sdf.AssetPath("")
-            self._loaded.add(resolved)
         return asset
 
     def _load_texture(self, path):
+        """Has the module read texture file `path` (it hands the pixels to the delegate);
+        False when it cannot. A file read is remembered with its modification time."""
+        mtime = _mtime(path)
         try:
-            return self.delegate.load_texture(path)
+            ok = self.delegate.load_texture(path)
         except Exception:  # the module reports a failure as an exception or as False
-            return False
+            ok = False
+        if ok is not False:
+            self._textures_loaded()[path] = mtime
+        return ok
 
     def _textures_loaded(self):
+        """Texture files read: path -> modification time when read."""
         if not hasattr(self, "_loaded"):
-            self._loaded = set()
+            self._loaded = {}
         return self._loaded
+
+    def _reread_textures(self):
+        """Reads again the texture files changed on disk since they were read (the delegate
+        then converts the materials and lights that use them anew); whether any was."""
+        stale = [p for p, t in self._textures_loaded().items() if _mtime(p) != t]
+        for path in stale:
+            del self._loaded[path]
+            if self._load_texture(path) is False:
+                self.problem(path, "file", "cannot read texture '%s' again; what uses it falls "
+                             "back" % path)
+        return bool(stale)
 
     # -- lights and cameras ---------------------------------------------------------------
     def _eval_light(self, prim):
@@ -2478,8 +2546,6 @@ class Reader:
                     if self._load_texture(v.resolvedPath) is False:
                         self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
                         v = Sdf.AssetPath("")
-                    else:
-                        self._loaded.add(v.resolvedPath)
             if isinstance(fb, float):
                 v = float(v)
                 if not math.isfinite(v):
