@@ -956,7 +956,8 @@ impl Delegate {
                     let xf0 = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
                     let inv = xf0.inverse();
                     let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c));
-                    let key = ocean::ocean_key(spec, cam_local, mpu);
+                    let pixel = cam.as_ref().map(|c| ocean::CameraPixel::of(&c.desc, sp.settings.width));
+                    let key = ocean::ocean_key(spec, cam_local, pixel, mpu);
                     let meshes = match self.oceans.get(path.as_str()) {
                         Some((k, m, probs)) if *k == key => {
                             ap.extend(probs.iter().cloned());
@@ -2085,7 +2086,7 @@ mod tests {
 
     #[test]
     fn ocean_is_the_fft_mesh_with_a_horizon_and_a_sub_grid_sea() {
-        use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams};
+        use tide_core::ocean::OceanParams;
         let mut d = Delegate::new();
         ocean(&mut d, "/Sea");
         d.set_attribute("/Sea", "transform", translate(0., -1., 0.), None);
@@ -2096,10 +2097,16 @@ mod tests {
         let p = d.commit_resources();
         assert!(p.is_empty(), "{p:?}");
         let params = OceanParams { wind_speed: 7.0, wind_direction: 30.0, patch_size: 8.0, extent: 20.0, resolution: 16, ..Default::default() };
-        // camera 2 m above the ocean's origin, in its patch (0, 0): built about that patch's centre
-        let (surface, skirt) = ocean_mesh_with_horizon(&params, 1.5, Some(Vec3::new(4.0, 0.0, 4.0)), 262_144.0).unwrap();
+        // the camera 2 m above the ocean's origin, in its patch (0, 0): built about that patch's
+        // centre, for its height and the default camera's pixel (USD's 20.955 mm aperture, a 50
+        // mm lens, 640 pixels across) taken to the nearest half octave
+        let half_octave = |v: f32| ((2.0 * v.log2()).round() * 0.5).exp2();
+        let pixel = half_octave(2.0 * (20.955f32 / 100.0).atan() / 640.0);
+        let view = tide_core::ocean::OceanView { position: Vec3::new(4.0, half_octave(2.0), 4.0), pixel_angle: pixel, pixel_width: 0.0 };
+        let (surface, skirt) = tide_core::ocean::ocean_mesh_with_horizon_seen(&params, 1.5, &view, 262_144.0).unwrap();
         assert_eq!(mesh_of(&d, "/Sea").positions, surface.positions);
         assert_eq!(mesh_of(&d, "/Sea").indices, surface.indices);
+        let surface = surface.clone();
         // the skirt reaches 1e5 camera heights out (2e5 m, rounded up to a power of two)
         assert_eq!(mesh_of(&d, "/Sea horizon").positions, skirt.unwrap().positions);
         let inst = d.scene().instances.iter().find(|i| i.name == "/Sea").unwrap();
@@ -2111,8 +2118,13 @@ mod tests {
         assert_eq!((w.wind_speed, w.slope_variance_scale), (7.0, scale));
         assert!((w.wind_direction - 30.0).abs() < 1e-4, "{}", w.wind_direction);
         assert_eq!(water_of(&d, "/Sea horizon").slope_variance_scale, 1.0);
-        // a camera move inside the patch keeps the mesh; into another patch re-tessellates
+        // seen by a coarse camera (4 pixels across: far patches coarser than the grid), a move
+        // inside the patch keeps the mesh; into another patch re-tessellates
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "resolution", Value::Ints(vec![4, 4]), None);
+        d.commit_resources();
         let before = mesh_of(&d, "/Sea").clone();
+        assert_ne!(before.indices, surface.indices, "coarser far out than for 640 pixels");
         d.set_attribute("/cam", "transform", translate(5., 1., 7.), None);
         d.commit_resources();
         assert_eq!(mesh_of(&d, "/Sea"), &before);
@@ -2131,7 +2143,7 @@ mod tests {
     /// coefficients per metre are per unit a hundredth, its profile's lengths a hundredfold.
     #[test]
     fn metres_become_units_by_the_stages_meters_per_unit() {
-        use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams};
+        use tide_core::ocean::{ocean_mesh_with_horizon_seen, OceanParams, OceanView};
         for on_camera in [false, true] {
             let mut d = Delegate::new();
             ocean(&mut d, "/Sea");
@@ -2154,8 +2166,11 @@ mod tests {
             let p = d.commit_resources();
             assert!(p.is_empty(), "{p:?}");
             let params = OceanParams { wind_speed: 7.0, wind_direction: 30.0, patch_size: 8.0, extent: 20.0, resolution: 16, ..Default::default() };
-            // the camera (3, 1, 2) m away: the metre mesh about patch (0, 0), a hundred units a metre
-            let (surface, _) = ocean_mesh_with_horizon(&params, 1.5, Some(Vec3::new(4.0, 0.0, 4.0)), 262_144.0).unwrap();
+            // the camera (3, 1, 2) m away: the metre mesh about patch (0, 0), 1 m up, seen with
+            // the default camera's pixel, a hundred units a metre
+            let pixel = ((2.0 * (2.0 * (20.955f32 / 100.0).atan() / 640.0).log2()).round() * 0.5).exp2();
+            let view = OceanView { position: Vec3::new(4.0, 1.0, 4.0), pixel_angle: pixel, pixel_width: 0.0 };
+            let (surface, _) = ocean_mesh_with_horizon_seen(&params, 1.5, &view, 262_144.0).unwrap();
             let want: Vec<Vec3> = surface.positions.iter().map(|v| *v / 0.01).collect();
             assert_eq!(mesh_of(&d, "/Sea").positions, want, "on the camera: {on_camera}");
             let m = &d.scene().media[0];

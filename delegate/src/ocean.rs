@@ -2,9 +2,10 @@
 //! are problems and fall back to the documented defaults), and at scene assembly the FFT ocean
 //! mesh is built around the render camera, with a flat skirt out to the horizon for an open sea.
 //!
-//! * Level of detail follows the camera's position in the ocean's local space: the mesh is
-//!   rebuilt when the camera enters another patch (the LOD depends only on the camera's patch)
-//!   or its height changes the horizon skirt's reach; otherwise the cached mesh is reused.
+//! * Level of detail follows the camera (core's `OceanView`): its position in the ocean's
+//!   local space and what one of its pixels covers. The mesh is rebuilt when the camera enters
+//!   another patch, when its height or its pixel's angle or width changes by a half octave, or
+//!   when its height changes the horizon skirt's reach; otherwise the cached mesh is reused.
 //! * `time` (s): the reader authors the stage time (frame / timeCodesPerSecond) when the prim
 //!   has none; a prim without it here is synthesised at t = 0.
 //! * Materials: bound to a `TideWater` with `surfaceModel = sea`, the ocean takes the material's
@@ -15,7 +16,7 @@
 
 use glam::{Mat4, Vec3};
 use tide_core::bsdf::sea::CoxMunk;
-use tide_core::ocean::{ocean_mesh_with_horizon, OceanParams, SpectrumKind};
+use tide_core::ocean::{ocean_mesh_with_horizon_seen, OceanParams, OceanView, SpectrumKind};
 use std::sync::Arc;
 use tide_core::scene::MeshDesc;
 
@@ -40,6 +41,10 @@ pub struct OceanMeshes {
 pub struct OceanKey {
     pub spec: OceanSpec,
     pub tile: (i64, i64),
+    /// The camera's height, its pixel's angle and its (orthographic) width, in half octaves.
+    pub height: i32,
+    pub pixel_angle: i32,
+    pub pixel_width: Option<i32>,
     pub reach: f32,
     /// The stage's metres per unit: the ocean is made in metres and scaled into units.
     pub meters_per_unit: f32,
@@ -134,17 +139,49 @@ pub fn ocean_spec(store: &AttrStore, p: &mut Problems) -> OceanSpec {
     OceanSpec { params, time }
 }
 
+/// What one pixel of the render camera covers: the angle it spans (radians; 0 for an
+/// orthographic camera) and its width (scene units; 0 for a perspective camera).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPixel {
+    pub angle: f32,
+    pub width: f32,
+}
+
+impl CameraPixel {
+    /// The pixel of camera `c` rendering `width` pixels across its horizontal aperture.
+    pub fn of(c: &tide_core::scene::CameraDesc, width: u32) -> CameraPixel {
+        let across = width.max(1) as f32;
+        match c.projection {
+            tide_core::scene::Projection::Perspective => {
+                CameraPixel { angle: 2.0 * (0.5 * c.horizontal_aperture / c.focal_length).atan() / across, width: 0.0 }
+            }
+            tide_core::scene::Projection::Orthographic => CameraPixel { angle: 0.0, width: c.horizontal_aperture * tide_core::camera::LENS_UNIT / across },
+        }
+    }
+}
+
+/// Half octaves of a positive length or angle (at least `floor`).
+fn half_octaves(v: f32, floor: f32) -> i32 {
+    (2.0 * v.max(floor).log2()).round() as i32
+}
+
 /// The key of the mesh for a camera at `camera_local` (the ocean's local space, in units of
-/// `meters_per_unit` metres; None: at the origin, 2 m up).
-pub fn ocean_key(spec: &OceanSpec, camera_local: Option<Vec3>, meters_per_unit: f32) -> OceanKey {
+/// `meters_per_unit` metres; None: at the origin, 2 m up) whose pixel is `pixel` (None: the
+/// pixels core takes for an unknown camera).
+pub fn ocean_key(spec: &OceanSpec, camera_local: Option<Vec3>, pixel: Option<CameraPixel>, meters_per_unit: f32) -> OceanKey {
     let cam = camera_local.filter(|c| c.is_finite()).map_or(Vec3::new(0.0, 2.0, 0.0), |c| c * meters_per_unit);
     let l = spec.params.patch_size as f64;
     let tile = ((cam.x as f64 / l).floor() as i64, (cam.z as f64 / l).floor() as i64);
+    let pixel = pixel.filter(|p| p.angle.is_finite() && p.width.is_finite() && (p.angle > 0.0 || p.width > 0.0));
+    let default_angle = 2.0 / spec.params.resolution.max(1) as f32;
+    let pixel_angle = half_octaves(pixel.map_or(default_angle, |p| p.angle), 1e-6);
+    let pixel_width = pixel.filter(|p| p.width > 0.0).map(|p| half_octaves(p.width * meters_per_unit, 1e-6));
+    let height = half_octaves(cam.y.abs(), 0.25);
     let away = cam.x.abs().max(cam.z.abs());
     let want = away + HORIZON_HEIGHTS * cam.y.abs().max(1.0);
     // a power of two: the mesh is rebuilt when the camera's height changes it by a factor 2
     let reach = if want.is_finite() { want.min(MAX_REACH).log2().ceil().exp2().min(MAX_REACH) } else { MAX_REACH };
-    OceanKey { spec: spec.clone(), tile, reach, meters_per_unit }
+    OceanKey { spec: spec.clone(), tile, height, pixel_angle, pixel_width, reach, meters_per_unit }
 }
 
 /// Builds the meshes for a key (in metres, then scaled into the stage's units). A `depth`
@@ -152,12 +189,18 @@ pub fn ocean_key(spec: &OceanSpec, camera_local: Option<Vec3>, meters_per_unit: 
 /// (`depth` 0).
 pub fn build(key: &OceanKey, p: &mut Problems) -> OceanMeshes {
     let l = key.spec.params.patch_size;
-    // the LOD depends on the camera's patch only: build about its centre
-    let cam = Vec3::new((key.tile.0 as f32 + 0.5) * l, 0.0, (key.tile.1 as f32 + 0.5) * l);
-    let (surface, skirt) = ocean_mesh_with_horizon(&key.spec.params, key.spec.time, Some(cam), key.reach).unwrap_or_else(|e| {
+    // the LOD depends on the key only: the camera at its patch's centre, its height and its
+    // pixel at their half octaves
+    let octaves = |h: i32| (h as f32 * 0.5).exp2();
+    let view = OceanView {
+        position: Vec3::new((key.tile.0 as f32 + 0.5) * l, octaves(key.height), (key.tile.1 as f32 + 0.5) * l),
+        pixel_angle: if key.pixel_width.is_some() { 0.0 } else { octaves(key.pixel_angle) },
+        pixel_width: key.pixel_width.map_or(0.0, octaves),
+    };
+    let (surface, skirt) = ocean_mesh_with_horizon_seen(&key.spec.params, key.spec.time, &view, key.reach).unwrap_or_else(|e| {
         p.add(e.parameter, format!("{}; using 0 (an open sea)", e.message));
         let open = OceanParams { depth: 0.0, ..key.spec.params.clone() };
-        ocean_mesh_with_horizon(&open, key.spec.time, Some(cam), key.reach).expect("validated open sea")
+        ocean_mesh_with_horizon_seen(&open, key.spec.time, &view, key.reach).expect("validated open sea")
     });
     let units = |mut m: MeshDesc| {
         if key.meters_per_unit != 1.0 {

@@ -2,11 +2,14 @@
 //! from the camera, stitched without cracks, and closed into a watertight body when the ocean
 //! has a depth.
 //!
-//! Level of detail: a tile at Chebyshev distance d (in tiles) from the camera's tile is drawn at
-//! level ℓ = 0 for d = 0 and ⌊log₂ d⌋ + 1 beyond (capped where a tile would have fewer than 2×2
-//! cells), i.e. with N/2^ℓ cells per side sampling every 2^ℓ-th grid point of the patch: its
-//! vertices lie exactly on the surface and carry its exact normals; between them the coarse
-//! tile is linear. Neighbouring tiles differ by at most one level.
+//! Level of detail: a tile drawn at level ℓ has N/2^ℓ cells per side sampling every 2^ℓ-th grid
+//! point of the patch: its vertices lie exactly on the surface and carry its exact normals;
+//! between them the coarse tile is linear. A tile's level is the coarsest whose cells a
+//! camera pixel still covers where the tile comes nearest the camera ([`OceanView`]: the
+//! distance in 3-D, the camera's height counting, times the pixel's angle, plus an orthographic
+//! pixel's width); where the whole surface would then pass [`MAX_OCEAN_CELLS`], cells of 2, 4, …
+//! pixels are taken. Levels are capped where a tile would have fewer than 2×2 cells, and
+//! lowered until neighbouring tiles differ by at most one.
 //!
 //! Stitching: every tile is cut into 2×2-cell blocks, each a fan of triangles about its centre
 //! vertex through the 8 vertices around it. Where a tile borders a coarser one, the blocks on
@@ -33,11 +36,78 @@ use crate::scene::MeshDesc;
 /// Most patches along one side of the tiled surface.
 pub const MAX_TILES_PER_SIDE: u64 = 512;
 
-/// LOD level of a tile at Chebyshev distance `d` (tiles) from the camera's tile, for patch
-/// resolution `n`: 0, then ⌊log₂ d⌋ + 1, at most log₂ n − 1.
-pub fn lod_level(d: u64, n: u32) -> u32 {
-    let l = if d == 0 { 0 } else { 64 - d.leading_zeros() };
-    l.min(n.trailing_zeros().saturating_sub(1))
+/// Most grid cells of the tiled surface (two triangles each) the level of detail aims at.
+pub const MAX_OCEAN_CELLS: u64 = 1 << 20;
+
+/// The camera the level of detail serves: its position in the ocean's local space (m) and
+/// the size of one of its pixels: the angle it spans (perspective, radians) and its width
+/// (orthographic, m). `None` where an ocean is built stands for a camera at the origin whose
+/// pixels span 2/N radians (N the patch resolution).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OceanView {
+    pub position: Vec3,
+    pub pixel_angle: f32,
+    pub pixel_width: f32,
+}
+
+/// The level of each tile (row-major from (−T, −T), 2T tiles a side) for `view`.
+pub fn tile_levels(params: &OceanParams, view: &OceanView) -> Vec<u32> {
+    let n = params.resolution as u64;
+    let t = params.tiles_per_half_side() as i64;
+    let side = 2 * t as usize;
+    let l = params.patch_size as f64;
+    let delta = l / n as f64;
+    let max_level = params.resolution.trailing_zeros().saturating_sub(1);
+    let c = view.position.as_dvec3();
+    // the distance from the camera to the nearest point of each tile at mean sea level
+    let gap = |lo: f64, v: f64| (lo - v).max(v - (lo + l)).max(0.0);
+    let dist: Vec<f64> = (-t..t)
+        .flat_map(|tj| (-t..t).map(move |ti| (ti, tj)))
+        .map(|(ti, tj)| {
+            let (dx, dz) = (gap(ti as f64 * l, c.x), gap(tj as f64 * l, c.z));
+            (dx * dx + dz * dz + c.y * c.y).sqrt()
+        })
+        .collect();
+    let (angle, width) = (view.pixel_angle.max(0.0) as f64, view.pixel_width.max(0.0) as f64);
+    let mut pixels = 1.0;
+    loop {
+        let mut levels: Vec<u32> = dist
+            .iter()
+            .map(|&r| {
+                let cell = pixels * (angle * r + width) / delta;
+                if cell >= 2.0 {
+                    (cell.log2().floor() as u32).min(max_level)
+                } else {
+                    0
+                }
+            })
+            .collect();
+        // neighbours differ by at most one level: the finer side wins
+        loop {
+            let mut changed = false;
+            for j in 0..side {
+                for i in 0..side {
+                    let mut lowest = levels[j * side + i];
+                    if i > 0 { lowest = lowest.min(levels[j * side + i - 1] + 1); }
+                    if i + 1 < side { lowest = lowest.min(levels[j * side + i + 1] + 1); }
+                    if j > 0 { lowest = lowest.min(levels[(j - 1) * side + i] + 1); }
+                    if j + 1 < side { lowest = lowest.min(levels[(j + 1) * side + i] + 1); }
+                    if lowest < levels[j * side + i] {
+                        levels[j * side + i] = lowest;
+                        changed = true;
+                    }
+                }
+            }
+            if !changed {
+                break;
+            }
+        }
+        let cells: u64 = levels.iter().map(|&lv| (n >> lv) * (n >> lv)).sum();
+        if cells <= MAX_OCEAN_CELLS || levels.iter().all(|&lv| lv == max_level) || pixels > 1e9 {
+            return levels;
+        }
+        pixels *= 2.0;
+    }
 }
 
 struct Builder<'a> {
@@ -112,13 +182,24 @@ impl Builder<'_> {
 /// ([`OceanParams::half_side`]): tiled with T = ⌈extent / patchSize⌉ patches each way and cut
 /// at E (grid points past it are moved onto it, and the triangles that then have no area are
 /// left out), finest
-/// around `camera_position` (local space; the origin when `None`), closed down to y = −depth
-/// when `depth > 0`. Triangles are counter-clockwise seen from above (outside for the body).
-/// uvs are the undisplaced (x, z) over `patchSize`, so a texture repeats with the patch.
-/// At the defaults the mesh has about 1.5 M triangles (0.73 M vertices); the count grows as N²
-/// (the camera's tile alone has 2N² triangles) and roughly as log(extent / patchSize).
+/// around `camera_position` (local space; the origin when `None`; pixels of 2/N radians: see
+/// [`ocean_mesh_seen`] for a camera's own), closed down to y = −depth when `depth > 0`.
+/// Triangles are counter-clockwise seen from above (outside for the body). uvs are the
+/// undisplaced (x, z) over `patchSize`, so a texture repeats with the patch. The level of
+/// detail keeps the surface under about 2·[`MAX_OCEAN_CELLS`] triangles.
 pub fn ocean_mesh(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<MeshDesc, OceanError> {
-    Ok(build(params, time, camera_position)?.0)
+    Ok(build(params, time, &default_view(params, camera_position))?.0)
+}
+
+/// [`ocean_mesh`] with its level of detail for `view`.
+pub fn ocean_mesh_seen(params: &OceanParams, time: f64, view: &OceanView) -> Result<MeshDesc, OceanError> {
+    Ok(build(params, time, view)?.0)
+}
+
+/// The view an ocean is built for without one: at `camera_position` (the origin when None),
+/// pixels of 2/N radians.
+fn default_view(params: &OceanParams, camera_position: Option<Vec3>) -> OceanView {
+    OceanView { position: camera_position.unwrap_or(Vec3::ZERO), pixel_angle: 2.0 / params.resolution.max(1) as f32, pixel_width: 0.0 }
 }
 
 /// [`ocean_mesh`] and, for an open sea (`depth` = 0), a flat skirt at y = 0 that carries it to
@@ -129,10 +210,15 @@ pub fn ocean_mesh(params: &OceanParams, time: f64, camera_position: Option<Vec3>
 /// (normals +Y, uvs the undisplaced (x, z) over `patchSize`); its slopes are all sub-grid.
 /// A closed body (`depth` > 0) has no skirt.
 pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position: Option<Vec3>, reach: f32) -> Result<(MeshDesc, Option<MeshDesc>), OceanError> {
+    ocean_mesh_with_horizon_seen(params, time, &default_view(params, camera_position), reach)
+}
+
+/// [`ocean_mesh_with_horizon`] with its level of detail for `view`.
+pub fn ocean_mesh_with_horizon_seen(params: &OceanParams, time: f64, view: &OceanView, reach: f32) -> Result<(MeshDesc, Option<MeshDesc>), OceanError> {
     if !reach.is_finite() {
         return Err(OceanError { parameter: "horizon reach", message: format!("must be finite, got {reach}") });
     }
-    let (mesh, rim, (lo, hi), delta, offset) = build(params, time, camera_position)?;
+    let (mesh, rim, (lo, hi), delta, offset) = build(params, time, view)?;
     if params.depth > 0.0 {
         return Ok((mesh, None));
     }
@@ -184,11 +270,14 @@ pub fn ocean_mesh_with_horizon(params: &OceanParams, time: f64, camera_position:
 /// The tiled surface with its rim vertices (fine-grid x, z, index), the fine-grid span [lo, hi]
 /// of the surface, the grid spacing and the offset of the patches' corner from the origin.
 #[allow(clippy::type_complexity)]
-fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Result<(MeshDesc, Vec<(u64, u64, u32)>, (u64, u64), f64, f64), OceanError> {
+fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc, Vec<(u64, u64, u32)>, (u64, u64), f64, f64), OceanError> {
     let patch = OceanPatch::new(params, time)?;
-    let cam = camera_position.unwrap_or(Vec3::ZERO);
+    let cam = view.position;
     if !cam.is_finite() {
         return Err(OceanError { parameter: "camera position", message: format!("must be finite, got {cam}") });
+    }
+    if !(view.pixel_angle.is_finite() && view.pixel_width.is_finite()) {
+        return Err(OceanError { parameter: "camera pixel", message: format!("must be finite, got {} rad, {} m", view.pixel_angle, view.pixel_width) });
     }
     let closed = params.depth > 0.0;
     if closed {
@@ -203,13 +292,12 @@ fn build(params: &OceanParams, time: f64, camera_position: Option<Vec3>) -> Resu
     let n = params.resolution as u64;
     let t = params.tiles_per_half_side() as i64;
     let l = params.patch_size as f64;
-    let cam_tile = ((cam.x as f64 / l).floor() as i64, (cam.z as f64 / l).floor() as i64);
+    let levels = tile_levels(params, view);
     let level = |ti: i64, tj: i64| -> Option<u32> {
         if ti < -t || ti >= t || tj < -t || tj >= t {
             return None;
         }
-        let d = (ti - cam_tile.0).unsigned_abs().max((tj - cam_tile.1).unsigned_abs());
-        Some(lod_level(d, params.resolution))
+        Some(levels[((tj + t) * 2 * t + (ti + t)) as usize])
     };
 
     let max = 2 * t as u64 * n;

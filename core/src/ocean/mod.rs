@@ -66,7 +66,7 @@ pub mod spectrum;
 #[cfg(test)]
 mod tests;
 
-pub use mesh::{lod_level, ocean_mesh, ocean_mesh_with_horizon, MAX_TILES_PER_SIDE};
+pub use mesh::{ocean_mesh, ocean_mesh_seen, ocean_mesh_with_horizon, ocean_mesh_with_horizon_seen, tile_levels, OceanView, MAX_OCEAN_CELLS, MAX_TILES_PER_SIDE};
 pub use patch::{OceanPatch, SurfacePoint};
 pub use spectrum::SpectrumKind;
 

@@ -476,7 +476,44 @@ fn open_surface_has_no_cracks() {
         }
     }
     assert!(near <= delta * 2.001 && far >= 8.0 * delta, "near {near}, far {far}, cell {delta}");
-    assert_eq!((0..12).map(|d| lod_level(d, 32)).collect::<Vec<_>>(), vec![0, 1, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4]);
+}
+
+/// The level of detail follows what a camera pixel covers: from 2 m up the camera's tile is
+/// finest and levels grow with distance; from high above, or through an orthographic camera,
+/// the surface is even (a top-down view shows the same facets on every tile, so the surface
+/// stays periodic in patchSize); neighbours differ by at most one level; the cell budget holds.
+#[test]
+fn the_level_of_detail_follows_the_camera_pixel() {
+    let p = OceanParams { extent: 200.0, ..params(8.0, 8.0, 32) };
+    let t = p.tiles_per_half_side() as usize;
+    let side = 2 * t;
+    let at = |levels: &[u32], ti: i64, tj: i64| levels[(tj + t as i64) as usize * side + (ti + t as i64) as usize];
+    let neighbours_close = |levels: &[u32]| {
+        let side = (levels.len() as f64).sqrt() as usize;
+        (0..side).all(|j| (0..side).all(|i| {
+            let lv = levels[j * side + i] as i64;
+            (i + 1 >= side || (levels[j * side + i + 1] as i64 - lv).abs() <= 1) && (j + 1 >= side || (levels[(j + 1) * side + i] as i64 - lv).abs() <= 1)
+        }))
+    };
+    // 2 m above patch (0, 0) with 1 mrad pixels: a cell of 0.25 m is a pixel 250 m out
+    let low = tile_levels(&p, &OceanView { position: Vec3::new(4.0, 2.0, 4.0), pixel_angle: 1e-3, pixel_width: 0.0 });
+    assert_eq!(at(&low, 0, 0), 0);
+    assert!(at(&low, 24, 0) >= at(&low, 8, 0) && at(&low, 8, 0) >= at(&low, 1, 0), "{low:?}");
+    assert!(at(&low, 24, 0) > 0);
+    assert!(neighbours_close(&low));
+    // 50 m above with 2 mrad pixels: 0.1 m a pixel right below, so the nearby tiles are a level
+    // coarser than the grid, and far tiles coarser still
+    let high = tile_levels(&p, &OceanView { position: Vec3::new(4.0, 50.0, 4.0), pixel_angle: 2e-3, pixel_width: 0.0 });
+    assert_eq!(at(&high, 0, 0), at(&high, 1, 1));
+    // orthographic, 0.6 m pixels: every tile at the level of 0.5 m cells (0.25 m · 2)
+    let ortho = tile_levels(&p, &OceanView { position: Vec3::new(4.0, 50.0, 4.0), pixel_angle: 0.0, pixel_width: 0.6 });
+    assert!(ortho.iter().all(|&lv| lv == 1), "{ortho:?}");
+    // a budget too small for a pixel a cell: coarser everywhere until it holds
+    let fine = OceanParams { extent: 1000.0, ..params(8.0, 64.0, 256) };
+    let levels = tile_levels(&fine, &OceanView { position: Vec3::new(1.0, 2.0, 1.0), pixel_angle: 1e-4, pixel_width: 0.0 });
+    let cells: u64 = levels.iter().map(|&lv| (256u64 >> lv).pow(2)).sum();
+    assert!(cells <= MAX_OCEAN_CELLS && cells > MAX_OCEAN_CELLS / 8, "{cells}");
+    assert!(neighbours_close(&levels));
 }
 
 #[test]
