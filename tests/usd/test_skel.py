@@ -12,6 +12,7 @@ has a transform of its own, which a skinned mesh does not use.
 import math
 
 import numpy as np
+import pytest
 from pxr import Gf, Usd, UsdGeom, UsdSkel
 
 from conftest import bind, camera, darkness, floats, load, matrix, render, settings
@@ -27,7 +28,7 @@ def _quat_z(deg):
     return Gf.Quatf(Gf.Rotation(Gf.Vec3d(0, 0, 1), deg).GetQuat())
 
 
-def _rig(stage, anim=True, rest=True, indices=(0, 0, 1, 0, 0, 1)):
+def _rig(stage, anim=True, rest=True, indices=(0, 0, 1, 0, 0, 1), geom_bind=True):
     UsdGeom.Xform.Define(stage, "/World").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
     UsdSkel.Root.Define(stage, "/World/Char")
     skel = UsdSkel.Skeleton.Define(stage, "/World/Char/Skel")
@@ -47,7 +48,8 @@ def _rig(stage, anim=True, rest=True, indices=(0, 0, 1, 0, 0, 1)):
     binding.CreateSkeletonRel().SetTargets([skel.GetPath()])
     binding.CreateJointIndicesPrimvar(False, 1).Set(list(indices))
     binding.CreateJointWeightsPrimvar(False, 1).Set([1.0] * len(indices))
-    binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
+    if geom_bind:
+        binding.CreateGeomBindTransformAttr(Gf.Matrix4d(1))
     if anim:
         a = UsdSkel.Animation.Define(stage, "/World/Char/Anim")
         a.CreateJointsAttr(["root/tip"])
@@ -154,6 +156,20 @@ def test_blend_shape_normal_offsets_apply_before_skinning(stage, delegate):
     assert problems == []
     want[2] = np.asarray((0, 1, 0.5)) / np.linalg.norm((0, 1, 0.5))
     assert np.allclose(_normals_sent(d)[1], want, atol=1e-5)
+    # face-varying normals: the joints turn them, the offsets do not (as UsdSkel bakes them)
+    mesh.CreateNormalsAttr([(1, 0, 0)] * 8)
+    mesh.SetNormalsInterpolation("faceVarying")
+    d = type(delegate)()
+    _, problems = load(stage, d, frame=0)
+    assert problems == []
+    bake_stage = Usd.Stage.CreateInMemory()
+    bake_stage.GetRootLayer().TransferContent(stage.Flatten())
+    assert UsdSkel.BakeSkinning(bake_stage.Traverse(), Gf.Interval(0, 0))
+    baked = np.asarray(UsdGeom.Mesh(bake_stage.GetPrimAtPath(MESH)).GetNormalsAttr().Get(0), float)
+    sent = _normals_sent(d)[1]
+    assert np.allclose(sent, baked / np.linalg.norm(baked, axis=1, keepdims=True), atol=1e-5), (sent, baked)
+    mesh.CreateNormalsAttr([(1, 0, 0)] * 6)
+    mesh.SetNormalsInterpolation("vertex")
     # normalOffsets that do not fit the offsets: reported, and normals left to the core
     shape.CreateNormalOffsetsAttr([Gf.Vec3f(0, 0, 1)] * 2)
     d = type(delegate)()
@@ -222,10 +238,12 @@ def test_blend_shapes_apply_before_skinning(stage, delegate):
 
 
 # -- motion over the shutter ----------------------------------------------------------------
-def test_posed_points_are_sampled_over_the_shutter(stage, delegate):
+@pytest.mark.parametrize("geom_bind", [True, False])
+def test_posed_points_are_sampled_over_the_shutter(stage, delegate, geom_bind):
+    # geomBindTransform is optional (identity): without it the mesh is posed all the same
     camera(stage, **{"shutter__open": -0.25, "shutter__close": 0.5})
     settings(stage)
-    _rig(stage)
+    _rig(stage, geom_bind=geom_bind)
     skel = UsdGeom.Xformable(stage.GetPrimAtPath("/World/Char/Skel"))
     # the skeleton moves too: its transform gets samples of its own
     skel.GetOrderedXformOps()[0].Set(Gf.Vec3d(0, 2, 0), -1)

@@ -85,8 +85,15 @@ class SkinnedMesh:
     def time_samples(self, interval):
         """Times within `interval` (a Gf.Interval) at which the pose may change: joint
         animation, blend-shape weights, joint influences, geomBindTransform and points."""
-        times = set(self._query.GetTimeSamplesInInterval(interval))
-        times.update(self._points.GetTimeSamplesInInterval(interval))
+        # from the binding's attributes one by one: the skinning query's own gathering reads
+        # every one of them and fails on any the prim does not author (an optional
+        # geomBindTransform, a blend-shape-only prim's joint influences)
+        binding = UsdSkel.BindingAPI(self.prim)
+        times = set(self._points.GetTimeSamplesInInterval(interval))
+        for attr in (binding.GetJointIndicesPrimvar().GetAttr(), binding.GetJointWeightsPrimvar().GetAttr(),
+                     binding.GetGeomBindTransformAttr(), binding.GetBlendShapesAttr()):
+            if attr and attr.IsValid():
+                times.update(attr.GetTimeSamplesInInterval(interval))
         if self._anim is not None:
             if self._joints:
                 times.update(self._anim.GetJointTransformTimeSamplesInInterval(interval))
@@ -178,7 +185,9 @@ class SkinnedMesh:
         `time`: the blend shapes' normalOffsets, then the joints by the binding's
         skinningMethod (UsdSkel's normal skinning: the inverse transposes of the skinning
         transforms' 3 x 3 parts). `vertex` and `varying` normals are per point, `faceVarying`
-        ones per face corner (`face_vertex_indices` names each corner's point). None where they
+        ones per face corner (`face_vertex_indices` names each corner's point), which the
+        joints turn but normalOffsets do not (UsdSkel's schema offsets points' normals only,
+        and its baking leaves face-varying ones to the joints). None where they
         cannot be: `uniform` or `constant` normals, or normalOffsets that do not fit (reported);
         the caller then lets the core compute normals from the posed points."""
         path = self.prim.GetPath()
@@ -191,7 +200,7 @@ class SkinnedMesh:
         if len(normals) != (len(corner_points) if per_corner else n_points):
             return None   # the mesh conversion reports normals of the wrong length
         out = Vt.Vec3fArray.FromNumpy(np.ascontiguousarray(normals, dtype=np.float32))
-        if self._shapes:
+        if self._shapes and not per_corner:
             delta = self._normal_offsets(n_points, time)
             if delta is None:
                 return None
