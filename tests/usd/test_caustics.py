@@ -87,9 +87,11 @@ def test_explicit_tags_replace_the_one_click_default(renderer, stage):
 
 
 def _sunlit_pool(stage, cloud):
-    """Sand (albedo 0.6) 1 m under flat, clear water, the sun straight above (3 lux on a
-    perpendicular surface), seen from straight above; with `cloud`, a thin cloud of spray
-    (TideDropletsAPI as a medium, optical depth about 0.02) between the sun and the water."""
+    """Sand (albedo 0.6) 0.1 m under flat, clear water 20 m wide (shallow: the light the
+    surface's underside reflects back comes down again within the pool, not out of its sides),
+    the sun straight above (3 lux on a perpendicular surface), seen from straight above; with
+    `cloud`, a thin cloud of spray (TideDropletsAPI as a medium, optical depth about 0.02)
+    between the sun and the water."""
     camera(stage, pos=(0, 6, 0), focal=50.0, aperture=(20.0, 20.0))
     UsdGeom.Xformable(stage.GetPrimAtPath("/Cam")).AddRotateXOp().Set(-90.0)
     settings(stage, res=(24, 24), samples=64, integrator="caustics", maxDepth=8)
@@ -100,7 +102,7 @@ def _sunlit_pool(stage, cloud):
     sun.AddRotateXOp().Set(-90.0)
     floor = UsdGeom.Cube.Define(stage, "/Floor")
     floor.CreateSizeAttr(1.0)
-    floor.AddTranslateOp().Set(Gf.Vec3d(0, -1.05, 0))
+    floor.AddTranslateOp().Set(Gf.Vec3d(0, -0.15, 0))
     floor.AddScaleOp().Set(Gf.Vec3f(20, 0.1, 20))
     bind(floor.GetPrim(), lambert_material(stage, "/Looks/Sand", (0.6, 0.6, 0.6)))
     mat = UsdShade.Material.Define(stage, "/Looks/Water")
@@ -109,8 +111,8 @@ def _sunlit_pool(stage, cloud):
     mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
     water = UsdGeom.Cube.Define(stage, "/Water")
     water.CreateSizeAttr(1.0)
-    water.AddTranslateOp().Set(Gf.Vec3d(0, -0.6, 0))
-    water.AddScaleOp().Set(Gf.Vec3f(20, 1.2, 20))
+    water.AddTranslateOp().Set(Gf.Vec3d(0, -0.1, 0))
+    water.AddScaleOp().Set(Gf.Vec3f(20, 0.2, 20))
     bind(water.GetPrim(), mat)
     if cloud:
         rng = np.random.default_rng(3)
@@ -176,6 +178,7 @@ def test_sun_through_flat_water_and_through_a_volume_box(renderer, stage):
         return float(kept.mean())
 
     clear, cloudy = sand(False), sand(True)
+    # 64 spp: the mean over seeds 0-3 is within 0.5 % of the formula, a seed within 3 %
     assert clear == pytest.approx(expect, rel=0.05), (clear, expect)
     # optical depth ~0.02 on the way in and out (mostly forward-scattered), plus its glow
     assert cloudy == pytest.approx(clear, rel=0.06), (cloudy, clear)
