@@ -207,6 +207,21 @@ impl Camera {
         }
     }
 
+    /// The camera seeing `pad` pixels more past each side of its image (left, top, right,
+    /// bottom: overscan): an image of that many more pixels whose pixel (x + left, y + top) is
+    /// the one (x, y) was, every other ray as before.
+    pub fn extend(&mut self, pad: [u32; 4]) {
+        if pad == [0; 4] {
+            return;
+        }
+        let [l, t, r, b] = pad.map(|v| v as f32);
+        let (w, h) = (self.width as f32, self.height as f32);
+        self.offset += Vec2::new(self.aperture.x * (r - l) / (2.0 * w), self.aperture.y * (t - b) / (2.0 * h));
+        self.aperture *= Vec2::new((w + l + r) / w, (h + t + b) / h);
+        self.width += pad[0] + pad[2];
+        self.height += pad[1] + pad[3];
+    }
+
     /// Film position (film units) of an image position in pixels (x right, y down).
     #[inline]
     fn film(&self, raster: Vec2) -> Vec2 {
@@ -451,6 +466,28 @@ mod tests {
         assert!(cam.connect(Vec3::new(9.0, 0.0, 0.0), 0.0).is_some());
         // (1, 0, 7) is (1, 0, −3) to the camera: 1 + 3 − 8 < 0, cut
         assert!(cam.connect(Vec3::new(1.0, 0.0, 7.0), 0.0).is_none());
+    }
+
+    /// Overscan: the extended camera's pixel (x + left, y + top) sees what the image's (x, y)
+    /// saw, for pixels inside the image and past it, and projects back there.
+    #[test]
+    fn an_extended_camera_keeps_every_ray_and_adds_the_overscan() {
+        for conform in [AspectConform::ExpandAperture, AspectConform::CropAperture] {
+            let mut d = desc();
+            d.horizontal_aperture_offset = 1.5;
+            d.vertical_aperture_offset = -0.5;
+            let plain = Camera::with_conform(&d, 40, 30, 1.0, conform, true, true);
+            let mut wide = plain.clone();
+            wide.extend([8, 6, 20, 4]);
+            assert_eq!((wide.width, wide.height), (68, 40));
+            for p in [Vec2::new(0.0, 0.0), Vec2::new(17.3, 9.1), Vec2::new(40.0, 30.0), Vec2::new(-8.0, -6.0), Vec2::new(59.5, 33.2)] {
+                let a = plain.generate_ray(p, Vec2::ZERO, 0.0);
+                let b = wide.generate_ray(p + Vec2::new(8.0, 6.0), Vec2::ZERO, 0.0);
+                assert!((a.d - b.d).length() < 1e-6 && (a.o - b.o).length() < 1e-6, "{p}: {a:?} vs {b:?}");
+                let back = wide.project(a.o + a.d * 5.0, 0.0).unwrap();
+                assert!((back - (p + Vec2::new(8.0, 6.0))).length() < 1e-3, "{p}: {back}");
+            }
+        }
     }
 
     #[test]

@@ -107,6 +107,10 @@ pub struct Film {
     pub scale: f32,
     /// Pixels outside this window [x0, y0, x1, y1) are not rendered (data window).
     pub window: [u32; 4],
+    /// The image's own pixels within the film (x0, y0, width, height): the display window,
+    /// all of the film unless `dataWindowNDC` asks for overscan, which extends the film past
+    /// it on every side it names.
+    pub display: [u32; 4],
     /// The `tide:guiding` debug image (3 channels per pixel), set by the caustics integrator.
     pub guiding: Option<Vec<f32>>,
     /// Light-traced radiance (RGB per pixel) summed over passes, each pass's image weighted by
@@ -117,7 +121,17 @@ pub struct Film {
 impl Film {
     pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
         let n = (width * height) as usize;
-        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, guiding: None, light: Vec::new() }
+        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, display: [0, 0, width, height], guiding: None, light: Vec::new() }
+    }
+
+    /// `per_pixel` (`ch` values a pixel, over the whole film) cut to the display window.
+    pub fn displayed<T: Copy>(&self, per_pixel: Vec<T>, ch: usize) -> Vec<T> {
+        let [dx, dy, dw, dh] = self.display.map(|v| v as usize);
+        if [dx, dy, dw, dh] == [0, 0, self.width as usize, self.height as usize] {
+            return per_pixel;
+        }
+        let w = self.width as usize;
+        (dy..dy + dh).flat_map(|y| (dx..dx + dw).flat_map(move |x| (0..ch).map(move |k| (y * w + x) * ch + k))).map(|i| per_pixel[i]).collect()
     }
 
     /// Merges a finished tile of a pass.
@@ -256,8 +270,9 @@ impl Film {
     /// Writes AOVs to `path` atomically: a temporary file beside it, then a rename.
     /// `aovs` pairs an output name (the channel prefix) with the AOV it holds.
     /// `pixel_aspect` goes to OpenEXR's own attribute (what viewers display by). The file's data
-    /// window is the film's window (the rendered part, as `dataWindowNDC` asks), inside a
-    /// display window of the whole image.
+    /// window is the film's window (the rendered part, as `dataWindowNDC` asks), placed against
+    /// a display window of the image (overscan lies outside it, at negative coordinates on the
+    /// left and top).
     pub fn write_exr(&self, path: &Path, aovs: &[(String, Aov, SampleFormat)], header: &[(String, String)], pixel_aspect: f32) -> std::io::Result<()> {
         use exr::prelude::*;
         let (w, h) = (self.width as usize, self.height as usize);
@@ -296,11 +311,12 @@ impl Film {
         for (k, v) in header {
             attrs.other.insert(Text::from(k.as_str()), AttributeValue::Text(Text::from(v.as_str())));
         }
-        attrs.layer_position = Vec2(x0 as i32, y0 as i32);
+        let [dx, dy, dw_w, dw_h] = self.display;
+        attrs.layer_position = Vec2(x0 as i32 - dx as i32, y0 as i32 - dy as i32);
         let layer = Layer::new((dw, dh), attrs, Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels.into()));
         let mut image = Image::from_layer(layer);
         image.attributes.pixel_aspect = pixel_aspect;
-        image.attributes.display_window = IntegerBounds::new((0, 0), (w, h));
+        image.attributes.display_window = IntegerBounds::new((0, 0), (dw_w as usize, dw_h as usize));
         let dir = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
         let fname = path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_else(|| "out.exr".into());
         let tmp = dir.join(format!(".{fname}.tmp{}.exr", std::process::id()));

@@ -239,23 +239,51 @@ pub struct Renderer {
     camera_name: String,
 }
 
-/// The film's pixels (x0, y0, x1, y1; rows from the top, ends exclusive) inside a
-/// `dataWindowNDC` (xmin, ymin, xmax, ymax; y up): those whose centres lie in the window, as
-/// UsdRenderSettings defines, cut at the image. None when no pixel centre is inside.
-fn data_window(dw: [f32; 4], w: u32, h: u32) -> Option<[u32; 4]> {
+/// The image's pixels (x0, y0, x1, y1; rows from the top, ends exclusive; negative or past
+/// the image for overscan) inside a `dataWindowNDC` (xmin, ymin, xmax, ymax; y up): those
+/// whose centres lie in the window, as UsdRenderSettings defines. None when no pixel centre
+/// is inside.
+fn data_window(dw: [f32; 4], w: u32, h: u32) -> Option<[i64; 4]> {
     if !(dw.iter().all(|v| v.is_finite()) && dw[2] > dw[0] && dw[3] > dw[1]) {
         return None;
     }
     // centre (i + ½)/n ∈ [lo, hi]  ⇔  i ∈ [lo·n − ½, hi·n − ½]
-    let span = |lo: f32, hi: f32, n: u32| -> Option<(u32, u32)> {
-        let a = (lo as f64 * n as f64 - 0.5).ceil().max(0.0);
-        let b = ((hi as f64 * n as f64 - 0.5).floor() + 1.0).min(n as f64);
-        (b > a).then_some((a as u32, b as u32))
+    let span = |lo: f32, hi: f32, n: u32| -> Option<(i64, i64)> {
+        let a = (lo as f64 * n as f64 - 0.5).ceil();
+        let b = (hi as f64 * n as f64 - 0.5).floor() + 1.0;
+        (b > a).then_some((a as i64, b as i64))
     };
     let (x0, x1) = span(dw[0], dw[2], w)?;
     // y up: NDC y = 1 − (row + ½)/h
     let (y0, y1) = span(1.0 - dw[3], 1.0 - dw[1], h)?;
     Some([x0, y0, x1, y1])
+}
+
+/// Overscan past each side of the image, in pixels, at most the image's own size.
+const MAX_OVERSCAN: f64 = 1.0;
+
+/// How a render's film lies against its image: the pixels `pad`ded on each side (left, top,
+/// right, bottom) for the overscan `dataWindowNDC` asks for, and the rendered `window` in the
+/// padded film's pixels; with the problem to report, if any (an empty window renders the
+/// whole image; overscan past the image's own size on a side is cut there).
+pub(crate) struct Framing {
+    pub pad: [u32; 4],
+    pub window: [u32; 4],
+    pub problem: Option<String>,
+}
+
+pub(crate) fn framing(settings: &RenderSettings) -> Framing {
+    let (w, h) = (settings.width, settings.height);
+    let Some([x0, y0, x1, y1]) = data_window(settings.data_window_ndc, w, h) else {
+        return Framing { pad: [0; 4], window: [0, 0, w, h], problem: Some("empty or invalid window (no pixel centre inside); the whole image is rendered".into()) };
+    };
+    let (mw, mh) = ((w as f64 * MAX_OVERSCAN) as i64, (h as f64 * MAX_OVERSCAN) as i64);
+    let cut = [(-x0).max(0) > mw, (-y0).max(0) > mh, (x1 - w as i64).max(0) > mw, (y1 - h as i64).max(0) > mh];
+    let (x0, y0, x1, y1) = (x0.max(-mw), y0.max(-mh), x1.min(w as i64 + mw), y1.min(h as i64 + mh));
+    let pad = [(-x0).max(0) as u32, (-y0).max(0) as u32, (x1 - w as i64).max(0) as u32, (y1 - h as i64).max(0) as u32];
+    let window = [(x0 + pad[0] as i64) as u32, (y0 + pad[1] as i64) as u32, (x1 + pad[0] as i64) as u32, (y1 + pad[1] as i64) as u32];
+    let problem = cut.iter().any(|&c| c).then(|| "overscan past the image's own size on a side is cut there".to_string());
+    Framing { pad, window, problem }
 }
 
 impl Renderer {
@@ -278,22 +306,11 @@ impl Renderer {
         }
         let (clean, mut problems) = crate::validate::validate_cached(scene, cache.map(|c| &c.checks));
         let world = crate::world::World::build_cached(&clean, &settings, &mut problems, cache);
-        let w = settings.width;
-        let h = settings.height;
-        let dw = settings.data_window_ndc;
-        let win = match data_window(dw, w, h) {
-            Some(win) => {
-                if dw[0] < 0.0 || dw[1] < 0.0 || dw[2] > 1.0 || dw[3] > 1.0 {
-                    problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "overscan (a window past the image) is not rendered; the window is cut at the image".into() });
-                }
-                win
-            }
-            None => {
-                problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message: "empty or invalid window (no pixel centre inside); the whole image is rendered".into() });
-                [0, 0, w, h]
-            }
-        };
-        let mut film = crate::film::Film::new(w, h, win);
+        let framing = framing(&settings);
+        if let Some(message) = framing.problem.clone() {
+            problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message });
+        }
+        let mut film = Self::new_film(&settings, &framing);
         film.scale = world.camera.exposure_scale;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(settings.threads)
@@ -309,10 +326,20 @@ impl Renderer {
         Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive, camera_name })
     }
 
+    /// The film of a render: the image and the overscan `framing` pads it with.
+    fn new_film(settings: &RenderSettings, framing: &Framing) -> crate::film::Film {
+        let [l, t, r, b] = framing.pad;
+        let mut film = crate::film::Film::new(settings.width + l + r, settings.height + t + b, framing.window);
+        film.display = [l, t, settings.width, settings.height];
+        film
+    }
+
     /// The caustics integrator's state for `world`'s camera (None for the path integrator).
     fn caustics_for(world: &crate::world::World, settings: &RenderSettings, window: [u32; 4]) -> Option<crate::caustics::engine::Caustics> {
+        // the camera's image: the film, overscan included
+        let (w, h) = (world.camera.width, world.camera.height);
         let mut caustics = match settings.integrator {
-            IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(world, settings.width, settings.height, settings.caustics),
+            IntegratorKind::Caustics => crate::caustics::engine::Caustics::new(world, w, h, settings.caustics),
             IntegratorKind::Path => None,
         };
         if let Some(c) = caustics.as_mut() {
@@ -337,7 +364,8 @@ impl Renderer {
         let mut problems = Vec::new();
         crate::validate::validate_camera(&mut desc, self.world.media.len(), &mut problems);
         let s = settings;
-        let cam = crate::camera::Camera::with_conform(&desc, s.width, s.height, s.pixel_aspect_ratio, s.aspect_conform, s.disable_depth_of_field, s.disable_motion_blur);
+        let mut cam = crate::camera::Camera::with_conform(&desc, s.width, s.height, s.pixel_aspect_ratio, s.aspect_conform, s.disable_depth_of_field, s.disable_motion_blur);
+        cam.extend(framing(s).pad);
         if cam.shutter != self.world.camera.shutter {
             return false;
         }
@@ -347,7 +375,7 @@ impl Renderer {
         self.problems.extend(problems);
         let world = &self.world;
         self.camera_stack = crate::integrator::initial_stack(world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
-        self.film = crate::film::Film::new(s.width, s.height, self.film.window);
+        self.film = Self::new_film(s, &framing(s));
         self.film.scale = world.camera.exposure_scale;
         self.caustics = Self::caustics_for(world, s, self.film.window);
         self.adaptive = crate::adaptive::Adaptive::new(s.adaptive_threshold, s.adaptive_min_spp, &self.film);
@@ -500,9 +528,10 @@ impl Renderer {
         true
     }
 
-    /// Samples each pixel has taken, row-major from the top (0 outside the data window).
+    /// Samples each pixel of the image has taken, row-major from the top (0 outside the data
+    /// window; overscan left out).
     pub fn pixel_samples(&self) -> Vec<u32> {
-        (0..(self.film.width * self.film.height) as usize).map(|i| self.film.pixel_samples(i)).collect()
+        self.film.displayed((0..(self.film.width * self.film.height) as usize).map(|i| self.film.pixel_samples(i)).collect(), 1)
     }
 
     /// Whether adaptive sampling has stopped every pixel (always false when it is off).
@@ -541,9 +570,10 @@ impl Renderer {
         self.stats.mean_samples_per_pixel = 0.0;
     }
 
-    /// Resolved pixels of an AOV, row-major from the top row, `aov.channels()` per pixel.
+    /// Resolved pixels of an AOV over the image (overscan, written to EXR files only, left
+    /// out), row-major from the top row, `aov.channels()` per pixel.
     pub fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
-        self.film.resolve(aov)
+        self.film.displayed(self.film.resolve(aov), aov.channels())
     }
 
     /// Writes the chosen AOVs to an OpenEXR file atomically (temporary name, then rename).
@@ -624,9 +654,10 @@ mod tests {
         // y up: the window's bottom quarter is the film's last rows; a centre on the edge is in
         assert_eq!(data_window([0.0, 0.0, 1.0, 0.25], 8, 8), Some([0, 6, 8, 8]));
         assert_eq!(data_window([0.0, 0.0, 0.0625, 1.0], 8, 8), Some([0, 0, 1, 8]));
-        // between two centres: no pixel; past the image: cut at it
+        // between two centres: no pixel; past the image: overscan, pixels past its edges
         assert_eq!(data_window([0.0, 0.0, 0.05, 1.0], 8, 8), None);
-        assert_eq!(data_window([-0.25, -0.25, 1.25, 1.25], 20, 20), Some([0, 0, 20, 20]));
+        assert_eq!(data_window([-0.25, -0.25, 1.25, 1.25], 20, 20), Some([-5, -5, 25, 25]));
+        assert_eq!(data_window([-0.1, 0.0, 1.0, 1.0], 20, 10), Some([-2, 0, 20, 10]));
         assert_eq!(data_window([0.5, 0.0, 0.5, 1.0], 8, 8), None);
         assert_eq!(data_window([f32::NAN, 0.0, 1.0, 1.0], 8, 8), None);
     }

@@ -641,7 +641,9 @@ impl World {
         // volumes become boxes with a medium-boundary material and a grid medium
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
-        let camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
+        let mut camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
+        // overscan: the film reaches past the image
+        camera.extend(crate::render::framing(settings).pad);
         // the BSDFs' albedo tables are built once per process; started here, beside the BVH,
         // the first pass does not wait for them
         let uses_sheen = scene.materials.iter().any(|m| matches!(&m.surface, SurfaceDesc::Preview(p) if p.extras.as_ref().is_some_and(|x| !matches!(x.sheen_weight, FloatInput::Const(w) if w <= 0.0))));

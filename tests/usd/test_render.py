@@ -362,6 +362,48 @@ def _aov_stage(stage, tmp_path):
              product=str(tmp_path / "aovs.exr"), samples=2)
 
 
+@pytest.mark.parametrize("window", [None, (-0.25, 0.0, 1.0, 1.0), (0.0, -0.125, 1.125, 1.0)])
+def test_overscan_renders_past_the_image(renderer, stage, tmp_path, window):
+    """dataWindowNDC past [0, 1] renders overscan: the EXR's data window reaches past its
+    display window (negative coordinates left and top) and shows what lies there. A black ball
+    left of the frame (x = -4.5 at depth 10, the frame ±3.6 wide: its centre 4 pixels left of
+    the image, x = -4) shows only in the left overscan; a ball at the centre stays put."""
+    camera(stage, focal=50.0, aperture=(36.0, 36.0))
+    _white_dome(stage)
+    _ball(stage, "/Out", (-4.5, 0, -10), 0.5, _black(stage))
+    _ball(stage, "/In", (0, 0, -10), 0.5, _black(stage))
+    st = settings(stage, res=(32, 32), vars_=("color",), product=str(tmp_path / "o.exr"), samples=4,
+                  integrator="path")
+    if window:
+        st.CreateDataWindowNDCAttr(Gf.Vec4f(*window))
+    path = str(tmp_path / "scene.usda")
+    stage.GetRootLayer().Export(path)
+    out = _tide(["render", path], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert "dataWindowNDC" not in out.stdout + out.stderr
+    chans, header = _exr(str(tmp_path / "o.exr"))
+    (dx0, dy0), (dx1, dy1) = (tuple(v) for v in header["dataWindow"])
+    assert tuple(tuple(v) for v in header["displayWindow"]) == ((0, 0), (31, 31))
+    # pixel centres (i + 1/2)/32 in the window: -0.25 -> from -8, 1.125 -> to 35 (y up:
+    # the bottom -0.125 adds 4 rows below)
+    want = {None: (0, 0, 31, 31), (-0.25, 0.0, 1.0, 1.0): (-8, 0, 31, 31), (0.0, -0.125, 1.125, 1.0): (0, 0, 35, 35)}
+    assert (dx0, dy0, dx1, dy1) == want[window]
+    dark = darkness(np.dstack([chans["R"], chans["G"], chans["B"]]))
+    dark[dark < 0.3] = 0.0           # the balls' cover, the dome's colour noise left out
+    cols, rows = np.arange(dx0, dx1 + 1) + 0.5, np.arange(dy0, dy1 + 1) + 0.5
+
+    def centre(in_cols):
+        d = dark[:, in_cols]
+        return (d.sum(axis=0) * cols[in_cols]).sum() / d.sum(), (d.sum(axis=1) * rows).sum() / d.sum()
+
+    # the centre ball at (16, 16) in the display window's pixels, whatever the overscan
+    assert centre((cols > 8) & (cols < 24)) == pytest.approx((16.0, 16.0), abs=0.3)
+    if window and window[0] < 0:
+        assert centre(cols < 0) == pytest.approx((-4.0, 16.0), abs=0.3)
+    # nothing else inside the image: the left ball lies wholly outside it
+    assert dark[:, (cols > 0) & (cols < 8)].max() == 0.0
+
+
 def test_exr_channels_and_header(renderer, stage, tmp_path):
     _aov_stage(stage, tmp_path)
     path = str(tmp_path / "scene.usda")
