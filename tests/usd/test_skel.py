@@ -285,6 +285,34 @@ def test_joint_index_out_of_range_is_a_problem_and_the_mesh_renders_unskinned(st
     assert np.allclose(_translation(delegate.value(MESH, "transform")), (10, 10, 5))
 
 
+@pytest.mark.parametrize("bad", ["translations", "rotations", "joints"])
+def test_an_animation_or_joint_list_usdskel_cannot_use_is_a_problem(stage, delegate, bad):
+    """UsdSkel only warns (and poses nothing, or leaves influences out) when a SkelAnimation's
+    translations are not one per joint, its rotations have no value, or a mesh's skel:joints
+    names a joint the Skeleton lacks: each is reported with its prim and attribute, and the
+    points are still UsdSkel's."""
+    mesh = _scene(stage)
+    anim = UsdSkel.Animation(stage.GetPrimAtPath("/World/Char/Anim"))
+    if bad == "translations":
+        anim.GetTranslationsAttr().Set([Gf.Vec3f(*TIP)] * 3)
+        where = ("/World/Char/Anim", "translations")
+    elif bad == "rotations":
+        anim.GetRotationsAttr().Block()
+        where = ("/World/Char/Anim", "rotations")
+    else:
+        UsdSkel.BindingAPI(mesh.GetPrim()).CreateJointsAttr(["root", "nope"])
+        where = (MESH, "skel:joints")
+    _, problems = load(stage, delegate, frame=0)
+    assert [(p.prim, p.attribute) for p in problems] == [where], problems
+    cache = UsdSkel.Cache()
+    cache.Populate(UsdSkel.Root(stage.GetPrimAtPath("/World/Char")), Usd.PrimDefaultPredicate)
+    query = cache.GetSkinningQuery(mesh.GetPrim())
+    skel_query = cache.GetSkelQuery(UsdSkel.Skeleton(stage.GetPrimAtPath("/World/Char/Skel")))
+    pts = mesh.GetPointsAttr().Get(0)
+    query.ComputeSkinnedPoints(skel_query.ComputeSkinningTransforms(0), pts, 0)
+    assert np.allclose(floats(delegate.value(MESH, "points")), np.asarray(pts), atol=1e-5)
+
+
 def test_mismatched_weights_are_a_problem(stage, delegate):
     mesh = _scene(stage)
     UsdSkel.BindingAPI(mesh.GetPrim()).GetJointWeightsPrimvar().Set([1.0] * 5)

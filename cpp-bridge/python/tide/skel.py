@@ -357,7 +357,24 @@ class Skinning:
                 return None
             if not query.HasBlendShapes():
                 return None
+        self._check_joint_names(prim, skeleton)
         return SkinnedMesh(self, prim, skeleton, skel_query, query)
+
+    def _check_joint_names(self, prim, skeleton):
+        """Names the joints a prim's (or its ancestors') `skel:joints` lists that its Skeleton
+        does not have (UsdSkel leaves their influences out, with no more than a warning)."""
+        p = prim
+        while p and not p.IsPseudoRoot():
+            attr = UsdSkel.BindingAPI(p).GetJointsAttr()
+            if attr and attr.HasAuthoredValue():
+                have = set(UsdSkel.Skeleton(skeleton).GetJointsAttr().Get() or [])
+                unknown = [str(j) for j in (attr.Get() or []) if j not in have]
+                if unknown:
+                    self.problem(p.GetPath(), "skel:joints", "names joints the Skeleton %s does "
+                                 "not have (%s); their influences are left out"
+                                 % (skeleton.GetPath(), ", ".join(unknown[:3])))
+                return
+            p = p.GetParent()
 
     def compute(self, prim, times):
         """[(points Nx3 float32, local-to-world Gf.Matrix4d of the space they are in)] of mesh
@@ -381,6 +398,7 @@ class Skinning:
             self.problem(path, "bindTransforms", "%d bindTransforms for %d joints; the "
                          "skeleton's meshes render unskinned" % (len(bind), joints))
         else:
+            self._check_animation(skel_query, time)
             xforms = skel_query.ComputeSkinningTransforms(time)
             if len(xforms) != joints:
                 rest = len(skel.GetRestTransformsAttr().Get() or [])
@@ -397,6 +415,27 @@ class Skinning:
         return xforms
 
     # -- internals ------------------------------------------------------------------------
+    def _check_animation(self, skel_query, time):
+        """Names what keeps a SkelAnimation from posing its joints at `time` (UsdSkel then
+        falls back to the rest pose with no more than a warning): translations, rotations or
+        scales of another count than its joints, or some of them without a value."""
+        anim_query = skel_query.GetAnimQuery()
+        prim = anim_query.GetPrim() if anim_query else None
+        if not prim or not prim.IsA(UsdSkel.Animation):
+            return
+        anim = UsdSkel.Animation(prim)
+        joints = len(anim.GetJointsAttr().Get() or [])
+        attrs = (anim.GetTranslationsAttr(), anim.GetRotationsAttr(), anim.GetScalesAttr())
+        values = [a.Get(time) if a and a.HasValue() else None for a in attrs]
+        if all(v is None for v in values):
+            return
+        for attr, v in zip(attrs, values):
+            if v is None or len(v) != joints:
+                self.problem(prim.GetPath(), attr.GetName(), "%s for %d joints; the animation "
+                             "does not pose them (the rest pose is used)"
+                             % ("no value" if v is None else "%d values" % len(v), joints))
+                return
+
     def _outer_root(self, path):
         """skel_root for the prims of a sync, remembered per path (siblings share it)."""
         if path == Sdf.Path.absoluteRootPath or path.isEmpty:
