@@ -223,6 +223,95 @@ def test_a_nurbs_patch_renders_its_exact_surface(stage, delegate):
     assert floats(delegate.value("/P", "faceVertexCounts")).tolist() == [4] * 8
 
 
+def _quarter_cylinder(stage, path="/P"):
+    s = 0.5 ** 0.5
+    p = UsdGeom.NurbsPatch.Define(stage, path)
+    arc = [(2, 0), (2, 2), (0, 2)]
+    p.CreatePointsAttr([Gf.Vec3f(x, y, z) for z in (0, 4) for x, y in arc])
+    p.CreateUVertexCountAttr(3)
+    p.CreateVVertexCountAttr(2)
+    p.CreateUOrderAttr(3)
+    p.CreateVOrderAttr(2)
+    p.CreateUKnotsAttr([0, 0, 0, 1, 1, 1])
+    p.CreateVKnotsAttr([0, 0, 1, 1])
+    p.CreatePointWeightsAttr([1, s, 1, 1, s, 1])
+    return p
+
+
+def test_a_nurbs_patch_carries_its_primvars(stage, delegate):
+    """A patch's constant displayColor is sent as it is; a vertex primvar (one value per
+    control point) is carried onto the surface's points as the points are: a per-point value
+    equal to the control point's z reads each surface point's z."""
+    camera(stage)
+    p = _quarter_cylinder(stage)
+    p.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([(1, 0, 0)])
+    UsdGeom.PrimvarsAPI(p.GetPrim()).CreatePrimvar("height", Sdf.ValueTypeNames.FloatArray,
+                                                   UsdGeom.Tokens.vertex).Set([0, 0, 0, 4, 4, 4])
+    UsdGeom.PrimvarsAPI(p.GetPrim()).CreatePrimvar("bad", Sdf.ValueTypeNames.FloatArray,
+                                                   UsdGeom.Tokens.uniform).Set([1.0])
+    _, problems = load(stage, delegate)
+    assert [(q.prim, q.attribute) for q in problems] == [("/P", "primvars:bad")]
+    pv = delegate.primvars["/P"]
+    assert pv["displayColor"][0] == "constant"
+    assert np.allclose(np.asarray(pv["displayColor"][1], np.float32), [1, 0, 0])
+    pts = floats(delegate.value("/P", "points"))
+    interp, data, _, _ = pv["height"]
+    assert interp == "vertex" and np.allclose(np.asarray(data, np.float32), pts[:, 2], atol=1e-5)
+    assert "bad" not in pv
+
+
+def test_a_nurbs_patch_of_many_control_points_is_evaluated_one_direction_at_a_time(stage, delegate):
+    """An 80 x 80 bicubic patch (a plane z = x y / 100): the points sent lie on it. As one
+    matrix over every control point its evaluation took tens of gigabytes."""
+    camera(stage)
+    n = 80
+    p = UsdGeom.NurbsPatch.Define(stage, "/Big")
+    xs = np.arange(n, dtype=np.float64)
+    p.CreatePointsAttr([Gf.Vec3f(float(x), float(y), float(x * y / 100.0)) for y in xs for x in xs])
+    for d in "uv":
+        getattr(p, "Create%sVertexCountAttr" % d.upper())(n)
+        getattr(p, "Create%sOrderAttr" % d.upper())(4)
+        getattr(p, "Create%sKnotsAttr" % d.upper())([0] * 4 + list(range(1, n - 3)) + [n - 3] * 4)
+    _, problems = load(stage, delegate)
+    assert problems == []
+    pts = floats(delegate.value("/Big", "points"))
+    # a bilinear function is reproduced by a bicubic spline of its samples (linear precision
+    # in each direction)
+    assert np.allclose(pts[:, 2], pts[:, 0] * pts[:, 1] / 100.0, atol=1e-3)
+
+
+def test_a_nurbs_sphere_has_its_normals_at_the_poles(stage, delegate):
+    """A rational sphere's pole rows collapse to a point where the derivatives' cross product
+    vanishes: the normals there are the axis, not zero."""
+    camera(stage)
+    s = 0.5 ** 0.5
+    p = UsdGeom.NurbsPatch.Define(stage, "/S")
+    # v: a half circle from the south pole to the north (x >= 0 in the xz... plane), u: the
+    # full turn about y (a rational quadratic circle of 9 points)
+    ring = [(1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1), (1, 0)]
+    rw = [1, s, 1, s, 1, s, 1, s, 1]
+    half = [(0, -1), (1, -1), (1, 0), (1, 1), (0, 1)]
+    hw = [1, s, 1, s, 1]
+    p.CreatePointsAttr([Gf.Vec3f(r * cx, y, r * cz) for r, y in half for cx, cz in ring])
+    p.CreatePointWeightsAttr([a * b for a in hw for b in rw])
+    p.CreateUVertexCountAttr(9)
+    p.CreateVVertexCountAttr(5)
+    p.CreateUOrderAttr(3)
+    p.CreateVOrderAttr(3)
+    p.CreateUKnotsAttr([0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 4])
+    p.CreateVKnotsAttr([0, 0, 0, 1, 1, 2, 2, 2])
+    _, problems = load(stage, delegate)
+    assert problems == []
+    pts = floats(delegate.value("/S", "points"))
+    assert np.allclose(np.linalg.norm(pts, axis=1), 1.0, atol=1e-5)
+    n = np.asarray(delegate.primvars["/S"]["normals"][1], np.float32).reshape(-1, 3)
+    assert np.all(np.linalg.norm(n, axis=1) > 0.99)
+    pole = np.abs(pts[:, 1]) > 1 - 1e-6
+    assert pole.any()
+    # along the axis (either way round: the patch's orientation decides), within 1 degree
+    assert np.all(np.abs(n[pole][:, 1]) > np.cos(np.radians(1.0))), n[pole]
+
+
 def test_a_tet_mesh_renders_its_surface(stage, delegate):
     camera(stage)
     tm = UsdGeom.TetMesh.Define(stage, "/T")

@@ -135,11 +135,29 @@ class CurvesMap:
 PATCH_SAMPLES_PER_SPAN = 8
 
 
+class PatchMap:
+    """A NurbsPatch's control data (nv*nu rows, v-major with u fastest as USD lays them out)
+    carried onto its grid of sv*su points (`m @ data`): the rational tensor-product basis,
+    applied one direction after the other (memory grows with the grid and the control net,
+    not with their product)."""
+
+    def __init__(self, mu, mv, w):
+        self.mu, self.mv, self.w = mu, mv, w
+        self.den = mv @ w @ mu.T
+
+    def __matmul__(self, data):
+        nv, nu = self.w.shape
+        d = np.asarray(data, dtype=np.float64).reshape(nv, nu, -1) * self.w[..., None]
+        along_v = np.tensordot(self.mv, d, axes=(1, 0))              # sv x nu x k
+        num = np.einsum("ia,jak->jik", self.mu, along_v)             # sv x su x k
+        return (num / self.den[..., None]).reshape(self.den.size, -1)
+
+
 def patch_matrix(u, v, weights):
     """A NurbsPatch's evaluation: u and v are (order, knots, range, vertex count) of each
-    direction; weights (nv x nu) or None. Returns ((sv*su) x (nv*nu) matrix carrying the
-    control points, v-major with u fastest as USD lays them out, onto the grid; (su, sv)).
-    Rational patches divide by the weighted basis sum at each grid point."""
+    direction; weights (nv x nu) or None. Returns (a PatchMap carrying the control points
+    onto the grid, (su, sv)). Rational patches divide by the weighted basis sum at each grid
+    point."""
     mats = []
     for name, (order, knots, rng, count) in (("u", u), ("v", v)):
         try:
@@ -153,5 +171,4 @@ def patch_matrix(u, v, weights):
     w = np.ones((nv, nu)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(nv, nu)
     if not (np.all(np.isfinite(w)) and np.all(w > 0)):
         raise NurbsError("pointWeights", "weights must be finite and positive")
-    m = np.kron(mv, mu) * w.reshape(1, -1)
-    return m / m.sum(axis=1, keepdims=True), (mu.shape[0], mv.shape[0])
+    return PatchMap(mu, mv, w), (mu.shape[0], mv.shape[0])

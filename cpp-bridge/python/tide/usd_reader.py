@@ -321,6 +321,32 @@ def _outside_primvar_names(prim, root):
     return tuple(sorted(names))
 
 
+def _collapsed_edge_normals(n, scale):
+    """Unit normals of a patch's grid (sv x su x 3 cross products of its derivatives); where
+    a grid row or column collapses to a point (a sphere's pole), where the cross product
+    vanishes, the mean of the next row's (or column's) normals: the surface's normal there."""
+    length = np.linalg.norm(n, axis=2)
+    bad = length <= 1e-9 * max(scale, 1e-30) ** 2
+    unit = n / np.maximum(length, 1e-300)[..., None]
+    if bad.any():
+        for axis in (0, 1):
+            last = n.shape[axis] - 1
+            for edge, nxt in ((0, 1), (last, last - 1)):
+                if nxt < 0 or nxt > last:
+                    continue
+                here = np.take(bad, edge, axis=axis)
+                if here.any() and not np.take(bad, nxt, axis=axis).all():
+                    ring = np.take(unit, nxt, axis=axis)[~np.take(bad, nxt, axis=axis)]
+                    mean = ring.sum(axis=0)
+                    if np.linalg.norm(mean) > 1e-9:
+                        idx = [slice(None)] * 2
+                        idx[axis] = edge
+                        sub = unit[tuple(idx)]
+                        sub[here] = mean / np.linalg.norm(mean)
+                        bad[tuple(idx)] = False
+    return unit
+
+
 def _mtime(path):
     """A file's modification time (ns), None if it cannot be read."""
     try:
@@ -1951,13 +1977,30 @@ class Reader:
         n = np.cross(grad(1), grad(0))
         if str(get("orientation", "rightHanded")) == "leftHanded":
             n = -n
-        n /= np.maximum(np.linalg.norm(n, axis=2, keepdims=True), 1e-20)
+        n = _collapsed_edge_normals(n, np.abs(g).max())
         st.primvars["normals"] = ("vertex", np.ascontiguousarray(n, dtype=np.float32)
                                   .reshape(-1).tobytes(), 3, None)
         for name in ("velocities", "accelerations"):
             v = self._attr(prim, name)
             if v is not None and len(v) == len(arr):
                 st.set(name, _floats(m @ np.asarray(v, dtype=np.float64), 3))
+        # primvars: constant ones as they are, vertex and varying ones carried onto the grid
+        # as the points are
+        self._primvars(prim, st, skip=("normals",))
+        for name, (interp, data, tsize, idx) in list(st.primvars.items()):
+            if name == "normals" or interp == "constant":
+                continue
+            rows = np.frombuffer(data, dtype=np.float32).reshape(-1, tsize)
+            if idx is not None:
+                rows = rows[np.frombuffer(idx, dtype=np.int32)]
+            if interp in ("vertex", "varying") and len(rows) == nu * nv:
+                st.primvars[name] = ("vertex", np.ascontiguousarray(m @ rows, dtype=np.float32)
+                                     .reshape(-1).tobytes(), tsize, None)
+            else:
+                del st.primvars[name]
+                self.problem(path, "primvars:" + name, "%s primvar of %d values on a %d x %d "
+                             "NurbsPatch is not carried onto its surface; ignored"
+                             % (interp, len(rows), nu, nv))
         return True
 
     def _eval_implicit(self, prim, st):
