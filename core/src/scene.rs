@@ -38,8 +38,12 @@ pub enum Wrap {
     Repeat,
     Mirror,
     Clamp,
-    /// Outside [0,1] the texture reads the fallback value.
+    /// Outside [0,1] the texture reads black (UsdUVTexture's `black`; bilinear filtering
+    /// blends it into the outer half texel).
     Black,
+    /// Outside [0,1] a lookup gives its fallback (MaterialX's `constant` address mode: the
+    /// node's `default`); inside, the edge texels are held as by `Clamp`.
+    Default,
 }
 
 /// Which part of a texture feeds an input.

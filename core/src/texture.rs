@@ -8,7 +8,7 @@ use glam::Vec2;
 fn wrap_coord(i: i64, n: i64, wrap: Wrap) -> Option<i64> {
     match wrap {
         Wrap::Repeat => Some(i.rem_euclid(n)),
-        Wrap::Clamp => Some(i.clamp(0, n - 1)),
+        Wrap::Clamp | Wrap::Default => Some(i.clamp(0, n - 1)),
         Wrap::Mirror => {
             let p = i.rem_euclid(2 * n);
             Some(if p < n { p } else { 2 * n - 1 - p })
@@ -53,6 +53,10 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
         return l.fallback;
     };
     let uv = transform_st(l, st);
+    let outside = |c: f32, wrap: Wrap| wrap == Wrap::Default && !(0.0..=1.0).contains(&c);
+    if outside(uv.x, t.wrap_s) || outside(uv.y, t.wrap_t) {
+        return l.fallback;
+    }
     // st (0,0) is the bottom-left of the image; rows are stored from the top
     let x = uv.x * t.width as f32 - 0.5;
     let y = (1.0 - uv.y) * t.height as f32 - 0.5;

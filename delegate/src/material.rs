@@ -85,6 +85,7 @@ pub enum WrapKey {
     Mirror,
     Clamp,
     Black,
+    Default,
 }
 
 impl WrapKey {
@@ -94,6 +95,7 @@ impl WrapKey {
             WrapKey::Mirror => Wrap::Mirror,
             WrapKey::Clamp => Wrap::Clamp,
             WrapKey::Black => Wrap::Black,
+            WrapKey::Default => Wrap::Default,
         }
     }
 }
@@ -259,6 +261,9 @@ struct Ctx<'a> {
     p: Problems<'a>,
     /// MaterialX nodes read so far (a bound on the size of the graphs built).
     mtlx_nodes: u32,
+    /// What each MaterialX node output read so far supplies: a node several others use is
+    /// read once.
+    mtlx_read: std::collections::HashMap<(String, String), Source>,
 }
 
 impl Ctx<'_> {
@@ -703,7 +708,7 @@ fn terminal(store: &AttrStore, name: &str) -> Option<String> {
 /// Converts a material prim. `textures` answers what is known of an asset path.
 pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -> Option<TexState>, problems: &mut Problems) -> MaterialPiece {
     let nodes = parse_nodes(store);
-    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0 };
+    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0, mtlx_read: Default::default() };
     let mut desc = default_material(path);
     let surf = terminal(store, "surface");
     let vol = terminal(store, "volume");
@@ -1275,11 +1280,13 @@ mod tests {
         let ColorInput::Texture(t) = &ps.emissive_color else { panic!("{:?}", ps.emissive_color) };
         assert_eq!(t.tex_scale, [0.25; 4]);
         assert!(t.bias[..3].iter().all(|b| (b - 0.15).abs() < 1e-6), "{:?}", t.bias);
-        let FloatInput::Texture(t) = &ps.opacity else { panic!("{:?}", ps.opacity) };
-        assert_eq!((t.channel, t.tex_scale[0], t.bias[0]), (Channel::R, -1.0, 1.0));
+        // opacity = 1 - image: a colour's coverage is the mean of its channels
+        let ColorInput::Texture(lookup) = &ps.diffuse_color else { unreachable!() };
+        let inverted = TexLookup { channel: Channel::Rgb, tex_scale: [-1.0; 4], bias: [1.0; 4], fallback: [1.0, 1.0, 1.0, 0.0], ..lookup.clone() };
+        let FloatInput::Graph(opacity) = &ps.opacity else { panic!("{:?}", ps.opacity) };
+        assert_eq!(*opacity, mtlx::channel_mean(Expr::Texture(inverted)));
         assert!(matches!(ps.roughness, FloatInput::Const(r) if (r - 0.4).abs() < 1e-6), "{:?}", ps.roughness);
-        let FloatInput::Texture(img) = &ps.opacity else { unreachable!() };
-        let img = Expr::Texture(TexLookup { channel: Channel::Rgb, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0, 0.0, 0.0, 1.0], ..img.clone() });
+        let img = Expr::Texture(TexLookup { channel: Channel::Rgb, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0, 0.0, 0.0, 1.0], ..lookup.clone() });
         let metal = Expr::binary(Binary::Add, Expr::Primvar(PrimvarLookup::new("metal", [0.0; 4])), Expr::Const([0.1; 4]));
         assert_eq!(ps.metallic, FloatInput::Graph(metal));
         assert_eq!(ps.clearcoat, FloatInput::Graph(Expr::binary(Binary::Mul, img.clone(), img)));

@@ -5,6 +5,7 @@ the opaque stack where it is partial."""
 import math
 
 import numpy as np
+import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from conftest import (HALF, RES, bind, camera, near, panel, render, settings, shader_node, top_camera,
@@ -620,3 +621,109 @@ def test_dispersive_tide_water_splits_colours_as_quan_fry_says(renderer):
     red_g, blue_g = _stripe_through_a_tilted_slab(renderer, _glass(abbe, n=n_d), n=n_d)
     assert blue - red > 1.0, (red, blue)
     assert abs((blue - red) / (blue_g - red_g) - 1.0) < 0.07, (blue - red, blue_g - red_g, abbe)
+
+
+def _glow_of(renderer, stage, build, st=None, res=8):
+    """The emission a MaterialX graph gives a black standard_surface seen directly: `build`
+    makes the graph under /Looks/G and returns the output feeding emission_color."""
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1, st=st is None)
+    if st is not None:
+        UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar(
+            "st", Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex).Set(st)
+    mat, sh = _standard_surface(stage, "/Looks/G", base=0.0, specular=0.0, emission=1.0)
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(build(stage))
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=res, integrator="path")
+    return render(renderer, stage)
+
+
+def _node(stage, name, node_id, out_type, **inputs):
+    sh = UsdShade.Shader.Define(stage, "/Looks/G/" + name)
+    sh.CreateIdAttr(node_id)
+    for k, (tn, v) in inputs.items():
+        inp = sh.CreateInput(k, tn)
+        if isinstance(v, UsdShade.Output):
+            inp.ConnectToSource(v)
+        else:
+            inp.Set(v)
+    return sh.CreateOutput("out", out_type)
+
+
+@pytest.mark.parametrize("node_id, in1, in2, index, want", [
+    ("ND_combine2_color4CF", (Sdf.ValueTypeNames.Color3f, Gf.Vec3f(0.2, 0.4, 0.6)), (Sdf.ValueTypeNames.Float, 0.25), 3, 0.25),
+    ("ND_combine2_color4CF", (Sdf.ValueTypeNames.Color3f, Gf.Vec3f(0.2, 0.4, 0.6)), (Sdf.ValueTypeNames.Float, 0.25), 2, 0.6),
+    ("ND_combine2_vector4VV", (Sdf.ValueTypeNames.Float2, Gf.Vec2f(0.2, 0.4)), (Sdf.ValueTypeNames.Float2, Gf.Vec2f(0.6, 0.8)), 1, 0.4),
+    ("ND_combine2_vector4VV", (Sdf.ValueTypeNames.Float2, Gf.Vec2f(0.2, 0.4)), (Sdf.ValueTypeNames.Float2, Gf.Vec2f(0.6, 0.8)), 2, 0.6),
+])
+def test_combine2_lays_out_its_inputs_by_their_types(renderer, stage, node_id, in1, in2, index, want):
+    """combine2 to four components: color4CF is (in1.rgb, in2), vector4VV (in1.xy, in2.xy)
+    (MaterialX's stdlib); one component, extracted, glows grey."""
+    def build(s):
+        four = _node(s, "C", node_id, Sdf.ValueTypeNames.Float4, in1=in1, in2=in2)
+        one = _node(s, "E", "ND_extract_vector4", Sdf.ValueTypeNames.Float,
+                    **{"in": (Sdf.ValueTypeNames.Float4, four), "index": (Sdf.ValueTypeNames.Int, index)})
+        return _node(s, "G", "ND_convert_float_color3", Sdf.ValueTypeNames.Color3f,
+                     **{"in": (Sdf.ValueTypeNames.Float, one)})
+    ok, why = near(_glow_of(renderer, stage, build)["color"][..., :3], (want,) * 3)
+    assert ok, why
+
+
+def test_the_constant_address_mode_gives_the_images_default(renderer, stage, tmp_path):
+    """An image read with uaddressmode = constant returns its `default` where u leaves [0, 1]
+    (MaterialX: "texture coordinates outside the 0-1 range return the value of the node's
+    default input"), not black: s runs 0..2 across the panel."""
+    tex_file = tmp_path / "green.exr"
+    write_exr(tex_file, [[(0, 1, 0)] * 4] * 4)
+
+    def build(s):
+        return _node(s, "I", "ND_image_color3", Sdf.ValueTypeNames.Color3f,
+                     file=(Sdf.ValueTypeNames.Asset, str(tex_file)),
+                     uaddressmode=(Sdf.ValueTypeNames.String, "constant"),
+                     vaddressmode=(Sdf.ValueTypeNames.String, "clamp"),
+                     default=(Sdf.ValueTypeNames.Color3f, Gf.Vec3f(0.3, 0.6, 0.3)))
+    img = _glow_of(renderer, stage, build, st=[(0, 0), (0, 1), (2, 0), (2, 1)])["color"][..., :3]
+    for part, want in ((img[:, RES // 8 + 1:3 * RES // 8 - 1], (0, 1, 0)),
+                       (img[:, 5 * RES // 8 + 1:7 * RES // 8 - 1], (0.3, 0.6, 0.3))):
+        ok, why = near(part, want)
+        assert ok, why
+
+
+def test_a_node_used_twice_is_read_once(renderer, stage):
+    """Fourteen add(x, x) chained from 0.0001: 0.0001 x 2^14 = 1.6384. Read anew at each use,
+    the graph grew past the node budget and fell back to the default."""
+    def build(s):
+        x = _node(s, "N0", "ND_constant_color3", Sdf.ValueTypeNames.Color3f,
+                  value=(Sdf.ValueTypeNames.Color3f, Gf.Vec3f(1e-4, 1e-4, 1e-4)))
+        for k in range(1, 15):
+            x = _node(s, "N%d" % k, "ND_add_color3", Sdf.ValueTypeNames.Color3f,
+                      in1=(Sdf.ValueTypeNames.Color3f, x), in2=(Sdf.ValueTypeNames.Color3f, x))
+        return x
+    ok, why = near(_glow_of(renderer, stage, build)["color"][..., :3], (1.6384,) * 3)
+    assert ok, why
+
+
+def test_a_standard_surface_opacity_colour_covers_alike_however_given(renderer, stage, tmp_path):
+    """opacity (0.2, 0.6, 1.0) as a constant and from an image of that texel: the same
+    coverage (the channels' mean) either way."""
+    tex_file = tmp_path / "op.exr"
+    write_exr(tex_file, [[(0.2, 0.6, 1.0)]])
+    alphas = []
+    for textured in (False, True):
+        s = Usd.Stage.CreateInMemory()
+        top_camera(s)
+        m = panel(s, "/Panel", columns=1, st=True)
+        mat, sh = _standard_surface(s, "/Looks/O", base=0.0, specular=0.0, emission=1.0,
+                                    emission_color=(1.0, 1.0, 1.0))
+        if textured:
+            img = UsdShade.Shader.Define(s, "/Looks/O/I")
+            img.CreateIdAttr("ND_image_color3")
+            img.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(str(tex_file))
+            sh.CreateInput("opacity", Sdf.ValueTypeNames.Color3f).ConnectToSource(
+                img.CreateOutput("out", Sdf.ValueTypeNames.Color3f))
+        else:
+            sh.CreateInput("opacity", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.2, 0.6, 1.0))
+        bind(m.GetPrim(), mat)
+        settings(s, res=(RES, RES), samples=64, integrator="path")
+        alphas.append(render(renderer, s)["color"][4:-4, 4:-4, 3].mean())
+    assert alphas[0] == pytest.approx(0.6, abs=0.03) and alphas[1] == pytest.approx(alphas[0], abs=0.03), alphas

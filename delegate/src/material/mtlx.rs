@@ -292,6 +292,17 @@ impl Ctx<'_> {
     /// What output `output` of MaterialX node `up` supplies to the attribute `attr` (None:
     /// unusable, reported). `depth` bounds chains of nodes.
     pub(super) fn mtlx_source(&mut self, attr: &str, up: &str, output: &str, depth: u32) -> Option<Source> {
+        let key = (up.to_string(), output.to_string());
+        if let Some(read) = self.mtlx_read.get(&key) {
+            return Some(read.clone());
+        }
+        let read = self.mtlx_source_read(attr, up, output, depth)?;
+        self.mtlx_read.insert(key, read.clone());
+        Some(read)
+    }
+
+    /// [`Ctx::mtlx_source`] of a node output not read before.
+    fn mtlx_source_read(&mut self, attr: &str, up: &str, output: &str, depth: u32) -> Option<Source> {
         let id = self.node_id(up).unwrap_or("").to_string();
         self.mtlx_nodes += 1;
         if self.mtlx_nodes > MAX_NODES {
@@ -457,6 +468,8 @@ impl Ctx<'_> {
                     "float" | "integer" | "boolean" => Expr::splat(x, 0),
                     // three components to four: alpha 1
                     "color3" | "vector3" if id.ends_with("4") => bin(Binary::Add, bin(Binary::Mul, x, Expr::Const([1.0, 1.0, 1.0, 0.0])), Expr::Const([0.0, 0.0, 0.0, 1.0])),
+                    // two to four: (x, y, 0, 1), as MaterialX's graph makes it
+                    "vector2" if id.ends_with("4") => bin(Binary::Add, bin(Binary::Mul, x, Expr::Const([1.0, 1.0, 0.0, 0.0])), Expr::Const([0.0, 0.0, 0.0, 1.0])),
                     _ => x,
                 }
             }
@@ -474,11 +487,24 @@ impl Ctx<'_> {
             }
             "combine2" | "combine3" | "combine4" => {
                 let n = name.trim_start_matches("combine").parse::<usize>().unwrap_or(2);
+                // the components each input gives, in order: floats, but color4CF / vector4VF
+                // (a colour or vector3, then a float) and vector4VV (two vector2s)
+                let widths: Vec<usize> = if id.ends_with("CF") || id.ends_with("VF") {
+                    vec![3, 1]
+                } else if id.ends_with("VV") {
+                    vec![2, 2]
+                } else {
+                    vec![1; n]
+                };
                 let mut sum = Expr::Const([0.0; 4]);
-                for k in 0..n {
-                    let part = Expr::splat(self.arg(node, &format!("in{}", k + 1), 0.0, depth)?, 0);
-                    let mask = std::array::from_fn(|j| f32::from(u8::from(j == k)));
-                    sum = bin(Binary::Add, sum, bin(Binary::Mul, part, Expr::Const(mask)));
+                let mut at = 0;
+                for (k, &width) in widths.iter().enumerate() {
+                    let input = self.arg(node, &format!("in{}", k + 1), 0.0, depth)?;
+                    for j in 0..width {
+                        let mask = std::array::from_fn(|i| f32::from(u8::from(i == at + j)));
+                        sum = bin(Binary::Add, sum, bin(Binary::Mul, Expr::splat(input.clone(), j as u8), Expr::Const(mask)));
+                    }
+                    at += width;
                 }
                 sum
             }
@@ -559,7 +585,7 @@ impl Ctx<'_> {
     /// Coordinates that no affine map of a set of coordinates gives (a texcoord warped by a
     /// noise, say) come back as the expression that computes them at each hit.
     fn mtlx_image(&mut self, node: &str, depth: u32) -> Result<(TexLookup, Option<Expr>), [f32; 4]> {
-        let modes = [("periodic", Some(WrapKey::Repeat)), ("clamp", Some(WrapKey::Clamp)), ("mirror", Some(WrapKey::Mirror)), ("constant", Some(WrapKey::Black))];
+        let modes = [("periodic", Some(WrapKey::Repeat)), ("clamp", Some(WrapKey::Clamp)), ("mirror", Some(WrapKey::Mirror)), ("constant", Some(WrapKey::Default))];
         let wrap_s = self.wrap_input(node, "uaddressmode", &modes, "periodic");
         let wrap_t = self.wrap_input(node, "vaddressmode", &modes, "periodic");
         let fallback = self.value4(node, "default", [0.0, 0.0, 0.0, 1.0]);
@@ -963,14 +989,14 @@ impl Ctx<'_> {
         }
         let opacity = match m.opacity {
             (input, false) => self.float(n, input, 1.0),
+            // a colour's coverage is the mean of its channels, however it is given
             (input, true) => match self.color(n, input, [1.0; 3]) {
                 ColorInput::Const(c) => FloatInput::Const((c[0] + c[1] + c[2]) / 3.0),
-                ColorInput::Texture(mut t) => {
-                    t.channel = Channel::R;
-                    FloatInput::Texture(t)
-                }
-                ColorInput::Primvar(l) => FloatInput::Primvar(l),
-                ColorInput::Graph(e) => FloatInput::Graph(e),
+                // one channel read into all three (a float image): that channel
+                ColorInput::Texture(t) if t.channel != Channel::Rgb => FloatInput::Texture(t),
+                ColorInput::Texture(t) => FloatInput::Graph(channel_mean(Expr::Texture(t))),
+                ColorInput::Primvar(l) => FloatInput::Graph(channel_mean(Expr::Primvar(l))),
+                ColorInput::Graph(e) => FloatInput::Graph(channel_mean(e)),
             },
         };
         let normal = self.mtlx_normal(n, m.normal);
@@ -1041,3 +1067,10 @@ impl Ctx<'_> {
         (None, Some(c.map(|x| -x.clamp(1e-4, 1.0).ln() / d)))
     }
 }
+
+/// The mean of a colour expression's three channels, in every component.
+pub(super) fn channel_mean(e: Expr) -> Expr {
+    let sum = Expr::binary(Binary::Add, Expr::binary(Binary::Add, Expr::splat(e.clone(), 0), Expr::splat(e.clone(), 1)), Expr::splat(e, 2));
+    Expr::binary(Binary::Mul, sum, Expr::Const([1.0 / 3.0; 4]))
+}
+
