@@ -727,3 +727,28 @@ def test_a_standard_surface_opacity_colour_covers_alike_however_given(renderer, 
         settings(s, res=(RES, RES), samples=64, integrator="path")
         alphas.append(render(renderer, s)["color"][4:-4, 4:-4, 3].mean())
     assert alphas[0] == pytest.approx(0.6, abs=0.03) and alphas[1] == pytest.approx(alphas[0], abs=0.03), alphas
+
+
+@pytest.mark.parametrize("kind, space", [("png", "lin_rec709"), ("png", None), ("exr", "srgb_texture"), ("exr", None)])
+def test_an_image_files_colour_space_metadata_decides_its_decoding(renderer, stage, tmp_path, kind, space):
+    """The colorSpace metadata of an image node's file input: an 8-bit PNG marked lin_rec709
+    is read as stored, a float EXR marked srgb_texture is decoded from sRGB; unmarked, the
+    file's own encoding decides (an 8-bit PNG is sRGB, a float EXR linear)."""
+    from images import write_png
+    stored = np.array([128, 64, 200]) / 255.0
+    path = str(tmp_path / ("t." + kind))
+    if kind == "png":
+        write_png(path, 1, 1, [[(128, 64, 200)]])
+    else:
+        write_exr(path, [[tuple(stored)]])
+    srgb = kind == "png" if space is None else space == "srgb_texture"
+    want = np.where(stored <= 0.04045, stored / 12.92, ((stored + 0.055) / 1.055) ** 2.4) if srgb else stored
+
+    def build(s):
+        out = _node(s, "I", "ND_image_color3", Sdf.ValueTypeNames.Color3f,
+                    file=(Sdf.ValueTypeNames.Asset, path))
+        if space:
+            UsdShade.Shader(s.GetPrimAtPath("/Looks/G/I")).GetInput("file").GetAttr().SetColorSpace(space)
+        return out
+    ok, why = near(_glow_of(renderer, stage, build)["color"][..., :3], want)
+    assert ok, (kind, space, why)

@@ -2516,6 +2516,10 @@ class Reader:
                     continue
                 if isinstance(value, Sdf.AssetPath):
                     value = self._texture(shader, name, value)
+                    # a file's colour space (USD metadata), as UsdImaging hands it on
+                    if src_attr.HasColorSpace():
+                        st.set("%s.inputs:colorSpace:%s" % (spath, inp.GetBaseName()),
+                               ("token", str(src_attr.GetColorSpace())))
                 st.set(spath + "." + name, convert(value, src_attr.GetTypeName()))
         self._desired[path] = st
         return path
