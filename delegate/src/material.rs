@@ -1140,6 +1140,25 @@ mod tests {
 
     /// MaterialX standard_surface: its inputs as UsdPreviewSurface's (weights folded into
     /// constants and texture scales), its nodes as lookups, what it cannot carry reported.
+    /// Standard Surface by its versioned id renders as the unversioned one; a texcoord node's
+    /// second uv set is named (the first is read).
+    #[test]
+    fn versioned_standard_surface_and_a_texcoord_index_are_handled() {
+        let s = mat(&[
+            ("surface", Value::Path("/M/SR".into())),
+            ("/M/SR.info:id", tok("ND_standard_surface_surfaceshader_100")),
+            ("/M/SR.inputs:base_color.connect", tok("/M/Uv3.outputs:out")),
+            ("/M/Uv3.info:id", tok("ND_convert_vector2_color3")),
+            ("/M/Uv3.inputs:in.connect", tok("/M/Uv.outputs:out")),
+            ("/M/Uv.info:id", tok("ND_texcoord_vector2")),
+            ("/M/Uv.inputs:index", Value::Int(1)),
+        ]);
+        let mut p = Problems::new("/M");
+        let m = convert_material("/M", &s, &loaded(false), &mut p);
+        assert!(matches!(m.desc.surface, SurfaceDesc::Preview(_)), "{:?}", m.desc.surface);
+        assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["/M/Uv.inputs:index"], "{:?}", p.list);
+    }
+
     #[test]
     fn materialx_standard_surface_maps_to_a_preview_surface() {
         let f = |x: f64| Value::Float(x);

@@ -59,6 +59,8 @@ const MAX_NODES: u32 = 4096;
 pub(super) fn canonical_id(id: &str) -> &str {
     match id {
         "ND_UsdPreviewSurface_surfaceshader" => "UsdPreviewSurface",
+        // Standard Surface 1.0.0 by its versioned name (the same node)
+        "ND_standard_surface_surfaceshader_100" => "ND_standard_surface_surfaceshader",
         _ => id.strip_prefix("ND_").filter(|r| r.starts_with("Usd")).unwrap_or(id),
     }
 }
@@ -323,7 +325,12 @@ impl Ctx<'_> {
                 Err(fb) => Source::Fallback(fb),
             }),
             Some("geompropvalue") => Some(Source::Primvar(self.geomprop(up))),
-            Some("texcoord") => Some(Source::Graph(Expr::TexCoord)),
+            Some("texcoord") => {
+                if self.input_f32(up, "index", 0.0) != 0.0 {
+                    self.p.add(&format!("{up}.inputs:index"), "texture coordinate sets other than the first are not read; the first is");
+                }
+                Some(Source::Graph(Expr::TexCoord))
+            }
             // `object` (the fallback) and `model` are the geometry's own space
             Some("position") => Some(Source::Graph(Expr::Position { world: self.world_space(up) })),
             Some("constant") => Some(Source::Fallback(self.value4(up, "value", [0.0; 4]))),
