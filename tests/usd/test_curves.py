@@ -193,36 +193,6 @@ def test_hermite_curves_become_the_same_bezier_curves(stage, delegate):
     assert np.allclose(w, [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
 
 
-def test_a_nurbs_patch_renders_its_exact_surface(stage, delegate):
-    # a rational quadratic quarter cylinder of radius 2 (u: the arc, v: straight, 0..4):
-    # every grid point lies on the cylinder, and the normals point away from its axis
-    camera(stage)
-    s = 0.5 ** 0.5
-    p = UsdGeom.NurbsPatch.Define(stage, "/P")
-    arc = [(2, 0), (2, 2), (0, 2)]
-    p.CreatePointsAttr([Gf.Vec3f(x, y, z) for z in (0, 4) for x, y in arc])
-    p.CreateUVertexCountAttr(3)
-    p.CreateVVertexCountAttr(2)
-    p.CreateUOrderAttr(3)
-    p.CreateVOrderAttr(2)
-    p.CreateUKnotsAttr([0, 0, 0, 1, 1, 1])
-    p.CreateVKnotsAttr([0, 0, 1, 1])
-    p.CreatePointWeightsAttr([1, s, 1, 1, s, 1])
-    _, problems = load(stage, delegate)
-    assert problems == []
-    assert delegate.prims["/P"] == "mesh"
-    pts = floats(delegate.value("/P", "points"))
-    assert len(pts) == 9 * 2
-    assert np.allclose(np.hypot(pts[:, 0], pts[:, 1]), 2.0, atol=1e-5)
-    assert sorted(set(np.round(pts[:, 2], 6))) == [0.0, 4.0]
-    interp, data, _, _ = delegate.primvars["/P"]["normals"]
-    n = np.asarray(data, np.float32).reshape(-1, 3)
-    radial = pts[:, :2] / 2.0
-    # du x dv: the arc runs counter-clockwise about +z, v along +z: the normals point out
-    assert np.allclose(n[:, :2], radial, atol=0.03) and np.allclose(n[:, 2], 0, atol=1e-5)
-    assert floats(delegate.value("/P", "faceVertexCounts")).tolist() == [4] * 8
-
-
 def _quarter_cylinder(stage, path="/P"):
     s = 0.5 ** 0.5
     p = UsdGeom.NurbsPatch.Define(stage, path)
@@ -236,6 +206,26 @@ def _quarter_cylinder(stage, path="/P"):
     p.CreateVKnotsAttr([0, 0, 1, 1])
     p.CreatePointWeightsAttr([1, s, 1, 1, s, 1])
     return p
+
+
+def test_a_nurbs_patch_renders_its_exact_surface(stage, delegate):
+    # a rational quadratic quarter cylinder of radius 2 (u: the arc, v: straight, 0..4):
+    # every grid point lies on the cylinder, and the normals point away from its axis
+    camera(stage)
+    _quarter_cylinder(stage)
+    _, problems = load(stage, delegate)
+    assert problems == []
+    assert delegate.prims["/P"] == "mesh"
+    pts = floats(delegate.value("/P", "points"))
+    assert len(pts) == 9 * 2
+    assert np.allclose(np.hypot(pts[:, 0], pts[:, 1]), 2.0, atol=1e-5)
+    assert sorted(set(np.round(pts[:, 2], 6))) == [0.0, 4.0]
+    interp, data, _, _ = delegate.primvars["/P"]["normals"]
+    n = np.asarray(data, np.float32).reshape(-1, 3)
+    radial = pts[:, :2] / 2.0
+    # du x dv: the arc runs counter-clockwise about +z, v along +z: the normals point out
+    assert np.allclose(n[:, :2], radial, atol=0.03) and np.allclose(n[:, 2], 0, atol=1e-5)
+    assert floats(delegate.value("/P", "faceVertexCounts")).tolist() == [4] * 8
 
 
 def test_a_nurbs_patch_carries_its_primvars(stage, delegate):

@@ -967,6 +967,18 @@ class Reader:
         """The shutter offset (frames) at which the sample at scene time `t` is handed on."""
         return (t - self.frame) / self._blur
 
+    def _shutter_offsets(self, times):
+        """The shutter's ends and the offsets of scene `times` (samples within `_window()`),
+        sorted: where a moving prim is sampled."""
+        lo, hi = self._shutter
+        return sorted({lo, hi} | {self._offset(t) for t in times})
+
+    def _time_fn(self):
+        """`_time` with the blurScale of the prim being read kept, for functions called after
+        (a nested instancer calls its outer one's under its own scale)."""
+        frame, blur = self.frame, self._blur
+        return lambda o: Usd.TimeCode(frame + blur * o)
+
     @contextlib.contextmanager
     def _blurred(self, prim):
         """Reads `prim` (and what it places) with its inherited motion:blurScale."""
@@ -988,17 +1000,15 @@ class Reader:
         """Offsets (frames) at which to sample transforms: shutter ends + authored samples."""
         if not self._moving:
             return [0.0]
-        lo, hi = self._shutter
         interval = self._window()
-        times = {lo, hi}
+        times = set()
         for p in prims:
             x = UsdGeom.Xformable(p)
             while x:
-                for t in x.GetTimeSamplesInInterval(interval):
-                    times.add(self._offset(t))
+                times.update(x.GetTimeSamplesInInterval(interval))
                 parent = x.GetPrim().GetParent()
                 x = UsdGeom.Xformable(parent) if parent else None
-        return sorted(times)
+        return self._shutter_offsets(times)
 
     def _xform_samples(self, fn, prims):
         """[(offset|None, matrix value)] of fn(time): one sample unless it moves. Between two
@@ -1403,9 +1413,7 @@ class Reader:
             del st.primvars[name]
         offsets = [0.0]
         if self._moving:
-            lo, hi = self._shutter
-            times = target.time_samples(self._window())
-            offsets = sorted({lo, hi} | {self._offset(t) for t in times})
+            offsets = self._shutter_offsets(target.time_samples(self._window()))
         posed = target.compute([self._time(o) for o in offsets])
         if posed is None:
             return
@@ -1574,12 +1582,10 @@ class Reader:
         samples = [(None, _floats(arr, 3))]
         if self._moving:
             attr = prim.GetAttribute(name)
-            lo, hi = self._shutter
-            times = attr.GetTimeSamplesInInterval(self._window())
             # samples outside the shutter still move the points across it (USD interpolates
             # between the samples around each time): sampled at its ends and at those within
             if attr.GetNumTimeSamples() > 1:
-                offs = sorted({lo, hi} | {self._offset(t) for t in times})
+                offs = self._shutter_offsets(attr.GetTimeSamplesInInterval(self._window()))
                 got = [np.asarray(attr.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
                        for o in offs]
                 other = [(o, g) for o, g in zip(offs, got) if g.shape != arr.shape]
@@ -2109,19 +2115,20 @@ class Reader:
 
     def _emit_instance_groups(self):
         per_proto = {}
-        for (proto, material, _), grp in sorted(self._groups.items()):
+        for (proto, material, names), grp in sorted(self._groups.items()):
             n = per_proto.get(proto, 0)
             per_proto[proto] = n + 1
             dpath = proto if n == 0 else "%s_m%d" % (proto, n)
             prim, root = grp["prim"], grp["root"]
             with self._blurred(prim):
-                st = self._instance_group(prim, root, dpath, material, grp["roots"])
+                st = self._instance_group(prim, root, dpath, material, names, grp["roots"])
             if st is not None:
                 self._desired[dpath] = st
 
-    def _instance_group(self, prim, root, dpath, material, roots):
-        """The state of a prototype's gprim drawn at every instance root of `roots`."""
-        def rel(t, prim=prim, root=root):
+    def _instance_group(self, prim, root, dpath, material, names, roots):
+        """The state of a prototype's gprim drawn at every instance root of `roots`, which
+        inherit the constant primvars `names` from outside the prototype."""
+        def rel(t):
             cache = UsdGeom.XformCache(t)
             return cache.GetLocalToWorldTransform(prim) * \
                 cache.GetLocalToWorldTransform(root).GetInverse()
@@ -2134,7 +2141,7 @@ class Reader:
         inner = prim.GetPath().MakeRelativePath(root.GetPath())
         st.set("instancePaths", ("paths", tuple(str(r.GetPath().AppendPath(inner))
                                                 for r in roots)))
-        self._inherited_by_instances(prim, st, roots)
+        self._inherited_by_instances(st, names, roots)
         # each instance root's world matrix over the shutter (motion of the instances
         # themselves; the prototype's own motion is in `transform`)
         offsets = sorted({o for r in roots for o in self._motion_offsets([r])})
@@ -2297,12 +2304,12 @@ class Reader:
             out[name] = (rows, rows.shape[1])
         return out
 
-    def _inherited_by_instances(self, prim, st, roots):
-        """Constant primvars that native instances inherit from their instance prims (or
-        above) and that differ between the instances: one value per instance."""
+    def _inherited_by_instances(self, st, names, roots):
+        """The constant primvars `names` that native instances inherit from their instance
+        prims (or above), where they differ between the instances: one value per instance."""
         if len(roots) < 2:
             return
-        for name in _outside_primvar_names(prim, roots[0].GetPath()):
+        for name in names:
             vals = []
             for r in roots:
                 q = UsdGeom.PrimvarsAPI(r).FindPrimvarWithInheritance(name)
@@ -2328,8 +2335,7 @@ class Reader:
         t = self._time(0)
         tcps = self.stage.GetTimeCodesPerSecond() or 24.0
         # the functions below may be called for a nested instancer, under another's scale
-        blur = self._blur
-        time = lambda o: Usd.TimeCode(self.frame + blur * o)
+        blur, time = self._blur, self._time_fn()
         world_at = lambda o: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time(o))
         rates = {}
         pos_attr = inst.GetPositionsAttr()
@@ -2423,13 +2429,13 @@ class Reader:
         if moving:
             offsets = sorted(set().union(*moving))
 
-        blur = self._blur
+        time = self._time_fn()
 
         def nested(o):
             inner = place(o)
             if inner is None:
                 return None
-            cache = UsdGeom.XformCache(Usd.TimeCode(self.frame + blur * o))
+            cache = UsdGeom.XformCache(time(o))
             q = np.asarray(cache.GetLocalToWorldTransform(o_parent), dtype=np.float64)
             rel = inner @ np.linalg.inv(q)
             return np.einsum("jab,ibc->ijac", rel, o_place(o)).reshape(-1, 4, 4)
