@@ -558,15 +558,21 @@ pub struct CameraPiece {
     pub meters_per_unit: Option<f64>,
 }
 
-/// A stage's `metersPerUnit` where given: positive and finite, else named and ignored.
-fn meters_per_unit(store: &AttrStore, p: &mut Problems) -> Option<f64> {
-    store.has("metersPerUnit").then(|| store.f32_or("metersPerUnit", 1.0, p) as f64).filter(|m| {
-        let ok = *m > 0.0 && m.is_finite();
+/// A stage-wide rate or scale (`timeCodesPerSecond`, `metersPerUnit`) where given: positive
+/// and finite, else named (`then`: what is used instead) and ignored.
+fn stage_positive(store: &AttrStore, name: &str, then: &str, p: &mut Problems) -> Option<f64> {
+    store.has(name).then(|| store.f32_or(name, 1.0, p) as f64).filter(|v| {
+        let ok = *v > 0.0 && v.is_finite();
         if !ok {
-            p.add("metersPerUnit", format!("{m} must be positive; one unit is one metre"));
+            p.add(name, format!("{v} must be positive; {then}"));
         }
         ok
     })
+}
+
+/// A stage's `metersPerUnit` where given.
+fn meters_per_unit(store: &AttrStore, p: &mut Problems) -> Option<f64> {
+    stage_positive(store, "metersPerUnit", "one unit is one metre", p)
 }
 
 /// Converts a camera. Zero or negative apertures / focal length become problems and defaults.
@@ -633,13 +639,7 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         medium: None,
         filter,
     };
-    let time_codes_per_second = store.has("timeCodesPerSecond").then(|| store.f32_or("timeCodesPerSecond", 24.0, p) as f64).filter(|t| {
-        let ok = *t > 0.0;
-        if !ok {
-            p.add("timeCodesPerSecond", "must be positive; ignored");
-        }
-        ok
-    });
+    let time_codes_per_second = stage_positive(store, "timeCodesPerSecond", "ignored", p);
     CameraPiece {
         desc,
         transforms: store.matrix_samples("transform", p),
