@@ -604,6 +604,8 @@ pub(super) struct PreRay {
     inv: [F4; 3],
     /// Row offsets of the near and far planes per axis (0 or 1, by the direction's sign).
     near: [usize; 3],
+    /// Origin and direction are finite (a ray that is not meets nothing).
+    finite: bool,
 }
 
 impl PreRay {
@@ -617,6 +619,7 @@ impl PreRay {
             d: [F4::splat(d.x), F4::splat(d.y), F4::splat(d.z)],
             inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
             near: [(d.x < 0.0) as usize, (d.y < 0.0) as usize, (d.z < 0.0) as usize],
+            finite: o.is_finite() && d.is_finite(),
         }
     }
 }
@@ -730,7 +733,9 @@ impl WideTree {
     /// will be visited later.
     #[inline(always)]
     pub fn traverse(&self, ray: &PreRay, t_max: f32, mut leaf: impl FnMut(u32, f32) -> f32, prefetch: impl Fn(u32)) {
-        if self.root == EMPTY {
+        // a NaN in the slab tests leaves a box open, an empty child slot's included: a ray
+        // with a non-finite origin or direction would visit leaves that are not there
+        if self.root == EMPTY || !ray.finite {
             return;
         }
         #[cfg(target_arch = "x86_64")]
@@ -955,6 +960,24 @@ mod tests {
         let near = a.min(b).max_element().max(0.0);
         let far = a.max(b).min_element().min(t_max);
         (near <= far).then_some(near)
+    }
+
+    #[test]
+    fn a_ray_that_is_not_finite_meets_nothing() {
+        // 20 unit boxes along x: a root with empty child slots (five leaves of four)
+        let bvh = PointBvh::build((0..20).map(|i| (Vec3A::new(3.0 * i as f32, 0.0, 0.0), Vec3A::new(3.0 * i as f32 + 1.0, 1.0, 1.0))));
+        let visits = |o: Vec3A, d: Vec3A| {
+            let mut seen = Vec::new();
+            bvh.traverse(o, d, f32::INFINITY, |i, _| {
+                seen.push(i);
+                None
+            });
+            seen
+        };
+        assert!(visits(Vec3A::new(0.5, 0.5, -5.0), Vec3A::Z).contains(&0));
+        for (o, d) in [(Vec3A::new(f32::NAN, 0.5, -5.0), Vec3A::Z), (Vec3A::new(0.5, 0.5, -5.0), Vec3A::new(0.0, f32::NAN, 1.0)), (Vec3A::new(f32::INFINITY, 0.5, 0.5), Vec3A::Z)] {
+            assert_eq!(visits(o, d), [], "{o} {d}");
+        }
     }
 
     #[test]
