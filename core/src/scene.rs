@@ -962,6 +962,11 @@ pub struct SceneDesc {
     pub volumes: Vec<VolumeDesc>,
     /// `TideCausticsAPI` tags (contract §4), by light and instance name.
     pub caustics: CausticsTags,
+    /// Where this scene's (0, 0, 0) lies in the world: a front end may place everything about
+    /// a point near the camera, so that positions stay small in single precision far from the
+    /// world's origin. Only what shading reads as a world position (a node graph's world-space
+    /// position) adds it back.
+    pub origin: glam::DVec3,
 }
 
 /// `tide:caustics:transparency`: which paths pass straight through a surface.

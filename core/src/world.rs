@@ -299,6 +299,8 @@ pub struct World {
     /// Some light's multipliers are not 1 (paths then track what they need for them).
     pub any_light_response: bool,
     pub camera: Camera,
+    /// [`SceneDesc::origin`], where the world's positions are measured from.
+    pub origin: Vec3,
     /// The rendering colour space the AOVs are written in (authored colours are in
     /// [`crate::scene::AUTHORED_COLOR_SPACE`]).
     pub cs: ColorSpace,
@@ -502,7 +504,7 @@ impl Lookups for AtHit<'_> {
 
     fn position(&self, world: bool) -> Vec3 {
         if world {
-            return self.s.p;
+            return self.s.p + self.w.origin;
         }
         let Some(info) = self.w.instances.get(self.s.instance as usize) else { return self.s.p };
         match info.geometry {
@@ -577,6 +579,7 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
     let own = m.uvs.as_deref();
     let to_world = inst.transforms.first().copied().unwrap_or(glam::Mat4::IDENTITY);
     let normal_to_world = glam::Mat3::from_mat4(to_world).inverse().transpose();
+    let origin = scene.origin.as_vec3();
     Box::new(move |t: &[u32]| {
         let corners = sources.iter().map(|s| s.as_ref().map(|f| [0, 1, 2].map(|k| f(t[k])))).collect();
         let uv = match own {
@@ -584,7 +587,7 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
             None => [Vec2::ZERO, Vec2::X, Vec2::Y],
         };
         let object = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
-        let world = object.map(|p| to_world.transform_point3(p));
+        let world = object.map(|p| to_world.transform_point3(p) + origin);
         let normals = m.normals.as_deref().map(|n| {
             let own = [0, 1, 2].map(|k| n.get(t[k] as usize).copied().unwrap_or(Vec3::ZERO));
             [own, own.map(|v| (normal_to_world * v).normalize_or_zero())]
@@ -868,6 +871,7 @@ impl World {
             light_response,
             shadow_controls,
             camera,
+            origin: scene.origin.as_vec3(),
             cs: scene.color_space,
             max_depth: settings.max_depth,
             diffusion: Default::default(),

@@ -18,9 +18,9 @@ use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
 use crate::mesh;
 use crate::ocean::{self, OceanKey, OceanMeshes, OceanSpec};
 use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
-use crate::value::{normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
+use crate::value::{about, normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use crate::volume::{self, GridKey, GridState, VolumeSpec};
-use glam::{Mat4, Vec3};
+use glam::{DMat4, DVec3, Mat4, Vec3};
 use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
@@ -173,12 +173,13 @@ struct RprimPiece {
     geometry: Arc<Geometry>,
     /// The problems found converting the geometry (kept with it when it is reused).
     geometry_problems: Vec<Problem>,
-    /// (frame offset, object-to-world).
-    transforms: Vec<(f64, Mat4)>,
-    instance_transforms: Vec<Mat4>,
+    /// (frame offset, object-to-world), in double precision as every world matrix here: the
+    /// assembly places them about the scene's origin.
+    transforms: Vec<(f64, DMat4)>,
+    instance_transforms: Vec<DMat4>,
     /// Time samples of `instanceTransforms` (frame offset, one matrix per instance), when
     /// they move; empty otherwise.
-    instance_samples: Vec<(f64, Vec<Mat4>)>,
+    instance_samples: Vec<(f64, Vec<DMat4>)>,
     material: Option<String>,
     /// `displayColor`, the colour of an unbound gprim: constant, or its average where it
     /// varies (the geometry then carries it, when it can, for the fallback material to read).
@@ -239,8 +240,8 @@ pub struct Delegate {
     /// camera: a render job's [`crate::render_pass::Job::world`].
     world_generation: u64,
     /// The camera-side inputs of the last assembly that place the rest of the scene: shutter
-    /// open and close (frames), time codes per second, motion blur on.
-    view_inputs: Option<(u64, u64, u64, bool)>,
+    /// open and close (frames), time codes per second, motion blur on, the scene's origin.
+    view_inputs: Option<(u64, u64, u64, bool, [u64; 3])>,
     settings: SettingsPiece,
     active_camera: Option<String>,
     active_settings: Option<String>,
@@ -283,32 +284,71 @@ fn srgb_to_linear(c: f32) -> f32 {
 }
 
 /// Matrix at frame `t` from sorted samples (element-wise linear between neighbours).
-fn matrix_at(samples: &[(f64, Mat4)], t: f64) -> Mat4 {
-    let Some(i) = samples.iter().position(|s| s.0 >= t) else { return samples.last().map_or(Mat4::IDENTITY, |s| s.1) };
+fn matrix_at(samples: &[(f64, DMat4)], t: f64) -> DMat4 {
+    let Some(i) = samples.iter().position(|s| s.0 >= t) else { return samples.last().map_or(DMat4::IDENTITY, |s| s.1) };
     if i == 0 || samples[i].0 == t {
         return samples[i].1;
     }
     let (a, b) = (samples[i - 1], samples[i]);
-    let w = ((t - a.0) / (b.0 - a.0)) as f32;
+    let w = (t - a.0) / (b.0 - a.0);
     a.1 * (1.0 - w) + b.1 * w
+}
+
+/// Matrix at frame `t` from sorted samples interpolated as the core interpolates motion
+/// (`tide_core::accel::motion`: scale and translation linearly, rotation by slerp; element-wise
+/// where a sample does not decompose), in double precision.
+fn motion_at(samples: &[(f64, DMat4)], t: f64) -> DMat4 {
+    let Some(i) = samples.iter().position(|s| s.0 >= t) else { return samples.last().map_or(DMat4::IDENTITY, |s| s.1) };
+    if i == 0 || samples[i].0 == t {
+        return samples[i].1;
+    }
+    let decompose = |m: &DMat4| {
+        let (s, r, tr) = m.to_scale_rotation_translation();
+        let tol = 1e-4 * (1.0 + m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs())));
+        DMat4::from_scale_rotation_translation(s, r, tr).abs_diff_eq(*m, tol).then_some((s, r, tr))
+    };
+    let shears = samples.iter().any(|s| decompose(&s.1).is_none());
+    let (a, b) = (samples[i - 1], samples[i]);
+    let w = (t - a.0) / (b.0 - a.0);
+    match (shears, decompose(&a.1), decompose(&b.1)) {
+        (false, Some((sa, ra, ta)), Some((sb, rb, tb))) => DMat4::from_scale_rotation_translation(sa.lerp(sb, w), ra.slerp(rb, w), ta.lerp(tb, w)),
+        _ => a.1 * (1.0 - w) + b.1 * w,
+    }
 }
 
 /// World samples of instance `k` of a prim whose `instanceTransforms` move: at every sample
 /// time of either the prim's transform or the instance matrices, the instance matrix applied
 /// after the transform, each interpolated between its own samples as the core interpolates
 /// motion (rotation on the sphere).
-fn moving_instance(transforms: &[(f64, Mat4)], instance_samples: &[(f64, Vec<Mat4>)], k: usize) -> Vec<(f64, Mat4)> {
-    use tide_core::accel::motion::MotionTransform;
-    let secs = |t: f64| t as f32;
-    let prim = MotionTransform::new(&transforms.iter().map(|s| s.1).collect::<Vec<_>>(), &transforms.iter().map(|s| secs(s.0)).collect::<Vec<_>>());
-    let inst = MotionTransform::new(&instance_samples.iter().map(|s| s.1[k]).collect::<Vec<_>>(), &instance_samples.iter().map(|s| secs(s.0)).collect::<Vec<_>>());
+fn moving_instance(transforms: &[(f64, DMat4)], instance_samples: &[(f64, Vec<DMat4>)], k: usize) -> Vec<(f64, DMat4)> {
+    let inst: Vec<(f64, DMat4)> = instance_samples.iter().map(|s| (s.0, s.1[k])).collect();
     let mut times: Vec<f64> = instance_samples.iter().map(|s| s.0).collect();
     if transforms.len() > 1 {
         times.extend(transforms.iter().map(|s| s.0));
     }
     times.sort_by(|a, b| a.total_cmp(b));
     times.dedup();
-    times.into_iter().map(|t| (t, inst.at(secs(t)) * prim.at(secs(t)))).collect()
+    times.into_iter().map(|t| (t, motion_at(&inst, t) * motion_at(transforms, t))).collect()
+}
+
+/// Side of the cells the scene's origin snaps to, in metres (see [`scene_origin`]).
+pub const ORIGIN_CELL_METRES: f64 = 256.0;
+
+/// Where the scene is placed about: the camera's position at the frame to the nearest corner
+/// of a grid of cells [`ORIGIN_CELL_METRES`] wide (a power of two in scene units, from
+/// `meters_per_unit`), or the world's origin without a camera. Far from the world's origin
+/// single precision cannot hold positions finely (10⁵ units from it, its steps are 8·10⁻³
+/// units); about this point what lies near the camera stays within a cell's width of it (steps
+/// under 2·10⁻⁵ m), and error grows with the distance from the camera, as what a pixel covers
+/// does. Snapped, the origin stays put while the camera moves within a cell, so a camera move
+/// rarely rebuilds the world; a scene whose camera is within half a cell of the world's origin
+/// is placed as authored.
+pub fn scene_origin(camera: Option<DVec3>, meters_per_unit: f64) -> DVec3 {
+    let cell = (ORIGIN_CELL_METRES / meters_per_unit).log2().round().exp2();
+    match camera.filter(|c| c.is_finite()) {
+        Some(c) if cell.is_finite() && cell > 0.0 => (c / cell).round() * cell,
+        _ => DVec3::ZERO,
+    }
 }
 
 impl Delegate {
@@ -595,17 +635,17 @@ impl Delegate {
         let (mut n_instances, mut kept) = (1, vec![0]);
         if let Some(v) = s.get("instanceTransforms") {
             kept.clear();
-            match v.to_f32s() {
+            match v.to_f64s() {
                 Some(d) if d.len() % 16 == 0 => {
-                    // an instance whose matrix is not finite at any time is dropped
+                    // an instance whose matrix is not finite (in single precision too) at any
+                    // time is dropped
                     let samples = &s.attr("instanceTransforms").map_or(&[][..], |a| &a.samples[..]);
-                    let finite_at = |i: usize| {
-                        samples.iter().all(|(_, v)| v.to_f32s().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(|c| c.iter().all(|x| x.is_finite()))))
-                    };
+                    let finite = |c: &[f64]| c.iter().all(|&x| (x as f32).is_finite());
+                    let finite_at = |i: usize| samples.iter().all(|(_, v)| v.to_f64s().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(finite)));
                     n_instances = d.len() / 16;
                     for (i, c) in d.chunks_exact(16).enumerate() {
-                        let m = Mat4::from_cols_slice(c);
-                        if m.is_finite() && finite_at(i) {
+                        let m = DMat4::from_cols_slice(c);
+                        if finite(c) && finite_at(i) {
                             instance_transforms.push(m);
                             kept.push(i);
                         } else {
@@ -614,10 +654,10 @@ impl Delegate {
                     }
                     if samples.len() >= 2 {
                         let n = d.len() / 16;
-                        let parsed: Option<Vec<(f64, Vec<Mat4>)>> = samples
+                        let parsed: Option<Vec<(f64, Vec<DMat4>)>> = samples
                             .iter()
-                            .map(|(t, v)| match v.to_f32s() {
-                                Some(d) if d.len() == 16 * n => Some((*t, kept.iter().map(|&i| Mat4::from_cols_slice(&d[16 * i..16 * i + 16])).collect())),
+                            .map(|(t, v)| match v.to_f64s() {
+                                Some(d) if d.len() == 16 * n => Some((*t, kept.iter().map(|&i| DMat4::from_cols_slice(&d[16 * i..16 * i + 16])).collect())),
                                 _ => None,
                             })
                             .collect();
@@ -651,7 +691,7 @@ impl Delegate {
             geometry,
             geometry_problems,
             transforms: s.matrix_samples("transform", p),
-            instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![Mat4::IDENTITY] },
+            instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![DMat4::IDENTITY] },
             instance_samples,
             material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
             display_color,
@@ -800,21 +840,27 @@ impl Delegate {
         let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
         // metres per scene unit: the settings' (the reader's), else the camera's (a Hydra plugin's)
         let mpu = sp.meters_per_unit.or(cam.as_ref().and_then(|c| c.meters_per_unit)).unwrap_or(1.0) as f32;
-        let view = (open.to_bits(), close.to_bits(), tcps.to_bits(), motion);
+        // The scene is placed about a point near the camera (see [`scene_origin`]): every world
+        // matrix is taken relative to it in double precision before it becomes single precision.
+        let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(DVec3::ZERO));
+        let origin = scene_origin(cam_world, mpu as f64);
+        let view = (open.to_bits(), close.to_bits(), tcps.to_bits(), motion, origin.to_array().map(f64::to_bits));
         let mut world_changed = !camera_only || self.view_inputs != Some(view);
         self.view_inputs = Some(view);
-        // Transform samples: inside the shutter plus one on either side, or the value now.
-        let place = |samples: &[(f64, Mat4)]| -> (Vec<Mat4>, Vec<f32>) {
+        // Transform samples: inside the shutter plus one on either side, or the value now;
+        // each after `pre` (an instance's matrix) and placed about the origin.
+        let place = |samples: &[(f64, DMat4)], pre: &DMat4| -> (Vec<Mat4>, Vec<f32>) {
             if !motion || samples.len() < 2 {
-                return (vec![matrix_at(samples, 0.0)], vec![0.0]);
+                return (vec![about(origin, &(*pre * matrix_at(samples, 0.0)))], vec![0.0]);
             }
             let lo = samples.iter().rposition(|s| s.0 <= open).unwrap_or(0);
             let hi = samples.iter().position(|s| s.0 >= close).unwrap_or(samples.len() - 1);
             let kept = &samples[lo..=hi.max(lo)];
-            (kept.iter().map(|s| s.1).collect(), kept.iter().map(|s| (s.0 / tcps) as f32).collect())
+            (kept.iter().map(|s| about(origin, &(*pre * s.1))).collect(), kept.iter().map(|s| (s.0 / tcps) as f32).collect())
         };
 
-        let mut scene = SceneDesc { color_space: sp.color_space, ..Default::default() };
+        let mut scene = SceneDesc { color_space: sp.color_space, origin, ..Default::default() };
+
         // the prim path of each instance, and the path it stands for in light-link collections
         let mut instance_paths: Vec<&str> = Vec::new();
         let mut link_paths: Vec<&str> = Vec::new();
@@ -875,7 +921,6 @@ impl Delegate {
 
         let included = &sp.included_purposes;
         let mut color_mats: HashMap<([u32; 3], bool, u32, bool), usize> = HashMap::new();
-        let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(Vec3::ZERO));
         let mut oceans_seen = BTreeSet::new();
         for (path, c) in &self.cache {
             let Piece::Rprim(r) = &c.piece else { continue };
@@ -889,9 +934,9 @@ impl Delegate {
                 let medium = r.material.as_deref().and_then(|m| medium_of.get(m).copied());
                 let grid = self.grids.get(&(spec.asset.clone(), spec.field.clone(), spec.index));
                 let mut p = Problems::new(path);
-                let (mats, times) = place(&r.transforms);
                 for inst in &r.instance_transforms {
-                    let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
+                    let (mats, times) = place(&r.transforms, inst);
+                    let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                     if let Some(v) = volume::volume_desc(path, spec, grid, medium, &keys, r.id, &mut p) {
                         scene.volumes.push(v);
                     }
@@ -936,9 +981,9 @@ impl Delegate {
                                 method: tide_core::scene::MediumMethod::Volumetric,
                             });
                             let medium = scene.media.len() - 1;
-                            let (mats, times) = place(&r.transforms);
                             for inst in &r.instance_transforms {
-                                let keys: Vec<(f32, Mat4)> = times.iter().zip(&mats).map(|(&t, m)| (t, *inst * *m)).collect();
+                                let (mats, times) = place(&r.transforms, inst);
+                                let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                                 scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
                             }
                         }
@@ -953,9 +998,9 @@ impl Delegate {
                 }
                 Geometry::Ocean(spec) => {
                     // level of detail about the camera in the ocean's space (its first instance)
-                    let xf0 = r.instance_transforms.first().copied().unwrap_or(Mat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
+                    let xf0 = r.instance_transforms.first().copied().unwrap_or(DMat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
                     let inv = xf0.inverse();
-                    let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c));
+                    let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c).as_vec3());
                     let pixel = cam.as_ref().map(|c| ocean::CameraPixel::of(&c.desc, sp.settings.width));
                     let key = ocean::ocean_key(spec, cam_local, pixel, mpu);
                     let meshes = match self.oceans.get(path.as_str()) {
@@ -973,7 +1018,7 @@ impl Delegate {
                         }
                     };
                     oceans_seen.insert(path.clone());
-                    let wind = ocean::world_wind_direction(&spec.params, xf0);
+                    let wind = ocean::world_wind_direction(&spec.params, xf0.as_mat4());
                     scene.meshes.push(meshes.surface.clone());
                     parts.push((GeometryRef::Mesh(scene.meshes.len() - 1), Some((wind, ocean::sea_variance_scale(&spec.params)))));
                     if let Some(skirt) = &meshes.skirt {
@@ -1006,7 +1051,6 @@ impl Delegate {
                     scene.materials.len() - 1
                 })
             });
-            let (xf, times) = place(&r.transforms);
             let many = r.instance_transforms.len() > 1;
             let table = (!r.instance_primvars.is_empty()).then(|| {
                 scene.instance_primvars.push(InstancePrimvars { name: path.clone(), rows: r.instance_transforms.len() as u32, primvars: r.instance_primvars.clone() });
@@ -1056,7 +1100,7 @@ impl Delegate {
                 let mut emitting: Vec<(u32, usize)> = Vec::new();
                 let mut material_of = |k: usize, scene: &mut SceneDesc, ap: &mut Vec<Problem>| match (&r.mesh_light, geometry) {
                     (Some(ml), GeometryRef::Mesh(mi)) => {
-                        let world = r.instance_transforms.get(k).copied().unwrap_or(Mat4::IDENTITY) * xf.first().copied().unwrap_or(Mat4::IDENTITY);
+                        let world = place(&r.transforms, &r.instance_transforms.get(k).copied().unwrap_or(DMat4::IDENTITY)).0[0];
                         let key = if ml.normalize { lux::world_area(&scene.meshes[mi], world).to_bits() } else { 0 };
                         if let Some(&(_, m)) = emitting.iter().find(|e| e.0 == key) {
                             return m;
@@ -1078,9 +1122,9 @@ impl Delegate {
                     instance_paths.push(path);
                     link_paths.push(r.instance_link_paths.get(k).unwrap_or(path));
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {
-                        place(&moving_instance(&r.transforms, &r.instance_samples, k))
+                        place(&moving_instance(&r.transforms, &r.instance_samples, k), &DMat4::IDENTITY)
                     } else {
-                        (xf.iter().map(|m| *inst * *m).collect(), times.clone())
+                        place(&r.transforms, inst)
                     };
                     scene.instances.push(InstanceDesc {
                         name: format!("{name}{suffix}"),
@@ -1207,20 +1251,21 @@ impl Delegate {
             emitter_links.push(tide_core::scene::EmitterLinks { instance: inst.name.clone(), light_link: members(&scene.instances, &ml.light_link), shadow_link: members(&scene.instances, &ml.shadow_link) });
         }
         scene.emitter_links = emitter_links;
-        let unnamed = self.unnamed_portals();
+        let unnamed = self.unnamed_portals(origin);
         for (path, c) in &self.cache {
             let Piece::Light(Some(l)) = &c.piece else { continue };
             let mut desc = l.desc.clone();
+            desc.transform = about(origin, &l.world);
             if matches!(desc.shape, LightShape::Dome { .. } | LightShape::Sky { .. }) {
                 desc.portals = match &l.portals {
                     None => unnamed.clone(),
-                    Some(names) => self.named_portals(path, names, &mut ap),
+                    Some(names) => self.named_portals(path, names, origin, &mut ap),
                 };
             }
             desc.light_link = members(&scene.instances, &l.light_link);
             desc.shadow_link = members(&scene.instances, &l.shadow_link);
             // a light that moves over the shutter (keys in seconds, as the instances')
-            let (xf, times) = place(&l.transforms);
+            let (xf, times) = place(&l.transforms, &DMat4::IDENTITY);
             if xf.len() >= 2 {
                 desc.motion = times.into_iter().zip(xf).collect();
             }
@@ -1260,7 +1305,7 @@ impl Delegate {
 
         if let (Some(path), Some(c)) = (&cam_path, cam) {
             let mut d = c.desc.clone();
-            let (xf, times) = place(&c.transforms);
+            let (xf, times) = place(&c.transforms, &DMat4::IDENTITY);
             d.transforms = xf;
             d.times = times;
             d.shutter_open = t0;
@@ -1286,7 +1331,7 @@ impl Delegate {
     }
 
     /// The portals that no dome's `portals` relationship names (a dome naming none takes them).
-    fn unnamed_portals(&self) -> Vec<tide_core::scene::PortalDesc> {
+    fn unnamed_portals(&self, origin: DVec3) -> Vec<tide_core::scene::PortalDesc> {
         let named: BTreeSet<&str> = self
             .cache
             .values()
@@ -1300,18 +1345,18 @@ impl Delegate {
         self.cache
             .iter()
             .filter_map(|(path, c)| match &c.piece {
-                Piece::Portal(Some(pp)) if !named.contains(path.as_str()) => Some(pp.desc(path)),
+                Piece::Portal(Some(pp)) if !named.contains(path.as_str()) => Some(pp.desc(path, origin)),
                 _ => None,
             })
             .collect()
     }
 
     /// The portals dome `path` names; a name that is not a portal is a problem.
-    fn named_portals(&self, path: &str, names: &[String], ap: &mut Vec<Problem>) -> Vec<tide_core::scene::PortalDesc> {
+    fn named_portals(&self, path: &str, names: &[String], origin: DVec3, ap: &mut Vec<Problem>) -> Vec<tide_core::scene::PortalDesc> {
         names
             .iter()
             .filter_map(|n| match self.cache.get(n).map(|c| &c.piece) {
-                Some(Piece::Portal(Some(pp))) => Some(pp.desc(n)),
+                Some(Piece::Portal(Some(pp))) => Some(pp.desc(n, origin)),
                 // an invisible or empty portal guides nothing, as it renders nothing
                 Some(Piece::Portal(None)) => None,
                 _ => {
@@ -1828,6 +1873,60 @@ mod tests {
         assert_eq!(t.rows, 2);
         let pvs: Vec<(&str, &[f32])> = t.primvars.iter().map(|p| (p.name.as_str(), &p.data[..])).collect();
         assert_eq!(pvs, [("displayColor", &[1., 0., 0., 0., 0., 1.][..]), ("heat", &[7., 5.][..])]);
+    }
+
+    #[test]
+    fn the_scene_origin_is_the_cameras_cell_corner_nearest_it() {
+        // 256 m cells: in metres, centimetres (2^15 units, the power of two nearest 25 600)
+        // and kilometres (a quarter unit)
+        assert_eq!(scene_origin(Some(DVec3::new(100.0, -200.0, 1e5 + 0.3)), 1.0), DVec3::new(0.0, -256.0, 100_096.0));
+        assert_eq!(scene_origin(Some(DVec3::new(20_000.0, 0.0, -50_000.0)), 0.01), DVec3::new(32_768.0, 0.0, -65_536.0));
+        assert_eq!(scene_origin(Some(DVec3::new(0.1, 0.2, 0.4)), 1000.0), DVec3::new(0.0, 0.25, 0.5));
+        // no camera, or one not placed: the world's origin
+        assert_eq!(scene_origin(None, 1.0), DVec3::ZERO);
+        assert_eq!(scene_origin(Some(DVec3::new(f64::NAN, 0.0, 0.0)), 1.0), DVec3::ZERO);
+    }
+
+    #[test]
+    fn a_scene_far_from_the_origin_is_placed_about_its_camera() {
+        // everything 3·10⁶ units out: positions reach the core relative to the camera's cell
+        // corner, exact where single precision would have steps of 0.25
+        let far = 3.0e6 + 0.125;
+        let mut d = Delegate::new();
+        quad(&mut d, "/P");
+        d.set_attribute("/P", "transform", translate(far + 0.5, 2.0, -far), None);
+        d.create_prim("camera", "/cam");
+        d.set_attribute("/cam", "transform", translate(far, 0.0, -far + 3.0), None);
+        d.create_prim("sphereLight", "/L");
+        d.set_attribute("/L", "transform", translate(far + 0.0625, 1.0, -far), None);
+        d.create_prim("portalLight", "/Door");
+        d.set_attribute("/Door", "transform", translate(far - 0.0625, 1.0, -far), None);
+        d.create_prim("domeLight", "/Dome");
+        assert_eq!(d.commit_resources(), []);
+        let s = d.scene();
+        let o = scene_origin(Some(DVec3::new(far, 0.0, -far + 3.0)), 1.0);
+        assert_eq!(s.origin, o);
+        assert!(o.x != 0.0 && (o.x - far).abs() <= 128.0, "{o}");
+        let rel = |x: f64| (x - o.x) as f32;
+        assert_eq!(s.instances[0].transforms[0].w_axis.truncate(), Vec3::new(rel(far + 0.5), 2.0, (-far - o.z) as f32));
+        assert_eq!(s.camera.transforms[0].w_axis.truncate(), Vec3::new(rel(far), 0.0, (-far + 3.0 - o.z) as f32));
+        let sphere = s.lights.iter().find(|l| l.name == "/L").unwrap();
+        assert_eq!(sphere.transform.w_axis.x, rel(far + 0.0625));
+        let dome = s.lights.iter().find(|l| l.name == "/Dome").unwrap();
+        assert_eq!(dome.portals[0].transform.w_axis.x, rel(far - 0.0625));
+        // the fractions survive: 0.5, 0.0625 apart as authored
+        assert_eq!(s.instances[0].transforms[0].w_axis.x - s.camera.transforms[0].w_axis.x, 0.5);
+        assert_eq!(sphere.transform.w_axis.x - dome.portals[0].transform.w_axis.x, 0.125);
+        // a camera move within its cell keeps the world; one into the next cell moves it
+        let before = d.world_generation;
+        d.set_attribute("/cam", "transform", translate(far + 1.0, 0.0, -far + 3.0), None);
+        assert_eq!(d.commit_resources(), []);
+        assert_eq!((d.scene().origin, d.world_generation), (o, before));
+        d.set_attribute("/cam", "transform", translate(o.x + 200.0, 0.0, -far + 3.0), None);
+        assert_eq!(d.commit_resources(), []);
+        assert_eq!(d.scene().origin.x, o.x + 256.0);
+        assert!(d.world_generation > before);
+        assert_eq!(d.scene().instances[0].transforms[0].w_axis.x, (far + 0.5 - o.x - 256.0) as f32);
     }
 
     #[test]

@@ -6,8 +6,8 @@
 //! them (and transform sample times) into seconds with `timeCodesPerSecond`.
 
 use crate::material::{Encoding, TexKey, WrapKey};
-use crate::value::{AttrStore, Problems};
-use glam::{Mat4, Vec3};
+use crate::value::{about, AttrStore, Problems};
+use glam::{DMat4, DVec3, Mat4, Vec3};
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::light::ies::IesProfile;
 use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShadowDesc, ShapingDesc};
@@ -39,7 +39,10 @@ pub struct LightPiece {
     pub caustics_emitter: Option<bool>,
     /// The light's light-to-world samples (frame offsets; one at 0 when it does not move): the
     /// assembly keys `desc.motion` from those over the shutter.
-    pub transforms: Vec<(f64, Mat4)>,
+    pub transforms: Vec<(f64, DMat4)>,
+    /// The light-to-world matrix at the frame (`desc.transform` in double precision: the
+    /// assembly places it about the scene's origin).
+    pub world: DMat4,
     /// A dome's `portals` relationship: the `portalLight` prims that guide its sampling (None:
     /// unauthored; the assembly then gives it the portals no dome names).
     pub portals: Option<Vec<String>>,
@@ -48,15 +51,15 @@ pub struct LightPiece {
 /// A `UsdLuxPortalLight`: where it is and its size (see [`tide_core::scene::PortalDesc`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct PortalPiece {
-    pub transform: Mat4,
+    pub transform: DMat4,
     pub width: f32,
     pub height: f32,
 }
 
 impl PortalPiece {
-    /// The core's description of the portal at `path`.
-    pub fn desc(&self, path: &str) -> tide_core::scene::PortalDesc {
-        tide_core::scene::PortalDesc { name: path.into(), transform: self.transform, width: self.width, height: self.height }
+    /// The core's description of the portal at `path`, placed about `origin`.
+    pub fn desc(&self, path: &str, origin: DVec3) -> tide_core::scene::PortalDesc {
+        tide_core::scene::PortalDesc { name: path.into(), transform: about(origin, &self.transform), width: self.width, height: self.height }
     }
 }
 
@@ -75,14 +78,14 @@ pub fn convert_portal(store: &AttrStore, p: &mut Problems) -> Option<PortalPiece
 }
 
 /// A light's `transform` (identity, reported, when it is not a finite matrix).
-fn light_transform(store: &AttrStore, p: &mut Problems) -> Mat4 {
+fn light_transform(store: &AttrStore, p: &mut Problems) -> DMat4 {
     match store.get("transform") {
-        None => Mat4::IDENTITY,
-        Some(v) => match v.as_matrix() {
-            Some(m) if m.is_finite() => m,
+        None => DMat4::IDENTITY,
+        Some(v) => match v.as_dmatrix() {
+            Some(m) if m.is_finite() && m.as_mat4().is_finite() => m,
             _ => {
                 p.add("transform", "expected a finite 4x4 matrix; using identity");
-                Mat4::IDENTITY
+                DMat4::IDENTITY
             }
         },
     }
@@ -305,15 +308,16 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     }
     // DomeLight_1's pole axis (Hydra's `domeOffset`): a turn of the dome alone, before its
     // transform
-    let offset = match store.get("domeOffset").filter(|_| kind == LightKind::Dome).map(|v| v.as_matrix()) {
-        None => Mat4::IDENTITY,
-        Some(Some(m)) if m.is_finite() && m.determinant() != 0.0 => m,
+    let offset = match store.get("domeOffset").filter(|_| kind == LightKind::Dome).map(|v| v.as_dmatrix()) {
+        None => DMat4::IDENTITY,
+        Some(Some(m)) if m.is_finite() && m.as_mat4().determinant() != 0.0 => m,
         Some(_) => {
             p.add("domeOffset", "expected an invertible 4x4 matrix; the dome is not turned");
-            Mat4::IDENTITY
+            DMat4::IDENTITY
         }
     };
-    let transform = light_transform(store, p) * offset;
+    let world = light_transform(store, p) * offset;
+    let transform = world.as_mat4();
     let mut texture = None;
     let mut sky = None;
     let tex_key = |wrap_s, wrap_t, dome| {
@@ -405,7 +409,8 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
             Some(Collection { includes: vec![], excludes: vec![], include_root: false, explicit_only: true })
         },
         caustics_emitter: store.has("tide:caustics:emitter").then(|| store.bool_or("tide:caustics:emitter", false, p)),
-        transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p).into_iter().map(|(t, m)| (t, m * offset)).collect() } else { vec![(0.0, transform)] },
+        transforms: if store.attr("transform").is_some_and(|a| a.samples.len() >= 2) { store.matrix_samples("transform", p).into_iter().map(|(t, m)| (t, m * offset)).collect() } else { vec![(0.0, world)] },
+        world,
         portals: match kind {
             LightKind::Dome => store.get("portals").map(|v| {
                 v.to_strings().unwrap_or_else(|| {
@@ -549,7 +554,7 @@ pub fn mesh_light_material(ml: &MeshLight, base: &tide_core::scene::MaterialDesc
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraPiece {
     pub desc: CameraDesc,
-    pub transforms: Vec<(f64, Mat4)>,
+    pub transforms: Vec<(f64, DMat4)>,
     pub medium: Option<String>,
     /// The stage's `timeCodesPerSecond` as a Hydra plugin hands it on with the camera (the
     /// usdImagingTide adapter); the settings' value wins where the reader authored one.

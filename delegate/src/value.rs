@@ -1,7 +1,7 @@
 //! Attribute values as the protocol carries them, the per-prim attribute store (with time
 //! samples) and primvars, plus typed accessors that turn a wrong type into a [`Problem`].
 
-use glam::{Mat4, Vec2, Vec3};
+use glam::{DMat4, DVec3, Mat4, Vec2, Vec3};
 use std::collections::HashMap;
 use tide_core::Problem;
 
@@ -22,6 +22,13 @@ pub enum Value {
     Ints(Vec<i32>),
     /// USD matrix: row-major, row vectors (p' = p·M), translation in elements 12..14.
     Matrix([f64; 16]),
+}
+
+/// World matrix `m` placed about `origin` (the scene is rendered about a point near the camera,
+/// see `Delegate::assemble`): the translation is taken relative to it in double precision, so
+/// what reaches single precision is small near the camera however far from the world origin.
+pub fn about(origin: DVec3, m: &DMat4) -> Mat4 {
+    (DMat4::from_translation(-origin) * *m).as_mat4()
 }
 
 impl Value {
@@ -115,17 +122,19 @@ impl Value {
     /// A USD matrix as a glam (column-vector) matrix: USD's row-major row-vector layout is
     /// exactly glam's column-major array.
     pub fn as_matrix(&self) -> Option<Mat4> {
+        self.as_dmatrix().map(|m| m.as_mat4())
+    }
+
+    /// [`Value::as_matrix`] in double precision (world transforms keep their translations
+    /// exact until the scene is placed about its origin).
+    pub fn as_dmatrix(&self) -> Option<DMat4> {
         let d = match self {
             Value::Matrix(m) => m.to_vec(),
             Value::Doubles { data, .. } if data.len() == 16 => data.clone(),
             Value::Floats { data, .. } if data.len() == 16 => data.iter().map(|&x| x as f64).collect(),
             _ => return None,
         };
-        let mut a = [0.0f32; 16];
-        for (o, i) in a.iter_mut().zip(d) {
-            *o = i as f32;
-        }
-        Some(Mat4::from_cols_array(&a))
+        Some(DMat4::from_cols_slice(&d))
     }
 
     pub fn as_vec3(&self) -> Option<Vec3> {
@@ -397,11 +406,11 @@ impl AttrStore {
 
     /// Time-sampled matrix: (frame offset, matrix) pairs, the untimed value as time 0 when
     /// there are no samples; identity when unauthored.
-    pub fn matrix_samples(&self, name: &str, p: &mut Problems) -> Vec<(f64, Mat4)> {
-        let Some(a) = self.attr(name) else { return vec![(0.0, Mat4::IDENTITY)] };
+    pub fn matrix_samples(&self, name: &str, p: &mut Problems) -> Vec<(f64, DMat4)> {
+        let Some(a) = self.attr(name) else { return vec![(0.0, DMat4::IDENTITY)] };
         let mut out = Vec::new();
-        let mut push = |t: f64, v: &Value, p: &mut Problems| match v.as_matrix() {
-            Some(m) if m.is_finite() => out.push((t, m)),
+        let mut push = |t: f64, v: &Value, p: &mut Problems| match v.as_dmatrix() {
+            Some(m) if m.is_finite() && m.as_mat4().is_finite() => out.push((t, m)),
             _ => p.add(name, format!("expected a finite 4x4 matrix, got {}; sample ignored", v.kind())),
         };
         if a.samples.is_empty() {
@@ -414,7 +423,7 @@ impl AttrStore {
             }
         }
         if out.is_empty() {
-            out.push((0.0, Mat4::IDENTITY));
+            out.push((0.0, DMat4::IDENTITY));
         }
         out
     }

@@ -58,7 +58,7 @@ pub fn volume_spec(s: &AttrStore, p: &mut Problems) -> Option<VolumeSpec> {
     } else {
         index
     };
-    let field_to_volume = s.matrix_samples("field:density:transform", p).first().map_or(Mat4::IDENTITY, |m| m.1);
+    let field_to_volume = s.matrix_samples("field:density:transform", p).first().map_or(Mat4::IDENTITY, |m| m.1.as_mat4());
     Some(VolumeSpec { asset, field, index, field_to_volume })
 }
 

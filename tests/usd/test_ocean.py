@@ -26,19 +26,16 @@ def _row_of(elevation_deg, pitch=0.0):
     return (1 - ndc_y) / 2 * H
 
 
-def _sea_stage(stage, height, pitch):
-    cam = camera(stage, pos=(0, height, 0), focal=F, aperture=(AP, AP))
-    if pitch:
-        cam.AddRotateXOp().Set(pitch)
-    ocean = stage.DefinePrim("/Ocean", "TideOcean")
-    for name, tn, v in (("windSpeed", Sdf.ValueTypeNames.Float, U),
-                        # the wind blows away from the camera (towards -Z): the sea is mirror
-                        # symmetric about the view plane
-                        ("windDirection", Sdf.ValueTypeNames.Float, 90.0),
-                        ("patchSize", Sdf.ValueTypeNames.Float, 16.0),
-                        ("resolution", Sdf.ValueTypeNames.Int, 64),
-                        ("extent", Sdf.ValueTypeNames.Float, 200.0)):
-        ocean.CreateAttribute(name, tn).Set(v)
+def ocean_prim(stage, path, **attrs):
+    """A TideOcean prim with `attrs` (ints as Int, floats as Float)."""
+    ocean = stage.DefinePrim(path, "TideOcean")
+    for name, v in attrs.items():
+        ocean.CreateAttribute(name, Sdf.ValueTypeNames.Int if isinstance(v, int) else Sdf.ValueTypeNames.Float).Set(v)
+    return ocean
+
+
+def sea_material(stage, ocean):
+    """Binds to `ocean` a sea: TideWater (the sea surface model) over a blue-green medium."""
     mat = UsdShade.Material.Define(stage, "/Looks/Sea")
     water = UsdShade.Shader.Define(stage, "/Looks/Sea/Water")
     water.CreateIdAttr("TideWater")
@@ -50,16 +47,33 @@ def _sea_stage(stage, height, pitch):
     medium.CreateInput("scattering", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.02, 0.03, 0.04))
     mat.CreateVolumeOutput().ConnectToSource(medium.ConnectableAPI(), "volume")
     bind(ocean, mat)
+
+
+def sun_and_sky(stage, elevation):
+    """A sun (100 lx) straight ahead of a camera looking down -Z at `elevation` degrees, and
+    its Hosek-Wilkie sky (a TideSkyAPI dome)."""
     sun = UsdLux.DistantLight.Define(stage, "/Sun")
     # a DistantLight shines down its -Z: rotated 180 + E about X it shines towards +Z and down,
     # so the sun stands ahead of the camera at elevation E
-    sun.AddRotateXOp().Set(180.0 + E)
+    sun.AddRotateXOp().Set(180.0 + elevation)
     sun.CreateIntensityAttr(100.0)
     sun.CreateAngleAttr(0.53)
     sun.CreateNormalizeAttr(True)    # intensity is the illuminance it gives
     dome = UsdLux.DomeLight.Define(stage, "/Sky")
     dome.GetPrim().ApplyAPI("TideSkyAPI")
     dome.GetPrim().GetRelationship("tide:sky:sun").SetTargets(["/Sun"])
+
+
+def _sea_stage(stage, height, pitch):
+    cam = camera(stage, pos=(0, height, 0), focal=F, aperture=(AP, AP))
+    if pitch:
+        cam.AddRotateXOp().Set(pitch)
+    # the wind blows away from the camera (towards -Z): the sea is mirror symmetric about the
+    # view plane
+    ocean = ocean_prim(stage, "/Ocean", windSpeed=U, windDirection=90.0, patchSize=16.0,
+                       resolution=64, extent=200.0)
+    sea_material(stage, ocean)
+    sun_and_sky(stage, E)
     settings(stage, res=(W, H), samples=32, integrator="path", maxDepth=8,
              vars_=("color", "depth"))
 

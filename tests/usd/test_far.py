@@ -1,0 +1,185 @@
+"""Scenes far from the world's origin: moving a whole scene, its camera and its lights with it,
+changes nothing the camera sees. Georeferenced layouts and sets built kilometres from the
+origin put world translations of 10^5-10^6 units on small objects; single precision cannot
+hold such positions finer than 10^-2-10^-1 units, so the renderer must take them relative to
+a point near the camera in double precision.
+
+Each test renders the same content under a /World transform at the origin and far from it,
+with the same seed: images equal within a small fraction of their mean (the few paths whose
+float rounding differs decorrelate), where single-precision world positions miss by tens of
+percent (a 4 cm ball 10^5 units out is cut into slabs)."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from conftest import bind, camera, exact_lambert_material, render, settings, shader_node
+from test_ocean import ocean_prim, sea_material, sun_and_sky
+
+# not multiples of anything: the camera lands anywhere within the cell it is placed about
+FAR = [(1.0e5 + 0.37, 0.0, -2.0e5 + 0.11), (2.0e6 + 0.61, 3.0e4 + 0.2, 1.0e6 - 0.43)]
+W = H = 48
+
+
+def _world(stage, offset):
+    world = UsdGeom.Xform.Define(stage, "/World")
+    if any(offset):
+        world.AddTranslateOp().Set(Gf.Vec3d(*offset))
+    return world
+
+
+def _table_top(stage, offset):
+    """A 4 cm ball, a 2 cm box moving over the shutter and a PointInstancer of three 1 cm
+    balls with velocities, each 1 mm over a grey ground (not touching it: where surfaces
+    touch, a rounding decides what a ray meets), lit by a spotlight, a small rect light and the
+    sun, seen from 30 cm."""
+    _world(stage, offset)
+    cam = camera(stage, path="/World/Cam", pos=(0, 0.1, 0.3), focal=50.0, aperture=(10.0, 10.0))
+    cam.AddRotateXOp().Set(-18.0)
+    cam.GetShutterOpenAttr().Set(-0.25)
+    cam.GetShutterCloseAttr().Set(0.25)
+    grey = exact_lambert_material(stage, "/Looks/Grey", 0.5)
+    ground = UsdGeom.Mesh.Define(stage, "/World/Ground")
+    ground.CreatePointsAttr([(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)])
+    ground.CreateFaceVertexCountsAttr([4])
+    ground.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    ball = UsdGeom.Sphere.Define(stage, "/World/Ball")
+    ball.CreateRadiusAttr(0.02)
+    ball.AddTranslateOp().Set(Gf.Vec3d(0, 0.021, 0))
+    box = UsdGeom.Cube.Define(stage, "/World/Box")
+    box.CreateSizeAttr(0.02)
+    op = box.AddTranslateOp()
+    op.Set(Gf.Vec3d(-0.04, 0.011, 0.03), 0.0)
+    op.Set(Gf.Vec3d(-0.02, 0.011, 0.03), 1.0)
+    inst = UsdGeom.PointInstancer.Define(stage, "/World/Beads")
+    proto = UsdGeom.Sphere.Define(stage, "/World/Beads/Protos/Bead")
+    proto.CreateRadiusAttr(0.005)
+    inst.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    inst.CreateProtoIndicesAttr([0, 0, 0])
+    inst.CreatePositionsAttr([(0.04, 0.006, 0.0), (0.05, 0.006, 0.02), (0.03, 0.006, 0.04)])
+    inst.CreateVelocitiesAttr([(0, 0, 0.02), (0.02, 0, 0), (0, 0.01, 0)])
+    for p in ("/World/Ground", "/World/Ball", "/World/Box", "/World/Beads"):
+        bind(stage.GetPrimAtPath(p), grey)
+    spot = UsdLux.SphereLight.Define(stage, "/World/Spot")
+    spot.CreateRadiusAttr(0.01)
+    spot.CreateIntensityAttr(40.0)
+    spot.AddTranslateOp().Set(Gf.Vec3d(0.02, 0.3, 0.05))
+    spot.AddRotateXOp().Set(-90.0)
+    shaping = UsdLux.ShapingAPI.Apply(spot.GetPrim())
+    shaping.CreateShapingConeAngleAttr(20.0)
+    shaping.CreateShapingConeSoftnessAttr(0.2)
+    rect = UsdLux.RectLight.Define(stage, "/World/Panel")
+    rect.CreateWidthAttr(0.05)
+    rect.CreateHeightAttr(0.05)
+    rect.CreateIntensityAttr(30.0)
+    rect.AddTranslateOp().Set(Gf.Vec3d(-0.1, 0.1, 0.05))
+    rect.AddRotateYOp().Set(-60.0)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(1.5)
+    sun.AddRotateXOp().Set(-60.0)
+    settings(stage, cam="/World/Cam", res=(W, H), samples=16, integrator="path", maxDepth=3,
+             vars_=("color", "depth"))
+
+
+def _same(far, near):
+    """The images differ by under 0.5 % of the near one's mean, pixel differences averaged
+    (renders 10^5-10^6 units out with single-precision world positions: 24-28 %, or no image)."""
+    diff = np.abs(far.astype(np.float64) - near).mean()
+    return diff < 5e-3 * near.mean(), (diff, near.mean())
+
+
+def _same_depth(far, near):
+    """Camera distances differ by under 10^-4 of themselves on average over the pixels that
+    see something (the first hit, which no path's randomness decorrelates; 10^-2 with
+    single-precision world positions)."""
+    far, near = far[..., 0].astype(np.float64), near[..., 0].astype(np.float64)
+    seen = near < 1e3
+    assert seen.any() and np.array_equal(seen, far < 1e3), "the same pixels see something"
+    rel = np.abs(far[seen] - near[seen]) / near[seen]
+    return rel.mean() < 1e-4, rel.mean()
+
+
+_NEAR = {}
+
+
+def _near(renderer, build):
+    """The render of `build` at the origin (once per module)."""
+    if build not in _NEAR:
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        build(s, (0.0, 0.0, 0.0))
+        _NEAR[build] = render(renderer, s)
+    return _NEAR[build]
+
+
+@pytest.mark.parametrize("offset", FAR)
+def test_a_table_top_far_out_renders_as_at_the_origin(renderer, stage, offset):
+    _table_top(stage, offset)
+    problems = []
+    far = render(renderer, stage, problems)
+    assert problems == [], problems
+    near = _near(renderer, _table_top)
+    assert near["color"][..., :3].mean() > 0.01, "the scene is lit"
+    ok, why = _same(far["color"][..., :3], near["color"][..., :3])
+    assert ok, why
+    ok, why = _same_depth(far["depth"], near["depth"])
+    assert ok, why
+
+
+def _sea(stage, offset):
+    """An open sea (TideOcean, 16 m patches) under the sun and its sky, seen from 3 m up."""
+    _world(stage, offset)
+    cam = camera(stage, path="/World/Cam", pos=(0, 3, 0), focal=35.0, aperture=(36.0, 24.0))
+    cam.AddRotateXOp().Set(-12.0)
+    ocean = ocean_prim(stage, "/World/Ocean", windSpeed=6.0, patchSize=16.0, resolution=64,
+                       choppiness=0.5, extent=200.0)
+    sea_material(stage, ocean)
+    sun_and_sky(stage, 30.0)
+    settings(stage, cam="/World/Cam", res=(W, 32), samples=8, integrator="path", maxDepth=4,
+             vars_=("color", "depth"))
+
+
+@pytest.mark.parametrize("offset", FAR[:1])
+def test_an_ocean_far_out_renders_as_at_the_origin(renderer, stage, offset):
+    near = _near(renderer, _sea)
+    _sea(stage, offset)
+    far = render(renderer, stage)
+    sea = near["depth"][..., 0] < 1e3
+    assert 0.3 < sea.mean() < 0.9, "the sea and the sky are both in view"
+    ok, why = _same(far["color"][..., :3], near["color"][..., :3])
+    assert ok, why
+    ok, why = _same_depth(far["depth"], near["depth"])
+    assert ok, why
+
+
+def test_world_space_shading_reads_the_world_position_far_out(renderer, stage):
+    """A panel 10^5 units out coloured by its world x (green left of x0, red right of it)
+    through MaterialX's world-space position: the halves keep their colours, as at the
+    origin, so what shading reads as the world position is still the world's."""
+    x0, z0 = FAR[0][0], FAR[0][2]
+    _world(stage, FAR[0])
+    cam = camera(stage, path="/World/Cam", pos=(0, 5, 0), aperture=(40.0, 40.0),
+                 projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
+    panel = UsdGeom.Mesh.Define(stage, "/World/Panel")
+    panel.CreatePointsAttr([(-2, 0, -2), (-2, 0, 2), (2, 0, 2), (2, 0, -2)])
+    panel.CreateFaceVertexCountsAttr([4])
+    panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    mat = UsdShade.Material.Define(stage, "/Looks/Split")
+    node = lambda name, node_id, **inputs: shader_node(stage, "/Looks/Split/" + name, node_id, **inputs)
+    p = node("P", "ND_position_vector3", space="world").CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    colour = node("Side", "ND_ifgreater_color3", value1=x, value2=x0, in1=(0.8, 0.0, 0.0),
+                  in2=(0.0, 0.8, 0.0)).CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    surf = node("SR", "ND_standard_surface_surfaceshader", base=1.0, base_color=colour,
+                specular=0.0)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(surf.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    bind(panel.GetPrim(), mat)
+    settings(stage, cam="/World/Cam", res=(32, 32), samples=4, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64)
+    assert [q for q in problems if q.prim.startswith("/Looks")] == [], problems
+    assert z0 != 0
+    left, right = img[:, :12].mean(axis=(0, 1)), img[:, -12:].mean(axis=(0, 1))
+    assert left[1] > 0.5 and left[0] < 0.05, left
+    assert right[0] > 0.5 and right[1] < 0.05, right
