@@ -223,7 +223,7 @@ mod tests {
     fn a_texture_or_primvar_moves_each_vertex_by_its_value_and_shared_points_together() {
         // a 2 × 1 texture: 0.1 on the left half, 0.3 on the right, clamped, nearest at texel
         // centres; the copies of corner 0 read u = 0 and u = 0.5 (texels 0.1 and 0.2 there)
-        let tex = TextureDesc { name: "d".into(), width: 2, height: 1, channels: 1, pixels: vec![0.1, 0.3].into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
+        let tex = TextureDesc { name: "d".into(), width: 2, height: 1, channels: 1, pixels: vec![0.1, 0.3].into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear };
         let l = TexLookup { texture: 0, channel: Channel::R, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
         let d = amounts(&square(), &FloatInput::Texture(l.clone()), std::slice::from_ref(&tex));
         let want = [0.1, 0.3, 0.3, 0.2, 0.3, 0.1];

@@ -30,6 +30,17 @@ pub struct TextureDesc {
     pub pixels: std::sync::Arc<Vec<f32>>,
     pub wrap_s: Wrap,
     pub wrap_t: Wrap,
+    pub filter: Filter,
+}
+
+/// How a lookup between texel centres reads the texels (MaterialX `filtertype`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Filter {
+    /// Bilinear between the four nearest texels.
+    #[default]
+    Linear,
+    /// The texel the coordinates fall in (`closest`: pixel art, masks, ids).
+    Closest,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

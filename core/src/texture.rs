@@ -1,7 +1,7 @@
-//! Texture evaluation for material inputs: UsdUVTexture (bilinear lookup, wrap modes, scale,
+//! Texture evaluation for material inputs: UsdUVTexture (bilinear or closest-texel lookup, wrap modes, scale,
 //! bias, fallback, channel selection) after a UsdTransform2d of the st coordinates.
 
-use crate::scene::{Channel, TexLookup, TextureDesc, Wrap};
+use crate::scene::{Channel, Filter, TexLookup, TextureDesc, Wrap};
 use glam::Vec2;
 
 #[inline]
@@ -63,6 +63,11 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
     if !(x.is_finite() && y.is_finite()) {
         return l.fallback;
     }
+    if t.filter == Filter::Closest {
+        // the texel whose square holds the coordinates (texel k spans [k, k + 1) of x + 0.5)
+        let v = texel(t, (x + 0.5).floor() as i64, (y + 0.5).floor() as i64);
+        return std::array::from_fn(|k| v[k] * l.tex_scale[k] + l.bias[k]);
+    }
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (xi, yi) = (x0 as i64, y0 as i64);
@@ -113,6 +118,7 @@ mod tests {
             pixels: vec![1., 0., 0., 0., 1., 0., 0., 0., 1., 1., 1., 1.].into(),
             wrap_s: wrap,
             wrap_t: wrap,
+            filter: crate::scene::Filter::Linear,
         }
     }
 
@@ -136,6 +142,24 @@ mod tests {
         // midway between red and green: bilinear average
         let m = lookup_rgb(&t, &l, Vec2::new(0.5, 0.75));
         assert!((m[0] - 0.5).abs() < 1e-6 && (m[1] - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn closest_reads_the_texel_the_coordinates_fall_in() {
+        let t = [TextureDesc { filter: Filter::Closest, ..tex(Wrap::Repeat) }];
+        let l = TexLookup { tex_scale: [2.0; 4], bias: [0.25; 4], ..lookup() };
+        // anywhere in the top-left quarter is red (bilinear would blend its neighbours in
+        // everywhere but at the centre); scale and bias still apply
+        for st in [Vec2::new(0.01, 0.99), Vec2::new(0.26, 0.74), Vec2::new(0.49, 0.51)] {
+            assert_eq!(lookup_rgba(&t, &l, st), [2.25, 0.25, 0.25, 2.25], "{st}");
+        }
+        // the squares' edges: [0.5, 1) is the right column, [0, 0.5) the lower row
+        assert_eq!(lookup_rgb(&t, &lookup(), Vec2::new(0.5, 0.75)), [0.0, 1.0, 0.0]);
+        assert_eq!(lookup_rgb(&t, &lookup(), Vec2::new(0.75, 0.4999)), [1.0, 1.0, 1.0]);
+        // wrapping as for bilinear: one period on is the same texel, black outside
+        assert_eq!(lookup_rgb(&t, &lookup(), Vec2::new(1.3, -0.7)), [0.0, 0.0, 1.0]);
+        let tb = [TextureDesc { filter: Filter::Closest, ..tex(Wrap::Black) }];
+        assert_eq!(lookup_rgb(&tb, &lookup(), Vec2::new(1.1, 0.5)), [0.0, 0.0, 0.0]);
     }
 
     #[test]

@@ -391,7 +391,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
         let need = (t.width as usize) * (t.height as usize) * (t.channels as usize);
         if !(1..=4).contains(&t.channels) || t.pixels.len() != need || t.width == 0 || t.height == 0 {
             problem(&mut p, &t.name, "pixels", "texture size does not match its data; replaced by a 1×1 grey texture");
-            *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18].into(), wrap_s: t.wrap_s, wrap_t: t.wrap_t };
+            *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18].into(), wrap_s: t.wrap_s, wrap_t: t.wrap_t, filter: t.filter };
         } else {
             let key = Arc::as_ptr(&t.pixels) as usize;
             let known = now.finite_pixels.get(&key).or_else(|| old.finite_pixels.get(&key)).is_some_and(|k| Arc::ptr_eq(k, &t.pixels));
@@ -941,7 +941,7 @@ mod tests {
     fn validation_shares_clean_meshes_and_remembers_mended_ones() {
         let good: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/good".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], normals: Some(vec![Vec3::Z; 3]), ..Default::default() });
         let bad: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/bad".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2, 0, 1, 7], ..Default::default() });
-        let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: Arc::new(vec![f32::NAN, 1.0]), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat };
+        let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: Arc::new(vec![f32::NAN, 1.0]), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat, filter: crate::scene::Filter::Linear };
         let fine = TextureDesc { name: "/u".into(), pixels: Arc::new(vec![0.5, 1.0]), ..nan.clone() };
         let points = Arc::new(SpheresDesc { name: "/points".into(), centers: vec![Vec3::ZERO, Vec3::X], radii: vec![0.5, 0.5], ..Default::default() });
         let scene = SceneDesc { meshes: vec![good.clone(), bad.clone()], spheres: vec![points.clone()], textures: vec![nan, fine.clone()], ..Default::default() };
@@ -1043,7 +1043,7 @@ mod tests {
         bad_pv.scale = [2.0; 4];
         let graph = Expr::binary(Binary::Mul, Expr::Texture(lookup(0)), Expr::binary(Binary::Add, Expr::Texture(lookup(1)), Expr::Primvar(bad_pv)));
         let mut s = SceneDesc::default();
-        s.textures.push(TextureDesc { name: "t".into(), width: 1, height: 1, channels: 1, pixels: vec![1.0].into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat });
+        s.textures.push(TextureDesc { name: "t".into(), width: 1, height: 1, channels: 1, pixels: vec![1.0].into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat, filter: crate::scene::Filter::Linear });
         let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Graph(graph), roughness: FloatInput::Graph(Expr::Texture(lookup(5))), ..Default::default() };
         s.materials.push(MaterialDesc { name: "/M".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
         let (clean, probs) = validate(&s);

@@ -1481,7 +1481,7 @@ mod tests {
             PrimvarData { name: "glow".into(), tuple: 3, constant: false, data: [[0.0; 3], hot, hot, [0.0; 3]].concat() },
             PrimvarData { name: "st1".into(), tuple: 2, constant: false, data: m.positions.iter().flat_map(|p| [p.z / 2.0, 1.0 - p.x / 2.0]).collect() },
         ];
-        let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5].into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
+        let texture = TextureDesc { name: "t".into(), width: 2, height: 2, channels: 3, pixels: vec![0.9, 0.1, 0.1, 0.1, 0.9, 0.1, 0.1, 0.1, 0.9, 0.5, 0.5, 0.5].into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear };
         let lookup = TexLookup { texture: 0, channel: Channel::Rgb, transform: glam::Affine2::IDENTITY, tex_scale: [1.0; 4], bias: [0.0; 4], fallback: [0.0; 4], uv_set: None };
         let tinted = PrimvarLookup { scale: [0.5, 2.0, 1.0, 1.0], ..PrimvarLookup::new("glow", [0.0; 4]) };
         use crate::shader_graph::{Binary, Expr};

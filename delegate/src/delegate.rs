@@ -274,14 +274,6 @@ fn problem(item: &str, attribute: &str, message: impl Into<String>) -> Problem {
     Problem { item: item.into(), attribute: attribute.into(), message: message.into() }
 }
 
-/// sRGB decoding curve.
-fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
 
 /// Matrix at frame `t` from sorted samples (element-wise linear between neighbours).
 fn matrix_at(samples: &[(f64, DMat4)], t: f64) -> DMat4 {
@@ -2605,11 +2597,23 @@ mod tests {
 /// by `file_srgb`), a dome's image resampled to lat-long (None where it cannot be).
 fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &[f32], file_srgb: bool) -> Option<TextureDesc> {
     let mut px = pixels.to_vec();
-    if key.encoding.linearize(file_srgb) {
-        let ch = channels as usize;
+    // the file's curve undone, then its primaries' RGB taken to linear Rec.709 (grey stays
+    // grey: a one- or two-channel file keeps its values)
+    let (curve, primaries) = key.encoding.decoding(file_srgb);
+    let ch = channels as usize;
+    if curve != material::Curve::Linear {
         for texel in px.chunks_exact_mut(ch) {
             for c in texel.iter_mut().take(ch.min(3)) {
-                *c = srgb_to_linear(*c);
+                *c = curve.decode(*c);
+            }
+        }
+    }
+    if primaries != tide_core::spectrum::color::FilePrimaries::Rec709 && ch >= 3 {
+        let m = tide_core::spectrum::color::file_to_authored(primaries);
+        for texel in px.chunks_exact_mut(ch) {
+            let v = [texel[0], texel[1], texel[2]];
+            for (r, c) in texel.iter_mut().take(3).enumerate() {
+                *c = m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2];
             }
         }
     }
@@ -2621,6 +2625,7 @@ fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels:
         pixels: px.into(),
         wrap_s: key.wrap_s.wrap(),
         wrap_t: key.wrap_t.wrap(),
+        filter: if key.closest { tide_core::scene::Filter::Closest } else { tide_core::scene::Filter::Linear },
     };
     // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
     let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };

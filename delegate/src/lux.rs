@@ -321,7 +321,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     let mut texture = None;
     let mut sky = None;
     let tex_key = |wrap_s, wrap_t, dome| {
-        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding: Encoding::Auto, dome })
+        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding: Encoding::Auto, dome, closest: false })
     };
     let zero_area = |p: &mut Problems, attr: &str| {
         p.add(attr, "the light has zero area; dropped");

@@ -21,6 +21,7 @@ use crate::value::{normalize_name, AttrStore, Problems, Value};
 use glam::{Affine2, Vec2};
 use std::collections::BTreeMap;
 use tide_core::light::dome_format::DomeFormat;
+use tide_core::spectrum::color::FilePrimaries;
 use tide_core::shader_graph::Expr;
 use tide_core::scene::{
     Channel, ColorInput, FloatInput, MaterialDesc, PrimvarLookup, MediumDesc, PhaseDesc, PreviewSurfaceDesc, SpectrumDesc, SurfaceDesc,
@@ -52,28 +53,99 @@ pub struct TexKey {
     pub asset: String,
     pub wrap_s: WrapKey,
     pub wrap_t: WrapKey,
-    /// How the file's values are decoded (a UsdUVTexture's `sourceColorSpace`).
+    /// How the file's values are decoded (a UsdUVTexture's `sourceColorSpace`, the file's
+    /// colour space metadata).
     pub encoding: Encoding,
     /// A dome light's image layout (resampled to lat-long); `LatLong` for everything else.
     pub dome: DomeFormat,
+    /// Texel filtering (a MaterialX image's `filtertype`).
+    pub closest: bool,
 }
 
 /// How a texture's values are decoded: `sourceColorSpace` `raw`, `sRGB`, or `auto` (sRGB where
-/// the file is 8 bits per channel with 3 or 4 channels, as UsdImaging decides; raw otherwise).
+/// the file is 8 bits per channel with 3 or 4 channels, as UsdImaging decides; raw otherwise),
+/// or a named colour space (USD's and MaterialX's names, see [`Encoding::named`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Encoding {
     Raw,
     Srgb,
     Auto,
+    /// Values on `curve` with `primaries`: the curve undone, then taken to linear Rec.709.
+    Space { curve: Curve, primaries: FilePrimaries },
+}
+
+/// A colour space's transfer curve.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Curve {
+    Linear,
+    /// IEC 61966-2-1 (the piecewise sRGB curve).
+    Srgb,
+    Gamma22,
+    Gamma18,
+    /// Adobe RGB (1998)'s 563/256.
+    AdobeGamma,
+}
+
+/// The sRGB decoding curve (IEC 61966-2-1).
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Curve {
+    /// The linear value of an encoded one (the curve mirrored for negative values).
+    pub fn decode(self, v: f32) -> f32 {
+        let gamma = |g: f32| v.signum() * v.abs().powf(g);
+        match self {
+            Curve::Linear => v,
+            Curve::Srgb => v.signum() * srgb_to_linear(v.abs()),
+            Curve::Gamma22 => gamma(2.2),
+            Curve::Gamma18 => gamma(1.8),
+            Curve::AdobeGamma => gamma(563.0 / 256.0),
+        }
+    }
 }
 
 impl Encoding {
-    /// Whether the sRGB curve is undone for a file that `auto` reads as sRGB (`file_srgb`) or not.
-    pub fn linearize(self, file_srgb: bool) -> bool {
+    /// The encoding a colour space name gives (case ignored): the canonical names OpenUSD,
+    /// MaterialX and OCIO share (`lin_ap1_scene`, `srgb_rec709_scene`, ...), MaterialX's own
+    /// (`acescg`, `srgb_texture`, `g22_ap1`, `lin_displayp3`, ...), and `raw`, `data`,
+    /// `identity` (values as stored); None for a name none of them is.
+    pub fn named(name: &str) -> Option<Encoding> {
+        use Curve::*;
+        use FilePrimaries::*;
+        let space = |curve, primaries| Some(Encoding::Space { curve, primaries });
+        match name.to_ascii_lowercase().as_str() {
+            "srgb_texture" | "srgb" | "srgb_rec709_scene" | "srgb_rec709" => Some(Encoding::Srgb),
+            "lin_rec709" | "lin_rec709_scene" | "lin_srgb" | "linear" | "raw" | "data" | "identity" | "none" => Some(Encoding::Raw),
+            "g22_rec709" | "g22_rec709_scene" => space(Gamma22, Rec709),
+            "g18_rec709" | "g18_rec709_scene" => space(Gamma18, Rec709),
+            "acescg" | "lin_ap1" | "lin_ap1_scene" => space(Linear, Ap1),
+            "g22_ap1" | "g22_ap1_scene" => space(Gamma22, Ap1),
+            "g18_ap1" | "g18_ap1_scene" => space(Gamma18, Ap1),
+            "srgb_ap1" | "srgb_ap1_scene" => space(Srgb, Ap1),
+            "aces2065-1" | "lin_ap0" | "lin_ap0_scene" => space(Linear, Ap0),
+            "lin_rec2020" | "lin_rec2020_scene" => space(Linear, Rec2020),
+            "lin_displayp3" | "lin_p3d65" | "lin_p3d65_scene" => space(Linear, P3D65),
+            "srgb_displayp3" | "srgb_p3d65" | "srgb_p3d65_scene" | "srgb_displayp3_scene" => space(Srgb, P3D65),
+            "lin_adobergb" | "lin_adobergb_scene" => space(Linear, AdobeRgb),
+            "adobergb" | "g22_adobergb" | "g22_adobergb_scene" => space(AdobeGamma, AdobeRgb),
+            "lin_ciexyzd65_scene" | "lin_ciexyzd65" => space(Linear, XyzD65),
+            _ => None,
+        }
+    }
+
+    /// How a file's values are decoded: the curve undone (`file_srgb`: the file is 8-bit RGB,
+    /// which `auto` reads as sRGB) and the primaries whose RGB it holds.
+    pub fn decoding(self, file_srgb: bool) -> (Curve, FilePrimaries) {
         match self {
-            Encoding::Raw => false,
-            Encoding::Srgb => true,
-            Encoding::Auto => file_srgb,
+            Encoding::Raw => (Curve::Linear, FilePrimaries::Rec709),
+            Encoding::Srgb => (Curve::Srgb, FilePrimaries::Rec709),
+            Encoding::Auto => (if file_srgb { Curve::Srgb } else { Curve::Linear }, FilePrimaries::Rec709),
+            Encoding::Space { curve, primaries } => (curve, primaries),
         }
     }
 }
@@ -405,17 +477,38 @@ impl Ctx<'_> {
         let fallback = self.input_vec(tex, "fallback", [0.0, 0.0, 0.0, 1.0]);
         let tex_scale = self.input_vec(tex, "scale", [1.0; 4]);
         let bias = self.input_vec(tex, "bias", [0.0; 4]);
-        let cs = self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto");
+        // sourceColorSpace `raw` or `sRGB` says how the file is encoded; `auto` leaves it to the
+        // file attribute's colour space metadata, else to the file (8-bit RGB is sRGB)
+        let encoding = match self.input_token(tex, "sourceColorSpace", &["auto", "raw", "sRGB"], "auto") {
+            "raw" => Encoding::Raw,
+            "sRGB" => Encoding::Srgb,
+            _ => self.file_color_space(tex, "file"),
+        };
         let (transform, uv_set) = self.st_transform(tex);
-        let Some(texture) = self.texture_slot(tex, "file", cs, wrap_s, wrap_t) else { return Err(fallback) };
+        let Some(texture) = self.texture_slot(tex, "file", encoding, wrap_s, wrap_t, false) else { return Err(fallback) };
         Ok(TexLookup { texture, channel, transform, tex_scale, bias, fallback, uv_set })
     }
 
+    /// The encoding the colour space metadata of input `file` of node `tex` names (USD's
+    /// `colorSpace` on the asset attribute, handed on as `colorSpace:<input>`, as UsdImaging
+    /// does); `Auto` where there is none, or a name no colour space has (a problem).
+    pub(super) fn file_color_space(&mut self, tex: &str, file: &str) -> Encoding {
+        let key = format!("colorSpace:{file}");
+        let Some(name) = self.nodes[tex].inputs.get(&key).and_then(|v| v.as_str()).map(String::from) else { return Encoding::Auto };
+        if name.is_empty() || name.eq_ignore_ascii_case("unknown") {
+            return Encoding::Auto;
+        }
+        Encoding::named(&name).unwrap_or_else(|| {
+            self.p.add(&format!("{tex}.inputs:{file}"), format!("colour space '{name}' is not one Tide knows; the file's own encoding decides (8-bit RGB as sRGB, else linear Rec.709)"));
+            Encoding::Auto
+        })
+    }
+
     /// The texture that input `file` of node `tex` names, as an index into this material's list
-    /// (`cs`: `sRGB`, `raw`, or `auto` for the file's own encoding; a wrap of None: the file's
-    /// metadata's, else black); None when there is no usable file (a problem names the input,
-    /// but for an empty path).
-    fn texture_slot(&mut self, tex: &str, file: &str, cs: &str, wrap_s: Option<WrapKey>, wrap_t: Option<WrapKey>) -> Option<usize> {
+    /// (`encoding`: how its values are decoded; a wrap of None: the file's metadata's, else
+    /// black; `closest`: unfiltered texels); None when there is no usable file (a problem names
+    /// the input, but for an empty path).
+    fn texture_slot(&mut self, tex: &str, file: &str, encoding: Encoding, wrap_s: Option<WrapKey>, wrap_t: Option<WrapKey>, closest: bool) -> Option<usize> {
         let file_attr = format!("{}.inputs:{}", tex, file);
         let Some(asset) = self.nodes[tex].inputs.get(file).and_then(|v| v.as_str()).map(String::from) else {
             self.p.add(&file_attr, "no texture file; using the fallback value");
@@ -437,12 +530,7 @@ impl Ctx<'_> {
         };
         let wrap_s = wrap_s.or(file_wrap[0]).unwrap_or(WrapKey::Black);
         let wrap_t = wrap_t.or(file_wrap[1]).unwrap_or(WrapKey::Black);
-        let encoding = match cs {
-            "sRGB" => Encoding::Srgb,
-            "raw" => Encoding::Raw,
-            _ => Encoding::Auto,
-        };
-        let key = TexKey { asset, wrap_s, wrap_t, encoding, dome: DomeFormat::LatLong };
+        let key = TexKey { asset, wrap_s, wrap_t, encoding, dome: DomeFormat::LatLong, closest };
         Some(match self.used.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
@@ -1009,7 +1097,7 @@ mod tests {
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
         // wrapT unauthored (useMetadata) on a file without wrap metadata: black
-        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Black, encoding: Encoding::Auto, dome: DomeFormat::LatLong }]);
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Black, encoding: Encoding::Auto, dome: DomeFormat::LatLong, closest: false }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
         assert_eq!((t.texture, t.channel), (0, Channel::Rgb));

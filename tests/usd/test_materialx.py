@@ -752,3 +752,98 @@ def test_an_image_files_colour_space_metadata_decides_its_decoding(renderer, sta
         return out
     ok, why = near(_glow_of(renderer, stage, build)["color"][..., :3], want)
     assert ok, (kind, space, why)
+
+
+def _primary_matrix(primaries, white):
+    """Linear RGB -> XYZ of a colour space from the (x, y) of its primaries and white (the
+    textbook normalised primary matrix)."""
+    xyz = lambda c: np.array([c[0] / c[1], 1.0, (1.0 - c[0] - c[1]) / c[1]])
+    p = np.stack([xyz(c) for c in primaries], axis=1)
+    return p * np.linalg.solve(p, xyz(white))
+
+
+def _to_linear_rec709(stored, curve, primaries, white):
+    """A file's stored values in a colour space as linear Rec.709: the curve undone, then XYZ,
+    a Bradford adaptation to D65 for another white, and Rec.709's inverse matrix."""
+    decode = {"lin": lambda v: v, "g22": lambda v: v ** 2.2,
+              "srgb": lambda v: np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)}[curve]
+    d65 = (0.3127, 0.3290)
+    bradford = np.array([[0.8951, 0.2664, -0.1614], [-0.7502, 1.7135, 0.0367], [0.0389, -0.0685, 1.0296]])
+    xyz = lambda c: np.array([c[0] / c[1], 1.0, (1.0 - c[0] - c[1]) / c[1]])
+    adapt = np.linalg.inv(bradford) @ np.diag((bradford @ xyz(d65)) / (bradford @ xyz(white))) @ bradford
+    rec709 = _primary_matrix([(0.64, 0.33), (0.30, 0.60), (0.15, 0.06)], d65)
+    return np.linalg.inv(rec709) @ adapt @ _primary_matrix(primaries, white) @ decode(np.asarray(stored))
+
+
+AP1 = ([(0.713, 0.293), (0.165, 0.830), (0.128, 0.044)], (0.32168, 0.33767))
+P3 = ([(0.680, 0.320), (0.265, 0.690), (0.150, 0.060)], (0.3127, 0.3290))
+REC709 = ([(0.64, 0.33), (0.30, 0.60), (0.15, 0.06)], (0.3127, 0.3290))
+
+
+@pytest.mark.parametrize("space, curve, gamut", [
+    ("acescg", "lin", AP1), ("lin_ap1_scene", "lin", AP1), ("srgb_ap1_scene", "srgb", AP1),
+    ("lin_p3d65_scene", "lin", P3), ("srgb_displayp3", "srgb", P3), ("g22_rec709", "g22", REC709),
+])
+def test_an_image_file_in_another_colour_space_is_converted_to_linear_rec709(
+        renderer, stage, tmp_path, space, curve, gamut):
+    """A float EXR whose file input is marked with a colour space of other primaries (ACEScg,
+    Display P3) or another curve glows as its values converted to linear Rec.709, the
+    authored colours' space (the textbook conversion, computed here); before, they were
+    taken as linear Rec.709 as stored."""
+    stored = (0.5, 0.25, 0.78)
+    path = str(tmp_path / "t.exr")
+    write_exr(path, [[stored]])
+    want = _to_linear_rec709(stored, curve, *gamut)
+
+    def build(s):
+        out = _node(s, "I", "ND_image_color3", Sdf.ValueTypeNames.Color3f,
+                    file=(Sdf.ValueTypeNames.Asset, path))
+        UsdShade.Shader(s.GetPrimAtPath("/Looks/G/I")).GetInput("file").GetAttr().SetColorSpace(space)
+        return out
+    got = _glow_of(renderer, stage, build)["color"][..., :3]
+    ok, why = near(got, want)
+    assert ok, (space, why)
+    assert np.abs(got.reshape(-1, 3).mean(axis=0) - stored).max() > 0.02, "the conversion shows"
+
+
+def test_an_unknown_colour_space_is_named_and_the_file_decides(renderer, stage, tmp_path):
+    path = str(tmp_path / "t.exr")
+    write_exr(path, [[(0.5, 0.25, 0.78)]])
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1, st=True)
+    mat, sh = _standard_surface(stage, "/Looks/G", base=0.0, specular=0.0, emission=1.0)
+    img = _node(stage, "I", "ND_image_color3", Sdf.ValueTypeNames.Color3f,
+                file=(Sdf.ValueTypeNames.Asset, path))
+    UsdShade.Shader(stage.GetPrimAtPath("/Looks/G/I")).GetInput("file").GetAttr().SetColorSpace("my_log_space")
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(img)
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=8, integrator="path")
+    problems = []
+    got = render(renderer, stage, problems)["color"][..., :3]
+    named = [p for p in problems if p.prim == "/Looks/G/I" and p.attribute == "inputs:file"]
+    assert len(named) == 1 and "my_log_space" in named[0].message, problems
+    ok, why = near(got, (0.5, 0.25, 0.78))
+    assert ok, why
+
+
+@pytest.mark.parametrize("filtertype", ["linear", "closest"])
+def test_an_image_with_closest_filtering_shows_its_texels_unblended(renderer, stage, tmp_path, filtertype):
+    """A 2 x 1 image, red | green, across the panel: `closest` gives the left half pure red and
+    the right half pure green (a texel per half, the edge at the middle); `linear` blends them
+    linearly between the texel centres (u = 1/4 and 3/4)."""
+    path = str(tmp_path / "rg.exr")
+    write_exr(path, [[(1.0, 0.0, 0.0), (0.0, 1.0, 0.0)]])
+
+    def build(s):
+        return _node(s, "I", "ND_image_color3", Sdf.ValueTypeNames.Color3f,
+                     file=(Sdf.ValueTypeNames.Asset, path), filtertype=(Sdf.ValueTypeNames.String, filtertype),
+                     uaddressmode=(Sdf.ValueTypeNames.String, "clamp"))
+    img = _glow_of(renderer, stage, build, res=32)["color"][..., :3].astype(np.float64)
+    # the red of each column (the panel spans the image: column i is at u = (i + 0.5) / RES),
+    # averaged down the column; the pixels next to the middle see both halves through the
+    # pixel filter
+    red = img[:, :, 0].mean(axis=0)
+    u = (np.arange(RES) + 0.5) / RES
+    want = (u < 0.5).astype(float) if filtertype == "closest" else np.clip(1.5 - 2 * u, 0, 1)
+    away = np.abs(u - 0.5) > 1.5 / RES
+    assert np.abs(red - want)[away].max() < 0.05, (red, want)

@@ -31,6 +31,24 @@ def _glow(stage, reader_id, varname, out_type, fallback=None):
     return mat
 
 
+def _glowing_texture(stage, path, file, source=None, file_space=None):
+    """A black material glowing with a clamped UsdUVTexture of `file` (its `sourceColorSpace`
+    and the file attribute's colour space metadata where given)."""
+    mat, sh = _black(stage, path)
+    tex = UsdShade.Shader.Define(stage, path + "/Tex")
+    tex.CreateIdAttr("UsdUVTexture")
+    tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(file)
+    if file_space:
+        tex.GetInput("file").GetAttr().SetColorSpace(file_space)
+    if source:
+        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(source)
+    for wrap in ("wrapS", "wrapT"):
+        tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
+    tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
+    sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
+    return mat
+
+
 def _seen(stage, samples=16):
     """Settings for emission seen directly."""
     settings(stage, res=(RES, RES), samples=samples, integrator="path")
@@ -217,16 +235,7 @@ def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(rendere
         m.CreatePointsAttr([(x0, 0, -HALF), (x0, 0, HALF), (x0 + third, 0, HALF), (x0 + third, 0, -HALF)])
         m.CreateFaceVertexCountsAttr([4])
         m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-        mat, sh = _black(stage, "/Looks/M%d" % k)
-        tex = UsdShade.Shader.Define(stage, "/Looks/M%d/Tex" % k)
-        tex.CreateIdAttr("UsdUVTexture")
-        tex.CreateInput("file", Sdf.ValueTypeNames.Asset).Set(png)
-        tex.CreateInput("sourceColorSpace", Sdf.ValueTypeNames.Token).Set(space)
-        for wrap in ("wrapS", "wrapT"):
-            tex.CreateInput(wrap, Sdf.ValueTypeNames.Token).Set("clamp")
-        tex.CreateOutput("rgb", Sdf.ValueTypeNames.Float3)
-        sh.CreateInput("emissiveColor", Sdf.ValueTypeNames.Color3f).ConnectToSource(tex.ConnectableAPI(), "rgb")
-        bind(m.GetPrim(), mat)
+        bind(m.GetPrim(), _glowing_texture(stage, "/Looks/M%d" % k, png, space))
     _seen(stage, samples=4)
     img = render(renderer, stage)["color"][..., :3].astype(np.float64)
     cols = RES // 3
@@ -234,6 +243,38 @@ def test_an_8_bit_texture_is_decoded_once_by_each_materials_colour_space(rendere
         part = img[:, k * cols + 2:(k + 1) * cols - 2]
         ok, why = near(part, want)
         assert ok, (("raw", "auto", "sRGB")[k], why)
+
+
+@pytest.mark.parametrize("kind, source, space", [
+    ("png", None, "lin_rec709"), ("png", "sRGB", "lin_rec709"), ("exr", None, "acescg"),
+    ("exr", "raw", "acescg"), ("exr", None, "srgb_texture")])
+def test_a_uv_textures_file_colour_space_decides_where_its_source_colour_space_is_auto(
+        renderer, stage, tmp_path, kind, source, space):
+    """The colour space metadata of a UsdUVTexture's file (USD's per-attribute colour space)
+    decides the decoding where `sourceColorSpace` leaves it to `auto` (unauthored): an 8-bit
+    PNG marked lin_rec709 shows its stored values, not its sRGB decoding; an EXR marked acescg
+    its values converted to linear Rec.709 (ACEScg's published matrix). An explicit `raw` or
+    `sRGB` says how the file is encoded and wins."""
+    from images import write_png
+    texel = (90, 40, 200)
+    stored = np.array(texel) / 255.0
+    path = str(tmp_path / ("t." + kind))
+    if kind == "png":
+        write_png(path, 1, 1, [[texel]])
+    else:
+        write_exr(path, [[tuple(stored)]])
+    srgb = lambda v: np.where(v <= 0.04045, v / 12.92, ((v + 0.055) / 1.055) ** 2.4)
+    acescg_to_rec709 = np.array([[1.70505, -0.62179, -0.08326], [-0.13026, 1.14080, -0.01055],
+                                 [-0.02400, -0.12897, 1.15297]])
+    want = {("png", None): stored, ("png", "sRGB"): srgb(stored),
+            ("exr", None): acescg_to_rec709 @ stored if space == "acescg" else srgb(stored),
+            ("exr", "raw"): stored}[(kind, source)]
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1, st=True)
+    bind(m.GetPrim(), _glowing_texture(stage, "/Looks/M", path, source, file_space=space))
+    _seen(stage, samples=8)
+    ok, why = near(render(renderer, stage)["color"][..., :3], want)
+    assert ok, (kind, source, space, why)
 
 
 @pytest.mark.parametrize("tilt,n_dot_l", [((1, 0), 0.25), ((0, 1), 1.0), ((0, -1), 0.0)])

@@ -192,7 +192,7 @@ pub fn to_latlong(tex: &TextureDesc, format: DomeFormat) -> Result<TextureDesc, 
             }
         }
     }
-    Ok(TextureDesc { name: tex.name.clone(), width: ow as u32, height: oh as u32, channels: tex.channels, pixels: pixels.into(), wrap_s: tex.wrap_s, wrap_t: tex.wrap_t })
+    Ok(TextureDesc { name: tex.name.clone(), width: ow as u32, height: oh as u32, channels: tex.channels, pixels: pixels.into(), wrap_s: tex.wrap_s, wrap_t: tex.wrap_t, filter: tex.filter })
 }
 
 #[cfg(test)]

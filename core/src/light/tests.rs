@@ -322,7 +322,7 @@ pub(crate) fn hot_spot_texture() -> TextureDesc {
             pixels.extend_from_slice(&v);
         }
     }
-    TextureDesc { name: "hot".into(), width: w as u32, height: h as u32, channels: 3, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp }
+    TextureDesc { name: "hot".into(), width: w as u32, height: h as u32, channels: 3, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear }
 }
 
 #[test]
@@ -352,7 +352,7 @@ fn dome_follows_the_openexr_lat_long_layout() {
     // 8×4 map, one lit texel at column 3 (longitude just above 0), row 1 (latitude just above 0)
     let mut pixels = vec![0.0f32; 8 * 4];
     pixels[8 + 3] = 1.0;
-    let tex = vec![TextureDesc { name: "t".into(), width: 8, height: 4, channels: 1, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp }];
+    let tex = vec![TextureDesc { name: "t".into(), width: 8, height: 4, channels: 1, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear }];
     let dir = |lat: f32, lon: f32| {
         let (lat, lon) = (lat.to_radians(), lon.to_radians());
         // OpenEXR: latitude +90° is +Y, (0, 0) is +Z, longitude +90° is +X
@@ -607,7 +607,7 @@ fn exposure_scales_the_radiance() {
 /// row at its +Y edge (UsdLux's min coordinates at (+X, +Y)); one texel is black.
 pub(crate) fn textured_rect(m: Mat4) -> Light {
     let px: Vec<f32> = [[1.0, 2.0, 3.0, 4.0], [5.0, 0.0, 7.0, 8.0]].iter().flatten().flat_map(|&v| [v, 0.5 * v, 0.25 * v]).collect();
-    let tex = TextureDesc { name: "rect".into(), width: 4, height: 2, channels: 3, pixels: px.into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp };
+    let tex = TextureDesc { name: "rect".into(), width: 4, height: 2, channels: 3, pixels: px.into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear };
     let mut d = desc(LightShape::Rect { width: 2.0, height: 1.0, texture: Some(0) }, m);
     d.intensity = 2.0;
     Light::from_desc(&d, &[tex], ColorSpace::LinearRec709).unwrap()

@@ -163,6 +163,49 @@ pub const AP1_PRIMARIES: [[f64; 2]; 3] = [[0.713, 0.293], [0.165, 0.830], [0.128
 /// Primaries of ITU-R BT.2020.
 pub const REC2020_PRIMARIES: [[f64; 2]; 3] = [[0.708, 0.292], [0.170, 0.797], [0.131, 0.046]];
 
+/// Primaries of ACES AP0 (ACES2065-1).
+pub const AP0_PRIMARIES: [[f64; 2]; 3] = [[0.7347, 0.2653], [0.0, 1.0], [0.0001, -0.0770]];
+/// Primaries of Display P3 (P3-D65).
+pub const P3_PRIMARIES: [[f64; 2]; 3] = [[0.680, 0.320], [0.265, 0.690], [0.150, 0.060]];
+/// Primaries of Adobe RGB (1998).
+pub const ADOBE_RGB_PRIMARIES: [[f64; 2]; 3] = [[0.64, 0.33], [0.21, 0.71], [0.15, 0.06]];
+
+/// The primaries (with their white) of a colour space a texture file can be encoded in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum FilePrimaries {
+    Rec709,
+    /// ACES2065-1 (ACES white).
+    Ap0,
+    /// ACEScg (ACES white).
+    Ap1,
+    Rec2020,
+    P3D65,
+    AdobeRgb,
+    /// CIE XYZ itself (D65 white).
+    XyzD65,
+}
+
+/// Linear RGB with primaries `p` → linear Rec.709 (the authored colours' space), a file's ACES
+/// white adapted to D65 by Bradford, as colour management converts such a file; the inverse of
+/// [`xyz_to_output`]'s conversion for the spaces both know.
+pub fn file_to_authored(p: FilePrimaries) -> [[f32; 3]; 3] {
+    let c = cie();
+    let own = |primaries, white| ColorSpaceData::new(primaries, white).rgb_to_xyz;
+    let (to_xyz, aces) = match p {
+        FilePrimaries::Rec709 => (color_space(ColorSpace::LinearRec709).rgb_to_xyz, false),
+        FilePrimaries::Ap1 => (color_space(ColorSpace::AcesCg).rgb_to_xyz, true),
+        FilePrimaries::Rec2020 => (color_space(ColorSpace::LinearRec2020).rgb_to_xyz, false),
+        FilePrimaries::Ap0 => (own(AP0_PRIMARIES, &c.aces_white), true),
+        FilePrimaries::P3D65 => (own(P3_PRIMARIES, &c.d65), false),
+        FilePrimaries::AdobeRgb => (own(ADOBE_RGB_PRIMARIES, &c.d65), false),
+        FilePrimaries::XyzD65 => (DMat3::IDENTITY, false),
+    };
+    let rec709 = color_space(crate::scene::AUTHORED_COLOR_SPACE);
+    let adapt = if aces { bradford(DVec3::from(color_space(ColorSpace::AcesCg).white_xyz), DVec3::from(rec709.white_xyz)) } else { DMat3::IDENTITY };
+    let m = rec709.xyz_to_rgb * adapt * to_xyz;
+    std::array::from_fn(|r| std::array::from_fn(|k| m.col(k)[r] as f32))
+}
+
 /// Matrices and white of a working colour space (built on first use).
 pub fn color_space(cs: ColorSpace) -> &'static ColorSpaceData {
     static REC709: OnceLock<ColorSpaceData> = OnceLock::new();
@@ -283,6 +326,51 @@ mod tests {
         }
         let same = xyz_to_output(rgb_to_xyz([0.3, 0.5, 0.7], ColorSpace::LinearRec709), ColorSpace::LinearRec709);
         assert!(same.iter().zip([0.3, 0.5, 0.7]).all(|(a, b)| (a - b).abs() < 1e-5), "{same:?}");
+    }
+
+    /// Files in other colour spaces reach linear Rec.709 as the textbook conversion takes them:
+    /// each space's normalised primary matrix from its chromaticities and white point, a
+    /// Bradford adaptation from the ACES white (computed here from the published (x, y), not
+    /// from the spectra the renderer integrates), and ACEScg's as published (4 decimals).
+    #[test]
+    fn files_in_other_colour_spaces_convert_to_linear_rec709_as_published() {
+        let npm = |p: [[f64; 2]; 3], w: [f64; 2]| {
+            let col = |c: [f64; 2]| DVec3::new(c[0] / c[1], 1.0, (1.0 - c[0] - c[1]) / c[1]);
+            let m = DMat3::from_cols(col(p[0]), col(p[1]), col(p[2]));
+            m * DMat3::from_diagonal(m.inverse() * col(w))
+        };
+        let (d65, aces) = ([0.3127, 0.3290], [0.32168, 0.33767]);
+        let xyz = |w: [f64; 2]| DVec3::new(w[0] / w[1], 1.0, (1.0 - w[0] - w[1]) / w[1]);
+        let to_709 = npm(REC709_PRIMARIES, d65).inverse();
+        let from_aces = bradford(xyz(aces), xyz(d65));
+        for (p, m) in [
+            (FilePrimaries::Rec709, DMat3::IDENTITY),
+            (FilePrimaries::Ap1, to_709 * from_aces * npm(AP1_PRIMARIES, aces)),
+            (FilePrimaries::Ap0, to_709 * from_aces * npm(AP0_PRIMARIES, aces)),
+            (FilePrimaries::Rec2020, to_709 * npm(REC2020_PRIMARIES, d65)),
+            (FilePrimaries::P3D65, to_709 * npm(P3_PRIMARIES, d65)),
+            (FilePrimaries::AdobeRgb, to_709 * npm(ADOBE_RGB_PRIMARIES, d65)),
+            (FilePrimaries::XyzD65, to_709),
+        ] {
+            let got = file_to_authored(p);
+            for r in 0..3 {
+                for k in 0..3 {
+                    assert!((got[r][k] as f64 - m.col(k)[r]).abs() < 2e-3, "{p:?} [{r}][{k}]: {} vs {}", got[r][k], m.col(k)[r]);
+                }
+            }
+        }
+        let published = [[1.7051, -0.6218, -0.0833], [-0.1303, 1.1408, -0.0105], [-0.0240, -0.1290, 1.1530]];
+        let got = file_to_authored(FilePrimaries::Ap1);
+        for r in 0..3 {
+            for k in 0..3 {
+                assert!((got[r][k] - published[r][k]).abs() < 2e-3, "ACEScg [{r}][{k}]: {} vs {}", got[r][k], published[r][k]);
+            }
+        }
+        // an ACEScg file rendered into ACEScg comes back as its own numbers
+        let texel = [0.8f32, 0.3, 0.1];
+        let authored: [f32; 3] = std::array::from_fn(|r| (0..3).map(|k| got[r][k] * texel[k]).sum());
+        let back = xyz_to_output(rgb_to_xyz(authored, ColorSpace::LinearRec709), ColorSpace::AcesCg);
+        assert!(back.iter().zip(texel).all(|(a, b)| (a - b).abs() < 1e-5), "{back:?}");
     }
 
     #[test]

@@ -617,16 +617,12 @@ impl Ctx<'_> {
             },
         };
         // the file input's colour space (USD's colorSpace metadata, as UsdImaging hands it on:
-        // `colorSpace:file`): sRGB-encoded, linear, else the file's own encoding decides
-        let cs = match self.nodes[node].inputs.get("colorSpace:file").and_then(|v| v.as_str()) {
-            Some(c) => match c.to_ascii_lowercase().as_str() {
-                "srgb_texture" | "srgb" | "srgb_rec709_scene" | "srgb_displayp3_scene" | "g22_rec709" => "sRGB",
-                "lin_rec709" | "lin_rec709_scene" | "lin_srgb" | "raw" | "data" | "linear" => "raw",
-                _ => "auto",
-            },
-            None => "auto",
-        };
-        let Some(texture) = self.texture_slot(node, "file", cs, wrap_s, wrap_t) else { return Err(fallback) };
+        // `colorSpace:file`), else the file's own encoding decides
+        let encoding = self.file_color_space(node, "file");
+        // filtertype: closest reads the texel the coordinates fall in; linear and cubic
+        // (not done: read bilinearly) blend
+        let closest = self.input_token(node, "filtertype", &["linear", "closest", "cubic"], "linear") == "closest";
+        let Some(texture) = self.texture_slot(node, "file", encoding, wrap_s, wrap_t, closest) else { return Err(fallback) };
         let transform = tiled * chain;
         if !(transform.matrix2.is_finite() && transform.translation.is_finite()) {
             self.p.add(&format!("{}.inputs:texcoord", node), "the texture coordinates' transform is not finite; using the mesh's st");

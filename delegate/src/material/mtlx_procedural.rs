@@ -173,9 +173,11 @@ impl Ctx<'_> {
             _ => [pick(1, 2), pick(0, 2), pick(0, 1)],
         };
         let single = id.ends_with("_float");
+        let closest = self.input_token(node, "filtertype", &["linear", "closest", "cubic"], "linear") == "closest";
         let mut images = Vec::with_capacity(3);
         for (file, st) in ["filex", "filey", "filez"].into_iter().zip(coordinates) {
-            images.push(match self.texture_slot(node, file, "auto", Some(WrapKey::Repeat), Some(WrapKey::Repeat)) {
+            let encoding = self.file_color_space(node, file);
+            images.push(match self.texture_slot(node, file, encoding, Some(WrapKey::Repeat), Some(WrapKey::Repeat), closest) {
                 Some(texture) => {
                     let mut l = self.plain_lookup(texture, fallback, None);
                     if single {

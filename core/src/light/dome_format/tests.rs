@@ -93,7 +93,7 @@ fn painted(format: DomeFormat, w: usize, h: usize) -> TextureDesc {
             pixels[y * w + x] = f(d.normalize());
         }
     }
-    TextureDesc { name: "probe".into(), width: w as u32, height: h as u32, channels: 1, pixels: pixels.into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp }
+    TextureDesc { name: "probe".into(), width: w as u32, height: h as u32, channels: 1, pixels: pixels.into(), wrap_s: Wrap::Clamp, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear }
 }
 
 #[test]

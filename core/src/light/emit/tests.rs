@@ -88,7 +88,7 @@ fn hot_spot_texture() -> TextureDesc {
             pixels.extend_from_slice(&v);
         }
     }
-    TextureDesc { name: "hot".into(), width: w as u32, height: h as u32, channels: 3, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp }
+    TextureDesc { name: "hot".into(), width: w as u32, height: h as u32, channels: 3, pixels: pixels.into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Clamp, filter: crate::scene::Filter::Linear }
 }
 
 // ---------------------------------------------------------------------------------------------
