@@ -336,6 +336,9 @@ struct Ctx<'a> {
     /// What each MaterialX node output read so far supplies: a node several others use is
     /// read once.
     mtlx_read: std::collections::HashMap<(String, String), Source>,
+    /// The MaterialX node outputs being read, innermost last: a connection back to one of them
+    /// is a cycle.
+    mtlx_reading: Vec<(String, String)>,
 }
 
 impl Ctx<'_> {
@@ -796,7 +799,7 @@ fn terminal(store: &AttrStore, name: &str) -> Option<String> {
 /// Converts a material prim. `textures` answers what is known of an asset path.
 pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -> Option<TexState>, problems: &mut Problems) -> MaterialPiece {
     let nodes = parse_nodes(store);
-    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0, mtlx_read: Default::default() };
+    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0, mtlx_read: Default::default(), mtlx_reading: Vec::new() };
     let mut desc = default_material(path);
     let surf = terminal(store, "surface");
     let vol = terminal(store, "volume");

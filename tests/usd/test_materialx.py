@@ -847,3 +847,33 @@ def test_an_image_with_closest_filtering_shows_its_texels_unblended(renderer, st
     want = (u < 0.5).astype(float) if filtertype == "closest" else np.clip(1.5 - 2 * u, 0, 1)
     away = np.abs(u - 0.5) > 1.5 / RES
     assert np.abs(red - want)[away].max() < 0.05, (red, want)
+
+
+def test_a_cycle_in_a_node_graph_is_cut_and_named_once(renderer, stage):
+    """A = B x B, B = A + 0.2: the cycle is named once, on the input that closes it (B.in1,
+    listing A -> B -> A), which reads its default (add's 0); the rest of the graph renders:
+    B = 0 + 0.2, the glow A = 0.04. It was named at every node as a chain of more than 64."""
+    def build(s):
+        a = UsdShade.Shader.Define(s, "/Looks/G/A")
+        a.CreateIdAttr("ND_multiply_color3")
+        b = UsdShade.Shader.Define(s, "/Looks/G/B")
+        b.CreateIdAttr("ND_add_color3")
+        a_out = a.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+        b_out = b.CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+        for k in ("in1", "in2"):
+            a.CreateInput(k, Sdf.ValueTypeNames.Color3f).ConnectToSource(b_out)
+        b.CreateInput("in1", Sdf.ValueTypeNames.Color3f).ConnectToSource(a_out)
+        b.CreateInput("in2", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.2, 0.2, 0.2))
+        return a_out
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    mat, sh = _standard_surface(stage, "/Looks/G", base=0.0, specular=0.0, emission=1.0)
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(build(stage))
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=8, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert [(p.prim, p.attribute) for p in problems] == [("/Looks/G/B", "inputs:in1")], problems
+    assert "/Looks/G/A → /Looks/G/B → /Looks/G/A" in problems[0].message, problems[0].message
+    ok, why = near(img, (0.04, 0.04, 0.04))
+    assert ok, why

@@ -298,7 +298,10 @@ impl Ctx<'_> {
         if let Some(read) = self.mtlx_read.get(&key) {
             return Some(read.clone());
         }
-        let read = self.mtlx_source_read(attr, up, output, depth)?;
+        self.mtlx_reading.push(key.clone());
+        let read = self.mtlx_source_read(attr, up, output, depth);
+        self.mtlx_reading.pop();
+        let read = read?;
         self.mtlx_read.insert(key, read.clone());
         Some(read)
     }
@@ -365,6 +368,15 @@ impl Ctx<'_> {
     pub(super) fn operand(&mut self, node: &str, input: &str, default: [f32; 4], depth: u32) -> Result<Source, String> {
         match self.nodes[node].connects.get(input).cloned() {
             None => Ok(Source::Fallback(self.value4(node, input, default))),
+            // a connection back to a node being read: the cycle is cut here, once, and the
+            // input reads its constant
+            Some((up, output)) if self.mtlx_reading.iter().any(|r| r.0 == up && r.1 == output) => {
+                let at = self.mtlx_reading.iter().position(|r| r.0 == up && r.1 == output).unwrap_or(0);
+                let cycle: Vec<&str> = self.mtlx_reading[at..].iter().map(|r| r.0.as_str()).chain([up.as_str()]).collect();
+                let message = format!("connects the node graph in a cycle ({}); this input reads its constant value", cycle.join(" → "));
+                self.p.add(&format!("{node}.inputs:{input}"), message);
+                Ok(Source::Fallback(self.value4(node, input, default)))
+            }
             Some(_) if depth >= MAX_DEPTH => Err(format!("chains more than {MAX_DEPTH} nodes")),
             Some((up, output)) => self.connection_at(&format!("{}.inputs:{}", node, input), &up, &output, depth + 1).ok_or_else(|| format!("has an unusable {input}")),
         }
