@@ -152,6 +152,64 @@ def test_bad_nurbs_curves_are_reported(stage, delegate):
     assert "/Good" in delegate.prims and "/ShortKnots" not in delegate.prims
 
 
+def test_a_nurbs_curve_broken_by_a_repeated_knot_is_drawn_in_pieces(stage, delegate):
+    """Knots [0 0 0 1 1 1 2 2 2] on six control points of order 3: the interior knot repeated
+    3 times breaks the curve into two quadratic Beziers (P0 P1 P2 and P3 P4 P5), drawn as two
+    curves with nothing between P2 and P3 (they were joined by a segment); each piece keeps
+    its widths. A range past the knots' domain is drawn within it and reported."""
+    camera(stage)
+    ctl = np.array([(0, 0, 0), (1, 2, 0), (2, 0, 0), (4, 0, 0), (5, 2, 0), (6, 0, 0)], float)
+    c = UsdGeom.NurbsCurves.Define(stage, "/Broken")
+    c.CreatePointsAttr([Gf.Vec3f(*p) for p in ctl])
+    c.CreateCurveVertexCountsAttr([6])
+    c.CreateOrderAttr([3])
+    c.CreateKnotsAttr([0, 0, 0, 1, 1, 1, 2, 2, 2])
+    c.CreateWidthsAttr([0.1, 0.2, 0.3, 0.4, 0.5, 0.6])
+    c.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    _nurbs_arc(stage, "/Wide", ranges=[Gf.Vec2d(-1, 2)])
+    _, problems = load(stage, delegate)
+    assert [(p.prim, p.attribute) for p in problems] == [("/Wide", "ranges")], problems
+    counts = floats(delegate.value("/Broken", "curveVertexCounts")).astype(int).tolist()
+    pts = floats(delegate.value("/Broken", "points"))
+    assert counts == [17, 17] and len(pts) == 34
+    first, second = pts[:17], pts[17:]
+    bezier = lambda p, t: (1 - t) ** 2 * p[0] + 2 * t * (1 - t) * p[1] + t * t * p[2]  # noqa: E731
+    for piece, p in ((first, ctl[:3]), (second, ctl[3:])):
+        assert np.allclose(piece[0], p[0]) and np.allclose(piece[-1], p[2])
+        assert np.allclose(piece, [bezier(p, t) for t in np.linspace(0, 1, 17)], atol=1e-6)
+    w = np.asarray(delegate.primvars["/Broken"]["widths"][1], np.float32)
+    assert w[16] == pytest.approx(0.3) and w[17] == pytest.approx(0.4)
+    # the wide range is the whole arc
+    arc = floats(delegate.value("/Wide", "points"))
+    assert np.allclose(arc[0], [2, 0, -10]) and np.allclose(arc[-1], [0, 2, -10], atol=1e-6)
+
+
+def test_a_nurbs_patch_broken_by_a_repeated_knot_has_no_strip_across_the_break(stage, delegate):
+    """A bilinear patch whose u knots [0 0 1 1 2 2] repeat 1 twice (order 2): two flat
+    sheets, x in [0, 1] and [3, 4], with no quads over the gap between x = 1 and 3; normals
+    stay +z up to the break."""
+    camera(stage)
+    p = UsdGeom.NurbsPatch.Define(stage, "/Sheets")
+    xs = [0, 1, 3, 4]
+    p.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in (0, 1) for x in xs])
+    p.CreateUVertexCountAttr(4)
+    p.CreateVVertexCountAttr(2)
+    p.CreateUOrderAttr(2)
+    p.CreateVOrderAttr(2)
+    p.CreateUKnotsAttr([0, 0, 1, 1, 2, 2])
+    p.CreateVKnotsAttr([0, 0, 1, 1])
+    _, problems = load(stage, delegate)
+    assert problems == []
+    pts = floats(delegate.value("/Sheets", "points"))
+    idx = floats(delegate.value("/Sheets", "faceVertexIndices")).astype(int).reshape(-1, 4)
+    corners = pts[idx]
+    spans = corners[:, :, 0].max(axis=1) - corners[:, :, 0].min(axis=1)
+    assert len(idx) > 0 and spans.max() <= 1.0 + 1e-9, spans
+    assert set(np.round(pts[:, 0], 6)) == {0.0, 1.0, 3.0, 4.0}
+    n = np.asarray(delegate.primvars["/Sheets"]["normals"][1], np.float32).reshape(-1, 3)
+    assert np.allclose(n / np.linalg.norm(n, axis=1)[:, None], [0, 0, 1], atol=1e-6)
+
+
 def test_a_nurbs_circle_renders_as_a_ring(renderer, stage):
     # a full circle of radius 2 (nine rational quadratic vertices) drawn as a tube 0.2 wide,
     # 10 units away: its ring covers 2 pi r w units of the image

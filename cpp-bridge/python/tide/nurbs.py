@@ -3,9 +3,12 @@ and NURBS patches (UsdGeomNurbsPatch) as grids of quads (`patch_matrix`).
 
 Each curve of `order` k (degree p = k - 1) has `curveVertexCounts` n control vertices, n + k
 `knots` and optional `pointWeights` (rational curves: a circle is exact) and `ranges` (the
-parameter interval drawn; unauthored: [knots[p], knots[n]]). The curve is sampled at every knot
-inside its range and SAMPLES_PER_SPAN times across each knot span (once for degree 1, whose
-spans are straight), by the Cox-de Boor recursion with the weights folded in. A sample is a
+parameter interval drawn; unauthored: [knots[p], knots[n]]; a range reaching past that domain
+is cut to it and reported). The curve is sampled at every knot inside its range and
+SAMPLES_PER_SPAN times across each knot span (once for degree 1, whose spans are straight), by
+the Cox-de Boor recursion with the weights folded in. An interior knot repeated `order` times
+or more breaks the curve: it is sampled on both sides of the break (each side's limit) and
+drawn as separate pieces, a patch without the strip between them. A sample is a
 fixed rational combination of the control vertices, so one matrix per curve carries the control
 vertices to the polyline; the same matrix carries every time sample of the points, velocities,
 accelerations and `vertex` widths or normals, which therefore move and blend with the curve.
@@ -41,6 +44,15 @@ def _span(u, p, n, knots):
     return lo
 
 
+def _span_before(u, p, n, knots):
+    """The span s (p <= s < n) whose interval (knots[s], knots[s + 1]] holds u: where the curve
+    arrives at u from below."""
+    s = n - 1
+    while s > p and knots[s] >= u:
+        s -= 1
+    return s
+
+
 def _basis(s, u, p, knots):
     """The p + 1 B-spline basis functions that are non-zero at u in span s (Cox-de Boor)."""
     n = np.zeros(p + 1)
@@ -60,8 +72,10 @@ def _basis(s, u, p, knots):
     return n
 
 
-def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN):
-    """(samples x count) matrix of the rational basis at the curve's sample parameters."""
+def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN, note=None):
+    """(samples x count) matrix of the rational basis at the curve's sample parameters, and the
+    rows r after which the curve breaks (row r is a piece's end, row r + 1 the next one's
+    start). `note(attribute, message)` hears of what is repaired (a range cut to the domain)."""
     p = int(order) - 1
     if p < 1:
         raise NurbsError("order", "order %d is below 2" % order)
@@ -77,21 +91,31 @@ def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN):
     if not (np.all(np.isfinite(w)) and np.all(w > 0)):
         raise NurbsError("pointWeights", "weights must be finite and positive")
     lo, hi = (knots[p], knots[count]) if rng is None else (float(rng[0]), float(rng[1]))
+    if rng is not None and np.isfinite(lo) and np.isfinite(hi) and hi > lo and (lo < knots[p] or hi > knots[count]) \
+            and note is not None:
+        note("ranges", "the range [%g, %g] reaches past the knots' domain [%g, %g]; drawn within "
+             "it" % (lo, hi, knots[p], knots[count]))
     lo, hi = max(lo, knots[p]), min(hi, knots[count])
     if not hi > lo:
         raise NurbsError("ranges" if rng is not None else "knots",
                          "the curve's parameter range [%g, %g] is empty" % (lo, hi))
     breaks = np.unique(np.concatenate([[lo, hi], knots[(knots > lo) & (knots < hi)]]))
+    # an interior knot of multiplicity > p: the curve jumps there
+    jumps = {b for b in breaks[1:-1] if np.count_nonzero(knots == b) > p}
     steps = 1 if p == 1 else per_span
-    params = [breaks[0]]
+    params = [(breaks[0], False)]
+    cuts = []
     for a, b in zip(breaks[:-1], breaks[1:]):
-        params.extend(a + (b - a) * (np.arange(1, steps + 1) / steps))
+        params.extend((a + (b - a) * (k / steps), k == steps and b in jumps) for k in range(1, steps + 1))
+        if b in jumps:
+            cuts.append(len(params) - 1)
+            params.append((b, False))
     m = np.zeros((len(params), count))
-    for row, u in enumerate(params):
-        s = _span(u, p, count, knots)
+    for row, (u, arriving) in enumerate(params):
+        s = _span_before(u, p, count, knots) if arriving else _span(u, p, count, knots)
         nw = _basis(s, u, p, knots) * w[s - p:s + 1]
         m[row, s - p:s + 1] = nw / nw.sum()
-    return m
+    return m, cuts
 
 
 class CurvesMap:
@@ -104,10 +128,13 @@ class CurvesMap:
         for i, (c, k) in enumerate(zip(counts, orders)):
             c, k = int(c), int(k)
             try:
-                m = curve_matrix(k, knots[koff:koff + c + k],
-                                 None if weights is None else weights[first:first + c],
-                                 None if ranges is None else ranges[i], c)
-                self.blocks.append((i, first, c, m))
+                m, cuts = curve_matrix(k, knots[koff:koff + c + k],
+                                       None if weights is None else weights[first:first + c],
+                                       None if ranges is None else ranges[i], c,
+                                       note=lambda attr, msg: problem(attr, "curve %d: %s" % (i, msg)))
+                # each piece of a broken curve is a curve of its own (the same curve's values)
+                for a, b in zip([0] + [r + 1 for r in cuts], cuts + [len(m) - 1]):
+                    self.blocks.append((i, first, c, m[a:b + 1]))
             except NurbsError as e:
                 problem(e.attribute, "curve %d: %s; that curve is dropped" % (i, e))
                 self.dropped += 1
@@ -153,22 +180,26 @@ class PatchMap:
         return (num / self.den[..., None]).reshape(self.den.size, -1)
 
 
-def patch_matrix(u, v, weights):
+def patch_matrix(u, v, weights, note=None):
     """A NurbsPatch's evaluation: u and v are (order, knots, range, vertex count) of each
     direction; weights (nv x nu) or None. Returns (a PatchMap carrying the control points
-    onto the grid, (su, sv)). Rational patches divide by the weighted basis sum at each grid
-    point."""
-    mats = []
+    onto the grid, (su, sv), (u cuts, v cuts): the grid columns and rows after which the
+    surface breaks). Rational patches divide by the weighted basis sum at each grid point.
+    `note(attribute, message)` hears of what is repaired."""
+    mats, cuts = [], []
     for name, (order, knots, rng, count) in (("u", u), ("v", v)):
+        attr = lambda a: {"order": name + "Order", "knots": name + "Knots", "ranges": name + "Range",  # noqa: E731
+                          "curveVertexCounts": name + "VertexCount"}.get(a, a)
         try:
-            mats.append(curve_matrix(order, knots, None, rng, count, PATCH_SAMPLES_PER_SPAN))
+            m, c = curve_matrix(order, knots, None, rng, count, PATCH_SAMPLES_PER_SPAN,
+                                note=None if note is None else lambda a, msg: note(attr(a), msg))
         except NurbsError as e:
-            attr = {"order": name + "Order", "knots": name + "Knots", "ranges": name + "Range",
-                    "curveVertexCounts": name + "VertexCount"}.get(e.attribute, e.attribute)
-            raise NurbsError(attr, str(e))
+            raise NurbsError(attr(e.attribute), str(e))
+        mats.append(m)
+        cuts.append(c)
     mu, mv = mats
     nu, nv = u[3], v[3]
     w = np.ones((nv, nu)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(nv, nu)
     if not (np.all(np.isfinite(w)) and np.all(w > 0)):
         raise NurbsError("pointWeights", "weights must be finite and positive")
-    return PatchMap(mu, mv, w), (mu.shape[0], mv.shape[0])
+    return PatchMap(mu, mv, w), (mu.shape[0], mv.shape[0]), tuple(cuts)

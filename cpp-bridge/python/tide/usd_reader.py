@@ -321,6 +321,20 @@ def _outside_primvar_names(prim, root):
     return tuple(sorted(names))
 
 
+def _piecewise_gradient(g, axis, cuts):
+    """np.gradient of grid `g` along `axis`, each piece between cuts (a cut r: rows r and r + 1
+    lie on either side of a break) on its own, so that no difference crosses a break."""
+    edges = [0] + [r + 1 for r in cuts] + [g.shape[axis]]
+    parts = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        piece = np.take(g, range(a, b), axis=axis)
+        if piece.shape[axis] < 2:
+            parts.append(np.zeros_like(piece))
+        else:
+            parts.append(np.gradient(piece, axis=axis, edge_order=2 if piece.shape[axis] > 2 else 1))
+    return np.concatenate(parts, axis=axis)
+
+
 def _collapsed_edge_normals(n, scale):
     """Unit normals of a patch's grid (sv x su x 3 cross products of its derivatives); where
     a grid row or column collapses to a point (a sphere's pole), where the cross product
@@ -1955,9 +1969,10 @@ class Reader:
         if weights is not None and len(weights) == 0:
             weights = None
         try:
-            m, (su, sv) = nurbs.patch_matrix(
+            m, (su, sv), (cut_u, cut_v) = nurbs.patch_matrix(
                 (int(get("uOrder", 0)), get("uKnots", []), rng("uRange"), nu),
-                (int(get("vOrder", 0)), get("vKnots", []), rng("vRange"), nv), weights)
+                (int(get("vOrder", 0)), get("vKnots", []), rng("vRange"), nv), weights,
+                note=lambda attr, msg: self.problem(path, attr, msg))
         except nurbs.NurbsError as e:
             self.problem(path, e.attribute, "%s; prim dropped" % e)
             return False
@@ -1968,9 +1983,12 @@ class Reader:
             self.problem(path, "trimCurve:counts", "trim curves are not applied; the whole "
                          "patch renders")
         self._map_points(st, lambda p: m @ p)
+        # no quad across a break (a knot repeated `order` times: the surface jumps there)
         quads = []
         for j in range(sv - 1):
             for i in range(su - 1):
+                if i in cut_u or j in cut_v:
+                    continue
                 k = j * su + i
                 quads.append((k, k + 1, k + 1 + su, k + su))
         st.set("faceVertexCounts", _ints(np.full(len(quads), 4)))
@@ -1979,8 +1997,7 @@ class Reader:
         st.set("subdivisionScheme", ("token", "none"))
         # smooth normals from the grid's u and v derivatives (du x dv faces the front)
         g = (m @ arr.astype(np.float64)).reshape(sv, su, 3)
-        grad = lambda axis: np.gradient(g, axis=axis, edge_order=2 if g.shape[axis] > 2 else 1)  # noqa: E731
-        n = np.cross(grad(1), grad(0))
+        n = np.cross(_piecewise_gradient(g, 1, cut_u), _piecewise_gradient(g, 0, cut_v))
         if str(get("orientation", "rightHanded")) == "leftHanded":
             n = -n
         n = _collapsed_edge_normals(n, np.abs(g).max())
