@@ -189,15 +189,8 @@ def test_a_nurbs_patch_broken_by_a_repeated_knot_has_no_strip_across_the_break(s
     sheets, x in [0, 1] and [3, 4], with no quads over the gap between x = 1 and 3; normals
     stay +z up to the break."""
     camera(stage)
-    p = UsdGeom.NurbsPatch.Define(stage, "/Sheets")
-    xs = [0, 1, 3, 4]
-    p.CreatePointsAttr([Gf.Vec3f(x, y, 0) for y in (0, 1) for x in xs])
-    p.CreateUVertexCountAttr(4)
-    p.CreateVVertexCountAttr(2)
-    p.CreateUOrderAttr(2)
-    p.CreateVOrderAttr(2)
-    p.CreateUKnotsAttr([0, 0, 1, 1, 2, 2])
-    p.CreateVKnotsAttr([0, 0, 1, 1])
+    _nurbs_patch(stage, "/Sheets", [(x, y, 0) for y in (0, 1) for x in (0, 1, 3, 4)],
+                 (4, 2, [0, 0, 1, 1, 2, 2]), (2, 2, [0, 0, 1, 1]))
     _, problems = load(stage, delegate)
     assert problems == []
     pts = floats(delegate.value("/Sheets", "points"))
@@ -251,19 +244,26 @@ def test_hermite_curves_become_the_same_bezier_curves(stage, delegate):
     assert np.allclose(w, [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
 
 
+def _nurbs_patch(stage, path, points, u, v, weights=None):
+    """A NurbsPatch of `points` (v-major, u fastest); u and v are (vertex count, order, knots)."""
+    p = UsdGeom.NurbsPatch.Define(stage, path)
+    p.CreatePointsAttr([Gf.Vec3f(*q) for q in points])
+    p.CreateUVertexCountAttr(u[0])
+    p.CreateVVertexCountAttr(v[0])
+    p.CreateUOrderAttr(u[1])
+    p.CreateVOrderAttr(v[1])
+    p.CreateUKnotsAttr(u[2])
+    p.CreateVKnotsAttr(v[2])
+    if weights is not None:
+        p.CreatePointWeightsAttr(weights)
+    return p
+
+
 def _quarter_cylinder(stage, path="/P"):
     s = 0.5 ** 0.5
-    p = UsdGeom.NurbsPatch.Define(stage, path)
     arc = [(2, 0), (2, 2), (0, 2)]
-    p.CreatePointsAttr([Gf.Vec3f(x, y, z) for z in (0, 4) for x, y in arc])
-    p.CreateUVertexCountAttr(3)
-    p.CreateVVertexCountAttr(2)
-    p.CreateUOrderAttr(3)
-    p.CreateVOrderAttr(2)
-    p.CreateUKnotsAttr([0, 0, 0, 1, 1, 1])
-    p.CreateVKnotsAttr([0, 0, 1, 1])
-    p.CreatePointWeightsAttr([1, s, 1, 1, s, 1])
-    return p
+    return _nurbs_patch(stage, path, [(x, y, z) for z in (0, 4) for x, y in arc],
+                        (3, 3, [0, 0, 0, 1, 1, 1]), (2, 2, [0, 0, 1, 1]), [1, s, 1, 1, s, 1])
 
 
 def test_a_nurbs_patch_renders_its_exact_surface(stage, delegate):
