@@ -244,6 +244,25 @@ def test_hermite_curves_become_the_same_bezier_curves(stage, delegate):
     assert np.allclose(w, [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9])
 
 
+def test_hermite_tangents_with_time_samples_bend_the_curve_over_the_shutter(stage, delegate):
+    """Still points, tangents sampled at frames 0 and 1 (the shutter): the bezier sent at each
+    end of the shutter has the inner vertices P +- T/3 of that time's tangents (they were the
+    frame's at both ends, so the curve did not bend)."""
+    camera(stage, **{"shutter__open": 0.0, "shutter__close": 1.0})
+    settings(stage)
+    c = UsdGeom.HermiteCurves.Define(stage, "/H")
+    c.CreatePointsAttr([(0, 0, 0), (3, 0, 0)])
+    c.CreateCurveVertexCountsAttr([2])
+    c.CreateTangentsAttr().Set([(3, 0, 0), (3, 0, 0)], 0)
+    c.GetTangentsAttr().Set([(0, 3, 0), (0, -3, 0)], 1)
+    _, problems = load(stage, delegate)
+    assert problems == []
+    sent = delegate.samples("/H", "points")
+    assert sorted(sent) == [0.0, 1.0], sent
+    assert np.allclose(floats(sent[0.0]), [(0, 0, 0), (1, 0, 0), (2, 0, 0), (3, 0, 0)])
+    assert np.allclose(floats(sent[1.0]), [(0, 0, 0), (0, 1, 0), (3, 1, 0), (3, 0, 0)])
+
+
 def _nurbs_patch(stage, path, points, u, v, weights=None):
     """A NurbsPatch of `points` (v-major, u fastest); u and v are (vertex count, order, knots)."""
     p = UsdGeom.NurbsPatch.Define(stage, path)

@@ -1827,22 +1827,25 @@ class Reader:
         return True
 
     def _map_points(self, st, fn):
-        """Replaces every sample of the sent `points` by fn(points) (a linear map)."""
+        """Replaces every sample of the sent `points` by fn(points, offset) (the sample's frame
+        offset, None for the value at the frame)."""
         st.set("points", None, [(o, _floats(fn(np.frombuffer(v[2], dtype=np.float32)
-                                                 .reshape(-1, 3).astype(np.float64)), 3))
+                                                 .reshape(-1, 3).astype(np.float64), o), 3))
                                 for o, v in st.values["points"]])
 
     def _send_converted_curves(self, prim, st, n_points, n_curves, counts, kind, vertex_map,
-                               uniform_map, data_map=None):
+                               uniform_map, data_map=None, points_map=None):
         """Sends curves another curve type was converted to (nonperiodic, `kind` linear or cubic
         bezier; `n_curves` source curves, `counts` vertices per converted curve): `vertex_map`
-        carries per-point rows (the points' samples) onto the new vertices, `data_map` (else `vertex_map`) per-point widths, normals, velocities and
-        accelerations, `uniform_map` per-curve rows to (rows, interpolation)."""
+        carries per-point rows onto the new vertices, `points_map` (else `vertex_map`) the
+        points' samples (points, frame offset), `data_map` (else `vertex_map`) per-point widths,
+        normals, velocities and accelerations, `uniform_map` per-curve rows to (rows,
+        interpolation)."""
         data_map = data_map or vertex_map
         curves = UsdGeom.Curves(prim)
         path = prim.GetPath()
         t = self._time(0)
-        self._map_points(st, vertex_map)
+        self._map_points(st, points_map or (lambda p, o: vertex_map(p)))
         st.set("curveVertexCounts", _ints(counts))
         st.set("type", ("token", kind))
         st.set("basis", ("token", "bezier"))
@@ -1886,7 +1889,9 @@ class Reader:
     def _eval_hermite(self, prim, st, arr):
         """HermiteCurves go to the delegate as cubic bezier curves, the same curves: each
         segment's inner vertices are P0 + T0/3 and P1 - T1/3. Widths and normals per vertex
-        are interpolated at the thirds."""
+        are interpolated at the thirds. Under motion blur, tangents with time samples are read
+        at every offset the points are sampled at (the points then at the tangents' offsets
+        too), so that the curves bend as they move."""
         curves = UsdGeom.HermiteCurves(prim)
         t = self._time(0)
         path = prim.GetPath()
@@ -1915,12 +1920,47 @@ class Reader:
 
         base = np.where(tf < 0, b, a)
 
-        def place(p):       # the bezier vertices: the points, their tangents' thirds between
-            return p[base] + tangents[ti] * tf[:, None]
+        def place(p, tan=tangents):  # the bezier vertices: the points, their tangents' thirds between
+            return p[base] + tan[ti] * tf[:, None]
 
+        tangents_at = self._hermite_tangent_samples(prim, st, arr, tangents)
         self._send_converted_curves(prim, st, len(arr), len(counts), 3 * (counts - 1) + 1, "cubic",
-                                    place, lambda v: (v, "uniform"), data_map=blend)
+                                    place, lambda v: (v, "uniform"), data_map=blend,
+                                    points_map=lambda p, o: place(p, tangents_at.get(o, tangents)))
         return True
+
+    def _hermite_tangent_samples(self, prim, st, arr, tangents):
+        """{frame offset: tangents} of a moving HermiteCurves prim whose tangents have time
+        samples, sampled as points are (the shutter's ends and the samples within), with the
+        sent points resampled at the union of their offsets; {} otherwise. A sample of another
+        count is reported and the tangents at the frame used throughout."""
+        attr = UsdGeom.HermiteCurves(prim).GetTangentsAttr()
+        if not (self._moving and attr.GetNumTimeSamples() > 1):
+            return {}
+        offsets = self._shutter_offsets(attr.GetTimeSamplesInInterval(self._window()))
+        got = {o: np.asarray(attr.Get(self._time(o)) or [], dtype=np.float64) for o in offsets}
+        bad = [o for o, v in got.items() if v.shape != tangents.shape or not np.all(np.isfinite(v))]
+        if bad:
+            self.problem(prim.GetPath(), "tangents", "the time sample at frame offset %g does not "
+                         "hold %d finite tangents; the tangents at the frame are used over the "
+                         "shutter" % (bad[0], len(tangents)))
+            return {}
+        sent = dict(st.values["points"])
+        if None in sent and prim.GetAttribute("velocities").HasAuthoredValue():
+            # velocities move the points: the shape is held at the frame's tangents
+            self.problem(prim.GetPath(), "tangents", "animated tangents with velocities moving "
+                         "the points: the tangents at the frame are used over the shutter")
+            return {}
+        points = prim.GetAttribute("points")
+        samples = []
+        for o in sorted(set(k for k in sent if k is not None) | set(offsets)):
+            if o in sent:
+                samples.append((o, sent[o]))
+            else:
+                p = np.asarray(points.Get(self._time(o)), dtype=np.float32).reshape(-1, 3)
+                samples.append((o, _floats(p if p.shape == arr.shape and np.all(np.isfinite(p)) else arr, 3)))
+        st.set("points", None, samples)
+        return got
 
     def _eval_tetmesh(self, prim, st, arr):
         """A TetMesh renders its surface: the faces `surfaceFaceVertexIndices` names, else the
@@ -1982,7 +2022,7 @@ class Reader:
         if get("trimCurve:counts") is not None and len(get("trimCurve:counts")):
             self.problem(path, "trimCurve:counts", "trim curves are not applied; the whole "
                          "patch renders")
-        self._map_points(st, lambda p: m @ p)
+        self._map_points(st, lambda p, o: m @ p)
         # no quad across a break (a knot repeated `order` times: the surface jumps there)
         quads = []
         for j in range(sv - 1):
