@@ -400,3 +400,17 @@ def test_a_portal_of_zero_area_is_reported_and_the_dome_still_lights(renderer, s
     assert [(p.prim, p.attribute) for p in problems] == [("/Window", "width")], problems
     ok, why = near(img, (0.5, 0.5, 0.5))
     assert ok, why
+
+
+def test_bad_stage_metadata_without_a_settings_prim_is_named_on_the_stage_root(renderer, stage):
+    """metersPerUnit -2 and timeCodesPerSecond 0 on a stage with no RenderSettings: the
+    problems name the stage's root (where its metadata lives), not a prim it does not have,
+    and the scene renders."""
+    _good(stage)
+    UsdGeom.SetStageMetersPerUnit(stage, -2.0)
+    stage.SetTimeCodesPerSecond(0.0)
+    problems = []
+    img = render(renderer, stage, problems, spp=1, width=16)["color"]
+    got = sorted((p.prim, p.attribute) for p in problems)
+    assert got == [("/", "metersPerUnit"), ("/", "timeCodesPerSecond")], problems
+    assert img.shape[0] > 0

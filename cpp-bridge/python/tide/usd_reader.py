@@ -593,6 +593,10 @@ class Reader:
             if prim and p.attribute and not prim.HasAttribute(p.attribute) and \
                     prim.HasAttribute("primvars:" + p.attribute):
                 p = Problem(p.prim, "primvars:" + p.attribute, p.message)
+            # without a settings prim, what the stand-in settings carry is the stage's own
+            # metadata (metersPerUnit, timeCodesPerSecond): named on the stage's root
+            if p.prim == SETTINGS_FALLBACK_PATH and self.settings_prim is None:
+                p = Problem("/", p.attribute, p.message)
             found.append(p)
         new = []
         for p in found:
