@@ -234,6 +234,23 @@ fn shadow_transmittance(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32
     }
 }
 
+/// The direction and length of the shadow ray from `o` (a point stepped off a surface) to
+/// the point `ls` sampled on a light: aimed at it from `o` itself (the sample's direction,
+/// taken from the surface point, would pass beside it by the step), stopping short of it by
+/// 10⁻⁴ of the way; an infinite light's direction, without end.
+pub(crate) fn shadow_ray(o: Vec3, ls: &crate::light::LightLiSample) -> (Vec3, f32) {
+    if !ls.dist.is_finite() {
+        return (ls.wi, f32::INFINITY);
+    }
+    let to = ls.p_light - o;
+    let len = to.length();
+    if len > 0.0 && len.is_finite() {
+        (to / len, len * (1.0 - 1e-4))
+    } else {
+        (ls.wi, 0.0)
+    }
+}
+
 /// [`shadow_transmittance`] before the light's shadow controls.
 #[allow(clippy::too_many_arguments)]
 fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, time: f32, medium: Option<usize>, stack: &InteriorStack, lambda: &SampledWavelengths, seed: f32, path_flags: u8) -> SampledSpectrum {
@@ -249,6 +266,10 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
         let Some(hit) = world.accel.intersect(&ray) else {
             break;
         };
+        if world.is_light_geometry(light, &hit) {
+            // the light itself, met a rounding short of the point sampled on it
+            break;
+        }
         let info = &world.instances[hit.instance as usize];
         let s = world.surface(&ray, &hit);
         seg_len += hit.t;
@@ -728,8 +749,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                             let out_front = ls.wi.dot(s.ng) > 0.0;
                             let med = if out_front { medium_front } else { medium_back };
                             let o = s.origin_on(if out_front { s.ng } else { -s.ng });
-                            let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                            let tr = shadow_transmittance(world, li, o, ls.wi, dist, ray.time, med, &stack, lambda, u_tr, path_flags);
+                            let (d, dist) = shadow_ray(o, &ls);
+                            let tr = shadow_transmittance(world, li, o, d, dist, ray.time, med, &stack, lambda, u_tr, path_flags);
                             if !tr.is_black() {
                                 let w = if ls.is_delta { 1.0 } else { power_heuristic(1.0, ls.pdf * pmf, 1.0, bsdf.pdf(wo, wi, TransportMode::Radiance)) };
                                 let c = beta * tr * f * ls.l * (w * chain_weight(li, &chain) / (ls.pdf * pmf));

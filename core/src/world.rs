@@ -255,6 +255,15 @@ impl SurfaceHit {
     }
 }
 
+impl World {
+    /// Whether `hit` is light `light`'s own geometry (its emissive triangle): a shadow ray
+    /// towards a point on it that meets it has arrived, whatever its rounding.
+    #[inline]
+    pub fn is_light_geometry(&self, light: usize, hit: &crate::accel::Hit) -> bool {
+        self.light_triangles.get(light).copied().flatten() == Some((hit.instance, hit.prim))
+    }
+}
+
 /// The kind of scattering at the vertex that gathers a light's emission, which picks the
 /// light's multiplier ([`World::light_response`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -287,6 +296,9 @@ pub struct World {
     /// constant colour, a colour from a primvar (its value at each corner, interpolated as the
     /// surface interpolates it) or from a texture (looked up where the sample lies).
     pub triangle_lights: HashMap<(u32, u32), usize>,
+    /// Per light: the (instance, triangle) it is, for an emissive triangle (a shadow ray that
+    /// meets it has reached its light).
+    pub light_triangles: Vec<Option<(u32, u32)>>,
     /// Per light: which instances it illuminates, by instance index (None: all).
     pub light_links: Vec<Option<std::sync::Arc<[bool]>>>,
     /// Per light: which instances cast its shadows, by instance index (None: all).
@@ -771,6 +783,7 @@ impl World {
         // emissive triangles of meshes whose material emits a constant colour, or one from a
         // primvar or a texture
         let mut triangle_lights = HashMap::new();
+        let mut light_triangles: Vec<Option<(u32, u32)>> = Vec::new();
         let mut shared_textures: HashMap<usize, std::sync::Arc<TextureDesc>> = HashMap::new();
         for (ii, inst) in scene.instances.iter().enumerate() {
             let GeometryRef::Mesh(mi) = inst.geometry else { continue };
@@ -815,6 +828,8 @@ impl World {
                 };
                 if let Some(l) = light {
                     triangle_lights.insert((ii as u32, ti as u32), lights.len());
+                    light_triangles.resize(lights.len(), None);
+                    light_triangles.push(Some((ii as u32, ti as u32)));
                     lights.push(l);
                     caustic_emitters.push(false);
                     light_links.push(light_link.clone());
@@ -865,6 +880,7 @@ impl World {
             hittable_lights,
             infinite_lights,
             triangle_lights,
+            light_triangles,
             light_links,
             shadow_links,
             any_light_response: light_response.iter().any(|r| !r.is_physical()),

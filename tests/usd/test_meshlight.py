@@ -207,3 +207,49 @@ def test_a_normalized_mesh_light_divides_each_instance_by_its_own_area(renderer)
     mid = lambda col: img[RES // 2 - 1:RES // 2 + 1, col - 1:col + 1].mean()
     assert mid(RES // 4) == pytest.approx(1.0, rel=0.01)
     assert mid(3 * RES // 4) == pytest.approx(4.0, rel=0.01)
+
+
+@pytest.mark.parametrize("apart", [False, True])
+def test_a_mesh_light_close_to_a_floor_gives_the_irradiance_of_its_area(renderer, stage, apart):
+    """A 1 x 1 mesh light of radiance 2 facing down 0.1 above an exactly Lambertian floor
+    (albedo 0.5): around its footprint the floor shows rho/pi x the irradiance the panel's
+    area gives, integrated here (E = L h^2 / r^4 over the panel). `apart`: the same world
+    positions with each prim's transform moved +100 and its points -100, which makes the
+    shadow rays' offsets larger; the shadow ray towards a point on the panel met the panel
+    itself a rounding short of it, darkening the floor by a third, and two thirds apart."""
+    from conftest import exact_lambert_material
+    shift = 100.0 if apart else 0.0
+    _top_camera(stage)
+    floor = UsdGeom.Mesh.Define(stage, "/Floor")
+    floor.CreatePointsAttr([(x, -shift, z) for x, z in ((-10, -10), (-10, 10), (10, 10), (10, -10))])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    floor.AddTranslateOp().Set(Gf.Vec3d(0, shift, 0))
+    bind(floor.GetPrim(), exact_lambert_material(stage, "/Looks/Floor", 0.5))
+    h = 0.1
+    m = _panel(stage, "/Panel", 1.0, h + shift, False)
+    m.GetPointsAttr().Set([Gf.Vec3f(p[0], p[1] - shift, p[2]) for p in m.GetPointsAttr().Get()])
+    UsdLux.MeshLightAPI.Apply(m.GetPrim())
+    UsdLux.LightAPI(m.GetPrim()).CreateIntensityAttr(2.0)
+    m.GetPrim().CreateAttribute("light:materialSyncMode", Sdf.ValueTypeNames.Token).Set("noMaterialResponse")
+    settings(stage, res=(RES, RES), samples=64, integrator="path", maxDepth=1)
+    img = render(renderer, stage)["color"][..., :3].astype(np.float64).mean(axis=2)
+    # pixel centres (the view is symmetric about x = 0 and z = 0, as the panel is)
+    c = -WIDTH / 2 + (np.arange(RES) + 0.5) * WIDTH / RES
+    zs, xs = np.meshgrid(c, c, indexing="ij")
+    seen = (np.maximum(np.abs(xs), np.abs(zs)) > 0.5 + WIDTH / RES) & (np.hypot(xs, zs) < 1.3)
+    # the panel on a 200 x 200 midpoint grid; each pixel averaged over 4 x 4 points (the
+    # default box pixel filter)
+    k = (np.arange(200) + 0.5) / 200 - 0.5
+    panel = np.stack(np.meshgrid(k, k), axis=-1).reshape(-1, 2)
+    sub = ((np.arange(4) + 0.5) / 4 - 0.5) * WIDTH / RES
+    offsets = np.stack(np.meshgrid(sub, sub), axis=-1).reshape(-1, 2)
+
+    def radiance(x, z):
+        q = np.array([x, z]) + offsets
+        r2 = ((panel[None, :, :] - q[:, None, :]) ** 2).sum(axis=2) + h * h
+        return 0.5 / np.pi * 2.0 * (h * h / r2 ** 2).mean(axis=1).mean()
+    want = np.array([radiance(x, z) for x, z in zip(xs[seen], zs[seen])])
+    got = img[seen]
+    assert want.mean() > 0.01
+    assert got.mean() == pytest.approx(want.mean(), rel=0.03), (got.mean(), want.mean())

@@ -200,6 +200,9 @@ fn visible(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32) -> bool {
     for _ in 0..64 {
         let ray = Ray { o: origin, d, t_max: remaining, time: 0.0 };
         let Some(hit) = world.accel.intersect(&ray) else { return true };
+        if world.is_light_geometry(light, &hit) {
+            return true;
+        }
         let info = &world.instances[hit.instance as usize];
         if info.casts_shadows && world.casts_shadow_of(light, hit.instance) {
             return false;
@@ -254,8 +257,8 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
                 let vis = match shadow {
                     Some((w, v)) if w == ls.wi => v,
                     _ => {
-                        let dist = if ls.dist.is_finite() { (ls.p_light - o).length() * (1.0 - 1e-4) } else { f32::INFINITY };
-                        let v = visible(world, li, o, ls.wi, dist);
+                        let (d, dist) = crate::integrator::shadow_ray(o, &ls);
+                        let v = visible(world, li, o, d, dist);
                         shadow = Some((ls.wi, v));
                         v
                     }
