@@ -323,20 +323,31 @@ fn moving_instance(transforms: &[(f64, DMat4)], instance_samples: &[(f64, Vec<DM
     times.into_iter().map(|t| (t, motion_at(&inst, t) * motion_at(transforms, t))).collect()
 }
 
-/// Side of the cells the scene's origin snaps to, in metres (see [`scene_origin`]).
-pub const ORIGIN_CELL_METRES: f64 = 256.0;
+/// The cells the scene's origin snaps to are this many times the camera's near clipping
+/// distance wide (see [`scene_origin`]), within [`ORIGIN_CELL_METRES`].
+pub const ORIGIN_CELL_PER_NEAR: f64 = 1024.0;
+
+/// The smallest and largest cells, in metres.
+pub const ORIGIN_CELL_METRES: (f64, f64) = (1e-3, 256.0);
 
 /// Where the scene is placed about: the camera's position at the frame to the nearest corner
-/// of a grid of cells [`ORIGIN_CELL_METRES`] wide (a power of two in scene units, from
-/// `meters_per_unit`), or the world's origin without a camera. Far from the world's origin
+/// of a grid of cells, or the world's origin without a camera. Far from the world's origin
 /// single precision cannot hold positions finely (10⁵ units from it, its steps are 8·10⁻³
-/// units); about this point what lies near the camera stays within a cell's width of it (steps
-/// under 2·10⁻⁵ m), and error grows with the distance from the camera, as what a pixel covers
-/// does. Snapped, the origin stays put while the camera moves within a cell, so a camera move
-/// rarely rebuilds the world; a scene whose camera is within half a cell of the world's origin
-/// is placed as authored.
-pub fn scene_origin(camera: Option<DVec3>, meters_per_unit: f64) -> DVec3 {
-    let cell = (ORIGIN_CELL_METRES / meters_per_unit).log2().round().exp2();
+/// units); about this point what lies near the camera stays within a cell's width of it.
+///
+/// A cell is [`ORIGIN_CELL_PER_NEAR`] times the camera's near clipping distance `near` (scene
+/// units) wide, to a power of two, and 1 mm to 256 m (from `meters_per_unit`): positions at
+/// the camera are held to about 5·10⁻⁵ of the nearest distance it renders (0.87 × 1024 near ×
+/// 2⁻²⁴), and error grows with the distance from the camera, as what a pixel covers does. A
+/// macro camera (near 1 cm) snaps to 8 m cells, a camera with USD's default near of 1 m to
+/// 256 m ones. Snapped, the origin stays put while the camera moves within its cell, so a
+/// camera move rarely rebuilds the world; a scene whose camera is within half a cell of the
+/// world's origin is placed as authored.
+pub fn scene_origin(camera: Option<DVec3>, near: f64, meters_per_unit: f64) -> DVec3 {
+    let pow2 = |units: f64| units.log2().round().exp2();
+    let (lo, hi) = (pow2(ORIGIN_CELL_METRES.0 / meters_per_unit), pow2(ORIGIN_CELL_METRES.1 / meters_per_unit));
+    let wanted = pow2(near * ORIGIN_CELL_PER_NEAR);
+    let cell = if wanted.is_finite() && wanted > 0.0 { wanted.clamp(lo, hi) } else { hi };
     match camera.filter(|c| c.is_finite()) {
         Some(c) if cell.is_finite() && cell > 0.0 => (c / cell).round() * cell,
         _ => DVec3::ZERO,
@@ -835,7 +846,8 @@ impl Delegate {
         // The scene is placed about a point near the camera (see [`scene_origin`]): every world
         // matrix is taken relative to it in double precision before it becomes single precision.
         let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(DVec3::ZERO));
-        let origin = scene_origin(cam_world, mpu as f64);
+        let near = cam.as_ref().map_or(1.0, |c| c.desc.clipping_range[0] as f64);
+        let origin = scene_origin(cam_world, near, mpu as f64);
         let view = (open.to_bits(), close.to_bits(), tcps.to_bits(), motion, origin.to_array().map(f64::to_bits));
         let mut world_changed = !camera_only || self.view_inputs != Some(view);
         self.view_inputs = Some(view);
@@ -1869,14 +1881,22 @@ mod tests {
 
     #[test]
     fn the_scene_origin_is_the_cameras_cell_corner_nearest_it() {
-        // 256 m cells: in metres, centimetres (2^15 units, the power of two nearest 25 600)
-        // and kilometres (a quarter unit)
-        assert_eq!(scene_origin(Some(DVec3::new(100.0, -200.0, 1e5 + 0.3)), 1.0), DVec3::new(0.0, -256.0, 100_096.0));
-        assert_eq!(scene_origin(Some(DVec3::new(20_000.0, 0.0, -50_000.0)), 0.01), DVec3::new(32_768.0, 0.0, -65_536.0));
-        assert_eq!(scene_origin(Some(DVec3::new(0.1, 0.2, 0.4)), 1000.0), DVec3::new(0.0, 0.25, 0.5));
+        // USD's default near (1 unit): 256 m cells in metres (1024 m capped), 1024 units in
+        // centimetres, a quarter unit in kilometres (256 m to the nearest power of two)
+        assert_eq!(scene_origin(Some(DVec3::new(100.0, -200.0, 1e5 + 0.3)), 1.0, 1.0), DVec3::new(0.0, -256.0, 100_096.0));
+        assert_eq!(scene_origin(Some(DVec3::new(20_000.0, 0.0, -50_000.0)), 1.0, 0.01), DVec3::new(20_480.0, 0.0, -50_176.0));
+        // a centimetre stage's camera with a 10 m near: capped at 256 m = 2^15 units
+        assert_eq!(scene_origin(Some(DVec3::new(20_000.0, 0.0, -50_000.0)), 1000.0, 0.01), DVec3::new(32_768.0, 0.0, -65_536.0));
+        assert_eq!(scene_origin(Some(DVec3::new(0.1, 0.2, 0.4)), 1.0, 1000.0), DVec3::new(0.0, 0.25, 0.5));
+        // a macro camera (near 1 cm: 10.24 m, to 8 m cells); a near of 1 µm keeps 1 mm cells
+        // (2^-10 m); a near of 0 or NaN the largest
+        assert_eq!(scene_origin(Some(DVec3::new(13.0, -3.0, 1e5 + 0.3)), 0.01, 1.0), DVec3::new(16.0, 0.0, 100_000.0));
+        assert_eq!(scene_origin(Some(DVec3::new(0.0031, 0.0, 0.0)), 1e-6, 1.0), DVec3::new(0.0029296875, 0.0, 0.0));
+        assert_eq!(scene_origin(Some(DVec3::new(100.0, 0.0, 0.0)), 0.0, 1.0), DVec3::new(0.0, 0.0, 0.0));
+        assert_eq!(scene_origin(Some(DVec3::new(200.0, 0.0, 0.0)), f64::NAN, 1.0), DVec3::new(256.0, 0.0, 0.0));
         // no camera, or one not placed: the world's origin
-        assert_eq!(scene_origin(None, 1.0), DVec3::ZERO);
-        assert_eq!(scene_origin(Some(DVec3::new(f64::NAN, 0.0, 0.0)), 1.0), DVec3::ZERO);
+        assert_eq!(scene_origin(None, 1.0, 1.0), DVec3::ZERO);
+        assert_eq!(scene_origin(Some(DVec3::new(f64::NAN, 0.0, 0.0)), 1.0, 1.0), DVec3::ZERO);
     }
 
     #[test]
@@ -1896,7 +1916,7 @@ mod tests {
         d.create_prim("domeLight", "/Dome");
         assert_eq!(d.commit_resources(), []);
         let s = d.scene();
-        let o = scene_origin(Some(DVec3::new(far, 0.0, -far + 3.0)), 1.0);
+        let o = scene_origin(Some(DVec3::new(far, 0.0, -far + 3.0)), 1.0, 1.0);
         assert_eq!(s.origin, o);
         assert!(o.x != 0.0 && (o.x - far).abs() <= 128.0, "{o}");
         let rel = |x: f64| (x - o.x) as f32;
