@@ -325,6 +325,45 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
     tr
 }
 
+/// The first-hit AOVs a pixel takes from its first sample (depth, primId) of camera ray `cr`
+/// by geometry alone: the first
+/// surface it meets that the camera sees, past volume boxes, surfaces hidden from the camera
+/// and cut-outs (opacity under ½), or an area light the camera sees before it. For a sample
+/// whose path scattered or was absorbed in a medium before it met a surface (an underwater
+/// view of the sea floor, a wall seen through fog): its depth is the surface's, as a pixel's
+/// that the medium let through.
+fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, aov: &mut SampleValue) {
+    let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
+    let mut passed = 0.0f32;
+    for _ in 0..MAX_NULL_EVENTS {
+        let hit = world.accel.intersect(&ray);
+        let t_hit = hit.map_or(ray.t_max, |h| h.t);
+        let light = world
+            .hittable_lights
+            .iter()
+            .filter(|&&li| world.lights[li].visible_to_camera())
+            .filter_map(|&li| world.lights[li].intersect_at(ray.o, ray.d, t_hit, ray.time).map(|h| h.0))
+            .fold(None, |m: Option<f32>, t| Some(m.map_or(t, |m| m.min(t))));
+        if let Some(t) = light {
+            aov.depth = (passed + t) * cr.depth_per_t + cr.depth_at_origin;
+            return;
+        }
+        let Some(hit) = hit else { return };
+        let info = &world.instances[hit.instance as usize];
+        let s = world.surface(&ray, &hit);
+        let skip = world.materials[info.material].is_medium_boundary() || !info.visible_to_camera || world.opacity(info.material, &s) < 0.5;
+        if !skip {
+            aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
+            aov.prim_id = info.id as f32;
+            return;
+        }
+        let front = -ray.d.dot(s.ng) > 0.0;
+        ray.o = s.origin_on(if front { -s.ng } else { s.ng });
+        ray.t_max -= hit.t;
+        passed += hit.t;
+    }
+}
+
 /// Splits an NEE contribution at the first vertex into light-path categories by the BSDF's
 /// lobes: transmission by the side of `wi`; reflection by the diffuse and glossy parts.
 fn split_reflection(bsdf: &Bsdf, wo: Vec3, wi: Vec3, contrib: SampledSpectrum) -> [(usize, SampledSpectrum); 2] {
@@ -416,6 +455,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     stack.at_wavelengths(world, lambda);
     let mut depth = 0u32;
     let mut null_events = 0u32;
+    // how far the camera ray went through the surfaces it passed unchanged (null events): the
+    // depth AOV measures from the camera, not from the last of them
+    let mut passed = 0.0f32;
     let mut specular_bounce = false;
     let mut eta_scale = 1.0f32;
     let mut prev_pdf = 0.0f32;
@@ -497,6 +539,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let (ro, rd) = world.media[mi].rest_ray(ray.time, ray.o, ray.d);
             match world.media[mi].sample_distance(ro, rd, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
+                    if depth == 0 && first_surface && sampler.sample_index() == 0 {
+                        // the pixel's first-hit AOVs come from its first sample: the surface
+                        // behind the medium, by geometry
+                        first_surface_aov(world, &cr, &mut aov);
+                    }
                     beta *= weight;
                     fp.advance(t);
                     fp.after_diffuse();
@@ -556,6 +603,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 DistanceSample::Pass { weight } => {
                     beta *= weight;
                     if beta.is_black() {
+                        if depth == 0 && first_surface && sampler.sample_index() == 0 {
+                            first_surface_aov(world, &cr, &mut aov);
+                        }
                         break;
                     }
                 }
@@ -578,7 +628,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 }
             }
             if depth == 0 {
-                aov.depth = t * cr.depth_per_t + cr.depth_at_origin;
+                aov.depth = (passed + t) * cr.depth_per_t + cr.depth_at_origin;
             }
             break;
         }
@@ -617,6 +667,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             () => {{
                 ray.o = s.origin_on(if front { -s.ng } else { s.ng });
                 ray.t_max -= hit.t;
+                passed += hit.t;
                 null_events += 1;
                 if null_events > MAX_NULL_EVENTS {
                     break;
@@ -648,7 +699,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         if let Boundary::False = boundary {
             stack.cross(world, &s, front, lambda);
             ray.o = s.origin_on(if front { -s.ng } else { s.ng });
-            ray.t_max = f32::INFINITY;
+            // the camera's far clipping distance still counts from the camera
+            ray.t_max -= hit.t;
+            passed += hit.t;
             null_events += 1;
             if null_events > MAX_NULL_EVENTS {
                 break;
@@ -670,7 +723,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             first_surface = false;
             if depth == 0 {
                 aov.alpha = 1.0;
-                aov.depth = hit.t * cr.depth_per_t + cr.depth_at_origin;
+                aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
                 aov.prim_id = info.id as f32;
                 aov.normal = s.ns.to_array();
             }

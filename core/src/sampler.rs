@@ -192,6 +192,12 @@ impl PixelSampler {
         PixelSampler { pixel_seed: s, index, group: 0, seed: 0, shuffled: 0, used: 4 }
     }
 
+    /// The pixel's sample this sampler draws for (0: the first).
+    #[inline]
+    pub fn sample_index(&self) -> u32 {
+        self.index
+    }
+
     #[inline]
     fn refill(&mut self) {
         self.seed = hash_combine(self.pixel_seed, self.group);

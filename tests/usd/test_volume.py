@@ -212,3 +212,35 @@ def test_a_volume_moving_over_the_shutter_blurs(renderer, stage, tmp_path):
     expected = ((12 - 4.25) + 3.75 * math.exp(-k) + 0.5 * (1 - math.exp(-k)) / k) / 12
     assert_transmits(img, expected)
     assert expected < 0.92
+
+
+@pytest.mark.parametrize("through", ["volume", "dense fog", "cut-out panel"])
+def test_the_depth_of_a_wall_seen_through_a_volume_is_its_distance_from_the_camera(
+        renderer, stage, tmp_path, through):
+    """A wall at z = -3 seen by a camera at z = 5 (8 units) through the volume's box, a dense
+    scattering fog (most camera paths scatter before the wall) or a panel cut out by an
+    opacity of 0 (at z = 2): the depth AOV reads 8 everywhere. It was measured from where the
+    ray left the box or passed the panel (about 4.3 and 3), and infinite where the path
+    scattered first."""
+    camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0))
+    settings(stage, res=(8, 8), samples=4, vars_=("color", "depth"))
+    UsdLux.DomeLight.Define(stage, "/Dome")
+    if through == "volume":
+        volume(stage, write_grid(renderer, tmp_path / "fog.vdb", 0.2), mat=medium_material(stage), z=-1.0)
+    elif through == "dense fog":
+        fog = medium_material(stage, sigma_a=0.1)
+        UsdShade.Shader(stage.GetPrimAtPath("/Looks/Fog/Medium")).GetInput("scattering").Set(Gf.Vec3f(3, 3, 3))
+        volume(stage, write_grid(renderer, tmp_path / "fog.vdb", 1.0), mat=fog, z=-1.0)
+    else:
+        from conftest import preview_material
+        cut = UsdGeom.Mesh.Define(stage, "/Cut")
+        cut.CreatePointsAttr([(-3, -3, 2), (3, -3, 2), (3, 3, 2), (-3, 3, 2)])
+        cut.CreateFaceVertexCountsAttr([4])
+        cut.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+        bind(cut.GetPrim(), preview_material(stage, "/Looks/Cut", opacity=0.0))
+    wall = UsdGeom.Mesh.Define(stage, "/Wall")
+    wall.CreatePointsAttr([(-9, -9, -3), (9, -9, -3), (9, 9, -3), (-9, 9, -3)])
+    wall.CreateFaceVertexCountsAttr([4])
+    wall.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    depth = render(renderer, stage)["depth"][..., 0]
+    assert np.allclose(depth, 8.0, rtol=1e-4), depth
