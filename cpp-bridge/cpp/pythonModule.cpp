@@ -502,16 +502,17 @@ PyObject* Delegate_load_texture(PyObject* self, PyObject* args, PyObject* kw) {
 }
 
 PyObject* Delegate_load_vdb(PyObject* self, PyObject* args, PyObject* kw) {
-    static const char* names[] = {"asset_path", "field_name", "field_index", nullptr};
+    static const char* names[] = {"asset_path", "field_name", "field_index", "reload", nullptr};
     const char* asset = nullptr;
     const char* field = nullptr;
     long long index = 0;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "ss|L", const_cast<char**>(names), &asset, &field, &index)) return nullptr;
+    int reload = 0;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "ss|Lp", const_cast<char**>(names), &asset, &field, &index, &reload)) return nullptr;
     TIDE_TRY
     State& s = S(self);
     bool ok = WithoutGil([&] {
         std::lock_guard<std::mutex> lock(s.mutex);
-        return tide::LoadVdbFor(*s.delegate->GetRenderParam(), asset, field, int64_t(index));
+        return tide::LoadVdbFor(*s.delegate->GetRenderParam(), asset, field, int64_t(index), reload != 0);
     });
     return PyBool_FromLong(ok);
     TIDE_CATCH

@@ -108,9 +108,9 @@ bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t inde
     }
 }
 
-bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index) {
+bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index, bool reload) {
     rs::Delegate& d = param.GetDelegate();
-    if (d.has_grid(asset, field, index)) return true;
+    if (!reload && d.has_grid(asset, field, index)) return true;
     DenseGrid grid;
     std::string error;
     if (!ReadVdbGrid(asset, field, index, &grid, &error)) {

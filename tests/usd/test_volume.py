@@ -127,13 +127,59 @@ def _problems_and_image(renderer, stage, file_path, field_name="density"):
     from tide import usd_reader
     r = usd_reader.Reader(stage, d)
     problems = r.load()
-    rp = r.render_pass()
+    return problems, _image(r, d)
+
+
+def _image(reader, d):
+    """The colour of a render pass of `reader`'s stage through delegate `d`, converged."""
+    rp = reader.render_pass()
     for _ in range(600):
         if rp.is_converged():
             break
         rp.wait(0.1)
-    w, h, c, data = d.map_buffer(r.bindings()[0][1])
-    return problems, np.frombuffer(data, dtype=np.float32).reshape(h, w, c)
+    w, h, c, data = d.map_buffer(reader.bindings()[0][1])
+    return np.frombuffer(data, dtype=np.float32).reshape(h, w, c).copy()
+
+
+def test_the_reader_reads_a_vdb_again_only_when_its_file_changes(stage, delegate, tmp_path):
+    import os
+    path = str(tmp_path / "fog.vdb")
+    with open(path, "wb") as f:
+        f.write(b"one")
+    scene(stage, path)
+    reader, _ = load(stage, delegate)
+    reads = lambda: [c for c in delegate.calls if c[0] == "load_vdb"]  # noqa: E731
+    assert reads() == [("load_vdb", path, "density", 0)]
+    reader.update()
+    assert len(reads()) == 1, "unchanged: not read again"
+    st = os.stat(path)
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    reader.update()
+    assert reads()[1:] == [("load_vdb", path, "density", 0, "reload")]
+
+
+def test_a_vdb_rewritten_on_disk_is_read_again(renderer, stage, tmp_path):
+    """The grid's file rewritten with a quarter of the density: after update() the volume
+    transmits exp(-0.7 x 0.25) and the image is a fresh load's, bit for bit (it kept the grid
+    first read)."""
+    import os
+    from tide import usd_reader
+    path = write_grid(renderer, tmp_path / "fog.vdb", 1.0)
+    scene(stage, path)
+    d = renderer.RenderDelegate()
+    r = usd_reader.Reader(stage, d)
+    assert r.load() == []
+    assert_transmits(_image(r, d), math.exp(-0.7 * PATH_INTEGRAL))
+    st = os.stat(path)
+    write_grid(renderer, path, 0.25)
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns + 10**9))
+    r.update()
+    again = _image(r, d)
+    assert_transmits(again, math.exp(-0.7 * 0.25 * PATH_INTEGRAL))
+    fresh_d = renderer.RenderDelegate()
+    fresh = usd_reader.Reader(stage, fresh_d)
+    fresh.load()
+    assert np.array_equal(again, _image(fresh, fresh_d))
 
 
 def test_missing_vdb_file_is_reported_and_the_rest_renders(renderer, stage, tmp_path):

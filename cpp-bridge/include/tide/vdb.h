@@ -23,9 +23,10 @@ struct DenseGrid {
 /// a grid of another type.
 bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, DenseGrid* out, std::string* error);
 
-/// Reads a grid once per (file, field, index) and hands it to Rust, or the reason it failed.
-/// True when the grid is held (read now or before) and was readable.
-bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index);
+/// Reads a grid once per (file, field, index) and hands it to Rust, or the reason it failed;
+/// `reload` reads it again (its file changed on disk). True when the grid is held (read now
+/// or before) and was readable.
+bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index, bool reload = false);
 
 /// A grid to write: `kind` "float", "double" or "vec3" (the value on every component),
 /// `dims` values x fastest, the first at index `origin`, voxels `voxelSize` wide, then moved

@@ -117,8 +117,8 @@ class RenderDelegate:
         self.textures.add(asset_path)
         return True
 
-    def load_vdb(self, asset_path, field_name, field_index=0):
-        self.calls.append(("load_vdb", asset_path, field_name, field_index))
+    def load_vdb(self, asset_path, field_name, field_index=0, reload=False):
+        self.calls.append(("load_vdb", asset_path, field_name, field_index) + (("reload",) if reload else ()))
         return bool(asset_path) and os.path.isfile(asset_path)
 
     # -- sync -----------------------------------------------------------------------------

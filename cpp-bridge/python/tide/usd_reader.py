@@ -2144,17 +2144,21 @@ class Reader:
         reads `dependent` again."""
         self._depends.setdefault(Sdf.Path(source), set()).add(Sdf.Path(dependent))
 
-    def _load_vdb(self, path, field_name, index):
-        """Has the module read a grid, once per (file, field, index); a failure reaches the
-        delegate, which reports it on the volumes that read the grid."""
+    def _load_vdb(self, path, field_name, index, reload=False):
+        """Has the module read a grid, once per (file, field, index) and again when `reload`
+        (its file changed); a failure reaches the delegate, which reports it on the volumes
+        that read the grid. Each grid read is remembered with its file's modification time."""
         if not hasattr(self, "_vdbs"):
-            self._vdbs = set()
+            self._vdbs = {}
         key = (path, field_name, index)
-        if key in self._vdbs:
+        if key in self._vdbs and not reload:
             return
-        self._vdbs.add(key)
+        self._vdbs[key] = _mtime(path)
         try:
-            self.delegate.load_vdb(path, field_name, index)
+            if reload:
+                self.delegate.load_vdb(path, field_name, index, reload=True)
+            else:
+                self.delegate.load_vdb(path, field_name, index)
         except Exception as e:  # the module refused the call itself
             self.problem(path, "field:density", "cannot read grid '%s': %s" % (field_name, e))
 
@@ -2625,15 +2629,19 @@ class Reader:
         return self._loaded
 
     def _reread_textures(self):
-        """Reads again the texture files changed on disk since they were read (the delegate
-        then converts the materials and lights that use them anew); whether any was."""
+        """Reads again the texture and VDB files changed on disk since they were read (the
+        delegate then converts the materials and lights that use a texture anew, and places
+        the volumes reading a grid with its new values); whether any was."""
         stale = [p for p, t in self._textures_loaded().items() if _mtime(p) != t]
         for path in stale:
             del self._loaded[path]
             if self._load_texture(path) is False:
                 self.problem(path, "file", "cannot read texture '%s' again; what uses it falls "
                              "back" % path)
-        return bool(stale)
+        grids = [k for k, t in getattr(self, "_vdbs", {}).items() if _mtime(k[0]) != t]
+        for key in grids:
+            self._load_vdb(*key, reload=True)
+        return bool(stale or grids)
 
     # -- lights and cameras ---------------------------------------------------------------
     def _eval_light(self, prim):
