@@ -874,7 +874,11 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             }
         }
         prev_pdf = bs.pdf;
-        prev_ctx = LightSampleContext::new(s.p, s.ns).at(ray.time);
+        // the next ray starts stepped off the surface: a light it meets is weighed by the
+        // density of light sampling from there (from the surface point itself, a sphere light
+        // the ray grazes could have no density and its hit count at full weight)
+        let o_next = s.origin_on(if out_front { s.ng } else { -s.ng });
+        prev_ctx = LightSampleContext::new(o_next, s.ns).at(ray.time);
         prev_instance = Some(s.instance);
         if bs.is_transmission() {
             eta_scale *= bs.eta * bs.eta;
@@ -886,7 +890,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 }
             }
         }
-        ray = Ray { o: s.origin_on(if out_front { s.ng } else { -s.ng }), d: wi_w, t_max: f32::INFINITY, time: ray.time };
+        ray = Ray { o: o_next, d: wi_w, t_max: f32::INFINITY, time: ray.time };
         depth += 1;
         if depth > world.max_depth {
             break;

@@ -539,3 +539,34 @@ def test_dome_light_1_pole_axis_turns_the_dome(renderer, tmp_path):
     for normal, want in (((0, -1, 0), 0.5), ((0, 1, 0), 0.0)):
         ok, why = near(_dome_lit_panel(renderer, tmp_path, normal, front, "Z"), (want,) * 3)
         assert ok, (normal, why)
+
+
+def test_a_sphere_light_over_a_surface_far_out_in_its_own_space_has_no_fireflies(renderer):
+    """A Lambertian floor under a small SphereLight, its points authored 10^4 units out and
+    brought back by its transform (the same world): the same image as the floor authored in
+    place. A BSDF-sampled ray starts stepped off the floor (by more, the larger the floor's
+    own coordinates); weighed by the light-sampling density from the floor point itself, a
+    hit grazing the sphere had no density and counted in full: fireflies of ~100 times a
+    pixel and a mean 1.5 % bright."""
+    def image(t):
+        s = Usd.Stage.CreateInMemory()
+        UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+        cam = camera(s, pos=(0, 3.5, 5.0), focal=30.0)
+        cam.AddRotateXOp().Set(-35.0)
+        off = np.array([t, t / 2, -t])
+        UsdGeom.Xform.Define(s, "/P").AddTranslateOp().Set(Gf.Vec3d(*off))
+        m = UsdGeom.Mesh.Define(s, "/P/Floor")
+        m.CreatePointsAttr([Gf.Vec3f(*(np.array(p, float) - off))
+                            for p in [(-4, 0, -4), (4, 0, -4), (4, 0, 4), (-4, 0, 4)]])
+        m.CreateFaceVertexCountsAttr([4])
+        m.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+        bind(m.GetPrim(), exact_lambert_material(s, "/Looks/Grey", 0.5))
+        light = UsdLux.SphereLight.Define(s, "/Light")
+        light.CreateRadiusAttr(0.25)
+        light.CreateIntensityAttr(200.0)
+        light.AddTranslateOp().Set(Gf.Vec3d(1.5, 4.0, 3.0))
+        settings(s, res=(48, 48), samples=32, integrator="path", maxDepth=1)
+        return render(renderer, s)["color"][..., :3].astype(np.float64).mean(axis=2)
+    near_img, far_img = image(0.0), image(1e4)
+    assert far_img.max() < 1.5 * near_img.max(), (far_img.max(), near_img.max())
+    assert far_img.mean() == pytest.approx(near_img.mean(), rel=5e-3)
