@@ -87,6 +87,7 @@ impl MotionTriBlas {
             },
             |first| prefetch_lines(self.geom.as_ptr().wrapping_add(first * nk + k) as *const u8, 2 * std::mem::size_of::<Tri4Geom>()),
         )
+        .map(super::tribvh::into_triangle)
     }
 
     /// Bounds over all keys.

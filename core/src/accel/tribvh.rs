@@ -131,6 +131,7 @@ impl TriBvh {
             |b, t_max| self.intersect_block(b, &ray, t_max).map(|(t, lane, u, v)| (t, self.blocks[b].ids[lane], u, v)),
             |first| prefetch_lines(self.blocks.as_ptr().wrapping_add(first) as *const u8, std::mem::size_of::<Tri4>()),
         )
+        .map(into_triangle)
     }
 
     /// Nearest of a block's four triangles with t in (0, t_max), lanes tested in order.
@@ -138,6 +139,15 @@ impl TriBvh {
     fn intersect_block(&self, b: usize, ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
         hit4(self.blocks[b].g.load(), ray, t_max)
     }
+}
+
+/// A hit's barycentric weights (u, v) of vertices 1 and 2, up to [`EDGE_SLACK`] past an edge,
+/// moved onto the triangle.
+#[inline]
+pub(super) fn into_triangle((t, id, u, v): (f32, u32, f32, f32)) -> (f32, u32, f32, f32) {
+    let (u, v) = (u.max(0.0), v.max(0.0));
+    let over = (u + v - 1.0).max(0.0) * 0.5;
+    (t, id, (u - over).max(0.0), (v - over).max(0.0))
 }
 
 /// The nearest hit (t, triangle, u, v) in (0, t_max) over the blocks of the leaves of `tree`
@@ -175,8 +185,8 @@ pub(super) fn nearest_in_blocks(
 const EDGE_SLACK: f32 = 1.0 / (1 << 20) as f32;
 
 /// Möller–Trumbore on four triangles at once (rows v0, e1, e2 as from [`Tri4Geom::load`]): the
-/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2
-/// (clamped to the triangle: a hit within [`EDGE_SLACK`] past an edge is reported on it).
+/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2 (up
+/// to [`EDGE_SLACK`] outside the triangle: [`into_triangle`] moves them onto it).
 #[inline(always)]
 pub(super) fn hit4([v0, e1, e2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
     let cross = |a: [F4; 3], b: [F4; 3]| {
@@ -215,11 +225,7 @@ pub(super) fn hit4([v0, e1, e2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Opti
             best = Some((ta[i], i, ua[i], va[i]));
         }
     }
-    best.map(|(t, i, u, v)| {
-        let (u, v) = (u.max(0.0), v.max(0.0));
-        let over = (u + v - 1.0).max(0.0) * 0.5;
-        (t, i, (u - over).max(0.0), (v - over).max(0.0))
-    })
+    best
 }
 
 #[cfg(test)]
