@@ -570,3 +570,26 @@ def test_a_sphere_light_over_a_surface_far_out_in_its_own_space_has_no_fireflies
     near_img, far_img = image(0.0), image(1e4)
     assert far_img.max() < 1.5 * near_img.max(), (far_img.max(), near_img.max())
     assert far_img.mean() == pytest.approx(near_img.mean(), rel=5e-3)
+
+
+@pytest.mark.parametrize("space", [None, "acescg"])
+def test_a_dome_images_colour_space_metadata_decodes_it(renderer, stage, tmp_path, space):
+    """A dome of one texel (0.5, 0.25, 0.78) seen directly: unmarked (a float EXR) it shows
+    those values; its `texture:file` marked acescg, their conversion to linear Rec.709
+    (ACEScg's published matrix). The metadata was not read for lights."""
+    path = str(tmp_path / "sky.exr")
+    write_exr(path, [[(0.5, 0.25, 0.78)]])
+    camera(stage)
+    dome = UsdLux.DomeLight.Define(stage, "/Dome")
+    dome.CreateTextureFileAttr(path)
+    if space:
+        dome.GetTextureFileAttr().SetColorSpace(space)
+    settings(stage, res=(8, 8), samples=8, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    assert problems == [], problems
+    stored = np.array([0.5, 0.25, 0.78])
+    acescg_to_rec709 = np.array([[1.70505, -0.62179, -0.08326], [-0.13026, 1.14080, -0.01055],
+                                 [-0.02400, -0.12897, 1.15297]])
+    ok, why = near(img, acescg_to_rec709 @ stored if space else stored)
+    assert ok, (space, why)

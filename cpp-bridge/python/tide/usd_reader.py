@@ -2668,6 +2668,9 @@ class Reader:
                     if self._load_texture(v.resolvedPath) is False:
                         self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
                         v = Sdf.AssetPath("")
+                # the image's colour space (USD metadata on the attribute)
+                if a and a.HasColorSpace():
+                    st.set("colorSpace:" + name[len("inputs:"):], ("token", str(a.GetColorSpace())))
             if isinstance(fb, float):
                 v = float(v)
                 if not math.isfinite(v):
