@@ -325,6 +325,23 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
     tr
 }
 
+/// The nearest analytic area light (index, t, point, normal) `ray` meets before `t_hit`; for
+/// a camera ray (`camera`), only the lights the camera sees (the others are not there for it:
+/// it goes on past them).
+#[inline]
+fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Option<(usize, f32, Vec3, Vec3)> {
+    let mut light_hit: Option<(usize, f32, Vec3, Vec3)> = None;
+    for &li in &world.hittable_lights {
+        if camera && !world.lights[li].visible_to_camera() {
+            continue;
+        }
+        if let Some((t, p, n)) = world.lights[li].intersect_at(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1), ray.time) {
+            light_hit = Some((li, t, p, n));
+        }
+    }
+    light_hit
+}
+
 /// The first-hit AOVs a pixel takes from its first sample (depth, primId) of camera ray `cr`
 /// by geometry alone: the first
 /// surface it meets that the camera sees, past volume boxes, surfaces hidden from the camera
@@ -338,13 +355,7 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, aov: &mut Sam
     for _ in 0..MAX_NULL_EVENTS {
         let hit = world.accel.intersect(&ray);
         let t_hit = hit.map_or(ray.t_max, |h| h.t);
-        let light = world
-            .hittable_lights
-            .iter()
-            .filter(|&&li| world.lights[li].visible_to_camera())
-            .filter_map(|&li| world.lights[li].intersect_at(ray.o, ray.d, t_hit, ray.time).map(|h| h.0))
-            .fold(None, |m: Option<f32>, t| Some(m.map_or(t, |m| m.min(t))));
-        if let Some(t) = light {
+        if let Some((_, t, _, _)) = nearest_light_hit(world, &ray, t_hit, true) {
             aov.depth = (passed + t) * cr.depth_per_t + cr.depth_at_origin;
             return;
         }
@@ -499,16 +510,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let hit = world.accel.intersect(&ray);
         let t_hit = hit.map_or(ray.t_max, |h| h.t);
         // analytic area lights along the ray
-        let mut light_hit: Option<(usize, f32, Vec3, Vec3)> = None;
-        for &li in &world.hittable_lights {
-            // a light hidden from the camera is not there for camera rays (they go on past it)
-            if depth == 0 && !world.lights[li].visible_to_camera() {
-                continue;
-            }
-            if let Some((t, p, n)) = world.lights[li].intersect_at(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1), ray.time) {
-                light_hit = Some((li, t, p, n));
-            }
-        }
+        let light_hit = nearest_light_hit(world, &ray, t_hit, depth == 0);
         let t_surface = light_hit.map_or(t_hit, |h| h.1);
 
         // the medium the ray travels in

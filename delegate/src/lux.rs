@@ -322,13 +322,10 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
     let mut sky = None;
     // the image's colour space metadata (`colorSpace:texture:file`, as the reader hands it on)
     // decodes it; unmarked, the file's own encoding decides
-    let encoding = match store.str_opt("colorSpace:texture:file").filter(|n| !n.is_empty() && !n.eq_ignore_ascii_case("unknown")) {
-        None => Encoding::Auto,
-        Some(n) => Encoding::named(n).unwrap_or_else(|| {
-            p.add("texture:file", format!("colour space '{n}' is not one Tide knows; the file's own encoding decides (8-bit RGB as sRGB, else linear Rec.709)"));
-            Encoding::Auto
-        }),
-    };
+    let encoding = Encoding::from_metadata(store.str_opt("colorSpace:texture:file")).unwrap_or_else(|why| {
+        p.add("texture:file", why);
+        Encoding::Auto
+    });
     let tex_key = |wrap_s, wrap_t, dome| {
         store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding, dome, closest: false })
     };

@@ -138,6 +138,16 @@ impl Encoding {
         }
     }
 
+    /// The encoding a file's colour space metadata `name` gives: `Auto` (the file decides) where
+    /// there is none, it is empty or `unknown`; Err with the message to report for a name no
+    /// colour space has (the file then decides too).
+    pub fn from_metadata(name: Option<&str>) -> Result<Encoding, String> {
+        match name.filter(|n| !n.is_empty() && !n.eq_ignore_ascii_case("unknown")) {
+            None => Ok(Encoding::Auto),
+            Some(n) => Encoding::named(n).ok_or_else(|| format!("colour space '{n}' is not one Tide knows; the file's own encoding decides (8-bit RGB as sRGB, else linear Rec.709)")),
+        }
+    }
+
     /// How a file's values are decoded: the curve undone (`file_srgb`: the file is 8-bit RGB,
     /// which `auto` reads as sRGB) and the primaries whose RGB it holds.
     pub fn decoding(self, file_srgb: bool) -> (Curve, FilePrimaries) {
@@ -496,13 +506,9 @@ impl Ctx<'_> {
     /// `colorSpace` on the asset attribute, handed on as `colorSpace:<input>`, as UsdImaging
     /// does); `Auto` where there is none, or a name no colour space has (a problem).
     pub(super) fn file_color_space(&mut self, tex: &str, file: &str) -> Encoding {
-        let key = format!("colorSpace:{file}");
-        let Some(name) = self.nodes[tex].inputs.get(&key).and_then(|v| v.as_str()).map(String::from) else { return Encoding::Auto };
-        if name.is_empty() || name.eq_ignore_ascii_case("unknown") {
-            return Encoding::Auto;
-        }
-        Encoding::named(&name).unwrap_or_else(|| {
-            self.p.add(&format!("{tex}.inputs:{file}"), format!("colour space '{name}' is not one Tide knows; the file's own encoding decides (8-bit RGB as sRGB, else linear Rec.709)"));
+        let name = self.nodes[tex].inputs.get(&format!("colorSpace:{file}")).and_then(|v| v.as_str());
+        Encoding::from_metadata(name).unwrap_or_else(|why| {
+            self.p.add(&format!("{tex}.inputs:{file}"), why);
             Encoding::Auto
         })
     }

@@ -617,8 +617,8 @@ class Reader:
         """Re-sets the prims affected by edits made through usd-core since the last sync,
         then commits. Returns the new problems (the delegate restarts a running pass)."""
         changed, self._changed = self._changed, []
-        # texture files rewritten on disk are read again (no USD edit tells of them)
-        reread = self._reread_textures()
+        # texture and VDB files rewritten on disk are read again (no USD edit tells of them)
+        reread = self._reread_files()
         if not changed:
             return self.commit() if reread else []
         roots = self._roots_for(changed)
@@ -2628,7 +2628,7 @@ class Reader:
             self._loaded = {}
         return self._loaded
 
-    def _reread_textures(self):
+    def _reread_files(self):
         """Reads again the texture and VDB files changed on disk since they were read (the
         delegate then converts the materials and lights that use a texture anew, and places
         the volumes reading a grid with its new values); whether any was."""
