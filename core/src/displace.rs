@@ -53,7 +53,7 @@ impl Lookups for AtVertex<'_> {
     /// The vertex's own position: a mesh is displaced before any instance places it, so the
     /// world's position is the mesh's own too.
     fn position(&self, _world: bool) -> Vec3 {
-        self.mesh.positions[self.v]
+        self.mesh.origin + self.mesh.positions[self.v]
     }
 
     /// The vertex's own normal, in the mesh's space as the position is.

@@ -520,12 +520,62 @@ pub struct MeshDesc {
     /// and `normals` above stay the pose at time 0 (used where a single pose is needed:
     /// emissive triangles, the water's top).
     pub motion: Option<MeshMotion>,
+    /// The point of the geometry's own space that `positions` (and the motion keys) are
+    /// measured from; zero for geometry as authored. A front end moves geometry authored far
+    /// from its own origin back about it ([`recentring_shift`]), and its instances' transforms
+    /// by as much the other way, so that rays meet it in small numbers; object-space shading
+    /// (a graph's object `position`, displacement) adds this back.
+    pub origin: Vec3,
 }
 
 /// The primvar names texture coordinates are looked for under, in order.
 pub const UV_PRIMVAR_NAMES: [&str; 3] = ["st", "st0", "uv"];
 
+/// The shift that moves geometry bounded by `lo`–`hi` back about its own origin: the bounds'
+/// centre where it lies further out along some axis than [`RECENTRE_FACTOR`] times the bounds'
+/// half-size along any (geometry authored far from its origin, whose coordinates would spend
+/// four or more bits of precision on the distance), else zero (geometry about its origin keeps
+/// its numbers).
+pub fn recentring_shift(lo: Vec3, hi: Vec3) -> Vec3 {
+    let (c, half) = ((lo + hi) * 0.5, (hi - lo) * 0.5);
+    match c.is_finite() && half.is_finite() && c.abs().max_element() > RECENTRE_FACTOR * half.max_element() {
+        true => c,
+        false => Vec3::ZERO,
+    }
+}
+
+/// How many times its own half-size geometry must lie from its origin to be moved back about
+/// it ([`recentring_shift`]).
+pub const RECENTRE_FACTOR: f32 = 16.0;
+
+/// The bounds of points, or None for none.
+fn bounds_of<'a>(points: impl Iterator<Item = &'a Vec3>) -> Option<(Vec3, Vec3)> {
+    points.fold(None, |b, &p| Some(b.map_or((p, p), |(lo, hi): (Vec3, Vec3)| (lo.min(p), hi.max(p)))))
+}
+
 impl MeshDesc {
+    /// Moves the mesh back about its own origin when it lies far from it
+    /// ([`recentring_shift`] of its positions over every motion key), adding the shift to
+    /// [`MeshDesc::origin`]; returns the shift (zero: nothing changed). Each difference is one
+    /// rounding, so vertices equal before stay equal.
+    pub fn recentre(&mut self) -> Vec3 {
+        let shift = self.recentring();
+        if shift != Vec3::ZERO {
+            self.positions.iter_mut().for_each(|p| *p -= shift);
+            for key in self.motion.iter_mut().flat_map(|m| m.positions.iter_mut()) {
+                key.iter_mut().for_each(|p| *p -= shift);
+            }
+            self.origin += shift;
+        }
+        shift
+    }
+
+    /// The shift [`MeshDesc::recentre`] would make.
+    pub fn recentring(&self) -> Vec3 {
+        let keys = self.motion.iter().flat_map(|m| m.positions.iter().flatten());
+        bounds_of(self.positions.iter().chain(keys)).map_or(Vec3::ZERO, |(lo, hi)| recentring_shift(lo, hi))
+    }
+
     /// Whether a primvar reader of `name` reads this mesh's own texture coordinates.
     pub fn uvs_answer(&self, name: &str) -> bool {
         self.uvs.is_some()
@@ -614,6 +664,26 @@ pub struct SpheresDesc {
     pub shape: PointShape,
     /// Primvars, per point or constant, for materials that read them.
     pub primvars: Vec<PrimvarData>,
+    /// As [`MeshDesc::origin`]: where `centers` are measured from in the points' own space.
+    pub origin: Vec3,
+}
+
+impl SpheresDesc {
+    /// As [`MeshDesc::recentre`], for the points' centres (velocities and shapes are relative
+    /// to them).
+    pub fn recentre(&mut self) -> Vec3 {
+        let shift = self.recentring();
+        if shift != Vec3::ZERO {
+            self.centers.iter_mut().for_each(|p| *p -= shift);
+            self.origin += shift;
+        }
+        shift
+    }
+
+    /// The shift [`SpheresDesc::recentre`] would make.
+    pub fn recentring(&self) -> Vec3 {
+        bounds_of(self.centers.iter()).map_or(Vec3::ZERO, |(lo, hi)| recentring_shift(lo, hi))
+    }
 }
 
 /// The shape points take (contract §5). Radii are the points' inner radii (half their widths).
@@ -1040,5 +1110,47 @@ impl CausticsTags {
     /// The authored emitter tag of light `name`.
     pub fn emitter(&self, name: &str) -> Option<bool> {
         self.emitters.iter().rev().find(|(k, _)| k == name).map(|(_, e)| *e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn geometry_far_from_its_origin_is_moved_back_about_it() {
+        // about its origin, or near it for its size: kept as it is
+        assert_eq!(recentring_shift(Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0)), Vec3::ZERO);
+        assert_eq!(recentring_shift(Vec3::new(15.0, 0.0, 0.0), Vec3::new(17.0, 2.0, 0.0)), Vec3::ZERO);
+        // further than 16 half-sizes along some axis: its centre
+        assert_eq!(recentring_shift(Vec3::new(17.0, 0.0, 0.0), Vec3::new(19.0, 2.0, 0.0)), Vec3::new(18.0, 1.0, 0.0));
+        assert_eq!(recentring_shift(Vec3::new(0.0, -1e4, 0.0), Vec3::ZERO), Vec3::ZERO);
+        assert_eq!(recentring_shift(Vec3::new(f32::NAN, 1e4, 0.0), Vec3::new(0.0, 1e4, 0.0)), Vec3::ZERO);
+
+        // a room's wall 10^4 out, moving over the shutter
+        let far = Vec3::new(1.0e4 + 0.37, 2.0, -3.0e4);
+        let positions: Vec<Vec3> = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]].map(|p| far + Vec3::from(p)).to_vec();
+        let later: Vec<Vec3> = positions.iter().map(|p| *p + Vec3::X * 0.5).collect();
+        let mut m = MeshDesc { positions: positions.clone(), indices: vec![0, 1, 2, 0, 2, 3], ..Default::default() };
+        m.motion = Some(MeshMotion { times: vec![0.0, 1.0], positions: vec![positions.clone(), later.clone()], normals: None });
+        let shift = m.recentre();
+        assert_eq!(shift, m.origin);
+        assert!((shift - (far + Vec3::new(0.75, 0.5, 0.0))).abs().max_element() < 1e-2, "{shift:?}");
+        // each point moved by exactly the shift, rounded once; the keys with it
+        for (moved, authored) in m.positions.iter().zip(&positions) {
+            assert_eq!(*moved, *authored - shift);
+            assert!(((moved.as_dvec3() + shift.as_dvec3()) - authored.as_dvec3()).abs().max_element() < 1e-6);
+        }
+        let keys = &m.motion.as_ref().unwrap().positions;
+        assert_eq!(keys[0], m.positions);
+        assert!(keys[1].iter().zip(&later).all(|(k, a)| *k == *a - shift));
+        // again: nothing more to do
+        assert_eq!(m.recentre(), Vec3::ZERO);
+        assert_eq!(m.origin, shift);
+
+        let mut s = SpheresDesc { centers: vec![far, far + Vec3::Y], radii: vec![0.5; 2], ..Default::default() };
+        let shift = s.recentre();
+        assert_eq!((s.origin, s.centers[0], s.centers[1]), (shift, far - shift, far + Vec3::Y - shift));
+        assert!(s.centers.iter().all(|c| c.length() <= 0.5 + 1e-3));
     }
 }

@@ -116,7 +116,7 @@ fn triangle_fault(positions: &[Vec3], t: &[u32]) -> Option<TriangleFault> {
 /// mesh is taken as it is, shared and not copied.
 fn mesh_is_clean(m: &MeshDesc) -> bool {
     let nv = m.positions.len();
-    if m.indices.len() % 3 != 0 || m.indices.len() / 3 > MAX_LEAF_ITEMS || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
+    if !finite3(m.origin) || m.indices.len() % 3 != 0 || m.indices.len() / 3 > MAX_LEAF_ITEMS || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
         return false;
     }
     if !m.primvars.iter().all(|pv| primvar_fits(pv, nv)) {
@@ -139,6 +139,10 @@ fn mend_mesh(m: &mut MeshDesc, p: &mut Vec<Problem>) {
 /// [`mend_mesh`] keeping at most `max_triangles`.
 fn mend_mesh_within(m: &mut MeshDesc, p: &mut Vec<Problem>, max_triangles: usize) {
     let nv = m.positions.len();
+    if !finite3(m.origin) {
+        problem(p, &m.name, "origin", "not finite; taken as zero".to_string());
+        m.origin = Vec3::ZERO;
+    }
     if m.indices.len() % 3 != 0 {
         problem(p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
         m.indices.truncate(m.indices.len() / 3 * 3);
@@ -208,6 +212,10 @@ fn mend_spheres(sp: &mut SpheresDesc, p: &mut Vec<Problem>) {
 /// [`mend_spheres`] keeping at most `max_points`.
 fn mend_spheres_within(sp: &mut SpheresDesc, p: &mut Vec<Problem>, max_points: usize) {
     let n = sp.centers.len();
+    if !finite3(sp.origin) {
+        problem(p, &sp.name, "origin", "not finite; taken as zero".to_string());
+        sp.origin = Vec3::ZERO;
+    }
     if sp.radii.len() != n {
         problem(p, &sp.name, "widths", format!("{} widths for {} points; missing ones use the first or 1", sp.radii.len(), n));
         let r0 = sp.radii.first().copied().unwrap_or(0.5);
@@ -302,6 +310,7 @@ fn spheres_are_clean(sp: &SpheresDesc) -> bool {
         }
     };
     n <= MAX_LEAF_ITEMS
+        && finite3(sp.origin)
         && sp.radii.len() == n
         && sp.velocities.as_ref().is_none_or(|v| v.len() == n && v.iter().all(|x| finite3(*x)))
         && shape_ok
@@ -1106,6 +1115,7 @@ mod tests {
             velocities: Some(vec![Vec3::ZERO, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]),
             shape: PointShape::Spheres,
             primvars: vec![PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![10.0, 11.0, 12.0, 13.0, 14.0] }],
+            origin: Default::default(),
         };
         let mut probs = Vec::new();
         mend_spheres_within(&mut sp, &mut probs, 2);
@@ -1180,6 +1190,7 @@ mod tests {
                 PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
                 PrimvarData { name: "short".into(), tuple: 2, constant: false, data: vec![0.0; 4] },
             ],
+            origin: Default::default(),
         }));
         s.spheres.push(std::sync::Arc::new(SpheresDesc {
             name: "/Blobs".into(),
@@ -1188,6 +1199,7 @@ mod tests {
             velocities: None,
             shape: PointShape::Blobby { threshold: 1.5, orientations: None, scales: Some(vec![Vec3::ONE, Vec3::new(1.0, 0.0, 1.0), Vec3::ONE]) },
             primvars: Vec::new(),
+            origin: Default::default(),
         }));
         let (clean, probs) = validate(&s);
         let attrs: Vec<(&str, &str)> = probs.iter().map(|p| (p.item.as_str(), p.attribute.as_str())).collect();

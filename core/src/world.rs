@@ -282,6 +282,8 @@ pub struct World {
     pub meshes: Vec<Arc<MeshDesc>>,
     /// Per sphere set, its primvars (the meshes carry theirs).
     pub sphere_primvars: Vec<Vec<PrimvarData>>,
+    /// Each sphere set's [`crate::scene::SpheresDesc::origin`] (for object-space shading).
+    pub sphere_origins: Vec<Vec3>,
     /// Per-instance primvar tables ([`InstanceInfo::primvar_row`]).
     pub instance_primvars: Vec<InstancePrimvars>,
     pub materials: Vec<Material>,
@@ -525,9 +527,12 @@ impl Lookups for AtHit<'_> {
                 let m = &self.w.meshes[mi];
                 let i = 3 * self.s.prim as usize;
                 let b = [1.0 - self.s.bary.x - self.s.bary.y, self.s.bary.x, self.s.bary.y];
-                (0..3).map(|k| m.indices.get(i + k).and_then(|&v| m.positions.get(v as usize)).map_or(Vec3::ZERO, |p| *p * b[k])).sum()
+                m.origin + (0..3).map(|k| m.indices.get(i + k).and_then(|&v| m.positions.get(v as usize)).map_or(Vec3::ZERO, |p| *p * b[k])).sum::<Vec3>()
             }
-            GeometryRef::Spheres(_) => self.w.accel.instance_transform(self.s.instance, 0.0).inverse().transform_point3(self.s.p),
+            GeometryRef::Spheres(si) => {
+                let origin = self.w.sphere_origins.get(si).copied().unwrap_or(Vec3::ZERO);
+                origin + self.w.accel.instance_transform(self.s.instance, 0.0).inverse().transform_point3(self.s.p)
+            }
         }
     }
 
@@ -598,8 +603,9 @@ fn graph_emission<'a>(e: &Expr, m: &'a MeshDesc, inst: &InstanceDesc, scene: &'a
             Some(uvs) => [0, 1, 2].map(|k| uvs[t[k] as usize]),
             None => [Vec2::ZERO, Vec2::X, Vec2::Y],
         };
-        let object = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
-        let world = object.map(|p| to_world.transform_point3(p) + origin);
+        let own = [0, 1, 2].map(|k| m.positions[t[k] as usize]);
+        let world = own.map(|p| to_world.transform_point3(p) + origin);
+        let object = own.map(|p| p + m.origin);
         let normals = m.normals.as_deref().map(|n| {
             let own = [0, 1, 2].map(|k| n.get(t[k] as usize).copied().unwrap_or(Vec3::ZERO));
             [own, own.map(|v| (normal_to_world * v).normalize_or_zero())]
@@ -871,6 +877,7 @@ impl World {
             instances,
             meshes: scene.meshes.clone(),
             sphere_primvars: scene.spheres.iter().map(|s| s.primvars.clone()).collect(),
+            sphere_origins: scene.spheres.iter().map(|s| s.origin).collect(),
             instance_primvars: scene.instance_primvars.clone(),
             materials,
             media,

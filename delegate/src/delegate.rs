@@ -852,15 +852,17 @@ impl Delegate {
         let mut world_changed = !camera_only || self.view_inputs != Some(view);
         self.view_inputs = Some(view);
         // Transform samples: inside the shutter plus one on either side, or the value now;
-        // each after `pre` (an instance's matrix) and placed about the origin.
-        let place = |samples: &[(f64, DMat4)], pre: &DMat4| -> (Vec<Mat4>, Vec<f32>) {
+        // each after `pre` (an instance's matrix), from geometry moved by `shift` about its own
+        // origin (`MeshDesc::origin`), and placed about the scene's origin.
+        let place = |samples: &[(f64, DMat4)], pre: &DMat4, shift: Vec3| -> (Vec<Mat4>, Vec<f32>) {
+            let post = DMat4::from_translation(shift.as_dvec3());
             if !motion || samples.len() < 2 {
-                return (vec![about(origin, &(*pre * matrix_at(samples, 0.0)))], vec![0.0]);
+                return (vec![about(origin, &(*pre * matrix_at(samples, 0.0) * post))], vec![0.0]);
             }
             let lo = samples.iter().rposition(|s| s.0 <= open).unwrap_or(0);
             let hi = samples.iter().position(|s| s.0 >= close).unwrap_or(samples.len() - 1);
             let kept = &samples[lo..=hi.max(lo)];
-            (kept.iter().map(|s| about(origin, &(*pre * s.1))).collect(), kept.iter().map(|s| (s.0 / tcps) as f32).collect())
+            (kept.iter().map(|s| about(origin, &(*pre * s.1 * post))).collect(), kept.iter().map(|s| (s.0 / tcps) as f32).collect())
         };
 
         let mut scene = SceneDesc { color_space: sp.color_space, origin, ..Default::default() };
@@ -939,7 +941,7 @@ impl Delegate {
                 let grid = self.grids.get(&(spec.asset.clone(), spec.field.clone(), spec.index));
                 let mut p = Problems::new(path);
                 for inst in &r.instance_transforms {
-                    let (mats, times) = place(&r.transforms, inst);
+                    let (mats, times) = place(&r.transforms, inst, Vec3::ZERO);
                     let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                     if let Some(v) = volume::volume_desc(path, spec, grid, medium, &keys, r.id, &mut p) {
                         scene.volumes.push(v);
@@ -986,7 +988,7 @@ impl Delegate {
                             });
                             let medium = scene.media.len() - 1;
                             for inst in &r.instance_transforms {
-                                let (mats, times) = place(&r.transforms, inst);
+                                let (mats, times) = place(&r.transforms, inst, Vec3::ZERO);
                                 let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                                 scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
                             }
@@ -1104,7 +1106,7 @@ impl Delegate {
                 let mut emitting: Vec<(u32, usize)> = Vec::new();
                 let mut material_of = |k: usize, scene: &mut SceneDesc, ap: &mut Vec<Problem>| match (&r.mesh_light, geometry) {
                     (Some(ml), GeometryRef::Mesh(mi)) => {
-                        let world = place(&r.transforms, &r.instance_transforms.get(k).copied().unwrap_or(DMat4::IDENTITY)).0[0];
+                        let world = place(&r.transforms, &r.instance_transforms.get(k).copied().unwrap_or(DMat4::IDENTITY), scene.meshes[mi].origin).0[0];
                         let key = if ml.normalize { lux::world_area(&scene.meshes[mi], world).to_bits() } else { 0 };
                         if let Some(&(_, m)) = emitting.iter().find(|e| e.0 == key) {
                             return m;
@@ -1120,15 +1122,19 @@ impl Delegate {
                     }
                     _ => material,
                 };
+                let shift = match geometry {
+                    GeometryRef::Mesh(mi) => scene.meshes[mi].origin,
+                    GeometryRef::Spheres(si) => scene.spheres[si].origin,
+                };
                 for (k, inst) in r.instance_transforms.iter().enumerate() {
                     let material = material_of(k, &mut scene, &mut ap);
                     let name = if many { format!("{}[{}]", path, k) } else { path.clone() };
                     instance_paths.push(path);
                     link_paths.push(r.instance_link_paths.get(k).unwrap_or(path));
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {
-                        place(&moving_instance(&r.transforms, &r.instance_samples, k), &DMat4::IDENTITY)
+                        place(&moving_instance(&r.transforms, &r.instance_samples, k), &DMat4::IDENTITY, shift)
                     } else {
-                        place(&r.transforms, inst)
+                        place(&r.transforms, inst, shift)
                     };
                     scene.instances.push(InstanceDesc {
                         name: format!("{name}{suffix}"),
@@ -1269,7 +1275,7 @@ impl Delegate {
             desc.light_link = members(&scene.instances, &l.light_link);
             desc.shadow_link = members(&scene.instances, &l.shadow_link);
             // a light that moves over the shutter (keys in seconds, as the instances')
-            let (xf, times) = place(&l.transforms, &DMat4::IDENTITY);
+            let (xf, times) = place(&l.transforms, &DMat4::IDENTITY, Vec3::ZERO);
             if xf.len() >= 2 {
                 desc.motion = times.into_iter().zip(xf).collect();
             }
@@ -1309,7 +1315,7 @@ impl Delegate {
 
         if let (Some(path), Some(c)) = (&cam_path, cam) {
             let mut d = c.desc.clone();
-            let (xf, times) = place(&c.transforms, &DMat4::IDENTITY);
+            let (xf, times) = place(&c.transforms, &DMat4::IDENTITY, Vec3::ZERO);
             d.transforms = xf;
             d.times = times;
             d.shutter_open = t0;
@@ -2193,6 +2199,56 @@ mod tests {
         let i = d.scene().instances.iter().find(|i| i.name == inst).unwrap();
         let GeometryRef::Mesh(m) = i.geometry else { panic!("{inst} is not a mesh") };
         &d.scene().meshes[m]
+    }
+
+    /// A mesh and points authored 10^4 units out in their own space, under transforms that
+    /// bring them back near the camera: the core gets them about their own centres (so rays
+    /// meet them in small numbers), their instances placed by as much, so that every point
+    /// lands where it was authored to, to single-precision rounding of the result. A mesh's
+    /// GeomSubset parts share one origin (vertices they share stay equal).
+    #[test]
+    fn geometry_far_out_in_its_own_space_is_placed_about_its_centre() {
+        let far = DVec3::new(1.0e4 + 0.37, 0.0, -2.0e4 + 0.11);
+        let mut d = Delegate::new();
+        d.create_prim("mesh", "/M");
+        let pts: Vec<DVec3> = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.], [2., 0., 0.], [2., 1., 0.]].iter().map(|p| far + DVec3::from(*p)).collect();
+        d.set_attribute("/M", "points", floats(&pts.iter().flat_map(|p| p.to_array().map(|v| v as f32)).collect::<Vec<_>>(), 3), None);
+        d.set_attribute("/M", "faceVertexCounts", Value::Ints(vec![4, 4]), None);
+        d.set_attribute("/M", "faceVertexIndices", Value::Ints(vec![0, 1, 2, 3, 1, 4, 5, 2]), None);
+        d.set_attribute("/M", "geomSubsets", Value::Paths(vec!["/M/s".into()]), None);
+        d.set_attribute("/M", "/M/s.indices", Value::Ints(vec![1]), None);
+        d.set_attribute("/M", "transform", translate(-far.x, -far.y, -far.z), None);
+        d.create_prim("points", "/P");
+        d.set_attribute("/P", "points", floats(&[far.x as f32, 1.0, far.z as f32, far.x as f32 + 1.0, 1.0, far.z as f32], 3), None);
+        d.set_attribute("/P", "transform", translate(-far.x, -far.y, -far.z), None);
+        let p = d.commit_resources();
+        assert!(p.is_empty(), "{p:?}");
+        let s = d.scene();
+        let parts: Vec<&InstanceDesc> = s.instances.iter().filter(|i| i.name.starts_with("/M")).collect();
+        assert_eq!(parts.len(), 2);
+        let mut origins = Vec::new();
+        for inst in parts {
+            let GeometryRef::Mesh(mi) = inst.geometry else { panic!() };
+            let m = &s.meshes[mi];
+            origins.push(m.origin);
+            assert!(m.origin.length() > 1e4 && m.positions.iter().all(|p| p.length() < 2.0), "{:?} {:?}", m.origin, m.positions);
+            for q in &m.positions {
+                // the authored point this one is, placed by the prim's transform (about the
+                // scene's origin): its authored position minus `far`
+                let authored = (q.as_dvec3() + m.origin.as_dvec3()) - far;
+                let placed = inst.transforms[0].transform_point3(*q).as_dvec3() + s.origin;
+                assert!((placed - authored).abs().max_element() < 1e-6, "{placed:?} vs {authored:?}");
+            }
+        }
+        assert_eq!(origins[0], origins[1], "the parts share one origin");
+        let inst = s.instances.iter().find(|i| i.name == "/P").unwrap();
+        let GeometryRef::Spheres(si) = inst.geometry else { panic!() };
+        let sp = &s.spheres[si];
+        assert!(sp.origin.length() > 1e4);
+        let placed: Vec<DVec3> = sp.centers.iter().map(|c| inst.transforms[0].transform_point3(*c).as_dvec3() + s.origin).collect();
+        // the points as authored (single precision), brought back by `far`
+        let authored = [0.0, 1.0].map(|dx: f64| DVec3::new((far.x as f32) as f64 + dx, 1.0, (far.z as f32) as f64) - far);
+        assert!(placed.iter().zip(authored).all(|(p, a)| (*p - a).abs().max_element() < 1e-6), "{placed:?} vs {authored:?}");
     }
 
     #[test]

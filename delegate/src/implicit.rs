@@ -126,6 +126,7 @@ impl Builder {
             double_sided,
             motion: None,
             primvars: Vec::new(),
+            origin: Default::default(),
         }
     }
 }
@@ -324,33 +325,44 @@ impl PointsData {
     pub fn made(&self, t0: f32, t1: f32, motion: bool, time_codes_per_second: f64, meters_per_unit: f32) -> PointsMade {
         let tcps = time_codes_per_second;
         self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion, tcps.to_bits(), meters_per_unit.to_bits()), || {
-            let still = !motion && self.spheres.velocities.is_some();
-            let sampled = motion && self.ends.is_some();
-            if self.accelerations.is_none() && !still && !sampled && self.droplets.is_none() {
-                return PointsMade { spheres: self.spheres.clone(), droplets: None };
+            // points authored far from their own origin are moved back about it (the
+            // droplets' grid stays in the points' own space)
+            let mut made = self.made_where_authored(t0, t1, motion, tcps, meters_per_unit);
+            if made.spheres.recentring() != Vec3::ZERO {
+                Arc::make_mut(&mut made.spheres).recentre();
             }
-            let mut s = fold_acceleration(self, t0, t1);
-            if !motion {
-                s.velocities = None;
-            }
-            if let Some([(ta, a), (tb, b)]) = self.ends.as_ref().filter(|_| motion) {
-                // the chord from the first sample to the last, in seconds of shutter time:
-                // centre + v·t passes a at ta and b at tb
-                let (sa, sb) = ((ta / tcps) as f32, (tb / tcps) as f32);
-                if sb > sa {
-                    let v: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*b - *a) / (sb - sa)).collect();
-                    s.centers = a.iter().zip(&v).map(|(a, v)| *a - *v * sa).collect();
-                    s.velocities = Some(v);
-                }
-            }
-            let Some((voxel, shell)) = self.droplets else {
-                return PointsMade { spheres: Arc::new(s), droplets: None };
-            };
-            match tide_core::droplets::split(&s, voxel / meters_per_unit, shell / meters_per_unit) {
-                Ok(split) => PointsMade { spheres: Arc::new(split.spheres), droplets: Some(Ok(split.grid)) },
-                Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(e)) },
-            }
+            made
         })
+    }
+
+    /// [`PointsData::made`] before the points are moved about their origin.
+    fn made_where_authored(&self, t0: f32, t1: f32, motion: bool, tcps: f64, meters_per_unit: f32) -> PointsMade {
+        let still = !motion && self.spheres.velocities.is_some();
+        let sampled = motion && self.ends.is_some();
+        if self.accelerations.is_none() && !still && !sampled && self.droplets.is_none() {
+            return PointsMade { spheres: self.spheres.clone(), droplets: None };
+        }
+        let mut s = fold_acceleration(self, t0, t1);
+        if !motion {
+            s.velocities = None;
+        }
+        if let Some([(ta, a), (tb, b)]) = self.ends.as_ref().filter(|_| motion) {
+            // the chord from the first sample to the last, in seconds of shutter time:
+            // centre + v·t passes a at ta and b at tb
+            let (sa, sb) = ((ta / tcps) as f32, (tb / tcps) as f32);
+            if sb > sa {
+                let v: Vec<Vec3> = a.iter().zip(b).map(|(a, b)| (*b - *a) / (sb - sa)).collect();
+                s.centers = a.iter().zip(&v).map(|(a, v)| *a - *v * sa).collect();
+                s.velocities = Some(v);
+            }
+        }
+        let Some((voxel, shell)) = self.droplets else {
+            return PointsMade { spheres: Arc::new(s), droplets: None };
+        };
+        match tide_core::droplets::split(&s, voxel / meters_per_unit, shell / meters_per_unit) {
+            Ok(split) => PointsMade { spheres: Arc::new(split.spheres), droplets: Some(Ok(split.grid)) },
+            Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(e)) },
+        }
     }
 }
 

@@ -333,6 +333,7 @@ pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
             positions: mo.positions.iter().map(|k| pick(k)).collect(),
             normals: mo.normals.as_ref().map(|n| n.iter().map(|k| pick(k)).collect()),
         }),
+        origin: m.origin,
     }
 }
 
@@ -366,7 +367,9 @@ impl MeshGeom {
     /// The core meshes of the geometry, with motion keys over `shutter` when it deforms
     /// (None: static): the whole mesh, or one part per material when GeomSubsets bind
     /// materials (the faces in no subset first, then each subset's; empty ones are left out).
-    /// Made once per shutter and shared after.
+    /// Made once per shutter and shared after. Geometry authored far from its own origin is
+    /// moved back about it ([`MeshDesc::recentre`]; the parts share one origin, so vertices
+    /// they share stay equal): its instances are placed by [`MeshDesc::origin`].
     pub fn core_meshes(&self, shutter: Option<Shutter>) -> Vec<CorePart> {
         let shutter = shutter.filter(|_| self.deformation.is_some());
         let key = shutter.map(|(a, b, c)| [a.to_bits(), b.to_bits(), c.to_bits()]);
@@ -375,6 +378,12 @@ impl MeshGeom {
                 (Some((open, close, tcps)), Some(d)) => {
                     let mut m = (*self.mesh).clone();
                     m.motion = motion_keys(&m, d, open, close, tcps);
+                    m.recentre();
+                    Arc::new(m)
+                }
+                _ if self.mesh.recentring() != Vec3::ZERO => {
+                    let mut m = (*self.mesh).clone();
+                    m.recentre();
                     Arc::new(m)
                 }
                 _ => self.mesh.clone(),
@@ -792,6 +801,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         double_sided,
         motion: None,
         primvars,
+        origin: Default::default(),
     };
     let faces = tris.iter().map(|t| t.0).collect();
     (mesh, sources, faces, stencil)
@@ -909,6 +919,7 @@ mod tests {
                 positions: vec![positions.clone(), positions.iter().map(|p| *p + Vec3::Z).collect()],
                 normals: None,
             }),
+            origin: Default::default(),
         };
         // the last two triangles: vertices 2, 3, 4, 5 in first-use order
         let s = sub_mesh(&m, &m.indices[6..]);

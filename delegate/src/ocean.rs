@@ -202,10 +202,12 @@ pub fn build(key: &OceanKey, p: &mut Problems) -> OceanMeshes {
         let open = OceanParams { depth: 0.0, ..key.spec.params.clone() };
         ocean_mesh_with_horizon_seen(&open, key.spec.time, &view, key.reach).expect("validated open sea")
     });
+    // in scene units, about the mesh's own centre when it is far from the ocean's origin
     let units = |mut m: MeshDesc| {
         if key.meters_per_unit != 1.0 {
             m.positions.iter_mut().for_each(|v| *v /= key.meters_per_unit);
         }
+        m.recentre();
         m
     };
     OceanMeshes { surface: units(surface).into(), skirt: skirt.map(|s| Arc::new(units(s))) }

@@ -162,6 +162,20 @@ def test_an_ocean_far_out_renders_as_at_the_origin(renderer, stage, offset):
     assert ok, why
 
 
+def _split_by_x(stage, space, x0):
+    """A MaterialX material, red where the `space` position's x is past x0, green before."""
+    mat = UsdShade.Material.Define(stage, "/Looks/Split")
+    node = lambda name, node_id, **inputs: shader_node(stage, "/Looks/Split/" + name, node_id, **inputs)
+    p = node("P", "ND_position_vector3", space=space).CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    colour = node("Side", "ND_ifgreater_color3", value1=x, value2=x0, in1=(0.8, 0.0, 0.0),
+                  in2=(0.0, 0.8, 0.0)).CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+    surf = node("SR", "ND_standard_surface_surfaceshader", base=1.0, base_color=colour,
+                specular=0.0)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(surf.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    return mat
+
+
 def test_world_space_shading_reads_the_world_position_far_out(renderer, stage):
     """A panel 10^5 units out coloured by its world x (green left of x0, red right of it)
     through MaterialX's world-space position: the halves keep their colours, as at the
@@ -176,16 +190,7 @@ def test_world_space_shading_reads_the_world_position_far_out(renderer, stage):
     panel.CreatePointsAttr([(-2, 0, -2), (-2, 0, 2), (2, 0, 2), (2, 0, -2)])
     panel.CreateFaceVertexCountsAttr([4])
     panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    mat = UsdShade.Material.Define(stage, "/Looks/Split")
-    node = lambda name, node_id, **inputs: shader_node(stage, "/Looks/Split/" + name, node_id, **inputs)
-    p = node("P", "ND_position_vector3", space="world").CreateOutput("out", Sdf.ValueTypeNames.Float3)
-    x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
-    colour = node("Side", "ND_ifgreater_color3", value1=x, value2=x0, in1=(0.8, 0.0, 0.0),
-                  in2=(0.0, 0.8, 0.0)).CreateOutput("out", Sdf.ValueTypeNames.Color3f)
-    surf = node("SR", "ND_standard_surface_surfaceshader", base=1.0, base_color=colour,
-                specular=0.0)
-    mat.CreateSurfaceOutput("mtlx").ConnectToSource(surf.CreateOutput("out", Sdf.ValueTypeNames.Token))
-    bind(panel.GetPrim(), mat)
+    bind(panel.GetPrim(), _split_by_x(stage, "world", x0))
     settings(stage, cam="/World/Cam", res=(32, 32), samples=4, integrator="path", maxDepth=1)
     problems = []
     img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64)
@@ -194,3 +199,137 @@ def test_world_space_shading_reads_the_world_position_far_out(renderer, stage):
     left, right = img[:, :12].mean(axis=(0, 1)), img[:, -12:].mean(axis=(0, 1))
     assert left[1] > 0.5 and left[0] < 0.05, left
     assert right[0] > 0.5 and right[1] < 0.05, right
+
+
+# Geometry authored far out in its own space: sets exported with their points in world
+# coordinates, or brought back by a transform, keep those numbers in the geometry itself. Rays
+# must still meet it as they meet the same geometry authored about its origin.
+T = 1.0e4 + 0.37
+_ROOM = [(x, y, z) for y in (0.0, 4.0) for z in (-2.0, 2.0) for x in (-2.0, 2.0)]
+# inward-facing walls; each is four triangles about its centre (edges shared by triangles
+# of one wall and by walls)
+_WALLS = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]]
+
+
+def _room_mesh(stage, path, shift):
+    points = [(x + shift, y, z) for x, y, z in _ROOM]
+    indices = []
+    for wall in _WALLS:
+        c = np.mean([_ROOM[i] for i in wall], axis=0)
+        points.append((c[0] + shift, c[1], c[2]))
+        for a in range(4):
+            indices += [wall[a], wall[(a + 1) % 4], len(points) - 1]
+    room = UsdGeom.Mesh.Define(stage, path)
+    room.CreatePointsAttr(points)
+    room.CreateFaceVertexCountsAttr([3] * (len(indices) // 3))
+    room.CreateFaceVertexIndicesAttr(indices)
+    return room
+
+
+@pytest.mark.parametrize("how", ["points", "prototype"])
+def test_a_closed_room_authored_far_out_in_its_own_space_lets_no_light_in(renderer, stage, how):
+    """A closed room of zero-thickness walls, its points 10^4 units out along x and brought
+    back by the prim's transform (or a PointInstancer's instance of it), the camera inside and
+    the sun and a dome outside: no light gets in, every pixel is black (2-100 of 2304 pixels
+    lit along the edges while rays met the room in its own far-out numbers). Walls meet at
+    shared vertices, so nothing but rounding could let light through."""
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    grey = exact_lambert_material(stage, "/Looks/Grey", 0.8)
+    if how == "points":
+        room = _room_mesh(stage, "/Room", T)
+        room.AddTranslateOp().Set(Gf.Vec3d(-T, 0, 0))
+        bind(room.GetPrim(), grey)
+    else:
+        inst = UsdGeom.PointInstancer.Define(stage, "/Rooms")
+        room = _room_mesh(stage, "/Rooms/Protos/Room", T)
+        bind(room.GetPrim(), grey)
+        inst.CreatePrototypesRel().SetTargets([room.GetPath()])
+        inst.CreateProtoIndicesAttr([0])
+        inst.CreatePositionsAttr([(-T, 0.0, 0.0)])
+    views = [((0.5, 1.0, 1.5), -20.0, -35.0, 12.0), ((-1.9, 3.9, 1.9), 60.0, 140.0, 10.0)]
+    for k, (pos, down, turn, focal) in enumerate(views):
+        cam = camera(stage, path="/Cam%d" % k, pos=pos, focal=focal)
+        cam.AddRotateYOp().Set(turn)
+        cam.AddRotateXOp().Set(down)
+    sun = UsdLux.DistantLight.Define(stage, "/Sun")
+    sun.CreateIntensityAttr(50.0)
+    sun.AddRotateYOp().Set(30.0)
+    sun.AddRotateXOp().Set(-40.0)
+    UsdLux.DomeLight.Define(stage, "/Sky").CreateIntensityAttr(20.0)
+    for k in range(len(views)):
+        settings(stage, path="/Render/S%d" % k, cam="/Cam%d" % k, res=(48, 48), samples=32,
+                 integrator="path", maxDepth=8)
+    for k in range(len(views)):
+        problems = []
+        img = render(renderer, stage, problems, settings="/Render/S%d" % k)["color"][..., :3]
+        assert problems == [], problems
+        lit = int((img.max(axis=2) > 0).sum())
+        assert lit == 0, "view %d: %d of %d pixels lit" % (k, lit, img.shape[0] * img.shape[1])
+
+
+def test_object_space_shading_reads_the_authored_position_far_out(renderer, stage):
+    """A panel and two balls (a points prim) whose points are 10^4 units out in their own
+    space, brought back by their transforms, coloured by MaterialX's object-space position
+    (red where x is past the authored centre T, green before it): the halves keep their
+    colours, so shading reads the points as authored, whatever the renderer does with the
+    numbers."""
+    cam = camera(stage, pos=(0, 5, 0), aperture=(40.0, 40.0), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    UsdLux.DomeLight.Define(stage, "/Dome").CreateColorAttr(Gf.Vec3f(1, 1, 1))
+    panel = UsdGeom.Mesh.Define(stage, "/Panel")
+    panel.CreatePointsAttr([(T - 2, 0, -2), (T - 2, 0, 0), (T + 2, 0, 0), (T + 2, 0, -2)])
+    panel.CreateFaceVertexCountsAttr([4])
+    panel.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    panel.AddTranslateOp().Set(Gf.Vec3d(-T, 0, 0))
+    balls = UsdGeom.Points.Define(stage, "/Balls")
+    balls.CreatePointsAttr([(T - 1, 0, 1), (T + 1, 0, 1)])
+    balls.CreateWidthsAttr([1.6, 1.6])
+    balls.AddTranslateOp().Set(Gf.Vec3d(-T, 0, 0))
+    mat = _split_by_x(stage, "object", T)
+    bind(panel.GetPrim(), mat)
+    bind(balls.GetPrim(), mat)
+    settings(stage, res=(32, 32), samples=4, integrator="path", maxDepth=1)
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3].astype(np.float64)
+    assert [q for q in problems if q.prim.startswith("/Looks")] == [], problems
+    # image rows run from -z (top) to +z: the panel above, the balls below
+    for part, rows in (("panel", slice(4, 12)), ("balls", slice(20, 26))):
+        left, right = img[rows, 6:12].mean(axis=(0, 1)), img[rows, -12:-6].mean(axis=(0, 1))
+        assert left[1] > 0.5 and left[0] < 0.05, (part, left)
+        assert right[0] > 0.5 and right[1] < 0.05, (part, right)
+
+
+def test_displacement_reads_the_authored_position_far_out(renderer, stage):
+    """A grid of quads 10^4 units out in its own space, brought back by its transform,
+    displaced by MaterialX along its normal by 1 where its object-space x is past the authored
+    centre T (0 before it), seen from 5 above: the depth reads 4 on the right and 5 on the
+    left, as authored, whatever the renderer does with the numbers."""
+    cam = camera(stage, pos=(0, 5, 0), aperture=(40.0, 40.0), projection="orthographic")
+    cam.AddRotateXOp().Set(-90.0)
+    UsdLux.DomeLight.Define(stage, "/Dome")
+    grid = UsdGeom.Mesh.Define(stage, "/Grid")
+    xs = np.linspace(-2, 2, 9)
+    grid.CreatePointsAttr([(T + x, 0, z) for z in xs for x in xs])
+    grid.CreateFaceVertexCountsAttr([4] * 64)
+    grid.CreateFaceVertexIndicesAttr([k for j in range(8) for i in range(8)
+                                      for k in (9 * j + i, 9 * j + i + 9, 9 * j + i + 10, 9 * j + i + 1)])
+    grid.CreateSubdivisionSchemeAttr("none")
+    grid.AddTranslateOp().Set(Gf.Vec3d(-T, 0, 0))
+    mat = UsdShade.Material.Define(stage, "/Looks/Step")
+    node = lambda name, node_id, **inputs: shader_node(stage, "/Looks/Step/" + name, node_id, **inputs)
+    p = node("P", "ND_position_vector3", space="object").CreateOutput("out", Sdf.ValueTypeNames.Float3)
+    x = node("X", "ND_extract_vector3", **{"in": p}).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    # past T + 0.25: the vertex column at T (and the grid's triangles leaning over it) stays down
+    step = node("Step", "ND_ifgreater_float", value1=x, value2=T + 0.25, in1=1.0,
+                in2=0.0).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    d = node("D", "ND_displacement_float", displacement=step, scale=1.0)
+    surf = node("SR", "ND_standard_surface_surfaceshader", base=1.0, specular=0.0)
+    mat.CreateSurfaceOutput("mtlx").ConnectToSource(surf.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    mat.CreateDisplacementOutput("mtlx").ConnectToSource(d.CreateOutput("out", Sdf.ValueTypeNames.Token))
+    bind(grid.GetPrim(), mat)
+    settings(stage, res=(32, 32), samples=1, integrator="path", maxDepth=1, vars_=("depth",))
+    problems = []
+    depth = render(renderer, stage, problems)["depth"][..., 0].astype(np.float64)
+    assert [q for q in problems if q.prim.startswith("/Looks")] == [], problems
+    assert np.allclose(depth[4:28, 2:14], 5.0, atol=1e-3), depth[4:28, 2:14]
+    assert np.allclose(depth[4:28, 20:30], 4.0, atol=1e-3), depth[4:28, 20:30]
