@@ -252,9 +252,16 @@ def test_posed_points_are_sampled_over_the_shutter(stage, delegate, geom_bind):
     assert problems == []
     got = delegate.samples(MESH, "points")
     # the shutter's ends and the animation's key at 0 within it; rotations are held before
-    # the first key and interpolated between keys
-    assert sorted(got) == [-0.25, 0.0, 0.5]
-    for t, deg in ((-0.25, 90), (0.0, 90), (0.5, 45)):
+    # the first key and interpolated between keys (about one axis: the angle, linearly).
+    # From 0 to 0.5 `tip` turns by 45 degrees: in eight steps of 5.6 (under 0.1 radians),
+    # so that the turned vertices follow their arc (a chord of 45 degrees at 1.41 from the
+    # joint passes 0.11 inside it; one of 5.6, 1.7e-3)
+    steps = math.ceil(math.radians(45) / 0.1)
+    assert steps == 8
+    want = [-0.25, 0.0] + [0.5 * k / steps for k in range(1, steps + 1)]
+    assert np.allclose(sorted(got), want, atol=1e-12), sorted(got)
+    for t in got:
+        deg = 90 if t <= 0 else 90 * (1 - t)
         assert np.allclose(floats(got[t]), _posed(deg), atol=1e-5), t
     xf = delegate.samples(MESH, "transform")
     assert sorted(xf) == [-0.25, 0.5]

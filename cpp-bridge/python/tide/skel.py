@@ -16,9 +16,15 @@ from tide import env
 
 env.prepare()
 
+import math  # noqa: E402
+
 import numpy as np  # noqa: E402
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdSkel, Vt  # noqa: E402
 
+# Pose samples over the shutter: where a joint turns by more than MAX_TURN radians between two,
+# more are taken between them, up to MAX_STEPS steps (see SkinnedMesh.turning_offsets).
+MAX_TURN = 0.1
+MAX_STEPS = 16
 JOINT_INDICES = "primvars:skel:jointIndices"
 JOINT_WEIGHTS = "primvars:skel:jointWeights"
 _PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
@@ -100,6 +106,30 @@ class SkinnedMesh:
             if self._shapes:
                 times.update(self._anim.GetBlendShapeWeightTimeSamplesInInterval(interval))
         return sorted(times)
+
+    def turning_offsets(self, offsets, time_fn):
+        """`offsets` (sorted shutter offsets; `time_fn` gives each one's time code) with more
+        between two where a joint turns by over MAX_TURN radians from one to the next (at most
+        MAX_STEPS steps each): a point skinned to a turning joint then moves along its arc
+        rather than its chord (within r (1 - cos(MAX_TURN / 2)) of it at r from the joint) over
+        the shutter. Joint rotations are interpolated as UsdSkel interpolates them, by the
+        animation's own samples."""
+        if not self._joints or len(offsets) < 2:
+            return offsets
+        frames = []
+        for o in offsets:
+            xf = self._owner.skinning_transforms(self.skeleton, self._skel_query, time_fn(o))
+            if xf is None or len(xf) == 0:
+                return offsets
+            m = np.asarray(xf, dtype=np.float64).reshape(-1, 4, 4)[:, :3, :3]
+            # each joint's axes (the rows: USD's matrices act on row vectors), made unit
+            frames.append(m / np.maximum(np.linalg.norm(m, axis=2, keepdims=True), 1e-30))
+        out = [offsets[0]]
+        for (a, fa), (b, fb) in zip(zip(offsets, frames), zip(offsets[1:], frames[1:])):
+            turn = float(np.arccos(np.clip(np.sum(fa * fb, axis=2), -1.0, 1.0)).max())
+            steps = min(MAX_STEPS, max(1, math.ceil(turn / MAX_TURN)))
+            out += [a + (b - a) * k / steps for k in range(1, steps)] + [b]
+        return out
 
     def compute(self, times):
         """[(points Nx3 float32 in the space of `space`, its local-to-world Gf.Matrix4d)] at

@@ -1432,6 +1432,7 @@ class Reader:
         offsets = [0.0]
         if self._moving:
             offsets = self._shutter_offsets(target.time_samples(self._window()))
+            offsets = target.turning_offsets(offsets, self._time)
         posed = target.compute([self._time(o) for o in offsets])
         if posed is None:
             return
