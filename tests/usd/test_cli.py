@@ -470,3 +470,39 @@ def test_the_summary_counts_rendering_apart_from_building(tmp_path):
     build_s = float(line.split("build ")[1].split("s,")[0])
     assert render_s == pytest.approx(float(header["tide:renderSeconds"]), abs=0.006), line
     assert build_s == pytest.approx(float(header["tide:buildSeconds"]), abs=0.006), line
+
+
+def test_the_prim_id_aov_comes_with_a_manifest_of_paths(tmp_path):
+    """The `primId` AOV's file names which prim each id stands for (`tide:primIdManifest`, JSON
+    path -> id): the ball seen on the left and the box on the right read their own paths, the
+    background no id; a product without `primId` has no manifest."""
+    import json
+    import numpy as np
+    import OpenEXR
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s)
+    UsdGeom.Xform.Define(s, "/Set")
+    UsdGeom.Sphere.Define(s, "/Set/Ball").AddTranslateOp().Set(Gf.Vec3d(-1.2, 0, -8))
+    UsdGeom.Cube.Define(s, "/Set/Box").AddTranslateOp().Set(Gf.Vec3d(1.2, 0, -8))
+    UsdLux.DomeLight.Define(s, "/Sky")
+    settings(s, vars_=("color", "primId"), product="ids.exr", res=(32, 32))
+    settings(s, path="/Render/Plain", vars_=("color",), product="plain.exr", res=(32, 32))
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1", "--settings", "/Render/Settings"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    with OpenEXR.File(str(tmp_path / "ids.exr"), separate_channels=True) as f:
+        ids = f.channels()["primId.R"].pixels
+        manifest = json.loads(f.header()["tide:primIdManifest"])
+    assert sorted(manifest) == ["/Set/Ball", "/Set/Box"], manifest
+    by_id = {v: k for k, v in manifest.items()}
+    # the centres of the two 2-unit shapes 8 away, 1.2 either side: 36 mm aperture, 50 mm lens
+    col = lambda x: int(16 + x / 8 * 50 / 18 * 16)
+    assert by_id[int(ids[16, col(-1.2)])] == "/Set/Ball" and by_id[int(ids[16, col(1.2)])] == "/Set/Box"
+    assert not np.isin(ids[0, 0], list(manifest.values())), ids[0, 0]
+    out = run(["render", path, "--spp", "1", "--settings", "/Render/Plain"], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(str(tmp_path / "plain.exr"))
+    assert "tide:primIdManifest" not in header

@@ -29,6 +29,7 @@ render is left under its final name); 2 for usage errors (bad flags, a --setting
 cancelled and this render's files are not written).
 """
 import argparse
+import json
 import os
 import math
 import signal
@@ -334,14 +335,15 @@ def _render_one(reader, delegate, args, outputs, load_s):
 
     spp = target
     sps, header = make_header(spp)
-    written = _write(delegate, outputs, header)
+    manifest = _prim_id_manifest(reader)
+    written = _write(delegate, outputs, header, manifest=manifest)
     # A time budget may stop the render short of its target: the film's own count, which the
     # renderer writes into the header, is the truth; the header is rewritten to agree with it.
     reached = _written(outputs[0][0], "tide:spp")
     if reached is not None and int(reached) != spp:
         spp = int(reached)
         sps, header = make_header(spp)
-        _write(delegate, outputs, header, png=False)
+        _write(delegate, outputs, header, png=False, manifest=manifest)
     adaptive = " (adaptive: mean %.1f)" % mean_spp if mean_spp is not None else ""
     build = _written(outputs[0][0], "tide:buildSeconds")
     build = ", build %.2fs" % float(build) if build is not None else ""
@@ -393,6 +395,17 @@ def _header(args, reader, spp, load_s, render_s, sps):
     return header
 
 
+def _prim_id_manifest(reader):
+    """The `tide:primIdManifest` header value: a JSON object from each rendered prim's path to
+    the id its pixels carry in the `primId` AOV (in id order)."""
+    ids = []
+    for path, (_, values) in reader.sent().items():
+        value = values.get("primId")
+        if value:
+            ids.append((int(value[0][1][1]), path))
+    return json.dumps({path: i for i, path in sorted(ids)}, separators=(",", ":"))
+
+
 def _staging(name):
     """A temporary name beside `name` (same directory and extension) to write it under."""
     d, base = os.path.split(name)
@@ -400,15 +413,19 @@ def _staging(name):
     return os.path.join(d, ".%s.tide%d%s" % (stem, os.getpid(), ext))
 
 
-def _write(delegate, outputs, header, png=True):
+def _write(delegate, outputs, header, png=True, manifest=None):
     """Writes every file of the render under a temporary name beside its own, then gives them
-    their names: a file that cannot be written leaves none of this render's files behind."""
+    their names: a file that cannot be written leaves none of this render's files behind. A
+    file with the `primId` AOV gets `manifest` too, as `tide:primIdManifest`."""
     staged = []
     try:
         for name, vars_, types in outputs:
             tmp = _staging(name)
             staged.append((tmp, name))
-            delegate.write_exr(tmp, [(aov, aov, types.get(aov, "")) for aov, _ in vars_], header)
+            own = header
+            if manifest is not None and any(aov == "primId" for aov, _ in vars_):
+                own = dict(header, **{"tide:primIdManifest": manifest})
+            delegate.write_exr(tmp, [(aov, aov, types.get(aov, "")) for aov, _ in vars_], own)
             color = [buf for aov, buf in vars_ if aov == "color"]
             png_name = os.path.splitext(name)[0] + ".png"
             if os.path.abspath(png_name) == os.path.abspath(name):
