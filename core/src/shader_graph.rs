@@ -270,6 +270,25 @@ impl Expr {
         }
     }
 
+    /// The number of operations and leaves in the expression, or None where it passes
+    /// `limit` (counted no further).
+    pub fn size_within(&self, limit: usize) -> Option<usize> {
+        fn count(e: &Expr, left: &mut usize) -> bool {
+            if *left == 0 {
+                return false;
+            }
+            *left -= 1;
+            match e {
+                Expr::Const(_) | Expr::Texture(_) | Expr::Primvar(_) | Expr::TexCoord | Expr::Position { .. } | Expr::Normal { .. } | Expr::Tangent { .. } | Expr::Bitangent { .. } => true,
+                Expr::Unary(_, a) | Expr::Swizzle(a, _) => count(a, left),
+                Expr::Binary(_, a, b) | Expr::TextureAt(a, b) | Expr::Noise { point: a, params: b, .. } => count(a, left) && count(b, left),
+                Expr::Blend3(parts) => parts.iter().all(|p| count(p, left)),
+            }
+        }
+        let mut left = limit;
+        count(self, &mut left).then_some(limit - left)
+    }
+
     /// Calls `f` on every texture and primvar leaf, left to right.
     pub fn leaves_mut(&mut self, f: &mut dyn FnMut(&mut Expr)) {
         match self {
@@ -320,6 +339,23 @@ impl Expr {
 mod tests {
     use super::*;
     use crate::scene::Channel;
+
+    #[test]
+    fn an_expressions_size_is_counted_up_to_a_limit() {
+        let leaf = Expr::TexCoord;
+        let sum = Expr::binary(Binary::Add, leaf.clone(), Expr::Unary(Unary::Abs, Box::new(leaf.clone())));
+        assert_eq!(sum.size_within(4), Some(4));
+        assert_eq!(sum.size_within(3), None);
+        assert_eq!(leaf.size_within(1), Some(1));
+        assert_eq!(leaf.size_within(0), None);
+        // a chain of 20 doublings spells 2^21 - 1 nodes; counting stops at the limit
+        let mut e = leaf;
+        for _ in 0..20 {
+            e = Expr::binary(Binary::Mul, e.clone(), e);
+        }
+        assert_eq!(e.size_within(1 << 22), Some((1 << 21) - 1));
+        assert_eq!(e.size_within(1000), None);
+    }
 
     /// Textures answer `texture · 10 + row`, primvars `fallback + 100`.
     struct Fixed;

@@ -343,9 +343,14 @@ struct Ctx<'a> {
     p: Problems<'a>,
     /// MaterialX nodes read so far (a bound on the size of the graphs built).
     mtlx_nodes: u32,
+    /// Operations in the expressions of the MaterialX node outputs read so far (a node
+    /// reused along many paths is in its readers' expressions as many times).
+    mtlx_ops: usize,
     /// What each MaterialX node output read so far supplies: a node several others use is
     /// read once.
-    mtlx_read: std::collections::HashMap<(String, String), Source>,
+    mtlx_read: std::collections::HashMap<(String, String), Option<Source>>,
+    /// The node outputs whose expressions passed the bound on operations.
+    mtlx_oversized: std::collections::HashSet<(String, String)>,
     /// The MaterialX node outputs being read, innermost last: a connection back to one of them
     /// is a cycle.
     mtlx_reading: Vec<(String, String)>,
@@ -805,7 +810,7 @@ fn terminal(store: &AttrStore, name: &str) -> Option<String> {
 /// Converts a material prim. `textures` answers what is known of an asset path.
 pub fn convert_material(path: &str, store: &AttrStore, textures: &dyn Fn(&str) -> Option<TexState>, problems: &mut Problems) -> MaterialPiece {
     let nodes = parse_nodes(store);
-    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0, mtlx_read: Default::default(), mtlx_reading: Vec::new() };
+    let mut ctx = Ctx { nodes: &nodes, textures, used: Vec::new(), p: Problems::new(problems.item), mtlx_nodes: 0, mtlx_ops: 0, mtlx_read: Default::default(), mtlx_oversized: Default::default(), mtlx_reading: Vec::new() };
     let mut desc = default_material(path);
     let surf = terminal(store, "surface");
     let vol = terminal(store, "volume");

@@ -849,6 +849,43 @@ def test_an_image_with_closest_filtering_shows_its_texels_unblended(renderer, st
     assert np.abs(red - want)[away].max() < 0.05, (red, want)
 
 
+def _doubling_chain(stage, n):
+    """Glow G_n where G_0 = 0.5 + 0 x (the texture coordinates' u) and G_k = G_(k-1) x G_(k-1):
+    0.5^(2^n), each node read twice by the next: its expression spells out 2^n copies of the
+    first."""
+    node = lambda name, node_id, **inputs: shader_node(stage, "/Looks/G/" + name, node_id, **inputs)
+    uv = node("UV", "ND_texcoord_vector2").CreateOutput("out", Sdf.ValueTypeNames.Float2)
+    u = node("U", "ND_extract_vector2", **{"in": uv}).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    zero = node("Z", "ND_multiply_float", in1=u, in2=0.0).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    g = node("G0", "ND_add_float", in1=zero, in2=0.5).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    for k in range(1, n + 1):
+        g = node("G%d" % k, "ND_multiply_float", in1=g, in2=g).CreateOutput("out", Sdf.ValueTypeNames.Float)
+    return node("C", "ND_convert_float_color3", **{"in": g}).CreateOutput("out", Sdf.ValueTypeNames.Color3f)
+
+
+@pytest.mark.parametrize("n", [2, 24])
+def test_a_node_reused_along_many_paths_is_bounded(renderer, stage, n):
+    """A chain of n nodes each multiplying the one before by itself: two steps glow
+    0.5^4 = 0.0625; 24 steps would spell out 2^24 copies of the first node (some 24 GB, the
+    process was killed), and are named once instead, on the input whose graph passes the
+    bound, with the rest rendering."""
+    top_camera(stage)
+    m = panel(stage, "/Panel", columns=1)
+    mat, sh = _standard_surface(stage, "/Looks/G", base=0.0, specular=0.0, emission=1.0)
+    sh.CreateInput("emission_color", Sdf.ValueTypeNames.Color3f).ConnectToSource(_doubling_chain(stage, n))
+    bind(m.GetPrim(), mat)
+    settings(stage, res=(RES, RES), samples=8, integrator="path")
+    problems = []
+    img = render(renderer, stage, problems)["color"][..., :3]
+    if n == 2:
+        assert problems == [], problems
+        ok, why = near(img, (0.0625,) * 3)
+        assert ok, why
+    else:
+        assert len(problems) == 1 and "operations" in problems[0].message, problems
+        assert img.max() < 1.01 and np.isfinite(img).all()
+
+
 def test_a_cycle_in_a_node_graph_is_cut_and_named_once(renderer, stage):
     """A = B x B, B = A + 0.2: the cycle is named once, on the input that closes it (B.in1,
     listing A -> B -> A), which reads its default (add's 0); the rest of the graph renders:

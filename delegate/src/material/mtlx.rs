@@ -50,9 +50,13 @@ use tide_core::shader_graph::{Binary, Expr, Unary};
 
 /// The longest chain of MaterialX nodes read into one input.
 const MAX_DEPTH: u32 = 64;
-/// The most MaterialX nodes read for one material (a graph that reuses a node reads it once
-/// per use).
+/// The most MaterialX nodes read for one material (a graph that reuses a node reads it once).
 const MAX_NODES: u32 = 4096;
+/// The most operations the expressions of one material's node outputs hold together. Each
+/// output's expression spells out what it reads, so a node reused along many paths is
+/// repeated in it (a chain of n nodes each reading the one before twice spells 2^n): past
+/// this the graph is reported rather than unrolled.
+const MAX_OPS: usize = 1 << 18;
 
 /// A MaterialX node id as the USD node it stands for (MaterialX's UsdPreviewSurface library),
 /// or itself.
@@ -296,14 +300,28 @@ impl Ctx<'_> {
     pub(super) fn mtlx_source(&mut self, attr: &str, up: &str, output: &str, depth: u32) -> Option<Source> {
         let key = (up.to_string(), output.to_string());
         if let Some(read) = self.mtlx_read.get(&key) {
-            return Some(read.clone());
+            return read.clone();
         }
         self.mtlx_reading.push(key.clone());
         let read = self.mtlx_source_read(attr, up, output, depth);
         self.mtlx_reading.pop();
-        let read = read?;
+        let read = match read {
+            Some(Source::Graph(e)) => match e.size_within(MAX_OPS - self.mtlx_ops) {
+                Some(n) => {
+                    self.mtlx_ops += n;
+                    Some(Source::Graph(e))
+                }
+                None => {
+                    self.p.add(attr, format!("the node graph spells out more than {MAX_OPS} operations (nodes reused along many paths); this input reads its constant value"));
+                    self.mtlx_oversized.insert(key.clone());
+                    None
+                }
+            },
+            other => other,
+        };
+        // what could not be read is not read again (nor reported again)
         self.mtlx_read.insert(key, read.clone());
-        Some(read)
+        read
     }
 
     /// [`Ctx::mtlx_source`] of a node output not read before.
@@ -378,7 +396,13 @@ impl Ctx<'_> {
                 Ok(Source::Fallback(self.value4(node, input, default)))
             }
             Some(_) if depth >= MAX_DEPTH => Err(format!("chains more than {MAX_DEPTH} nodes")),
-            Some((up, output)) => self.connection_at(&format!("{}.inputs:{}", node, input), &up, &output, depth + 1).ok_or_else(|| format!("has an unusable {input}")),
+            Some((up, output)) => match self.connection_at(&format!("{}.inputs:{}", node, input), &up, &output, depth + 1) {
+                Some(source) => Ok(source),
+                // a graph past the bound on operations reads the input's constant (reported
+                // once, where it was met)
+                None if self.mtlx_oversized.contains(&(up, output)) => Ok(Source::Fallback(self.value4(node, input, default))),
+                None => Err(format!("has an unusable {input}")),
+            },
         }
     }
 
