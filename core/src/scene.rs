@@ -34,13 +34,18 @@ pub struct TextureDesc {
 }
 
 /// How a lookup between texel centres reads the texels (MaterialX `filtertype`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub enum Filter {
     /// Bilinear between the four nearest texels.
     #[default]
     Linear,
     /// The texel the coordinates fall in (`closest`: pixel art, masks, ids).
     Closest,
+    /// The uniform cubic B-spline over the 4×4 nearest texels (`cubic`, as OpenImageIO's and
+    /// OSL's bicubic lookups): smooth (continuous slopes, which bilinear lookups of a height
+    /// map lack), reproducing constant and linear ramps, and blurring a texel into its
+    /// neighbours (weights 1/6, 4/6, 1/6 at a texel's centre).
+    Cubic,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -71,6 +71,20 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
     let (xi, yi) = (x0 as i64, y0 as i64);
+    if t.filter == Filter::Cubic {
+        let (wx, wy) = (bspline_weights(fx), bspline_weights(fy));
+        let mut v = [0.0f32; 4];
+        for (j, wyj) in wy.iter().enumerate() {
+            for (i, wxi) in wx.iter().enumerate() {
+                let s = texel(t, xi - 1 + i as i64, yi - 1 + j as i64);
+                let w = wxi * wyj;
+                for k in 0..4 {
+                    v[k] += s[k] * w;
+                }
+            }
+        }
+        return std::array::from_fn(|k| v[k] * l.tex_scale[k] + l.bias[k]);
+    }
     let a = texel(t, xi, yi);
     let b = texel(t, xi + 1, yi);
     let c = texel(t, xi, yi + 1);
@@ -79,6 +93,14 @@ pub fn lookup_rgba_in(t: Option<&TextureDesc>, l: &TexLookup, st: Vec2) -> [f32;
         let v = (a[k] * (1.0 - fx) + b[k] * fx) * (1.0 - fy) + (c[k] * (1.0 - fx) + d[k] * fx) * fy;
         v * l.tex_scale[k] + l.bias[k]
     })
+}
+
+/// The uniform cubic B-spline's weights of the texels at −1, 0, 1 and 2 from the one before
+/// a lookup at fraction `f` (0–1) past it: they sum to 1 and reproduce linear ramps.
+fn bspline_weights(f: f32) -> [f32; 4] {
+    let (f2, f3) = (f * f, f * f * f);
+    let g = 1.0 - f;
+    [g * g * g / 6.0, (3.0 * f3 - 6.0 * f2 + 4.0) / 6.0, (-3.0 * f3 + 3.0 * f2 + 3.0 * f + 1.0) / 6.0, f3 / 6.0]
 }
 
 /// `v` as a lookup's channel gives it: RGBA, or one channel in all four components.
@@ -142,6 +164,47 @@ mod tests {
         // midway between red and green: bilinear average
         let m = lookup_rgb(&t, &l, Vec2::new(0.5, 0.75));
         assert!((m[0] - 0.5).abs() < 1e-6 && (m[1] - 0.5).abs() < 1e-6);
+    }
+
+    /// A one-row texture of `values` (grey), `filter`, clamped at its ends.
+    fn row(values: &[f32], filter: Filter) -> TextureDesc {
+        TextureDesc {
+            name: "row".into(),
+            width: values.len() as u32,
+            height: 1,
+            channels: 1,
+            pixels: values.to_vec().into(),
+            wrap_s: Wrap::Clamp,
+            wrap_t: Wrap::Clamp,
+            filter,
+        }
+    }
+
+    #[test]
+    fn cubic_is_the_b_spline_over_the_nearest_texels() {
+        let l = TexLookup { channel: Channel::R, ..lookup() };
+        let at = |t: &TextureDesc, x: f32| lookup_float(std::slice::from_ref(t), &l, Vec2::new((x + 0.5) / t.width as f32, 0.5));
+        // one lit texel among dark ones: the B-spline kernel, B(0) = 4/6, B(±1) = 1/6,
+        // B(±0.5) = 23/48, B(±1.5) = 1/48, B(±2) = 0 (x: texel positions, centres at integers)
+        let spike = row(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0], Filter::Cubic);
+        for (x, want) in [(3.0, 4.0 / 6.0), (2.0, 1.0 / 6.0), (4.0, 1.0 / 6.0), (3.5, 23.0 / 48.0), (1.5, 1.0 / 48.0), (1.0, 0.0), (5.0, 0.0)] {
+            assert!((at(&spike, x) - want).abs() < 1e-6, "x {x}: {} vs {want}", at(&spike, x));
+        }
+        // the kernel sums to one and reproduces a ramp (away from the clamped ends) where
+        // bilinear does too; between texels it is smooth: its slope has no step at a texel
+        // centre (bilinear's jumps from one neighbour's difference to the next)
+        let ramp = row(&[0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0], Filter::Cubic);
+        for x in [2.0, 2.3, 2.5, 3.9, 4.0] {
+            assert!((at(&ramp, x) - x).abs() < 1e-5, "x {x}: {}", at(&ramp, x));
+        }
+        let bumps = [0.0, 0.0, 1.0, 4.0, 2.0, 0.0, 0.0];
+        let slope = |t: &TextureDesc, x: f32| (at(t, x + 1e-2) - at(t, x - 1e-2)) / 2e-2;
+        let (cubic, linear) = (row(&bumps, Filter::Cubic), row(&bumps, Filter::Linear));
+        let jump = |t: &TextureDesc| (slope(t, 3.0 + 0.03) - slope(t, 3.0 - 0.03)).abs();
+        assert!(jump(&cubic) < 0.3 && jump(&linear) > 4.0, "{} {}", jump(&cubic), jump(&linear));
+        // wrap modes as for the other filters: black beyond the image
+        let black = TextureDesc { wrap_s: Wrap::Black, ..row(&[1.0; 4], Filter::Cubic) };
+        assert!((at(&black, 0.0) - 5.0 / 6.0).abs() < 1e-6, "{}", at(&black, 0.0));
     }
 
     #[test]

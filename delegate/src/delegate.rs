@@ -2701,7 +2701,7 @@ fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels:
         pixels: px.into(),
         wrap_s: key.wrap_s.wrap(),
         wrap_t: key.wrap_t.wrap(),
-        filter: if key.closest { tide_core::scene::Filter::Closest } else { tide_core::scene::Filter::Linear },
+        filter: key.filter,
     };
     // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
     let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };

@@ -327,7 +327,7 @@ pub fn convert_light(path: &str, kind: LightKind, store: &AttrStore, p: &mut Pro
         Encoding::Auto
     });
     let tex_key = |wrap_s, wrap_t, dome| {
-        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding, dome, closest: false })
+        store.str_opt("texture:file").filter(|s| !s.is_empty()).map(|a| TexKey { asset: a.to_string(), wrap_s, wrap_t, encoding, dome, filter: Default::default() })
     };
     let zero_area = |p: &mut Problems, attr: &str| {
         p.add(attr, "the light has zero area; dropped");

@@ -59,7 +59,7 @@ pub struct TexKey {
     /// A dome light's image layout (resampled to lat-long); `LatLong` for everything else.
     pub dome: DomeFormat,
     /// Texel filtering (a MaterialX image's `filtertype`).
-    pub closest: bool,
+    pub filter: tide_core::scene::Filter,
 }
 
 /// How a texture's values are decoded: `sourceColorSpace` `raw`, `sRGB`, or `auto` (sRGB where
@@ -503,7 +503,7 @@ impl Ctx<'_> {
             _ => self.file_color_space(tex, "file"),
         };
         let (transform, uv_set) = self.st_transform(tex);
-        let Some(texture) = self.texture_slot(tex, "file", encoding, wrap_s, wrap_t, false) else { return Err(fallback) };
+        let Some(texture) = self.texture_slot(tex, "file", encoding, wrap_s, wrap_t, Default::default()) else { return Err(fallback) };
         Ok(TexLookup { texture, channel, transform, tex_scale, bias, fallback, uv_set })
     }
 
@@ -522,7 +522,7 @@ impl Ctx<'_> {
     /// (`encoding`: how its values are decoded; a wrap of None: the file's metadata's, else
     /// black; `closest`: unfiltered texels); None when there is no usable file (a problem names
     /// the input, but for an empty path).
-    fn texture_slot(&mut self, tex: &str, file: &str, encoding: Encoding, wrap_s: Option<WrapKey>, wrap_t: Option<WrapKey>, closest: bool) -> Option<usize> {
+    fn texture_slot(&mut self, tex: &str, file: &str, encoding: Encoding, wrap_s: Option<WrapKey>, wrap_t: Option<WrapKey>, filter: tide_core::scene::Filter) -> Option<usize> {
         let file_attr = format!("{}.inputs:{}", tex, file);
         let Some(asset) = self.nodes[tex].inputs.get(file).and_then(|v| v.as_str()).map(String::from) else {
             self.p.add(&file_attr, "no texture file; using the fallback value");
@@ -544,7 +544,7 @@ impl Ctx<'_> {
         };
         let wrap_s = wrap_s.or(file_wrap[0]).unwrap_or(WrapKey::Black);
         let wrap_t = wrap_t.or(file_wrap[1]).unwrap_or(WrapKey::Black);
-        let key = TexKey { asset, wrap_s, wrap_t, encoding, dome: DomeFormat::LatLong, closest };
+        let key = TexKey { asset, wrap_s, wrap_t, encoding, dome: DomeFormat::LatLong, filter };
         Some(match self.used.iter().position(|k| *k == key) {
             Some(i) => i,
             None => {
@@ -1111,7 +1111,7 @@ mod tests {
         let m = convert_material("/M", &s, &loaded(true), &mut p);
         assert!(p.list.is_empty(), "{:?}", p.list);
         // wrapT unauthored (useMetadata) on a file without wrap metadata: black
-        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Black, encoding: Encoding::Auto, dome: DomeFormat::LatLong, closest: false }]);
+        assert_eq!(m.textures, vec![TexKey { asset: "/tex/albedo.png".into(), wrap_s: WrapKey::Clamp, wrap_t: WrapKey::Black, encoding: Encoding::Auto, dome: DomeFormat::LatLong, filter: Default::default() }]);
         let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
         let ColorInput::Texture(t) = &ps.diffuse_color else { panic!("{:?}", ps.diffuse_color) };
         assert_eq!((t.texture, t.channel), (0, Channel::Rgb));

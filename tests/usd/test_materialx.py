@@ -826,11 +826,19 @@ def test_an_unknown_colour_space_is_named_and_the_file_decides(renderer, stage, 
     assert ok, why
 
 
-@pytest.mark.parametrize("filtertype", ["linear", "closest"])
+def _bspline(t):
+    """The uniform cubic B-spline kernel."""
+    t = np.abs(t)
+    return np.where(t < 1, (4 - 6 * t ** 2 + 3 * t ** 3) / 6, np.where(t < 2, (2 - t) ** 3 / 6, 0.0))
+
+
+@pytest.mark.parametrize("filtertype", ["linear", "closest", "cubic"])
 def test_an_image_with_closest_filtering_shows_its_texels_unblended(renderer, stage, tmp_path, filtertype):
     """A 2 x 1 image, red | green, across the panel: `closest` gives the left half pure red and
     the right half pure green (a texel per half, the edge at the middle); `linear` blends them
-    linearly between the texel centres (u = 1/4 and 3/4)."""
+    linearly between the texel centres (u = 1/4 and 3/4); `cubic` by the cubic B-spline over
+    the texels (clamped: red to the left, green to the right), a smooth step that still
+    blends at the texel centres."""
     path = str(tmp_path / "rg.exr")
     write_exr(path, [[(1.0, 0.0, 0.0), (0.0, 1.0, 0.0)]])
 
@@ -844,7 +852,9 @@ def test_an_image_with_closest_filtering_shows_its_texels_unblended(renderer, st
     # pixel filter
     red = img[:, :, 0].mean(axis=0)
     u = (np.arange(RES) + 0.5) / RES
-    want = (u < 0.5).astype(float) if filtertype == "closest" else np.clip(1.5 - 2 * u, 0, 1)
+    want = {"closest": (u < 0.5).astype(float), "linear": np.clip(1.5 - 2 * u, 0, 1),
+            # texel i (centre at x = i, x = 2u - 1/2) is red for i <= 0
+            "cubic": sum(_bspline(2 * u - 0.5 - i) for i in range(-3, 1))}[filtertype]
     away = np.abs(u - 0.5) > 1.5 / RES
     assert np.abs(red - want)[away].max() < 0.05, (red, want)
 

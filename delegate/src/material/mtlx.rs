@@ -655,10 +655,8 @@ impl Ctx<'_> {
         // the file input's colour space (USD's colorSpace metadata, as UsdImaging hands it on:
         // `colorSpace:file`), else the file's own encoding decides
         let encoding = self.file_color_space(node, "file");
-        // filtertype: closest reads the texel the coordinates fall in; linear and cubic
-        // (not done: read bilinearly) blend
-        let closest = self.input_token(node, "filtertype", &["linear", "closest", "cubic"], "linear") == "closest";
-        let Some(texture) = self.texture_slot(node, "file", encoding, wrap_s, wrap_t, closest) else { return Err(fallback) };
+        let filter = self.filter_type(node);
+        let Some(texture) = self.texture_slot(node, "file", encoding, wrap_s, wrap_t, filter) else { return Err(fallback) };
         let transform = tiled * chain;
         if !(transform.matrix2.is_finite() && transform.translation.is_finite()) {
             self.p.add(&format!("{}.inputs:texcoord", node), "the texture coordinates' transform is not finite; using the mesh's st");

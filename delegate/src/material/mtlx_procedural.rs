@@ -173,11 +173,11 @@ impl Ctx<'_> {
             _ => [pick(1, 2), pick(0, 2), pick(0, 1)],
         };
         let single = id.ends_with("_float");
-        let closest = self.input_token(node, "filtertype", &["linear", "closest", "cubic"], "linear") == "closest";
+        let filter = self.filter_type(node);
         let mut images = Vec::with_capacity(3);
         for (file, st) in ["filex", "filey", "filez"].into_iter().zip(coordinates) {
             let encoding = self.file_color_space(node, file);
-            images.push(match self.texture_slot(node, file, encoding, Some(WrapKey::Repeat), Some(WrapKey::Repeat), closest) {
+            images.push(match self.texture_slot(node, file, encoding, Some(WrapKey::Repeat), Some(WrapKey::Repeat), filter) {
                 Some(texture) => {
                     let mut l = self.plain_lookup(texture, fallback, None);
                     if single {
@@ -263,6 +263,17 @@ impl Ctx<'_> {
             true => bin(Binary::Min, bin(Binary::Max, ranged, low), high),
             false => ranged,
         }))
+    }
+
+    /// An image node's `filtertype`: `linear` blends the four nearest texels, `closest` reads
+    /// the one the coordinates fall in, `cubic` blends the 4×4 nearest by the cubic B-spline.
+    pub(super) fn filter_type(&mut self, node: &str) -> tide_core::scene::Filter {
+        use tide_core::scene::Filter;
+        match self.input_token(node, "filtertype", &["linear", "closest", "cubic"], "linear") {
+            "closest" => Filter::Closest,
+            "cubic" => Filter::Cubic,
+            _ => Filter::Linear,
+        }
     }
 
     /// Whether a geometric node's `space` is the world's (`object`, the default, and `model`
