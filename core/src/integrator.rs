@@ -342,21 +342,23 @@ fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Opti
     light_hit
 }
 
-/// The first-hit AOVs a pixel takes from its first sample (depth, primId) of camera ray `cr`
-/// by geometry alone: the first
-/// surface it meets that the camera sees, past volume boxes, surfaces hidden from the camera
-/// and cut-outs (opacity under ½), or an area light the camera sees before it. For a sample
-/// whose path scattered or was absorbed in a medium before it met a surface (an underwater
-/// view of the sea floor, a wall seen through fog): its depth is the surface's, as a pixel's
-/// that the medium let through.
-fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, aov: &mut SampleValue) {
+/// The first-hit AOVs of camera ray `cr` by geometry alone: the first surface it meets that
+/// the camera sees, past volume boxes, surfaces hidden from the camera and cut-outs (opacity
+/// under ½), or an area light the camera sees before it. For a sample whose path scattered or
+/// was absorbed in a medium before it met a surface (an underwater view of the sea floor, a
+/// wall seen through fog): its normal and albedo are the surface's, as a sample's that the
+/// medium let through; the pixel's depth and primId too where it is the pixel's first sample
+/// (`first`, which gives those).
+fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &SampledWavelengths, first: bool, aov: &mut SampleValue) {
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut passed = 0.0f32;
     for _ in 0..MAX_NULL_EVENTS {
         let hit = world.accel.intersect(&ray);
         let t_hit = hit.map_or(ray.t_max, |h| h.t);
         if let Some((_, t, _, _)) = nearest_light_hit(world, &ray, t_hit, true) {
-            aov.depth = (passed + t) * cr.depth_per_t + cr.depth_at_origin;
+            if first {
+                aov.depth = (passed + t) * cr.depth_per_t + cr.depth_at_origin;
+            }
             return;
         }
         let Some(hit) = hit else { return };
@@ -364,8 +366,12 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, aov: &mut Sam
         let s = world.surface(&ray, &hit);
         let skip = world.materials[info.material].is_medium_boundary() || !info.visible_to_camera || world.opacity(info.material, &s) < 0.5;
         if !skip {
-            aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
-            aov.prim_id = info.id as f32;
+            if first {
+                aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
+                aov.prim_id = info.id as f32;
+            }
+            aov.normal = s.ns.to_array();
+            aov.albedo = albedo_aov(world, &world.bsdf(info.material, &s, lambda, 1.0, 1.0).0, lambda);
             return;
         }
         let front = -ray.d.dot(s.ng) > 0.0;
@@ -373,6 +379,14 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, aov: &mut Sam
         ray.t_max -= hit.t;
         passed += hit.t;
     }
+}
+
+/// The `albedo` AOV of a BSDF: its reflectance seen under the authored colours' white, so
+/// that a white surface reads (1, 1, 1) in any rendering colour space.
+fn albedo_aov(world: &World, bsdf: &Bsdf, lambda: &SampledWavelengths) -> [f32; 3] {
+    let white = color::white_illuminant(crate::scene::AUTHORED_COLOR_SPACE);
+    let lit = bsdf.albedo_hint() * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
+    color::xyz_to_output(color::to_xyz(lit, lambda), world.cs)
 }
 
 /// Splits an NEE contribution at the first vertex into light-path categories by the BSDF's
@@ -541,10 +555,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let (ro, rd) = world.media[mi].rest_ray(ray.time, ray.o, ray.d);
             match world.media[mi].sample_distance(ro, rd, t_surface.min(1e30), &mut rng, lambda) {
                 DistanceSample::Scatter { t, weight } => {
-                    if depth == 0 && first_surface && sampler.sample_index() == 0 {
-                        // the pixel's first-hit AOVs come from its first sample: the surface
-                        // behind the medium, by geometry
-                        first_surface_aov(world, &cr, &mut aov);
+                    if depth == 0 && first_surface {
+                        // the first-hit AOVs of the surface behind the medium, by geometry
+                        first_surface_aov(world, &cr, lambda, sampler.sample_index() == 0, &mut aov);
                     }
                     beta *= weight;
                     fp.advance(t);
@@ -605,8 +618,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 DistanceSample::Pass { weight } => {
                     beta *= weight;
                     if beta.is_black() {
-                        if depth == 0 && first_surface && sampler.sample_index() == 0 {
-                            first_surface_aov(world, &cr, &mut aov);
+                        if depth == 0 && first_surface {
+                            first_surface_aov(world, &cr, lambda, sampler.sample_index() == 0, &mut aov);
                         }
                         break;
                     }
@@ -767,11 +780,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let frame = if flip < 0.0 { Frame::from_normal(-s.ns) } else { frame };
         let wo = frame.to_local(wo_w);
         if depth == 0 {
-            // a reflectance, seen under the authored colours' white: a white surface reads
-            // (1, 1, 1) in any rendering colour space
-            let white = color::white_illuminant(crate::scene::AUTHORED_COLOR_SPACE);
-            let lit = bsdf.albedo_hint() * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
-            aov.albedo = color::xyz_to_output(color::to_xyz(lit, lambda), world.cs);
+            aov.albedo = albedo_aov(world, &bsdf, lambda);
         }
 
         let non_specular = !bsdf.is_specular();

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade, UsdVol
 
-from conftest import bind, camera, load, render, settings
+from conftest import exact_lambert_material, bind, camera, load, render, settings
 
 # The grid: 16 x 16 x 4 voxels of 0.25, centred on the origin in x and y, the first value at
 # z = -0.375. Values sit at voxel indices; between them the density is trilinear and outside
@@ -263,13 +263,15 @@ def test_a_volume_moving_over_the_shutter_blurs(renderer, stage, tmp_path):
 @pytest.mark.parametrize("through", ["volume", "dense fog", "cut-out panel"])
 def test_the_depth_of_a_wall_seen_through_a_volume_is_its_distance_from_the_camera(
         renderer, stage, tmp_path, through):
-    """A wall at z = -3 seen by a camera at z = 5 (8 units) through the volume's box, a dense
-    scattering fog (most camera paths scatter before the wall) or a panel cut out by an
-    opacity of 0 (at z = 2): the depth AOV reads 8 everywhere. It was measured from where the
-    ray left the box or passed the panel (about 4.3 and 3), and infinite where the path
-    scattered first."""
+    """A grey wall (albedo 0.5) at z = -3 seen by a camera at z = 5 (8 units) through the
+    volume's box, a dense scattering fog (most camera paths scatter before the wall) or a
+    panel cut out by an opacity of 0 (at z = 2): the depth AOV reads 8 everywhere, the normal
+    the wall's (0, 0, 1) and the albedo the wall's. The depth was measured from where the ray
+    left the box or passed the panel (about 4.3 and 3), and infinite where the path scattered
+    first; the normal was zero where every sample of a pixel scattered first and the albedo
+    diluted by the samples that did (0.44 on average through the volume)."""
     camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0))
-    settings(stage, res=(8, 8), samples=4, vars_=("color", "depth"))
+    settings(stage, res=(8, 8), samples=4, vars_=("color", "depth", "normal", "albedo"))
     UsdLux.DomeLight.Define(stage, "/Dome")
     if through == "volume":
         volume(stage, write_grid(renderer, tmp_path / "fog.vdb", 0.2), mat=medium_material(stage), z=-1.0)
@@ -288,5 +290,12 @@ def test_the_depth_of_a_wall_seen_through_a_volume_is_its_distance_from_the_came
     wall.CreatePointsAttr([(-9, -9, -3), (9, -9, -3), (9, 9, -3), (-9, 9, -3)])
     wall.CreateFaceVertexCountsAttr([4])
     wall.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    depth = render(renderer, stage)["depth"][..., 0]
+    bind(wall.GetPrim(), exact_lambert_material(stage, "/Looks/Grey", 0.5))
+    out = render(renderer, stage)
+    depth = out["depth"][..., 0]
     assert np.allclose(depth, 8.0, rtol=1e-4), depth
+    assert np.allclose(out["normal"], (0.0, 0.0, 1.0), atol=1e-4), out["normal"]
+    # the albedo of a grey surface, estimated from each sample's wavelengths (noisy per
+    # sample, 0.5 on average)
+    albedo = out["albedo"].astype(np.float64)
+    assert abs(albedo.mean() - 0.5) < 0.03 and albedo.min() > 0.2, (albedo.mean(), albedo.min())
