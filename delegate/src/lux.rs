@@ -598,6 +598,16 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
             default
         }
     };
+    // depth of field: 0 (the default) turns it off; a negative or non-finite value is named
+    let lens = |name: &str, p: &mut Problems| {
+        let v = store.f32_or(name, 0.0, p);
+        if v >= 0.0 && v.is_finite() {
+            v
+        } else {
+            p.add(name, format!("must be 0 (no depth of field) or positive, got {v}; using 0 (no depth of field)"));
+            0.0
+        }
+    };
     let projection = match store.token_or("projection", &["perspective", "orthographic"], "perspective", p) {
         "orthographic" => Projection::Orthographic,
         _ => Projection::Perspective,
@@ -638,8 +648,8 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         vertical_aperture_offset: store.f32_or("verticalApertureOffset", 0.0, p),
         clipping_range,
         clipping_planes,
-        f_stop: store.f32_or("fStop", 0.0, p).max(0.0),
-        focus_distance: store.f32_or("focusDistance", 0.0, p).max(0.0),
+        f_stop: lens("fStop", p),
+        focus_distance: lens("focusDistance", p),
         shutter_open,
         shutter_close,
         exposure: store.f32_or("exposure", 0.0, p),
@@ -1125,6 +1135,22 @@ mod tests {
         assert_eq!(c.medium.as_deref(), Some("/Looks/Sea"));
         assert_eq!(p.list.len(), 1);
         assert_eq!((p.list[0].item.as_str(), p.list[0].attribute.as_str()), ("/cam", "verticalAperture"));
+    }
+
+    /// A negative or non-finite `fStop` or `focusDistance` is named and turns depth of field
+    /// off, as 0 does (it was turned off silently).
+    #[test]
+    fn camera_names_a_negative_lens() {
+        for (stop, focus, bad) in [(-4.0, 20.0, "fStop"), (2.8, -20.0, "focusDistance"), (f64::NAN, 20.0, "fStop")] {
+            let mut p = Problems::new("/cam");
+            let c = convert_camera("/cam", &st(&[("fStop", f(stop)), ("focusDistance", f(focus))]), &mut p);
+            assert_eq!(p.list.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/cam", bad)]);
+            assert!(stop.is_nan() || p.list[0].message.contains("no depth of field"), "{}", p.list[0].message);
+            assert!(c.desc.f_stop == 0.0 || c.desc.focus_distance == 0.0);
+        }
+        let mut p = Problems::new("/cam");
+        let c = convert_camera("/cam", &st(&[("fStop", f(0.0)), ("focusDistance", f(0.0))]), &mut p);
+        assert!(p.list.is_empty() && c.desc.f_stop == 0.0, "{:?}", p.list);
     }
 
     /// No samples, a negative or non-finite budget are named and replaced (0 samples rendered
