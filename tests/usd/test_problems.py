@@ -414,3 +414,32 @@ def test_bad_stage_metadata_without_a_settings_prim_is_named_on_the_stage_root(r
     got = sorted((p.prim, p.attribute) for p in problems)
     assert got == [("/", "metersPerUnit"), ("/", "timeCodesPerSecond")], problems
     assert img.shape[0] > 0
+
+
+def test_sublayers_references_and_payloads_that_cannot_be_opened_are_named(tmp_path, delegate):
+    """A sublayer, a reference and a payload whose files are missing are named on the stage
+    root (subLayers) and on the prims that bring them in (references, payload), once each; the
+    rest renders. Writing the referenced file and referencing it again brings the prim in and
+    names nothing new."""
+    from pxr import Usd
+    root = Sdf.Layer.CreateNew(str(tmp_path / "shot.usda"))
+    root.subLayerPaths.append("./lighting_v2.usda")
+    stage = Usd.Stage.Open(root)
+    _good(stage)
+    boat = stage.DefinePrim("/Boat")
+    boat.GetReferences().AddReference("./boat.usda")
+    stage.DefinePrim("/Spray").GetPayloads().AddPayload("./spray.usdc")
+    reader, problems = load(stage, delegate)
+    keys = sorted((p.prim, p.attribute) for p in problems)
+    assert keys == [("/", "subLayers"), ("/Boat", "references"), ("/Spray", "payload")], problems
+    assert all("boat.usda" in p.message for p in problems if p.prim == "/Boat")
+    assert delegate.prims["/Good"] == "sphere"
+    # the asset arrives
+    asset = Usd.Stage.CreateNew(str(tmp_path / "boat.usda"))
+    UsdGeom.Sphere.Define(asset, "/Hull")
+    asset.SetDefaultPrim(asset.GetPrimAtPath("/Hull"))
+    asset.Save()
+    boat.GetReferences().ClearReferences()
+    boat.GetReferences().AddReference("./boat.usda")
+    assert reader.update() == []
+    assert delegate.prims["/Boat"] == "sphere"

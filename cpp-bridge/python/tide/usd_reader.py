@@ -554,6 +554,7 @@ class Reader:
         self._instance_sources = set()
         self._depends = {}            # prim read on others' behalf -> the prims read from it
         self._skel_sources = set()    # Skeleton, SkelAnimation, BlendShape paths skinning read
+        self._composed_errors = set()  # USD's composition errors named so far, as they last
         self._listener = Tf.Notice.Register(Usd.Notice.ObjectsChanged, self._on_changed, stage)
         self.frame = self._initial_frame()
         self.settings_path = None     # delegate path of the renderSettings sprim
@@ -751,9 +752,33 @@ class Reader:
             return float(self.stage.GetStartTimeCode())
         return 0.0
 
+    def _composition_problems(self):
+        """Names what USD could not compose (a sublayer, reference or payload whose file is
+        missing, an arc in a cycle): the stage renders without it. Each once while it lasts."""
+        now = set()
+        for e in self.stage.GetCompositionErrors():
+            message = str(e).strip()
+            kind = str(e.errorType)
+            if "Sublayer" in kind:
+                attribute = "subLayers"
+            elif " for payload " in message:
+                attribute = "payload"
+            elif " for reference " in message:
+                attribute = "references"
+            else:
+                attribute = "composition"
+            now.add((str(e.rootSite.path), attribute, message))
+        for path, attribute, message in sorted(now - self._composed_errors):
+            message = message.rstrip(".;")
+            if message.endswith("; skipping"):
+                message = message[:-len("; skipping")]
+            self.problem(path, attribute, "%s; the stage renders without it" % message)
+        self._composed_errors = now
+
     def _sync(self, roots):
         desired = {}
         full = roots is None
+        self._composition_problems()
         if full:
             roots = [Sdf.Path.absoluteRootPath]
             self._instance_sources = set()
