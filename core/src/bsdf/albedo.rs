@@ -31,7 +31,10 @@ const DIEL_ETA: usize = 24;
 pub const DIEL_ETA_MAX: f32 = 3.0;
 /// Fibonacci lattices (F_k, F_(k−1)) used as sample sets.
 const COND_LATTICE: (usize, usize) = (233, 144);
-const DIEL_LATTICE: (usize, usize) = (89, 55);
+/// 377 points for the dielectric: the compensation of one interface is then within 0.6 % of
+/// lossless (1.1 % with 89, whose error compounded over the bounces inside a rough water
+/// ball to 2.4 % at its rim), for about 0.2 s more of table building on two cores.
+const DIEL_LATTICE: (usize, usize) = (377, 233);
 
 #[derive(PartialEq)]
 pub struct AlbedoTables {
