@@ -6,15 +6,21 @@ use common::*;
 use glam::{Mat4, Vec3};
 use tide_core::scene::*;
 
-fn furnace(surface: SurfaceDesc) -> (f64, f64, f64, f64) {
+/// A unit sphere of `surface` (a UV sphere of `segments`) in a dome of radiance 1, seen from 4
+/// units away with a 30° field of view.
+fn furnace_scene(surface: SurfaceDesc, segments: u32) -> SceneDesc {
     let mut s = SceneDesc::default();
-    s.meshes.push(std::sync::Arc::new(uv_sphere("/sphere", 1.0, 48)));
+    s.meshes.push(std::sync::Arc::new(uv_sphere("/sphere", 1.0, segments)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface, interior_medium: None });
     s.instances.push(instance("/sphere", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 30.0);
+    s
+}
+
+fn furnace(surface: SurfaceDesc) -> (f64, f64, f64, f64) {
     let (w, h) = (24, 24);
-    let r = render(&s, settings(w, h, 64));
+    let r = render(&furnace_scene(surface, 48), settings(w, h, 64));
     // pixels well inside the sphere's silhouette (radius ≈ 0.26·fov ⇒ ~9 px of 24)
     let inside = |x: u32, y: u32| {
         let dx = x as f32 + 0.5 - 12.0;
@@ -63,14 +69,9 @@ fn rough_water_sphere_renders_one() {
 /// scene).
 #[test]
 fn rough_water_sphere_renders_one_to_its_rim() {
-    let mut s = SceneDesc::default();
-    s.meshes.push(std::sync::Arc::new(uv_sphere("/sphere", 1.0, 96)));
-    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, roughness: 0.3, ..Default::default() }), interior_medium: None });
-    s.instances.push(instance("/sphere", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-    s.lights.push(dome(1.0));
-    s.camera = camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 30.0);
+    let water = SurfaceDesc::Water(WaterDesc { ior: 1.333, roughness: 0.3, ..Default::default() });
     let (w, h) = (24, 24);
-    let r = render(&s, settings(w, h, 512));
+    let r = render(&furnace_scene(water, 96), settings(w, h, 512));
     // the silhouette's radius is about 9.4 px: the ring from 7 px out holds the rim
     let ring = |x: u32, y: u32| {
         let d = ((x as f32 + 0.5 - 12.0).powi(2) + (y as f32 + 0.5 - 12.0).powi(2)).sqrt();
