@@ -282,3 +282,24 @@ def test_set_frame_reads_the_stage_at_another_time_and_start_time_code_moves_the
     reader.set_frame(4)
     assert x() == 3.0
     assert delegate.last_synced() == ["/World/A"], "only what differs at the new time"
+
+
+def test_prim_ids_are_the_same_after_edits_as_on_a_fresh_load(stage, delegate):
+    """A prim's primId does not depend on what else the stage holds or held: after /World/A is
+    deactivated and /World/AA (read before B) is added, B keeps its id, and a fresh load of the
+    edited stage gives every prim the id the edited session gives it (the frames of a
+    sequence whose prims come and go keep their ids too)."""
+    _scene(stage)
+    reader, _ = load(stage, delegate)
+    ids = lambda d: {p: d.value(p, "primId") for p, kind in d.prims.items()
+                     if p.startswith("/World/")}
+    before = ids(delegate)
+    assert len(set(before.values())) == len(before) == 3, before
+    stage.GetPrimAtPath("/World/A").SetActive(False)
+    UsdGeom.Cube.Define(stage, "/World/AA")
+    reader.update()
+    after = ids(delegate)
+    assert after["/World/B"] == before["/World/B"] and after["/World/C"] == before["/World/C"]
+    fresh = type(delegate)()
+    load(stage, fresh)
+    assert ids(fresh) == after, (ids(fresh), after)

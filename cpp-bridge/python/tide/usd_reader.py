@@ -548,7 +548,8 @@ class Reader:
         self._seen = set()            # (prim, attribute) already reported
         self._pending = []            # problems found since the last commit
         self._sent = {}               # delegate path -> _PrimState last sent
-        self._prim_ids = {}
+        self._prim_ids = {}            # delegate path -> primId
+        self._prim_id_owners = {}      # primId -> delegate path
         self._blur = 1.0              # motion:blurScale of the prim being read
         self._changed = []
         self._instance_sources = set()
@@ -1374,9 +1375,23 @@ class Reader:
 
     # -- gprims ---------------------------------------------------------------------------
     def _prim_id(self, path):
-        if path not in self._prim_ids:
-            self._prim_ids[path] = len(self._prim_ids)
-        return self._prim_ids[path]
+        """The `primId` of delegate prim `path`: a hash of the path (24 bits, exact in the
+        AOV's floats), so that a prim keeps its id across edits, fresh loads and the frames of
+        a sequence whatever else comes and goes. Of two paths on one id (one chance in 2^24
+        per pair; about 3 % that any two of a thousand prims meet), the first seen keeps it and
+        the other takes the next free one."""
+        known = self._prim_ids.get(path)
+        if known is not None:
+            return known
+        h = 0x811C9DC5
+        for b in str(path).encode("utf-8"):
+            h = ((h ^ b) * 0x01000193) & 0xFFFFFFFF
+        i = (h ^ (h >> 24)) & 0xFFFFFF
+        while i in self._prim_id_owners:
+            i = (i + 1) & 0xFFFFFF
+        self._prim_id_owners[i] = path
+        self._prim_ids[path] = i
+        return i
 
     def _material_for(self, prim):
         api = UsdShade.MaterialBindingAPI(prim)
