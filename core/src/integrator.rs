@@ -382,10 +382,18 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &Samp
 }
 
 /// The `albedo` AOV of a BSDF: its reflectance seen under the authored colours' white, so
-/// that a white surface reads (1, 1, 1) in any rendering colour space.
+/// that a white surface reads (1, 1, 1) in any rendering colour space. A reflectance the
+/// same at every wavelength sampled (a grey, from a grey colour's flat spectrum) is read as
+/// that grey exactly, without the noise of estimating the white's colour from four
+/// wavelengths; any other as the white it reflects, estimated from them.
 fn albedo_aov(world: &World, bsdf: &Bsdf, lambda: &SampledWavelengths) -> [f32; 3] {
+    let a = bsdf.albedo_hint();
+    let (lo, hi) = (0..crate::spectrum::N_SPECTRUM).fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), i| (lo.min(a[i]), hi.max(a[i])));
+    if hi - lo <= 1e-6 * hi.abs() {
+        return [hi; 3];
+    }
     let white = color::white_illuminant(crate::scene::AUTHORED_COLOR_SPACE);
-    let lit = bsdf.albedo_hint() * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
+    let lit = a * SampledSpectrum::from_fn(|i| white.eval(lambda.lambda[i]));
     color::xyz_to_output(color::to_xyz(lit, lambda), world.cs)
 }
 
