@@ -30,13 +30,19 @@ bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
     const bool empty = box.empty();
     if (!empty) {
         lo = box.min();
-        const openvdb::Coord ext = box.dim();
-        for (int k = 0; k < 3; ++k) dims[k] = uint64_t(ext[k]);
+        // in 64 bits: an extent of 2^31 or more voxels does not fit Coord's ints
+        for (int k = 0; k < 3; ++k) dims[k] = uint64_t(int64_t(box.max()[k]) - int64_t(box.min()[k]) + 1);
     }
-    const uint64_t count = dims[0] * dims[1] * dims[2];
-    if (count > kMaxValues) {
-        *error = "grid has " + std::to_string(count) + " voxels in its active bounding box (at most " +
-                 std::to_string(kMaxValues) + ")";
+    // the product, checked factor by factor so that it cannot wrap around
+    bool fits = true;
+    uint64_t count = 1;
+    for (int k = 0; k < 3 && fits; ++k) {
+        fits = dims[k] <= kMaxValues / count;
+        if (fits) count *= dims[k];
+    }
+    if (!fits) {
+        *error = "grid's active bounding box is " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) +
+                 " x " + std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " in all)";
         return false;
     }
     out->values.assign(size_t(count), 0.0f);

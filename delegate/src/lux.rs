@@ -670,6 +670,11 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
     }
 }
 
+/// The most bounces `tide:maxDepth` may ask of a path (deep enough for the densest media a
+/// volumetric path tracer is asked to walk; a path of 2^31 bounces through a scattering medium
+/// of albedo 1 never ends in practice, and a pass waits for its paths).
+pub const MAX_PATH_DEPTH: u32 = 1 << 16;
+
 /// One UsdRenderVar of a product.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderVarDesc {
@@ -758,11 +763,12 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
     }
     let policy = store.token_or("aspectRatioConformPolicy", &["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight", "adjustPixelAspectRatio"], "expandAperture", p);
     s.aspect_conform = tide_core::camera::AspectConform::from_token(policy).unwrap_or_default();
+    // OpenEXR's files hold a pixel aspect ratio from 1e-6 to 1e6
     let par = store.f32_or("pixelAspectRatio", 1.0, p);
-    s.pixel_aspect_ratio = if par > 0.0 {
+    s.pixel_aspect_ratio = if (1e-6..=1e6).contains(&par) {
         par
     } else {
-        p.add("pixelAspectRatio", "must be positive; using 1");
+        p.add("pixelAspectRatio", format!("{par} is not within 1e-6 to 1e6 (positive, as an OpenEXR file holds it); using 1"));
         1.0
     };
     if let Some(v) = store.get("dataWindowNDC") {
@@ -793,7 +799,13 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
             64
         }
     };
-    s.max_depth = nonneg_int("tide:maxDepth", 64, p).min(u32::MAX as i64) as u32;
+    s.max_depth = match nonneg_int("tide:maxDepth", 64, p) {
+        d if d > MAX_PATH_DEPTH as i64 => {
+            p.add("tide:maxDepth", format!("{d} is more than {MAX_PATH_DEPTH} bounces; using {MAX_PATH_DEPTH}"));
+            MAX_PATH_DEPTH
+        }
+        d => d as u32,
+    };
     s.seed = nonneg_int("tide:seed", 0, p) as u64;
     s.time_budget_s = match store.f32_or("tide:time:budget", 0.0, p) {
         b if b >= 0.0 && b.is_finite() => b,
@@ -1220,6 +1232,25 @@ mod tests {
         let s = convert_settings(&st(&[("renderingColorSpace", Value::Token("srgb_rec709_scene".into()))]), &mut p);
         assert_eq!(s.color_space, ColorSpace::LinearRec709);
         assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), ["renderingColorSpace"]);
+    }
+
+    /// A path depth past MAX_PATH_DEPTH (2^31 bounces never end in a scattering medium of
+    /// albedo 1, and a render cannot stop mid-pass), or a pixel aspect ratio an OpenEXR file
+    /// cannot hold (the render finished, then failed to write), is named and replaced.
+    #[test]
+    fn settings_past_what_a_render_can_finish_or_write_are_named() {
+        for (depth, want, named) in [(1 << 16, 1 << 16, false), ((1 << 16) + 1, 1 << 16, true), (i32::MAX as i64, 1 << 16, true)] {
+            let mut p = Problems::new("/Render/S");
+            let s = convert_settings(&st(&[("tide:maxDepth", Value::Int(depth))]), &mut p);
+            assert_eq!(s.settings.max_depth, want);
+            assert_eq!(p.list.iter().any(|q| q.attribute == "tide:maxDepth"), named, "{:?}", p.list);
+        }
+        for (par, want, named) in [(1e6, 1e6, false), (1e-6, 1e-6, false), (1e7, 1.0, true), (1e-7, 1.0, true), (f64::INFINITY, 1.0, true), (0.0, 1.0, true)] {
+            let mut p = Problems::new("/Render/S");
+            let s = convert_settings(&st(&[("pixelAspectRatio", f(par))]), &mut p);
+            assert_eq!(s.settings.pixel_aspect_ratio, want as f32);
+            assert_eq!(p.list.iter().any(|q| q.attribute == "pixelAspectRatio"), named, "{par}: {:?}", p.list);
+        }
     }
 
     #[test]

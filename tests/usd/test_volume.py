@@ -9,6 +9,7 @@ The VDB files are written by the bridge module's `write_vdb` (OpenVDB's Python b
 on PyPI), so the rendering tests need the module; the reader tests use the recording fake.
 """
 import math
+import os
 
 import numpy as np
 import pytest
@@ -187,6 +188,19 @@ def test_missing_vdb_file_is_reported_and_the_rest_renders(renderer, stage, tmp_
     keys = {(p.prim, p.attribute) for p in problems}
     assert ("/Cloud/density", "filePath") in keys, problems
     # the volume is dropped: the dome is seen unattenuated
+    assert_transmits(img, 1.0)
+
+
+def test_a_grid_whose_voxels_lie_billions_apart_is_reported_not_read(renderer, stage):
+    """data/wrapping_box.vdb (19 KB): a float grid `density` of two active voxels written by
+    `write_vdb`, one leaf's origin then moved to (2111062016, 1824456704, 121556992) in the
+    file. Its active box would hold ~5e26 voxels, whose count wrapped around in 64 bits, passed
+    the size check and had the copy write past its buffer (a segfault). It is named and
+    dropped; the rest renders."""
+    f = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "wrapping_box.vdb")
+    problems, img = _problems_and_image(renderer, stage, f)
+    hits = [p for p in problems if "voxels" in p.message]
+    assert hits and hits[0].prim.startswith("/Cloud"), problems
     assert_transmits(img, 1.0)
 
 
