@@ -51,7 +51,7 @@ pub struct FilmTile {
 
 impl FilmTile {
     pub fn new(x0: u32, y0: u32, w: u32, h: u32, has_first: bool) -> Self {
-        let n = (w * h) as usize;
+        let n = w as usize * h as usize;
         FilmTile { x0, y0, w, h, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], has_first }
     }
 
@@ -119,8 +119,18 @@ pub struct Film {
 }
 
 impl Film {
+    /// Bytes a film holds per pixel (its accumulators, sample count and first-hit values).
+    pub const BYTES_PER_PIXEL: usize = ACC * 8 + 4 + 8;
+
+    /// Whether this process can have a film of `width`×`height` pixels: the memory it asks for,
+    /// reserved and given back (an allocation a film would die of otherwise).
+    pub fn fits(width: u32, height: u32) -> bool {
+        let mut probe: Vec<f64> = Vec::new();
+        (width as usize).checked_mul(height as usize).and_then(|n| n.checked_mul(ACC)).is_some_and(|n| probe.try_reserve_exact(n).is_ok())
+    }
+
     pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, display: [0, 0, width, height], guiding: None, light: Vec::new() }
     }
 

@@ -307,6 +307,12 @@ impl Renderer {
         let (clean, mut problems) = crate::validate::validate_cached(scene, cache.map(|c| &c.checks));
         let world = crate::world::World::build_cached(&clean, &settings, &mut problems, cache);
         let framing = framing(&settings);
+        let [l, t, r, b] = framing.pad;
+        let (fw, fh) = (settings.width + l + r, settings.height + t + b);
+        if !crate::film::Film::fits(fw, fh) {
+            let gb = fw as f64 * fh as f64 * crate::film::Film::BYTES_PER_PIXEL as f64 / 1e9;
+            return Err(RenderError(format!("an image of {fw}×{fh} pixels (overscan included) needs {gb:.1} GB of film; not that much memory can be had")));
+        }
         if let Some(message) = framing.problem.clone() {
             problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message });
         }
@@ -644,6 +650,18 @@ impl Renderer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A film the process cannot have is an error naming its size in memory, not an abort
+    /// (an 8192² frame asked 16 GB and died of it), and 65536² pixels no longer wrap a u32
+    /// count to an empty film.
+    #[test]
+    fn a_film_too_large_for_memory_is_an_error_that_says_how_large() {
+        assert!(crate::film::Film::fits(64, 64));
+        assert!(!crate::film::Film::fits(65_536, 65_536));
+        let settings = RenderSettings { width: 65_536, height: 65_536, spp: 1, ..Default::default() };
+        let err = Renderer::new(&SceneDesc::default(), settings).err().expect("an error");
+        assert!(err.0.contains("65536×65536") && err.0.contains("GB"), "{}", err.0);
+    }
 
     /// dataWindowNDC takes the pixels whose centres lie in the window (UsdRenderSettings), y up.
     #[test]
