@@ -347,6 +347,30 @@ def test_a_nurbs_patch_of_many_control_points_is_evaluated_one_direction_at_a_ti
     assert np.allclose(pts[:, 2], pts[:, 0] * pts[:, 1] / 100.0, atol=1e-3)
 
 
+def test_a_nurbs_curve_of_many_control_points_is_evaluated_span_by_span(stage, delegate):
+    """A cubic curve of 12 000 control points tracing the parabola y = x^2 / 1000 (its control
+    points are the blossoms of x and x^2 at each three consecutive knots, which a cubic
+    B-spline reproduces exactly): the polyline sent lies on it. As one dense matrix over every
+    control point its 190 000 samples took 18 GB and the curve was dropped."""
+    camera(stage)
+    n = 12000
+    knots = np.array([0.0] * 4 + list(range(1, n - 3)) + [n - 3.0] * 4)
+    t = np.stack([knots[1:n + 1], knots[2:n + 2], knots[3:n + 3]], axis=1)
+    x = t.mean(axis=1)
+    y = (t[:, 0] * t[:, 1] + t[:, 0] * t[:, 2] + t[:, 1] * t[:, 2]) / 3.0 / 1000.0
+    c = UsdGeom.NurbsCurves.Define(stage, "/Long")
+    c.CreatePointsAttr([Gf.Vec3f(float(a), float(b), 0.0) for a, b in zip(x, y)])
+    c.CreateCurveVertexCountsAttr([n])
+    c.CreateOrderAttr([4])
+    c.CreateKnotsAttr(knots.tolist())
+    _, problems = load(stage, delegate)
+    assert problems == []
+    pts = floats(delegate.value("/Long", "points")).astype(np.float64)
+    assert len(pts) > 180_000
+    want = pts[:, 0] ** 2 / 1000.0
+    assert np.allclose(pts[:, 1], want, rtol=1e-5, atol=1e-3), np.abs(pts[:, 1] - want).max()
+
+
 def test_a_nurbs_sphere_has_its_normals_at_the_poles(stage, delegate):
     """A rational sphere's pole rows collapse to a point where the derivatives' cross product
     vanishes: the normals there are the axis, not zero."""

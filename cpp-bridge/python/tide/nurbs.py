@@ -72,10 +72,42 @@ def _basis(s, u, p, knots):
     return n
 
 
+class Banded:
+    """A (rows x count) matrix whose row r holds `order` values from column `start[r]` on: the
+    rational basis of a curve, of which only `order` functions are nonzero at a parameter (a
+    dense matrix of a 10 000-vertex curve's 160 000 samples would take 12 GB)."""
+
+    def __init__(self, start, values, count):
+        self.start, self.values, self.count = start, values, count
+
+    @property
+    def shape(self):
+        return (len(self.start), self.count)
+
+    def __len__(self):
+        return len(self.start)
+
+    def __getitem__(self, rows):
+        return Banded(self.start[rows], self.values[rows], self.count)
+
+    def __matmul__(self, data):
+        """The product with `data` (count x d)."""
+        data = np.asarray(data, dtype=np.float64)
+        cols = self.start[:, None] + np.arange(self.values.shape[1])[None, :]
+        return np.einsum("rk,rkd->rd", self.values, data[cols])
+
+    def toarray(self):
+        m = np.zeros(self.shape)
+        for k in range(self.values.shape[1]):
+            m[np.arange(len(self.start)), self.start + k] = self.values[:, k]
+        return m
+
+
 def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN, note=None):
-    """(samples x count) matrix of the rational basis at the curve's sample parameters, and the
-    rows r after which the curve breaks (row r is a piece's end, row r + 1 the next one's
-    start). `note(attribute, message)` hears of what is repaired (a range cut to the domain)."""
+    """(samples x count) matrix of the rational basis at the curve's sample parameters (a
+    `Banded` one), and the rows r after which the curve breaks (row r is a piece's end, row
+    r + 1 the next one's start). `note(attribute, message)` hears of what is repaired (a range
+    cut to the domain)."""
     p = int(order) - 1
     if p < 1:
         raise NurbsError("order", "order %d is below 2" % order)
@@ -110,12 +142,14 @@ def curve_matrix(order, knots, weights, rng, count, per_span=SAMPLES_PER_SPAN, n
         if b in jumps:
             cuts.append(len(params) - 1)
             params.append((b, False))
-    m = np.zeros((len(params), count))
+    start = np.zeros(len(params), dtype=np.int64)
+    values = np.zeros((len(params), p + 1))
     for row, (u, arriving) in enumerate(params):
         s = _span_before(u, p, count, knots) if arriving else _span(u, p, count, knots)
         nw = _basis(s, u, p, knots) * w[s - p:s + 1]
-        m[row, s - p:s + 1] = nw / nw.sum()
-    return m, cuts
+        start[row] = s - p
+        values[row] = nw / nw.sum()
+    return Banded(start, values, count), cuts
 
 
 class CurvesMap:
@@ -195,7 +229,7 @@ def patch_matrix(u, v, weights, note=None):
                                 note=None if note is None else lambda a, msg: note(attr(a), msg))
         except NurbsError as e:
             raise NurbsError(attr(e.attribute), str(e))
-        mats.append(m)
+        mats.append(m.toarray())
         cuts.append(c)
     mu, mv = mats
     nu, nv = u[3], v[3]
