@@ -327,11 +327,8 @@ def test_a_nurbs_patch_carries_its_primvars(stage, delegate):
     assert "bad" not in pv
 
 
-def test_a_nurbs_patch_of_many_control_points_is_evaluated_one_direction_at_a_time(stage, delegate):
-    """An 80 x 80 bicubic patch (a plane z = x y / 100): the points sent lie on it. As one
-    matrix over every control point its evaluation took tens of gigabytes."""
-    camera(stage)
-    n = 80
+def _plane_patch(stage, n):
+    """/Big: an n x n bicubic patch of the surface z = x y / 100 (control points on it)."""
     p = UsdGeom.NurbsPatch.Define(stage, "/Big")
     xs = np.arange(n, dtype=np.float64)
     p.CreatePointsAttr([Gf.Vec3f(float(x), float(y), float(x * y / 100.0)) for y in xs for x in xs])
@@ -339,11 +336,35 @@ def test_a_nurbs_patch_of_many_control_points_is_evaluated_one_direction_at_a_ti
         getattr(p, "Create%sVertexCountAttr" % d.upper())(n)
         getattr(p, "Create%sOrderAttr" % d.upper())(4)
         getattr(p, "Create%sKnotsAttr" % d.upper())([0] * 4 + list(range(1, n - 3)) + [n - 3] * 4)
+    return p
+
+
+def test_a_nurbs_patch_of_many_control_points_is_evaluated_one_direction_at_a_time(stage, delegate):
+    """An 80 x 80 bicubic patch (a plane z = x y / 100): the points sent lie on it. As one
+    matrix over every control point its evaluation took tens of gigabytes."""
+    camera(stage)
+    _plane_patch(stage, 80)
     _, problems = load(stage, delegate)
     assert problems == []
     pts = floats(delegate.value("/Big", "points"))
     # a bilinear function is reproduced by a bicubic spline of its samples (linear precision
     # in each direction)
+    assert np.allclose(pts[:, 2], pts[:, 0] * pts[:, 1] / 100.0, atol=1e-3)
+
+
+def test_a_nurbs_patch_past_the_grid_bound_is_drawn_coarser_and_named(stage, delegate, monkeypatch):
+    """With the bound on a patch's grid lowered to 10 000 points, an 80 x 80 bicubic patch
+    (380 000 points at 8 samples per span) is drawn with fewer samples per span, within the
+    bound and still on its surface, and named on its points (a 400 x 400 net took 4.4 GB and
+    aborted; the bound is 2^22 points, as subdivision's on refined faces)."""
+    from tide import nurbs
+    monkeypatch.setattr(nurbs, "MAX_PATCH_POINTS", 10_000)
+    camera(stage)
+    _plane_patch(stage, 80)
+    _, problems = load(stage, delegate)
+    assert [(q.prim, q.attribute) for q in problems] == [("/Big", "points")], problems
+    pts = floats(delegate.value("/Big", "points"))
+    assert len(pts) <= 10_000
     assert np.allclose(pts[:, 2], pts[:, 0] * pts[:, 1] / 100.0, atol=1e-3)
 
 

@@ -214,23 +214,36 @@ class PatchMap:
         return (num / self.den[..., None]).reshape(self.den.size, -1)
 
 
-def patch_matrix(u, v, weights, note=None):
+# The most grid points a patch is drawn with (two triangles each; as subdivision's cap on
+# refined faces): a larger control net is sampled fewer times per knot span.
+MAX_PATCH_POINTS = 1 << 22
+
+
+def patch_matrix(u, v, weights, note=None, per_span=PATCH_SAMPLES_PER_SPAN):
     """A NurbsPatch's evaluation: u and v are (order, knots, range, vertex count) of each
     direction; weights (nv x nu) or None. Returns (a PatchMap carrying the control points
     onto the grid, (su, sv), (u cuts, v cuts): the grid columns and rows after which the
     surface breaks). Rational patches divide by the weighted basis sum at each grid point.
+    A grid of more than MAX_PATCH_POINTS takes fewer samples per span (noted on the points).
     `note(attribute, message)` hears of what is repaired."""
     mats, cuts = [], []
     for name, (order, knots, rng, count) in (("u", u), ("v", v)):
         attr = lambda a: {"order": name + "Order", "knots": name + "Knots", "ranges": name + "Range",  # noqa: E731
                           "curveVertexCounts": name + "VertexCount"}.get(a, a)
         try:
-            m, c = curve_matrix(order, knots, None, rng, count, PATCH_SAMPLES_PER_SPAN,
+            m, c = curve_matrix(order, knots, None, rng, count, per_span,
                                 note=None if note is None else lambda a, msg: note(attr(a), msg))
         except NurbsError as e:
             raise NurbsError(attr(e.attribute), str(e))
         mats.append(m.toarray())
         cuts.append(c)
+    points = mats[0].shape[0] * mats[1].shape[0]
+    if points > MAX_PATCH_POINTS and per_span > 1:
+        fewer = max(1, int(per_span * (MAX_PATCH_POINTS / points) ** 0.5))
+        if note is not None:
+            note("points", "a grid of %d points (%d samples per knot span) is more than %d; drawn "
+                 "with %d samples per span" % (points, per_span, MAX_PATCH_POINTS, fewer))
+        return patch_matrix(u, v, weights, None, fewer)
     mu, mv = mats
     nu, nv = u[3], v[3]
     w = np.ones((nv, nu)) if weights is None else np.asarray(weights, dtype=np.float64).reshape(nv, nu)
