@@ -122,16 +122,18 @@ impl Film {
     /// Bytes a film holds per pixel (its accumulators, sample count and first-hit values).
     pub const BYTES_PER_PIXEL: usize = ACC * 8 + 4 + 8;
 
-    /// Whether this process can have a film of `width`×`height` pixels: the memory it asks for,
-    /// reserved and given back (an allocation a film would die of otherwise).
-    pub fn fits(width: u32, height: u32) -> bool {
-        let mut probe: Vec<f64> = Vec::new();
-        (width as usize).checked_mul(height as usize).and_then(|n| n.checked_mul(ACC)).is_some_and(|n| probe.try_reserve_exact(n).is_ok())
+    pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
+        Film::try_new(width, height, window).expect("memory for the film")
     }
 
-    pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
+    /// [`Film::new`], or None where this process cannot have the memory its accumulators ask
+    /// (an allocation it would die of otherwise).
+    pub fn try_new(width: u32, height: u32, window: [u32; 4]) -> Option<Film> {
         let n = width as usize * height as usize;
-        Film { width, height, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, display: [0, 0, width, height], guiding: None, light: Vec::new() }
+        let mut sums: Vec<f64> = Vec::new();
+        sums.try_reserve_exact(n.checked_mul(ACC)?).ok()?;
+        sums.resize(n * ACC, 0.0);
+        Some(Film { width, height, sums, n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, display: [0, 0, width, height], guiding: None, light: Vec::new() })
     }
 
     /// `per_pixel` (`ch` values a pixel, over the whole film) cut to the display window.

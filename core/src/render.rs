@@ -304,19 +304,19 @@ impl Renderer {
         if !(settings.pixel_aspect_ratio > 0.0 && settings.pixel_aspect_ratio.is_finite()) {
             return Err(RenderError(format!("pixelAspectRatio {} must be > 0", settings.pixel_aspect_ratio)));
         }
+        // the film first: one too large for memory stops the render before the world is built
+        let framing = framing(&settings);
+        let mut film = Self::new_film(&settings, &framing).ok_or_else(|| {
+            let [l, t, r, b] = framing.pad;
+            let (fw, fh) = (settings.width + l + r, settings.height + t + b);
+            let gb = fw as f64 * fh as f64 * crate::film::Film::BYTES_PER_PIXEL as f64 / 1e9;
+            RenderError(format!("an image of {fw}×{fh} pixels (overscan included) needs {gb:.1} GB of film; not that much memory can be had"))
+        })?;
         let (clean, mut problems) = crate::validate::validate_cached(scene, cache.map(|c| &c.checks));
         let world = crate::world::World::build_cached(&clean, &settings, &mut problems, cache);
-        let framing = framing(&settings);
-        let [l, t, r, b] = framing.pad;
-        let (fw, fh) = (settings.width + l + r, settings.height + t + b);
-        if !crate::film::Film::fits(fw, fh) {
-            let gb = fw as f64 * fh as f64 * crate::film::Film::BYTES_PER_PIXEL as f64 / 1e9;
-            return Err(RenderError(format!("an image of {fw}×{fh} pixels (overscan included) needs {gb:.1} GB of film; not that much memory can be had")));
-        }
         if let Some(message) = framing.problem.clone() {
             problems.push(Problem { item: "renderSettings".into(), attribute: "dataWindowNDC".into(), message });
         }
-        let mut film = Self::new_film(&settings, &framing);
         film.scale = world.camera.exposure_scale;
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(settings.threads)
@@ -333,11 +333,11 @@ impl Renderer {
     }
 
     /// The film of a render: the image and the overscan `framing` pads it with.
-    fn new_film(settings: &RenderSettings, framing: &Framing) -> crate::film::Film {
+    fn new_film(settings: &RenderSettings, framing: &Framing) -> Option<crate::film::Film> {
         let [l, t, r, b] = framing.pad;
-        let mut film = crate::film::Film::new(settings.width + l + r, settings.height + t + b, framing.window);
+        let mut film = crate::film::Film::try_new(settings.width + l + r, settings.height + t + b, framing.window)?;
         film.display = [l, t, settings.width, settings.height];
-        film
+        Some(film)
     }
 
     /// The caustics integrator's state for `world`'s camera (None for the path integrator).
@@ -381,7 +381,7 @@ impl Renderer {
         self.problems.extend(problems);
         let world = &self.world;
         self.camera_stack = crate::integrator::initial_stack(world, world.camera.position(world.camera.shutter.0), world.camera.shutter.0);
-        self.film = Self::new_film(s, &framing(s));
+        self.film = Self::new_film(s, &framing(s)).expect("memory for a film of the size the renderer holds");
         self.film.scale = world.camera.exposure_scale;
         self.caustics = Self::caustics_for(world, s, self.film.window);
         self.adaptive = crate::adaptive::Adaptive::new(s.adaptive_threshold, s.adaptive_min_spp, &self.film);
@@ -656,8 +656,8 @@ mod tests {
     /// count to an empty film.
     #[test]
     fn a_film_too_large_for_memory_is_an_error_that_says_how_large() {
-        assert!(crate::film::Film::fits(64, 64));
-        assert!(!crate::film::Film::fits(65_536, 65_536));
+        assert!(crate::film::Film::try_new(64, 64, [0, 0, 64, 64]).is_some());
+        assert!(crate::film::Film::try_new(65_536, 65_536, [0, 0, 65_536, 65_536]).is_none());
         let settings = RenderSettings { width: 65_536, height: 65_536, spp: 1, ..Default::default() };
         let err = Renderer::new(&SceneDesc::default(), settings).err().expect("an error");
         assert!(err.0.contains("65536×65536") && err.0.contains("GB"), "{}", err.0);

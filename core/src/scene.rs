@@ -565,6 +565,13 @@ impl MeshDesc {
     /// rounding, so vertices equal before stay equal.
     pub fn recentre(&mut self) -> Vec3 {
         let shift = self.recentring();
+        self.shift_origin(shift);
+        shift
+    }
+
+    /// Measures the positions (and motion keys) from `shift` further along, adding it to
+    /// [`MeshDesc::origin`]: what [`MeshDesc::recentre`] does with [`MeshDesc::recentring`]'s.
+    pub fn shift_origin(&mut self, shift: Vec3) {
         if shift != Vec3::ZERO {
             self.positions.iter_mut().for_each(|p| *p -= shift);
             for key in self.motion.iter_mut().flat_map(|m| m.positions.iter_mut()) {
@@ -572,7 +579,6 @@ impl MeshDesc {
             }
             self.origin += shift;
         }
-        shift
     }
 
     /// The shift [`MeshDesc::recentre`] would make.
@@ -678,11 +684,16 @@ impl SpheresDesc {
     /// to them).
     pub fn recentre(&mut self) -> Vec3 {
         let shift = self.recentring();
+        self.shift_origin(shift);
+        shift
+    }
+
+    /// As [`MeshDesc::shift_origin`], for the centres.
+    pub fn shift_origin(&mut self, shift: Vec3) {
         if shift != Vec3::ZERO {
             self.centers.iter_mut().for_each(|p| *p -= shift);
             self.origin += shift;
         }
-        shift
     }
 
     /// The shift [`SpheresDesc::recentre`] would make.

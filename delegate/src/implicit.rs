@@ -328,8 +328,9 @@ impl PointsData {
             // points authored far from their own origin are moved back about it (the
             // droplets' grid stays in the points' own space)
             let mut made = self.made_where_authored(t0, t1, motion, tcps, meters_per_unit);
-            if made.spheres.recentring() != Vec3::ZERO {
-                Arc::make_mut(&mut made.spheres).recentre();
+            let shift = made.spheres.recentring();
+            if shift != Vec3::ZERO {
+                Arc::make_mut(&mut made.spheres).shift_origin(shift);
             }
             made
         })

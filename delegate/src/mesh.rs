@@ -381,12 +381,16 @@ impl MeshGeom {
                     m.recentre();
                     Arc::new(m)
                 }
-                _ if self.mesh.recentring() != Vec3::ZERO => {
-                    let mut m = (*self.mesh).clone();
-                    m.recentre();
-                    Arc::new(m)
+                _ => {
+                    let shift = self.mesh.recentring();
+                    if shift == Vec3::ZERO {
+                        self.mesh.clone()
+                    } else {
+                        let mut m = (*self.mesh).clone();
+                        m.shift_origin(shift);
+                        Arc::new(m)
+                    }
                 }
-                _ => self.mesh.clone(),
             };
             if self.subsets.is_empty() {
                 return vec![(whole, None)];

@@ -941,4 +941,3 @@ fn openpbr_coat_darkening_matches_its_graph() {
         }
     }
 }
-
