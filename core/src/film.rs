@@ -2,7 +2,7 @@
 //! output (channel names per the USD contract §6: `R G B A` for colour, `<aov>.R/G/B`,
 //! `depth.Z`, `normal.X/Y/Z`, `primId.R`).
 
-use crate::render::Aov;
+use crate::render::{Aov, AovSet};
 use std::path::Path;
 
 /// The light-path categories of the split AOVs, in `SampleValue::split` order.
@@ -25,14 +25,59 @@ pub struct SampleValue {
     pub split: [[f32; 3]; N_SPLIT],
 }
 
-/// Floats accumulated per pixel: color 4, normal 3, albedo 3, split 3 per category, then the
-/// colour's luminance and its square (the noise estimate of adaptive sampling).
-const ACC: usize = 12 + 3 * N_SPLIT;
-const ACC_Y: usize = 10 + 3 * N_SPLIT;
+/// Floats every pixel accumulates: colour and alpha, then the colour's luminance and its
+/// square (the noise estimate of adaptive sampling).
+const ACC_BASE: usize = 6;
+const ACC_Y: usize = 4;
 
 /// Luminance weights of a sample's colour for the noise estimate (Rec. 709 Y; in other
 /// rendering spaces it is still a fixed positive mix of the channels).
 const Y_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
+
+/// Where a film's accumulators lie in each pixel's run of floats: colour, alpha and the
+/// luminance pair always; normal, albedo and each light-path category only where its AOV is
+/// kept; depth and primId (the first sample's, not averaged) beside them where either is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FilmLayout {
+    /// Floats per pixel.
+    acc: usize,
+    normal: Option<usize>,
+    albedo: Option<usize>,
+    split: [Option<usize>; N_SPLIT],
+    first: bool,
+    aovs: AovSet,
+}
+
+impl FilmLayout {
+    pub fn new(aovs: AovSet) -> FilmLayout {
+        let mut acc = ACC_BASE;
+        let mut take = |aov: Aov| {
+            aovs.contains(aov).then(|| {
+                acc += 3;
+                acc - 3
+            })
+        };
+        let normal = take(Aov::Normal);
+        let albedo = take(Aov::Albedo);
+        let split = SPLIT_AOVS.map(&mut take);
+        let first = aovs.contains(Aov::Depth) || aovs.contains(Aov::PrimId);
+        FilmLayout { acc, normal, albedo, split, first, aovs }
+    }
+
+    /// Bytes a film of this layout holds per pixel (accumulators, sample count, first-hit
+    /// values).
+    pub fn bytes_per_pixel(&self) -> usize {
+        self.acc * 8 + 4 + if self.first { 8 } else { 0 }
+    }
+
+    /// An empty tile of this layout; `first_pass` where its samples include each pixel's first
+    /// (whose depth and primId the pixel keeps).
+    pub fn tile(&self, x0: u32, y0: u32, w: u32, h: u32, first_pass: bool) -> FilmTile {
+        let n = w as usize * h as usize;
+        let has_first = first_pass && self.first;
+        FilmTile { x0, y0, w, h, sums: vec![0.0; n * self.acc], n: vec![0; n], first: if has_first { vec![[f32::INFINITY, -1.0]; n] } else { Vec::new() }, has_first, layout: *self }
+    }
+}
 
 /// Accumulated samples of a rectangle of pixels.
 #[derive(Clone, Debug)]
@@ -47,35 +92,40 @@ pub struct FilmTile {
     /// depth and primId of each pixel's first sample (not averageable).
     first: Vec<[f32; 2]>,
     has_first: bool,
+    layout: FilmLayout,
 }
 
 impl FilmTile {
+    /// A tile keeping every AOV.
     pub fn new(x0: u32, y0: u32, w: u32, h: u32, has_first: bool) -> Self {
-        let n = w as usize * h as usize;
-        FilmTile { x0, y0, w, h, sums: vec![0.0; n * ACC], n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], has_first }
+        FilmLayout::new(AovSet::ALL).tile(x0, y0, w, h, has_first)
     }
 
     /// Adds one sample to pixel (x, y) (image coordinates inside the tile).
     #[inline]
     pub fn add(&mut self, x: u32, y: u32, s: &SampleValue, first_sample: bool) {
+        let l = &self.layout;
         let i = ((y - self.y0) * self.w + (x - self.x0)) as usize;
-        let a = &mut self.sums[i * ACC..(i + 1) * ACC];
+        let a = &mut self.sums[i * l.acc..(i + 1) * l.acc];
         a[0] += s.color[0];
         a[1] += s.color[1];
         a[2] += s.color[2];
         a[3] += s.alpha;
-        for k in 0..3 {
-            a[4 + k] += s.normal[k];
-            a[7 + k] += s.albedo[k];
-        }
-        for (c, v) in s.split.iter().enumerate() {
-            for k in 0..3 {
-                a[10 + 3 * c + k] += v[k];
-            }
-        }
         let y = Y_WEIGHTS[0] * s.color[0] + Y_WEIGHTS[1] * s.color[1] + Y_WEIGHTS[2] * s.color[2];
         a[ACC_Y] += y;
         a[ACC_Y + 1] += y * y;
+        let mut put = |at: Option<usize>, v: &[f32; 3]| {
+            if let Some(o) = at {
+                for k in 0..3 {
+                    a[o + k] += v[k];
+                }
+            }
+        };
+        put(l.normal, &s.normal);
+        put(l.albedo, &s.albedo);
+        for (c, v) in s.split.iter().enumerate() {
+            put(l.split[c], v);
+        }
         self.n[i] += 1;
         if first_sample && self.has_first {
             self.first[i] = [s.depth, s.prim_id];
@@ -111,6 +161,7 @@ pub struct Film {
     /// all of the film unless `dataWindowNDC` asks for overscan, which extends the film past
     /// it on every side it names.
     pub display: [u32; 4],
+    layout: FilmLayout,
     /// The `tide:guiding` debug image (3 channels per pixel), set by the caustics integrator.
     pub guiding: Option<Vec<f32>>,
     /// Light-traced radiance (RGB per pixel) summed over passes, each pass's image weighted by
@@ -119,21 +170,42 @@ pub struct Film {
 }
 
 impl Film {
-    /// Bytes a film holds per pixel (its accumulators, sample count and first-hit values).
-    pub const BYTES_PER_PIXEL: usize = ACC * 8 + 4 + 8;
-
-    pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
-        Film::try_new(width, height, window).expect("memory for the film")
+    /// Bytes a film keeping `aovs` holds per pixel (its accumulators, sample count and
+    /// first-hit values).
+    pub fn bytes_per_pixel(aovs: AovSet) -> usize {
+        FilmLayout::new(aovs).bytes_per_pixel()
     }
 
-    /// [`Film::new`], or None where this process cannot have the memory its accumulators ask
-    /// (an allocation it would die of otherwise).
-    pub fn try_new(width: u32, height: u32, window: [u32; 4]) -> Option<Film> {
+    /// A film keeping every AOV.
+    pub fn new(width: u32, height: u32, window: [u32; 4]) -> Film {
+        Film::try_new(width, height, window, AovSet::ALL).expect("memory for the film")
+    }
+
+    /// A film keeping `aovs`, or None where this process cannot have the memory its
+    /// accumulators ask (an allocation it would die of otherwise).
+    pub fn try_new(width: u32, height: u32, window: [u32; 4], aovs: AovSet) -> Option<Film> {
+        let layout = FilmLayout::new(aovs);
         let n = width as usize * height as usize;
-        let mut sums: Vec<f64> = Vec::new();
-        sums.try_reserve_exact(n.checked_mul(ACC)?).ok()?;
-        sums.resize(n * ACC, 0.0);
-        Some(Film { width, height, sums, n: vec![0; n], first: vec![[f32::INFINITY, -1.0]; n], spp: 0, scale: 1.0, window, display: [0, 0, width, height], guiding: None, light: Vec::new() })
+        fn zeros<T: Clone>(len: usize, v: T) -> Option<Vec<T>> {
+            let mut out = Vec::new();
+            out.try_reserve_exact(len).ok()?;
+            out.resize(len, v);
+            Some(out)
+        }
+        let sums = zeros(n.checked_mul(layout.acc)?, 0.0f64)?;
+        let count = zeros(n, 0u32)?;
+        let first = zeros(if layout.first { n } else { 0 }, [f32::INFINITY, -1.0])?;
+        Some(Film { width, height, sums, n: count, first, spp: 0, scale: 1.0, window, display: [0, 0, width, height], layout, guiding: None, light: Vec::new() })
+    }
+
+    /// Where the film's accumulators lie (the layout of the tiles merged into it).
+    pub fn layout(&self) -> FilmLayout {
+        self.layout
+    }
+
+    /// Whether the film keeps `aov` (else it resolves to zeros).
+    pub fn keeps(&self, aov: Aov) -> bool {
+        self.layout.aovs.contains(aov)
     }
 
     /// `per_pixel` (`ch` values a pixel, over the whole film) cut to the display window.
@@ -148,12 +220,14 @@ impl Film {
 
     /// Merges a finished tile of a pass.
     pub fn merge(&mut self, t: &FilmTile) {
+        assert_eq!(t.layout, self.layout, "a tile merged into a film of another layout");
+        let acc = self.layout.acc;
         for y in 0..t.h {
             for x in 0..t.w {
                 let src = (y * t.w + x) as usize;
                 let dst = ((t.y0 + y) * self.width + t.x0 + x) as usize;
-                for k in 0..ACC {
-                    self.sums[dst * ACC + k] += t.sums[src * ACC + k] as f64;
+                for k in 0..acc {
+                    self.sums[dst * acc + k] += t.sums[src * acc + k] as f64;
                 }
                 self.n[dst] += t.n[src];
                 if t.has_first {
@@ -188,7 +262,8 @@ impl Film {
 
     /// Pixel `i`'s (Σ Y, Σ Y², samples) of its colour samples' luminance (unexposed).
     pub fn luminance_sums(&self, i: usize) -> (f64, f64, u32) {
-        (self.sums[i * ACC + ACC_Y], self.sums[i * ACC + ACC_Y + 1], self.n[i])
+        let acc = self.layout.acc;
+        (self.sums[i * acc + ACC_Y], self.sums[i * acc + ACC_Y + 1], self.n[i])
     }
 
     /// Samples pixel `i` has taken.
@@ -223,48 +298,75 @@ impl Film {
     pub fn resolve(&self, aov: Aov) -> Vec<f32> {
         let n = (self.width * self.height) as usize;
         let ch = aov.channels();
-        if aov == Aov::Guiding {
-            return match &self.guiding {
-                Some(g) if g.len() == n * ch => g.clone(),
-                _ => vec![0.0; n * ch],
-            };
-        }
         let mut out = vec![0.0f32; n * ch];
-        let s = self.scale as f64;
-        for i in 0..n {
-            let inv = if self.n[i] > 0 { 1.0 / self.n[i] as f64 } else { 0.0 };
-            let a = &self.sums[i * ACC..(i + 1) * ACC];
-            let o = &mut out[i * ch..(i + 1) * ch];
-            match aov {
-                Aov::Color => {
-                    for k in 0..3 {
-                        o[k] = ((a[k] * inv + self.light_at(i, k)) * s) as f32;
-                    }
-                    o[3] = (a[3] * inv) as f32;
-                }
-                Aov::Depth => o[0] = self.first[i][0],
-                Aov::PrimId => o[0] = self.first[i][1],
-                Aov::Normal => {
-                    let v = glam::DVec3::new(a[4], a[5], a[6]);
-                    let v = if v.length() > 0.0 { v.normalize() } else { v };
-                    o.copy_from_slice(&[v.x as f32, v.y as f32, v.z as f32]);
-                }
-                Aov::Albedo => {
-                    for k in 0..3 {
-                        o[k] = (a[7 + k] * inv) as f32;
-                    }
-                }
-                _ => {
-                    let c = SPLIT_AOVS.iter().position(|&x| x == aov).unwrap_or(0);
-                    let light = aov == Aov::Caustics;
-                    for k in 0..3 {
-                        let l = if light { self.light_at(i, k) } else { 0.0 };
-                        o[k] = ((a[10 + 3 * c + k] * inv + l) * s) as f32;
-                    }
-                }
+        if self.resolvable(aov) {
+            for (i, o) in out.chunks_exact_mut(ch).enumerate() {
+                self.resolve_pixel(aov, i, o);
             }
         }
         out
+    }
+
+    /// Whether `aov` has anything to resolve (else it reads as zeros).
+    fn resolvable(&self, aov: Aov) -> bool {
+        match aov {
+            Aov::Guiding => self.guiding.as_ref().is_some_and(|g| g.len() == (self.width * self.height) as usize * 3),
+            _ => self.keeps(aov),
+        }
+    }
+
+    /// Pixel `i`'s resolved value of `aov` into `o` (`aov.channels()` long); `aov` resolvable.
+    fn resolve_pixel(&self, aov: Aov, i: usize, o: &mut [f32]) {
+        let s = self.scale as f64;
+        let l = &self.layout;
+        let inv = if self.n[i] > 0 { 1.0 / self.n[i] as f64 } else { 0.0 };
+        let a = &self.sums[i * l.acc..(i + 1) * l.acc];
+        match aov {
+            Aov::Color => {
+                for k in 0..3 {
+                    o[k] = ((a[k] * inv + self.light_at(i, k)) * s) as f32;
+                }
+                o[3] = (a[3] * inv) as f32;
+            }
+            Aov::Depth => o[0] = self.first[i][0],
+            Aov::PrimId => o[0] = self.first[i][1],
+            Aov::Guiding => o.copy_from_slice(&self.guiding.as_ref().expect("resolvable")[i * 3..i * 3 + 3]),
+            Aov::Normal => {
+                let at = l.normal.unwrap_or(0);
+                let v = glam::DVec3::new(a[at], a[at + 1], a[at + 2]);
+                let v = if v.length() > 0.0 { v.normalize() } else { v };
+                o.copy_from_slice(&[v.x as f32, v.y as f32, v.z as f32]);
+            }
+            Aov::Albedo => {
+                let at = l.albedo.unwrap_or(0);
+                for k in 0..3 {
+                    o[k] = (a[at + k] * inv) as f32;
+                }
+            }
+            _ => {
+                let c = SPLIT_AOVS.iter().position(|&x| x == aov).unwrap_or(0);
+                let at = l.split[c].unwrap_or(0);
+                let light = aov == Aov::Caustics;
+                for k in 0..3 {
+                    let lt = if light { self.light_at(i, k) } else { 0.0 };
+                    o[k] = ((a[at + k] * inv + lt) * s) as f32;
+                }
+            }
+        }
+    }
+
+    /// Channel `k` of `aov` over the pixels of rows `y0..y1`, columns `x0..x1`, resolved
+    /// straight from the accumulators (a file's channel, without the whole AOV's pixels).
+    fn resolve_channel(&self, aov: Aov, k: usize, [x0, y0, x1, y1]: [usize; 4]) -> impl Iterator<Item = f32> + '_ {
+        let w = self.width as usize;
+        let ok = self.resolvable(aov);
+        (y0..y1).flat_map(move |y| (x0..x1).map(move |x| y * w + x)).map(move |i| {
+            let mut o = [0.0f32; 4];
+            if ok {
+                self.resolve_pixel(aov, i, &mut o[..aov.channels()]);
+            }
+            o[k]
+        })
     }
 
     /// EXR channel names of an AOV.
@@ -294,8 +396,6 @@ impl Film {
         let (dw, dh) = (x1 - x0, y1 - y0);
         let mut channels: Vec<AnyChannel<FlatSamples>> = Vec::new();
         for (name, aov, format) in aovs {
-            let px = self.resolve(*aov);
-            let ch = aov.channels();
             let names: Vec<String> = if *aov == Aov::Color && name == "color" {
                 Self::channel_names(*aov)
             } else {
@@ -308,7 +408,7 @@ impl Film {
                     .collect()
             };
             for (k, cname) in names.iter().enumerate() {
-                let data = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * w + x) * ch + k)).map(|i| px[i]);
+                let data = self.resolve_channel(*aov, k, [x0, y0, x1, y1]);
                 let samples = match format {
                     SampleFormat::F32 => FlatSamples::F32(data.collect()),
                     SampleFormat::F16 => FlatSamples::F16(data.map(f16::from_f32).collect()),

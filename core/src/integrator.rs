@@ -350,6 +350,12 @@ fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Opti
 /// medium let through; the pixel's depth and primId too where it is the pixel's first sample
 /// (`first`, which gives those).
 fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &SampledWavelengths, first: bool, aov: &mut SampleValue) {
+    use crate::render::Aov;
+    let wanted = |a: Aov| world.aovs.contains(a);
+    if !(wanted(Aov::Normal) || wanted(Aov::Albedo) || (first && (wanted(Aov::Depth) || wanted(Aov::PrimId)))) {
+        // nothing of it is kept: the camera ray is not traced again
+        return;
+    }
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut passed = 0.0f32;
     for _ in 0..MAX_NULL_EVENTS {
@@ -371,7 +377,9 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &Samp
                 aov.prim_id = info.id as f32;
             }
             aov.normal = s.ns.to_array();
-            aov.albedo = albedo_aov(world, &world.bsdf(info.material, &s, lambda, 1.0, 1.0).0, lambda);
+            if wanted(Aov::Albedo) {
+                aov.albedo = albedo_aov(world, &world.bsdf(info.material, &s, lambda, 1.0, 1.0).0, lambda);
+            }
             return;
         }
         let front = -ray.d.dot(s.ng) > 0.0;
@@ -787,7 +795,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         let flip = if s.ns.dot(s.ng) < 0.0 { -1.0 } else { 1.0 };
         let frame = if flip < 0.0 { Frame::from_normal(-s.ns) } else { frame };
         let wo = frame.to_local(wo_w);
-        if depth == 0 {
+        if depth == 0 && world.aovs.contains(crate::render::Aov::Albedo) {
             aov.albedo = albedo_aov(world, &bsdf, lambda);
         }
 

@@ -114,6 +114,33 @@ impl Aov {
     }
 }
 
+/// A set of AOVs: those a render keeps accumulators for. A film holds only what its set
+/// needs (colour always): an image with its colour alone takes a fifth of the memory of one
+/// with every AOV, and the first-hit work for normal, albedo, depth and primId is skipped
+/// where none of them is asked for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct AovSet(u16);
+
+impl AovSet {
+    /// Every AOV.
+    pub const ALL: AovSet = AovSet((1 << Aov::ALL.len()) - 1);
+
+    /// `aovs`, with colour (always kept: the preview and the noise estimate are made of it).
+    pub fn of(aovs: impl IntoIterator<Item = Aov>) -> AovSet {
+        aovs.into_iter().fold(AovSet(1 << Aov::Color as u16), |s, a| AovSet(s.0 | 1 << a as u16))
+    }
+
+    pub fn contains(self, aov: Aov) -> bool {
+        self.0 & (1 << aov as u16) != 0
+    }
+}
+
+impl Default for AovSet {
+    fn default() -> Self {
+        AovSet::ALL
+    }
+}
+
 /// Settings of a render.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
@@ -145,6 +172,9 @@ pub struct RenderSettings {
     pub adaptive_threshold: f32,
     /// Samples every pixel takes before adaptive sampling may stop it (0 = automatic).
     pub adaptive_min_spp: u32,
+    /// The AOVs the film keeps (all by default); another reads as zeros and cannot be
+    /// written to a file.
+    pub aovs: AovSet,
 }
 
 impl Default for RenderSettings {
@@ -167,6 +197,7 @@ impl Default for RenderSettings {
             pixel_filter: Default::default(),
             adaptive_threshold: 0.0,
             adaptive_min_spp: 0,
+            aovs: AovSet::ALL,
         }
     }
 }
@@ -309,7 +340,7 @@ impl Renderer {
         let mut film = Self::new_film(&settings, &framing).ok_or_else(|| {
             let [l, t, r, b] = framing.pad;
             let (fw, fh) = (settings.width + l + r, settings.height + t + b);
-            let gb = fw as f64 * fh as f64 * crate::film::Film::BYTES_PER_PIXEL as f64 / 1e9;
+            let gb = fw as f64 * fh as f64 * crate::film::Film::bytes_per_pixel(settings.aovs) as f64 / 1e9;
             RenderError(format!("an image of {fw}×{fh} pixels (overscan included) needs {gb:.1} GB of film; not that much memory can be had"))
         })?;
         let (clean, mut problems) = crate::validate::validate_cached(scene, cache.map(|c| &c.checks));
@@ -335,7 +366,7 @@ impl Renderer {
     /// The film of a render: the image and the overscan `framing` pads it with.
     fn new_film(settings: &RenderSettings, framing: &Framing) -> Option<crate::film::Film> {
         let [l, t, r, b] = framing.pad;
-        let mut film = crate::film::Film::try_new(settings.width + l + r, settings.height + t + b, framing.window)?;
+        let mut film = crate::film::Film::try_new(settings.width + l + r, settings.height + t + b, framing.window, settings.aovs)?;
         film.display = [l, t, settings.width, settings.height];
         Some(film)
     }
@@ -451,6 +482,7 @@ impl Renderer {
         let stack = self.camera_stack;
         let pixel_filter = self.settings.pixel_filter;
         let adaptive = self.adaptive.as_ref();
+        let film_layout = self.film.layout();
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
         let results: Vec<Option<FilmTile>> = self.pool.install(|| {
             tiles
@@ -459,7 +491,7 @@ impl Renderer {
                     if cancelled() {
                         return None;
                     }
-                    let mut tile = FilmTile::new(tx, ty, tw, th, base == 0);
+                    let mut tile = film_layout.tile(tx, ty, tw, th, base == 0);
                     for y in ty..ty + th {
                         for x in tx..tx + tw {
                             if adaptive.is_some_and(|a| !a.is_active(x, y)) {
@@ -512,7 +544,9 @@ impl Renderer {
         if let Some(c) = self.caustics.as_mut() {
             c.end_pass(camera_samples);
             self.stats.caustics = Some(c.stats().clone());
-            self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
+            if self.settings.aovs.contains(Aov::Guiding) {
+                self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
+            }
         }
         for t in results.iter().flatten() {
             self.film.merge(t);
@@ -589,8 +623,12 @@ impl Renderer {
         self.write_exr_named(path, &named, header)
     }
 
-    /// Like [`Renderer::write_exr`] with an output name and a sample format per AOV.
+    /// Like [`Renderer::write_exr`] with an output name and a sample format per AOV. An AOV
+    /// outside the settings' set is an error (the film has nothing of it).
     pub fn write_exr_named(&self, path: &std::path::Path, aovs: &[(String, Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()> {
+        if let Some((name, aov, _)) = aovs.iter().find(|(_, a, _)| !self.settings.aovs.contains(*a)) {
+            return Err(std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("AOV '{}' ({name}) was not rendered: the render was set up without it", aov.source_name())));
+        }
         // the renderer's own figures replace any the caller passed under the same keys
         // what the render used, whatever a caller's header says (a rejected value replaced by
         // its default is recorded as the default)
@@ -656,8 +694,8 @@ mod tests {
     /// count to an empty film.
     #[test]
     fn a_film_too_large_for_memory_is_an_error_that_says_how_large() {
-        assert!(crate::film::Film::try_new(64, 64, [0, 0, 64, 64]).is_some());
-        assert!(crate::film::Film::try_new(65_536, 65_536, [0, 0, 65_536, 65_536]).is_none());
+        assert!(crate::film::Film::try_new(64, 64, [0, 0, 64, 64], AovSet::ALL).is_some());
+        assert!(crate::film::Film::try_new(65_536, 65_536, [0, 0, 65_536, 65_536], AovSet::ALL).is_none());
         let settings = RenderSettings { width: 65_536, height: 65_536, spp: 1, ..Default::default() };
         let err = Renderer::new(&SceneDesc::default(), settings).err().expect("an error");
         assert!(err.0.contains("65536×65536") && err.0.contains("GB"), "{}", err.0);

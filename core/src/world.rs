@@ -319,6 +319,8 @@ pub struct World {
     /// [`crate::scene::AUTHORED_COLOR_SPACE`]).
     pub cs: ColorSpace,
     pub max_depth: u32,
+    /// The AOVs the render keeps: first-hit work for those it does not is skipped.
+    pub aovs: crate::render::AovSet,
     /// Cached surface irradiance of the bodies whose medium renders in diffusion mode.
     pub diffusion: crate::diffusion::DiffusionCache,
     /// Caustics roles of each instance (resolved `TideCausticsAPI` tags, contract §4).
@@ -897,6 +899,7 @@ impl World {
             origin: scene.origin.as_vec3(),
             cs: scene.color_space,
             max_depth: settings.max_depth,
+            aovs: settings.aovs,
             diffusion: Default::default(),
         };
         world.diffusion = crate::diffusion::DiffusionCache::build(&world, scene);

@@ -1377,9 +1377,11 @@ impl Delegate {
             .collect()
     }
 
-    /// The settings of a job: resolution from the settings prim, else the first bound buffer.
+    /// The settings of a job: resolution from the settings prim, else the first bound buffer;
+    /// the film keeps the AOVs bound (and colour).
     fn job_settings(&self, bindings: &[(Aov, String)]) -> RenderSettings {
         let mut s = self.settings.settings.clone();
+        s.aovs = tide_core::AovSet::of(bindings.iter().map(|(a, _)| *a));
         if !self.settings.resolution_authored {
             if let Some((w, h)) = bindings.iter().filter_map(|(_, b)| self.buffers.get(b)).map(|b| b.dimensions()).find(|d| d.0 > 0 && d.1 > 0) {
                 s.width = w;
