@@ -431,8 +431,16 @@ impl Renderer {
     }
 
     /// Renders `spp` more samples per pixel; returns false if cancelled part way (the film
-    /// then holds only whole passes).
+    /// then holds only whole passes). The flag is looked at before every pixel, so a pass of
+    /// slow paths stops within one pixel's samples.
     pub fn render_pass(&mut self, spp: u32, cancel: Option<&AtomicBool>) -> bool {
+        self.render_pass_until(spp, cancel, None)
+    }
+
+    /// [`Renderer::render_pass`] that also gives the pass up (false, the film as it was) once
+    /// `deadline` has passed: a time budget's last pass, where the paths turn out slower than
+    /// the passes before measured, ends at the budget and not at the end of the pass.
+    pub fn render_pass_until(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
         use crate::film::{FilmTile, SampleValue};
         use crate::spectrum::color;
         use rayon::prelude::*;
@@ -446,7 +454,7 @@ impl Renderer {
             let mut left = spp;
             while left > 0 {
                 let k = left.min(PHOTON_PASS_MAX_SPP);
-                if !self.render_pass(k, cancel) {
+                if !self.render_pass_until(k, cancel, deadline) {
                     return false;
                 }
                 left -= k;
@@ -483,7 +491,7 @@ impl Renderer {
         let pixel_filter = self.settings.pixel_filter;
         let adaptive = self.adaptive.as_ref();
         let film_layout = self.film.layout();
-        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed));
+        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(|d| std::time::Instant::now() >= d);
         let results: Vec<Option<FilmTile>> = self.pool.install(|| {
             tiles
                 .par_iter()
@@ -496,6 +504,9 @@ impl Renderer {
                         for x in tx..tx + tw {
                             if adaptive.is_some_and(|a| !a.is_active(x, y)) {
                                 continue;
+                            }
+                            if cancelled() {
+                                return None;
                             }
                             for s in base..base + spp {
                                 let mut sampler = crate::sampler::PixelSampler::new(seed, x, y, s);
@@ -699,6 +710,21 @@ mod tests {
         let settings = RenderSettings { width: 65_536, height: 65_536, spp: 1, ..Default::default() };
         let err = Renderer::new(&SceneDesc::default(), settings).err().expect("an error");
         assert!(err.0.contains("65536×65536") && err.0.contains("GB"), "{}", err.0);
+    }
+
+    /// A pass whose deadline has passed is given up whole: the film keeps the passes before
+    /// it, pixel for pixel (a time budget's last pass that would overrun it).
+    #[test]
+    fn a_pass_past_its_deadline_leaves_the_film_as_it_was() {
+        let settings = RenderSettings { width: 16, height: 8, spp: 4, threads: 1, ..Default::default() };
+        let mut r = Renderer::new(&SceneDesc::default(), settings).expect("renderer");
+        assert!(r.render_pass_until(1, None, Some(std::time::Instant::now() + std::time::Duration::from_secs(3600))));
+        let before = r.aov_pixels(Aov::Color);
+        assert!(!r.render_pass_until(2, None, Some(std::time::Instant::now())));
+        assert_eq!(r.samples_per_pixel(), 1);
+        assert_eq!(r.aov_pixels(Aov::Color), before);
+        assert!(r.render_pass_until(2, None, None));
+        assert_eq!(r.samples_per_pixel(), 3);
     }
 
     /// dataWindowNDC takes the pixels whose centres lie in the window (UsdRenderSettings), y up.

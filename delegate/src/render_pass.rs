@@ -24,8 +24,9 @@ use tide_core::{Aov, Problem, RenderError, RenderSettings, Renderer, SampleForma
 
 /// What a render pass drives.
 pub trait Engine {
-    /// Renders `spp` more samples per pixel; false if cancelled part way.
-    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool;
+    /// Renders `spp` more samples per pixel; false if cancelled part way, or if `deadline`
+    /// passed before the pass finished (the engine then holds the passes before it).
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool;
     fn samples_per_pixel(&self) -> u32;
     /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
     fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
@@ -58,8 +59,8 @@ pub trait Engine {
 }
 
 impl Engine for Renderer {
-    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool {
-        Renderer::render_pass(self, spp, Some(cancel))
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool {
+        Renderer::render_pass_until(self, spp, Some(cancel), deadline)
     }
     fn samples_per_pixel(&self) -> u32 {
         Renderer::samples_per_pixel(self)
@@ -523,7 +524,13 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
             }
             n = n.min((fit * 0.5).clamp(1.0, u32::MAX as f64) as u32);
         }
-        if !e.render_pass(n, &shared.cancel) {
+        // past the first pass (an image needs one), a pass still running at the budget's end
+        // is given up: the render keeps the passes before it
+        let deadline = (budget > 0.0 && done > 0).then(|| start + Duration::from_secs_f64(budget as f64));
+        if !e.render_pass(n, &shared.cancel, deadline) {
+            if !shared.cancel.load(Ordering::SeqCst) && deadline.is_some_and(|d| Instant::now() >= d) {
+                break;
+            }
             return Ok(false);
         }
         done += n;
@@ -574,13 +581,17 @@ pub(crate) mod tests {
         pub per_spp: Duration,
         pub panic_at: Option<u32>,
         pub passes: Arc<Mutex<Vec<u32>>>,
+        /// (after, each): samples past the first `after` take `each` more.
+        pub slow: Option<(u32, Duration)>,
     }
 
     impl Engine for Fake {
-        fn render_pass(&mut self, spp: u32, cancel: &AtomicBool) -> bool {
-            let until = Instant::now() + self.delay + self.per_spp * spp;
+        fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool {
+            // samples past `slow_after` take `slow` each (paths that turn slow late in a render)
+            let slow = self.slow.map_or(Duration::ZERO, |(after, each)| each * (self.spp + spp).saturating_sub(after.max(self.spp)));
+            let until = Instant::now() + self.delay + self.per_spp * spp + slow;
             while Instant::now() < until {
-                if cancel.load(Ordering::SeqCst) {
+                if cancel.load(Ordering::SeqCst) || deadline.is_some_and(|d| Instant::now() >= d) {
                     return false;
                 }
                 std::thread::sleep(Duration::from_millis(1));
@@ -606,7 +617,7 @@ pub(crate) mod tests {
     pub(crate) fn fake_factory(delay: Duration, panic_at: Option<u32>, builds: Arc<AtomicU32>, passes: Arc<Mutex<Vec<u32>>>) -> EngineFactory {
         Arc::new(move |_, s| {
             builds.fetch_add(1, Ordering::SeqCst);
-            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay, per_spp: Duration::ZERO, panic_at, passes: passes.clone() }) as Box<dyn Engine>)
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay, per_spp: Duration::ZERO, panic_at, passes: passes.clone(), slow: None }) as Box<dyn Engine>)
         })
     }
 
@@ -730,7 +741,7 @@ pub(crate) mod tests {
         // is exact whatever the machine's load.
         let per_spp = Duration::from_millis(2);
         let f: EngineFactory = Arc::new(move |_, s| {
-            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay: Duration::ZERO, per_spp, panic_at: None, passes: Default::default() })
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay: Duration::ZERO, per_spp, panic_at: None, passes: Default::default(), slow: None })
                 as Box<dyn Engine>)
         });
         let pass = RenderPass::new(f);
@@ -744,5 +755,31 @@ pub(crate) mod tests {
         // stop far below the budget; 10 samples (20% of it) leaves room for a loaded machine
         // where sleeps overrun several-fold.
         assert!((10..=100).contains(&n), "{n} samples in a 0.2 s budget at 2 ms per sample");
+    }
+
+    #[test]
+    fn a_pass_running_at_the_end_of_the_budget_is_given_up() {
+        // 1 ms a sample for the first 8, then 1 s each: the pass sized by the fast rate (half the
+        // budget left) would run for minutes; it is given up at the budget of 0.3 s, and the
+        // image keeps the samples of the passes before it
+        let passes = Arc::new(Mutex::new(Vec::new()));
+        let p = passes.clone();
+        let f: EngineFactory = Arc::new(move |_, s| {
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay: Duration::ZERO, per_spp: Duration::from_millis(1), panic_at: None, passes: p.clone(), slow: Some((8, Duration::from_secs(1))) })
+                as Box<dyn Engine>)
+        });
+        let pass = RenderPass::new(f);
+        let buf = RenderBuffer::new(4, 2, 4);
+        let mut j = job(1 << 20, &buf);
+        j.settings.time_budget_s = 0.3;
+        let t = Instant::now();
+        pass.start(j);
+        assert!(pass.wait(Duration::from_secs(20)));
+        let took = t.elapsed();
+        // the slow pass holds at least one 1 s sample: ending under it means it was given up
+        assert!(took < Duration::from_millis(900), "{took:?}");
+        let kept: u32 = passes.lock().unwrap().iter().sum();
+        assert_eq!(buf.map().samples, kept);
+        assert!((1..=8).contains(&kept), "{kept} samples kept");
     }
 }
