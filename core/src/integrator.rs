@@ -330,16 +330,7 @@ fn unshadowed_share(world: &World, light: usize, o: Vec3, d: Vec3, dist: f32, ti
 /// it goes on past them).
 #[inline]
 fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Option<(usize, f32, Vec3, Vec3)> {
-    let mut light_hit: Option<(usize, f32, Vec3, Vec3)> = None;
-    for &li in &world.hittable_lights {
-        if camera && !world.lights[li].visible_to_camera() {
-            continue;
-        }
-        if let Some((t, p, n)) = world.lights[li].intersect_at(ray.o, ray.d, light_hit.map_or(t_hit, |h| h.1), ray.time) {
-            light_hit = Some((li, t, p, n));
-        }
-    }
-    light_hit
+    world.light_bvh.nearest(&world.lights, ray.o, ray.d, t_hit, ray.time, |li| !camera || world.lights[li].visible_to_camera())
 }
 
 /// The first-hit AOVs of camera ray `cr` by geometry alone: the first surface it meets that

@@ -293,6 +293,8 @@ pub struct World {
     pub light_sampler: LightSampler,
     /// Lights with a shape of their own that rays can hit (not triangles: those are in the BVH).
     pub hittable_lights: Vec<usize>,
+    /// The hierarchy over the hittable lights (the nearest light along a ray).
+    pub light_bvh: crate::light::bvh::LightBvh,
     pub infinite_lights: Vec<usize>,
     /// (instance, triangle) → light index of emissive triangles: those whose material emits a
     /// constant colour, a colour from a primvar (its value at each corner, interpolated as the
@@ -853,7 +855,8 @@ impl World {
             l.preprocess(center, radius);
         }
         let light_sampler = LightSampler::new(&lights);
-        let hittable_lights = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
+        let hittable_lights: Vec<usize> = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
+        let light_bvh = crate::light::bvh::LightBvh::build(&lights, &hittable_lights, camera.shutter);
         let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
         let instances = scene
             .instances
@@ -887,6 +890,7 @@ impl World {
             lights,
             light_sampler,
             hittable_lights,
+            light_bvh,
             infinite_lights,
             triangle_lights,
             light_triangles,

@@ -148,7 +148,7 @@ impl LightTracer {
         if world.accel.intersect(&shadow).is_some() {
             return;
         }
-        if world.hittable_lights.iter().any(|&li| world.lights[li].intersect_at(x, wc, dist, time).is_some()) {
+        if world.light_bvh.any(&world.lights, x, wc, dist, time) {
             return;
         }
         let at = crate::medium::MediumAt::new(med, lambda);

@@ -47,6 +47,7 @@
 // `!(x > 0.0)` is used on purpose throughout: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod bvh;
 pub mod distrib;
 pub mod dome_format;
 pub mod emit;
