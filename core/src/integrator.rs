@@ -508,6 +508,10 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         }
     };
     let mut prev_ctx = LightSampleContext::new(ray.o, Vec3::ZERO).at(ray.time);
+    // where the last vertex picked its light for next-event estimation (the point itself, where
+    // `prev_ctx` holds the ray's offset origin): a light the ray reaches is weighed with the
+    // probability that pick gave it
+    let mut prev_pick = prev_ctx;
     // the surface the last BSDF-sampled ray left (None: the camera or a medium), whose light
     // links decide which lights that ray may reach
     let mut prev_instance: Option<u32> = None;
@@ -591,8 +595,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                         let ul = sampler.get1d();
                         let u2 = sampler.get2d();
                         let u_tr = sampler.get1d();
-                        if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| lit(li, owner)) {
-                            let ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
+                        let ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
+                        if let Some((li, pmf)) = world.light_tree.sample(&ctx, ul).filter(|&(li, _)| lit(li, owner)) {
                             if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                                 if ls.pdf > 0.0 && !ls.l.is_black() {
                                     let fp = phase.eval(wo, ls.wi);
@@ -618,6 +622,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     prev_share = None;
                     specular_bounce = false;
                     prev_ctx = LightSampleContext::new(p, Vec3::ZERO).at(ray.time);
+                    prev_pick = prev_ctx;
                     prev_instance = owner;
                     ray = Ray { o: p, d: wi, t_max: f32::INFINITY, time: ray.time };
                     continue;
@@ -643,7 +648,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     let w = if depth == 0 || specular_bounce {
                         1.0
                     } else {
-                        let lp = light.pdf_li(&prev_ctx, ray.d, Some((p, n))) * world.light_sampler.pmf(li);
+                        let lp = light.pdf_li(&prev_ctx, ray.d, Some((p, n))) * world.light_tree.pmf(&prev_pick, li);
                         power_heuristic(1.0, prev_pdf, 1.0, lp)
                     };
                     add!(beta * le * gathered(li, &prev_share) * (w * chain_weight(li, &chain)));
@@ -669,7 +674,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 let w = if depth == 0 || specular_bounce {
                     1.0
                 } else {
-                    let lp = light.pdf_li(&prev_ctx, ray.d, None) * world.light_sampler.pmf(li);
+                    let lp = light.pdf_li(&prev_ctx, ray.d, None) * world.light_tree.pmf(&prev_pick, li);
                     power_heuristic(1.0, prev_pdf, 1.0, lp)
                 };
                 add!(beta * le * gathered(li, &prev_share) * (w * chain_weight(li, &chain)));
@@ -764,7 +769,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             } else if depth == 0 || specular_bounce {
                 1.0
             } else if let Some(li) = light {
-                let lp = world.lights[li].pdf_li(&prev_ctx, ray.d, Some((s.p, s.ng))) * world.light_sampler.pmf(li);
+                let lp = world.lights[li].pdf_li(&prev_ctx, ray.d, Some((s.p, s.ng))) * world.light_tree.pmf(&prev_pick, li);
                 power_heuristic(1.0, prev_pdf, 1.0, lp)
             } else {
                 1.0
@@ -808,8 +813,8 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             let ul = sampler.get1d();
             let u2 = sampler.get2d();
             let u_tr = sampler.get1d();
-            if let Some((li, pmf)) = world.light_sampler.sample(ul).filter(|&(li, _)| world.illuminates(li, s.instance)) {
-                let ctx = LightSampleContext::new(s.p, s.ns).at(ray.time);
+            let ctx = LightSampleContext::new(s.p, s.ns).at(ray.time);
+            if let Some((li, pmf)) = world.light_tree.sample(&ctx, ul).filter(|&(li, _)| world.illuminates(li, s.instance)) {
                 if let Some(ls) = world.lights[li].sample_li(&ctx, u2, lambda) {
                     let wi = frame.to_local(ls.wi);
                     if ls.pdf > 0.0 && !ls.l.is_black() {
@@ -897,6 +902,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
         // the ray grazes could have no density and its hit count at full weight)
         let o_next = s.origin_on(if out_front { s.ng } else { -s.ng });
         prev_ctx = LightSampleContext::new(o_next, s.ns).at(ray.time);
+        prev_pick = LightSampleContext::new(s.p, s.ns).at(ray.time);
         prev_instance = Some(s.instance);
         if bs.is_transmission() {
             eta_scale *= bs.eta * bs.eta;

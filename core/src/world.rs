@@ -291,6 +291,9 @@ pub struct World {
     pub textures: Vec<TextureDesc>,
     pub lights: Vec<Light>,
     pub light_sampler: LightSampler,
+    /// Next-event estimation's light selection (the many-light tree over `light_sampler`'s
+    /// weights).
+    pub light_tree: crate::light::tree::LightTree,
     /// Lights with a shape of their own that rays can hit (not triangles: those are in the BVH).
     pub hittable_lights: Vec<usize>,
     /// The hierarchy over the hittable lights (the nearest light along a ray).
@@ -855,6 +858,7 @@ impl World {
             l.preprocess(center, radius);
         }
         let light_sampler = LightSampler::new(&lights);
+        let light_tree = crate::light::tree::LightTree::build(&lights, &light_sampler);
         let hittable_lights: Vec<usize> = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
         let light_bvh = crate::light::bvh::LightBvh::build(&lights, &hittable_lights, camera.shutter);
         let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
@@ -889,6 +893,7 @@ impl World {
             textures: scene.textures.clone(),
             lights,
             light_sampler,
+            light_tree,
             hittable_lights,
             light_bvh,
             infinite_lights,

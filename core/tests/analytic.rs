@@ -314,3 +314,42 @@ fn a_clearcoat_reflects_by_the_surfaces_ior() {
         assert!((m - expect).abs() < 3.0 * se + 0.02 * expect, "ior {ior}: {m} ± {se} vs {expect}");
     }
 }
+
+/// Many small sphere lights over a diffuse plane (the many-light tree picks among them, by
+/// how much each gives the point): the plane's radiance is albedo × Σ L (r/d)² cos θ, the
+/// exact irradiance of spheres above the horizon over π. Lights under the plane give nothing
+/// and must not bias it.
+#[test]
+fn many_sphere_lights_light_a_plane_by_their_summed_irradiance() {
+    let albedo = 0.5f64;
+    let mut s = SceneDesc::default();
+    s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
+    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo as f32; 3]) }, interior_medium: None });
+    s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    let mut expect = 0.0f64;
+    let mut u = 0.37f64;
+    let mut next = || {
+        u = (u * 997.0 + 0.123).fract();
+        u
+    };
+    for k in 0..64 {
+        let below = k % 8 == 7;
+        let c = Vec3::new((next() * 12.0 - 6.0) as f32, if below { -(1.0 + next() as f32) } else { (1.0 + 4.0 * next()) as f32 }, (next() * 12.0 - 6.0) as f32);
+        let r = (0.05 + 0.15 * next()) as f32;
+        let le = (5.0 + 200.0 * next()) as f32;
+        s.lights.push(light(&format!("/bulb{k}"), LightShape::Sphere { radius: r, treat_as_point: false }, Mat4::from_translation(c), le, false));
+        if !below {
+            let d = c.length() as f64;
+            expect += albedo * le as f64 * (r as f64 / d).powi(2) * (c.y as f64 / d);
+        }
+    }
+    // looking straight down at the origin through a 0.05° field: a patch 9 mm wide, over which
+    // the irradiance's curvature shifts the mean by far less than the tolerance
+    s.camera = CameraDesc { transforms: vec![Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 10.0, 0.0))], ..camera(Vec3::new(0.0, 10.0, 0.0), Vec3::new(0.0, 0.0, 0.01), 0.05) };
+    let (w, h) = (8, 8);
+    let r = render(&s, settings(w, h, 64));
+    for ch in 0..3 {
+        let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
+        assert!((m - expect).abs() < 3.0 * se + 0.005 * expect, "channel {ch}: {m} ± {se} vs {expect}");
+    }
+}

@@ -56,6 +56,7 @@ pub mod map_cache;
 pub mod portal;
 pub mod sampler;
 pub mod shaping;
+pub mod tree;
 
 #[cfg(test)]
 pub(crate) mod tests;

@@ -1,0 +1,524 @@
+//! Many-light sampling: a tree over the lights that have a place (points, spheres, rects, disks,
+//! cylinders and emissive triangles), each node bounding its lights' extent, power and the cone
+//! of directions they emit into, so that next-event estimation picks a light in proportion to
+//! an estimate of what it gives the shading point (Conty Estevez & Kulla 2018, "Importance
+//! sampling of many lights"; the bounds and importance follow pbrt-v4's `BVHLightSampler`).
+//! Power alone picks the far bulbs of a street as often as the one overhead.
+//!
+//! The tree takes the share of the lights' selection weights (their power, floored as
+//! [`LightSampler`] floors it) that its lights hold; the rest (infinite lights, moving lights)
+//! keep being picked by weight. Descending, each node's two children are chosen in proportion
+//! to their importance at the point; the probability of a light is the product along its path,
+//! which [`LightTree::pmf`] retraces from the light's recorded branch bits, so multiple
+//! importance sampling weighs a light reached by a BSDF ray with exactly the probability
+//! [`LightTree::sample`] would have given it. Below [`MIN_TREE_LIGHTS`] such lights no tree is
+//! built and selection is by weight alone, as before.
+//!
+//! A node's importance is zero only where none of its lights can light the point (behind every
+//! one-sided emitter it holds), so no light that contributes is ever left out.
+
+use super::{Light, LightSampleContext, LightSampler};
+use glam::Vec3;
+use std::f32::consts::PI;
+
+/// Fewest lights with a place for which a tree is built.
+pub const MIN_TREE_LIGHTS: usize = 16;
+
+/// Directions around `w` within angle acos(`cos_theta`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Cone {
+    w: Vec3,
+    cos_theta: f32,
+}
+
+impl Cone {
+    const ALL: Cone = Cone { w: Vec3::Z, cos_theta: -1.0 };
+
+    /// The smallest cone holding both (pbrt-v4's `Union`).
+    fn union(a: Cone, b: Cone) -> Cone {
+        let (ta, tb) = (a.cos_theta.clamp(-1.0, 1.0).acos(), b.cos_theta.clamp(-1.0, 1.0).acos());
+        let td = a.w.dot(b.w).clamp(-1.0, 1.0).acos();
+        if (td + tb).min(PI) <= ta {
+            return a;
+        }
+        if (td + ta).min(PI) <= tb {
+            return b;
+        }
+        let to = (ta + td + tb) / 2.0;
+        if to >= PI {
+            return Cone::ALL;
+        }
+        let axis = a.w.cross(b.w);
+        if axis.length_squared() < 1e-12 {
+            return Cone::ALL;
+        }
+        let w = glam::Quat::from_axis_angle(axis.normalize(), to - ta) * a.w;
+        Cone { w: w.normalize(), cos_theta: to.cos() }
+    }
+}
+
+/// What a node knows of its lights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Bounds {
+    lo: Vec3,
+    hi: Vec3,
+    /// Selection weight (power).
+    phi: f32,
+    /// The normals of the emitters' fronts lie in this cone ...
+    normals: Cone,
+    /// ... and each emits within this angle of its normal (cos; 0: a hemisphere).
+    cos_theta_e: f32,
+    two_sided: bool,
+}
+
+impl Bounds {
+    fn union(a: &Bounds, b: &Bounds) -> Bounds {
+        Bounds {
+            lo: a.lo.min(b.lo),
+            hi: a.hi.max(b.hi),
+            phi: a.phi + b.phi,
+            normals: Cone::union(a.normals, b.normals),
+            cos_theta_e: a.cos_theta_e.min(b.cos_theta_e),
+            two_sided: a.two_sided || b.two_sided,
+        }
+    }
+
+    fn centroid(&self) -> Vec3 {
+        (self.lo + self.hi) * 0.5
+    }
+
+    /// An estimate of what the lights give point `p` with normal `n` (zero: in a medium),
+    /// zero only where none of them can.
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let pc = self.centroid();
+        let d2 = p.distance_squared(pc).max((self.hi - self.lo).length() * 0.5);
+        let wi = (p - pc).normalize_or_zero();
+        let mut cos_w = self.normals.w.dot(wi);
+        if self.two_sided {
+            cos_w = cos_w.abs();
+        }
+        let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+        // the cone from p holding the box (its bounding sphere)
+        let r2 = (self.hi - self.lo).length_squared() * 0.25;
+        let dist2 = p.distance_squared(pc);
+        let cos_b = if dist2 <= r2 || (p.cmpge(self.lo).all() && p.cmple(self.hi).all()) { -1.0 } else { safe_sqrt(1.0 - r2 / dist2) };
+        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+        let cos_o = self.normals.cos_theta;
+        let sin_o = safe_sqrt(1.0 - cos_o * cos_o);
+        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+        let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+        if cos_p <= self.cos_theta_e {
+            return 0.0;
+        }
+        let mut importance = self.phi * cos_p / d2;
+        if n != Vec3::ZERO {
+            let cos_i = wi.dot(n).abs();
+            let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+            importance *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+        }
+        if importance.is_finite() {
+            importance.max(0.0)
+        } else {
+            0.0
+        }
+    }
+}
+
+fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// cos(max(0, a − b)) from the sines and cosines of a and b.
+#[inline]
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        1.0
+    } else {
+        cos_a * cos_b + sin_a * sin_b
+    }
+}
+
+/// sin(max(0, a − b)) from the sines and cosines of a and b.
+#[inline]
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        0.0
+    } else {
+        sin_a * cos_b - cos_a * sin_b
+    }
+}
+
+/// A light's bounds, for a light with a place that does not move (None: it stays out of the
+/// tree). Normals are the emitting fronts'; a light emitting all round has the whole sphere.
+fn light_bounds(light: &Light, phi: f32) -> Option<Bounds> {
+    let all = |lo: Vec3, hi: Vec3| Bounds { lo, hi, phi, normals: Cone::ALL, cos_theta_e: 0.0, two_sided: false };
+    let b = match light {
+        Light::Point(p) => all(p.p, p.p),
+        Light::Sphere(s) => all(s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
+        Light::Cylinder(c) => {
+            let f = &c.frame;
+            let e = (f.s.abs() + f.t.abs()) * c.radius + f.n.abs() * c.half_length;
+            all(c.center - e, c.center + e)
+        }
+        Light::Rect(r) => {
+            let p = &r.shape;
+            let corners = [p.origin, p.origin + p.a, p.origin + p.b, p.origin + p.a + p.b];
+            let (lo, hi) = corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+            Bounds { lo, hi, phi, normals: Cone { w: p.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: false }
+        }
+        Light::Disk(d) => {
+            let p = &d.shape;
+            let e = p.a.abs() + p.b.abs();
+            Bounds { lo: p.origin - e, hi: p.origin + e, phi, normals: Cone { w: p.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: false }
+        }
+        Light::Triangle(t) if t.motion.is_none() => {
+            let (lo, hi) = t.p.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)));
+            Bounds { lo, hi, phi, normals: Cone { w: t.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: t.two_sided }
+        }
+        _ => return None,
+    };
+    let ok = b.lo.is_finite() && b.hi.is_finite() && b.normals.w.is_finite() && b.normals.w.length_squared() > 0.5;
+    ok.then_some(b)
+}
+
+#[derive(Clone, Debug, PartialEq)]
+struct Node {
+    bounds: Bounds,
+    /// Leaf: the light; inner: the right child (the left follows the node).
+    index: u32,
+    leaf: bool,
+}
+
+/// Light selection for next-event estimation: the tree over the lights with a place, and
+/// selection by weight for the rest.
+#[derive(Clone, Debug, Default)]
+pub struct LightTree {
+    nodes: Vec<Node>,
+    /// Per light: its branch bits from the root (bit k: right at depth k) and depth, or None
+    /// where it is not in the tree.
+    trail: Vec<Option<(u64, u8)>>,
+    /// Probability of choosing from the tree.
+    p_tree: f32,
+    /// The lights outside the tree, by weight.
+    rest: LightSampler,
+    /// Selection by weight over every light (used when there is no tree).
+    all: LightSampler,
+}
+
+impl LightTree {
+    /// The tree over `lights`, whose selection weights `all` holds.
+    pub fn build(lights: &[Light], all: &LightSampler) -> LightTree {
+        let n = lights.len();
+        let mut tree = LightTree { trail: vec![None; n], all: all.clone(), ..Default::default() };
+        let mut items: Vec<(u32, Bounds)> = (0..n).filter_map(|i| (all.pmf(i) > 0.0).then(|| light_bounds(&lights[i], all.pmf(i)).map(|b| (i as u32, b))).flatten()).collect();
+        if items.len() < MIN_TREE_LIGHTS {
+            return tree;
+        }
+        tree.p_tree = items.iter().map(|(i, _)| all.pmf(*i as usize) as f64).sum::<f64>().min(1.0) as f32;
+        let rest: Vec<f32> = (0..n).map(|i| if items.iter().any(|(j, _)| *j as usize == i) { 0.0 } else { all.pmf(i) }).collect();
+        tree.rest = LightSampler::from_powers(&rest);
+        tree.nodes.reserve(2 * items.len());
+        tree.build_node(&mut items, 0, 0);
+        tree
+    }
+
+    fn build_node(&mut self, items: &mut [(u32, Bounds)], bits: u64, depth: u8) -> usize {
+        let at = self.nodes.len();
+        if items.len() == 1 {
+            // one light a leaf
+            let (li, b) = items[0];
+            self.nodes.push(Node { bounds: b, index: li, leaf: true });
+            self.trail[li as usize] = Some((bits, depth));
+            return at;
+        }
+        let bounds = items[1..].iter().fold(items[0].1, |acc, (_, b)| Bounds::union(&acc, b));
+        self.nodes.push(Node { bounds, index: 0, leaf: false });
+        let mid = split(items, depth >= 32);
+        let (left, right) = items.split_at_mut(mid);
+        self.build_node(left, bits, depth + 1);
+        let r = self.build_node(right, bits | 1 << depth, depth + 1);
+        self.nodes[at].index = r as u32;
+        at
+    }
+
+    /// Whether selection uses the tree (else it is by weight alone).
+    pub fn has_tree(&self) -> bool {
+        !self.nodes.is_empty()
+    }
+
+    /// Picks a light for the point of `ctx` with `u` in [0, 1): (light, its probability).
+    pub fn sample(&self, ctx: &LightSampleContext, u: f32) -> Option<(usize, f32)> {
+        if self.nodes.is_empty() {
+            return self.all.sample(u);
+        }
+        if u >= self.p_tree {
+            let p_rest = 1.0 - self.p_tree;
+            let (li, p) = self.rest.sample(((u - self.p_tree) / p_rest).min(ONE_MINUS_EPSILON))?;
+            return Some((li, p * p_rest));
+        }
+        let mut u = (u / self.p_tree).min(ONE_MINUS_EPSILON);
+        let mut pmf = self.p_tree;
+        let mut node = 0usize;
+        if !(self.nodes[0].bounds.importance(ctx.p, ctx.n) > 0.0) {
+            return None;
+        }
+        loop {
+            let nd = &self.nodes[node];
+            if nd.leaf {
+                return (pmf > 0.0).then_some((nd.index as usize, pmf));
+            }
+            let (l, r) = (node + 1, nd.index as usize);
+            let pl = self.p_left(l, r, ctx)?;
+            if u < pl {
+                u = (u / pl).min(ONE_MINUS_EPSILON);
+                pmf *= pl;
+                node = l;
+            } else {
+                u = ((u - pl) / (1.0 - pl)).min(ONE_MINUS_EPSILON);
+                pmf *= 1.0 - pl;
+                node = r;
+            }
+        }
+    }
+
+    /// Probability of the left child of an inner node (None: neither child lights the point).
+    #[inline]
+    fn p_left(&self, l: usize, r: usize, ctx: &LightSampleContext) -> Option<f32> {
+        let il = self.nodes[l].bounds.importance(ctx.p, ctx.n);
+        let ir = self.nodes[r].bounds.importance(ctx.p, ctx.n);
+        (il + ir > 0.0).then(|| il / (il + ir))
+    }
+
+    /// Probability that [`LightTree::sample`] picks light `li` for the point of `ctx`.
+    pub fn pmf(&self, ctx: &LightSampleContext, li: usize) -> f32 {
+        if self.nodes.is_empty() {
+            return self.all.pmf(li);
+        }
+        let Some((bits, depth)) = self.trail.get(li).copied().flatten() else {
+            return self.rest.pmf(li) * (1.0 - self.p_tree);
+        };
+        if !(self.nodes[0].bounds.importance(ctx.p, ctx.n) > 0.0) {
+            return 0.0;
+        }
+        let mut pmf = self.p_tree;
+        let mut node = 0usize;
+        for k in 0..depth {
+            let (l, r) = (node + 1, self.nodes[node].index as usize);
+            let Some(pl) = self.p_left(l, r, ctx) else { return 0.0 };
+            if bits >> k & 1 == 0 {
+                pmf *= pl;
+                node = l;
+            } else {
+                pmf *= 1.0 - pl;
+                node = r;
+            }
+        }
+        pmf
+    }
+}
+
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// pbrt-v4's orientation measure of a bounds' emission (the solid angle its cone and spread
+/// reach, weighted by cosine).
+fn orientation_measure(b: &Bounds) -> f32 {
+    let theta_o = b.normals.cos_theta.clamp(-1.0, 1.0).acos();
+    let theta_e = b.cos_theta_e.clamp(-1.0, 1.0).acos();
+    let theta_w = (theta_o + theta_e).min(PI);
+    let (sin_o, cos_o) = theta_o.sin_cos();
+    2.0 * PI * (1.0 - cos_o) + PI / 2.0 * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o + cos_o)
+}
+
+fn surface_area(b: &Bounds) -> f32 {
+    let d = (b.hi - b.lo).max(Vec3::ZERO);
+    2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+}
+
+/// Reorders `items` and returns where to split them (1 ..= len − 1): the bucket boundary along
+/// the centroids' widest axis of least power × area × orientation cost, or the median where the
+/// centroids coincide or a `balanced` split is asked for (deep in the tree: its depth stays
+/// under 64 whatever the lights' spacing).
+fn split(items: &mut [(u32, Bounds)], balanced: bool) -> usize {
+    const BUCKETS: usize = 12;
+    let (clo, chi) = items.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (_, b)| (lo.min(b.centroid()), hi.max(b.centroid())));
+    let ext = chi - clo;
+    let axis = if ext.x >= ext.y && ext.x >= ext.z { 0 } else if ext.y >= ext.z { 1 } else { 2 };
+    let key = |b: &Bounds| b.centroid()[axis];
+    // ties by light index: the same tree on every run
+    let order = |a: &(u32, Bounds), b: &(u32, Bounds)| key(&a.1).total_cmp(&key(&b.1)).then(a.0.cmp(&b.0));
+    if balanced || !(ext[axis] > 0.0) {
+        let mid = items.len() / 2;
+        items.select_nth_unstable_by(mid, order);
+        return mid;
+    }
+    let bucket = |b: &Bounds| (((key(b) - clo[axis]) / ext[axis] * BUCKETS as f32) as usize).min(BUCKETS - 1);
+    let mut buckets: [Option<Bounds>; BUCKETS] = [None; BUCKETS];
+    for (_, b) in items.iter() {
+        let k = bucket(b);
+        buckets[k] = Some(buckets[k].map_or(*b, |x| Bounds::union(&x, b)));
+    }
+    let cost = |b: &Option<Bounds>| b.map_or(0.0, |b| b.phi as f64 * surface_area(&b) as f64 * orientation_measure(&b) as f64);
+    let mut best = (f64::INFINITY, 0usize);
+    for s in 1..BUCKETS {
+        let merge = |r: &[Option<Bounds>]| r.iter().flatten().fold(None, |acc: Option<Bounds>, b| Some(acc.map_or(*b, |a| Bounds::union(&a, b))));
+        let (l, r) = (merge(&buckets[..s]), merge(&buckets[s..]));
+        if l.is_none() || r.is_none() {
+            continue;
+        }
+        let c = cost(&l) + cost(&r);
+        if c < best.0 {
+            best = (c, s);
+        }
+    }
+    items.sort_unstable_by(order);
+    let mid = if best.0.is_finite() { items.partition_point(|(_, b)| bucket(b) < best.1) } else { items.len() / 2 };
+    if mid == 0 || mid == items.len() {
+        items.len() / 2
+    } else {
+        mid
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::light::tests::{build, desc, lambda};
+    use crate::scene::LightShape;
+    use crate::testing::chi2::{gamma_q, TestRng};
+    use glam::{Mat4, Quat, Vec2};
+
+    /// Points, spheres, rects, disks and cylinders scattered and turned every way, a dome and a
+    /// moving light beside them (picked by weight, outside the tree).
+    fn crowd() -> Vec<Light> {
+        let mut rng = TestRng::new(3);
+        let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
+        let mut lights = Vec::new();
+        for k in 0..60 {
+            let shape = match k % 5 {
+                0 => LightShape::Sphere { radius: r(0.05, 0.5), treat_as_point: false },
+                1 => LightShape::Rect { width: r(0.2, 2.0), height: r(0.2, 2.0), texture: None },
+                2 => LightShape::Disk { radius: r(0.1, 1.0) },
+                3 => LightShape::Cylinder { radius: r(0.05, 0.2), length: r(0.3, 2.0), treat_as_line: false },
+                _ => LightShape::Sphere { radius: 0.0, treat_as_point: true },
+            };
+            let axis = Vec3::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0)).normalize_or(Vec3::Y);
+            let m = Mat4::from_rotation_translation(Quat::from_axis_angle(axis, r(0.0, 6.0)), Vec3::new(r(-8.0, 8.0), r(-8.0, 8.0), r(-8.0, 8.0)));
+            let mut d = desc(shape, m);
+            d.intensity = r(0.5, 20.0);
+            lights.push(build(&d));
+        }
+        lights.push(build(&desc(LightShape::Dome { texture: None }, Mat4::IDENTITY)));
+        let mut d = desc(LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)));
+        d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_translation(Vec3::new(2.0, 2.0, 3.0)))];
+        lights.push(build(&d));
+        lights
+    }
+
+    fn contexts() -> Vec<LightSampleContext> {
+        vec![
+            LightSampleContext::new(Vec3::ZERO, Vec3::Y),
+            LightSampleContext::new(Vec3::new(3.0, -2.0, 1.0), Vec3::new(1.0, 1.0, 0.0).normalize()),
+            LightSampleContext::new(Vec3::new(-7.0, 7.0, -7.0), -Vec3::Z),
+            LightSampleContext::new(Vec3::new(20.0, 0.0, 0.0), Vec3::X),
+            // in a medium: no normal
+            LightSampleContext::new(Vec3::new(0.5, 0.5, 0.5), Vec3::ZERO),
+            LightSampleContext::new(Vec3::new(0.0, 30.0, 0.0), Vec3::ZERO),
+        ]
+    }
+
+    /// At every point the frequencies of the picks follow `pmf` (χ²), each pick reports the
+    /// probability `pmf` gives it, and the probabilities and the share of no pick sum to 1.
+    #[test]
+    fn picks_follow_the_pmf_that_multiple_importance_sampling_reads() {
+        let lights = crowd();
+        let all = LightSampler::new(&lights);
+        let tree = LightTree::build(&lights, &all);
+        assert!(tree.has_tree());
+        let n = lights.len();
+        let contexts = contexts();
+        for (c, ctx) in contexts.iter().enumerate() {
+            let pmf: Vec<f64> = (0..n).map(|li| tree.pmf(ctx, li) as f64).collect();
+            let total: f64 = pmf.iter().sum();
+            assert!(total > 0.5 && total < 1.0 + 1e-5, "context {c}: Σ pmf = {total}");
+            let draws = 200_000;
+            let mut counts = vec![0f64; n];
+            let mut none = 0f64;
+            let mut rng = TestRng::new(100 + c as u64);
+            for _ in 0..draws {
+                match tree.sample(ctx, rng.next_f32()) {
+                    Some((li, p)) => {
+                        assert_eq!(p, tree.pmf(ctx, li), "context {c}, light {li}");
+                        counts[li] += 1.0;
+                    }
+                    None => none += 1.0,
+                }
+            }
+            let (mut stat, mut dof) = (0.0, 0);
+            for li in 0..n {
+                let e = draws as f64 * pmf[li];
+                if e == 0.0 {
+                    assert_eq!(counts[li], 0.0, "context {c}: light {li} of pmf 0 picked");
+                    continue;
+                }
+                stat += (counts[li] - e).powi(2) / e;
+                dof += 1;
+            }
+            let e_none = draws as f64 * (1.0 - total).max(0.0);
+            if e_none > 0.5 {
+                stat += (none - e_none).powi(2) / e_none;
+                dof += 1;
+            } else {
+                assert!(none <= 3.0, "context {c}: {none} draws picked nothing");
+            }
+            // six seeded runs at 1e-4 each (Šidák)
+            let p = gamma_q((dof - 1) as f64 / 2.0, stat / 2.0);
+            assert!(p > 1e-4, "context {c}: χ² = {stat} over {dof} cells (p = {p})");
+        }
+    }
+
+    /// A light that gives a point anything has a nonzero probability there: samples on each
+    /// light whose radiance reaches the point from the side of its normal (or any side, in a
+    /// medium) find it pickable.
+    #[test]
+    fn no_light_that_lights_a_point_is_left_out() {
+        let lights = crowd();
+        let all = LightSampler::new(&lights);
+        let tree = LightTree::build(&lights, &all);
+        let lam = lambda();
+        let mut rng = TestRng::new(9);
+        let mut checked = 0;
+        for k in 0..400 {
+            let p = Vec3::new(rng.next_f32() * 24.0 - 12.0, rng.next_f32() * 24.0 - 12.0, rng.next_f32() * 24.0 - 12.0);
+            let n = if k % 4 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
+            let ctx = LightSampleContext::new(p, n);
+            for (li, light) in lights.iter().enumerate() {
+                for _ in 0..4 {
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    let Some(ls) = light.sample_li(&ctx, u, &lam) else { continue };
+                    if ls.l.is_black() || !(ls.pdf > 0.0) || (n != Vec3::ZERO && ls.wi.dot(n).abs() < 1e-4) {
+                        continue;
+                    }
+                    checked += 1;
+                    assert!(tree.pmf(&ctx, li) > 0.0, "light {li} lights {p} (normal {n}) but cannot be picked");
+                }
+            }
+        }
+        assert!(checked > 20_000, "{checked}");
+    }
+
+    /// Fewer than MIN_TREE_LIGHTS lights with a place: selection by weight, as without a tree.
+    #[test]
+    fn few_lights_are_picked_by_weight() {
+        let lights: Vec<Light> = crowd().into_iter().take(MIN_TREE_LIGHTS - 1).collect();
+        let all = LightSampler::new(&lights);
+        let tree = LightTree::build(&lights, &all);
+        assert!(!tree.has_tree());
+        let ctx = LightSampleContext::new(Vec3::ZERO, Vec3::Y);
+        for k in 0..100 {
+            let u = k as f32 / 100.0;
+            assert_eq!(tree.sample(&ctx, u), all.sample(u));
+        }
+        assert!((0..lights.len()).all(|li| tree.pmf(&ctx, li) == all.pmf(li)));
+    }
+}
