@@ -216,7 +216,11 @@ impl LightTree {
             return tree;
         }
         tree.p_tree = items.iter().map(|(i, _)| all.pmf(*i as usize) as f64).sum::<f64>().min(1.0) as f32;
-        let rest: Vec<f32> = (0..n).map(|i| if items.iter().any(|(j, _)| *j as usize == i) { 0.0 } else { all.pmf(i) }).collect();
+        let mut in_tree = vec![false; n];
+        for (i, _) in &items {
+            in_tree[*i as usize] = true;
+        }
+        let rest: Vec<f32> = (0..n).map(|i| if in_tree[i] { 0.0 } else { all.pmf(i) }).collect();
         tree.rest = LightSampler::from_powers(&rest);
         tree.nodes.reserve(2 * items.len());
         tree.build_node(&mut items, 0, 0);
@@ -371,13 +375,20 @@ fn split(items: &mut [(u32, Bounds)], balanced: bool) -> usize {
             best = (c, s);
         }
     }
-    items.sort_unstable_by(order);
-    let mid = if best.0.is_finite() { items.partition_point(|(_, b)| bucket(b) < best.1) } else { items.len() / 2 };
-    if mid == 0 || mid == items.len() {
-        items.len() / 2
-    } else {
-        mid
+    if !best.0.is_finite() {
+        let mid = items.len() / 2;
+        items.select_nth_unstable_by(mid, order);
+        return mid;
     }
+    // the lights of the buckets below the split first (in place, in linear time)
+    let mut mid = 0;
+    for k in 0..items.len() {
+        if bucket(&items[k].1) < best.1 {
+            items.swap(k, mid);
+            mid += 1;
+        }
+    }
+    mid
 }
 
 #[cfg(test)]
