@@ -39,14 +39,16 @@ pub struct LightBvh {
     lights: Vec<usize>,
 }
 
-/// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
-fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
+/// The box of a light that stays where it is (points, spheres, rects, disks, cylinders, still
+/// emissive triangles), or None for any other.
+pub(super) fn still_extent(light: &Light) -> Option<(Vec3, Vec3)> {
+    let fold = |points: &[Vec3]| points.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)));
     let (lo, hi) = match light {
+        Light::Point(p) => (p.p, p.p),
         Light::Sphere(s) => (s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
         Light::Rect(r) => {
             let p = &r.shape;
-            let corners = [p.origin, p.origin + p.a, p.origin + p.b, p.origin + p.a + p.b];
-            corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)))
+            fold(&[p.origin, p.origin + p.a, p.origin + p.b, p.origin + p.a + p.b])
         }
         Light::Disk(d) => {
             let p = &d.shape;
@@ -58,6 +60,15 @@ fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
             let e = (f.s.abs() + f.t.abs()) * c.radius + f.n.abs() * c.half_length;
             (c.center - e, c.center + e)
         }
+        Light::Triangle(t) if t.motion.is_none() => fold(&t.p),
+        _ => return None,
+    };
+    (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
+fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
+    let (lo, hi) = match light {
         Light::Moving(m) => {
             let (lo, hi) = light_bounds(&m.inner, shutter)?;
             let corners: Vec<Vec3> = (0..8).map(|k| Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2])).collect();
@@ -79,6 +90,7 @@ fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
             }
             (out.0 - Vec3::splat(step * 0.5), out.1 + Vec3::splat(step * 0.5))
         }
+        Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) => still_extent(light)?,
         _ => return None,
     };
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))

@@ -152,34 +152,16 @@ fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
 /// A light's bounds, for a light with a place that does not move (None: it stays out of the
 /// tree). Normals are the emitting fronts'; a light emitting all round has the whole sphere.
 fn light_bounds(light: &Light, phi: f32) -> Option<Bounds> {
-    let all = |lo: Vec3, hi: Vec3| Bounds { lo, hi, phi, normals: Cone::ALL, cos_theta_e: 0.0, two_sided: false };
-    let b = match light {
-        Light::Point(p) => all(p.p, p.p),
-        Light::Sphere(s) => all(s.center - Vec3::splat(s.radius), s.center + Vec3::splat(s.radius)),
-        Light::Cylinder(c) => {
-            let f = &c.frame;
-            let e = (f.s.abs() + f.t.abs()) * c.radius + f.n.abs() * c.half_length;
-            all(c.center - e, c.center + e)
-        }
-        Light::Rect(r) => {
-            let p = &r.shape;
-            let corners = [p.origin, p.origin + p.a, p.origin + p.b, p.origin + p.a + p.b];
-            let (lo, hi) = corners.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-            Bounds { lo, hi, phi, normals: Cone { w: p.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: false }
-        }
-        Light::Disk(d) => {
-            let p = &d.shape;
-            let e = p.a.abs() + p.b.abs();
-            Bounds { lo: p.origin - e, hi: p.origin + e, phi, normals: Cone { w: p.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: false }
-        }
-        Light::Triangle(t) if t.motion.is_none() => {
-            let (lo, hi) = t.p.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &c| (lo.min(c), hi.max(c)));
-            Bounds { lo, hi, phi, normals: Cone { w: t.n, cos_theta: 1.0 }, cos_theta_e: 0.0, two_sided: t.two_sided }
-        }
-        _ => return None,
+    let (lo, hi) = super::bvh::still_extent(light)?;
+    // a one-sided emitter faces its front normal; the others emit all round
+    let (normals, two_sided) = match light {
+        Light::Rect(r) => (Cone { w: r.shape.n, cos_theta: 1.0 }, false),
+        Light::Disk(d) => (Cone { w: d.shape.n, cos_theta: 1.0 }, false),
+        Light::Triangle(t) => (Cone { w: t.n, cos_theta: 1.0 }, t.two_sided),
+        _ => (Cone::ALL, false),
     };
-    let ok = b.lo.is_finite() && b.hi.is_finite() && b.normals.w.is_finite() && b.normals.w.length_squared() > 0.5;
-    ok.then_some(b)
+    let ok = normals.w.is_finite() && normals.w.length_squared() > 0.5;
+    ok.then_some(Bounds { lo, hi, phi, normals, cos_theta_e: 0.0, two_sided })
 }
 
 #[derive(Clone, Debug, PartialEq)]
