@@ -290,9 +290,8 @@ pub struct World {
     pub media: Vec<Medium>,
     pub textures: Vec<TextureDesc>,
     pub lights: Vec<Light>,
-    pub light_sampler: LightSampler,
-    /// Next-event estimation's light selection (the many-light tree over `light_sampler`'s
-    /// weights).
+    /// Light selection: the many-light tree for next-event estimation, and selection by
+    /// power ([`crate::light::tree::LightTree::by_weight`]).
     pub light_tree: crate::light::tree::LightTree,
     /// Lights with a shape of their own that rays can hit (not triangles: those are in the BVH).
     pub hittable_lights: Vec<usize>,
@@ -857,8 +856,7 @@ impl World {
         for l in &mut lights {
             l.preprocess(center, radius);
         }
-        let light_sampler = LightSampler::new(&lights);
-        let light_tree = crate::light::tree::LightTree::build(&lights, &light_sampler);
+        let light_tree = crate::light::tree::LightTree::build(&lights, LightSampler::new(&lights));
         let hittable_lights: Vec<usize> = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
         let light_bvh = crate::light::bvh::LightBvh::build(&lights, &hittable_lights, camera.shutter);
         let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
@@ -892,7 +890,6 @@ impl World {
             media,
             textures: scene.textures.clone(),
             lights,
-            light_sampler,
             light_tree,
             hittable_lights,
             light_bvh,

@@ -166,31 +166,36 @@ impl LightBvh {
             return best;
         }
         let inv = d.recip();
-        let mut stack = [0u32; 64];
-        let mut sp = 1usize;
+        // (node, the ray's entry distance into its box): each box is tested once, when its
+        // parent is opened; a node popped past the nearest hit found since is skipped
+        let mut stack = [(0u32, 0.0f32); 64];
+        let mut sp = 0usize;
+        if let Some(t) = slab(self.nodes[0].lo, self.nodes[0].hi, o, inv, t_max) {
+            stack[0] = (0, t);
+            sp = 1;
+        }
         while sp > 0 {
             sp -= 1;
-            let node = &self.nodes[stack[sp] as usize];
+            let (at, entry) = stack[sp];
             let reach = best.map_or(t_max, |b| f32::from_bits(b.1.to_bits() + 1));
-            if slab(node.lo, node.hi, o, inv, reach).is_none() {
+            if entry > reach {
                 continue;
             }
+            let node = &self.nodes[at as usize];
             if node.count > 0 {
                 for &li in &self.order[node.start as usize..(node.start + node.count) as usize] {
                     consider(li as usize, &mut best);
                 }
                 continue;
             }
-            let (l, r) = (stack[sp] + 1, node.start);
-            let tl = slab(self.nodes[l as usize].lo, self.nodes[l as usize].hi, o, inv, reach);
-            let tr = slab(self.nodes[r as usize].lo, self.nodes[r as usize].hi, o, inv, reach);
+            let (l, r) = (at + 1, node.start);
+            let tl = slab(self.nodes[l as usize].lo, self.nodes[l as usize].hi, o, inv, reach).map(|t| (l, t));
+            let tr = slab(self.nodes[r as usize].lo, self.nodes[r as usize].hi, o, inv, reach).map(|t| (r, t));
             // the nearer child on top of the stack
             let (first, second) = match (tl, tr) {
-                (Some(a), Some(b)) if b < a => (Some(r), Some(l)),
-                (Some(_), Some(_)) => (Some(l), Some(r)),
-                (Some(_), None) => (Some(l), None),
-                (None, Some(_)) => (Some(r), None),
-                (None, None) => (None, None),
+                (Some(a), Some(b)) if b.1 < a.1 => (Some(b), Some(a)),
+                (a, b) if a.is_some() => (a, b),
+                (a, b) => (b, a),
             };
             for c in [second, first].into_iter().flatten() {
                 if sp < stack.len() {

@@ -189,24 +189,29 @@ pub struct LightTree {
 }
 
 impl LightTree {
-    /// The tree over `lights`, whose selection weights `all` holds.
-    pub fn build(lights: &[Light], all: &LightSampler) -> LightTree {
+    /// The tree over `lights`, whose selection weights `all` holds (kept: [`LightTree::by_weight`]).
+    pub fn build(lights: &[Light], all: LightSampler) -> LightTree {
         let n = lights.len();
-        let mut tree = LightTree { trail: vec![None; n], all: all.clone(), ..Default::default() };
+        let mut tree = LightTree { trail: vec![None; n], ..Default::default() };
         let mut items: Vec<(u32, Bounds)> = (0..n).filter_map(|i| (all.pmf(i) > 0.0).then(|| light_bounds(&lights[i], all.pmf(i)).map(|b| (i as u32, b))).flatten()).collect();
-        if items.len() < MIN_TREE_LIGHTS {
-            return tree;
+        if items.len() >= MIN_TREE_LIGHTS {
+            tree.p_tree = items.iter().map(|(i, _)| all.pmf(*i as usize) as f64).sum::<f64>().min(1.0) as f32;
+            let mut in_tree = vec![false; n];
+            for (i, _) in &items {
+                in_tree[*i as usize] = true;
+            }
+            let rest: Vec<f32> = (0..n).map(|i| if in_tree[i] { 0.0 } else { all.pmf(i) }).collect();
+            tree.rest = LightSampler::from_powers(&rest);
+            tree.nodes.reserve(2 * items.len());
+            tree.build_node(&mut items, 0, 0);
         }
-        tree.p_tree = items.iter().map(|(i, _)| all.pmf(*i as usize) as f64).sum::<f64>().min(1.0) as f32;
-        let mut in_tree = vec![false; n];
-        for (i, _) in &items {
-            in_tree[*i as usize] = true;
-        }
-        let rest: Vec<f32> = (0..n).map(|i| if in_tree[i] { 0.0 } else { all.pmf(i) }).collect();
-        tree.rest = LightSampler::from_powers(&rest);
-        tree.nodes.reserve(2 * items.len());
-        tree.build_node(&mut items, 0, 0);
+        tree.all = all;
         tree
+    }
+
+    /// Selection by weight alone over every light (what the diffusion mode's irradiance uses).
+    pub fn by_weight(&self) -> &LightSampler {
+        &self.all
     }
 
     fn build_node(&mut self, items: &mut [(u32, Bounds)], bits: u64, depth: u8) -> usize {
@@ -426,7 +431,7 @@ mod tests {
     fn picks_follow_the_pmf_that_multiple_importance_sampling_reads() {
         let lights = crowd();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, &all);
+        let tree = LightTree::build(&lights, all.clone());
         assert!(tree.has_tree());
         let n = lights.len();
         let contexts = contexts();
@@ -477,7 +482,7 @@ mod tests {
     fn no_light_that_lights_a_point_is_left_out() {
         let lights = crowd();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, &all);
+        let tree = LightTree::build(&lights, all.clone());
         let lam = lambda();
         let mut rng = TestRng::new(9);
         let mut checked = 0;
@@ -505,7 +510,7 @@ mod tests {
     fn few_lights_are_picked_by_weight() {
         let lights: Vec<Light> = crowd().into_iter().take(MIN_TREE_LIGHTS - 1).collect();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, &all);
+        let tree = LightTree::build(&lights, all.clone());
         assert!(!tree.has_tree());
         let ctx = LightSampleContext::new(Vec3::ZERO, Vec3::Y);
         for k in 0..100 {
