@@ -25,9 +25,10 @@ pub struct TextureDesc {
     pub height: u32,
     /// 1, 3 or 4 channels, row-major, first row at the top of the image (v = 1).
     pub channels: u32,
-    /// Linear values (colour textures are linearised by the bridge). Shared: a scene and the
-    /// copies made of it (validation, each render job) hold one set of pixels.
-    pub pixels: std::sync::Arc<Vec<f32>>,
+    /// Linear values (colour textures are linearised by the bridge), as floats or as 8-bit
+    /// codes with a value per code. Shared: a scene and the copies made of it (validation,
+    /// each render job) hold one set of pixels.
+    pub pixels: crate::texture::Texels,
     pub wrap_s: Wrap,
     pub wrap_t: Wrap,
     pub filter: Filter,

@@ -4,6 +4,10 @@
 use crate::scene::{Channel, Filter, TexLookup, TextureDesc, Wrap};
 use glam::Vec2;
 
+#[path = "texture/texels.rs"]
+mod texels;
+pub use texels::{CodeValues, Texels};
+
 #[inline]
 fn wrap_coord(i: i64, n: i64, wrap: Wrap) -> Option<i64> {
     match wrap {
@@ -33,7 +37,7 @@ fn texel(t: &TextureDesc, x: i64, y: i64) -> [f32; 4] {
     };
     let c = t.channels as usize;
     let i = (y as usize * t.width as usize + x as usize) * c;
-    let p = &t.pixels[i..i + c];
+    let p = t.pixels.texel(i, c);
     match c {
         1 => [p[0], p[0], p[0], 1.0],
         2 => [p[0], p[0], p[0], p[1]],
@@ -223,6 +227,31 @@ mod tests {
         assert_eq!(lookup_rgb(&t, &lookup(), Vec2::new(1.3, -0.7)), [0.0, 0.0, 1.0]);
         let tb = [TextureDesc { filter: Filter::Closest, ..tex(Wrap::Black) }];
         assert_eq!(lookup_rgb(&tb, &lookup(), Vec2::new(1.1, 0.5)), [0.0, 0.0, 0.0]);
+    }
+
+    /// Texels held as 8-bit codes are read as the values their codes stand for, per channel,
+    /// by every filter and wrap mode and for 1 to 4 channels.
+    #[test]
+    fn eight_bit_texels_read_as_their_code_values() {
+        let mut rng = crate::testing::chi2::TestRng::new(7);
+        for channels in 1..=4u32 {
+            let (w, h) = (5u32, 3u32);
+            let codes: Vec<u8> = (0..w * h * channels).map(|_| (rng.next_u64() & 255) as u8).collect();
+            // each channel its own curve, so a code read through another channel's would show
+            let values: CodeValues = std::array::from_fn(|c| std::array::from_fn(|b| (b as f32 / 255.0).powf(1.0 + c as f32)));
+            let eight = Texels::U8 { codes: std::sync::Arc::new(codes), values: std::sync::Arc::new(values) };
+            let float = Texels::from(eight.to_f32(channels as usize));
+            for filter in [Filter::Linear, Filter::Closest, Filter::Cubic] {
+                for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Black] {
+                    let t = |pixels: &Texels| TextureDesc { name: "t".into(), width: w, height: h, channels, pixels: pixels.clone(), wrap_s: wrap, wrap_t: wrap, filter };
+                    let (a, b) = ([t(&eight)], [t(&float)]);
+                    for _ in 0..200 {
+                        let st = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
+                        assert_eq!(lookup_rgba(&a, &lookup(), st), lookup_rgba(&b, &lookup(), st), "{channels} channels {filter:?} {wrap:?} {st}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -361,7 +361,7 @@ struct Checked {
     meshes: Memo<MeshDesc>,
     spheres: Memo<SpheresDesc>,
     /// By the pixels' address: pixels whose every texel is finite.
-    finite_pixels: std::collections::HashMap<usize, std::sync::Arc<Vec<f32>>>,
+    finite_pixels: std::collections::HashMap<usize, crate::texture::Texels>,
 }
 
 impl CheckCache {
@@ -380,7 +380,6 @@ pub fn validate(scene: &SceneDesc) -> (SceneDesc, Vec<Problem>) {
 /// [`validate`], taking what `cache` knows of unchanged meshes and textures and leaving in it
 /// what this validation found. A mesh with nothing to mend is shared, not copied.
 pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneDesc, Vec<Problem>) {
-    use std::sync::Arc;
     let mut p = Vec::new();
     let mut s = scene.clone();
     let mut old = cache.map(|c| std::mem::take(&mut *c.inner.lock().unwrap_or_else(|e| e.into_inner()))).unwrap_or_default();
@@ -402,19 +401,15 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
             problem(&mut p, &t.name, "pixels", "texture size does not match its data; replaced by a 1×1 grey texture");
             *t = TextureDesc { name: t.name.clone(), width: 1, height: 1, channels: 1, pixels: vec![0.18].into(), wrap_s: t.wrap_s, wrap_t: t.wrap_t, filter: t.filter };
         } else {
-            let key = Arc::as_ptr(&t.pixels) as usize;
-            let known = now.finite_pixels.get(&key).or_else(|| old.finite_pixels.get(&key)).is_some_and(|k| Arc::ptr_eq(k, &t.pixels));
-            if known || t.pixels.iter().all(|v| v.is_finite()) {
+            let key = t.pixels.address();
+            let known = now.finite_pixels.get(&key).or_else(|| old.finite_pixels.get(&key)).is_some_and(|k| k.same(&t.pixels));
+            if known || t.pixels.all_finite() {
                 if cache.is_some() {
                     now.finite_pixels.insert(key, t.pixels.clone());
                 }
             } else {
                 problem(&mut p, &t.name, "pixels", "NaN/inf texels replaced by 0");
-                Arc::make_mut(&mut t.pixels).iter_mut().for_each(|v| {
-                    if !v.is_finite() {
-                        *v = 0.0
-                    }
-                });
+                t.pixels.zero_non_finite();
             }
         }
     }
@@ -950,8 +945,8 @@ mod tests {
     fn validation_shares_clean_meshes_and_remembers_mended_ones() {
         let good: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/good".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], normals: Some(vec![Vec3::Z; 3]), ..Default::default() });
         let bad: Arc<MeshDesc> = Arc::new(MeshDesc { name: "/bad".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2, 0, 1, 7], ..Default::default() });
-        let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: Arc::new(vec![f32::NAN, 1.0]), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat, filter: crate::scene::Filter::Linear };
-        let fine = TextureDesc { name: "/u".into(), pixels: Arc::new(vec![0.5, 1.0]), ..nan.clone() };
+        let nan = TextureDesc { name: "/t".into(), width: 2, height: 1, channels: 1, pixels: vec![f32::NAN, 1.0].into(), wrap_s: Wrap::Repeat, wrap_t: Wrap::Repeat, filter: crate::scene::Filter::Linear };
+        let fine = TextureDesc { name: "/u".into(), pixels: vec![0.5, 1.0].into(), ..nan.clone() };
         let points = Arc::new(SpheresDesc { name: "/points".into(), centers: vec![Vec3::ZERO, Vec3::X], radii: vec![0.5, 0.5], ..Default::default() });
         let scene = SceneDesc { meshes: vec![good.clone(), bad.clone()], spheres: vec![points.clone()], textures: vec![nan, fine.clone()], ..Default::default() };
         let cache = CheckCache::default();
@@ -959,7 +954,7 @@ mod tests {
         assert!(Arc::ptr_eq(&a.meshes[0], &good), "a clean mesh is shared");
         assert!(Arc::ptr_eq(&a.spheres[0], &points), "and a clean sphere set");
         assert!(!Arc::ptr_eq(&a.meshes[1], &bad) && a.meshes[1].indices == [0, 1, 2]);
-        assert!(Arc::ptr_eq(&a.textures[1].pixels, &fine.pixels) && a.textures[0].pixels[0] == 0.0);
+        assert!(a.textures[1].pixels.same(&fine.pixels) && a.textures[0].pixels.value(0, 1) == 0.0);
         // again: the mended mesh is the one made before, with the same problems
         let (b, pb) = validate_cached(&scene, Some(&cache));
         assert!(Arc::ptr_eq(&b.meshes[1], &a.meshes[1]));

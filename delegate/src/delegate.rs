@@ -25,6 +25,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
 use tide_core::light::dome_format::DomeFormat;
+use tide_core::texture::Texels;
 use tide_core::scene::{GeometryRef, InstanceDesc, InstancePrimvars, LightShape, MeshDesc, PrimvarData, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
 use tide_core::{Aov, Problem, RenderSettings, SampleFormat, SceneDesc};
 
@@ -131,7 +132,7 @@ impl Displaced {
     /// displacement over the same textures (the same shared pixels).
     fn made_of(&self, src: &Arc<MeshDesc>, d: &Displacement) -> bool {
         let same = |a: &TextureDesc, b: &TextureDesc| {
-            Arc::ptr_eq(&a.pixels, &b.pixels) && (&a.name, a.width, a.height, a.channels, a.wrap_s, a.wrap_t) == (&b.name, b.width, b.height, b.channels, b.wrap_s, b.wrap_t)
+            a.pixels.same(&b.pixels) && (&a.name, a.width, a.height, a.channels, a.wrap_s, a.wrap_t) == (&b.name, b.width, b.height, b.channels, b.wrap_s, b.wrap_t)
         };
         Arc::ptr_eq(&self.src, src) && self.local == d.local && self.textures.len() == d.textures.len() && self.textures.iter().zip(&d.textures).all(|(a, b)| same(a, b))
     }
@@ -256,8 +257,8 @@ pub struct Delegate {
     /// Built ocean meshes by prim path, with the key they were built for and their problems.
     oceans: HashMap<String, (OceanKey, Arc<OceanMeshes>, Vec<Problem>)>,
     /// Textures as the last assembly used them (linearised, domes made lat-long), each with the
-    /// decoded pixels it was made from: an assembly shares them instead of converting again.
-    converted_textures: HashMap<TexKey, (Arc<Vec<f32>>, TextureDesc)>,
+    /// pixels it was made from: an assembly shares them instead of converting again.
+    converted_textures: HashMap<TexKey, (Texels, TextureDesc)>,
     /// Meshes as the last assembly displaced them, by (source mesh, material path).
     displaced_meshes: HashMap<(usize, String), Displaced>,
     /// Grids of volumes by (file, field name, field index), each read once.
@@ -501,18 +502,30 @@ impl Delegate {
     /// if none), which a UsdUVTexture's `useMetadata` wrap follows. 2-channel (grey, alpha)
     /// images are expanded to RGBA. Bad sizes → false + problem.
     pub fn add_texture(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Vec<f32>, is_srgb: bool, wrapmodes: &str) -> bool {
+        let pixels = if channels == 2 && pixels.len() % 2 == 0 { pixels.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect() } else { pixels };
+        self.add_texels(asset, width, height, channels, pixels.into(), is_srgb, wrapmodes)
+    }
+
+    /// [`Delegate::add_texture`] for an 8-bit file: its codes, which read as code / 255. They
+    /// are held as they are (a quarter of the floats' memory) and shared by the materials
+    /// decoding them by a transfer curve alone.
+    pub fn add_texture_u8(&mut self, asset: &str, width: u32, height: u32, channels: u32, codes: Vec<u8>, is_srgb: bool, wrapmodes: &str) -> bool {
+        let codes = if channels == 2 && codes.len() % 2 == 0 { codes.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect() } else { codes };
+        self.add_texels(asset, width, height, channels, Texels::unit_codes(Arc::new(codes)), is_srgb, wrapmodes)
+    }
+
+    /// A texture's values (2-channel ones of an even count already expanded to RGBA,
+    /// `channels` still 2).
+    fn add_texels(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Texels, is_srgb: bool, wrapmodes: &str) -> bool {
         let n = width as usize * height as usize;
-        let state = if !(1..=4).contains(&channels) || n == 0 || pixels.len() != n * channels as usize {
-            let msg = format!("{}x{} with {} channels does not match {} values", width, height, channels, pixels.len());
+        let held = if channels == 2 { 4 } else { channels };
+        let state = if !(1..=4).contains(&channels) || n == 0 || pixels.len() != n * held as usize {
+            let given = if channels == 2 { pixels.len() / 2 } else { pixels.len() };
+            let msg = format!("{}x{} with {} channels does not match {} values", width, height, channels, given);
             self.pending.push(problem(asset, "pixels", msg.clone()));
             TexState::Failed(msg)
         } else {
-            let (channels, pixels) = if channels == 2 {
-                (4, pixels.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect())
-            } else {
-                (channels, pixels)
-            };
-            TexState::Loaded { width, height, channels, pixels: Arc::new(pixels), is_srgb, file_wrap: material::file_wrap_modes(wrapmodes) }
+            TexState::Loaded { width, height, channels: held, pixels, is_srgb, file_wrap: material::file_wrap_modes(wrapmodes) }
         };
         let ok = matches!(state, TexState::Loaded { .. });
         self.textures.insert(asset.to_string(), state);
@@ -525,7 +538,7 @@ impl Delegate {
     pub fn texture(&self, asset: &str) -> Option<MappedBuffer> {
         match self.textures.get(asset) {
             Some(TexState::Loaded { width, height, channels, pixels, .. }) => {
-                Some(MappedBuffer { width: *width, height: *height, channels: *channels, pixels: pixels.as_ref().clone(), samples: 0 })
+                Some(MappedBuffer { width: *width, height: *height, channels: *channels, pixels: pixels.to_f32(*channels as usize), samples: 0 })
             }
             _ => None,
         }
@@ -881,7 +894,7 @@ impl Delegate {
             }
             let Some(TexState::Loaded { width, height, channels, pixels, is_srgb, .. }) = textures.get(&key.asset) else { return None };
             let tex = match before.remove(key) {
-                Some((source, tex)) if Arc::ptr_eq(&source, pixels) => tex,
+                Some((source, tex)) if source.same(pixels) => tex,
                 _ => convert_texture(key, *width, *height, *channels, pixels, *is_srgb)?,
             };
             converted.insert(key.clone(), (pixels.clone(), tex.clone()));
@@ -1651,16 +1664,16 @@ mod tests {
         d.set_attribute("/A", "material", Value::Path("/M".into()), None);
         d.commit_resources();
         let first = d.scene().textures[0].pixels.clone();
-        assert!((first[0] - 0.214_041).abs() < 1e-5, "linearised once: {}", first[0]);
+        assert!((first.value(0, 3) - 0.214_041).abs() < 1e-5, "linearised once: {}", first.value(0, 3));
         // another prim's edit re-assembles the scene: the same pixels, not a copy
         d.set_attribute("/A", "transform", translate(1.0, 0.0, 0.0), None);
         d.commit_resources();
-        assert!(Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
+        assert!(d.scene().textures[0].pixels.same(&first));
         // new pixels for the file are converted anew
         assert!(d.add_texture("/t.png", 2, 1, 3, vec![1.0; 6], true, ""));
         d.commit_resources();
-        assert!(!Arc::ptr_eq(&d.scene().textures[0].pixels, &first));
-        assert_eq!(*d.scene().textures[0].pixels, vec![1.0; 6]);
+        assert!(!d.scene().textures[0].pixels.same(&first));
+        assert_eq!(d.scene().textures[0].pixels.to_f32(3), vec![1.0; 6]);
         // a texture no material uses any more is let go
         d.set_attribute("/M", "/M/T.inputs:file", Value::Asset("/u.png".into()), None);
         d.commit_resources();
@@ -1741,7 +1754,7 @@ mod tests {
             d.create_prim("domeLight", "/Dome");
             d.set_attribute("/Dome", "inputs:texture:file", Value::Asset("/t.png".into()), None);
             assert!(d.commit_resources().is_empty());
-            let mut values: Vec<f32> = d.scene().textures.iter().map(|t| t.pixels[0]).collect();
+            let mut values: Vec<f32> = d.scene().textures.iter().map(|t| t.pixels.value(0, t.channels as usize)).collect();
             values.sort_by(f32::total_cmp);
             let mut want = vec![0.5, auto, decoded, auto];
             want.sort_by(f32::total_cmp);
@@ -1750,6 +1763,53 @@ mod tests {
                 assert!((v - w).abs() < 1e-5, "file sRGB {file_srgb}: {values:?} against {want:?}");
             }
         }
+    }
+
+    /// An 8-bit file held as its codes converts, for every colour space, to the values the
+    /// same file gives as floats (code / 255); decoded by a curve alone it shares the codes
+    /// (no float copy), and alpha is never decoded.
+    #[test]
+    fn eight_bit_textures_convert_as_their_float_values_and_share_their_codes() {
+        let codes: Vec<u8> = vec![0, 1, 64, 128, 200, 255, 17, 90]; // 2×1 RGBA
+        let floats: Vec<f32> = codes.iter().map(|&b| b as f32 / 255.0).collect();
+        // (sourceColorSpace, the file's colour space metadata, decoded by a curve alone)
+        let spaces = [("raw", None, true), ("auto", None, true), ("sRGB", None, true), ("auto", Some("g22_rec709"), true), ("auto", Some("acescg"), false), ("auto", Some("srgb_ap1"), false)];
+        for (source, space, by_curve) in spaces {
+            let convert = |eight: bool| {
+                let mut d = Delegate::new();
+                let ok = if eight { d.add_texture_u8("/t.png", 2, 1, 4, codes.clone(), true, "") } else { d.add_texture("/t.png", 2, 1, 4, floats.clone(), true, "") };
+                assert!(ok);
+                textured_material(&mut d, "/M", "/t.png");
+                d.set_attribute("/M", "/M/T.inputs:sourceColorSpace", tok(source), None);
+                if let Some(space) = space {
+                    d.set_attribute("/M", "/M/T.inputs:colorSpace:file", tok(space), None);
+                }
+                quad(&mut d, "/A");
+                d.set_attribute("/A", "material", Value::Path("/M".into()), None);
+                assert!(d.commit_resources().is_empty());
+                d.scene().textures[0].pixels.clone()
+            };
+            let (eight, float) = (convert(true), convert(false));
+            assert_eq!(matches!(eight, Texels::U8 { .. }), by_curve, "{source} {space:?}: kept as codes");
+            let (a, b) = (eight.to_f32(4), float.to_f32(4));
+            for (x, y) in a.iter().zip(&b) {
+                assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0), "{source} {space:?}: {a:?} against {b:?}");
+            }
+            assert_eq!((a[3], a[7]), (floats[3], floats[7]), "{source} {space:?}: alpha kept");
+        }
+        // within one delegate the scene's texels are the held codes themselves
+        let mut d = Delegate::new();
+        assert!(d.add_texture_u8("/t.png", 2, 1, 4, codes.clone(), true, ""));
+        textured_material(&mut d, "/M", "/t.png");
+        quad(&mut d, "/A");
+        d.set_attribute("/A", "material", Value::Path("/M".into()), None);
+        d.commit_resources();
+        let (Some(TexState::Loaded { pixels: Texels::U8 { codes: held, .. }, .. }), Texels::U8 { codes: used, .. }) = (d.textures.get("/t.png"), &d.scene().textures[0].pixels) else { panic!("8-bit texels expected") };
+        assert!(Arc::ptr_eq(held, used));
+        // a two-channel (grey, alpha) file is expanded to RGBA as floats are
+        assert!(d.add_texture_u8("/g.png", 1, 1, 2, vec![51, 255], false, ""));
+        assert_eq!(d.texture("/g.png").unwrap().pixels, vec![0.2, 0.2, 0.2, 1.0]);
+        assert!(!d.add_texture_u8("/bad.png", 2, 2, 3, vec![0; 5], false, ""));
     }
 
     #[test]
@@ -1764,7 +1824,7 @@ mod tests {
         assert_eq!(d.last_synced(), ["/M"]);
         let t = &d.scene().textures[0];
         // sRGB 0.5 decodes to 0.21404 (IEC 61966-2-1); 1e-5 is f32 round-off of powf.
-        assert!((t.pixels[0] - 0.214_041).abs() < 1e-5, "{}", t.pixels[0]);
+        assert!((t.pixels.value(0, 3) - 0.214_041).abs() < 1e-5, "{}", t.pixels.value(0, 3));
         assert!(!d.add_texture("/bad.png", 2, 2, 3, vec![0.0; 5], false, ""));
     }
 
@@ -2673,12 +2733,45 @@ mod tests {
 
 /// A decoded texture as materials read it: linearised where its key's encoding asks (`auto`
 /// by `file_srgb`), a dome's image resampled to lat-long (None where it cannot be).
-fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &[f32], file_srgb: bool) -> Option<TextureDesc> {
-    let mut px = pixels.to_vec();
+fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels: &Texels, file_srgb: bool) -> Option<TextureDesc> {
     // the file's curve undone, then its primaries' RGB taken to linear Rec.709 (grey stays
     // grey: a one- or two-channel file keeps its values)
     let (curve, primaries) = key.encoding.decoding(file_srgb);
     let ch = channels as usize;
+    let same_primaries = primaries == tide_core::spectrum::color::FilePrimaries::Rec709 || ch < 3;
+    let texels = match pixels {
+        // 8-bit codes decoded channel by channel: the decoded value of each code, the codes shared
+        Texels::U8 { codes, values } if same_primaries => {
+            let mut decoded = **values;
+            for row in decoded.iter_mut().take(ch.min(3)) {
+                row.iter_mut().for_each(|v| *v = curve.decode(*v));
+            }
+            Some(Texels::U8 { codes: codes.clone(), values: Arc::new(decoded) })
+        }
+        Texels::F32(_) if curve == material::Curve::Linear && same_primaries => Some(pixels.clone()),
+        _ => None,
+    };
+    let texels = match texels {
+        Some(t) => t,
+        None => decode_texels(pixels.to_f32(ch), ch, curve, primaries).into(),
+    };
+    let tex = TextureDesc {
+        name: key.asset.clone(),
+        width,
+        height,
+        channels,
+        pixels: texels,
+        wrap_s: key.wrap_s.wrap(),
+        wrap_t: key.wrap_t.wrap(),
+        filter: key.filter,
+    };
+    // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
+    let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
+    Some(tex)
+}
+
+/// Float texels of `ch` channels decoded by `curve`, then taken from `primaries` to Rec.709.
+fn decode_texels(mut px: Vec<f32>, ch: usize, curve: material::Curve, primaries: tide_core::spectrum::color::FilePrimaries) -> Vec<f32> {
     if curve != material::Curve::Linear {
         for texel in px.chunks_exact_mut(ch) {
             for c in texel.iter_mut().take(ch.min(3)) {
@@ -2695,19 +2788,7 @@ fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels:
             }
         }
     }
-    let tex = TextureDesc {
-        name: key.asset.clone(),
-        width,
-        height,
-        channels,
-        pixels: px.into(),
-        wrap_s: key.wrap_s.wrap(),
-        wrap_t: key.wrap_t.wrap(),
-        filter: key.filter,
-    };
-    // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
-    let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
-    Some(tex)
+    px
 }
 
 /// A display primvar (`displayColor`, `displayOpacity`) of N components: its value, or its

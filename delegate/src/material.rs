@@ -185,9 +185,10 @@ impl WrapKey {
 /// What the delegate knows of a texture file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TexState {
-    /// Decoded pixels as the file holds them; `is_srgb`: the file's colour space is sRGB;
-    /// `file_wrap`: the wrap modes (s, t) the file's metadata names, if any.
-    Loaded { width: u32, height: u32, channels: u32, pixels: std::sync::Arc<Vec<f32>>, is_srgb: bool, file_wrap: [Option<WrapKey>; 2] },
+    /// The values the file holds, undecoded (8-bit files as their codes, read as code / 255);
+    /// `is_srgb`: the file's colour space is sRGB; `file_wrap`: the wrap modes (s, t) the
+    /// file's metadata names, if any.
+    Loaded { width: u32, height: u32, channels: u32, pixels: tide_core::texture::Texels, is_srgb: bool, file_wrap: [Option<WrapKey>; 2] },
     Failed(String),
 }
 

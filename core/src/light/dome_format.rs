@@ -160,7 +160,7 @@ fn bilinear(tex: &TextureDesc, format: DomeFormat, u: f32, v: f32, out: &mut [f3
     let (x1, y1) = ((x0 + 1).min(x_hi.max(x_lo) as usize), (y0 + 1).min(y_hi.max(y_lo) as usize));
     let (fx, fy) = (x - x0 as f32, y - y0 as f32);
     for (c, o) in out.iter_mut().enumerate().take(ch) {
-        let p = |xx: usize, yy: usize| tex.pixels[(yy * w + xx) * ch + c];
+        let p = |xx: usize, yy: usize| tex.pixels.value((yy * w + xx) * ch + c, ch);
         *o = (p(x0, y0) * (1.0 - fx) + p(x1, y0) * fx) * (1.0 - fy) + (p(x0, y1) * (1.0 - fx) + p(x1, y1) * fx) * fy;
     }
 }

@@ -810,7 +810,9 @@ fn light_texels(tex: &TextureDesc, tint: [f32; 3]) -> Result<(usize, usize, Vec<
         return Err(err("texture", format!("'{}' holds {} values, {w}×{h}×{ch} expected", tex.name, tex.pixels.len())));
     }
     let mut rgb = Vec::with_capacity(w * h);
-    for (i, px) in tex.pixels.chunks_exact(ch).enumerate() {
+    for i in 0..w * h {
+        let texel = tex.pixels.texel(i * ch, ch);
+        let px = &texel[..ch];
         if let Some(bad) = px.iter().find(|v| !v.is_finite()) {
             return Err(err("texture", format!("'{}' has a non-finite value ({bad}) at pixel ({}, {})", tex.name, i % w, i / w)));
         }

@@ -581,11 +581,15 @@ fn bad_lights_are_rejected_naming_the_attribute() {
     d.exposure = 1000.0;
     expect(d, "exposure");
     let mut tex = hot_spot_texture();
-    std::sync::Arc::make_mut(&mut tex.pixels)[7] = f32::NAN;
+    let mut px = tex.pixels.to_f32(tex.channels as usize);
+    px[7] = f32::NAN;
+    tex.pixels = px.into();
     let e = Light::from_desc(&desc(LightShape::Dome { texture: Some(0) }, Mat4::IDENTITY), &[tex], cs).unwrap_err();
     assert!(e.starts_with("texture"), "{e}");
     let mut tex = hot_spot_texture();
-    std::sync::Arc::make_mut(&mut tex.pixels).pop();
+    let mut px = tex.pixels.to_f32(tex.channels as usize);
+    px.pop();
+    tex.pixels = px.into();
     assert!(Light::from_desc(&desc(LightShape::Dome { texture: Some(0) }, Mat4::IDENTITY), &[tex], cs).is_err());
 }
 
