@@ -7,7 +7,18 @@ def write_png(path, width, height, rows):
     """A minimal 8-bit PNG writer (rows: lists of (r, g, b) byte triples, or of (r, g, b, a)
     quadruples for RGBA with straight alpha, as PNG stores it)."""
     channels = len(rows[0][0])
-    raw = b"".join(b"\x00" + bytes(c for px in row for c in px) for row in rows)
+    write_png_bytes(path, width, height, channels, b"".join(bytes(c for px in row for c in px) for row in rows))
+
+
+def write_png_bytes(path, width, height, channels, pixels, rows=None):
+    """An 8-bit PNG of `channels` (3: RGB, 4: RGBA) whose header says `width` × `height`, from
+    `pixels` (bytes, rows from the top); only its first `rows` rows are stored if given (a
+    truncated file)."""
+    stride = width * channels
+    stored = height if rows is None else rows
+    z = zlib.compressobj(6)
+    data = [z.compress(b"\x00" + pixels[y * stride:(y + 1) * stride]) for y in range(stored)]
+    data.append(z.flush())
 
     def chunk(tag, data):
         return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
@@ -16,5 +27,5 @@ def write_png(path, width, height, rows):
         f.write(b"\x89PNG\r\n\x1a\n")
         f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 6 if channels == 4 else 2,
                                            0, 0, 0)))
-        f.write(chunk(b"IDAT", zlib.compress(raw)))
+        f.write(chunk(b"IDAT", b"".join(data)))
         f.write(chunk(b"IEND", b""))

@@ -146,25 +146,35 @@ void Prim::Finalize() {
     }
 }
 
-bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::string& attribute,
-                    const std::string& asset) {
+bool SendTexture(RenderParam& param, const std::string& asset, std::string* error) {
     TextureCache& cache = param.GetTextureCache();
     if (cache.AlreadySent(asset)) return true;
-    TextureImage image;
-    std::string error;
-    bool ok = cache.Read(asset, &image, &error);
+    bool ok = false;
     try {
-        if (ok) {
-            param.GetDelegate().add_texture(Str(asset), uint32_t(image.width), uint32_t(image.height),
-                                            uint32_t(image.channels), SliceOf(image.pixels), image.isSrgb,
+        TextureImage image;
+        ok = cache.Read(asset, &image, error);
+        const auto w = uint32_t(image.width), h = uint32_t(image.height), c = uint32_t(image.channels);
+        if (ok && !image.bytes.empty()) {
+            param.GetDelegate().add_texture_u8(Str(asset), w, h, c, SliceOf(image.bytes), image.isSrgb,
+                                               Str(image.wrapmodes));
+        } else if (ok) {
+            param.GetDelegate().add_texture(Str(asset), w, h, c, SliceOf(image.pixels), image.isSrgb,
                                             Str(image.wrapmodes));
-            return true;
+        } else {
+            param.GetDelegate().texture_failed(Str(asset), Str(*error));
         }
-        param.GetDelegate().texture_failed(Str(asset), Str(error));
     } catch (const std::exception& e) {
-        error = e.what();
+        ok = false;
+        *error = e.what();
     }
-    cache.ForgetSent(asset);
+    if (!ok) cache.ForgetSent(asset);
+    return ok;
+}
+
+bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::string& attribute,
+                    const std::string& asset) {
+    std::string error;
+    if (SendTexture(param, asset, &error)) return true;
     param.AddProblem(prim, attribute, "cannot read texture '" + asset + "': " + error + " (the input falls back)");
     return false;
 }

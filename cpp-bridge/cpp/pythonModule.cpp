@@ -6,6 +6,7 @@
 #include <Python.h>
 
 #include "tide/preview.h"
+#include "tide/prims.h"
 #include "tide/renderDelegate.h"
 #include "tide/renderIndex.h"
 #include "tide/renderParam.h"
@@ -479,25 +480,16 @@ PyObject* Delegate_load_texture(PyObject* self, PyObject* args, PyObject* kw) {
     if (!PyArg_ParseTupleAndKeywords(args, kw, "s", const_cast<char**>(names), &asset)) return nullptr;
     TIDE_TRY
     State& s = S(self);
+    std::string error;
     bool ok = WithoutGil([&] {
         std::lock_guard<std::mutex> lock(s.mutex);
-        tide::RenderParam& param = *s.delegate->GetRenderParam();
-        tide::TextureCache& cache = param.GetTextureCache();
-        if (cache.AlreadySent(asset)) return true;
-        tide::TextureImage image;
-        std::string error;
-        if (cache.Read(asset, &image, &error)) {
-            param.GetDelegate().add_texture(asset, uint32_t(image.width), uint32_t(image.height),
-                                            uint32_t(image.channels),
-                                            rust::Slice<const float>(image.pixels.data(), image.pixels.size()),
-                                            image.isSrgb, image.wrapmodes);
-            return true;
-        }
-        cache.ForgetSent(asset);
-        param.GetDelegate().texture_failed(asset, error);
-        return false;
+        return tide::SendTexture(*s.delegate->GetRenderParam(), asset, &error);
     });
-    return PyBool_FromLong(ok);
+    if (!ok) {
+        PyErr_SetString(PyExc_OSError, error.c_str());
+        return nullptr;
+    }
+    Py_RETURN_TRUE;
     TIDE_CATCH
 }
 
@@ -921,7 +913,7 @@ PyMethodDef DelegateMethods[] = {
     {"set_array", KW(Delegate_set_array), "set_array(path, key, buffer, tuple_size=1, kind='f', time=None); kind 'f', 'd' or 'i'"},
     {"set_matrix", KW(Delegate_set_matrix), "set_matrix(path, key, matrix (16 numbers or 4x4), time=None)"},
     {"set_primvar", KW(Delegate_set_primvar), "set_primvar(path, name, interpolation, buffer, tuple_size=1, indices=None, kind=None)"},
-    {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path) -> bool: reads the file once (again when it changes on disk); each material decodes it by its own sourceColorSpace"},
+    {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path) -> True: reads the file once (again when it changes on disk); each material decodes it by its own sourceColorSpace. OSError with the reason when it cannot be read"},
     {"load_vdb", KW(Delegate_load_vdb), "load_vdb(asset_path, field_name, field_index=0) -> bool: reads a volume's grid once per (file, field, index)"},
     {"texture_pixels", Delegate_texture_pixels, METH_VARARGS, "texture_pixels(asset_path) -> (w, h, channels, float32 bytes) as the delegate holds them"},
     {"commit_resources", Delegate_commit_resources, METH_NOARGS, "commit_resources() -> [(prim, attribute, message)]"},

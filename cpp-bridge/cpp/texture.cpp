@@ -1,10 +1,10 @@
-//! TextureCache: OpenImageIO ImageCache reads as float, undecoded.
+//! TextureCache: OpenImageIO reads of whole images (8-bit files as their bytes, others as
+//! float), undecoded; each file read once until it changes on disk.
 #include "tide/texture.h"
 
-#include <OpenImageIO/imagecache.h>
 #include <OpenImageIO/imageio.h>
-#include <OpenImageIO/strutil.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -12,27 +12,14 @@
 namespace tide {
 
 struct TextureCache::Impl {
-    OIIO::ImageCache* cache = nullptr;
     std::mutex mutex;
     /// asset → modification time of what was handed to the delegate.
     std::map<std::string, std::filesystem::file_time_type> sent;
 };
 
-TextureCache::TextureCache() : _impl(new Impl()) {
-    _impl->cache = OIIO::ImageCache::create(/*shared=*/false);
-    _impl->cache->attribute("max_memory_MB", 1024.0f);
-    // Keep untiled files readable without holding every scanline file open.
-    _impl->cache->attribute("max_open_files", 64);
-    // Pixels as the file stores them: a PNG's alpha is not multiplied into its (still encoded)
-    // colour; the delegate decodes the colour and keeps alpha apart.
-    _impl->cache->attribute("unassociatedalpha", 1);
-}
+TextureCache::TextureCache() : _impl(new Impl()) {}
 
-TextureCache::~TextureCache() {
-    OIIO::ImageCache::destroy(_impl->cache);
-    delete _impl;
-}
-
+TextureCache::~TextureCache() { delete _impl; }
 static bool ModificationTime(const std::string& path, std::filesystem::file_time_type* t) {
     std::error_code ec;
     *t = std::filesystem::last_write_time(path, ec);
@@ -54,6 +41,47 @@ void TextureCache::ForgetSent(const std::string& path) {
     _impl->sent.erase(path);
 }
 
+/// OpenImageIO's error text on one line ("a\nb" → "a; b"), or `otherwise` where it is empty.
+static std::string OneLine(std::string e, const char* otherwise) {
+    while (!e.empty() && (e.back() == '\n' || e.back() == ' ')) e.pop_back();
+    std::string out;
+    for (char c : e) {
+        if (c == '\n') out += "; ";
+        else out += c;
+    }
+    return out.empty() ? otherwise : out;
+}
+
+/// Reads the full-resolution level of the first subimage of `in` into `out` as `format`, a band
+/// of rows at a time: memory is taken as rows arrive, so a file whose header claims more pixels
+/// than it holds (truncated, corrupt) fails at its first missing row, not after a whole image's
+/// worth of memory. The reason on failure, else empty.
+template <class T>
+static std::string ReadRows(OIIO::ImageInput* in, const OIIO::ImageSpec& spec, OIIO::TypeDesc format,
+                            std::vector<T>* out) {
+    const size_t row = size_t(spec.width) * size_t(spec.nchannels);
+    // bands of about 16 MB, whole tile rows for a tiled file
+    const int tile = spec.tile_width > 0 ? std::max(spec.tile_height, 1) : 1;
+    int band = int(std::min<size_t>(size_t(spec.height), std::max<size_t>(1, (size_t(16) << 20) / std::max<size_t>(1, row * sizeof(T)))));
+    band = std::max(tile, band / tile * tile);
+    out->reserve(row * size_t(spec.height));
+    for (int y = 0; y < spec.height; y += band) {
+        const int rows = std::min(band, spec.height - y);
+        const size_t at = out->size();
+        out->resize(at + row * size_t(rows));
+        const int y0 = spec.y + y, y1 = spec.y + y + rows;
+        const bool ok = spec.tile_width > 0
+                            ? in->read_tiles(0, 0, spec.x, spec.x + spec.width, y0, y1, spec.z, spec.z + 1, 0,
+                                             spec.nchannels, format, out->data() + at)
+                            : in->read_scanlines(0, 0, y0, y1, spec.z, 0, spec.nchannels, format, out->data() + at);
+        if (!ok) {
+            return "rows " + std::to_string(y) + " to " + std::to_string(y + rows - 1) + ": " +
+                   OneLine(in->geterror(), "cannot read pixels");
+        }
+    }
+    return "";
+}
+
 bool TextureCache::Read(const std::string& path, TextureImage* out, std::string* error) {
     auto fail = [&](const std::string& msg) {
         if (error) *error = msg;
@@ -63,30 +91,38 @@ bool TextureCache::Read(const std::string& path, TextureImage* out, std::string*
     std::error_code ec;
     if (!std::filesystem::exists(path, ec)) return fail("no such file");
 
-    OIIO::ImageCache* cache = _impl->cache;
-    const OIIO::ustring name(path);
-    // Re-read a file that changed on disk since it was cached.
-    cache->invalidate(name, /*force=*/false);
-    OIIO::ImageSpec spec;
-    if (!cache->get_imagespec(name, spec, 0, 0)) {
-        std::string e = cache->geterror();
-        return fail(e.empty() ? "cannot read image" : e);
-    }
+    // Pixels as the file stores them: a PNG's alpha is not multiplied into its (still encoded)
+    // colour; the delegate decodes the colour and keeps alpha apart.
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    auto in = OIIO::ImageInput::open(path, &config);
+    if (!in) return fail(OneLine(OIIO::geterror(), "cannot open image"));
+    // the first subimage's full-resolution level
+    const OIIO::ImageSpec spec = in->spec();
     if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0) return fail("image has no pixels");
     if (spec.depth > 1) return fail("volume textures are not supported");
-    const size_t count = size_t(spec.width) * size_t(spec.height) * size_t(spec.nchannels);
-    if (count > size_t(std::numeric_limits<int32_t>::max())) return fail("image too large");
+    const double values = double(spec.width) * double(spec.height) * double(spec.nchannels);
+    if (values > double(uint64_t(1) << 34)) {
+        return fail(std::to_string(spec.width) + "x" + std::to_string(spec.height) + " with " +
+                    std::to_string(spec.nchannels) + " channels is over 2^34 values");
+    }
+    const size_t count = size_t(values);
 
     TextureImage img;
     img.width = spec.width;
     img.height = spec.height;
     img.channels = spec.nchannels;
-    img.pixels.resize(count);
-    if (!cache->get_pixels(name, 0, 0, spec.x, spec.x + spec.width, spec.y, spec.y + spec.height, spec.z,
-                           spec.z + 1, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.pixels.data())) {
-        std::string e = cache->geterror();
-        return fail(e.empty() ? "cannot read pixels" : e);
+    // 8 bits in every channel: kept as bytes (a quarter of the floats' memory)
+    const bool eight = spec.format == OIIO::TypeDesc::UINT8 && spec.channelformats.empty();
+    std::string why;
+    try {
+        why = eight ? ReadRows(in.get(), spec, OIIO::TypeDesc::UINT8, &img.bytes)
+                    : ReadRows(in.get(), spec, OIIO::TypeDesc::FLOAT, &img.pixels);
+    } catch (const std::bad_alloc&) {
+        why = "not enough memory for " + std::to_string(spec.width) + "x" + std::to_string(spec.height) + " with " +
+              std::to_string(spec.nchannels) + " channels (" + std::to_string(count * (eight ? 1 : 4) >> 20) + " MB)";
     }
+    if (!why.empty()) return fail(why);
 
     img.isSrgb = spec.format == OIIO::TypeDesc::UINT8 && (spec.nchannels == 3 || spec.nchannels == 4);
     img.wrapmodes = spec.get_string_attribute("wrapmodes");

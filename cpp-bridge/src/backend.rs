@@ -177,6 +177,13 @@ impl Delegate {
         })
     }
 
+    pub fn add_texture_u8(&self, asset: &str, width: u32, height: u32, channels: u32, codes: &[u8], is_srgb: bool, wrapmodes: &str) -> Result<(), String> {
+        guard("add_texture_u8", || {
+            lock(&self.shared).delegate.add_texture_u8(asset, width, height, channels, codes.to_vec(), is_srgb, wrapmodes);
+            Ok(())
+        })
+    }
+
     pub fn texture_failed(&self, asset: &str, message: &str) -> Result<(), String> {
         guard("texture_failed", || {
             lock(&self.shared).delegate.texture_failed(asset, message);

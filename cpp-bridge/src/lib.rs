@@ -113,6 +113,8 @@ pub mod ffi {
         /// `sourceColorSpace = "auto"` reads it as sRGB-encoded; `wrapmodes`: the file's wrap
         /// metadata as OpenImageIO reports it (empty if none).
         fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool, wrapmodes: &str) -> Result<()>;
+        /// `add_texture` for a file of 8 bits in every channel: its bytes (read as byte / 255).
+        fn add_texture_u8(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, codes: &[u8], is_srgb: bool, wrapmodes: &str) -> Result<()>;
         fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
         /// The pixels the delegate holds for a texture (for checks; empty if none).
         fn texture_pixels(self: &Delegate, asset: &str) -> Result<MappedBuffer>;

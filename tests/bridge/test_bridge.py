@@ -12,7 +12,7 @@ import zlib
 
 import pytest
 
-from images import write_png
+from images import write_png, write_png_bytes
 from tide import _tide
 
 
@@ -262,7 +262,82 @@ def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
     d.set("/Looks/M", "/Looks/M/PBR.inputs:roughness", 0.5)
     again = d.commit_resources()
     assert ("/Looks/M", "/Looks/M/Missing.inputs:file") not in [(p[0], p[1]) for p in again]
-    assert not d.load_texture(str(tmp_path / "nope.exr"))
+    with pytest.raises(OSError, match="no such file"):
+        d.load_texture(str(tmp_path / "nope.exr"))
+
+
+# Loads the texture argv[1] into a new delegate and prints how much the process's peak memory
+# grew (KB), then the error ("" if read).
+_MEASURED_LOAD = r"""
+import resource, sys
+from tide import _tide
+d = _tide.RenderDelegate()
+before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+try:
+    d.load_texture(sys.argv[1])
+    error = ""
+except OSError as e:
+    error = str(e)
+print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before)
+print(error)
+"""
+
+
+def _measured_load(path):
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(_tide.__file__)))
+    out = subprocess.run([sys.executable, "-c", _MEASURED_LOAD, str(path)], env=env, check=True,
+                         capture_output=True, text=True).stdout.splitlines()
+    return int(out[0]) * 1024, (out[1] if len(out) > 1 else "")
+
+
+def test_an_8_bit_texture_is_held_as_its_bytes(tmp_path):
+    # 2048 x 4096 RGBA at 8 bits: 32 MB as bytes, 128 MB as floats (twice: read, then handed
+    # over). Held as bytes the load peaks at two copies of the bytes at most.
+    w, h = 2048, 4096
+    pixels = bytes(range(256)) * (w * h * 4 // 256)
+    path = tmp_path / "big.png"
+    write_png_bytes(str(path), w, h, 4, pixels)
+    grown, error = _measured_load(path)
+    assert error == ""
+    assert grown < 3 * w * h * 4, "%d MB for a %d MB image" % (grown >> 20, (w * h * 4) >> 20)
+    # and its values are the file's
+    d = _tide.RenderDelegate()
+    d.load_texture(str(path))
+    got = array.array("f", d.texture_pixels(str(path))[3])
+    for i in [0, 1, 255, 256 * 1000 + 17, len(pixels) - 1]:
+        assert math.isclose(got[i], pixels[i] / 255.0, rel_tol=1e-7), i
+
+
+def test_a_truncated_image_fails_with_its_reason_before_taking_the_memory_it_claims(tmp_path):
+    # the header says 60000 x 60000 RGBA (14.4 GB); the file holds one row
+    path = tmp_path / "truncated.png"
+    write_png_bytes(str(path), 60000, 60000, 4, bytes(60000 * 4), rows=1)
+    grown, error = _measured_load(path)
+    assert error.startswith("rows 0 to ") and "\n" not in error, error
+    assert grown < 256 << 20, "%d MB" % (grown >> 20)
+
+
+def test_a_tiled_exr_with_an_offset_data_window_is_read_whole(tmp_path):
+    # 1500 x 1100 RGB float (20 MB: read in more than one band of tile rows); tiles of 64 that
+    # do not divide the image; the data window starts off the origin
+    import numpy as np
+    import OpenEXR
+    w, h = 1500, 1100
+    rgb = (np.arange(w * h * 3, dtype=np.float64) % 10007 / 10007).astype(np.float32).reshape(h, w, 3)
+    tiles = OpenEXR.TileDescription()
+    tiles.xSize, tiles.ySize, tiles.mode = 64, 64, OpenEXR.ONE_LEVEL
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.tiledimage, "tiles": tiles,
+              "dataWindow": ((7, -5), (7 + w - 1, -5 + h - 1)), "displayWindow": ((0, 0), (w - 1, h - 1))}
+    path = str(tmp_path / "tiled.exr")
+    OpenEXR.File(header, {"RGB": rgb}).write(path)
+    d = _tide.RenderDelegate()
+    assert d.load_texture(path)
+    width, height, channels, data = d.texture_pixels(path)
+    assert (width, height, channels) == (w, h, 3)
+    got = np.frombuffer(array.array("f", data), dtype=np.float32).reshape(h, w, 3)
+    assert np.array_equal(got, rgb)
 
 
 def test_preview_png_is_written_atomically(tmp_path):

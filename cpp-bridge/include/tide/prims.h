@@ -105,9 +105,13 @@ public:
     using Sprim::Sprim;
 };
 
-/// Reads `asset` with the cache and hands it to Rust (add_texture or texture_failed); a
-/// failure is recorded as a problem naming `prim` and `attribute`. The values go as the file
-/// holds them: the delegate decodes them by each user's `sourceColorSpace`.
+/// Reads `asset` with the cache and hands it to Rust (add_texture / add_texture_u8, or
+/// texture_failed), unless it was handed over unchanged on disk since. The values go as the file
+/// holds them: the delegate decodes them by each user's `sourceColorSpace`. False with the
+/// reason in `*error` when the file cannot be read.
+bool SendTexture(RenderParam& param, const std::string& asset, std::string* error);
+
+/// SendTexture, a failure recorded as a problem naming `prim` and `attribute`.
 bool LoadTextureFor(RenderParam& param, const std::string& prim, const std::string& attribute,
                     const std::string& asset);
 

@@ -112,8 +112,7 @@ class RenderDelegate:
     def load_texture(self, asset_path):
         self.calls.append(("load_texture", asset_path))
         if not asset_path or not os.path.isfile(asset_path):
-            self._problems.append((asset_path, "file", "cannot read texture '%s'" % asset_path))
-            return False
+            raise OSError("no such file")
         self.textures.add(asset_path)
         return True
 

@@ -2644,24 +2644,23 @@ class Reader:
                              "default is used" % asset.path)
             return Sdf.AssetPath("")
         if resolved not in self._textures_loaded():
-            ok = self._load_texture(resolved)
-            if ok is False:
-                self.problem(shader.GetPath(), name, "cannot read texture '%s'; the input's "
-                             "default is used" % resolved)
+            why = self._load_texture(resolved)
+            if why is not None:
+                self.problem(shader.GetPath(), name, "cannot read texture '%s' (%s); the input's "
+                             "default is used" % (resolved, why))
                 return Sdf.AssetPath("")
         return asset
 
     def _load_texture(self, path):
-        """Has the module read texture file `path` (it hands the pixels to the delegate);
-        False when it cannot. A file read is remembered with its modification time."""
+        """Has the module read texture file `path` (it hands the pixels to the delegate): None,
+        or the reason it cannot. A file read is remembered with its modification time."""
         mtime = _mtime(path)
         try:
-            ok = self.delegate.load_texture(path)
-        except Exception:  # the module reports a failure as an exception or as False
-            ok = False
-        if ok is not False:
-            self._textures_loaded()[path] = mtime
-        return ok
+            self.delegate.load_texture(path)
+        except OSError as e:
+            return str(e) or "unreadable"
+        self._textures_loaded()[path] = mtime
+        return None
 
     def _textures_loaded(self):
         """Texture files read: path -> modification time when read."""
@@ -2676,9 +2675,10 @@ class Reader:
         stale = [p for p, t in self._textures_loaded().items() if _mtime(p) != t]
         for path in stale:
             del self._loaded[path]
-            if self._load_texture(path) is False:
-                self.problem(path, "file", "cannot read texture '%s' again; what uses it falls "
-                             "back" % path)
+            why = self._load_texture(path)
+            if why is not None:
+                self.problem(path, "file", "cannot read texture '%s' again (%s); what uses it "
+                             "falls back" % (path, why))
         grids = [k for k, t in getattr(self, "_vdbs", {}).items() if _mtime(k[0]) != t]
         for key in grids:
             self._load_vdb(*key, reload=True)
@@ -2706,8 +2706,9 @@ class Reader:
                     self.problem(path, name, "cannot find texture '%s'; the light uses its "
                                  "colour" % v.path)
                 elif v.resolvedPath and v.resolvedPath not in self._textures_loaded():
-                    if self._load_texture(v.resolvedPath) is False:
-                        self.problem(path, name, "cannot read texture '%s'" % v.resolvedPath)
+                    why = self._load_texture(v.resolvedPath)
+                    if why is not None:
+                        self.problem(path, name, "cannot read texture '%s' (%s)" % (v.resolvedPath, why))
                         v = Sdf.AssetPath("")
                 # the image's colour space (USD metadata on the attribute)
                 if a and a.HasColorSpace():
