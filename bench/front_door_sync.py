@@ -39,16 +39,10 @@ import subprocess
 import sys
 import time
 
+from measure import peak_mib
+
 ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), ".."))
 sys.path.insert(0, os.path.join(ROOT, "cpp-bridge", "python"))
-
-
-def hwm_mib():
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    return 0.0
 
 
 def author(case):
@@ -125,25 +119,25 @@ def child(case):
     t = time.perf_counter()
     stage = author(case)
     out["author_s"] = time.perf_counter() - t
-    out["hwm_author_mib"] = hwm_mib()
+    out["hwm_author_mib"] = peak_mib()
 
     delegate = module.RenderDelegate()
     reader = usd_reader.Reader(stage, delegate, usd_reader.Options())
     t = time.perf_counter()
     reader.populate()
     out["reader_s"] = time.perf_counter() - t
-    out["hwm_reader_mib"] = hwm_mib()
+    out["hwm_reader_mib"] = peak_mib()
     t = time.perf_counter()
     problems = reader.commit()
     out["commit_s"] = time.perf_counter() - t
-    out["hwm_commit_mib"] = hwm_mib()
+    out["hwm_commit_mib"] = peak_mib()
     out["problems"] = [str(p) for p in problems]
     out["synced_initial"] = len(delegate.last_synced())
     t = time.perf_counter()
     rp = reader.render_pass()
     wait_pass(rp)
     out["build_s"] = time.perf_counter() - t
-    out["hwm_build_mib"] = hwm_mib()
+    out["hwm_build_mib"] = peak_mib()
 
     if case == "resync1000":
         prim = stage.GetPrimAtPath("/World/M0500")

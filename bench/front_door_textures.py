@@ -14,17 +14,15 @@ import struct
 import sys
 import tempfile
 import time
+
+from measure import THIS_CHECKOUT, load_timed, peak_mib, tide_from
 import zlib
 
 ap = argparse.ArgumentParser()
 ap.add_argument("--count", type=int, default=8)
-ap.add_argument("root", nargs="?", default=os.path.abspath(os.path.join(os.path.dirname(__file__), "..")))
+ap.add_argument("root", nargs="?", default=THIS_CHECKOUT)
 args = ap.parse_args()
-sys.path.insert(0, os.path.join(args.root, "cpp-bridge", "python"))
-from tide import env
-env.prepare()
-from tide import usd_reader
-module = env.load_module()
+usd_reader, module = tide_from(args.root)
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
 
 W = H = 4096
@@ -67,11 +65,7 @@ st.CreateCameraRel().SetTargets(["/Cam"])
 st.GetPrim().CreateAttribute("tide:samples", Sdf.ValueTypeNames.Int).Set(1)
 st.GetPrim().CreateAttribute("tide:integrator", Sdf.ValueTypeNames.Token).Set("path")
 
-t0 = time.perf_counter()
-dl = module.RenderDelegate()
-r = usd_reader.Reader(s, dl, usd_reader.Options())
-r.populate()
-problems = r.commit()
+r, read_s, commit_s, problems = load_timed(usd_reader, module, s)
 t1 = time.perf_counter()
 rp = r.render_pass()
 while not rp.is_converged():
@@ -79,11 +73,5 @@ while not rp.is_converged():
 t2 = time.perf_counter()
 
 
-def hwm():
-    for line in open("/proc/self/status"):
-        if line.startswith("VmHWM"):
-            return int(line.split()[1]) / 1024
-
-
 print("%d 4096x4096 RGBA 8-bit textures (%d MiB of pixels): load %.2f s, first pass %.2f s, peak %.0f MiB%s"
-      % (args.count, args.count * W * H * 4 >> 20, t1 - t0, t2 - t1, hwm(), "; problems: %s" % problems if problems else ""))
+      % (args.count, args.count * W * H * 4 >> 20, read_s + commit_s, t2 - t1, peak_mib(), "; problems: %s" % problems if problems else ""))

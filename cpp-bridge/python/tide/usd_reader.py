@@ -533,6 +533,11 @@ class _PrimState:
             self.values[key] = ((None, value),)
 
 
+# Whether native instances alike are placed from the first (Reader._instance_shortcut); False
+# walks every instance, the reference the shortcut is checked against.
+SHARE_INSTANCES = True
+
+
 def _mat_key(m):
     return tuple(float(m[i][j]) for i in range(4) for j in range(4))
 
@@ -797,14 +802,20 @@ class Reader:
             # (prims of a purpose newly included were never read)
             return self._sync(None)
         self._groups = {}
+        # native instances read from the first like them (see _instance_shortcut)
+        self._reps, self._recording, self._signatures = {}, [], {}
         for root in roots:
             prim = self.stage.GetPrimAtPath(root)
             if prim and prim.IsActive():
                 self._walk(prim)
+        self._reps, self._signatures = {}, {}
         if not full and self._groups:
             return self._sync(None)
         if full:
             self._emit_instance_groups()
+            # the members (a million instances' paths and matrices) are in the states now
+            for grp in self._groups.values():
+                grp["members"] = None
         self._resolve_link_queries(desired, roots)
         # Destroy what came from the walked subtrees and is gone.
         for path in list(self._sent):
@@ -951,6 +962,7 @@ class Reader:
                 # visibility hides geometry and lights; a camera is looked through all the same
                 for p in Usd.PrimRange(prim, Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)):
                     if p.IsA(UsdGeom.Camera):
+                        self._unshared()
                         self._eval_camera(p)
                 it.PruneChildren()
                 return
@@ -965,23 +977,31 @@ class Reader:
                     it.PruneChildren()
                 return
         if prim.IsA(UsdGeom.PointInstancer):
+            self._unshared()
             self._eval_instancer(prim)
             it.PruneChildren()
             return
         if prim.IsInstance():
             self._instance_sources.add(prim.GetPath())
+            if self._instance_shortcut(prim, it):
+                return
         if type_name in GPRIMS:
             # a skinned gprim in a native instance is posed by that instance's skeleton
             # and animation: sent on its own, at its instance proxy's path
             if prim.IsInstanceProxy() and not self._posed_apart(prim):
                 self._collect_instanced(prim)
             else:
+                self._unshared()
                 self._eval_gprim(prim, str(prim.GetPath()), str(prim.GetPath()))
         elif type_name in LIGHTS:
+            # lights, cameras and portals are sent at their own paths: each instance's its own
+            self._unshared()
             self._eval_light(prim)
         elif prim.IsA(UsdGeom.Camera):
+            self._unshared()
             self._eval_camera(prim)
         elif prim.IsA(UsdLux.PortalLight):
+            self._unshared()
             self._eval_portal(prim)
         elif prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
             self.problem(prim.GetPath(), "type",
@@ -2216,8 +2236,136 @@ class Reader:
         # are told apart (UsdImaging's instancers split so): each group's instances all hold a
         # value of each name it sends per instance
         key = (str(proto), material, _outside_primvar_names(prim, root.GetPath()))
-        grp = self._groups.setdefault(key, {"prim": prim, "root": root, "roots": []})
-        grp["roots"].append(root)
+        grp = self._groups.setdefault(key, {"prim": prim, "root": root, "members": []})
+        grp["members"].append(root)
+        if self._recording:
+            if key[2] or not self._static(root):
+                # values inherited from outside, or a root moving within its instance: each
+                # instance read on its own
+                self._unshared()
+            else:
+                m = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
+                for rec in self._recording:
+                    rec["entries"].append((key, [str(root.GetPath())], m.reshape(1, 4, 4)))
+
+    def _unshared(self):
+        """Notes that what the instances being recorded hold is read for each on its own (a
+        light, camera, skinned gprim, point instancer, values from outside the instance): their
+        likes are walked each, not placed from the first."""
+        for rec in self._recording:
+            rec["plain"] = False
+
+    def _instance_shortcut(self, prim, it):
+        """Reads native instance `prim` (a stage-level instance or one nested in another's
+        prototype) from the first instance like it, where that one's gprims are grouped by
+        prototype and nothing of it is sent on its own: the first's members of each group are
+        placed under `prim` by its transform (their transforms relative to the first's, times
+        `prim`'s), at paths with `prim`'s in place of the first's, in the order a walk of
+        `prim` would add them. Instances are alike when they have the same prototype, purpose,
+        and the same material bindings and motion attributes authored on them and above
+        (content, not paths), none of them a collection binding or a primvar, and do not move
+        over the shutter. True when `prim` was read here (the walk then skips its children)."""
+        key = self._instance_key(prim) if SHARE_INSTANCES else None
+        if key is None:
+            return False
+        rep = self._reps.get(key)
+        if rep is False:
+            return False
+        it.PruneChildren()
+        if rep is None:
+            # the first: walked as usual, what it adds to the groups recorded
+            rec = {"entries": [], "plain": True}
+            problems = len(self._pending)
+            self._recording.append(rec)
+            try:
+                pred = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
+                for child in prim.GetFilteredChildren(pred):
+                    self._walk(child)
+            finally:
+                self._recording.pop()
+            plain = rec["plain"] and len(self._pending) == problems
+            self._reps[key] = self._relative(prim, rec["entries"]) if plain else False
+            return True
+        world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(prim))).reshape(4, 4)
+        base = str(prim.GetPath())
+        for gkey, suffixes, rel in rep:
+            paths = [base + s for s in suffixes]
+            mats = rel @ world
+            self._groups[gkey]["members"].append((paths, mats))
+            for rec in self._recording:
+                rec["entries"].append((gkey, paths, mats))
+        return True
+
+    def _relative(self, anchor, entries):
+        """The members instance `anchor` added to each group (`entries`: (group, innermost
+        root paths, their world matrices)), relative to it: [(group, path suffixes, matrices
+        relative to the anchor)], each group's members in the order added."""
+        world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(anchor))).reshape(4, 4)
+        inverse = np.linalg.inv(world)
+        base = len(str(anchor.GetPath()))
+        by_group = {}
+        for gkey, paths, mats in entries:
+            g = by_group.setdefault(gkey, ([], []))
+            g[0].extend(p[base:] for p in paths)
+            g[1].append(mats)
+        return [(gkey, suffixes, np.concatenate(mats) @ inverse) for gkey, (suffixes, mats) in by_group.items()]
+
+    def _instance_key(self, prim):
+        """What makes native instance `prim` alike others (see _instance_shortcut); None when
+        it is to be walked on its own."""
+        proto = prim.GetPrototype()
+        if not proto or not self._static(prim):
+            return None
+        sig = self._outer_signature(prim)
+        if sig is None:
+            return None
+        return (str(proto.GetPath()), str(UsdGeom.Imageable(prim).ComputePurpose()), sig)
+
+    def _outer_signature(self, prim):
+        """The material bindings (targets, strength) and motion attributes authored on `prim`
+        and its ancestors, as content; None if one of them authors a collection binding or a
+        primvar (their effect depends on where an instance lies)."""
+        path = str(prim.GetPath())
+        if path in self._signatures:
+            return self._signatures[path]
+        parent = prim.GetParent()
+        sig = () if not parent or parent.IsPseudoRoot() else self._outer_signature(parent)
+        if sig is not None:
+            own = []
+            for rel in prim.GetAuthoredRelationships():
+                name = rel.GetName()
+                if name.startswith("material:binding:collection"):
+                    sig = None
+                    break
+                if name.startswith("material:binding"):
+                    own.append((name, tuple(str(t) for t in rel.GetTargets()),
+                                str(rel.GetMetadata("bindMaterialAs") or "")))
+            if sig is not None:
+                for attr in prim.GetAuthoredAttributes():
+                    name = attr.GetName()
+                    if name.startswith("primvars:"):
+                        sig = None
+                        break
+                    if name.startswith("motion:"):
+                        own.append((name, repr(attr.Get(self._time(0)))))
+            if sig is not None and own:
+                sig = sig + (tuple(sorted(own)),)
+        self._signatures[path] = sig
+        return sig
+
+    def _static(self, prim):
+        """Whether `prim`'s transform (its own and its ancestors') holds still over the
+        shutter."""
+        if not self._moving:
+            return True
+        interval = self._window()
+        x = UsdGeom.Xformable(prim)
+        while x:
+            if x.GetTimeSamplesInInterval(interval):
+                return False
+            parent = x.GetPrim().GetParent()
+            x = UsdGeom.Xformable(parent) if parent else None
+        return True
 
     def _emit_instance_groups(self):
         per_proto = {}
@@ -2227,13 +2375,16 @@ class Reader:
             dpath = proto if n == 0 else "%s_m%d" % (proto, n)
             prim, root = grp["prim"], grp["root"]
             with self._blurred(prim):
-                st = self._instance_group(prim, root, dpath, material, names, grp["roots"])
+                st = self._instance_group(prim, root, dpath, material, names, grp["members"])
             if st is not None:
                 self._desired[dpath] = st
 
-    def _instance_group(self, prim, root, dpath, material, names, roots):
-        """The state of a prototype's gprim drawn at every instance root of `roots`, which
-        inherit the constant primvars `names` from outside the prototype."""
+    def _instance_group(self, prim, root, dpath, material, names, members):
+        """The state of a prototype's gprim drawn at every instance root of `members` (each an
+        instance root prim, or a block (root paths, their world matrices) of instances placed
+        from another like them, which stand still), which inherit the constant primvars
+        `names` from outside the prototype (a group with blocks inherits none)."""
+        roots = [m for m in members if not isinstance(m, tuple)]
         def rel(t):
             cache = UsdGeom.XformCache(t)
             return cache.GetLocalToWorldTransform(prim) * \
@@ -2245,17 +2396,25 @@ class Reader:
         st.set("material", ("path", material))
         # the path each instance stands for in light-link collections: its proxy's
         inner = prim.GetPath().MakeRelativePath(root.GetPath())
-        st.set("instancePaths", ("paths", tuple(str(r.GetPath().AppendPath(inner))
-                                                for r in roots)))
+        tail = "/" + str(inner)
+        paths = []
+        for m in members:
+            if isinstance(m, tuple):
+                paths.extend(p + tail for p in m[0])
+            else:
+                paths.append(str(m.GetPath().AppendPath(inner)))
+        st.set("instancePaths", ("paths", tuple(paths)))
         self._inherited_by_instances(st, names, roots)
         # each instance root's world matrix over the shutter (motion of the instances
         # themselves; the prototype's own motion is in `transform`)
-        offsets = sorted({o for r in roots for o in self._motion_offsets([r])})
+        offsets = sorted({o for r in roots for o in self._motion_offsets([r])}) or [0.0]
         worlds = []
         for o in offsets:
             cache = UsdGeom.XformCache(self._time(o))
-            worlds.append(np.asarray([_mat_key(cache.GetLocalToWorldTransform(r))
-                                      for r in roots], np.float64))
+            parts = [m[1].reshape(-1, 16) if isinstance(m, tuple) else
+                     np.asarray([_mat_key(cache.GetLocalToWorldTransform(m))], np.float64)
+                     for m in members]
+            worlds.append(np.ascontiguousarray(np.concatenate(parts), np.float64))
         if all(np.array_equal(w, worlds[0]) for w in worlds):
             st.set("instanceTransforms", ("doubles", 16, worlds[0].tobytes()))
         else:
