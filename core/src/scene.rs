@@ -630,10 +630,8 @@ pub fn locate_key(times: &[f32], time: f32) -> (usize, f32) {
     if time >= times[n - 1] {
         return (n - 2, 1.0);
     }
-    let mut i = 0;
-    while i + 2 < n && times[i + 1] <= time {
-        i += 1;
-    }
+    // the last key at or before `time` (bisection: thousands of keys are read per ray)
+    let i = (times.partition_point(|&t| t <= time) - 1).min(n - 2);
     let (a, b) = (times[i], times[i + 1]);
     (i, if b > a { (time - a) / (b - a) } else { 0.0 })
 }

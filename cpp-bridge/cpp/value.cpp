@@ -89,12 +89,16 @@ void MemorySceneSource::Set(const std::string& path, const std::string& key, Tim
         samples.push_back(std::move(value));
         return;
     }
-    samples.erase(std::remove_if(samples.begin(), samples.end(),
-                                 [&](const TimedValue& s) { return !s.hasTime || s.time == value.time; }),
-                  samples.end());
+    // a value without time gives way to samples (it can only be alone)
+    if (!samples.empty() && !samples.front().hasTime) samples.clear();
+    // kept sorted by time: found by bisection (samples come in order, so a push)
     auto at = std::lower_bound(samples.begin(), samples.end(), value.time,
                                [](const TimedValue& s, double t) { return s.time < t; });
-    samples.insert(at, std::move(value));
+    if (at != samples.end() && at->time == value.time) {
+        *at = std::move(value);
+    } else {
+        samples.insert(at, std::move(value));
+    }
 }
 
 void MemorySceneSource::SetPrimvar(const std::string& path, const std::string& name, Primvar primvar) {

@@ -256,13 +256,14 @@ impl Attr {
     pub fn set(&mut self, time: Option<f64>, v: Value) {
         match time {
             None => self.value = Some(v),
-            Some(t) => match self.samples.iter_mut().find(|s| s.0 == t) {
-                Some(s) => s.1 = v,
-                None => {
-                    self.samples.push((t, v));
-                    self.samples.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap_or(std::cmp::Ordering::Equal));
+            // kept sorted by time: found by bisection (samples come in order, so a push)
+            Some(t) => {
+                let at = self.samples.partition_point(|s| s.0 < t);
+                match self.samples.get_mut(at) {
+                    Some(s) if s.0 == t => s.1 = v,
+                    _ => self.samples.insert(at, (t, v)),
                 }
-            },
+            }
         }
     }
 }
@@ -460,6 +461,19 @@ mod tests {
         m[14] = 3.0;
         let g = Value::Matrix(m).as_matrix().unwrap();
         assert_eq!(g.transform_point3(Vec3::ZERO), Vec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn samples_stay_sorted_by_time_with_one_value_per_time() {
+        let mut a = Attr::default();
+        for t in [2.0, 0.5, 3.0, 0.5, -1.0, 2.0, 4.0] {
+            a.set(Some(t), Value::Float(t * 10.0 + a.samples.len() as f64));
+        }
+        let times: Vec<f64> = a.samples.iter().map(|s| s.0).collect();
+        assert_eq!(times, vec![-1.0, 0.5, 2.0, 3.0, 4.0]);
+        // a time set again holds its last value
+        assert_eq!(a.samples[1].1, Value::Float(5.0 + 3.0));
+        assert_eq!(a.samples[2].1, Value::Float(20.0 + 4.0));
     }
 
     #[test]

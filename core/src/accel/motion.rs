@@ -58,10 +58,8 @@ impl MotionTransform {
         if time >= self.keys[n - 1].time {
             return (n - 2, 1.0);
         }
-        let mut i = 0;
-        while i + 2 < n && self.keys[i + 1].time <= time {
-            i += 1;
-        }
+        // the last key at or before `time` (bisection: thousands of keys are read per ray)
+        let i = (self.keys.partition_point(|k| k.time <= time) - 1).min(n - 2);
         let (a, b) = (self.keys[i].time, self.keys[i + 1].time);
         (i, if b > a { (time - a) / (b - a) } else { 0.0 })
     }
@@ -98,9 +96,19 @@ impl MotionTransform {
         if self.is_static() {
             return vec![self.mats[0]];
         }
-        // dense steps: rotations sweep arcs whose bounds the end keys alone miss
-        let steps = 32 * self.keys.len();
-        let (t0, t1) = (shutter.0.min(self.keys[0].time), shutter.1.max(self.keys[self.keys.len() - 1].time));
-        (0..=steps).map(|k| self.at(t0 + (t1 - t0) * k as f32 / steps as f32)).collect()
+        // dense steps: rotations sweep arcs whose bounds the end keys alone miss. Each key
+        // interval is cut into steps of at most 1/32 of it and of π/64 of turn, as few as
+        // that allows (an interval that does not turn is its two ends), so thousands of keys
+        // do not make millions of matrices.
+        let mut out = vec![self.at(shutter.0.min(self.keys[0].time))];
+        for (i, w) in self.keys.windows(2).enumerate() {
+            let turn = w[0].rot.angle_between(w[1].rot);
+            let steps = if self.linear { 1 } else { ((turn / (std::f32::consts::PI / 64.0)).ceil() as usize).clamp(1, 32) };
+            for k in 1..=steps {
+                let f = k as f32 / steps as f32;
+                out.push(if k == steps { self.mats[i + 1] } else { self.at(w[0].time + (w[1].time - w[0].time) * f) });
+            }
+        }
+        out
     }
 }
