@@ -315,6 +315,29 @@ fn a_clearcoat_reflects_by_the_surfaces_ior() {
     }
 }
 
+/// A diffuse plane of `albedo` through the origin, facing +Y, and nothing else.
+fn plane_seen_from_above(albedo: f64) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
+    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo as f32; 3]) }, interior_medium: None });
+    s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s
+}
+
+/// The radiance of `s` at the origin, seen straight down through a 0.05° field (a patch 9 mm
+/// wide, over which the irradiance's curvature shifts the mean by far less than the
+/// tolerance), is `expect` in every channel within 3σ + 0.5 %.
+fn assert_origin_radiance(s: &SceneDesc, expect: f64) {
+    let mut s = s.clone();
+    s.camera = CameraDesc { transforms: vec![Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 10.0, 0.0))], ..camera(Vec3::new(0.0, 10.0, 0.0), Vec3::new(0.0, 0.0, 0.01), 0.05) };
+    let (w, h) = (8, 8);
+    let r = render(&s, settings(w, h, 64));
+    for ch in 0..3 {
+        let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
+        assert!((m - expect).abs() < 3.0 * se + 0.005 * expect, "channel {ch}: {m} ± {se} vs {expect}");
+    }
+}
+
 /// Many small sphere lights over a diffuse plane (the many-light tree picks among them, by
 /// how much each gives the point): the plane's radiance is albedo × Σ L (r/d)² cos θ, the
 /// exact irradiance of spheres above the horizon over π. Lights under the plane give nothing
@@ -322,10 +345,7 @@ fn a_clearcoat_reflects_by_the_surfaces_ior() {
 #[test]
 fn many_sphere_lights_light_a_plane_by_their_summed_irradiance() {
     let albedo = 0.5f64;
-    let mut s = SceneDesc::default();
-    s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
-    s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo as f32; 3]) }, interior_medium: None });
-    s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    let mut s = plane_seen_from_above(albedo);
     let mut expect = 0.0f64;
     let mut u = 0.37f64;
     let mut next = || {
@@ -343,13 +363,53 @@ fn many_sphere_lights_light_a_plane_by_their_summed_irradiance() {
             expect += albedo * le as f64 * (r as f64 / d).powi(2) * (c.y as f64 / d);
         }
     }
-    // looking straight down at the origin through a 0.05° field: a patch 9 mm wide, over which
-    // the irradiance's curvature shifts the mean by far less than the tolerance
-    s.camera = CameraDesc { transforms: vec![Mat4::from_rotation_translation(glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2), Vec3::new(0.0, 10.0, 0.0))], ..camera(Vec3::new(0.0, 10.0, 0.0), Vec3::new(0.0, 0.0, 0.01), 0.05) };
-    let (w, h) = (8, 8);
-    let r = render(&s, settings(w, h, 64));
-    for ch in 0..3 {
-        let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
-        assert!((m - expect).abs() < 3.0 * se + 0.005 * expect, "channel {ch}: {m} ± {se} vs {expect}");
+    assert_origin_radiance(&s, expect);
+}
+
+/// Many point spots (of the power of spheres of radius r and radiance L; hard shaping cones of
+/// 10° to 60°, pointing at random places on a diffuse plane): the plane's radiance at the
+/// origin is albedo × Σ L (r/d)² cos θ over the spots whose cone holds the origin. The
+/// many-light tree narrows each spot's bounds to its cone; a spot lighting the point must
+/// still be picked there (a point light is found by no other way).
+#[test]
+fn many_spots_light_a_plane_by_the_irradiance_of_those_aimed_at_it() {
+    let albedo = 0.5f64;
+    let mut s = plane_seen_from_above(albedo);
+    let mut expect = 0.0f64;
+    let mut u = 0.61f64;
+    let mut next = || {
+        u = (u * 997.0 + 0.123).fract();
+        u
+    };
+    let mut lit = 0;
+    for k in 0..64 {
+        let c = Vec3::new((next() * 12.0 - 6.0) as f32, (1.0 + 4.0 * next()) as f32, (next() * 12.0 - 6.0) as f32);
+        let r = (0.05 + 0.1 * next()) as f32;
+        let le = (5.0 + 200.0 * next()) as f32;
+        // aimed near the origin or elsewhere; none with the origin within 2° of its cone's edge
+        let spread = if k % 2 == 0 { 1.5 } else { 8.0 };
+        let (axis, cone) = loop {
+            let target = Vec3::new(((next() * 2.0 - 1.0) * spread) as f32, 0.0, ((next() * 2.0 - 1.0) * spread) as f32);
+            let axis = (target - c).normalize();
+            let cone = (10.0 + 50.0 * next()) as f32;
+            let off = axis.dot(-c.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+            if (off - cone).abs() > 2.0 {
+                break (axis, cone);
+            }
+        };
+        let turn = glam::Quat::from_rotation_arc(-Vec3::Z, axis);
+        // points of the sphere's power: found only by next-event estimation, which must pick
+        // each spot lighting the point
+        let shape = LightShape::Sphere { radius: r, treat_as_point: true };
+        let mut d = light(&format!("/spot{k}"), shape, Mat4::from_rotation_translation(turn, c), le, false);
+        d.shaping = Some(tide_core::scene::ShapingDesc { cone_angle_deg: cone, cone_softness: 0.0, ..Default::default() });
+        s.lights.push(d);
+        if axis.dot(-c.normalize()).clamp(-1.0, 1.0).acos().to_degrees() < cone {
+            let d = c.length() as f64;
+            expect += albedo * le as f64 * (r as f64 / d).powi(2) * (c.y as f64 / d);
+            lit += 1;
+        }
     }
+    assert!((5..60).contains(&lit), "{lit} spots aimed at the origin");
+    assert_origin_radiance(&s, expect);
 }

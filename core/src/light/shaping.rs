@@ -183,6 +183,13 @@ impl Shaping {
         (self.cos_cut > 0.0).then_some(self.cos_cut)
     }
 
+    /// The cone the light emits within, where its cone cuts (θc < π): (axis, θc). Nothing
+    /// leaves along a direction further than θc from the axis, whatever the focus and the
+    /// IES profile.
+    pub fn emission_cone(&self) -> Option<(Vec3, f32)> {
+        (self.theta_cut < std::f32::consts::PI).then_some((self.axis, self.theta_cut))
+    }
+
     /// The cone's factor at cos θ (1 − smoothstep from θs to θc).
     #[inline]
     pub fn cone(&self, cos_t: f32) -> f32 {
