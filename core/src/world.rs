@@ -856,7 +856,7 @@ impl World {
         for l in &mut lights {
             l.preprocess(center, radius);
         }
-        let light_tree = crate::light::tree::LightTree::build(&lights, LightSampler::new(&lights));
+        let light_tree = crate::light::tree::LightTree::build(&lights, LightSampler::new(&lights), camera.shutter);
         let hittable_lights: Vec<usize> = (0..lights.len()).filter(|&i| !lights[i].is_infinite() && !lights[i].is_delta() && !matches!(lights[i].inner(), Light::Triangle(_))).collect();
         let light_bvh = crate::light::bvh::LightBvh::build(&lights, &hittable_lights, camera.shutter);
         let infinite_lights = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();

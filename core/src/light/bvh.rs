@@ -66,11 +66,12 @@ pub(super) fn still_extent(light: &Light) -> Option<(Vec3, Vec3)> {
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
 }
 
-/// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
-fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
+/// The box of a light over `shutter`: [`still_extent`], a moving light's carried along its
+/// motion; None for a light without a place (or a moving emissive triangle).
+pub(super) fn extent_over(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
     let (lo, hi) = match light {
         Light::Moving(m) => {
-            let (lo, hi) = light_bounds(&m.inner, shutter)?;
+            let (lo, hi) = still_extent(&m.inner)?;
             let corners: Vec<Vec3> = (0..8).map(|k| Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2])).collect();
             let (t0, t1) = (shutter.0.min(shutter.1), shutter.0.max(shutter.1));
             let steps = 64usize;
@@ -90,10 +91,19 @@ fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
             }
             (out.0 - Vec3::splat(step * 0.5), out.1 + Vec3::splat(step * 0.5))
         }
-        Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_) => still_extent(light)?,
-        _ => return None,
+        _ => still_extent(light)?,
     };
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
+fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
+    let hittable = |l: &Light| matches!(l, Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_));
+    match light {
+        Light::Moving(m) if hittable(&m.inner) => extent_over(light, shutter),
+        l if hittable(l) => extent_over(light, shutter),
+        _ => None,
+    }
 }
 
 impl LightBvh {

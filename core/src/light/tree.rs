@@ -152,10 +152,11 @@ fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
     }
 }
 
-/// A light's bounds, for a light with a place that does not move (None: it stays out of the
-/// tree). Normals are the emitting fronts'; a light emitting all round has the whole sphere.
-fn light_bounds(light: &Light, phi: f32) -> Option<Bounds> {
-    let (lo, hi) = super::bvh::still_extent(light)?;
+/// A light's bounds over `shutter`, for a light with a place (None: it stays out of the tree).
+/// Normals are the emitting fronts'; a light emitting all round, or one that moves (its front
+/// may turn), has the whole sphere.
+fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> {
+    let (lo, hi) = super::bvh::extent_over(light, shutter)?;
     // a one-sided emitter faces its front normal; the others emit all round
     let (mut normals, two_sided) = match light {
         Light::Rect(r) => (Cone { w: r.shape.n, cos_theta: 1.0 }, false),
@@ -203,11 +204,12 @@ pub struct LightTree {
 }
 
 impl LightTree {
-    /// The tree over `lights`, whose selection weights `all` holds (kept: [`LightTree::by_weight`]).
-    pub fn build(lights: &[Light], all: LightSampler) -> LightTree {
+    /// The tree over `lights` over `shutter` (a moving light bounded along its motion), whose
+    /// selection weights `all` holds (kept: [`LightTree::by_weight`]).
+    pub fn build(lights: &[Light], all: LightSampler, shutter: (f32, f32)) -> LightTree {
         let n = lights.len();
         let mut tree = LightTree { trail: vec![None; n], ..Default::default() };
-        let mut items: Vec<(u32, Bounds)> = (0..n).filter_map(|i| (all.pmf(i) > 0.0).then(|| light_bounds(&lights[i], all.pmf(i)).map(|b| (i as u32, b))).flatten()).collect();
+        let mut items: Vec<(u32, Bounds)> = (0..n).filter_map(|i| (all.pmf(i) > 0.0).then(|| light_bounds(&lights[i], all.pmf(i), shutter).map(|b| (i as u32, b))).flatten()).collect();
         if items.len() >= MIN_TREE_LIGHTS {
             tree.p_tree = items.iter().map(|(i, _)| all.pmf(*i as usize) as f64).sum::<f64>().min(1.0) as f32;
             let mut in_tree = vec![false; n];
@@ -401,8 +403,9 @@ mod tests {
     use glam::{Mat4, Quat, Vec2};
 
     /// Points, spheres, rects, disks and cylinders scattered and turned every way, a third of
-    /// them spots (a shaping cone of 10° to 170°, soft or hard), a dome and a moving light
-    /// beside them (picked by weight, outside the tree).
+    /// them spots (a shaping cone of 10° to 170°, soft or hard), moving lights (a sphere, a
+    /// point, a turning rect: in the tree, bounded over the shutter) and a dome (picked by
+    /// weight, outside the tree).
     fn crowd() -> Vec<Light> {
         let mut rng = TestRng::new(3);
         let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
@@ -428,6 +431,12 @@ mod tests {
         let mut d = desc(LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)));
         d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_translation(Vec3::new(2.0, 2.0, 3.0)))];
         lights.push(build(&d));
+        let mut d = desc(LightShape::Sphere { radius: 0.0, treat_as_point: true }, Mat4::from_translation(Vec3::new(-4.0, 0.0, 2.0)));
+        d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_translation(Vec3::new(-1.0, 3.0, 2.0)))];
+        lights.push(build(&d));
+        let mut d = desc(LightShape::Rect { width: 1.0, height: 0.5, texture: None }, Mat4::from_translation(Vec3::new(5.0, -3.0, 0.0)));
+        d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_rotation_translation(Quat::from_rotation_x(2.5), Vec3::new(5.0, -2.0, 1.0)))];
+        lights.push(build(&d));
         lights
     }
 
@@ -449,9 +458,11 @@ mod tests {
     fn picks_follow_the_pmf_that_multiple_importance_sampling_reads() {
         let lights = crowd();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, all.clone());
+        let tree = LightTree::build(&lights, all.clone(), (0.0, 1.0));
         assert!(tree.has_tree());
         let n = lights.len();
+        let moving: Vec<usize> = (0..n).filter(|&i| matches!(lights[i], Light::Moving(_))).collect();
+        assert!(moving.len() == 3 && moving.iter().all(|&i| tree.trail[i].is_some()), "moving lights in the tree");
         let contexts = contexts();
         for (c, ctx) in contexts.iter().enumerate() {
             let pmf: Vec<f64> = (0..n).map(|li| tree.pmf(ctx, li) as f64).collect();
@@ -500,14 +511,15 @@ mod tests {
     fn no_light_that_lights_a_point_is_left_out() {
         let lights = crowd();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, all.clone());
+        let tree = LightTree::build(&lights, all.clone(), (0.0, 1.0));
         let lam = lambda();
         let mut rng = TestRng::new(9);
         let mut checked = 0;
         for k in 0..400 {
             let p = Vec3::new(rng.next_f32() * 24.0 - 12.0, rng.next_f32() * 24.0 - 12.0, rng.next_f32() * 24.0 - 12.0);
             let n = if k % 4 == 0 { Vec3::ZERO } else { Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize_or(Vec3::Y) };
-            let ctx = LightSampleContext::new(p, n);
+            // at any time of the shutter: a moving light is bounded over all of it
+            let ctx = LightSampleContext { time: rng.next_f32(), ..LightSampleContext::new(p, n) };
             for (li, light) in lights.iter().enumerate() {
                 for _ in 0..4 {
                     let u = Vec2::new(rng.next_f32(), rng.next_f32());
@@ -545,7 +557,7 @@ mod tests {
             d.shaping = Some(crate::scene::ShapingDesc { cone_angle_deg: 15.0, ..Default::default() });
             lights.push(build(&d));
         }
-        let tree = LightTree::build(&lights, LightSampler::new(&lights));
+        let tree = LightTree::build(&lights, LightSampler::new(&lights), (0.0, 1.0));
         for k in [0usize, 9, 27, 63] {
             let below = Vec3::new(4.0 * (k % 8) as f32 + 0.3, 0.0, 4.0 * (k / 8) as f32 - 0.2);
             let ctx = LightSampleContext::new(below, Vec3::Y);
@@ -560,7 +572,7 @@ mod tests {
     fn few_lights_are_picked_by_weight() {
         let lights: Vec<Light> = crowd().into_iter().take(MIN_TREE_LIGHTS - 1).collect();
         let all = LightSampler::new(&lights);
-        let tree = LightTree::build(&lights, all.clone());
+        let tree = LightTree::build(&lights, all.clone(), (0.0, 1.0));
         assert!(!tree.has_tree());
         let ctx = LightSampleContext::new(Vec3::ZERO, Vec3::Y);
         for k in 0..100 {
