@@ -470,6 +470,10 @@ def test_the_summary_counts_rendering_apart_from_building(tmp_path):
     build_s = float(line.split("build ")[1].split("s,")[0])
     assert render_s == pytest.approx(float(header["tide:renderSeconds"]), abs=0.006), line
     assert build_s == pytest.approx(float(header["tide:buildSeconds"]), abs=0.006), line
+    # however short the render, its rate is measured (a time kept to the millisecond read 0
+    # for renders under half of one, and so a rate of 0 samples/s)
+    sps = float(line.rsplit(", ", 1)[1].split(" samples/s")[0])
+    assert sps > 0 and float(header["tide:renderSeconds"]) > 0, line
 
 
 def test_the_prim_id_aov_comes_with_a_manifest_of_paths(tmp_path):

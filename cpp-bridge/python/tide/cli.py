@@ -382,7 +382,7 @@ def _header(args, reader, spp, load_s, render_s, sps):
         "tide:frame": "%g" % reader.frame,
         "tide:spp": str(spp),
         "tide:loadSeconds": "%.3f" % load_s,
-        "tide:renderSeconds": "%.3f" % render_s,
+        "tide:renderSeconds": "%.6f" % render_s,
         "tide:samplesPerSecond": "%.0f" % sps,
         "tide:problems": str(len(reader.problems)),
     }
