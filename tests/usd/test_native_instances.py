@@ -30,8 +30,9 @@ def _instance(stage, path, of, translate=(0, 0, 0), rotate=0.0, scale=1.0):
 def _forest(stage):
     """Trees of branches of leaves, three levels of native instancing, with what makes
     instances differ: bindings on instance roots and above (one stronger than descendants), a
-    binding inside a prototype, a purpose, an invisible instance, per-instance colours, a
-    light inside a prototype."""
+    binding inside a prototype, a purpose, an invisible instance, per-instance colours (on
+    trees, and on branches within a bush's prototype), a light inside a prototype, a collection
+    binding."""
     camera(stage, pos=(0, 2, 40))
     settings(stage)
     looks = {name: preview_material(stage, "/Looks/" + name, color=c) for name, c in
@@ -50,12 +51,14 @@ def _forest(stage):
     _class(stage, "/Tree")
     for i in range(4):
         _instance(stage, "/Tree/B%d" % i, "/Branch", (0, i, 0), 90.0 * i, 0.8)
-    # a tree whose leaves inherit colours from outside their own instances (within the tree's)
+    # a bush whose leaves inherit colours from outside their own instances: one branch's own
+    # (within the bush's prototype), the other's from the bush
     _class(stage, "/Bush")
     for i in range(2):
         branch = _instance(stage, "/Bush/B%d" % i, "/Branch", (i, 0, 0), 10.0 * i, 0.5)
-        UsdGeom.PrimvarsAPI(branch).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
-                                                  UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.2 * i, 0.5, 0.5)])
+        if i == 0:
+            UsdGeom.PrimvarsAPI(branch).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                      UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.2, 0.5, 0.5)])
     UsdGeom.Cylinder.Define(stage, "/Tree/Trunk")
     _class(stage, "/Lamp")
     UsdLux.SphereLight.Define(stage, "/Lamp/Bulb").CreateRadiusAttr(0.2)
@@ -78,7 +81,9 @@ def _forest(stage):
         _instance(stage, "/World/Group/T%d" % i, "/Tree", (2.0 * i, 0, 0), 45.0 * i)
     for i in range(2):
         _instance(stage, "/World/Lamp%d" % i, "/Lamp", (0, 5, 3.0 * i))
-        _instance(stage, "/World/Bush%d" % i, "/Bush", (-3.0, 0, 2.0 * i))
+        bush = _instance(stage, "/World/Bush%d" % i, "/Bush", (-3.0, 0, 2.0 * i))
+        UsdGeom.PrimvarsAPI(bush).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray,
+                                                UsdGeom.Tokens.constant).Set([Gf.Vec3f(0.9, 0.1, 0.3 * i)])
     # a collection binding picks one leaf of one of two trees
     coll = UsdGeom.Xform.Define(stage, "/World/Picked").GetPrim()
     for i in range(2):
@@ -130,13 +135,14 @@ def test_instances_placed_from_the_first_like_them_match_every_instance_walked(s
     assert {"/Looks/Red", "/Looks/Blue", "/Looks/Green", ""} <= materials, materials
     # the instances alike were placed, not walked. Walking every one reads 11 drawn trees of
     # 25 gprims (4 branches of 3 leaves of 2, and a trunk), 2 lamp shades and 2 bushes of 12.
-    # Placing reads 5 gprims of the first tree (a branch's first leaf and its red one; the
-    # other leaf and branches are placed), 5 of each tree bound otherwise (blue, green
-    # stronger than descendants, green weaker: the group's blue trees are alike the blue one),
-    # all 25 of each coloured tree, the shades (each lamp is read on its own, for its light),
-    # the 12 gprims of each bush (2 branches whose leaves inherit their colours), and all of
-    # the trees under a collection binding.
-    assert (walked_every, walked_shared) == (11 * 25 + 2 + 2 * 12, 5 + 3 * 5 + 4 * 25 + 2 + 2 * 12)
+    # Placing reads 5 gprims of the first tree (a branch's first leaf and its red one; the other
+    # leaf and branches are placed), 5 of each tree bound otherwise (blue, green stronger than
+    # descendants, green weaker: the group's blue trees are alike the blue one), 5 of the
+    # first coloured tree (the other takes its own colour), 4 of the first bush (its branch
+    # coloured within it; its other branch is alike the coloured tree's, and the other bush
+    # takes its own colour), the shades (each lamp is read on its own, for its light), and all
+    # of the trees under a collection binding.
+    assert (walked_every, walked_shared) == (11 * 25 + 2 + 2 * 12, 5 * 5 + 4 + 2 + 2 * 25)
 
 
 def test_moving_instances_are_walked_each(stage, monkeypatch):

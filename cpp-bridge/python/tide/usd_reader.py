@@ -2239,19 +2239,34 @@ class Reader:
         grp = self._groups.setdefault(key, {"prim": prim, "root": root, "members": []})
         grp["members"].append(root)
         if self._recording:
-            if key[2] or not self._static(root):
-                # values inherited from outside, or a root moving within its instance: each
-                # instance read on its own
+            inherited = self._inherited_values(root, key[2])
+            if inherited is None or not self._static(root):
+                # values inherited from outside that cannot be read, or a root moving within
+                # its instance: each instance read on its own
                 self._unshared()
             else:
                 m = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
+                values = {n: [v] for n, v in inherited.items()}
                 for rec in self._recording:
-                    rec["entries"].append((key, [str(root.GetPath())], m.reshape(1, 4, 4)))
+                    rec["entries"].append((key, [str(root.GetPath())], m.reshape(1, 4, 4), values))
+
+    def _inherited_values(self, prim, names):
+        """{name: (the path of the prim holding the value `prim` inherits, the value as one
+        flat row)} of the constant primvars `names`; None if one of them holds no numbers."""
+        out = {}
+        for name in names:
+            q = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
+            owner = q.GetAttr().GetPrim().GetPath() if q else None
+            got = self._primvar_values(owner, q) if q else None
+            if got is None:
+                return None
+            out[name] = (str(owner), (got[0] if got[1] is None else got[0][got[1]]).reshape(-1))
+        return out
 
     def _unshared(self):
         """Notes that what the instances being recorded hold is read for each on its own (a
-        light, camera, skinned gprim, point instancer, values from outside the instance): their
-        likes are walked each, not placed from the first."""
+        light, camera, skinned gprim, point instancer, inherited values that cannot be read):
+        their likes are walked each, not placed from the first."""
         for rec in self._recording:
             rec["plain"] = False
 
@@ -2261,18 +2276,20 @@ class Reader:
         prototype and nothing of it is sent on its own: the first's members of each group are
         placed under `prim` by its transform (their transforms relative to the first's, times
         `prim`'s), at paths with `prim`'s in place of the first's, in the order a walk of
-        `prim` would add them. Instances are alike when they have the same prototype, purpose,
-        and the same material bindings and motion attributes authored on them and above
-        (content, not paths), none of them a collection binding or a primvar, and do not move
-        over the shutter. True when `prim` was read here (the walk then skips its children)."""
+        `prim` would add them, each with the constant primvars it inherits from `prim` or above
+        (`prim`'s) or from inside it (the first's member's). Instances are alike when they have
+        the same prototype, purpose, and the same material bindings, motion attributes and
+        primvar names authored on them and above (content, not paths), none of them a
+        collection binding, and do not move over the shutter. True when `prim` was read here
+        (the walk then skips its children)."""
         key = self._instance_key(prim) if SHARE_INSTANCES else None
         if key is None:
             return False
         rep = self._reps.get(key)
         if rep is False:
             return False
-        it.PruneChildren()
         if rep is None:
+            it.PruneChildren()
             # the first: walked as usual, what it adds to the groups recorded
             rec = {"entries": [], "plain": True}
             problems = len(self._pending)
@@ -2286,29 +2303,42 @@ class Reader:
             plain = rec["plain"] and len(self._pending) == problems
             self._reps[key] = self._relative(prim, rec["entries"]) if plain else False
             return True
+        # what the members inherit from this instance or above, in place of the first's
+        own = self._inherited_values(prim, sorted({n for gkey, _, _, _ in rep for n in gkey[2]}))
+        if own is None:
+            return False
+        it.PruneChildren()
         world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(prim))).reshape(4, 4)
         base = str(prim.GetPath())
-        for gkey, suffixes, rel in rep:
+        for gkey, suffixes, rel, kept in rep:
             paths = [base + s for s in suffixes]
             mats = rel @ world
-            self._groups[gkey]["members"].append((paths, mats))
+            values = {n: [own[n] if v is None else (base + v[0], v[1]) for v in vs] for n, vs in kept.items()}
+            self._groups[gkey]["members"].append((paths, mats, values))
             for rec in self._recording:
-                rec["entries"].append((gkey, paths, mats))
+                rec["entries"].append((gkey, paths, mats, values))
         return True
 
     def _relative(self, anchor, entries):
         """The members instance `anchor` added to each group (`entries`: (group, innermost
-        root paths, their world matrices)), relative to it: [(group, path suffixes, matrices
-        relative to the anchor)], each group's members in the order added."""
+        root paths, their world matrices, {primvar: what each inherits from outside its
+        innermost instance, as (the path holding it, the value)})), relative to it: [(group,
+        path suffixes, matrices relative to the anchor, {primvar: (the path holding it
+        relative to the anchor, the value) where a member inherits it from inside the anchor,
+        None where from the anchor or above})], each group's members in the order added."""
         world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(anchor))).reshape(4, 4)
         inverse = np.linalg.inv(world)
-        base = len(str(anchor.GetPath()))
+        base = str(anchor.GetPath())
+        inside = base + "/"
         by_group = {}
-        for gkey, paths, mats in entries:
-            g = by_group.setdefault(gkey, ([], []))
-            g[0].extend(p[base:] for p in paths)
+        for gkey, paths, mats, values in entries:
+            g = by_group.setdefault(gkey, ([], [], {n: [] for n in values}))
+            g[0].extend(p[len(base):] for p in paths)
             g[1].append(mats)
-        return [(gkey, suffixes, np.concatenate(mats) @ inverse) for gkey, (suffixes, mats) in by_group.items()]
+            for n, vs in values.items():
+                g[2][n].extend((v[0][len(base):], v[1]) if v[0].startswith(inside) else None for v in vs)
+        return [(gkey, suffixes, np.concatenate(mats) @ inverse, kept)
+                for gkey, (suffixes, mats, kept) in by_group.items()]
 
     def _instance_key(self, prim):
         """What makes native instance `prim` alike others (see _instance_shortcut); None when
@@ -2322,9 +2352,9 @@ class Reader:
         return (str(proto.GetPath()), str(UsdGeom.Imageable(prim).ComputePurpose()), sig)
 
     def _outer_signature(self, prim):
-        """The material bindings (targets, strength) and motion attributes authored on `prim`
-        and its ancestors, as content; None if one of them authors a collection binding or a
-        primvar (their effect depends on where an instance lies)."""
+        """The material bindings (targets, strength), motion attributes and the names of the
+        primvars authored on `prim` and its ancestors, as content; None if one of them authors
+        a collection binding (its effect depends on where an instance lies)."""
         path = str(prim.GetPath())
         if path in self._signatures:
             return self._signatures[path]
@@ -2344,9 +2374,9 @@ class Reader:
                 for attr in prim.GetAuthoredAttributes():
                     name = attr.GetName()
                     if name.startswith("primvars:"):
-                        sig = None
-                        break
-                    if name.startswith("motion:"):
+                        # which primvars, not their values: each instance's are read apart
+                        own.append((name, "primvar"))
+                    elif name.startswith("motion:"):
                         own.append((name, repr(attr.Get(self._time(0)))))
             if sig is not None and own:
                 sig = sig + (tuple(sorted(own)),)
@@ -2381,9 +2411,9 @@ class Reader:
 
     def _instance_group(self, prim, root, dpath, material, names, members):
         """The state of a prototype's gprim drawn at every instance root of `members` (each an
-        instance root prim, or a block (root paths, their world matrices) of instances placed
-        from another like them, which stand still), which inherit the constant primvars
-        `names` from outside the prototype (a group with blocks inherits none)."""
+        instance root prim, or a block (root paths, their world matrices, {primvar: (path
+        holding it, value) of each}) of instances placed from another like them, which stand
+        still), which inherit the constant primvars `names` from outside the prototype."""
         roots = [m for m in members if not isinstance(m, tuple)]
         def rel(t):
             cache = UsdGeom.XformCache(t)
@@ -2404,7 +2434,7 @@ class Reader:
             else:
                 paths.append(str(m.GetPath().AppendPath(inner)))
         st.set("instancePaths", ("paths", tuple(paths)))
-        self._inherited_by_instances(st, names, roots)
+        self._inherited_by_instances(st, names, members)
         # each instance root's world matrix over the shutter (motion of the instances
         # themselves; the prototype's own motion is in `transform`)
         offsets = sorted({o for r in roots for o in self._motion_offsets([r])}) or [0.0]
@@ -2569,20 +2599,25 @@ class Reader:
             out[name] = (rows, rows.shape[1])
         return out
 
-    def _inherited_by_instances(self, st, names, roots):
+    def _inherited_by_instances(self, st, names, members):
         """The constant primvars `names` that native instances inherit from their instance
-        prims (or above), where they differ between the instances: one value per instance."""
-        if len(roots) < 2:
+        prims (or above), where they differ between the instances: one value per instance.
+        `members`: instance root prims, and blocks of placed instances carrying their values."""
+        count = sum(len(m[0]) if isinstance(m, tuple) else 1 for m in members)
+        if count < 2:
             return
         for name in names:
             vals = []
-            for r in roots:
-                q = UsdGeom.PrimvarsAPI(r).FindPrimvarWithInheritance(name)
+            for m in members:
+                if isinstance(m, tuple):
+                    vals.extend(v for _, v in m[2][name])
+                    continue
+                q = UsdGeom.PrimvarsAPI(m).FindPrimvarWithInheritance(name)
                 got = self._primvar_values(q.GetAttr().GetPrim().GetPath(), q) if q else None
                 if got is None:
                     break
                 vals.append((got[0] if got[1] is None else got[0][got[1]]).reshape(-1))
-            if len(vals) != len(roots) or len({a.size for a in vals}) != 1 or \
+            if len(vals) != count or len({a.size for a in vals}) != 1 or \
                     all(np.array_equal(a, vals[0]) for a in vals):
                 continue
             _set_instance_primvar(st, str(name), np.concatenate(vals), vals[0].size)
