@@ -647,7 +647,7 @@ impl Renderer {
         let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:") && !k.starts_with("tide:adaptive:")).cloned().collect();
         h.push(("tide:spp".into(), self.film.spp.to_string()));
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
-        h.push(("tide:renderSeconds".into(), format!("{:.3}", self.stats.render_seconds)));
+        h.push(("tide:renderSeconds".into(), format!("{:.6}", self.stats.render_seconds)));
         h.push(("tide:buildSeconds".into(), format!("{:.3}", self.stats.build_seconds)));
         h.push(("tide:integrator".into(), self.settings.integrator.token().into()));
         h.push(("tide:pixelFilter".into(), self.settings.pixel_filter.kind.token().into()));
