@@ -244,7 +244,7 @@ fn irradiance(world: &World, instance: u32, eta: f32, mut pts: Vec<IrradiancePoi
                 (sobol_u32(j, 0) as f32 * (1.0 / 4_294_967_296.0) + shift[0]).fract(),
                 (sobol_u32(j, 1) as f32 * (1.0 / 4_294_967_296.0) + shift[1]).fract(),
             );
-            let Some((li, pmf)) = world.light_tree.by_weight().sample(ul).filter(|&(li, _)| world.illuminates(li, instance)) else { continue };
+            let Some((li, pmf)) = world.light_tree.sample(&ctx, ul).filter(|&(li, _)| world.illuminates(li, instance)) else { continue };
             // one shadow ray per light sample (the direction of a sample does not depend on
             // the wavelengths unless the light's sampling does; then each group traces its own)
             let mut shadow: Option<(Vec3, bool)> = None;
@@ -363,8 +363,8 @@ fn single_scatter(world: &World, body: &DiffusionBody, s: &SurfaceHit, wi: Vec3,
     let (sa, ss) = coefficients(m, s.p, lambda);
     let DistanceSample::Scatter { t, weight } = sample_distance_spectral(sa, ss, far, u[0], lambda) else { return SampledSpectrum::ZERO };
     let p = o + wi * t;
-    let Some((li, pmf)) = world.light_tree.by_weight().sample(u[1]).filter(|&(li, _)| world.illuminates(li, body.instance)) else { return SampledSpectrum::ZERO };
     let ctx = LightSampleContext::new(p, Vec3::ZERO);
+    let Some((li, pmf)) = world.light_tree.sample(&ctx, u[1]).filter(|&(li, _)| world.illuminates(li, body.instance)) else { return SampledSpectrum::ZERO };
     let Some(ls) = world.lights[li].sample_li(&ctx, glam::Vec2::new(u[2], u[3]), lambda) else { return SampledSpectrum::ZERO };
     if !(ls.pdf > 0.0) || ls.l.is_black() {
         return SampledSpectrum::ZERO;

@@ -409,6 +409,54 @@ fn cached_irradiance_is_the_fresnel_transmitted_sky_irradiance() {
     assert!(d.dot(-Vec3::Y) > 0.99, "{d:?}");
 }
 
+/// 24 point lights over the top face (the many-light tree picks among them by what each gives
+/// a point; the cache's estimate weighs a pick by its probability): the irradiance summed over
+/// the top's points is that of Σ I(λ) T(cos θ) cos θ / d² over the lights, within 1 %.
+#[test]
+fn cached_irradiance_from_many_point_lights_is_their_fresnel_transmitted_sum() {
+    use crate::scene::*;
+    let mut s = diffusion_box(Vec3::new(-1.0, -0.5, -1.5), Vec3::new(1.0, 0.0, 1.5), 10.0);
+    let mut rng = TestRng::new(11);
+    for k in 0..24 {
+        let at = Vec3::new(rng.next_f32() * 6.0 - 3.0, 0.5 + rng.next_f32() * 2.5, rng.next_f32() * 6.0 - 3.0);
+        let intensity = 1.0 + 20.0 * rng.next_f32();
+        s.lights.push(LightDesc { name: format!("/bulb{k}"), shape: LightShape::Sphere { radius: 0.1, treat_as_point: true }, transform: glam::Mat4::from_translation(at), color: [1.0; 3], intensity, exposure: 0.0, normalize: false, color_temperature: None, visible_to_camera: true, light_link: None, shadow_link: None, shadow: Default::default(), shaping: None, response: Default::default(), motion: Vec::new(), portals: Vec::new() });
+    }
+    let w = crate::testing::world_of(&s);
+    assert!(w.light_tree.has_tree());
+    let top: Vec<&IrradiancePoint> = w.diffusion.bodies[0].tree.points().iter().filter(|q| q.p.y.abs() < 1e-5).collect();
+    assert!(top.len() > 500);
+    for g in 0..N_BINS / 4 {
+        let lambda = SampledWavelengths { lambda: std::array::from_fn(|k| bin_lambda(g * 4 + k)), pdf: [1.0; 4] };
+        let (mut got, mut expect, mut spread) = ([0.0f64; 4], [0.0f64; 4], 0.0f64);
+        for q in &top {
+            let mut here = [0.0f64; 4];
+            for light in &w.lights {
+                let crate::light::Light::Point(pl) = light else { panic!("point lights only") };
+                let d = pl.p - q.p;
+                let cos = (d.y / d.length()) as f64;
+                let t = 1.0 - fresnel_dielectric(cos as f32, 1.333) as f64;
+                let i = pl.emission.sample(&lambda);
+                for k in 0..4 {
+                    here[k] += i[k] as f64 * t * cos / d.length_squared() as f64;
+                }
+            }
+            for k in 0..4 {
+                got[k] += q.e[g * 4 + k] as f64;
+                expect[k] += here[k];
+                spread += (q.e[g * 4 + k] as f64 / here[k] - 1.0).powi(2);
+            }
+        }
+        // each point's 64 picks follow what each light gives it: a per-point spread of 6.6 %
+        // measured (10.9 % picking by power alone)
+        let rms = (spread / (4 * top.len()) as f64).sqrt();
+        assert!(rms < 0.08, "bins {}..{}: per-point spread {rms}", g * 4, g * 4 + 3);
+        for k in 0..4 {
+            assert!((got[k] / expect[k] - 1.0).abs() < 0.01, "bin {}: {} vs {}", g * 4 + k, got[k], expect[k]);
+        }
+    }
+}
+
 /// π/norm · ∫ eval dA over the plane for light entering at the origin along `w12` (y up):
 /// the model's flux leaving per unit flux entering. Polar grid: log r × uniform φ.
 fn model_flux_2d(p: &DipoleParams, w12: Vec3) -> f64 {

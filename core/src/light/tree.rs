@@ -225,7 +225,8 @@ impl LightTree {
         tree
     }
 
-    /// Selection by weight alone over every light (what the diffusion mode's irradiance uses).
+    /// Selection by weight alone over every light (what the tree falls back to below
+    /// MIN_TREE_LIGHTS lights with a place).
     pub fn by_weight(&self) -> &LightSampler {
         &self.all
     }
