@@ -502,7 +502,7 @@ impl Delegate {
     /// if none), which a UsdUVTexture's `useMetadata` wrap follows. 2-channel (grey, alpha)
     /// images are expanded to RGBA. Bad sizes → false + problem.
     pub fn add_texture(&mut self, asset: &str, width: u32, height: u32, channels: u32, pixels: Vec<f32>, is_srgb: bool, wrapmodes: &str) -> bool {
-        let pixels = if channels == 2 && pixels.len() % 2 == 0 { pixels.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect() } else { pixels };
+        let pixels = grey_alpha_as_rgba(channels, pixels);
         self.add_texels(asset, width, height, channels, pixels.into(), is_srgb, wrapmodes)
     }
 
@@ -510,7 +510,7 @@ impl Delegate {
     /// are held as they are (a quarter of the floats' memory) and shared by the materials
     /// decoding them by a transfer curve alone.
     pub fn add_texture_u8(&mut self, asset: &str, width: u32, height: u32, channels: u32, codes: Vec<u8>, is_srgb: bool, wrapmodes: &str) -> bool {
-        let codes = if channels == 2 && codes.len() % 2 == 0 { codes.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect() } else { codes };
+        let codes = grey_alpha_as_rgba(channels, codes);
         self.add_texels(asset, width, height, channels, Texels::unit_codes(Arc::new(codes)), is_srgb, wrapmodes)
     }
 
@@ -2768,6 +2768,16 @@ fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels:
     // a dome's mirrored-ball, angular or cross image, as the lat-long it renders from
     let tex = if key.dome == DomeFormat::LatLong { tex } else { tide_core::light::dome_format::to_latlong(&tex, key.dome).ok()? };
     Some(tex)
+}
+
+/// A 2-channel (grey, alpha) image's values as RGBA (grey in each colour channel); others,
+/// and a 2-channel one of an odd count (refused by its size), as they are.
+fn grey_alpha_as_rgba<T: Copy>(channels: u32, values: Vec<T>) -> Vec<T> {
+    if channels == 2 && values.len() % 2 == 0 {
+        values.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect()
+    } else {
+        values
+    }
 }
 
 /// Float texels of `ch` channels decoded by `curve`, then taken from `primaries` to Rec.709.

@@ -98,11 +98,11 @@ pub(super) fn extent_over(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, V
 
 /// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
 fn light_bounds(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
-    let hittable = |l: &Light| matches!(l, Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_));
-    match light {
-        Light::Moving(m) if hittable(&m.inner) => extent_over(light, shutter),
-        l if hittable(l) => extent_over(light, shutter),
-        _ => None,
+    let hittable = matches!(light.inner(), Light::Sphere(_) | Light::Rect(_) | Light::Disk(_) | Light::Cylinder(_));
+    if hittable {
+        extent_over(light, shutter)
+    } else {
+        None
     }
 }
 

@@ -98,14 +98,6 @@ impl Texels {
         }
     }
 
-    /// The float values where held as floats.
-    pub fn as_f32(&self) -> Option<&Arc<Vec<f32>>> {
-        match self {
-            Texels::F32(v) => Some(v),
-            Texels::U8 { .. } => None,
-        }
-    }
-
     /// Whether both are the same shared data (not merely equal values).
     pub fn same(&self, other: &Texels) -> bool {
         match (self, other) {
@@ -120,14 +112,6 @@ impl Texels {
         match self {
             Texels::F32(v) => Arc::as_ptr(v) as usize,
             Texels::U8 { codes, .. } => Arc::as_ptr(codes) as usize,
-        }
-    }
-
-    /// Bytes held (shared data counted whole).
-    pub fn bytes(&self) -> usize {
-        match self {
-            Texels::F32(v) => 4 * v.len(),
-            Texels::U8 { codes, .. } => codes.len() + std::mem::size_of::<CodeValues>(),
         }
     }
 

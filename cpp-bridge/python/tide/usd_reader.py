@@ -803,12 +803,12 @@ class Reader:
             return self._sync(None)
         self._groups = {}
         # native instances read from the first like them (see _instance_shortcut)
-        self._reps, self._recording, self._signatures = {}, [], {}
+        self._reps, self._recording, self._signatures, self._xforms = {}, [], {}, None
         for root in roots:
             prim = self.stage.GetPrimAtPath(root)
             if prim and prim.IsActive():
                 self._walk(prim)
-        self._reps, self._signatures = {}, {}
+        self._reps, self._signatures, self._xforms = {}, {}, None
         if not full and self._groups:
             return self._sync(None)
         if full:
@@ -2245,10 +2245,10 @@ class Reader:
                 # its instance: each instance read on its own
                 self._unshared()
             else:
-                m = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(root)))
+                m = self._still_world(root)
                 values = {n: [v] for n, v in inherited.items()}
                 for rec in self._recording:
-                    rec["entries"].append((key, [str(root.GetPath())], m.reshape(1, 4, 4), values))
+                    rec["entries"].append((key, [str(root.GetPath())], m[None], values))
 
     def _inherited_values(self, prim, names):
         """{name: (the path of the prim holding the value `prim` inherits, the value as one
@@ -2308,7 +2308,7 @@ class Reader:
         if own is None:
             return False
         it.PruneChildren()
-        world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(prim))).reshape(4, 4)
+        world = self._still_world(prim)
         base = str(prim.GetPath())
         for gkey, suffixes, rel, kept in rep:
             paths = [base + s for s in suffixes]
@@ -2326,7 +2326,7 @@ class Reader:
         path suffixes, matrices relative to the anchor, {primvar: (the path holding it
         relative to the anchor, the value) where a member inherits it from inside the anchor,
         None where from the anchor or above})], each group's members in the order added."""
-        world = np.asarray(_mat_key(UsdGeom.XformCache(self._time(0)).GetLocalToWorldTransform(anchor))).reshape(4, 4)
+        world = self._still_world(anchor)
         inverse = np.linalg.inv(world)
         base = str(anchor.GetPath())
         inside = base + "/"
@@ -2339,6 +2339,13 @@ class Reader:
                 g[2][n].extend((v[0][len(base):], v[1]) if v[0].startswith(inside) else None for v in vs)
         return [(gkey, suffixes, np.concatenate(mats) @ inverse, kept)
                 for gkey, (suffixes, mats, kept) in by_group.items()]
+
+    def _still_world(self, prim):
+        """The world matrix (4 x 4, row vectors) of a prim that holds still over the shutter,
+        from one transform cache for the sync."""
+        if self._xforms is None:
+            self._xforms = UsdGeom.XformCache(self._time(0))
+        return np.asarray(_mat_key(self._xforms.GetLocalToWorldTransform(prim))).reshape(4, 4)
 
     def _instance_key(self, prim):
         """What makes native instance `prim` alike others (see _instance_shortcut); None when
@@ -2612,11 +2619,10 @@ class Reader:
                 if isinstance(m, tuple):
                     vals.extend(v for _, v in m[2][name])
                     continue
-                q = UsdGeom.PrimvarsAPI(m).FindPrimvarWithInheritance(name)
-                got = self._primvar_values(q.GetAttr().GetPrim().GetPath(), q) if q else None
+                got = self._inherited_values(m, [name])
                 if got is None:
                     break
-                vals.append((got[0] if got[1] is None else got[0][got[1]]).reshape(-1))
+                vals.append(got[name][1])
             if len(vals) != count or len({a.size for a in vals}) != 1 or \
                     all(np.array_equal(a, vals[0]) for a in vals):
                 continue
