@@ -235,6 +235,67 @@ def test_time_sampled_positions_move_the_instances(stage, delegate):
     assert np.allclose(got[1][1][0][3, :3], [2, 0, -10])
 
 
+# A stage with held interpolation keeps each value until its next sample: the reader sends a
+# sample HELD_STEP of the shutter before each one inside it, still at the value before.
+def _held_step(lo, hi):
+    from tide.usd_reader import HELD_STEP
+    return HELD_STEP * (hi - lo)
+
+
+def test_a_held_stage_steps_a_transform_at_its_sample(stage, delegate):
+    _shutter_cam(stage, 0.0, 1.0)
+    s = UsdGeom.Sphere.Define(stage, "/Ball")
+    op = s.AddTranslateOp()
+    op.Set(Gf.Vec3d(-1, 0, -5), 0)
+    op.Set(Gf.Vec3d(1, 0, -5), 0.6)
+    stage.SetInterpolationType(Usd.InterpolationTypeHeld)
+    load(stage, delegate, frame=0)
+    sent = delegate.samples("/Ball", "transform")
+    d = _held_step(0.0, 1.0)
+    assert sorted(sent) == [0.0, 0.6 - d, 0.6, 1.0], sorted(sent)
+    for t, x in ((0.0, -1), (0.6 - d, -1), (0.6, 1), (1.0, 1)):
+        assert np.allclose(matrix(sent[t])[3, :3], [x, 0, -5]), (t, matrix(sent[t]))
+
+
+def test_a_held_stage_steps_points_and_instances_and_not_at_the_shutter_open(stage, delegate):
+    _shutter_cam(stage, -0.25, 0.5)
+    m = UsdGeom.Mesh.Define(stage, "/Quad")
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    quad = np.array([(0, 0, -5), (1, 0, -5), (1, 1, -5), (0, 1, -5)], dtype=float)
+    # samples at the shutter's open (no step there) and inside it
+    for t, dx in ((-0.25, 0.0), (0.25, 2.0)):
+        m.GetPointsAttr().Set(_vec3s(quad + (dx, 0, 0)), t)
+    inst = _instancer(stage)
+    inst.GetPositionsAttr().Set([(0, 0, -10), (0, 3, -10)], -1)
+    inst.GetPositionsAttr().Set([(2, 0, -10), (0, 3, -10)], 0.1)
+    stage.SetInterpolationType(Usd.InterpolationTypeHeld)
+    load(stage, delegate, frame=0)
+    d = _held_step(-0.25, 0.5)
+    pts = delegate.samples("/Quad", "points")
+    assert sorted(pts) == [-0.25, 0.25 - d, 0.25, 0.5], sorted(pts)
+    for t, dx in ((-0.25, 0), (0.25 - d, 0), (0.25, 2), (0.5, 2)):
+        assert np.allclose(floats(pts[t]), quad + (dx, 0, 0)), t
+    got = _instance_samples(delegate, "/PI/proto0_Ball")
+    assert [t for t, _ in got] == [-0.25, 0.1 - d, 0.1, 0.5]
+    assert [m[0][3, 0] for _, m in got] == [0, 0, 2, 2]
+
+
+def test_setting_the_stage_interpolation_resends_the_samples(stage, delegate):
+    _shutter_cam(stage, 0.0, 1.0)
+    op = UsdGeom.Sphere.Define(stage, "/Ball").AddTranslateOp()
+    op.Set(Gf.Vec3d(-1, 0, -5), 0)
+    op.Set(Gf.Vec3d(1, 0, -5), 0.5)
+    reader, _ = load(stage, delegate, frame=0)
+    assert sorted(delegate.samples("/Ball", "transform")) == [0.0, 0.5, 1.0]
+    stage.SetInterpolationType(Usd.InterpolationTypeHeld)
+    reader.update()
+    assert len(delegate.samples("/Ball", "transform")) == 4
+    stage.SetInterpolationType(Usd.InterpolationTypeLinear)
+    reader.update()
+    assert sorted(delegate.samples("/Ball", "transform")) == [0.0, 0.5, 1.0]
+
+
 def test_native_instances_with_moving_roots_get_motion_samples(stage, delegate):
     _shutter_cam(stage, 0.0, 1.0)
     proto = stage.CreateClassPrim("/Proto")
@@ -414,6 +475,38 @@ def test_point_instancer_velocity_streaks_by_v_times_shutter(renderer, stage):
     inst.CreateVelocitiesAttr([(v, 0, 0)])
     assert _streak(renderer, stage) == pytest.approx(v / TCPS * _px_per_unit_at(-10.0, W),
                                                      abs=1.5)
+
+
+def test_a_held_jump_shows_the_ball_at_both_places_by_the_time_it_spent_there(renderer, stage):
+    # a black ball held at x = -1 until 0.6 of the shutter, then at x = +1: each place is
+    # covered for its share of the exposure (0.6 and 0.4) and nothing lies between them
+    black = _scene(stage)
+    ball = UsdGeom.Sphere.Define(stage, "/Ball")
+    ball.CreateRadiusAttr(0.25)
+    bind(ball.GetPrim(), black)
+    op = ball.AddTranslateOp()
+    op.Set(Gf.Vec3d(-1, 0, -10), 0)
+    op.Set(Gf.Vec3d(1, 0, -10), 0.6)
+    stage.SetInterpolationType(Usd.InterpolationTypeHeld)
+    settings(stage, res=(W, H), samples=256)
+    d = darkness(render(renderer, stage, frame=0)["color"])
+    rows = d[H // 2 - 1:H // 2 + 1]
+    px = _px_per_unit_at(-10.0, W)
+    at = lambda x: rows[:, int(W / 2 + x * px) - 1:int(W / 2 + x * px) + 1].mean()  # noqa: E731
+    # 4 pixels of 256 samples each: coverage noise sqrt(0.24 / 1024) ~ 0.015
+    assert at(-1) == pytest.approx(0.6, abs=0.06)
+    assert at(1) == pytest.approx(0.4, abs=0.06)
+    assert at(0) < 0.02
+    # the whole ball's darkness is kept: the two images sum to one still ball's
+    still = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(still, UsdGeom.Tokens.y)
+    b = UsdGeom.Sphere.Define(still, "/Ball")
+    b.CreateRadiusAttr(0.25)
+    bind(b.GetPrim(), _scene(still))
+    b.AddTranslateOp().Set(Gf.Vec3d(-1, 0, -10))
+    settings(still, res=(W, H), samples=256)
+    total = darkness(render(renderer, still, frame=0)["color"]).sum()
+    assert d.sum() == pytest.approx(total, rel=0.05)
 
 
 def test_cube_subsets_show_their_colours_on_their_faces(renderer, stage):

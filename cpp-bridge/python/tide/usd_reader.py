@@ -537,6 +537,11 @@ class _PrimState:
 # walks every instance, the reference the shortcut is checked against.
 SHARE_INSTANCES = True
 
+# On a stage with held interpolation a value jumps at each time sample: the reader also samples
+# this fraction of the shutter before each one, so that the renderer's linear interpolation over
+# the shutter is a step (a ramp over 1/4096 of the exposure).
+HELD_STEP = 2.0 ** -12
+
 
 def _mat_key(m):
     return tuple(float(m[i][j]) for i in range(4) for j in range(4))
@@ -626,7 +631,8 @@ class Reader:
         changed, self._changed = self._changed, []
         # texture and VDB files rewritten on disk are read again (no USD edit tells of them)
         reread = self._reread_files()
-        if not changed:
+        # a stage's interpolation type is set at run time, with no notice
+        if not changed and self._stage_held() == self._held:
             return self.commit() if reread else []
         roots = self._roots_for(changed)
         if self.options.frame is None and self._initial_frame() != self.frame:
@@ -751,6 +757,11 @@ class Reader:
         return out
 
     # -- sync -----------------------------------------------------------------------------
+    def _stage_held(self):
+        """Whether the stage holds values between time samples (UsdStage's interpolation type
+        held) rather than interpolating them linearly."""
+        return self.stage.GetInterpolationType() == Usd.InterpolationTypeHeld
+
     def _initial_frame(self):
         if self.options.frame is not None:
             return float(self.options.frame)
@@ -793,13 +804,15 @@ class Reader:
         self._desired = desired
         self._skinning = skel.Skinning(self.stage, self.problem)
         placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None),
-                  getattr(self, "_binding_purposes", None), getattr(self, "_purposes", None))
+                  getattr(self, "_binding_purposes", None), getattr(self, "_purposes", None),
+                  getattr(self, "_held", None))
+        self._held = self._stage_held()
         self._eval_settings()
         if not full and placed != (self._motion, self._shutter, self._binding_purposes,
-                                   self._purposes):
-            # the shutter (or motion blur) changed: every prim's samples over it are taken
-            # anew; other binding purposes or included purposes: every prim is read again
-            # (prims of a purpose newly included were never read)
+                                   self._purposes, self._held):
+            # the shutter (or motion blur, or the stage's interpolation) changed: every prim's
+            # samples over it are taken anew; other binding purposes or included purposes:
+            # every prim is read again (prims of a purpose newly included were never read)
             return self._sync(None)
         self._groups = {}
         # native instances read from the first like them (see _instance_shortcut)
@@ -1033,9 +1046,17 @@ class Reader:
 
     def _shutter_offsets(self, times):
         """The shutter's ends and the offsets of scene `times` (samples within `_window()`),
-        sorted: where a moving prim is sampled."""
+        sorted: where a moving prim is sampled. On a stage with held interpolation each sample
+        inside the shutter also gets an offset HELD_STEP of the shutter before it, where the
+        value is still the one before: the renderer's interpolation between the two makes
+        the jump."""
         lo, hi = self._shutter
-        return sorted({lo, hi} | {self._offset(t) for t in times})
+        authored = {self._offset(t) for t in times}
+        offs = {lo, hi} | authored
+        if self._held:
+            step = HELD_STEP * (hi - lo)
+            offs |= {o - step for o in authored if lo + step < o <= hi}
+        return sorted(offs)
 
     def _time_fn(self):
         """`_time` with the blurScale of the prim being read kept, for functions called after
@@ -1064,6 +1085,11 @@ class Reader:
         """Offsets (frames) at which to sample transforms: shutter ends + authored samples."""
         if not self._moving:
             return [0.0]
+        return self._shutter_offsets(self._xform_times(prims))
+
+    def _xform_times(self, prims):
+        """The scene times within `_window()` of the transform samples of `prims` and their
+        ancestors."""
         interval = self._window()
         times = set()
         for p in prims:
@@ -1072,7 +1098,7 @@ class Reader:
                 times.update(x.GetTimeSamplesInInterval(interval))
                 parent = x.GetPrim().GetParent()
                 x = UsdGeom.Xformable(parent) if parent else None
-        return self._shutter_offsets(times)
+        return times
 
     def _xform_samples(self, fn, prims):
         """[(offset|None, matrix value)] of fn(time): one sample unless it moves. Between two
@@ -1082,7 +1108,8 @@ class Reader:
         whose ends agree) the interval is halved, down to 1/32 of it."""
         offsets = self._motion_offsets(prims)
         mats = [(o, fn(self._time(o))) for o in offsets]
-        if len(mats) > 1:
+        # held values keep still between their samples: nothing to follow there
+        if len(mats) > 1 and not self._held:
             refined = [mats[0]]
             for (a, ma), (b, mb) in zip(mats, mats[1:]):
                 refined.extend(self._between(fn, a, ma, b, mb, 5))
@@ -1492,7 +1519,8 @@ class Reader:
         offsets = [0.0]
         if self._moving:
             offsets = self._shutter_offsets(target.time_samples(self._window()))
-            offsets = target.turning_offsets(offsets, self._time)
+            if not self._held:
+                offsets = target.turning_offsets(offsets, self._time)
         posed = target.compute([self._time(o) for o in offsets])
         if posed is None:
             return
@@ -2697,17 +2725,18 @@ class Reader:
         if not self._moving or not n:
             return [o for o, _ in still], [m for _, m in still], at
         lo, hi = self._shutter
-        offs = set(self._motion_offsets([prim]))
         interval = self._window()
+        times = []
         stepped = False
         for name in ("positions", "orientations", "orientationsf", "scales", "velocities",
                      "angularVelocities", "accelerations"):
             a = prim.GetAttribute(name)
             if not a or not a.HasAuthoredValue():
                 continue
-            offs.update(self._offset(x) for x in a.GetTimeSamplesInInterval(interval))
+            times.extend(a.GetTimeSamplesInInterval(interval))
             if name in ("angularVelocities", "accelerations"):
                 stepped = True
+        offs = set(self._shutter_offsets(self._xform_times([prim]).union(times)))
         if stepped:
             # at least 4 steps (a spin's arc, a parabola within 1/16 of its sag), more where
             # motion:nonlinearSampleCount asks for more samples
