@@ -6,7 +6,7 @@ use glam::Vec2;
 
 #[path = "texture/texels.rs"]
 mod texels;
-pub use texels::{CodeValues, Texels};
+pub use texels::{half_to_f32, CodeValues, CodeValues16, Texels, CODES16};
 
 #[inline]
 fn wrap_coord(i: i64, n: i64, wrap: Wrap) -> Option<i64> {
@@ -229,25 +229,32 @@ mod tests {
         assert_eq!(lookup_rgb(&tb, &lookup(), Vec2::new(1.1, 0.5)), [0.0, 0.0, 0.0]);
     }
 
-    /// Texels held as 8-bit codes are read as the values their codes stand for, per channel,
-    /// by every filter and wrap mode and for 1 to 4 channels.
+    /// Texels held as 8- or 16-bit codes are read as the values their codes stand for, per
+    /// channel, by every filter and wrap mode and for 1 to 4 channels.
     #[test]
-    fn eight_bit_texels_read_as_their_code_values() {
+    fn coded_texels_read_as_their_code_values() {
         let mut rng = crate::testing::chi2::TestRng::new(7);
-        for channels in 1..=4u32 {
+        for (channels, sixteen) in (1..=4u32).flat_map(|c| [(c, false), (c, true)]) {
             let (w, h) = (5u32, 3u32);
-            let codes: Vec<u8> = (0..w * h * channels).map(|_| (rng.next_u64() & 255) as u8).collect();
+            let codes: Vec<u16> = (0..w * h * channels).map(|_| (rng.next_u64() & if sixteen { 65535 } else { 255 }) as u16).collect();
             // each channel its own curve, so a code read through another channel's would show
-            let values: CodeValues = std::array::from_fn(|c| std::array::from_fn(|b| (b as f32 / 255.0).powf(1.0 + c as f32)));
-            let eight = Texels::U8 { codes: std::sync::Arc::new(codes), values: std::sync::Arc::new(values) };
-            let float = Texels::from(eight.to_f32(channels as usize));
+            let coded = if sixteen {
+                let values = (0..4 * CODES16).map(|i| ((i % CODES16) as f32 / 65535.0).powf(1.0 + (i / CODES16) as f32)).collect();
+                Texels::U16 { codes: std::sync::Arc::new(codes), values: std::sync::Arc::new(values) }
+            } else {
+                let values: CodeValues = std::array::from_fn(|c| std::array::from_fn(|b| (b as f32 / 255.0).powf(1.0 + c as f32)));
+                Texels::U8 { codes: std::sync::Arc::new(codes.iter().map(|&b| b as u8).collect()), values: std::sync::Arc::new(values) }
+            };
+            let float = Texels::from(coded.to_f32(channels as usize));
+            assert!((0..float.len()).any(|i| float.value(i, channels as usize) != coded.to_f32(1)[i]) == (channels > 1));
+            let eight = coded;
             for filter in [Filter::Linear, Filter::Closest, Filter::Cubic] {
                 for wrap in [Wrap::Repeat, Wrap::Clamp, Wrap::Mirror, Wrap::Black] {
                     let t = |pixels: &Texels| TextureDesc { name: "t".into(), width: w, height: h, channels, pixels: pixels.clone(), wrap_s: wrap, wrap_t: wrap, filter };
                     let (a, b) = ([t(&eight)], [t(&float)]);
                     for _ in 0..200 {
                         let st = Vec2::new(rng.next_f32() * 3.0 - 1.0, rng.next_f32() * 3.0 - 1.0);
-                        assert_eq!(lookup_rgba(&a, &lookup(), st), lookup_rgba(&b, &lookup(), st), "{channels} channels {filter:?} {wrap:?} {st}");
+                        assert_eq!(lookup_rgba(&a, &lookup(), st), lookup_rgba(&b, &lookup(), st), "{channels} channels, 16-bit {sixteen}, {filter:?} {wrap:?} {st}");
                     }
                 }
             }

@@ -154,12 +154,9 @@ bool SendTexture(RenderParam& param, const std::string& asset, std::string* erro
         TextureImage image;
         ok = cache.Read(asset, &image, error);
         const auto w = uint32_t(image.width), h = uint32_t(image.height), c = uint32_t(image.channels);
-        if (ok && !image.bytes.empty()) {
-            param.GetDelegate().add_texture_u8(Str(asset), w, h, c, SliceOf(image.bytes), image.isSrgb,
-                                               Str(image.wrapmodes));
-        } else if (ok) {
-            param.GetDelegate().add_texture(Str(asset), w, h, c, SliceOf(image.pixels), image.isSrgb,
-                                            Str(image.wrapmodes));
+        if (ok) {
+            param.GetDelegate().add_texels(Str(asset), w, h, c, std::move(*image.texels), image.isSrgb,
+                                           Str(image.wrapmodes));
         } else {
             param.GetDelegate().texture_failed(Str(asset), Str(*error));
         }

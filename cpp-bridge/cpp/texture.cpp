@@ -1,5 +1,6 @@
-//! TextureCache: OpenImageIO reads of whole images (8-bit files as their bytes, others as
-//! float), undecoded; each file read once until it changes on disk.
+//! TextureCache: OpenImageIO reads of whole images (8-bit files as their bytes, 16-bit integer
+//! and half-float ones as their codes, others as float), undecoded, into the delegate's memory;
+//! each file read once until it changes on disk.
 #include "tide/texture.h"
 
 #include <OpenImageIO/imageio.h>
@@ -56,24 +57,21 @@ static std::string OneLine(std::string e, const char* otherwise) {
 /// of rows at a time: memory is taken as rows arrive, so a file whose header claims more pixels
 /// than it holds (truncated, corrupt) fails at its first missing row, not after a whole image's
 /// worth of memory. The reason on failure, else empty.
-template <class T>
 static std::string ReadRows(OIIO::ImageInput* in, const OIIO::ImageSpec& spec, OIIO::TypeDesc format,
-                            std::vector<T>* out) {
+                            rs::TexelBuffer& out) {
     const size_t row = size_t(spec.width) * size_t(spec.nchannels);
     // bands of about 16 MB, whole tile rows for a tiled file
     const int tile = spec.tile_width > 0 ? std::max(spec.tile_height, 1) : 1;
-    int band = int(std::min<size_t>(size_t(spec.height), std::max<size_t>(1, (size_t(16) << 20) / std::max<size_t>(1, row * sizeof(T)))));
+    int band = int(std::min<size_t>(size_t(spec.height), std::max<size_t>(1, (size_t(16) << 20) / std::max<size_t>(1, row * format.size()))));
     band = std::max(tile, band / tile * tile);
-    out->reserve(row * size_t(spec.height));
     for (int y = 0; y < spec.height; y += band) {
         const int rows = std::min(band, spec.height - y);
-        const size_t at = out->size();
-        out->resize(at + row * size_t(rows));
+        rust::Slice<uint8_t> dst = out.grow(row * size_t(rows));
         const int y0 = spec.y + y, y1 = spec.y + y + rows;
         const bool ok = spec.tile_width > 0
                             ? in->read_tiles(0, 0, spec.x, spec.x + spec.width, y0, y1, spec.z, spec.z + 1, 0,
-                                             spec.nchannels, format, out->data() + at)
-                            : in->read_scanlines(0, 0, y0, y1, spec.z, 0, spec.nchannels, format, out->data() + at);
+                                             spec.nchannels, format, dst.data())
+                            : in->read_scanlines(0, 0, y0, y1, spec.z, 0, spec.nchannels, format, dst.data());
         if (!ok) {
             return "rows " + std::to_string(y) + " to " + std::to_string(y + rows - 1) + ": " +
                    OneLine(in->geterror(), "cannot read pixels");
@@ -112,15 +110,28 @@ bool TextureCache::Read(const std::string& path, TextureImage* out, std::string*
     img.width = spec.width;
     img.height = spec.height;
     img.channels = spec.nchannels;
-    // 8 bits in every channel: kept as bytes (a quarter of the floats' memory)
-    const bool eight = spec.format == OIIO::TypeDesc::UINT8 && spec.channelformats.empty();
+    // 8 bits in every channel: kept as bytes (a quarter of the floats' memory); 16-bit integers
+    // or half floats in every channel: as their codes (half); anything else as floats
+    const bool same = spec.channelformats.empty();
+    uint8_t kind = 3;
+    OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+    if (same && spec.format == OIIO::TypeDesc::UINT8) {
+        kind = 0;
+        format = OIIO::TypeDesc::UINT8;
+    } else if (same && spec.format == OIIO::TypeDesc::UINT16) {
+        kind = 1;
+        format = OIIO::TypeDesc::UINT16;
+    } else if (same && spec.format == OIIO::TypeDesc::HALF) {
+        kind = 2;
+        format = OIIO::TypeDesc::HALF;
+    }
     std::string why;
     try {
-        why = eight ? ReadRows(in.get(), spec, OIIO::TypeDesc::UINT8, &img.bytes)
-                    : ReadRows(in.get(), spec, OIIO::TypeDesc::FLOAT, &img.pixels);
-    } catch (const std::bad_alloc&) {
-        why = "not enough memory for " + std::to_string(spec.width) + "x" + std::to_string(spec.height) + " with " +
-              std::to_string(spec.nchannels) + " channels (" + std::to_string(count * (eight ? 1 : 4) >> 20) + " MB)";
+        img.texels.emplace(rs::new_texel_buffer(kind, count));
+        why = ReadRows(in.get(), spec, format, **img.texels);
+    } catch (const std::exception& e) {
+        why = std::string(e.what()) + " (" + std::to_string(spec.width) + "x" + std::to_string(spec.height) +
+              " with " + std::to_string(spec.nchannels) + " channels)";
     }
     if (!why.empty()) return fail(why);
 

@@ -59,6 +59,62 @@ impl Default for Delegate {
     }
 }
 
+/// A texture's values as its file stores them (see `ffi::new_texel_buffer`): the reader writes
+/// them straight into the memory the delegate then keeps.
+pub struct TexelBuffer {
+    values: TexelValues,
+}
+
+enum TexelValues {
+    U8(Vec<u8>),
+    U16(Vec<u16>),
+    Half(Vec<u16>),
+    F32(Vec<f32>),
+}
+
+/// Values any bytes are a valid one of (so that their memory may be handed out as bytes).
+trait Plain: Copy + Default {}
+impl Plain for u8 {}
+impl Plain for u16 {}
+impl Plain for f32 {}
+
+fn reserve<T>(total: usize) -> Result<Vec<T>, String> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(total).map_err(|_| format!("not enough memory for {} values ({} MB)", total, total.saturating_mul(std::mem::size_of::<T>()) >> 20))?;
+    Ok(v)
+}
+
+fn grow_bytes<T: Plain>(v: &mut Vec<T>, n: usize) -> Result<&mut [u8], String> {
+    v.try_reserve(n).map_err(|_| format!("not enough memory for {} more values", n))?;
+    let at = v.len();
+    v.resize(at + n, T::default());
+    let tail = &mut v[at..];
+    // SAFETY: T is a plain number type (`Plain`): its slice's memory is `len * size_of::<T>()`
+    // initialised bytes, and whatever bytes the reader writes there make valid values.
+    Ok(unsafe { std::slice::from_raw_parts_mut(tail.as_mut_ptr() as *mut u8, std::mem::size_of_val(tail)) })
+}
+
+impl TexelBuffer {
+    pub fn new(kind: u8, total: usize) -> Result<TexelBuffer, String> {
+        let values = match kind {
+            0 => TexelValues::U8(reserve(total)?),
+            1 => TexelValues::U16(reserve(total)?),
+            2 => TexelValues::Half(reserve(total)?),
+            3 => TexelValues::F32(reserve(total)?),
+            k => return Err(format!("unknown texel kind {k}")),
+        };
+        Ok(TexelBuffer { values })
+    }
+
+    pub fn grow(&mut self, values: usize) -> Result<&mut [u8], String> {
+        guard("grow", || match &mut self.values {
+            TexelValues::U8(v) => grow_bytes(v, values),
+            TexelValues::U16(v) | TexelValues::Half(v) => grow_bytes(v, values),
+            TexelValues::F32(v) => grow_bytes(v, values),
+        })
+    }
+}
+
 impl Delegate {
     pub fn new() -> Delegate {
         Delegate {
@@ -177,9 +233,17 @@ impl Delegate {
         })
     }
 
-    pub fn add_texture_u8(&self, asset: &str, width: u32, height: u32, channels: u32, codes: &[u8], is_srgb: bool, wrapmodes: &str) -> Result<(), String> {
-        guard("add_texture_u8", || {
-            lock(&self.shared).delegate.add_texture_u8(asset, width, height, channels, codes.to_vec(), is_srgb, wrapmodes);
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_texels(&self, asset: &str, width: u32, height: u32, channels: u32, texels: Box<TexelBuffer>, is_srgb: bool, wrapmodes: &str) -> Result<(), String> {
+        guard("add_texels", || {
+            let mut s = lock(&self.shared);
+            let d = &mut s.delegate;
+            match texels.values {
+                TexelValues::U8(v) => d.add_texture_u8(asset, width, height, channels, v, is_srgb, wrapmodes),
+                TexelValues::U16(v) => d.add_texture_u16(asset, width, height, channels, v, false, is_srgb, wrapmodes),
+                TexelValues::Half(v) => d.add_texture_u16(asset, width, height, channels, v, true, is_srgb, wrapmodes),
+                TexelValues::F32(v) => d.add_texture(asset, width, height, channels, v, is_srgb, wrapmodes),
+            };
             Ok(())
         })
     }

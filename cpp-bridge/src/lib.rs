@@ -11,7 +11,7 @@
 
 mod backend;
 
-pub use backend::{Delegate, Pass};
+pub use backend::{Delegate, Pass, TexelBuffer};
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
@@ -80,7 +80,16 @@ pub mod ffi {
         /// A progressive render pass running on a background thread.
         type Pass;
 
+        /// A texture's values as its file stores them, filled by the reader a band at a time.
+        type TexelBuffer;
+
         fn new_delegate() -> Result<Box<Delegate>>;
+        /// An empty buffer of `total` values of one kind (0: bytes, read as byte / 255; 1:
+        /// 16-bit integers, code / 65535; 2: half floats' bits; 3: floats), their memory reserved
+        /// (and taken as the values are written). Err when it cannot be.
+        fn new_texel_buffer(kind: u8, total: usize) -> Result<Box<TexelBuffer>>;
+        /// `values` more values (zero) at the end, as the bytes the reader writes them into.
+        fn grow(self: &mut TexelBuffer, values: usize) -> Result<&mut [u8]>;
         fn create_prim(self: &Delegate, type_id: &str, path: &str) -> Result<bool>;
         fn destroy_prim(self: &Delegate, path: &str) -> Result<bool>;
 
@@ -113,8 +122,8 @@ pub mod ffi {
         /// `sourceColorSpace = "auto"` reads it as sRGB-encoded; `wrapmodes`: the file's wrap
         /// metadata as OpenImageIO reports it (empty if none).
         fn add_texture(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, pixels: &[f32], is_srgb: bool, wrapmodes: &str) -> Result<()>;
-        /// `add_texture` for a file of 8 bits in every channel: its bytes (read as byte / 255).
-        fn add_texture_u8(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, codes: &[u8], is_srgb: bool, wrapmodes: &str) -> Result<()>;
+        /// `add_texture` for values read into a [`TexelBuffer`], handed over without a copy.
+        fn add_texels(self: &Delegate, asset: &str, width: u32, height: u32, channels: u32, texels: Box<TexelBuffer>, is_srgb: bool, wrapmodes: &str) -> Result<()>;
         fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
         /// The pixels the delegate holds for a texture (for checks; empty if none).
         fn texture_pixels(self: &Delegate, asset: &str) -> Result<MappedBuffer>;
@@ -152,6 +161,10 @@ pub mod ffi {
         /// Runs the C++ layer's own checks; returns the failures, one a line ("" = all passed).
         fn RunSelfTests(scratch_dir: &str) -> String;
     }
+}
+
+fn new_texel_buffer(kind: u8, total: usize) -> Result<Box<TexelBuffer>, String> {
+    guard("new_texel_buffer", || TexelBuffer::new(kind, total).map(Box::new))
 }
 
 fn new_delegate() -> Result<Box<Delegate>, String> {

@@ -25,6 +25,7 @@ use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
 use tide_core::light::dome_format::DomeFormat;
+use tide_core::texture::CODES16;
 use tide_core::texture::Texels;
 use tide_core::scene::{GeometryRef, InstanceDesc, InstancePrimvars, LightShape, MeshDesc, PrimvarData, SpheresDesc, SurfaceDesc, SurfaceModel, TextureDesc};
 use tide_core::{Aov, Problem, RenderSettings, SampleFormat, SceneDesc};
@@ -512,6 +513,17 @@ impl Delegate {
     pub fn add_texture_u8(&mut self, asset: &str, width: u32, height: u32, channels: u32, codes: Vec<u8>, is_srgb: bool, wrapmodes: &str) -> bool {
         let codes = grey_alpha_as_rgba(channels, codes);
         self.add_texels(asset, width, height, channels, Texels::unit_codes(Arc::new(codes)), is_srgb, wrapmodes)
+    }
+
+    /// [`Delegate::add_texture`] for a file of 16 bits in every channel: its codes, integers
+    /// read as code / 65535 or, with `half`, half floats' bits. They are held as they are (half
+    /// the floats' memory) and shared by the materials reading them undecoded (and, for large
+    /// images, by those decoding them by a transfer curve alone).
+    #[allow(clippy::too_many_arguments)]
+    pub fn add_texture_u16(&mut self, asset: &str, width: u32, height: u32, channels: u32, codes: Vec<u16>, half: bool, is_srgb: bool, wrapmodes: &str) -> bool {
+        let codes = Arc::new(grey_alpha_as_rgba(channels, codes));
+        let texels = if half { Texels::halves(codes) } else { Texels::unit_codes16(codes) };
+        self.add_texels(asset, width, height, channels, texels, is_srgb, wrapmodes)
     }
 
     /// A texture's values (2-channel ones of an even count already expanded to RGBA,
@@ -1765,6 +1777,19 @@ mod tests {
         }
     }
 
+    /// A quad whose material reads texture `asset` with `sourceColorSpace` `source` and the
+    /// file colour space `space`, committed.
+    fn read_by_a_material(d: &mut Delegate, asset: &str, source: &str, space: Option<&str>) {
+        textured_material(d, "/M", asset);
+        d.set_attribute("/M", "/M/T.inputs:sourceColorSpace", tok(source), None);
+        if let Some(space) = space {
+            d.set_attribute("/M", "/M/T.inputs:colorSpace:file", tok(space), None);
+        }
+        quad(d, "/A");
+        d.set_attribute("/A", "material", Value::Path("/M".into()), None);
+        assert!(d.commit_resources().is_empty());
+    }
+
     /// An 8-bit file held as its codes converts, for every colour space, to the values the
     /// same file gives as floats (code / 255); decoded by a curve alone it shares the codes
     /// (no float copy), and alpha is never decoded.
@@ -1779,14 +1804,7 @@ mod tests {
                 let mut d = Delegate::new();
                 let ok = if eight { d.add_texture_u8("/t.png", 2, 1, 4, codes.clone(), true, "") } else { d.add_texture("/t.png", 2, 1, 4, floats.clone(), true, "") };
                 assert!(ok);
-                textured_material(&mut d, "/M", "/t.png");
-                d.set_attribute("/M", "/M/T.inputs:sourceColorSpace", tok(source), None);
-                if let Some(space) = space {
-                    d.set_attribute("/M", "/M/T.inputs:colorSpace:file", tok(space), None);
-                }
-                quad(&mut d, "/A");
-                d.set_attribute("/A", "material", Value::Path("/M".into()), None);
-                assert!(d.commit_resources().is_empty());
+                read_by_a_material(&mut d, "/t.png", source, space);
                 d.scene().textures[0].pixels.clone()
             };
             let (eight, float) = (convert(true), convert(false));
@@ -1810,6 +1828,47 @@ mod tests {
         assert!(d.add_texture_u8("/g.png", 1, 1, 2, vec![51, 255], false, ""));
         assert_eq!(d.texture("/g.png").unwrap().pixels, vec![0.2, 0.2, 0.2, 1.0]);
         assert!(!d.add_texture_u8("/bad.png", 2, 2, 3, vec![0; 5], false, ""));
+    }
+
+    /// A 16-bit file (integers, or half floats) held as its codes converts, for every colour
+    /// space, to the values of the same file as floats; undecoded it shares the codes, decoded
+    /// by a curve alone too where the image is larger than a 16-bit decoding table.
+    #[test]
+    fn sixteen_bit_textures_convert_as_their_float_values_and_share_their_codes() {
+        use tide_core::texture::half_to_f32;
+        // (sourceColorSpace, the file's colour space metadata, undecoded, decoded by a curve alone)
+        let spaces = [("raw", None, true, true), ("auto", None, true, true), ("sRGB", None, false, true), ("auto", Some("g22_rec709"), false, true), ("auto", Some("acescg"), false, false)];
+        for half in [false, true] {
+            for (w, h) in [(2u32, 1u32), (256, 256)] {
+                let n = (w * h * 4) as usize;
+                // spread over the codes: integers all of [0, 65535]; halves of [0, 2) and -0..
+                let codes: Vec<u16> = (0..n).map(|i| if half { (i * 7919 % 0x4000) as u16 | if i % 5 == 0 { 0x8000 } else { 0 } } else { (i * 40503 % 65536) as u16 }).collect();
+                let floats: Vec<f32> = codes.iter().map(|&b| if half { half_to_f32(b) } else { b as f32 / 65535.0 }).collect();
+                for (source, space, undecoded, by_curve) in spaces {
+                    let convert = |sixteen: bool| {
+                        let mut d = Delegate::new();
+                        let ok = if sixteen { d.add_texture_u16("/t.exr", w, h, 4, codes.clone(), half, false, "") } else { d.add_texture("/t.exr", w, h, 4, floats.clone(), false, "") };
+                        assert!(ok);
+                        read_by_a_material(&mut d, "/t.exr", source, space);
+                        let kept = matches!((d.textures.get("/t.exr"), &d.scene().textures[0].pixels), (Some(TexState::Loaded { pixels: Texels::U16 { codes: a, .. }, .. }), Texels::U16 { codes: b, .. }) if Arc::ptr_eq(a, b));
+                        (d.scene().textures[0].pixels.clone(), kept)
+                    };
+                    let ((sixteen, shared), (float, _)) = (convert(true), convert(false));
+                    let what = format!("half {half} {w}x{h} {source} {space:?}");
+                    assert_eq!(shared, undecoded || (by_curve && n >= 4 * CODES16), "{what}: codes shared");
+                    let (a, b) = (sixteen.to_f32(4), float.to_f32(4));
+                    for (x, y) in a.iter().zip(&b) {
+                        assert!((x - y).abs() <= 1e-6 * y.abs().max(1.0) && x.is_sign_negative() == y.is_sign_negative(), "{what}: {x} against {y}");
+                    }
+                    assert!((3..n).step_by(4).all(|i| a[i] == floats[i]), "{what}: alpha kept");
+                }
+            }
+        }
+        // a two-channel (grey, alpha) file is expanded to RGBA as floats are; a wrong count fails
+        let mut d = Delegate::new();
+        assert!(d.add_texture_u16("/g.exr", 1, 1, 2, vec![0x3800, 0x3c00], true, false, ""));
+        assert_eq!(d.texture("/g.exr").unwrap().pixels, vec![0.5, 0.5, 0.5, 1.0]);
+        assert!(!d.add_texture_u16("/bad.exr", 2, 2, 3, vec![0; 5], false, false, ""));
     }
 
     #[test]
@@ -2748,7 +2807,15 @@ fn convert_texture(key: &TexKey, width: u32, height: u32, channels: u32, pixels:
             }
             Some(Texels::U8 { codes: codes.clone(), values: Arc::new(decoded) })
         }
-        Texels::F32(_) if curve == material::Curve::Linear && same_primaries => Some(pixels.clone()),
+        Texels::F32(_) | Texels::U16 { .. } if curve == material::Curve::Linear && same_primaries => Some(pixels.clone()),
+        // 16-bit codes decoded by a table of their own (1 MB): for an image larger than it
+        Texels::U16 { codes, values } if same_primaries && codes.len() >= 4 * CODES16 => {
+            let mut decoded = values.as_ref().clone();
+            for row in decoded.chunks_exact_mut(CODES16).take(ch.min(3)) {
+                row.iter_mut().for_each(|v| *v = curve.decode(*v));
+            }
+            Some(Texels::U16 { codes: codes.clone(), values: Arc::new(decoded) })
+        }
         _ => None,
     };
     let texels = match texels {

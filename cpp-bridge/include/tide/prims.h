@@ -105,7 +105,7 @@ public:
     using Sprim::Sprim;
 };
 
-/// Reads `asset` with the cache and hands it to Rust (add_texture / add_texture_u8, or
+/// Reads `asset` with the cache and hands it to Rust (add_texels, or
 /// texture_failed), unless it was handed over unchanged on disk since. The values go as the file
 /// holds them: the delegate decodes them by each user's `sourceColorSpace`. False with the
 /// reason in `*error` when the file cannot be read.

@@ -1,27 +1,30 @@
 //! tide::TextureCache: textures read with OpenImageIO (any format it reads; of a tiled or
 //! mip-mapped file the full-resolution level), whole, as the values the file holds: 8-bit files
-//! as their bytes, others as float. A file is read once, again when it changes on disk (the
+//! as their bytes, 16-bit integer and half-float files as their 16-bit codes, others as float,
+//! written straight into the Rust buffer the delegate keeps. A file is read once, again when it changes on disk (the
 //! renderer holds every texel of what it reads, so no tile cache is kept beside it). Decoding is
 //! the delegate's: each material (or light) decodes by its own `sourceColorSpace`.
 #pragma once
 
+#include "rust/cxx.h"
+#include "tide-bridge/src/lib.rs.h"
+
 #include <cstdint>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
-#include <vector>
 
 namespace tide {
 
 /// A texture as handed to the delegate: the file's values (not decoded), row-major from the top
-/// row: `bytes` for a file of 8 bits in every channel, else `pixels` as float (integers scaled
-/// to [0, 1]).
+/// row, in `texels`: bytes for a file of 8 bits in every channel, 16-bit codes for one of 16-bit
+/// integers or half floats in every channel, else floats (integers scaled to [0, 1]).
 struct TextureImage {
     int width = 0;
     int height = 0;
     int channels = 0;
-    std::vector<float> pixels;
-    std::vector<uint8_t> bytes;
+    std::optional<rust::Box<rs::TexelBuffer>> texels;
     /// Whether `sourceColorSpace = "auto"` reads the file as sRGB-encoded: 8 bits per channel
     /// with 3 or 4 channels, as UsdImaging's image readers decide (other files are raw).
     bool isSrgb = false;
