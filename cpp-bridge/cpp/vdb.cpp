@@ -45,14 +45,23 @@ bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
                  " x " + std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " in all)";
         return false;
     }
-    out->values.assign(size_t(count), 0.0f);
-    if (!empty) {
+    // written a slice of constant k at a time into the memory the delegate keeps
+    try {
+        out->values.emplace(rs::new_texel_buffer(3, size_t(count)));
         auto acc = grid.getConstAccessor();
-        size_t n = 0;
-        for (uint64_t k = 0; k < dims[2]; ++k)
+        for (uint64_t k = 0; k < dims[2]; ++k) {
+            rust::Slice<uint8_t> bytes = (*out->values)->grow(size_t(dims[0] * dims[1]));
+            float* slice = reinterpret_cast<float*>(bytes.data());
+            if (empty) continue;
+            size_t n = 0;
             for (uint64_t j = 0; j < dims[1]; ++j)
                 for (uint64_t i = 0; i < dims[0]; ++i)
-                    out->values[n++] = float(acc.getValue(lo.offsetBy(int(i), int(j), int(k))));
+                    slice[n++] = float(acc.getValue(lo.offsetBy(int(i), int(j), int(k))));
+        }
+    } catch (const std::exception& e) {
+        *error = "grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+                 std::to_string(dims[2]) + " voxels: " + e.what();
+        return false;
     }
     for (int k = 0; k < 3; ++k) out->dims[k] = uint32_t(dims[k]);
     // the affine map from grid-local points (value [i, j, k] at index lo + (i, j, k))
@@ -82,8 +91,11 @@ bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t inde
     if (!std::filesystem::exists(path, ec)) return fail("no such file");
     try {
         InitOnce();
+        // delay-loaded: of the file's grids only the one read has its voxels loaded (straight
+        // from the file: no private copy of it is made, the grid is read at once)
         openvdb::io::File file(path);
-        file.open(/*delayLoad=*/false);
+        file.setCopyMaxBytes(0);
+        file.open(/*delayLoad=*/true);
         openvdb::GridPtrVecPtr grids = file.getGrids();
         file.close();
         std::vector<openvdb::GridBase::Ptr> named;
@@ -123,8 +135,7 @@ bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string&
         d.grid_failed(asset, field, index, error);
         return false;
     }
-    return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3),
-                      rust::Slice<const float>(grid.values.data(), grid.values.size()),
+    return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3), std::move(*grid.values),
                       rust::Slice<const double>(grid.indexToObject, 16));
 }
 

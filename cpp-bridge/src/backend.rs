@@ -255,13 +255,16 @@ impl Delegate {
         })
     }
 
-    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], values: &[f32], index_to_object: &[f64]) -> Result<bool, String> {
+    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool, String> {
         guard("add_grid", || {
             let (Ok(dims), Ok(m)) = (<[u32; 3]>::try_from(dims), <[f64; 16]>::try_from(index_to_object)) else {
                 return Err(format!("{asset}: a grid needs 3 dims and a 16-number matrix, got {} and {}", dims.len(), index_to_object.len()));
             };
             // a refused grid becomes a problem of the volumes reading it
-            Ok(lock(&self.shared).delegate.add_grid(asset, field, index, dims, values.to_vec(), m))
+            let TexelValues::F32(values) = values.values else {
+                return Err(format!("{asset}: a grid's values are floats"));
+            };
+            Ok(lock(&self.shared).delegate.add_grid(asset, field, index, dims, values, m))
         })
     }
 

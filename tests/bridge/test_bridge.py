@@ -266,7 +266,8 @@ def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
         d.load_texture(str(tmp_path / "nope.exr"))
 
 
-# Loads the texture argv[1] into a new delegate and prints how far the process's peak memory
+# Loads the texture argv[1] (or, given argv[2], that grid of the VDB file argv[1]) into a new
+# delegate and prints how far the process's peak memory
 # rose above its memory before the load (KB; the peak is reset first, so a higher one from
 # start-up does not hide the load's), then the error ("" if read).
 _MEASURED_LOAD = r"""
@@ -283,7 +284,10 @@ with open("/proc/self/clear_refs", "w") as f:
     f.write("5")
 before = status("VmRSS")
 try:
-    d.load_texture(sys.argv[1])
+    if len(sys.argv) > 2:
+        assert d.load_vdb(sys.argv[1], sys.argv[2])
+    else:
+        d.load_texture(sys.argv[1])
     error = ""
 except OSError as e:
     error = str(e)
@@ -292,11 +296,11 @@ print(error)
 """
 
 
-def _measured_load(path):
+def _measured_load(path, *grid):
     import subprocess
     import sys
     env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(_tide.__file__)))
-    out = subprocess.run([sys.executable, "-c", _MEASURED_LOAD, str(path)], env=env, check=True,
+    out = subprocess.run([sys.executable, "-c", _MEASURED_LOAD, str(path), *grid], env=env, check=True,
                          capture_output=True, text=True).stdout.splitlines()
     return int(out[0]) * 1024, (out[1] if len(out) > 1 else "")
 
@@ -343,6 +347,23 @@ def test_16_bit_and_half_float_textures_are_held_as_their_codes(tmp_path):
         assert (width, height, channels) == (w, h, 4)
         got = np.frombuffer(array.array("f", data), dtype=np.float32)
         assert np.array_equal(got, want.astype(np.float32)), path.name
+
+
+def test_a_grid_read_from_a_vdb_file_loads_that_grid_alone(tmp_path):
+    # a file of a small density grid (32^3) and a large other one (256^3: 64 MB of floats);
+    # reading density loads only its own voxels, well under the other grid's memory
+    import numpy as np
+    path = str(tmp_path / "two.vdb")
+    _tide.write_vdb(path, [
+        ("density", "float", (32, 32, 32), np.full(32 ** 3, 1.0, np.float32).tobytes(), 0.1, (0, 0, 0), (0, 0, 0)),
+        ("big", "float", (256, 256, 256), np.full(256 ** 3, 0.5, np.float32).tobytes(), 0.1, (0, 0, 0),
+         (0, 0, 0))])
+    grown, error = _measured_load(path, "density")
+    assert error == ""
+    assert grown < 32 << 20, "%d MB to read a 32^3 grid" % (grown >> 20)
+    # and the large one is read whole: its dense values and its tree while they are made
+    grown, error = _measured_load(path, "big")
+    assert error == "" and (64 << 20) < grown < (192 << 20), "%d MB" % (grown >> 20)
 
 
 def test_a_truncated_image_fails_with_its_reason_before_taking_the_memory_it_claims(tmp_path):

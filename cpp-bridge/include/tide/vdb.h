@@ -3,7 +3,11 @@
 //! tide::WriteVdbGrids writes small grids (for tests and examples).
 #pragma once
 
+#include "rust/cxx.h"
+#include "tide-bridge/src/lib.rs.h"
+
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,10 +15,11 @@ namespace tide {
 class RenderParam;
 
 /// A grid as the delegate takes it: value [i, j, k] (x fastest) at grid-local (i, j, k),
-/// placed by `indexToObject` (USD-style: row-major, row vectors).
+/// placed by `indexToObject` (USD-style: row-major, row vectors). The values are written into
+/// a Rust buffer of floats that the delegate keeps as it is.
 struct DenseGrid {
     uint32_t dims[3] = {0, 0, 0};
-    std::vector<float> values;
+    std::optional<rust::Box<rs::TexelBuffer>> values;
     double indexToObject[16] = {};
 };
 
