@@ -67,33 +67,52 @@ pub(super) fn still_extent(light: &Light) -> Option<(Vec3, Vec3)> {
 }
 
 /// The box of a light over `shutter`: [`still_extent`], a moving light's carried along its
-/// motion; None for a light without a place (or a moving emissive triangle).
+/// motion (a moving emissive triangle's vertices along theirs); None for a light without a
+/// place.
 pub(super) fn extent_over(light: &Light, shutter: (f32, f32)) -> Option<(Vec3, Vec3)> {
     let (lo, hi) = match light {
         Light::Moving(m) => {
             let (lo, hi) = still_extent(&m.inner)?;
             let corners: Vec<Vec3> = (0..8).map(|k| Vec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][(k >> 1) & 1], [lo.z, hi.z][k >> 2])).collect();
-            let (t0, t1) = (shutter.0.min(shutter.1), shutter.0.max(shutter.1));
-            let steps = 64usize;
-            let mut out = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-            let mut step = 0.0f32;
-            let mut prev: Option<Vec<Vec3>> = None;
-            for k in 0..=steps {
-                let (fwd, _) = m.moves(t0 + (t1 - t0) * k as f32 / steps as f32);
-                let at: Vec<Vec3> = corners.iter().map(|&c| fwd.transform_point3(c)).collect();
-                for &p in &at {
-                    out = (out.0.min(p), out.1.max(p));
-                }
-                if let Some(prev) = &prev {
-                    step = prev.iter().zip(&at).fold(step, |s, (a, b)| s.max(a.distance(*b)));
-                }
-                prev = Some(at);
-            }
-            (out.0 - Vec3::splat(step * 0.5), out.1 + Vec3::splat(step * 0.5))
+            swept(shutter, &[], |t| {
+                let (fwd, _) = m.moves(t);
+                corners.iter().map(|&c| fwd.transform_point3(c)).collect()
+            })
+        }
+        // vertices interpolated linearly between the mesh's samples (their extremes at the
+        // samples' times), then placed by the instance's motion
+        Light::Triangle(t) if t.motion.is_some() => {
+            let m = t.motion.as_deref()?;
+            swept(shutter, &m.times, |time| m.at(time).to_vec())
         }
         _ => still_extent(light)?,
     };
     (lo.is_finite() && hi.is_finite()).then_some((lo, hi))
+}
+
+/// The box of the points `at(t)` over `shutter`: taken at 64 even steps and at the `keys`
+/// within it, widened by half the largest step a point takes between two of those times (the
+/// most a path between them strays from its ends).
+fn swept(shutter: (f32, f32), keys: &[f32], at: impl Fn(f32) -> Vec<Vec3>) -> (Vec3, Vec3) {
+    let (t0, t1) = (shutter.0.min(shutter.1), shutter.0.max(shutter.1));
+    let steps = 64usize;
+    let mut times: Vec<f32> = (0..=steps).map(|k| t0 + (t1 - t0) * k as f32 / steps as f32).collect();
+    times.extend(keys.iter().copied().filter(|&k| k > t0 && k < t1));
+    times.sort_by(f32::total_cmp);
+    let mut out = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+    let mut step = 0.0f32;
+    let mut prev: Option<Vec<Vec3>> = None;
+    for t in times {
+        let now = at(t);
+        for &p in &now {
+            out = (out.0.min(p), out.1.max(p));
+        }
+        if let Some(prev) = &prev {
+            step = prev.iter().zip(&now).fold(step, |s, (a, b)| s.max(a.distance(*b)));
+        }
+        prev = Some(now);
+    }
+    (out.0 - Vec3::splat(step * 0.5), out.1 + Vec3::splat(step * 0.5))
 }
 
 /// A light's bounds over `shutter`: (lo, hi), or None for a light a ray cannot hit.
@@ -328,5 +347,34 @@ mod tests {
         assert!(bvh.nodes.is_empty());
         let hit = bvh.nearest(&lights, Vec3::ZERO, Vec3::NEG_Z, f32::INFINITY, 0.0, |li| li != 0).unwrap();
         assert_eq!((hit.0, hit.1), (1, 3.5));
+    }
+
+    /// A moving emissive triangle's box over the shutter holds its vertices at every time (a
+    /// deformation whose middle sample lies off the line of the others, an instance turning by
+    /// 3 radians) and is not much larger than where they go (found at 20 001 times).
+    #[test]
+    fn a_moving_triangle_is_bounded_along_its_motion() {
+        let xf = |m: &[Mat4], t: &[f32]| std::sync::Arc::new(crate::accel::motion::MotionTransform::new(m, t));
+        let tri = |c: Vec3| [c, c + Vec3::X, c + Vec3::new(0.0, 0.5, 0.8)];
+        let em = crate::spectrum::Spectrum::Constant(1.0);
+        let motions = [
+            crate::light::TriangleMotion { times: vec![0.0, 0.37, 1.0], p: vec![tri(Vec3::ZERO), tri(Vec3::new(1.0, 3.0, 1.0)), tri(Vec3::new(0.0, 0.5, 0.5))], xf: xf(&[Mat4::IDENTITY], &[0.0]) },
+            crate::light::TriangleMotion { times: vec![0.0], p: vec![tri(Vec3::new(2.0, 0.0, 0.0))], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(3.0)], &[0.0, 1.0]) },
+            crate::light::TriangleMotion { times: vec![-0.5, 0.5], p: vec![tri(Vec3::ZERO), tri(Vec3::new(0.0, 2.0, 0.0))], xf: xf(&[Mat4::from_translation(Vec3::X), Mat4::from_rotation_x(1.0)], &[-0.5, 0.5]) },
+        ];
+        for (k, m) in motions.into_iter().enumerate() {
+            let shutter = (m.times[0].min(0.0), 1.0);
+            let light = Light::moving_triangle(m.clone(), shutter.0, em.clone(), false).unwrap();
+            let (lo, hi) = extent_over(&light, shutter).unwrap_or_else(|| panic!("motion {k}: no bounds"));
+            let (mut tlo, mut thi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+            for i in 0..=20_000 {
+                for v in m.at(shutter.0 + (shutter.1 - shutter.0) * i as f32 / 20_000.0) {
+                    (tlo, thi) = (tlo.min(v), thi.max(v));
+                }
+            }
+            assert!(lo.cmple(tlo).all() && thi.cmple(hi).all(), "motion {k}: {lo} {hi} does not hold {tlo} {thi}");
+            let slack = 0.05 * (thi - tlo).length();
+            assert!((tlo - lo).max_element() < slack && (hi - thi).max_element() < slack, "motion {k}: {lo} {hi} against {tlo} {thi}");
+        }
     }
 }

@@ -6,8 +6,8 @@
 //! Power alone picks the far bulbs of a street as often as the one overhead.
 //!
 //! The tree takes the share of the lights' selection weights (their power, floored as
-//! [`LightSampler`] floors it) that its lights hold; the rest (infinite lights, moving lights)
-//! keep being picked by weight. Descending, each node's two children are chosen in proportion
+//! [`LightSampler`] floors it) that its lights hold (moving ones bounded over the shutter); the
+//! rest (infinite lights) keep being picked by weight. Descending, each node's two children are chosen in proportion
 //! to their importance at the point; the probability of a light is the product along its path,
 //! which [`LightTree::pmf`] retraces from the light's recorded branch bits, so multiple
 //! importance sampling weighs a light reached by a BSDF ray with exactly the probability
@@ -161,7 +161,7 @@ fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> 
     let (mut normals, two_sided) = match light {
         Light::Rect(r) => (Cone { w: r.shape.n, cos_theta: 1.0 }, false),
         Light::Disk(d) => (Cone { w: d.shape.n, cos_theta: 1.0 }, false),
-        Light::Triangle(t) => (Cone { w: t.n, cos_theta: 1.0 }, t.two_sided),
+        Light::Triangle(t) if t.motion.is_none() => (Cone { w: t.n, cos_theta: 1.0 }, t.two_sided),
         _ => (Cone::ALL, false),
     };
     let mut cos_theta_e = 0.0;
@@ -405,8 +405,8 @@ mod tests {
 
     /// Points, spheres, rects, disks and cylinders scattered and turned every way, a third of
     /// them spots (a shaping cone of 10° to 170°, soft or hard), moving lights (a sphere, a
-    /// point, a turning rect: in the tree, bounded over the shutter) and a dome (picked by
-    /// weight, outside the tree).
+    /// point, a turning rect, a deforming emissive triangle and one on a turning instance: in
+    /// the tree, bounded over the shutter) and a dome (picked by weight, outside the tree).
     fn crowd() -> Vec<Light> {
         let mut rng = TestRng::new(3);
         let mut r = |lo: f32, hi: f32| lo + (hi - lo) * rng.next_f32();
@@ -438,7 +438,20 @@ mod tests {
         let mut d = desc(LightShape::Rect { width: 1.0, height: 0.5, texture: None }, Mat4::from_translation(Vec3::new(5.0, -3.0, 0.0)));
         d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_rotation_translation(Quat::from_rotation_x(2.5), Vec3::new(5.0, -2.0, 1.0)))];
         lights.push(build(&d));
+        // emissive triangles moving over the shutter: one deforming (three samples, the middle
+        // one off the line between the others), one carried by a turning instance
+        let em = crate::spectrum::Spectrum::Constant(2.0);
+        let xf = |m: &[Mat4], t: &[f32]| std::sync::Arc::new(crate::accel::motion::MotionTransform::new(m, t));
+        let tri = |c: Vec3| [c, c + Vec3::X, c + Vec3::new(0.0, 0.5, 0.8)];
+        let deform = crate::light::TriangleMotion { times: vec![0.0, 0.4, 1.0], p: vec![tri(Vec3::new(-6.0, 1.0, 0.0)), tri(Vec3::new(-5.0, 4.0, 1.0)), tri(Vec3::new(-6.0, 1.5, 0.5))], xf: xf(&[Mat4::IDENTITY], &[0.0]) };
+        lights.push(Light::moving_triangle(deform, 0.0, em.clone(), false).unwrap());
+        let turn = crate::light::TriangleMotion { times: vec![0.0], p: vec![tri(Vec3::new(2.0, 0.0, 0.0))], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(3.0)], &[0.0, 1.0]) };
+        lights.push(Light::moving_triangle(turn, 0.0, em, true).unwrap());
         lights
+    }
+
+    fn moves(light: &Light) -> bool {
+        matches!(light, Light::Moving(_)) || matches!(light, Light::Triangle(t) if t.motion.is_some())
     }
 
     fn contexts() -> Vec<LightSampleContext> {
@@ -462,8 +475,8 @@ mod tests {
         let tree = LightTree::build(&lights, all.clone(), (0.0, 1.0));
         assert!(tree.has_tree());
         let n = lights.len();
-        let moving: Vec<usize> = (0..n).filter(|&i| matches!(lights[i], Light::Moving(_))).collect();
-        assert!(moving.len() == 3 && moving.iter().all(|&i| tree.trail[i].is_some()), "moving lights in the tree");
+        let moving: Vec<usize> = (0..n).filter(|&i| moves(&lights[i])).collect();
+        assert!(moving.len() == 5 && moving.iter().all(|&i| tree.trail[i].is_some()), "moving lights in the tree");
         let contexts = contexts();
         for (c, ctx) in contexts.iter().enumerate() {
             let pmf: Vec<f64> = (0..n).map(|li| tree.pmf(ctx, li) as f64).collect();
