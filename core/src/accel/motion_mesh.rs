@@ -2,8 +2,8 @@
 //! eight-wide tree as static meshes ([`super::wide`]) over each triangle's bounds across all keys
 //! (a vertex between two keys lies on the segment joining them, so the union of the key bounds
 //! encloses the triangle at every time). Leaves are blocks of four triangles stored once per key
-//! (vertex and edges, SoA, a block's keys side by side); a ray blends its block's two keys
-//! around its time and tests the four triangles at once with Möller–Trumbore ([`super::tribvh`]).
+//! (vertices, SoA, a block's keys side by side); a ray blends its block's two keys
+//! around its time and tests the four triangles at once with the watertight test ([`super::tribvh`]).
 //! Static meshes never come here.
 
 use super::tribvh::{block_ids, hit4, nearest_in_blocks, Tri4Geom, TriMesh, BLOCK};
@@ -81,7 +81,8 @@ impl MotionTriBlas {
             t_max,
             |b, t_max| {
                 let (a, z) = (self.geom[b * nk + k].load(), self.geom[b * nk + k + 1].load());
-                // a + (z - a) w, row by row: the vertex and edges of each triangle at `time`
+                // a + (z - a) w, row by row: the vertices of each triangle at `time` (a vertex two
+                // triangles share is the same numbers in both)
                 let rows = [0, 1, 2].map(|r| [0, 1, 2].map(|c| a[r][c].add(z[r][c].sub(a[r][c]).mul(wl))));
                 hit4(rows, &ray, t_max).map(|(t, lane, u, v)| (t, self.ids[b][lane], u, v))
             },

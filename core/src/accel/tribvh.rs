@@ -1,5 +1,5 @@
 //! The triangle BVH: a [`super::wide`] tree whose leaves are blocks of four triangles stored
-//! SoA with their ids (one 4-lane Möller–Trumbore per block). The build's SAH costs a side in
+//! SoA with their ids (one 4-lane watertight test per block). The build's SAH costs a side in
 //! blocks (a leaf of 1 to 4 triangles costs one block test).
 
 use super::wide::{leaf_items, leaf_slot, prefetch_lines, Binary, PreRay, PrimRef, WideTree, F4, MAX_LEAF};
@@ -16,40 +16,37 @@ pub(super) fn block_ids(ids: &[u32]) -> [u32; BLOCK] {
 }
 const _: () = assert!(MAX_LEAF <= BLOCK * 4, "a leaf's blocks must fit its slot's count");
 
-/// Four triangles' geometry, SoA: a vertex and two edges per lane.
+/// Four triangles' geometry, SoA: the three vertices of each lane, as the mesh gives them (so
+/// that triangles sharing an edge see the same numbers for it).
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
 pub(super) struct Tri4Geom {
-    v0: [[f32; 4]; 3],
-    e1: [[f32; 4]; 3],
-    e2: [[f32; 4]; 3],
+    v: [[[f32; 4]; 3]; 3],
 }
 
 impl Tri4Geom {
     /// Lane i holds triangle `tris[i]` (vertices 0, 1, 2).
     pub(super) fn new(tris: [[Vec3A; 3]; 4]) -> Tri4Geom {
-        let mut g = Tri4Geom { v0: [[0.0; 4]; 3], e1: [[0.0; 4]; 3], e2: [[0.0; 4]; 3] };
-        for (lane, [v0, v1, v2]) in tris.into_iter().enumerate() {
-            let (e1, e2) = (v1 - v0, v2 - v0);
-            for a in 0..3 {
-                g.v0[a][lane] = v0[a];
-                g.e1[a][lane] = e1[a];
-                g.e2[a][lane] = e2[a];
+        let mut g = Tri4Geom { v: [[[0.0; 4]; 3]; 3] };
+        for (lane, tri) in tris.into_iter().enumerate() {
+            for (k, vk) in tri.into_iter().enumerate() {
+                for a in 0..3 {
+                    g.v[k][a][lane] = vk[a];
+                }
             }
         }
         g
     }
 
-    /// Rows v0, e1, e2, each as x, y, z lanes.
+    /// Rows v0, v1, v2, each as x, y, z lanes.
     #[inline(always)]
     pub(super) fn load(&self) -> [[F4; 3]; 3] {
-        let l = |r: &[[f32; 4]; 3]| [F4::load(&r[0]), F4::load(&r[1]), F4::load(&r[2])];
-        [l(&self.v0), l(&self.e1), l(&self.e2)]
+        self.v.map(|r| [F4::load(&r[0]), F4::load(&r[1]), F4::load(&r[2])])
     }
 
     #[cfg(test)]
     fn bits(&self) -> impl Iterator<Item = u32> + '_ {
-        self.v0.iter().chain(&self.e1).chain(&self.e2).flatten().map(|x| x.to_bits())
+        self.v.iter().flatten().flatten().map(|x| x.to_bits())
     }
 }
 
@@ -141,7 +138,7 @@ impl TriBvh {
     }
 }
 
-/// A hit's barycentric weights (u, v) of vertices 1 and 2, up to [`EDGE_SLACK`] past an edge,
+/// A hit's barycentric weights (u, v) of vertices 1 and 2, rounded a little past an edge,
 /// moved onto the triangle.
 #[inline]
 pub(super) fn into_triangle((t, id, u, v): (f32, u32, f32, f32)) -> (f32, u32, f32, f32) {
@@ -180,15 +177,44 @@ pub(super) fn nearest_in_blocks(
     best
 }
 
-/// How far past its edges, in barycentric terms, a triangle is hit (about 8 units in the last
-/// place of 1): a ray through a shared edge meets at least one of its triangles.
-const EDGE_SLACK: f32 = 1.0 / (1 << 20) as f32;
-
-/// Möller–Trumbore on four triangles at once (rows v0, e1, e2 as from [`Tri4Geom::load`]): the
-/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2 (up
-/// to [`EDGE_SLACK`] outside the triangle: [`into_triangle`] moves them onto it).
+/// The watertight ray–triangle inside test (Woop, Benthin and Wald 2013, "Watertight
+/// ray/triangle intersection"), t from the triangle's plane, on four triangles at once (rows v0, v1, v2 as from [`Tri4Geom::load`]): the
+/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2.
+///
+/// The vertices are taken relative to the ray's origin into the ray's sheared frame (its
+/// direction along +z, [`PreRay`]), where the three edge functions are 2-D cross products of
+/// the vertices. Two triangles sharing an edge compute that edge's function from the same
+/// numbers with the operands swapped, so one gets exactly the negation of the other: a ray
+/// through the edge is inside at least one of them, however far it comes from and however
+/// small the triangles are (Möller–Trumbore's rounding let rays slip between them).
 #[inline(always)]
-pub(super) fn hit4([v0, e1, e2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
+pub(super) fn hit4([v0, v1, v2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Option<(f32, usize, f32, f32)> {
+    let [kx, ky, kz] = ray.axes;
+    let [sx, sy] = ray.shear;
+    // a vertex relative to the origin, sheared: (x, y) in the plane across the ray
+    let rel = |v: [F4; 3]| [v[0].sub(ray.o[0]), v[1].sub(ray.o[1]), v[2].sub(ray.o[2])];
+    let (pa, pb, pc) = (rel(v0), rel(v1), rel(v2));
+    let frame = |p: [F4; 3]| (p[kx].sub(sx.mul(p[kz])), p[ky].sub(sy.mul(p[kz])));
+    let (ax, ay) = frame(pa);
+    let (bx, by) = frame(pb);
+    let (cx, cy) = frame(pc);
+    // the edge functions opposite each vertex (weights of v0, v1, v2 times det)
+    let e0 = cx.mul(by).sub(cy.mul(bx));
+    let e1 = ax.mul(cy).sub(ay.mul(cx));
+    let e2 = bx.mul(ay).sub(by.mul(ax));
+    let zero = F4::splat(0.0);
+    // inside: no edge function of either sign against another (zero counts as both)
+    let negative = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
+    let positive = zero.lt(e0) | zero.lt(e1) | zero.lt(e2);
+    let mut mask = !(negative & positive) & 0xf;
+    if mask == 0 {
+        return None;
+    }
+    // t from the plane of the triangle in the scene's own axes, (v0 − o)·n / (d·n): exact
+    // where the plane is (an axis-aligned wall or floor), so a ray leaving it from the origin
+    // offset past its hit point's error does not meet it again; in the sheared frame the far
+    // vertices' coordinates would mix into it. A ray along the plane (d·n = 0) has t infinite
+    // or NaN, which the t tests reject.
     let cross = |a: [F4; 3], b: [F4; 3]| {
         [
             a[1].mul(b[2]).sub(a[2].mul(b[1])),
@@ -197,26 +223,15 @@ pub(super) fn hit4([v0, e1, e2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Opti
         ]
     };
     let dot = |a: [F4; 3], b: [F4; 3]| a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]));
-    let p = cross(ray.d, e2);
-    let det = dot(e1, p);
-    let inv = F4::splat(1.0).div(det);
-    let s = [ray.o[0].sub(v0[0]), ray.o[1].sub(v0[1]), ray.o[2].sub(v0[2])];
-    let u = dot(s, p).mul(inv);
-    let q = cross(s, e1);
-    let v = dot(ray.d, q).mul(inv);
-    let t = dot(e2, q).mul(inv);
-    let zero = F4::splat(0.0);
-    // the edge tests reach EDGE_SLACK past each edge: rounding puts a ray through a shared edge
-    // a little outside one triangle or the other, often both (Möller–Trumbore is not
-    // watertight), and light leaked through the cracks of closed surfaces
-    let below = F4::splat(-EDGE_SLACK);
-    let above = F4::splat(1.0 + EDGE_SLACK);
-    // det = 0 or non-finite gives NaN or infinite u, v, t, which every test below rejects
-    let mut mask = below.le(u) & below.le(v) & u.add(v).le(above) & zero.lt(t) & t.lt(F4::splat(t_max));
+    let edge = |a: [F4; 3], b: [F4; 3]| [b[0].sub(a[0]), b[1].sub(a[1]), b[2].sub(a[2])];
+    let n = cross(edge(v0, v1), edge(v0, v2));
+    let t = dot(pa, n).div(dot(ray.d, n));
+    mask &= zero.lt(t) & t.lt(F4::splat(t_max));
     if mask == 0 {
         return None;
     }
-    let (ta, ua, va) = (t.to_array(), u.to_array(), v.to_array());
+    let inv = F4::splat(1.0).div(e0.add(e1).add(e2));
+    let (ta, ua, va) = (t.to_array(), e1.mul(inv).to_array(), e2.mul(inv).to_array());
     let mut best: Option<(f32, usize, f32, f32)> = None;
     while mask != 0 {
         let i = mask.trailing_zeros() as usize;
@@ -304,22 +319,19 @@ mod tests {
 mod edge_tests {
     use super::*;
 
-    /// Rays aimed exactly at the shared edges of closed fans of triangles (seven around a centre
-    /// vertex, not planar) all hit one of them: with the plain Möller–Trumbore test about 5 % of
-    /// them fell between the two (both barycentric tests rounded negative), so light leaked
-    /// through the seams of closed zero-thickness surfaces. Hits are reported inside the
-    /// triangle.
-    #[test]
-    fn a_ray_through_a_shared_edge_meets_one_of_its_triangles() {
+    /// Rays aimed at the shared edges (and the shared centre vertex) of fans of triangles
+    /// (seven around a centre vertex, not planar), each of `size`, at `offset` from the origin,
+    /// the rays starting about `distance` away: (rays that met no triangle, rays).
+    fn edge_misses(size: f32, offset: Vec3, distance: f32, seed: u64) -> (u32, u32) {
         let (mut misses, mut total) = (0, 0);
-        let mut rng = crate::testing::chi2::TestRng::new(3);
+        let mut rng = crate::testing::chi2::TestRng::new(seed);
         for _ in 0..200 {
-            let c = Vec3::new(rng.next_f32() * 3.0 - 1.5, rng.next_f32() * 3.0 - 1.5, -2.0 - rng.next_f32());
+            let c = offset + Vec3::new(rng.next_f32() * 3.0 - 1.5, rng.next_f32() * 3.0 - 1.5, -2.0 - rng.next_f32()) * size;
             let n = 7u32;
             let mut positions = vec![c];
             for k in 0..n {
                 let a = k as f32 / n as f32 * std::f32::consts::TAU + rng.next_f32() * 0.3;
-                positions.push(c + Vec3::new(a.cos() * (1.0 + rng.next_f32()), a.sin() * (1.0 + rng.next_f32()), rng.next_f32() * 0.5));
+                positions.push(c + Vec3::new(a.cos() * (1.0 + rng.next_f32()), a.sin() * (1.0 + rng.next_f32()), rng.next_f32() * 0.5) * size);
             }
             let indices: Vec<u32> = (0..n).flat_map(|k| [0, 1 + k, 1 + (k + 1) % n]).collect();
             let bvh = TriBvh::build(TriMesh { positions: &positions, indices: &indices });
@@ -327,7 +339,7 @@ mod edge_tests {
                 let (a, b) = (positions[0], positions[1 + k]);
                 for j in 1..50 {
                     let target = a + (b - a) * (j as f32 / 50.0);
-                    let o = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 3.0);
+                    let o = c + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, 1.0).normalize() * distance;
                     total += 1;
                     match bvh.intersect(o.into(), (target - o).normalize().into(), f32::INFINITY) {
                         None => misses += 1,
@@ -336,6 +348,20 @@ mod edge_tests {
                 }
             }
         }
-        assert_eq!(misses, 0, "{misses} of {total} rays through shared edges met no triangle");
+        (misses, total)
+    }
+
+    /// Rays through the shared edges and vertices of closed fans all hit one of their
+    /// triangles, from near (with the plain Möller–Trumbore test about 5 % of them fell between
+    /// two, both barycentric tests rounding negative), and from 10⁵ times the triangles' size
+    /// away or off a mesh 5 km from the origin (where Möller–Trumbore, even let 2⁻²⁰ past each
+    /// edge, still let rays through): light does not leak through the seams of closed
+    /// zero-thickness surfaces, however far the camera. Hits are reported inside the triangle.
+    #[test]
+    fn a_ray_through_a_shared_edge_meets_one_of_its_triangles() {
+        for (size, offset, distance) in [(1.0, Vec3::ZERO, 5.0), (1e-3, Vec3::ZERO, 100.0), (0.05, Vec3::new(5000.0, 20.0, -3000.0), 10.0)] {
+            let (misses, total) = edge_misses(size, offset, distance, 3);
+            assert_eq!(misses, 0, "size {size} at {offset} from {distance}: {misses} of {total} rays through shared edges met no triangle");
+        }
     }
 }

@@ -606,6 +606,11 @@ pub(super) struct PreRay {
     near: [usize; 3],
     /// Origin and direction are finite (a ray that is not meets nothing).
     finite: bool,
+    /// The watertight triangle test's frame ([`super::tribvh::hit4`]): the axis the direction
+    /// is largest along (z) and the two others (x, y) ...
+    pub axes: [usize; 3],
+    /// ... and the shear taking the direction onto the z axis: d_x / d_z, d_y / d_z.
+    pub shear: [F4; 2],
 }
 
 impl PreRay {
@@ -614,12 +619,15 @@ impl PreRay {
         // -0 becomes +0 so the sign test and the reciprocal agree.
         let d = d + Vec3A::ZERO;
         let inv = Vec3A::ONE / d;
+        let kz = d.abs().max_position();
         PreRay {
             o: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
             d: [F4::splat(d.x), F4::splat(d.y), F4::splat(d.z)],
             inv: [F4::splat(inv.x), F4::splat(inv.y), F4::splat(inv.z)],
             near: [(d.x < 0.0) as usize, (d.y < 0.0) as usize, (d.z < 0.0) as usize],
             finite: o.is_finite() && d.is_finite(),
+            axes: [(kz + 1) % 3, (kz + 2) % 3, kz],
+            shear: [F4::splat(d[(kz + 1) % 3] / d[kz]), F4::splat(d[(kz + 2) % 3] / d[kz])],
         }
     }
 }
