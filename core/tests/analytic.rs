@@ -338,6 +338,15 @@ fn assert_origin_radiance(s: &SceneDesc, expect: f64) {
     }
 }
 
+/// A fixed sequence of numbers in [0, 1) from `seed` (places and sizes of many lights).
+fn sequence(seed: f64) -> impl FnMut() -> f64 {
+    let mut u = seed;
+    move || {
+        u = (u * 997.0 + 0.123).fract();
+        u
+    }
+}
+
 /// Many small sphere lights over a diffuse plane (the many-light tree picks among them, by
 /// how much each gives the point): the plane's radiance is albedo × Σ L (r/d)² cos θ, the
 /// exact irradiance of spheres above the horizon over π. Lights under the plane give nothing
@@ -347,11 +356,7 @@ fn many_sphere_lights_light_a_plane_by_their_summed_irradiance() {
     let albedo = 0.5f64;
     let mut s = plane_seen_from_above(albedo);
     let mut expect = 0.0f64;
-    let mut u = 0.37f64;
-    let mut next = || {
-        u = (u * 997.0 + 0.123).fract();
-        u
-    };
+    let mut next = sequence(0.37);
     for k in 0..64 {
         let below = k % 8 == 7;
         let c = Vec3::new((next() * 12.0 - 6.0) as f32, if below { -(1.0 + next() as f32) } else { (1.0 + 4.0 * next()) as f32 }, (next() * 12.0 - 6.0) as f32);
@@ -376,11 +381,7 @@ fn many_spots_light_a_plane_by_the_irradiance_of_those_aimed_at_it() {
     let albedo = 0.5f64;
     let mut s = plane_seen_from_above(albedo);
     let mut expect = 0.0f64;
-    let mut u = 0.61f64;
-    let mut next = || {
-        u = (u * 997.0 + 0.123).fract();
-        u
-    };
+    let mut next = sequence(0.61);
     let mut lit = 0;
     for k in 0..64 {
         let c = Vec3::new((next() * 12.0 - 6.0) as f32, (1.0 + 4.0 * next()) as f32, (next() * 12.0 - 6.0) as f32);

@@ -72,26 +72,18 @@ enum TexelValues {
     F32(Vec<f32>),
 }
 
-/// Values any bytes are a valid one of (so that their memory may be handed out as bytes).
-trait Plain: Copy + Default {}
-impl Plain for u8 {}
-impl Plain for u16 {}
-impl Plain for f32 {}
-
 fn reserve<T>(total: usize) -> Result<Vec<T>, String> {
     let mut v = Vec::new();
     v.try_reserve_exact(total).map_err(|_| format!("not enough memory for {} values ({} MB)", total, total.saturating_mul(std::mem::size_of::<T>()) >> 20))?;
     Ok(v)
 }
 
-fn grow_bytes<T: Plain>(v: &mut Vec<T>, n: usize) -> Result<&mut [u8], String> {
+/// `n` more values (zero) at the end of `v`, as the bytes the reader writes them into.
+fn grow_bytes<T: bytemuck::Pod>(v: &mut Vec<T>, n: usize) -> Result<&mut [u8], String> {
     v.try_reserve(n).map_err(|_| format!("not enough memory for {} more values", n))?;
     let at = v.len();
-    v.resize(at + n, T::default());
-    let tail = &mut v[at..];
-    // SAFETY: T is a plain number type (`Plain`): its slice's memory is `len * size_of::<T>()`
-    // initialised bytes, and whatever bytes the reader writes there make valid values.
-    Ok(unsafe { std::slice::from_raw_parts_mut(tail.as_mut_ptr() as *mut u8, std::mem::size_of_val(tail)) })
+    v.resize(at + n, T::zeroed());
+    Ok(bytemuck::cast_slice_mut(&mut v[at..]))
 }
 
 impl TexelBuffer {

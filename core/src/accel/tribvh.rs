@@ -178,8 +178,9 @@ pub(super) fn nearest_in_blocks(
 }
 
 /// The watertight ray–triangle inside test (Woop, Benthin and Wald 2013, "Watertight
-/// ray/triangle intersection"), t from the triangle's plane, on four triangles at once (rows v0, v1, v2 as from [`Tri4Geom::load`]): the
-/// nearest hit in (0, t_max) as (t, lane, u, v), u and v the weights of vertices 1 and 2.
+/// ray/triangle intersection"), t from the triangle's plane, on four triangles at once (rows
+/// v0, v1, v2 as from [`Tri4Geom::load`]): the nearest hit in (0, t_max) as (t, lane, u, v), u
+/// and v the weights of vertices 1 and 2.
 ///
 /// The vertices are taken relative to the ray's origin into the ray's sheared frame (its
 /// direction along +z, [`PreRay`]), where the three edge functions are 2-D cross products of
@@ -319,7 +320,7 @@ mod tests {
 mod edge_tests {
     use super::*;
 
-    /// Rays aimed at the shared edges (and the shared centre vertex) of fans of triangles
+    /// Rays aimed at the shared edges of fans of triangles
     /// (seven around a centre vertex, not planar), each of `size`, at `offset` from the origin,
     /// the rays starting about `distance` away: (rays that met no triangle, rays).
     fn edge_misses(size: f32, offset: Vec3, distance: f32, seed: u64) -> (u32, u32) {
@@ -351,7 +352,7 @@ mod edge_tests {
         (misses, total)
     }
 
-    /// Rays through the shared edges and vertices of closed fans all hit one of their
+    /// Rays through the shared edges of closed fans all hit one of their
     /// triangles, from near (with the plain Möller–Trumbore test about 5 % of them fell between
     /// two, both barycentric tests rounding negative), and from 10⁵ times the triangles' size
     /// away or off a mesh 5 km from the origin (where Möller–Trumbore, even let 2⁻²⁰ past each

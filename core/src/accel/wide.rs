@@ -609,7 +609,8 @@ pub(super) struct PreRay {
     /// The watertight triangle test's frame ([`super::tribvh::hit4`]): the axis the direction
     /// is largest along (z) and the two others (x, y) ...
     pub axes: [usize; 3],
-    /// ... and the shear taking the direction onto the z axis: d_x / d_z, d_y / d_z.
+    /// ... and the shear taking the direction onto the z axis: d_x / d_z, d_y / d_z (any
+    /// rounding of it is the same for every triangle the ray meets, which is all the test needs).
     pub shear: [F4; 2],
 }
 
@@ -627,7 +628,7 @@ impl PreRay {
             near: [(d.x < 0.0) as usize, (d.y < 0.0) as usize, (d.z < 0.0) as usize],
             finite: o.is_finite() && d.is_finite(),
             axes: [(kz + 1) % 3, (kz + 2) % 3, kz],
-            shear: [F4::splat(d[(kz + 1) % 3] / d[kz]), F4::splat(d[(kz + 2) % 3] / d[kz])],
+            shear: [F4::splat(d[(kz + 1) % 3] * inv[kz]), F4::splat(d[(kz + 2) % 3] * inv[kz])],
         }
     }
 }
