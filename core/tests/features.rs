@@ -285,8 +285,8 @@ fn a_colour_only_film_draws_the_same_colour_in_less_memory() {
     assert!(err.to_string().contains("'normal'"), "{err}");
     assert!(!dir.join("no.exr").exists());
     std::fs::remove_dir_all(&dir).unwrap();
-    // colour, alpha and the luminance pair in f64 and a sample count: 52 bytes a pixel, where
-    // every AOV takes 252
-    assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::Color])), 52);
-    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 252);
+    // colour, alpha and the luminance pair in f32 and a sample count: 28 bytes a pixel, where
+    // every AOV takes 132
+    assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::Color])), 28);
+    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 132);
 }
