@@ -49,23 +49,13 @@ bool WritePreviewPng(const std::string& path, int width, int height, int channel
     if (width <= 0 || height <= 0 || channels < 1 || channels > 4 || !pixels)
         return fail("nothing to preview (empty buffer: has the pass rendered?)");
 
-    // RGB working copy (grey for 1 channel, alpha dropped).
-    const size_t n = size_t(width) * size_t(height);
-    std::vector<float> rgb(n * 3);
-    for (size_t p = 0; p < n; ++p)
-        for (int c = 0; c < 3; ++c) {
-            float v = channels >= 3 ? pixels[p * channels + c] : pixels[p * channels + std::min(c, channels - 1)];
-            rgb[p * 3 + c] = std::isfinite(v) ? v : 0.0f;
-        }
-
+    OCIO::ConstCPUProcessorRcPtr cpu;
     try {
         OCIO::ConstConfigRcPtr config = OCIO::Config::CreateFromFile(PreviewConfigPath().c_str());
         OCIO::ConstProcessorRcPtr proc = config->getProcessor(CanonicalColorSpace(colorSpace).c_str(), "sRGB",
                                                               view.empty() ? "Standard" : view.c_str(),
                                                               OCIO::TRANSFORM_DIR_FORWARD);
-        OCIO::ConstCPUProcessorRcPtr cpu = proc->getDefaultCPUProcessor();
-        OCIO::PackedImageDesc desc(rgb.data(), width, height, 3);
-        cpu->apply(desc);
+        cpu = proc->getDefaultCPUProcessor();
     } catch (const std::exception& e) {
         return fail(std::string("OpenColorIO: ") + e.what());
     }
@@ -75,11 +65,32 @@ bool WritePreviewPng(const std::string& path, int width, int height, int channel
     if (!out) return fail("OpenImageIO has no PNG writer: " + OIIO::geterror());
     OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::UINT8);
     if (!out->open(tmp, spec)) return fail("cannot open " + tmp + ": " + out->geterror());
-    if (!out->write_image(OIIO::TypeDesc::FLOAT, rgb.data())) {
-        std::string e = out->geterror();
+    auto abandon = [&](const std::string& msg) {
         out->close();
         std::remove(tmp.c_str());
-        return fail("cannot write " + tmp + ": " + e);
+        return fail(msg);
+    };
+    // A band of rows at a time through the view transform (RGB, grey for 1 channel, alpha
+    // dropped): the preview holds a band, not a second copy of the image.
+    const int band = 64;
+    std::vector<float> rgb(size_t(width) * size_t(std::min(band, height)) * 3);
+    for (int y0 = 0; y0 < height; y0 += band) {
+        const int rows = std::min(band, height - y0);
+        const size_t n = size_t(width) * size_t(rows);
+        const float* src = pixels + size_t(y0) * size_t(width) * size_t(channels);
+        for (size_t p = 0; p < n; ++p)
+            for (int c = 0; c < 3; ++c) {
+                float v = channels >= 3 ? src[p * channels + c] : src[p * channels + std::min(c, channels - 1)];
+                rgb[p * 3 + c] = std::isfinite(v) ? v : 0.0f;
+            }
+        try {
+            OCIO::PackedImageDesc desc(rgb.data(), width, rows, 3);
+            cpu->apply(desc);
+        } catch (const std::exception& e) {
+            return abandon(std::string("OpenColorIO: ") + e.what());
+        }
+        if (!out->write_scanlines(y0, y0 + rows, 0, OIIO::TypeDesc::FLOAT, rgb.data()))
+            return abandon("cannot write " + tmp + ": " + out->geterror());
     }
     if (!out->close()) {
         std::remove(tmp.c_str());

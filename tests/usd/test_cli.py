@@ -510,3 +510,37 @@ def test_the_prim_id_aov_comes_with_a_manifest_of_paths(tmp_path):
     assert out.returncode == 0, out.stderr
     _, header = _exr_channels(str(tmp_path / "plain.exr"))
     assert "tide:primIdManifest" not in header
+
+
+def test_the_preview_is_the_renders_colour_through_the_srgb_view(tmp_path):
+    """The PNG beside the EXR is the EXR's colour through the preview config's sRGB view
+    (the IEC 61966-2-1 curve, clamped, to 8 bits), row for row: an image taller than the
+    bands the preview is converted in, lit from the side so that every row differs."""
+    import numpy as np
+    import OpenEXR
+    from images import read_png
+    path = str(tmp_path / "lit.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s, aperture=(12.0, 45.0))
+    UsdGeom.Sphere.Define(s, "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -5))
+    sun = UsdLux.DistantLight.Define(s, "/Sun")
+    sun.CreateIntensityAttr(2.0)
+    sun.AddRotateXYZOp().Set(Gf.Vec3f(-60, 0, 0))
+    UsdLux.DomeLight.Define(s, "/Sky").CreateIntensityAttr(0.05)
+    settings(s, res=(40, 150), product="lit.exr", samples=4, integrator="path")
+    s.GetRootLayer().Save()
+    out = run(["render", path], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    with OpenEXR.File(str(tmp_path / "lit.exr"), separate_channels=True) as f:
+        rgb = np.stack([f.channels()[c].pixels for c in "RGB"], axis=-1).astype(np.float64)
+    w, h, ch, data = read_png(str(tmp_path / "lit.png"))
+    assert (w, h, ch) == (40, 150, 3)
+    png = np.frombuffer(data, dtype=np.uint8).reshape(h, w, 3).astype(np.int64)
+    v = np.clip(rgb, 0.0, 1.0)
+    srgb = np.where(v <= 0.0031308, 12.92 * v, 1.055 * v ** (1 / 2.4) - 0.055)
+    want = np.round(srgb * 255).astype(np.int64)
+    # rows differ (the sphere's terminator runs across the bands), and every code is the
+    # curve's within one step (the view's curve is evaluated in float)
+    assert len({bytes(r) for r in want.astype(np.uint8)}) > 100
+    assert np.abs(png - want).max() <= 1, np.argwhere(np.abs(png - want) > 1)[:5]
+    assert (png == want).mean() > 0.95
