@@ -1,10 +1,10 @@
 """Many lights: 20000 small sphere lights (radius 0.1, intensity 50) scattered over
 120 x 20 x 80 units above a ground plane, path integrator, 160x90.
 
-    .venv/bin/python bench/many_lights.py stage OUT.usda [--down]
+    .venv/bin/python bench/many_lights.py stage OUT.usda [--down] [--spots]
         writes the stage; the camera looks along the ground from (0, 5, 40), or with --down
         straight down at it from 0.4 units (no light in view: the image is all next-event
-        estimation)
+        estimation); with --spots every light is a spot pointing down (a 20° cone)
     .venv/bin/python bench/many_lights.py error REF.exr IMAGE.exr [IMAGE.exr ...]
         each image's RMSE against the reference, over the reference's mean, and its mean
 
@@ -16,7 +16,7 @@ import random
 import sys
 
 
-def stage(path, down=False, n=20000):
+def stage(path, down=False, n=20000, spots=False):
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
 
     s = Usd.Stage.CreateNew(path)
@@ -40,6 +40,10 @@ def stage(path, down=False, n=20000):
         light.CreateRadiusAttr(0.1)
         light.CreateIntensityAttr(50.0)
         light.AddTranslateOp().Set(Gf.Vec3d(rng.uniform(-60, 60), rng.uniform(0.5, 20), rng.uniform(-60, 20)))
+        if spots:
+            # the light's −Z turned to point down
+            light.AddRotateXOp().Set(-90.0)
+            UsdLux.ShapingAPI.Apply(light.GetPrim()).CreateShapingConeAngleAttr(20.0)
     settings = UsdRender.Settings.Define(s, "/Render/Settings")
     settings.CreateCameraRel().SetTargets(["/Cam"])
     settings.CreateResolutionAttr(Gf.Vec2i(160, 90))
@@ -72,7 +76,7 @@ def error(ref_path, paths):
 
 if __name__ == "__main__":
     if len(sys.argv) >= 3 and sys.argv[1] == "stage":
-        stage(sys.argv[2], down="--down" in sys.argv[3:])
+        stage(sys.argv[2], down="--down" in sys.argv[3:], spots="--spots" in sys.argv[3:])
     elif len(sys.argv) >= 4 and sys.argv[1] == "error":
         error(sys.argv[2], sys.argv[3:])
     else:
