@@ -226,14 +226,18 @@ fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
 
 /// A light's bounds over `shutter`, for a light with a place (None: it stays out of the tree).
 /// Normals are the emitting fronts'; a light emitting all round, or one that moves (its front
-/// may turn), has the whole sphere.
+/// may turn), has the whole sphere, except a deforming emissive triangle on a still instance
+/// (its normals' cone over the shutter: [`deforming_normals`]).
 fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> {
     let (lo, hi) = super::bvh::extent_over(light, shutter)?;
     // a one-sided emitter faces its front normal; the others emit all round
     let (mut normals, two_sided) = match light {
         Light::Rect(r) => (Cone { w: r.shape.n, cos_theta: 1.0 }, false),
         Light::Disk(d) => (Cone { w: d.shape.n, cos_theta: 1.0 }, false),
-        Light::Triangle(t) if t.motion.is_none() => (Cone { w: t.n, cos_theta: 1.0 }, t.two_sided),
+        Light::Triangle(t) => match &t.motion {
+            None => (Cone { w: t.n, cos_theta: 1.0 }, t.two_sided),
+            Some(m) => (deforming_normals(m, t.mirrored, shutter).unwrap_or(Cone::ALL), t.two_sided),
+        },
         _ => (Cone::ALL, false),
     };
     let mut cos_theta_e = 0.0;
@@ -249,6 +253,53 @@ fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> 
     }
     let ok = normals.w.is_finite() && normals.w.length_squared() > 0.5;
     ok.then_some(Bounds { lo, hi, phi, normals, cos_theta_e, two_sided })
+}
+
+/// The cone holding a deforming emissive triangle's front normal over `shutter`, or None
+/// (the whole sphere) where its instance moves or the normals spread over a hemisphere.
+/// Between two motion samples the world edges move linearly, so the normal e1(s) × e2(s) is a
+/// quadratic Bézier curve in s whose control points are e1a × e2a, (e1a × e2b + e1b × e2a)/2
+/// and e1b × e2b; with weights that are never negative it stays in the convex cone of those
+/// three, which a cone narrower than a hemisphere holding them holds.
+fn deforming_normals(m: &super::TriangleMotion, mirrored: bool, shutter: (f32, f32)) -> Option<Cone> {
+    if !m.xf.is_static() || m.p.is_empty() {
+        return None;
+    }
+    let xf = m.xf.at(shutter.0);
+    let side = if mirrored { -1.0 } else { 1.0 };
+    let edges = |k: usize| {
+        let p = m.p[k].map(|v| xf.transform_point3(v));
+        (p[1] - p[0], p[2] - p[0])
+    };
+    let (t0, t1) = (shutter.0.min(shutter.1), shutter.0.max(shutter.1));
+    let mut controls = Vec::new();
+    if m.p.len() == 1 {
+        let (a, b) = edges(0);
+        controls.push(a.cross(b));
+    }
+    for k in 0..m.p.len().saturating_sub(1) {
+        // the intervals the shutter reaches (before the first sample and after the last the
+        // triangle stands as at that sample, an end point of its interval)
+        let reached = (m.times[k] <= t1 && m.times[k + 1] >= t0) || (k == 0 && t0 < m.times[0]) || (k + 2 == m.p.len() && t1 > m.times[k + 1]);
+        if !reached {
+            continue;
+        }
+        let ((a1, a2), (b1, b2)) = (edges(k), edges(k + 1));
+        controls.extend([a1.cross(a2), 0.5 * (a1.cross(b2) + b1.cross(a2)), b1.cross(b2)]);
+    }
+    let mut cone: Option<Cone> = None;
+    for c in controls.into_iter().filter(|c| c.is_finite() && c.length_squared() > 0.0) {
+        let point = Cone { w: (side * c).normalize(), cos_theta: 1.0 };
+        cone = Some(match cone {
+            None => point,
+            Some(k) => Cone::union(k, point),
+        });
+    }
+    // widened by a milliradian against rounding; a cap of a hemisphere or more does not hold
+    // the arcs between its points
+    let k = cone?;
+    let theta = k.cos_theta.clamp(-1.0, 1.0).acos() + 1e-3;
+    (theta < std::f32::consts::FRAC_PI_2 - 1e-3).then(|| Cone { w: k.w, cos_theta: theta.cos() })
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -511,11 +562,12 @@ mod tests {
         d.motion = vec![(0.0, d.transform), (1.0, Mat4::from_rotation_translation(Quat::from_rotation_x(2.5), Vec3::new(5.0, -2.0, 1.0)))];
         lights.push(build(&d));
         // emissive triangles moving over the shutter: one deforming (three samples, the middle
-        // one off the line between the others), one carried by a turning instance
+        // one off the line between the others and turned), one carried by a turning instance
         let em = crate::spectrum::Spectrum::Constant(2.0);
         let xf = |m: &[Mat4], t: &[f32]| std::sync::Arc::new(crate::accel::motion::MotionTransform::new(m, t));
         let tri = |c: Vec3| [c, c + Vec3::X, c + Vec3::new(0.0, 0.5, 0.8)];
-        let deform = crate::light::TriangleMotion { times: vec![0.0, 0.4, 1.0], p: vec![tri(Vec3::new(-6.0, 1.0, 0.0)), tri(Vec3::new(-5.0, 4.0, 1.0)), tri(Vec3::new(-6.0, 1.5, 0.5))], xf: xf(&[Mat4::IDENTITY], &[0.0]) };
+        let tilted = |c: Vec3| [c, c + Vec3::new(1.0, 0.3, 0.0), c + Vec3::new(-0.2, 0.9, 0.4)];
+        let deform = crate::light::TriangleMotion { times: vec![0.0, 0.4, 1.0], p: vec![tri(Vec3::new(-6.0, 1.0, 0.0)), tilted(Vec3::new(-5.0, 4.0, 1.0)), tri(Vec3::new(-6.0, 1.5, 0.5))], xf: xf(&[Mat4::IDENTITY], &[0.0]) };
         lights.push(Light::moving_triangle(deform, 0.0, em.clone(), false).unwrap());
         let turn = crate::light::TriangleMotion { times: vec![0.0], p: vec![tri(Vec3::new(2.0, 0.0, 0.0))], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(3.0)], &[0.0, 1.0]) };
         lights.push(Light::moving_triangle(turn, 0.0, em, true).unwrap());
@@ -732,6 +784,67 @@ mod tests {
             tight += 1;
         }
         assert!(hits > 500 && tight > 1800, "{hits} {tight}");
+    }
+
+    /// A deforming emissive triangle's normal cone over the shutter holds its normal at 20 001
+    /// times (the normal turning 75° and back, through samples at 0, 0.3, 0.7 and 1; the
+    /// shutter taking all of them, or only the first two) and is narrower than a hemisphere; so
+    /// for random deformations whose cone is narrower than a hemisphere; on a turning instance
+    /// the cone is the whole sphere.
+    #[test]
+    fn a_deforming_triangles_normals_are_bounded_over_the_shutter() {
+        let xf = |m: &[Mat4], t: &[f32]| std::sync::Arc::new(crate::accel::motion::MotionTransform::new(m, t));
+        let turned = |a: f32, c: Vec3| {
+            let r = Quat::from_rotation_x(a) * Quat::from_rotation_z(0.3 * a);
+            [c, c + r * Vec3::X, c + r * Vec3::new(0.3, 1.0, 0.0)]
+        };
+        let p = vec![turned(0.0, Vec3::ZERO), turned(0.9, Vec3::new(1.0, 0.0, 0.5)), turned(1.3, Vec3::new(0.5, 1.0, 0.0)), turned(0.2, Vec3::Y)];
+        let em = crate::spectrum::Spectrum::Constant(1.0);
+        for mirrored in [false, true] {
+            for shutter in [(0.0f32, 1.0f32), (-0.5, 0.45), (0.1, 0.2)] {
+                let m = crate::light::TriangleMotion { times: vec![0.0, 0.3, 0.7, 1.0], p: p.clone(), xf: xf(&[Mat4::IDENTITY], &[0.0]) };
+                let mut light = Light::moving_triangle(m, shutter.0, em.clone(), false).unwrap();
+                if let Light::Triangle(t) = &mut light {
+                    t.mirrored = mirrored;
+                }
+                let b = light_bounds(&light, 1.0, shutter).unwrap();
+                assert!(b.normals.cos_theta > 0.0, "{shutter:?}: {:?}", b.normals);
+                let Light::Triangle(t) = &light else { unreachable!() };
+                for k in 0..=20_000 {
+                    let time = shutter.0 + (shutter.1 - shutter.0) * k as f32 / 20_000.0;
+                    let (_, n, _) = t.at_time(time).unwrap();
+                    assert!(n.dot(b.normals.w) >= b.normals.cos_theta - 1e-6, "{shutter:?} at {time}: {n} outside {:?}", b.normals);
+                }
+            }
+        }
+        // random deformations: each sample's vertices moved up to 0.6 from a unit triangle's
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        let mut next = move || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        };
+        let mut narrow = 0;
+        for _ in 0..300 {
+            let base = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            let keys: Vec<[Vec3; 3]> = (0..3).map(|_| base.map(|v| v + 1.2 * Vec3::new(next(), next(), next()))).collect();
+            let m = crate::light::TriangleMotion { times: vec![0.0, 0.5, 1.0], p: keys, xf: xf(&[Mat4::IDENTITY], &[0.0]) };
+            let Some(light) = Light::moving_triangle(m, 0.0, em.clone(), false) else { continue };
+            let b = light_bounds(&light, 1.0, (0.0, 1.0)).unwrap();
+            if b.normals == Cone::ALL {
+                continue;
+            }
+            narrow += 1;
+            let Light::Triangle(t) = &light else { unreachable!() };
+            for k in 0..=2000 {
+                if let Some((_, n, _)) = t.at_time(k as f32 / 2000.0) {
+                    assert!(n.dot(b.normals.w) >= b.normals.cos_theta - 1e-6, "{n} outside {:?}", b.normals);
+                }
+            }
+        }
+        assert!(narrow > 100, "{narrow}");
+        let turn = crate::light::TriangleMotion { times: vec![0.0], p: vec![p[0]], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(1.0)], &[0.0, 1.0]) };
+        let light = Light::moving_triangle(turn, 0.0, em, false).unwrap();
+        assert_eq!(light_bounds(&light, 1.0, (0.0, 1.0)).unwrap().normals, Cone::ALL);
     }
 
     /// Fewer than MIN_TREE_LIGHTS lights with a place: selection by weight, as without a tree.
