@@ -615,6 +615,10 @@ impl Delegate {
                     None => {}
                     Some(d) => p.add("dimensions", format!("expected two positive ints, got {:?}", d)),
                 }
+                let publish = s.bool_or("tide:publish", true, &mut p);
+                if let Some(b) = buf {
+                    b.set_publishes(publish);
+                }
                 Piece::Buffer
             }
             _ => Piece::Rprim(self.convert_rprim(path, prim, geometry, &mut p)),
@@ -2755,6 +2759,33 @@ mod tests {
         let checked = fresh.check_render();
         assert_eq!(checked.iter().filter(|p| p.item == "/Flat").count(), 1, "{checked:?}");
         assert!(fresh.check_render().is_empty());
+    }
+
+    /// A buffer whose `tide:publish` is false is bound (its AOV is rendered) but left
+    /// unfilled by the passes; the others are filled; a bad value is a problem and publishes.
+    #[test]
+    fn a_buffer_told_not_to_publish_is_left_unfilled() {
+        let builds = Arc::new(AtomicU32::new(0));
+        let passes = Arc::new(Mutex::new(Vec::new()));
+        let mut d = Delegate::with_engine(fake_factory(Duration::ZERO, None, builds, passes));
+        quad(&mut d, "/A");
+        for b in ["/col", "/dep", "/nrm"] {
+            d.create_prim("renderBuffer", b);
+            d.set_attribute(b, "dimensions", Value::Ints(vec![8, 4]), None);
+        }
+        d.set_attribute("/dep", "tide:publish", Value::Bool(false), None);
+        d.set_attribute("/nrm", "tide:publish", Value::Token("no".into()), None);
+        d.create_prim("renderSettings", "/S");
+        d.set_attribute("/S", "tide:samples", Value::Int(4), None);
+        let problems = d.commit_resources();
+        assert!(problems.iter().any(|p| p.item == "/nrm" && p.attribute == "tide:publish"), "{problems:?}");
+        d.execute(None, &[("color".into(), "/col".into()), ("depth".into(), "/dep".into()), ("normal".into(), "/nrm".into())], Some("/S"));
+        assert!(d.wait(Duration::from_secs(5)) && d.is_converged());
+        assert_eq!(d.map_buffer("/col").unwrap().samples, 4);
+        assert_eq!(d.map_buffer("/nrm").unwrap().samples, 4);
+        let dep = d.map_buffer("/dep").unwrap();
+        assert_eq!(dep.samples, 0);
+        assert!(dep.pixels.iter().all(|&v| v == 0.0));
     }
 
     #[test]

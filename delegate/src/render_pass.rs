@@ -130,9 +130,21 @@ pub struct MappedBuffer {
 #[derive(Clone, Debug, Default)]
 pub struct RenderBuffer {
     inner: Arc<RwLock<MappedBuffer>>,
+    /// Left unfilled while rendering (its `tide:publish` false): an AOV that only goes to a
+    /// file, written from the film, needs no copy of its pixels after every pass.
+    unpublished: Arc<AtomicBool>,
 }
 
 impl RenderBuffer {
+    /// Whether passes fill this buffer (they do unless told otherwise).
+    pub fn publishes(&self) -> bool {
+        !self.unpublished.load(Ordering::Relaxed)
+    }
+
+    pub fn set_publishes(&self, on: bool) {
+        self.unpublished.store(!on, Ordering::Relaxed);
+    }
+
     pub fn new(width: u32, height: u32, channels: u32) -> Self {
         let b = RenderBuffer::default();
         b.resize(width, height, channels);
@@ -535,7 +547,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         }
         done += n;
         let (w, h) = (job.settings.width, job.settings.height);
-        for (aov, buf) in &job.bindings {
+        for (aov, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
             let px = e.aov_pixels(*aov);
             // A film that does not match the job's size is not published (the buffer keeps
             // its last consistent pixels).

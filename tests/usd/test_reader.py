@@ -972,3 +972,19 @@ def test_composition_references_and_variants(stage, delegate, tmp_path):
     p.GetVariantSets().GetVariantSet("shape").SetVariantSelection("ball")
     load(stage, delegate)
     assert delegate.prims["/Ref/Geo"] == "sphere"
+
+
+def test_a_files_only_render_leaves_the_other_aovs_buffers_unfilled(stage, delegate):
+    """`files_only` (as `tide render` reads): the buffers of AOVs other than colour are told
+    not to publish (their AOVs go to files from the film); by default every buffer publishes."""
+    camera(stage)
+    settings(stage, vars_=("color", "depth", "tide:diffuse"))
+    for files_only in (True, False):
+        d = fake.RenderDelegate()
+        r, problems = load(stage, d, files_only=files_only)
+        assert problems == []
+        told = {aov: d.value(buf, "tide:publish") for aov, buf in r.bindings()}
+        if files_only:
+            assert told == {"color": None, "depth": False, "tide:diffuse": False}
+        else:
+            assert set(told.values()) == {None}

@@ -260,7 +260,7 @@ def cmd_render(args):
                                     max_depth=args.max_depth, pixel_filter=args.pixel_filter,
                                     pixel_filter_width=args.pixel_filter_width,
                                     adaptive_threshold=args.adaptive_threshold,
-                                    single_image=bool(args.output))
+                                    single_image=bool(args.output), files_only=True)
     _print_problems(problems)
     if reader.camera_path is None:
         raise RuntimeError("nothing to render: the stage has no camera")

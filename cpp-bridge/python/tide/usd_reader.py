@@ -227,7 +227,7 @@ class Options:
     def __init__(self, settings=None, camera=None, frame=None, spp=None, width=None,
                  seed=None, threads=None, output=None, integrator=None, time_budget=None,
                  max_depth=None, pixel_filter=None, pixel_filter_width=None,
-                 adaptive_threshold=None, single_image=False, refine_level=0):
+                 adaptive_threshold=None, single_image=False, refine_level=0, files_only=False):
         self.settings = settings
         self.camera = camera
         self.frame = frame
@@ -248,6 +248,10 @@ class Options:
         # subdivision levels of meshes that author no tide:subdivision:level (usdrecord's and
         # usdview's complexity: Hydra's display style refineLevel)
         self.refine_level = refine_level
+        # True: the render buffers of AOVs other than colour are not filled while rendering
+        # (`tide:publish` false): their AOVs go to files, written from the film, and nothing
+        # reads those buffers (a command-line render reads colour only, for its preview)
+        self.files_only = files_only
 
 
 # ---------------------------------------------------------------------------------------------
@@ -1412,6 +1416,8 @@ class Reader:
                     b = _PrimState("bprim", "renderBuffer", "/")
                     b.set("dimensions", _ints([w, h]))
                     b.set("format", ("token", AOVS[source]))
+                    if self.options.files_only and source != "color":
+                        b.set("tide:publish", ("bool", False))
                     self._desired[buf] = b
                 bound.append((source, buf))
             self.products.append(Product(ppath, name, bound, types))
