@@ -285,12 +285,16 @@ bool RenderBuffer::Allocate(int width, int height, int depth, Format format, boo
     _height = unsigned(height);
     _format = format;
     _channels = FormatComponents(format);
-    _pixels.assign(size_t(_width) * _height * size_t(_channels), 0.0f);
+    // the storage is taken when the buffer is first mapped or resolved: a buffer nobody reads
+    // (an AOV that only goes to a file) holds no pixels
+    std::vector<float>().swap(_pixels);
     _converged.store(false);
     return true;
 }
 
 void* RenderBuffer::Map() {
+    const size_t n = size_t(_width) * _height * size_t(_channels);
+    if (_mappers.load() == 0 && _pixels.size() != n) _pixels.assign(n, 0.0f);
     _mappers++;
     return _pixels.data();
 }

@@ -270,7 +270,9 @@ def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
 # delegate and prints how far the process's peak memory
 # rose above its memory before the load (KB; the peak is reset first, so a higher one from
 # start-up does not hide the load's), then the error ("" if read).
-_MEASURED_LOAD = r"""
+# A child process's start: a delegate made, then the process's peak reset (status("VmHWM")
+# - before is then what follows takes at its peak).
+_PEAK_RESET = r"""
 import sys
 from tide import _tide
 
@@ -283,6 +285,9 @@ d = _tide.RenderDelegate()
 with open("/proc/self/clear_refs", "w") as f:
     f.write("5")
 before = status("VmRSS")
+"""
+
+_MEASURED_LOAD = _PEAK_RESET + r"""
 try:
     if len(sys.argv) > 2:
         assert d.load_vdb(sys.argv[1], sys.argv[2])
@@ -410,3 +415,30 @@ def test_preview_png_is_written_atomically(tmp_path):
     assert os.listdir(tmp_path) == ["preview.png"]
     with pytest.raises(_tide.TideError):
         d.write_preview_png(out, "/Out/color", "NoSuchSpace", "Standard")
+
+
+_BUFFERS_SYNCED = _PEAK_RESET + r"""
+for i in range(8):
+    path = "/Out/aov%d" % i
+    assert d.create_bprim("renderBuffer", path)
+    d.set_array(path, "dimensions", [4096, 4096], 1, "i")
+assert d.commit_resources() == []
+print(status("VmHWM") - before)
+w, h, c, data = d.map_buffer("/Out/aov3")
+print(w, h, c, len(data), max(data[:4096 * 16]), max(data[-4096 * 16:]))
+"""
+
+
+def test_a_render_buffer_takes_its_memory_when_first_read():
+    # eight 4096 x 4096 RGBA float buffers (2 GiB) synced and never read hold no pixels; the one
+    # mapped reads as its dimensions' zeros
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(_tide.__file__)))
+    out = subprocess.run([sys.executable, "-c", _BUFFERS_SYNCED], env=env, check=True,
+                         capture_output=True, text=True).stdout.splitlines()
+    grown = int(out[0]) * 1024
+    assert grown < 64 << 20, "%d MB for eight buffers never read" % (grown >> 20)
+    w, h, c, n, first, last = out[1].split()
+    assert (int(w), int(h), int(c), int(n)) == (4096, 4096, 4, 4096 * 4096 * 4 * 4)
+    assert float(first) == 0.0 and float(last) == 0.0
