@@ -84,6 +84,32 @@ impl MotionTransform {
         Mat4::from_scale_rotation_translation(a.scale.lerp(b.scale, f), r, a.trans.lerp(b.trans, f))
     }
 
+    /// Where the transform only turns a surface's normals, not bends them: the first key's
+    /// scale and, for each interval between keys that `shutter` reaches (or the interval the
+    /// clamped shutter rests on), its end rotations (slerped between). None where matrices are
+    /// interpolated linearly (shear) or the scale's proportions or signs change between keys
+    /// (the normals' directions would then depend on more than the rotation).
+    pub fn turning_segments(&self, shutter: (f32, f32)) -> Option<(Vec3, Vec<(Quat, Quat)>)> {
+        if self.linear {
+            return None;
+        }
+        let s0 = self.keys[0].scale;
+        let alike = |s: Vec3| {
+            let k = s.length() / s0.length();
+            (s - s0 * k).length() <= 1e-5 * s.length() && k > 0.0 && k.is_finite()
+        };
+        if !self.keys.iter().all(|k| alike(k.scale)) {
+            return None;
+        }
+        if self.keys.len() == 1 {
+            return Some((s0, vec![(self.keys[0].rot, self.keys[0].rot)]));
+        }
+        let (t0, t1) = (shutter.0.min(shutter.1), shutter.0.max(shutter.1));
+        let (first, _) = self.locate(t0);
+        let (last, _) = self.locate(t1);
+        Some((s0, (first..=last).map(|i| (self.keys[i].rot, self.keys[i + 1].rot)).collect()))
+    }
+
     /// A world ray mapped into object space (direction not renormalised: t is shared).
     #[inline]
     pub fn ray_to_local(&self, o: Vec3, d: Vec3, time: f32) -> (Vec3, Vec3) {

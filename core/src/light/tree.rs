@@ -226,8 +226,9 @@ fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
 
 /// A light's bounds over `shutter`, for a light with a place (None: it stays out of the tree).
 /// Normals are the emitting fronts'; a light emitting all round, or one that moves (its front
-/// may turn), has the whole sphere, except a deforming emissive triangle on a still instance
-/// (its normals' cone over the shutter: [`deforming_normals`]).
+/// may turn), has the whole sphere, except an emissive triangle that deforms on a still
+/// instance or turns with its instance (its normals' cone over the shutter:
+/// [`deforming_normals`], [`turning_normals`]).
 fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> {
     let (lo, hi) = super::bvh::extent_over(light, shutter)?;
     // a one-sided emitter faces its front normal; the others emit all round
@@ -262,8 +263,11 @@ fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> 
 /// and e1b × e2b; with weights that are never negative it stays in the convex cone of those
 /// three, which a cone narrower than a hemisphere holding them holds.
 fn deforming_normals(m: &super::TriangleMotion, mirrored: bool, shutter: (f32, f32)) -> Option<Cone> {
-    if !m.xf.is_static() || m.p.is_empty() {
+    if m.p.is_empty() {
         return None;
+    }
+    if !m.xf.is_static() {
+        return turning_normals(m, mirrored, shutter);
     }
     let xf = m.xf.at(shutter.0);
     let side = if mirrored { -1.0 } else { 1.0 };
@@ -287,19 +291,40 @@ fn deforming_normals(m: &super::TriangleMotion, mirrored: bool, shutter: (f32, f
         let ((a1, a2), (b1, b2)) = (edges(k), edges(k + 1));
         controls.extend([a1.cross(a2), 0.5 * (a1.cross(b2) + b1.cross(a2)), b1.cross(b2)]);
     }
-    let mut cone: Option<Cone> = None;
-    for c in controls.into_iter().filter(|c| c.is_finite() && c.length_squared() > 0.0) {
-        let point = Cone { w: (side * c).normalize(), cos_theta: 1.0 };
-        cone = Some(match cone {
-            None => point,
-            Some(k) => Cone::union(k, point),
-        });
-    }
-    // widened by a milliradian against rounding; a cap of a hemisphere or more does not hold
-    // the arcs between its points
-    let k = cone?;
+    narrow_union(controls.into_iter().filter(|c| c.is_finite() && c.length_squared() > 0.0).map(|c| Cone { w: (side * c).normalize(), cos_theta: 1.0 }))
+}
+
+/// The cone holding `cones`, widened by a milliradian against rounding; None where it reaches
+/// a hemisphere (a cap that wide does not hold the arcs between its points) or there are none.
+fn narrow_union(cones: impl Iterator<Item = Cone>) -> Option<Cone> {
+    let k = cones.reduce(Cone::union)?;
     let theta = k.cos_theta.clamp(-1.0, 1.0).acos() + 1e-3;
     (theta < std::f32::consts::FRAC_PI_2 - 1e-3).then(|| Cone { w: k.w, cos_theta: theta.cos() })
+}
+
+/// The cone holding the front normal over `shutter` of an emissive triangle that keeps its
+/// shape on an instance that turns (None where it also deforms, or where the instance's
+/// motion bends normals: [`crate::accel::motion::MotionTransform::turning_segments`]). The
+/// world normal is R(t)·c, c the object normal through the scale's cofactor; between two keys
+/// slerp turns c about one axis, a small-circle arc no longer than a half turn, held by the
+/// cap about its middle through its ends.
+fn turning_normals(m: &super::TriangleMotion, mirrored: bool, shutter: (f32, f32)) -> Option<Cone> {
+    if m.p.len() != 1 {
+        return None;
+    }
+    let (s, segments) = m.xf.turning_segments(shutter)?;
+    let p = m.p[0];
+    let n = (p[1] - p[0]).cross(p[2] - p[0]);
+    let side = if mirrored { -1.0 } else { 1.0 };
+    let c = side * Vec3::new(s.y * s.z, s.x * s.z, s.x * s.y) * n;
+    if !(c.is_finite() && c.length_squared() > 0.0) {
+        return None;
+    }
+    let c = c.normalize();
+    narrow_union(segments.into_iter().map(|(a, b)| {
+        let mid = (a.slerp(b, 0.5) * c).normalize();
+        Cone { w: mid, cos_theta: mid.dot((a * c).normalize()).min(mid.dot((b * c).normalize())).clamp(-1.0, 1.0) }
+    }))
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -524,7 +549,7 @@ mod tests {
     use crate::light::tests::{build, desc, lambda};
     use crate::scene::LightShape;
     use crate::testing::chi2::{gamma_q, TestRng};
-    use glam::{Mat4, Quat, Vec2};
+    use glam::{Mat4, Quat, Vec2, Vec4};
 
     /// Points, spheres, rects, disks and cylinders scattered and turned every way, a third of
     /// them spots (a shaping cone of 10° to 170°, soft or hard), moving lights (a sphere, a
@@ -789,8 +814,9 @@ mod tests {
     /// A deforming emissive triangle's normal cone over the shutter holds its normal at 20 001
     /// times (the normal turning 75° and back, through samples at 0, 0.3, 0.7 and 1; the
     /// shutter taking all of them, or only the first two) and is narrower than a hemisphere; so
-    /// for random deformations whose cone is narrower than a hemisphere; on a turning instance
-    /// the cone is the whole sphere.
+    /// for random deformations, and for random turns of instances scaled alike at each key,
+    /// whose cones are narrower than a hemisphere; a triangle that both turns and deforms, or
+    /// one on a sheared instance, takes the whole sphere.
     #[test]
     fn a_deforming_triangles_normals_are_bounded_over_the_shutter() {
         let xf = |m: &[Mat4], t: &[f32]| std::sync::Arc::new(crate::accel::motion::MotionTransform::new(m, t));
@@ -823,27 +849,57 @@ mod tests {
             state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5
         };
-        let mut narrow = 0;
-        for _ in 0..300 {
-            let base = [Vec3::ZERO, Vec3::X, Vec3::Y];
-            let keys: Vec<[Vec3; 3]> = (0..3).map(|_| base.map(|v| v + 1.2 * Vec3::new(next(), next(), next()))).collect();
-            let m = crate::light::TriangleMotion { times: vec![0.0, 0.5, 1.0], p: keys, xf: xf(&[Mat4::IDENTITY], &[0.0]) };
-            let Some(light) = Light::moving_triangle(m, 0.0, em.clone(), false) else { continue };
+        // a light's cone over the whole shutter holds its normal at 2001 times; whether it is
+        // narrower than the whole sphere
+        let held = |m: crate::light::TriangleMotion, case: usize| {
+            let Some(light) = Light::moving_triangle(m, 0.0, em.clone(), false) else { return false };
             let b = light_bounds(&light, 1.0, (0.0, 1.0)).unwrap();
-            if b.normals == Cone::ALL {
-                continue;
-            }
-            narrow += 1;
             let Light::Triangle(t) = &light else { unreachable!() };
             for k in 0..=2000 {
                 if let Some((_, n, _)) = t.at_time(k as f32 / 2000.0) {
-                    assert!(n.dot(b.normals.w) >= b.normals.cos_theta - 1e-6, "{n} outside {:?}", b.normals);
+                    assert!(n.dot(b.normals.w) >= b.normals.cos_theta - 1e-6, "case {case}: {n} outside {:?}", b.normals);
                 }
             }
+            b.normals != Cone::ALL
+        };
+        let mut narrow = 0;
+        for case in 0..300 {
+            let base = [Vec3::ZERO, Vec3::X, Vec3::Y];
+            let keys: Vec<[Vec3; 3]> = (0..3).map(|_| base.map(|v| v + 1.2 * Vec3::new(next(), next(), next()))).collect();
+            let m = crate::light::TriangleMotion { times: vec![0.0, 0.5, 1.0], p: keys, xf: xf(&[Mat4::IDENTITY], &[0.0]) };
+            narrow += held(m, case) as usize;
         }
         assert!(narrow > 100, "{narrow}");
-        let turn = crate::light::TriangleMotion { times: vec![0.0], p: vec![p[0]], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(1.0)], &[0.0, 1.0]) };
-        let light = Light::moving_triangle(turn, 0.0, em, false).unwrap();
+        // on turning instances: two or three keys turned about random axes by up to 0.8 rad,
+        // scaled alike at each key (uniformly, or by one proportion, mirrored or not), or not
+        let mut narrow = 0;
+        for case in 0..300 {
+            let turn = |next: &mut dyn FnMut() -> f32, by: f32| Quat::from_axis_angle(Vec3::new(next(), next(), next()).normalize(), by * next());
+            let proportion = if case % 3 == 0 { Vec3::ONE } else { Vec3::new(1.0, 0.5 + next(), 1.2) * if case % 3 == 2 { Vec3::new(-1.0, 1.0, 1.0) } else { Vec3::ONE } };
+            let keys = 2 + case % 2;
+            // every fifth case each key has its own proportions (normals bent, not only turned),
+            // turned little (so that a cone that took the bend for a turn would be narrow)
+            let own = case % 5 == 4;
+            let mats: Vec<Mat4> = (0..keys)
+                .map(|_| {
+                    let scale = if own { Vec3::new(1.0, 0.3 + 2.0 * (next() + 0.5), 1.0) } else { proportion * (1.0 + next()) };
+                    Mat4::from_scale_rotation_translation(scale, turn(&mut next, if own { 0.1 } else { 1.6 }), Vec3::new(next(), next(), next()))
+                })
+                .collect();
+            let times: Vec<f32> = (0..keys).map(|k| k as f32 / (keys - 1) as f32).collect();
+            // a triangle whose normal (0, 0.6, 0.8) a scale along y bends
+            let leaning = [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 0.8, -0.6)];
+            let m = crate::light::TriangleMotion { times: vec![0.0], p: vec![leaning], xf: xf(&mats, &times) };
+            narrow += held(m, case) as usize;
+        }
+        assert!(narrow > 100, "{narrow}");
+        // a turn that also deforms, or a sheared instance, takes the whole sphere
+        let turn = crate::light::TriangleMotion { times: vec![0.0, 1.0], p: vec![p[0], p[1]], xf: xf(&[Mat4::IDENTITY, Mat4::from_rotation_y(1.0)], &[0.0, 1.0]) };
+        let light = Light::moving_triangle(turn, 0.0, em.clone(), false).unwrap();
+        assert_eq!(light_bounds(&light, 1.0, (0.0, 1.0)).unwrap().normals, Cone::ALL);
+        let shear = Mat4::from_cols(Vec4::X, Vec4::new(0.7, 1.0, 0.0, 0.0), Vec4::Z, Vec4::W);
+        let sheared = crate::light::TriangleMotion { times: vec![0.0], p: vec![p[0]], xf: xf(&[Mat4::IDENTITY, shear], &[0.0, 1.0]) };
+        let light = Light::moving_triangle(sheared, 0.0, em, false).unwrap();
         assert_eq!(light_bounds(&light, 1.0, (0.0, 1.0)).unwrap().normals, Cone::ALL);
     }
 
