@@ -147,6 +147,30 @@ impl Bounds {
     }
 }
 
+fn safe_sqrt(x: f32) -> f32 {
+    x.max(0.0).sqrt()
+}
+
+/// cos(max(0, a − b)) from the sines and cosines of a and b.
+#[inline]
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        1.0
+    } else {
+        cos_a * cos_b + sin_a * sin_b
+    }
+}
+
+/// sin(max(0, a − b)) from the sines and cosines of a and b.
+#[inline]
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    if cos_a > cos_b {
+        0.0
+    } else {
+        sin_a * cos_b - cos_a * sin_b
+    }
+}
+
 /// The largest cos∠(w, p − x) over the points x of the box [lo, hi]: 1 where the ray from p
 /// along −w meets the box (p inside it too), else the best over the box's twelve edges (the
 /// directions within an angle of w form a convex cone, which first touches a box off the ray
@@ -169,7 +193,9 @@ fn max_cos_to_box(w: Vec3, p: Vec3, lo: Vec3, hi: Vec3) -> f32 {
     if t0 <= t1 {
         return 1.0;
     }
-    let corner = |i: usize| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z });
+    // the corners, and the directions from each to p, once (each is shared by three edges)
+    let corner: [Vec3; 8] = std::array::from_fn(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z }));
+    let to_p = corner.map(|c| p - c);
     let cos_at = |v: Vec3| {
         let l = v.length();
         if l > 0.0 {
@@ -180,13 +206,13 @@ fn max_cos_to_box(w: Vec3, p: Vec3, lo: Vec3, hi: Vec3) -> f32 {
     };
     let mut best = -1.0f32;
     for i in 0..8 {
-        best = best.max(cos_at(p - corner(i)));
+        best = best.max(cos_at(to_p[i]));
         for bit in [1usize, 2, 4] {
             if i & bit != 0 {
                 continue;
             }
-            let a = p - corner(i);
-            let d = corner(i) - corner(i | bit);
+            let a = to_p[i];
+            let d = corner[i] - corner[i | bit];
             let (al, be, ga, de, ep) = (w.dot(a), w.dot(d), a.dot(a), a.dot(d), d.dot(d));
             let den = be * de - al * ep;
             if den != 0.0 {
@@ -200,29 +226,6 @@ fn max_cos_to_box(w: Vec3, p: Vec3, lo: Vec3, hi: Vec3) -> f32 {
     best.min(1.0)
 }
 
-/// sin(max(0, a − b)) from the sines and cosines of a and b.
-#[inline]
-fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
-    if cos_a > cos_b {
-        0.0
-    } else {
-        sin_a * cos_b - cos_a * sin_b
-    }
-}
-
-fn safe_sqrt(x: f32) -> f32 {
-    x.max(0.0).sqrt()
-}
-
-/// cos(max(0, a − b)) from the sines and cosines of a and b.
-#[inline]
-fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
-    if cos_a > cos_b {
-        1.0
-    } else {
-        cos_a * cos_b + sin_a * sin_b
-    }
-}
 
 /// A light's bounds over `shutter`, for a light with a place (None: it stays out of the tree).
 /// Normals are the emitting fronts'; a light emitting all round, or one that moves (its front
