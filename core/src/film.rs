@@ -70,8 +70,9 @@ impl FilmLayout {
         self.acc * 4 + 4 + if self.first { 8 } else { 0 }
     }
 
-    /// An empty tile of this layout; `first_pass` where its samples include each pixel's first
-    /// (whose depth and primId the pixel keeps).
+    /// An empty tile of this layout; `first_pass` where the film has pixels without samples
+    /// (the tile then keeps the depth and primId of each pixel's first sample in it, which the
+    /// film takes for those pixels).
     pub fn tile(&self, x0: u32, y0: u32, w: u32, h: u32, first_pass: bool) -> FilmTile {
         let n = w as usize * h as usize;
         let has_first = first_pass && self.first;
@@ -101,7 +102,8 @@ impl FilmTile {
         FilmLayout::new(AovSet::ALL).tile(x0, y0, w, h, has_first)
     }
 
-    /// Adds one sample to pixel (x, y) (image coordinates inside the tile).
+    /// Adds one sample to pixel (x, y) (image coordinates inside the tile); `first_sample`
+    /// where it is the first the tile takes for that pixel.
     #[inline]
     pub fn add(&mut self, x: u32, y: u32, s: &SampleValue, first_sample: bool) {
         let l = &self.layout;
@@ -168,8 +170,12 @@ pub struct Film {
     /// The `tide:guiding` debug image (3 channels per pixel), set by the caustics integrator.
     pub guiding: Option<Vec<f32>>,
     /// Light-traced radiance (RGB per pixel) summed over passes, each pass's image weighted by
-    /// its samples per pixel; resolved over `spp` into colour and `tide:caustics`.
+    /// its samples per pixel; resolved over `light_spp` into colour and `tide:caustics`.
     light: Vec<f32>,
+    /// Samples per pixel of the passes whose light-traced image is in `light` (every pass's
+    /// photons are traced whole before its pixels, so a pass given up part way still adds its
+    /// image, and this can exceed what a pixel's own camera samples count).
+    light_spp: u32,
 }
 
 impl Film {
@@ -198,7 +204,7 @@ impl Film {
         let sums = zeros(n.checked_mul(layout.acc)?, 0.0f32)?;
         let count = zeros(n, 0u32)?;
         let first = zeros(if layout.first { n } else { 0 }, [f32::INFINITY, -1.0])?;
-        Some(Film { width, height, sums, n: count, first, spp: 0, scale: 1.0, window, display: [0, 0, width, height], layout, guiding: None, light: Vec::new() })
+        Some(Film { width, height, sums, n: count, first, spp: 0, scale: 1.0, window, display: [0, 0, width, height], layout, guiding: None, light: Vec::new(), light_spp: 0 })
     }
 
     /// Where the film's accumulators lie (the layout of the tiles merged into it).
@@ -221,23 +227,37 @@ impl Film {
         (dy..dy + dh).flat_map(|y| (dx..dx + dw).flat_map(move |x| (0..ch).map(move |k| (y * w + x) * ch + k))).map(|i| per_pixel[i]).collect()
     }
 
-    /// Merges a finished tile of a pass.
-    pub fn merge(&mut self, t: &FilmTile) {
+    /// Merges a tile of a pass: each pixel takes the samples the tile holds for it (none for
+    /// a pixel the pass did not reach), and a pixel taking its first samples takes the tile's
+    /// first-hit values. Returns whether the tile held any samples.
+    pub fn merge(&mut self, t: &FilmTile) -> bool {
         assert_eq!(t.layout, self.layout, "a tile merged into a film of another layout");
         let acc = self.layout.acc;
+        let mut took = false;
         for y in 0..t.h {
             for x in 0..t.w {
                 let src = (y * t.w + x) as usize;
                 let dst = ((t.y0 + y) * self.width + t.x0 + x) as usize;
+                if t.n[src] == 0 {
+                    continue;
+                }
                 for k in 0..acc {
                     self.sums[dst * acc + k] += t.sums[src * acc + k];
                 }
-                self.n[dst] += t.n[src];
-                if t.has_first {
+                if t.has_first && self.n[dst] == 0 {
                     self.first[dst] = t.first[src];
                 }
+                self.n[dst] += t.n[src];
+                took = true;
             }
         }
+        took
+    }
+
+    /// Pixels of the data window without a sample (a first pass given up part way leaves some).
+    pub fn unsampled_pixels(&self) -> u64 {
+        let [x0, y0, x1, y1] = self.window;
+        (y0..y1).map(|y| (x0..x1).filter(|&x| self.n[(y * self.width + x) as usize] == 0).count() as u64).sum()
     }
 
     pub fn clear(&mut self) {
@@ -245,12 +265,15 @@ impl Film {
         self.first.iter_mut().for_each(|v| *v = [f32::INFINITY, -1.0]);
         self.n.iter_mut().for_each(|v| *v = 0);
         self.light.clear();
+        self.light_spp = 0;
         self.spp = 0;
     }
 
-    /// Adds a pass's light-traced image (RGB per pixel, the whole image) with weight `w` (the
-    /// pass's samples per pixel times its photon weight).
-    pub fn add_light(&mut self, image: &[f32], w: f64) {
+    /// Adds the light-traced image (RGB per pixel, the whole image) of a pass of `spp` samples
+    /// per pixel whose photons weigh `weight` each.
+    pub fn add_light(&mut self, image: &[f32], spp: u32, weight: f32) {
+        self.light_spp += spp;
+        let w = spp as f64 * weight as f64;
         let n = (self.width * self.height) as usize * 3;
         if image.len() != n || w == 0.0 {
             return;
@@ -290,10 +313,10 @@ impl Film {
     /// Light-traced radiance of pixel `i`, channel `k` (mean over the passes).
     #[inline]
     fn light_at(&self, i: usize, k: usize) -> f64 {
-        if self.light.is_empty() || self.spp == 0 {
+        if self.light.is_empty() || self.light_spp == 0 {
             0.0
         } else {
-            self.light[i * 3 + k] as f64 / self.spp as f64
+            self.light[i * 3 + k] as f64 / self.light_spp as f64
         }
     }
 
@@ -485,6 +508,29 @@ impl exr::image::write::samples::SamplesWriter for FilmChannel<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The light-traced image is the mean over the passes that traced it, each weighted by its
+    /// samples per pixel, whatever the camera's samples in a pixel: a pass given up before a
+    /// pixel still traced all its photons.
+    #[test]
+    fn the_light_traced_image_is_the_mean_of_its_own_passes() {
+        let mut f = Film::new(2, 1, [0, 0, 2, 1]);
+        let mut t = FilmTile::new(0, 0, 2, 1, true);
+        t.add(0, 0, &SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, ..Default::default() }, true);
+        f.merge(&t);
+        f.spp = 1;
+        // passes of 2 and 6 samples, their photons weighing 0.5 and 1
+        f.add_light(&[4.0, 8.0, 12.0, 16.0, 0.0, 0.0], 2, 0.5);
+        f.add_light(&[8.0, 0.0, 4.0, 0.0, 0.0, 8.0], 6, 1.0);
+        let want = |img1: [f32; 3], img2: [f32; 3], cam: [f32; 3]| -> Vec<f32> { (0..3).map(|k| cam[k] + (img1[k] * 0.5 * 2.0 + img2[k] * 6.0) / 8.0).collect() };
+        let c = f.resolve(Aov::Color);
+        assert_eq!(&c[0..3], &want([4.0, 8.0, 12.0], [8.0, 0.0, 4.0], [1.0, 2.0, 3.0])[..]);
+        assert_eq!(c[3], 1.0);
+        // the second pixel has no camera sample: light alone, and no alpha
+        assert_eq!(&c[4..7], &want([16.0, 0.0, 0.0], [0.0, 0.0, 8.0], [0.0; 3])[..]);
+        assert_eq!(c[7], 0.0);
+        assert_eq!(f.unsampled_pixels(), 1);
+    }
 
     /// A film rendering only a window writes that window as the file's data window, inside a
     /// display window of the whole image, with the window's pixels in place.

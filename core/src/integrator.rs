@@ -466,8 +466,10 @@ pub fn initial_stack(world: &World, p: Vec3, time: f32) -> InteriorStack {
 /// Returns the radiance split by light-path category (its sum is the sample's radiance) and
 /// the first-vertex AOVs. With `caustics`, photon lookups are made at non-specular receiver
 /// vertices and the caustic transport they carry is weighted out of the path tracer's share
-/// (see [`crate::caustics::engine`]).
-pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack, caustics: Option<&Caustics>) -> ([SampledSpectrum; N_SPLIT], SampleValue) {
+/// (see [`crate::caustics::engine`]). `first` where the sample may be its pixel's first, whose
+/// depth and primId the pixel keeps (behind a medium that scatters before the first surface
+/// they take a ray of their own, so other samples leave them out).
+pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Vec2, lambda: &mut SampledWavelengths, camera_stack: &InteriorStack, caustics: Option<&Caustics>, first: bool) -> ([SampledSpectrum; N_SPLIT], SampleValue) {
     let u_lens = sampler.get2d();
     let u_time = sampler.get1d();
     let cr = world.camera.generate_ray(raster, u_lens, u_time);
@@ -568,7 +570,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 DistanceSample::Scatter { t, weight } => {
                     if depth == 0 && first_surface {
                         // the first-hit AOVs of the surface behind the medium, by geometry
-                        first_surface_aov(world, &cr, lambda, sampler.sample_index() == 0, &mut aov);
+                        first_surface_aov(world, &cr, lambda, first, &mut aov);
                     }
                     beta *= weight;
                     fp.advance(t);
@@ -631,7 +633,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                     beta *= weight;
                     if beta.is_black() {
                         if depth == 0 && first_surface {
-                            first_surface_aov(world, &cr, lambda, sampler.sample_index() == 0, &mut aov);
+                            first_surface_aov(world, &cr, lambda, first, &mut aov);
                         }
                         break;
                     }

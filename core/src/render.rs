@@ -228,6 +228,8 @@ pub struct RenderStats {
     pub caustics: Option<crate::caustics::engine::CausticsStats>,
     /// Seconds spent tracing photons and building photon maps (part of `render_seconds`).
     pub photon_seconds: f64,
+    /// Pixels of the data window without a sample (a first pass given up part way).
+    pub unsampled_pixels: u64,
 }
 
 const TILE: u32 = 16;
@@ -430,18 +432,21 @@ impl Renderer {
         &self.world.accel.stats
     }
 
-    /// Renders `spp` more samples per pixel; returns false if cancelled part way (the film
-    /// then holds only whole passes). The flag is looked at before every pixel, so a pass of
-    /// slow paths stops within one pixel's samples.
+    /// Renders `spp` more samples per pixel; returns false if cancelled part way. The flag is
+    /// looked at before every pixel, so a pass of slow paths stops within one pixel's samples;
+    /// the pixels the pass finished keep its samples (each tile goes into the film as it
+    /// finishes), the others keep what they had.
     pub fn render_pass(&mut self, spp: u32, cancel: Option<&AtomicBool>) -> bool {
         self.render_pass_until(spp, cancel, None)
     }
 
-    /// [`Renderer::render_pass`] that also gives the pass up (false, the film as it was) once
-    /// `deadline` has passed: a time budget's last pass, where the paths turn out slower than
-    /// the passes before measured, ends at the budget and not at the end of the pass.
+    /// [`Renderer::render_pass`] that also gives the pass up (false) once `deadline` has
+    /// passed: a time budget's last pass, where the paths turn out slower than the passes
+    /// before measured, ends at the budget and not at the end of the pass, with the pixels it
+    /// finished. A first pass given up leaves pixels without samples (see
+    /// [`Renderer::unsampled_pixels`]).
     pub fn render_pass_until(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
-        use crate::film::{FilmTile, SampleValue};
+        use crate::film::SampleValue;
         use crate::spectrum::color;
         use rayon::prelude::*;
         use std::sync::atomic::Ordering;
@@ -491,29 +496,33 @@ impl Renderer {
         let pixel_filter = self.settings.pixel_filter;
         let adaptive = self.adaptive.as_ref();
         let film_layout = self.film.layout();
+        let first_pass = base == 0 || self.film.unsampled_pixels() > 0;
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(|d| std::time::Instant::now() >= d);
-        let results: Vec<Option<FilmTile>> = self.pool.install(|| {
+        // Each tile goes into the film as it finishes (one addition a pixel a pass, so the
+        // order the tiles finish in changes nothing): a pass holds only the tiles in flight.
+        let film = std::sync::Mutex::new(&mut self.film);
+        let took = std::sync::atomic::AtomicBool::new(false);
+        let given_up = self.pool.install(|| {
             tiles
                 .par_iter()
-                .map(|&(tx, ty, tw, th)| {
-                    if cancelled() {
-                        return None;
-                    }
-                    let mut tile = film_layout.tile(tx, ty, tw, th, base == 0);
-                    for y in ty..ty + th {
+                .filter(|&&(tx, ty, tw, th)| {
+                    let mut tile = film_layout.tile(tx, ty, tw, th, first_pass);
+                    let mut finished = true;
+                    'pixels: for y in ty..ty + th {
                         for x in tx..tx + tw {
                             if adaptive.is_some_and(|a| !a.is_active(x, y)) {
                                 continue;
                             }
                             if cancelled() {
-                                return None;
+                                finished = false;
+                                break 'pixels;
                             }
                             for s in base..base + spp {
                                 let mut sampler = crate::sampler::PixelSampler::new(seed, x, y, s);
                                 let f = sampler.get2d();
                                 let raster = glam::Vec2::new(x as f32 + 0.5 + pixel_filter.sample(f.x), y as f32 + 0.5 + pixel_filter.sample(f.y));
                                 let mut lambda = color::sample_wavelengths(sampler.get1d());
-                                let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, caustics);
+                                let (split, mut v) = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, caustics, first_pass && s == base);
                                 let filter = world.camera.filter.map(|f| f.sample(&lambda));
                                 let to_rgb = |x: crate::spectrum::SampledSpectrum| {
                                     let x = match &filter {
@@ -537,36 +546,40 @@ impl Renderer {
                                 // colour is the sum of the split, so the split AOVs add up exactly
                                 v.color = total;
                                 let sv: SampleValue = v;
-                                tile.add(x, y, &sv, s == 0);
+                                tile.add(x, y, &sv, first_pass && s == base);
                             }
                         }
                     }
-                    Some(tile)
+                    if film.lock().unwrap_or_else(|e| e.into_inner()).merge(&tile) {
+                        took.store(true, Ordering::Relaxed);
+                    }
+                    !finished
                 })
-                .collect()
+                .count()
         });
-        if results.iter().any(|r| r.is_none()) {
-            if let Some(c) = self.caustics.as_mut() {
-                // the pass's photons and visibility are dropped with it
+        let complete = given_up == 0;
+        if let Some(c) = self.caustics.as_mut() {
+            if complete {
+                c.end_pass(camera_samples);
+                self.stats.caustics = Some(c.stats().clone());
+                if self.settings.aovs.contains(Aov::Guiding) {
+                    self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
+                }
+            } else {
+                // the guiding table learns from whole passes only
                 c.end_pass_cancelled();
             }
-            return false;
-        }
-        if let Some(c) = self.caustics.as_mut() {
-            c.end_pass(camera_samples);
-            self.stats.caustics = Some(c.stats().clone());
-            if self.settings.aovs.contains(Aov::Guiding) {
-                self.film.guiding = Some(guiding_image(c, self.film.width, self.film.height));
-            }
-        }
-        for t in results.iter().flatten() {
-            self.film.merge(t);
         }
         if let Some(c) = self.caustics.as_ref() {
+            // the pass's photons were all traced before its pixels: its light image is whole
             let (image, weight) = c.light_image();
-            self.film.add_light(image, spp as f64 * weight as f64);
+            self.film.add_light(image, spp, weight);
         }
-        self.film.spp += spp;
+        // the next pass's samples follow this one's in every pixel, whether it reached the
+        // pixel or not (a pass given up before any pixel leaves the count as it was)
+        if took.into_inner() {
+            self.film.spp += spp;
+        }
         if let Some(a) = self.adaptive.as_mut() {
             a.update(&self.film);
         }
@@ -576,7 +589,15 @@ impl Renderer {
         let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
         self.stats.mean_samples_per_pixel = self.film.mean_samples();
         self.stats.samples_per_second = px * self.stats.mean_samples_per_pixel / self.stats.render_seconds.max(1e-9);
-        true
+        self.stats.unsampled_pixels = self.film.unsampled_pixels();
+        complete
+    }
+
+    /// Pixels of the data window without a sample: those a first pass given up part way (at a
+    /// time budget's end, or cancelled) did not reach. They resolve to no camera samples:
+    /// alpha 0, colour black but for what light tracing splatted there.
+    pub fn unsampled_pixels(&self) -> u64 {
+        self.film.unsampled_pixels()
     }
 
     /// Samples each pixel of the image has taken, row-major from the top (0 outside the data
@@ -643,7 +664,7 @@ impl Renderer {
         // the renderer's own figures replace any the caller passed under the same keys
         // what the render used, whatever a caller's header says (a rejected value replaced by
         // its default is recorded as the default)
-        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator", "tide:pixelFilter", "tide:pixelFilter:width", "tide:maxDepth", "tide:time:budget", "renderingColorSpace"];
+        let own = ["tide:spp", "tide:seed", "tide:renderSeconds", "tide:buildSeconds", "tide:integrator", "tide:pixelFilter", "tide:pixelFilter:width", "tide:maxDepth", "tide:time:budget", "tide:unsampledPixels", "renderingColorSpace"];
         let mut h: Vec<(String, String)> = header.iter().filter(|(k, _)| !own.contains(&k.as_str()) && !k.starts_with("tide:caustics:") && !k.starts_with("tide:adaptive:")).cloned().collect();
         h.push(("tide:spp".into(), self.film.spp.to_string()));
         h.push(("tide:seed".into(), self.settings.seed.to_string()));
@@ -654,6 +675,10 @@ impl Renderer {
         h.push(("tide:pixelFilter:width".into(), format!("{}", self.settings.pixel_filter.width)));
         h.push(("tide:maxDepth".into(), self.settings.max_depth.to_string()));
         h.push(("tide:time:budget".into(), format!("{}", self.settings.time_budget_s)));
+        let unsampled = self.film.unsampled_pixels();
+        if unsampled > 0 {
+            h.push(("tide:unsampledPixels".into(), unsampled.to_string()));
+        }
         let space = match self.world.cs {
             crate::scene::ColorSpace::LinearRec709 => "lin_rec709",
             crate::scene::ColorSpace::AcesCg => "ACEScg",

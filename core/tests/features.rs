@@ -290,3 +290,80 @@ fn a_colour_only_film_draws_the_same_colour_in_less_memory() {
     assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::Color])), 28);
     assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 132);
 }
+
+/// A pass given up part way (its deadline passed) keeps the pixels it finished, each with the
+/// very samples a whole pass gives it, and leaves the others as they were; a first pass given
+/// up leaves pixels without samples, transparent black, which take their first hit's depth
+/// from the pass that reaches them.
+#[test]
+fn a_pass_given_up_part_way_keeps_the_pixels_it_finished() {
+    use std::time::{Duration, Instant};
+    let mut scene = underwater(|_| {});
+    scene.media[0].sigma_s = SpectrumDesc::Rgb([0.4; 3]);
+    let s = RenderSettings { threads: 1, ..settings(40, 40, 9) };
+    let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    let mut whole = tide_core::Renderer::new(&scene, s.clone()).unwrap();
+    assert!(whole.render_pass(1, None));
+    let (c1, d1) = (whole.aov_pixels(Aov::Color), whole.aov_pixels(Aov::Depth));
+    assert!(whole.render_pass(8, None));
+    let c9 = whole.aov_pixels(Aov::Color);
+    let mut first8 = tide_core::Renderer::new(&scene, s.clone()).unwrap();
+    assert!(first8.render_pass(8, None));
+    let (f8, fd8) = (first8.aov_pixels(Aov::Color), first8.aov_pixels(Aov::Depth));
+    let total = 40 * 40;
+    // deadlines from 1 ms up, until one falls inside the pass (whatever the machine's speed)
+    let (mut later, mut first) = (false, false);
+    for ms in (0..14).map(|k| 1u64 << k) {
+        let mut r = tide_core::Renderer::new(&scene, s.clone()).unwrap();
+        assert!(r.render_pass(1, None));
+        if !later && !r.render_pass_until(8, None, Some(Instant::now() + Duration::from_millis(ms))) {
+            let n = r.pixel_samples();
+            let reached = n.iter().filter(|&&k| k == 9).count();
+            if reached > 0 && reached < total {
+                later = true;
+                assert!(n.iter().all(|&k| k == 1 || k == 9), "a pixel took part of its samples");
+                assert_eq!(r.samples_per_pixel(), 9);
+                assert_eq!(r.unsampled_pixels(), 0);
+                let c = r.aov_pixels(Aov::Color);
+                for (i, &k) in n.iter().enumerate() {
+                    let want = if k == 9 { &c9[i * 4..i * 4 + 4] } else { &c1[i * 4..i * 4 + 4] };
+                    assert_eq!(bits(&c[i * 4..i * 4 + 4]), bits(want), "pixel {i} with {k} samples");
+                }
+                assert_eq!(bits(&r.aov_pixels(Aov::Depth)), bits(&d1));
+                // the next pass follows on in every pixel
+                assert!(r.render_pass(2, None));
+                assert!(r.pixel_samples().iter().zip(&n).all(|(&a, &b)| a == b + 2));
+            }
+        }
+        let mut r = tide_core::Renderer::new(&scene, s.clone()).unwrap();
+        if !first && !r.render_pass_until(8, None, Some(Instant::now() + Duration::from_millis(ms))) {
+            let n = r.pixel_samples();
+            let reached = n.iter().filter(|&&k| k == 8).count();
+            if reached > 0 && reached < total {
+                first = true;
+                assert!(n.iter().all(|&k| k == 0 || k == 8), "a pixel took part of its samples");
+                assert_eq!(r.unsampled_pixels(), (total - reached) as u64);
+                assert_eq!(r.stats().unsampled_pixels, (total - reached) as u64);
+                let (c, d) = (r.aov_pixels(Aov::Color), r.aov_pixels(Aov::Depth));
+                for (i, &k) in n.iter().enumerate() {
+                    let want = if k == 8 { &f8[i * 4..i * 4 + 4] } else { &[0.0f32; 4][..] };
+                    assert_eq!(bits(&c[i * 4..i * 4 + 4]), bits(want), "pixel {i} with {k} samples");
+                }
+                // every ray meets the water's box: a pixel's depth is its first sample's
+                assert!(r.render_pass(1, None));
+                assert_eq!(r.unsampled_pixels(), 0);
+                let d2 = r.aov_pixels(Aov::Depth);
+                for (i, &k) in n.iter().enumerate() {
+                    assert!(d2[i].is_finite() && d2[i] > 0.0, "pixel {i} ({k}): depth {} ref {} {}", d2[i], fd8[i], d1[i]);
+                    if k == 8 {
+                        assert_eq!(d2[i].to_bits(), fd8[i].to_bits());
+                    }
+                }
+            }
+        }
+        if later && first {
+            break;
+        }
+    }
+    assert!(later && first, "no deadline fell inside a pass ({later}, {first})");
+}

@@ -90,6 +90,9 @@ impl Engine for Renderer {
         if st.mean_samples_per_pixel < st.samples_per_pixel as f64 {
             out.push(("meanSpp".into(), format!("{:.2}", st.mean_samples_per_pixel)));
         }
+        if st.unsampled_pixels > 0 {
+            out.push(("unsampledPixels".into(), st.unsampled_pixels.to_string()));
+        }
         if let Some(c) = &st.caustics {
             out.push(("photonPasses".into(), c.passes.to_string()));
             out.push(("photonsEmitted".into(), c.photons_emitted.to_string()));
@@ -536,16 +539,15 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
             }
             n = n.min((fit * 0.5).clamp(1.0, u32::MAX as f64) as u32);
         }
-        // past the first pass (an image needs one), a pass still running at the budget's end
-        // is given up: the render keeps the passes before it
-        let deadline = (budget > 0.0 && done > 0).then(|| start + Duration::from_secs_f64(budget as f64));
-        if !e.render_pass(n, &shared.cancel, deadline) {
-            if !shared.cancel.load(Ordering::SeqCst) && deadline.is_some_and(|d| Instant::now() >= d) {
-                break;
-            }
+        // a pass still running at the budget's end is given up there, the first included: the
+        // render keeps the passes before it and the pixels the last one finished (after a
+        // first pass given up, some pixels have no samples, and the summary says how many)
+        let deadline = (budget > 0.0).then(|| start + Duration::from_secs_f64(budget as f64));
+        let whole = e.render_pass(n, &shared.cancel, deadline);
+        if !whole && (shared.cancel.load(Ordering::SeqCst) || !deadline.is_some_and(|d| Instant::now() >= d)) {
             return Ok(false);
         }
-        done += n;
+        done = if whole { done + n } else { e.samples_per_pixel().min(target) };
         let (w, h) = (job.settings.width, job.settings.height);
         for (aov, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
             let px = e.aov_pixels(*aov);
@@ -568,7 +570,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
             serve_exr(shared, Some(&**e));
         }
         next = next.saturating_mul(2);
-        if budget > 0.0 && start.elapsed().as_secs_f32() >= budget {
+        if !whole || (budget > 0.0 && start.elapsed().as_secs_f32() >= budget) {
             break;
         }
         if e.converged() {
@@ -767,6 +769,27 @@ pub(crate) mod tests {
         // stop far below the budget; 10 samples (20% of it) leaves room for a loaded machine
         // where sleeps overrun several-fold.
         assert!((10..=100).contains(&n), "{n} samples in a 0.2 s budget at 2 ms per sample");
+    }
+
+    #[test]
+    fn a_first_pass_longer_than_the_budget_ends_at_the_budget() {
+        // one sample a pixel takes a minute: the render stops at the budget of 0.3 s all the
+        // same (the contract: whichever comes first), with what the pass finished published
+        let f: EngineFactory = Arc::new(move |_, s| {
+            Ok(Box::new(Fake { w: s.width, h: s.height, spp: 0, delay: Duration::from_secs(60), per_spp: Duration::ZERO, panic_at: None, passes: Default::default(), slow: None })
+                as Box<dyn Engine>)
+        });
+        let pass = RenderPass::new(f);
+        let buf = RenderBuffer::new(4, 2, 4);
+        let mut j = job(64, &buf);
+        j.settings.time_budget_s = 0.3;
+        let t = Instant::now();
+        pass.start(j);
+        assert!(pass.wait(Duration::from_secs(30)));
+        let took = t.elapsed();
+        assert!(took < Duration::from_secs(10), "{took:?}");
+        assert_eq!(pass.status(), PassStatus::Converged);
+        assert_eq!(buf.map().samples, 0);
     }
 
     #[test]

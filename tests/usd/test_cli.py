@@ -544,3 +544,18 @@ def test_the_preview_is_the_renders_colour_through_the_srgb_view(tmp_path):
     assert len({bytes(r) for r in want.astype(np.uint8)}) > 100
     assert np.abs(png - want).max() <= 1, np.argwhere(np.abs(png - want) > 1)[:5]
     assert (png == want).mean() > 0.95
+
+
+def test_a_budget_shorter_than_one_sample_a_pixel_ends_the_first_pass(tmp_path):
+    # 2048² camera paths do not fit in 50 ms: the render stops at the budget all the same
+    # (whichever comes first, the contract says), writes what it has, and says what is missing
+    stage = _stage(tmp_path)
+    out = run(["render", stage, "--width", "2048", "--spp", "4", "--integrator", "path",
+               "--time-budget", "0.05"], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(str(tmp_path / "scene_out.exr"))
+    unsampled = int(header["tide:unsampledPixels"])
+    assert 0 < unsampled <= 2048 * 2048
+    assert "pixels have no samples" in out.stderr and str(unsampled) in out.stderr
+    # the budget ends the pass at a pixel's samples, not at the pass's end (seconds on two cores)
+    assert float(header["tide:renderSeconds"]) < 1.0, header["tide:renderSeconds"]

@@ -13,7 +13,9 @@ rendering, whichever comes first; loading and acceleration-structure building ar
 --max-depth `tide:maxDepth`, --pixel-filter `tide:pixelFilter`, --pixel-filter-width
 `tide:pixelFilter:width`, --adaptive-threshold `tide:adaptive:threshold`. The EXR header records
 the samples per pixel actually reached (`tide:spp`; with adaptive sampling the most any pixel
-took, and `tide:adaptive:meanSpp` the mean).
+took, and `tide:adaptive:meanSpp` the mean). A time budget shorter than the first pass ends it
+part way: the pixels it did not reach have no samples (alpha 0), and `tide:unsampledPixels`
+counts them.
 
 One EXR is written per render product. Products whose own settings (resolution, camera, ...)
 agree are rendered together; the others are rendered one after the other, each with the whole
@@ -344,7 +346,16 @@ def _render_one(reader, delegate, args, outputs, load_s):
         spp = int(reached)
         sps, header = make_header(spp)
         _write(delegate, outputs, header, png=False, manifest=manifest)
-    adaptive = " (adaptive: mean %.1f)" % mean_spp if mean_spp is not None else ""
+    adaptive = ""
+    if mean_spp is not None:
+        # below the passes' count where adaptive sampling stopped pixels, or where the time
+        # budget ended a pass part way
+        on = _written(outputs[0][0], "tide:adaptive:threshold") is not None
+        adaptive = " (%smean %.1f)" % ("adaptive: " if on else "", mean_spp)
+    unsampled = int(summary.get("unsampledPixels", "0"))
+    if unsampled:
+        _say("the time budget ended the first pass: %d of %d pixels have no samples "
+             "(alpha 0; `tide:unsampledPixels` in the header)" % (unsampled, w * h))
     build = _written(outputs[0][0], "tide:buildSeconds")
     build = ", build %.2fs" % float(build) if build is not None else ""
     sys.stdout.write("tide: wrote %s (%dx%d, %d spp%s, load %.2fs%s, render %.2fs, %.3g samples/s)\n"
