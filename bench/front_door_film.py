@@ -4,7 +4,7 @@ every AOV of the contract, in one fresh process each:
 
     .venv/bin/python bench/front_door_film.py [--size 4096] [CHECKOUT]
 
-The peak is the process's maximum resident set (the film's accumulators, the pass's tiles, the
+The peak is the process's maximum resident set (the film's accumulators, the tiles in flight, the
 bound buffers, the EXR and the PNG preview being written); CHECKOUT measures another build.
 """
 import argparse

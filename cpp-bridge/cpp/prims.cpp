@@ -304,12 +304,25 @@ void RenderBuffer::Unmap() { _mappers--; }
 void RenderBuffer::Resolve() {
     if (IsMapped()) return;
     try {
-        rs::MappedBuffer m = _param->GetDelegate().map_buffer(Str(_id));
-        if (m.channels == 0 || m.pixels.empty()) return;
-        _width = m.width;
-        _height = m.height;
-        _channels = int(m.channels);
-        _pixels.assign(m.pixels.begin(), m.pixels.end());
+        // the delegate's pixels are copied straight into this buffer's storage, with no copy
+        // in between; a pass publishing another size between the two calls is read again
+        auto& delegate = _param->GetDelegate();
+        for (int attempt = 0; attempt < 4; ++attempt) {
+            rs::MappedBuffer shape = delegate.buffer_shape(Str(_id));
+            const size_t n = size_t(shape.width) * shape.height * size_t(shape.channels);
+            if (n == 0) return;
+            if (_pixels.size() != n) {
+                std::vector<float>().swap(_pixels);
+                _pixels.resize(n);
+            }
+            if (delegate.read_buffer(Str(_id), rust::Slice<float>(_pixels.data(), n))) {
+                _width = shape.width;
+                _height = shape.height;
+                _channels = int(shape.channels);
+                return;
+            }
+        }
+        _param->AddProblem(_id, "", "the buffer kept changing size while it was read");
     } catch (const std::exception& e) {
         _param->AddProblem(_id, "", e.what());
     }

@@ -763,9 +763,15 @@ PyObject* Delegate_write_preview_png(PyObject* self, PyObject* args, PyObject* k
     TIDE_TRY
     State& s = S(self);
     WithoutGil([&] {
-        Resolved r = ResolveBuffer(s, buffer);
+        // written from the buffer's own storage, mapped while the PNG is written (no copy)
+        std::lock_guard<std::mutex> lock(s.mutex);
+        tide::RenderBuffer* rb = s.index->GetRenderBuffer(buffer);
+        if (!rb) throw std::runtime_error(std::string(buffer) + ": no such render buffer");
+        rb->Resolve();
+        const float* pixels = static_cast<const float*>(rb->Map());
+        std::unique_ptr<tide::RenderBuffer, void (*)(tide::RenderBuffer*)> mapped(rb, [](tide::RenderBuffer* b) { b->Unmap(); });
         std::string error;
-        if (!tide::WritePreviewPng(path, int(r.w), int(r.h), int(r.c), r.pixels.data(), cs, view, &error))
+        if (!tide::WritePreviewPng(path, int(rb->GetWidth()), int(rb->GetHeight()), rb->GetChannels(), pixels, cs, view, &error))
             throw std::runtime_error(std::string(buffer) + ": " + error);
         return 0;
     });

@@ -313,6 +313,21 @@ impl Delegate {
         })
     }
 
+    pub fn buffer_shape(&self, path: &str) -> Result<MappedBuffer, String> {
+        guard("buffer_shape", || {
+            let buf = lock(&self.shared).delegate.render_buffer(path).ok_or_else(|| format!("{path}: no such render buffer"))?;
+            let (width, height, channels) = buf.shape();
+            Ok(MappedBuffer { width, height, channels, pixels: Vec::new() })
+        })
+    }
+
+    pub fn read_buffer(&self, path: &str, out: &mut [f32]) -> Result<bool, String> {
+        guard("read_buffer", || {
+            let buf = lock(&self.shared).delegate.render_buffer(path).ok_or_else(|| format!("{path}: no such render buffer"))?;
+            Ok(buf.read_into(out).is_some())
+        })
+    }
+
     pub fn write_exr(&self, path: &str, layers: &Vec<ExrLayer>, header: &Vec<StringPair>) -> Result<(), String> {
         guard("write_exr", || {
             let mut aovs = Vec::with_capacity(layers.len());
@@ -515,6 +530,17 @@ mod tests {
             assert!((mean - want).abs() < 0.03 * want, "channel {c}: {mean} vs {want}");
         }
         assert!(d.map_buffer("/nope").is_err());
+        // read in place: the same pixels into storage of the buffer's shape, nothing into
+        // storage of another
+        let shape = d.buffer_shape("/Out/color").unwrap();
+        assert_eq!((shape.width, shape.height, shape.channels, shape.pixels.len()), (8, 4, 4, 0));
+        let mut out = vec![-1.0f32; 8 * 4 * 4];
+        assert!(d.read_buffer("/Out/color", &mut out).unwrap());
+        assert_eq!(out, m.pixels);
+        let mut other = vec![-1.0f32; 8 * 4 * 4 - 1];
+        assert!(!d.read_buffer("/Out/color", &mut other).unwrap());
+        assert!(other.iter().all(|&v| v == -1.0));
+        assert!(d.read_buffer("/nope", &mut out).is_err() && d.buffer_shape("/nope").is_err());
     }
 
     #[test]

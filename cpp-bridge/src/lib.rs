@@ -141,6 +141,12 @@ pub mod ffi {
         fn check_render(self: &Delegate) -> Result<Vec<ProblemRow>>;
         fn last_synced(self: &Delegate) -> Result<Vec<String>>;
         fn map_buffer(self: &Delegate, path: &str) -> Result<MappedBuffer>;
+        /// A render buffer's dimensions (`pixels` left empty).
+        fn buffer_shape(self: &Delegate, path: &str) -> Result<MappedBuffer>;
+        /// Copies a render buffer's pixels into `out` (the reader's own storage) where it holds
+        /// exactly width × height × channels floats of the buffer's present shape; false (and
+        /// `out` untouched) when the shape changed since it was asked.
+        fn read_buffer(self: &Delegate, path: &str, out: &mut [f32]) -> Result<bool>;
         fn write_exr(self: &Delegate, path: &str, layers: &Vec<ExrLayer>, header: &Vec<StringPair>) -> Result<()>;
 
         fn create_render_pass(self: &Delegate) -> Result<Box<Pass>>;

@@ -174,6 +174,24 @@ impl RenderBuffer {
         let g = self.inner.read().unwrap_or_else(|e| e.into_inner());
         (g.width, g.height)
     }
+
+    /// The current (width, height, channels).
+    pub fn shape(&self) -> (u32, u32, u32) {
+        let g = self.inner.read().unwrap_or_else(|e| e.into_inner());
+        (g.width, g.height, g.channels)
+    }
+
+    /// Copies the current pixels into `out` where it holds exactly as many floats, without a
+    /// copy in between (a reader's own storage, filled in place); returns their (width,
+    /// height, channels), or None (`out` untouched) when the size differs: the buffer was
+    /// resized or published at another size since [`RenderBuffer::shape`].
+    pub fn read_into(&self, out: &mut [f32]) -> Option<(u32, u32, u32)> {
+        let g = self.inner.read().unwrap_or_else(|e| e.into_inner());
+        (g.pixels.len() == out.len()).then(|| {
+            out.copy_from_slice(&g.pixels);
+            (g.width, g.height, g.channels)
+        })
+    }
 }
 
 /// Where a pass stands.

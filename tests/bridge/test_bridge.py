@@ -272,7 +272,8 @@ def test_material_textures_load_on_sync_and_missing_ones_are_problems(tmp_path):
 # start-up does not hide the load's), then the error ("" if read).
 # A child process's start: a delegate made, then the process's peak reset (status("VmHWM")
 # - before is then what follows takes at its peak).
-_PEAK_RESET = r"""
+# a child process's memory: status("VmHWM") - before is its peak growth since reset_peak()
+_STATUS = r"""
 import sys
 from tide import _tide
 
@@ -281,10 +282,15 @@ def status(key):
         if line.startswith(key + ":"):
             return int(line.split()[1])
 
+def reset_peak():
+    with open("/proc/self/clear_refs", "w") as f:
+        f.write("5")
+    return status("VmRSS")
+"""
+
+_PEAK_RESET = _STATUS + r"""
 d = _tide.RenderDelegate()
-with open("/proc/self/clear_refs", "w") as f:
-    f.write("5")
-before = status("VmRSS")
+before = reset_peak()
 """
 
 _MEASURED_LOAD = _PEAK_RESET + r"""
@@ -415,6 +421,43 @@ def test_preview_png_is_written_atomically(tmp_path):
     assert os.listdir(tmp_path) == ["preview.png"]
     with pytest.raises(_tide.TideError):
         d.write_preview_png(out, "/Out/color", "NoSuchSpace", "Standard")
+
+
+_PREVIEW_WRITTEN = _STATUS + r"""
+import array
+
+d = _tide.RenderDelegate()
+assert d.create_sprim("camera", "/Cam")
+assert d.create_bprim("renderBuffer", "/Out/color")
+d.set_array("/Out/color", "dimensions", [2048, 2048], 1, "i")
+assert d.create_rprim("mesh", "/M")
+d.set_array("/M", "points", array.array("f", [0, 0, -2, 1, 0, -2, 1, 1, -2, 0, 1, -2]), 3, "f")
+d.set_array("/M", "faceVertexCounts", [4], 1, "i")
+d.set_array("/M", "faceVertexIndices", array.array("i", [0, 1, 2, 3]), 1, "i")
+assert d.create_sprim("renderSettings", "/S")
+d.set("/S", "tide:samples", 1)
+d.commit_resources()
+p = d.create_render_pass()
+p.execute("/Cam", [("color", "/Out/color")], "/S")
+assert p.wait(120.0)
+before = reset_peak()
+d.write_preview_png(sys.argv[1], "/Out/color")
+print(status("VmHWM") - before)
+"""
+
+
+def test_the_preview_is_written_from_the_buffer_without_copies(tmp_path):
+    # a 2048 x 2048 RGBA float colour buffer (64 MiB): the preview takes the buffer's own
+    # storage once (the bridge's copy of the pixels, filled in place) and writes from it
+    import subprocess
+    import sys
+    env = dict(os.environ, PYTHONPATH=os.path.dirname(os.path.dirname(_tide.__file__)))
+    out = subprocess.run([sys.executable, "-c", _PREVIEW_WRITTEN, str(tmp_path / "p.png")], env=env,
+                         check=True, capture_output=True, text=True).stdout.splitlines()
+    grown = int(out[-1]) * 1024
+    buffer = 2048 * 2048 * 4 * 4
+    assert grown < 1.5 * buffer, "%d MiB to preview a %d MiB buffer" % (grown >> 20, buffer >> 20)
+    assert os.path.getsize(tmp_path / "p.png") > 0
 
 
 _BUFFERS_SYNCED = _PEAK_RESET + r"""
