@@ -534,6 +534,12 @@ pub struct MeshDesc {
     pub origin: Vec3,
 }
 
+/// A per-vertex primvar of a mesh carrying a `sea` water material: the share of the Cox–Munk
+/// slope variance the sea BSDF's facets take there, in place of the material's
+/// `slope_variance_scale` (a `TideOcean` mesh carries, at each vertex, what its tile's level
+/// leaves unresolved).
+pub const SEA_SHARE_PRIMVAR: &str = "tide:ocean:slopeVarianceShare";
+
 /// The primvar names texture coordinates are looked for under, in order.
 pub const UV_PRIMVAR_NAMES: [&str; 3] = ["st", "st0", "uv"];
 

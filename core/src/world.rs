@@ -124,8 +124,9 @@ pub struct DielectricMat {
     pub roughness: f32,
     pub priority: i32,
     /// Wind-driven sea surface: (wind speed m/s, world wind direction in the XZ plane, share
-    /// of the Cox–Munk slope variance the facets carry).
-    pub sea: Option<(f32, Vec3, f32)>,
+    /// of the Cox–Munk slope variance the facets carry: the mesh's
+    /// [`crate::scene::SEA_SHARE_PRIMVAR`] where it has one, else the material's).
+    pub sea: Option<(f32, Vec3, FloatParam)>,
     /// Spectral IOR n(λ) (Quan–Fry, or a glass's from its Abbe number) when the interface is
     /// dispersive; `ior` is then n(589 nm).
     pub dispersion: Option<Spectrum>,
@@ -714,7 +715,8 @@ impl World {
                         let sea = (w.surface_model == SurfaceModel::Sea).then(|| {
                             // degrees about +Y from +X: the rotated +X axis
                             let a = w.wind_direction.to_radians();
-                            (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()), w.slope_variance_scale)
+                            let share = FloatParam::Primvar(PrimvarLookup::new(crate::scene::SEA_SHARE_PRIMVAR, [w.slope_variance_scale; 4]));
+                            (w.wind_speed.clamp(0.0, crate::bsdf::sea::MAX_WIND_SPEED), Vec3::new(a.cos(), 0.0, -a.sin()), share)
                         });
                         let ior = dispersion.as_ref().map_or(w.ior, |n| n.eval(589.0));
                         SurfaceKind::Dielectric(DielectricMat {
@@ -1206,9 +1208,15 @@ impl World {
                 }
             }
             SurfaceKind::Dielectric(dm) => match (&dm.sea, &dm.tint, &dm.blend) {
-                (Some((speed, wind, scale)), ..) => {
+                (Some((speed, wind, share)), ..) => {
                     let l = frame.to_local(*wind);
-                    Bsdf::sea_scaled(eta, *speed, l.y.atan2(l.x), *scale)
+                    // a share read from the mesh that is no share takes the material's
+                    let scale = match (self.float(share, s), share) {
+                        (v, _) if v.is_finite() && v >= 0.0 => v,
+                        (_, FloatParam::Primvar(look)) => look.fallback[0],
+                        _ => 1.0,
+                    };
+                    Bsdf::sea_scaled(eta, *speed, l.y.atan2(l.x), scale)
                 }
                 (None, None, None) => Bsdf::dielectric(eta, dm.roughness),
                 _ => self.tinted_or_blended(dm, s, lambda, eta, &mut frame),
@@ -1408,6 +1416,41 @@ mod tests {
         assert_eq!(water_top(&s, &accel, 0), Some(3.5));
         assert_eq!(water_top(&s, &accel, 1), Some(1.0));
         assert_eq!(water_top(&s, &accel, 2), None);
+    }
+
+    /// A sea surface's facets take the share of the Cox–Munk slopes the mesh carries at the hit
+    /// (a `TideOcean` tile's), in place of the material's; a mesh without it, or with a value
+    /// that is no share, takes the material's.
+    #[test]
+    fn a_sea_surface_takes_the_meshs_slope_share_at_the_hit() {
+        use crate::spectrum::SampledWavelengths;
+        let sea = WaterDesc { surface_model: SurfaceModel::Sea, wind_speed: 9.0, slope_variance_scale: 0.9, ..Default::default() };
+        let mut with = tri("/o", [0.0; 3]);
+        with.primvars = vec![PrimvarData { name: SEA_SHARE_PRIMVAR.into(), tuple: 1, constant: false, data: vec![0.1, 0.3, 0.5] }];
+        let mut odd = tri("/n", [0.0; 3]);
+        odd.primvars = vec![PrimvarData { name: SEA_SHARE_PRIMVAR.into(), tuple: 1, constant: false, data: vec![f32::NAN; 3] }];
+        let mut s = SceneDesc::default();
+        s.meshes = vec![with.into(), tri("/p", [0.0; 3]).into(), odd.into()];
+        s.materials.push(MaterialDesc { name: "/sea".into(), surface: SurfaceDesc::Water(sea), interior_medium: None });
+        for (k, x) in [0.0f32, 10.0, 20.0].into_iter().enumerate() {
+            s.instances.push(inst(GeometryRef::Mesh(k), Mat4::from_translation(Vec3::X * x), 0));
+        }
+        let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
+        let lambda = SampledWavelengths::sample_uniform(0.5);
+        let (wo, wi) = (Vec3::new(0.3, 0.2, 0.93).normalize(), Vec3::new(-0.5, 0.1, 0.86).normalize());
+        for (x, share) in [(0.0f32, 0.1 * 0.5 + 0.3 * 0.25 + 0.5 * 0.25), (10.0, 0.9), (20.0, 0.9)] {
+            // at (0.25, 0.25) of the triangle: barycentrics (0.5, 0.25, 0.25)
+            let ray = Ray { o: Vec3::new(x + 0.25, 3.0, 0.25), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.0 };
+            let hit = w.surface(&ray, &w.accel.intersect(&ray).expect("a hit"));
+            let (bsdf, frame) = w.bsdf(0, &hit, &lambda, 1.0, 1.33);
+            let l = frame.to_local(Vec3::X);
+            let want = Bsdf::sea_scaled(1.33, 9.0, l.y.atan2(l.x), share).unwrap();
+            let (got, want) = (bsdf.f(wo, wi, crate::bsdf::TransportMode::Radiance), want.f(wo, wi, crate::bsdf::TransportMode::Radiance));
+            assert!((got[0] - want[0]).abs() <= 1e-5 * want[0], "at x = {x}: {} vs {} (share {share})", got[0], want[0]);
+            // the shares give apart values: the test can tell them
+            let other = Bsdf::sea_scaled(1.33, 9.0, l.y.atan2(l.x), if share == 0.9 { 0.2 } else { 0.9 }).unwrap();
+            assert!((other.f(wo, wi, crate::bsdf::TransportMode::Radiance)[0] - want[0]).abs() > 0.05 * want[0]);
+        }
     }
 
     #[test]

@@ -14,9 +14,17 @@
 //! Stitching: every tile is cut into 2×2-cell blocks, each a fan of triangles about its centre
 //! vertex through the 8 vertices around it. Where a tile borders a coarser one, the blocks on
 //! that border leave out their edge midpoints, so both tiles use exactly the coarse tile's
-//! vertices along the shared edge. Vertices are keyed by their position on the finest grid, so
-//! a border vertex is one vertex shared by index by both tiles: no gap, no crack, no T-junction
-//! (no skirts, which would leave the body open).
+//! vertices along the shared edge. Vertices are keyed by their position on the finest grid and
+//! their tile's level: tiles of one level share a border vertex by index; where tiles of two
+//! levels meet, each has its own vertex there of the same position, normal and uv bits. No gap,
+//! no crack, no T-junction (no skirts, which would leave the body open).
+//!
+//! Slopes: a tile's triangles interpolate the exact normals of their vertices, which smooths
+//! away the waves shorter than a few of its cells: coarser tiles carry less of the slope
+//! variance. Each level's mean-square slope, as a hit interpolates the normals, is integrated
+//! over its triangles (a degree-5 rule on each), and every vertex carries in the primvar
+//! [`crate::scene::SEA_SHARE_PRIMVAR`] the share of the Cox–Munk variance its level leaves to
+//! the sea BSDF, so that geometry and facets together hold Cox–Munk's at every distance.
 //!
 //! The closed body (`depth > 0`): the surface's outer rim keeps its height but not its
 //! horizontal displacement, so the four walls are vertical planes; the walls run down to
@@ -122,14 +130,46 @@ struct Builder<'a> {
     lo: u64,
     hi: u64,
     closed: bool,
-    map: HashMap<u64, u32>,
+    /// the level of the tile being drawn
+    level: u32,
+    /// each grid point's first vertex, and its vertex in a tile of each level drawing it
+    first: HashMap<u64, u32>,
+    map: HashMap<(u64, u32), u32>,
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     uvs: Vec<Vec2>,
+    /// each vertex's tile level (`FLAT` for the closed body's walls and floor)
+    vertex_levels: Vec<u32>,
     indices: Vec<u32>,
-    /// rim vertices of the surface: (gx, gz, index)
+    /// rim vertices of the surface: (gx, gz, index), one a grid point
     rim: Vec<(u64, u64, u32)>,
+    /// per level: Σ area · mean square slope of the interpolated normals over each triangle,
+    /// and Σ area (grid-cell units of the undisplaced plane)
+    slopes: Vec<(f64, f64)>,
 }
+
+/// The tile level of a vertex of flat geometry (the closed body's walls and floor).
+const FLAT: u32 = u32::MAX;
+
+/// Barycentric points and weights of a degree-5 quadrature rule on a triangle (Radon's
+/// seven-point rule): the mean of a smooth function over the triangle.
+const QUADRATURE: [([f64; 3], f64); 7] = {
+    const A1: f64 = 0.059_715_871_789_769_82;
+    const B1: f64 = 0.470_142_064_105_115_1;
+    const A2: f64 = 0.797_426_985_353_087_3;
+    const B2: f64 = 0.101_286_507_323_456_34;
+    const W1: f64 = 0.132_394_152_788_506_2;
+    const W2: f64 = 0.125_939_180_544_827_15;
+    [
+        ([1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0], 0.225),
+        ([A1, B1, B1], W1),
+        ([B1, A1, B1], W1),
+        ([B1, B1, A1], W1),
+        ([A2, B2, B2], W2),
+        ([B2, A2, B2], W2),
+        ([B2, B2, A2], W2),
+    ]
+};
 
 impl Builder<'_> {
     /// A fine-grid coordinate moved onto the surface: points past the rim onto the rim.
@@ -137,10 +177,19 @@ impl Builder<'_> {
         g.clamp(self.lo, self.hi)
     }
 
-    /// The vertex at fine-grid point (gx, gz), which must lie on the surface ([`Self::clip`]).
+    /// The vertex at fine-grid point (gx, gz), which must lie on the surface ([`Self::clip`]),
+    /// of the tile level being drawn: a grid point on the border of tiles of two levels has a
+    /// vertex for each, with the same position, normal and uv bits (the surface stays closed
+    /// to the last bit), so that each carries its own level's share of the slopes.
     fn vertex(&mut self, gx: u64, gz: u64) -> u32 {
         let key = (gx << 32) | gz;
-        if let Some(&i) = self.map.get(&key) {
+        if let Some(&i) = self.map.get(&(key, self.level)) {
+            return i;
+        }
+        if let Some(&j) = self.first.get(&key) {
+            let i = self.add_vertex(self.positions[j as usize], self.normals[j as usize], self.uvs[j as usize]);
+            self.vertex_levels[i as usize] = self.level;
+            self.map.insert((key, self.level), i);
             return i;
         }
         let (p, q) = ((gx % self.n) as i64, (gz % self.n) as i64);
@@ -153,7 +202,9 @@ impl Builder<'_> {
         self.normals.push(self.patch.normal(p, q));
         let l = self.patch.patch_size() as f64;
         self.uvs.push(Vec2::new((x / l) as f32, (z / l) as f32));
-        self.map.insert(key, i);
+        self.vertex_levels.push(self.level);
+        self.map.insert((key, self.level), i);
+        self.first.insert(key, i);
         if on_rim {
             self.rim.push((gx, gz, i));
         }
@@ -173,7 +224,28 @@ impl Builder<'_> {
         self.positions.push(p);
         self.normals.push(n);
         self.uvs.push(uv);
+        self.vertex_levels.push(FLAT);
         (self.positions.len() - 1) as u32
+    }
+
+    /// Adds triangle `tri` of the tile being drawn (its undisplaced plane area `area`, any
+    /// unit) to its level's mean square slope of the shading normals interpolated across it
+    /// (as a hit interpolates them).
+    fn add_slopes(&mut self, tri: [u32; 3], area: f64) {
+        let n = tri.map(|i| self.normals[i as usize].as_dvec3());
+        let mut mean = 0.0;
+        for (b, w) in QUADRATURE {
+            let v = n[0] * b[0] + n[1] * b[1] + n[2] * b[2];
+            mean += w * (v.x * v.x + v.z * v.z) / (v.y * v.y);
+        }
+        let level = self.level as usize;
+        if self.slopes.len() <= level {
+            self.slopes.resize(level + 1, (0.0, 0.0));
+        }
+        if mean.is_finite() {
+            self.slopes[level].0 += area * mean;
+            self.slopes[level].1 += area;
+        }
     }
 }
 
@@ -310,12 +382,16 @@ fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc,
         lo: inset,
         hi: max - inset,
         closed,
+        level: 0,
+        first: HashMap::new(),
         map: HashMap::new(),
         positions: Vec::new(),
         normals: Vec::new(),
         uvs: Vec::new(),
+        vertex_levels: Vec::new(),
         indices: Vec::new(),
         rim: Vec::new(),
+        slopes: Vec::new(),
     };
 
     // block ring in tile-local (column, row) steps, counter-clockwise seen from +Y
@@ -324,6 +400,7 @@ fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc,
     for tj in -t..t {
         for ti in -t..t {
             let lv = level(ti, tj).unwrap_or(0);
+            b.level = lv;
             let coarser = |o: Option<u32>| o.is_some_and(|x| x > lv);
             let (west, east) = (coarser(level(ti - 1, tj)), coarser(level(ti + 1, tj)));
             let (south, north) = (coarser(level(ti, tj - 1)), coarser(level(ti, tj + 1)));
@@ -361,7 +438,9 @@ fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc,
                         let [(_, a), (_, p), (_, q)] = tri;
                         let cross = (p.0 as i64 - a.0 as i64) * (q.1 as i64 - a.1 as i64) - (p.1 as i64 - a.1 as i64) * (q.0 as i64 - a.0 as i64);
                         if cross != 0 {
-                            b.indices.extend_from_slice(&tri.map(|v| v.0));
+                            let tri = tri.map(|v| v.0);
+                            b.indices.extend_from_slice(&tri);
+                            b.add_slopes(tri, cross.unsigned_abs() as f64);
                         }
                     }
                 }
@@ -373,8 +452,21 @@ fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc,
         close_body(&mut b, params.depth);
     }
 
+    // each level's share of the Cox–Munk slopes left to the sea BSDF: what the level's
+    // triangles, with their normals interpolated across them, do not carry
+    let (vu, vc) = crate::bsdf::sea::CoxMunk::variances(params.wind_speed);
+    let facets = vu as f64 + vc as f64;
+    let cm = super::spectrum::cox_munk_mss(params.wind_speed as f64);
+    let share = |level: u32| -> f32 {
+        match b.slopes.get(level as usize) {
+            Some(&(sum, area)) if level != FLAT && area > 0.0 && facets > 0.0 => ((cm - sum / area).max(0.0) / facets) as f32,
+            _ => 1.0,
+        }
+    };
+    let shares = b.vertex_levels.iter().map(|&lv| share(lv)).collect();
+    let primvars = vec![crate::scene::PrimvarData { name: crate::scene::SEA_SHARE_PRIMVAR.into(), tuple: 1, constant: false, data: shares }];
     let (span, delta, offset) = ((b.lo, b.hi), b.delta, b.offset);
-    let mesh = MeshDesc { name: "TideOcean".to_string(), uv_name: None, positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() };
+    let mesh = MeshDesc { name: "TideOcean".to_string(), uv_name: None, positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars, origin: Default::default() };
     Ok((mesh, b.rim, span, delta, offset))
 }
 

@@ -55,7 +55,9 @@
 //! wavenumber πN/L. The mean-square slope of these spectra grows like ln k without bound, and
 //! measured sea slopes (Cox–Munk) include capillary waves the spectra do not describe, so the
 //! geometry carries a fraction of the Cox–Munk slope variance; [`OceanPatch::subgrid_slope_variance`]
-//! is the remainder, meant for the roughness of the sea-surface BSDF.
+//! is the remainder, meant for the roughness of the sea-surface BSDF. The tiled mesh carries
+//! less than its vertices sample (its triangles interpolate their normals, and tiles far from the
+//! camera are coarser): each vertex holds the share its tile leaves to the BSDF (see `mesh`).
 
 pub mod fft;
 mod mesh;
