@@ -205,11 +205,36 @@ pub(super) fn hit4([v0, v1, v2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Opti
     let e2 = bx.mul(ay).sub(by.mul(ax));
     let zero = F4::splat(0.0);
     // inside: no edge function of either sign against another (zero counts as both)
-    let negative = e0.lt(zero) | e1.lt(zero) | e2.lt(zero);
-    let positive = zero.lt(e0) | zero.lt(e1) | zero.lt(e2);
-    let mut mask = !(negative & positive) & 0xf;
+    let (n0, n1, n2) = (e0.lt(zero), e1.lt(zero), e2.lt(zero));
+    let (p0, p1, p2) = (zero.lt(e0), zero.lt(e1), zero.lt(e2));
+    let mut mask = !((n0 | n1 | n2) & (p0 | p1 | p2)) & 0xf;
     if mask == 0 {
         return None;
+    }
+    // An edge function that rounds to zero is taken again in double precision, where the
+    // products of the frame's floats are exact and the difference rounds once, so its sign is
+    // the true one (still the exact negation of the neighbour's): a ray just outside an edge
+    // is not let in by rounding, and one through it stays in one triangle of the two.
+    let on_edge = mask & !((n0 & n1 & n2) | (p0 & p1 & p2));
+    let mut exact = [None; 4];
+    if on_edge != 0 {
+        let [ax, ay, bx, by, cx, cy] = [ax, ay, bx, by, cx, cy].map(F4::to_array);
+        let mut lanes = on_edge;
+        while lanes != 0 {
+            let i = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let [ax, ay, bx, by, cx, cy] = [ax[i], ay[i], bx[i], by[i], cx[i], cy[i]].map(f64::from);
+            let f = [cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax];
+            if f.iter().any(|&e| e < 0.0) && f.iter().any(|&e| e > 0.0) {
+                mask &= !(1 << i);
+            } else {
+                let det = f[0] + f[1] + f[2];
+                exact[i] = Some(((f[1] / det) as f32, (f[2] / det) as f32));
+            }
+        }
+        if mask == 0 {
+            return None;
+        }
     }
     // t from the plane of the triangle in the scene's own axes, (v0 − o)·n / (d·n): exact
     // where the plane is (an axis-aligned wall or floor), so a ray leaving it from the origin
@@ -238,7 +263,8 @@ pub(super) fn hit4([v0, v1, v2]: [[F4; 3]; 3], ray: &PreRay, t_max: f32) -> Opti
         let i = mask.trailing_zeros() as usize;
         mask &= mask - 1;
         if best.is_none_or(|b| ta[i] < b.0) {
-            best = Some((ta[i], i, ua[i], va[i]));
+            let (u, v) = exact[i].unwrap_or((ua[i], va[i]));
+            best = Some((ta[i], i, u, v));
         }
     }
     best
@@ -364,5 +390,38 @@ mod edge_tests {
             let (misses, total) = edge_misses(size, offset, distance, 3);
             assert_eq!(misses, 0, "size {size} at {offset} from {distance}: {misses} of {total} rays through shared edges met no triangle");
         }
+    }
+
+    /// A ray whose edge function rounds to zero in single precision, just outside one triangle
+    /// of a shared edge: it meets the other alone, with weights from the exact edge functions.
+    #[test]
+    fn an_edge_function_rounding_to_zero_is_taken_again_exactly() {
+        // straight up +z from the origin, so the frame's (x, y) are the vertices' own; edge b–c:
+        // (p s − r q) is 2⁻⁴⁶ while p s and r q round to the same float
+        let e = |k: i32| 2f32.powi(k);
+        let b = Vec3::new(-(1.0 + e(-23)), -(1.0 + e(-22)), 1.0);
+        let c = Vec3::new(1.0, 1.0 + e(-23), 1.0);
+        let f32_edge = c.x * b.y - c.y * b.x;
+        let exact = c.x as f64 * b.y as f64 - c.y as f64 * b.x as f64;
+        assert_eq!(f32_edge, 0.0);
+        assert_eq!(exact.abs(), e(-46) as f64);
+        // a and d on either side of b–c; the triangles share the edge, one each way round
+        let (a, d) = (Vec3::new(-1.0, 1.0, 1.0), Vec3::new(1.0, -1.0, 1.0));
+        let positions = vec![a, b, c, d];
+        let indices = vec![0, 1, 2, 2, 1, 3];
+        let bvh = TriBvh::build(TriMesh { positions: &positions, indices: &indices });
+        let (t, tri, u, v) = bvh.intersect(Vec3A::ZERO, Vec3A::Z, f32::INFINITY).expect("a hit");
+        // the origin lies on d's side of b–c: (b − c) × (o − c) has the sign of (d − c) × ...
+        let side = |p: Vec3| ((b.x - c.x) as f64) * ((p.y - c.y) as f64) - ((b.y - c.y) as f64) * ((p.x - c.x) as f64);
+        let origin_side = -(c.x as f64) * (b.y - c.y) as f64 + (c.y as f64) * (b.x - c.x) as f64;
+        let want = if origin_side.signum() == side(d).signum() { 1 } else { 0 };
+        assert!(origin_side != 0.0 && side(a).signum() != side(d).signum());
+        assert_eq!(tri, want, "the ray met the triangle it passes outside of");
+        assert_eq!(t, 1.0);
+        // on the edge to within 2⁻⁴⁶: the weight of the vertex off it is (almost) zero, the
+        // others about a half each
+        let w = [1.0 - u - v, u, v];
+        let off = if want == 0 { w[0] } else { w[2] };
+        assert!(off.abs() < 1e-6 && off >= 0.0, "{w:?}");
     }
 }
