@@ -566,6 +566,18 @@ PyObject* Delegate_texture_pixels(PyObject* self, PyObject* args) {
     TIDE_CATCH
 }
 
+PyObject* Delegate_grid_values(PyObject* self, PyObject* args) {
+    const char* asset = nullptr;
+    const char* field = nullptr;
+    long long index = 0;
+    if (!PyArg_ParseTuple(args, "ss|L", &asset, &field, &index)) return nullptr;
+    TIDE_TRY
+    State& s = S(self);
+    tide::rs::MappedBuffer m = s.delegate->GetRenderParam()->GetDelegate().grid_values(asset, field, int64_t(index));
+    return BufferTuple(m.width, m.height, m.channels, m.pixels.data(), m.pixels.size());
+    TIDE_CATCH
+}
+
 PyObject* ProblemList(const std::vector<tide::Problem>& problems) {
     PyObject* list = PyList_New(0);
     if (!list) return nullptr;
@@ -922,6 +934,7 @@ PyMethodDef DelegateMethods[] = {
     {"load_texture", KW(Delegate_load_texture), "load_texture(asset_path) -> True: reads the file once (again when it changes on disk); each material decodes it by its own sourceColorSpace. OSError with the reason when it cannot be read"},
     {"load_vdb", KW(Delegate_load_vdb), "load_vdb(asset_path, field_name, field_index=0) -> bool: reads a volume's grid once per (file, field, index)"},
     {"texture_pixels", Delegate_texture_pixels, METH_VARARGS, "texture_pixels(asset_path) -> (w, h, channels, float32 bytes) as the delegate holds them"},
+    {"grid_values", Delegate_grid_values, METH_VARARGS, "grid_values(asset_path, field_name, field_index=0) -> (nx, ny, nz, float32 bytes, x fastest) as the delegate holds them"},
     {"commit_resources", Delegate_commit_resources, METH_NOARGS, "commit_resources() -> [(prim, attribute, message)]"},
     {"check_render", Delegate_check_render, METH_NOARGS, "check_render() -> [(prim, attribute, message)]: commits, then prepares the scene as a render would (the renderer's validation and world build) without rendering"},
     {"last_synced", Delegate_last_synced, METH_NOARGS, "last_synced() -> [path]"},

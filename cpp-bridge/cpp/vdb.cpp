@@ -6,6 +6,7 @@
 
 #include <openvdb/openvdb.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <mutex>
 #include <sstream>
@@ -22,8 +23,11 @@ void InitOnce() {
 /// Largest grid handed over: 2^28 values (1 GiB of floats).
 constexpr uint64_t kMaxValues = uint64_t(1) << 28;
 
+/// The grid's active voxels as a dense array over their bounding box, in `out`. The grid's
+/// leaves are dropped as the array passes them (their values then held in it), so the grid
+/// and its dense copy are not both held whole.
 template <typename GridT>
-bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
+bool Densify(GridT& grid, DenseGrid* out, std::string* error) {
     const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
     openvdb::Coord lo(0, 0, 0);
     uint64_t dims[3] = {1, 1, 1};
@@ -45,9 +49,19 @@ bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
                  " x " + std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " in all)";
         return false;
     }
-    // written a slice of constant k at a time into the memory the delegate keeps
+    // written a slice of constant k at a time into the memory the delegate keeps; a leaf whose
+    // last slice is written is replaced by an inactive tile (its memory freed: the leaves of a
+    // delay-loaded file are read as they are first touched, so the grid holds at most a layer
+    // of leaves of it at a time)
     try {
         out->values.emplace(rs::new_texel_buffer(3, size_t(count)));
+        auto& tree = grid.tree();
+        using LeafT = typename GridT::TreeType::LeafNodeType;
+        std::vector<openvdb::Coord> leaves;
+        leaves.reserve(tree.leafCount());
+        for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it->origin());
+        std::sort(leaves.begin(), leaves.end(), [](const openvdb::Coord& a, const openvdb::Coord& b) { return a.z() < b.z(); });
+        size_t dropped = 0;
         auto acc = grid.getConstAccessor();
         for (uint64_t k = 0; k < dims[2]; ++k) {
             rust::Slice<uint8_t> bytes = (*out->values)->grow(size_t(dims[0] * dims[1]));
@@ -57,6 +71,14 @@ bool Densify(const GridT& grid, DenseGrid* out, std::string* error) {
             for (uint64_t j = 0; j < dims[1]; ++j)
                 for (uint64_t i = 0; i < dims[0]; ++i)
                     slice[n++] = float(acc.getValue(lo.offsetBy(int(i), int(j), int(k))));
+            const int64_t z = int64_t(lo.z()) + int64_t(k);
+            bool any = false;
+            while (dropped < leaves.size() && int64_t(leaves[dropped].z()) + int64_t(LeafT::DIM) - 1 <= z) {
+                tree.addTile(1, leaves[dropped++], tree.background(), false);
+                any = true;
+            }
+            // the accessor may hold a leaf just freed
+            if (any) acc.clear();
         }
     } catch (const std::exception& e) {
         *error = "grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +

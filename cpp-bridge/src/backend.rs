@@ -281,6 +281,13 @@ impl Delegate {
         })
     }
 
+    pub fn grid_values(&self, asset: &str, field: &str, index: i64) -> Result<MappedBuffer, String> {
+        guard("grid_values", || {
+            let g = lock(&self.shared).delegate.grid(asset, field, index);
+            Ok(g.map(|g| MappedBuffer { width: g.dims[0], height: g.dims[1], channels: g.dims[2], pixels: g.values.clone() }).unwrap_or_default())
+        })
+    }
+
     pub fn commit_resources(&self) -> Result<Vec<ProblemRow>, String> {
         guard("commit_resources", || {
             let mut s = lock(&self.shared);

@@ -127,6 +127,9 @@ pub mod ffi {
         fn texture_failed(self: &Delegate, asset: &str, message: &str) -> Result<()>;
         /// The pixels the delegate holds for a texture (for checks; empty if none).
         fn texture_pixels(self: &Delegate, asset: &str) -> Result<MappedBuffer>;
+        /// The values the delegate holds for a grid (for checks; empty if none), x fastest:
+        /// `width`, `height` and `channels` are its x, y and z sizes.
+        fn grid_values(self: &Delegate, asset: &str, field: &str, index: i64) -> Result<MappedBuffer>;
         /// A volume's grid read from `asset` (the `index`-th grid named `field`): `dims` (3)
         /// values x fastest, `index_to_object` a USD-style matrix (16, row-major row vectors).
         /// `values`: a buffer of floats, handed over without a copy.

@@ -570,6 +570,14 @@ impl Delegate {
         ok
     }
 
+    /// The grid held for (file, field, index) as given to `add_grid`; None if unknown or failed.
+    pub fn grid(&self, asset: &str, field: &str, index: i64) -> Option<Arc<volume::GridData>> {
+        match self.grids.get(&(asset.to_string(), field.to_string(), index)) {
+            Some(GridState::Loaded(g)) => Some(g.clone()),
+            _ => None,
+        }
+    }
+
     /// Records that a volume's grid could not be read (missing file, missing field, wrong
     /// grid type); volumes reading it report `message` and are dropped.
     pub fn grid_failed(&mut self, asset: &str, field: &str, index: i64, message: &str) {
