@@ -86,7 +86,7 @@ impl Engine for Renderer {
     }
     fn summary(&self) -> Vec<(String, String)> {
         let st = self.stats();
-        let mut out = vec![("renderSeconds".to_string(), format!("{:.6}", st.render_seconds))];
+        let mut out = vec![("renderSeconds".to_string(), format!("{:.6}", st.render_seconds)), ("spp".to_string(), st.samples_per_pixel.to_string())];
         if st.mean_samples_per_pixel < st.samples_per_pixel as f64 {
             out.push(("meanSpp".into(), format!("{:.2}", st.mean_samples_per_pixel)));
         }

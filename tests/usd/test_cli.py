@@ -557,5 +557,7 @@ def test_a_budget_shorter_than_one_sample_a_pixel_ends_the_first_pass(tmp_path):
     unsampled = int(header["tide:unsampledPixels"])
     assert 0 < unsampled <= 2048 * 2048
     assert "pixels have no samples" in out.stderr and str(unsampled) in out.stderr
+    # the progress ends at the samples reached, not at the target
+    assert "rendering 100%% %s/4 spp" % header["tide:spp"] in out.stderr, out.stderr
     # the budget ends the pass at a pixel's samples, not at the pass's end (seconds on two cores)
     assert float(header["tide:renderSeconds"]) < 1.0, header["tide:renderSeconds"]

@@ -311,10 +311,15 @@ def _render_one(reader, delegate, args, outputs, load_s):
             if stopped and not rp.is_converged():
                 raise RuntimeError("the render stopped before reaching its target: %s"
                                    % (rp.error() or "cancelled"))
+            if rp.is_converged():
+                break       # the last line says what was reached
             frac, done = _fraction(rp.progress(), target)
             bar.update(frac, done, target)
         frac, done = _fraction(rp.progress(), target)
-        bar.update(1.0 if rp.is_converged() else frac, max(done, target), target)
+        # the samples reached: the target, or fewer where the time budget ended the render
+        summary = rp.summary() if hasattr(rp, "summary") else {}
+        reached = int(summary["spp"]) if "spp" in summary else max(done, target)
+        bar.update(1.0 if rp.is_converged() else frac, reached, target)
     except KeyboardInterrupt:
         rp.cancel()
         bar.done()
