@@ -8,7 +8,10 @@
 //! - `S = 1 / (1 + 1/P²)` with `P = 1/Ω_light` the average pdf of sampling the light from the
 //!   caster's centre (`Ω_light` the light's bounding-sphere or sun-cone solid angle): 1 for delta
 //!   lights, small for lights that look large from the caster (photons help less there);
-//! - `E`: irradiance the light delivers at the caster's centre (`Φ / 4πd²`, or the sun's).
+//! - `E`: irradiance the light delivers at the caster's centre (`Φ / 4πd²`, or the sun's), times
+//!   the light's intensity towards the caster relative to a light emitting alike all round
+//!   ([`crate::light::tree::EmissionBounds::toward`]: 0 for a spot aimed away from it, or a rect
+//!   facing away, from every point of both; more along a narrow spot's axis).
 //!
 //! Each pair receives a square of side ∝ √I, packed greedily (largest first, into the free
 //! rectangle nearest the origin) into the `width × height` table; the squares shrink together
@@ -80,6 +83,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::Vec3;
 
 use crate::light::distrib::Distribution1D;
+use crate::light::tree::EmissionBounds;
 use crate::light::{Light, LightSampleContext};
 use crate::math::{spherical_direction, Frame};
 use crate::spectrum::SampledWavelengths;
@@ -180,8 +184,8 @@ impl std::error::Error for AtlasError {}
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum AtlasLight {
     /// A light with a position (point, sphere, rect, disk, cylinder, triangle): its bounding
-    /// sphere (radius 0 for a point) and emitted power.
-    Local { center: Vec3, radius: f32, power: f32 },
+    /// sphere (radius 0 for a point), emitted power and where it emits (None: all round).
+    Local { center: Vec3, radius: f32, power: f32, emit: Option<EmissionBounds> },
     /// A distant light: direction towards it, irradiance on a facing surface, cosine of its
     /// half-angle (1 for a delta light).
     Distant { to_light: Vec3, irradiance: f32, cos_half_angle: f32 },
@@ -192,28 +196,31 @@ impl AtlasLight {
     /// path tracer's job).
     pub fn from_light(light: &Light) -> Option<AtlasLight> {
         let power = light.power();
+        // where it sends its light (a spot's cone, a rect's front), for the pairs' importance
+        let emit = EmissionBounds::of(light, (0.0, 0.0));
         let bound = |c: Vec3, pts: &[Vec3]| pts.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
         match light {
             // where its transform puts it (the aim of its photons follows it over the shutter)
             Light::Moving(m) => AtlasLight::from_light(&m.inner),
             Light::Dome(_) | Light::Sky(_) => None,
-            Light::Point(l) => Some(AtlasLight::Local { center: l.p, radius: 0.0, power }),
-            Light::Sphere(l) => Some(AtlasLight::Local { center: l.center, radius: l.radius, power }),
+            Light::Point(l) => Some(AtlasLight::Local { center: l.p, radius: 0.0, power, emit }),
+            Light::Sphere(l) => Some(AtlasLight::Local { center: l.center, radius: l.radius, power, emit }),
             Light::Rect(l) => {
                 let s = &l.shape;
                 let c = s.origin + 0.5 * (s.a + s.b);
                 let r = bound(c, &[s.origin, s.origin + s.a, s.origin + s.b, s.origin + s.a + s.b]);
-                Some(AtlasLight::Local { center: c, radius: r, power })
+                Some(AtlasLight::Local { center: c, radius: r, power, emit })
             }
-            Light::Disk(l) => Some(AtlasLight::Local { center: l.shape.origin, radius: l.shape.a.length().max(l.shape.b.length()), power }),
+            Light::Disk(l) => Some(AtlasLight::Local { center: l.shape.origin, radius: l.shape.a.length().max(l.shape.b.length()), power, emit }),
             Light::Cylinder(l) => Some(AtlasLight::Local {
                 center: l.center,
                 radius: (l.radius * l.radius + l.half_length * l.half_length).sqrt(),
                 power,
+                emit,
             }),
             Light::Triangle(l) => {
                 let c = (l.p[0] + l.p[1] + l.p[2]) / 3.0;
-                Some(AtlasLight::Local { center: c, radius: bound(c, &l.p), power })
+                Some(AtlasLight::Local { center: c, radius: bound(c, &l.p), power, emit })
             }
             Light::Distant(d) => {
                 let base = d.emission.luminance * d.emission.scale;
@@ -235,7 +242,7 @@ impl AtlasLight {
     fn validate(&self, index: usize) -> Result<AtlasLight, AtlasError> {
         let e = |what| Err(AtlasError::Light { index, what });
         match *self {
-            AtlasLight::Local { center, radius, power } => {
+            AtlasLight::Local { center, radius, power, .. } => {
                 if !center.is_finite() {
                     return e("center is not finite");
                 }
@@ -469,9 +476,12 @@ fn importance(light: &AtlasLight, caster: &Caster, camera: Option<&CameraHint>) 
         None => PI * caster.radius * caster.radius,
     } as f64;
     let (irradiance, omega_light) = match *light {
-        AtlasLight::Local { center, radius, power } => {
+        AtlasLight::Local { center, radius, power, emit } => {
             let d = center.distance(caster.center).max(caster.radius);
-            (power as f64 / (4.0 * std::f64::consts::PI * (d as f64).powi(2)), sphere_solid_angle(center.distance(caster.center), radius))
+            // a light that emits into a cone (a spot, a rect's front) sends the caster what
+            // its intensity towards it sends, none where it never points at it
+            let toward = emit.map_or(1.0, |e| e.toward(caster.center, caster.radius)) as f64;
+            (toward * power as f64 / (4.0 * std::f64::consts::PI * (d as f64).powi(2)), sphere_solid_angle(center.distance(caster.center), radius))
         }
         AtlasLight::Distant { irradiance, cos_half_angle, .. } => (irradiance as f64, 2.0 * PI * (1.0 - cos_half_angle)),
     };

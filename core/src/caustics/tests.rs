@@ -298,7 +298,7 @@ fn normal_check_rejects_photons_from_the_other_side_of_a_thin_wall() {
 
 fn stage() -> (Vec<AtlasLight>, Vec<Caster>, Vec<(Vec3, Vec3)>) {
     let lights = vec![
-        AtlasLight::Local { center: Vec3::new(0.0, 6.0, 0.0), radius: 0.0, power: 800.0 },
+        AtlasLight::Local { center: Vec3::new(0.0, 6.0, 0.0), radius: 0.0, power: 800.0, emit: None },
         AtlasLight::Distant { to_light: Vec3::new(0.3, 1.0, 0.2).normalize(), irradiance: 3.0, cos_half_angle: 0.99999 },
     ];
     // bounding spheres and the casters' real shapes inside them (axis-aligned boxes)
@@ -484,7 +484,7 @@ fn learned_table_concentrates_on_the_casters() {
 fn packing_fills_the_table_without_overlap_in_importance_order() {
     let mut rng = TestRng::new(8);
     let lights: Vec<AtlasLight> = (0..5)
-        .map(|_| AtlasLight::Local { center: rng_dir(&mut rng) * 10.0, radius: 0.0, power: 10.0 + 1000.0 * rng.next_f32() })
+        .map(|_| AtlasLight::Local { center: rng_dir(&mut rng) * 10.0, radius: 0.0, power: 10.0 + 1000.0 * rng.next_f32(), emit: None })
         .collect();
     let casters: Vec<Caster> = (0..7).map(|_| Caster { center: rng_dir(&mut rng) * 2.0, radius: 0.1 + rng.next_f32() }).collect();
     let atlas = Atlas::new(&lights, &casters, None, &AtlasConfig { width: 128, height: 96, ..Default::default() }).unwrap();
@@ -574,14 +574,14 @@ fn bad_input_returns_errors_naming_the_problem() {
     let cfg = AtlasConfig::default();
     assert_eq!(Atlas::new(&[], &casters, None, &cfg).unwrap_err(), AtlasError::NoLights);
     assert_eq!(Atlas::new(&lights, &[], None, &cfg).unwrap_err(), AtlasError::NoCasters);
-    let bad_light = [AtlasLight::Local { center: Vec3::ZERO, radius: -1.0, power: 1.0 }];
+    let bad_light = [AtlasLight::Local { center: Vec3::ZERO, radius: -1.0, power: 1.0, emit: None }];
     assert!(matches!(Atlas::new(&bad_light, &casters, None, &cfg), Err(AtlasError::Light { index: 0, .. })));
     let bad_sun = [AtlasLight::Distant { to_light: Vec3::ZERO, irradiance: 1.0, cos_half_angle: 1.0 }];
     assert!(matches!(Atlas::new(&bad_sun, &casters, None, &cfg), Err(AtlasError::Light { index: 0, .. })));
     let bad_caster = [Caster { center: Vec3::ZERO, radius: 0.0 }];
     assert!(matches!(Atlas::new(&lights, &bad_caster, None, &cfg), Err(AtlasError::Caster { index: 0, .. })));
     assert_eq!(Atlas::new(&lights, &casters, Some(&[(0, 9)]), &cfg).unwrap_err(), AtlasError::Pair { index: 0 });
-    let zero = [AtlasLight::Local { center: Vec3::ZERO, radius: 0.0, power: 0.0 }];
+    let zero = [AtlasLight::Local { center: Vec3::ZERO, radius: 0.0, power: 0.0, emit: None }];
     assert_eq!(Atlas::new(&zero, &casters, None, &cfg).unwrap_err(), AtlasError::NoImportance);
     let tiny = AtlasConfig { width: 2, height: 2, ..cfg };
     assert!(matches!(Atlas::new(&lights, &casters, None, &tiny), Err(AtlasError::TooManyPairs { .. })));
@@ -612,7 +612,7 @@ fn renderer_lights_become_atlas_lights() {
     use crate::light::Light;
     use crate::spectrum::Spectrum;
     let point = Light::point(Vec3::new(1.0, 2.0, 3.0), Spectrum::Constant(1.0), 5.0);
-    let Some(AtlasLight::Local { center, radius, power }) = AtlasLight::from_light(&point) else { panic!("point light") };
+    let Some(AtlasLight::Local { center, radius, power, .. }) = AtlasLight::from_light(&point) else { panic!("point light") };
     assert_eq!((center, radius), (Vec3::new(1.0, 2.0, 3.0), 0.0));
     assert_eq!(power, point.power());
     assert!(power > 0.0);
@@ -777,4 +777,40 @@ fn refit_can_be_switched_off() {
         refit_pass(&mut atlas, &frame, center, 20_000, pass);
     }
     assert!(atlas.pair_disk(0).is_none() && atlas.refits() == 0 && atlas.disk_area_ratio() == Some(1.0));
+}
+
+/// The atlas weighs a light–caster pair by what the light sends the caster: of two spots of
+/// one power beside a caster, the one aimed away (and a rect facing away) get no share of the
+/// photons, the one aimed at it all of them (by power alone each spot took half).
+#[test]
+fn a_spot_aimed_away_from_a_caster_gets_no_photons() {
+    use crate::light::tests::{build, desc};
+    use crate::scene::{LightShape, ShapingDesc};
+    use glam::{Mat4, Quat};
+    // lights shine along their local −Z; the caster 5 m along −Z from the origin
+    let caster = [Caster { center: Vec3::new(0.0, 0.0, -5.0), radius: 0.5 }];
+    let spot = |rot: Quat| {
+        let mut d = desc(LightShape::Sphere { radius: 0.0, treat_as_point: true }, Mat4::from_quat(rot));
+        d.shaping = Some(ShapingDesc { cone_angle_deg: 30.0, ..Default::default() });
+        AtlasLight::from_light(&build(&d)).unwrap()
+    };
+    let (toward, away) = (spot(Quat::IDENTITY), spot(Quat::from_rotation_y(std::f32::consts::PI)));
+    let rect = AtlasLight::from_light(&build(&desc(LightShape::Rect { width: 1.0, height: 1.0, texture: None }, Mat4::from_rotation_y(std::f32::consts::PI)))).unwrap();
+    let cfg = AtlasConfig { width: 32, height: 32, ..Default::default() };
+    let atlas = Atlas::new(&[away, toward, rect], &caster, None, &cfg).unwrap();
+    let share = |light: u32| -> f32 {
+        let cells: Vec<u32> = (0..atlas.cell_count() as u32).filter(|&c| atlas.pair_of_cell(c).is_some_and(|p| p.light == light)).collect();
+        cells.iter().map(|&c| atlas.cell_probability(c)).sum()
+    };
+    assert_eq!(share(0), 0.0, "the spot aimed away");
+    assert_eq!(share(2), 0.0, "the rect facing away");
+    assert!((share(1) - 1.0).abs() < 1e-4, "the spot aimed at the caster: {}", share(1));
+    // with emission all round (no bounds) both spots take the same share
+    let unbounded = |l: AtlasLight| match l {
+        AtlasLight::Local { center, radius, power, .. } => AtlasLight::Local { center, radius, power, emit: None },
+        other => other,
+    };
+    let atlas = Atlas::new(&[unbounded(away), unbounded(toward)], &caster, None, &cfg).unwrap();
+    let p: Vec<f32> = (0..2).map(|l| atlas.pairs().iter().filter(|p| p.light == l).map(|p| p.importance).sum()).collect();
+    assert!(p[0] > 0.0 && (p[0] - p[1]).abs() <= 1e-6 * p[0], "{p:?}");
 }

@@ -707,3 +707,76 @@ fn a_moving_light_answers_as_the_static_light_where_it_is_then() {
         assert!(answered > 50, "{shape:?}: {answered}");
     }
 }
+
+/// The intensity towards a sphere that the caustics' atlas weighs a light by
+/// ([`tree::EmissionBounds::toward`]): zero only where no direction the light emits along,
+/// from any point of it, meets the sphere (checked by brute force over points of both), 1 for
+/// a light emitting alike all round, and a rect's cosine lobe (4 cos θ) along θ.
+#[test]
+fn emission_bounds_reach_a_sphere_wherever_the_light_does() {
+    use super::tree::EmissionBounds;
+    use std::f32::consts::TAU;
+    let lam = lambda();
+    let mut rng = TestRng::new(21);
+    let mut u = move || rng.next_f32();
+    let (mut unreached, mut reached) = (0, 0);
+    for k in 0..400 {
+        let rot = Quat::from_euler(glam::EulerRot::XYZ, u() * TAU, u() * TAU, u() * TAU);
+        let at = Vec3::new(u(), u(), u()) * 4.0 - 2.0;
+        let xf = Mat4::from_rotation_translation(rot, at);
+        let shape = match k % 4 {
+            0 => LightShape::Sphere { radius: 0.0, treat_as_point: true },
+            1 => LightShape::Sphere { radius: 0.3, treat_as_point: false },
+            2 => LightShape::Rect { width: 1.0, height: 0.6, texture: None },
+            _ => LightShape::Disk { radius: 0.5 },
+        };
+        let mut d = desc(shape.clone(), xf);
+        if k % 4 < 2 || k % 8 >= 6 {
+            d.shaping = Some(crate::scene::ShapingDesc { cone_angle_deg: 10.0 + 80.0 * u(), cone_softness: 0.3, ..Default::default() });
+        }
+        let light = build(&d);
+        let bounds = EmissionBounds::of(&light, (0.0, 0.0)).expect("a light with a place");
+        let (c, r) = (Vec3::new(u(), u(), u()) * 12.0 - 6.0, 0.05 + u());
+        let f = bounds.toward(c, r);
+        assert!(f.is_finite() && f >= 0.0, "{f}");
+        // points of the light, each with the front it emits through (None: all round)
+        let front = xf.transform_vector3(Vec3::NEG_Z).normalize();
+        let lights: Vec<(Vec3, Option<Vec3>)> = (0..64)
+            .map(|_| match shape {
+                LightShape::Sphere { treat_as_point: true, .. } => (at, None),
+                LightShape::Sphere { radius, .. } => {
+                    let n = sample_uniform_sphere(Vec2::new(u(), u()));
+                    (at + n * radius, Some(n))
+                }
+                LightShape::Rect { width, height, .. } => (xf.transform_point3(Vec3::new((u() - 0.5) * width, (u() - 0.5) * height, 0.0)), Some(front)),
+                _ => {
+                    let (rr, phi) = (0.5 * u().sqrt(), u() * TAU);
+                    (xf.transform_point3(Vec3::new(rr * phi.cos(), rr * phi.sin(), 0.0)), Some(front))
+                }
+            })
+            .collect();
+        let sphere: Vec<Vec3> = (0..64).map(|_| c + sample_uniform_sphere(Vec2::new(u(), u())) * r).chain([c]).collect();
+        let reaches = lights.iter().any(|&(x, n)| {
+            sphere.iter().any(|&q| {
+                let w = (q - x).normalize();
+                n.is_none_or(|n| n.dot(w) > 0.0) && light.shaping_factor(w, &lam).0[0] > 0.0
+            })
+        });
+        if reaches {
+            assert!(f > 0.0, "light {k} ({shape:?}) reaches the sphere at {c} (r {r}) but weighs it 0");
+            reached += 1;
+        } else if f == 0.0 {
+            unreached += 1;
+        }
+    }
+    // both kinds of answer were put to the test
+    assert!(reached > 50 && unreached > 50, "{reached} reached, {unreached} weighed 0");
+    // all round: as a light of its power would
+    let point = build(&desc(LightShape::Sphere { radius: 0.0, treat_as_point: true }, Mat4::IDENTITY));
+    assert_eq!(EmissionBounds::of(&point, (0.0, 0.0)).unwrap().toward(Vec3::X * 5.0, 0.5), 1.0);
+    // a small rect facing −Z seen 60° off its normal from far away: 4 cos 60° = 2
+    let rect = build(&desc(LightShape::Rect { width: 0.01, height: 0.01, texture: None }, Mat4::IDENTITY));
+    let w = Vec3::new(60f32.to_radians().sin(), 0.0, -60f32.to_radians().cos());
+    let f = EmissionBounds::of(&rect, (0.0, 0.0)).unwrap().toward(w * 1000.0, 0.01);
+    assert!((f - 2.0).abs() < 0.01, "{f}");
+}

@@ -90,20 +90,15 @@ impl Bounds {
         (self.lo + self.hi) * 0.5
     }
 
-    /// An estimate of what the lights give point `p` with normal `n` (zero: in a medium),
-    /// zero only where none of them can.
-    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = self.centroid();
-        let d2 = p.distance_squared(pc).max((self.hi - self.lo).length() * 0.5);
-        let wi = (p - pc).normalize_or_zero();
-        // the cone from p holding the box (its bounding sphere)
-        let r2 = (self.hi - self.lo).length_squared() * 0.25;
-        let dist2 = p.distance_squared(pc);
-        let cos_b = if dist2 <= r2 || (p.cmpge(self.lo).all() && p.cmple(self.hi).all()) { -1.0 } else { safe_sqrt(1.0 - r2 / dist2) };
-        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+    /// The cosine of the smallest angle between a direction the lights emit along (their
+    /// normals' cone) and a direction from their box to `p` (`wi` from the centroid, the box's
+    /// bounding sphere seen from `p` within acos `cos_b`); at or below `cos_theta_e`, nothing
+    /// of theirs reaches `p`.
+    #[inline(always)]
+    fn cos_p(&self, p: Vec3, wi: Vec3, cos_b: f32, sin_b: f32) -> f32 {
         let cos_o = self.normals.cos_theta;
         let sin_o = safe_sqrt(1.0 - cos_o * cos_o);
-        let cos_p = if cos_o <= -1.0 {
+        if cos_o <= -1.0 {
             1.0
         } else {
             // first through the box's bounding sphere (pbrt-v4's bound, cheap): nothing there,
@@ -116,7 +111,7 @@ impl Bounds {
             let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
             let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
             if cos_sub_clamped(sin_x, cos_x, sin_b, cos_b) <= self.cos_theta_e {
-                return 0.0;
+                return f32::NEG_INFINITY;
             }
             // then the smallest angle between the normals' axis and a direction from the box
             // itself to p (a row of spots' box seen from beside it), less the normals' spread
@@ -126,7 +121,21 @@ impl Bounds {
             }
             let sin_a = safe_sqrt(1.0 - cos_a * cos_a);
             cos_sub_clamped(sin_a, cos_a, sin_o, cos_o)
-        };
+        }
+    }
+
+    /// An estimate of what the lights give point `p` with normal `n` (zero: in a medium),
+    /// zero only where none of them can.
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let pc = self.centroid();
+        let d2 = p.distance_squared(pc).max((self.hi - self.lo).length() * 0.5);
+        let wi = (p - pc).normalize_or_zero();
+        // the cone from p holding the box (its bounding sphere)
+        let r2 = (self.hi - self.lo).length_squared() * 0.25;
+        let dist2 = p.distance_squared(pc);
+        let cos_b = if dist2 <= r2 || (p.cmpge(self.lo).all() && p.cmple(self.hi).all()) { -1.0 } else { safe_sqrt(1.0 - r2 / dist2) };
+        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+        let cos_p = self.cos_p(p, wi, cos_b, sin_b);
         if cos_p <= self.cos_theta_e {
             return 0.0;
         }
@@ -232,6 +241,47 @@ fn max_cos_to_box(w: Vec3, p: Vec3, lo: Vec3, hi: Vec3) -> f32 {
 /// may turn), has the whole sphere, except an emissive triangle that deforms on a still
 /// instance or turns with its instance (its normals' cone over the shutter:
 /// [`deforming_normals`], [`turning_normals`]).
+/// Where a light sends its light: its extent over the shutter and the cone it emits into, as
+/// the tree bounds it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionBounds(Bounds);
+
+impl EmissionBounds {
+    /// The bounds of `light` over `shutter` (None for lights without a place).
+    pub fn of(light: &Light, shutter: (f32, f32)) -> Option<EmissionBounds> {
+        light_bounds(light, 1.0, shutter).map(EmissionBounds)
+    }
+
+    /// The light's intensity towards a sphere (`center`, `radius`) relative to a light of the
+    /// same power emitting alike all round: 1 for a light that does; 0 where no direction it
+    /// emits along reaches the sphere from any of its points (a spot aimed away, a rect facing
+    /// away); else the tree's angular estimate (cos θp − cos θe) / (1 − cos θe) over the part
+    /// of the sphere it emits into, π (1 − cos θe) (twice that two-sided), so a hemisphere's
+    /// cosine lobe reads 4 cos θ along θ, and a narrow spot far more along its axis.
+    pub fn toward(&self, center: Vec3, radius: f32) -> f32 {
+        let b = &self.0;
+        if b.normals.cos_theta <= -1.0 {
+            return 1.0;
+        }
+        // every point of the sphere seen from every point of the box: the box grown by the
+        // radius seen from the centre
+        let grown = Bounds { lo: b.lo - Vec3::splat(radius.max(0.0)), hi: b.hi + Vec3::splat(radius.max(0.0)), ..*b };
+        let pc = grown.centroid();
+        let wi = (center - pc).normalize_or_zero();
+        let r2 = (grown.hi - grown.lo).length_squared() * 0.25;
+        let dist2 = center.distance_squared(pc);
+        let inside = dist2 <= r2 || (center.cmpge(grown.lo).all() && center.cmple(grown.hi).all());
+        let cos_b = if inside { -1.0 } else { safe_sqrt(1.0 - r2 / dist2) };
+        let cos_p = grown.cos_p(center, wi, cos_b, safe_sqrt(1.0 - cos_b * cos_b));
+        let e = b.cos_theta_e;
+        if !(cos_p > e) {
+            return 0.0;
+        }
+        let spread = if b.two_sided { 2.0 } else { 4.0 };
+        spread * (cos_p - e) / ((1.0 - e) * (1.0 - e))
+    }
+}
+
 fn light_bounds(light: &Light, phi: f32, shutter: (f32, f32)) -> Option<Bounds> {
     let (lo, hi) = super::bvh::extent_over(light, shutter)?;
     // a one-sided emitter faces its front normal; the others emit all round
