@@ -33,5 +33,5 @@ pub mod water;
 pub mod world;
 
 pub use film::SampleFormat;
-pub use render::{Aov, AovSet, IntegratorKind, Problem, RenderError, RenderSettings, RenderStats, Renderer};
+pub use render::{Aov, AovSet, IntegratorKind, PassProgress, Problem, RenderError, RenderSettings, RenderStats, Renderer};
 pub use scene::SceneDesc;

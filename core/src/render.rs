@@ -270,6 +270,40 @@ pub struct Renderer {
     adaptive: Option<crate::adaptive::Adaptive>,
     /// The camera prim's name, which its problems carry.
     camera_name: String,
+    /// How far the pass under way has got, for other threads to read.
+    progress: std::sync::Arc<PassProgress>,
+}
+
+/// How far a pass has got, readable from any thread while it renders: pixel-samples finished
+/// of those it takes (a tile counts when it finishes).
+#[derive(Debug, Default)]
+pub struct PassProgress {
+    done: std::sync::atomic::AtomicU64,
+    total: std::sync::atomic::AtomicU64,
+}
+
+impl PassProgress {
+    /// The share of the pass under way (or of the last one run) that is done, in [0, 1].
+    pub fn fraction(&self) -> f64 {
+        use std::sync::atomic::Ordering;
+        let total = self.total.load(Ordering::Relaxed);
+        if total == 0 {
+            return 0.0;
+        }
+        (self.done.load(Ordering::Relaxed) as f64 / total as f64).min(1.0)
+    }
+
+    /// A pass of `total` units begins (0: none is under way).
+    pub fn start(&self, total: u64) {
+        use std::sync::atomic::Ordering;
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+    }
+
+    /// `n` more units of the pass are done.
+    pub fn add(&self, n: u64) {
+        self.done.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+    }
 }
 
 /// The image's pixels (x0, y0, x1, y1; rows from the top, ends exclusive; negative or past
@@ -362,7 +396,7 @@ impl Renderer {
         stats.caustics = caustics.as_ref().map(|c| c.stats().clone());
         let adaptive = crate::adaptive::Adaptive::new(settings.adaptive_threshold, settings.adaptive_min_spp, &film);
         let camera_name = clean.camera.name.clone();
-        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive, camera_name })
+        Ok(Renderer { world, film, settings, problems, pool, camera_stack, stats, caustics, adaptive, camera_name, progress: Default::default() })
     }
 
     /// The film of a render: the image and the overscan `framing` pads it with.
@@ -446,6 +480,18 @@ impl Renderer {
     /// finished. A first pass given up leaves pixels without samples (see
     /// [`Renderer::unsampled_pixels`]).
     pub fn render_pass_until(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
+        let [x0, y0, x1, y1] = self.film.window;
+        self.progress.start((x1 - x0) as u64 * (y1 - y0) as u64 * spp as u64);
+        self.pass(spp, cancel, deadline)
+    }
+
+    /// How far the pass under way has got, for another thread to read while it renders.
+    pub fn pass_progress(&self) -> std::sync::Arc<PassProgress> {
+        self.progress.clone()
+    }
+
+    /// [`Renderer::render_pass_until`]'s pass (or one of the photon passes it is cut into).
+    fn pass(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
         use crate::film::SampleValue;
         use crate::spectrum::color;
         use rayon::prelude::*;
@@ -459,7 +505,7 @@ impl Renderer {
             let mut left = spp;
             while left > 0 {
                 let k = left.min(PHOTON_PASS_MAX_SPP);
-                if !self.render_pass_until(k, cancel, deadline) {
+                if !self.pass(k, cancel, deadline) {
                     return false;
                 }
                 left -= k;
@@ -500,6 +546,7 @@ impl Renderer {
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(|d| std::time::Instant::now() >= d);
         // Each tile goes into the film as it finishes (one addition a pixel a pass, so the
         // order the tiles finish in changes nothing): a pass holds only the tiles in flight.
+        let progress = &*self.progress;
         let film = std::sync::Mutex::new(&mut self.film);
         let took = std::sync::atomic::AtomicBool::new(false);
         let given_up = self.pool.install(|| {
@@ -552,6 +599,9 @@ impl Renderer {
                     }
                     if film.lock().unwrap_or_else(|e| e.into_inner()).merge(&tile) {
                         took.store(true, Ordering::Relaxed);
+                    }
+                    if finished {
+                        progress.add(tw as u64 * th as u64 * spp as u64);
                     }
                     !finished
                 })

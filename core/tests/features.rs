@@ -367,3 +367,33 @@ fn a_pass_given_up_part_way_keeps_the_pixels_it_finished() {
     }
     assert!(later && first, "no deadline fell inside a pass ({later}, {first})");
 }
+
+/// A pass tells how far it has got while it renders: another thread reading its progress sees
+/// it rise through the pass (never past 1, never back) to 1 when it is done.
+#[test]
+fn a_pass_tells_how_far_it_has_got_while_it_renders() {
+    let mut scene = underwater(|_| {});
+    scene.media[0].sigma_s = SpectrumDesc::Rgb([0.4; 3]);
+    let mut r = tide_core::Renderer::new(&scene, RenderSettings { threads: 1, ..settings(96, 96, 16) }).unwrap();
+    let progress = r.pass_progress();
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watcher = {
+        let (progress, stop) = (progress.clone(), stop.clone());
+        std::thread::spawn(move || {
+            let mut seen = Vec::new();
+            while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                seen.push(progress.fraction());
+                std::thread::sleep(std::time::Duration::from_micros(200));
+            }
+            seen
+        })
+    };
+    assert!(r.render_pass(16, None));
+    stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    let seen = watcher.join().unwrap();
+    assert!(seen.windows(2).all(|w| w[1] >= w[0]), "progress went back");
+    assert!(seen.iter().all(|&f| (0.0..=1.0).contains(&f)));
+    let inside = seen.iter().filter(|&&f| f > 0.0 && f < 1.0).count();
+    assert!(inside >= 3, "{inside} readings inside the pass of {}", seen.len());
+    assert_eq!(progress.fraction(), 1.0);
+}

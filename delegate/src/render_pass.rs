@@ -44,6 +44,10 @@ pub trait Engine {
     fn converged(&self) -> bool {
         false
     }
+    /// How far the pass under way has got, readable while it renders (None: not told).
+    fn pass_progress(&self) -> Option<Arc<tide_core::PassProgress>> {
+        None
+    }
     /// What the engine found wrong in its scene and replaced or dropped while preparing it
     /// (the core renderer's validation and world build), camera included.
     fn problems(&self) -> Vec<Problem> {
@@ -77,6 +81,9 @@ impl Engine for Renderer {
     }
     fn build_stats(&self) -> Option<BuildStats> {
         Some(Renderer::build_stats(self).clone())
+    }
+    fn pass_progress(&self) -> Option<Arc<tide_core::PassProgress>> {
+        Some(Renderer::pass_progress(self))
     }
     fn converged(&self) -> bool {
         Renderer::converged(self)
@@ -236,6 +243,8 @@ struct State {
     summary: Vec<(String, String)>,
     /// The problems of the engine the running job was prepared with.
     problems: Vec<Problem>,
+    /// The pass under way: its samples per pixel and how far it has got (engines that tell).
+    pass: Option<(u32, Arc<tide_core::PassProgress>)>,
 }
 
 struct Shared {
@@ -267,13 +276,17 @@ impl PassWatcher {
         self.status() == PassStatus::Converged
     }
 
-    /// Fraction of the sample target reached (1 when converged).
+    /// Fraction of the sample target reached (1 when converged), the pass under way counted by
+    /// the part of it done (so a long pass moves it).
     pub fn progress(&self) -> f32 {
         let st = self.shared.lock();
         match st.status {
             PassStatus::Converged => 1.0,
             _ if st.spp_target == 0 => 0.0,
-            _ => st.spp_done as f32 / st.spp_target as f32,
+            _ => {
+                let part = st.pass.as_ref().map_or(0.0, |(n, p)| *n as f64 * p.fraction());
+                ((st.spp_done as f64 + part) / st.spp_target as f64).min(1.0) as f32
+            }
         }
     }
 
@@ -341,6 +354,7 @@ impl RenderPass {
                 taken: 0,
                 status: PassStatus::Idle,
                 spp_done: 0,
+                pass: None,
                 spp_target: 0,
                 shutdown: false,
                 exr: Vec::new(),
@@ -376,6 +390,7 @@ impl RenderPass {
         st.generation += 1;
         st.spp_target = job.settings.spp;
         st.spp_done = 0;
+        st.pass = None;
         st.job = Some(job);
         if self.thread.is_some() {
             st.status = PassStatus::Rendering;
@@ -561,6 +576,17 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         // render keeps the passes before it and the pixels the last one finished (after a
         // first pass given up, some pixels have no samples, and the summary says how many)
         let deadline = (budget > 0.0).then(|| start + Duration::from_secs_f64(budget as f64));
+        {
+            let mut st = shared.lock();
+            if st.generation != generation {
+                return Ok(false);
+            }
+            // from nothing done (the engine's count still holds its last pass until it starts)
+            st.pass = e.pass_progress().map(|p| {
+                p.start(0);
+                (n, p)
+            });
+        }
         let whole = e.render_pass(n, &shared.cancel, deadline);
         if !whole && (shared.cancel.load(Ordering::SeqCst) || !deadline.is_some_and(|d| Instant::now() >= d)) {
             return Ok(false);
@@ -581,6 +607,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
                 return Ok(false);
             }
             st.spp_done = done;
+            st.pass = None;
             st.summary = e.summary();
             shared.cond.notify_all();
         }
@@ -787,6 +814,55 @@ pub(crate) mod tests {
         // stop far below the budget; 10 samples (20% of it) leaves room for a loaded machine
         // where sleeps overrun several-fold.
         assert!((10..=100).contains(&n), "{n} samples in a 0.2 s budget at 2 ms per sample");
+    }
+
+    /// An engine whose every pass takes 20 steps of 10 ms and says so.
+    struct Steps {
+        spp: u32,
+        progress: Arc<tide_core::PassProgress>,
+    }
+
+    impl Engine for Steps {
+        fn render_pass(&mut self, spp: u32, _: &AtomicBool, _: Option<Instant>) -> bool {
+            self.progress.start(20);
+            for _ in 0..20 {
+                std::thread::sleep(Duration::from_millis(10));
+                self.progress.add(1);
+            }
+            self.spp += spp;
+            true
+        }
+        fn samples_per_pixel(&self) -> u32 {
+            self.spp
+        }
+        fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
+            vec![self.spp as f32; 8 * aov.channels()]
+        }
+        fn write_exr(&self, _: &std::path::Path, _: &[(Aov, SampleFormat)], _: &[(String, String)]) -> std::io::Result<()> {
+            Ok(())
+        }
+        fn pass_progress(&self) -> Option<Arc<tide_core::PassProgress>> {
+            Some(self.progress.clone())
+        }
+    }
+
+    #[test]
+    fn progress_moves_within_a_pass() {
+        // target 4: the first pass (1 sample) is the first quarter, and the watcher sees it fill
+        let f: EngineFactory = Arc::new(|_, _| Ok(Box::new(Steps { spp: 0, progress: Default::default() }) as Box<dyn Engine>));
+        let pass = RenderPass::new(f);
+        let buf = RenderBuffer::new(4, 2, 4);
+        pass.start(job(4, &buf));
+        let mut seen = Vec::new();
+        let until = Instant::now() + Duration::from_secs(20);
+        while pass.status() != PassStatus::Converged && Instant::now() < until {
+            seen.push(pass.progress());
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        assert_eq!(pass.progress(), 1.0);
+        assert!(seen.windows(2).all(|w| w[1] >= w[0]), "progress went back: {seen:?}");
+        let within_first = seen.iter().filter(|&&f| f > 0.0 && f < 0.25).count();
+        assert!(within_first >= 3, "{within_first} readings inside the first pass: {seen:?}");
     }
 
     #[test]

@@ -229,7 +229,8 @@ def _fraction(progress, target):
         done, tgt = progress[0], progress[1] if len(progress) > 1 else target
         return (float(done) / tgt if tgt else 0.0), int(done)
     f = float(progress or 0.0)
-    return f, int(round(f * target))
+    # the fraction counts the pass under way in part: whole samples only
+    return f, int(f * target + 1e-6)
 
 
 def _outputs(reader, args, stem):
