@@ -542,7 +542,8 @@ impl Renderer {
         let pixel_filter = self.settings.pixel_filter;
         let adaptive = self.adaptive.as_ref();
         let film_layout = self.film.layout();
-        let first_pass = base == 0 || self.film.unsampled_pixels() > 0;
+        // pixels without samples are left only by a first pass given up (counted at its end)
+        let first_pass = base == 0 || self.stats.unsampled_pixels > 0;
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(|d| std::time::Instant::now() >= d);
         // Each tile goes into the film as it finishes (one addition a pixel a pass, so the
         // order the tiles finish in changes nothing): a pass holds only the tiles in flight.
@@ -683,6 +684,7 @@ impl Renderer {
         self.stats.render_seconds = 0.0;
         self.stats.photon_seconds = 0.0;
         self.stats.samples_per_pixel = 0;
+        self.stats.unsampled_pixels = 0;
         if let Some(c) = self.caustics.as_mut() {
             c.reset();
             self.stats.caustics = Some(c.stats().clone());
