@@ -82,6 +82,7 @@ fn main() {
         visible_to_camera: true,
         casts_shadows: true,
         primvar_row: None,
+        index: None,
     }];
     let mut out = Vec::new();
     let mut rates = Vec::new();

@@ -130,6 +130,7 @@ fn main() {
         visible_to_camera: true,
         casts_shadows: true,
         primvar_row: None,
+        index: None,
     };
     let accel = Accel::build(&[std::sync::Arc::new(mesh)], &[], &[inst], (0.0, if motion.is_some() { 1.0 } else { 0.0 }));
     let st = &accel.stats;

@@ -207,6 +207,19 @@ impl Camera {
         }
     }
 
+    /// The camera a render with `settings` sees through: `desc` conformed to the image (or
+    /// framed by the settings' film window), seeing past the image where the settings' data
+    /// window reaches past it (overscan).
+    pub fn for_settings(desc: &CameraDesc, s: &crate::render::RenderSettings) -> Camera {
+        let mut cam = Camera::with_conform(desc, s.width, s.height, s.pixel_aspect_ratio, s.aspect_conform, s.disable_depth_of_field, s.disable_motion_blur);
+        if let Some([ox, oy, ax, ay]) = s.film_window {
+            cam.offset = Vec2::new(ox, oy);
+            cam.aperture = Vec2::new(ax, ay);
+        }
+        cam.extend(crate::render::framing(s).pad);
+        cam
+    }
+
     /// The camera seeing `pad` pixels more past each side of its image (left, top, right,
     /// bottom: overscan): an image of that many more pixels whose pixel (x + left, y + top) is
     /// the one (x, y) was, every other ray as before.

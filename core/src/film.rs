@@ -21,9 +21,15 @@ pub struct SampleValue {
     pub albedo: [f32; 3],
     /// Instance id of the first hit, −1 for none.
     pub prim_id: f32,
+    /// The first hit's index among its prim's instances (`InstanceDesc::index`), −1 for none
+    /// or a prim drawn once.
+    pub instance_id: f32,
     /// `color` split by light path, in `SPLIT_AOVS` order; sums to `color`.
     pub split: [[f32; 3]; N_SPLIT],
 }
+
+/// The first-hit values (depth, primId, instanceId) of a pixel without a hit.
+const NO_FIRST_HIT: [f32; 3] = [f32::INFINITY, -1.0, -1.0];
 
 /// Floats every pixel accumulates: colour and alpha, then the colour's luminance and its
 /// square (the noise estimate of adaptive sampling).
@@ -60,14 +66,14 @@ impl FilmLayout {
         let normal = take(Aov::Normal);
         let albedo = take(Aov::Albedo);
         let split = SPLIT_AOVS.map(&mut take);
-        let first = aovs.contains(Aov::Depth) || aovs.contains(Aov::PrimId);
+        let first = aovs.contains(Aov::Depth) || aovs.contains(Aov::PrimId) || aovs.contains(Aov::InstanceId);
         FilmLayout { acc, normal, albedo, split, first, aovs }
     }
 
     /// Bytes a film of this layout holds per pixel (accumulators, sample count, first-hit
     /// values).
     pub fn bytes_per_pixel(&self) -> usize {
-        self.acc * 4 + 4 + if self.first { 8 } else { 0 }
+        self.acc * 4 + 4 + if self.first { 12 } else { 0 }
     }
 
     /// An empty tile of this layout; `first_pass` where the film has pixels without samples
@@ -76,7 +82,7 @@ impl FilmLayout {
     pub fn tile(&self, x0: u32, y0: u32, w: u32, h: u32, first_pass: bool) -> FilmTile {
         let n = w as usize * h as usize;
         let has_first = first_pass && self.first;
-        FilmTile { x0, y0, w, h, sums: vec![0.0; n * self.acc], n: vec![0; n], first: if has_first { vec![[f32::INFINITY, -1.0]; n] } else { Vec::new() }, has_first, layout: *self }
+        FilmTile { x0, y0, w, h, sums: vec![0.0; n * self.acc], n: vec![0; n], first: if has_first { vec![NO_FIRST_HIT; n] } else { Vec::new() }, has_first, layout: *self }
     }
 }
 
@@ -91,7 +97,7 @@ pub struct FilmTile {
     /// Samples added per pixel.
     n: Vec<u32>,
     /// depth and primId of each pixel's first sample (not averageable).
-    first: Vec<[f32; 2]>,
+    first: Vec<[f32; 3]>,
     has_first: bool,
     layout: FilmLayout,
 }
@@ -130,7 +136,7 @@ impl FilmTile {
         }
         self.n[i] += 1;
         if first_sample && self.has_first {
-            self.first[i] = [s.depth, s.prim_id];
+            self.first[i] = [s.depth, s.prim_id, s.instance_id];
         }
     }
 }
@@ -155,7 +161,7 @@ pub struct Film {
     sums: Vec<f32>,
     /// Samples each pixel has taken (fewer than `spp` where adaptive sampling stopped it).
     n: Vec<u32>,
-    first: Vec<[f32; 2]>,
+    first: Vec<[f32; 3]>,
     /// Samples per pixel of the passes so far (the most any pixel has).
     pub spp: u32,
     /// Multiplier applied when resolving colour AOVs (camera exposure).
@@ -203,7 +209,7 @@ impl Film {
         }
         let sums = zeros(n.checked_mul(layout.acc)?, 0.0f32)?;
         let count = zeros(n, 0u32)?;
-        let first = zeros(if layout.first { n } else { 0 }, [f32::INFINITY, -1.0])?;
+        let first = zeros(if layout.first { n } else { 0 }, NO_FIRST_HIT)?;
         Some(Film { width, height, sums, n: count, first, spp: 0, scale: 1.0, window, display: [0, 0, width, height], layout, guiding: None, light: Vec::new(), light_spp: 0 })
     }
 
@@ -262,7 +268,7 @@ impl Film {
 
     pub fn clear(&mut self) {
         self.sums.iter_mut().for_each(|v| *v = 0.0);
-        self.first.iter_mut().for_each(|v| *v = [f32::INFINITY, -1.0]);
+        self.first.iter_mut().for_each(|v| *v = NO_FIRST_HIT);
         self.n.iter_mut().for_each(|v| *v = 0);
         self.light.clear();
         self.light_spp = 0;
@@ -357,6 +363,7 @@ impl Film {
             }
             Aov::Depth => o[0] = self.first[i][0],
             Aov::PrimId => o[0] = self.first[i][1],
+            Aov::InstanceId => o[0] = self.first[i][2],
             Aov::Guiding => o.copy_from_slice(&self.guiding.as_ref().expect("resolvable")[i * 3..i * 3 + 3]),
             Aov::Normal => {
                 let at = l.normal.unwrap_or(0);
@@ -388,7 +395,7 @@ impl Film {
             Aov::Color => return vec!["R".into(), "G".into(), "B".into(), "A".into()],
             Aov::Depth => &["Z"],
             Aov::Normal => &["X", "Y", "Z"],
-            Aov::PrimId => &["R"],
+            Aov::PrimId | Aov::InstanceId => &["R"],
             _ => &["R", "G", "B"],
         };
         suffix.iter().map(|s| format!("{}.{}", aov.source_name(), s)).collect()

@@ -53,6 +53,9 @@ pub enum Aov {
     Albedo,
     /// `InstanceDesc::id` of the first hit, or -1 (one channel, stored as f32).
     PrimId,
+    /// The first hit's index among the instances of its prim (`InstanceDesc::index`: a
+    /// PointInstancer's or a Hydra instancer's), or -1 (one channel, stored as f32).
+    InstanceId,
     Diffuse,
     Specular,
     Transmission,
@@ -67,12 +70,13 @@ pub enum Aov {
 }
 
 impl Aov {
-    pub const ALL: [Aov; 12] = [
+    pub const ALL: [Aov; 13] = [
         Aov::Color,
         Aov::Depth,
         Aov::Normal,
         Aov::Albedo,
         Aov::PrimId,
+        Aov::InstanceId,
         Aov::Diffuse,
         Aov::Specular,
         Aov::Transmission,
@@ -90,6 +94,7 @@ impl Aov {
             Aov::Normal => "normal",
             Aov::Albedo => "albedo",
             Aov::PrimId => "primId",
+            Aov::InstanceId => "instanceId",
             Aov::Diffuse => "tide:diffuse",
             Aov::Specular => "tide:specular",
             Aov::Transmission => "tide:transmission",
@@ -108,7 +113,7 @@ impl Aov {
     pub fn channels(self) -> usize {
         match self {
             Aov::Color => 4,
-            Aov::Depth | Aov::PrimId => 1,
+            Aov::Depth | Aov::PrimId | Aov::InstanceId => 1,
             _ => 3,
         }
     }
@@ -158,6 +163,11 @@ pub struct RenderSettings {
     pub aspect_conform: crate::camera::AspectConform,
     /// (xmin, ymin, xmax, ymax) in NDC, as UsdRenderSettings `dataWindowNDC`.
     pub data_window_ndc: [f32; 4],
+    /// The part of the film the image covers, where a host frames the camera itself (Hydra's
+    /// render pass, whose projection holds its framing and window policy): (horizontal offset,
+    /// vertical offset, horizontal aperture, vertical aperture) in the camera's film units, in
+    /// place of the camera's own aperture conformed by `aspect_conform`.
+    pub film_window: Option<[f32; 4]>,
     pub disable_motion_blur: bool,
     pub disable_depth_of_field: bool,
     /// Seconds of rendering after which progressive passes stop; 0 = none.
@@ -189,6 +199,7 @@ impl Default for RenderSettings {
             pixel_aspect_ratio: 1.0,
             aspect_conform: Default::default(),
             data_window_ndc: [0.0, 0.0, 1.0, 1.0],
+            film_window: None,
             disable_motion_blur: false,
             disable_depth_of_field: false,
             time_budget_s: 0.0,
@@ -437,8 +448,7 @@ impl Renderer {
         let mut problems = Vec::new();
         crate::validate::validate_camera(&mut desc, self.world.media.len(), &mut problems);
         let s = settings;
-        let mut cam = crate::camera::Camera::with_conform(&desc, s.width, s.height, s.pixel_aspect_ratio, s.aspect_conform, s.disable_depth_of_field, s.disable_motion_blur);
-        cam.extend(framing(s).pad);
+        let cam = crate::camera::Camera::for_settings(&desc, s);
         if cam.shutter != self.world.camera.shutter {
             return false;
         }

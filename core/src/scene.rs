@@ -744,6 +744,10 @@ pub struct InstanceDesc {
     pub casts_shadows: bool,
     /// Its own primvar values: (table in [`SceneDesc::instance_primvars`], row).
     pub primvar_row: Option<(u32, u32)>,
+    /// Its index among its prim's authored instances (a PointInstancer's or a Hydra
+    /// instancer's, in their order), written to the `instanceId` AOV; None for a prim drawn
+    /// once.
+    pub index: Option<u32>,
 }
 
 /// Primvars that vary per instance (a PointInstancer's, or those native instances inherit):

@@ -1155,6 +1155,7 @@ mod tests {
             visible_to_camera: true,
             casts_shadows: true,
             primvar_row: None,
+            index: None,
         };
         let mut all: Vec<InstanceDesc> = (0..5).map(inst).collect();
         let mut probs = Vec::new();

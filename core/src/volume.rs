@@ -95,6 +95,7 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
             visible_to_camera: v.visible_to_camera,
             casts_shadows: v.casts_shadows,
             primvar_row: None,
+            index: None,
         });
     }
     Expanded { scene: s, grids, boundary_materials }

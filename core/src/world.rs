@@ -216,6 +216,8 @@ pub struct InstanceInfo {
     pub geometry: GeometryRef,
     pub material: usize,
     pub id: u32,
+    /// `InstanceDesc::index`, or -1 for none.
+    pub index: i32,
     pub visible_to_camera: bool,
     pub casts_shadows: bool,
     /// Its own primvar values: (table in [`World::instance_primvars`], row).
@@ -669,9 +671,7 @@ impl World {
         // volumes become boxes with a medium-boundary material and a grid medium
         let expanded = (!scene.volumes.is_empty()).then(|| crate::volume::expand(scene, problems));
         let scene = expanded.as_ref().map_or(scene, |e| &e.scene);
-        let mut camera = Camera::with_conform(&scene.camera, settings.width, settings.height, settings.pixel_aspect_ratio, settings.aspect_conform, settings.disable_depth_of_field, settings.disable_motion_blur);
-        // overscan: the film reaches past the image
-        camera.extend(crate::render::framing(settings).pad);
+        let camera = Camera::for_settings(&scene.camera, settings);
         // the BSDFs' albedo tables are built once per process; started here, beside the BVH,
         // the first pass does not wait for them
         let uses_sheen = scene.materials.iter().any(|m| matches!(&m.surface, SurfaceDesc::Preview(p) if p.extras.as_ref().is_some_and(|x| !matches!(x.sheen_weight, FloatInput::Const(w) if w <= 0.0))));
@@ -865,7 +865,7 @@ impl World {
         let instances = scene
             .instances
             .iter()
-            .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows, primvar_row: i.primvar_row })
+            .map(|i| InstanceInfo { geometry: i.geometry, material: i.material, id: i.id, index: i.index.map_or(-1, |k| k.min(i32::MAX as u32) as i32), visible_to_camera: i.visible_to_camera, casts_shadows: i.casts_shadows, primvar_row: i.primvar_row })
             .collect();
         let any_caster_tagged = scene.caustics.objects.iter().any(|(_, o)| o.caster == Some(true));
         let caustic_instances = scene
@@ -1373,7 +1373,7 @@ mod tests {
     }
 
     fn inst(g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
-        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }
+        InstanceDesc { name: "/i".into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None }
     }
 
     #[test]

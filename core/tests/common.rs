@@ -52,7 +52,7 @@ pub fn quad_y(name: &str, half: f32) -> MeshDesc {
 }
 
 pub fn instance(name: &str, g: GeometryRef, m: Mat4, material: usize) -> InstanceDesc {
-    InstanceDesc { name: name.into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }
+    InstanceDesc { name: name.into(), geometry: g, transforms: vec![m], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None }
 }
 
 pub fn light(name: &str, shape: LightShape, transform: Mat4, intensity: f32, normalize: bool) -> LightDesc {

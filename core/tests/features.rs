@@ -286,9 +286,10 @@ fn a_colour_only_film_draws_the_same_colour_in_less_memory() {
     assert!(!dir.join("no.exr").exists());
     std::fs::remove_dir_all(&dir).unwrap();
     // colour, alpha and the luminance pair in f32 and a sample count: 28 bytes a pixel, where
-    // every AOV takes 132
+    // every AOV takes 136 (24 more floats of averages, and the first hit's depth, primId and
+    // instanceId)
     assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::Color])), 28);
-    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 132);
+    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 136);
 }
 
 /// A pass given up part way (its deadline passed) keeps the pixels it finished, each with the
@@ -348,6 +349,8 @@ fn a_pass_given_up_part_way_keeps_the_pixels_it_finished() {
                 for (i, &k) in n.iter().enumerate() {
                     let want = if k == 8 { &f8[i * 4..i * 4 + 4] } else { &[0.0f32; 4][..] };
                     assert_eq!(bits(&c[i * 4..i * 4 + 4]), bits(want), "pixel {i} with {k} samples");
+                    // a pixel not reached has no first hit yet
+                    assert_eq!(d[i].is_finite(), k == 8, "pixel {i} ({k}): depth {}", d[i]);
                 }
                 // every ray meets the water's box: a pixel's depth is its first sample's
                 assert!(r.render_pass(1, None));

@@ -210,6 +210,7 @@ int FormatComponents(Format f) {
     case Format::Float32Vec2: return 2;
     case Format::Float32Vec3: return 3;
     case Format::Float32Vec4: return 4;
+    case Format::Int32: return 1;
     case Format::Invalid: return 0;
     }
     return 0;
@@ -222,6 +223,7 @@ Format FormatFromName(const std::string& name) {
     if (n == "float2" || n == "Float32Vec2" || n == "color2f") return Format::Float32Vec2;
     if (n == "float3" || n == "Float32Vec3" || n == "color3f") return Format::Float32Vec3;
     if (n == "float4" || n == "Float32Vec4" || n == "color4f") return Format::Float32Vec4;
+    if (n == "int" || n == "Int32" || n == "int32") return Format::Int32;
     return Format::Invalid;
 }
 
@@ -231,6 +233,7 @@ static const char* FormatName(Format f) {
     case Format::Float32Vec2: return "float2";
     case Format::Float32Vec3: return "float3";
     case Format::Float32Vec4: return "float4";
+    case Format::Int32: return "int32";
     case Format::Invalid: return "invalid";
     }
     return "invalid";

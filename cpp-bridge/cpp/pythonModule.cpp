@@ -671,6 +671,13 @@ Resolved ResolveBuffer(State& s, const std::string& path) {
     const float* p = static_cast<const float*>(rb->Map());
     r.pixels.assign(p, p + size_t(r.w) * r.h * r.c);
     rb->Unmap();
+    // an int32 buffer's values, as numbers
+    if (rb->GetFormat() == tide::Format::Int32)
+        for (float& v : r.pixels) {
+            int32_t i;
+            std::memcpy(&i, &v, 4);
+            v = float(i);
+        }
     return r;
 }
 
@@ -825,16 +832,24 @@ void Pass_dealloc(PyObject* self) {
 }
 
 PyObject* Pass_execute(PyObject* self, PyObject* args, PyObject* kw) {
-    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", nullptr};
+    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", "hydra", "projection", nullptr};
     const char* camera = nullptr;
     PyObject* bindings = nullptr;
     const char* settings = nullptr;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|z", const_cast<char**>(names), &camera, &bindings, &settings))
+    int hydra = 0;
+    PyObject* projection = nullptr;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|zpO", const_cast<char**>(names), &camera, &bindings, &settings, &hydra, &projection))
         return nullptr;
     TIDE_TRY
     tide::RenderPassState state;
     state.camera = camera;
     state.renderSettings = settings ? settings : "";
+    state.hydra = hydra != 0;
+    if (projection && projection != Py_None) {
+        Numbers n = ReadNumbers(projection, 'd');
+        if (n.values.size() != 16) throw ArgError(PyExc_ValueError, "projection: expected 16 numbers");
+        state.projection.assign(n.values.begin(), n.values.end());
+    }
     for (auto& b : Pairs(bindings, "aov_bindings")) state.aovBindings.push_back({b.first, b.second, nullptr});
     State& s = S(reinterpret_cast<PyPass*>(self)->owner);
     tide::RenderPass& pass = P(self);
@@ -946,7 +961,7 @@ PyMethodDef DelegateMethods[] = {
     {nullptr, nullptr, 0, nullptr}};
 
 PyMethodDef PassMethods[] = {
-    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None)"},
+    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None, hydra=False, projection=None); hydra: Hydra's AOV names and layout (rows from the bottom, depth in clip space, ids in int32 buffers); projection: 16 numbers (GfMatrix4d's order) framing the image"},
     {"is_converged", Pass_is_converged, METH_NOARGS, "is_converged() -> bool"},
     {"progress", Pass_progress, METH_NOARGS, "progress() -> float in [0, 1]"},
     {"summary", Pass_summary, METH_NOARGS, "summary() -> {key: value} figures of the last finished pass (photons, memory, ...)"},

@@ -48,6 +48,8 @@ const std::vector<std::string>& RenderDelegate::GetSupportedBprimTypes() const {
     return types;
 }
 
+int RenderDelegate::AovChannels(const std::string& name) { return int(rs::hydra_aov_channels(Str(name))); }
+
 static bool CreateInRust(RenderParam& param, const std::string& typeId, const std::string& id) {
     try {
         return param.GetDelegate().create_prim(Str(typeId), Str(id));
@@ -182,7 +184,8 @@ bool RenderPass::Execute(const RenderPassState& state, std::string* error) {
         }
     }
     try {
-        _pass->execute(Str(state.camera), bindings, Str(state.renderSettings));
+        _pass->execute(Str(state.camera), bindings, Str(state.renderSettings), state.hydra,
+                       rust::Slice<const double>(state.projection.data(), state.projection.size()));
         return true;
     } catch (const std::exception& e) {
         if (error) *error = e.what();

@@ -46,6 +46,7 @@
 #endif
 
 #include <algorithm>
+#include <map>
 #include <chrono>
 #include <cstdlib>
 #include <tuple>
@@ -288,6 +289,97 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
 }
 #endif
 
+/// The outputs HdxTaskController binds beside the colour for a renderer other than Storm
+/// (usdview, usdrecord): depth, primId, elementId and instanceId, each allocated in the format
+/// the delegate's default descriptor gives, and left out where that is invalid. The pass must
+/// render with them; then, with the sphere moved up into the top half of the frame and the pass
+/// framed as a viewer cropping a camera's view does (the camera's window mapped to a display
+/// window half as large again as the buffer, about its centre: the buffer holds the middle
+/// two thirds), each pixel is picked as hdx's HdxPickResult does it: rows from the bottom, the int32 primId looked up in the
+/// render index, the [0, 1] depth unprojected through the pass's own view and projection
+/// matrices. Pixels whose centre ray passes well inside the sphere must pick it at a point on
+/// its surface; those that pass well outside, nothing at depth 1.
+int CheckPickingOutputs(HdRenderDelegate& delegate, HdRenderIndex* index, HdEngine& engine, HdTaskSharedPtrVector& tasks,
+                        HdRenderPassSharedPtr const& pass, HdRenderPassStateSharedPtr const& state, Scene& scene) {
+    const TfToken outputs[] = {HdAovTokens->color, HdAovTokens->depth, HdAovTokens->primId, HdAovTokens->elementId, HdAovTokens->instanceId};
+    std::map<TfToken, HdRenderBuffer*> buffers;
+    HdRenderPassAovBindingVector bindings;
+    for (TfToken const& name : outputs) {
+        const HdAovDescriptor desc = delegate.GetDefaultAovDescriptor(name);
+        if (desc.format == HdFormatInvalid) continue;
+        auto* b = static_cast<HdRenderBuffer*>(delegate.CreateBprim(HdPrimTypeTokens->renderBuffer, SdfPath("/__check/aov_" + name.GetString())));
+        if (!b || !b->Allocate(GfVec3i(kSize, kSize, 1), desc.format, false)) return Fail("a task controller's render buffer could not be allocated");
+        buffers[name] = b;
+        HdRenderPassAovBinding binding;
+        binding.aovName = name;
+        binding.renderBufferId = b->GetId();
+        binding.renderBuffer = b;
+        binding.clearValue = desc.clearValue;
+        bindings.push_back(binding);
+    }
+    if (buffers.count(HdAovTokens->elementId)) return Fail("elementId, which Tide does not render, has a valid descriptor");
+    for (TfToken const& name : {HdAovTokens->color, HdAovTokens->depth, HdAovTokens->primId, HdAovTokens->instanceId})
+        if (!buffers.count(name)) return Fail("an output a task controller binds has no valid descriptor");
+    state->SetAovBindings(bindings);
+    state->SetFraming(CameraUtilFraming(GfRange2f(GfVec2f(-kSize / 4.0f), GfVec2f(kSize * 5 / 4.0f)), GfRect2i(GfVec2i(0, 0), kSize, kSize)));
+    const GfVec3d centre(0, 0.8, 0);
+    scene.sphereAt = centre;
+    index->GetChangeTracker().MarkRprimDirty(kSphere, HdChangeTracker::DirtyTransform);
+    HdRenderBuffer* color = buffers[HdAovTokens->color];
+    const float* px = RenderUntilConverged(engine, index, tasks, pass, color, std::chrono::seconds(120));
+    if (!px) return Fail("with a task controller's outputs bound the pass did not converge");
+    color->Unmap();
+    HdRenderBuffer* depthBuf = buffers[HdAovTokens->depth];
+    HdRenderBuffer* primBuf = buffers[HdAovTokens->primId];
+    HdRenderBuffer* instBuf = buffers[HdAovTokens->instanceId];
+    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf}) b->Resolve();
+    if (depthBuf->GetFormat() != HdFormatFloat32 || primBuf->GetFormat() != HdFormatInt32 || instBuf->GetFormat() != HdFormatInt32)
+        return Fail("depth is not float32, or primId / instanceId not int32");
+    const float* depth = static_cast<const float*>(depthBuf->Map());
+    const int32_t* prim = static_cast<const int32_t*>(primBuf->Map());
+    const int32_t* inst = static_cast<const int32_t*>(instBuf->Map());
+    const GfMatrix4d ndcToWorld = (state->GetWorldToViewMatrix() * state->GetProjectionMatrix()).GetInverse();
+    const GfVec3d eye(0, 0, 4);
+    int inside = 0, outside = 0, top = 0;
+    const char* failure = nullptr;
+    for (int y = 0; y < kSize && !failure; ++y)
+        for (int x = 0; x < kSize && !failure; ++x) {
+            const int i = y * kSize + x;
+            // the pixel centre's ray, from the eye through the near plane, rows from the bottom
+            const GfVec3d near = ndcToWorld.Transform(GfVec3d((x + 0.5) / kSize * 2 - 1, (y + 0.5) / kSize * 2 - 1, -1));
+            const GfVec3d dir = (near - eye).GetNormalized();
+            const GfVec3d toCentre = centre - eye;
+            const double miss = (toCentre - dir * GfDot(toCentre, dir)).GetLength();
+            if (miss < 0.9) {
+                ++inside;
+                top += y >= kSize / 2;
+                if (index->GetRprimPathFromPrimId(prim[i]) != kSphere) failure = "a pixel on the sphere does not pick it";
+                else if (inst[i] != -1) failure = "a pixel on the sphere (not instanced) has an instanceId";
+                else {
+                    // unprojected as HdxPickResult does (there from the pixel's corner, here its
+                    // centre), the depth mapped from [0, 1] to [-1, 1]
+                    const GfVec3d ndc((x + 0.5) / kSize * 2 - 1, (y + 0.5) / kSize * 2 - 1, depth[i] * 2 - 1);
+                    const double r = (ndcToWorld.Transform(ndc) - centre).GetLength();
+                    // the depth is the pixel's first sample's, up to half a pixel (0.045 at the
+                    // sphere) from the centre; the facets lie up to 1 - cos(pi / 24) inside it
+                    if (r < 0.94 || r > 1.05) failure = "a pick's depth unprojects off the sphere";
+                }
+            } else if (miss > 1.1) {
+                ++outside;
+                if (prim[i] != -1 || inst[i] != -1 || depth[i] != 1.0f) failure = "a pixel beside the sphere picks something, or its depth is not 1";
+            }
+        }
+    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf}) b->Unmap();
+    if (failure) return Fail(failure);
+    std::printf("picking outputs: %d pixels pick the sphere (%d in the top half), %d nothing\n", inside, top, outside);
+    // magnified 1.5 times by the framing, the sphere covers more than the 220 pixels it does
+    // unframed (2.25 times as many, less what leaves the top of the frame)
+    if (inside < 280 || outside < 40 || top * 4 < inside * 3)
+        return Fail("the sphere is not where it was moved, or not framed as the pass says (the rows' order?)");
+    for (auto& [name, b] : buffers) delegate.DestroyBprim(b);
+    return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -360,6 +452,7 @@ int main(int argc, char** argv) {
     if (centre < 0) return Fail("the render after the edit did not converge");
     std::printf("after moving the sphere away: centre %.4f, corners %.4f\n", centre, corner);
     if (std::fabs(centre - 1.0) > 0.02 || std::fabs(corner - 1.0) > 0.02) return Fail("the edit did not reach the render");
+    if (int failed = CheckPickingOutputs(*delegate, index.get(), engine, tasks, pass, state, scene)) return failed;
     std::printf("check_runtime: ok\n");
     return 0;
 }

@@ -55,7 +55,7 @@ echo "building check_runtime"
 "$cxx" "${common[@]}" -o "$out/check_runtime" "$here/check_runtime.cpp" "${lflags[@]}" "${usdlibs[@]}" -lpthread || exit $?
 
 echo "running check_runtime"
-PXR_PLUGINPATH_NAME="$out/plugin/hdTide/resources" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_runtime"
+PXR_PLUGINPATH_NAME="$out/plugin/hdTide/resources" TIDE_OCIO_CONFIG="$bridge/ocio/config.ocio" "$out/check_runtime" || exit $?
 
 # With OpenUSD's UsdImaging built too (libusd_usdImaging.so) and OPENUSD_SRC set to its source
 # tree (for the schemas' resources, which a build tree only installs): the same stage rendered

@@ -957,12 +957,13 @@ class HdTideRenderBuffer final : public HdRenderBuffer {
 public:
     HdTideRenderBuffer(SdfPath const& id, tide::RenderBuffer* buffer) : HdRenderBuffer(id), _buffer(buffer) {}
     tide::RenderBuffer* TideBuffer() const { return _buffer; }
-    /// Tide renders float32: a request for another format gets float32 with as many components,
-    /// and GetFormat says what the mapped pixels really are.
+    /// Tide renders float32, and int32 for an Int32 buffer (Hydra's ids): a request for another
+    /// format gets float32 with as many components, and GetFormat says what the mapped pixels
+    /// really are.
     bool Allocate(GfVec3i const& dims, HdFormat format, bool multiSampled) override {
         tide::Format f = tide::Format::Float32Vec4;
         switch (HdGetComponentCount(format)) {
-        case 1: f = tide::Format::Float32; break;
+        case 1: f = format == HdFormatInt32 ? tide::Format::Int32 : tide::Format::Float32; break;
         case 2: f = tide::Format::Float32Vec2; break;
         case 3: f = tide::Format::Float32Vec3; break;
         default: break;
@@ -974,9 +975,10 @@ public:
     unsigned int GetDepth() const override { return 1; }
     /// The float32 format of the pixels Map returns (after a Resolve, the bound AOV's channels).
     HdFormat GetFormat() const override {
+        const bool ints = _buffer->GetFormat() == tide::Format::Int32;
         switch (_buffer->GetChannels()) {
         case 0: return HdFormatInvalid;
-        case 1: return HdFormatFloat32;
+        case 1: return ints ? HdFormatInt32 : HdFormatFloat32;
         case 2: return HdFormatFloat32Vec2;
         case 3: return HdFormatFloat32Vec3;
         default: return HdFormatFloat32Vec4;
@@ -1006,8 +1008,15 @@ public:
 protected:
     void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
         tide::RenderPassState s;
+        s.hydra = true;
         s.renderSettings = _delegate->SettingsPathForPass();
-        if (HdCamera const* cam = state->GetCamera()) s.camera = cam->GetId().GetString();
+        if (HdCamera const* cam = state->GetCamera()) {
+            s.camera = cam->GetId().GetString();
+            // the pass's framing and window policy, as the projection Hydra's tasks (picking)
+            // assume the image was made with
+            const GfMatrix4d proj = state->GetProjectionMatrix();
+            s.projection.assign(proj.data(), proj.data() + 16);
+        }
         for (HdRenderPassAovBinding const& b : state->GetAovBindings()) {
             auto* rb = dynamic_cast<HdTideRenderBuffer*>(b.renderBuffer);
             s.aovBindings.push_back({b.aovName.GetString(), b.renderBufferId.GetString(), rb ? rb->TideBuffer() : nullptr});
@@ -1236,11 +1245,22 @@ void HdTideRenderDelegate::CommitResources(HdChangeTracker* tracker) {
         TF_WARN("Tide: %s: %s: %s", p.prim.c_str(), p.attribute.c_str(), p.message.c_str());
 }
 
+/// Hydra's conventions (hdx's picking and selection read them): `depth` is clip-space depth in
+/// [0, 1] (1 where nothing is hit), `cameraDepth` the distance along the view axis, the ids
+/// int32 (-1 where nothing is hit); rows run from the bottom. An AOV Tide does not render gets
+/// an invalid format, so that a task controller leaves it out (usdview asks for `elementId`
+/// alongside the colour).
 HdAovDescriptor HdTideRenderDelegate::GetDefaultAovDescriptor(TfToken const& name) const {
     if (name == HdAovTokens->color) return HdAovDescriptor(HdFormatFloat32Vec4, false, VtValue(GfVec4f(0.0f)));
-    if (name == HdAovTokens->depth || name == HdAovTokens->primId)
-        return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));
-    return HdAovDescriptor(HdFormatFloat32Vec3, false, VtValue(GfVec3f(0.0f)));
+    if (name == HdAovTokens->depth) return HdAovDescriptor(HdFormatFloat32, false, VtValue(1.0f));
+    if (name == HdAovTokens->cameraDepth) return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));
+    if (name == HdAovTokens->primId || name == HdAovTokens->instanceId)
+        return HdAovDescriptor(HdFormatInt32, false, VtValue(-1));
+    switch (tide::RenderDelegate::AovChannels(name.GetString())) {
+    case 1: return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));
+    case 3: return HdAovDescriptor(HdFormatFloat32Vec3, false, VtValue(GfVec3f(0.0f)));
+    default: return HdAovDescriptor();
+    }
 }
 
 PXR_NAMESPACE_CLOSE_SCOPE

@@ -362,7 +362,12 @@ pub struct Pass {
 }
 
 impl Pass {
-    pub fn execute(&self, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<(), String> {
+    /// `hydra`: AOVs named and laid out as Hydra's render buffers want them (rows from the
+    /// bottom, `depth` in clip space, ids as int32 where the buffer is), an AOV Tide does not
+    /// render reported and the rest rendered; else `UsdRenderVar` sourceNames, an unknown one
+    /// an error. `projection`: 16 doubles (GfMatrix4d's order) of the host's projection, whose
+    /// framing the image takes, or none.
+    pub fn execute(&self, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64]) -> Result<(), String> {
         guard("execute", || {
             let mut s = lock(&self.shared);
             let d = &s.delegate;
@@ -374,7 +379,7 @@ impl Pass {
             }
             let mut aovs = Vec::with_capacity(bindings.len());
             for b in bindings {
-                if Aov::from_source_name(&b.aov).is_none() {
+                if !hydra && Aov::from_source_name(&b.aov).is_none() {
                     return Err(format!("{}: unknown AOV '{}'", b.buffer, b.aov));
                 }
                 if d.prim_type(&b.buffer) != Some(PrimType::RenderBuffer) {
@@ -382,7 +387,12 @@ impl Pass {
                 }
                 aovs.push((b.aov.clone(), b.buffer.clone()));
             }
-            let problems = s.delegate.execute(Some(camera), &aovs, Some(settings));
+            let projection = match projection.len() {
+                0 => None,
+                16 => Some(std::array::from_fn(|i| projection[i])),
+                n => return Err(format!("a projection matrix has 16 values, not {n}")),
+            };
+            let problems = s.delegate.execute_as(Some(camera), &aovs, Some(settings), hydra, projection);
             s.pending.extend(problems.into_iter().map(row));
             s.executing_pass = self.id;
             Ok(())
@@ -517,11 +527,11 @@ mod tests {
         quad_scene(&d);
         assert!(d.commit_resources().unwrap().is_empty());
         let p = d.create_render_pass().unwrap();
-        assert!(p.execute("/NoCamera", &binding("color", "/Out/color"), "").is_err());
-        assert!(p.execute("/Cam", &binding("bogus", "/Out/color"), "").is_err());
-        assert!(p.execute("/Cam", &binding("color", "/Dome"), "").is_err());
-        assert!(p.execute("/Cam", &binding("color", "/Out/color"), "/Cam").is_err());
-        p.execute("/Cam", &binding("color", "/Out/color"), "/S").unwrap();
+        assert!(p.execute("/NoCamera", &binding("color", "/Out/color"), "", false, &[]).is_err());
+        assert!(p.execute("/Cam", &binding("bogus", "/Out/color"), "", false, &[]).is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Dome"), "", false, &[]).is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Out/color"), "/Cam", false, &[]).is_err());
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[]).unwrap();
         assert!(p.wait(60.0).unwrap());
         assert_eq!(p.error().unwrap(), "");
         assert!(p.is_converged().unwrap());
@@ -558,7 +568,7 @@ mod tests {
         d.set_int("/S", "tide:samples", 1 << 20, false, 0.0).unwrap();
         d.commit_resources().unwrap();
         let p = d.create_render_pass().unwrap();
-        p.execute("/Cam", &binding("color", "/Out/color"), "/S").unwrap();
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[]).unwrap();
         let d2 = d.clone();
         let mapper = std::thread::spawn(move || (0..20).all(|_| d2.map_buffer("/Out/color").is_ok()));
         assert!(!p.wait(0.2).unwrap());

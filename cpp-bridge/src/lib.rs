@@ -84,6 +84,9 @@ pub mod ffi {
         type TexelBuffer;
 
         fn new_delegate() -> Result<Box<Delegate>>;
+        /// Channels of a Hydra AOV as Tide renders it (its name an HdAovTokens one or a Tide
+        /// `sourceName`); 0 for one Tide does not render.
+        fn hydra_aov_channels(name: &str) -> u32;
         /// An empty buffer of `total` values of one kind (0: bytes, read as byte / 255; 1:
         /// 16-bit integers, code / 65535; 2: half floats' bits; 3: floats), their memory reserved
         /// (and taken as the values are written). Err when it cannot be.
@@ -153,7 +156,9 @@ pub mod ffi {
         fn write_exr(self: &Delegate, path: &str, layers: &Vec<ExrLayer>, header: &Vec<StringPair>) -> Result<()>;
 
         fn create_render_pass(self: &Delegate) -> Result<Box<Pass>>;
-        fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str) -> Result<()>;
+        /// `projection`: the host's projection matrix (16 doubles, GfMatrix4d's order) framing the
+        /// image, or none.
+        fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64]) -> Result<()>;
         fn is_converged(self: &Pass) -> Result<bool>;
         fn progress(self: &Pass) -> Result<f64>;
         /// The render's figures after its last finished pass, as `key=value` strings.
@@ -175,6 +180,10 @@ pub mod ffi {
 
 fn new_texel_buffer(kind: u8, total: usize) -> Result<Box<TexelBuffer>, String> {
     guard("new_texel_buffer", || TexelBuffer::new(kind, total).map(Box::new))
+}
+
+fn hydra_aov_channels(name: &str) -> u32 {
+    tide_delegate::render_pass::Binding::hydra(name).map_or(0, |b| b.aov.channels() as u32)
 }
 
 fn new_delegate() -> Result<Box<Delegate>, String> {

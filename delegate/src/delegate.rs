@@ -17,7 +17,7 @@ use crate::lux::{self, CameraPiece, LightKind, LightPiece, SettingsPiece};
 use crate::material::{self, default_material, MaterialPiece, TexKey, TexState};
 use crate::mesh;
 use crate::ocean::{self, OceanKey, OceanMeshes, OceanSpec};
-use crate::render_pass::{core_factory, EngineFactory, Job, MappedBuffer, PassStatus, PassWatcher, RenderBuffer, RenderPass};
+use crate::render_pass::{core_factory, film_window, Binding, ClipDepth, EngineFactory, Job, MappedBuffer, Output, PassStatus, PassWatcher, RenderBuffer, RenderPass};
 use crate::value::{about, normalize_name, AttrStore, Interpolation, Primvar, Problems, Value};
 use crate::volume::{self, GridKey, GridState, VolumeSpec};
 use glam::{DMat4, DVec3, Mat4, Vec3};
@@ -108,7 +108,7 @@ struct Prim {
 
 /// Rprim attributes that place or bind a prim without changing its geometry: editing only
 /// these re-syncs the prim but keeps its converted points and triangles.
-const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms", "instancePaths"];
+const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms", "instancePaths", "instanceIndices"];
 
 /// A material's displacement in one assembly.
 struct Displacement<'a> {
@@ -197,6 +197,9 @@ struct RprimPiece {
     mesh_light: Option<lux::MeshLight>,
     /// Per-instance primvars, one row per kept instance.
     instance_primvars: Vec<PrimvarData>,
+    /// Each kept instance's index among the authored `instanceTransforms` (the `instanceId`
+    /// AOV); empty where none are authored.
+    instance_index: Vec<u32>,
     /// The prim path each kept instance stands for in collections (`instancePaths`: a native
     /// instance's proxy path, so a light can link some instances of a prototype and not
     /// others); empty: the prim's own path for all.
@@ -215,7 +218,7 @@ enum Piece {
 }
 
 /// (scene generation, AOV bindings, settings) of a started job.
-type JobKey = (u64, Vec<(Aov, String)>, RenderSettings);
+type JobKey = (u64, Vec<(Binding, String)>, RenderSettings);
 
 struct Cached {
     piece: Piece,
@@ -255,6 +258,8 @@ pub struct Delegate {
     engine_reported: HashSet<Problem>,
     /// What the running job was started from: (scene generation, bindings, settings).
     job_key: Option<JobKey>,
+    /// The projection matrix of the last `execute_as` (a Hydra pass's), framing the image.
+    pass_projection: Option<[f64; 16]>,
     /// Built ocean meshes by prim path, with the key they were built for and their problems.
     oceans: HashMap<String, (OceanKey, Arc<OceanMeshes>, Vec<Problem>)>,
     /// Textures as the last assembly used them (linearised, domes made lat-long), each with the
@@ -387,6 +392,7 @@ impl Delegate {
             pass: None,
             engine_reported: HashSet::new(),
             job_key: None,
+            pass_projection: None,
             oceans: HashMap::new(),
             converted_textures: HashMap::new(),
             displaced_meshes: HashMap::new(),
@@ -624,8 +630,10 @@ impl Delegate {
                     Some(d) => p.add("dimensions", format!("expected two positive ints, got {:?}", d)),
                 }
                 let publish = s.bool_or("tide:publish", true, &mut p);
+                let ints = s.str_opt("format").is_some_and(|f| f.starts_with("int"));
                 if let Some(b) = buf {
                     b.set_publishes(publish);
+                    b.set_holds_ints(ints);
                 }
                 Piece::Buffer
             }
@@ -743,6 +751,7 @@ impl Delegate {
             mesh_light: lux::read_mesh_light(s, p),
             instance_primvars: read_instance_primvars(s, n_instances, &kept, p),
             instance_link_paths: read_instance_paths(s, n_instances, &kept, p),
+            instance_index: if s.has("instanceTransforms") { read_instance_indices(s, n_instances, &kept, p) } else { Vec::new() },
         }
     }
 
@@ -1183,6 +1192,7 @@ impl Delegate {
                         visible_to_camera: true,
                         casts_shadows: true,
                         primvar_row: table.map(|t| (t, k as u32)),
+                        index: r.instance_index.get(k).copied(),
                     });
                 }
             }
@@ -1416,9 +1426,10 @@ impl Delegate {
 
     /// The settings of a job: resolution from the settings prim, else the first bound buffer;
     /// the film keeps the AOVs bound (and colour).
-    fn job_settings(&self, bindings: &[(Aov, String)]) -> RenderSettings {
+    fn job_settings(&self, bindings: &[(Binding, String)]) -> RenderSettings {
         let mut s = self.settings.settings.clone();
-        s.aovs = tide_core::AovSet::of(bindings.iter().map(|(a, _)| *a));
+        s.aovs = tide_core::AovSet::of(bindings.iter().map(|(b, _)| b.aov));
+        s.film_window = self.pass_projection.and_then(|m| film_window(&m, &self.scene.camera));
         if !self.settings.resolution_authored {
             if let Some((w, h)) = bindings.iter().filter_map(|(_, b)| self.buffers.get(b)).map(|b| b.dimensions()).find(|d| d.0 > 0 && d.1 > 0) {
                 s.width = w;
@@ -1428,16 +1439,18 @@ impl Delegate {
         s
     }
 
-    fn start_job(&mut self, bindings: Vec<(Aov, String)>) {
+    fn start_job(&mut self, bindings: Vec<(Binding, String)>) {
         let settings = self.job_settings(&bindings);
         let key = (self.scene_generation, bindings.clone(), settings.clone());
         if self.job_key.as_ref() == Some(&key) {
             return;
         }
+        let cam = &self.scene.camera;
+        let clip = ClipDepth { near: cam.clipping_range[0], far: cam.clipping_range[1], orthographic: cam.projection == tide_core::scene::Projection::Orthographic };
         let job = Job {
             scene: self.scene.clone(),
             settings,
-            bindings: bindings.iter().filter_map(|(a, b)| self.buffers.get(b).map(|buf| (*a, buf.clone()))).collect(),
+            bindings: bindings.iter().filter_map(|(a, b)| self.buffers.get(b).map(|buf| (Output { binding: *a, clip }, buf.clone()))).collect(),
             world: self.world_generation,
         };
         let factory = self.factory.clone();
@@ -1456,6 +1469,14 @@ impl Delegate {
     /// the first of each). Calling it again with nothing changed keeps the running render.
     /// Returns problems with the bindings (unknown AOVs or buffers are skipped).
     pub fn execute(&mut self, camera: Option<&str>, aovs: &[(String, String)], settings: Option<&str>) -> Vec<Problem> {
+        self.execute_as(camera, aovs, settings, false, None)
+    }
+
+    /// [`Delegate::execute`], with the AOVs named and laid as Hydra's render buffers want them
+    /// where `hydra` ([`Binding::hydra`]), else as `UsdRenderVar` sourceNames, rows from the top;
+    /// `projection`: the host's projection matrix (GfMatrix4d's order), whose framing the image
+    /// takes in place of the camera's aperture conformed by the settings ([`film_window`]).
+    pub fn execute_as(&mut self, camera: Option<&str>, aovs: &[(String, String)], settings: Option<&str>, hydra: bool, projection: Option<[f64; 16]>) -> Vec<Problem> {
         let mut problems = Vec::new();
         let cam = camera.filter(|c| !c.is_empty()).map(String::from);
         let set = settings.filter(|c| !c.is_empty()).map(String::from);
@@ -1466,9 +1487,17 @@ impl Delegate {
             self.assemble(camera_only);
             problems.extend(self.assembly_problems.iter().cloned());
         }
+        self.pass_projection = projection;
+        if let Some(m) = projection {
+            if film_window(&m, &self.scene.camera).is_none() {
+                let cam = self.scene.camera.name.clone();
+                problems.push(problem(&cam, "projection", "the render pass's projection matrix is not of the camera's projection, or frames nothing; the camera's own aperture is used"));
+            }
+        }
         let mut bindings = Vec::new();
         for (name, buf) in aovs {
-            match (Aov::from_source_name(name), self.buffers.contains_key(buf)) {
+            let binding = if hydra { Binding::hydra(name) } else { Aov::from_source_name(name).map(Binding::plain) };
+            match (binding, self.buffers.contains_key(buf)) {
                 (Some(a), true) => bindings.push((a, buf.clone())),
                 (None, _) => problems.push(problem(buf, "aov", format!("unknown AOV '{}'; not rendered", name))),
                 (_, false) => problems.push(problem(buf, "aov", format!("'{}' is not a render buffer; AOV '{}' not rendered", buf, name))),
@@ -2956,6 +2985,24 @@ fn display_material(color: [f32; 3], color_varies: bool, opacity: f32, opacity_v
         }),
     };
     m
+}
+
+/// `instanceIndices`: each authored instance's index for the `instanceId` AOV (a reader's
+/// PointInstancer's own, where it sends each prototype's instances apart), kept in `kept`;
+/// unauthored, or anything but one non-negative int per instance (reported): its position among
+/// the authored `instanceTransforms` (Hydra's instance index).
+fn read_instance_indices(s: &AttrStore, n_instances: usize, kept: &[usize], p: &mut Problems) -> Vec<u32> {
+    let positions = || kept.iter().map(|&i| i as u32).collect();
+    match s.get("instanceIndices") {
+        None => positions(),
+        Some(v) => match v.to_ints() {
+            Some(ix) if ix.len() == n_instances && ix.iter().all(|&i| i >= 0) => kept.iter().map(|&i| ix[i] as u32).collect(),
+            _ => {
+                p.add("instanceIndices", format!("expected {n_instances} non-negative ints, one per instance; each instance's position is its index"));
+                positions()
+            }
+        },
+    }
 }
 
 /// `instancePaths`: the path each instance stands for in collections, one per authored

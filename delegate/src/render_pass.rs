@@ -143,9 +143,133 @@ pub struct RenderBuffer {
     /// Left unfilled while rendering (its `tide:publish` false): an AOV that only goes to a
     /// file, written from the film, needs no copy of its pixels after every pass.
     unpublished: Arc<AtomicBool>,
+    /// Holds 32-bit integers (its `format` an int32 one, as Hydra's id AOVs): each value is
+    /// rounded and its bits stored in place of the float's.
+    int: Arc<AtomicBool>,
+}
+
+/// How an AOV's pixels are laid into the buffer it is bound to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Binding {
+    pub aov: Aov,
+    /// Hydra's `depth`: the depth of the camera's projection (clip space) mapped to [0, 1],
+    /// 1 where nothing is hit, in place of the distance along the view axis.
+    pub clip_depth: bool,
+    /// Rows from the bottom of the image up (a Hydra render buffer's order), else from the top.
+    pub bottom_up: bool,
+}
+
+impl Binding {
+    /// `aov` as the film resolves it, rows from the top.
+    pub fn plain(aov: Aov) -> Binding {
+        Binding { aov, clip_depth: false, bottom_up: false }
+    }
+
+    /// A Hydra render pass's AOV `name` (HdAovTokens, else a Tide `sourceName`): `depth` is the
+    /// projection's depth in [0, 1] and `cameraDepth` the distance along the view axis; rows
+    /// run from the bottom. None for an AOV Tide does not render.
+    pub fn hydra(name: &str) -> Option<Binding> {
+        let (aov, clip_depth) = match name {
+            "depth" => (Aov::Depth, true),
+            "cameraDepth" => (Aov::Depth, false),
+            _ => (Aov::from_source_name(name)?, false),
+        };
+        Some(Binding { aov, clip_depth, bottom_up: true })
+    }
+}
+
+/// A camera's projection along its view axis, for depth in clip space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipDepth {
+    pub near: f32,
+    pub far: f32,
+    pub orthographic: bool,
+}
+
+impl ClipDepth {
+    /// The depth in [0, 1] of a point `z` along the view axis: OpenGL's projection (that of
+    /// `GfFrustum::ComputeProjectionMatrix`) to clip space, then [−1, 1] mapped to [0, 1];
+    /// points nearer than `near` read 0, beyond `far` (or none: ∞) 1.
+    pub fn of(&self, z: f32) -> f32 {
+        let (n, f, z) = (self.near as f64, self.far as f64, z as f64);
+        let d = match self.orthographic {
+            true => (z - n) / (f - n),
+            false => f * (z - n) / ((f - n) * z),
+        };
+        match z.is_finite() {
+            true => d.clamp(0.0, 1.0) as f32,
+            false => 1.0,
+        }
+    }
+}
+
+/// The film window ([`tide_core::RenderSettings::film_window`]) a host's projection matrix
+/// frames `cam` with: `m` is the matrix as OpenUSD's GfMatrix4d holds it (row-major, points as
+/// row vectors; Hydra's render pass state's `GetProjectionMatrix`, its framing and window policy
+/// in it). A point (x, y, -1) of the view maps to x_ndc = M00·x − M20 in perspective, so the
+/// image spans x = (±1 + M20) / M00 at unit distance: times the focal length in film units;
+/// orthographic, x_ndc = M00·x + M30 in scene units. None where the matrix is not of the
+/// camera's projection or frames nothing.
+pub fn film_window(m: &[f64; 16], cam: &tide_core::scene::CameraDesc) -> Option<[f32; 4]> {
+    let (m00, m11) = (m[0], m[5]);
+    let perspective = m[11] == -1.0 && m[15] == 0.0;
+    let orthographic = m[11] == 0.0 && m[15] == 1.0;
+    let w = match cam.projection {
+        tide_core::scene::Projection::Perspective if perspective => {
+            let f = cam.focal_length as f64;
+            [f * m[8] / m00, f * m[9] / m11, 2.0 * f / m00, 2.0 * f / m11]
+        }
+        tide_core::scene::Projection::Orthographic if orthographic => {
+            let u = tide_core::camera::LENS_UNIT as f64;
+            [-m[12] / m00 / u, -m[13] / m11 / u, 2.0 / m00 / u, 2.0 / m11 / u]
+        }
+        _ => return None,
+    };
+    let w = w.map(|v| v as f32);
+    (w.iter().all(|v| v.is_finite()) && w[2] > 0.0 && w[3] > 0.0).then_some(w)
+}
+
+/// A binding with what laying its pixels needs from the job: the camera's clip depth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Output {
+    pub binding: Binding,
+    pub clip: ClipDepth,
+}
+
+impl Output {
+    /// `pixels` (`channels` per pixel, `width` wide, rows from the top, as the film resolves
+    /// them) laid as the binding and a buffer holding integers (`int`) want them.
+    pub fn lay(&self, mut pixels: Vec<f32>, width: u32, channels: usize, int: bool) -> Vec<f32> {
+        if self.binding.clip_depth && self.binding.aov == Aov::Depth {
+            pixels.iter_mut().for_each(|v| *v = self.clip.of(*v));
+        }
+        if int {
+            // ids are whole numbers (−1 for none); anything else reads −1
+            let bits = |v: f32| if v.is_finite() && v.abs() < 2.0e9 { v.round() as i32 } else { -1 };
+            pixels.iter_mut().for_each(|v| *v = f32::from_bits(bits(*v) as u32));
+        }
+        let row = width as usize * channels;
+        if self.binding.bottom_up && row > 0 {
+            let rows = pixels.len() / row;
+            for y in 0..rows / 2 {
+                let (top, rest) = pixels.split_at_mut((rows - 1 - y) * row);
+                top[y * row..(y + 1) * row].swap_with_slice(&mut rest[..row]);
+            }
+        }
+        pixels
+    }
 }
 
 impl RenderBuffer {
+    /// Whether the buffer holds 32-bit integers (see [`RenderBuffer`]).
+    pub fn holds_ints(&self) -> bool {
+        self.int.load(Ordering::Relaxed)
+    }
+
+    pub fn set_holds_ints(&self, on: bool) {
+        self.int.store(on, Ordering::Relaxed);
+    }
+
     /// Whether passes fill this buffer (they do unless told otherwise).
     pub fn publishes(&self) -> bool {
         !self.unpublished.load(Ordering::Relaxed)
@@ -219,7 +343,7 @@ pub enum PassStatus {
 pub struct Job {
     pub scene: Arc<SceneDesc>,
     pub settings: RenderSettings,
-    pub bindings: Vec<(Aov, RenderBuffer)>,
+    pub bindings: Vec<(Output, RenderBuffer)>,
     /// Jobs with the same `world` have scenes that differ at most in their camera: the engine
     /// of the one before is kept and given the new camera ([`Engine::set_camera`]).
     pub world: u64,
@@ -593,11 +717,13 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         }
         done = if whole { done + n } else { e.samples_per_pixel().min(target) };
         let (w, h) = (job.settings.width, job.settings.height);
-        for (aov, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
-            let px = e.aov_pixels(*aov);
+        for (out, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
+            let aov = out.binding.aov;
+            let px = e.aov_pixels(aov);
             // A film that does not match the job's size is not published (the buffer keeps
             // its last consistent pixels).
             if px.len() == (w * h) as usize * aov.channels() {
+                let px = out.lay(px, w, aov.channels(), buf.holds_ints());
                 buf.publish(w, h, aov.channels() as u32, px, e.samples_per_pixel());
             }
         }
@@ -629,6 +755,11 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
 pub(crate) mod tests {
     use super::*;
     use std::sync::atomic::AtomicU32;
+
+    /// `aov` as the film resolves it.
+    pub(crate) fn plain(aov: Aov) -> Output {
+        Output { binding: Binding::plain(aov), clip: ClipDepth { near: 0.1, far: 1.0e4, orthographic: false } }
+    }
 
     /// A fake engine: fills every AOV with its sample count; optionally slow or panicking.
     pub(crate) struct Fake {
@@ -682,7 +813,7 @@ pub(crate) mod tests {
 
     fn job(spp: u32, buf: &RenderBuffer) -> Job {
         let settings = RenderSettings { width: 4, height: 2, spp, ..Default::default() };
-        Job { scene: Arc::new(SceneDesc::default()), settings, bindings: vec![(Aov::Color, buf.clone())], world: 0 }
+        Job { scene: Arc::new(SceneDesc::default()), settings, bindings: vec![(plain(Aov::Color), buf.clone())], world: 0 }
     }
 
     #[test]
@@ -844,6 +975,39 @@ pub(crate) mod tests {
         fn pass_progress(&self) -> Option<Arc<tide_core::PassProgress>> {
             Some(self.progress.clone())
         }
+    }
+
+    #[test]
+    fn a_hydra_binding_lays_rows_from_the_bottom_ids_as_ints_and_depth_in_clip_space() {
+        let rows = |v: &[f32]| v.chunks(2).map(|r| r.to_vec()).collect::<Vec<_>>();
+        // three rows of two: the middle one stays
+        let px = vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0];
+        let hd = Output { binding: Binding::hydra("primId").unwrap(), ..plain(Aov::PrimId) };
+        let laid = hd.lay(px.clone(), 2, 1, false);
+        assert_eq!(rows(&laid), [[5.0, 6.0], [3.0, 4.0], [1.0, 2.0]]);
+        assert_eq!(plain(Aov::PrimId).lay(px.clone(), 2, 1, false), px);
+        // an int32 buffer holds the ids' bits; none (or anything not a number) reads -1
+        let ids = plain(Aov::PrimId).lay(vec![7.0, -1.0, f32::NAN, 3.0], 2, 1, true);
+        assert_eq!(ids.iter().map(|v| v.to_bits() as i32).collect::<Vec<_>>(), [7, -1, -1, 3]);
+        // clip depth: 0 at the near plane, 1 at the far one and for nothing hit; in between
+        // OpenGL's perspective (z_ndc = (f+n)/(f-n) - 2fn/((f-n)z)) or orthographic depth
+        let (n, f) = (0.5f32, 50.0f32);
+        let persp = ClipDepth { near: n, far: f, orthographic: false };
+        let ortho = ClipDepth { orthographic: true, ..persp };
+        for c in [persp, ortho] {
+            assert_eq!((c.of(n), c.of(f), c.of(f32::INFINITY), c.of(0.1), c.of(1e6)), (0.0, 1.0, 1.0, 0.0, 1.0));
+        }
+        let z = 10.0f64;
+        let (n, f) = (n as f64, f as f64);
+        let ndc = (f + n) / (f - n) - 2.0 * f * n / ((f - n) * z);
+        assert!((persp.of(z as f32) as f64 - (ndc + 1.0) / 2.0).abs() < 1e-7);
+        assert!((ortho.of(z as f32) as f64 - (z - n) / (f - n)).abs() < 1e-7);
+        let depth = Output { binding: Binding::hydra("depth").unwrap(), clip: persp };
+        assert_eq!(depth.lay(vec![z as f32, f32::INFINITY], 1, 1, false), [1.0, persp.of(z as f32)]);
+        let camera = Output { binding: Binding::hydra("cameraDepth").unwrap(), clip: persp };
+        assert_eq!(camera.lay(vec![z as f32, 3.0], 1, 1, false), [3.0, z as f32]);
+        assert_eq!(Binding::hydra("elementId"), None);
+        assert_eq!(Binding::hydra("tide:caustics").map(|b| b.aov), Some(Aov::Caustics));
     }
 
     #[test]

@@ -512,6 +512,43 @@ def test_the_prim_id_aov_comes_with_a_manifest_of_paths(tmp_path):
     assert "tide:primIdManifest" not in header
 
 
+def test_the_instance_id_aov_reads_each_instances_index_in_its_point_instancer(tmp_path):
+    """`instanceId` is the index of the instance seen among its PointInstancer's, whichever
+    prototype it places (the reader sends each prototype's instances apart) and counting the
+    instances it hides; a prim drawn once, and the background, read -1."""
+    import OpenEXR
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s, aperture=(36.0, 18.0))
+    pi = UsdGeom.PointInstancer.Define(s, "/Set/Scatter")
+    ball = UsdGeom.Sphere.Define(s, "/Set/Scatter/Protos/Ball")
+    ball.CreateRadiusAttr(0.25)
+    box = UsdGeom.Cube.Define(s, "/Set/Scatter/Protos/Box")
+    box.CreateSizeAttr(0.5)
+    pi.CreatePrototypesRel().SetTargets([ball.GetPath(), box.GetPath()])
+    xs = [-2.4, -1.2, 0.0, 1.2, 2.4]
+    pi.CreateProtoIndicesAttr([0, 1, 0, 1, 0])
+    pi.CreatePositionsAttr([Gf.Vec3f(x, 0.6, -8) for x in xs])
+    pi.CreateInvisibleIdsAttr([2])
+    UsdGeom.Cube.Define(s, "/Set/Floor").AddTranslateOp().Set(Gf.Vec3d(0, -1.5, -8))
+    UsdLux.DomeLight.Define(s, "/Sky")
+    settings(s, vars_=("color", "instanceId", "primId"), product="ids.exr", res=(64, 32))
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    with OpenEXR.File(str(tmp_path / "ids.exr"), separate_channels=True) as f:
+        ids = f.channels()["instanceId.R"].pixels
+    # 36 mm aperture, 50 mm lens, 8 units away: 64 columns span 5.76 units
+    col = lambda x: int(32 + x / 8 * 50 / 36 * 64)
+    row = lambda y: int(16 - y / 8 * 50 / 36 * 64)
+    seen = [float(ids[row(0.6), col(x)]) for x in xs]
+    assert seen == [0.0, 1.0, -1.0, 3.0, 4.0], seen
+    # the floor (drawn once) and the sky
+    assert float(ids[row(-0.8), col(0)]) == -1.0 and float(ids[0, 0]) == -1.0
+
+
 def test_the_preview_is_the_renders_colour_through_the_srgb_view(tmp_path):
     """The PNG beside the EXR is the EXR's colour through the preview config's sRGB view
     (the IEC 61966-2-1 curve, clamped, to 8 bits), row for row: an image taller than the

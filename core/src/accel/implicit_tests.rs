@@ -274,8 +274,8 @@ fn the_bvh_finds_what_the_primitives_say() {
     };
     let m = Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0));
     let instances = vec![
-        InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![m], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None },
-        InstanceDesc { name: "j".into(), geometry: GeometryRef::Spheres(1), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None },
+        InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![m], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None },
+        InstanceDesc { name: "j".into(), geometry: GeometryRef::Spheres(1), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None },
     ];
     let a = Accel::build(&[], &[std::sync::Arc::new(blob), std::sync::Arc::new(bub)], &instances, (0.0, 1.0));
     assert!(a.hit_carries_normal(0) && a.hit_carries_normal(1));
@@ -342,7 +342,7 @@ fn dense_blobbies_through_the_bvh_agree_with_all_kernels_at_once() {
     }
     let kernels: Vec<Kernel> = desc.centers.iter().zip(&desc.radii).map(|(&c, &r)| Kernel::new(c, r, Vec3::ONE, Quat::IDENTITY, threshold)).collect();
     let phi = |p: Vec3| blobby_value(&kernels, threshold, p);
-    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }];
+    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None }];
     let a = Accel::build(&[], &[std::sync::Arc::new(desc)], &inst, (0.0, 0.0));
     let segment = crate::accel::BLOBBY_SEGMENT;
     let (mut hits_from_outside, mut long_from_inside) = (0, 0);
@@ -398,7 +398,7 @@ fn coincident_blobbies_more_than_a_segment_are_swept_past() {
         desc.radii.push(if i < 150 { 0.02 } else { 0.1 });
     }
     let kernels: Vec<Kernel> = desc.centers.iter().zip(&desc.radii).map(|(&c, &r)| Kernel::new(c, r, Vec3::ONE, Quat::IDENTITY, threshold)).collect();
-    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }];
+    let inst = vec![InstanceDesc { name: "i".into(), geometry: GeometryRef::Spheres(0), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None }];
     let a = Accel::build(&[], &[std::sync::Arc::new(desc)], &inst, (0.0, 0.0));
     assert!(150 > crate::accel::BLOBBY_SEGMENT);
     let mut rng = TestRng::new(21);

@@ -12,7 +12,7 @@ fn quad() -> MeshDesc {
 }
 
 fn inst(g: GeometryRef, m: Vec<Mat4>, times: Vec<f32>) -> InstanceDesc {
-    InstanceDesc { name: "i".into(), geometry: g, transforms: m, times, material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None }
+    InstanceDesc { name: "i".into(), geometry: g, transforms: m, times, material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None }
 }
 
 #[test]

@@ -11,10 +11,13 @@
 namespace tide {
 
 /// Pixel formats (HdFormat's float32 family; the core renders float).
-enum class Format { Invalid, Float32, Float32Vec2, Float32Vec3, Float32Vec4 };
+/// A buffer's pixel format. Int32 holds 32-bit integers (Hydra's id AOVs) in the storage of as
+/// many floats: read the mapped pixels as int32_t.
+enum class Format { Invalid, Float32, Float32Vec2, Float32Vec3, Float32Vec4, Int32 };
 
 int FormatComponents(Format f);
-/// "float", "float2", "float3", "float4" (HdFormat names without the prefix also accepted).
+/// "float", "float2", "float3", "float4", "int32" (HdFormat names without the prefix also
+/// accepted).
 Format FormatFromName(const std::string& name);
 
 class RenderBuffer final : public Bprim {
@@ -35,7 +38,8 @@ public:
     /// Channels of the resolved pixels (the bound AOV's count; the format's before a render).
     int GetChannels() const { return _channels; }
 
-    /// The resolved pixels (float32, row-major from the top row); call Unmap when done.
+    /// The resolved pixels (float32, or int32 in an Int32 buffer; row-major, from the top row
+    /// unless the pass was a Hydra one); call Unmap when done.
     void* Map();
     void Unmap();
     bool IsMapped() const { return _mappers.load() != 0; }

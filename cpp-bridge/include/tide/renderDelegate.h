@@ -33,6 +33,9 @@ public:
     const std::vector<std::string>& GetSupportedRprimTypes() const;
     const std::vector<std::string>& GetSupportedSprimTypes() const;
     const std::vector<std::string>& GetSupportedBprimTypes() const;
+    /// Channels of a Hydra AOV (an HdAovTokens name or a Tide `sourceName`) as Tide renders it;
+    /// 0 for one it does not render.
+    static int AovChannels(const std::string& name);
 
     /// A new prim (owned by the caller until Destroy*), or nullptr for an unknown type (a
     /// problem is recorded).

@@ -27,6 +27,14 @@ struct RenderPassState {
     std::vector<RenderPassAovBinding> aovBindings;
     /// A renderSettings prim path, or "" for defaults.
     std::string renderSettings;
+    /// The bindings name Hydra's AOVs (HdAovTokens) and want Hydra's layout: rows from the
+    /// bottom, `depth` in clip space mapped to [0, 1], ids as int32 in int32 buffers; an AOV
+    /// Tide does not render is reported and the rest rendered.
+    bool hydra = false;
+    /// The host's projection matrix (16 values, GfMatrix4d's order: Hydra's render pass state's,
+    /// its framing and window policy in it), whose framing the image takes; empty: the
+    /// camera's aperture conformed as the render settings say.
+    std::vector<double> projection;
 };
 
 class RenderPass {

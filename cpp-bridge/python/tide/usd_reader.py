@@ -138,7 +138,7 @@ BINDING_PURPOSES = ("full", "preview", "")
 UNTAGGED_UNLESS_AUTHORED = ("tide:caustics:caster", "tide:caustics:emitter")
 AOVS = {
     "color": "float4", "depth": "float", "normal": "float3",
-    "albedo": "float3", "primId": "float", "tide:diffuse": "float3",
+    "albedo": "float3", "primId": "float", "instanceId": "float", "tide:diffuse": "float3",
     "tide:specular": "float3", "tide:transmission": "float3",
     "tide:volume": "float3", "tide:emission": "float3",
     "tide:caustics": "float3", "tide:guiding": "float3",
@@ -2619,6 +2619,8 @@ class Reader:
                 else:
                     st.set("instanceTransforms", None,
                            [(o, ("doubles", 16, m.tobytes())) for o, m in it_xf])
+                # each instance's index in the PointInstancer (the `instanceId` AOV)
+                st.set("instanceIndices", _ints([i % n for i in sel_all]))
                 self._desired[dpath] = st
 
     def _per_instance_primvars(self, prim, n):
