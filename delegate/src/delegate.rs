@@ -683,13 +683,16 @@ impl Delegate {
         let (mut n_instances, mut kept) = (1, vec![0]);
         if let Some(v) = s.get("instanceTransforms") {
             kept.clear();
-            match v.to_f64s() {
+            match v.f64s() {
                 Some(d) if d.len() % 16 == 0 => {
                     // an instance whose matrix is not finite (in single precision too) at any
                     // time is dropped
                     let samples = &s.attr("instanceTransforms").map_or(&[][..], |a| &a.samples[..]);
                     let finite = |c: &[f64]| c.iter().all(|&x| (x as f32).is_finite());
-                    let finite_at = |i: usize| samples.iter().all(|(_, v)| v.to_f64s().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(finite)));
+                    // each sample's numbers once (not once an instance: a million moving
+                    // instances took hours)
+                    let sampled: Vec<Option<std::borrow::Cow<'_, [f64]>>> = samples.iter().map(|(_, v)| v.f64s()).collect();
+                    let finite_at = |i: usize| sampled.iter().all(|d| d.as_ref().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(finite)));
                     n_instances = d.len() / 16;
                     for (i, c) in d.chunks_exact(16).enumerate() {
                         let m = DMat4::from_cols_slice(c);
@@ -704,7 +707,8 @@ impl Delegate {
                         let n = d.len() / 16;
                         let parsed: Option<Vec<(f64, Vec<DMat4>)>> = samples
                             .iter()
-                            .map(|(t, v)| match v.to_f64s() {
+                            .zip(&sampled)
+                            .map(|((t, _), d)| match d {
                                 Some(d) if d.len() == 16 * n => Some((*t, kept.iter().map(|&i| DMat4::from_cols_slice(&d[16 * i..16 * i + 16])).collect())),
                                 _ => None,
                             })

@@ -86,6 +86,14 @@ impl Value {
     }
 
     /// Flat numeric data as f64 (scalars give one element).
+    /// [`Value::to_f64s`], borrowing doubles rather than copying them.
+    pub fn f64s(&self) -> Option<std::borrow::Cow<'_, [f64]>> {
+        match self {
+            Value::Doubles { data, .. } => Some(std::borrow::Cow::Borrowed(data)),
+            _ => self.to_f64s().map(std::borrow::Cow::Owned),
+        }
+    }
+
     pub fn to_f64s(&self) -> Option<Vec<f64>> {
         match self {
             Value::Floats { data, .. } => Some(data.iter().map(|&x| x as f64).collect()),

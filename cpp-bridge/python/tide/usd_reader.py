@@ -304,6 +304,15 @@ def _kind_name(fallback):
     return "%d numbers" % len(fallback)
 
 
+def _times_matrix(ms, w):
+    """Each of the matrices `ms` (n x 4 x 4, USD's row-vector convention) times `w`, as
+    Gf.Matrix4d's product computes it (each element's four products summed in order)."""
+    out = ms[:, :, 0, None] * w[None, 0, :]
+    for k in range(1, 4):
+        out += ms[:, :, k, None] * w[None, k, :]
+    return out
+
+
 def _floats(data, tuple_size):
     arr = np.ascontiguousarray(np.asarray(data, dtype=np.float32).reshape(-1))
     return ("floats", int(tuple_size), arr.tobytes())
@@ -2560,15 +2569,15 @@ class Reader:
         per_instance = self._per_instance_primvars(prim, n)
         for k, ppath in enumerate(protos):
             proto = self.stage.GetPrimAtPath(ppath)
-            sel = [i for i in range(n) if idx[i] == k and keep[i]]
+            sel = np.flatnonzero((idx == k) & keep)
             if not proto:
                 self.problem(path, "prototypes", "prototype %s does not exist" % ppath)
                 continue
-            if not sel:
+            if not len(sel):
                 continue
             # every copy of the instancer (one per outer instance) places the selection
-            sel_all = [c * n + i for c in range(copies) for i in sel]
-            it_xf = [(o, np.stack([m[i] for i in sel_all]).astype(np.float64))
+            sel_all = (np.arange(copies)[:, None] * n + sel[None, :]).ravel()
+            it_xf = [(o, np.ascontiguousarray(m[sel_all], dtype=np.float64))
                      for o, m in zip(offsets, mats_at)]
             # the per-instance primvars of the selection, in its order: this level's, then the
             # outer instances' (each repeated over the instances it places)
@@ -2620,7 +2629,7 @@ class Reader:
                     st.set("instanceTransforms", None,
                            [(o, ("doubles", 16, m.tobytes())) for o, m in it_xf])
                 # each instance's index in the PointInstancer (the `instanceId` AOV)
-                st.set("instanceIndices", _ints([i % n for i in sel_all]))
+                st.set("instanceIndices", _ints(sel_all % n))
                 self._desired[dpath] = st
 
     def _per_instance_primvars(self, prim, n):
@@ -2697,23 +2706,21 @@ class Reader:
 
         def extrapolated(o):
             dt = blur * o / tcps
-            out = []
-            for i, m in enumerate(base):
-                m = Gf.Matrix4d(m)
-                p = p0[i].copy()
-                if "velocities" in rates:
-                    p += rates["velocities"][i] * dt
-                if "accelerations" in rates:
-                    p += rates["accelerations"][i] * 0.5 * dt * dt
-                if "angularVelocities" in rates:
-                    w = rates["angularVelocities"][i]
+            out = np.array(base, dtype=np.float64).reshape(-1, 4, 4)
+            p = p0.copy()
+            if "velocities" in rates:
+                p += rates["velocities"] * dt
+            if "accelerations" in rates:
+                p += rates["accelerations"] * 0.5 * dt * dt
+            if "angularVelocities" in rates:
+                for i, w in enumerate(rates["angularVelocities"]):
                     deg = float(np.linalg.norm(w)) * dt
                     if deg != 0.0:
                         turn = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(*w), deg))
-                        m = m * Gf.Matrix4d().SetTranslate(-Gf.Vec3d(*p0[i])) * turn * \
-                            Gf.Matrix4d().SetTranslate(Gf.Vec3d(*p0[i]))
-                m.SetTranslateOnly(Gf.Vec3d(*p))
-                out.append(m)
+                        m = Gf.Matrix4d(base[i]) * Gf.Matrix4d().SetTranslate(-Gf.Vec3d(*p0[i])) * \
+                            turn * Gf.Matrix4d().SetTranslate(Gf.Vec3d(*p0[i]))
+                        out[i] = np.asarray(m, dtype=np.float64)
+            out[:, 3, :3] = p
             return out
 
         def at(o):
@@ -2725,9 +2732,10 @@ class Reader:
                     UsdGeom.PointInstancer.IgnoreMask)
             if n and (xf is None or len(xf) != n):
                 return None
-            w = world_at(o)
-            return np.asarray([np.asarray(m * w, dtype=np.float64) for m in xf]
-                              if n else np.zeros((0, 4, 4)), dtype=np.float64)
+            if not n:
+                return np.zeros((0, 4, 4))
+            return _times_matrix(np.asarray(xf, dtype=np.float64).reshape(-1, 4, 4),
+                                 np.asarray(world_at(o), dtype=np.float64))
 
         still = [(0.0, at(0.0))]
         if not self._moving or not n:
