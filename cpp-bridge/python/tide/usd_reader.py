@@ -306,11 +306,17 @@ def _kind_name(fallback):
 
 def _times_matrix(ms, w):
     """Each of the matrices `ms` (n x 4 x 4, USD's row-vector convention) times `w`, as
-    Gf.Matrix4d's product computes it (each element's four products summed in order)."""
-    out = ms[:, :, 0, None] * w[None, 0, :]
+    Gf.Matrix4d's product computes it (each element's four products summed in order; times the
+    identity, each element is its own)."""
+    if np.array_equal(w, np.eye(4)):
+        return np.array(ms, dtype=np.float64)
+    rows = ms.reshape(-1, 4)
+    out = rows[:, 0:1] * w[0]
+    term = np.empty_like(out)
     for k in range(1, 4):
-        out += ms[:, :, k, None] * w[None, k, :]
-    return out
+        np.multiply(rows[:, k:k + 1], w[k], out=term)
+        out += term
+    return out.reshape(-1, 4, 4)
 
 
 def _floats(data, tuple_size):
