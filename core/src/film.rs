@@ -42,7 +42,8 @@ const Y_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Where a film's accumulators lie in each pixel's run of floats: colour, alpha and the
 /// luminance pair always; normal, albedo and each light-path category only where its AOV is
-/// kept; depth and primId (the first sample's, not averaged) beside them where either is.
+/// kept; depth, primId and instanceId (the first sample's, not averaged) beside them where any
+/// is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FilmLayout {
     /// Floats per pixel.
@@ -77,7 +78,7 @@ impl FilmLayout {
     }
 
     /// An empty tile of this layout; `first_pass` where the film has pixels without samples
-    /// (the tile then keeps the depth and primId of each pixel's first sample in it, which the
+    /// (the tile then keeps the first-hit values of each pixel's first sample in it, which the
     /// film takes for those pixels).
     pub fn tile(&self, x0: u32, y0: u32, w: u32, h: u32, first_pass: bool) -> FilmTile {
         let n = w as usize * h as usize;
@@ -96,7 +97,7 @@ pub struct FilmTile {
     sums: Vec<f32>,
     /// Samples added per pixel.
     n: Vec<u32>,
-    /// depth and primId of each pixel's first sample (not averageable).
+    /// depth, primId and instanceId of each pixel's first sample (not averageable).
     first: Vec<[f32; 3]>,
     has_first: bool,
     layout: FilmLayout,

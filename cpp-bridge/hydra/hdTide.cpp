@@ -973,7 +973,8 @@ public:
     unsigned int GetWidth() const override { return _buffer->GetWidth(); }
     unsigned int GetHeight() const override { return _buffer->GetHeight(); }
     unsigned int GetDepth() const override { return 1; }
-    /// The float32 format of the pixels Map returns (after a Resolve, the bound AOV's channels).
+    /// The format of the pixels Map returns (after a Resolve, the bound AOV's channels; int32
+    /// in an Int32 buffer, else float32).
     HdFormat GetFormat() const override {
         const bool ints = _buffer->GetFormat() == tide::Format::Int32;
         switch (_buffer->GetChannels()) {

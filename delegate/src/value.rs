@@ -85,7 +85,6 @@ impl Value {
         }
     }
 
-    /// Flat numeric data as f64 (scalars give one element).
     /// [`Value::to_f64s`], borrowing doubles rather than copying them.
     pub fn f64s(&self) -> Option<std::borrow::Cow<'_, [f64]>> {
         match self {
@@ -94,6 +93,7 @@ impl Value {
         }
     }
 
+    /// Flat numeric data as f64 (scalars give one element).
     pub fn to_f64s(&self) -> Option<Vec<f64>> {
         match self {
             Value::Floats { data, .. } => Some(data.iter().map(|&x| x as f64).collect()),

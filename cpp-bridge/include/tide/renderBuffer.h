@@ -10,9 +10,9 @@
 
 namespace tide {
 
-/// Pixel formats (HdFormat's float32 family; the core renders float).
-/// A buffer's pixel format. Int32 holds 32-bit integers (Hydra's id AOVs) in the storage of as
-/// many floats: read the mapped pixels as int32_t.
+/// A buffer's pixel format: HdFormat's float32 family (the core renders float), and Int32,
+/// which holds 32-bit integers (Hydra's id AOVs) in the storage of as many floats: read the
+/// mapped pixels as int32_t.
 enum class Format { Invalid, Float32, Float32Vec2, Float32Vec3, Float32Vec4, Int32 };
 
 int FormatComponents(Format f);

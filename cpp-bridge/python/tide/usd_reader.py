@@ -307,9 +307,9 @@ def _kind_name(fallback):
 def _times_matrix(ms, w):
     """Each of the matrices `ms` (n x 4 x 4, USD's row-vector convention) times `w`, as
     Gf.Matrix4d's product computes it (each element's four products summed in order; times the
-    identity, each element is its own)."""
+    identity, each element is its own: `ms` itself is returned)."""
     if np.array_equal(w, np.eye(4)):
-        return np.array(ms, dtype=np.float64)
+        return ms
     rows = ms.reshape(-1, 4)
     out = rows[:, 0:1] * w[0]
     term = np.empty_like(out)
@@ -2709,10 +2709,12 @@ class Reader:
         base = inst.ComputeInstanceTransformsAtTime(
             t, t, UsdGeom.PointInstancer.ExcludeProtoXform, UsdGeom.PointInstancer.IgnoreMask)
         p0 = np.asarray(pos_attr.Get(t) or [], dtype=np.float64).reshape(-1, 3)
+        # the matrices every extrapolated key starts from, as an array once
+        base_arr = np.array(base, dtype=np.float64).reshape(-1, 4, 4) if rates else None
 
         def extrapolated(o):
             dt = blur * o / tcps
-            out = np.array(base, dtype=np.float64).reshape(-1, 4, 4)
+            out = base_arr.copy()
             p = p0.copy()
             if "velocities" in rates:
                 p += rates["velocities"] * dt
