@@ -2113,6 +2113,40 @@ mod tests {
         assert_eq!(d.scene().instances[0].transforms[0].w_axis.x, (far + 0.5 - o.x - 256.0) as f32);
     }
 
+    /// `instanceIndices` gives each kept instance its `instanceId` (a dropped instance's index
+    /// skipped); without it, or where it does not fit the instances (named), an instance's
+    /// position among the authored matrices stands in; a prim drawn once has none.
+    #[test]
+    fn instance_indices_give_the_instance_ids_and_bad_ones_are_named() {
+        let mut d = Delegate::new();
+        quad(&mut d, "/P");
+        quad(&mut d, "/Once");
+        let mut mats = Vec::new();
+        for k in 0..3 {
+            let Value::Matrix(m) = translate(k as f64, 0., 0.) else { unreachable!() };
+            mats.extend_from_slice(&m);
+        }
+        mats[16 + 12] = f64::NAN;
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: mats, tuple: 16 }, None);
+        // (name, instanceId) of every instance, by name
+        let ids = |d: &Delegate| {
+            let mut v = d.scene().instances.iter().map(|i| (i.name.clone(), i.index)).collect::<Vec<_>>();
+            v.sort();
+            v
+        };
+        let attrs = |p: &[Problem]| p.iter().map(|q| (q.item.clone(), q.attribute.clone())).collect::<Vec<_>>();
+        assert_eq!(attrs(&d.commit_resources()), [("/P".to_string(), "instanceTransforms".to_string())]);
+        let want = |a: u32, b: u32| vec![("/Once".to_string(), None), ("/P[0]".to_string(), Some(a)), ("/P[1]".to_string(), Some(b))];
+        assert_eq!(ids(&d), want(0, 2));
+        d.set_attribute("/P", "instanceIndices", Value::Ints(vec![7, 8, 9]), None);
+        assert_eq!(attrs(&d.commit_resources()), [("/P".to_string(), "instanceTransforms".to_string())]);
+        assert_eq!(ids(&d), want(7, 9));
+        d.set_attribute("/P", "instanceIndices", Value::Ints(vec![7, -8, 9]), None);
+        let p = d.commit_resources();
+        assert!(p.iter().any(|q| q.item == "/P" && q.attribute == "instanceIndices" && q.message.contains("3 non-negative ints")), "{p:?}");
+        assert_eq!(ids(&d), want(0, 2));
+    }
+
     #[test]
     fn moving_instance_transforms_give_each_instance_motion_samples() {
         let mut d = Delegate::new();
