@@ -20,16 +20,42 @@ pub struct SampleValue {
     pub normal: [f32; 3],
     pub albedo: [f32; 3],
     /// Instance id of the first hit, −1 for none.
-    pub prim_id: f32,
+    pub prim_id: i32,
     /// The first hit's index among its prim's instances (`InstanceDesc::index`), −1 for none
     /// or a prim drawn once.
-    pub instance_id: f32,
+    pub instance_id: i32,
+    /// The first hit's authored element (`World::element_of`), −1 for none.
+    pub element_id: i32,
     /// `color` split by light path, in `SPLIT_AOVS` order; sums to `color`.
     pub split: [[f32; 3]; N_SPLIT],
 }
 
-/// The first-hit values (depth, primId, instanceId) of a pixel without a hit.
-const NO_FIRST_HIT: [f32; 3] = [f32::INFINITY, -1.0, -1.0];
+/// What a pixel keeps of its first sample (not averageable): the depth and the ids, exact.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct FirstHit {
+    depth: f32,
+    prim: i32,
+    instance: i32,
+    element: i32,
+}
+
+impl FirstHit {
+    fn of(s: &SampleValue) -> FirstHit {
+        FirstHit { depth: s.depth, prim: s.prim_id, instance: s.instance_id, element: s.element_id }
+    }
+
+    /// The id `aov` reads (one of [`Aov::is_id`]).
+    fn id(&self, aov: Aov) -> i32 {
+        match aov {
+            Aov::InstanceId => self.instance,
+            Aov::ElementId => self.element,
+            _ => self.prim,
+        }
+    }
+}
+
+/// The first-hit values of a pixel without a hit.
+const NO_FIRST_HIT: FirstHit = FirstHit { depth: f32::INFINITY, prim: -1, instance: -1, element: -1 };
 
 /// Floats every pixel accumulates: colour and alpha, then the colour's luminance and its
 /// square (the noise estimate of adaptive sampling).
@@ -42,8 +68,7 @@ const Y_WEIGHTS: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
 /// Where a film's accumulators lie in each pixel's run of floats: colour, alpha and the
 /// luminance pair always; normal, albedo and each light-path category only where its AOV is
-/// kept; depth, primId and instanceId (the first sample's, not averaged) beside them where any
-/// is.
+/// kept; depth and the ids (the first sample's, not averaged) beside them where any is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct FilmLayout {
     /// Floats per pixel.
@@ -67,14 +92,14 @@ impl FilmLayout {
         let normal = take(Aov::Normal);
         let albedo = take(Aov::Albedo);
         let split = SPLIT_AOVS.map(&mut take);
-        let first = aovs.contains(Aov::Depth) || aovs.contains(Aov::PrimId) || aovs.contains(Aov::InstanceId);
+        let first = Aov::ALL.iter().any(|&a| a.is_first_hit() && aovs.contains(a));
         FilmLayout { acc, normal, albedo, split, first, aovs }
     }
 
     /// Bytes a film of this layout holds per pixel (accumulators, sample count, first-hit
     /// values).
     pub fn bytes_per_pixel(&self) -> usize {
-        self.acc * 4 + 4 + if self.first { 12 } else { 0 }
+        self.acc * 4 + 4 + if self.first { std::mem::size_of::<FirstHit>() } else { 0 }
     }
 
     /// An empty tile of this layout; `first_pass` where the film has pixels without samples
@@ -97,8 +122,8 @@ pub struct FilmTile {
     sums: Vec<f32>,
     /// Samples added per pixel.
     n: Vec<u32>,
-    /// depth, primId and instanceId of each pixel's first sample (not averageable).
-    first: Vec<[f32; 3]>,
+    /// What each pixel keeps of its first sample.
+    first: Vec<FirstHit>,
     has_first: bool,
     layout: FilmLayout,
 }
@@ -137,7 +162,7 @@ impl FilmTile {
         }
         self.n[i] += 1;
         if first_sample && self.has_first {
-            self.first[i] = [s.depth, s.prim_id, s.instance_id];
+            self.first[i] = FirstHit::of(s);
         }
     }
 }
@@ -162,7 +187,7 @@ pub struct Film {
     sums: Vec<f32>,
     /// Samples each pixel has taken (fewer than `spp` where adaptive sampling stopped it).
     n: Vec<u32>,
-    first: Vec<[f32; 3]>,
+    first: Vec<FirstHit>,
     /// Samples per pixel of the passes so far (the most any pixel has).
     pub spp: u32,
     /// Multiplier applied when resolving colour AOVs (camera exposure).
@@ -340,6 +365,13 @@ impl Film {
         out
     }
 
+    /// An id AOV ([`Aov::is_id`]) exactly, a pixel each (-1 where nothing was hit); None for
+    /// another AOV or one the film does not keep. ([`Film::resolve`] gives them as f32, exact
+    /// up to 2^24.)
+    pub fn resolve_ids(&self, aov: Aov) -> Option<Vec<i32>> {
+        (aov.is_id() && self.keeps(aov)).then(|| self.first.iter().map(|f| f.id(aov)).collect())
+    }
+
     /// Whether `aov` has anything to resolve (else it reads as zeros).
     fn resolvable(&self, aov: Aov) -> bool {
         match aov {
@@ -362,9 +394,8 @@ impl Film {
                 }
                 o[3] = (a(3) * inv) as f32;
             }
-            Aov::Depth => o[0] = self.first[i][0],
-            Aov::PrimId => o[0] = self.first[i][1],
-            Aov::InstanceId => o[0] = self.first[i][2],
+            Aov::Depth => o[0] = self.first[i].depth,
+            Aov::PrimId | Aov::InstanceId | Aov::ElementId => o[0] = self.first[i].id(aov) as f32,
             Aov::Guiding => o.copy_from_slice(&self.guiding.as_ref().expect("resolvable")[i * 3..i * 3 + 3]),
             Aov::Normal => {
                 let at = l.normal.unwrap_or(0);
@@ -396,7 +427,7 @@ impl Film {
             Aov::Color => return vec!["R".into(), "G".into(), "B".into(), "A".into()],
             Aov::Depth => &["Z"],
             Aov::Normal => &["X", "Y", "Z"],
-            Aov::PrimId | Aov::InstanceId => &["R"],
+            Aov::PrimId | Aov::InstanceId | Aov::ElementId => &["R"],
             _ => &["R", "G", "B"],
         };
         suffix.iter().map(|s| format!("{}.{}", aov.source_name(), s)).collect()
@@ -602,11 +633,32 @@ mod tests {
         assert!((got - exact).abs() <= bound + exact * f32::EPSILON as f64, "{got} vs {exact} (bound {bound})");
     }
 
+    /// Ids are kept exactly whatever their size (a float would round 2^24 + 1), the first
+    /// sample's and not averaged; a film without them resolves none.
+    #[test]
+    fn ids_are_kept_exactly_from_each_pixels_first_sample() {
+        let mut f = Film::try_new(2, 1, [0, 0, 2, 1], AovSet::of([Aov::PrimId, Aov::InstanceId, Aov::ElementId])).unwrap();
+        let mut t = f.layout().tile(0, 0, 2, 1, true);
+        let big = (1 << 24) + 1;
+        let s = SampleValue { depth: 2.0, prim_id: big, instance_id: big + 2, element_id: 3, ..Default::default() };
+        t.add(0, 0, &s, true);
+        t.add(0, 0, &SampleValue { prim_id: 1, instance_id: 1, element_id: 1, ..s }, false);
+        f.merge(&t);
+        assert_eq!(f.resolve_ids(Aov::PrimId), Some(vec![big, -1]));
+        assert_eq!(f.resolve_ids(Aov::InstanceId), Some(vec![big + 2, -1]));
+        assert_eq!(f.resolve_ids(Aov::ElementId), Some(vec![3, -1]));
+        assert_eq!(f.resolve(Aov::ElementId), vec![3.0, -1.0]);
+        assert_eq!(f.resolve_ids(Aov::Depth), None);
+        let colour_only = Film::try_new(2, 1, [0, 0, 2, 1], AovSet::of([])).unwrap();
+        assert_eq!(colour_only.resolve_ids(Aov::PrimId), None);
+        assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::ElementId])), Film::bytes_per_pixel(AovSet::of([Aov::Depth])));
+    }
+
     #[test]
     fn accumulates_resolves_and_writes_named_channels() {
         let mut f = Film::new(4, 3, [0, 0, 4, 3]);
         let mut t = FilmTile::new(0, 0, 4, 3, true);
-        let s = SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, depth: 5.0, prim_id: 7.0, split: [[1.0, 2.0, 3.0], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]], ..Default::default() };
+        let s = SampleValue { color: [1.0, 2.0, 3.0], alpha: 1.0, depth: 5.0, prim_id: 7, split: [[1.0, 2.0, 3.0], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3], [0.0; 3]], ..Default::default() };
         t.add(1, 2, &s, true);
         t.add(1, 2, &SampleValue { depth: 9.0, ..s }, false);
         f.merge(&t);

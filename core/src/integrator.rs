@@ -343,7 +343,7 @@ fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Opti
 fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &SampledWavelengths, first: bool, aov: &mut SampleValue) {
     use crate::render::Aov;
     let wanted = |a: Aov| world.aovs.contains(a);
-    if !(wanted(Aov::Normal) || wanted(Aov::Albedo) || (first && (wanted(Aov::Depth) || wanted(Aov::PrimId) || wanted(Aov::InstanceId)))) {
+    if !(wanted(Aov::Normal) || wanted(Aov::Albedo) || (first && Aov::ALL.iter().any(|&a| a.is_first_hit() && wanted(a)))) {
         // nothing of it is kept: the camera ray is not traced again
         return;
     }
@@ -365,8 +365,9 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &Samp
         if !skip {
             if first {
                 aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
-                aov.prim_id = info.id as f32;
-                aov.instance_id = info.index as f32;
+                aov.prim_id = info.id as i32;
+                aov.instance_id = info.index;
+                aov.element_id = world.element_of(&hit);
             }
             aov.normal = s.ns.to_array();
             if wanted(Aov::Albedo) {
@@ -475,7 +476,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     let u_time = sampler.get1d();
     let cr = world.camera.generate_ray(raster, u_lens, u_time);
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
-    let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1.0, instance_id: -1.0, ..Default::default() };
+    let mut aov = SampleValue { depth: f32::INFINITY, prim_id: -1, instance_id: -1, element_id: -1, ..Default::default() };
     let mut split = [SampledSpectrum::ZERO; N_SPLIT];
     // the ray footprint (for photon lookup radii), carried through specular events
     let mut fp = caustics.map_or(Footprint::default(), |c| c.pixel_footprint());
@@ -754,8 +755,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
             if depth == 0 {
                 aov.alpha = 1.0;
                 aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
-                aov.prim_id = info.id as f32;
-                aov.instance_id = info.index as f32;
+                aov.prim_id = info.id as i32;
+                aov.instance_id = info.index;
+                aov.element_id = world.element_of(&hit);
                 aov.normal = s.ns.to_array();
             }
         }

@@ -51,11 +51,15 @@ pub enum Aov {
     /// Albedo of the first surface the camera ray hits (RGB, its reflectance seen under the colour
     /// space's white; a mirror or glass gives its own, not what it shows).
     Albedo,
-    /// `InstanceDesc::id` of the first hit, or -1 (one channel, stored as f32).
+    /// `InstanceDesc::id` of the first hit, or -1 (one channel; the film keeps it as an
+    /// integer, [`crate::film::Film::resolve_ids`], and resolves it to f32).
     PrimId,
     /// The first hit's index among the instances of its prim (`InstanceDesc::index`: a
-    /// PointInstancer's or a Hydra instancer's), or -1 (one channel, stored as f32).
+    /// PointInstancer's or a Hydra instancer's), or -1 (one channel, kept as `PrimId`).
     InstanceId,
+    /// The authored element of the first hit (`World::element_of`: a mesh's face, a curve, a
+    /// point), or -1 (one channel, kept as `PrimId`).
+    ElementId,
     Diffuse,
     Specular,
     Transmission,
@@ -70,13 +74,14 @@ pub enum Aov {
 }
 
 impl Aov {
-    pub const ALL: [Aov; 13] = [
+    pub const ALL: [Aov; 14] = [
         Aov::Color,
         Aov::Depth,
         Aov::Normal,
         Aov::Albedo,
         Aov::PrimId,
         Aov::InstanceId,
+        Aov::ElementId,
         Aov::Diffuse,
         Aov::Specular,
         Aov::Transmission,
@@ -95,6 +100,7 @@ impl Aov {
             Aov::Albedo => "albedo",
             Aov::PrimId => "primId",
             Aov::InstanceId => "instanceId",
+            Aov::ElementId => "elementId",
             Aov::Diffuse => "tide:diffuse",
             Aov::Specular => "tide:specular",
             Aov::Transmission => "tide:transmission",
@@ -109,11 +115,22 @@ impl Aov {
         Aov::ALL.iter().copied().find(|a| a.source_name() == name)
     }
 
+    /// Whether this AOV holds ids (whole numbers, -1 for none), kept exact by the film.
+    pub fn is_id(self) -> bool {
+        matches!(self, Aov::PrimId | Aov::InstanceId | Aov::ElementId)
+    }
+
+    /// Whether the film keeps this AOV among its first-hit values (the first sample's, not
+    /// averaged).
+    pub fn is_first_hit(self) -> bool {
+        self == Aov::Depth || self.is_id()
+    }
+
     /// Number of channels stored for this AOV.
     pub fn channels(self) -> usize {
         match self {
             Aov::Color => 4,
-            Aov::Depth | Aov::PrimId | Aov::InstanceId => 1,
+            Aov::Depth | Aov::PrimId | Aov::InstanceId | Aov::ElementId => 1,
             _ => 3,
         }
     }
@@ -708,6 +725,12 @@ impl Renderer {
     /// out), row-major from the top row, `aov.channels()` per pixel.
     pub fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
         self.film.displayed(self.film.resolve(aov), aov.channels())
+    }
+
+    /// An id AOV's pixels exactly (as [`Renderer::aov_pixels`] lays them, one a pixel); None
+    /// for an AOV that holds no ids or that the render does not keep.
+    pub fn aov_ids(&self, aov: Aov) -> Option<Vec<i32>> {
+        self.film.resolve_ids(aov).map(|ids| self.film.displayed(ids, 1))
     }
 
     /// Writes the chosen AOVs to an OpenEXR file atomically (temporary name, then rename).

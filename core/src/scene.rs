@@ -510,6 +510,10 @@ pub struct MeshDesc {
     pub positions: Vec<Vec3>,
     /// Three indices per triangle, counter-clockwise seen from the front (right-handed).
     pub indices: Vec<u32>,
+    /// The authored element each triangle comes from (the face of a polygon mesh, the curve of
+    /// a curves prim), one per triangle: what the `elementId` AOV reads. Empty where each
+    /// triangle is its own element (a mesh authored as triangles, a shape Tide tessellates).
+    pub faces: Vec<u32>,
     /// Per-vertex shading normals (same length as `positions`), or none for flat shading.
     pub normals: Option<Vec<Vec3>>,
     /// Per-vertex texture coordinates.
@@ -643,6 +647,12 @@ pub fn locate_key(times: &[f32], time: f32) -> (usize, f32) {
 }
 
 impl MeshDesc {
+    /// The authored element of triangle `t` ([`MeshDesc::faces`]).
+    #[inline]
+    pub fn element_of(&self, t: u32) -> u32 {
+        self.faces.get(t as usize).copied().unwrap_or(t)
+    }
+
     /// Position of vertex `k` at `time` (seconds).
     #[inline]
     pub fn position_at(&self, k: usize, time: f32) -> Vec3 {
@@ -680,6 +690,9 @@ pub struct SpheresDesc {
     pub shape: PointShape,
     /// Primvars, per point or constant, for materials that read them.
     pub primvars: Vec<PrimvarData>,
+    /// The authored index of each point (what the `elementId` AOV reads), where points were
+    /// dropped; empty where point i is the authored point i.
+    pub ids: Vec<u32>,
     /// As [`MeshDesc::origin`]: where `centers` are measured from in the points' own space.
     pub origin: Vec3,
 }
@@ -699,6 +712,12 @@ impl SpheresDesc {
             self.centers.iter_mut().for_each(|p| *p -= shift);
             self.origin += shift;
         }
+    }
+
+    /// The authored index of point `i` ([`SpheresDesc::ids`]).
+    #[inline]
+    pub fn element_of(&self, i: u32) -> u32 {
+        self.ids.get(i as usize).copied().unwrap_or(i)
     }
 
     /// The shift [`SpheresDesc::recentre`] would make.

@@ -116,7 +116,7 @@ fn triangle_fault(positions: &[Vec3], t: &[u32]) -> Option<TriangleFault> {
 /// mesh is taken as it is, shared and not copied.
 fn mesh_is_clean(m: &MeshDesc) -> bool {
     let nv = m.positions.len();
-    if !finite3(m.origin) || m.indices.len() % 3 != 0 || m.indices.len() / 3 > MAX_LEAF_ITEMS || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
+    if !finite3(m.origin) || m.indices.len() % 3 != 0 || m.indices.len() / 3 > MAX_LEAF_ITEMS || !(m.faces.is_empty() || m.faces.len() == m.indices.len() / 3) || m.normals.as_ref().is_some_and(|n| n.len() != nv) || m.uvs.as_ref().is_some_and(|u| u.len() != nv) {
         return false;
     }
     if !m.primvars.iter().all(|pv| primvar_fits(pv, nv)) {
@@ -147,6 +147,10 @@ fn mend_mesh_within(m: &mut MeshDesc, p: &mut Vec<Problem>, max_triangles: usize
         problem(p, &m.name, "indices", format!("{} indices is not a multiple of 3; the tail is dropped", m.indices.len()));
         m.indices.truncate(m.indices.len() / 3 * 3);
     }
+    if !(m.faces.is_empty() || m.faces.len() == m.indices.len() / 3) {
+        problem(p, &m.name, "faces", format!("{} elements for {} triangles; each triangle taken as its own", m.faces.len(), m.indices.len() / 3));
+        m.faces = Vec::new();
+    }
     if let Some(n) = &m.normals {
         if n.len() != nv {
             problem(p, &m.name, "normals", format!("{} normals for {} points; normals ignored", n.len(), nv));
@@ -170,12 +174,17 @@ fn mend_mesh_within(m: &mut MeshDesc, p: &mut Vec<Problem>, max_triangles: usize
     }
     let (mut bad_index, mut bad_point, mut degenerate) = (0usize, 0usize, 0usize);
     let mut kept = Vec::with_capacity(m.indices.len());
-    for t in m.indices.chunks_exact(3) {
+    // the element of each triangle kept (the triangles after a dropped one move up)
+    let mut faces = Vec::with_capacity(m.indices.len() / 3);
+    for (i, t) in m.indices.chunks_exact(3).enumerate() {
         match triangle_fault(&m.positions, t) {
             Some(TriangleFault::Index) => bad_index += 1,
             Some(TriangleFault::Point) => bad_point += 1,
             Some(TriangleFault::Degenerate) => degenerate += 1,
-            None => kept.extend_from_slice(t),
+            None => {
+                kept.extend_from_slice(t);
+                faces.push(m.element_of(i as u32));
+            }
         }
     }
     if bad_index > 0 {
@@ -191,6 +200,10 @@ fn mend_mesh_within(m: &mut MeshDesc, p: &mut Vec<Problem>, max_triangles: usize
     if kept.len() / 3 > max_triangles {
         problem(p, &m.name, "faceVertexIndices", format!("{} triangles exceed the {max_triangles} one mesh can hold; the last {} are dropped (split the mesh)", kept.len() / 3, kept.len() / 3 - max_triangles));
         kept.truncate(max_triangles * 3);
+        faces.truncate(max_triangles);
+    }
+    if kept.len() < m.indices.len() {
+        m.faces = faces;
     }
     m.indices = kept;
     // normals are normalised; one that cannot be is zero ("use the geometric normal")
@@ -227,6 +240,10 @@ fn mend_spheres_within(sp: &mut SpheresDesc, p: &mut Vec<Problem>, max_points: u
             sp.velocities = None;
         }
     }
+    if !(sp.ids.is_empty() || sp.ids.len() == n) {
+        problem(p, &sp.name, "ids", format!("{} ids for {} points; each point taken as its own", sp.ids.len(), n));
+        sp.ids = Vec::new();
+    }
     fix_point_shape(sp, p);
     check_primvars(&mut sp.primvars, n, &sp.name, p);
     let mut keep = vec![true; n];
@@ -257,6 +274,7 @@ fn mend_spheres_within(sp: &mut SpheresDesc, p: &mut Vec<Problem>, max_points: u
     }
     if good != n || good > max_points {
         let idx: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+        sp.ids = idx.iter().map(|&i| sp.element_of(i as u32)).collect();
         sp.centers = idx.iter().map(|&i| sp.centers[i]).collect();
         sp.radii = idx.iter().map(|&i| sp.radii[i]).collect();
         if let Some(v) = &sp.velocities {
@@ -311,6 +329,7 @@ fn spheres_are_clean(sp: &SpheresDesc) -> bool {
     };
     n <= MAX_LEAF_ITEMS
         && finite3(sp.origin)
+        && (sp.ids.is_empty() || sp.ids.len() == n)
         && sp.radii.len() == n
         && sp.velocities.as_ref().is_none_or(|v| v.len() == n && v.iter().all(|x| finite3(*x)))
         && shape_ok
@@ -1110,6 +1129,7 @@ mod tests {
             velocities: Some(vec![Vec3::ZERO, Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z]),
             shape: PointShape::Spheres,
             primvars: vec![PrimvarData { name: "heat".into(), tuple: 1, constant: false, data: vec![10.0, 11.0, 12.0, 13.0, 14.0] }],
+            ids: Vec::new(),
             origin: Default::default(),
         };
         let mut probs = Vec::new();
@@ -1139,6 +1159,48 @@ mod tests {
         assert_eq!(probs.len(), 1, "{probs:?}");
         assert_eq!((probs[0].item.as_str(), probs[0].attribute.as_str()), ("/Sea", "faceVertexIndices"));
         assert!(mesh_is_clean(&m) && spheres_are_clean(&sp));
+    }
+
+    /// Dropping triangles or points keeps what the others are elements of: the authored face
+    /// or point the `elementId` AOV reads; a face list of the wrong length is named and
+    /// dropped.
+    #[test]
+    fn dropped_triangles_and_points_leave_the_others_their_authored_elements() {
+        let quad_fan = |faces: Vec<u32>| MeshDesc {
+            name: "/Hull".into(),
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE, Vec3::X],
+            // triangle 1 is degenerate (vertices 1 and 4 coincide)
+            indices: vec![0, 1, 2, 1, 4, 3, 1, 3, 2, 0, 2, 4],
+            faces,
+            ..Default::default()
+        };
+        let mut probs = Vec::new();
+        let mut m = quad_fan(Vec::new());
+        mend_mesh(&mut m, &mut probs);
+        assert_eq!(m.indices.len(), 9);
+        assert_eq!(m.faces, vec![0, 2, 3], "each triangle its own: the survivors keep their numbers");
+        let mut m = quad_fan(vec![7, 7, 8, 8]);
+        mend_mesh(&mut m, &mut probs);
+        assert_eq!(m.faces, vec![7, 8, 8]);
+        assert!(mesh_is_clean(&m));
+        assert!(probs.iter().all(|p| p.attribute != "faces"), "{probs:?}");
+        let mut m = quad_fan(vec![7, 7]);
+        assert!(!mesh_is_clean(&m));
+        mend_mesh(&mut m, &mut probs);
+        assert!(probs.iter().any(|p| p.item == "/Hull" && p.attribute == "faces" && p.message.contains("2 elements for 4 triangles")), "{probs:?}");
+        assert_eq!(m.faces, vec![0, 2, 3]);
+        let mut sp = SpheresDesc {
+            name: "/Spray".into(),
+            centers: vec![Vec3::ZERO, Vec3::splat(f32::NAN), Vec3::X, Vec3::Y],
+            radii: vec![1.0, 1.0, 0.0, 3.0],
+            ..Default::default()
+        };
+        mend_spheres(&mut sp, &mut probs);
+        assert_eq!(sp.ids, vec![0, 3]);
+        assert_eq!((sp.element_of(0), sp.element_of(1)), (0, 3));
+        sp.centers[0] = Vec3::splat(f32::INFINITY);
+        mend_spheres(&mut sp, &mut probs);
+        assert_eq!(sp.ids, vec![3], "a second mending keeps the authored numbers");
     }
 
     /// Instances past the most the top-level BVH holds (here a smaller limit) are dropped and
@@ -1186,6 +1248,7 @@ mod tests {
                 PrimvarData { name: "tint".into(), tuple: 3, constant: true, data: vec![0.1, 0.2, 0.3] },
                 PrimvarData { name: "short".into(), tuple: 2, constant: false, data: vec![0.0; 4] },
             ],
+            ids: Vec::new(),
             origin: Default::default(),
         }));
         s.spheres.push(std::sync::Arc::new(SpheresDesc {
@@ -1195,6 +1258,7 @@ mod tests {
             velocities: None,
             shape: PointShape::Blobby { threshold: 1.5, orientations: None, scales: Some(vec![Vec3::ONE, Vec3::new(1.0, 0.0, 1.0), Vec3::ONE]) },
             primvars: Vec::new(),
+            ids: Vec::new(),
             origin: Default::default(),
         }));
         let (clean, probs) = validate(&s);

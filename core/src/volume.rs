@@ -38,7 +38,7 @@ pub fn box_mesh(name: &str, lo: Vec3, hi: Vec3, mirror: bool) -> MeshDesc {
             }
         }
     }
-    MeshDesc { name: name.into(), positions, indices, normals: None, uvs: None, uv_name: None, double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() }
+    MeshDesc { name: name.into(), faces: Vec::new(), positions, indices, normals: None, uvs: None, uv_name: None, double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() }
 }
 
 /// Adds a box, a boundary material and a medium per volume. A volume whose grid or medium is

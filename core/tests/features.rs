@@ -286,10 +286,10 @@ fn a_colour_only_film_draws_the_same_colour_in_less_memory() {
     assert!(!dir.join("no.exr").exists());
     std::fs::remove_dir_all(&dir).unwrap();
     // colour, alpha and the luminance pair in f32 and a sample count: 28 bytes a pixel, where
-    // every AOV takes 136 (24 more floats of averages, and the first hit's depth, primId and
-    // instanceId)
+    // every AOV takes 140 (24 more floats of averages, and the first hit's depth, primId,
+    // instanceId and elementId)
     assert_eq!(Film::bytes_per_pixel(AovSet::of([Aov::Color])), 28);
-    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 136);
+    assert_eq!(Film::bytes_per_pixel(AovSet::ALL), 140);
 }
 
 /// A pass given up part way (its deadline passed) keeps the pixels it finished, each with the

@@ -296,8 +296,12 @@ bool RenderBuffer::Allocate(int width, int height, int depth, Format format, boo
 }
 
 void* RenderBuffer::Map() {
-    const size_t n = size_t(_width) * _height * size_t(_channels);
-    if (_mappers.load() == 0 && _pixels.size() != n) _pixels.assign(n, 0.0f);
+    if (_mappers.load() == 0 && _pixels.size() != size_t(_width) * _height * size_t(_channels)) {
+        // mapped before any Resolve: the delegate's pixels (its clear value before a pass)
+        Resolve();
+        const size_t n = size_t(_width) * _height * size_t(_channels);
+        if (_pixels.size() != n) _pixels.assign(n, 0.0f);
+    }
     _mappers++;
     return _pixels.data();
 }

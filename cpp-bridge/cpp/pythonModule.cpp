@@ -832,13 +832,14 @@ void Pass_dealloc(PyObject* self) {
 }
 
 PyObject* Pass_execute(PyObject* self, PyObject* args, PyObject* kw) {
-    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", "hydra", "projection", nullptr};
+    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", "hydra", "projection", "clear_values", nullptr};
     const char* camera = nullptr;
     PyObject* bindings = nullptr;
     const char* settings = nullptr;
     int hydra = 0;
     PyObject* projection = nullptr;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|zpO", const_cast<char**>(names), &camera, &bindings, &settings, &hydra, &projection))
+    PyObject* clears = nullptr;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|zpOO", const_cast<char**>(names), &camera, &bindings, &settings, &hydra, &projection, &clears))
         return nullptr;
     TIDE_TRY
     tide::RenderPassState state;
@@ -850,7 +851,32 @@ PyObject* Pass_execute(PyObject* self, PyObject* args, PyObject* kw) {
         if (n.values.size() != 16) throw ArgError(PyExc_ValueError, "projection: expected 16 numbers");
         state.projection.assign(n.values.begin(), n.values.end());
     }
-    for (auto& b : Pairs(bindings, "aov_bindings")) state.aovBindings.push_back({b.first, b.second, nullptr});
+    for (auto& b : Pairs(bindings, "aov_bindings")) state.aovBindings.push_back({b.first, b.second, nullptr, {}});
+    if (clears && clears != Py_None) {
+        // {buffer path: a number, or one per channel}
+        if (!PyDict_Check(clears)) throw ArgError(PyExc_TypeError, "clear_values: expected a dict of buffer path to numbers");
+        PyObject *k, *v;
+        Py_ssize_t pos = 0;
+        while (PyDict_Next(clears, &pos, &k, &v)) {
+            const std::string buffer = ToString(k, "clear_values");
+            std::vector<double> values;
+            if (PyNumber_Check(v) && !PySequence_Check(v)) {
+                const double d = PyFloat_AsDouble(v);
+                if (d == -1.0 && PyErr_Occurred()) throw PythonError();
+                values.push_back(d);
+            } else {
+                Numbers n = ReadNumbers(v, 'd');
+                values.assign(n.values.begin(), n.values.end());
+            }
+            bool bound = false;
+            for (auto& b : state.aovBindings)
+                if (b.renderBufferId == buffer) {
+                    b.clearValue = values;
+                    bound = true;
+                }
+            if (!bound) throw ArgError(PyExc_ValueError, "clear_values: '" + buffer + "' is not a bound buffer");
+        }
+    }
     State& s = S(reinterpret_cast<PyPass*>(self)->owner);
     tide::RenderPass& pass = P(self);
     std::string error;
@@ -961,7 +987,7 @@ PyMethodDef DelegateMethods[] = {
     {nullptr, nullptr, 0, nullptr}};
 
 PyMethodDef PassMethods[] = {
-    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None, hydra=False, projection=None); hydra: Hydra's AOV names and layout (rows from the bottom, depth in clip space, ids in int32 buffers); projection: 16 numbers (GfMatrix4d's order) framing the image"},
+    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None, hydra=False, projection=None, clear_values=None); hydra: Hydra's AOV names and layout (rows from the bottom, depth in clip space, ids in int32 buffers); projection: 16 numbers (GfMatrix4d's order) framing the image; clear_values: {buffer path: a number or one per channel} held until the first pass (Hydra's clearValue)"},
     {"is_converged", Pass_is_converged, METH_NOARGS, "is_converged() -> bool"},
     {"progress", Pass_progress, METH_NOARGS, "progress() -> float in [0, 1]"},
     {"summary", Pass_summary, METH_NOARGS, "summary() -> {key: value} figures of the last finished pass (photons, memory, ...)"},

@@ -177,7 +177,9 @@ bool RenderPass::Execute(const RenderPassState& state, std::string* error) {
     rust::Vec<rs::AovBinding> bindings;
     _buffers.clear();
     for (const auto& b : state.aovBindings) {
-        bindings.push_back(rs::AovBinding{rust::String(b.aovName), rust::String(b.renderBufferId)});
+        rust::Vec<double> clear;
+        for (double v : b.clearValue) clear.push_back(v);
+        bindings.push_back(rs::AovBinding{rust::String(b.aovName), rust::String(b.renderBufferId), std::move(clear)});
         if (b.renderBuffer) {
             b.renderBuffer->SetConverged(false);
             _buffers.push_back(b.renderBuffer);

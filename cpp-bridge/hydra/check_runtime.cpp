@@ -291,14 +291,14 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
 
 /// The outputs HdxTaskController binds beside the colour for a renderer other than Storm
 /// (usdview, usdrecord): depth, primId, elementId and instanceId, each allocated in the format
-/// the delegate's default descriptor gives, and left out where that is invalid. The pass must
-/// render with them; then, with the sphere moved up into the top half of the frame and the pass
+/// the delegate's default descriptor gives (all valid). The pass must render with them; then, with the sphere moved up into the top half of the frame and the pass
 /// framed as a viewer cropping a camera's view does (the camera's window mapped to a display
 /// window half as large again as the buffer, about its centre: the buffer holds the middle
 /// two thirds), each pixel is picked as hdx's HdxPickResult does it: rows from the bottom, the int32 primId looked up in the
 /// render index, the [0, 1] depth unprojected through the pass's own view and projection
 /// matrices. Pixels whose centre ray passes well inside the sphere must pick it at a point on
-/// its surface; those that pass well outside, nothing at depth 1.
+/// its surface, on the face elementId names (or, where the pixel's first sample may have
+/// fallen on a neighbour, one next to it); those that pass well outside, nothing at depth 1.
 int CheckPickingOutputs(HdRenderDelegate& delegate, HdRenderIndex* index, HdEngine& engine, HdTaskSharedPtrVector& tasks,
                         HdRenderPassSharedPtr const& pass, HdRenderPassStateSharedPtr const& state, Scene& scene) {
     const TfToken outputs[] = {HdAovTokens->color, HdAovTokens->depth, HdAovTokens->primId, HdAovTokens->elementId, HdAovTokens->instanceId};
@@ -317,8 +317,7 @@ int CheckPickingOutputs(HdRenderDelegate& delegate, HdRenderIndex* index, HdEngi
         binding.clearValue = desc.clearValue;
         bindings.push_back(binding);
     }
-    if (buffers.count(HdAovTokens->elementId)) return Fail("elementId, which Tide does not render, has a valid descriptor");
-    for (TfToken const& name : {HdAovTokens->color, HdAovTokens->depth, HdAovTokens->primId, HdAovTokens->instanceId})
+    for (TfToken const& name : outputs)
         if (!buffers.count(name)) return Fail("an output a task controller binds has no valid descriptor");
     state->SetAovBindings(bindings);
     state->SetFraming(CameraUtilFraming(GfRange2f(GfVec2f(-kSize / 4.0f), GfVec2f(kSize * 5 / 4.0f)), GfRect2i(GfVec2i(0, 0), kSize, kSize)));
@@ -332,15 +331,18 @@ int CheckPickingOutputs(HdRenderDelegate& delegate, HdRenderIndex* index, HdEngi
     HdRenderBuffer* depthBuf = buffers[HdAovTokens->depth];
     HdRenderBuffer* primBuf = buffers[HdAovTokens->primId];
     HdRenderBuffer* instBuf = buffers[HdAovTokens->instanceId];
-    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf}) b->Resolve();
-    if (depthBuf->GetFormat() != HdFormatFloat32 || primBuf->GetFormat() != HdFormatInt32 || instBuf->GetFormat() != HdFormatInt32)
-        return Fail("depth is not float32, or primId / instanceId not int32");
+    HdRenderBuffer* elemBuf = buffers[HdAovTokens->elementId];
+    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf, elemBuf}) b->Resolve();
+    if (depthBuf->GetFormat() != HdFormatFloat32 || primBuf->GetFormat() != HdFormatInt32 || instBuf->GetFormat() != HdFormatInt32 ||
+        elemBuf->GetFormat() != HdFormatInt32)
+        return Fail("depth is not float32, or primId / instanceId / elementId not int32");
     const float* depth = static_cast<const float*>(depthBuf->Map());
     const int32_t* prim = static_cast<const int32_t*>(primBuf->Map());
     const int32_t* inst = static_cast<const int32_t*>(instBuf->Map());
+    const int32_t* elem = static_cast<const int32_t*>(elemBuf->Map());
     const GfMatrix4d ndcToWorld = (state->GetWorldToViewMatrix() * state->GetProjectionMatrix()).GetInverse();
     const GfVec3d eye(0, 0, 4);
-    int inside = 0, outside = 0, top = 0;
+    int inside = 0, outside = 0, top = 0, faced = 0, onFace = 0;
     const char* failure = nullptr;
     for (int y = 0; y < kSize && !failure; ++y)
         for (int x = 0; x < kSize && !failure; ++x) {
@@ -363,15 +365,38 @@ int CheckPickingOutputs(HdRenderDelegate& delegate, HdRenderIndex* index, HdEngi
                     // the depth is the pixel's first sample's, up to half a pixel (0.045 at the
                     // sphere) from the centre; the facets lie up to 1 - cos(pi / 24) inside it
                     if (r < 0.94 || r > 1.05) failure = "a pick's depth unprojects off the sphere";
+                    // the face the centre ray meets on the round sphere (the facets lie within
+                    // 0.009 of it): face i * 2n + j spans theta in [i, i + 1] * pi / n and phi in
+                    // [j, j + 1] * pi / n (Scene's UV sphere, n = 24). Where the surface faces
+                    // the camera (a pixel's footprint there, 0.06, under half a band of 0.13),
+                    // the first sample's face is this one or, near a band's edge, a neighbour.
+                    const double t = GfDot(toCentre, dir) - std::sqrt(std::max(0.0, 1.0 - miss * miss));
+                    const GfVec3d q = eye + dir * t - centre;
+                    const double theta = std::acos(std::clamp(q[1], -1.0, 1.0)), sinTheta = std::sin(theta);
+                    const double phi = std::fmod(std::atan2(q[2], q[0]) + 2 * M_PI, 2 * M_PI);
+                    const double facing = -GfDot(q, dir);
+                    if (!failure && facing > 0.5 && sinTheta > 0.5) {
+                        ++faced;
+                        const int n = 24, bi = int(theta * n / M_PI), bj = int(phi * n / M_PI);
+                        const int ei = elem[i] / (2 * n), ej = elem[i] % (2 * n);
+                        const int dj = std::min((ej - bj + 2 * n) % (2 * n), (bj - ej + 2 * n) % (2 * n));
+                        if (elem[i] < 0 || elem[i] >= 2 * n * n || std::abs(ei - bi) > 1 || dj > 1)
+                            failure = "a pixel on the sphere names a face that is not where it sees the sphere";
+                        onFace += ei == bi && ej == bj;
+                    }
                 }
             } else if (miss > 1.1) {
                 ++outside;
-                if (prim[i] != -1 || inst[i] != -1 || depth[i] != 1.0f) failure = "a pixel beside the sphere picks something, or its depth is not 1";
+                if (prim[i] != -1 || inst[i] != -1 || elem[i] != -1 || depth[i] != 1.0f)
+                    failure = "a pixel beside the sphere picks something, or its depth is not 1";
             }
         }
-    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf}) b->Unmap();
+    for (HdRenderBuffer* b : {depthBuf, primBuf, instBuf, elemBuf}) b->Unmap();
     if (failure) return Fail(failure);
-    std::printf("picking outputs: %d pixels pick the sphere (%d in the top half), %d nothing\n", inside, top, outside);
+    std::printf("picking outputs: %d pixels pick the sphere (%d in the top half), %d nothing; %d facing pixels name their face's"
+                " neighbourhood, %d the face itself\n",
+                inside, top, outside, faced, onFace);
+    if (faced < 100 || onFace * 2 < faced) return Fail("too few pixels name the face they see");
     // magnified 1.5 times by the framing, the sphere covers more than the 220 pixels it does
     // unframed (2.25 times as many, less what leaves the top of the frame)
     if (inside < 280 || outside < 40 || top * 4 < inside * 3)

@@ -997,6 +997,26 @@ private:
     tide::RenderBuffer* _buffer;
 };
 
+/// A binding's clearValue as a number per channel (empty: none, or a type Tide does not know).
+std::vector<double> ClearValues(VtValue const& v) {
+    if (v.IsHolding<float>()) return {v.UncheckedGet<float>()};
+    if (v.IsHolding<double>()) return {v.UncheckedGet<double>()};
+    if (v.IsHolding<int>()) return {double(v.UncheckedGet<int>())};
+    if (v.IsHolding<GfVec2f>()) {
+        GfVec2f c = v.UncheckedGet<GfVec2f>();
+        return {c[0], c[1]};
+    }
+    if (v.IsHolding<GfVec3f>()) {
+        GfVec3f c = v.UncheckedGet<GfVec3f>();
+        return {c[0], c[1], c[2]};
+    }
+    if (v.IsHolding<GfVec4f>()) {
+        GfVec4f c = v.UncheckedGet<GfVec4f>();
+        return {c[0], c[1], c[2], c[3]};
+    }
+    return {};
+}
+
 class HdTideRenderPass final : public HdRenderPass {
 public:
     HdTideRenderPass(HdRenderIndex* index, HdRprimCollection const& collection, std::shared_ptr<tide::RenderPass> pass,
@@ -1020,7 +1040,7 @@ protected:
         }
         for (HdRenderPassAovBinding const& b : state->GetAovBindings()) {
             auto* rb = dynamic_cast<HdTideRenderBuffer*>(b.renderBuffer);
-            s.aovBindings.push_back({b.aovName.GetString(), b.renderBufferId.GetString(), rb ? rb->TideBuffer() : nullptr});
+            s.aovBindings.push_back({b.aovName.GetString(), b.renderBufferId.GetString(), rb ? rb->TideBuffer() : nullptr, ClearValues(b.clearValue)});
         }
         std::string error;
         if (!_pass->Execute(s, &error)) TF_WARN("Tide: %s", error.c_str());
@@ -1248,14 +1268,14 @@ void HdTideRenderDelegate::CommitResources(HdChangeTracker* tracker) {
 
 /// Hydra's conventions (hdx's picking and selection read them): `depth` is clip-space depth in
 /// [0, 1] (1 where nothing is hit), `cameraDepth` the distance along the view axis, the ids
-/// int32 (-1 where nothing is hit); rows run from the bottom. An AOV Tide does not render gets
-/// an invalid format, so that a task controller leaves it out (usdview asks for `elementId`
-/// alongside the colour).
+/// (`primId`, `instanceId`, `elementId`: the face of a mesh, the curve, the point) int32, -1
+/// where nothing is hit; rows run from the bottom. An AOV Tide does not render gets an invalid
+/// format, so that a task controller leaves it out.
 HdAovDescriptor HdTideRenderDelegate::GetDefaultAovDescriptor(TfToken const& name) const {
     if (name == HdAovTokens->color) return HdAovDescriptor(HdFormatFloat32Vec4, false, VtValue(GfVec4f(0.0f)));
     if (name == HdAovTokens->depth) return HdAovDescriptor(HdFormatFloat32, false, VtValue(1.0f));
     if (name == HdAovTokens->cameraDepth) return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));
-    if (name == HdAovTokens->primId || name == HdAovTokens->instanceId)
+    if (name == HdAovTokens->primId || name == HdAovTokens->instanceId || name == HdAovTokens->elementId)
         return HdAovDescriptor(HdFormatInt32, false, VtValue(-1));
     switch (tide::RenderDelegate::AovChannels(name.GetString())) {
     case 1: return HdAovDescriptor(HdFormatFloat32, false, VtValue(0.0f));

@@ -392,6 +392,11 @@ impl Pass {
                 16 => Some(std::array::from_fn(|i| projection[i])),
                 n => return Err(format!("a projection matrix has 16 values, not {n}")),
             };
+            for b in bindings {
+                if let Some(buf) = s.delegate.render_buffer(&b.buffer) {
+                    buf.set_clear(&b.clear);
+                }
+            }
             let problems = s.delegate.execute_as(Some(camera), &aovs, Some(settings), hydra, projection);
             s.pending.extend(problems.into_iter().map(row));
             s.executing_pass = self.id;
@@ -471,7 +476,7 @@ mod tests {
     }
 
     fn binding(aov: &str, buffer: &str) -> Vec<AovBinding> {
-        vec![AovBinding { aov: aov.into(), buffer: buffer.into() }]
+        vec![AovBinding { aov: aov.into(), buffer: buffer.into(), clear: Vec::new() }]
     }
 
     #[test]

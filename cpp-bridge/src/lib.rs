@@ -56,6 +56,9 @@ pub mod ffi {
     pub struct AovBinding {
         pub aov: String,
         pub buffer: String,
+        /// What the buffer's pixels hold until a pass publishes into it, a value per channel
+        /// (Hydra's `clearValue`; ids in int32 buffers as whole numbers); empty: zeros.
+        pub clear: Vec<f64>,
     }
 
     /// A string pair (a header key and value, ...).

@@ -448,6 +448,8 @@ fn build(name: &str, plan: &Plan, pts: &[Vec3], double_sided: bool) -> Built {
                 }
             }
         }
+        // the curve's triangles are its element
+        mesh.faces.resize(mesh.indices.len() / 3, c.curve as u32);
     }
     mesh.normals = Some(normals);
     mesh.uvs = Some(uvs);
@@ -545,8 +547,7 @@ pub fn convert_curves(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGe
     let mut built = build(name, &plan, &pts, double_sided);
     built.mesh.primvars = shading_primvars(store, &plan, &built, shape, p);
     let deformation = curve_deformation(name, &plan, &built, store, pts.len(), double_sided, p);
-    let rest = built.mesh.indices.clone();
-    MeshGeom::new(built.mesh, deformation, Vec::new(), rest)
+    MeshGeom::new(built.mesh, deformation, Vec::new(), Vec::new())
 }
 
 /// The primvars a material may read, carried to every output vertex through the curves'

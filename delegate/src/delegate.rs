@@ -618,11 +618,19 @@ impl Delegate {
             PrimType::RenderBuffer => {
                 let dims = s.get("dimensions").and_then(|v| v.to_ints());
                 let buf = self.buffers.get(path);
+                // the format's channels (a bound AOV's own count replaces them at its first pass)
+                let channels = match s.str_opt("format").unwrap_or("float4") {
+                    "float" | "int32" => 1,
+                    "float2" => 2,
+                    "float3" => 3,
+                    _ => 4,
+                };
                 match dims {
                     Some(d) if d.len() == 2 && d[0] > 0 && d[1] > 0 => {
                         if let Some(b) = buf {
-                            if b.dimensions() != (d[0] as u32, d[1] as u32) {
-                                b.resize(d[0] as u32, d[1] as u32, 4);
+                            let (w, h, c) = b.shape();
+                            if (w, h) != (d[0] as u32, d[1] as u32) || (c != channels && !b.published()) {
+                                b.resize(d[0] as u32, d[1] as u32, channels);
                             }
                         }
                     }

@@ -120,6 +120,7 @@ impl Builder {
             name: name.to_string(),
             positions,
             indices,
+            faces: Vec::new(),
             normals: Some(self.n.into_iter().map(|n| axis.map(n)).collect()),
             uvs: Some(self.uv),
             uv_name: None,
@@ -440,6 +441,10 @@ pub fn points(name: &str, store: &AttrStore, p: &mut Problems) -> PointsData {
     out.accelerations = acc.map(|_| as_);
     // the points kept, for the per-point shape data
     let kept: Vec<usize> = (0..n).filter(|&i| !bad[i] && widths[i] > 0.0 && widths[i].is_finite()).collect();
+    if kept.len() < n {
+        // the authored index of each point kept (the `elementId` AOV)
+        spheres.ids = kept.iter().map(|&i| i as u32).collect();
+    }
     spheres.shape = point_shape(store, n, &kept, &spheres.radii, p);
     spheres.primvars = crate::mesh::point_primvars(store, n, &kept, p);
     if spheres.velocities.is_none() {

@@ -285,19 +285,21 @@ pub struct SubsetPart {
     pub path: String,
     /// Its bound material (after binding resolution), if any: else the mesh's.
     pub material: Option<String>,
-    /// Three indices per triangle (into the mesh's vertices) of the subset's faces.
-    pub indices: Vec<u32>,
+    /// The triangles (indices of the mesh's triangles) of the subset's faces.
+    pub triangles: Vec<u32>,
 }
 
-/// The part of `m` that triangles `indices` (into `m`'s vertices) use: those triangles over
-/// only the vertices they reference, renumbered in first-use order, with every per-vertex
-/// array (normals, uvs, primvars, motion keys) cut to match. A subset's mesh is this, so a mesh
-/// split among many materials holds each vertex about once, not once per material.
-pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
+/// The part of `m` made of its triangles `triangles`: those triangles (each keeping its
+/// authored face) over only the vertices they reference, renumbered in first-use order, with
+/// every per-vertex array (normals, uvs, primvars, motion keys) cut to match. A subset's mesh
+/// is this, so a mesh split among many materials holds each vertex about once, not once per
+/// material.
+pub fn sub_mesh(m: &MeshDesc, triangles: &[u32]) -> MeshDesc {
     let mut new_of = vec![u32::MAX; m.positions.len()];
     let mut old: Vec<u32> = Vec::new();
-    let indices = indices
+    let indices = triangles
         .iter()
+        .flat_map(|&t| &m.indices[3 * t as usize..3 * t as usize + 3])
         .map(|&i| {
             let slot = &mut new_of[i as usize];
             if *slot == u32::MAX {
@@ -312,6 +314,7 @@ pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
         name: m.name.clone(),
         positions: pick(&m.positions),
         indices,
+        faces: triangles.iter().map(|&t| m.element_of(t)).collect(),
         normals: m.normals.as_deref().map(pick),
         uvs: m.uvs.as_ref().map(|uv| old.iter().map(|&i| uv[i as usize]).collect()),
         uv_name: m.uv_name.clone(),
@@ -339,7 +342,7 @@ pub fn sub_mesh(m: &MeshDesc, indices: &[u32]) -> MeshDesc {
 
 /// A mesh prim converted: the triangles at the current frame, how the points move, and the
 /// triangles of each `materialBind` subset (`geomSubsets`); `rest` holds the triangles of
-/// faces in no subset (all of them without subsets).
+/// faces in no subset (none without subsets: the whole mesh is one part then).
 #[derive(Clone, Debug, PartialEq)]
 pub struct MeshGeom {
     /// Shared with the scenes assembled from it.
@@ -396,9 +399,9 @@ impl MeshGeom {
                 return vec![(whole, None)];
             }
             std::iter::once((&self.rest, None))
-                .chain(self.subsets.iter().enumerate().map(|(k, s)| (&s.indices, Some(k))))
-                .filter(|(indices, _)| !indices.is_empty())
-                .map(|(indices, k)| (Arc::new(sub_mesh(&whole, indices)), k))
+                .chain(self.subsets.iter().enumerate().map(|(k, s)| (&s.triangles, Some(k))))
+                .filter(|(triangles, _)| !triangles.is_empty())
+                .map(|(triangles, k)| (Arc::new(sub_mesh(&whole, triangles)), k))
                 .collect()
         })
     }
@@ -409,7 +412,7 @@ impl MeshGeom {
 /// (Path). Face indices out of range are a problem naming the subset and `indices`, and are
 /// ignored; a face named by an earlier subset stays there (also a problem).
 pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> MeshGeom {
-    let (mesh, src, tri_faces, stencil) = convert_mesh_sources(name, store, p);
+    let (mesh, src, stencil) = convert_mesh_sources(name, store, p);
     let deformation = deformation(&mesh, &src, stencil.as_ref(), store, p);
     let n_faces = store.get("faceVertexCounts").and_then(|v| v.to_ints()).map_or(0, |c| c.len());
     let subset_paths = store.get("geomSubsets").and_then(|v| v.to_strings()).unwrap_or_default();
@@ -442,13 +445,15 @@ pub fn convert_usd_mesh(name: &str, store: &AttrStore, p: &mut Problems) -> Mesh
             });
         }
         let material = store.get(&format!("{path}.material")).and_then(|v| v.as_str()).filter(|m| !m.is_empty()).map(String::from);
-        subsets.push(SubsetPart { path, material, indices: Vec::new() });
+        subsets.push(SubsetPart { path, material, triangles: Vec::new() });
     }
     let mut rest = Vec::new();
-    for (t, &f) in mesh.indices.chunks_exact(3).zip(&tri_faces) {
-        match owner.get(f as usize).copied().flatten() {
-            Some(k) => subsets[k as usize].indices.extend_from_slice(t),
-            None => rest.extend_from_slice(t),
+    if !subsets.is_empty() {
+        for t in 0..(mesh.indices.len() / 3) as u32 {
+            match owner.get(mesh.element_of(t) as usize).copied().flatten() {
+                Some(k) => subsets[k as usize].triangles.push(t),
+                None => rest.push(t),
+            }
         }
     }
     MeshGeom::new(mesh, deformation, subsets, rest)
@@ -612,8 +617,9 @@ pub fn motion_keys(mesh: &MeshDesc, d: &Deformation, open: f64, close: f64, tcps
 }
 
 /// [`convert_mesh`], plus the source point of each output vertex (a refined point when
-/// subdivided), the (control) face of each triangle and the subdivision stencil, if any.
-fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Vec<u32>, Option<Stencil>) {
+/// subdivided) and the subdivision stencil, if any. The mesh's `faces` name each triangle's
+/// (control) face.
+fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (MeshDesc, Vec<u32>, Option<Stencil>) {
     let (points, bad_point) = read_points(store, p);
     let ints = |attr: &str, p: &mut Problems| -> Vec<i32> {
         match store.get(attr) {
@@ -795,10 +801,15 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
             indices.push(remap[key]);
         }
     }
+    // each triangle's authored face (none kept where every face is a triangle and none is
+    // dropped: each triangle is then its face)
+    let identity = tris.iter().enumerate().all(|(t, &(f, _))| f as usize == t);
+    let faces = if identity { Vec::new() } else { tris.iter().map(|t| t.0).collect() };
     let mesh = MeshDesc {
         name: name.to_string(),
         positions,
         indices,
+        faces,
         normals: normals.map(|_| out_n),
         uv_name: st.as_ref().and(st_name).map(String::from),
         uvs: st.map(|_| out_uv),
@@ -807,8 +818,7 @@ fn convert_mesh_sources(name: &str, store: &AttrStore, p: &mut Problems) -> (Mes
         primvars,
         origin: Default::default(),
     };
-    let faces = tris.iter().map(|t| t.0).collect();
-    (mesh, sources, faces, stencil)
+    (mesh, sources, stencil)
 }
 
 #[cfg(test)]
@@ -910,6 +920,7 @@ mod tests {
             name: "/Strip".into(),
             positions: positions.clone(),
             indices: vec![0, 1, 2, 2, 1, 3, 2, 3, 4, 4, 3, 5],
+            faces: vec![0, 0, 1, 1],
             normals: Some(positions.iter().map(|p| Vec3::new(0.0, 0.0, 1.0 + p.x)).collect()),
             uvs: Some(positions.iter().map(|p| Vec2::new(p.x, p.y)).collect()),
             uv_name: Some("st".into()),
@@ -926,8 +937,9 @@ mod tests {
             origin: Default::default(),
         };
         // the last two triangles: vertices 2, 3, 4, 5 in first-use order
-        let s = sub_mesh(&m, &m.indices[6..]);
+        let s = sub_mesh(&m, &[2, 3]);
         assert_eq!(s.indices, vec![0, 1, 2, 2, 1, 3]);
+        assert_eq!(s.faces, vec![1, 1], "each triangle keeps its authored face");
         assert_eq!(s.positions, m.positions[2..].to_vec());
         assert_eq!(s.normals.as_deref(), Some(&m.normals.as_ref().unwrap()[2..]));
         assert_eq!(s.uvs.as_deref(), Some(&m.uvs.as_ref().unwrap()[2..]));
@@ -942,8 +954,12 @@ mod tests {
                 assert_eq!(s.positions[s.indices[3 * t + k] as usize], m.positions[m.indices[6 + 3 * t + k] as usize]);
             }
         }
-        // first use decides the order: a triangle listed as (4, 3, 5) comes first
-        assert_eq!(sub_mesh(&m, &[4, 3, 5, 0, 1, 2]).positions, [4, 3, 5, 0, 1, 2].map(|i| m.positions[i]).to_vec());
+        // first use decides the order: triangle 3, (4, 3, 5), listed first comes first
+        let s = sub_mesh(&m, &[3, 0]);
+        assert_eq!(s.positions, [4, 3, 5, 0, 1, 2].map(|i| m.positions[i]).to_vec());
+        assert_eq!(s.faces, vec![1, 0]);
+        let triangles = MeshDesc { faces: Vec::new(), ..m.clone() };
+        assert_eq!(sub_mesh(&triangles, &[3, 0]).faces, vec![3, 0], "a mesh of triangles: each its own face");
     }
 
     fn tri_normal(m: &MeshDesc, t: usize) -> Vec3 {

@@ -30,6 +30,10 @@ pub trait Engine {
     fn samples_per_pixel(&self) -> u32;
     /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
     fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
+    /// An id AOV's pixels exactly, laid as [`Engine::aov_pixels`]'s (None: read the floats).
+    fn aov_ids(&self, _aov: Aov) -> Option<Vec<i32>> {
+        None
+    }
     /// Writes the AOVs, each in its sample format, named by their source names.
     fn write_exr(&self, path: &std::path::Path, aovs: &[(Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()>;
     /// How the engine's acceleration structure was built (None for engines without one).
@@ -74,6 +78,9 @@ impl Engine for Renderer {
     }
     fn aov_pixels(&self, aov: Aov) -> Vec<f32> {
         Renderer::aov_pixels(self, aov)
+    }
+    fn aov_ids(&self, aov: Aov) -> Option<Vec<i32>> {
+        Renderer::aov_ids(self, aov)
     }
     fn write_exr(&self, path: &std::path::Path, aovs: &[(Aov, SampleFormat)], header: &[(String, String)]) -> std::io::Result<()> {
         let named: Vec<(String, Aov, SampleFormat)> = aovs.iter().map(|&(a, f)| (a.source_name().to_string(), a, f)).collect();
@@ -146,6 +153,9 @@ pub struct RenderBuffer {
     /// Holds 32-bit integers (its `format` an int32 one, as Hydra's id AOVs): each value is
     /// rounded and its bits stored in place of the float's.
     int: Arc<AtomicBool>,
+    /// What each pixel holds until a pass publishes into the buffer (a Hydra binding's
+    /// `clearValue`: depth 1, ids -1), a value per channel; empty: zeros.
+    clear: Arc<Mutex<Vec<f64>>>,
 }
 
 /// How an AOV's pixels are laid into the buffer it is bound to.
@@ -248,7 +258,21 @@ impl Output {
             let bits = |v: f32| if v.is_finite() && v.abs() < 2.0e9 { v.round() as i32 } else { -1 };
             pixels.iter_mut().for_each(|v| *v = f32::from_bits(bits(*v) as u32));
         }
-        let row = width as usize * channels;
+        self.flip(&mut pixels, width as usize * channels);
+        pixels
+    }
+
+    /// Ids (one a pixel, `width` wide, rows from the top) laid as a buffer holding integers
+    /// wants them: each one's int32 bits.
+    pub fn lay_ids(&self, ids: Vec<i32>, width: u32) -> Vec<f32> {
+        let mut pixels: Vec<f32> = ids.into_iter().map(|i| f32::from_bits(i as u32)).collect();
+        self.flip(&mut pixels, width as usize);
+        pixels
+    }
+
+    /// Reverses the order of the rows (`row` values each) where the binding's rows run from the
+    /// bottom.
+    fn flip(&self, pixels: &mut [f32], row: usize) {
         if self.binding.bottom_up && row > 0 {
             let rows = pixels.len() / row;
             for y in 0..rows / 2 {
@@ -256,7 +280,6 @@ impl Output {
                 top[y * row..(y + 1) * row].swap_with_slice(&mut rest[..row]);
             }
         }
-        pixels
     }
 }
 
@@ -267,7 +290,44 @@ impl RenderBuffer {
     }
 
     pub fn set_holds_ints(&self, on: bool) {
-        self.int.store(on, Ordering::Relaxed);
+        if self.int.swap(on, Ordering::Relaxed) != on {
+            self.refill_unpublished();
+        }
+    }
+
+    /// Sets the value (one per channel) each pixel holds until a pass publishes into the
+    /// buffer, and gives it to the pixels now where none has since the buffer was sized.
+    pub fn set_clear(&self, values: &[f64]) {
+        let mut c = self.clear.lock().unwrap_or_else(|e| e.into_inner());
+        if *c != values {
+            *c = values.to_vec();
+            drop(c);
+            self.refill_unpublished();
+        }
+    }
+
+    /// `width` × `height` pixels of the clear value, with its channel count (`channels` of
+    /// zeros without one).
+    fn cleared(&self, width: u32, height: u32, channels: u32) -> (u32, Vec<f32>) {
+        let clear = self.clear.lock().unwrap_or_else(|e| e.into_inner()).clone();
+        let n = width as usize * height as usize;
+        if clear.is_empty() {
+            return (channels, vec![0.0; n * channels as usize]);
+        }
+        let int = self.holds_ints();
+        let one: Vec<f32> = clear.iter().map(|&v| if int { f32::from_bits((v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32) as u32) } else { v as f32 }).collect();
+        (one.len() as u32, one.repeat(n))
+    }
+
+    /// Gives the clear value to the pixels where no pass has published since the buffer was
+    /// sized.
+    fn refill_unpublished(&self) {
+        let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
+        if g.samples == 0 {
+            let (channels, pixels) = self.cleared(g.width, g.height, g.channels);
+            g.channels = channels;
+            g.pixels = pixels;
+        }
     }
 
     /// Whether passes fill this buffer (they do unless told otherwise).
@@ -285,10 +345,12 @@ impl RenderBuffer {
         b
     }
 
-    /// Sets the dimensions, clearing the pixels.
+    /// Sets the dimensions, clearing the pixels (to the clear value where there is one, with
+    /// its channel count; else `channels` of zeros).
     pub fn resize(&self, width: u32, height: u32, channels: u32) {
+        let (channels, pixels) = self.cleared(width, height, channels);
         let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
-        *g = MappedBuffer { width, height, channels, pixels: vec![0.0; (width * height * channels) as usize], samples: 0 };
+        *g = MappedBuffer { width, height, channels, pixels, samples: 0 };
     }
 
     /// A copy of the current pixels with their dimensions.
@@ -304,6 +366,11 @@ impl RenderBuffer {
     pub fn dimensions(&self) -> (u32, u32) {
         let g = self.inner.read().unwrap_or_else(|e| e.into_inner());
         (g.width, g.height)
+    }
+
+    /// Whether a pass has published into the buffer since it was sized.
+    pub fn published(&self) -> bool {
+        self.inner.read().unwrap_or_else(|e| e.into_inner()).samples > 0
     }
 
     /// The current (width, height, channels).
@@ -719,11 +786,18 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         let (w, h) = (job.settings.width, job.settings.height);
         for (out, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
             let aov = out.binding.aov;
-            let px = e.aov_pixels(aov);
+            let whole = (w * h) as usize * aov.channels();
             // A film that does not match the job's size is not published (the buffer keeps
-            // its last consistent pixels).
-            if px.len() == (w * h) as usize * aov.channels() {
-                let px = out.lay(px, w, aov.channels(), buf.holds_ints());
+            // its last consistent pixels). Ids go into a buffer of integers exactly (a float
+            // holds them only up to 2^24).
+            let laid = match buf.holds_ints().then(|| e.aov_ids(aov)).flatten() {
+                Some(ids) => (ids.len() == whole).then(|| out.lay_ids(ids, w)),
+                None => {
+                    let px = e.aov_pixels(aov);
+                    (px.len() == whole).then(|| out.lay(px, w, aov.channels(), buf.holds_ints()))
+                }
+            };
+            if let Some(px) = laid {
                 buf.publish(w, h, aov.channels() as u32, px, e.samples_per_pixel());
             }
         }
@@ -1006,8 +1080,40 @@ pub(crate) mod tests {
         assert_eq!(depth.lay(vec![z as f32, f32::INFINITY], 1, 1, false), [1.0, persp.of(z as f32)]);
         let camera = Output { binding: Binding::hydra("cameraDepth").unwrap(), clip: persp };
         assert_eq!(camera.lay(vec![z as f32, 3.0], 1, 1, false), [3.0, z as f32]);
-        assert_eq!(Binding::hydra("elementId"), None);
+        assert_eq!(Binding::hydra("elementId").map(|b| b.aov), Some(Aov::ElementId));
+        assert_eq!(Binding::hydra("pointId"), None);
         assert_eq!(Binding::hydra("tide:caustics").map(|b| b.aov), Some(Aov::Caustics));
+        // exact ids: their bits, rows from the bottom, past where a float counts in ones
+        let big = (1 << 24) + 1;
+        let laid = hd.lay_ids(vec![big, -1, 0, 2, 3, big + 2], 2);
+        assert_eq!(laid.iter().map(|v| v.to_bits() as i32).collect::<Vec<_>>(), [3, big + 2, 0, 2, big, -1]);
+    }
+
+    /// A buffer holds its clear value (a value per channel; ids as int32 bits) from when it is
+    /// sized until a pass publishes into it, and keeps what a pass published when the clear
+    /// value is set again (as each execution of a Hydra pass does).
+    #[test]
+    fn a_buffer_holds_its_clear_value_until_a_pass_publishes() {
+        let ints = |b: &RenderBuffer| b.map().pixels.iter().map(|v| v.to_bits() as i32).collect::<Vec<_>>();
+        let b = RenderBuffer::new(2, 1, 4);
+        assert_eq!(b.map().pixels, [0.0; 8], "no clear value: zeros");
+        b.set_clear(&[0.25, 0.5, 1.0, 0.0]);
+        assert_eq!(b.map().pixels, [0.25, 0.5, 1.0, 0.0, 0.25, 0.5, 1.0, 0.0]);
+        b.set_holds_ints(true);
+        b.set_clear(&[-1.0]);
+        assert_eq!((b.shape(), ints(&b)), ((2, 1, 1), vec![-1, -1]));
+        b.resize(3, 1, 4);
+        assert_eq!((b.shape(), ints(&b)), ((3, 1, 1), vec![-1, -1, -1]));
+        assert!(!b.published());
+        b.publish(3, 1, 1, vec![f32::from_bits(7); 3], 1);
+        b.set_clear(&[-1.0]);
+        b.set_clear(&[-2.0]);
+        assert!(b.published());
+        assert_eq!(ints(&b), [7, 7, 7], "what a pass published stays");
+        b.set_holds_ints(false);
+        assert_eq!(ints(&b), [7, 7, 7]);
+        b.resize(1, 1, 4);
+        assert_eq!(b.map().pixels, [-2.0]);
     }
 
     #[test]

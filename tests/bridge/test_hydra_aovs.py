@@ -1,7 +1,8 @@
 """Render buffers laid out as Hydra's want them (what hdx's picking, selection highlight and
 depth compositing read, through the Hydra plugin's render pass): rows from the bottom, `depth`
 as the clip-space depth of the camera's projection mapped to [0, 1], `cameraDepth` the distance
-along the view axis, `primId` and `instanceId` as int32. The expectations come from the scene's
+along the view axis, `primId`, `instanceId` and `elementId` (the authored face) as int32, each
+holding its binding's clear value until a pass publishes. The expectations come from the scene's
 geometry and usd-core's own projection matrix (`Gf.Camera`), as hdx unprojects a pick."""
 import array
 import math
@@ -17,6 +18,9 @@ NEAR, FAR = 0.5, 50.0
 WALL_Z, QUAD_Z = -10.0, -4.0
 # the wall stops below this height: the rows under it see nothing
 WALL_BOTTOM = -1.0
+# the wall's faces split it at these x: a quad, a pentagon (its fifth corner out of view above),
+# a quad; the pentagon's three triangles are all face 1
+WALL_SPLITS = (-0.6, 0.8)
 # the instanced quad's rectangle (x0, x1, y0, y1) at QUAD_Z, and its instances' x offsets; the
 # middle instance's matrix is not finite, so it is dropped and the third keeps its index 2
 QUAD = (-1.9, -0.1, 0.1, 1.4)
@@ -42,12 +46,19 @@ def build(d):
     d.set("/Render", "tide:samples", 1)
     d.set("/Render", "tide:integrator", ("token", "path"))
     assert d.create_sprim("domeLight", "/Dome")
-    quads = {"/Wall": (-20.0, 20.0, WALL_BOTTOM, 20.0, WALL_Z, WALL_ID), "/Quad": (*QUAD, QUAD_Z, QUAD_ID)}
-    for path, (x0, x1, y0, y1, z, pid) in quads.items():
+    a, b = WALL_SPLITS
+    y0, y1, z = WALL_BOTTOM, 20.0, WALL_Z
+    wall = [(-20, y0), (a, y0), (b, y0), (20, y0), (20, y1), (b, y1), (a, y1), (-20, y1), ((a + b) / 2, y1 + 1)]
+    x0, x1, qy0, qy1 = QUAD
+    meshes = {
+        "/Wall": (wall, [4, 5, 4], [0, 1, 6, 7, 1, 2, 5, 8, 6, 2, 3, 4, 5], WALL_Z, WALL_ID),
+        "/Quad": ([(x0, qy0), (x1, qy0), (x1, qy1), (x0, qy1)], [4], [0, 1, 2, 3], QUAD_Z, QUAD_ID),
+    }
+    for path, (points, counts, indices, z, pid) in meshes.items():
         assert d.create_rprim("mesh", path)
-        d.set_array(path, "points", floats([x0, y0, z, x1, y0, z, x1, y1, z, x0, y1, z]), 3, "f")
-        d.set_array(path, "faceVertexCounts", [4], 1, "i")
-        d.set_array(path, "faceVertexIndices", array.array("i", [0, 1, 2, 3]), 1, "i")
+        d.set_array(path, "points", floats([c for x, y in points for c in (x, y, z)]), 3, "f")
+        d.set_array(path, "faceVertexCounts", counts, 1, "i")
+        d.set_array(path, "faceVertexIndices", array.array("i", indices), 1, "i")
         d.set(path, "primId", pid)
     nan = float("nan")
     mats = [v for x in OFFSETS for v in (translate(x) if x is not None else [nan] * 16)]
@@ -85,8 +96,8 @@ def through(proj):
 
 
 def what_is_seen(col, row, ray=lens):
-    """What the whole of the pixel (col, row from the top) sees: ('quad', instance),
-    ('wall', -1), ('miss', -1), or None where its corners see different things."""
+    """What the whole of the pixel (col, row from the top) sees: ('quad', instance, 0),
+    ('wall', -1, face), ('miss', -1, -1), or None where its corners see different things."""
     seen = set()
     for u in (0.0, 1.0):
         for v in (0.0, 1.0):
@@ -95,9 +106,10 @@ def what_is_seen(col, row, ray=lens):
             hit = None
             for k, off in enumerate(OFFSETS):
                 if off is not None and QUAD[0] + off <= x <= QUAD[1] + off and QUAD[2] <= y <= QUAD[3]:
-                    hit = ("quad", k)
-            if hit is None:
-                hit = ("wall", -1) if -WALL_Z * sy >= WALL_BOTTOM else ("miss", -1)
+                    hit = ("quad", k, 0)
+            if hit is None and -WALL_Z * sy >= WALL_BOTTOM:
+                hit = ("wall", -1, sum(-WALL_Z * sx > split for split in WALL_SPLITS))
+            hit = hit or ("miss", -1, -1)
             seen.add(hit)
     return seen.pop() if len(seen) == 1 else None
 
@@ -105,7 +117,7 @@ def what_is_seen(col, row, ray=lens):
 def test_hydra_buffers_hold_clip_depth_int_ids_and_rows_from_the_bottom():
     d = _tide.RenderDelegate()
     build(d)
-    plain = {"color": "float4", "depth": "float", "primId": "float", "instanceId": "float"}
+    plain = {"color": "float4", "depth": "float", "primId": "float", "instanceId": "float", "elementId": "float"}
     hydra = {"color": "float4", "depth": "float", "cameraDepth": "float", "primId": "int32", "instanceId": "int32", "elementId": "int32"}
     for aov, fmt in plain.items():
         buffer(d, "/Out/usd/" + aov, fmt)
@@ -120,10 +132,8 @@ def test_hydra_buffers_hold_clip_depth_int_ids_and_rows_from_the_bottom():
     usd = {a: values(d, "/Out/usd/" + a) for a in plain}
     p.execute("/Cam", [(a, "/Out/hd/" + a) for a in hydra], "/Render", hydra=True)
     assert p.wait(60.0) and p.error() is None
-    hd = {a: values(d, "/Out/hd/" + a) for a in hydra if a != "elementId"}
-    # an AOV Tide does not render is named, and the rest renders
-    problems = d.commit_resources()
-    assert any(q[0] == "/Out/hd/elementId" and "elementId" in q[2] for q in problems), problems
+    hd = {a: values(d, "/Out/hd/" + a) for a in hydra}
+    assert d.commit_resources() == []
 
     # the same render, its rows from the bottom; cameraDepth is the film's depth
     assert hd["color"] == usd["color"][::-1]
@@ -152,15 +162,18 @@ def check_picks(hd, usd, proj, ray):
             seen = what_is_seen(col, row, ray)
             if seen is None:
                 continue
-            kind, instance = seen
+            kind, instance, element = seen
             counts[seen] = counts.get(seen, 0) + 1
             up = H - 1 - row
             depth = hd["depth"][up][col]
             want_id = {"quad": QUAD_ID, "wall": WALL_ID, "miss": -1}[kind]
             assert hd["primId"][up][col] == want_id, (col, row, seen)
             assert hd["instanceId"][up][col] == instance, (col, row, seen)
+            if "elementId" in hd:
+                assert hd["elementId"][up][col] == element, (col, row, seen)
             if usd is not None:
                 assert usd["primId"][row][col] == want_id and usd["instanceId"][row][col] == instance
+                assert usd["elementId"][row][col] == element
                 assert math.isinf(usd["depth"][row][col]) == (kind == "miss")
             if kind == "miss":
                 assert depth == 1.0
@@ -175,7 +188,8 @@ def check_picks(hd, usd, proj, ray):
             sx, sy = ray(col + 0.5, row + 0.5)
             assert abs(hit[0] - -z * sx) < 1e-3 and abs(hit[1] - -z * sy) < 1e-3, (col, row, hit)
     # every case was seen by whole pixels
-    assert all(counts.get(k, 0) >= 4 for k in [("quad", 0), ("quad", 2), ("wall", -1), ("miss", -1)]), counts
+    wanted = [("quad", 0, 0), ("quad", 2, 0), ("miss", -1, -1)] + [("wall", -1, f) for f in range(3)]
+    assert all(counts.get(k, 0) >= 4 for k in wanted), counts
 
 
 def test_unknown_aovs_still_fail_a_usd_pass():
@@ -185,9 +199,9 @@ def test_unknown_aovs_still_fail_a_usd_pass():
     d.commit_resources()
     p = d.create_render_pass()
     try:
-        p.execute("/Cam", [("elementId", "/Out/x")], "/Render")
+        p.execute("/Cam", [("pointId", "/Out/x")], "/Render")
     except RuntimeError as e:
-        assert "elementId" in str(e)
+        assert "pointId" in str(e)
     else:
         raise AssertionError("a usd pass took an AOV Tide does not render")
 
@@ -228,3 +242,49 @@ def test_a_hydra_pass_frames_the_image_as_its_projection_says():
     problems = d.commit_resources()
     assert any(q[0] == "/Cam" and q[1] == "projection" for q in problems), problems
     assert values(d, "/Out/hd/color") == whole["color"]
+    # said once, not at every execution (a viewer executes its pass each frame it draws)
+    ortho_flat = [m[i][j] for i in range(4) for j in range(4)]
+    p.execute("/Cam", bindings, "/Render", hydra=True, projection=ortho_flat)
+    assert p.wait(60.0) and p.error() is None
+    assert d.commit_resources() == []
+
+
+def test_hydra_buffers_hold_their_clear_values_until_a_pass_publishes():
+    """Each buffer holds its binding's clear value (hdx's: depth 1, ids -1) from when it is
+    sized until a pass publishes into it: what hdx reads before the first pass ends, and after
+    a resize."""
+    d = _tide.RenderDelegate()
+    build(d)
+    hydra = {"color": "float4", "depth": "float", "primId": "int32", "elementId": "int32"}
+    clear = {"color": [0.25, 0.5, 0.75, 0.0], "depth": 1.0, "primId": -1, "elementId": -1}
+    for aov, fmt in hydra.items():
+        buffer(d, "/Out/hd/" + aov, fmt)
+    d.commit_resources()
+    p = d.create_render_pass()
+    bindings = [(a, "/Out/hd/" + a) for a in hydra]
+    p.execute("/Cam", bindings, "/Render", hydra=True, clear_values={"/Out/hd/" + a: v for a, v in clear.items()})
+    assert p.wait(60.0) and p.error() is None
+    rendered = {a: values(d, "/Out/hd/" + a) for a in hydra}
+    assert {v for row in rendered["primId"] for v in row} == {-1, WALL_ID, QUAD_ID}
+    assert {v for row in rendered["elementId"] for v in row} == {-1, 0, 1, 2}
+    # resized: the clear value at the new size
+    for a in hydra:
+        d.set_array("/Out/hd/" + a, "dimensions", [5, 3], 1, "i")
+    assert d.commit_resources() == []
+    for a, v in clear.items():
+        w, h, c, data = d.map_buffer("/Out/hd/" + a)
+        want = v if isinstance(v, list) else [v]
+        assert (w, h, c) == (5, 3, len(want)), a
+        assert list(struct.unpack("%df" % (len(data) // 4), data)) == want * 15, a
+    # without clear values the next pass's buffers start from zeros
+    with_zeros = {"/Out/hd/" + a: 0.0 for a in hydra if a != "color"}
+    for a in hydra:
+        d.set_array("/Out/hd/" + a, "dimensions", [4, 2], 1, "i")
+    p.execute("/Cam", bindings, "/Render", hydra=True, clear_values=with_zeros)
+    try:
+        p.execute("/Cam", bindings, "/Render", hydra=True, clear_values={"/Out/elsewhere": 1.0})
+    except ValueError as e:
+        assert "/Out/elsewhere" in str(e)
+    else:
+        raise AssertionError("a clear value for a buffer not bound was taken")
+    assert p.wait(60.0) and p.error() is None

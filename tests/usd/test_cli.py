@@ -4,9 +4,9 @@ import os
 import subprocess
 
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
 
-from conftest import ROOT, camera, settings
+from conftest import ROOT, bind, camera, preview_material, settings
 
 TIDE = os.path.join(ROOT, "tide")
 
@@ -547,6 +547,59 @@ def test_the_instance_id_aov_reads_each_instances_index_in_its_point_instancer(t
     assert seen == [0.0, 1.0, -1.0, 3.0, 4.0], seen
     # the floor (drawn once) and the sky
     assert float(ids[row(-0.8), col(0)]) == -1.0 and float(ids[0, 0]) == -1.0
+
+
+def test_the_element_id_aov_reads_the_authored_face_or_point(tmp_path):
+    """`elementId` is the authored face a pixel sees, whatever its vertex count, through a
+    hole, a left-handed winding and a GeomSubset that gives some faces another material (each
+    part keeps its faces' numbers); and the authored point of a points prim, counting one
+    dropped for its zero width. The background reads -1."""
+    import OpenEXR
+    path = str(tmp_path / "scene.usda")
+    s = Usd.Stage.CreateNew(path)
+    camera(s, aperture=(36.0, 18.0))
+    y0, y1 = 0.3, 1.1
+    faces = [
+        [(-2.4, y0), (-1.3, y0), (-1.3, y1), (-2.4, y1)],
+        [(-1.2, y0), (-0.1, y0), (0.0, 0.7), (-0.1, y1), (-1.2, y1), (-1.25, 0.7)],
+        [(0.1, y0), (1.1, y0), (1.1, y1), (0.1, y1)],
+        [(1.3, y0), (2.4, y0), (1.85, y1)],
+    ]
+    mesh = UsdGeom.Mesh.Define(s, "/Set/Panel")
+    # left-handed: each face listed clockwise to face the camera
+    corners = [c for f in faces for c in reversed(f)]
+    mesh.CreatePointsAttr([Gf.Vec3f(x, y, -8) for x, y in corners])
+    mesh.CreateFaceVertexCountsAttr([len(f) for f in faces])
+    mesh.CreateFaceVertexIndicesAttr(list(range(len(corners))))
+    mesh.CreateOrientationAttr(UsdGeom.Tokens.leftHanded)
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    mesh.CreateHoleIndicesAttr([2])
+    bind(mesh.GetPrim(), preview_material(s, "/Looks/Grey"))
+    subset = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).CreateMaterialBindSubset("Red", [0, 3])
+    bind(subset.GetPrim(), preview_material(s, "/Looks/Red", color=(0.8, 0.1, 0.1)))
+    drops = UsdGeom.Points.Define(s, "/Set/Drops")
+    xs = [-1.8, -0.6, 0.6, 1.8]
+    drops.CreatePointsAttr([Gf.Vec3f(x, -0.6, -8) for x in xs])
+    drops.CreateWidthsAttr([0.6, 0.0, 0.6, 0.6])
+    UsdLux.DomeLight.Define(s, "/Sky")
+    settings(s, vars_=("color", "elementId"), product="ids.exr", res=(64, 32))
+    s.GetRootLayer().Save()
+    out = run(["render", path, "--spp", "1"], tmp_path, fake=False)
+    if out.returncode == 1 and "module" in out.stderr:
+        pytest.skip("needs the built module")
+    assert out.returncode == 0, out.stderr
+    assert "/Set/Drops: widths" in out.stderr, out.stderr
+    with OpenEXR.File(str(tmp_path / "ids.exr"), separate_channels=True) as f:
+        ids = f.channels()["elementId.R"].pixels
+    # 36 mm aperture, 50 mm lens, 8 units away: 64 columns span 5.76 units
+    col = lambda x: int(32 + x / 8 * 50 / 36 * 64)
+    row = lambda y: int(16 - y / 8 * 50 / 36 * 64)
+    centres = [sum(x for x, _ in f) / len(f) for f in faces]
+    seen = [float(ids[row(0.7), col(x)]) for x in centres]
+    assert seen == [0.0, 1.0, -1.0, 3.0], seen
+    seen = [float(ids[row(-0.6), col(x)]) for x in xs]
+    assert seen == [0.0, -1.0, 2.0, 3.0], seen
+    assert float(ids[0, 0]) == -1.0
 
 
 def test_the_preview_is_the_renders_colour_through_the_srgb_view(tmp_path):

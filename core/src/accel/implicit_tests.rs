@@ -260,6 +260,7 @@ fn the_bvh_finds_what_the_primitives_say() {
             scales: Some(vec![Vec3::ONE, Vec3::ONE, Vec3::new(2.0, 0.5, 1.0), Vec3::ONE]),
         },
         primvars: Vec::new(),
+        ids: Vec::new(),
         origin: Default::default(),
     };
     let bs = bubbles();
@@ -270,6 +271,7 @@ fn the_bvh_finds_what_the_primitives_say() {
         velocities: None,
         shape: PointShape::Bubbles { top: bs.iter().map(|b| b.top).collect(), bottom: bs.iter().map(|b| b.bottom).collect(), orientations: Some(bs.iter().map(|b| b.rot).collect()) },
         primvars: Vec::new(),
+        ids: Vec::new(),
         origin: Default::default(),
     };
     let m = Mat4::from_translation(Vec3::new(0.0, 0.0, -3.0));

@@ -335,7 +335,7 @@ pub fn ocean_mesh_with_horizon_seen(params: &OceanParams, time: f64, view: &Ocea
         }
     }
     let normals = vec![Vec3::Y; positions.len()];
-    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), positions, indices, normals: Some(normals), uvs: Some(uvs), uv_name: None, double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() };
+    let skirt = MeshDesc { name: "TideOcean horizon".to_string(), faces: Vec::new(), positions, indices, normals: Some(normals), uvs: Some(uvs), uv_name: None, double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() };
     Ok((mesh, Some(skirt)))
 }
 
@@ -466,7 +466,7 @@ fn build(params: &OceanParams, time: f64, view: &OceanView) -> Result<(MeshDesc,
     let shares = b.vertex_levels.iter().map(|&lv| share(lv)).collect();
     let primvars = vec![crate::scene::PrimvarData { name: crate::scene::SEA_SHARE_PRIMVAR.into(), tuple: 1, constant: false, data: shares }];
     let (span, delta, offset) = ((b.lo, b.hi), b.delta, b.offset);
-    let mesh = MeshDesc { name: "TideOcean".to_string(), uv_name: None, positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars, origin: Default::default() };
+    let mesh = MeshDesc { name: "TideOcean".to_string(), faces: Vec::new(), uv_name: None, positions: b.positions, indices: b.indices, normals: Some(b.normals), uvs: Some(b.uvs), double_sided: false, motion: None, primvars, origin: Default::default() };
     Ok((mesh, b.rim, span, delta, offset))
 }
 

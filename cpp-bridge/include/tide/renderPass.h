@@ -19,6 +19,9 @@ struct RenderPassAovBinding {
     std::string renderBufferId;
     /// Optional: marked converged when the pass is.
     RenderBuffer* renderBuffer = nullptr;
+    /// What the buffer holds until the first pass publishes into it, a value per channel
+    /// (HdRenderPassAovBinding::clearValue: depth 1, ids -1); empty: zeros.
+    std::vector<double> clearValue;
 };
 
 /// What a pass renders (the part of HdRenderPassState Tide uses).

@@ -138,7 +138,7 @@ BINDING_PURPOSES = ("full", "preview", "")
 UNTAGGED_UNLESS_AUTHORED = ("tide:caustics:caster", "tide:caustics:emitter")
 AOVS = {
     "color": "float4", "depth": "float", "normal": "float3",
-    "albedo": "float3", "primId": "float", "instanceId": "float", "tide:diffuse": "float3",
+    "albedo": "float3", "primId": "float", "instanceId": "float", "elementId": "float", "tide:diffuse": "float3",
     "tide:specular": "float3", "tide:transmission": "float3",
     "tide:volume": "float3", "tide:emission": "float3",
     "tide:caustics": "float3", "tide:guiding": "float3",

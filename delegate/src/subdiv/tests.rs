@@ -635,11 +635,13 @@ fn usd_mesh_with_time_samples_subsets_and_st() {
     assert!(p.list.is_empty(), "{:?}", p.list);
     let m = &g.mesh;
     assert_eq!(m.indices.len(), 2 * 16 * 2 * 3);
-    assert_eq!(g.subsets[0].indices.len(), 16 * 2 * 3);
-    assert_eq!(g.rest.len(), 16 * 2 * 3);
-    // the subset holds the left face's children (x ≤ 1 at frame 0), the rest the right one's
-    assert!(g.subsets[0].indices.iter().all(|&i| m.positions[i as usize].x <= 1.0 + 1e-6));
-    assert!(g.rest.iter().all(|&i| m.positions[i as usize].x >= 1.0 - 1e-6));
+    assert_eq!(g.subsets[0].triangles.len(), 16 * 2);
+    assert_eq!(g.rest.len(), 16 * 2);
+    // the subset holds the left face's children (x ≤ 1 at frame 0), the rest the right one's;
+    // each refined triangle's element is its control face
+    let corners = |t: u32| m.indices[3 * t as usize..3 * t as usize + 3].iter().map(|&i| m.positions[i as usize].x).collect::<Vec<_>>();
+    assert!(g.subsets[0].triangles.iter().all(|&t| corners(t).iter().all(|&x| x <= 1.0 + 1e-6) && m.element_of(t) == 0));
+    assert!(g.rest.iter().all(|&t| corners(t).iter().all(|&x| x >= 1.0 - 1e-6) && m.element_of(t) == 1));
     // faceVarying st: the control face's bilinear split, here the refined (x, y) themselves,
     // and the normals from the limit surface (+z for the planar grid)
     let (uvs, normals) = (m.uvs.as_ref().unwrap(), m.normals.as_ref().unwrap());
