@@ -1,9 +1,10 @@
 """Load time of a large PointInstancer: COUNT instances of two prototypes scattered in a box
 (a tenth hidden by invisibleIds), read through the usd-core reader and committed to the
 delegate; with --moving, velocities and accelerations too (the instances then move over the
-half-frame shutter). Prints the reader's and the commit's times and the process's peak RSS.
+half-frame shutter), with --spinning angular velocities as well. Prints the reader's and the
+commit's times and the process's peak RSS.
 
-    .venv/bin/python bench/front_door_point_instancer.py [--count 1000000] [--moving] [REPO_ROOT]
+    .venv/bin/python bench/front_door_point_instancer.py [--count 1000000] [--moving [--spinning]] [REPO_ROOT]
 
 REPO_ROOT (default: this checkout) picks the `tide` package whose reader and module are
 measured, so an earlier build can be measured by the same script.
@@ -17,6 +18,7 @@ from measure import THIS_CHECKOUT, load_timed, peak_mib, tide_from
 ap = argparse.ArgumentParser()
 ap.add_argument("--count", type=int, default=1000000)
 ap.add_argument("--moving", action="store_true", help="velocities and accelerations")
+ap.add_argument("--spinning", action="store_true", help="with --moving: angular velocities too")
 ap.add_argument("root", nargs="?", default=THIS_CHECKOUT)
 args = ap.parse_args()
 usd_reader, module = tide_from(args.root)
@@ -46,8 +48,10 @@ pi.CreateInvisibleIdsAttr(Vt.Int64Array.FromNumpy(np.arange(0, n, 10, dtype=np.i
 if args.moving:
     pi.CreateVelocitiesAttr(Vt.Vec3fArray.FromNumpy(rng.normal(0, 1, (n, 3)).astype(np.float32)))
     pi.CreateAccelerationsAttr(Vt.Vec3fArray.FromNumpy(np.tile(np.float32([0, -9.8, 0]), (n, 1))))
+    if args.spinning:
+        pi.CreateAngularVelocitiesAttr(Vt.Vec3fArray.FromNumpy(rng.normal(0, 360, (n, 3)).astype(np.float32)))
 
 _, read_s, commit_s, problems = load_timed(usd_reader, module, s)
 print("%d PointInstancer instances%s: reader %.2f s, commit %.2f s, peak %.0f MiB%s"
-      % (n, " moving" if args.moving else "", read_s, commit_s, peak_mib(),
+      % (n, (" spinning" if args.spinning else "") + (" moving" if args.moving else ""), read_s, commit_s, peak_mib(),
          "; problems: %s" % problems if problems else ""))

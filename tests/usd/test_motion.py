@@ -209,6 +209,40 @@ def test_point_instancer_angular_velocities_sweep_an_arc(stage, delegate, count)
         assert np.allclose(mats[1][:3, :3], np.eye(3), atol=1e-6)
 
 
+def test_angular_velocities_turn_each_instance_about_its_own_position(stage, delegate):
+    """Instances with their own orientations and scales, spun about tilted axes (one not at
+    all) while they travel: at each key, Gf's own matrices (the instance's, moved to the
+    origin, turned by |w| dt degrees about w, moved back), carried along by the velocity."""
+    _shutter_cam(stage, -0.5, 0.5)
+    inst = _instancer(stage)
+    inst.CreateProtoIndicesAttr([0, 0, 0])
+    inst.CreatePositionsAttr([(0, 0, -10), (0, 3, -10), (2, 1, -12)])
+    inst.CreateOrientationsAttr([Gf.Quath(1, 0, 0, 0), Gf.Quath(0.8, 0.6, 0, 0), Gf.Quath(0.6, 0, 0, 0.8)])
+    inst.CreateScalesAttr([(1, 1, 1), (2, 0.5, 1), (1, 3, 0.25)])
+    omega = [(0, 0, 0), (300, -200, 100), (-50, 400, 250)]   # degrees per second
+    inst.CreateAngularVelocitiesAttr(omega)
+    inst.CreateVelocitiesAttr([(24, 0, 0)] * 3)
+    _, problems = load(stage, delegate)
+    assert problems == [], problems
+    got = _instance_samples(delegate, "/PI/proto0_Ball")
+    assert [t for t, _ in got] == [-0.5, -0.25, 0.0, 0.25, 0.5]
+    base = inst.ComputeInstanceTransformsAtTime(Usd.TimeCode(1), Usd.TimeCode(1))
+    for t, mats in got:
+        dt = t / TCPS
+        for i, w in enumerate(omega):
+            m = Gf.Matrix4d(base[i])
+            p = m.ExtractTranslation()
+            deg = Gf.Vec3d(*w).GetLength() * dt
+            if deg:
+                m = m * Gf.Matrix4d().SetTranslate(-p) * Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(*w), deg)) * \
+                    Gf.Matrix4d().SetTranslate(p + Gf.Vec3d(24 * dt, 0, 0))
+            else:
+                m = m * Gf.Matrix4d().SetTranslate(Gf.Vec3d(24 * dt, 0, 0))
+            assert np.allclose(mats[i], np.array(m), atol=1e-5), (t, i, mats[i], m)
+    # the turn is not the identity: the spun instances' axes move between the ends
+    assert not np.allclose(got[0][1][1][:3, :3], got[-1][1][1][:3, :3], atol=0.1)
+
+
 def test_a_meshs_nonlinear_sample_count_is_sent_with_its_accelerations(stage, delegate):
     """motion:nonlinearSampleCount (inherited from an ancestor) reaches the delegate with a
     mesh's accelerations, which it keys that many times."""

@@ -319,6 +319,21 @@ def _times_matrix(ms, w):
     return out.reshape(-1, 4, 4)
 
 
+def _turns(w, dt):
+    """The rotations (n x 3 x 3, USD's row-vector convention, as Gf.Rotation's matrix) by
+    |w| dt degrees about each axis w (n x 3, degrees per second); the identity where w is zero."""
+    speed = np.linalg.norm(w, axis=1)
+    k = np.divide(w, speed[:, None], out=np.zeros_like(w), where=speed[:, None] > 0)
+    a = np.radians(speed * dt)
+    c, s = np.cos(a)[:, None, None], np.sin(a)[:, None, None]
+    # Rodrigues' formula transposed (rows rotate): I cos a - sin a [k]x + (1 - cos a) k k^T
+    cross = np.zeros((len(w), 3, 3))
+    cross[:, 0, 1], cross[:, 0, 2] = -k[:, 2], k[:, 1]
+    cross[:, 1, 0], cross[:, 1, 2] = k[:, 2], -k[:, 0]
+    cross[:, 2, 0], cross[:, 2, 1] = -k[:, 1], k[:, 0]
+    return np.eye(3) * c - s * cross + (1 - c) * k[:, :, None] * k[:, None, :]
+
+
 def _floats(data, tuple_size):
     arr = np.ascontiguousarray(np.asarray(data, dtype=np.float32).reshape(-1))
     return ("floats", int(tuple_size), arr.tobytes())
@@ -2721,13 +2736,9 @@ class Reader:
             if "accelerations" in rates:
                 p += rates["accelerations"] * 0.5 * dt * dt
             if "angularVelocities" in rates:
-                for i, w in enumerate(rates["angularVelocities"]):
-                    deg = float(np.linalg.norm(w)) * dt
-                    if deg != 0.0:
-                        turn = Gf.Matrix4d().SetRotate(Gf.Rotation(Gf.Vec3d(*w), deg))
-                        m = Gf.Matrix4d(base[i]) * Gf.Matrix4d().SetTranslate(-Gf.Vec3d(*p0[i])) * \
-                            turn * Gf.Matrix4d().SetTranslate(Gf.Vec3d(*p0[i]))
-                        out[i] = np.asarray(m, dtype=np.float64)
+                # each instance turned about its own position (its translation is set below):
+                # its 3 x 3 part times the turn, as a row-vector matrix
+                out[:, :3, :3] = base_arr[:, :3, :3] @ _turns(rates["angularVelocities"], dt)
             out[:, 3, :3] = p
             return out
 
