@@ -19,6 +19,7 @@ pub mod math;
 pub mod medium;
 pub mod noise;
 pub mod ocean;
+pub mod pause;
 pub mod render;
 pub mod sampler;
 pub mod scene;
@@ -33,5 +34,6 @@ pub mod water;
 pub mod world;
 
 pub use film::SampleFormat;
+pub use pause::PauseGate;
 pub use render::{Aov, AovSet, IntegratorKind, PassProgress, Problem, RenderError, RenderSettings, RenderStats, Renderer};
 pub use scene::SceneDesc;

@@ -507,9 +507,16 @@ impl Renderer {
     /// finished. A first pass given up leaves pixels without samples (see
     /// [`Renderer::unsampled_pixels`]).
     pub fn render_pass_until(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
+        self.render_pass_paused(spp, cancel, deadline, None)
+    }
+
+    /// [`Renderer::render_pass_until`] whose workers wait at their next pixel while `gate` is
+    /// paused (see [`crate::pause`]): the pass goes on where it stopped, sample for sample as
+    /// if never paused, and the deadline and the render's time leave the pause out.
+    pub fn render_pass_paused(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>, gate: Option<&crate::pause::PauseGate>) -> bool {
         let [x0, y0, x1, y1] = self.film.window;
         self.progress.start((x1 - x0) as u64 * (y1 - y0) as u64 * spp as u64);
-        self.pass(spp, cancel, deadline)
+        self.pass(spp, cancel, deadline, gate)
     }
 
     /// How far the pass under way has got, for another thread to read while it renders.
@@ -518,7 +525,7 @@ impl Renderer {
     }
 
     /// [`Renderer::render_pass_until`]'s pass (or one of the photon passes it is cut into).
-    fn pass(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>) -> bool {
+    fn pass(&mut self, spp: u32, cancel: Option<&AtomicBool>, deadline: Option<std::time::Instant>, gate: Option<&crate::pause::PauseGate>) -> bool {
         use crate::film::SampleValue;
         use crate::spectrum::color;
         use rayon::prelude::*;
@@ -532,7 +539,7 @@ impl Renderer {
             let mut left = spp;
             while left > 0 {
                 let k = left.min(PHOTON_PASS_MAX_SPP);
-                if !self.pass(k, cancel, deadline) {
+                if !self.pass(k, cancel, deadline, gate) {
                     return false;
                 }
                 left -= k;
@@ -540,6 +547,7 @@ impl Renderer {
             return true;
         }
         let start = std::time::Instant::now();
+        let paused_before = gate.map_or(std::time::Duration::ZERO, |g| g.paused_time());
         let [x0, y0, x1, y1] = self.film.window;
         let mut tiles = Vec::new();
         let mut ty = y0;
@@ -571,7 +579,11 @@ impl Renderer {
         let film_layout = self.film.layout();
         // pixels without samples are left only by a first pass given up (counted at its end)
         let first_pass = base == 0 || self.stats.unsampled_pixels > 0;
-        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(|d| std::time::Instant::now() >= d);
+        let past = |d: std::time::Instant| match gate {
+            Some(g) => g.past(d),
+            None => std::time::Instant::now() >= d,
+        };
+        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(past);
         // Each tile goes into the film as it finishes (one addition a pixel a pass, so the
         // order the tiles finish in changes nothing): a pass holds only the tiles in flight.
         let progress = &*self.progress;
@@ -587,6 +599,9 @@ impl Renderer {
                         for x in tx..tx + tw {
                             if adaptive.is_some_and(|a| !a.is_active(x, y)) {
                                 continue;
+                            }
+                            if let Some(g) = gate {
+                                g.wait(cancel);
                             }
                             if cancelled() {
                                 finished = false;
@@ -661,7 +676,9 @@ impl Renderer {
         if let Some(a) = self.adaptive.as_mut() {
             a.update(&self.film);
         }
-        let secs = start.elapsed().as_secs_f64();
+        // the time rendered, not paused
+        let paused = gate.map_or(std::time::Duration::ZERO, |g| g.paused_time().saturating_sub(paused_before));
+        let secs = start.elapsed().saturating_sub(paused).as_secs_f64();
         self.stats.render_seconds += secs;
         self.stats.samples_per_pixel = self.film.spp;
         let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
@@ -835,6 +852,32 @@ mod tests {
         assert_eq!(r.aov_pixels(Aov::Color), before);
         assert!(r.render_pass_until(2, None, None));
         assert_eq!(r.samples_per_pixel(), 3);
+    }
+
+    /// A pass started paused waits at its first pixel until resumed, then renders the very
+    /// samples a pass never paused does; its deadline moves on by the pause, and the render's
+    /// time leaves the pause out.
+    #[test]
+    fn a_paused_pass_waits_then_renders_as_if_never_paused() {
+        use std::time::{Duration, Instant};
+        let settings = RenderSettings { width: 16, height: 8, spp: 4, threads: 2, ..Default::default() };
+        let mut plain = Renderer::new(&SceneDesc::default(), settings.clone()).expect("renderer");
+        assert!(plain.render_pass(2, None));
+        let mut r = Renderer::new(&SceneDesc::default(), settings).expect("renderer");
+        let gate = crate::pause::PauseGate::new();
+        gate.pause();
+        let progress = r.pass_progress();
+        let pause = Duration::from_millis(300);
+        let whole = std::thread::scope(|s| {
+            let worker = s.spawn(|| r.render_pass_paused(2, None, Some(Instant::now() + Duration::from_millis(100)), Some(&gate)));
+            std::thread::sleep(pause);
+            assert_eq!(progress.fraction(), 0.0, "nothing rendered while paused");
+            gate.resume();
+            worker.join().unwrap()
+        });
+        assert!(whole, "the deadline moved on by the pause");
+        assert_eq!(r.aov_pixels(Aov::Color), plain.aov_pixels(Aov::Color));
+        assert!(r.stats().render_seconds < 0.1, "{}", r.stats().render_seconds);
     }
 
     /// dataWindowNDC takes the pixels whose centres lie in the window (UsdRenderSettings), y up.

@@ -637,6 +637,28 @@ PyObject* Delegate_last_synced(PyObject* self, PyObject*) {
     TIDE_CATCH
 }
 
+/// One of the delegate's render controls (pause, resume, stop, restart) -> bool.
+template <bool (tide::RenderDelegate::*Action)()>
+PyObject* Delegate_control(PyObject* self, PyObject*) {
+    TIDE_TRY
+    State& s = S(self);
+    bool ok = WithoutGil([&] {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        return (s.delegate.get()->*Action)();
+    });
+    return PyBool_FromLong(ok);
+    TIDE_CATCH
+}
+
+template <bool (tide::RenderDelegate::*Query)() const>
+PyObject* Delegate_query(PyObject* self, PyObject*) {
+    TIDE_TRY
+    State& s = S(self);
+    std::lock_guard<std::mutex> lock(s.mutex);
+    return PyBool_FromLong((s.delegate.get()->*Query)());
+    TIDE_CATCH
+}
+
 PyObject* Delegate_supported_types(PyObject* self, PyObject*) {
     TIDE_TRY
     State& s = S(self);
@@ -981,6 +1003,12 @@ PyMethodDef DelegateMethods[] = {
     {"last_synced", Delegate_last_synced, METH_NOARGS, "last_synced() -> [path]"},
     {"supported_types", Delegate_supported_types, METH_NOARGS, "supported_types() -> {'rprims': [...], 'sprims': [...], 'bprims': [...]}"},
     {"create_render_pass", Delegate_create_render_pass, METH_NOARGS, "create_render_pass() -> RenderPass"},
+    {"pause", Delegate_control<&tide::RenderDelegate::Pause>, METH_NOARGS, "pause() -> bool: holds the render where it is (HdRenderDelegate::Pause)"},
+    {"resume", Delegate_control<&tide::RenderDelegate::Resume>, METH_NOARGS, "resume() -> bool: goes on from where it was paused"},
+    {"stop", Delegate_control<&tide::RenderDelegate::Stop>, METH_NOARGS, "stop() -> bool: ends the render; executions start nothing until restart()"},
+    {"restart", Delegate_control<&tide::RenderDelegate::Restart>, METH_NOARGS, "restart() -> bool: renders the last execution asked for, from its start"},
+    {"is_paused", Delegate_query<&tide::RenderDelegate::IsPaused>, METH_NOARGS, "is_paused() -> bool"},
+    {"is_stopped", Delegate_query<&tide::RenderDelegate::IsStopped>, METH_NOARGS, "is_stopped() -> bool"},
     {"map_buffer", Delegate_map_buffer, METH_VARARGS, "map_buffer(path) -> (w, h, channels, float32 bytes)"},
     {"write_exr", KW(Delegate_write_exr), "write_exr(path, [(name, aov[, dataType])], header: dict)"},
     {"write_preview_png", KW(Delegate_write_preview_png), "write_preview_png(path, buffer_path, color_space='lin_rec709', view='Standard')"},

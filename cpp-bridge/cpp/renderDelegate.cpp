@@ -156,6 +156,42 @@ std::vector<std::string> RenderDelegate::GetLastSynced() const {
 
 std::shared_ptr<RenderPass> RenderDelegate::CreateRenderPass() { return std::make_shared<RenderPass>(_param.get()); }
 
+namespace {
+
+/// Runs one of the Rust delegate's render controls; false with a problem where it failed.
+template <typename F>
+bool Control(RenderParam& param, const char* what, F&& f) {
+    try {
+        f(param.GetDelegate());
+        return true;
+    } catch (const std::exception& e) {
+        param.AddProblem("", "", std::string(what) + ": " + e.what());
+        return false;
+    }
+}
+
+}  // namespace
+
+bool RenderDelegate::Pause() { return Control(*_param, "pause", [](auto& d) { d.pause_render(); }); }
+
+bool RenderDelegate::Resume() { return Control(*_param, "resume", [](auto& d) { d.resume_render(); }); }
+
+bool RenderDelegate::Stop() { return Control(*_param, "stop", [](auto& d) { d.stop_render(); }); }
+
+bool RenderDelegate::Restart() { return Control(*_param, "restart", [](auto& d) { d.restart_render(); }); }
+
+bool RenderDelegate::IsPaused() const {
+    bool paused = false;
+    Control(*_param, "paused", [&](auto& d) { paused = d.render_paused(); });
+    return paused;
+}
+
+bool RenderDelegate::IsStopped() const {
+    bool stopped = false;
+    Control(*_param, "stopped", [&](auto& d) { stopped = d.render_stopped(); });
+    return stopped;
+}
+
 void RenderDelegate::SetRenderSetting(const std::string& key, const Value& value) { _settings[key] = value; }
 
 Value RenderDelegate::GetRenderSetting(const std::string& key) const {

@@ -477,6 +477,27 @@ int main(int argc, char** argv) {
     if (centre < 0) return Fail("the render after the edit did not converge");
     std::printf("after moving the sphere away: centre %.4f, corners %.4f\n", centre, corner);
     if (std::fabs(centre - 1.0) > 0.02 || std::fabs(corner - 1.0) > 0.02) return Fail("the edit did not reach the render");
+
+    // a viewer's pause and stop (usdview's Pause / Stop Render): paused, an edit's render is
+    // prepared but waits; resumed, it renders; stopped, the pass says it is done; restarted,
+    // it renders again
+    HdRenderDelegate* hd = delegate.Get();
+    if (!hd->IsPauseSupported() || !hd->IsStopSupported()) return Fail("pause or stop is not supported");
+    if (!hd->Pause() || !hd->IsPaused()) return Fail("the delegate did not pause");
+    scene.sphereAt = GfVec3d(0, 0, 0);
+    index->GetChangeTracker().MarkRprimDirty(kSphere, HdChangeTracker::DirtyTransform);
+    for (int i = 0; i < 10; ++i) {
+        engine.Execute(index.get(), &tasks);
+        std::this_thread::sleep_for(std::chrono::milliseconds(30));
+    }
+    if (pass->IsConverged()) return Fail("a paused render converged");
+    if (!hd->Resume() || hd->IsPaused()) return Fail("the delegate did not resume");
+    std::tie(centre, corner) = render();
+    std::printf("paused, the sphere moved back, resumed: centre %.4f\n", centre);
+    if (std::fabs(centre - 0.18) > 0.18 * 0.05) return Fail("the render after resuming does not show the sphere");
+    if (!hd->Stop() || !hd->IsStopped() || !pass->IsConverged()) return Fail("a stopped render does not say it is done");
+    if (!hd->Restart() || hd->IsStopped()) return Fail("the delegate did not restart");
+
     if (int failed = CheckPickingOutputs(*delegate, index.get(), engine, tasks, pass, state, scene)) return failed;
     std::printf("check_runtime: ok\n");
     return 0;

@@ -1137,6 +1137,13 @@ std::string HdTideRenderDelegate::SettingsPathForPass() const {
     return _activeSettings.empty() ? std::string(kSettingsPath) : _activeSettings;
 }
 
+bool HdTideRenderDelegate::Stop(bool blocking) {
+    // the render thread ends its pass at the next pixel; a blocking stop returns once it has
+    // (the buffers are left as the render's last pass published them)
+    (void)blocking;
+    return _tide->Stop();
+}
+
 VtDictionary HdTideRenderDelegate::GetRenderStats() const {
     VtDictionary stats;
     std::shared_ptr<tide::RenderPass> pass = _lastPass.lock();

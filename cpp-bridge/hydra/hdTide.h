@@ -188,6 +188,19 @@ public:
     /// "tide": render settings prims hand their `tide:` attributes to the delegate.
     TfTokenVector GetRenderSettingsNamespaces() const override;
 
+    /// Background rendering (a viewer's pause and stop): paused, the render waits where it is
+    /// (buffers keep their pixels, edits are still taken) and resumes from the very sample it
+    /// stopped at; stopped, it ends, reports itself converged, and executions start nothing
+    /// until Restart renders the last one from its start.
+    bool IsPauseSupported() const override { return true; }
+    bool IsPaused() const override { return _tide->IsPaused(); }
+    bool Pause() override { return _tide->Pause(); }
+    bool Resume() override { return _tide->Resume(); }
+    bool IsStopSupported() const override { return true; }
+    bool IsStopped() const override { return _tide->IsStopped(); }
+    bool Stop(bool blocking = true) override;
+    bool Restart() override { return _tide->Restart(); }
+
     tide::RenderDelegate& Tide() { return *_tide; }
     /// Records whether the renderSettings bprim at `path` is the active one.
     void SetActiveSettings(std::string const& path, bool active);

@@ -312,6 +312,30 @@ impl Delegate {
         guard("last_synced", || Ok(lock(&self.shared).delegate.last_synced().to_vec()))
     }
 
+    pub fn pause_render(&self) -> Result<(), String> {
+        guard("pause_render", || Ok(lock(&self.shared).delegate.pause_render()))
+    }
+
+    pub fn resume_render(&self) -> Result<(), String> {
+        guard("resume_render", || Ok(lock(&self.shared).delegate.resume_render()))
+    }
+
+    pub fn stop_render(&self) -> Result<(), String> {
+        guard("stop_render", || Ok(lock(&self.shared).delegate.stop_render()))
+    }
+
+    pub fn restart_render(&self) -> Result<(), String> {
+        guard("restart_render", || Ok(lock(&self.shared).delegate.restart_render()))
+    }
+
+    pub fn render_paused(&self) -> Result<bool, String> {
+        guard("render_paused", || Ok(lock(&self.shared).delegate.is_render_paused()))
+    }
+
+    pub fn render_stopped(&self) -> Result<bool, String> {
+        guard("render_stopped", || Ok(lock(&self.shared).delegate.is_render_stopped()))
+    }
+
     pub fn map_buffer(&self, path: &str) -> Result<MappedBuffer, String> {
         guard("map_buffer", || {
             let buf = lock(&self.shared).delegate.render_buffer(path).ok_or_else(|| format!("{path}: no such render buffer"))?;

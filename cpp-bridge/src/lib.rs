@@ -149,6 +149,15 @@ pub mod ffi {
         /// without rendering: the problems of both.
         fn check_render(self: &Delegate) -> Result<Vec<ProblemRow>>;
         fn last_synced(self: &Delegate) -> Result<Vec<String>>;
+        /// Background rendering (HdRenderDelegate's Pause / Resume / Stop / Restart): paused,
+        /// a render waits where it is and goes on from there; stopped, it ends and executions
+        /// start nothing until restarted.
+        fn pause_render(self: &Delegate) -> Result<()>;
+        fn resume_render(self: &Delegate) -> Result<()>;
+        fn stop_render(self: &Delegate) -> Result<()>;
+        fn restart_render(self: &Delegate) -> Result<()>;
+        fn render_paused(self: &Delegate) -> Result<bool>;
+        fn render_stopped(self: &Delegate) -> Result<bool>;
         fn map_buffer(self: &Delegate, path: &str) -> Result<MappedBuffer>;
         /// A render buffer's dimensions (`pixels` left empty).
         fn buffer_shape(self: &Delegate, path: &str) -> Result<MappedBuffer>;

@@ -253,6 +253,11 @@ pub struct Delegate {
     buffers: BTreeMap<String, RenderBuffer>,
     factory: EngineFactory,
     pass: Option<RenderPass>,
+    /// Rendering is paused ([`Delegate::pause_render`]): a pass made later starts paused.
+    paused: bool,
+    /// Rendering is stopped ([`Delegate::stop_render`]): executions only note the job that
+    /// [`Delegate::restart_render`] starts.
+    stopped: bool,
     /// The engines' problems already returned by [`Delegate::commit_resources`] or
     /// [`Delegate::check_render`] (each is returned once).
     engine_reported: HashSet<Problem>,
@@ -390,6 +395,8 @@ impl Delegate {
             buffers: BTreeMap::new(),
             factory,
             pass: None,
+            paused: false,
+            stopped: false,
             engine_reported: HashSet::new(),
             job_key: None,
             pass_projection: None,
@@ -1465,9 +1472,16 @@ impl Delegate {
             bindings: bindings.iter().filter_map(|(a, b)| self.buffers.get(b).map(|buf| (Output { binding: *a, clip }, buf.clone()))).collect(),
             world: self.world_generation,
         };
-        let factory = self.factory.clone();
-        self.pass.get_or_insert_with(|| RenderPass::new(factory)).start(job);
         self.job_key = Some(key);
+        if self.stopped {
+            return;
+        }
+        let factory = self.factory.clone();
+        let pass = self.pass.get_or_insert_with(|| RenderPass::new(factory));
+        if self.paused {
+            pass.pause();
+        }
+        pass.start(job);
     }
 
     fn restart_if_running(&mut self) {
@@ -1523,9 +1537,54 @@ impl Delegate {
         self.pass.as_ref().map_or(PassStatus::Idle, |p| p.status())
     }
 
-    /// True once the running render reached its sample target or time budget.
+    /// True once the running render reached its sample target or time budget, or rendering
+    /// is stopped (the image will not change until it restarts).
     pub fn is_converged(&self) -> bool {
-        self.pass.as_ref().is_some_and(|p| p.is_converged())
+        self.stopped || self.pass.as_ref().is_some_and(|p| p.is_converged())
+    }
+
+    /// Pauses rendering where it is (HdRenderDelegate::Pause): the buffers keep their pixels,
+    /// edits and executions still prepare their render, and [`Delegate::resume_render`] goes
+    /// on from the very sample it stopped at. Paused time does not count against a budget.
+    pub fn pause_render(&mut self) {
+        self.paused = true;
+        if let Some(p) = &self.pass {
+            p.pause();
+        }
+    }
+
+    pub fn resume_render(&mut self) {
+        self.paused = false;
+        if let Some(p) = &self.pass {
+            p.resume();
+        }
+    }
+
+    pub fn is_render_paused(&self) -> bool {
+        self.paused
+    }
+
+    /// Stops rendering (HdRenderDelegate::Stop): the render under way ends, its buffers keep
+    /// what it published, and executions and edits start nothing until
+    /// [`Delegate::restart_render`], which renders the last job asked for from its start.
+    pub fn stop_render(&mut self) {
+        self.stopped = true;
+        if let Some(p) = &self.pass {
+            p.cancel();
+        }
+    }
+
+    pub fn restart_render(&mut self) {
+        if !std::mem::take(&mut self.stopped) {
+            return;
+        }
+        if let Some((_, bindings, _)) = self.job_key.take() {
+            self.start_job(bindings);
+        }
+    }
+
+    pub fn is_render_stopped(&self) -> bool {
+        self.stopped
     }
 
     /// The running render's figures after its last finished pass (see

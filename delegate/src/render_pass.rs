@@ -20,13 +20,13 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use tide_core::accel::BuildStats;
 use tide_core::world::BuildCache;
-use tide_core::{Aov, Problem, RenderError, RenderSettings, Renderer, SampleFormat, SceneDesc};
+use tide_core::{Aov, PauseGate, Problem, RenderError, RenderSettings, Renderer, SampleFormat, SceneDesc};
 
 /// What a render pass drives.
 pub trait Engine {
     /// Renders `spp` more samples per pixel; false if cancelled part way, or if `deadline`
     /// passed before the pass finished (the engine then holds the passes before it).
-    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool;
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>, gate: &PauseGate) -> bool;
     fn samples_per_pixel(&self) -> u32;
     /// Resolved pixels, row-major from the top, `aov.channels()` per pixel.
     fn aov_pixels(&self, aov: Aov) -> Vec<f32>;
@@ -67,8 +67,8 @@ pub trait Engine {
 }
 
 impl Engine for Renderer {
-    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool {
-        Renderer::render_pass_until(self, spp, Some(cancel), deadline)
+    fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>, gate: &PauseGate) -> bool {
+        Renderer::render_pass_paused(self, spp, Some(cancel), deadline, Some(gate))
     }
     fn samples_per_pixel(&self) -> u32 {
         Renderer::samples_per_pixel(self)
@@ -442,6 +442,8 @@ struct Shared {
     state: Mutex<State>,
     cond: Condvar,
     cancel: AtomicBool,
+    /// Holds the render where it is while paused (passes wait at their next pixel).
+    gate: PauseGate,
 }
 
 impl Shared {
@@ -554,6 +556,7 @@ impl RenderPass {
             }),
             cond: Condvar::new(),
             cancel: AtomicBool::new(false),
+            gate: PauseGate::new(),
         });
         let s = shared.clone();
         let thread = std::thread::Builder::new()
@@ -588,6 +591,22 @@ impl RenderPass {
         }
         self.shared.cancel.store(true, Ordering::SeqCst);
         self.shared.cond.notify_all();
+    }
+
+    /// Pauses rendering where it is: the pass under way waits at its next pixel, and a job
+    /// started meanwhile waits before its first pass (its scene is prepared). Paused time does
+    /// not count against a time budget.
+    pub fn pause(&self) {
+        self.shared.gate.pause();
+    }
+
+    /// Resumes a paused render where it stopped (the same samples as if never paused).
+    pub fn resume(&self) {
+        self.shared.gate.resume();
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.shared.gate.is_paused()
     }
 
     /// Stops the current job (the buffers keep what was published).
@@ -743,10 +762,15 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         st.problems = problems;
         shared.cond.notify_all();
     }
+    // the budget counts rendering: from here, less the time paused
+    let gate = &shared.gate;
+    gate.restart_clock();
     let start = Instant::now();
+    let rendering = || start.elapsed().saturating_sub(gate.paused_time());
     let mut next = 1u32;
     let mut done = 0u32;
     while done < target {
+        gate.wait(Some(&shared.cancel));
         if shared.cancel.load(Ordering::SeqCst) {
             return Ok(false);
         }
@@ -756,7 +780,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
             // publishing), so the render ends at the budget instead of up to one doubling past
             // it, and a slowdown of the machine during the last passes overruns by at most a
             // small pass; a pass that would not fit even one sample is not started.
-            let elapsed = start.elapsed().as_secs_f64();
+            let elapsed = rendering().as_secs_f64();
             let fit = (budget as f64 - elapsed) / (elapsed / done as f64);
             if fit < 1.0 {
                 break;
@@ -778,8 +802,8 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
                 (n, p)
             });
         }
-        let whole = e.render_pass(n, &shared.cancel, deadline);
-        if !whole && (shared.cancel.load(Ordering::SeqCst) || !deadline.is_some_and(|d| Instant::now() >= d)) {
+        let whole = e.render_pass(n, &shared.cancel, deadline, gate);
+        if !whole && (shared.cancel.load(Ordering::SeqCst) || !deadline.is_some_and(|d| gate.past(d))) {
             return Ok(false);
         }
         done = if whole { done + n } else { e.samples_per_pixel().min(target) };
@@ -815,7 +839,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
             serve_exr(shared, Some(&**e));
         }
         next = next.saturating_mul(2);
-        if !whole || (budget > 0.0 && start.elapsed().as_secs_f32() >= budget) {
+        if !whole || (budget > 0.0 && rendering().as_secs_f32() >= budget) {
             break;
         }
         if e.converged() {
@@ -850,7 +874,7 @@ pub(crate) mod tests {
     }
 
     impl Engine for Fake {
-        fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>) -> bool {
+        fn render_pass(&mut self, spp: u32, cancel: &AtomicBool, deadline: Option<Instant>, _: &PauseGate) -> bool {
             // samples past `slow_after` take `slow` each (paths that turn slow late in a render)
             let slow = self.slow.map_or(Duration::ZERO, |(after, each)| each * (self.spp + spp).saturating_sub(after.max(self.spp)));
             let until = Instant::now() + self.delay + self.per_spp * spp + slow;
@@ -1028,7 +1052,7 @@ pub(crate) mod tests {
     }
 
     impl Engine for Steps {
-        fn render_pass(&mut self, spp: u32, _: &AtomicBool, _: Option<Instant>) -> bool {
+        fn render_pass(&mut self, spp: u32, _: &AtomicBool, _: Option<Instant>, _: &PauseGate) -> bool {
             self.progress.start(20);
             for _ in 0..20 {
                 std::thread::sleep(Duration::from_millis(10));

@@ -59,6 +59,17 @@ public:
 
     std::shared_ptr<RenderPass> CreateRenderPass();
 
+    /// Background rendering, as HdRenderDelegate's: Pause holds the render where it is (the
+    /// buffers keep their pixels) until Resume goes on from there; Stop ends it and leaves
+    /// executions idle until Restart renders the last one asked for. Each returns whether it
+    /// was carried out (a problem says why not).
+    bool Pause();
+    bool Resume();
+    bool IsPaused() const;
+    bool Stop();
+    bool Restart();
+    bool IsStopped() const;
+
     void SetRenderSetting(const std::string& key, const Value& value);
     Value GetRenderSetting(const std::string& key) const;
     const RenderSettingsMap& GetRenderSettings() const { return _settings; }
