@@ -808,6 +808,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         }
         done = if whole { done + n } else { e.samples_per_pixel().min(target) };
         let (w, h) = (job.settings.width, job.settings.height);
+        let mut laid_out = Vec::new();
         for (out, buf) in job.bindings.iter().filter(|(_, b)| b.publishes()) {
             let aov = out.binding.aov;
             let whole = (w * h) as usize * aov.channels();
@@ -822,13 +823,18 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
                 }
             };
             if let Some(px) = laid {
-                buf.publish(w, h, aov.channels() as u32, px, e.samples_per_pixel());
+                laid_out.push((buf, aov.channels() as u32, px));
             }
         }
         {
+            // published under the state's lock, once the job is known to be current: a job
+            // cancelled or stopped (which takes the lock) publishes nothing after it returns
             let mut st = shared.lock();
             if st.generation != generation {
                 return Ok(false);
+            }
+            for (buf, channels, px) in laid_out {
+                buf.publish(w, h, channels, px, e.samples_per_pixel());
             }
             st.spp_done = done;
             st.pass = None;
