@@ -122,7 +122,7 @@ pub fn split(points: &SpheresDesc, voxel: f32, shell: f32) -> Result<DropletSpli
     spheres.velocities = points.velocities.as_ref().map(|v| keep.iter().map(|&i| v[i]).collect());
     Ok(DropletSplit {
         spheres,
-        grid: Some(GridDesc { name: format!("{} (droplets)", points.name), dims: [dims[0] as u32, dims[1] as u32, dims[2] as u32], values, local_to_world }),
+        grid: Some(GridDesc::dense(format!("{} (droplets)", points.name), [dims[0] as u32, dims[1] as u32, dims[2] as u32], &values, local_to_world).map_err(|e| e.to_string())?),
         converted,
     })
 }

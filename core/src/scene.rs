@@ -780,17 +780,28 @@ pub struct InstancePrimvars {
     pub primvars: Vec<PrimvarData>,
 }
 
-/// A scalar grid (an OpenVDB field) as dense values: the value `[i, j, k]` (x fastest) sits
-/// at the point (i, j, k) of the grid's local space; between points the grid is trilinear and
-/// outside the array 0, so it is non-zero only inside the box (−1, dims).
+/// A scalar grid (an OpenVDB field): the value `[i, j, k]` sits at the point (i, j, k) of the
+/// grid's local space; between points the grid is trilinear and outside the array 0, so it is
+/// non-zero only inside the box (−1, dims). The values are held in bricks, those all zero left
+/// out, and shared: a grid read once serves every volume and every scene made with it.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct GridDesc {
     /// Name (file and field) used in messages.
     pub name: String,
-    pub dims: [u32; 3],
-    pub values: Vec<f32>,
+    pub values: std::sync::Arc<crate::medium::grid::Bricks>,
+    /// How many of the values as read were negative or not finite (held as 0), to report.
+    pub bad_values: usize,
     /// Grid-local to world (the field's index-to-object transform, then the prim's).
     pub local_to_world: Mat4,
+}
+
+impl GridDesc {
+    /// A grid of `dims` values, x fastest.
+    pub fn dense(name: String, dims: [u32; 3], values: &[f32], local_to_world: Mat4) -> Result<GridDesc, crate::medium::grid::GridError> {
+        let bad_values = values.iter().filter(|x| !x.is_finite() || **x < 0.0).count();
+        let values = std::sync::Arc::new(crate::medium::grid::Bricks::from_dense(dims, values)?);
+        Ok(GridDesc { name, values, bad_values, local_to_world })
+    }
 }
 
 /// A volume (`UsdVolVolume`): its `density` grid times the coefficients of a medium fill the

@@ -55,12 +55,12 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
             continue;
         };
         let g = &v.density;
-        let bad = g.values.iter().filter(|x| !x.is_finite() || **x < 0.0).count();
+        let bad = g.bad_values;
         if bad > 0 {
             problems.push(Problem { item: v.name.clone(), attribute: "field:density".into(), message: format!("{bad} negative or non-finite density value(s) in {} read as 0", g.name) });
         }
         let (mats, times): (Vec<Mat4>, Vec<f32>) = if v.motion.len() >= 2 { (v.motion.iter().map(|k| k.1).collect(), v.motion.iter().map(|k| k.0).collect()) } else { (vec![g.local_to_world], vec![0.0]) };
-        let grid = match DensityGrid::new(g.dims, &g.values, mats[0]).and_then(|grid| grid.with_motion(&mats, &times)) {
+        let grid = match DensityGrid::from_bricks(g.values.clone(), mats[0]).and_then(|grid| grid.with_motion(&mats, &times)) {
             Ok(grid) => grid,
             Err(e @ (GridError::Dims { .. } | GridError::Transform)) => {
                 problems.push(Problem { item: v.name.clone(), attribute: "field:density".into(), message: format!("{}: {e}; volume dropped", g.name) });
@@ -81,7 +81,8 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         // the surface is replaced by a medium boundary when the world is built
         s.materials.push(MaterialDesc { name: v.name.clone(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: Some(medium) });
         boundary_materials.push(material);
-        let (lo, hi) = (Vec3::splat(-1.0), Vec3::new(g.dims[0] as f32, g.dims[1] as f32, g.dims[2] as f32));
+        let d = g.values.dims();
+        let (lo, hi) = (Vec3::splat(-1.0), Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
         let mesh = s.meshes.len();
         s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0).into());
         // the box moves with the grid (the same keys, interpolated the same way)

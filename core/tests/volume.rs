@@ -26,7 +26,7 @@ fn volume(name: &str, dims: [u32; 3], value: f32, voxel: f32, origin: Vec3, medi
     let n = (dims[0] * dims[1] * dims[2]) as usize;
     VolumeDesc {
         name: name.into(),
-        density: GridDesc { name: format!("{name}.vdb:density"), dims, values: vec![value; n], local_to_world: Mat4::from_scale_rotation_translation(Vec3::splat(voxel), Quat::IDENTITY, origin) },
+        density: GridDesc::dense(format!("{name}.vdb:density"), dims, &vec![value; n], Mat4::from_scale_rotation_translation(Vec3::splat(voxel), Quat::IDENTITY, origin)).unwrap(),
         motion: Vec::new(),
         medium,
         id: 0,

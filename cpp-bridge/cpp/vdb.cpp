@@ -1,5 +1,5 @@
-//! Reading volumes' grids from OpenVDB files into dense arrays for the delegate, and writing
-//! small grids.
+//! Reading volumes' grids from OpenVDB files into bricks (their 8³ leaves) for the delegate,
+//! and writing small grids.
 #include "tide/vdb.h"
 
 #include "tide/renderParam.h"
@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <sstream>
 
@@ -20,69 +21,107 @@ void InitOnce() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-/// Largest grid handed over: 2^28 values (1 GiB of floats).
+/// Most values handed over (stored bricks' values, and bricks in the table): 2^28 (1 GiB of
+/// floats).
 constexpr uint64_t kMaxValues = uint64_t(1) << 28;
 
-/// The grid's active voxels as a dense array over their bounding box, in `out`. The grid's
-/// leaves are dropped as the array passes them (their values then held in it), so the grid
-/// and its dense copy are not both held whole.
+/// The grid's values in bricks of 8³, its leaves': over the active voxels' bounding box with
+/// its low corner moved down to a leaf's origin, so that each leaf is one brick. A leaf of
+/// zeros is left out, an active tile becomes bricks of its value. Each leaf is dropped from the
+/// grid once copied (the leaves of a delay-loaded file are read as they are first touched, so
+/// the grid never holds them all at once).
 template <typename GridT>
-bool Densify(GridT& grid, DenseGrid* out, std::string* error) {
+bool Brickify(GridT& grid, BrickGrid* out, std::string* error) {
+    using TreeT = typename GridT::TreeType;
+    using LeafT = typename TreeT::LeafNodeType;
+    static_assert(LeafT::DIM == 8, "bricks are OpenVDB's 8^3 leaves");
+    constexpr int B = 8;
     const openvdb::CoordBBox box = grid.evalActiveVoxelBoundingBox();
+    const bool empty = box.empty();
     openvdb::Coord lo(0, 0, 0);
     uint64_t dims[3] = {1, 1, 1};
-    const bool empty = box.empty();
     if (!empty) {
-        lo = box.min();
+        // leaf origins are multiples of 8 (two's complement: ~7 rounds negatives down too)
+        lo = openvdb::Coord(box.min().x() & ~(B - 1), box.min().y() & ~(B - 1), box.min().z() & ~(B - 1));
         // in 64 bits: an extent of 2^31 or more voxels does not fit Coord's ints
-        for (int k = 0; k < 3; ++k) dims[k] = uint64_t(int64_t(box.max()[k]) - int64_t(box.min()[k]) + 1);
+        for (int k = 0; k < 3; ++k) dims[k] = uint64_t(int64_t(box.max()[k]) - int64_t(lo[k]) + 1);
     }
-    // the product, checked factor by factor so that it cannot wrap around
+    uint64_t bdims[3], bricks = 1;
     bool fits = true;
-    uint64_t count = 1;
-    for (int k = 0; k < 3 && fits; ++k) {
-        fits = dims[k] <= kMaxValues / count;
-        if (fits) count *= dims[k];
+    for (int k = 0; k < 3; ++k) {
+        bdims[k] = (dims[k] + B - 1) / B;
+        fits = fits && bdims[k] <= kMaxValues / bricks;
+        if (fits) bricks *= bdims[k];
     }
     if (!fits) {
-        *error = "grid's active bounding box is " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) +
-                 " x " + std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " in all)";
+        *error = "grid's active bounding box is " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
+                 std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " bricks of 8^3)";
         return false;
     }
-    // written a slice of constant k at a time into the memory the delegate keeps; a leaf whose
-    // last slice is written is replaced by an inactive tile (its memory freed: the leaves of a
-    // delay-loaded file are read as they are first touched, so the grid holds at most a layer
-    // of leaves of it at a time)
-    try {
-        out->values.emplace(rs::new_texel_buffer(3, size_t(count)));
-        auto& tree = grid.tree();
-        using LeafT = typename GridT::TreeType::LeafNodeType;
-        std::vector<openvdb::Coord> leaves;
-        leaves.reserve(tree.leafCount());
-        for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it->origin());
-        std::sort(leaves.begin(), leaves.end(), [](const openvdb::Coord& a, const openvdb::Coord& b) { return a.z() < b.z(); });
-        size_t dropped = 0;
-        auto acc = grid.getConstAccessor();
-        for (uint64_t k = 0; k < dims[2]; ++k) {
-            rust::Slice<uint8_t> bytes = (*out->values)->grow(size_t(dims[0] * dims[1]));
-            float* slice = reinterpret_cast<float*>(bytes.data());
-            if (empty) continue;
-            size_t n = 0;
-            for (uint64_t j = 0; j < dims[1]; ++j)
-                for (uint64_t i = 0; i < dims[0]; ++i)
-                    slice[n++] = float(acc.getValue(lo.offsetBy(int(i), int(j), int(k))));
-            const int64_t z = int64_t(lo.z()) + int64_t(k);
-            bool any = false;
-            while (dropped < leaves.size() && int64_t(leaves[dropped].z()) + int64_t(LeafT::DIM) - 1 <= z) {
-                tree.addTile(1, leaves[dropped++], tree.background(), false);
-                any = true;
-            }
-            // the accessor may hold a leaf just freed
-            if (any) acc.clear();
+    // the brick of a voxel, or -1 outside the box
+    auto brickOf = [&](const openvdb::Coord& c) -> int64_t {
+        int64_t b[3];
+        for (int k = 0; k < 3; ++k) {
+            const int64_t i = int64_t(c[k]) - int64_t(lo[k]);
+            if (i < 0 || uint64_t(i) >= dims[k]) return -1;
+            b[k] = i / B;
         }
+        return b[0] + int64_t(bdims[0]) * (b[1] + int64_t(bdims[1]) * b[2]);
+    };
+    auto& tree = grid.tree();
+    std::vector<openvdb::Coord> leaves;
+    std::vector<std::pair<int64_t, float>> tiles;  // (brick, value) of active tiles
+    if (!empty) {
+        leaves.reserve(tree.leafCount());
+        for (auto it = tree.cbeginLeaf(); it; ++it)
+            if (brickOf(it->origin()) >= 0) leaves.push_back(it->origin());
+        for (auto it = tree.cbeginValueOn(); it; ++it) {
+            if (!it.isTileValue()) continue;
+            const float v = float(*it);
+            if (!(v != 0.0f)) continue;
+            openvdb::CoordBBox tb;
+            it.getBoundingBox(tb);
+            tb.intersect(box);
+            if (tb.empty()) continue;
+            for (int z = tb.min().z() & ~(B - 1); z <= tb.max().z(); z += B)
+                for (int y = tb.min().y() & ~(B - 1); y <= tb.max().y(); y += B)
+                    for (int x = tb.min().x() & ~(B - 1); x <= tb.max().x(); x += B)
+                        if (int64_t b = brickOf(openvdb::Coord(std::max(x, lo.x()), std::max(y, lo.y()), std::max(z, lo.z()))); b >= 0)
+                            tiles.emplace_back(b, v);
+        }
+    }
+    const uint64_t stored = leaves.size() + tiles.size();
+    if (stored > kMaxValues / (B * B * B)) {
+        *error = "grid holds " + std::to_string(stored) + " bricks of 8^3 values (at most " + std::to_string(kMaxValues / (B * B * B)) + ")";
+        return false;
+    }
+    try {
+        out->table.assign(size_t(bricks), 0u);
+        out->values.emplace(rs::new_texel_buffer(3, size_t(stored) * B * B * B));
+        uint32_t n = 0;
+        auto put = [&](int64_t brick, auto&& value) {
+            rust::Slice<uint8_t> bytes = (*out->values)->grow(B * B * B);
+            float* v = reinterpret_cast<float*>(bytes.data());
+            for (int z = 0; z < B; ++z)
+                for (int y = 0; y < B; ++y)
+                    for (int x = 0; x < B; ++x) *v++ = value(x, y, z);
+            out->table[size_t(brick)] = ++n;
+        };
+        for (const openvdb::Coord& o : leaves) {
+            if (const LeafT* leaf = tree.probeConstLeaf(o)) {
+                bool any = false;
+                for (auto it = leaf->cbeginValueAll(); it && !any; ++it) any = float(*it) != 0.0f;
+                if (any)
+                    put(brickOf(o), [&](int x, int y, int z) { return float(leaf->getValue(LeafT::coordToOffset(openvdb::Coord(o.x() + x, o.y() + y, o.z() + z)))); });
+            }
+            // its memory freed: replaced by an inactive tile of the background
+            tree.addTile(1, o, tree.background(), false);
+        }
+        for (const auto& [brick, value] : tiles)
+            if (out->table[size_t(brick)] == 0) put(brick, [v = value](int, int, int) { return v; });
     } catch (const std::exception& e) {
-        *error = "grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
-                 std::to_string(dims[2]) + " voxels: " + e.what();
+        *error = "grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " + std::to_string(dims[2]) +
+                 " voxels in " + std::to_string(stored) + " bricks: " + e.what();
         return false;
     }
     for (int k = 0; k < 3; ++k) out->dims[k] = uint32_t(dims[k]);
@@ -103,7 +142,7 @@ bool Densify(GridT& grid, DenseGrid* out, std::string* error) {
 
 }  // namespace
 
-bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, DenseGrid* out, std::string* error) {
+bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, BrickGrid* out, std::string* error) {
     auto fail = [&](const std::string& m) {
         if (error) *error = m;
         return false;
@@ -136,9 +175,9 @@ bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t inde
         std::string e;
         bool ok = false;
         if (auto fg = openvdb::gridPtrCast<openvdb::FloatGrid>(base)) {
-            ok = Densify(*fg, out, &e);
+            ok = Brickify(*fg, out, &e);
         } else if (auto dg = openvdb::gridPtrCast<openvdb::DoubleGrid>(base)) {
-            ok = Densify(*dg, out, &e);
+            ok = Brickify(*dg, out, &e);
         } else {
             return fail("grid '" + field + "' is of type " + base->valueType() + ", not a float or double scalar grid");
         }
@@ -151,13 +190,14 @@ bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t inde
 bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string& field, int64_t index, bool reload) {
     rs::Delegate& d = param.GetDelegate();
     if (!reload && d.has_grid(asset, field, index)) return true;
-    DenseGrid grid;
+    BrickGrid grid;
     std::string error;
     if (!ReadVdbGrid(asset, field, index, &grid, &error)) {
         d.grid_failed(asset, field, index, error);
         return false;
     }
-    return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3), std::move(*grid.values),
+    return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3),
+                      rust::Slice<const uint32_t>(grid.table.data(), grid.table.size()), std::move(*grid.values),
                       rust::Slice<const double>(grid.indexToObject, 16));
 }
 
@@ -165,6 +205,8 @@ bool WriteVdbGrids(const std::string& path, const std::vector<VdbWriteGrid>& gri
     try {
         InitOnce();
         openvdb::GridPtrVec out;
+        // entries of one name write into one grid (with the first one's transform)
+        std::map<std::string, openvdb::GridBase::Ptr> byName;
         for (const auto& w : grids) {
             const size_t n = size_t(w.dims[0]) * w.dims[1] * w.dims[2];
             if (n != w.values.size()) {
@@ -173,10 +215,23 @@ bool WriteVdbGrids(const std::string& path, const std::vector<VdbWriteGrid>& gri
             }
             auto xf = openvdb::math::Transform::createLinearTransform(w.voxelSize);
             xf->postTranslate(openvdb::Vec3d(w.translation[0], w.translation[1], w.translation[2]));
+            bool clash = false;
             auto fill = [&](auto grid, auto make) {
-                grid->setName(w.name);
-                grid->setTransform(xf);
-                grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+                using GridT = typename decltype(grid)::element_type;
+                auto seen = byName.find(w.name);
+                if (seen != byName.end()) {
+                    grid = openvdb::gridPtrCast<GridT>(seen->second);
+                    if (!grid) {
+                        clash = true;
+                        return;
+                    }
+                } else {
+                    grid->setName(w.name);
+                    grid->setTransform(xf);
+                    grid->setGridClass(openvdb::GRID_FOG_VOLUME);
+                    out.push_back(grid);
+                    byName[w.name] = grid;
+                }
                 auto acc = grid->getAccessor();
                 size_t i = 0;
                 for (uint32_t z = 0; z < w.dims[2]; ++z)
@@ -185,7 +240,6 @@ bool WriteVdbGrids(const std::string& path, const std::vector<VdbWriteGrid>& gri
                             if (w.values[i] != 0.0f)
                                 acc.setValue(openvdb::Coord(w.origin[0] + int(x), w.origin[1] + int(y), w.origin[2] + int(z)),
                                              make(w.values[i]));
-                out.push_back(grid);
             };
             if (w.kind == "float") {
                 fill(openvdb::FloatGrid::create(0.0f), [](float v) { return v; });
@@ -195,6 +249,10 @@ bool WriteVdbGrids(const std::string& path, const std::vector<VdbWriteGrid>& gri
                 fill(openvdb::Vec3SGrid::create(openvdb::Vec3s(0.0f)), [](float v) { return openvdb::Vec3s(v, v, v); });
             } else {
                 if (error) *error = "grid '" + w.name + "': unknown kind '" + w.kind + "' (float, double or vec3)";
+                return false;
+            }
+            if (clash) {
+                if (error) *error = "grid '" + w.name + "' written as two kinds";
                 return false;
             }
         }

@@ -247,7 +247,9 @@ impl Delegate {
         })
     }
 
-    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool, String> {
+    /// A grid's values in bricks (`table` one entry per 8³ brick of `dims`, 0 for a brick of
+    /// zeros, else 1 + its index among the stored bricks in `values`).
+    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], table: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool, String> {
         guard("add_grid", || {
             let (Ok(dims), Ok(m)) = (<[u32; 3]>::try_from(dims), <[f64; 16]>::try_from(index_to_object)) else {
                 return Err(format!("{asset}: a grid needs 3 dims and a 16-number matrix, got {} and {}", dims.len(), index_to_object.len()));
@@ -256,7 +258,7 @@ impl Delegate {
             let TexelValues::F32(values) = values.values else {
                 return Err(format!("{asset}: a grid's values are floats"));
             };
-            Ok(lock(&self.shared).delegate.add_grid(asset, field, index, dims, values, m))
+            Ok(lock(&self.shared).delegate.add_grid_bricks(asset, field, index, dims, table.to_vec(), values, m))
         })
     }
 
@@ -284,7 +286,11 @@ impl Delegate {
     pub fn grid_values(&self, asset: &str, field: &str, index: i64) -> Result<MappedBuffer, String> {
         guard("grid_values", || {
             let g = lock(&self.shared).delegate.grid(asset, field, index);
-            Ok(g.map(|g| MappedBuffer { width: g.dims[0], height: g.dims[1], channels: g.dims[2], pixels: g.values.clone() }).unwrap_or_default())
+            Ok(g.map(|g| {
+                let d = g.values.dims().map(|v| v as u32);
+                MappedBuffer { width: d[0], height: d[1], channels: d[2], pixels: g.values.to_dense() }
+            })
+            .unwrap_or_default())
         })
     }
 

@@ -573,7 +573,17 @@ impl Delegate {
     /// `dims` values, x fastest, placed in the volume's space by `index_to_object` (USD-style
     /// matrix). Bad sizes or transform → false, and volumes reading it report the problem.
     pub fn add_grid(&mut self, asset: &str, field: &str, index: i64, dims: [u32; 3], values: Vec<f32>, index_to_object: [f64; 16]) -> bool {
-        let state = match volume::grid_data(dims, values, index_to_object) {
+        self.add_grid_data(asset, field, index, volume::grid_data(dims, values, index_to_object))
+    }
+
+    /// [`Delegate::add_grid`] from bricks as a reader hands them over
+    /// ([`volume::grid_data_bricks`]).
+    pub fn add_grid_bricks(&mut self, asset: &str, field: &str, index: i64, dims: [u32; 3], table: Vec<u32>, pool: Vec<f32>, index_to_object: [f64; 16]) -> bool {
+        self.add_grid_data(asset, field, index, volume::grid_data_bricks(dims, table, pool, index_to_object))
+    }
+
+    fn add_grid_data(&mut self, asset: &str, field: &str, index: i64, data: Result<volume::GridData, String>) -> bool {
+        let state = match data {
             Ok(g) => GridState::Loaded(Arc::new(g)),
             Err(e) => GridState::Failed(e),
         };

@@ -818,7 +818,7 @@ mod tests {
         let d = points("/d", &s, &mut Problems::new("/d"));
         let a = d.made(0.0, 0.0, false, 24.0, 1.0);
         let Some(Ok(Some(grid))) = &a.droplets else { panic!("no droplet medium: {:?}", a.droplets) };
-        assert!(a.spheres.centers.len() < 27 && grid.values.iter().any(|&v| v > 0.0));
+        assert!(a.spheres.centers.len() < 27 && grid.values.to_dense().iter().any(|&v| v > 0.0));
         let b = d.made(0.0, 0.0, false, 24.0, 1.0);
         assert!(Arc::ptr_eq(&a.spheres, &b.spheres), "split once, then shared");
         // the voxel size is in metres: 0.005 m in a stage of 0.5 m units is 0.01 units
@@ -826,7 +826,7 @@ mod tests {
         s2.attrs.insert("tide:droplets:voxelSize".into(), Attr { value: Some(Value::Float(0.01)), samples: vec![] });
         let d2 = points("/d2", &s2, &mut Problems::new("/d2"));
         let grid_of = |m: &PointsMade| match &m.droplets {
-            Some(Ok(Some(g))) => (g.dims, g.values.clone(), g.local_to_world),
+            Some(Ok(Some(g))) => (g.values.dims(), g.values.to_dense(), g.local_to_world),
             other => panic!("no droplet medium: {other:?}"),
         };
         let unit = grid_of(&d2.made(0.0, 0.0, false, 24.0, 1.0));

@@ -12,6 +12,7 @@
 use crate::value::{AttrStore, Problems};
 use glam::Mat4;
 use std::sync::Arc;
+use tide_core::medium::grid::Bricks;
 use tide_core::scene::{GridDesc, VolumeDesc};
 
 /// The grid a volume reads.
@@ -27,12 +28,13 @@ pub struct VolumeSpec {
 /// Key of a loaded grid: (resolved file, field name, field index).
 pub type GridKey = (String, String, i64);
 
-/// A grid as the front end read it: dense values over its active bounding box.
+/// A grid as the front end read it: its values over its active bounding box, in bricks (those
+/// all zero not held), shared by every scene made with it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridData {
-    pub dims: [u32; 3],
-    /// x fastest.
-    pub values: Vec<f32>,
+    pub values: Arc<Bricks>,
+    /// How many values were negative or not finite as read (held as 0).
+    pub bad_values: usize,
     /// Grid-local (value [i, j, k] at (i, j, k)) to the volume prim's space.
     pub local_to_object: Mat4,
 }
@@ -69,11 +71,28 @@ pub fn grid_data(dims: [u32; 3], values: Vec<f32>, index_to_object: [f64; 16]) -
     if dims.contains(&0) || n != Some(values.len()) {
         return Err(format!("grid of {}×{}×{} with {} values", dims[0], dims[1], dims[2], values.len()));
     }
+    let local_to_object = grid_transform(index_to_object)?;
+    let bad_values = values.iter().filter(|x| !x.is_finite() || **x < 0.0).count();
+    let values = Bricks::from_dense(dims, &values).map_err(|e| e.to_string())?;
+    Ok(GridData { values: Arc::new(values), bad_values, local_to_object })
+}
+
+/// [`grid_data`] from bricks as a reader hands them over ([`Bricks::from_parts`]): `table`
+/// one entry per [`tide_core::medium::grid::BRICK`]³ brick of `dims`, `pool` the stored bricks'
+/// values.
+pub fn grid_data_bricks(dims: [u32; 3], table: Vec<u32>, pool: Vec<f32>, index_to_object: [f64; 16]) -> Result<GridData, String> {
+    let local_to_object = grid_transform(index_to_object)?;
+    let bad_values = pool.iter().filter(|x| !x.is_finite() || **x < 0.0).count();
+    let values = Bricks::from_parts(dims, table, pool)?;
+    Ok(GridData { values: Arc::new(values), bad_values, local_to_object })
+}
+
+fn grid_transform(index_to_object: [f64; 16]) -> Result<Mat4, String> {
     let m = Mat4::from_cols_array(&index_to_object.map(|v| v as f32));
     if !m.is_finite() || m.determinant().abs() < 1e-30 {
         return Err("the grid's transform is not finite and invertible".into());
     }
-    Ok(GridData { dims, values, local_to_object: m })
+    Ok(m)
 }
 
 /// The core's volume for prim `path`: its grid placed by `object_to_world` (one key, or the
@@ -96,7 +115,7 @@ pub fn volume_desc(path: &str, spec: &VolumeSpec, grid: Option<&GridState>, medi
         p.add("material", "the bound material has no TideMedium volume; the volume is dropped");
         return None;
     };
-    let grid = GridDesc { name: format!("{}:{}", spec.asset, spec.field), dims: data.dims, values: data.values.clone(), local_to_world: Mat4::IDENTITY };
+    let grid = GridDesc { name: format!("{}:{}", spec.asset, spec.field), values: data.values.clone(), bad_values: data.bad_values, local_to_world: Mat4::IDENTITY };
     Some(placed_volume(path, grid, object_to_world, |m| m * spec.field_to_volume * data.local_to_object, medium, id))
 }
 
@@ -167,8 +186,8 @@ mod tests {
         assert_eq!(s.volumes.len(), 1);
         let v = &s.volumes[0];
         assert_eq!(v.name, "/Fog");
-        assert_eq!(v.density.dims, [2, 1, 1]);
-        assert_eq!(v.density.values, vec![0.25, 1.0]);
+        assert_eq!(v.density.values.dims(), [2, 1, 1]);
+        assert_eq!(v.density.values.to_dense(), vec![0.25, 1.0]);
         // the medium is the TideMedium's, densityScale included
         assert_eq!(s.media[v.medium].scale, 2.0);
         // grid point (1, 0, 0): index → object (1.5, 0, 0), then the prim's +5 in y

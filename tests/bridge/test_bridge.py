@@ -380,18 +380,22 @@ def test_a_grid_read_from_a_vdb_file_loads_that_grid_alone(tmp_path):
 
 def test_a_grid_read_while_its_leaves_are_dropped_keeps_every_value(tmp_path):
     # 43 x 29 x 37 voxels from (-3, 5, -11): leaves (8^3, aligned to multiples of 8) straddle
-    # the box's faces; every voxel its own value, read back exactly
+    # the box's faces; every voxel its own value, read back exactly. The grid read starts at
+    # the leaf holding the box's low corner, (-8, 0, -16): zeros before the values
     import numpy as np
     nx, ny, nz = 43, 29, 37
     k, j, i = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
-    want = (1 + i + 100 * j + 10000 * k).astype(np.float32).ravel()
+    ramp = (1 + i + 100 * j + 10000 * k).astype(np.float32)
     path = str(tmp_path / "ramp.vdb")
-    _tide.write_vdb(path, [("density", "float", (nx, ny, nz), want.tobytes(), 0.1, (0, 0, 0), (-3, 5, -11))])
+    _tide.write_vdb(path, [("density", "float", (nx, ny, nz), ramp.ravel().tobytes(), 0.1, (0, 0, 0), (-3, 5, -11))])
     d = _tide.RenderDelegate()
     assert d.load_vdb(path, "density")
     gx, gy, gz, data = d.grid_values(path, "density")
-    assert (gx, gy, gz) == (nx, ny, nz)
-    assert np.array_equal(np.frombuffer(data, dtype=np.float32), want)
+    pad = (-3 - -8, 5 - 0, -11 - -16)
+    assert (gx, gy, gz) == (nx + pad[0], ny + pad[1], nz + pad[2])
+    want = np.zeros((gz, gy, gx), dtype=np.float32)
+    want[pad[2]:, pad[1]:, pad[0]:] = ramp
+    assert np.array_equal(np.frombuffer(data, dtype=np.float32).reshape(gz, gy, gx), want)
 
 
 def test_a_truncated_image_fails_with_its_reason_before_taking_the_memory_it_claims(tmp_path):

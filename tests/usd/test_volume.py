@@ -112,6 +112,20 @@ def test_volume_transmits_beer_lambert(renderer, stage, tmp_path):
     assert_transmits(img, math.exp(-0.7 * PATH_INTEGRAL))
 
 
+def test_a_sparse_grid_over_a_huge_box_renders(renderer, stage, tmp_path):
+    """The cloud's grid with a second block 1200 voxels away along every axis: an active box
+    of 1.8e9 voxels (7 GB as dense floats, refused before), held as its occupied 8^3 bricks.
+    The far block is out of view: the camera sees the cloud's transmittance."""
+    values = np.full(DIMS[0] * DIMS[1] * DIMS[2], 1.0, dtype=np.float32)
+    far = np.full(4 * 4 * 4, 2.0, dtype=np.float32)
+    f = str(tmp_path / "sparse.vdb")
+    renderer.write_vdb(f, [("density", "float", DIMS, values.tobytes(), VOXEL, ORIGIN, (0, 0, 0)),
+                           ("density", "float", (4, 4, 4), far.tobytes(), VOXEL, ORIGIN, (1200, 1200, 1200))])
+    scene(stage, f, sigma_a=0.7)
+    img = render(renderer, stage)["color"]
+    assert_transmits(img, math.exp(-0.7 * PATH_INTEGRAL))
+
+
 def test_density_scale_multiplies_the_grid(renderer, stage, tmp_path):
     f = write_grid(renderer, tmp_path / "cloud.vdb", value=0.5)
     scene(stage, f, sigma_a=0.7, density_scale=3.0)

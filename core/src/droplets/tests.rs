@@ -59,20 +59,21 @@ fn the_shell_stays_spheres_and_the_inside_becomes_medium() {
     assert!(sp.converted > 1000 && sp.spheres.centers.len() > 1000, "{} converted", sp.converted);
     // the grid's total cross-section ∫σs dV is the converted droplets' Σπr² (dilute: f ≈ 5%,
     // where λv lowers σs by about 1.44·f/(4/3)/(1 − f) ≈ 6%)
-    let total: f64 = grid.values.iter().map(|&v| v as f64).sum::<f64>() * (voxel as f64).powi(3);
+    let values = grid.values.to_dense();
+    let total: f64 = values.iter().map(|&v| v as f64).sum::<f64>() * (voxel as f64).powi(3);
     let cross: f64 = sp.converted as f64 * std::f64::consts::PI * 0.005f64.powi(2);
     assert!((total / cross - 1.0).abs() < 0.1, "{total} vs {cross}");
     assert!(total < cross, "{total} vs {cross}");
     // every converted droplet sits in a voxel whose centre is within half a voxel, and that
     // voxel scatters
     let inv = grid.local_to_world.inverse();
-    let [nx, ny, _] = grid.dims.map(|d| d as usize);
+    let [nx, ny, _] = grid.values.dims();
     for c in &converted {
         let u = inv.transform_point3(*c);
         let v = u.round();
         assert!((u - v).abs().max_element() <= 0.5 + 1e-4, "{u:?}");
         let k = v.x as usize + nx * (v.y as usize + ny * v.z as usize);
-        assert!(grid.values[k] > 0.0);
+        assert!(values[k] > 0.0);
     }
 }
 

@@ -3,9 +3,12 @@
 //! bound `TideMedium`'s spectra (already multiplied by its `densityScale`).
 //!
 //! # Grid
-//! The grid is dense in its *local* index space: the value `[i, j, k]` (x fastest) sits at the
-//! point u = (i, j, k); ρ between points is trilinear, with 0 outside the array, so ρ can be
-//! non-zero only in the open box (−1, dims). An affine `local_to_world` places it.
+//! The grid spans its *local* index space: the value `[i, j, k]` sits at the point
+//! u = (i, j, k); ρ between points is trilinear, with 0 outside the array, so ρ can be non-zero
+//! only in the open box (−1, dims). An affine `local_to_world` places it. The values are held
+//! in [`Bricks`] of [`BRICK`]³ (an OpenVDB leaf's size), a brick of zeros not at all, so a sparse
+//! grid over a large box (spray, foam, a plume) takes the memory of its occupied bricks; the
+//! bricks are shared, not copied, between the scene description and the medium.
 //!
 //! # Majorants
 //! A coarse grid of super-voxels of [`SUPER`]³ cells (cell c of an axis covers
@@ -42,11 +45,147 @@ use glam::{Mat4, Vec3};
 /// Edge of a super-voxel of the majorant grid, in grid cells.
 pub const SUPER: usize = 8;
 
-/// A dense density grid with a world placement and its majorant grid.
+/// Edge of a brick of [`Bricks`], in voxels (an OpenVDB leaf node's).
+pub const BRICK: usize = 8;
+const BRICK_VALUES: usize = BRICK * BRICK * BRICK;
+
+/// A grid's values in bricks of [`BRICK`]³ voxels, those all zero left out: the voxel
+/// [x, y, z] lies in brick [x, y, z] / BRICK (bricks x fastest), at x % BRICK + BRICK·(y % BRICK
+/// + BRICK·(z % BRICK)) within it. Values that are not finite, or are negative, are 0.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Bricks {
+    dims: [usize; 3],
+    /// Bricks along each axis.
+    bdims: [usize; 3],
+    /// Per brick: 0 where it is all zero, else 1 + its index among the stored bricks.
+    table: Vec<u32>,
+    /// [`BRICK`]³ values per stored brick.
+    pool: Vec<f32>,
+}
+
+/// A value as a grid holds it: what is not finite, or is negative, is 0.
+#[inline]
+fn clean(v: f32) -> f32 {
+    if v.is_finite() && v > 0.0 {
+        v
+    } else {
+        0.0
+    }
+}
+
+impl Bricks {
+    fn brick_dims(dims: [u32; 3]) -> Option<([usize; 3], [usize; 3], usize)> {
+        let d = dims.map(|v| v as usize);
+        let b = d.map(|n| n.div_ceil(BRICK));
+        let count = b[0].checked_mul(b[1])?.checked_mul(b[2])?;
+        (!d.contains(&0) && count <= u32::MAX as usize).then_some((d, b, count))
+    }
+
+    /// `values` (x fastest over `dims`) in bricks.
+    pub fn from_dense(dims: [u32; 3], values: &[f32]) -> Result<Bricks, GridError> {
+        let err = GridError::Dims { dims, len: values.len() };
+        let Some((d, b, count)) = Bricks::brick_dims(dims) else { return Err(err) };
+        if d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
+            return Err(err);
+        }
+        let mut table = vec![0u32; count];
+        let mut pool = Vec::new();
+        let mut brick = [0f32; BRICK_VALUES];
+        for bz in 0..b[2] {
+            for by in 0..b[1] {
+                for bx in 0..b[0] {
+                    let mut any = false;
+                    for (k, v) in brick.iter_mut().enumerate() {
+                        let (x, y, z) = (bx * BRICK + k % BRICK, by * BRICK + k / BRICK % BRICK, bz * BRICK + k / (BRICK * BRICK));
+                        *v = if x < d[0] && y < d[1] && z < d[2] { clean(values[x + d[0] * (y + d[1] * z)]) } else { 0.0 };
+                        any |= *v != 0.0;
+                    }
+                    if any {
+                        pool.extend_from_slice(&brick);
+                        table[bx + b[0] * (by + b[1] * bz)] = (pool.len() / BRICK_VALUES) as u32;
+                    }
+                }
+            }
+        }
+        Ok(Bricks { dims: d, bdims: b, table, pool })
+    }
+
+    /// Bricks as a reader hands them over: `table` one entry per brick of `dims` (x fastest; 0
+    /// for a brick of zeros, else 1 + its index in `pool`), `pool` [`BRICK`]³ values per brick.
+    pub fn from_parts(dims: [u32; 3], table: Vec<u32>, mut pool: Vec<f32>) -> Result<Bricks, String> {
+        let (d, b, count) = Bricks::brick_dims(dims).ok_or_else(|| format!("a grid of {}×{}×{} voxels", dims[0], dims[1], dims[2]))?;
+        if table.len() != count || pool.len() % BRICK_VALUES != 0 {
+            return Err(format!("{} bricks and {} values for a grid of {}×{}×{} voxels ({count} bricks)", table.len(), pool.len(), dims[0], dims[1], dims[2]));
+        }
+        let stored = pool.len() / BRICK_VALUES;
+        if let Some(bad) = table.iter().find(|&&t| t as usize > stored) {
+            return Err(format!("a brick refers to stored brick {bad} of {stored}"));
+        }
+        pool.iter_mut().for_each(|v| *v = clean(*v));
+        Ok(Bricks { dims: d, bdims: b, table, pool })
+    }
+
+    pub fn dims(&self) -> [usize; 3] {
+        self.dims
+    }
+
+    /// The bricks holding values (the others are all zero).
+    pub fn stored(&self) -> usize {
+        self.pool.len() / BRICK_VALUES
+    }
+
+    /// Bytes held (the table and the stored bricks).
+    pub fn memory_bytes(&self) -> usize {
+        self.table.len() * 4 + self.pool.len() * 4
+    }
+
+    /// Whether brick [bx, by, bz] (inside the grid) is all zero.
+    #[inline]
+    fn empty(&self, bx: usize, by: usize, bz: usize) -> bool {
+        self.table[bx + self.bdims[0] * (by + self.bdims[1] * bz)] == 0
+    }
+
+    /// The value at voxel [x, y, z], inside the grid.
+    #[inline]
+    pub fn get(&self, x: usize, y: usize, z: usize) -> f32 {
+        let t = self.table[x / BRICK + self.bdims[0] * (y / BRICK + self.bdims[1] * (z / BRICK))];
+        if t == 0 {
+            return 0.0;
+        }
+        self.pool[(t as usize - 1) * BRICK_VALUES + x % BRICK + BRICK * (y % BRICK + BRICK * (z % BRICK))]
+    }
+
+    /// The values at the corners of the cell [x, x + 1] × [y, y + 1] × [z, z + 1] (all inside
+    /// the grid), x fastest: from one brick, found once, where the cell lies in one.
+    #[inline]
+    pub fn cell(&self, x: usize, y: usize, z: usize) -> [f32; 8] {
+        let (ix, iy, iz) = (x % BRICK, y % BRICK, z % BRICK);
+        if ix < BRICK - 1 && iy < BRICK - 1 && iz < BRICK - 1 {
+            let t = self.table[x / BRICK + self.bdims[0] * (y / BRICK + self.bdims[1] * (z / BRICK))];
+            if t == 0 {
+                return [0.0; 8];
+            }
+            let p = &self.pool[(t as usize - 1) * BRICK_VALUES + ix + BRICK * (iy + BRICK * iz)..];
+            const Y: usize = BRICK;
+            const Z: usize = BRICK * BRICK;
+            return [p[0], p[1], p[Y], p[Y + 1], p[Z], p[Z + 1], p[Z + Y], p[Z + Y + 1]];
+        }
+        [self.get(x, y, z), self.get(x + 1, y, z), self.get(x, y + 1, z), self.get(x + 1, y + 1, z), self.get(x, y, z + 1), self.get(x + 1, y, z + 1), self.get(x, y + 1, z + 1), self.get(x + 1, y + 1, z + 1)]
+    }
+
+    /// Every value, x fastest.
+    pub fn to_dense(&self) -> Vec<f32> {
+        let d = self.dims;
+        (0..d[2]).flat_map(|z| (0..d[1]).flat_map(move |y| (0..d[0]).map(move |x| (x, y, z)))).map(|(x, y, z)| self.get(x, y, z)).collect()
+    }
+}
+
+/// A density grid with a world placement and its majorant grid.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DensityGrid {
     dims: [usize; 3],
-    values: Vec<f32>,
+    values: std::sync::Arc<Bricks>,
+
     local_to_world: Mat4,
     world_to_local: Mat4,
     super_dims: [usize; 3],
@@ -79,19 +218,23 @@ impl DensityGrid {
     /// A grid of `dims` values (x fastest) placed by `local_to_world` (affine). Non-finite or
     /// negative values are read as 0 (the caller reports them).
     pub fn new(dims: [u32; 3], values: &[f32], local_to_world: Mat4) -> Result<Self, GridError> {
-        let d = dims.map(|v| v as usize);
-        if d.contains(&0) || d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
-            return Err(GridError::Dims { dims, len: values.len() });
+        DensityGrid::from_bricks(std::sync::Arc::new(Bricks::from_dense(dims, values)?), local_to_world)
+    }
+
+    /// A grid of the values `bricks` holds (shared, not copied) placed by `local_to_world`.
+    pub fn from_bricks(values: std::sync::Arc<Bricks>, local_to_world: Mat4) -> Result<Self, GridError> {
+        let d = values.dims();
+        if d.contains(&0) {
+            return Err(GridError::Dims { dims: d.map(|v| v as u32), len: 0 });
         }
         let world_to_local = local_to_world.inverse();
         if !local_to_world.is_finite() || !world_to_local.is_finite() || local_to_world.determinant().abs() < 1e-30 {
             return Err(GridError::Transform);
         }
-        let values: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
         let super_dims = d.map(|n| (n + 1).div_ceil(SUPER));
-        let mut g = DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: Vec::new(), minorants: Vec::new(), max_density: 0.0, motion: None };
         let mut maj = vec![0f32; super_dims[0] * super_dims[1] * super_dims[2]];
         let mut min = vec![0f32; maj.len()];
+        let b = &*values;
         for cz in 0..super_dims[2] {
             for cy in 0..super_dims[1] {
                 for cx in 0..super_dims[0] {
@@ -108,12 +251,18 @@ impl DensityGrid {
                     let (x0, x1, ox) = range(cx, d[0]);
                     let (y0, y1, oy) = range(cy, d[1]);
                     let (z0, z1, oz) = range(cz, d[2]);
+                    // the range lies in the bricks of its ends: all zero there, both bounds
+                    // are 0 without a look at the values
+                    let bricks = |lo: usize, hi: usize| lo / BRICK..=hi / BRICK;
+                    if bricks(z0, z1).all(|bz| bricks(y0, y1).all(|by| bricks(x0, x1).all(|bx| b.empty(bx, by, bz)))) {
+                        continue;
+                    }
                     let mut m = 0f32;
                     let mut lo = if ox || oy || oz { 0.0 } else { f32::INFINITY };
                     for z in z0..=z1 {
                         for y in y0..=y1 {
                             for x in x0..=x1 {
-                                let v = g.values[x + d[0] * (y + d[1] * z)];
+                                let v = b.get(x, y, z);
                                 m = m.max(v);
                                 lo = lo.min(v);
                             }
@@ -125,10 +274,13 @@ impl DensityGrid {
                 }
             }
         }
-        g.max_density = maj.iter().copied().fold(0.0, f32::max);
-        g.majorants = maj;
-        g.minorants = min;
-        Ok(g)
+        let max_density = maj.iter().copied().fold(0.0, f32::max);
+        Ok(DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: maj, minorants: min, max_density, motion: None })
+    }
+
+    /// The grid's values, in bricks.
+    pub fn bricks(&self) -> &std::sync::Arc<Bricks> {
+        &self.values
     }
 
     pub fn dims(&self) -> [usize; 3] {
@@ -154,7 +306,7 @@ impl DensityGrid {
         if x < 0 || y < 0 || z < 0 || x >= d[0] as i64 || y >= d[1] as i64 || z >= d[2] as i64 {
             return 0.0;
         }
-        self.values[x as usize + d[0] * (y as usize + d[1] * z as usize)]
+        self.values.get(x as usize, y as usize, z as usize)
     }
 
     /// Trilinear density at local point `u`.
@@ -167,11 +319,19 @@ impl DensityGrid {
         let f = u.floor();
         let (x, y, z) = (f.x as i64, f.y as i64, f.z as i64);
         let w = u - f;
+        let d = self.dims;
+        let inside = x >= 0 && y >= 0 && z >= 0 && x + 1 < d[0] as i64 && y + 1 < d[1] as i64 && z + 1 < d[2] as i64;
+        // the cell's corners: from their brick at once where they share one (most cells)
+        let c = if inside {
+            self.values.cell(x as usize, y as usize, z as usize)
+        } else {
+            [self.value(x, y, z), self.value(x + 1, y, z), self.value(x, y + 1, z), self.value(x + 1, y + 1, z), self.value(x, y, z + 1), self.value(x + 1, y, z + 1), self.value(x, y + 1, z + 1), self.value(x + 1, y + 1, z + 1)]
+        };
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let c00 = lerp(self.value(x, y, z), self.value(x + 1, y, z), w.x);
-        let c10 = lerp(self.value(x, y + 1, z), self.value(x + 1, y + 1, z), w.x);
-        let c01 = lerp(self.value(x, y, z + 1), self.value(x + 1, y, z + 1), w.x);
-        let c11 = lerp(self.value(x, y + 1, z + 1), self.value(x + 1, y + 1, z + 1), w.x);
+        let c00 = lerp(c[0], c[1], w.x);
+        let c10 = lerp(c[2], c[3], w.x);
+        let c01 = lerp(c[4], c[5], w.x);
+        let c11 = lerp(c[6], c[7], w.x);
         lerp(lerp(c00, c10, w.y), lerp(c01, c11, w.y), w.z).max(0.0)
     }
 

@@ -77,10 +77,65 @@ fn optical_depths(g: &DensityGrid, o: Vec3, d: Vec3, edges: &[f64]) -> Vec<f64> 
 
 #[test]
 fn majorant_segments_bound_the_density_and_cover_the_box() {
-    let g = random_grid(1);
-    let mut rng = TestRng::new(2);
-    for _ in 0..500 {
+    check_majorants(&random_grid(1), 2, None);
+}
+
+/// A grid mostly empty, its values in a few blobs that straddle brick boundaries, as a
+/// spray or foam VDB is: only the blobs' bricks are stored, the values read back exactly, and
+/// the majorants (skipping super-voxels whose bricks are all empty) still bound every lookup
+/// on rays through the blobs.
+#[test]
+fn a_sparse_grid_keeps_only_its_occupied_bricks_and_its_majorants_bound_it() {
+    use super::grid::{Bricks, BRICK};
+    let dims = [45u32, 29, 61];
+    let d = dims.map(|v| v as usize);
+    let mut values = vec![0f32; d[0] * d[1] * d[2]];
+    let mut rng = TestRng::new(5);
+    // blobs [lo, hi) per axis, each across a brick boundary (multiples of 8), the first
+    // ending on a brick's last layer (y = 15): lookups in the next super-voxel read it
+    let blobs = [([5, 10, 6], [11, 16, 10]), ([30, 2, 38], [34, 9, 42]), ([39, 22, 55], [45, 29, 61])];
+    for (lo, hi) in blobs {
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    values[x + d[0] * (y + d[1] * z)] = 0.5 + 2.0 * rng.next_f32();
+                }
+            }
+        }
+    }
+    values[3] = f32::NAN;
+    values[4] = -1.0;
+    let b = Bricks::from_dense(dims, &values).unwrap();
+    let occupied = |lo: [usize; 3], hi: [usize; 3]| (0..3).map(|k| (hi[k] - 1) / BRICK - lo[k] / BRICK + 1).product::<usize>();
+    assert_eq!(b.stored(), blobs.iter().map(|&(lo, hi)| occupied(lo, hi)).sum::<usize>());
+    let clean: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
+    assert_eq!(b.to_dense(), clean);
+    assert!(b.memory_bytes() * 4 < values.len() * 4, "{} bytes for {} values", b.memory_bytes(), values.len());
+    let bricks: usize = d.iter().map(|&n| n.div_ceil(BRICK)).product();
+    let parts = Bricks::from_parts(dims, vec![0; bricks], Vec::new()).unwrap();
+    assert!(parts.to_dense().iter().all(|&v| v == 0.0));
+    assert!(Bricks::from_parts(dims, vec![1; 3], vec![0.0; 512]).is_err(), "a table of the wrong size");
+    assert!(Bricks::from_parts([8, 8, 8], vec![2], vec![0.0; 512]).is_err(), "a brick beyond the pool");
+    let xf = Mat4::from_scale_rotation_translation(Vec3::new(0.05, 0.08, 0.03), Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.9, -0.4), Vec3::new(-0.5, 0.2, 1.0));
+    let g = DensityGrid::new(dims, &values, xf).unwrap();
+    let centres: Vec<Vec3> = blobs.iter().map(|&(lo, hi)| xf.transform_point3((Vec3::from(lo.map(|v| v as f32)) + Vec3::from(hi.map(|v| v as f32))) * 0.5)).collect();
+    check_majorants(&g, 6, Some(&centres));
+}
+
+/// Every segment's majorant bounds the density along random rays (aimed at the box's middle,
+/// or at one of `targets`), and its minorant from below; the segments cover the box.
+fn check_majorants(g: &DensityGrid, seed: u64, targets: Option<&[Vec3]>) {
+    let g = g.clone();
+    let mut rng = TestRng::new(seed);
+    for i in 0..500 {
         let (o, d, len) = random_ray(&g, &mut rng);
+        let (o, d, len) = match targets {
+            Some(t) => {
+                let aim = t[i % t.len()] + Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 0.2;
+                (o, (aim - o).normalize(), len)
+            }
+            None => (o, d, len),
+        };
         let mut it = g.segments(o, d, len);
         while let Some((t0, t1, _)) = it.next() {
             let c = it.minorant();

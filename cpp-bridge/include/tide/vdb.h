@@ -1,6 +1,7 @@
-//! tide::ReadVdbGrid / LoadVdbFor: a volume's scalar grid read from an OpenVDB file as dense
-//! values over its active bounding box, handed to the Rust delegate (add_grid / grid_failed);
-//! tide::WriteVdbGrids writes small grids (for tests and examples).
+//! tide::ReadVdbGrid / LoadVdbFor: a volume's scalar grid read from an OpenVDB file as bricks
+//! (its 8³ leaves, those of zeros left out) over its active bounding box, handed to the Rust
+//! delegate (add_grid / grid_failed); tide::WriteVdbGrids writes small grids (for tests and
+//! examples).
 #pragma once
 
 #include "rust/cxx.h"
@@ -14,11 +15,14 @@
 namespace tide {
 class RenderParam;
 
-/// A grid as the delegate takes it: value [i, j, k] (x fastest) at grid-local (i, j, k),
-/// placed by `indexToObject` (USD-style: row-major, row vectors). The values are written into
-/// a Rust buffer of floats that the delegate keeps as it is.
-struct DenseGrid {
+/// A grid as the delegate takes it: value [i, j, k] at grid-local (i, j, k), placed by
+/// `indexToObject` (USD-style: row-major, row vectors); the values in bricks of 8³: `table` one
+/// entry per brick of `dims` (x fastest; 0 for a brick of zeros, else 1 + its index among the
+/// stored bricks), whose values (x fastest within a brick) are written into a Rust buffer of
+/// floats that the delegate keeps as it is.
+struct BrickGrid {
     uint32_t dims[3] = {0, 0, 0};
+    std::vector<uint32_t> table;
     std::optional<rust::Box<rs::TexelBuffer>> values;
     double indexToObject[16] = {};
 };
@@ -26,7 +30,7 @@ struct DenseGrid {
 /// Reads the `index`-th grid named `field` of the file at `path` (a float or double scalar
 /// grid with a linear transform). False and `*error` for a missing file, a missing field or
 /// a grid of another type.
-bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, DenseGrid* out, std::string* error);
+bool ReadVdbGrid(const std::string& path, const std::string& field, int64_t index, BrickGrid* out, std::string* error);
 
 /// Reads a grid once per (file, field, index) and hands it to Rust, or the reason it failed;
 /// `reload` reads it again (its file changed on disk). True when the grid is held (read now
@@ -35,7 +39,8 @@ bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string&
 
 /// A grid to write: `kind` "float", "double" or "vec3" (the value on every component),
 /// `dims` values x fastest, the first at index `origin`, voxels `voxelSize` wide, then moved
-/// by `translation`. Values of 0 are left inactive.
+/// by `translation`. Values of 0 are left inactive. Entries of one name write into one grid
+/// (placed as the first of them says): blocks of a sparse grid.
 struct VdbWriteGrid {
     std::string name;
     std::string kind;
