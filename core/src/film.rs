@@ -92,7 +92,7 @@ impl FilmLayout {
         let normal = take(Aov::Normal);
         let albedo = take(Aov::Albedo);
         let split = SPLIT_AOVS.map(&mut take);
-        let first = Aov::ALL.iter().any(|&a| a.is_first_hit() && aovs.contains(a));
+        let first = aovs.keeps_first_hit();
         FilmLayout { acc, normal, albedo, split, first, aovs }
     }
 

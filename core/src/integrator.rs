@@ -343,7 +343,7 @@ fn nearest_light_hit(world: &World, ray: &Ray, t_hit: f32, camera: bool) -> Opti
 fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &SampledWavelengths, first: bool, aov: &mut SampleValue) {
     use crate::render::Aov;
     let wanted = |a: Aov| world.aovs.contains(a);
-    if !(wanted(Aov::Normal) || wanted(Aov::Albedo) || (first && Aov::ALL.iter().any(|&a| a.is_first_hit() && wanted(a)))) {
+    if !(wanted(Aov::Normal) || wanted(Aov::Albedo) || (first && world.aovs.keeps_first_hit())) {
         // nothing of it is kept: the camera ray is not traced again
         return;
     }
@@ -367,7 +367,9 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &Samp
                 aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
                 aov.prim_id = info.id as i32;
                 aov.instance_id = info.index;
-                aov.element_id = world.element_of(&hit);
+                if wanted(Aov::ElementId) {
+                    aov.element_id = world.element_of(&hit);
+                }
             }
             aov.normal = s.ns.to_array();
             if wanted(Aov::Albedo) {
@@ -757,7 +759,9 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
                 aov.depth = (passed + hit.t) * cr.depth_per_t + cr.depth_at_origin;
                 aov.prim_id = info.id as i32;
                 aov.instance_id = info.index;
-                aov.element_id = world.element_of(&hit);
+                if world.aovs.contains(crate::render::Aov::ElementId) {
+                    aov.element_id = world.element_of(&hit);
+                }
                 aov.normal = s.ns.to_array();
             }
         }

@@ -155,6 +155,12 @@ impl AovSet {
     pub fn contains(self, aov: Aov) -> bool {
         self.0 & (1 << aov as u16) != 0
     }
+
+    /// Whether the set keeps any first-hit AOV ([`Aov::is_first_hit`]: depth and the ids).
+    pub fn keeps_first_hit(self) -> bool {
+        const FIRST_HIT: u16 = 1 << Aov::Depth as u16 | 1 << Aov::PrimId as u16 | 1 << Aov::InstanceId as u16 | 1 << Aov::ElementId as u16;
+        self.0 & FIRST_HIT != 0
+    }
 }
 
 impl Default for AovSet {
@@ -852,6 +858,15 @@ mod tests {
         assert_eq!(r.aov_pixels(Aov::Color), before);
         assert!(r.render_pass_until(2, None, None));
         assert_eq!(r.samples_per_pixel(), 3);
+    }
+
+    /// The first-hit mask is `Aov::is_first_hit`: every AOV alone, and colour only.
+    #[test]
+    fn the_first_hit_mask_is_the_first_hit_aovs() {
+        for a in Aov::ALL {
+            assert_eq!(AovSet::of([a]).keeps_first_hit(), a.is_first_hit(), "{a:?}");
+        }
+        assert!(!AovSet::of([]).keeps_first_hit());
     }
 
     /// A pass started paused waits at its first pixel until resumed, then renders the very

@@ -287,9 +287,9 @@ pub struct World {
     pub sphere_primvars: Vec<Vec<PrimvarData>>,
     /// Each sphere set's [`crate::scene::SpheresDesc::origin`] (for object-space shading).
     pub sphere_origins: Vec<Vec3>,
-    /// Each sphere set's [`crate::scene::SpheresDesc::ids`] and whether its points are blobby
-    /// kernels (whose surface is no one point's): the `elementId` AOV.
-    pub sphere_elements: Vec<(Vec<u32>, bool)>,
+    /// The sphere sets, shared with the scene description (their authored point indices and
+    /// shapes give the `elementId` AOV).
+    pub spheres: Vec<Arc<crate::scene::SpheresDesc>>,
     /// Per-instance primvar tables ([`InstanceInfo::primvar_row`]).
     pub instance_primvars: Vec<InstancePrimvars>,
     pub materials: Vec<Material>,
@@ -890,7 +890,7 @@ impl World {
             meshes: scene.meshes.clone(),
             sphere_primvars: scene.spheres.iter().map(|s| s.primvars.clone()).collect(),
             sphere_origins: scene.spheres.iter().map(|s| s.origin).collect(),
-            sphere_elements: scene.spheres.iter().map(|s| (s.ids.clone(), matches!(s.shape, crate::scene::PointShape::Blobby { .. }))).collect(),
+            spheres: scene.spheres.clone(),
             instance_primvars: scene.instance_primvars.clone(),
             materials,
             media,
@@ -967,9 +967,9 @@ impl World {
     pub fn element_of(&self, hit: &Hit) -> i32 {
         match self.instances[hit.instance as usize].geometry {
             GeometryRef::Mesh(mi) => self.meshes[mi].element_of(hit.prim) as i32,
-            GeometryRef::Spheres(si) => match self.sphere_elements.get(si) {
-                Some((_, true)) => -1,
-                Some((ids, false)) => ids.get(hit.prim as usize).copied().unwrap_or(hit.prim) as i32,
+            GeometryRef::Spheres(si) => match self.spheres.get(si) {
+                Some(s) if matches!(s.shape, crate::scene::PointShape::Blobby { .. }) => -1,
+                Some(s) => s.element_of(hit.prim) as i32,
                 None => hit.prim as i32,
             },
         }

@@ -1138,8 +1138,8 @@ std::string HdTideRenderDelegate::SettingsPathForPass() const {
 }
 
 bool HdTideRenderDelegate::Stop(bool blocking) {
-    // the render thread ends its pass at the next pixel; a blocking stop returns once it has
-    // (the buffers are left as the render's last pass published them)
+    // the render thread ends its pass at its next pixel; blocking or not, nothing is
+    // published after this returns (the buffers keep what the render's last pass published)
     (void)blocking;
     return _tide->Stop();
 }
