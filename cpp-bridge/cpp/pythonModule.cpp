@@ -650,6 +650,20 @@ PyObject* Delegate_control(PyObject* self, PyObject*) {
     TIDE_CATCH
 }
 
+PyObject* Delegate_stop(PyObject* self, PyObject* args, PyObject* kwargs) {
+    TIDE_TRY
+    static const char* kw[] = {"blocking", nullptr};
+    int blocking = 1;
+    if (!PyArg_ParseTupleAndKeywords(args, kwargs, "|p", const_cast<char**>(kw), &blocking)) return nullptr;
+    State& s = S(self);
+    bool ok = WithoutGil([&] {
+        std::lock_guard<std::mutex> lock(s.mutex);
+        return s.delegate->Stop(blocking != 0);
+    });
+    return PyBool_FromLong(ok);
+    TIDE_CATCH
+}
+
 template <bool (tide::RenderDelegate::*Query)() const>
 PyObject* Delegate_query(PyObject* self, PyObject*) {
     TIDE_TRY
@@ -1005,7 +1019,7 @@ PyMethodDef DelegateMethods[] = {
     {"create_render_pass", Delegate_create_render_pass, METH_NOARGS, "create_render_pass() -> RenderPass"},
     {"pause", Delegate_control<&tide::RenderDelegate::Pause>, METH_NOARGS, "pause() -> bool: holds the render where it is (HdRenderDelegate::Pause)"},
     {"resume", Delegate_control<&tide::RenderDelegate::Resume>, METH_NOARGS, "resume() -> bool: goes on from where it was paused"},
-    {"stop", Delegate_control<&tide::RenderDelegate::Stop>, METH_NOARGS, "stop() -> bool: ends the render; executions start nothing until restart()"},
+    {"stop", KW(Delegate_stop), "stop(blocking=True) -> bool: ends the render (nothing is published after it returns; blocking, no worker renders either); executions start nothing until restart()"},
     {"restart", Delegate_control<&tide::RenderDelegate::Restart>, METH_NOARGS, "restart() -> bool: renders the last execution asked for, from its start"},
     {"is_paused", Delegate_query<&tide::RenderDelegate::IsPaused>, METH_NOARGS, "is_paused() -> bool"},
     {"is_stopped", Delegate_query<&tide::RenderDelegate::IsStopped>, METH_NOARGS, "is_stopped() -> bool"},

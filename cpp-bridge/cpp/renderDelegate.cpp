@@ -176,7 +176,10 @@ bool RenderDelegate::Pause() { return Control(*_param, "pause", [](auto& d) { d.
 
 bool RenderDelegate::Resume() { return Control(*_param, "resume", [](auto& d) { d.resume_render(); }); }
 
-bool RenderDelegate::Stop() { return Control(*_param, "stop", [](auto& d) { d.stop_render(); }); }
+bool RenderDelegate::Stop(bool blocking) {
+    bool stopped = false;
+    return Control(*_param, "stop", [&](auto& d) { stopped = d.stop_render(blocking); }) && stopped;
+}
 
 bool RenderDelegate::Restart() { return Control(*_param, "restart", [](auto& d) { d.restart_render(); }); }
 

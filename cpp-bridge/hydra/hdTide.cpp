@@ -1139,9 +1139,9 @@ std::string HdTideRenderDelegate::SettingsPathForPass() const {
 
 bool HdTideRenderDelegate::Stop(bool blocking) {
     // the render thread ends its pass at its next pixel; blocking or not, nothing is
-    // published after this returns (the buffers keep what the render's last pass published)
-    (void)blocking;
-    return _tide->Stop();
+    // published after this returns (the buffers keep what the render's last pass published),
+    // and blocking, no worker renders either
+    return _tide->Stop(blocking);
 }
 
 VtDictionary HdTideRenderDelegate::GetRenderStats() const {

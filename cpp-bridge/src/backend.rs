@@ -326,8 +326,17 @@ impl Delegate {
         guard("resume_render", || Ok(lock(&self.shared).delegate.resume_render()))
     }
 
-    pub fn stop_render(&self) -> Result<(), String> {
-        guard("stop_render", || Ok(lock(&self.shared).delegate.stop_render()))
+    /// Stops rendering; `blocking`: also waits, without holding the delegate, until no worker
+    /// renders. True once stopped (always, when not blocking).
+    pub fn stop_render(&self, blocking: bool) -> Result<bool, String> {
+        guard("stop_render", || {
+            let watcher = {
+                let mut s = lock(&self.shared);
+                s.delegate.stop_render();
+                s.delegate.watcher()
+            };
+            Ok(!blocking || watcher.is_none_or(|w| w.wait_idle(Duration::MAX)))
+        })
     }
 
     pub fn restart_render(&self) -> Result<(), String> {

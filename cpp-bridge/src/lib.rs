@@ -154,7 +154,7 @@ pub mod ffi {
         /// start nothing until restarted.
         fn pause_render(self: &Delegate) -> Result<()>;
         fn resume_render(self: &Delegate) -> Result<()>;
-        fn stop_render(self: &Delegate) -> Result<()>;
+        fn stop_render(self: &Delegate, blocking: bool) -> Result<bool>;
         fn restart_render(self: &Delegate) -> Result<()>;
         fn render_paused(self: &Delegate) -> Result<bool>;
         fn render_stopped(self: &Delegate) -> Result<bool>;

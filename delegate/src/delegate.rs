@@ -1577,6 +1577,8 @@ impl Delegate {
     /// Stops rendering (HdRenderDelegate::Stop): the render under way ends, its buffers keep
     /// what it published, and executions and edits start nothing until
     /// [`Delegate::restart_render`], which renders the last job asked for from its start.
+    /// Nothing is published after it returns; to wait until no worker renders either (a
+    /// blocking stop), wait on the watcher's [`PassWatcher::wait_idle`] after it.
     pub fn stop_render(&mut self) {
         self.stopped = true;
         if let Some(p) = &self.pass {

@@ -436,6 +436,9 @@ struct State {
     problems: Vec<Problem>,
     /// The pass under way: its samples per pixel and how far it has got (engines that tell).
     pass: Option<(u32, Arc<tide_core::PassProgress>)>,
+    /// True while the thread works on a job (preparing its scene or rendering), false while it
+    /// waits for the next.
+    busy: bool,
 }
 
 struct Shared {
@@ -492,6 +495,27 @@ impl PassWatcher {
     /// empty until that engine is built.
     pub fn problems(&self) -> Vec<Problem> {
         self.shared.lock().problems.clone()
+    }
+
+    /// Waits until the render thread is between jobs (true), or `timeout` passes (false): no
+    /// worker renders when it returns true. A scene being prepared is finished first (its
+    /// preparation is not interrupted); a cancelled pass is left at the workers' next pixel.
+    pub fn wait_idle(&self, timeout: Duration) -> bool {
+        let deadline = Instant::now().checked_add(timeout);
+        let mut st = self.shared.lock();
+        while st.busy {
+            st = match deadline {
+                None => self.shared.cond.wait(st).unwrap_or_else(|e| e.into_inner()),
+                Some(d) => {
+                    let left = d.saturating_duration_since(Instant::now());
+                    if left.is_zero() {
+                        return false;
+                    }
+                    self.shared.cond.wait_timeout(st, left).unwrap_or_else(|e| e.into_inner()).0
+                }
+            };
+        }
+        true
     }
 
     /// Waits until the job converges or fails (or `timeout` passes); true if converged.
@@ -553,6 +577,7 @@ impl RenderPass {
                 exr: Vec::new(),
                 summary: Vec::new(),
                 problems: Vec::new(),
+                busy: false,
             }),
             cond: Condvar::new(),
             cancel: AtomicBool::new(false),
@@ -619,6 +644,13 @@ impl RenderPass {
         }
         self.shared.cancel.store(true, Ordering::SeqCst);
         self.shared.cond.notify_all();
+    }
+
+    /// Cancels the current job like [`RenderPass::cancel`] and waits until the render thread
+    /// has left it ([`PassWatcher::wait_idle`]).
+    pub fn cancel_and_wait(&self, timeout: Duration) -> bool {
+        self.cancel();
+        self.watcher().wait_idle(timeout)
     }
 
     pub fn status(&self) -> PassStatus {
@@ -713,6 +745,7 @@ fn thread_main(shared: &Shared, factory: &EngineFactory) {
                     st.taken = st.generation;
                     if let Some(j) = st.job.clone() {
                         shared.cancel.store(false, Ordering::SeqCst);
+                        st.busy = true;
                         break (j, st.generation);
                     }
                     continue;
@@ -727,6 +760,7 @@ fn thread_main(shared: &Shared, factory: &EngineFactory) {
         let outcome = catch_unwind(AssertUnwindSafe(|| run_job(shared, factory, &job, generation, &mut engine)));
         engine_world = engine.as_ref().map(|_| job.world);
         let mut st = shared.lock();
+        st.busy = false;
         if st.generation == generation {
             match outcome {
                 Ok(Ok(true)) => st.status = PassStatus::Converged,
@@ -952,6 +986,66 @@ pub(crate) mod tests {
         assert!(!w.wait(Duration::MAX));
         assert!(t.elapsed() < Duration::from_secs(1), "{:?}", t.elapsed());
         assert_eq!(w.status(), PassStatus::Idle);
+    }
+
+    /// An engine whose pass takes `linger` to wind down after it sees the cancel flag (as
+    /// workers finish the pixel they are on), counting the passes under way.
+    struct Lingering {
+        inside: Arc<AtomicU32>,
+        linger: Duration,
+    }
+
+    impl Engine for Lingering {
+        fn render_pass(&mut self, _: u32, cancel: &AtomicBool, _: Option<Instant>, _: &PauseGate) -> bool {
+            self.inside.fetch_add(1, Ordering::SeqCst);
+            while !cancel.load(Ordering::SeqCst) {
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            std::thread::sleep(self.linger);
+            self.inside.fetch_sub(1, Ordering::SeqCst);
+            false
+        }
+        fn samples_per_pixel(&self) -> u32 {
+            0
+        }
+        fn aov_pixels(&self, _: Aov) -> Vec<f32> {
+            Vec::new()
+        }
+        fn write_exr(&self, _: &std::path::Path, _: &[(Aov, SampleFormat)], _: &[(String, String)]) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn cancel_and_wait_returns_once_no_pass_renders() {
+        let inside = Arc::new(AtomicU32::new(0));
+        let i = inside.clone();
+        let pass = RenderPass::new(Arc::new(move |_, _| Ok(Box::new(Lingering { inside: i.clone(), linger: Duration::from_millis(80) }) as Box<dyn Engine>)));
+        let buf = RenderBuffer::new(4, 2, 4);
+        for _ in 0..2 {
+            pass.start(job(10, &buf));
+            let t = Instant::now();
+            while inside.load(Ordering::SeqCst) == 0 {
+                assert!(t.elapsed() < Duration::from_secs(5));
+                std::thread::sleep(Duration::from_millis(1));
+            }
+            assert!(pass.cancel_and_wait(Duration::from_secs(5)));
+            assert_eq!(inside.load(Ordering::SeqCst), 0);
+            assert_eq!(pass.status(), PassStatus::Idle);
+        }
+        // nothing under way: returns at once
+        assert!(pass.cancel_and_wait(Duration::ZERO));
+        // a pass that outlasts the timeout: false, and it still winds down
+        let inside = Arc::new(AtomicU32::new(0));
+        let i = inside.clone();
+        let pass = RenderPass::new(Arc::new(move |_, _| Ok(Box::new(Lingering { inside: i.clone(), linger: Duration::from_millis(300) }) as Box<dyn Engine>)));
+        pass.start(job(10, &buf));
+        while inside.load(Ordering::SeqCst) == 0 {
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        assert!(!pass.cancel_and_wait(Duration::from_millis(20)));
+        assert!(pass.cancel_and_wait(Duration::from_secs(5)));
+        assert_eq!(inside.load(Ordering::SeqCst), 0);
     }
 
     #[test]

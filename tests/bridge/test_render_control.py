@@ -113,3 +113,22 @@ def test_a_stopped_render_ignores_executions_until_restarted_from_its_start():
     assert d.restart() and not d.is_stopped()
     assert p.wait(120.0) and p.error() is None
     assert pixels(d) == want
+
+
+def test_a_blocking_stop_returns_with_no_worker_rendering():
+    d = _tide.RenderDelegate()
+    p = scene(d)
+    for blocking in (True, False):
+        execute(p)
+        while p.progress() == 0.0:
+            time.sleep(0.01)
+        assert d.stop(blocking=blocking) and d.is_stopped()
+        if blocking:
+            # the process's CPU time holds still from the moment the stop returns (rendering
+            # takes both cores: 0.3 s of it would be ~0.6 s of CPU)
+            cpu = time.process_time()
+            time.sleep(0.3)
+            assert time.process_time() - cpu < 0.03
+        assert d.restart()
+    assert p.wait(120.0) and p.error() is None
+    assert d.stop()

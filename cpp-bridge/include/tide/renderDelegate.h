@@ -62,11 +62,13 @@ public:
     /// Background rendering, as HdRenderDelegate's: Pause holds the render where it is (the
     /// buffers keep their pixels) until Resume goes on from there; Stop ends it and leaves
     /// executions idle until Restart renders the last one asked for. Each returns whether it
-    /// was carried out (a problem says why not).
+    /// was carried out (a problem says why not). Nothing is published once Stop returns; a
+    /// blocking Stop also returns only when no worker renders (a scene being prepared is
+    /// finished first).
     bool Pause();
     bool Resume();
     bool IsPaused() const;
-    bool Stop();
+    bool Stop(bool blocking = true);
     bool Restart();
     bool IsStopped() const;
 
