@@ -109,6 +109,16 @@ std::vector<Problem> RenderParam::TakeProblems() {
     return std::exchange(_problems, {});
 }
 
+void RenderParam::NoteSynced(const std::string& path) {
+    std::lock_guard<std::mutex> lock(_problemsMutex);
+    _synced.insert(path);
+}
+
+std::set<std::string> RenderParam::TakeSynced() {
+    std::lock_guard<std::mutex> lock(_problemsMutex);
+    return std::exchange(_synced, {});
+}
+
 // ---------------------------------------------------------------------------------------------
 // Prims
 
@@ -119,6 +129,7 @@ Prim::~Prim() = default;
 
 void Prim::Sync(SceneSource& source, DirtyBits* dirtyBits) {
     if (!dirtyBits || *dirtyBits == ChangeTracker::Clean) return;
+    _param->NoteSynced(_id);
     _SyncKeys(source, *dirtyBits);
     if (*dirtyBits & ChangeTracker::DirtyPrimvar) _SyncPrimvars(source);
     *dirtyBits = ChangeTracker::Clean;

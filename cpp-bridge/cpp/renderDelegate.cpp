@@ -132,11 +132,32 @@ void RenderDelegate::_PendRows(bool check) {
 }
 
 std::vector<Problem> RenderDelegate::TakeProblems() {
+    // A prim synced again is checked again: what it reported before and no longer has is
+    // forgotten, so a problem mended and brought back is reported again (one it still has is
+    // found again and not repeated).
+    std::set<std::string> synced = _param->TakeSynced();
+    try {
+        for (const auto& s : _param->GetDelegate().last_synced()) synced.emplace(std::string(s));
+    } catch (const std::exception&) {
+    }
+    std::vector<Problem> fresh = _param->TakeProblems();
+    auto found = [&](const std::string& prim, const std::string& attribute, const std::string* message) {
+        auto same = [&](const Problem& p) {
+            return p.prim == prim && p.attribute == attribute && (!message || p.message == *message);
+        };
+        return std::any_of(_pending.begin(), _pending.end(), same) || std::any_of(fresh.begin(), fresh.end(), same);
+    };
+    for (auto it = _reported.begin(); it != _reported.end();) {
+        const auto& [prim, attribute, message] = *it;
+        it = synced.count(prim) && !found(prim, attribute, &message) ? _reported.erase(it) : std::next(it);
+    }
+    for (auto it = _reportedByRust.begin(); it != _reportedByRust.end();)
+        it = synced.count(it->first) && !found(it->first, it->second, nullptr) ? _reportedByRust.erase(it) : std::next(it);
     // The delegate's problems come first; a C++ problem about the same prim and attribute
     // (e.g. a texture the delegate also reports) is not repeated.
     std::vector<Problem> candidates = std::exchange(_pending, {});
     for (const auto& p : candidates) _reportedByRust.emplace(p.prim, p.attribute);
-    for (auto& p : _param->TakeProblems())
+    for (auto& p : fresh)
         if (!_reportedByRust.count({p.prim, p.attribute})) candidates.push_back(std::move(p));
     std::vector<Problem> out;
     for (auto& p : candidates)

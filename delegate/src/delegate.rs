@@ -810,8 +810,9 @@ impl Delegate {
         }
         // what the running render's engine found while preparing the scene (its validation
         // and world build), once it is built: returned by the next commit
-        let found = self.watcher().map(|w| w.problems()).unwrap_or_default();
-        problems.extend(self.engine_new(found));
+        if let Some(found) = self.watcher().and_then(|w| w.engine_problems()) {
+            problems.extend(self.engine_new(found));
+        }
         let mut seen = Vec::with_capacity(problems.len());
         for p in problems {
             if !seen.contains(&p) {
@@ -821,8 +822,13 @@ impl Delegate {
         seen
     }
 
-    /// The engine problems in `found` not returned before.
+    /// The engine problems in `found` (an engine's whole list) not returned before; those of
+    /// earlier engines that `found` lacks are forgotten, so a problem mended and brought back
+    /// is returned again.
     fn engine_new(&mut self, found: Vec<Problem>) -> Vec<Problem> {
+        let now: HashSet<&Problem> = found.iter().collect();
+        self.engine_reported.retain(|p| now.contains(p));
+        drop(now);
         found.into_iter().filter(|p| self.engine_reported.insert(p.clone())).collect()
     }
 
@@ -2904,6 +2910,22 @@ mod tests {
         assert!(flat_problems[0].message.contains("1 degenerate"), "{}", flat_problems[0].message);
         assert!(d.commit_resources().is_empty(), "returned once");
         assert!(d.problems().iter().any(|p| p.item == "/Flat"));
+        // commits and waits for the engine the commit started, then commits again (the engine's
+        // problems arrive with that second commit): the /Flat problems of both
+        let settle = |d: &mut Delegate| {
+            let mut got = d.commit_resources();
+            assert!(d.wait(Duration::from_secs(20)));
+            got.extend(d.commit_resources());
+            got.into_iter().filter(|p| p.item == "/Flat").count()
+        };
+        // still flat after an edit: not returned again; mended, then flat again: returned again
+        d.set_attribute("/Flat", "transform", translate(0.0, 0.5, 0.0), None);
+        assert_eq!(settle(&mut d), 0);
+        d.set_attribute("/Flat", "points", floats(&[0., 0., 0., 1., 0., 0., 2., 1., 0.], 3), None);
+        assert_eq!(settle(&mut d), 0);
+        assert!(!d.problems().iter().any(|p| p.item == "/Flat"));
+        flat(&mut d);
+        assert_eq!(settle(&mut d), 1, "a problem brought back is returned again");
 
         let mut fresh = Delegate::new();
         quad(&mut fresh, "/A");

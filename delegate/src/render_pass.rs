@@ -432,8 +432,9 @@ struct State {
     exr: Vec<ExrRequest>,
     /// The engine's summary after the last finished pass.
     summary: Vec<(String, String)>,
-    /// The problems of the engine the running job was prepared with.
-    problems: Vec<Problem>,
+    /// The problems of the engine the running job was prepared with (None before the first
+    /// is built; a job being prepared shows its predecessor's).
+    problems: Option<Vec<Problem>>,
     /// The pass under way: its samples per pixel and how far it has got (engines that tell).
     pass: Option<(u32, Arc<tide_core::PassProgress>)>,
     /// True while the thread works on a job (preparing its scene or rendering), false while it
@@ -494,6 +495,11 @@ impl PassWatcher {
     /// What the engine of the running (or last) job found wrong while preparing its scene;
     /// empty until that engine is built.
     pub fn problems(&self) -> Vec<Problem> {
+        self.engine_problems().unwrap_or_default()
+    }
+
+    /// [`PassWatcher::problems`], None before any engine was built.
+    pub fn engine_problems(&self) -> Option<Vec<Problem>> {
         self.shared.lock().problems.clone()
     }
 
@@ -576,7 +582,7 @@ impl RenderPass {
                 shutdown: false,
                 exr: Vec::new(),
                 summary: Vec::new(),
-                problems: Vec::new(),
+                problems: None,
                 busy: false,
             }),
             cond: Condvar::new(),
@@ -793,7 +799,7 @@ fn run_job(shared: &Shared, factory: &EngineFactory, job: &Job, generation: u64,
         if st.generation != generation {
             return Ok(false);
         }
-        st.problems = problems;
+        st.problems = Some(problems);
         shared.cond.notify_all();
     }
     // the budget counts rendering: from here, less the time paused

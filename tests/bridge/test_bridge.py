@@ -124,6 +124,32 @@ def test_bad_values_become_problems_not_errors():
     assert ("/M", "faceVertexIndices") in [(p[0], p[1]) for p in problems]
 
 
+
+def test_a_problem_is_reported_once_until_mended_and_again_when_it_comes_back():
+    d = _tide.RenderDelegate()
+    make_scene(d)
+    d.commit_resources()
+    where = lambda problems: [(p[0], p[1]) for p in problems]
+    # one from the Rust delegate (an index past the points), one from the C++ layer (a
+    # buffer's format)
+    bad_index = lambda: d.set_array("/M", "faceVertexIndices", array.array("i", [0, 1, 2, 9]), 1, "i")
+    bad_format = lambda: d.set("/Out/color", "format", ("token", "float5"))
+    bad_index()
+    bad_format()
+    assert sorted(where(d.commit_resources())) == [("/M", "faceVertexIndices"), ("/Out/color", "format")]
+    # synced again, still wrong: not repeated
+    bad_index()
+    bad_format()
+    d.set_array("/Out/color", "dimensions", [8, 2], 1, "i")
+    assert where(d.commit_resources()) == []
+    # mended: nothing; brought back: reported again
+    d.set_array("/M", "faceVertexIndices", array.array("i", [0, 1, 2, 3]), 1, "i")
+    d.set("/Out/color", "format", ("token", "float4"))
+    assert where(d.commit_resources()) == []
+    bad_index()
+    bad_format()
+    assert sorted(where(d.commit_resources())) == [("/M", "faceVertexIndices"), ("/Out/color", "format")]
+
 def test_buffers_and_values_of_every_kind():
     d = _tide.RenderDelegate()
     make_scene(d)

@@ -10,6 +10,7 @@
 
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -34,12 +35,17 @@ public:
     void AddProblem(const std::string& prim, const std::string& attribute, const std::string& message);
     /// The problems recorded on the C++ side since the last call.
     std::vector<Problem> TakeProblems();
+    /// Notes that `path` was synced (its problems are found again).
+    void NoteSynced(const std::string& path);
+    /// The prims synced since the last call.
+    std::set<std::string> TakeSynced();
 
 private:
     rust::Box<rs::Delegate> _delegate;
     std::unique_ptr<TextureCache> _textures;
     std::mutex _problemsMutex;
     std::vector<Problem> _problems;
+    std::set<std::string> _synced;
 };
 
 }  // namespace tide
