@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 namespace tide {
@@ -21,12 +22,12 @@ void InitOnce() {
     std::call_once(once, [] { openvdb::initialize(); });
 }
 
-/// Most values handed over (stored bricks' values, and bricks in the table): 2^28 (1 GiB of
-/// floats).
-constexpr uint64_t kMaxValues = uint64_t(1) << 28;
+/// Most bricks handed over (their index is a 32-bit number).
+constexpr uint64_t kMaxBricks = uint64_t(UINT32_MAX) - 1;
 
 /// The grid's values in bricks of 8³, its leaves': over the active voxels' bounding box with
-/// its low corner moved down to a leaf's origin, so that each leaf is one brick. A leaf of
+/// its low corner moved down to a leaf's origin, so that each leaf is one brick, handed over
+/// as the stored bricks' coordinates and values (the box's size costs nothing). A leaf of
 /// zeros is left out, an active tile becomes bricks of its value. Each leaf is dropped from the
 /// grid once copied (the leaves of a delay-loaded file are read as they are first touched, so
 /// the grid never holds them all at once).
@@ -46,35 +47,28 @@ bool Brickify(GridT& grid, BrickGrid* out, std::string* error) {
         // in 64 bits: an extent of 2^31 or more voxels does not fit Coord's ints
         for (int k = 0; k < 3; ++k) dims[k] = uint64_t(int64_t(box.max()[k]) - int64_t(lo[k]) + 1);
     }
-    uint64_t bdims[3], bricks = 1;
-    bool fits = true;
-    for (int k = 0; k < 3; ++k) {
-        bdims[k] = (dims[k] + B - 1) / B;
-        fits = fits && bdims[k] <= kMaxValues / bricks;
-        if (fits) bricks *= bdims[k];
-    }
-    if (!fits) {
+    if (std::max({dims[0], dims[1], dims[2]}) > UINT32_MAX) {
         *error = "grid's active bounding box is " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " +
-                 std::to_string(dims[2]) + " voxels (at most " + std::to_string(kMaxValues) + " bricks of 8^3)";
+                 std::to_string(dims[2]) + " voxels (at most " + std::to_string(UINT32_MAX) + " along an axis)";
         return false;
     }
-    // the brick of a voxel, or -1 outside the box
-    auto brickOf = [&](const openvdb::Coord& c) -> int64_t {
-        int64_t b[3];
+    // the brick of a voxel (its coordinates from the box's low corner), false outside the box
+    auto brickOf = [&](const openvdb::Coord& c, uint32_t b[3]) {
         for (int k = 0; k < 3; ++k) {
             const int64_t i = int64_t(c[k]) - int64_t(lo[k]);
-            if (i < 0 || uint64_t(i) >= dims[k]) return -1;
-            b[k] = i / B;
+            if (i < 0 || uint64_t(i) >= dims[k]) return false;
+            b[k] = uint32_t(i / B);
         }
-        return b[0] + int64_t(bdims[0]) * (b[1] + int64_t(bdims[1]) * b[2]);
+        return true;
     };
     auto& tree = grid.tree();
     std::vector<openvdb::Coord> leaves;
-    std::vector<std::pair<int64_t, float>> tiles;  // (brick, value) of active tiles
+    std::vector<std::pair<openvdb::Coord, float>> tiles;  // (brick origin, value) of active tiles
     if (!empty) {
         leaves.reserve(tree.leafCount());
+        uint32_t b[3];
         for (auto it = tree.cbeginLeaf(); it; ++it)
-            if (brickOf(it->origin()) >= 0) leaves.push_back(it->origin());
+            if (brickOf(it->origin(), b)) leaves.push_back(it->origin());
         for (auto it = tree.cbeginValueOn(); it; ++it) {
             if (!it.isTileValue()) continue;
             const float v = float(*it);
@@ -85,40 +79,45 @@ bool Brickify(GridT& grid, BrickGrid* out, std::string* error) {
             if (tb.empty()) continue;
             for (int z = tb.min().z() & ~(B - 1); z <= tb.max().z(); z += B)
                 for (int y = tb.min().y() & ~(B - 1); y <= tb.max().y(); y += B)
-                    for (int x = tb.min().x() & ~(B - 1); x <= tb.max().x(); x += B)
-                        if (int64_t b = brickOf(openvdb::Coord(std::max(x, lo.x()), std::max(y, lo.y()), std::max(z, lo.z()))); b >= 0)
-                            tiles.emplace_back(b, v);
+                    for (int x = tb.min().x() & ~(B - 1); x <= tb.max().x(); x += B) {
+                        const openvdb::Coord o(std::max(x, lo.x()), std::max(y, lo.y()), std::max(z, lo.z()));
+                        if (brickOf(o, b)) tiles.emplace_back(o, v);
+                    }
         }
     }
     const uint64_t stored = leaves.size() + tiles.size();
-    if (stored > kMaxValues / (B * B * B)) {
-        *error = "grid holds " + std::to_string(stored) + " bricks of 8^3 values (at most " + std::to_string(kMaxValues / (B * B * B)) + ")";
+    if (stored > kMaxBricks) {
+        *error = "grid holds " + std::to_string(stored) + " bricks of 8^3 values (at most " + std::to_string(kMaxBricks) + ")";
         return false;
     }
     try {
-        out->table.assign(size_t(bricks), 0u);
+        out->coords.clear();
+        out->coords.reserve(size_t(stored) * 3);
         out->values.emplace(rs::new_texel_buffer(3, size_t(stored) * B * B * B));
-        uint32_t n = 0;
-        auto put = [&](int64_t brick, auto&& value) {
+        // the bricks handed over (a brick is given once)
+        std::set<std::pair<uint64_t, uint32_t>> given;
+        auto put = [&](const openvdb::Coord& at, auto&& value) {
+            uint32_t b[3];
+            if (!brickOf(at, b)) return;
+            if (!given.emplace(uint64_t(b[0]) | uint64_t(b[1]) << 32, b[2]).second) return;
             rust::Slice<uint8_t> bytes = (*out->values)->grow(B * B * B);
             float* v = reinterpret_cast<float*>(bytes.data());
             for (int z = 0; z < B; ++z)
                 for (int y = 0; y < B; ++y)
                     for (int x = 0; x < B; ++x) *v++ = value(x, y, z);
-            out->table[size_t(brick)] = ++n;
+            out->coords.insert(out->coords.end(), {b[0], b[1], b[2]});
         };
         for (const openvdb::Coord& o : leaves) {
             if (const LeafT* leaf = tree.probeConstLeaf(o)) {
                 bool any = false;
                 for (auto it = leaf->cbeginValueAll(); it && !any; ++it) any = float(*it) != 0.0f;
                 if (any)
-                    put(brickOf(o), [&](int x, int y, int z) { return float(leaf->getValue(LeafT::coordToOffset(openvdb::Coord(o.x() + x, o.y() + y, o.z() + z)))); });
+                    put(o, [&](int x, int y, int z) { return float(leaf->getValue(LeafT::coordToOffset(openvdb::Coord(o.x() + x, o.y() + y, o.z() + z)))); });
             }
             // its memory freed: replaced by an inactive tile of the background
             tree.addTile(1, o, tree.background(), false);
         }
-        for (const auto& [brick, value] : tiles)
-            if (out->table[size_t(brick)] == 0) put(brick, [v = value](int, int, int) { return v; });
+        for (const auto& [o, value] : tiles) put(o, [v = value](int, int, int) { return v; });
     } catch (const std::exception& e) {
         *error = "grid of " + std::to_string(dims[0]) + " x " + std::to_string(dims[1]) + " x " + std::to_string(dims[2]) +
                  " voxels in " + std::to_string(stored) + " bricks: " + e.what();
@@ -197,7 +196,7 @@ bool LoadVdbFor(RenderParam& param, const std::string& asset, const std::string&
         return false;
     }
     return d.add_grid(asset, field, index, rust::Slice<const uint32_t>(grid.dims, 3),
-                      rust::Slice<const uint32_t>(grid.table.data(), grid.table.size()), std::move(*grid.values),
+                      rust::Slice<const uint32_t>(grid.coords.data(), grid.coords.size()), std::move(*grid.values),
                       rust::Slice<const double>(grid.indexToObject, 16));
 }
 

@@ -247,9 +247,9 @@ impl Delegate {
         })
     }
 
-    /// A grid's values in bricks (`table` one entry per 8³ brick of `dims`, 0 for a brick of
-    /// zeros, else 1 + its index among the stored bricks in `values`).
-    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], table: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool, String> {
+    /// A grid's values in bricks: `coords` the brick coordinates (voxel / 8, three per brick)
+    /// of the 8³ bricks whose values `values` holds in turn; the other bricks are zeros.
+    pub fn add_grid(&self, asset: &str, field: &str, index: i64, dims: &[u32], coords: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool, String> {
         guard("add_grid", || {
             let (Ok(dims), Ok(m)) = (<[u32; 3]>::try_from(dims), <[f64; 16]>::try_from(index_to_object)) else {
                 return Err(format!("{asset}: a grid needs 3 dims and a 16-number matrix, got {} and {}", dims.len(), index_to_object.len()));
@@ -258,7 +258,7 @@ impl Delegate {
             let TexelValues::F32(values) = values.values else {
                 return Err(format!("{asset}: a grid's values are floats"));
             };
-            Ok(lock(&self.shared).delegate.add_grid_bricks(asset, field, index, dims, table.to_vec(), values, m))
+            Ok(lock(&self.shared).delegate.add_grid_bricks(asset, field, index, dims, coords, values, m))
         })
     }
 

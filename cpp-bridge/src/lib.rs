@@ -139,7 +139,7 @@ pub mod ffi {
         /// A volume's grid read from `asset` (the `index`-th grid named `field`): `dims` (3)
         /// values x fastest, `index_to_object` a USD-style matrix (16, row-major row vectors).
         /// `values`: a buffer of floats, handed over without a copy.
-        fn add_grid(self: &Delegate, asset: &str, field: &str, index: i64, dims: &[u32], table: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool>;
+        fn add_grid(self: &Delegate, asset: &str, field: &str, index: i64, dims: &[u32], coords: &[u32], values: Box<TexelBuffer>, index_to_object: &[f64]) -> Result<bool>;
         fn grid_failed(self: &Delegate, asset: &str, field: &str, index: i64, message: &str) -> Result<()>;
         /// Whether the delegate holds that grid (loaded or failed).
         fn has_grid(self: &Delegate, asset: &str, field: &str, index: i64) -> Result<bool>;

@@ -578,8 +578,8 @@ impl Delegate {
 
     /// [`Delegate::add_grid`] from bricks as a reader hands them over
     /// ([`volume::grid_data_bricks`]).
-    pub fn add_grid_bricks(&mut self, asset: &str, field: &str, index: i64, dims: [u32; 3], table: Vec<u32>, pool: Vec<f32>, index_to_object: [f64; 16]) -> bool {
-        self.add_grid_data(asset, field, index, volume::grid_data_bricks(dims, table, pool, index_to_object))
+    pub fn add_grid_bricks(&mut self, asset: &str, field: &str, index: i64, dims: [u32; 3], coords: &[u32], pool: Vec<f32>, index_to_object: [f64; 16]) -> bool {
+        self.add_grid_data(asset, field, index, volume::grid_data_bricks(dims, coords, pool, index_to_object))
     }
 
     fn add_grid_data(&mut self, asset: &str, field: &str, index: i64, data: Result<volume::GridData, String>) -> bool {

@@ -77,13 +77,13 @@ pub fn grid_data(dims: [u32; 3], values: Vec<f32>, index_to_object: [f64; 16]) -
     Ok(GridData { values: Arc::new(values), bad_values, local_to_object })
 }
 
-/// [`grid_data`] from bricks as a reader hands them over ([`Bricks::from_parts`]): `table`
-/// one entry per [`tide_core::medium::grid::BRICK`]³ brick of `dims`, `pool` the stored bricks'
-/// values.
-pub fn grid_data_bricks(dims: [u32; 3], table: Vec<u32>, pool: Vec<f32>, index_to_object: [f64; 16]) -> Result<GridData, String> {
+/// [`grid_data`] from bricks as a reader hands them over ([`Bricks::from_coords`]): `coords`
+/// the brick coordinates (three per brick) of the [`tide_core::medium::grid::BRICK`]³ bricks
+/// whose values `pool` holds in turn.
+pub fn grid_data_bricks(dims: [u32; 3], coords: &[u32], pool: Vec<f32>, index_to_object: [f64; 16]) -> Result<GridData, String> {
     let local_to_object = grid_transform(index_to_object)?;
     let bad_values = pool.iter().filter(|x| !x.is_finite() || **x < 0.0).count();
-    let values = Bricks::from_parts(dims, table, pool)?;
+    let values = Bricks::from_coords(dims, coords, pool)?;
     Ok(GridData { values: Arc::new(values), bad_values, local_to_object })
 }
 

@@ -6,15 +6,19 @@
 //! The grid spans its *local* index space: the value `[i, j, k]` sits at the point
 //! u = (i, j, k); ρ between points is trilinear, with 0 outside the array, so ρ can be non-zero
 //! only in the open box (−1, dims). An affine `local_to_world` places it. The values are held
-//! in [`Bricks`] of [`BRICK`]³ (an OpenVDB leaf's size), a brick of zeros not at all, so a sparse
-//! grid over a large box (spray, foam, a plume) takes the memory of its occupied bricks; the
-//! bricks are shared, not copied, between the scene description and the medium.
+//! in [`Bricks`] of [`BRICK`]³ (an OpenVDB leaf's size), a brick of zeros not at all, found
+//! through a two-level table, so a sparse grid over a large box (spray, foam, a plume) takes
+//! the memory of its occupied bricks; the bricks are shared, not copied, between the scene
+//! description and the medium.
 //!
 //! # Majorants
 //! A coarse grid of super-voxels of [`SUPER`]³ cells (cell c of an axis covers
 //! u ∈ [−1 + cS, −1 + (c+1)S)) stores the largest value any trilinear lookup in it can
 //! return; a 3-D DDA (Amanatides & Woo) walks a ray through it, giving a piecewise-constant
-//! majorant m(t) ≥ ρ(t) in density units.
+//! majorant m(t) ≥ ρ(t) in density units. Like the bricks' table it is held in nodes of
+//! [`NODE`]³ super-voxels, only those in reach of a stored brick, and the walk crosses a node
+//! with nothing in reach in one step: the box's size costs 4 bytes per node of 64³ voxels in
+//! memory and a step per node along a ray.
 //!
 //! # Collisions: delta tracking with spectral MIS
 //! As in [`super::tracking`], channel c is chosen uniformly among the live wavelengths and
@@ -49,16 +53,109 @@ pub const SUPER: usize = 8;
 pub const BRICK: usize = 8;
 const BRICK_VALUES: usize = BRICK * BRICK * BRICK;
 
+/// Edge of a node of the two-level tables, in bricks (or super-voxels): a grid's table has one
+/// entry per node of its box and [`NODE`]³ per node that holds anything.
+pub const NODE: usize = 8;
+const NODE_ENTRIES: usize = NODE * NODE * NODE;
+
+/// Most nodes a table's box may have (its top level: 1 GiB of entries).
+const MAX_NODES: usize = 1 << 28;
+
+/// A sparse 3-D array of `T` over `dims` cells, `T::default()` where nothing is stored: a top
+/// level with one entry per node of [`NODE`]³ cells (0 for a node with nothing stored, else 1 +
+/// its index) and, per node with something stored, its [`NODE`]³ values (x fastest). Memory
+/// follows the nodes occupied, not the box (4 bytes per node of the box).
+#[derive(Clone, Debug, Default, PartialEq)]
+struct NodeTable<T> {
+    dims: [usize; 3],
+    ndims: [usize; 3],
+    top: Vec<u32>,
+    nodes: Vec<T>,
+}
+
+impl<T: Copy + Default + PartialEq> NodeTable<T> {
+    fn new(dims: [usize; 3]) -> Option<Self> {
+        let ndims = dims.map(|n| n.div_ceil(NODE));
+        let count = ndims[0].checked_mul(ndims[1])?.checked_mul(ndims[2])?;
+        if count > MAX_NODES {
+            return None;
+        }
+        let mut top = Vec::new();
+        top.try_reserve_exact(count).ok()?;
+        top.resize(count, 0);
+        Some(NodeTable { dims, ndims, top, nodes: Vec::new() })
+    }
+
+    #[inline]
+    fn node_of(&self, x: usize, y: usize, z: usize) -> usize {
+        x / NODE + self.ndims[0] * (y / NODE + self.ndims[1] * (z / NODE))
+    }
+
+    #[inline]
+    fn within(x: usize, y: usize, z: usize) -> usize {
+        x % NODE + NODE * (y % NODE + NODE * (z % NODE))
+    }
+
+    /// The value of cell [x, y, z] (inside `dims`).
+    #[inline]
+    fn get(&self, x: usize, y: usize, z: usize) -> T {
+        let n = self.top[self.node_of(x, y, z)];
+        if n == 0 {
+            return T::default();
+        }
+        self.nodes[(n as usize - 1) * NODE_ENTRIES + Self::within(x, y, z)]
+    }
+
+    /// Whether the node holding cell [x, y, z] stores nothing.
+    #[inline]
+    fn node_empty(&self, x: usize, y: usize, z: usize) -> bool {
+        self.top[self.node_of(x, y, z)] == 0
+    }
+
+    /// A mutable reference to cell [x, y, z]'s value, its node made first if need be; None
+    /// when there is no memory for it.
+    fn entry(&mut self, x: usize, y: usize, z: usize) -> Option<&mut T> {
+        let t = self.node_of(x, y, z);
+        if self.top[t] == 0 {
+            let made = self.nodes.len() / NODE_ENTRIES;
+            if made >= u32::MAX as usize {
+                return None;
+            }
+            self.nodes.try_reserve(NODE_ENTRIES).ok()?;
+            self.nodes.resize(self.nodes.len() + NODE_ENTRIES, T::default());
+            self.top[t] = made as u32 + 1;
+        }
+        let at = (self.top[t] as usize - 1) * NODE_ENTRIES + Self::within(x, y, z);
+        Some(&mut self.nodes[at])
+    }
+
+    /// The cells whose nodes are stored, with their values, in node order.
+    fn stored_cells(&self) -> impl Iterator<Item = ([usize; 3], T)> + '_ {
+        let nd = self.ndims;
+        self.top.iter().enumerate().filter(|(_, &n)| n != 0).flat_map(move |(t, &n)| {
+            let node = [t % nd[0], t / nd[0] % nd[1], t / (nd[0] * nd[1])];
+            (0..NODE_ENTRIES).filter_map(move |k| {
+                let c = [node[0] * NODE + k % NODE, node[1] * NODE + k / NODE % NODE, node[2] * NODE + k / (NODE * NODE)];
+                (c[0] < self.dims[0] && c[1] < self.dims[1] && c[2] < self.dims[2]).then(|| (c, self.nodes[(n as usize - 1) * NODE_ENTRIES + k]))
+            })
+        })
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.top.len() * 4 + self.nodes.len() * std::mem::size_of::<T>()
+    }
+}
+
 /// A grid's values in bricks of [`BRICK`]³ voxels, those all zero left out: the voxel
-/// [x, y, z] lies in brick [x, y, z] / BRICK (bricks x fastest), at x % BRICK + BRICK·(y % BRICK
-/// + BRICK·(z % BRICK)) within it. Values that are not finite, or are negative, are 0.
+/// [x, y, z] lies in brick [x, y, z] / BRICK, at x % BRICK + BRICK·(y % BRICK + BRICK·(z %
+/// BRICK)) within it. The bricks are found through a two-level table ([`NODE`]³ bricks per
+/// node, only occupied nodes stored), so a sparse grid over a vast box takes the memory of its
+/// occupied bricks and nodes. Values that are not finite, or are negative, are 0.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Bricks {
     dims: [usize; 3],
-    /// Bricks along each axis.
-    bdims: [usize; 3],
     /// Per brick: 0 where it is all zero, else 1 + its index among the stored bricks.
-    table: Vec<u32>,
+    table: NodeTable<u32>,
     /// [`BRICK`]³ values per stored brick.
     pool: Vec<f32>,
 }
@@ -74,22 +171,24 @@ fn clean(v: f32) -> f32 {
 }
 
 impl Bricks {
-    fn brick_dims(dims: [u32; 3]) -> Option<([usize; 3], [usize; 3], usize)> {
+    /// An empty grid of `dims` voxels; None for a zero or too vast box.
+    fn empty_of(dims: [u32; 3]) -> Option<Bricks> {
         let d = dims.map(|v| v as usize);
-        let b = d.map(|n| n.div_ceil(BRICK));
-        let count = b[0].checked_mul(b[1])?.checked_mul(b[2])?;
-        (!d.contains(&0) && count <= u32::MAX as usize).then_some((d, b, count))
+        if d.contains(&0) {
+            return None;
+        }
+        Some(Bricks { dims: d, table: NodeTable::new(d.map(|n| n.div_ceil(BRICK)))?, pool: Vec::new() })
     }
 
     /// `values` (x fastest over `dims`) in bricks.
     pub fn from_dense(dims: [u32; 3], values: &[f32]) -> Result<Bricks, GridError> {
         let err = GridError::Dims { dims, len: values.len() };
-        let Some((d, b, count)) = Bricks::brick_dims(dims) else { return Err(err) };
+        let Some(mut out) = Bricks::empty_of(dims) else { return Err(err) };
+        let d = out.dims;
         if d[0].checked_mul(d[1]).and_then(|v| v.checked_mul(d[2])) != Some(values.len()) {
             return Err(err);
         }
-        let mut table = vec![0u32; count];
-        let mut pool = Vec::new();
+        let b = out.table.dims;
         let mut brick = [0f32; BRICK_VALUES];
         for bz in 0..b[2] {
             for by in 0..b[1] {
@@ -101,28 +200,40 @@ impl Bricks {
                         any |= *v != 0.0;
                     }
                     if any {
-                        pool.extend_from_slice(&brick);
-                        table[bx + b[0] * (by + b[1] * bz)] = (pool.len() / BRICK_VALUES) as u32;
+                        out.pool.extend_from_slice(&brick);
+                        let n = (out.pool.len() / BRICK_VALUES) as u32;
+                        *out.table.entry(bx, by, bz).ok_or(GridError::Dims { dims, len: values.len() })? = n;
                     }
                 }
             }
         }
-        Ok(Bricks { dims: d, bdims: b, table, pool })
+        Ok(out)
     }
 
-    /// Bricks as a reader hands them over: `table` one entry per brick of `dims` (x fastest; 0
-    /// for a brick of zeros, else 1 + its index in `pool`), `pool` [`BRICK`]³ values per brick.
-    pub fn from_parts(dims: [u32; 3], table: Vec<u32>, mut pool: Vec<f32>) -> Result<Bricks, String> {
-        let (d, b, count) = Bricks::brick_dims(dims).ok_or_else(|| format!("a grid of {}×{}×{} voxels", dims[0], dims[1], dims[2]))?;
-        if table.len() != count || pool.len() % BRICK_VALUES != 0 {
-            return Err(format!("{} bricks and {} values for a grid of {}×{}×{} voxels ({count} bricks)", table.len(), pool.len(), dims[0], dims[1], dims[2]));
-        }
+    /// Bricks as a reader hands them over: `coords` the brick coordinates (voxel / [`BRICK`],
+    /// three per brick) of the bricks whose values `pool` holds ([`BRICK`]³ each, x fastest),
+    /// each brick once; the others are all zero.
+    pub fn from_coords(dims: [u32; 3], coords: &[u32], mut pool: Vec<f32>) -> Result<Bricks, String> {
+        let mut out = Bricks::empty_of(dims).ok_or_else(|| format!("a grid of {}×{}×{} voxels (at most {MAX_NODES} nodes of {} voxels in its box)", dims[0], dims[1], dims[2], (NODE * BRICK).pow(3)))?;
         let stored = pool.len() / BRICK_VALUES;
-        if let Some(bad) = table.iter().find(|&&t| t as usize > stored) {
-            return Err(format!("a brick refers to stored brick {bad} of {stored}"));
+        if pool.len() % BRICK_VALUES != 0 || coords.len() != 3 * stored || stored >= u32::MAX as usize {
+            return Err(format!("{} brick coordinates and {} values for bricks of {BRICK_VALUES} values", coords.len(), pool.len()));
+        }
+        let b = out.table.dims;
+        for (i, c) in coords.chunks_exact(3).enumerate() {
+            let c = [c[0] as usize, c[1] as usize, c[2] as usize];
+            if (0..3).any(|k| c[k] >= b[k]) {
+                return Err(format!("brick {:?} lies outside the grid's {}×{}×{} bricks", c, b[0], b[1], b[2]));
+            }
+            let e = out.table.entry(c[0], c[1], c[2]).ok_or("not enough memory for the grid's table")?;
+            if *e != 0 {
+                return Err(format!("brick {:?} is given twice", c));
+            }
+            *e = i as u32 + 1;
         }
         pool.iter_mut().for_each(|v| *v = clean(*v));
-        Ok(Bricks { dims: d, bdims: b, table, pool })
+        out.pool = pool;
+        Ok(out)
     }
 
     pub fn dims(&self) -> [usize; 3] {
@@ -136,19 +247,18 @@ impl Bricks {
 
     /// Bytes held (the table and the stored bricks).
     pub fn memory_bytes(&self) -> usize {
-        self.table.len() * 4 + self.pool.len() * 4
+        self.table.memory_bytes() + self.pool.len() * 4
     }
 
-    /// Whether brick [bx, by, bz] (inside the grid) is all zero.
-    #[inline]
-    fn empty(&self, bx: usize, by: usize, bz: usize) -> bool {
-        self.table[bx + self.bdims[0] * (by + self.bdims[1] * bz)] == 0
+    /// The coordinates of the stored bricks.
+    fn stored_bricks(&self) -> impl Iterator<Item = [usize; 3]> + '_ {
+        self.table.stored_cells().filter(|&(_, t)| t != 0).map(|(c, _)| c)
     }
 
     /// The value at voxel [x, y, z], inside the grid.
     #[inline]
     pub fn get(&self, x: usize, y: usize, z: usize) -> f32 {
-        let t = self.table[x / BRICK + self.bdims[0] * (y / BRICK + self.bdims[1] * (z / BRICK))];
+        let t = self.table.get(x / BRICK, y / BRICK, z / BRICK);
         if t == 0 {
             return 0.0;
         }
@@ -161,7 +271,7 @@ impl Bricks {
     pub fn cell(&self, x: usize, y: usize, z: usize) -> [f32; 8] {
         let (ix, iy, iz) = (x % BRICK, y % BRICK, z % BRICK);
         if ix < BRICK - 1 && iy < BRICK - 1 && iz < BRICK - 1 {
-            let t = self.table[x / BRICK + self.bdims[0] * (y / BRICK + self.bdims[1] * (z / BRICK))];
+            let t = self.table.get(x / BRICK, y / BRICK, z / BRICK);
             if t == 0 {
                 return [0.0; 8];
             }
@@ -189,9 +299,9 @@ pub struct DensityGrid {
     local_to_world: Mat4,
     world_to_local: Mat4,
     super_dims: [usize; 3],
-    majorants: Vec<f32>,
-    /// Per super-voxel lower bound of the density (the control of residual ratio tracking).
-    minorants: Vec<f32>,
+    /// Per super-voxel (upper, lower) bound of the density (the lower one is the control of
+    /// residual ratio tracking); (0, 0) where no stored brick is in reach.
+    bounds: NodeTable<[f32; 2]>,
     max_density: f32,
     /// Grid-local to world over the shutter when the volume moves (`local_to_world` is then its
     /// value at the first key): see [`DensityGrid::rest_ray`].
@@ -232,50 +342,54 @@ impl DensityGrid {
             return Err(GridError::Transform);
         }
         let super_dims = d.map(|n| (n + 1).div_ceil(SUPER));
-        let mut maj = vec![0f32; super_dims[0] * super_dims[1] * super_dims[2]];
-        let mut min = vec![0f32; maj.len()];
+        let mut bounds = NodeTable::<[f32; 2]>::new(super_dims).ok_or(GridError::Dims { dims: d.map(|v| v as u32), len: 0 })?;
         let b = &*values;
-        for cz in 0..super_dims[2] {
-            for cy in 0..super_dims[1] {
-                for cx in 0..super_dims[0] {
-                    // lookups in u ∈ [−1 + cS, −1 + (c+1)S) read the values at indices
-                    // ⌊u⌋ and ⌊u⌋ + 1: from −1 + cS to (c+1)S
-                    // (every lookup is a convex combination of those values, so their max and
-                    // min bound it; a range reaching outside the array includes a 0)
-                    let range = |c: usize, n: usize| {
-                        let lo = (c * SUPER) as i64 - 1;
-                        let hi = ((c + 1) * SUPER) as i64;
-                        let outside = lo < 0 || hi > n as i64 - 1;
-                        (lo.max(0) as usize, (hi.min(n as i64 - 1)).max(0) as usize, outside)
-                    };
-                    let (x0, x1, ox) = range(cx, d[0]);
-                    let (y0, y1, oy) = range(cy, d[1]);
-                    let (z0, z1, oz) = range(cz, d[2]);
-                    // the range lies in the bricks of its ends: all zero there, both bounds
-                    // are 0 without a look at the values
-                    let bricks = |lo: usize, hi: usize| lo / BRICK..=hi / BRICK;
-                    if bricks(z0, z1).all(|bz| bricks(y0, y1).all(|by| bricks(x0, x1).all(|bx| b.empty(bx, by, bz)))) {
-                        continue;
+        // Lookups in super-voxel c of an axis, u ∈ [−1 + cS, −1 + (c+1)S), read the values at
+        // indices ⌊u⌋ and ⌊u⌋ + 1: from −1 + cS to (c+1)S, which lie in bricks c − 1 to c + 1
+        // (S = BRICK). Only the super-voxels in reach of a stored brick can be non-zero: they
+        // are marked (NaN), then bounded; the others are left out, (0, 0).
+        const _: () = assert!(SUPER == BRICK);
+        let out_of_memory = GridError::Dims { dims: d.map(|v| v as u32), len: 0 };
+        for c in b.stored_bricks() {
+            for z in c[2].saturating_sub(1)..(c[2] + 2).min(super_dims[2]) {
+                for y in c[1].saturating_sub(1)..(c[1] + 2).min(super_dims[1]) {
+                    for x in c[0].saturating_sub(1)..(c[0] + 2).min(super_dims[0]) {
+                        bounds.entry(x, y, z).ok_or_else(|| out_of_memory.clone())?[0] = f32::NAN;
                     }
-                    let mut m = 0f32;
-                    let mut lo = if ox || oy || oz { 0.0 } else { f32::INFINITY };
-                    for z in z0..=z1 {
-                        for y in y0..=y1 {
-                            for x in x0..=x1 {
-                                let v = b.get(x, y, z);
-                                m = m.max(v);
-                                lo = lo.min(v);
-                            }
-                        }
-                    }
-                    let i = cx + super_dims[0] * (cy + super_dims[1] * cz);
-                    maj[i] = m;
-                    min[i] = lo.min(m);
                 }
             }
         }
-        let max_density = maj.iter().copied().fold(0.0, f32::max);
-        Ok(DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, majorants: maj, minorants: min, max_density, motion: None })
+        let marked: Vec<[usize; 3]> = bounds.stored_cells().filter(|(_, v)| v[0].is_nan()).map(|(c, _)| c).collect();
+        let mut max_density = 0f32;
+        for [cx, cy, cz] in marked {
+            // every lookup is a convex combination of the values in the range, so their max
+            // and min bound it; a range reaching outside the array includes a 0
+            let range = |c: usize, n: usize| {
+                let lo = (c * SUPER) as i64 - 1;
+                let hi = ((c + 1) * SUPER) as i64;
+                let outside = lo < 0 || hi > n as i64 - 1;
+                (lo.max(0) as usize, (hi.min(n as i64 - 1)).max(0) as usize, outside)
+            };
+            let (x0, x1, ox) = range(cx, d[0]);
+            let (y0, y1, oy) = range(cy, d[1]);
+            let (z0, z1, oz) = range(cz, d[2]);
+            let mut m = 0f32;
+            let mut lo = if ox || oy || oz { 0.0 } else { f32::INFINITY };
+            for z in z0..=z1 {
+                for y in y0..=y1 {
+                    for x in x0..=x1 {
+                        let v = b.get(x, y, z);
+                        m = m.max(v);
+                        lo = lo.min(v);
+                    }
+                }
+            }
+            max_density = max_density.max(m);
+            if let Some(e) = bounds.entry(cx, cy, cz) {
+                *e = [m, lo.min(m)];
+            }
+        }
+        Ok(DensityGrid { dims: d, values, local_to_world, world_to_local, super_dims, bounds, max_density, motion: None })
     }
 
     /// The grid's values, in bricks.
@@ -383,7 +497,9 @@ impl DensityGrid {
 }
 
 /// A walk over the super-voxels a ray crosses: (t0, t1, majorant density) in ray order;
-/// [`MajorantSegments::minorant`] is the lower bound of the super-voxel last returned.
+/// [`MajorantSegments::minorant`] is the lower bound of the super-voxel last returned. A node
+/// of [`NODE`]³ super-voxels with nothing in reach is crossed in one step, as one segment of
+/// majorant 0.
 pub struct MajorantSegments<'a> {
     grid: &'a DensityGrid,
     /// Local origin and direction (t is the world ray's parameter).
@@ -395,14 +511,15 @@ pub struct MajorantSegments<'a> {
     dt: [f32; 3],
     t: f32,
     t_end: f32,
-    last: usize,
+    /// The bounds of the last segment returned.
+    last: [f32; 2],
 }
 
 impl<'a> MajorantSegments<'a> {
     /// Lower bound of the density in the super-voxel of the last segment returned.
     #[inline]
     pub fn minorant(&self) -> f32 {
-        self.grid.minorants.get(self.last).copied().unwrap_or(0.0)
+        self.last[1]
     }
 
     fn new(grid: &'a DensityGrid, uo: Vec3, ud: Vec3, t_max: f32) -> Self {
@@ -421,7 +538,7 @@ impl<'a> MajorantSegments<'a> {
             t0 = t0.max(a);
             t1 = t1.min(b);
         }
-        let mut s = MajorantSegments { grid, uo, ud, cell: [0; 3], step: [0; 3], t_next: [f32::INFINITY; 3], dt: [f32::INFINITY; 3], t: t0, t_end: t1, last: 0 };
+        let mut s = MajorantSegments { grid, uo, ud, cell: [0; 3], step: [0; 3], t_next: [f32::INFINITY; 3], dt: [f32::INFINITY; 3], t: t0, t_end: t1, last: [0.0; 2] };
         if !(t0 < t1) {
             s.t_end = f32::NEG_INFINITY;
             return s;
@@ -466,18 +583,61 @@ impl Iterator for MajorantSegments<'_> {
                 2
             };
             let t0 = self.t;
-            let t1 = self.t_next[axis].min(self.t_end).max(t0);
             let [cx, cy, cz] = self.cell.map(|c| c as usize);
-            let i = cx + n[0] * (cy + n[1] * cz);
-            let m = self.grid.majorants[i];
-            self.last = i;
+            if self.grid.bounds.node_empty(cx, cy, cz) {
+                self.skip_node(n);
+                self.last = [0.0; 2];
+                if self.t > t0 {
+                    return Some((t0, self.t, 0.0));
+                }
+                continue;
+            }
+            let t1 = self.t_next[axis].min(self.t_end).max(t0);
+            self.last = self.grid.bounds.get(cx, cy, cz);
             self.t = t1;
             self.cell[axis] += self.step[axis];
             self.t_next[axis] += self.dt[axis];
             if t1 > t0 {
-                return Some((t0, t1, m));
+                return Some((t0, t1, self.last[0]));
             }
         }
+    }
+}
+
+impl MajorantSegments<'_> {
+    /// Moves the walk from inside an empty node to the first super-voxel past it (or to the
+    /// walk's end): the crossings of each axis before the node's exit are taken at once, each
+    /// axis kept inside the node but the one it leaves by.
+    fn skip_node(&mut self, n: [usize; 3]) {
+        let node = self.cell.map(|c| c / NODE as i64 * NODE as i64);
+        // crossings left inside the node along each axis (its last cell to the far side)
+        let inside = |k: usize, cell: i64| match self.step[k] {
+            1 => (node[k] + NODE as i64 - 1).min(n[k] as i64 - 1) - cell,
+            -1 => cell - node[k],
+            _ => i64::MAX,
+        };
+        let mut exit = (f32::INFINITY, 0);
+        for k in 0..3 {
+            if self.step[k] != 0 {
+                let t = self.t_next[k] + inside(k, self.cell[k]) as f32 * self.dt[k];
+                if t < exit.0 {
+                    exit = (t, k);
+                }
+            }
+        }
+        let t1 = exit.0.min(self.t_end).max(self.t);
+        for k in 0..3 {
+            if self.step[k] == 0 {
+                continue;
+            }
+            let left = inside(k, self.cell[k]);
+            let crossed = if self.t_next[k] <= t1 { ((t1 - self.t_next[k]) / self.dt[k]).floor() as i64 + 1 } else { 0 };
+            // the exit axis leaves by one crossing more than the cells left inside
+            let steps = if k == exit.1 && t1 < self.t_end { left + 1 } else { crossed.clamp(0, left) };
+            self.cell[k] += self.step[k] * steps;
+            self.t_next[k] += steps as f32 * self.dt[k];
+        }
+        self.t = t1;
     }
 }
 

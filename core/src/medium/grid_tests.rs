@@ -111,15 +111,97 @@ fn a_sparse_grid_keeps_only_its_occupied_bricks_and_its_majorants_bound_it() {
     let clean: Vec<f32> = values.iter().map(|&v| if v.is_finite() && v > 0.0 { v } else { 0.0 }).collect();
     assert_eq!(b.to_dense(), clean);
     assert!(b.memory_bytes() * 4 < values.len() * 4, "{} bytes for {} values", b.memory_bytes(), values.len());
-    let bricks: usize = d.iter().map(|&n| n.div_ceil(BRICK)).product();
-    let parts = Bricks::from_parts(dims, vec![0; bricks], Vec::new()).unwrap();
-    assert!(parts.to_dense().iter().all(|&v| v == 0.0));
-    assert!(Bricks::from_parts(dims, vec![1; 3], vec![0.0; 512]).is_err(), "a table of the wrong size");
-    assert!(Bricks::from_parts([8, 8, 8], vec![2], vec![0.0; 512]).is_err(), "a brick beyond the pool");
+    // as a reader hands them over: the same grid
+    let (coords, pool) = occupied_bricks(dims, &values);
+    assert_eq!(Bricks::from_coords(dims, &coords, pool.clone()).unwrap().to_dense(), clean);
+    let none = Bricks::from_coords(dims, &[], Vec::new()).unwrap();
+    assert!(none.stored() == 0 && none.to_dense().iter().all(|&v| v == 0.0));
+    assert!(Bricks::from_coords(dims, &coords[3..], pool.clone()).is_err(), "fewer coordinates than bricks");
+    let mut twice = coords.clone();
+    twice[3..6].copy_from_slice(&coords[..3]);
+    assert!(Bricks::from_coords(dims, &twice, pool.clone()).unwrap_err().contains("twice"));
+    let mut outside = coords.clone();
+    outside[1] = 4;
+    assert!(Bricks::from_coords(dims, &outside, pool).unwrap_err().contains("outside"), "29 voxels are 4 bricks in y");
     let xf = Mat4::from_scale_rotation_translation(Vec3::new(0.05, 0.08, 0.03), Quat::from_euler(glam::EulerRot::XYZ, 0.3, 0.9, -0.4), Vec3::new(-0.5, 0.2, 1.0));
     let g = DensityGrid::new(dims, &values, xf).unwrap();
     let centres: Vec<Vec3> = blobs.iter().map(|&(lo, hi)| xf.transform_point3((Vec3::from(lo.map(|v| v as f32)) + Vec3::from(hi.map(|v| v as f32))) * 0.5)).collect();
     check_majorants(&g, 6, Some(&centres));
+}
+
+/// The coordinates and values of the bricks of `values` (x fastest over `dims`) that hold
+/// anything, as a reader hands them over.
+fn occupied_bricks(dims: [u32; 3], values: &[f32]) -> (Vec<u32>, Vec<f32>) {
+    use super::grid::BRICK;
+    let d = dims.map(|v| v as usize);
+    let (mut coords, mut pool) = (Vec::new(), Vec::new());
+    for bz in 0..d[2].div_ceil(BRICK) {
+        for by in 0..d[1].div_ceil(BRICK) {
+            for bx in 0..d[0].div_ceil(BRICK) {
+                let brick: Vec<f32> = (0..BRICK * BRICK * BRICK)
+                    .map(|k| {
+                        let (x, y, z) = (bx * BRICK + k % BRICK, by * BRICK + k / BRICK % BRICK, bz * BRICK + k / (BRICK * BRICK));
+                        if x < d[0] && y < d[1] && z < d[2] { values[x + d[0] * (y + d[1] * z)] } else { 0.0 }
+                    })
+                    .collect();
+                if brick.iter().any(|&v| v != 0.0) {
+                    coords.extend([bx as u32, by as u32, bz as u32]);
+                    pool.extend(brick);
+                }
+            }
+        }
+    }
+    (coords, pool)
+}
+
+/// A sparse grid over a box of many nodes (64³ voxels each), its blobs on node boundaries and
+/// on a brick's last layer next to an empty node, others alone in the middle of a node: the
+/// two-level table holds the occupied nodes only, the values read back exactly, rays crossing
+/// empty nodes take one segment per node, and the majorants still bound every lookup.
+#[test]
+fn a_grid_over_many_nodes_stores_and_walks_only_its_occupied_ones() {
+    use super::grid::{Bricks, BRICK, NODE, SUPER};
+    let dims = [300u32, 140, 330];
+    let d = dims.map(|v| v as usize);
+    let mut values = vec![0f32; d[0] * d[1] * d[2]];
+    let mut rng = TestRng::new(8);
+    // [lo, hi) per axis: across the node boundaries at 64 and 128 (x, y), ending on the last
+    // layer of node 1 in z (z = 127, read by the super-voxels of node 2), alone inside a node
+    let blobs = [([60, 60, 120], [70, 70, 128]), ([126, 126, 190], [131, 131, 196]), ([220, 20, 280], [226, 27, 285]), ([13, 100, 20], [16, 104, 23])];
+    for (lo, hi) in blobs {
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    values[x + d[0] * (y + d[1] * z)] = 0.25 + 3.0 * rng.next_f32();
+                }
+            }
+        }
+    }
+    let b = Bricks::from_dense(dims, &values).unwrap();
+    assert_eq!(b.to_dense(), values);
+    let (coords, pool) = occupied_bricks(dims, &values);
+    assert_eq!(b.stored(), pool.len() / (BRICK * BRICK * BRICK));
+    // the table: an entry per node of the box (5 × 3 × 6) and 512 per node holding a brick
+    // (a blob across node boundaries occupies up to eight: 14 in all)
+    let box_nodes = d.iter().map(|&n| n.div_ceil(BRICK * NODE)).product::<usize>();
+    let mut nodes: Vec<[u32; 3]> = coords.chunks_exact(3).map(|c| [c[0], c[1], c[2]].map(|v| v / NODE as u32)).collect();
+    nodes.sort_unstable();
+    nodes.dedup();
+    assert_eq!(nodes.len(), 14);
+    assert_eq!(b.memory_bytes() - pool.len() * 4, box_nodes * 4 + nodes.len() * NODE * NODE * NODE * 4);
+    assert_eq!(Bricks::from_coords(dims, &coords, pool).unwrap(), b);
+    let xf = Mat4::from_scale_rotation_translation(Vec3::new(0.01, 0.013, 0.008), Quat::from_euler(glam::EulerRot::XYZ, -0.2, 0.5, 0.3), Vec3::new(0.4, -1.0, 0.2));
+    let g = DensityGrid::new(dims, &values, xf).unwrap();
+    let centres: Vec<Vec3> = blobs.iter().map(|&(lo, hi)| xf.transform_point3((Vec3::from(lo.map(|v| v as f32)) + Vec3::from(hi.map(|v| v as f32))) * 0.5)).collect();
+    check_majorants(&g, 9, Some(&centres));
+    check_majorants(&g, 10, None);
+    // along x through an empty row of the box: one segment per node of super-voxels
+    let o = xf.transform_point3(Vec3::new(-5.0, 30.5, 40.5));
+    let dir = xf.transform_vector3(Vec3::X).normalize();
+    let segs: Vec<_> = g.segments(o, dir, 1e3).collect();
+    let super_nodes = (d[0] + 1).div_ceil(SUPER).div_ceil(NODE);
+    assert_eq!(segs.len(), super_nodes, "{segs:?}");
+    assert!(segs.iter().all(|s| s.2 == 0.0));
 }
 
 /// Every segment's majorant bounds the density along random rays (aimed at the box's middle,
@@ -377,3 +459,4 @@ fn bad_grids_are_rejected() {
     let g = DensityGrid::new([2, 1, 1], &[-3.0, f32::NAN], Mat4::IDENTITY).unwrap();
     assert_eq!(g.max_density(), 0.0);
 }
+

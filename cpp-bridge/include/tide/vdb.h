@@ -16,13 +16,13 @@ namespace tide {
 class RenderParam;
 
 /// A grid as the delegate takes it: value [i, j, k] at grid-local (i, j, k), placed by
-/// `indexToObject` (USD-style: row-major, row vectors); the values in bricks of 8³: `table` one
-/// entry per brick of `dims` (x fastest; 0 for a brick of zeros, else 1 + its index among the
-/// stored bricks), whose values (x fastest within a brick) are written into a Rust buffer of
-/// floats that the delegate keeps as it is.
+/// `indexToObject` (USD-style: row-major, row vectors); the values in bricks of 8³: `coords`
+/// the brick coordinates ((i, j, k) / 8, three per brick) of the bricks that hold anything,
+/// whose values (x fastest within a brick) are written in turn into a Rust buffer of floats
+/// that the delegate keeps as it is; the other bricks are zeros.
 struct BrickGrid {
     uint32_t dims[3] = {0, 0, 0};
-    std::vector<uint32_t> table;
+    std::vector<uint32_t> coords;
     std::optional<rust::Box<rs::TexelBuffer>> values;
     double indexToObject[16] = {};
 };
