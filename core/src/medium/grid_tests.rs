@@ -80,6 +80,24 @@ fn majorant_segments_bound_the_density_and_cover_the_box() {
     check_majorants(&random_grid(1), 2, None);
 }
 
+/// A grid of `dims` values (x fastest), zero but in the `blobs` ([lo, hi) per axis), whose
+/// values are random in [base, base + span).
+fn blobs_grid(dims: [u32; 3], blobs: &[([usize; 3], [usize; 3])], seed: u64, base: f32, span: f32) -> Vec<f32> {
+    let d = dims.map(|v| v as usize);
+    let mut values = vec![0f32; d[0] * d[1] * d[2]];
+    let mut rng = TestRng::new(seed);
+    for &(lo, hi) in blobs {
+        for z in lo[2]..hi[2] {
+            for y in lo[1]..hi[1] {
+                for x in lo[0]..hi[0] {
+                    values[x + d[0] * (y + d[1] * z)] = base + span * rng.next_f32();
+                }
+            }
+        }
+    }
+    values
+}
+
 /// A grid mostly empty, its values in a few blobs that straddle brick boundaries, as a
 /// spray or foam VDB is: only the blobs' bricks are stored, the values read back exactly, and
 /// the majorants (skipping super-voxels whose bricks are all empty) still bound every lookup
@@ -88,21 +106,10 @@ fn majorant_segments_bound_the_density_and_cover_the_box() {
 fn a_sparse_grid_keeps_only_its_occupied_bricks_and_its_majorants_bound_it() {
     use super::grid::{Bricks, BRICK};
     let dims = [45u32, 29, 61];
-    let d = dims.map(|v| v as usize);
-    let mut values = vec![0f32; d[0] * d[1] * d[2]];
-    let mut rng = TestRng::new(5);
     // blobs [lo, hi) per axis, each across a brick boundary (multiples of 8), the first
     // ending on a brick's last layer (y = 15): lookups in the next super-voxel read it
     let blobs = [([5, 10, 6], [11, 16, 10]), ([30, 2, 38], [34, 9, 42]), ([39, 22, 55], [45, 29, 61])];
-    for (lo, hi) in blobs {
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                for x in lo[0]..hi[0] {
-                    values[x + d[0] * (y + d[1] * z)] = 0.5 + 2.0 * rng.next_f32();
-                }
-            }
-        }
-    }
+    let mut values = blobs_grid(dims, &blobs, 5, 0.5, 2.0);
     values[3] = f32::NAN;
     values[4] = -1.0;
     let b = Bricks::from_dense(dims, &values).unwrap();
@@ -163,20 +170,10 @@ fn a_grid_over_many_nodes_stores_and_walks_only_its_occupied_ones() {
     use super::grid::{Bricks, BRICK, NODE, SUPER};
     let dims = [300u32, 140, 330];
     let d = dims.map(|v| v as usize);
-    let mut values = vec![0f32; d[0] * d[1] * d[2]];
-    let mut rng = TestRng::new(8);
     // [lo, hi) per axis: across the node boundaries at 64 and 128 (x, y), ending on the last
     // layer of node 1 in z (z = 127, read by the super-voxels of node 2), alone inside a node
     let blobs = [([60, 60, 120], [70, 70, 128]), ([126, 126, 190], [131, 131, 196]), ([220, 20, 280], [226, 27, 285]), ([13, 100, 20], [16, 104, 23])];
-    for (lo, hi) in blobs {
-        for z in lo[2]..hi[2] {
-            for y in lo[1]..hi[1] {
-                for x in lo[0]..hi[0] {
-                    values[x + d[0] * (y + d[1] * z)] = 0.25 + 3.0 * rng.next_f32();
-                }
-            }
-        }
-    }
+    let values = blobs_grid(dims, &blobs, 8, 0.25, 3.0);
     let b = Bricks::from_dense(dims, &values).unwrap();
     assert_eq!(b.to_dense(), values);
     let (coords, pool) = occupied_bricks(dims, &values);
