@@ -17,7 +17,7 @@
 #       -DPXR_ENABLE_GL_SUPPORT=OFF -DPXR_BUILD_GPU_SUPPORT=OFF -DPXR_BUILD_TESTS=OFF \
 #       -DPXR_BUILD_EXAMPLES=OFF -DPXR_BUILD_TUTORIALS=OFF -DPXR_BUILD_USD_TOOLS=OFF \
 #       -DPXR_ENABLE_MATERIALX_SUPPORT=OFF -DPXR_ENABLE_OPENVDB_SUPPORT=OFF -DPXR_ENABLE_PTEX_SUPPORT=OFF
-#   ninja -C OPENUSD_DIR hd hdsi usdShade usdImaging usdSkelImaging usdShaders
+#   ninja -C OPENUSD_DIR hd hdsi usdShade usdImaging usdSkelImaging usdVolImaging usdShaders
 #
 # Needs g++ (or $CXX), libtbb-dev, OpenImageIO and OpenColorIO dev packages, and a release build
 # of the bridge (`cargo build --release -p tide-bridge`, for target/release/libtide_bridge.a and
@@ -166,6 +166,30 @@ check_linked_to_both() {
     TIDE_CHECK_ADD_TARGET="/World/Sun.collection:lightLink:includes /World/Right" reference=$edited \
         check "$stage" "$what" delegate sceneIndex
 }
+# check_vdb STAGE WHAT: STAGE copied beside the sparse grid it reads (two balls of fog, written
+# here by the bridge module's write_vdb), then compared as check does
+check_vdb() {
+    local stage=$1 what=$2
+    [ -z "${TIDE_CHECK_ONLY:-}" ] || [ "$stage" = "$TIDE_CHECK_ONLY" ] || return 0
+    cp "$here/$stage" "$out/$stage"
+    PYTHONPATH="$repo/cpp-bridge/python" "$repo/.venv/bin/python" - "$out/check_cloud.vdb" <<'PY' || return $?
+import sys
+import numpy as np
+from tide import _tide
+# a ball of radius 30 voxels of 0.02 (density 1.5 at its centre, falling to 0 at its edge) at
+# two places in one grid: index centres (-55, 0, 0) and (55, 0, 40)
+r = 30
+i = np.arange(2 * r + 1) - r
+z, y, x = np.meshgrid(i, i, i, indexing="ij")
+ball = np.clip(1.5 * (1.0 - (x * x + y * y + z * z) / float(r * r)), 0.0, None).astype(np.float32)
+n = 2 * r + 1
+entries = [("density", "float", (n, n, n), ball.tobytes(), 0.02, (0.0, 0.0, 0.0), (cx - r, -r, cz - r))
+           for cx, cz in ((-55, 0), (55, 40))]
+_tide.write_vdb(sys.argv[1], entries)
+PY
+    echo "rendering $stage ($what) through UsdImaging (scene delegate, then scene indices) and through tide render"
+    compare "$out/$stage" delegate sceneIndex
+}
 # Tide's codeless schemas from schemas/; TideWater's and TideMedium's shader definitions come from
 # the plugin's own discovery plugin
 check check_stage.usda "" delegate sceneIndex || exit $?
@@ -197,6 +221,7 @@ check check_stage_lightlink_instances.usda "a light linked to one of two native 
 # a live edit linking the sun to the second instance too: the instancer's categories are dirtied
 # and re-read
 check_linked_to_both check_stage_lightlink_instances.usda "then linked to both instances by a live edit" || exit $?
+check_vdb check_stage_vdb.usda "a Volume's OpenVDB field: a sparse grid read as bricks" || exit $?
 # UsdImaging's scene delegate (v24.08) passes no MeshLightAPI: only the scene indices are compared
 check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
 check check_stage_pole.usda "DomeLight_1's pole axis on a Z-up stage" delegate sceneIndex || exit $?
