@@ -1,8 +1,10 @@
 //! Directional-albedo tables of the single-scattering GGX lobes, used for multiple-scattering
 //! energy compensation (Kulla & Conty 2017) and for energy-conserving layering. They are built
 //! once per process by deterministic quasi-Monte Carlo (a Fibonacci lattice over the
-//! visible-normal sampler), so no generated data is committed: their rows in parallel
-//! ([`rows_in_parallel`]), started by the world's build beside the BVH's.
+//! visible-normal sampler), so no generated data is committed: the conductor's rows in parallel
+//! ([`rows_in_parallel`]), started by the world's build beside the BVH's; the dielectric's per
+//! relative IOR node and side when a lookup first needs it (a scene of water and glass reads a
+//! few of the 48, and building them all took most of the tables' time).
 //!
 //! The tables live on grids over μ = |cosθo| ∈ [0, 1] (uniform in √μ, denser at grazing
 //! angles), perceptual roughness r = √α ∈ [0, 1] and, for the dielectric, relative IOR η ∈
@@ -33,19 +35,51 @@ pub const DIEL_ETA_MAX: f32 = 3.0;
 const COND_LATTICE: (usize, usize) = (233, 144);
 /// 377 points for the dielectric: the compensation of one interface is then within 0.6 % of
 /// lossless (1.1 % with 89, whose error compounded over the bounces inside a rough water
-/// ball to 2.4 % at its rim), for about 0.2 s more of table building on two cores.
+/// ball to 2.4 % at its rim); a block of the table (one η node, one side) takes about 10 ms.
 const DIEL_LATTICE: (usize, usize) = (377, 233);
 
-#[derive(PartialEq)]
 pub struct AlbedoTables {
     cond_e1: Vec<f32>,
     cond_s: Vec<f32>,
     cond_e1_avg: Vec<f32>,
     cond_s_avg: Vec<f32>,
-    /// [side][(eta * DIEL_R + r) * DIEL_MU + mu]; side 0: from the less dense side.
-    diel: [Vec<f32>; 2],
-    /// [side][eta * DIEL_R + r]
-    diel_avg: [Vec<f32>; 2],
+    /// [side][η node], built on first use; side 0: from the less dense side.
+    diel: [Vec<OnceLock<DielBlock>>; 2],
+}
+
+/// The dielectric's rows of one relative IOR node on one side.
+#[derive(Debug, PartialEq)]
+struct DielBlock {
+    /// [r * DIEL_MU + mu]
+    e: Vec<f32>,
+    /// [r]: hemispherical averages
+    avg: Vec<f32>,
+}
+
+impl DielBlock {
+    /// The rows of η node `k` on `side` (each a function of its indices alone: the same
+    /// whichever thread builds it, whenever).
+    fn build(side: usize, k: usize) -> DielBlock {
+        let eta = if side == 0 { grid_eta(k) } else { 1.0 / grid_eta(k) };
+        let rows: Vec<Vec<f32>> = (0..DIEL_R)
+            .map(|j| {
+                let alpha = grid_alpha(j, DIEL_R);
+                (0..DIEL_MU).map(|i| dielectric_albedo(grid_mu(i, DIEL_MU), alpha, eta).min(1.0)).collect()
+            })
+            .collect();
+        DielBlock { avg: rows.iter().map(|r| hemispherical_integral(r)).collect(), e: rows.concat() }
+    }
+}
+
+impl PartialEq for AlbedoTables {
+    /// Equal tables, every dielectric block built to compare it.
+    fn eq(&self, other: &Self) -> bool {
+        self.cond_e1 == other.cond_e1
+            && self.cond_s == other.cond_s
+            && self.cond_e1_avg == other.cond_e1_avg
+            && self.cond_s_avg == other.cond_s_avg
+            && (0..2).all(|side| (0..DIEL_ETA).all(|k| self.diel_block(side, k) == other.diel_block(side, k)))
+    }
 }
 
 static TABLES: OnceLock<AlbedoTables> = OnceLock::new();
@@ -181,8 +215,9 @@ pub(crate) fn dielectric_albedo(mu: f32, alpha: f32, eta: f32) -> f32 {
 }
 
 impl AlbedoTables {
-    /// Builds the tables, rows in parallel (each row's values do not depend on the others, so
-    /// the tables are the same whatever the thread count).
+    /// Builds the conductor's tables, rows in parallel, and readies the dielectric's blocks to
+    /// be built on first use (each row's values do not depend on the others, so the tables are
+    /// the same whatever the thread count and the order of use).
     pub(crate) fn build() -> Self {
         let cond_rows: Vec<(Vec<f32>, Vec<f32>)> = rows_in_parallel(COND_R, |j| {
             let alpha = grid_alpha(j, COND_R);
@@ -197,17 +232,19 @@ impl AlbedoTables {
         let cond_s: Vec<f32> = cond_rows.iter().flat_map(|r| r.1.iter().copied()).collect();
         let cond_e1_avg = cond_rows.iter().map(|r| hemispherical_integral(&r.0)).collect();
         let cond_s_avg = cond_rows.iter().map(|r| hemispherical_integral(&r.1)).collect();
-        // rows (side, η, roughness), side-major
-        let diel_rows: Vec<Vec<f32>> = rows_in_parallel(2 * DIEL_ETA * DIEL_R, |row| {
-            let (side, k, j) = (row / (DIEL_ETA * DIEL_R), row / DIEL_R % DIEL_ETA, row % DIEL_R);
-            let eta = if side == 0 { grid_eta(k) } else { 1.0 / grid_eta(k) };
-            let alpha = grid_alpha(j, DIEL_R);
-            (0..DIEL_MU).map(|i| dielectric_albedo(grid_mu(i, DIEL_MU), alpha, eta).min(1.0)).collect()
-        });
-        let (near, far) = diel_rows.split_at(DIEL_ETA * DIEL_R);
-        let flat = |rows: &[Vec<f32>]| rows.iter().flatten().copied().collect::<Vec<f32>>();
-        let avg = |rows: &[Vec<f32>]| rows.iter().map(|r| hemispherical_integral(r)).collect::<Vec<f32>>();
-        AlbedoTables { cond_e1, cond_s, cond_e1_avg, cond_s_avg, diel: [flat(near), flat(far)], diel_avg: [avg(near), avg(far)] }
+        let diel = [0, 1].map(|_| (0..DIEL_ETA).map(|_| OnceLock::new()).collect());
+        AlbedoTables { cond_e1, cond_s, cond_e1_avg, cond_s_avg, diel }
+    }
+
+    #[inline]
+    fn diel_block(&self, side: usize, k: usize) -> &DielBlock {
+        self.diel[side][k].get_or_init(|| DielBlock::build(side, k))
+    }
+
+    /// How many dielectric blocks (η node and side) have been built.
+    #[cfg(test)]
+    pub(crate) fn diel_blocks_built(&self) -> usize {
+        self.diel.iter().flatten().filter(|b| b.get().is_some()).count()
     }
 
     /// Conductor albedos (E1, S) at μ = |cosθo| and perceptual roughness r.
@@ -244,13 +281,12 @@ impl AlbedoTables {
     #[inline]
     pub fn dielectric(&self, mu: f32, r: f32, eta: f32) -> f32 {
         let (side, e) = Self::diel_side(eta);
-        let t = &self.diel[side];
         let (i0, i1, ti) = coord(mu.max(0.0).sqrt(), DIEL_MU);
         let (j0, j1, tj) = coord(r, DIEL_R);
         let (k0, k1, tk) = coord(eta_coord(e), DIEL_ETA);
         let at = |k: usize, j: usize| {
-            let row = (k * DIEL_R + j) * DIEL_MU;
-            lerp(ti, t[row + i0], t[row + i1])
+            let t = &self.diel_block(side, k).e;
+            lerp(ti, t[j * DIEL_MU + i0], t[j * DIEL_MU + i1])
         };
         let a = lerp(tj, at(k0, j0), at(k0, j1));
         let b = lerp(tj, at(k1, j0), at(k1, j1));
@@ -261,11 +297,11 @@ impl AlbedoTables {
     #[inline]
     pub fn dielectric_avg(&self, r: f32, eta: f32) -> f32 {
         let (side, e) = Self::diel_side(eta);
-        let t = &self.diel_avg[side];
         let (j0, j1, tj) = coord(r, DIEL_R);
         let (k0, k1, tk) = coord(eta_coord(e), DIEL_ETA);
-        let a = lerp(tj, t[k0 * DIEL_R + j0], t[k0 * DIEL_R + j1]);
-        let b = lerp(tj, t[k1 * DIEL_R + j0], t[k1 * DIEL_R + j1]);
+        let (t0, t1) = (&self.diel_block(side, k0).avg, &self.diel_block(side, k1).avg);
+        let a = lerp(tj, t0[j0], t0[j1]);
+        let b = lerp(tj, t1[j0], t1[j1]);
         lerp(tk, a, b)
     }
 }

@@ -850,6 +850,23 @@ fn flags_classify_lobes() {
 /// The tables are deterministic: a rebuild reproduces the shared copy bit for bit, for the GGX
 /// albedos and the sheen's (the build times are reported). Their rows are built in parallel,
 /// each a function of its index alone, and gathered in order whatever the thread count.
+/// The dielectric's table is built where it is read: a lookup for water from above builds the
+/// two η nodes around 1.333 on that side, from below the same nodes on the other; values are
+/// the ones every node built at once gives (the determinism test below compares all).
+#[test]
+fn dielectric_albedo_blocks_are_built_where_they_are_read() {
+    let t = super::albedo::AlbedoTables::build();
+    assert_eq!(t.diel_blocks_built(), 0);
+    let above = t.dielectric(0.4, 0.3, 1.333);
+    assert_eq!(t.diel_blocks_built(), 2);
+    t.dielectric_avg(0.7, 1.34);
+    assert_eq!(t.diel_blocks_built(), 2, "the same nodes");
+    let below = t.dielectric(0.4, 0.3, 1.0 / 1.333);
+    assert_eq!(t.diel_blocks_built(), 4);
+    let shared = super::albedo::tables();
+    assert_eq!((above, below), (shared.dielectric(0.4, 0.3, 1.333), shared.dielectric(0.4, 0.3, 1.0 / 1.333)));
+}
+
 #[test]
 fn albedo_tables_are_deterministic() {
     let shared = super::albedo::tables();
