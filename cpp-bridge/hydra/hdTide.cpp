@@ -434,6 +434,21 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
         _tideBits |= ChangeTracker::DirtyDescription;
     } else {
         for (Param const& p : LightParams()) _Put(p.key, sd->GetLightParamValue(id, p.hd));
+        // an input's colour space metadata (texture:file's): not a light parameter, but a
+        // `colorSpace:NAME` parameter of the light's node in its material network (both of
+        // UsdImaging's paths give it there), the key the reader sends
+        VtValue const res = sd->GetMaterialResource(id);
+        if (res.IsHolding<HdMaterialNetworkMap>()) {
+            for (auto const& [terminal, net] : res.UncheckedGet<HdMaterialNetworkMap>().map) {
+                if (terminal != HdMaterialTerminalTokens->light || net.nodes.empty()) continue;
+                for (auto const& [name, value] : net.nodes.back().parameters) {
+                    std::string key = name.GetString();
+                    if (key.rfind("colorSpace:", 0) != 0) continue;
+                    if (key.rfind("colorSpace:inputs:", 0) == 0) key.erase(11, 7);
+                    _Put(key, value);
+                }
+            }
+        }
         // a dome's portals (UsdImaging's scene indices answer them, empty where none are
         // named: the dome then takes the portals no dome names)
         if (typeId == "domeLight") {
