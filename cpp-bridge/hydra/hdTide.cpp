@@ -19,6 +19,7 @@
 #include "pxr/base/gf/vec4f.h"
 #include "pxr/imaging/hd/camera.h"
 #include "pxr/imaging/hd/field.h"
+#include "pxr/imaging/hd/geomSubset.h"
 #include "pxr/imaging/hd/instancer.h"
 #include "pxr/imaging/hd/light.h"
 #include "pxr/imaging/hd/material.h"
@@ -321,6 +322,17 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _Put("holeIndices", VtValue(topo.GetHoleIndices()));
             _Put("orientation", VtValue(topo.GetOrientation()));
             _Put("subdivisionScheme", VtValue(topo.GetScheme()));
+            // the face subsets UsdImaging resolved a material for (its materialBind family), as
+            // the reader sends them: `geomSubsets` (always, so that subsets removed go) and per
+            // subset `<path>.indices` and `<path>.material`
+            SdfPathVector subsets;
+            for (HdGeomSubset const& g : topo.GetGeomSubsets()) {
+                if (g.type != HdGeomSubset::TypeFaceSet) continue;
+                subsets.push_back(g.id);
+                _Put(g.id.GetString() + ".indices", VtValue(g.indices));
+                _Put(g.id.GetString() + ".material", VtValue(g.materialId));
+            }
+            _Put("geomSubsets", VtValue(subsets));
             // subdivision tags, under UsdGeomMesh's own names (empty arrays when the mesh has none)
             PxOsdSubdivTags const tags = sd->GetSubdivTags(id);
             if (!tags.GetVertexInterpolationRule().IsEmpty())
