@@ -227,6 +227,7 @@ check_vdb check_stage_vdb.usda "a Volume's OpenVDB field: a sparse grid read as 
 check check_stage_meshlight.usda "UsdLuxMeshLightAPI" sceneIndex || exit $?
 check check_stage_pole.usda "DomeLight_1's pole axis on a Z-up stage" delegate sceneIndex || exit $?
 check check_stage_domespace.usda "a dome texture's colorSpace metadata" delegate sceneIndex || exit $?
+check check_stage_lights.usda "a textured RectLight and a CylinderLight" delegate sceneIndex || exit $?
 # portals change only the noise: compared there too
 noise=1 check check_stage_portal.usda "UsdLuxPortalLight and a dome's portals" delegate sceneIndex || exit $?
 # UsdImaging's scene delegate makes no renderSettings prims: only the scene indices are compared
