@@ -210,6 +210,7 @@ check check_stage_fvar.usda "faceVaryingLinearInterpolation" delegate sceneIndex
 check check_stage_displace.usda "UsdPreviewSurface displacement" delegate sceneIndex || exit $?
 check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
 check check_stage_subsets.usda "GeomSubsets bound to their own materials" delegate sceneIndex || exit $?
+check check_stage_surface.usda "UsdPreviewSurface opacityThreshold, opacity, emissiveColor, metallic" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?
 check check_stage_lightlink.usda "a light linked to one of two walls" delegate sceneIndex || exit $?
