@@ -868,14 +868,15 @@ void Pass_dealloc(PyObject* self) {
 }
 
 PyObject* Pass_execute(PyObject* self, PyObject* args, PyObject* kw) {
-    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", "hydra", "projection", "clear_values", nullptr};
+    static const char* names[] = {"camera_path", "aov_bindings", "settings_path", "hydra", "projection", "clear_values", "render_tags", nullptr};
     const char* camera = nullptr;
     PyObject* bindings = nullptr;
     const char* settings = nullptr;
     int hydra = 0;
     PyObject* projection = nullptr;
     PyObject* clears = nullptr;
-    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|zpOO", const_cast<char**>(names), &camera, &bindings, &settings, &hydra, &projection, &clears))
+    PyObject* tags = nullptr;
+    if (!PyArg_ParseTupleAndKeywords(args, kw, "sO|zpOOO", const_cast<char**>(names), &camera, &bindings, &settings, &hydra, &projection, &clears, &tags))
         return nullptr;
     TIDE_TRY
     tide::RenderPassState state;
@@ -888,6 +889,20 @@ PyObject* Pass_execute(PyObject* self, PyObject* args, PyObject* kw) {
         state.projection.assign(n.values.begin(), n.values.end());
     }
     for (auto& b : Pairs(bindings, "aov_bindings")) state.aovBindings.push_back({b.first, b.second, nullptr, {}});
+    if (tags && tags != Py_None) {
+        // a sequence of tag strings
+        PyObject* seq = PySequence_Fast(tags, "render_tags: expected a sequence of strings");
+        if (!seq) throw PythonError();
+        for (Py_ssize_t i = 0; i < PySequence_Fast_GET_SIZE(seq); ++i) {
+            PyObject* t = PySequence_Fast_GET_ITEM(seq, i);
+            if (!PyUnicode_Check(t)) {
+                Py_DECREF(seq);
+                throw ArgError(PyExc_TypeError, "render_tags: expected a sequence of strings");
+            }
+            state.renderTags.push_back(PyUnicode_AsUTF8(t));
+        }
+        Py_DECREF(seq);
+    }
     if (clears && clears != Py_None) {
         // {buffer path: a number, or one per channel}
         if (!PyDict_Check(clears)) throw ArgError(PyExc_TypeError, "clear_values: expected a dict of buffer path to numbers");
@@ -1029,7 +1044,7 @@ PyMethodDef DelegateMethods[] = {
     {nullptr, nullptr, 0, nullptr}};
 
 PyMethodDef PassMethods[] = {
-    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None, hydra=False, projection=None, clear_values=None); hydra: Hydra's AOV names and layout (rows from the bottom, depth in clip space, ids in int32 buffers); projection: 16 numbers (GfMatrix4d's order) framing the image; clear_values: {buffer path: a number or one per channel} held until the first pass (Hydra's clearValue)"},
+    {"execute", KW(Pass_execute), "execute(camera_path, [(aov, buffer_path)], settings_path=None, hydra=False, projection=None, clear_values=None, render_tags=None); hydra: Hydra's AOV names and layout (rows from the bottom, depth in clip space, ids in int32 buffers); projection: 16 numbers (GfMatrix4d's order) framing the image; clear_values: {buffer path: a number or one per channel} held until the first pass (Hydra's clearValue); render_tags: the pass's tags (a prim whose renderTag is not among them is not rendered; None or empty: every prim)"},
     {"is_converged", Pass_is_converged, METH_NOARGS, "is_converged() -> bool"},
     {"progress", Pass_progress, METH_NOARGS, "progress() -> float in [0, 1]"},
     {"summary", Pass_summary, METH_NOARGS, "summary() -> {key: value} figures of the last finished pass (photons, memory, ...)"},

@@ -245,9 +245,11 @@ bool RenderPass::Execute(const RenderPassState& state, std::string* error) {
             _buffers.push_back(b.renderBuffer);
         }
     }
+    rust::Vec<rust::String> tags;
+    for (const auto& t : state.renderTags) tags.push_back(rust::String(t));
     try {
         _pass->execute(Str(state.camera), bindings, Str(state.renderSettings), state.hydra,
-                       rust::Slice<const double>(state.projection.data(), state.projection.size()));
+                       rust::Slice<const double>(state.projection.data(), state.projection.size()), tags);
         return true;
     } catch (const std::exception& e) {
         if (error) *error = e.what();

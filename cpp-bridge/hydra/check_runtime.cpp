@@ -137,25 +137,41 @@ private:
     VtIntArray _counts, _indices;
 };
 
+/// The render tags of the render task: TIDE_CHECK_TAGS="SYNCED;EXECUTED" (comma-separated
+/// lists: the tags whose rprims Hydra syncs, and those the pass is executed with, as a viewer
+/// that has shown a purpose and then hides it), else `geometry` for both.
+TfTokenVector CheckTags(bool executed) {
+    std::string spec = std::getenv("TIDE_CHECK_TAGS") ? std::getenv("TIDE_CHECK_TAGS") : "geometry;geometry";
+    const size_t semi = spec.find(';');
+    std::string list = semi == std::string::npos ? spec : executed ? spec.substr(semi + 1) : spec.substr(0, semi);
+    TfTokenVector tags;
+    for (size_t at = 0; at <= list.size();) {
+        const size_t comma = std::min(list.find(',', at), list.size());
+        if (comma > at) tags.emplace_back(list.substr(at, comma - at));
+        at = comma + 1;
+    }
+    return tags;
+}
+
 /// Syncs and executes one render pass.
 class RenderTask final : public HdTask {
 public:
     RenderTask(HdRenderPassSharedPtr pass, HdRenderPassStateSharedPtr state)
-        : HdTask(SdfPath("/renderTask")), _pass(std::move(pass)), _state(std::move(state)) {}
+        : HdTask(SdfPath("/renderTask")), _pass(std::move(pass)), _state(std::move(state)), _synced(CheckTags(false)),
+          _executed(CheckTags(true)) {}
     void Sync(HdSceneDelegate*, HdTaskContext*, HdDirtyBits* dirtyBits) override {
         _pass->Sync();
         *dirtyBits = HdChangeTracker::Clean;
     }
     void Prepare(HdTaskContext*, HdRenderIndex*) override {}
-    void Execute(HdTaskContext*) override { _pass->Execute(_state, {HdRenderTagTokens->geometry}); }
-    TfTokenVector const& GetRenderTags() const override {
-        static const TfTokenVector tags = {HdRenderTagTokens->geometry};
-        return tags;
-    }
+    void Execute(HdTaskContext*) override { _pass->Execute(_state, _executed); }
+    TfTokenVector const& GetRenderTags() const override { return _synced; }
 
 private:
     HdRenderPassSharedPtr _pass;
     HdRenderPassStateSharedPtr _state;
+    TfTokenVector _synced;
+    TfTokenVector _executed;
 };
 
 int Fail(const char* what) {
@@ -247,13 +263,18 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
     Bind(state, buffer, camera, w, h);
     const float* px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(300));
     if (!px) return Fail("no convergence in 300 s, or no pixels");
-    // TIDE_CHECK_ADD_TARGET="REL_PATH TARGET": then a live edit, the target added to that
-    // relationship through usd-core's stage as an application would, and the image after it
-    if (const char* edit = std::getenv("TIDE_CHECK_ADD_TARGET")) {
-        const std::string spec(edit);
+    // a live edit through usd-core's stage, as an application makes it, then the image after it
+    // (TIDE_CHECK_ADD_TARGET="REL_PATH TARGET": the target added to that relationship;
+    // TIDE_CHECK_SET_TOKEN="ATTR_PATH VALUE": a token attribute set, such as a purpose)
+    auto edited = [&](const char* var, auto&& edit) -> bool {
+        const char* value = std::getenv(var);
+        if (!value) return true;
+        const std::string spec(value);
         const size_t space = spec.find(' ');
-        UsdRelationship rel = space == std::string::npos ? UsdRelationship() : stage->GetRelationshipAtPath(SdfPath(spec.substr(0, space)));
-        if (!rel || !rel.AddTarget(SdfPath(spec.substr(space + 1)))) return Fail("TIDE_CHECK_ADD_TARGET: no such relationship, or a bad target");
+        if (space == std::string::npos || !edit(SdfPath(spec.substr(0, space)), spec.substr(space + 1))) {
+            std::fprintf(stderr, "%s: no such property, or a bad value\n", var);
+            return false;
+        }
         buffer->Unmap();
         if (sceneIndex) {
             sceneIndices.stageSceneIndex->ApplyPendingUpdates();
@@ -261,8 +282,18 @@ int RenderStage(const char* stagePath, const char* cameraPath, int w, int h, int
             scene->ApplyPendingUpdates();
         }
         px = RenderUntilConverged(engine, index.get(), tasks, pass, buffer, std::chrono::seconds(300));
-        if (!px) return Fail("after the edit: no convergence in 300 s, or no pixels");
-    }
+        return px != nullptr;
+    };
+    if (!edited("TIDE_CHECK_ADD_TARGET", [&](SdfPath const& path, std::string const& target) {
+            UsdRelationship rel = stage->GetRelationshipAtPath(path);
+            return rel && rel.AddTarget(SdfPath(target));
+        }))
+        return Fail("the live edit failed, or no convergence after it in 300 s");
+    if (!edited("TIDE_CHECK_SET_TOKEN", [&](SdfPath const& path, std::string const& token) {
+            UsdAttribute attr = stage->GetAttributeAtPath(path);
+            return attr && attr.Set(TfToken(token));
+        }))
+        return Fail("the live edit failed, or no convergence after it in 300 s");
     const int ch = HdGetComponentCount(buffer->GetFormat());
     std::printf("hydra");
     for (int c = 0; c < 3; ++c) {

@@ -210,6 +210,18 @@ check check_stage_fvar.usda "faceVaryingLinearInterpolation" delegate sceneIndex
 check check_stage_displace.usda "UsdPreviewSurface displacement" delegate sceneIndex || exit $?
 check check_stage_primvars.usda "primvars read by a material, a varying displayColor" delegate sceneIndex || exit $?
 check check_stage_subsets.usda "GeomSubsets bound to their own materials" delegate sceneIndex || exit $?
+# Hydra syncs every purpose's rprims, the pass is executed with the tags geometry and render
+TIDE_CHECK_TAGS="geometry,render,proxy,guide;geometry,render" \
+    check check_stage_purposes.usda "the render pass's tags: purposes default and render of four" delegate sceneIndex || exit $?
+# then, shown with its proxies, the proxy ball made a guide by a live edit: Hydra does not sync it
+# (guides untracked), the plugin forwards its new tag at the commit and the pass leaves it out.
+# Through the scene delegate only: after a live purpose edit through the scene indices this
+# harness reads a black image (any purpose edit, whatever the plugin does with tags)
+edited=$out/edited_purposes.usda
+sed 's|uniform token purpose = "proxy"|uniform token purpose = "guide"|' "$here/check_stage_purposes.usda" > "$edited"
+grep -q 'purpose = "proxy"' "$edited" && { echo "$edited keeps its proxy" >&2; exit 1; }
+TIDE_CHECK_TAGS="geometry,render,proxy;geometry,render,proxy" TIDE_CHECK_SET_TOKEN="/World/Proxy.purpose guide" reference=$edited \
+    check check_stage_purposes.usda "then its proxy made a guide by a live edit" delegate || exit $?
 check check_stage_surface.usda "UsdPreviewSurface opacityThreshold, opacity, emissiveColor, metallic" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?

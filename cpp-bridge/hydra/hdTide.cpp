@@ -346,7 +346,8 @@ HdTideSnapshot::HdTideSnapshot(HdSceneDelegate* sd, SdfPath const& id, std::stri
             _Put("creaseSharpnesses", VtValue(tags.GetCreaseWeights()));
             _Put("cornerIndices", VtValue(tags.GetCornerIndices()));
             _Put("cornerSharpnesses", VtValue(tags.GetCornerWeights()));
-            _tideBits |= ChangeTracker::DirtyTopology;
+            // (the subsets' keys are parameters to the tide:: prim)
+            _tideBits |= ChangeTracker::DirtyTopology | ChangeTracker::DirtyParams;
         }
         if (typeId == "mesh" && (bits & CT::DirtyDisplayStyle)) {
             // the viewer's refinement (usdview's complexity): the subdivision level of a mesh
@@ -803,6 +804,14 @@ public:
         SdfPath const& instancerId = Base::GetInstancerId();
         HdInstancer::_SyncInstancerAndParents(sd->GetRenderIndex(), instancerId);
         HdTideSnapshot snapshot(sd, id, _typeId, *dirtyBits, Base::GetPrimId());
+        // the rprim's render tag (UsdImaging's, from its purpose; the render index reads it and
+        // clears DirtyRenderTag before the sync): the passes whose tags include it render it
+        snapshot.Add("renderTag", tide::TimedValue{false, 0.0, tide::Value::MakeToken(Base::GetRenderTag().GetString())},
+                     tide::ChangeTracker::DirtyParams);
+        {
+            std::lock_guard<std::mutex> lock(_shared->tagMutex);
+            _shared->forwardedTags[this] = Base::GetRenderTag();
+        }
         if (!instancerId.IsEmpty() && (*dirtyBits & (CT::DirtyInstancer | CT::DirtyInstanceIndex | CT::DirtyTransform))) {
             if (auto* inst = dynamic_cast<HdTideInstancer*>(sd->GetRenderIndex().GetInstancer(instancerId))) {
                 HdTideInstanceSamples const s = inst->SampleInstanceTransforms(id);
@@ -1054,9 +1063,11 @@ public:
     bool IsConverged() const override { return !_delegate->InstanceRefreshPending() && _pass->IsConverged(); }
 
 protected:
-    void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const&) override {
+    void _Execute(HdRenderPassStateSharedPtr const& state, TfTokenVector const& renderTags) override {
         tide::RenderPassState s;
         s.hydra = true;
+        // the viewer's purposes, as the tags of the rprims it shows
+        for (TfToken const& t : renderTags) s.renderTags.push_back(t.GetString());
         s.renderSettings = _delegate->SettingsPathForPass();
         if (HdCamera const* cam = state->GetCamera()) {
             s.camera = cam->GetId().GetString();
@@ -1238,6 +1249,10 @@ HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const&
 }
 
 void HdTideRenderDelegate::DestroyRprim(HdRprim* rPrim) {
+    {
+        std::lock_guard<std::mutex> lock(_shared->tagMutex);
+        _shared->forwardedTags.erase(rPrim);
+    }
     _shared->links.RemoveRprim(rPrim->GetId().GetString());
     _shared->links.RemoveLight(rPrim->GetId().GetString());
     if (auto* link = dynamic_cast<HdTideLink<tide::Rprim>*>(rPrim)) _tide->DestroyRprim(link->TidePrim());
@@ -1295,6 +1310,17 @@ void HdTideRenderDelegate::CommitResources(HdChangeTracker* tracker) {
             tracker->MarkRprimDirty(SdfPath(rprim), HdChangeTracker::DirtyCategories);
     // every prim has synced: the light links' member sets are complete
     _shared->links.Forward(*_tide->GetRenderParam());
+    // render tags the render index changed without syncing the prim (its new purpose is not
+    // tracked): forwarded here, so that the passes stop rendering it under its old tag
+    {
+        std::lock_guard<std::mutex> lock(_shared->tagMutex);
+        for (auto& [rprim, tag] : _shared->forwardedTags) {
+            if (rprim->GetRenderTag() == tag) continue;
+            tag = rprim->GetRenderTag();
+            _tide->GetRenderParam()->Forward(rprim->GetId().GetString(), "renderTag",
+                                             tide::TimedValue{false, 0.0, tide::Value::MakeToken(tag.GetString())});
+        }
+    }
     _tide->CommitResources();
     for (tide::Problem const& p : _tide->TakeProblems())
         TF_WARN("Tide: %s: %s: %s", p.prim.c_str(), p.attribute.c_str(), p.message.c_str());

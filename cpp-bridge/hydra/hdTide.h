@@ -26,6 +26,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <unordered_map>
 #include <set>
 #include <string>
 #include <vector>
@@ -144,6 +145,10 @@ struct HdTideShared {
     tide::RenderParam* param = nullptr;
     HdTideLightLinks links;
     std::mutex vdbMutex;
+    /// Each rprim's render tag as last forwarded: a tag the render index changes without a
+    /// sync (the prim's new purpose untracked) is forwarded at the commit.
+    std::mutex tagMutex;
+    std::unordered_map<HdRprim const*, TfToken> forwardedTags;
 };
 
 class HdTideRenderDelegate final : public HdRenderDelegate {

@@ -406,7 +406,8 @@ impl Pass {
     /// render reported and the rest rendered; else `UsdRenderVar` sourceNames, an unknown one
     /// an error. `projection`: 16 doubles (GfMatrix4d's order) of the host's projection, whose
     /// framing the image takes, or none.
-    pub fn execute(&self, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64]) -> Result<(), String> {
+    /// `render_tags`: the pass's (Hydra's), empty for every prim ([`Delegate::set_render_tags`]).
+    pub fn execute(&self, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64], render_tags: &Vec<String>) -> Result<(), String> {
         guard("execute", || {
             let mut s = lock(&self.shared);
             let d = &s.delegate;
@@ -436,6 +437,7 @@ impl Pass {
                     buf.set_clear(&b.clear);
                 }
             }
+            s.delegate.set_render_tags(render_tags);
             let problems = s.delegate.execute_as(Some(camera), &aovs, Some(settings), hydra, projection);
             s.pending.extend(problems.into_iter().map(row));
             s.executing_pass = self.id;
@@ -571,11 +573,11 @@ mod tests {
         quad_scene(&d);
         assert!(d.commit_resources().unwrap().is_empty());
         let p = d.create_render_pass().unwrap();
-        assert!(p.execute("/NoCamera", &binding("color", "/Out/color"), "", false, &[]).is_err());
-        assert!(p.execute("/Cam", &binding("bogus", "/Out/color"), "", false, &[]).is_err());
-        assert!(p.execute("/Cam", &binding("color", "/Dome"), "", false, &[]).is_err());
-        assert!(p.execute("/Cam", &binding("color", "/Out/color"), "/Cam", false, &[]).is_err());
-        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[]).unwrap();
+        assert!(p.execute("/NoCamera", &binding("color", "/Out/color"), "", false, &[], &Vec::new()).is_err());
+        assert!(p.execute("/Cam", &binding("bogus", "/Out/color"), "", false, &[], &Vec::new()).is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Dome"), "", false, &[], &Vec::new()).is_err());
+        assert!(p.execute("/Cam", &binding("color", "/Out/color"), "/Cam", false, &[], &Vec::new()).is_err());
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[], &Vec::new()).unwrap();
         assert!(p.wait(60.0).unwrap());
         assert_eq!(p.error().unwrap(), "");
         assert!(p.is_converged().unwrap());
@@ -612,7 +614,7 @@ mod tests {
         d.set_int("/S", "tide:samples", 1 << 20, false, 0.0).unwrap();
         d.commit_resources().unwrap();
         let p = d.create_render_pass().unwrap();
-        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[]).unwrap();
+        p.execute("/Cam", &binding("color", "/Out/color"), "/S", false, &[], &Vec::new()).unwrap();
         let d2 = d.clone();
         let mapper = std::thread::spawn(move || (0..20).all(|_| d2.map_buffer("/Out/color").is_ok()));
         assert!(!p.wait(0.2).unwrap());

@@ -170,7 +170,7 @@ pub mod ffi {
         fn create_render_pass(self: &Delegate) -> Result<Box<Pass>>;
         /// `projection`: the host's projection matrix (16 doubles, GfMatrix4d's order) framing the
         /// image, or none.
-        fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64]) -> Result<()>;
+        fn execute(self: &Pass, camera: &str, bindings: &Vec<AovBinding>, settings: &str, hydra: bool, projection: &[f64], render_tags: &Vec<String>) -> Result<()>;
         fn is_converged(self: &Pass) -> Result<bool>;
         fn progress(self: &Pass) -> Result<f64>;
         /// The render's figures after its last finished pass, as `key=value` strings.

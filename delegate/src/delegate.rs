@@ -108,7 +108,7 @@ struct Prim {
 
 /// Rprim attributes that place or bind a prim without changing its geometry: editing only
 /// these re-syncs the prim but keeps its converted points and triangles.
-const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "material", "primId", "instanceTransforms", "instancePaths", "instanceIndices"];
+const PLACEMENT_ATTRIBUTES: &[&str] = &["transform", "visibility", "purpose", "renderTag", "material", "primId", "instanceTransforms", "instancePaths", "instanceIndices"];
 
 /// A material's displacement in one assembly.
 struct Displacement<'a> {
@@ -190,6 +190,9 @@ struct RprimPiece {
     display_opacity: Option<f32>,
     visible: bool,
     purpose: String,
+    /// Hydra's render tag (UsdImaging's from the purpose), where the host gives one: the prim
+    /// is rendered by passes whose tags include it ([`Delegate::set_render_tags`]).
+    render_tag: Option<String>,
     id: u32,
     /// `TideCausticsAPI` attributes where any is authored.
     caustics: Option<tide_core::scene::ObjectCaustics>,
@@ -250,6 +253,10 @@ pub struct Delegate {
     settings: SettingsPiece,
     active_camera: Option<String>,
     active_settings: Option<String>,
+    /// The render tags of the pass (Hydra's `Execute`): None renders every prim's.
+    render_tags: Option<Vec<String>>,
+    /// `render_tags` changed since the last assembly.
+    render_tags_changed: bool,
     buffers: BTreeMap<String, RenderBuffer>,
     factory: EngineFactory,
     pass: Option<RenderPass>,
@@ -392,6 +399,8 @@ impl Delegate {
             settings: SettingsPiece::default(),
             active_camera: None,
             active_settings: None,
+            render_tags: None,
+            render_tags_changed: false,
             buffers: BTreeMap::new(),
             factory,
             pass: None,
@@ -775,6 +784,7 @@ impl Delegate {
             display_opacity,
             visible: s.token_or("visibility", &["inherited", "invisible", "visible"], "inherited", p) != "invisible",
             purpose: s.token_or("purpose", &["default", "render", "proxy", "guide"], "default", p).to_string(),
+            render_tag: s.str_opt("renderTag").filter(|t| !t.is_empty()).map(String::from),
             id,
             caustics: read_caustics(s, p),
             mesh_light: lux::read_mesh_light(s, p),
@@ -1013,6 +1023,11 @@ impl Delegate {
             let Piece::Rprim(r) = &c.piece else { continue };
             if !r.visible || (r.purpose != "default" && !included.contains(&r.purpose)) {
                 continue;
+            }
+            if let (Some(tags), Some(tag)) = (&self.render_tags, &r.render_tag) {
+                if !tags.contains(tag) {
+                    continue;
+                }
             }
             // the geometry, and for an ocean's parts the (wind direction, slope-variance share)
             // their sea material takes
@@ -1522,8 +1537,9 @@ impl Delegate {
         let mut problems = Vec::new();
         let cam = camera.filter(|c| !c.is_empty()).map(String::from);
         let set = settings.filter(|c| !c.is_empty()).map(String::from);
-        if cam != self.active_camera || set != self.active_settings || self.scene_generation == 0 {
-            let camera_only = set == self.active_settings && self.scene_generation != 0;
+        if cam != self.active_camera || set != self.active_settings || self.scene_generation == 0 || self.render_tags_changed {
+            let camera_only = set == self.active_settings && self.scene_generation != 0 && !self.render_tags_changed;
+            self.render_tags_changed = false;
             self.active_camera = cam;
             self.active_settings = set;
             self.assemble(camera_only);
@@ -1547,6 +1563,23 @@ impl Delegate {
         }
         self.start_job(bindings);
         problems
+    }
+
+    /// The render tags of the passes that follow (HdRenderPass::Execute's): a prim with a
+    /// render tag (`renderTag`) is rendered only by a pass whose tags include it; empty renders
+    /// every prim, as Hydra's "no tags" does. Prims without a tag are always rendered. Takes
+    /// effect at the next execution (re-assembling the scene when the tags changed).
+    pub fn set_render_tags(&mut self, tags: &[String]) {
+        let tags = (!tags.is_empty()).then(|| {
+            let mut t = tags.to_vec();
+            t.sort();
+            t.dedup();
+            t
+        });
+        if tags != self.render_tags {
+            self.render_tags = tags;
+            self.render_tags_changed = true;
+        }
     }
 
     pub fn render_status(&self) -> PassStatus {
@@ -2935,6 +2968,44 @@ mod tests {
         let checked = fresh.check_render();
         assert_eq!(checked.iter().filter(|p| p.item == "/Flat").count(), 1, "{checked:?}");
         assert!(fresh.check_render().is_empty());
+    }
+
+    /// Hydra's render tags: a pass renders the prims whose tag it names (and those without a
+    /// tag); no tags renders all; a prim's tag edited moves it in or out without converting its
+    /// geometry again.
+    #[test]
+    fn render_tags_choose_the_prims_a_pass_renders() {
+        let mut d = Delegate::with_engine(fake_factory(Duration::ZERO, None, Default::default(), Default::default()));
+        for p in ["/Geo", "/Proxy", "/Guide", "/Untagged"] {
+            quad(&mut d, p);
+        }
+        d.set_attribute("/Geo", "renderTag", tok("geometry"), None);
+        d.set_attribute("/Proxy", "renderTag", tok("proxy"), None);
+        d.set_attribute("/Guide", "renderTag", tok("guide"), None);
+        d.create_prim("camera", "/cam");
+        d.commit_resources();
+        let rendered = |d: &mut Delegate, tags: &[&str]| {
+            d.set_render_tags(&tags.iter().map(|t| t.to_string()).collect::<Vec<_>>());
+            d.execute(Some("/cam"), &[], None);
+            let mut names: Vec<String> = d.scene().instances.iter().map(|i| i.name.clone()).collect();
+            names.sort();
+            names
+        };
+        assert_eq!(rendered(&mut d, &[]), ["/Geo", "/Guide", "/Proxy", "/Untagged"]);
+        assert_eq!(rendered(&mut d, &["geometry"]), ["/Geo", "/Untagged"]);
+        assert_eq!(rendered(&mut d, &["proxy", "geometry", "proxy"]), ["/Geo", "/Proxy", "/Untagged"]);
+        assert_eq!(rendered(&mut d, &["render"]), ["/Untagged"]);
+        assert_eq!(rendered(&mut d, &[]), ["/Geo", "/Guide", "/Proxy", "/Untagged"]);
+        let geometry = |d: &Delegate| match &d.cache["/Guide"].piece {
+            Piece::Rprim(r) => r.geometry.clone(),
+            _ => unreachable!(),
+        };
+        let before = geometry(&d);
+        assert_eq!(rendered(&mut d, &["geometry"]), ["/Geo", "/Untagged"]);
+        d.set_attribute("/Guide", "renderTag", tok("geometry"), None);
+        d.commit_resources();
+        assert_eq!(rendered(&mut d, &["geometry"]), ["/Geo", "/Guide", "/Untagged"]);
+        assert!(Arc::ptr_eq(&before, &geometry(&d)), "a tag edit converted the geometry again");
     }
 
     /// A buffer whose `tide:publish` is false is bound (its AOV is rendered) but left

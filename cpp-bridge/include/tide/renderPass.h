@@ -38,6 +38,9 @@ struct RenderPassState {
     /// its framing and window policy in it), whose framing the image takes; empty: the
     /// camera's aperture conformed as the render settings say.
     std::vector<double> projection;
+    /// The pass's render tags (HdRenderPass::Execute's): prims whose `renderTag` is not among
+    /// them are not rendered; empty renders every prim.
+    std::vector<std::string> renderTags;
 };
 
 class RenderPass {
