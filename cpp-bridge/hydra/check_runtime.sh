@@ -214,14 +214,14 @@ check check_stage_subsets.usda "GeomSubsets bound to their own materials" delega
 TIDE_CHECK_TAGS="geometry,render,proxy,guide;geometry,render" \
     check check_stage_purposes.usda "the render pass's tags: purposes default and render of four" delegate sceneIndex || exit $?
 # then, shown with its proxies, the proxy ball made a guide by a live edit: Hydra does not sync it
-# (guides untracked), the plugin forwards its new tag at the commit and the pass leaves it out.
-# Through the scene delegate only: after a live purpose edit through the scene indices this
-# harness reads a black image (any purpose edit, whatever the plugin does with tags)
+# (guides untracked), the plugin forwards its new tag at the commit and the pass leaves it out;
+# the guide ball, never synced, stays out too (an rprim is hidden until its first sync: through
+# the scene indices it was a unit ball at the origin, around the camera, before)
 edited=$out/edited_purposes.usda
 sed 's|uniform token purpose = "proxy"|uniform token purpose = "guide"|' "$here/check_stage_purposes.usda" > "$edited"
 grep -q 'purpose = "proxy"' "$edited" && { echo "$edited keeps its proxy" >&2; exit 1; }
 TIDE_CHECK_TAGS="geometry,render,proxy;geometry,render,proxy" TIDE_CHECK_SET_TOKEN="/World/Proxy.purpose guide" reference=$edited \
-    check check_stage_purposes.usda "then its proxy made a guide by a live edit" delegate || exit $?
+    check check_stage_purposes.usda "then its proxy made a guide by a live edit" delegate sceneIndex || exit $?
 check check_stage_surface.usda "UsdPreviewSurface opacityThreshold, opacity, emissiveColor, metallic" delegate sceneIndex || exit $?
 check check_stage_instances.usda "per-instance primvars of a PointInstancer and of native instances" delegate sceneIndex || exit $?
 check check_stage_nested.usda "nested PointInstancers, the outer level's per-instance primvars" delegate sceneIndex || exit $?

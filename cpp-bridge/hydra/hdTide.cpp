@@ -1239,6 +1239,11 @@ void HdTideRenderDelegate::DestroyInstancer(HdInstancer* instancer) { delete ins
 HdRprim* HdTideRenderDelegate::CreateRprim(TfToken const& typeId, SdfPath const& rprimId) {
     tide::Rprim* prim = _tide->CreateRprim(typeId.GetString(), rprimId.GetString());
     if (!prim) return nullptr;
+    // tagged hidden until its first sync gives its tag: Hydra creates the rprims of every
+    // purpose but syncs only those of the tags it tracks, and an rprim never synced (a
+    // sphere's defaults: a unit ball at the origin) must not be rendered
+    _tide->GetRenderParam()->Forward(rprimId.GetString(), "renderTag",
+                                     tide::TimedValue{false, 0.0, tide::Value::MakeToken(HdRenderTagTokens->hidden.GetString())});
     HdTideShared* shared = _shared.get();
     if (typeId == HdPrimTypeTokens->mesh) return new HdTideRprim<HdMesh>(rprimId, typeId.GetString(), prim, shared);
     if (typeId == HdPrimTypeTokens->basisCurves)
