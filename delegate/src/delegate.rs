@@ -1024,8 +1024,10 @@ impl Delegate {
             if !r.visible || (r.purpose != "default" && !included.contains(&r.purpose)) {
                 continue;
             }
-            if let (Some(tags), Some(tag)) = (&self.render_tags, &r.render_tag) {
-                if !tags.contains(tag) {
+            if let Some(tag) = &r.render_tag {
+                // Hydra's `hidden` is rendered only by a pass that names it
+                let shown = self.render_tags.as_ref().map_or(tag != "hidden", |tags| tags.contains(tag));
+                if !shown {
                     continue;
                 }
             }
@@ -1567,7 +1569,8 @@ impl Delegate {
 
     /// The render tags of the passes that follow (HdRenderPass::Execute's): a prim with a
     /// render tag (`renderTag`) is rendered only by a pass whose tags include it; empty renders
-    /// every prim, as Hydra's "no tags" does. Prims without a tag are always rendered. Takes
+    /// every prim, as Hydra's "no tags" does, but those tagged `hidden`. Prims without a tag are
+    /// always rendered. Takes
     /// effect at the next execution (re-assembling the scene when the tags changed).
     pub fn set_render_tags(&mut self, tags: &[String]) {
         let tags = (!tags.is_empty()).then(|| {
@@ -2971,14 +2974,15 @@ mod tests {
     }
 
     /// Hydra's render tags: a pass renders the prims whose tag it names (and those without a
-    /// tag); no tags renders all; a prim's tag edited moves it in or out without converting its
-    /// geometry again.
+    /// tag); no tags renders all but the hidden; a prim's tag edited moves it in or out without
+    /// converting its geometry again.
     #[test]
     fn render_tags_choose_the_prims_a_pass_renders() {
         let mut d = Delegate::with_engine(fake_factory(Duration::ZERO, None, Default::default(), Default::default()));
-        for p in ["/Geo", "/Proxy", "/Guide", "/Untagged"] {
+        for p in ["/Geo", "/Proxy", "/Guide", "/Untagged", "/Hidden"] {
             quad(&mut d, p);
         }
+        d.set_attribute("/Hidden", "renderTag", tok("hidden"), None);
         d.set_attribute("/Geo", "renderTag", tok("geometry"), None);
         d.set_attribute("/Proxy", "renderTag", tok("proxy"), None);
         d.set_attribute("/Guide", "renderTag", tok("guide"), None);
@@ -2995,6 +2999,7 @@ mod tests {
         assert_eq!(rendered(&mut d, &["geometry"]), ["/Geo", "/Untagged"]);
         assert_eq!(rendered(&mut d, &["proxy", "geometry", "proxy"]), ["/Geo", "/Proxy", "/Untagged"]);
         assert_eq!(rendered(&mut d, &["render"]), ["/Untagged"]);
+        assert_eq!(rendered(&mut d, &["hidden"]), ["/Hidden", "/Untagged"]);
         assert_eq!(rendered(&mut d, &[]), ["/Geo", "/Guide", "/Proxy", "/Untagged"]);
         let geometry = |d: &Delegate| match &d.cache["/Guide"].piece {
             Piece::Rprim(r) => r.geometry.clone(),
