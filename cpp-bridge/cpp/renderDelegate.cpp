@@ -141,18 +141,18 @@ std::vector<Problem> RenderDelegate::TakeProblems() {
     } catch (const std::exception&) {
     }
     std::vector<Problem> fresh = _param->TakeProblems();
-    auto found = [&](const std::string& prim, const std::string& attribute, const std::string* message) {
-        auto same = [&](const Problem& p) {
-            return p.prim == prim && p.attribute == attribute && (!message || p.message == *message);
-        };
-        return std::any_of(_pending.begin(), _pending.end(), same) || std::any_of(fresh.begin(), fresh.end(), same);
-    };
-    for (auto it = _reported.begin(); it != _reported.end();) {
-        const auto& [prim, attribute, message] = *it;
-        it = synced.count(prim) && !found(prim, attribute, &message) ? _reported.erase(it) : std::next(it);
-    }
+    // what this batch has, looked up once per reported entry
+    std::set<std::tuple<std::string, std::string, std::string>> found;
+    std::set<std::pair<std::string, std::string>> foundWhere;
+    for (const auto* batch : {&_pending, &fresh})
+        for (const Problem& p : *batch) {
+            found.emplace(p.prim, p.attribute, p.message);
+            foundWhere.emplace(p.prim, p.attribute);
+        }
+    for (auto it = _reported.begin(); it != _reported.end();)
+        it = synced.count(std::get<0>(*it)) && !found.count(*it) ? _reported.erase(it) : std::next(it);
     for (auto it = _reportedByRust.begin(); it != _reportedByRust.end();)
-        it = synced.count(it->first) && !found(it->first, it->second, nullptr) ? _reportedByRust.erase(it) : std::next(it);
+        it = synced.count(it->first) && !foundWhere.count(*it) ? _reportedByRust.erase(it) : std::next(it);
     // The delegate's problems come first; a C++ problem about the same prim and attribute
     // (e.g. a texture the delegate also reports) is not repeated.
     std::vector<Problem> candidates = std::exchange(_pending, {});

@@ -1570,8 +1570,8 @@ impl Delegate {
     /// The render tags of the passes that follow (HdRenderPass::Execute's): a prim with a
     /// render tag (`renderTag`) is rendered only by a pass whose tags include it; empty renders
     /// every prim, as Hydra's "no tags" does, but those tagged `hidden`. Prims without a tag are
-    /// always rendered. Takes
-    /// effect at the next execution (re-assembling the scene when the tags changed).
+    /// always rendered. Takes effect at the next execution (re-assembling the scene when the
+    /// tags changed).
     pub fn set_render_tags(&mut self, tags: &[String]) {
         let tags = (!tags.is_empty()).then(|| {
             let mut t = tags.to_vec();
