@@ -20,9 +20,11 @@
 //! Beams are cut into pieces of at most [`PIECE_LENGTH_WIDTHS`] widths; the eight-wide points
 //! BVH of the ray tracer ([`crate::accel`]) holds the pieces' boxes grown by their beam's width. A query walks every piece whose box the
 //! camera ray crosses; a beam contributes through the piece that holds its closest point, so
-//! nothing is counted twice. Each piece carries its beam's line and width, stored in the BVH's
-//! leaf order, so the walk reads pieces in sequence and a beam's own record only when it
-//! contributes.
+//! nothing is counted twice. Each piece carries its beam's line, width and medium, stored in
+//! the BVH's leaf order, so the walk reads pieces in sequence and a beam's own record only when
+//! the caller asks for it ([`Near::beam`], after its own tests of width and medium); the beams
+//! themselves are stored in the order their first pieces take in the leaves, so beams met
+//! together lie together.
 
 // `!(x < y)` is used on purpose: it rejects NaN along with the out-of-range values.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -91,8 +93,28 @@ struct Piece {
     s1: f32,
     width: f32,
     beam: u32,
+    /// The beam's medium.
+    medium: u32,
     /// Whether s1 is the beam's end (the piece then holds s = s1 too).
     closes: bool,
+}
+
+/// A beam met by a query: its width and medium (read from the piece that met it), and its
+/// record on demand.
+#[derive(Clone, Copy)]
+pub struct Near<'a> {
+    pub width: f32,
+    pub medium: u32,
+    map: &'a BeamMap,
+    index: u32,
+}
+
+impl<'a> Near<'a> {
+    /// The beam's record.
+    #[inline]
+    pub fn beam(&self) -> &'a Beam {
+        &self.map.beams[self.index as usize]
+    }
 }
 
 /// Beams of one pass with their BVH.
@@ -123,14 +145,29 @@ impl BeamMap {
                 let p1 = b.photon.position + b.dir * s1;
                 let g = Vec3A::splat(b.width);
                 bounds.push((Vec3A::from(p0.min(p1)) - g, Vec3A::from(p0.max(p1)) + g));
-                pieces.push(Piece { o: b.photon.position, d: b.dir, s0, s1, width: b.width, beam: i as u32, closes: s1 == b.len });
+                pieces.push(Piece { o: b.photon.position, d: b.dir, s0, s1, width: b.width, beam: i as u32, medium: b.medium, closes: s1 == b.len });
             }
         }
         if pieces.is_empty() {
             return BeamMap { beams, pieces, bvh: None };
         }
         let bvh = PointBvh::build(bounds.into_iter());
-        let pieces = bvh.ids().iter().map(|&k| pieces[k as usize]).collect();
+        let mut pieces: Vec<Piece> = bvh.ids().iter().map(|&k| pieces[k as usize]).collect();
+        // the beams in the order of their first pieces in the leaves (those without a piece
+        // last), permuted in place
+        let mut slot = vec![u32::MAX; beams.len()];
+        let mut from = Vec::with_capacity(beams.len());
+        for p in &mut pieces {
+            let k = &mut slot[p.beam as usize];
+            if *k == u32::MAX {
+                *k = from.len() as u32;
+                from.push(p.beam);
+            }
+            p.beam = *k;
+        }
+        from.extend((0..beams.len() as u32).filter(|&i| slot[i as usize] == u32::MAX));
+        let mut beams = beams;
+        permute_in_place(&mut beams, &from);
         BeamMap { beams, pieces, bvh: Some(bvh) }
     }
 
@@ -148,9 +185,9 @@ impl BeamMap {
     }
 
     /// Calls `f(beam, approach)` for every beam whose closest approach to the camera ray
-    /// `a + t·c`, t ∈ [0, t_max], lies on the ray and on the beam, within `max_width` of both
-    /// lines… as seen through the pieces' boxes: each beam at most once.
-    pub fn for_each_near(&self, a: Vec3, c: Vec3, t_max: f32, mut f: impl FnMut(&Beam, &Approach)) {
+    /// `a + t·c`, t ∈ [0, t_max], lies on the ray and on the beam, within the beam's width of
+    /// both lines: each beam once.
+    pub fn for_each_near(&self, a: Vec3, c: Vec3, t_max: f32, mut f: impl FnMut(Near<'_>, &Approach)) {
         let Some(bvh) = &self.bvh else { return };
         bvh.traverse_slots(
             Vec3A::from(a),
@@ -163,13 +200,37 @@ impl BeamMap {
                     // piece closes its end)
                     let inside = ap.s >= p.s0 && (ap.s < p.s1 || (p.closes && ap.s <= p.s1));
                     if inside && ap.t >= 0.0 && ap.t <= t_max && ap.h < p.width {
-                        f(&self.beams[p.beam as usize], &ap);
+                        f(Near { width: p.width, medium: p.medium, map: self, index: p.beam }, &ap);
                     }
                 }
                 None
             },
             |k| prefetch_lines(self.pieces.as_ptr().wrapping_add(k) as *const u8, 4 * std::mem::size_of::<Piece>()),
         );
+    }
+}
+
+/// Reorders `v` so that `v[i]` becomes the old `v[from[i]]` (`from`: a permutation), moving
+/// each element once and holding one aside per cycle.
+fn permute_in_place<T: Copy>(v: &mut [T], from: &[u32]) {
+    debug_assert_eq!(v.len(), from.len());
+    let mut done = vec![false; v.len()];
+    for start in 0..v.len() {
+        if done[start] {
+            continue;
+        }
+        let held = v[start];
+        let mut i = start;
+        loop {
+            done[i] = true;
+            let k = from[i] as usize;
+            if k == start {
+                v[i] = held;
+                break;
+            }
+            v[i] = v[k];
+            i = k;
+        }
     }
 }
 
@@ -218,7 +279,7 @@ mod tests {
             let (a, c) = (v() * 5.0, v().normalize());
             let t_max = 8.0;
             let mut found = Vec::new();
-            map.for_each_near(a, c, t_max, |b, _| found.push(b.photon.position));
+            map.for_each_near(a, c, t_max, |b, _| found.push(b.beam().photon.position));
             let mut expect = Vec::new();
             for b in &beams {
                 if let Some(ap) = closest_approach(a, c, b.photon.position, b.dir) {
@@ -231,6 +292,21 @@ mod tests {
             for p in &expect {
                 assert_eq!(found.iter().filter(|q| *q == p).count(), 1);
             }
+        }
+    }
+
+    #[test]
+    fn a_permutation_in_place_matches_a_copy() {
+        let mut rng = crate::testing::chi2::TestRng::new(11);
+        for n in [0usize, 1, 2, 7, 100] {
+            let mut from: Vec<u32> = (0..n as u32).collect();
+            for i in (1..n).rev() {
+                from.swap(i, (rng.next_f32() * (i + 1) as f32) as usize % (i + 1));
+            }
+            let orig: Vec<u64> = (0..n as u64).map(|i| i * 7 + 3).collect();
+            let mut v = orig.clone();
+            permute_in_place(&mut v, &from);
+            assert_eq!(v, from.iter().map(|&k| orig[k as usize]).collect::<Vec<_>>());
         }
     }
 

@@ -867,15 +867,17 @@ impl Caustics {
         let sigma_c = 0.5 * med.majorant(lambda).average();
         let xi = rng_state.next_f32();
         let t_cull = if sigma_c > 0.0 { -(1.0 - xi).ln() / sigma_c } else { f32::INFINITY };
-        self.beams.for_each_near(a, c, t_max.min(t_cull), |b, ap| {
-            if b.medium as usize != m {
+        self.beams.for_each_near(a, c, t_max.min(t_cull), |near, ap| {
+            // the tests the piece answers come before the beam's record is read
+            if near.medium as usize != m {
                 return;
             }
-            let wp = fp.width_at(ap.t).min(b.width);
-            let w = wp + (b.width - wp) * sq;
+            let wp = fp.width_at(ap.t).min(near.width);
+            let w = wp + (near.width - wp) * sq;
             if !(ap.h < w) {
                 return;
             }
+            let b = near.beam();
             if record {
                 self.vis.record(b.photon.cell, VisibilityKind::Volume, throughput * b.photon.energy() * inv_mean);
             }
@@ -895,10 +897,10 @@ impl Caustics {
                 return;
             }
             let mut rng = || rng_state.next_f32();
-            let tr_b = at.transmittance(b.photon.position, b.dir, ap.s, &mut rng);
-            let tr_c = at.transmittance(a, c, ap.t, &mut rng);
+            // along the beam to the closest point, and from there back along the camera ray
+            let tr = at.transmittance_of_two((b.photon.position, b.dir, ap.s), (a, c, ap.t), &mut rng);
             let k = (sigma_c * ap.t).exp() / (2.0 * w * ap.sin_theta);
-            sum += b.photon.spectral_flux(&lookup) * at.sigma_s_at(x) * tr_b * tr_c * (fp * k * mis);
+            sum += b.photon.spectral_flux(&lookup) * at.sigma_s_at(x) * tr * (fp * k * mis);
         });
         sum * self.weight
     }

@@ -250,4 +250,15 @@ impl<'a> MediumAt<'a> {
             None => self.medium.transmittance(origin, dir, t, rng, self.lambda),
         }
     }
+
+    /// The product of the transmittances along two segments, each `(origin, dir, t)`: in a
+    /// homogeneous medium the transmittance over their summed length (one exponential per
+    /// wavelength instead of two).
+    #[inline]
+    pub fn transmittance_of_two(&self, a: (Vec3, Vec3, f32), b: (Vec3, Vec3, f32), rng: &mut impl FnMut() -> f32) -> SampledSpectrum {
+        match self.fixed {
+            Some((sa, ss)) => homogeneous::transmittance_spectral(sa + ss, a.2 + b.2),
+            None => self.medium.transmittance(a.0, a.1, a.2, rng, self.lambda) * self.medium.transmittance(b.0, b.1, b.2, rng, self.lambda),
+        }
+    }
 }

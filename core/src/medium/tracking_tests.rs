@@ -639,6 +639,16 @@ fn a_medium_seen_at_fixed_wavelengths_gives_the_media_own_bits() {
             let got = at.transmittance(p, dir, t, &mut || r1.next_f32());
             let want = med.transmittance(p, dir, t, &mut || r2.next_f32(), &lambda);
             assert_eq!(bits(got), bits(want), "sample {k}");
+            // two segments: the product of their transmittances (one exponential over the
+            // summed length where the medium is homogeneous: equal to rounding)
+            let (q, dir2, t2) = (p + dir * t, Vec3::new(0.2, 0.9, -0.1).normalize(), 15.0 * rng.next_f32());
+            let (mut r1, mut r2) = (TestRng::new(k), TestRng::new(k));
+            let got = at.transmittance_of_two((p, dir, t), (q, dir2, t2), &mut || r1.next_f32());
+            let mut r = || r2.next_f32();
+            let want = med.transmittance(p, dir, t, &mut r, &lambda) * med.transmittance(q, dir2, t2, &mut r, &lambda);
+            for j in 0..N_SPECTRUM {
+                assert!((got[j] - want[j]).abs() <= 1e-5 * want[j] + 1e-30, "sample {k}: {} vs {}", got[j], want[j]);
+            }
         }
     }
 }
