@@ -4,7 +4,7 @@ delegate; with --moving, velocities and accelerations too (the instances then mo
 half-frame shutter), with --spinning angular velocities as well. Prints the reader's and the
 commit's times and the process's peak RSS.
 
-    .venv/bin/python bench/front_door_point_instancer.py [--count 1000000] [--moving [--spinning]] [REPO_ROOT]
+    .venv/bin/python bench/front_door_point_instancer.py [--count 1000000] [--moving [--spinning]] [--save STAGE] [REPO_ROOT]
 
 REPO_ROOT (default: this checkout) picks the `tide` package whose reader and module are
 measured, so an earlier build can be measured by the same script.
@@ -19,6 +19,7 @@ ap = argparse.ArgumentParser()
 ap.add_argument("--count", type=int, default=1000000)
 ap.add_argument("--moving", action="store_true", help="velocities and accelerations")
 ap.add_argument("--spinning", action="store_true", help="with --moving: angular velocities too")
+ap.add_argument("--save", metavar="STAGE", help="also write the authored stage there (to time `tide render` on it)")
 ap.add_argument("root", nargs="?", default=THIS_CHECKOUT)
 args = ap.parse_args()
 usd_reader, module = tide_from(args.root)
@@ -51,6 +52,8 @@ if args.moving:
     if args.spinning:
         pi.CreateAngularVelocitiesAttr(Vt.Vec3fArray.FromNumpy(rng.normal(0, 360, (n, 3)).astype(np.float32)))
 
+if args.save:
+    s.GetRootLayer().Export(args.save)
 _, read_s, commit_s, problems = load_timed(usd_reader, module, s)
 print("%d PointInstancer instances%s: reader %.2f s, commit %.2f s, peak %.0f MiB%s"
       % (n, (" spinning" if args.spinning else "") + (" moving" if args.moving else ""), read_s, commit_s, peak_mib(),

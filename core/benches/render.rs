@@ -88,8 +88,8 @@ fn scene() -> SceneDesc {
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.05, ..Default::default() }), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.6, 0.45]) }, interior_medium: None });
     let inst = |name: &str, g, material| InstanceDesc { name: name.into(), geometry: g, transforms: vec![Mat4::IDENTITY], times: vec![0.0], material, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None };
-    s.instances.push(inst("/water", GeometryRef::Mesh(0), 0));
-    s.instances.push(inst("/floor", GeometryRef::Mesh(1), 1));
+    s.instances_mut().push(inst("/water", GeometryRef::Mesh(0), 0));
+    s.instances_mut().push(inst("/floor", GeometryRef::Mesh(1), 1));
     s.lights.push(light("/sky", LightShape::Dome { texture: None }, Mat4::IDENTITY, 0.4));
     s.lights.push(light("/sun", LightShape::Distant { angle_deg: 0.53 }, look_at(Vec3::ZERO, Vec3::new(-0.4, -1.0, -0.3)), 5.0));
     let eye = Vec3::new(0.0, 2.2, 3.2);

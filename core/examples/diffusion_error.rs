@@ -26,7 +26,7 @@ pub fn scene(method: MediumMethod, target: Vec3, view_width: f32) -> SceneDesc {
     s.media.push(MediumDesc { name: "/milk".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([10.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     for (i, n) in ["/body", "/slab"].iter().enumerate() {
-        s.instances.push(InstanceDesc { name: (*n).into(), geometry: GeometryRef::Mesh(i), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: i as u32, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
+        s.instances_mut().push(InstanceDesc { name: (*n).into(), geometry: GeometryRef::Mesh(i), transforms: vec![Mat4::IDENTITY], times: vec![0.0], material: 0, id: i as u32, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
     }
     // a uniform white sky of radiance 1 (irradiance π on the top): escaping paths of the
     // volumetric reference always find it, so the reference converges

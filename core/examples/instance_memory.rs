@@ -18,7 +18,7 @@ fn main() {
     s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
     for i in 0..n {
         let m = Mat4::from_translation(Vec3::new((i % 1000) as f32 * 0.05, (i / 1000) as f32 * 0.05, 0.0));
-        s.instances.push(InstanceDesc { name: format!("/World/I{i}/S"), geometry: GeometryRef::Spheres(0), transforms: vec![m], times: vec![0.0], material: 0, id: i, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
+        s.instances_mut().push(InstanceDesc { name: format!("/World/I{i}/S"), geometry: GeometryRef::Spheres(0), transforms: vec![m], times: vec![0.0], material: 0, id: i, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
     }
     let scene = status("VmRSS:");
     let settings = tide_core::RenderSettings { width: 32, height: 32, spp: 1, ..Default::default() };

@@ -1083,7 +1083,10 @@ pub struct SceneDesc {
     pub meshes: Vec<Arc<MeshDesc>>,
     /// Shared as the meshes are.
     pub spheres: Vec<Arc<SpheresDesc>>,
-    pub instances: Vec<InstanceDesc>,
+    /// Shared too: a copy of the scene (the validated scene a render builds from) shares them
+    /// until it changes one ([`SceneDesc::instances_mut`]); a million instances are not
+    /// copied for nothing.
+    pub instances: Arc<Vec<InstanceDesc>>,
     /// Per-instance primvar tables ([`InstanceDesc::primvar_row`]).
     pub instance_primvars: Vec<InstancePrimvars>,
     /// Links of mesh lights (instances absent here light everything).
@@ -1103,6 +1106,13 @@ pub struct SceneDesc {
     /// world's origin. Only what shading reads as a world position (a node graph's world-space
     /// position) adds it back.
     pub origin: glam::DVec3,
+}
+
+impl SceneDesc {
+    /// The instances to change: the scene's own, copied first if they are shared.
+    pub fn instances_mut(&mut self) -> &mut Vec<InstanceDesc> {
+        Arc::make_mut(&mut self.instances)
+    }
 }
 
 /// `tide:caustics:transparency`: which paths pass straight through a surface.

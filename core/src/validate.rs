@@ -630,44 +630,47 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
     for t in &mut s.instance_primvars {
         check_primvars(&mut t.primvars, t.rows as usize, &t.name, &mut p);
     }
-    let n_tables = s.instance_primvars.len();
-    for inst in &mut s.instances {
-        if let Some((t, r)) = inst.primvar_row {
-            if t as usize >= n_tables || r >= s.instance_primvars[t as usize].rows {
-                problem(&mut p, &inst.name, "primvars", "refers to per-instance primvars that do not exist; ignored");
-                inst.primvar_row = None;
+    let table_rows: Vec<u32> = s.instance_primvars.iter().map(|t| t.rows).collect();
+    let row_ok = |inst: &InstanceDesc| inst.primvar_row.is_none_or(|(t, r)| table_rows.get(t as usize).is_some_and(|&n| r < n));
+    let geometry_ok = |inst: &InstanceDesc| match inst.geometry {
+        GeometryRef::Mesh(i) => i < n_mesh,
+        GeometryRef::Spheres(i) => i < n_sph,
+    };
+    let times_ok = |inst: &InstanceDesc| inst.times.len() == inst.transforms.len() && inst.times.windows(2).all(|w| w[1] > w[0]) && inst.times.iter().all(|t| t.is_finite());
+    let clean = |inst: &InstanceDesc| row_ok(inst) && geometry_ok(inst) && inst.material < n_mat && !inst.transforms.is_empty() && times_ok(inst) && inst.transforms.iter().all(mat_ok);
+    // the instances are shared with the scene given: copied only when one needs mending
+    if s.instances.len() > MAX_LEAF_ITEMS || !s.instances.iter().all(clean) {
+        let instances = s.instances_mut();
+        for inst in instances.iter_mut().filter(|i| !row_ok(i)) {
+            problem(&mut p, &inst.name, "primvars", "refers to per-instance primvars that do not exist; ignored");
+            inst.primvar_row = None;
+        }
+        instances.retain_mut(|inst| {
+            if !geometry_ok(inst) {
+                problem(&mut p, &inst.name, "geometry", "refers to geometry that does not exist; dropped");
+                return false;
             }
-        }
+            if inst.material >= n_mat {
+                problem(&mut p, &inst.name, "material:binding", "refers to a material that does not exist; default used");
+                inst.material = 0;
+            }
+            if inst.transforms.is_empty() {
+                inst.transforms = vec![Mat4::IDENTITY];
+                inst.times = vec![0.0];
+            }
+            if !times_ok(inst) {
+                problem(&mut p, &inst.name, "xformOp", "motion samples have bad times; only the first sample is used");
+                inst.transforms.truncate(1);
+                inst.times = vec![0.0];
+            }
+            if !inst.transforms.iter().all(mat_ok) {
+                problem(&mut p, &inst.name, "xformOp", "singular or non-finite transform; prim dropped");
+                return false;
+            }
+            true
+        });
+        cap_instances(instances, &mut p, MAX_LEAF_ITEMS);
     }
-    s.instances.retain_mut(|inst| {
-        let ok_geom = match inst.geometry {
-            GeometryRef::Mesh(i) => i < n_mesh,
-            GeometryRef::Spheres(i) => i < n_sph,
-        };
-        if !ok_geom {
-            problem(&mut p, &inst.name, "geometry", "refers to geometry that does not exist; dropped");
-            return false;
-        }
-        if inst.material >= n_mat {
-            problem(&mut p, &inst.name, "material:binding", "refers to a material that does not exist; default used");
-            inst.material = 0;
-        }
-        if inst.transforms.is_empty() {
-            inst.transforms = vec![Mat4::IDENTITY];
-            inst.times = vec![0.0];
-        }
-        if inst.times.len() != inst.transforms.len() || inst.times.windows(2).any(|w| !(w[1] > w[0])) || inst.times.iter().any(|t| !t.is_finite()) {
-            problem(&mut p, &inst.name, "xformOp", "motion samples have bad times; only the first sample is used");
-            inst.transforms.truncate(1);
-            inst.times = vec![0.0];
-        }
-        if !inst.transforms.iter().all(mat_ok) {
-            problem(&mut p, &inst.name, "xformOp", "singular or non-finite transform; prim dropped");
-            return false;
-        }
-        true
-    });
-    cap_instances(&mut s.instances, &mut p, MAX_LEAF_ITEMS);
 
     // lights
     s.lights.retain_mut(|l| {
@@ -1201,6 +1204,52 @@ mod tests {
         sp.centers[0] = Vec3::splat(f32::INFINITY);
         mend_spheres(&mut sp, &mut probs);
         assert_eq!(sp.ids, vec![3], "a second mending keeps the authored numbers");
+    }
+
+    /// A scene whose instances need no mending shares them with the validated scene (no copy
+    /// of a million instances); each fault of an instance alone is mended in a copy, reported
+    /// once under its attribute, and leaves the given scene as it was.
+    #[test]
+    fn instances_are_copied_only_to_be_mended() {
+        let mut s = SceneDesc::default();
+        s.meshes.push(Arc::new(MeshDesc { name: "/m".into(), positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], indices: vec![0, 1, 2], ..Default::default() }));
+        s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
+        s.instance_primvars.push(InstancePrimvars { name: "/P".into(), rows: 2, primvars: vec![] });
+        let inst = |k: u32| InstanceDesc {
+            name: format!("/P[{k}]"),
+            geometry: GeometryRef::Mesh(0),
+            transforms: vec![Mat4::from_translation(Vec3::X * k as f32), Mat4::from_translation(Vec3::Y * k as f32)],
+            times: vec![0.0, 0.5],
+            material: 0,
+            id: 1,
+            visible_to_camera: true,
+            casts_shadows: true,
+            primvar_row: Some((0, k % 2)),
+            index: Some(k),
+        };
+        s.instances = Arc::new((0..4).map(inst).collect());
+        let (clean, probs) = validate(&s);
+        assert!(probs.is_empty(), "{probs:?}");
+        assert!(Arc::ptr_eq(&clean.instances, &s.instances));
+        type Fault = fn(&mut InstanceDesc);
+        let faults: [(Fault, &str, usize); 7] = [
+            (|i| i.primvar_row = Some((0, 2)), "primvars", 4),
+            (|i| i.primvar_row = Some((1, 0)), "primvars", 4),
+            (|i| i.geometry = GeometryRef::Spheres(0), "geometry", 3),
+            (|i| i.material = 3, "material:binding", 4),
+            (|i| i.times = vec![0.5, 0.5], "xformOp", 4),
+            (|i| i.times = vec![0.0], "xformOp", 4),
+            (|i| i.transforms[1] = Mat4::ZERO, "xformOp", 3),
+        ];
+        for (k, (fault, attribute, left)) in faults.into_iter().enumerate() {
+            let mut bad = s.clone();
+            fault(&mut bad.instances_mut()[2]);
+            let before = bad.clone();
+            let (clean, probs) = validate(&bad);
+            assert_eq!(probs.iter().map(|p| (p.item.as_str(), p.attribute.as_str())).collect::<Vec<_>>(), [("/P[2]", attribute)], "fault {k}");
+            assert_eq!(clean.instances.len(), left, "fault {k}");
+            assert!(!Arc::ptr_eq(&clean.instances, &bad.instances) && bad == before, "fault {k}");
+        }
     }
 
     /// Instances past the most the top-level BVH holds (here a smaller limit) are dropped and

@@ -86,7 +86,7 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         let mesh = s.meshes.len();
         s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0).into());
         // the box moves with the grid (the same keys, interpolated the same way)
-        s.instances.push(InstanceDesc {
+        s.instances_mut().push(InstanceDesc {
             name: v.name.clone(),
             geometry: GeometryRef::Mesh(mesh),
             transforms: mats,

@@ -1405,7 +1405,7 @@ mod tests {
         let mut s = SceneDesc::default();
         s.meshes.push(m.into());
         s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.camera.shutter_close = 1.0;
         let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
         let ray = Ray { o: Vec3::new(0.25, 5.0, 0.25), d: -Vec3::Y, t_max: f32::INFINITY, time: 0.25 };
@@ -1424,11 +1424,11 @@ mod tests {
         let water = |m| MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc::default()), interior_medium: m };
         s.materials = vec![water(Some(0)), water(Some(1)), water(None)];
         // medium 0: the mesh lifted by 2 (top 3) and a unit sphere scaled by 2.5 at y = 1 (top 3.5)
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 2.0), 0));
-        s.instances.push(inst(GeometryRef::Spheres(0), Mat4::from_scale_rotation_translation(Vec3::splat(2.5), glam::Quat::IDENTITY, Vec3::Y), 0));
+        s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 2.0), 0));
+        s.instances_mut().push(inst(GeometryRef::Spheres(0), Mat4::from_scale_rotation_translation(Vec3::splat(2.5), glam::Quat::IDENTITY, Vec3::Y), 0));
         // medium 1: the mesh as is; an unfilled body far above changes nothing
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 1));
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 50.0), 2));
+        s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 1));
+        s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 50.0), 2));
         let accel = Accel::build(&s.meshes, &s.spheres, &s.instances, (0.0, 0.0));
         assert_eq!(water_top(&s, &accel, 0), Some(3.5));
         assert_eq!(water_top(&s, &accel, 1), Some(1.0));
@@ -1450,7 +1450,7 @@ mod tests {
         s.meshes = vec![with.into(), tri("/p", [0.0; 3]).into(), odd.into()];
         s.materials.push(MaterialDesc { name: "/sea".into(), surface: SurfaceDesc::Water(sea), interior_medium: None });
         for (k, x) in [0.0f32, 10.0, 20.0].into_iter().enumerate() {
-            s.instances.push(inst(GeometryRef::Mesh(k), Mat4::from_translation(Vec3::X * x), 0));
+            s.instances_mut().push(inst(GeometryRef::Mesh(k), Mat4::from_translation(Vec3::X * x), 0));
         }
         let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
         let lambda = SampledWavelengths::sample_uniform(0.5);
@@ -1488,8 +1488,8 @@ mod tests {
             ..Default::default()
         }));
         s.materials.push(MaterialDesc { name: "/d".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
-        s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-        s.instances.push(inst(GeometryRef::Spheres(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(inst(GeometryRef::Spheres(0), Mat4::IDENTITY, 0));
         let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
         let at = |o: Vec3, d: Vec3| {
             let ray = Ray { o, d, t_max: f32::INFINITY, time: 0.0 };
@@ -1517,7 +1517,7 @@ mod tests {
         assert_eq!(AtHit { w: &w, s: &sh }.st(&tex), Vec2::new(0.9, 0.8));
         // an instance's own values come between the geometry's varying and constant ones
         let mut s2 = s.clone();
-        s2.instances[0].primvar_row = Some((0, 1));
+        s2.instances_mut()[0].primvar_row = Some((0, 1));
         let row = |name: &str, data: Vec<f32>, tuple| PrimvarData { name: name.into(), tuple, constant: false, data };
         s2.instance_primvars.push(InstancePrimvars {
             name: "/instancer".into(),
@@ -1544,7 +1544,7 @@ mod tests {
         s.meshes.push(MeshDesc { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Z, Vec3::new(1.0, 0.0, 1.0)], indices: vec![0, 1, 2, 1, 3, 2], ..Default::default() }.into());
         s.materials.push(MaterialDesc { name: "/glow".into(), surface: SurfaceDesc::Emissive { radiance: [1.0; 3], two_sided: true }, interior_medium: None });
         for (name, y) in [("/glow", 2.0), ("/a", 0.0), ("/b", -1.0), ("/plain", 5.0)] {
-            s.instances.push(InstanceDesc { name: name.into(), ..inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * y), 0) });
+            s.instances_mut().push(InstanceDesc { name: name.into(), ..inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * y), 0) });
         }
         s.emitter_links.push(EmitterLinks { instance: "/glow".into(), light_link: Some(vec!["/a".into()]), shadow_link: Some(vec!["/b".into()]) });
         let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
@@ -1597,7 +1597,7 @@ mod tests {
             s.textures.push(texture.clone());
             let preview = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: glow.clone(), ..Default::default() };
             s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Preview(preview), interior_medium: None });
-            s.instances.push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+            s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
             let w = World::build(&s, &RenderSettings::default(), &mut Vec::new());
             assert_eq!(w.triangle_lights.len(), 2, "both triangles are lights: {glow:?}");
             let lambda = SampledWavelengths::sample_uniform(0.37);

@@ -25,7 +25,7 @@ fn beer_lambert_through_an_index_matched_slab() {
     s.meshes.push(std::sync::Arc::new(box_mesh("/slab", Vec3::new(-5.0, -5.0, -d / 2.0), Vec3::new(5.0, 5.0, d / 2.0))));
     s.media.push(MediumDesc { name: "/water".into(), sigma_a: SpectrumDesc::Rgb(sigma), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 10.0);
     let (w, h) = (8, 8);
@@ -51,7 +51,7 @@ fn diffuse_plane_under_a_distant_light_has_radiance_albedo_e_cos_over_pi() {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo; 3]) }, interior_medium: None });
-    s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     // light shines along its −Z; +Z points to the sun
     let to_sun = Vec3::new(elevation.cos(), elevation.sin(), 0.0);
     s.lights.push(light("/sun", LightShape::Distant { angle_deg: 0.53 }, look_at(Vec3::ZERO, -to_sun), e, true));
@@ -79,7 +79,7 @@ fn a_distant_light_of_any_angle_gives_usdluxs_irradiance() {
         let mut s = SceneDesc::default();
         s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
         s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo; 3]) }, interior_medium: None });
-        s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.lights.push(light("/sun", LightShape::Distant { angle_deg: angle }, look_at(Vec3::ZERO, -Vec3::Y), e, normalize));
         s.camera = camera(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, 20.0);
         let (w, h) = (8, 8);
@@ -103,8 +103,8 @@ fn busy_scene() -> SceneDesc {
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.4, 0.1, 0.05]), sigma_s: SpectrumDesc::Rgb([0.5; 3]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.7 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.5, 0.3]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { roughness: 0.2, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/ball", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 0.5), 1));
-    s.instances.push(instance("/floor", GeometryRef::Mesh(1), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/ball", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 0.5), 1));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(1), Mat4::IDENTITY, 0));
     s.lights.push(dome(0.3));
     s.lights.push(light("/sun", LightShape::Distant { angle_deg: 2.0 }, look_at(Vec3::ZERO, Vec3::new(-1.0, -2.0, -0.5)), 3.0, true));
     s.lights.push(light("/bulb", LightShape::Sphere { radius: 0.1, treat_as_point: false }, Mat4::from_translation(Vec3::new(1.0, 1.5, 1.0)), 30.0, false));
@@ -222,7 +222,7 @@ fn light_path_split_sums_to_color() {
     // the same seen from a camera inside a big body of scattering water
     let mut s = busy_scene();
     s.meshes.push(std::sync::Arc::new(box_mesh("/sea", Vec3::splat(-20.0), Vec3::new(20.0, 1.5, 20.0))));
-    s.instances.push(instance("/sea", GeometryRef::Mesh(2), Mat4::IDENTITY, 1));
+    s.instances_mut().push(instance("/sea", GeometryRef::Mesh(2), Mat4::IDENTITY, 1));
     let under = split_nonzero(&s);
     let any: Vec<bool> = (0..5).map(|k| above[k] || under[k]).collect();
     assert!(any.iter().all(|&b| b), "{above:?} {under:?}");
@@ -258,7 +258,7 @@ fn jerlov_body_rgb(t: tide_core::water::JerlovType) -> [(f64, f64); 3] {
         method: Default::default(),
     });
     s.materials.push(MaterialDesc { name: "/sea/mat".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 2.0, 0.01), Vec3::ZERO, 20.0);
     let w = 8;
@@ -304,7 +304,7 @@ fn a_clearcoat_reflects_by_the_surfaces_ior() {
             ..Default::default()
         };
         s.materials.push(MaterialDesc { name: "/coat".into(), surface: SurfaceDesc::Preview(coat), interior_medium: None });
-        s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.lights.push(dome(1.0));
         s.camera = camera(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 5.0);
         let (w, h) = (8, 8);
@@ -320,7 +320,7 @@ fn plane_seen_from_above(albedo: f64) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(quad_y("/plane", 100.0)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([albedo as f32; 3]) }, interior_medium: None });
-    s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s
 }
 

@@ -72,8 +72,8 @@ pub fn pool(sun_angle: f32) -> SceneDesc {
     s.media.push(MediumDesc { name: "/clear".into(), sigma_a: SpectrumDesc::Rgb([0.45, 0.06, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.6, 0.6]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
-    s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
+    s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
     s.lights.push(sun(sun_angle, 60.0, 200.0));
     s.lights.push(dome(0.05));
     s.camera = camera(Vec3::new(0.0, 1.6, 1.2), Vec3::new(0.0, -0.8, -0.1), 50.0);
@@ -87,8 +87,8 @@ pub fn glass_sphere(light_radius: f32) -> SceneDesc {
     s.meshes.push(std::sync::Arc::new(uv_sphere("/ball", 0.3, 48)));
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.7, 0.7]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/glass".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.5, ..Default::default() }), interior_medium: None });
-    s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-    s.instances.push(instance("/ball", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, 0.3, 0.0)), 1));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/ball", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, 0.3, 0.0)), 1));
     s.lights.push(light("/bulb", LightShape::Sphere { radius: light_radius, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.6, 1.5, 0.3)), 2400.0 * (0.02f32 / light_radius).powi(2), false));
     s.camera = camera(Vec3::new(-1.64, 1.15, -0.83), Vec3::new(-0.1, 0.12, -0.05), 45.0);
     s
@@ -331,11 +331,11 @@ fn transparency_lets_shadow_rays_through_water() {
         let mut s = SceneDesc::default();
         s.meshes.push(std::sync::Arc::new(quad_y("/floor", 4.0)));
         s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.6, 0.6]) }, interior_medium: None });
-        s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
+        s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -0.8, 0.0)), 0));
         if water {
             s.meshes.push(std::sync::Arc::new(box_mesh("/water", Vec3::new(-4.0, -0.801, -4.0), Vec3::new(4.0, 0.0, 4.0))));
             s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: None });
-            s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+            s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
             s.caustics.objects.push(("/water".into(), ObjectCaustics { caster: None, receiver: true, transparency: CausticsTransparency::All }));
         }
         s.lights.push(sun(0.0, 60.0, 200.0));
@@ -363,8 +363,8 @@ pub fn underwater(sun_angle: f32) -> SceneDesc {
     s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));
-    s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.instances_mut().push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));
+    s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
     s.lights.push(sun(sun_angle, 60.0, -90.0));
     s.lights.push(dome(0.05));
     s.camera = camera(Vec3::new(0.0, -1.5, 3.0), Vec3::new(0.0, -1.2, -2.0), 60.0);
@@ -505,8 +505,8 @@ fn two_lights_three_casters() -> SceneDesc {
     s.lights.push(light("/bulb2", LightShape::Sphere { radius: 0.02, treat_as_point: false }, Mat4::from_translation(Vec3::new(-0.8, 1.8, -0.4)), 2400.0, false));
     s.meshes.push(std::sync::Arc::new(uv_sphere("/small", 0.12, 24)));
     s.meshes.push(std::sync::Arc::new(uv_sphere("/large", 0.45, 32)));
-    s.instances.push(instance("/small", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(-0.6, 0.12, 0.5)), 1));
-    s.instances.push(instance("/large", GeometryRef::Mesh(3), Mat4::from_translation(Vec3::new(0.9, 0.45, -0.7)), 1));
+    s.instances_mut().push(instance("/small", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(-0.6, 0.12, 0.5)), 1));
+    s.instances_mut().push(instance("/large", GeometryRef::Mesh(3), Mat4::from_translation(Vec3::new(0.9, 0.45, -0.7)), 1));
     s
 }
 

@@ -21,8 +21,8 @@ fn ocean_patch() -> SceneDesc {
     s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.05, 0.02]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.6, 0.55, 0.45]) }, interior_medium: None });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -1.0, 0.0)), 0));
-    s.instances.push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.instances_mut().push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -1.0, 0.0)), 0));
+    s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
     let (e, a) = (60f32.to_radians(), 30f32.to_radians());
     let z = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
     let x = Vec3::Y.cross(z).normalize();

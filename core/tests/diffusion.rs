@@ -28,7 +28,7 @@ fn scene_at(method: MediumMethod, target: Vec3, view: f32) -> SceneDesc {
     s.meshes.push(std::sync::Arc::new(box_mesh("/body", Vec3::new(-2.0, -2.0, -2.0), Vec3::new(2.0, 0.0, 2.0))));
     s.media.push(MediumDesc { name: "/milk".into(), sigma_a: SpectrumDesc::Rgb([SIGMA_A; 3]), sigma_s: SpectrumDesc::Rgb([SIGMA_S; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: ETA, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/body", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/body", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     let mut sky = dome(1.0);
     sky.visible_to_camera = false;
     s.lights.push(sky);

@@ -34,8 +34,8 @@ fn underwater(extra: impl Fn(&mut SceneDesc)) -> SceneDesc {
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.3, 0.08, 0.04]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: water(1.333, 0), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.7, 0.6, 0.4]) }, interior_medium: None });
-    s.instances.push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-    s.instances.push(instance("/floor", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, -1.0, 0.0)), 1));
+    s.instances_mut().push(instance("/sea", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, -1.0, 0.0)), 1));
     // light from a sphere light inside the water, so no refraction is needed for NEE
     s.lights.push(light("/bulb", LightShape::Sphere { radius: 0.2, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.5, 1.5, 0.0)), 40.0, false));
     s.camera = camera(Vec3::new(0.0, 1.0, 3.0), Vec3::new(0.0, -1.0, 0.0), 40.0);
@@ -52,7 +52,7 @@ fn an_index_matched_object_inside_water_is_invisible() {
     let with = underwater(|s| {
         s.meshes.push(std::sync::Arc::new(uv_sphere("/ghost", 0.6, 24)));
         s.materials.push(MaterialDesc { name: "/ghost".into(), surface: water(1.333, 0), interior_medium: Some(0) });
-        s.instances.push(instance("/ghost", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
+        s.instances_mut().push(instance("/ghost", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
     });
     let (w, h) = (16, 16);
     let a = render(&base, settings(w, h, 64));
@@ -71,7 +71,7 @@ fn an_index_matched_object_inside_water_is_invisible() {
     let glass = underwater(|s| {
         s.meshes.push(std::sync::Arc::new(uv_sphere("/glass", 0.6, 24)));
         s.materials.push(MaterialDesc { name: "/glass".into(), surface: water(1.5, 0), interior_medium: None });
-        s.instances.push(instance("/glass", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
+        s.instances_mut().push(instance("/glass", GeometryRef::Mesh(2), Mat4::from_translation(Vec3::new(0.0, -0.2, 0.0)), 2));
     });
     let c = render(&glass, settings(w, h, 64));
     let pc = c.aov_pixels(Aov::Color);
@@ -89,7 +89,7 @@ fn higher_priority_glass_wins_where_it_overlaps_water() {
         s.camera = camera(Vec3::new(0.0, 5.0, 0.001), Vec3::new(0.0, 0.0, 0.0), 8.0);
         s.meshes.push(std::sync::Arc::new(box_mesh("/block", Vec3::new(-1.0, -0.9, -1.0), Vec3::new(1.0, 4.0, 1.0))));
         s.materials.push(MaterialDesc { name: "/glass".into(), surface: water(1.5, prio), interior_medium: None });
-        s.instances.push(instance("/block", GeometryRef::Mesh(2), Mat4::IDENTITY, 2));
+        s.instances_mut().push(instance("/block", GeometryRef::Mesh(2), Mat4::IDENTITY, 2));
         s.lights.clear();
         s.lights.push(dome(1.0));
         s
@@ -112,7 +112,7 @@ fn thin_transparency_lets_through_one_minus_opacity() {
     p.specular_color = ColorInput::Const([0.0; 3]);
     p.opacity = FloatInput::Const(0.3);
     s.materials.push(MaterialDesc { name: "/card".into(), surface: SurfaceDesc::Preview(p), interior_medium: None });
-    s.instances.push(instance("/card", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/card", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 3.0, 0.001), Vec3::ZERO, 10.0);
     let (w, h) = (8, 8);
@@ -129,7 +129,7 @@ fn emissive_surface_seen_directly_has_its_radiance() {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(quad_y("/panel", 10.0)));
     s.materials.push(MaterialDesc { name: "/panel".into(), surface: SurfaceDesc::Emissive { radiance: [2.0, 1.0, 0.5], two_sided: false }, interior_medium: None });
-    s.instances.push(instance("/panel", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/panel", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.camera = camera(Vec3::new(0.0, 2.0, 0.001), Vec3::ZERO, 10.0);
     let (w, h) = (4, 4);
     let r = render(&s, settings(w, h, 16));
@@ -151,7 +151,7 @@ fn no_acne_on_an_ocean_sized_plane_far_from_the_origin() {
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
     // slightly tilted and raised so hit points are not exactly representable on the plane
     let tilt = Mat4::from_rotation_x(0.013) * Mat4::from_rotation_z(-0.007);
-    s.instances.push(instance("/ocean", GeometryRef::Mesh(0), Mat4::from_translation(far + Vec3::Y * 0.37) * tilt, 0));
+    s.instances_mut().push(instance("/ocean", GeometryRef::Mesh(0), Mat4::from_translation(far + Vec3::Y * 0.37) * tilt, 0));
     let normal = tilt.transform_vector3(Vec3::Y);
     let el = 40f32.to_radians();
     let to_sun = Vec3::new(0.0, el.sin(), el.cos());
@@ -183,7 +183,7 @@ fn a_closed_mesh_invisible_to_the_camera_is_not_seen_from_either_side() {
     s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
     let mut inst = instance("/box", GeometryRef::Mesh(0), Mat4::IDENTITY, 0);
     inst.visible_to_camera = false;
-    s.instances.push(inst);
+    s.instances_mut().push(inst);
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 10.0);
     let (w, h) = (8, 8);
@@ -242,10 +242,10 @@ fn a_mirrored_emitter_keeps_its_front() {
         s.materials.push(MaterialDesc { name: "/grey".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
         let glow = PreviewSurfaceDesc { diffuse_color: ColorInput::Const([0.0; 3]), emissive_color: ColorInput::Const([20.0; 3]), ..Default::default() };
         s.materials.push(MaterialDesc { name: "/glow".into(), surface: SurfaceDesc::Preview(glow), interior_medium: None });
-        s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         // the panel faces down (−Y) at height 0.5, then the placement under test
         let down = Mat4::from_translation(Vec3::Y * 0.5) * placement * Mat4::from_rotation_x(std::f32::consts::PI);
-        s.instances.push(instance("/panel", GeometryRef::Mesh(1), down, 1));
+        s.instances_mut().push(instance("/panel", GeometryRef::Mesh(1), down, 1));
         s.camera = camera(Vec3::new(0.0, 3.0, 0.01), Vec3::ZERO, 40.0);
         let (w, h) = (16, 16);
         let r = render(&s, settings(w, h, 16));

@@ -12,7 +12,7 @@ fn furnace_scene(surface: SurfaceDesc, segments: u32) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(uv_sphere("/sphere", 1.0, segments)));
     s.materials.push(MaterialDesc { name: "/m".into(), surface, interior_medium: None });
-    s.instances.push(instance("/sphere", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/sphere", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.lights.push(dome(1.0));
     s.camera = camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 30.0);
     s

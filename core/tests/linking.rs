@@ -19,7 +19,7 @@ fn patches(light_link: Option<Vec<String>>, with_dome: bool) -> SceneDesc {
     for (name, x, id) in [("/left", -1.5f32, 1), ("/right", 1.5, 2)] {
         let mut i = instance(name, GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(x, 0.0, 0.0)), 0);
         i.id = id;
-        s.instances.push(i);
+        s.instances_mut().push(i);
     }
     let mut l = light("/lamp", LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.0, 2.0, 3.0)), 400.0, false);
     l.visible_to_camera = false;
@@ -83,7 +83,7 @@ fn a_shadow_link_names_the_instances_that_block_a_light() {
         s.materials.push(MaterialDesc { name: "/black".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.0; 3]) }, interior_medium: None });
         let mut b = instance("/blocker", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(-1.5, 1.0, 1.5)), 1);
         b.visible_to_camera = false;
-        s.instances.push(b);
+        s.instances_mut().push(b);
         s.lights[0].shadow_link = shadow_link;
         s
     };
@@ -107,8 +107,8 @@ fn tank(light_link: Option<Vec<String>>) -> SceneDesc {
     s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([0.1; 3]), sigma_s: SpectrumDesc::Rgb([1.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
-    s.instances.push(instance("/tank", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
-    s.instances.push(instance("/patch", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, -20.0, 40.0)), 1));
+    s.instances_mut().push(instance("/tank", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/patch", GeometryRef::Mesh(1), Mat4::from_translation(Vec3::new(0.0, -20.0, 40.0)), 1));
     let mut l = light("/lamp", LightShape::Sphere { radius: 0.2, treat_as_point: false }, Mat4::from_translation(Vec3::new(2.0, 1.5, 0.0)), 200.0, false);
     l.visible_to_camera = false;
     l.light_link = light_link;
@@ -152,7 +152,7 @@ fn glossy_floor(response: LightResponse, lambert: bool) -> SceneDesc {
         })
     };
     s.materials.push(MaterialDesc { name: "/m".into(), surface, interior_medium: None });
-    s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     let mut l = light("/lamp", LightShape::Sphere { radius: 0.3, treat_as_point: false }, Mat4::from_translation(Vec3::new(0.0, 1.5, -1.0)), 60.0, false);
     l.response = response;
     // seen directly the light is neither response: out of the comparison

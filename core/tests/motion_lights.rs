@@ -43,7 +43,7 @@ fn scene(emitter: impl Fn(&mut SceneDesc)) -> SceneDesc {
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(quad_y("/floor", 10.0)));
     s.materials.push(MaterialDesc { name: "/floor".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([ALBEDO; 3]) }, interior_medium: None });
-    s.instances.push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     s.materials.push(MaterialDesc { name: "/lamp".into(), surface: SurfaceDesc::Emissive { radiance: [1.0; 3], two_sided: true }, interior_medium: None });
     emitter(&mut s);
     s.camera = camera(Vec3::new(0.0, 3.0, 0.0), Vec3::ZERO, 2.0 * (0.1f32 / 3.0).atan().to_degrees());
@@ -89,7 +89,7 @@ fn a_moving_emissive_instance_lights_from_where_it_is_at_each_time() {
         inst.transforms = vec![Mat4::from_translation(Vec3::new(-SWEEP, 0.0, 0.0)), Mat4::from_translation(Vec3::new(SWEEP, 0.0, 0.0))];
         inst.times = vec![0.0, 1.0];
         inst.visible_to_camera = false;
-        s.instances.push(inst);
+        s.instances_mut().push(inst);
     });
     check(&s, "moving instance");
 }
@@ -103,7 +103,7 @@ fn a_deforming_emissive_mesh_lights_from_where_it_is_at_each_time() {
         s.meshes.push(std::sync::Arc::new(m));
         let mut inst = instance("/lamp", GeometryRef::Mesh(1), Mat4::IDENTITY, 1);
         inst.visible_to_camera = false;
-        s.instances.push(inst);
+        s.instances_mut().push(inst);
     });
     check(&s, "deforming mesh");
 }

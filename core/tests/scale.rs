@@ -22,11 +22,11 @@ fn contact_scene(g: Mat4, scale: f32) -> SceneDesc {
     let bubble = PointShape::Bubbles { top: vec![0.3], bottom: vec![0.1], orientations: None };
     s.spheres.push(std::sync::Arc::new(SpheresDesc { name: "/bubble".into(), centers: vec![Vec3::new(0.0, 0.1, 0.0)], radii: vec![0.3], shape: bubble, ..Default::default() }));
     s.materials.push(MaterialDesc { name: "/grey".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
-    s.instances.push(instance("/floor", GeometryRef::Mesh(0), g, 0));
-    s.instances.push(instance("/box", GeometryRef::Mesh(1), g * Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(-0.6, 0.0, 0.2)), 0));
-    s.instances.push(instance("/balls", GeometryRef::Spheres(0), g * Mat4::from_translation(Vec3::new(0.9, 0.0, 0.5)), 0));
-    s.instances.push(instance("/blobs", GeometryRef::Spheres(1), g * Mat4::from_translation(Vec3::new(0.2, 0.0, -1.2)), 0));
-    s.instances.push(instance("/bubble", GeometryRef::Spheres(2), g * Mat4::from_translation(Vec3::new(1.4, 0.0, -0.6)), 0));
+    s.instances_mut().push(instance("/floor", GeometryRef::Mesh(0), g, 0));
+    s.instances_mut().push(instance("/box", GeometryRef::Mesh(1), g * Mat4::from_rotation_y(0.4) * Mat4::from_translation(Vec3::new(-0.6, 0.0, 0.2)), 0));
+    s.instances_mut().push(instance("/balls", GeometryRef::Spheres(0), g * Mat4::from_translation(Vec3::new(0.9, 0.0, 0.5)), 0));
+    s.instances_mut().push(instance("/blobs", GeometryRef::Spheres(1), g * Mat4::from_translation(Vec3::new(0.2, 0.0, -1.2)), 0));
+    s.instances_mut().push(instance("/bubble", GeometryRef::Spheres(2), g * Mat4::from_translation(Vec3::new(1.4, 0.0, -0.6)), 0));
     let to_sun = Vec3::new(-0.6, 0.45, -0.3).normalize();
     // directions from the unit scene (not from differences of far points, which would turn them)
     s.lights.push(light("/sun", LightShape::Distant { angle_deg: 0.53 }, look_at(Vec3::ZERO, -to_sun), 3.0, true));

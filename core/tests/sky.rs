@@ -42,7 +42,7 @@ fn grey_card_under_the_physical_sun_and_sky_reads_its_albedo_at_the_seed_exposur
     let mut s = SceneDesc::default();
     s.meshes.push(std::sync::Arc::new(quad_y("/card", 100.0)));
     s.materials.push(MaterialDesc { name: "/grey".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None });
-    s.instances.push(instance("/card", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/card", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     let units = nits_per_model_unit();
     s.lights.push(light("/sky", LightShape::Sky { turbidity, ground_albedo: [0.3; 3], sun_direction: to_sun, scale: units }, Mat4::IDENTITY, 1.0, false));
     s.lights.push(light("/sun", LightShape::SkySun { zenith: Vec3::Y, turbidity, scale: units }, look_at(Vec3::ZERO, -to_sun), 1.0, false));

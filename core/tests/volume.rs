@@ -103,7 +103,7 @@ fn inside_its_box_a_volume_replaces_the_water_medium() {
     s.media.push(absorbing("/water", sigma_w, 1.0));
     s.media.push(absorbing("/fog", [0.0; 3], 1.0));
     s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.0, ..Default::default() }), interior_medium: Some(0) });
-    s.instances.push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/slab", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
     // 1 voxel of 0.25 in z: the box spans grid z ∈ [−1, 1], i.e. 0.5
     s.volumes.push(volume("/Empty", [20, 20, 1], 0.0, 0.25, Vec3::new(-2.5, -2.5, 0.0), 1));
     s.lights.push(dome(1.0));
@@ -125,7 +125,7 @@ fn shadow_rays_are_attenuated_by_a_volume_between_light_and_plane() {
         let mut s = SceneDesc::default();
         s.meshes.push(std::sync::Arc::new(quad_y("/plane", 50.0)));
         s.materials.push(MaterialDesc { name: "/white".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.8; 3]) }, interior_medium: None });
-        s.instances.push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+        s.instances_mut().push(instance("/plane", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
         s.media.push(absorbing("/fog", [1.0; 3], 1.0));
         if with {
             // 4 voxels of 0.125 in y between y = 2 and 2.375: ∫ρ = 4·0.125 = 0.5

@@ -1234,7 +1234,7 @@ impl Delegate {
                     } else {
                         place(&r.transforms, inst, shift)
                     };
-                    scene.instances.push(InstanceDesc {
+                    scene.instances_mut().push(InstanceDesc {
                         name: format!("{name}{suffix}"),
                         geometry,
                         transforms,

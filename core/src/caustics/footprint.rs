@@ -360,7 +360,7 @@ mod tests {
                 s.spheres.push(std::sync::Arc::new(SpheresDesc { name: "/ball".into(), centers: vec![c], radii: vec![r], velocities: None, ..Default::default() }));
             }
             s.materials.push(MaterialDesc { name: "/m".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5; 3]) }, interior_medium: None });
-            s.instances.push(InstanceDesc { name: "/ball".into(), geometry, transforms: vec![xf], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
+            s.instances_mut().push(InstanceDesc { name: "/ball".into(), geometry, transforms: vec![xf], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
             World::build(&s, &RenderSettings::default(), &mut Vec::new())
         }
 
