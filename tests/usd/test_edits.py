@@ -303,3 +303,44 @@ def test_prim_ids_are_the_same_after_edits_as_on_a_fresh_load(stage, delegate):
     fresh = type(delegate)()
     load(stage, fresh)
     assert ids(fresh) == after, (ids(fresh), after)
+
+
+def test_large_arrays_are_kept_as_digests_and_still_compared(stage, delegate):
+    # a mesh whose points and indices exceed the digest size: the reader keeps digests of them,
+    # yet an edit of one point is sent, and edits elsewhere send none of the large arrays again
+    import numpy as np
+    from pxr import Vt
+    from tide import usd_reader
+    _scene(stage)
+    n = 80
+    xs, ys = np.meshgrid(np.arange(n, dtype=np.float32), np.arange(n, dtype=np.float32))
+    pts = np.stack([xs.ravel(), ys.ravel(), np.full(n * n, -9.0, np.float32)], axis=1)
+    quads = [(j * n + i, j * n + i + 1, (j + 1) * n + i + 1, (j + 1) * n + i)
+             for j in range(n - 1) for i in range(n - 1)]
+    mesh = UsdGeom.Mesh.Define(stage, "/World/Grid")
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(pts))
+    mesh.CreateFaceVertexCountsAttr([4] * len(quads))
+    mesh.CreateFaceVertexIndicesAttr([k for q in quads for k in q])
+    mesh.AddTranslateOp().Set(Gf.Vec3d(0, 0, 0))
+    reader, _ = load(stage, delegate)
+    kept = reader.sent()["/World/Grid"][1]
+    assert pts.nbytes >= usd_reader.DIGEST_BYTES
+    assert isinstance(kept["points"][0][1][2], usd_reader._Digest)
+    assert usd_reader.rows(kept["points"][0][1]) == n * n
+    # the transform moves: only it is sent
+    del delegate.calls[:]
+    UsdGeom.Xformable(mesh).GetOrderedXformOps()[0].Set(Gf.Vec3d(1, 0, 0))
+    reader.update()
+    assert [c for c in delegate.calls if c[0] == "set"] == [("set", "/World/Grid", "transform")]
+    # one point moves: the points are sent again, with the new point
+    del delegate.calls[:]
+    pts[123] = (5.0, 6.0, -8.0)
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(pts))
+    reader.update()
+    assert [c for c in delegate.calls if c[0] == "set"] == [("set", "/World/Grid", "points")]
+    assert floats(delegate.value("/World/Grid", "points"))[123].tolist() == [5.0, 6.0, -8.0]
+    # the same points authored again: nothing is sent
+    del delegate.calls[:]
+    mesh.GetPointsAttr().Set(Vt.Vec3fArray.FromNumpy(pts.copy()))
+    reader.update()
+    assert [c for c in delegate.calls if c[0] == "set"] == []

@@ -508,7 +508,7 @@ def cmd_info(args):
             continue
         extra = ""
         if "instanceTransforms" in values:
-            n = len(usd_reader.decode(values["instanceTransforms"][0][1]))
+            n = usd_reader.rows(values["instanceTransforms"][0][1])
             extra += "  instances: %d" % n
         if "material" in values and values["material"][0][1][1]:
             extra += "  material: %s" % values["material"][0][1][1]

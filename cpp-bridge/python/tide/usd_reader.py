@@ -13,6 +13,7 @@ the delegate marks only those prims dirty. Problems in the stage (contract secti
 collected as `Problem(prim, attribute, message)`, each reported once; the rest renders.
 """
 import contextlib
+import hashlib
 import math
 import os
 from collections import namedtuple
@@ -502,6 +503,71 @@ def _rigidly_between(ma, mb, mm):
     return angle <= 0.25
 
 
+# Byte payloads this large are kept by the reader, once sent, as a digest: what it compares
+# the next sync's values with, not a second copy of every large array the delegate holds.
+DIGEST_BYTES = 1 << 16
+
+
+class _Digest:
+    """A large byte payload already sent: its length and hash. Equal to the same bytes (and to
+    a digest of them), so a sent state compares with a new one as the bytes would."""
+
+    __slots__ = ("size", "sum")
+
+    def __init__(self, data):
+        self.size = len(data)
+        self.sum = hashlib.sha1(data).digest()
+
+    def __eq__(self, other):
+        if isinstance(other, _Digest):
+            return self.size == other.size and self.sum == other.sum
+        if isinstance(other, (bytes, bytearray, memoryview)):
+            return len(other) == self.size and hashlib.sha1(other).digest() == self.sum
+        return NotImplemented
+
+    def __ne__(self, other):
+        eq = self.__eq__(other)
+        return eq if eq is NotImplemented else not eq
+
+    __hash__ = None
+
+
+def _digested(v):
+    """`v` (a protocol value, a primvar tuple, or a part of one) with its large byte payloads
+    replaced by digests."""
+    if isinstance(v, (bytes, bytearray)):
+        return _Digest(v) if len(v) >= DIGEST_BYTES else v
+    if isinstance(v, tuple):
+        d = tuple(_digested(x) for x in v)
+        return v if all(a is b for a, b in zip(d, v)) else d
+    return v
+
+
+def _kept(st):
+    """The state the reader keeps of `st` once sent: the same, large payloads digested (`st`
+    itself where it has none)."""
+    values = {k: _digested(samples) for k, samples in st.values.items()}
+    primvars = {k: _digested(pv) for k, pv in st.primvars.items()}
+    if all(values[k] is v for k, v in st.values.items()) and \
+            all(primvars[k] is v for k, v in st.primvars.items()):
+        return st
+    out = _PrimState(st.kind, st.type, st.source)
+    out.values, out.primvars, out.queries = values, primvars, st.queries
+    return out
+
+
+def rows(value):
+    """How many tuples a sent array value holds (its payload may be a digest)."""
+    def size(b):
+        return b.size if isinstance(b, _Digest) else len(b)
+    tag = value[0]
+    if tag in ("floats", "doubles"):
+        return size(value[2]) // ((4 if tag == "floats" else 8) * value[1])
+    if tag == "ints":
+        return size(value[1]) // 4
+    raise ValueError("not an array value: %r" % (tag,))
+
+
 def _stale_keys(old, new):
     """Whether `old` (the state last sent) has a key `new` lacks, or a key whose sample times
     differ from `new`'s."""
@@ -723,7 +789,8 @@ class Reader:
         return out
 
     def sent(self):
-        """Delegate path -> (type, {key: [(time, value)]}) of what was sent (for listings)."""
+        """Delegate path -> (type, {key: [(time, value)]}) of what was sent (for listings):
+        byte payloads of DIGEST_BYTES or more are digests there (`rows` counts them)."""
         return {p: (s.type, dict(s.values)) for p, s in self._sent.items()}
 
     def close(self):
@@ -877,6 +944,8 @@ class Reader:
                 del self._sent[path]
         for path, st in desired.items():
             self._apply(path, st)
+        # the reader keeps what it sent (large arrays as digests), not what it evaluated
+        desired.clear()
 
     def _resolve_link_queries(self, desired, roots):
         """Sends the link collections only USD's membership query can resolve as explicit lists
@@ -948,7 +1017,7 @@ class Reader:
                 self.problem(path, "primvars:" + name, "rejected by the delegate (%s); dropped"
                              % e)
                 del st.primvars[name]
-        self._sent[path] = st
+        self._sent[path] = _kept(st)
 
     # -- traversal ------------------------------------------------------------------------
     def _included(self, imageable):
