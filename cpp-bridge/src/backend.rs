@@ -175,7 +175,7 @@ impl Delegate {
     }
     pub fn set_doubles(&self, path: &str, key: &str, v: &[f64], tuple: u32, has_time: bool, time: f64) -> Result<(), String> {
         check_tuple(path, key, v.len(), tuple)?;
-        self.set_value("set_doubles", path, key, time_of(has_time, time), Value::Doubles { data: v.to_vec(), tuple })
+        self.set_value("set_doubles", path, key, time_of(has_time, time), Value::Doubles { data: v.into(), tuple })
     }
     pub fn set_ints(&self, path: &str, key: &str, v: &[i32], has_time: bool, time: f64) -> Result<(), String> {
         self.set_value("set_ints", path, key, time_of(has_time, time), Value::Ints(v.to_vec()))

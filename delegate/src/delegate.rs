@@ -169,6 +169,52 @@ impl Geometry {
     }
 }
 
+/// The kept instances' matrices of `instanceTransforms`, read from the attribute's own
+/// (shared) numbers rather than copied: a million instances' matrices are held once by the
+/// delegate.
+#[derive(Clone, Debug, PartialEq)]
+enum InstanceMats {
+    /// One matrix (a prim drawn once: the identity).
+    One(DMat4),
+    /// Column-major matrices, 16 numbers each, and the kept ones (all when None).
+    Shared { data: Arc<[f64]>, kept: Option<Arc<[u32]>> },
+}
+
+impl InstanceMats {
+    fn len(&self) -> usize {
+        match self {
+            InstanceMats::One(_) => 1,
+            InstanceMats::Shared { data, kept } => kept.as_ref().map_or(data.len() / 16, |k| k.len()),
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Kept instance `k`'s matrix.
+    fn get(&self, k: usize) -> Option<DMat4> {
+        match self {
+            InstanceMats::One(m) => (k == 0).then_some(*m),
+            InstanceMats::Shared { data, kept } => {
+                let i = match kept {
+                    Some(kept) => *kept.get(k)? as usize,
+                    None => k,
+                };
+                data.get(16 * i..16 * i + 16).map(DMat4::from_cols_slice)
+            }
+        }
+    }
+
+    fn first(&self) -> Option<DMat4> {
+        self.get(0)
+    }
+
+    fn iter(&self) -> impl Iterator<Item = DMat4> + '_ {
+        (0..self.len()).map(|k| self.get(k).expect("a kept instance"))
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 struct RprimPiece {
     /// Shared with the next conversion when only placement attributes change.
@@ -178,7 +224,7 @@ struct RprimPiece {
     /// (frame offset, object-to-world), in double precision as every world matrix here: the
     /// assembly places them about the scene's origin.
     transforms: Vec<(f64, DMat4)>,
-    instance_transforms: Vec<DMat4>,
+    instance_transforms: InstanceMats,
     /// Time samples of `instanceTransforms` (frame offset, one matrix per instance), when
     /// they move; empty otherwise.
     instance_samples: Vec<(f64, Vec<DMat4>)>,
@@ -711,7 +757,7 @@ impl Delegate {
         });
         p.list.extend(geometry_problems.iter().cloned());
         let s = &prim.store;
-        let mut instance_transforms = Vec::new();
+        let mut instance_transforms = InstanceMats::Shared { data: Arc::from(&[][..]), kept: None };
         let mut instance_samples = Vec::new();
         // the authored instances' count, and those kept
         let (mut n_instances, mut kept) = (1, vec![0]);
@@ -729,14 +775,19 @@ impl Delegate {
                     let finite_at = |i: usize| sampled.iter().all(|d| d.as_ref().is_none_or(|d| d.get(16 * i..16 * i + 16).is_none_or(finite)));
                     n_instances = d.len() / 16;
                     for (i, c) in d.chunks_exact(16).enumerate() {
-                        let m = DMat4::from_cols_slice(c);
                         if finite(c) && finite_at(i) {
-                            instance_transforms.push(m);
                             kept.push(i);
                         } else {
                             p.add("instanceTransforms", "a matrix is not finite; that instance is dropped");
                         }
                     }
+                    // the attribute's own numbers where they are doubles already
+                    let data: Arc<[f64]> = match v {
+                        Value::Doubles { data, .. } => data.clone(),
+                        _ => Arc::from(&d[..]),
+                    };
+                    let all = kept.len() == n_instances;
+                    instance_transforms = InstanceMats::Shared { data, kept: (!all).then(|| kept.iter().map(|&i| i as u32).collect()) };
                     if samples.len() >= 2 {
                         let n = d.len() / 16;
                         let parsed: Option<Vec<(f64, Vec<DMat4>)>> = samples
@@ -777,7 +828,7 @@ impl Delegate {
             geometry,
             geometry_problems,
             transforms: s.matrix_samples("transform", p),
-            instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { vec![DMat4::IDENTITY] },
+            instance_transforms: if s.has("instanceTransforms") { instance_transforms } else { InstanceMats::One(DMat4::IDENTITY) },
             instance_samples,
             material: s.str_opt("material").filter(|m| !m.is_empty()).map(String::from),
             display_color,
@@ -1038,8 +1089,8 @@ impl Delegate {
                 let medium = r.material.as_deref().and_then(|m| medium_of.get(m).copied());
                 let grid = self.grids.get(&(spec.asset.clone(), spec.field.clone(), spec.index));
                 let mut p = Problems::new(path);
-                for inst in &r.instance_transforms {
-                    let (mats, times) = place(&r.transforms, inst, Vec3::ZERO);
+                for inst in r.instance_transforms.iter() {
+                    let (mats, times) = place(&r.transforms, &inst, Vec3::ZERO);
                     let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                     if let Some(v) = volume::volume_desc(path, spec, grid, medium, &keys, r.id, &mut p) {
                         scene.volumes.push(v);
@@ -1085,8 +1136,8 @@ impl Delegate {
                                 method: tide_core::scene::MediumMethod::Volumetric,
                             });
                             let medium = scene.media.len() - 1;
-                            for inst in &r.instance_transforms {
-                                let (mats, times) = place(&r.transforms, inst, Vec3::ZERO);
+                            for inst in r.instance_transforms.iter() {
+                                let (mats, times) = place(&r.transforms, &inst, Vec3::ZERO);
                                 let keys: Vec<(f32, Mat4)> = times.into_iter().zip(mats).collect();
                                 scene.volumes.push(volume::placed_volume(path, grid.clone(), &keys, |m| m * grid.local_to_world, medium, r.id));
                             }
@@ -1102,7 +1153,7 @@ impl Delegate {
                 }
                 Geometry::Ocean(spec) => {
                     // level of detail about the camera in the ocean's space (its first instance)
-                    let xf0 = r.instance_transforms.first().copied().unwrap_or(DMat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
+                    let xf0 = r.instance_transforms.first().unwrap_or(DMat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
                     let inv = xf0.inverse();
                     let cam_local = cam_world.filter(|_| inv.is_finite()).map(|c| inv.transform_point3(c).as_vec3());
                     let pixel = cam.as_ref().map(|c| ocean::CameraPixel::of(&c.desc, sp.settings.width));
@@ -1204,7 +1255,7 @@ impl Delegate {
                 let mut emitting: Vec<(u32, usize)> = Vec::new();
                 let mut material_of = |k: usize, scene: &mut SceneDesc, ap: &mut Vec<Problem>| match (&r.mesh_light, geometry) {
                     (Some(ml), GeometryRef::Mesh(mi)) => {
-                        let world = place(&r.transforms, &r.instance_transforms.get(k).copied().unwrap_or(DMat4::IDENTITY), scene.meshes[mi].origin).0[0];
+                        let world = place(&r.transforms, &r.instance_transforms.get(k).unwrap_or(DMat4::IDENTITY), scene.meshes[mi].origin).0[0];
                         let key = if ml.normalize { lux::world_area(&scene.meshes[mi], world).to_bits() } else { 0 };
                         if let Some(&(_, m)) = emitting.iter().find(|e| e.0 == key) {
                             return m;
@@ -1232,7 +1283,7 @@ impl Delegate {
                     let (transforms, times) = if motion && !r.instance_samples.is_empty() {
                         place(&moving_instance(&r.transforms, &r.instance_samples, k), &DMat4::IDENTITY, shift)
                     } else {
-                        place(&r.transforms, inst, shift)
+                        place(&r.transforms, &inst, shift)
                     };
                     scene.instances_mut().push(InstanceDesc {
                         name: format!("{name}{suffix}"),
@@ -2091,7 +2142,7 @@ mod tests {
         let mut d = Delegate::new();
         shutter(&mut d, -0.5, 0.5);
         quad(&mut d, "/Still");
-        d.set_attribute("/Still", "velocities", Value::Doubles { data: vec![0.0; 12], tuple: 3 }, None);
+        d.set_attribute("/Still", "velocities", Value::Doubles { data: vec![0.0; 12].into(), tuple: 3 }, None);
         quad(&mut d, "/Moving");
         d.set_attribute("/Moving", "velocities", floats(&[2., 0., 0.].repeat(4), 3), None);
         d.set_attribute("/Moving", "accelerations", floats(&[0., 50., 0.].repeat(4), 3), None);
@@ -2157,7 +2208,7 @@ mod tests {
             v.extend_from_slice(&m);
         }
         v[16 + 12] = f64::NAN; // the second instance is dropped
-        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: v, tuple: 16 }, None);
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: v.into(), tuple: 16 }, None);
         assert!(d.set_primvar("/P", "primvars:displayColor", "instance", vec![1., 0., 0., 0., 1., 0., 0., 0., 1.], 3, None));
         assert!(d.set_primvar("/P", "heat", "instance", vec![5., 6., 7.], 1, Some(vec![2, 1, 0])));
         assert!(d.set_primvar("/P", "short", "instance", vec![5., 6.], 1, None));
@@ -2248,7 +2299,7 @@ mod tests {
             mats.extend_from_slice(&m);
         }
         mats[16 + 12] = f64::NAN;
-        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: mats, tuple: 16 }, None);
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: mats.into(), tuple: 16 }, None);
         // (name, instanceId) of every instance, by name
         let ids = |d: &Delegate| {
             let mut v = d.scene().instances.iter().map(|i| (i.name.clone(), i.index)).collect::<Vec<_>>();
@@ -2259,6 +2310,9 @@ mod tests {
         assert_eq!(attrs(&d.commit_resources()), [("/P".to_string(), "instanceTransforms".to_string())]);
         let want = |a: u32, b: u32| vec![("/Once".to_string(), None), ("/P[0]".to_string(), Some(a)), ("/P[1]".to_string(), Some(b))];
         assert_eq!(ids(&d), want(0, 2));
+        // the kept instances take their own matrices: the first and the third
+        let x = |name: &str| d.scene().instances.iter().find(|i| i.name == name).unwrap().transforms[0].w_axis.x;
+        assert_eq!(x("/P[1]") - x("/P[0]"), 2.0);
         d.set_attribute("/P", "instanceIndices", Value::Ints(vec![7, 8, 9]), None);
         assert_eq!(attrs(&d.commit_resources()), [("/P".to_string(), "instanceTransforms".to_string())]);
         assert_eq!(ids(&d), want(7, 9));
@@ -2280,7 +2334,7 @@ mod tests {
                 let Value::Matrix(m) = translate(k as f64 * 10.0 + dx * k as f64, 0., 0.) else { unreachable!() };
                 v.extend_from_slice(&m);
             }
-            Value::Doubles { data: v, tuple: 16 }
+            Value::Doubles { data: v.into(), tuple: 16 }
         };
         d.set_attribute("/P", "instanceTransforms", mats(0.0), Some(0.0));
         d.set_attribute("/P", "instanceTransforms", mats(3.0), Some(1.0));
@@ -2292,7 +2346,7 @@ mod tests {
         assert_eq!(i1.transforms[0].w_axis.truncate(), Vec3::new(10.0, 0.0, 5.0));
         assert_eq!(i1.transforms[1].w_axis.truncate(), Vec3::new(13.0, 0.0, 5.0));
         // samples with another instance count: a problem, and the instances stand still
-        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: vec![0.0; 16], tuple: 16 }, Some(1.0));
+        d.set_attribute("/P", "instanceTransforms", Value::Doubles { data: vec![0.0; 16].into(), tuple: 16 }, Some(1.0));
         let p = d.commit_resources();
         assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), [("/P", "instanceTransforms")]);
         assert_eq!(d.scene().instances[1].transforms.len(), 1);
@@ -2376,7 +2430,7 @@ mod tests {
             let Value::Matrix(m) = translate(0., 10. * k as f64, 0.) else { unreachable!() };
             inst.extend_from_slice(&m);
         }
-        d.set_attribute("/A", "instanceTransforms", Value::Doubles { data: inst, tuple: 16 }, None);
+        d.set_attribute("/A", "instanceTransforms", Value::Doubles { data: inst.into(), tuple: 16 }, None);
         d.create_prim("camera", "/cam");
         d.set_attribute("/cam", "shutter:open", Value::Float(0.0), None);
         d.set_attribute("/cam", "shutter:close", Value::Float(0.5), None);
@@ -2410,7 +2464,7 @@ mod tests {
         }
         // the middle instance's matrix is not finite: dropped, and its path with it
         inst[16 + 12] = f64::NAN;
-        d.set_attribute("/Proto/m", "instanceTransforms", Value::Doubles { data: inst, tuple: 16 }, None);
+        d.set_attribute("/Proto/m", "instanceTransforms", Value::Doubles { data: inst.into(), tuple: 16 }, None);
         let paths = |v: &[&str]| Value::Paths(v.iter().map(|s| s.to_string()).collect());
         d.set_attribute("/Proto/m", "instancePaths", paths(&["/W/A/m", "/W/B/m", "/W/C/m"]), None);
         d.create_prim("distantLight", "/Sun");

@@ -18,7 +18,9 @@ pub enum Value {
     Path(String),
     Paths(Vec<String>),
     Floats { data: Vec<f32>, tuple: u32 },
-    Doubles { data: Vec<f64>, tuple: u32 },
+    /// Shared: a prim's converted state reads large arrays (instance matrices) from here
+    /// rather than holding a copy.
+    Doubles { data: std::sync::Arc<[f64]>, tuple: u32 },
     Ints(Vec<i32>),
     /// USD matrix: row-major, row vectors (p' = p·M), translation in elements 12..14.
     Matrix([f64; 16]),
@@ -97,7 +99,7 @@ impl Value {
     pub fn to_f64s(&self) -> Option<Vec<f64>> {
         match self {
             Value::Floats { data, .. } => Some(data.iter().map(|&x| x as f64).collect()),
-            Value::Doubles { data, .. } => Some(data.clone()),
+            Value::Doubles { data, .. } => Some(data.to_vec()),
             Value::Ints(v) => Some(v.iter().map(|&x| x as f64).collect()),
             Value::Matrix(m) => Some(m.to_vec()),
             Value::Float(_) | Value::Int(_) | Value::Bool(_) => self.as_f64().map(|x| vec![x]),
@@ -138,7 +140,7 @@ impl Value {
     pub fn as_dmatrix(&self) -> Option<DMat4> {
         let d = match self {
             Value::Matrix(m) => m.to_vec(),
-            Value::Doubles { data, .. } if data.len() == 16 => data.clone(),
+            Value::Doubles { data, .. } if data.len() == 16 => data.to_vec(),
             Value::Floats { data, .. } if data.len() == 16 => data.iter().map(|&x| x as f64).collect(),
             _ => return None,
         };
