@@ -637,7 +637,9 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
         GeometryRef::Spheres(i) => i < n_sph,
     };
     let times_ok = |inst: &InstanceDesc| inst.times.len() == inst.transforms.len() && inst.times.windows(2).all(|w| w[1] > w[0]) && inst.times.iter().all(|t| t.is_finite());
-    let clean = |inst: &InstanceDesc| row_ok(inst) && geometry_ok(inst) && inst.material < n_mat && !inst.transforms.is_empty() && times_ok(inst) && inst.transforms.iter().all(mat_ok);
+    let material_ok = |inst: &InstanceDesc| inst.material < n_mat;
+    let keys_ok = |inst: &InstanceDesc| inst.transforms.iter().all(mat_ok);
+    let clean = |inst: &InstanceDesc| row_ok(inst) && geometry_ok(inst) && material_ok(inst) && !inst.transforms.is_empty() && times_ok(inst) && keys_ok(inst);
     // the instances are shared with the scene given: copied only when one needs mending
     if s.instances.len() > MAX_LEAF_ITEMS || !s.instances.iter().all(clean) {
         let instances = s.instances_mut();
@@ -650,7 +652,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
                 problem(&mut p, &inst.name, "geometry", "refers to geometry that does not exist; dropped");
                 return false;
             }
-            if inst.material >= n_mat {
+            if !material_ok(inst) {
                 problem(&mut p, &inst.name, "material:binding", "refers to a material that does not exist; default used");
                 inst.material = 0;
             }
@@ -663,7 +665,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
                 inst.transforms.truncate(1);
                 inst.times = vec![0.0];
             }
-            if !inst.transforms.iter().all(mat_ok) {
+            if !keys_ok(inst) {
                 problem(&mut p, &inst.name, "xformOp", "singular or non-finite transform; prim dropped");
                 return false;
             }

@@ -525,10 +525,6 @@ class _Digest:
             return len(other) == self.size and hashlib.sha1(other).digest() == self.sum
         return NotImplemented
 
-    def __ne__(self, other):
-        eq = self.__eq__(other)
-        return eq if eq is NotImplemented else not eq
-
     __hash__ = None
 
 
