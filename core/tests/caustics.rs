@@ -11,58 +11,6 @@ use tide_core::render::IntegratorKind;
 use tide_core::scene::*;
 use tide_core::{Aov, RenderSettings, Renderer};
 
-/// A closed water body over [-h, h]² from y = `bottom` to a wavy top around y = 0.
-fn wavy_water(h: f32, n: u32, amp: f32, bottom: f32) -> MeshDesc {
-    let mut m = MeshDesc { name: "/water".into(), ..Default::default() };
-    let height = |x: f32, z: f32| amp * ((2.1 * x + 0.3).sin() * (1.7 * z).cos() + 0.5 * (3.3 * x - 2.9 * z).sin());
-    let w = n + 1;
-    for j in 0..=n {
-        for i in 0..=n {
-            let x = -h + 2.0 * h * i as f32 / n as f32;
-            let z = -h + 2.0 * h * j as f32 / n as f32;
-            m.positions.push(Vec3::new(x, height(x, z), z));
-        }
-    }
-    for j in 0..n {
-        for i in 0..n {
-            let a = j * w + i;
-            // counter-clockwise seen from above (+y outside)
-            m.indices.extend([a, a + w, a + 1, a + 1, a + w, a + w + 1]);
-        }
-    }
-    // bottom and sides: a ring of bottom vertices under the rim
-    let base = m.positions.len() as u32;
-    let rim: Vec<u32> = (0..n).map(|i| i).chain((0..n).map(|j| j * w + n)).chain((0..n).map(|i| n * w + n - i)).chain((0..n).map(|j| (n - j) * w)).collect();
-    for &r in &rim {
-        let p = m.positions[r as usize];
-        m.positions.push(Vec3::new(p.x, bottom, p.z));
-    }
-    let k = rim.len() as u32;
-    for s in 0..k {
-        let (a, b) = (rim[s as usize], rim[((s + 1) % k) as usize]);
-        let (c, d) = (base + s, base + (s + 1) % k);
-        // side quads facing outward
-        m.indices.extend([a, b, c, b, d, c]);
-    }
-    // bottom fan (facing −y)
-    let centre = m.positions.len() as u32;
-    m.positions.push(Vec3::new(0.0, bottom, 0.0));
-    for s in 0..k {
-        m.indices.extend([centre, base + s, base + (s + 1) % k]);
-    }
-    m
-}
-
-fn sun(angle_deg: f32, elevation_deg: f32, azimuth_deg: f32) -> LightDesc {
-    let (e, a) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
-    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
-    let z = to_sun;
-    let x = if z.y.abs() > 0.99 { Vec3::X } else { Vec3::Y.cross(z).normalize() };
-    let y = z.cross(x);
-    let m = Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), glam::Vec4::W);
-    light("/sun", LightShape::Distant { angle_deg }, m, 3.0, true)
-}
-
 /// A pool: a diffuse floor and walls under 0.8 m of clear water with a wavy top, seen from
 /// above, under a sun of the given angle and a dim sky.
 pub fn pool(sun_angle: f32) -> SceneDesc {
@@ -99,19 +47,6 @@ fn settings_for(kind: IntegratorKind, w: u32, h: u32, spp: u32, threads: usize) 
     s.integrator = kind;
     s.threads = threads;
     s
-}
-
-/// Renders progressively in passes of 1, 2, 4, … samples up to `spp`.
-fn render_progressive(scene: &SceneDesc, s: tide_core::RenderSettings) -> Renderer {
-    let target = s.spp;
-    let mut r = Renderer::new(scene, s).expect("renderer");
-    let mut pass = 1;
-    while r.samples_per_pixel() < target {
-        let n = pass.min(target - r.samples_per_pixel());
-        assert!(r.render_pass(n, None));
-        pass *= 2;
-    }
-    r
 }
 
 /// Per-block means (luminance-ish: channel sum) of the colour AOV and their standard errors
@@ -354,23 +289,6 @@ fn transparency_lets_shadow_rays_through_water() {
     assert!(with.caustics().is_none(), "a transparent water body must not cast caustics");
 }
 
-/// A camera 1.5 m under a wavy surface in scattering water, looking up towards the sun's side:
-/// god rays (sun → surface → medium → camera) and surface caustics on a sand floor.
-pub fn underwater(sun_angle: f32) -> SceneDesc {
-    let mut s = SceneDesc::default();
-    s.meshes.push(std::sync::Arc::new(quad_y("/sand", 6.0)));
-    s.meshes.push(std::sync::Arc::new(wavy_water(6.0, 64, 0.05, -3.01)));
-    s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None, method: Default::default() });
-    s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
-    s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
-    s.instances_mut().push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));
-    s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
-    s.lights.push(sun(sun_angle, 60.0, -90.0));
-    s.lights.push(dome(0.05));
-    s.camera = camera(Vec3::new(0.0, -1.5, 3.0), Vec3::new(0.0, -1.2, -2.0), 60.0);
-    s
-}
-
 #[test]
 #[ignore]
 fn explore_underwater() {
@@ -458,6 +376,47 @@ fn god_rays_in_depth_varying_water_agree_with_path_tracing() {
     // low (in uniform water 1% low, the 20 nm spectral kernel smoothing the water's absorption);
     // 5% bounds that and the noise of one 2048-spp path render (about 1%)
     assert!((mc / mp - 1.0).abs() < 0.05, "image means {mc} (caustics) vs {mp} (path)");
+}
+
+// Thinning keeps a random share of the beams, with their widths and their flux scaled by the
+// share's inverse (so the expected image is the same): with the same seed, the thinned pass's
+// beams are among the full pass's (the same photon paths, the same draw against a smaller
+// share), each with the same width and 1/share its flux, and their number is the share of the
+// full count within 4σ of the binomial.
+#[test]
+fn thinned_beams_are_a_reweighted_share_of_the_full_set() {
+    use tide_core::caustics::engine::{beam_thinning, Caustics};
+    assert_eq!(beam_thinning(12288.0, 12288), 1.0);
+    assert_eq!(beam_thinning(12288.0, 4 * 12288), 0.5);
+    assert_eq!(beam_thinning(12288.0, 64 * 12288), 0.125);
+    let (w, h) = (128, 64);
+    let scene = underwater(8.0);
+    let settings = settings_for(IntegratorKind::Caustics, w, h, 1, 2);
+    let world = tide_core::world::World::build(&scene, &settings, &mut Vec::new());
+    let pixels = (w * h) as u64;
+    let beams = |thinning_pixels: f32| {
+        let mut config = settings.caustics;
+        config.beam_thinning_pixels = thinning_pixels;
+        let mut c = Caustics::new(&world, w, h, config).expect("caustics");
+        c.begin_pass(&world, 7, 1, pixels);
+        c.beam_map().beams().to_vec()
+    };
+    let full = beams(f32::INFINITY);
+    let share = beam_thinning(pixels as f32 / 16.0, pixels);
+    assert_eq!(share, 0.25);
+    let thinned = beams(pixels as f32 / 16.0);
+    let key = |b: &tide_core::caustics::beams::Beam| (b.photon.position.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits));
+    let by_key: std::collections::HashMap<_, _> = full.iter().map(|b| (key(b), b)).collect();
+    assert_eq!(by_key.len(), full.len());
+    for b in &thinned {
+        let f = by_key.get(&key(b)).unwrap_or_else(|| panic!("a thinned beam not in the full set: {b:?}"));
+        assert_eq!((b.width, b.len, b.medium), (f.width, f.len, f.medium));
+        let ratio = b.photon.energy() / f.photon.energy();
+        assert!((ratio * share - 1.0).abs() < 1e-5, "flux ratio {ratio} for a share of {share}");
+    }
+    let (n, k) = (full.len() as f64, thinned.len() as f64);
+    let sigma = (n * share as f64 * (1.0 - share as f64)).sqrt();
+    assert!(n > 1000.0 && (k - n * share as f64).abs() < 4.0 * sigma, "{k} of {n} beams kept for a share of {share}");
 }
 
 // Light tracing alone against the beams alone on the god rays seen directly: a camera in

@@ -91,6 +91,19 @@ pub fn render(scene: &SceneDesc, s: RenderSettings) -> Renderer {
     r
 }
 
+/// Renders progressively in passes of 1, 2, 4, … samples up to `spp`.
+pub fn render_progressive(scene: &SceneDesc, s: tide_core::RenderSettings) -> Renderer {
+    let target = s.spp;
+    let mut r = Renderer::new(scene, s).expect("renderer");
+    let mut pass = 1;
+    while r.samples_per_pixel() < target {
+        let n = pass.min(target - r.samples_per_pixel());
+        assert!(r.render_pass(n, None));
+        pass *= 2;
+    }
+    r
+}
+
 /// Mean and standard error of the mean of one channel over the pixels selected by `keep`.
 pub fn channel_stats(r: &Renderer, ch: usize, keep: impl Fn(u32, u32) -> bool, width: u32) -> (f64, f64, usize) {
     let px = r.aov_pixels(Aov::Color);
@@ -99,4 +112,74 @@ pub fn channel_stats(r: &Renderer, ch: usize, keep: impl Fn(u32, u32) -> bool, w
     let mean = vals.iter().sum::<f64>() / n;
     let var = vals.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
     (mean, (var / n).sqrt(), vals.len())
+}
+
+/// A closed water body over [-h, h]² from y = `bottom` to a wavy top around y = 0.
+pub fn wavy_water(h: f32, n: u32, amp: f32, bottom: f32) -> MeshDesc {
+    let mut m = MeshDesc { name: "/water".into(), ..Default::default() };
+    let height = |x: f32, z: f32| amp * ((2.1 * x + 0.3).sin() * (1.7 * z).cos() + 0.5 * (3.3 * x - 2.9 * z).sin());
+    let w = n + 1;
+    for j in 0..=n {
+        for i in 0..=n {
+            let x = -h + 2.0 * h * i as f32 / n as f32;
+            let z = -h + 2.0 * h * j as f32 / n as f32;
+            m.positions.push(Vec3::new(x, height(x, z), z));
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let a = j * w + i;
+            // counter-clockwise seen from above (+y outside)
+            m.indices.extend([a, a + w, a + 1, a + 1, a + w, a + w + 1]);
+        }
+    }
+    // bottom and sides: a ring of bottom vertices under the rim
+    let base = m.positions.len() as u32;
+    let rim: Vec<u32> = (0..n).chain((0..n).map(|j| j * w + n)).chain((0..n).map(|i| n * w + n - i)).chain((0..n).map(|j| (n - j) * w)).collect();
+    for &r in &rim {
+        let p = m.positions[r as usize];
+        m.positions.push(Vec3::new(p.x, bottom, p.z));
+    }
+    let k = rim.len() as u32;
+    for s in 0..k {
+        let (a, b) = (rim[s as usize], rim[((s + 1) % k) as usize]);
+        let (c, d) = (base + s, base + (s + 1) % k);
+        // side quads facing outward
+        m.indices.extend([a, b, c, b, d, c]);
+    }
+    // bottom fan (facing −y)
+    let centre = m.positions.len() as u32;
+    m.positions.push(Vec3::new(0.0, bottom, 0.0));
+    for s in 0..k {
+        m.indices.extend([centre, base + s, base + (s + 1) % k]);
+    }
+    m
+}
+
+/// A sun of `angle_deg` across at the given elevation and azimuth (degrees), 3 W/m² normal to it.
+pub fn sun(angle_deg: f32, elevation_deg: f32, azimuth_deg: f32) -> LightDesc {
+    let (e, a) = (elevation_deg.to_radians(), azimuth_deg.to_radians());
+    let to_sun = Vec3::new(e.cos() * a.cos(), e.sin(), e.cos() * a.sin());
+    let z = to_sun;
+    let x = if z.y.abs() > 0.99 { Vec3::X } else { Vec3::Y.cross(z).normalize() };
+    let y = z.cross(x);
+    let m = Mat4::from_cols(x.extend(0.0), y.extend(0.0), z.extend(0.0), glam::Vec4::W);
+    light("/sun", LightShape::Distant { angle_deg }, m, 3.0, true)
+}
+
+/// A camera 1.5 m under a wavy surface in scattering water, looking up towards the sun's side:
+/// god rays (sun → surface → medium → camera) and surface caustics on a sand floor.
+pub fn underwater(sun_angle: f32) -> SceneDesc {
+    let mut s = SceneDesc::default();
+    s.meshes.push(std::sync::Arc::new(quad_y("/sand", 6.0)));
+    s.meshes.push(std::sync::Arc::new(wavy_water(6.0, 64, 0.05, -3.01)));
+    s.media.push(MediumDesc { name: "/sea".into(), sigma_a: SpectrumDesc::Rgb([0.12, 0.05, 0.03]), sigma_s: SpectrumDesc::Rgb([0.25, 0.25, 0.25]), scale: 1.0, phase: PhaseDesc::HenyeyGreenstein { g: 0.6 }, water: None, method: Default::default() });
+    s.materials.push(MaterialDesc { name: "/sand".into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.5, 0.45, 0.35]) }, interior_medium: None });
+    s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
+    s.instances_mut().push(instance("/sand", GeometryRef::Mesh(0), Mat4::from_translation(Vec3::new(0.0, -3.0, 0.0)), 0));
+    s.instances_mut().push(instance("/water", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.lights.push(sun(sun_angle, 60.0, -90.0));
+    s.lights.push(dome(0.05));
+    s.camera = camera(Vec3::new(0.0, -1.5, 3.0), Vec3::new(0.0, -1.2, -2.0), 60.0);
+    s
 }

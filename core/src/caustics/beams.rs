@@ -175,6 +175,11 @@ impl BeamMap {
         self.beams.len()
     }
 
+    /// The beams, in the order the map keeps them.
+    pub fn beams(&self) -> &[Beam] {
+        &self.beams
+    }
+
     pub fn is_empty(&self) -> bool {
         self.beams.is_empty()
     }

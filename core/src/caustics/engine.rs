@@ -68,9 +68,17 @@ pub struct CausticsConfig {
     pub radius_pixels: f32,
     /// Radius (nm) of the kernel that merges a photon's wavelengths into a camera path's.
     pub spectral_radius_nm: f32,
-    /// Photon beams kept per pixel and pass (beams of more photons are kept at random, with
-    /// their flux scaled up accordingly).
+    /// Photon beams per pixel and pass that set the beams' widths (beams of more photons are
+    /// kept at random, with their flux scaled up accordingly; each is as wide as the share of
+    /// the light it carries), before [`Self::beam_thinning_pixels`] thins them.
     pub beams_per_pixel: f32,
+    /// Images of more pixels than this keep a share √(this / pixels) of those beams, drawn at
+    /// random, their flux scaled up by its inverse and their widths unchanged: the expected
+    /// image is the same. The widths follow the pixels' footprints, so without thinning a
+    /// camera ray would meet about √pixels beams and gathering would cost pixels^1.5 per
+    /// pass; thinned, it meets about as many at any resolution, the number found best at
+    /// equal time (`docs/caustics.md`, "Thinned beams").
+    pub beam_thinning_pixels: f32,
     /// Connect photon stretches in the camera's medium to a pinhole camera (light tracing of
     /// the god rays seen directly; see [`super::light_tracing`]).
     pub light_tracing: bool,
@@ -81,7 +89,7 @@ pub struct CausticsConfig {
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, light_tracing: true, disk_refit: true }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, beam_thinning_pixels: 2048.0, light_tracing: true, disk_refit: true }
     }
 }
 
@@ -439,7 +447,9 @@ impl Caustics {
         let pass = self.stats.passes;
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
-        let keep_beam = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
+        // the share of stretches whose density sets the beams' widths, and the share kept
+        let width_share = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
+        let keep_beam = (width_share, width_share * beam_thinning(self.config.beam_thinning_pixels, pixels));
         let parts: Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)> = (0..chunks)
             .into_par_iter()
             .map(|c| {
@@ -535,7 +545,7 @@ impl Caustics {
 
     /// One photon path; stored photons are appended to `out`.
     #[allow(clippy::too_many_arguments)]
-    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: f32, out: &mut (Vec<Photon>, Vec<Beam>, Vec<Splat>)) {
+    fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: (f32, f32), out: &mut (Vec<Photon>, Vec<Beam>, Vec<Splat>)) {
         let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
         let ua = smp.get2d();
         let mut s = self.atlas.sample([ua.x, ua.y]);
@@ -592,7 +602,8 @@ impl Caustics {
         let mut stream = StreamRng::new(u_stream, index);
         let mut null_events = 0u32;
         let mut travelled = 0.0f32;
-        let beam_scale = if keep_beam > 0.0 { 1.0 / keep_beam.sqrt() } else { 0.0 };
+        let beam_scale = if keep_beam.0 > 0.0 { 1.0 / keep_beam.0.sqrt() } else { 0.0 };
+        let keep_beam = keep_beam.1;
         loop {
             let Some(hit) = world.accel.intersect(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
@@ -834,6 +845,11 @@ impl Caustics {
         f * ph.spectral_flux(&lookup) * (k * total / w * mis * self.weight)
     }
 
+    /// This pass's photon beams.
+    pub fn beam_map(&self) -> &BeamMap {
+        &self.beams
+    }
+
     /// Whether camera rays in medium `m` gather photon beams.
     #[inline]
     pub fn has_beams(&self, m: usize) -> bool {
@@ -905,6 +921,12 @@ impl Caustics {
         sum * self.weight
     }
 
+}
+
+/// Share of the beams an image of `pixels` pixels keeps (see
+/// [`CausticsConfig::beam_thinning_pixels`]).
+pub fn beam_thinning(thinning_pixels: f32, pixels: u64) -> f32 {
+    if pixels as f64 > thinning_pixels as f64 { (thinning_pixels as f64 / pixels as f64).sqrt() as f32 } else { 1.0 }
 }
 
 /// Width of a camera ray's footprint at the camera (orthographic) and its angular growth
