@@ -382,7 +382,7 @@ fn god_rays_in_depth_varying_water_agree_with_path_tracing() {
 // share's inverse (so the expected image is the same): with the same seed, the thinned pass's
 // beams are among the full pass's (the same photon paths, the same draw against a smaller
 // share), each with the same width and 1/share its flux, and their number is the share of the
-// full count within 4σ of the binomial.
+// full count within 4σ of the binomial; one thread keeps the same beams, bit for bit.
 #[test]
 fn thinned_beams_are_a_reweighted_share_of_the_full_set() {
     use tide_core::caustics::engine::{beam_thinning, Caustics};
@@ -394,18 +394,23 @@ fn thinned_beams_are_a_reweighted_share_of_the_full_set() {
     let settings = settings_for(IntegratorKind::Caustics, w, h, 1, 2);
     let world = tide_core::world::World::build(&scene, &settings, &mut Vec::new());
     let pixels = (w * h) as u64;
-    let beams = |thinning_pixels: f32| {
+    let beams_on = |threads: usize, thinning_pixels: f32| {
         let mut config = settings.caustics;
         config.beam_thinning_pixels = thinning_pixels;
         let mut c = Caustics::new(&world, w, h, config).expect("caustics");
-        c.begin_pass(&world, 7, 1, pixels);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().expect("pool");
+        pool.install(|| c.begin_pass(&world, 7, 1, pixels));
         c.beam_map().beams().to_vec()
     };
+    let beams = |thinning_pixels: f32| beams_on(2, thinning_pixels);
     let full = beams(f32::INFINITY);
     let share = beam_thinning(pixels as f32 / 16.0, pixels);
     assert_eq!(share, 0.25);
     let thinned = beams(pixels as f32 / 16.0);
     let key = |b: &tide_core::caustics::beams::Beam| (b.photon.position.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits));
+    // the same beams in the same order, bit for bit, on one thread
+    let one = beams_on(1, pixels as f32 / 16.0);
+    assert!(one.len() == thinned.len() && one.iter().zip(&thinned).all(|(a, b)| key(a) == key(b) && a.width.to_bits() == b.width.to_bits() && a.photon.energy().to_bits() == b.photon.energy().to_bits()), "thinned beams differ across thread counts");
     let by_key: std::collections::HashMap<_, _> = full.iter().map(|b| (key(b), b)).collect();
     assert_eq!(by_key.len(), full.len());
     for b in &thinned {
