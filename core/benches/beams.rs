@@ -5,7 +5,8 @@
 //!     cargo bench -p tide-core --bench beams [-- WIDTHS SHARES SPP ROUNDS]
 //!
 //! (defaults `256,512 1,0.5,0.25,0.125,0.0625 4 2`; a share of 1 keeps every beam, `default`
-//! the share `CausticsConfig::default()` keeps at that width.) Thinning keeps the expected image,
+//! the share `CausticsConfig::default()` keeps at that width: 1 while thinning is off by
+//! default.) Thinning keeps the expected image,
 //! so the error of a render against its expectation is its variance: for each width and share,
 //! two renders of SPP samples per pixel with different seeds, `ROUNDS` times, give the relative
 //! MSE per render as the mean over pixels × RGB of (a − b)² / 2 / (r² + 10⁻²), r the mean of all
