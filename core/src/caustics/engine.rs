@@ -78,7 +78,8 @@ pub struct CausticsConfig {
     /// camera ray meets about √pixels beams and gathering costs pixels^1.5 per pass; thinned,
     /// it meets about as many at any resolution. Off (∞) by default: at 2048 it cut the
     /// equal-time error of clear water 1.3–3× and raised that of murky water, where the beams
-    /// carry most of the noise, 30–400× (`docs/caustics.md`, "Thinned beams").
+    /// carry most of the noise, 4–400× (shares 0.25–0.0625; `docs/caustics.md`, "Thinned
+    /// beams").
     pub beam_thinning_pixels: f32,
     /// Connect photon stretches in the camera's medium to a pinhole camera (light tracing of
     /// the god rays seen directly; see [`super::light_tracing`]).
