@@ -449,9 +449,10 @@ impl Caustics {
         let pass = self.stats.passes;
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
-        // the share of stretches whose density sets the beams' widths, and the share kept
+        // the share of stretches kept as beams, and the scale of their widths (set by the
+        // density of the share before thinning)
         let width_share = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
-        let keep_beam = (width_share, width_share * beam_thinning(self.config.beam_thinning_pixels, pixels));
+        let keep_beam = (width_share * beam_thinning(self.config.beam_thinning_pixels, pixels), if width_share > 0.0 { 1.0 / width_share.sqrt() } else { 0.0 });
         let parts: Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)> = (0..chunks)
             .into_par_iter()
             .map(|c| {
@@ -545,7 +546,8 @@ impl Caustics {
         self.stats.disk_refits = self.atlas.refits();
     }
 
-    /// One photon path; stored photons are appended to `out`.
+    /// One photon path; stored photons are appended to `out`. `keep_beam`: the share of
+    /// stretches kept as beams and the scale of their widths.
     #[allow(clippy::too_many_arguments)]
     fn trace_photon(&self, world: &World, seed: u64, pass: u32, index: u32, n_emitted: u64, keep_beam: (f32, f32), out: &mut (Vec<Photon>, Vec<Beam>, Vec<Splat>)) {
         let mut smp = PixelSampler::new(seed ^ 0x0ca5_71c5_9e37_79b9, 0xffff_fff0, pass, index);
@@ -604,8 +606,7 @@ impl Caustics {
         let mut stream = StreamRng::new(u_stream, index);
         let mut null_events = 0u32;
         let mut travelled = 0.0f32;
-        let beam_scale = if keep_beam.0 > 0.0 { 1.0 / keep_beam.0.sqrt() } else { 0.0 };
-        let keep_beam = keep_beam.1;
+        let (keep_beam, beam_scale) = keep_beam;
         loop {
             let Some(hit) = world.accel.intersect(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
