@@ -4,9 +4,9 @@
 //!
 //!     cargo bench -p tide-core --bench beams [-- WIDTHS SHARES SPP ROUNDS]
 //!
-//! (defaults `256,512 1,0.5,0.25,0.125,0.0625 4 2`; a share of 1 keeps every beam, `default`
-//! the share `CausticsConfig::default()` keeps at that width: 1 while thinning is off by
-//! default.) Thinning keeps the expected image,
+//! (defaults `256,512 1,0.5,0.25,0.125,0.0625,t8 4 2`; a share of 1 keeps every beam, `tN` the
+//! share the probe measures for N beams per query (`CausticsConfig::beams_per_query`), `default`
+//! what `CausticsConfig::default()` keeps.) Thinning keeps the expected image,
 //! so the error of a render against its expectation is its variance: for each width and share,
 //! two renders of SPP samples per pixel with different seeds, `ROUNDS` times, give the relative
 //! MSE per render as the mean over pixels × RGB of (a − b)² / 2 / (r² + 10⁻²), r the mean of all
@@ -18,7 +18,6 @@ mod common;
 
 use common::*;
 use std::time::Instant;
-use tide_core::caustics::engine::beam_thinning;
 use tide_core::render::IntegratorKind;
 use tide_core::Aov;
 
@@ -26,7 +25,7 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
     let list = |i: usize, d: &str| args.get(i).map_or(d, |s| s.as_str()).split(',').map(str::to_string).collect::<Vec<_>>();
     let widths: Vec<u32> = list(0, "256,512").iter().map(|s| s.parse().expect("a width")).collect();
-    let shares = list(1, "1,0.5,0.25,0.125,0.0625");
+    let shares = list(1, "1,0.5,0.25,0.125,0.0625,t8");
     let spp: u32 = args.get(2).map_or(4, |s| s.parse().expect("samples per pixel"));
     let rounds: u64 = args.get(3).map_or(2, |s| s.parse().expect("rounds"));
     let scene = underwater(8.0);
@@ -35,12 +34,17 @@ fn main() {
     for &w in &widths {
         let h = w / 2;
         let pixels = (w * h) as u64;
-        let default_pixels = tide_core::RenderSettings::default().caustics.beam_thinning_pixels;
         let mut rows = Vec::new();
         let mut all = vec![0f64; (w * h * 3) as usize];
         let mut count = 0.0;
         for share in &shares {
-            let f: f32 = if share == "default" { beam_thinning(default_pixels, pixels) } else { share.parse().expect("a share") };
+            // a fixed share f (1: every beam), or a target of beams per query
+            let (f, target): (f32, Option<f32>) = match share.strip_prefix('t') {
+                _ if share == "default" => (1.0, None),
+                Some(t) => (1.0, Some(t.parse().expect("beams per query"))),
+                None => (share.parse().expect("a share"), Some(f32::INFINITY)),
+            };
+            let mut kept = Vec::new();
             let mut time = 0.0;
             let mut pairs = Vec::new();
             for round in 0..rounds {
@@ -50,11 +54,15 @@ fn main() {
                     s.integrator = IntegratorKind::Caustics;
                     s.threads = 2;
                     s.seed = seed;
-                    // a share f of the beams is kept above f² × pixels
-                    s.caustics.beam_thinning_pixels = if f >= 1.0 { f32::INFINITY } else { f * f * pixels as f32 };
+                    if let Some(t) = target {
+                        // a share f of the beams is kept above f² × pixels
+                        s.caustics.beam_thinning_pixels = if f >= 1.0 { f32::INFINITY } else { f * f * pixels as f32 };
+                        s.caustics.beams_per_query = t;
+                    }
                     let t = Instant::now();
                     let r = render_progressive(&scene, s);
                     time += t.elapsed().as_secs_f64();
+                    kept.push(r.stats().caustics.map_or(1.0, |c| c.beam_share));
                     let px: Vec<f64> = r.aov_pixels(Aov::Color).chunks_exact(4).flat_map(|p| p[..3].iter().map(|&v| v as f64)).collect();
                     for (a, v) in all.iter_mut().zip(&px) {
                         *a += v;
@@ -64,6 +72,7 @@ fn main() {
                 }
                 pairs.push(pair);
             }
+            let f = if target.is_some_and(f32::is_finite) || target.is_none() { kept.iter().sum::<f32>() / kept.len() as f32 } else { f };
             rows.push((share.clone(), f, time / (2 * rounds) as f64, pairs));
         }
         let reference: Vec<f64> = all.iter().map(|a| a / count).collect();
@@ -72,7 +81,7 @@ fn main() {
             let rel = pairs.iter().map(|p| p[0].iter().zip(&p[1]).zip(&reference).map(|((a, b), r)| (a - b).powi(2) / 2.0 / (r * r + 1e-2)).sum::<f64>() / reference.len() as f64).sum::<f64>() / pairs.len() as f64;
             let cost = time * rel;
             let b = *base.get_or_insert(cost);
-            let name = if share == "default" { format!("default ({f:.3})") } else { share };
+            let name = if share == "default" || share.starts_with('t') { format!("{share} ({f:.3})") } else { share };
             println!("| {w}×{h} | {name} | {time:.2} | {rel:.4} | {cost:.4} | {:.2} |", cost / b);
         }
     }

@@ -269,6 +269,8 @@ pub struct RenderStats {
 const TILE: u32 = 16;
 /// Most samples per pixel one caustic photon pass serves (longer passes are split).
 pub const PHOTON_PASS_MAX_SPP: u32 = 16;
+/// Seed key of the probe's camera samples (see [`crate::caustics::engine::CausticsConfig::beams_per_query`]).
+const PROBE_KEY: u64 = 0x9b0b_e5a3_71c4_d2e9;
 
 /// The guiding table (probability, visibility, pair cells) stretched over a `w × h` image.
 fn guiding_image(c: &crate::caustics::engine::Caustics, w: u32, h: u32) -> Vec<f32> {
@@ -570,10 +572,37 @@ impl Renderer {
         let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
         // camera samples this pass (fewer than spp × pixels once adaptive sampling stops some)
         let camera_samples = spp as u64 * self.active_pixels() as u64;
+        let past = |d: std::time::Instant| match gate {
+            Some(g) => g.past(d),
+            None => std::time::Instant::now() >= d,
+        };
+        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(past);
         if let Some(c) = self.caustics.as_mut() {
             let t = std::time::Instant::now();
             let world = &self.world;
             self.pool.install(|| c.begin_pass(world, seed, spp, pixels));
+            if c.wants_probe() {
+                // the probe: camera samples at random points of the data window, their results
+                // discarded, count the beams gathering meets (the share of the beams kept)
+                c.begin_probe();
+                let probe = &*c;
+                let stack = self.camera_stack;
+                let (wx, wy) = ((x1 - x0) as f32, (y1 - y0) as f32);
+                let complete = self.pool.install(|| {
+                    (0..crate::caustics::engine::PROBE_SAMPLES).into_par_iter().with_min_len(64).all(|k| {
+                        if cancelled() {
+                            return false;
+                        }
+                        let mut sampler = crate::sampler::PixelSampler::new(seed ^ PROBE_KEY, k, u32::MAX, 0);
+                        let u = sampler.get2d();
+                        let raster = glam::Vec2::new(x0 as f32 + u.x * wx, y0 as f32 + u.y * wy);
+                        let mut lambda = color::sample_wavelengths(sampler.get1d());
+                        let _ = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, Some(probe), false);
+                        true
+                    })
+                });
+                c.end_probe(complete);
+            }
             self.stats.photon_seconds += t.elapsed().as_secs_f64();
         }
         let caustics = self.caustics.as_ref();
@@ -585,11 +614,6 @@ impl Renderer {
         let film_layout = self.film.layout();
         // pixels without samples are left only by a first pass given up (counted at its end)
         let first_pass = base == 0 || self.stats.unsampled_pixels > 0;
-        let past = |d: std::time::Instant| match gate {
-            Some(g) => g.past(d),
-            None => std::time::Instant::now() >= d,
-        };
-        let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(past);
         // Each tile goes into the film as it finishes (one addition a pixel a pass, so the
         // order the tiles finish in changes nothing): a pass holds only the tiles in flight.
         let progress = &*self.progress;

@@ -407,14 +407,26 @@ fn thinned_beams_are_a_reweighted_share_of_the_full_set() {
     let share = beam_thinning(pixels as f32 / 16.0, pixels);
     assert_eq!(share, 0.25);
     let thinned = beams(pixels as f32 / 16.0);
-    let key = |b: &tide_core::caustics::beams::Beam| (b.photon.position.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits));
     // the same beams in the same order, bit for bit, on one thread
     let one = beams_on(1, pixels as f32 / 16.0);
-    assert!(one.len() == thinned.len() && one.iter().zip(&thinned).all(|(a, b)| key(a) == key(b) && a.width.to_bits() == b.width.to_bits() && a.photon.energy().to_bits() == b.photon.energy().to_bits()), "thinned beams differ across thread counts");
-    let by_key: std::collections::HashMap<_, _> = full.iter().map(|b| (key(b), b)).collect();
+    assert!(one.len() == thinned.len() && one.iter().zip(&thinned).all(|(a, b)| beam_key(a) == beam_key(b) && a.width.to_bits() == b.width.to_bits() && a.photon.energy().to_bits() == b.photon.energy().to_bits()), "thinned beams differ across thread counts");
+    assert_reweighted_share(&full, &thinned, share);
+}
+
+type BeamKey = ([u32; 3], [u32; 3]);
+
+fn beam_key(b: &tide_core::caustics::beams::Beam) -> BeamKey {
+    (b.photon.position.to_array().map(f32::to_bits), b.dir.to_array().map(f32::to_bits))
+}
+
+/// `thinned` is a random share `share` of `full`: each of its beams is one of `full`'s (same
+/// start and direction, bit for bit) with the same width, length and medium and 1/share its
+/// flux, and their number is within 4σ of the binomial's mean.
+fn assert_reweighted_share(full: &[tide_core::caustics::beams::Beam], thinned: &[tide_core::caustics::beams::Beam], share: f32) {
+    let by_key: std::collections::HashMap<_, _> = full.iter().map(|b| (beam_key(b), b)).collect();
     assert_eq!(by_key.len(), full.len());
-    for b in &thinned {
-        let f = by_key.get(&key(b)).unwrap_or_else(|| panic!("a thinned beam not in the full set: {b:?}"));
+    for b in thinned {
+        let f = by_key.get(&beam_key(b)).unwrap_or_else(|| panic!("a thinned beam not in the full set: {b:?}"));
         assert_eq!((b.width, b.len, b.medium), (f.width, f.len, f.medium));
         let ratio = b.photon.energy() / f.photon.energy();
         assert!((ratio * share - 1.0).abs() < 1e-5, "flux ratio {ratio} for a share of {share}");
@@ -422,6 +434,129 @@ fn thinned_beams_are_a_reweighted_share_of_the_full_set() {
     let (n, k) = (full.len() as f64, thinned.len() as f64);
     let sigma = (n * share as f64 * (1.0 - share as f64)).sqrt();
     assert!(n > 1000.0 && (k - n * share as f64).abs() < 4.0 * sigma, "{k} of {n} beams kept for a share of {share}");
+}
+
+// The probe of a pass counts, for each beam query, the beams the query walks: those in its
+// medium whose closest approach lies on the beam and on the query's ray before its end or its
+// culling distance, within the beam's width (a scan of every beam, for queries through random
+// points of random beams in random directions). Ending it keeps the share min(1, target / m)
+// of the pass's beams, m the beams met per query that met any: a reweighted random share of
+// them; the next pass traces that share (among the beams a pass that probes nothing traces).
+#[test]
+fn a_probe_counts_the_beams_queries_meet_and_thins_them_to_the_target() {
+    use tide_core::caustics::beams::closest_approach;
+    use tide_core::caustics::engine::{beam_share_for, Caustics};
+    use tide_core::spectrum::SampledWavelengths;
+    let (w, h) = (128, 64);
+    let scene = underwater(8.0);
+    let settings = settings_for(IntegratorKind::Caustics, w, h, 1, 2);
+    let world = tide_core::world::World::build(&scene, &settings, &mut Vec::new());
+    let pixels = (w * h) as u64;
+    let target = 1.5;
+    let new = |target: f32| {
+        let mut config = settings.caustics;
+        config.beams_per_query = target;
+        Caustics::new(&world, w, h, config).expect("caustics")
+    };
+    let mut c = new(target);
+    c.begin_pass(&world, 7, 1, pixels);
+    assert!(c.wants_probe());
+    let full = c.beam_map().beams().to_vec();
+    let m = full[0].medium as usize;
+    let fp = c.pixel_footprint();
+    c.begin_probe();
+    let mut rng = tide_core::testing::chi2::TestRng::new(5);
+    let (mut meeting, mut met) = (0u64, 0u64);
+    let queries = 400;
+    for _ in 0..queries {
+        let b = &full[(rng.next_f32() * full.len() as f32) as usize % full.len()];
+        let p = b.photon.position + b.dir * (b.len * rng.next_f32());
+        let dir = loop {
+            let v = Vec3::new(rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0);
+            if v.length_squared() > 0.01 && v.length_squared() < 1.0 {
+                break v.normalize();
+            }
+        };
+        let a = p - dir * (2.0 * rng.next_f32());
+        let t_max = 1.0 + 3.0 * rng.next_f32();
+        let lambda = SampledWavelengths::sample_uniform(rng.next_f32());
+        let u = rng.next_f32();
+        let before = c.probe_counts();
+        let _ = c.gather_beams(&world, a, dir, t_max, m, &lambda, 0.5, &fp, u);
+        let after = c.probe_counts();
+        let t_end = t_max.min(c.beam_cull_distance(&world, m, &lambda, u));
+        let expect = full
+            .iter()
+            .filter(|b| b.medium as usize == m && closest_approach(a, dir, b.photon.position, b.dir).is_some_and(|ap| ap.s >= 0.0 && ap.s <= b.len && ap.t >= 0.0 && ap.t <= t_end && ap.h < b.width))
+            .count() as u64;
+        assert_eq!((after[0] - before[0], after[2] - before[2]), (1, expect), "the probe's count of one query");
+        assert_eq!(after[1] - before[1], (expect > 0) as u64);
+        meeting += (expect > 0) as u64;
+        met += expect;
+    }
+    assert_eq!(c.probe_counts(), [queries, meeting, met]);
+    let mean = met as f64 / meeting as f64;
+    // thinning to the target is meaningful here: queries meet several times as many beams
+    assert!(mean > 2.5 * target as f64, "{mean} beams per query");
+    let share = beam_share_for(target, mean);
+    assert_eq!(share, (target as f64 / mean) as f32);
+    c.end_probe(true);
+    assert!(!c.wants_probe());
+    assert_eq!((c.stats().beam_share, c.stats().beams_per_query), (share, Some(mean as f32)));
+    assert_eq!(c.stats().beams_last_pass, c.beam_map().len() as u64);
+    assert_reweighted_share(&full, c.beam_map().beams(), share);
+    // the next pass: the share of what a pass without the rule traces
+    c.end_pass(pixels);
+    c.begin_pass(&world, 7, 1, pixels);
+    let mut plain = new(f32::INFINITY);
+    plain.begin_pass(&world, 7, 1, pixels);
+    plain.end_pass(pixels);
+    plain.begin_pass(&world, 7, 1, pixels);
+    assert!(!plain.wants_probe());
+    assert_reweighted_share(plain.beam_map().beams(), c.beam_map().beams(), share);
+    // a probe cut short measures nothing: the next pass probes again
+    let mut cut = new(target);
+    cut.begin_pass(&world, 7, 1, pixels);
+    cut.begin_probe();
+    cut.end_probe(false);
+    assert!(cut.wants_probe() && cut.beam_map().len() == full.len());
+    // a target above the beams met keeps them all
+    assert_eq!(beam_share_for(target, 0.9 * target as f64), 1.0);
+    assert_eq!(beam_share_for(target, 0.0), 1.0);
+}
+
+// Through the renderer: beams thinned by the probe leave the expected image as it was (the
+// caustics AOV's mean over seeds against every beam kept, within 4σ of the seeds' scatter),
+// the render is the same bit for bit on one thread and two, and the stats say what was kept.
+#[test]
+fn beams_thinned_by_the_probe_keep_the_image() {
+    let (w, h) = (64, 32);
+    let scene = underwater(8.0);
+    let run = |target: f32, seed: u64, threads: usize| {
+        let mut s = settings_for(IntegratorKind::Caustics, w, h, 4, threads);
+        s.seed = seed;
+        s.caustics.beams_per_query = target;
+        render_progressive(&scene, s)
+    };
+    let seeds = 1..=8u64;
+    let stats = |target: f32| {
+        let means: Vec<f64> = seeds.clone().map(|seed| image_mean(&run(target, seed, 2), Aov::Caustics)).collect();
+        let n = means.len() as f64;
+        let mean = means.iter().sum::<f64>() / n;
+        let var = means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0);
+        (mean, var / n)
+    };
+    let target = 1.0;
+    let r = run(target, 1, 2);
+    let cs = r.stats().caustics.clone().expect("caustics stats");
+    let m = cs.beams_per_query.expect("measured");
+    assert!(m > 2.5 * target && (cs.beam_share - target / m).abs() < 1e-6, "{m} beams per query, share {}", cs.beam_share);
+    let one = run(target, 1, 1);
+    assert!(r.aov_pixels(Aov::Color).iter().zip(one.aov_pixels(Aov::Color)).all(|(a, b)| a.to_bits() == b.to_bits()), "thinned renders differ across thread counts");
+    let (thin, v_thin) = stats(target);
+    let (all, v_all) = stats(f32::INFINITY);
+    let z = (thin - all) / (v_thin + v_all).sqrt();
+    assert!(thin > 0.1 && z.abs() < 4.0, "caustics AOV means {thin} (thinned) vs {all} (every beam): {z}σ");
 }
 
 // Light tracing alone against the beams alone on the god rays seen directly: a camera in

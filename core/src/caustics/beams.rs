@@ -50,6 +50,9 @@ pub struct Beam {
     pub width: f32,
     /// Medium the beam travels in.
     pub medium: u32,
+    /// The draw that kept the beam over the share it was kept at, uniform in [0, 1): keeping
+    /// those below q keeps a random share q ([`BeamMap::thin`]).
+    pub rank: f32,
 }
 
 /// Bytes a beam takes (its pieces and their BVH come on top: [`BeamMap::memory_bytes`]).
@@ -175,6 +178,27 @@ impl BeamMap {
         self.beams.len()
     }
 
+    /// The map of a random share `q` of these beams: those whose rank is below `q`, their
+    /// flux scaled by 1/q and their ranks by the same (so that thinning again is thinning the
+    /// original by the product), their widths unchanged. The expected gathered radiance is the
+    /// same, and the beams kept are those a pass tracing q times the share would keep.
+    pub fn thin(self, q: f32) -> BeamMap {
+        if !(q < 1.0) {
+            return self;
+        }
+        let beams = self
+            .beams
+            .into_iter()
+            .filter(|b| b.rank < q)
+            .map(|mut b| {
+                b.photon.scale_flux(1.0 / q);
+                b.rank /= q;
+                b
+            })
+            .collect();
+        BeamMap::build(beams)
+    }
+
     /// The beams, in the order the map keeps them.
     pub fn beams(&self) -> &[Beam] {
         &self.beams
@@ -247,7 +271,7 @@ mod tests {
     fn beam(o: Vec3, d: Vec3, len: f32, width: f32) -> Beam {
         let lambda = SampledWavelengths::sample_uniform(0.5);
         let photon = Photon::new(o, -d, d, SampledSpectrum::ONE, &lambda, 0).unwrap();
-        Beam { photon, dir: d, len, width, medium: 0 }
+        Beam { photon, dir: d, len, width, medium: 0, rank: 0.5 }
     }
 
     #[test]

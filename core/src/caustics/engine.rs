@@ -38,6 +38,7 @@
 
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::atlas::{Atlas, AtlasConfig, AtlasLight, CameraHint, Caster, VisibilityBuffer, VisibilityKind};
 use super::beams::{Beam, BeamMap};
@@ -73,14 +74,22 @@ pub struct CausticsConfig {
     /// the light it carries), before [`Self::beam_thinning_pixels`] thins them.
     pub beams_per_pixel: f32,
     /// Images of more pixels than this keep a share √(this / pixels) of those beams, drawn at
-    /// random, their flux scaled up by its inverse and their widths unchanged: the expected
-    /// image is the same. The widths follow the pixels' footprints, so without thinning a
-    /// camera ray meets about √pixels beams and gathering costs pixels^1.5 per pass; thinned,
-    /// it meets about as many at any resolution. Off (∞) by default: at 2048 it cut the
-    /// equal-time error of clear water 1.3–3× and raised that of murky water, where the beams
-    /// carry most of the noise, 4–400× (shares 0.25–0.0625; `docs/caustics.md`, "Thinned
-    /// beams").
+    /// random, their flux scaled up by its inverse and their widths unchanged (the expected
+    /// image is the same), on top of [`Self::beams_per_query`]'s share. Off (∞) by default: a
+    /// rule by pixel count alone cut the equal-time error of clear water 1.3–3× at 2048 and
+    /// raised that of murky water, where the beams carry most of the noise, 4–400× (shares
+    /// 0.25–0.0625; `docs/caustics.md`, "Thinned beams").
     pub beam_thinning_pixels: f32,
+    /// Beams a gathering query that meets any should meet on average: the first pass after a
+    /// (re)start measures, on a probe of [`PROBE_SAMPLES`] camera samples, how many beams the
+    /// queries that meet one meet (m), and from then on a random share min(1, this / m) of the
+    /// beams is kept, their flux scaled up by its inverse and their widths unchanged, so that
+    /// the expected image is the same. The beams' widths follow the pixels' footprints, so a
+    /// camera ray through clear water meets about √pixels of them and gathering costs
+    /// pixels^1.5 per pass; thinned, it meets about this many at any resolution. Murky water,
+    /// where a query meets far fewer than this, keeps every beam: there thinning would only
+    /// make rare bright beams rarer and brighter. ∞ turns the rule off.
+    pub beams_per_query: f32,
     /// Connect photon stretches in the camera's medium to a pinhole camera (light tracing of
     /// the god rays seen directly; see [`super::light_tracing`]).
     pub light_tracing: bool,
@@ -91,9 +100,15 @@ pub struct CausticsConfig {
 
 impl Default for CausticsConfig {
     fn default() -> Self {
-        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, beam_thinning_pixels: f32::INFINITY, light_tracing: true, disk_refit: true }
+        CausticsConfig { photons_per_sample: 1.0, memory_limit_bytes: 1 << 30, mis_photon_count: 16.0, radius_pixels: 1.0, spectral_radius_nm: 20.0, beams_per_pixel: 0.25, beam_thinning_pixels: f32::INFINITY, beams_per_query: DEFAULT_BEAMS_PER_QUERY, light_tracing: true, disk_refit: true }
     }
 }
+
+/// Default of [`CausticsConfig::beams_per_query`].
+pub const DEFAULT_BEAMS_PER_QUERY: f32 = 8.0;
+/// Camera samples of the probe that measures the beams a query meets
+/// ([`CausticsConfig::beams_per_query`]).
+pub const PROBE_SAMPLES: u32 = 4096;
 
 /// Counters of the caustics passes so far.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -106,6 +121,12 @@ pub struct CausticsStats {
     /// Photon beams stored (all passes, and the last).
     pub beams_stored: u64,
     pub beams_last_pass: u64,
+    /// Share of the beams the last pass kept, of those its width share and the pixel rule
+    /// ([`CausticsConfig::beam_thinning_pixels`]) keep (1: none thinned by the measured rule).
+    pub beam_share: f32,
+    /// Beams met per gathering query that met any, measured on the probe of the first pass
+    /// after a (re)start, before thinning (None: not measured).
+    pub beams_per_query: Option<f32>,
     /// Largest photon map of a pass, bytes.
     pub peak_map_bytes: usize,
     /// (light, caster) pairs in the atlas.
@@ -137,6 +158,8 @@ const MAX_RADIUS_CELLS: f32 = 2.0;
 const LOOKUP_PHOTONS: f32 = 48.0;
 /// Photons traced per parallel work item.
 const CHUNK: usize = 4096;
+/// The largest f32 below one.
+const ONE_BELOW: f32 = 0.999_999_94;
 /// Caster surfaces a photon may cross.
 const MAX_PHOTON_BOUNCES: u32 = 32;
 const NO_GROUP: u32 = u32::MAX;
@@ -194,6 +217,13 @@ pub struct Caustics {
     weight: f32,
     mean_energy: f32,
     stats: CausticsStats,
+    /// Share of the beams kept by the measured rule ([`CausticsConfig::beams_per_query`]);
+    /// None until the probe of the first pass after a (re)start has measured it.
+    beam_share: Option<f32>,
+    /// Whether gathering counts the beams queries meet (and records no visibility): the probe.
+    probing: bool,
+    /// The probe's gathering queries, those that met a beam, and the beams they met.
+    probe: [AtomicU64; 3],
 }
 
 impl Caustics {
@@ -406,6 +436,9 @@ impl Caustics {
             weight: 0.0,
             mean_energy: 1.0,
             stats,
+            beam_share: None,
+            probing: false,
+            probe: Default::default(),
         })
     }
 
@@ -429,6 +462,8 @@ impl Caustics {
         self.map = PhotonMap::build(Vec::new(), self.cell_size).expect("empty map");
         self.beams = BeamMap::default();
         self.weight = 0.0;
+        self.beam_share = None;
+        self.probing = false;
         self.stats = CausticsStats { pairs: self.stats.pairs, atlas_utilization: self.stats.atlas_utilization, disk_area_ratio: self.atlas.disk_area_ratio(), ..Default::default() };
     }
 
@@ -447,12 +482,14 @@ impl Caustics {
             self.stats.capped_passes += 1;
         }
         let pass = self.stats.passes;
+        self.stats.beam_share = self.beam_share.unwrap_or(1.0);
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
         // the share of stretches kept as beams, and the scale of their widths (set by the
         // density of the share before thinning)
         let width_share = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
-        let keep_beam = (width_share * beam_thinning(self.config.beam_thinning_pixels, pixels), if width_share > 0.0 { 1.0 / width_share.sqrt() } else { 0.0 });
+        let share = beam_thinning(self.config.beam_thinning_pixels, pixels) * self.beam_share.unwrap_or(1.0);
+        let keep_beam = (width_share * share, if width_share > 0.0 { 1.0 / width_share.sqrt() } else { 0.0 });
         let parts: Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)> = (0..chunks)
             .into_par_iter()
             .map(|c| {
@@ -530,6 +567,57 @@ impl Caustics {
     #[inline]
     pub fn light_traced(&self, m: usize) -> bool {
         self.light_tracer.as_ref().is_some_and(|lt| lt.covers(m))
+    }
+
+    /// Whether this pass's beams are to be measured by a probe before its pixels render: the
+    /// first pass after a (re)start, when the measured rule is on and the pass has beams
+    /// (see [`CausticsConfig::beams_per_query`]). The render loop then calls
+    /// [`Self::begin_probe`], traces [`PROBE_SAMPLES`] camera samples whose results it
+    /// discards, and calls [`Self::end_probe`].
+    pub fn wants_probe(&self) -> bool {
+        self.beam_share.is_none() && self.config.beams_per_query.is_finite() && !self.beams.is_empty()
+    }
+
+    /// Starts counting the beams gathering queries meet; they record no guiding signal meanwhile.
+    pub fn begin_probe(&mut self) {
+        self.probing = true;
+        for c in &self.probe {
+            c.store(0, Ordering::Relaxed);
+        }
+    }
+
+    /// Ends the probe: sets the share of the beams kept from what it counted, and thins this
+    /// pass's beams to it. `complete`: whether every probe sample was traced (a probe cut short
+    /// measures nothing and the next pass probes again).
+    pub fn end_probe(&mut self, complete: bool) {
+        self.probing = false;
+        if !complete {
+            return;
+        }
+        let [_, meeting, met] = self.probe.each_ref().map(|c| c.load(Ordering::Relaxed));
+        let m = if meeting > 0 { met as f64 / meeting as f64 } else { 0.0 };
+        let q = beam_share_for(self.config.beams_per_query, m);
+        self.beam_share = Some(q);
+        self.stats.beam_share = q;
+        self.stats.beams_per_query = Some(m as f32);
+        if q < 1.0 {
+            let before = self.beams.len() as u64;
+            self.beams = std::mem::take(&mut self.beams).thin(q);
+            let after = self.beams.len() as u64;
+            self.stats.beams_stored -= before - after;
+            self.stats.beams_last_pass = after;
+        }
+    }
+
+    /// The distance beyond which a beam query in medium `m` drawn with `u` skips beams
+    /// (unbiased culling; see [`Self::gather_beams`]).
+    pub fn beam_cull_distance(&self, world: &World, m: usize, lambda: &SampledWavelengths, u: f32) -> f32 {
+        cull_distance(&world.media[m], lambda, &mut StreamRng::new(u, BEAM_STREAM)).1
+    }
+
+    /// The probe's counts so far: gathering queries, those that met a beam, beams met.
+    pub fn probe_counts(&self) -> [u64; 3] {
+        self.probe.each_ref().map(|c| c.load(Ordering::Relaxed))
     }
 
     /// Drops a cancelled pass's visibility (the atlas is unchanged; its photons are replaced
@@ -618,10 +706,13 @@ impl Caustics {
                     let mut rng = || stream.next_f32();
                     lt.connect(world, ray.o, ray.d, hit.t, m, beta, &lambda, time, s.cell, u, &mut rng, |p_b| self.photon_weight_mis(s.cell, p_b), &mut out.2);
                 }
-                if linked && bounces > 0 && keep_beam > 0.0 && self.beam_media[m] && stream.next_f32() < keep_beam {
-                    let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
-                    if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
-                        out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32 });
+                if linked && bounces > 0 && keep_beam > 0.0 && self.beam_media[m] {
+                    let draw = stream.next_f32();
+                    if draw < keep_beam {
+                        let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
+                        if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
+                            out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32, rank: (draw / keep_beam).min(ONE_BELOW) });
+                        }
                     }
                 }
                 let mut rng = || stream.next_f32();
@@ -815,7 +906,7 @@ impl Caustics {
         // visibility: the photon's energy relative to the pass's mean, times the camera path's
         // throughput, times the kernel relative to one grid cell's
         let vis_scale = throughput * (self.cell_size * self.cell_size) / (radius * radius * self.mean_energy.max(1e-30));
-        let record = throughput > 0.0 && vis_scale.is_finite();
+        let record = throughput > 0.0 && vis_scale.is_finite() && !self.probing;
         self.map.for_each_in_radius(&q, |ph, k| {
             let e = ph.energy();
             let w = e * k;
@@ -874,23 +965,23 @@ impl Caustics {
         let med = &world.media[m];
         let at = crate::medium::MediumAt::new(med, lambda);
         let lookup = self.kernel.at(lambda);
-        let mut rng_state = StreamRng::new(u, 0xbea5);
+        let mut rng_state = StreamRng::new(u, BEAM_STREAM);
         let sq = u.sqrt();
         let mut sum = SampledSpectrum::ZERO;
-        let record = throughput > 0.0;
+        let record = throughput > 0.0 && !self.probing;
+        let mut met = 0u64;
         let inv_mean = 1.0 / self.mean_energy.max(1e-30);
         // unbiased culling (seed 002 §6.2.2): beams beyond a distance drawn with half the
         // medium's mean extinction are skipped, and those kept are weighted by the inverse of
         // the probability e^{−σc t} of reaching them (the camera transmittance e^{−σt t} keeps the
         // weight below one, so culling adds no fireflies)
-        let sigma_c = 0.5 * med.majorant(lambda).average();
-        let xi = rng_state.next_f32();
-        let t_cull = if sigma_c > 0.0 { -(1.0 - xi).ln() / sigma_c } else { f32::INFINITY };
+        let (sigma_c, t_cull) = cull_distance(med, lambda, &mut rng_state);
         self.beams.for_each_near(a, c, t_max.min(t_cull), |near, ap| {
             // the tests the piece answers come before the beam's record is read
             if near.medium as usize != m {
                 return;
             }
+            met += 1;
             let wp = fp.width_at(ap.t).min(near.width);
             let w = wp + (near.width - wp) * sq;
             if !(ap.h < w) {
@@ -921,9 +1012,33 @@ impl Caustics {
             let k = (sigma_c * ap.t).exp() / (2.0 * w * ap.sin_theta);
             sum += b.photon.spectral_flux(&lookup) * at.sigma_s_at(x) * tr * (fp * k * mis);
         });
+        if self.probing {
+            self.probe[0].fetch_add(1, Ordering::Relaxed);
+            if met > 0 {
+                self.probe[1].fetch_add(1, Ordering::Relaxed);
+                self.probe[2].fetch_add(met, Ordering::Relaxed);
+            }
+        }
         sum * self.weight
     }
 
+}
+
+/// Salt of a beam query's random stream.
+const BEAM_STREAM: u32 = 0xbea5;
+
+/// The culling of a beam query (seed 002 §6.2.2): the rate σc (half the medium's mean
+/// majorant) and the distance drawn with it, the stream's first number.
+fn cull_distance(med: &crate::medium::Medium, lambda: &SampledWavelengths, rng: &mut StreamRng) -> (f32, f32) {
+    let sigma_c = 0.5 * med.majorant(lambda).average();
+    let xi = rng.next_f32();
+    (sigma_c, if sigma_c > 0.0 { -(1.0 - xi).ln() / sigma_c } else { f32::INFINITY })
+}
+
+/// Share of the beams kept when gathering queries that meet any meet `m` on average and
+/// should meet `target` (see [`CausticsConfig::beams_per_query`]).
+pub fn beam_share_for(target: f32, m: f64) -> f32 {
+    if m > target as f64 { (target as f64 / m) as f32 } else { 1.0 }
 }
 
 /// Share of the beams an image of `pixels` pixels keeps (see

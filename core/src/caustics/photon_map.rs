@@ -177,6 +177,13 @@ impl Photon {
         self.flux
     }
 
+    /// Multiplies the stored flux by `k`.
+    pub fn scale_flux(&mut self, k: f32) {
+        for f in &mut self.flux {
+            *f *= k;
+        }
+    }
+
     /// Scalar energy used for stochastic selection: the sum of the stored flux.
     #[inline]
     pub fn energy(&self) -> f32 {
