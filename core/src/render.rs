@@ -831,6 +831,10 @@ impl Renderer {
             if let Some(r) = c.disk_area_ratio {
                 h.push(("tide:caustics:diskRefit".into(), format!("{r:.6}")));
             }
+            if let Some(m) = c.beams_per_query {
+                h.push(("tide:caustics:beamsPerQuery".into(), format!("{m:.3}")));
+                h.push(("tide:caustics:beamShare".into(), format!("{:.6}", c.beam_share)));
+            }
         }
         // adjustPixelAspectRatio keeps the aperture: the pixels' aspect is the one that fits it
         let pixel_aspect = match self.settings.aspect_conform {

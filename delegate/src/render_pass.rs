@@ -115,6 +115,10 @@ impl Engine for Renderer {
             out.push(("photonPassesCapped".into(), c.capped_passes.to_string()));
             out.push(("photonSeconds".into(), format!("{:.3}", st.photon_seconds)));
             out.push(("lightConnections".into(), c.light_connections.to_string()));
+            if let Some(m) = c.beams_per_query {
+                out.push(("beamsPerQuery".into(), format!("{m:.3}")));
+                out.push(("beamShare".into(), format!("{:.6}", c.beam_share)));
+            }
         }
         out
     }

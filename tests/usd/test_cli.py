@@ -345,6 +345,18 @@ def test_integrator_name_reaches_the_exr_header(tmp_path, renderer):
         assert header["tide:integrator"] == integ
 
 
+def test_the_beams_a_query_meets_and_the_share_kept_are_reported(tmp_path, renderer):
+    # the default stage's pool carries photon beams: the probe of the first pass measures the
+    # beams a query meets (m) and keeps min(1, 8 / m) of them; the header and the summary say so
+    exr = str(tmp_path / "d.exr")
+    out = run(["render", "--width", "320", "--spp", "1", "-o", exr], tmp_path, fake=False)
+    assert out.returncode == 0, out.stderr
+    _, header = _exr_channels(exr)
+    m, share = float(header["tide:caustics:beamsPerQuery"]), float(header["tide:caustics:beamShare"])
+    assert m > 8 and abs(share - 8 / m) < 1e-3 * share, (m, share)
+    assert "beams met per query %s, share kept %.3g" % (header["tide:caustics:beamsPerQuery"], share) in out.stdout
+
+
 def test_exr_header_reader_agrees_with_openexr(tmp_path):
     import numpy as np
     import OpenEXR

@@ -370,13 +370,17 @@ def _render_one(reader, delegate, args, outputs, load_s):
         mib = int(summary.get("photonMapPeakBytes", "0")) / float(1 << 20)
         capped = int(summary.get("photonPassesCapped", "0"))
         connected = int(summary.get("lightConnections", "0"))
+        beams = ""
+        if "beamsPerQuery" in summary:
+            beams = ", beams met per query %s, share kept %.3g" % (
+                summary["beamsPerQuery"], float(summary.get("beamShare", "1")))
         sys.stdout.write("tide: caustics: %s photon passes, %s photons shot, %s stored, "
-                         "peak photon map %.1f MiB%s%s, photon tracing %ss\n"
+                         "peak photon map %.1f MiB%s%s%s, photon tracing %ss\n"
                          % (summary["photonPasses"], summary["photonsEmitted"],
                             summary["photonsStored"], mib,
                             " (%d passes cut to the memory budget)" % capped if capped else "",
                             ", %d photon stretches connected to the camera" % connected
-                            if connected else "",
+                            if connected else "", beams,
                             summary.get("photonSeconds", "?")))
     return EXIT_OK
 
