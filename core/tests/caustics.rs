@@ -525,6 +525,32 @@ fn a_probe_counts_the_beams_queries_meet_and_thins_them_to_the_target() {
     assert_eq!(beam_share_for(target, 0.0), 1.0);
 }
 
+// A beam's width follows the density of the beams, whatever else the scene holds: a ground
+// plane 100 km wide far below the sand (out of the camera's sight, the scene's radius 70 km)
+// leaves the god-ray scene's beams as wide as without it (a floor set by the scene's size
+// made them 0.7 m wide, 3.5 times their 0.2 m).
+#[test]
+fn beam_widths_do_not_depend_on_a_far_ground_plane() {
+    use tide_core::caustics::engine::Caustics;
+    let (w, h) = (128, 64);
+    let settings = settings_for(IntegratorKind::Caustics, w, h, 1, 2);
+    let mean_width = |scene: &SceneDesc| {
+        let world = tide_core::world::World::build(scene, &settings, &mut Vec::new());
+        let mut c = Caustics::new(&world, w, h, settings.caustics).expect("caustics");
+        c.begin_pass(&world, 7, 1, (w * h) as u64);
+        let b = c.beam_map().beams();
+        assert!(b.len() > 500, "{} beams", b.len());
+        b.iter().map(|b| b.width as f64).sum::<f64>() / b.len() as f64
+    };
+    let scene = underwater(8.0);
+    let mut far = scene.clone();
+    far.meshes.push(std::sync::Arc::new(quad_y("/far", 5.0e4)));
+    let g = GeometryRef::Mesh(far.meshes.len() - 1);
+    far.instances_mut().push(instance("/far", g, Mat4::from_translation(Vec3::new(0.0, -500.0, 0.0)), 0));
+    let (near_w, far_w) = (mean_width(&scene), mean_width(&far));
+    assert!(near_w > 0.05 && (far_w / near_w - 1.0).abs() < 0.05, "mean beam width {near_w} without the far plane, {far_w} with it");
+}
+
 // Through the renderer: beams thinned by the probe leave the expected image as it was (the
 // caustics AOV's mean over seeds against every beam kept, within 4σ of the seeds' scatter),
 // the render is the same bit for bit on one thread and two, and the stats say what was kept.

@@ -207,6 +207,9 @@ pub struct Caustics {
     pixel_spread: f32,
     cell_size: f32,
     scene_radius: f32,
+    /// Narrowest beam width (10⁻⁵ of the largest caster's radius); a tenth of it is the
+    /// smallest photon lookup radius.
+    beam_width_floor: f32,
     disk: EmissionDisk,
     kernel: SpectralKernel,
     /// Connections of photon stretches to the camera (None: off, or no camera medium to do it in).
@@ -322,6 +325,11 @@ impl Caustics {
             .min(1.2);
         let grow = (1.0 + max_half_angle.sin()) / max_half_angle.cos();
         let casters: Vec<Caster> = casters.into_iter().map(|c| Caster { center: c.center, radius: c.radius * grow }).collect();
+        // the size of the caustics' region (the largest caster), which sets the guards against
+        // degenerate footprints below: not the scene's, which a far ground plane can make
+        // kilometres
+        let region = casters.iter().map(|c| c.radius).fold(0.0f32, f32::max);
+        let beam_width_floor = 1e-5 * region;
         let cam_pos = world.camera.position(world.camera.shutter.0);
         let (pixel_w0, pixel_spread) = pixel_footprint(world, width, height);
         let fov = (pixel_spread * width as f32) * (pixel_spread * height as f32);
@@ -393,8 +401,8 @@ impl Caustics {
             Some(&d) => d,
             None => casters.iter().map(|c| c.center.distance(cam_pos)).fold(f32::INFINITY, f32::min),
         }
-        .max(1e-3 * scene_radius);
-        let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * scene_radius);
+        .max(1e-3 * region);
+        let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * region);
         let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
         // beams in media whose coefficients are the same everywhere: along a depth-varying or
@@ -431,6 +439,7 @@ impl Caustics {
             pixel_spread,
             cell_size,
             scene_radius,
+            beam_width_floor,
             disk,
             kernel: SpectralKernel::new(config.spectral_radius_nm).unwrap_or_default(),
             weight: 0.0,
@@ -709,7 +718,7 @@ impl Caustics {
                 if linked && bounces > 0 && keep_beam > 0.0 && self.beam_media[m] {
                     let draw = stream.next_f32();
                     if draw < keep_beam {
-                        let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(1e-5 * self.scene_radius);
+                        let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(self.beam_width_floor);
                         if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
                             out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32, rank: (draw / keep_beam).min(ONE_BELOW) });
                         }
@@ -875,7 +884,7 @@ impl Caustics {
     /// Lookup radius for a path whose footprint has width `width` at this vertex.
     #[inline]
     pub fn radius(&self, width: f32) -> f32 {
-        (width * self.config.radius_pixels).max(1e-6 * self.scene_radius)
+        (width * self.config.radius_pixels).max(0.1 * self.beam_width_floor)
     }
 
     /// Radiance towards `wo` (local) at a non-specular receiver vertex from the photons within
