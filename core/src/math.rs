@@ -7,6 +7,8 @@ pub const PI: f32 = std::f32::consts::PI;
 pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
 pub const INV_2PI: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
 pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
+/// The largest f32 below one: where a uniform number in [0, 1) is rescaled, it stays below one.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// An orthonormal basis. Local shading space has the normal along +Z.
 #[derive(Clone, Copy, Debug, PartialEq)]

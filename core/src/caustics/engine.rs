@@ -48,7 +48,7 @@ use crate::accel::Ray;
 use crate::bsdf::{Bsdf, TransportMode};
 use crate::integrator::{classify_boundary, Boundary, InteriorStack};
 use crate::light::emit::EmissionDisk;
-use crate::math::{offset_ray_origin, point_error, Frame};
+use crate::math::{offset_ray_origin, point_error, Frame, ONE_MINUS_EPSILON};
 use crate::sampler::{PixelSampler, StreamRng};
 use super::light_tracing::{LightTracer, Splat};
 use crate::scene::CausticsTransparency;
@@ -158,8 +158,6 @@ const MAX_RADIUS_CELLS: f32 = 2.0;
 const LOOKUP_PHOTONS: f32 = 48.0;
 /// Photons traced per parallel work item.
 const CHUNK: usize = 4096;
-/// The largest f32 below one.
-const ONE_BELOW: f32 = 0.999_999_94;
 /// Caster surfaces a photon may cross.
 const MAX_PHOTON_BOUNCES: u32 = 32;
 const NO_GROUP: u32 = u32::MAX;
@@ -720,7 +718,7 @@ impl Caustics {
                     if draw < keep_beam {
                         let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(self.beam_width_floor);
                         if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
-                            out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32, rank: (draw / keep_beam).min(ONE_BELOW) });
+                            out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32, rank: (draw / keep_beam).min(ONE_MINUS_EPSILON) });
                         }
                     }
                 }

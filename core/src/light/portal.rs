@@ -21,6 +21,7 @@
 use glam::{Mat4, Vec2, Vec3};
 
 use super::SphericalRect;
+use crate::math::ONE_MINUS_EPSILON;
 
 #[cfg(test)]
 mod tests;
@@ -168,8 +169,6 @@ pub enum Strategy {
     /// By the dome's own sampling, with these numbers.
     Own(Vec2),
 }
-
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 impl PortalRect {
     /// Whether the ray from `p` along `w` crosses the rectangle.

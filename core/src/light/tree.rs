@@ -21,6 +21,7 @@
 //! one-sided emitter it holds), so no light that contributes is ever left out.
 
 use super::{Light, LightSampleContext, LightSampler};
+use crate::math::ONE_MINUS_EPSILON;
 use glam::Vec3;
 use std::f32::consts::PI;
 
@@ -526,8 +527,6 @@ impl LightTree {
         pmf
     }
 }
-
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// pbrt-v4's orientation measure of a bounds' emission (the solid angle its cone and spread
 /// reach, weighted by cosine).
