@@ -72,7 +72,8 @@ fn main() {
                 }
                 pairs.push(pair);
             }
-            let f = if target.is_some_and(f32::is_finite) || target.is_none() { kept.iter().sum::<f32>() / kept.len() as f32 } else { f };
+            // the default and the probe's rule report the share the probe kept
+            let f = if target == Some(f32::INFINITY) { f } else { kept.iter().sum::<f32>() / kept.len() as f32 };
             rows.push((share.clone(), f, time / (2 * rounds) as f64, pairs));
         }
         let reference: Vec<f64> = all.iter().map(|a| a / count).collect();

@@ -272,6 +272,27 @@ pub const PHOTON_PASS_MAX_SPP: u32 = 16;
 /// Seed key of the probe's camera samples (see [`crate::caustics::engine::CausticsConfig::beams_per_query`]).
 const PROBE_KEY: u64 = 0x9b0b_e5a3_71c4_d2e9;
 
+/// The probe of a pass's photon beams (see
+/// [`crate::caustics::engine::CausticsConfig::beams_per_query`]): camera samples at random
+/// points of the data `window`, their results discarded, count the beams gathering meets.
+/// False when `cancelled` cut it short.
+fn probe_beams(world: &crate::world::World, caustics: &crate::caustics::engine::Caustics, stack: &crate::integrator::InteriorStack, seed: u64, window: [u32; 4], cancelled: &(dyn Fn() -> bool + Sync)) -> bool {
+    use rayon::prelude::*;
+    let [x0, y0, x1, y1] = window;
+    let (wx, wy) = ((x1 - x0) as f32, (y1 - y0) as f32);
+    (0..crate::caustics::engine::PROBE_SAMPLES).into_par_iter().with_min_len(64).all(|k| {
+        if cancelled() {
+            return false;
+        }
+        let mut sampler = crate::sampler::PixelSampler::new(seed ^ PROBE_KEY, k, u32::MAX, 0);
+        let u = sampler.get2d();
+        let raster = glam::Vec2::new(x0 as f32 + u.x * wx, y0 as f32 + u.y * wy);
+        let mut lambda = crate::spectrum::color::sample_wavelengths(sampler.get1d());
+        let _ = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, stack, Some(caustics), false);
+        true
+    })
+}
+
 /// The guiding table (probability, visibility, pair cells) stretched over a `w × h` image.
 fn guiding_image(c: &crate::caustics::engine::Caustics, w: u32, h: u32) -> Vec<f32> {
     let atlas = c.atlas();
@@ -582,25 +603,8 @@ impl Renderer {
             let world = &self.world;
             self.pool.install(|| c.begin_pass(world, seed, spp, pixels));
             if c.wants_probe() {
-                // the probe: camera samples at random points of the data window, their results
-                // discarded, count the beams gathering meets (the share of the beams kept)
                 c.begin_probe();
-                let probe = &*c;
-                let stack = self.camera_stack;
-                let (wx, wy) = ((x1 - x0) as f32, (y1 - y0) as f32);
-                let complete = self.pool.install(|| {
-                    (0..crate::caustics::engine::PROBE_SAMPLES).into_par_iter().with_min_len(64).all(|k| {
-                        if cancelled() {
-                            return false;
-                        }
-                        let mut sampler = crate::sampler::PixelSampler::new(seed ^ PROBE_KEY, k, u32::MAX, 0);
-                        let u = sampler.get2d();
-                        let raster = glam::Vec2::new(x0 as f32 + u.x * wx, y0 as f32 + u.y * wy);
-                        let mut lambda = color::sample_wavelengths(sampler.get1d());
-                        let _ = crate::integrator::trace_camera_sample(world, &mut sampler, raster, &mut lambda, &stack, Some(probe), false);
-                        true
-                    })
-                });
+                let complete = self.pool.install(|| probe_beams(world, c, &self.camera_stack, seed, self.film.window, &cancelled));
                 c.end_probe(complete);
             }
             self.stats.photon_seconds += t.elapsed().as_secs_f64();

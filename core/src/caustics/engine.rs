@@ -601,7 +601,7 @@ impl Caustics {
         if !complete {
             return;
         }
-        let [_, meeting, met] = self.probe.each_ref().map(|c| c.load(Ordering::Relaxed));
+        let [_, meeting, met] = self.probe_counts();
         let m = if meeting > 0 { met as f64 / meeting as f64 } else { 0.0 };
         let q = beam_share_for(self.config.beams_per_query, m);
         self.beam_share = Some(q);
