@@ -139,7 +139,9 @@ impl InteriorStack {
     /// the objects' constant indices.
     pub(crate) fn at_wavelengths(&mut self, world: &World, lambda: &SampledWavelengths) {
         for it in &mut self.items[..self.len] {
-            let mat = &world.materials[world.instances[it.instance as usize].material];
+            // the water a camera is declared to sit in has no object (its constant index)
+            let Some(info) = world.instances.get(it.instance as usize) else { continue };
+            let mat = &world.materials[info.material];
             if let Some(d) = mat.dielectric().filter(|d| d.dispersion.is_some() && !it.volume) {
                 it.ior = d.ior_at(lambda);
             }

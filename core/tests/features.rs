@@ -7,6 +7,7 @@ mod common;
 use common::*;
 use glam::{Mat4, Vec3};
 use tide_core::scene::*;
+use tide_core::render::IntegratorKind;
 use tide_core::{Aov, RenderSettings};
 
 fn water(ior: f32, priority: i32) -> SurfaceDesc {
@@ -138,6 +139,39 @@ fn emissive_surface_seen_directly_has_its_radiance() {
         let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
         // the illuminant uplift reproduces in-gamut RGB within 1% of the max channel
         assert!((m - expect[ch]).abs() < 3.0 * se + 0.02, "channel {ch}: {m} ± {se}");
+    }
+}
+
+// A camera declared to sit in water (`tide:medium`) with no water object around it: the path
+// starts in that water, unbounded, so an emissive panel d away is seen through e^{−σa·d} of it
+// (grey σa: exact per wavelength), by the path tracer and by the caustics integrator, whose
+// photon and light tracers start from the same stack.
+#[test]
+fn a_camera_declared_in_water_with_no_water_around_it_sees_through_it() {
+    let (sigma_a, d) = (0.3f32, 2.0f32);
+    let mut s = SceneDesc::default();
+    s.meshes.push(std::sync::Arc::new(quad_y("/panel", 10.0)));
+    s.media.push(MediumDesc { name: "/w".into(), sigma_a: SpectrumDesc::Rgb([sigma_a; 3]), sigma_s: SpectrumDesc::Rgb([0.0; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: Default::default() });
+    s.materials.push(MaterialDesc { name: "/panel".into(), surface: SurfaceDesc::Emissive { radiance: [2.0, 1.0, 0.5], two_sided: false }, interior_medium: None });
+    // dispersive water elsewhere in the scene: every path's stack is set to its wavelengths
+    s.meshes.push(std::sync::Arc::new(box_mesh("/drop", Vec3::splat(20.0), Vec3::splat(21.0))));
+    s.materials.push(MaterialDesc { name: "/drop".into(), surface: SurfaceDesc::Water(WaterDesc { dispersion: true, ..Default::default() }), interior_medium: None });
+    s.instances_mut().push(instance("/panel", GeometryRef::Mesh(0), Mat4::IDENTITY, 0));
+    s.instances_mut().push(instance("/drop", GeometryRef::Mesh(1), Mat4::IDENTITY, 1));
+    s.lights.push(light("/sun", LightShape::Distant { angle_deg: 0.5 }, look_at(Vec3::ZERO, -Vec3::Y), 1.0, true));
+    s.camera = camera(Vec3::new(0.0, d, 0.001), Vec3::ZERO, 10.0);
+    s.camera.medium = Some(0);
+    let (w, h) = (4, 4);
+    for kind in [IntegratorKind::Path, IntegratorKind::Caustics] {
+        let mut settings = settings(w, h, 16);
+        settings.integrator = kind;
+        let r = render(&s, settings);
+        let t = (-sigma_a * d).exp() as f64;
+        for (ch, e) in [2.0, 1.0, 0.5].into_iter().enumerate() {
+            let (m, se, _) = channel_stats(&r, ch, |_, _| true, w);
+            // the illuminant uplift reproduces in-gamut RGB within 1% of the max channel
+            assert!((m - e * t).abs() < 3.0 * se + 0.02 * t, "{kind:?} channel {ch}: {m} ± {se}, expected {}", e * t);
+        }
     }
 }
 
