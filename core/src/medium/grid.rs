@@ -38,11 +38,12 @@
 //! T_j = e^{−σt_j ∫c} Π_i (1 − (ρ(t_i) − c) σt_j / ((m − c) max σt)) over the points of a
 //! Poisson process of rate μ (Novák et al. 2014); each factor lies in [0, 1]. Where the density
 //! is constant over a super-voxel (m = c) the estimate is exact there and draws nothing; outside
-//! the box T = 1.
+//! the box T = 1. Once the estimate is small it is played with Russian roulette
+//! ([`super::tracking::roulette`]), so a shadow ray through a dense grid ends in a few points.
 
 use super::homogeneous::DistanceSample;
 use super::phase::{PhaseFunction, ONE_MINUS_EPSILON};
-use super::tracking::{mis_weight, MAX_TRACKING_STEPS};
+use super::tracking::{mis_weight, roulette, MAX_TRACKING_STEPS};
 use crate::spectrum::{SampledSpectrum, SampledWavelengths, Spectrum, N_SPECTRUM};
 use glam::{Mat4, Vec3};
 
@@ -785,7 +786,7 @@ impl GridMedium {
                     tr.0[j] *= (1.0 - f * ratio[j]).max(0.0);
                 }
                 steps += 1;
-                if tr.is_black() {
+                if tr.is_black() || !roulette(&mut tr, rng) {
                     return tr;
                 }
                 if steps >= MAX_TRACKING_STEPS {

@@ -236,6 +236,29 @@ fn residual_ratio_tracking_is_unbiased_per_wavelength() {
     check_ratio(Bumped { d: 2.0, ..m }, control, rate, 1.5, &lambda, 502);
 }
 
+// Russian roulette keeps ratio tracking cheap where it attenuates strongly: through a medium
+// of 5·10³ m⁻¹ tracked at the rate 10⁴ (each point halves the estimate) a metre takes a few
+// points on average, where walking on until the estimate underflows takes some 150; the
+// estimates stay in [0, 1]. Its expectation is checked above (the third case drops below
+// the roulette's threshold) and here on a medium twice as thick, estimates down to e^{−12}.
+#[test]
+fn ratio_tracking_in_a_dense_medium_ends_in_a_few_points() {
+    let mut rng = TestRng::new(77);
+    let n = 20_000;
+    let mut draws = 0u64;
+    for _ in 0..n {
+        let mut r = || {
+            draws += 1;
+            rng.next_f32()
+        };
+        let tr = transmittance_ratio_tracking(SampledSpectrum::ZERO, 1e4, 1.0, &mut r, &all_live(), |_| SampledSpectrum::splat(5e3));
+        assert!(tr.0.iter().all(|v| (0.0..=1.0).contains(v)), "{tr:?}");
+    }
+    let mean = draws as f64 / n as f64;
+    assert!(mean < 12.0, "{mean} draws per call");
+    check_ratio(Bumped { d: 2.0, ..BUMPED }, SampledSpectrum::ZERO, 12.0, 2.0, &all_live(), 503);
+}
+
 #[test]
 fn ratio_tracking_without_residual_is_exact_and_draws_nothing() {
     let sigma = SampledSpectrum([0.1, 0.5, 2.0, 0.0]);
