@@ -77,6 +77,22 @@ fn the_shell_stays_spheres_and_the_inside_becomes_medium() {
     }
 }
 
+// A droplet far from the others asks for a grid too large to hold: refused with the grid's
+// size (its extent is 10¹¹ voxels per axis, which as 32-bit voxel counts would wrap to a
+// small grid and index past its end).
+#[test]
+fn a_far_flung_droplet_asks_for_a_grid_too_large_and_is_refused() {
+    let mut cloud = cube_cloud(0.01);
+    cloud.centers[1] = Vec3::splat(1e9);
+    let err = split(&cloud, 0.01, 0.0).unwrap_err();
+    assert!(err.contains("too large") && err.starts_with("a 1000000"), "{err}");
+    // two droplets: a cube of grid within the limit is made, one a few voxels wider is not
+    let side = (MAX_VOXELS as f64).cbrt().floor() as f32;
+    let pair = |d: f32| SpheresDesc { name: "/Pair".into(), centers: vec![Vec3::ZERO, Vec3::splat(d)], radii: vec![0.001; 2], ..Default::default() };
+    assert!(split(&pair((side - 4.0) * 0.01), 0.01, 0.0).is_ok());
+    assert!(split(&pair((side + 1.0) * 0.01), 0.01, 0.0).is_err());
+}
+
 #[test]
 fn no_shell_converts_everything_and_a_thick_one_nothing() {
     let cloud = cube_cloud(0.005);
