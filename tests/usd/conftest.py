@@ -177,16 +177,21 @@ def render(module, stage, problems=None, **opts):
     found = r.load()
     if problems is not None:
         problems.extend(found)
-    rp = r.render_pass()
-    for _ in range(600):
+    return converged_images(r, d, r.render_pass(), 60)
+
+
+def converged_images(reader, delegate, rp, seconds):
+    """Waits up to `seconds` for the pass `rp` to converge; returns {sourceName: HxWxC array}
+    of the reader's bindings (copies: the delegate may render into its buffers again)."""
+    for _ in range(int(seconds * 10)):
         if rp.is_converged():
             break
         rp.wait(0.1)
-    assert rp.is_converged(), "the render did not converge in 60 s"
+    assert rp.is_converged(), "the render did not converge in %g s" % seconds
     out = {}
-    for aov, buf in r.bindings():
-        w, h, c, data = d.map_buffer(buf)
-        out[aov] = np.frombuffer(data, dtype=np.float32).reshape(h, w, c)
+    for aov, buf in reader.bindings():
+        w, h, c, data = delegate.map_buffer(buf)
+        out[aov] = np.frombuffer(data, dtype=np.float32).reshape(h, w, c).copy()
     return out
 
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd
 
-from conftest import ROOT
+from conftest import ROOT, converged_images
 
 TIDE = os.path.join(ROOT, "tide")
 DATA = os.path.join(os.path.dirname(__file__), "data")
@@ -220,19 +220,6 @@ def test_an_absurdly_dense_fog_renders(renderer, tmp_path):
     check_run(rc, text, out, "dense fog")
 
 
-def _images(reader, delegate, rp):
-    for _ in range(1200):
-        if rp.is_converged():
-            break
-        rp.wait(0.1)
-    assert rp.is_converged(), "the render did not converge in 120 s"
-    out = {}
-    for aov, buf in reader.bindings():
-        w, h, c, data = delegate.map_buffer(buf)
-        out[aov] = np.frombuffer(data, dtype=np.float32).reshape(h, w, c).copy()
-    return out
-
-
 # The viewer's path: bad values arrive as edits to a stage being rendered (Reader.update(),
 # the delegate re-syncs the prims concerned and restarts the pass), and are then taken back.
 # Every render converges, and once the edits are undone the image is the first one bit for
@@ -247,14 +234,14 @@ def test_bad_values_edited_in_and_out_leave_the_first_image(renderer, seed):
     reader = usd_reader.Reader(stage, d, usd_reader.Options(width=16, spp=1, threads=2, seed=3))
     reader.load()
     rp = reader.render_pass()
-    first = _images(reader, d, rp)
+    first = converged_images(reader, d, rp, 120)
     done, undo = mutate(stage, rng, rng.choice([1, 2, 3, 4, 6]))
     reader.update()
-    _images(reader, d, rp)
+    converged_images(reader, d, rp, 120)
     for u in undo:
         u()
     reader.update()
-    last = _images(reader, d, rp)
+    last = converged_images(reader, d, rp, 120)
     reader.close()
     for aov in first:
         assert np.array_equal(first[aov], last[aov], equal_nan=True), \

@@ -10,7 +10,7 @@ import math
 import numpy as np
 from pxr import Gf, Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import bind, camera, settings
+from conftest import bind, camera, converged_images, settings
 from tide import usd_reader
 
 F, AP = 50.0, 36.0            # focal length, square aperture: tan(half fov) = 18/50
@@ -82,17 +82,7 @@ def _render(module, stage):
     d = module.RenderDelegate()
     r = usd_reader.Reader(stage, d, usd_reader.Options())
     problems = list(r.load())
-    rp = r.render_pass()
-    for _ in range(1200):
-        if rp.is_converged():
-            break
-        rp.wait(0.1)
-    assert rp.is_converged(), "the render did not converge in 120 s"
-    out = {}
-    for aov, buf in r.bindings():
-        w, h, c, data = d.map_buffer(buf)
-        out[aov] = np.frombuffer(data, dtype=np.float32).reshape(h, w, c)
-    return out, problems
+    return converged_images(r, d, r.render_pass(), 120), problems
 
 
 def _glint_model(pitch):
