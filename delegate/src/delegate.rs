@@ -702,7 +702,9 @@ impl Delegate {
                         if let Some(b) = buf {
                             let (w, h, c) = b.shape();
                             if (w, h) != (d[0] as u32, d[1] as u32) || (c != channels && !b.published()) {
-                                b.resize(d[0] as u32, d[1] as u32, channels);
+                                if let Err(e) = b.resize(d[0] as u32, d[1] as u32, channels) {
+                                    p.add("dimensions", format!("{e}; the buffer stays empty"));
+                                }
                             }
                         }
                     }

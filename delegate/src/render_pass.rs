@@ -312,15 +312,26 @@ impl RenderBuffer {
 
     /// `width` × `height` pixels of the clear value, with its channel count (`channels` of
     /// zeros without one).
-    fn cleared(&self, width: u32, height: u32, channels: u32) -> (u32, Vec<f32>) {
+    /// The cleared pixels of a buffer of these dimensions (and their channel count), or what
+    /// kept them from being allocated.
+    fn cleared(&self, width: u32, height: u32, channels: u32) -> Result<(u32, Vec<f32>), String> {
         let clear = self.clear.lock().unwrap_or_else(|e| e.into_inner()).clone();
-        let n = width as usize * height as usize;
-        if clear.is_empty() {
-            return (channels, vec![0.0; n * channels as usize]);
-        }
         let int = self.holds_ints();
         let one: Vec<f32> = clear.iter().map(|&v| if int { f32::from_bits((v.round().clamp(i32::MIN as f64, i32::MAX as f64) as i32) as u32) } else { v as f32 }).collect();
-        (one.len() as u32, one.repeat(n))
+        let per = if one.is_empty() { channels as usize } else { one.len() };
+        let n = width as usize * height as usize;
+        let too_big = || format!("not enough memory for a {width}×{height} buffer of {per} channels ({} MiB)", (n as u128 * per as u128 * 4) >> 20);
+        let len = n.checked_mul(per).ok_or_else(too_big)?;
+        let mut pixels = Vec::new();
+        pixels.try_reserve_exact(len).map_err(|_| too_big())?;
+        if one.is_empty() {
+            pixels.resize(len, 0.0);
+        } else {
+            for _ in 0..n {
+                pixels.extend_from_slice(&one);
+            }
+        }
+        Ok((per as u32, pixels))
     }
 
     /// Gives the clear value to the pixels where no pass has published since the buffer was
@@ -328,9 +339,11 @@ impl RenderBuffer {
     fn refill_unpublished(&self) {
         let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
         if g.samples == 0 {
-            let (channels, pixels) = self.cleared(g.width, g.height, g.channels);
-            g.channels = channels;
-            g.pixels = pixels;
+            // (its size was allocated once already: on failure the pixels stay as they are)
+            if let Ok((channels, pixels)) = self.cleared(g.width, g.height, g.channels) {
+                g.channels = channels;
+                g.pixels = pixels;
+            }
         }
     }
 
@@ -343,18 +356,29 @@ impl RenderBuffer {
         self.unpublished.store(!on, Ordering::Relaxed);
     }
 
+    /// A buffer of these dimensions (0×0 when they cannot be allocated).
     pub fn new(width: u32, height: u32, channels: u32) -> Self {
         let b = RenderBuffer::default();
-        b.resize(width, height, channels);
+        let _ = b.resize(width, height, channels);
         b
     }
 
     /// Sets the dimensions, clearing the pixels (to the clear value where there is one, with
     /// its channel count; else `channels` of zeros).
-    pub fn resize(&self, width: u32, height: u32, channels: u32) {
-        let (channels, pixels) = self.cleared(width, height, channels);
+    /// An allocation that fails leaves the buffer empty (0×0) and says why.
+    pub fn resize(&self, width: u32, height: u32, channels: u32) -> Result<(), String> {
+        let made = self.cleared(width, height, channels);
         let mut g = self.inner.write().unwrap_or_else(|e| e.into_inner());
-        *g = MappedBuffer { width, height, channels, pixels, samples: 0 };
+        match made {
+            Ok((channels, pixels)) => {
+                *g = MappedBuffer { width, height, channels, pixels, samples: 0 };
+                Ok(())
+            }
+            Err(e) => {
+                *g = MappedBuffer { width: 0, height: 0, channels, pixels: Vec::new(), samples: 0 };
+                Err(e)
+            }
+        }
     }
 
     /// A copy of the current pixels with their dimensions.
@@ -1236,7 +1260,7 @@ pub(crate) mod tests {
         b.set_holds_ints(true);
         b.set_clear(&[-1.0]);
         assert_eq!((b.shape(), ints(&b)), ((2, 1, 1), vec![-1, -1]));
-        b.resize(3, 1, 4);
+        b.resize(3, 1, 4).unwrap();
         assert_eq!((b.shape(), ints(&b)), ((3, 1, 1), vec![-1, -1, -1]));
         assert!(!b.published());
         b.publish(3, 1, 1, vec![f32::from_bits(7); 3], 1);
@@ -1246,7 +1270,7 @@ pub(crate) mod tests {
         assert_eq!(ints(&b), [7, 7, 7], "what a pass published stays");
         b.set_holds_ints(false);
         assert_eq!(ints(&b), [7, 7, 7]);
-        b.resize(1, 1, 4);
+        b.resize(1, 1, 4).unwrap();
         assert_eq!(b.map().pixels, [-2.0]);
     }
 
