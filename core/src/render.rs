@@ -20,6 +20,9 @@ impl std::fmt::Display for Problem {
     }
 }
 
+/// Widest and tallest image Tide renders, in pixels.
+pub const MAX_IMAGE_SIDE: u32 = 65_536;
+
 /// Which estimator renders the image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum IntegratorKind {
@@ -422,7 +425,7 @@ impl Renderer {
     /// rebuild, so an edit rebuilds only the geometry it touched).
     pub fn with_cache(scene: &SceneDesc, settings: RenderSettings, cache: Option<&crate::world::BuildCache>) -> Result<Renderer, RenderError> {
         let start = std::time::Instant::now();
-        if settings.width == 0 || settings.height == 0 || settings.width > 65_536 || settings.height > 65_536 {
+        if settings.width == 0 || settings.height == 0 || settings.width > MAX_IMAGE_SIDE || settings.height > MAX_IMAGE_SIDE {
             return Err(RenderError(format!("resolution {}×{} is not renderable", settings.width, settings.height)));
         }
         if !(settings.pixel_aspect_ratio > 0.0 && settings.pixel_aspect_ratio.is_finite()) {

@@ -8,6 +8,7 @@
 use crate::material::{Encoding, TexKey, WrapKey};
 use crate::value::{about, AttrStore, Problems};
 use glam::{DMat4, DVec3, Mat4, Vec3};
+use tide_core::render::MAX_IMAGE_SIDE;
 use tide_core::light::dome_format::DomeFormat;
 use tide_core::light::ies::IesProfile;
 use tide_core::scene::{CameraDesc, CameraFilter, ColorSpace, LightDesc, LightShape, Projection, ShadowDesc, ShapingDesc};
@@ -744,6 +745,11 @@ pub fn rendering_color_space(name: &str) -> Option<ColorSpace> {
     }
 }
 
+/// Whether `n` pixels can be an image's width or height.
+fn side_ok(n: i32) -> bool {
+    n > 0 && n as u32 <= MAX_IMAGE_SIDE
+}
+
 /// Converts a render settings prim. Products and vars are read from attributes prefixed with
 /// their paths: `products` (Paths), `<P>.productName`, `<P>.camera`, `<P>.resolution`,
 /// `<P>.orderedVars` (Paths), `<V>.sourceName`.
@@ -753,12 +759,12 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
     let mut resolution_authored = false;
     if let Some(v) = store.get("resolution") {
         match v.to_ints() {
-            Some(r) if r.len() == 2 && r[0] > 0 && r[1] > 0 => {
+            Some(r) if r.len() == 2 && side_ok(r[0]) && side_ok(r[1]) => {
                 s.width = r[0] as u32;
                 s.height = r[1] as u32;
                 resolution_authored = true;
             }
-            _ => p.add("resolution", format!("expected two positive ints; using {}x{}", s.width, s.height)),
+            _ => p.add("resolution", format!("expected two positive ints up to {MAX_IMAGE_SIDE}; using {}x{}", s.width, s.height)),
         }
     }
     let policy = store.token_or("aspectRatioConformPolicy", &["expandAperture", "cropAperture", "adjustApertureWidth", "adjustApertureHeight", "adjustPixelAspectRatio"], "expandAperture", p);
@@ -867,7 +873,7 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
         products.push(RenderProductDesc {
             product_name: get("productName").and_then(|v| v.as_str()).unwrap_or("").to_string(),
             camera: get("camera").and_then(|v| v.as_str()).map(String::from),
-            resolution: get("resolution").and_then(|v| v.to_ints()).filter(|r| r.len() == 2 && r[0] > 0 && r[1] > 0).map(|r| [r[0] as u32, r[1] as u32]),
+            resolution: get("resolution").and_then(|v| v.to_ints()).filter(|r| r.len() == 2 && side_ok(r[0]) && side_ok(r[1])).map(|r| [r[0] as u32, r[1] as u32]),
             vars,
             path: prod,
         });
@@ -1180,6 +1186,31 @@ mod tests {
             assert_eq!((s.settings.spp, s.settings.time_budget_s), (spp, kept_budget));
             assert_eq!(p.list.iter().map(|q| q.attribute.as_str()).collect::<Vec<_>>(), named, "{:?}", p.list);
         }
+    }
+
+    // A resolution no image can have (over 65536 pixels a side, or not positive) is reported
+    // on the settings and replaced by the default; a product's is ignored (its settings' rule).
+    #[test]
+    fn a_resolution_over_the_largest_image_is_replaced() {
+        for bad in [vec![65_537, 100], vec![100, 1 << 20], vec![0, 10], vec![-4, 10]] {
+            let mut p = Problems::new("/Render/S");
+            let s = convert_settings(
+                &st(&[
+                    ("resolution", Value::Ints(bad.clone())),
+                    ("products", Value::Paths(vec!["/Render/P".into()])),
+                    ("/Render/P.resolution", Value::Ints(bad.clone())),
+                ]),
+                &mut p,
+            );
+            let d = RenderSettings::default();
+            assert_eq!((s.settings.width, s.settings.height, s.resolution_authored), (d.width, d.height, false), "{bad:?}");
+            assert_eq!(s.products[0].resolution, None, "{bad:?}");
+            assert_eq!(p.list.len(), 1, "{:?}", p.list);
+            assert!(p.list[0].attribute == "resolution" && p.list[0].message.contains("65536"), "{:?}", p.list);
+        }
+        let mut p = Problems::new("/Render/S");
+        let s = convert_settings(&st(&[("resolution", Value::Ints(vec![65_536, 1]))]), &mut p);
+        assert!(p.list.is_empty() && (s.settings.width, s.settings.height) == (65_536, 1));
     }
 
     #[test]

@@ -246,3 +246,20 @@ def test_bad_values_edited_in_and_out_leave_the_first_image(renderer, seed):
     for aov in first:
         assert np.array_equal(first[aov], last[aov], equal_nan=True), \
             "seed %d, %s: %s differs after %s was undone" % (seed, os.path.basename(base), aov, "; ".join(done))
+
+
+@pytest.mark.parametrize("resolution", [(100000, 100000), (0, 0), (65537, 10)])
+def test_a_resolution_no_image_can_have_is_replaced_by_the_default(renderer, tmp_path, resolution):
+    import OpenEXR
+    stage = open_base(os.path.join(DATA, "every_prim.usda"))
+    stage.GetAttributeAtPath("/Render/Settings.resolution").Set(Gf.Vec2i(*resolution))
+    linked_assets(str(tmp_path))
+    where, out = str(tmp_path / "mutated.usda"), str(tmp_path / "out.exr")
+    stage.GetRootLayer().Export(where)
+    rc, text = render(where, out, str(tmp_path))
+    check_run(rc, text, out, "resolution %s" % (resolution,))
+    assert "tide: problem: /Render/Settings: resolution: resolution %dx%d is " % resolution in text
+    assert "using 1920x1080" in text
+    with OpenEXR.File(out) as f:
+        (x0, y0), (x1, y1) = f.header()["dataWindow"]
+    assert (x1 - x0 + 1, y1 - y0 + 1) == (16, 9)      # --width 16 at the default's aspect

@@ -91,6 +91,9 @@ LIGHT_SPECIFIC = {
     "cylinderLight": {"inputs:radius": 0.5, "inputs:length": 1.0, "treatAsLine": False},
 }
 # UsdRenderSettingsBase attributes (besides the camera) a product may override.
+# widest and tallest image the core renders (tide_core::render::MAX_IMAGE_SIDE)
+MAX_IMAGE_SIDE = 65536
+
 BASE_ATTRS = ("resolution", "pixelAspectRatio", "aspectRatioConformPolicy", "dataWindowNDC",
               "disableMotionBlur", "disableDepthOfField")
 # UsdLuxShapingAPI and UsdLuxShadowAPI: sent where the prim has them (the API applied, or
@@ -1327,6 +1330,10 @@ class Reader:
         if w <= 0 or h <= 0:
             self.problem(spath, "resolution", "resolution %dx%d is not positive; using 1920x1080"
                          % (w, h))
+            w, h = 1920, 1080
+        elif w > MAX_IMAGE_SIDE or h > MAX_IMAGE_SIDE:
+            self.problem(spath, "resolution", "resolution %dx%d is over %d pixels a side; using "
+                         "1920x1080" % (w, h, MAX_IMAGE_SIDE))
             w, h = 1920, 1080
         if o.width:
             h = max(1, int(round(h * o.width / float(w))))
