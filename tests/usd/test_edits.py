@@ -93,6 +93,34 @@ def test_deleting_or_deactivating_a_material_or_its_shader_reaches_the_delegate(
         reader.close()
 
 
+def test_a_material_taken_away_and_brought_back_is_sent_again(stage, delegate):
+    # deactivated, removed (its layer content then restored, as an undo does) or both: once it
+    # is back, the delegate holds it again as first sent, for the prims still bound to it
+    for edit in ("deactivate", "restore layer"):
+        stage.RemovePrim("/Looks")
+        stage.RemovePrim("/World")
+        _scene(stage)
+        reader, _ = load(stage, delegate)
+        first = dict(delegate.values["/Looks/Red"])
+        saved = Sdf.Layer.CreateAnonymous(".usda")
+        saved.TransferContent(stage.GetRootLayer())
+        if edit == "deactivate":
+            stage.GetPrimAtPath("/Looks/Red").SetActive(False)
+        else:
+            stage.RemovePrim("/Looks")
+        reader.update()
+        assert "/Looks/Red" not in delegate.prims, edit
+        if edit == "deactivate":
+            stage.GetPrimAtPath("/Looks/Red").SetActive(True)
+        else:
+            stage.GetRootLayer().TransferContent(saved)
+        reader.update()
+        assert delegate.prims.get("/Looks/Red") == "material", edit
+        assert delegate.values["/Looks/Red"] == first, edit
+        assert delegate.value("/World/A", "material") == ("path", "/Looks/Red"), edit
+        reader.close()
+
+
 def test_a_shutter_edit_samples_every_prim_anew(stage, delegate):
     # motion blur off, then the shutter opened by a live edit: a moving prim the edit did not
     # touch gets its transform samples over the new shutter

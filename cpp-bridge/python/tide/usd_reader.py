@@ -675,6 +675,7 @@ class Reader:
         self.render_index = 0         # which of them the delegate holds now
         self.resolution = (0, 0)
         self.sample_target = 0
+        self._bound_paths = None      # see _sync
 
     # -- public ---------------------------------------------------------------------------
     def populate(self):
@@ -902,6 +903,11 @@ class Reader:
             self._skel_sources = set()
             self._depends = {}
         self._desired = desired
+        # a partial sync walks a material again when a prim the delegate holds is bound to it
+        # (one deactivated or removed and brought back: its prims outside the walk await it)
+        self._bound_paths = None if full else {
+            v[1] for st in self._sent.values() if st.kind == "rprim"
+            for _, v in st.values.get("material", ()) if v and v[0] == "path"}
         self._skinning = skel.Skinning(self.stage, self.problem)
         placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None),
                   getattr(self, "_binding_purposes", None), getattr(self, "_purposes", None),
@@ -1063,7 +1069,8 @@ class Reader:
         """Reads one prim of the walk (`it` prunes what it need not enter)."""
         type_name = prim.GetTypeName()
         if prim.IsA(UsdShade.Material):
-            if str(prim.GetPath()) in self._sent:
+            path = str(prim.GetPath())
+            if path in self._sent or (self._bound_paths is not None and path in self._bound_paths):
                 self._eval_material(prim)
             it.PruneChildren()
             return
