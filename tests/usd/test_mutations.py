@@ -220,11 +220,31 @@ def test_an_absurdly_dense_fog_renders(renderer, tmp_path):
     check_run(rc, text, out, "dense fog")
 
 
+def restructure(stage, rng, count):
+    """Removes, deactivates, retypes or hides `count` prims of `stage`; returns what it did."""
+    done = []
+    for _ in range(count):
+        p = rng.choice([p for p in stage.TraverseAll()])
+        kind = rng.choice(["remove", "deactivate", "retype", "hide"])
+        if kind == "remove":
+            stage.RemovePrim(p.GetPath())
+        elif kind == "deactivate":
+            p.SetActive(False)
+        elif kind == "retype":
+            p.SetTypeName(rng.choice(["Mesh", "Sphere", "Points", "Xform", "Scope", "Camera",
+                                      "DistantLight", "Material", "Volume"]))
+        else:
+            p.CreateAttribute("visibility", Sdf.ValueTypeNames.Token).Set("invisible")
+        done.append("%s %s" % (p.GetPath(), kind))
+    return done
+
+
 # The viewer's path: bad values arrive as edits to a stage being rendered (Reader.update(),
-# the delegate re-syncs the prims concerned and restarts the pass), and are then taken back.
-# Every render converges, and once the edits are undone the image is the first one bit for
-# bit: nothing of the bad values stays behind in the delegate or the core.
-@pytest.mark.parametrize("seed", range(12))
+# the delegate re-syncs the prims concerned and restarts the pass), and are then taken back,
+# one by one or (after prims were also removed, deactivated, retyped or hidden) by restoring
+# the layer whole. Every render converges, and once the edits are undone the image is the
+# first one bit for bit: nothing of them stays behind in the reader, the delegate or the core.
+@pytest.mark.parametrize("seed", range(40))
 def test_bad_values_edited_in_and_out_leave_the_first_image(renderer, seed):
     from tide import usd_reader
     rng = random.Random(1000 + seed)
@@ -235,11 +255,21 @@ def test_bad_values_edited_in_and_out_leave_the_first_image(renderer, seed):
     reader.load()
     rp = reader.render_pass()
     first = converged_images(reader, d, rp, 120)
+    saved = Sdf.Layer.CreateAnonymous(".usda")
+    saved.TransferContent(stage.GetRootLayer())
     done, undo = mutate(stage, rng, rng.choice([1, 2, 3, 4, 6]))
     reader.update()
     converged_images(reader, d, rp, 120)
-    for u in undo:
-        u()
+    if seed % 2:
+        # the edits undone one by one
+        for u in undo:
+            u()
+    else:
+        # prims removed, deactivated, retyped or hidden too, then the layer restored whole
+        done += restructure(stage, rng, rng.choice([1, 2]))
+        reader.update()
+        converged_images(reader, d, rp, 120)
+        stage.GetRootLayer().TransferContent(saved)
     reader.update()
     last = converged_images(reader, d, rp, 120)
     reader.close()
