@@ -31,6 +31,26 @@ RenderParam::RenderParam() : _delegate(rs::new_delegate()), _textures(new Textur
 
 RenderParam::~RenderParam() = default;
 
+void RenderParam::AddBuffer(const std::string& id, RenderBuffer* buffer) {
+    std::lock_guard<std::mutex> lock(_buffersMutex);
+    _buffers[id] = buffer;
+}
+
+void RenderParam::RemoveBuffer(const std::string& id, const RenderBuffer* buffer) {
+    std::lock_guard<std::mutex> lock(_buffersMutex);
+    auto it = _buffers.find(id);
+    // a buffer made again under the same id before the old one went keeps its entry
+    if (it != _buffers.end() && it->second == buffer) _buffers.erase(it);
+}
+
+void RenderParam::SetBuffersConverged(const std::vector<std::string>& ids, bool converged) {
+    std::lock_guard<std::mutex> lock(_buffersMutex);
+    for (const auto& id : ids) {
+        auto it = _buffers.find(id);
+        if (it != _buffers.end()) it->second->SetConverged(converged);
+    }
+}
+
 bool RenderParam::Forward(const std::string& path, const std::string& key, const TimedValue& tv) {
     const Value& v = tv.value;
     const bool t = tv.hasTime;
@@ -250,9 +270,13 @@ static const char* FormatName(Format f) {
     return "invalid";
 }
 
-RenderBuffer::RenderBuffer(const std::string& id, RenderParam* param) : Bprim(id, "renderBuffer", param) {}
+RenderBuffer::RenderBuffer(const std::string& id, RenderParam* param) : Bprim(id, "renderBuffer", param) {
+    if (_param) _param->AddBuffer(_id, this);
+}
 
-RenderBuffer::~RenderBuffer() = default;
+RenderBuffer::~RenderBuffer() {
+    if (_param) _param->RemoveBuffer(_id, this);
+}
 
 void RenderBuffer::Sync(SceneSource& source, DirtyBits* dirtyBits) {
     if (!dirtyBits || *dirtyBits == ChangeTracker::Clean) return;

@@ -235,14 +235,15 @@ RenderPass::~RenderPass() = default;
 
 bool RenderPass::Execute(const RenderPassState& state, std::string* error) {
     rust::Vec<rs::AovBinding> bindings;
-    _buffers.clear();
+    _bufferIds.clear();
     for (const auto& b : state.aovBindings) {
         rust::Vec<double> clear;
         for (double v : b.clearValue) clear.push_back(v);
         bindings.push_back(rs::AovBinding{rust::String(b.aovName), rust::String(b.renderBufferId), std::move(clear)});
         if (b.renderBuffer) {
+            // live now (the caller's binding); later only through the RenderParam's registry
             b.renderBuffer->SetConverged(false);
-            _buffers.push_back(b.renderBuffer);
+            _bufferIds.push_back(b.renderBuffer->GetId());
         }
     }
     rust::Vec<rust::String> tags;
@@ -264,7 +265,7 @@ bool RenderPass::IsConverged() const {
     } catch (const std::exception&) {
         return false;
     }
-    for (RenderBuffer* b : _buffers) b->SetConverged(converged);
+    _param->SetBuffersConverged(_bufferIds, converged);
     return converged;
 }
 

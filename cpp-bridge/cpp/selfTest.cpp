@@ -2,6 +2,7 @@
 //! order, Rust errors becoming problems, render buffer allocation, an OpenImageIO-written
 //! float texture read back exactly through the TextureCache into the delegate.
 #include "tide/selfTest.h"
+#include "tide/renderBuffer.h"
 #include "tide/renderDelegate.h"
 #include "tide/renderIndex.h"
 #include "tide/renderParam.h"
@@ -122,6 +123,34 @@ void Textures(Checker& c, const std::string& dir) {
             "missing texture names prim and attribute");
 }
 
+// A pass marks the buffers it renders converged through the render param's registry of live
+// buffers: one destroyed while the pass still holds its binding is not touched (the pass used
+// to keep the pointer and write to freed memory), and one made again under the same id is the
+// one marked.
+void BuffersRemovedUnderAPass(Checker& c) {
+    MemorySceneSource source;
+    RenderDelegate delegate;
+    RenderIndex index(&delegate, &source);
+    RenderParam& param = *delegate.GetRenderParam();
+    index.InsertPrim("renderBuffer", "/B");
+    RenderBuffer* first = index.GetRenderBuffer("/B");
+    param.SetBuffersConverged({"/B"}, true);
+    c.Check(first && first->IsConverged(), "a live buffer is marked through the registry");
+    auto pass = delegate.CreateRenderPass();
+    RenderPassState state{"/NoCamera", {{"color", "/B", first, {}}}, ""};
+    std::string error;
+    pass->Execute(state, &error);
+    c.Check(first && !first->IsConverged(), "execute clears its buffers' convergence");
+    index.RemovePrim("/B");
+    pass->IsConverged();
+    index.InsertPrim("renderBuffer", "/B");
+    RenderBuffer* second = index.GetRenderBuffer("/B");
+    param.SetBuffersConverged({"/B"}, true);
+    c.Check(second && second->IsConverged(), "a buffer made again under the id is the one marked");
+    index.RemovePrim("/B");
+    pass->IsConverged();
+}
+
 }  // namespace
 
 rust::String RunSelfTests(rust::Str scratch_dir) {
@@ -129,6 +158,7 @@ rust::String RunSelfTests(rust::Str scratch_dir) {
     try {
         Lifetimes(c);
         ErrorsBecomeProblems(c);
+        BuffersRemovedUnderAPass(c);
         Textures(c, std::string(scratch_dir));
     } catch (const std::exception& e) {
         c.out << "exception escaped: " << e.what() << "\n";

@@ -8,6 +8,7 @@
 #include "rust/cxx.h"
 #include "tide-bridge/src/lib.rs.h"
 
+#include <map>
 #include <memory>
 #include <mutex>
 #include <set>
@@ -15,6 +16,7 @@
 #include <vector>
 
 namespace tide {
+class RenderBuffer;
 class TextureCache;
 
 class RenderParam {
@@ -40,12 +42,22 @@ public:
     /// The prims synced since the last call.
     std::set<std::string> TakeSynced();
 
+    /// The live render buffers by id: a buffer registers itself while it exists, and a pass
+    /// marks the buffers it renders converged through here, so a buffer destroyed while a
+    /// pass still holds its binding (an edit removed it before the next Execute) is never
+    /// touched.
+    void AddBuffer(const std::string& id, RenderBuffer* buffer);
+    void RemoveBuffer(const std::string& id, const RenderBuffer* buffer);
+    void SetBuffersConverged(const std::vector<std::string>& ids, bool converged);
+
 private:
     rust::Box<rs::Delegate> _delegate;
     std::unique_ptr<TextureCache> _textures;
     std::mutex _problemsMutex;
     std::vector<Problem> _problems;
     std::set<std::string> _synced;
+    std::mutex _buffersMutex;
+    std::map<std::string, RenderBuffer*> _buffers;
 };
 
 }  // namespace tide

@@ -66,7 +66,9 @@ public:
 private:
     RenderParam* _param;
     rust::Box<rs::Pass> _pass;
-    std::vector<RenderBuffer*> _buffers;
+    /// Ids of the buffers the last Execute bound (marked converged through the RenderParam,
+    /// which knows whether they still exist).
+    std::vector<std::string> _bufferIds;
 };
 
 }  // namespace tide
