@@ -147,6 +147,25 @@ pub struct MappedBuffer {
     pub samples: u32,
 }
 
+/// `len` zeros from the allocator's zeroed memory (as `vec![0.0; len]`, whose pages the system
+/// supplies only when written), or None where the allocation is refused (where `vec!` aborts).
+fn zeroed_floats(len: usize) -> Option<Vec<f32>> {
+    if len == 0 {
+        return Some(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<f32>(len).ok()?;
+    // SAFETY: the layout is non-empty; a non-null pointer from `alloc_zeroed` with it is a
+    // valid, zero-initialised (0.0f32 is all-zero bits) allocation of `len` f32s that the Vec
+    // owns and frees with the same layout.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout) as *mut f32;
+        if ptr.is_null() {
+            return None;
+        }
+        Some(Vec::from_raw_parts(ptr, len, len))
+    }
+}
+
 /// A render buffer (bprim): shared, readable from any thread.
 #[derive(Clone, Debug, Default)]
 pub struct RenderBuffer {
@@ -322,14 +341,14 @@ impl RenderBuffer {
         let n = width as usize * height as usize;
         let too_big = || format!("not enough memory for a {width}×{height} buffer of {per} channels ({} MiB)", (n as u128 * per as u128 * 4) >> 20);
         let len = n.checked_mul(per).ok_or_else(too_big)?;
+        if one.is_empty() {
+            // zeroed by the allocator: pages never written (a buffer never read) cost nothing
+            return zeroed_floats(len).map(|pixels| (per as u32, pixels)).ok_or_else(too_big);
+        }
         let mut pixels = Vec::new();
         pixels.try_reserve_exact(len).map_err(|_| too_big())?;
-        if one.is_empty() {
-            pixels.resize(len, 0.0);
-        } else {
-            for _ in 0..n {
-                pixels.extend_from_slice(&one);
-            }
+        for _ in 0..n {
+            pixels.extend_from_slice(&one);
         }
         Ok((per as u32, pixels))
     }
