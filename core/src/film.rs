@@ -227,15 +227,9 @@ impl Film {
     pub fn try_new(width: u32, height: u32, window: [u32; 4], aovs: AovSet) -> Option<Film> {
         let layout = FilmLayout::new(aovs);
         let n = width as usize * height as usize;
-        fn zeros<T: Clone>(len: usize, v: T) -> Option<Vec<T>> {
-            let mut out = Vec::new();
-            out.try_reserve_exact(len).ok()?;
-            out.resize(len, v);
-            Some(out)
-        }
-        let sums = zeros(n.checked_mul(layout.acc)?, 0.0f32)?;
-        let count = zeros(n, 0u32)?;
-        let first = zeros(if layout.first { n } else { 0 }, NO_FIRST_HIT)?;
+        let sums = try_filled(n.checked_mul(layout.acc)?, 0.0f32)?;
+        let count = try_filled(n, 0u32)?;
+        let first = try_filled(if layout.first { n } else { 0 }, NO_FIRST_HIT)?;
         Some(Film { width, height, sums, n: count, first, spp: 0, scale: 1.0, window, display: [0, 0, width, height], layout, guiding: None, light: Vec::new(), light_spp: 0 })
     }
 
@@ -541,6 +535,36 @@ impl exr::image::write::samples::SamplesWriter for FilmChannel<'_> {
             SampleFormat::F16 => line.write_samples(|i| exr::prelude::f16::from_f32(value(i))),
         };
         written.expect("a line's bytes are sized for its samples");
+    }
+}
+
+
+/// `len` copies of `v`, or None where the allocation is refused (where `vec!` aborts): for
+/// image-sized buffers, whose size comes from the scene.
+pub fn try_filled<T: Clone>(len: usize, v: T) -> Option<Vec<T>> {
+    let mut out = Vec::new();
+    out.try_reserve_exact(len).ok()?;
+    out.resize(len, v);
+    Some(out)
+}
+
+/// `len` zeros from the allocator's zeroed memory (as `vec![0.0; len]`, whose pages the system
+/// supplies only when written: a buffer never read costs nothing), or None where the
+/// allocation is refused.
+pub fn try_zeroed_floats(len: usize) -> Option<Vec<f32>> {
+    if len == 0 {
+        return Some(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<f32>(len).ok()?;
+    // SAFETY: the layout is non-empty; a non-null pointer from `alloc_zeroed` with it is a
+    // valid, zero-initialised (0.0f32 is all-zero bits) allocation of `len` f32s that the Vec
+    // owns and frees with the same layout.
+    unsafe {
+        let ptr = std::alloc::alloc_zeroed(layout) as *mut f32;
+        if ptr.is_null() {
+            return None;
+        }
+        Some(Vec::from_raw_parts(ptr, len, len))
     }
 }
 

@@ -19,6 +19,7 @@ use std::sync::{Arc, Condvar, Mutex, RwLock};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 use tide_core::accel::BuildStats;
+use tide_core::film::{try_filled, try_zeroed_floats};
 use tide_core::world::BuildCache;
 use tide_core::{Aov, PauseGate, Problem, RenderError, RenderSettings, Renderer, SampleFormat, SceneDesc};
 
@@ -145,25 +146,6 @@ pub struct MappedBuffer {
     pub pixels: Vec<f32>,
     /// Samples per pixel the pixels hold.
     pub samples: u32,
-}
-
-/// `len` zeros from the allocator's zeroed memory (as `vec![0.0; len]`, whose pages the system
-/// supplies only when written), or None where the allocation is refused (where `vec!` aborts).
-fn zeroed_floats(len: usize) -> Option<Vec<f32>> {
-    if len == 0 {
-        return Some(Vec::new());
-    }
-    let layout = std::alloc::Layout::array::<f32>(len).ok()?;
-    // SAFETY: the layout is non-empty; a non-null pointer from `alloc_zeroed` with it is a
-    // valid, zero-initialised (0.0f32 is all-zero bits) allocation of `len` f32s that the Vec
-    // owns and frees with the same layout.
-    unsafe {
-        let ptr = std::alloc::alloc_zeroed(layout) as *mut f32;
-        if ptr.is_null() {
-            return None;
-        }
-        Some(Vec::from_raw_parts(ptr, len, len))
-    }
 }
 
 /// A render buffer (bprim): shared, readable from any thread.
@@ -343,12 +325,11 @@ impl RenderBuffer {
         let len = n.checked_mul(per).ok_or_else(too_big)?;
         if one.is_empty() {
             // zeroed by the allocator: pages never written (a buffer never read) cost nothing
-            return zeroed_floats(len).map(|pixels| (per as u32, pixels)).ok_or_else(too_big);
+            return try_zeroed_floats(len).map(|pixels| (per as u32, pixels)).ok_or_else(too_big);
         }
-        let mut pixels = Vec::new();
-        pixels.try_reserve_exact(len).map_err(|_| too_big())?;
-        for _ in 0..n {
-            pixels.extend_from_slice(&one);
+        let mut pixels = try_filled(len, 0.0f32).ok_or_else(too_big)?;
+        for px in pixels.chunks_exact_mut(per) {
+            px.copy_from_slice(&one);
         }
         Ok((per as u32, pixels))
     }
