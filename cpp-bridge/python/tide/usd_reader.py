@@ -675,7 +675,8 @@ class Reader:
         self.render_index = 0         # which of them the delegate holds now
         self.resolution = (0, 0)
         self.sample_target = 0
-        self._bound_paths = None      # see _sync
+        self._partial = False         # whether the sync under way is a partial one
+        self._bound_paths = None      # see _bound_materials
 
     # -- public ---------------------------------------------------------------------------
     def populate(self):
@@ -903,11 +904,8 @@ class Reader:
             self._skel_sources = set()
             self._depends = {}
         self._desired = desired
-        # a partial sync walks a material again when a prim the delegate holds is bound to it
-        # (one deactivated or removed and brought back: its prims outside the walk await it)
-        self._bound_paths = None if full else {
-            v[1] for st in self._sent.values() if st.kind == "rprim"
-            for _, v in st.values.get("material", ()) if v and v[0] == "path"}
+        self._partial = not full
+        self._bound_paths = None
         self._skinning = skel.Skinning(self.stage, self.problem)
         placed = (getattr(self, "_motion", None), getattr(self, "_shutter", None),
                   getattr(self, "_binding_purposes", None), getattr(self, "_purposes", None),
@@ -982,6 +980,16 @@ class Reader:
                 new.set(base + "expansionRule", ("token", "explicitOnly"))
             if p in desired or new.values != st.values:
                 desired[p] = new
+
+    def _bound_materials(self):
+        """Paths of the materials prims the delegate holds are bound to, found once per sync
+        when a partial one walks a material the delegate does not hold: one deactivated or
+        removed and brought back, whose prims outside the walk await it."""
+        if self._bound_paths is None:
+            self._bound_paths = {
+                v[1] for st in self._sent.values() if st.kind == "rprim"
+                for _, v in st.values.get("material", ()) if v and v[0] == "path"}
+        return self._bound_paths
 
     def _material_exists(self, path):
         prim = self.stage.GetPrimAtPath(path)
@@ -1070,7 +1078,7 @@ class Reader:
         type_name = prim.GetTypeName()
         if prim.IsA(UsdShade.Material):
             path = str(prim.GetPath())
-            if path in self._sent or (self._bound_paths is not None and path in self._bound_paths):
+            if path in self._sent or (self._partial and path in self._bound_materials()):
                 self._eval_material(prim)
             it.PruneChildren()
             return
