@@ -72,11 +72,12 @@ pub fn split(points: &SpheresDesc, voxel: f32, shell: f32) -> Result<DropletSpli
     let hi = points.centers.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &c| a.max(c));
     // one empty layer of voxels on every side, so that the cloud's boundary is inside the grid;
     // counted in f64 first: a far-flung droplet must not wrap the integer sizes
-    let span = ((hi - lo) / voxel).floor().as_dvec3() + glam::DVec3::splat(3.0);
+    let cells = ((hi - lo) / voxel).floor();
+    let span = cells.as_dvec3() + glam::DVec3::splat(3.0);
     if !(span.x * span.y * span.z <= MAX_VOXELS as f64) {
         return Err(format!("a {}×{}×{} grid of {voxel} m voxels is too large (at most {MAX_VOXELS} voxels)", span.x, span.y, span.z));
     }
-    let inner = ((hi - lo) / voxel).floor().as_uvec3() + glam::UVec3::ONE;
+    let inner = cells.as_uvec3() + glam::UVec3::ONE;
     let dims = [inner.x as usize + 2, inner.y as usize + 2, inner.z as usize + 2];
     let total = dims[0] * dims[1] * dims[2];
     let index = |c: Vec3| -> usize {

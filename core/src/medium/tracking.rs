@@ -39,7 +39,7 @@ use crate::spectrum::{SampledSpectrum, SampledWavelengths, N_SPECTRUM};
 /// [`ROULETTE_BELOW`], the estimate ends (0) with probability [`ROULETTE_END`] and is otherwise
 /// divided by 1 − [`ROULETTE_END`]. The expectation is unchanged; in a dense medium a shadow
 /// ray then takes a few points instead of walking on until its estimate underflows (or, at a
-/// density of 10⁹ m⁻¹, until [`MAX_TRACKING_STEPS`]). `u` is drawn only when it is needed.
+/// density of 10⁹ m⁻¹, until [`MAX_TRACKING_STEPS`]). A number is drawn only below the threshold.
 pub const ROULETTE_BELOW: f32 = 0.05;
 pub const ROULETTE_END: f32 = 0.75;
 
