@@ -256,14 +256,16 @@ def test_unwritable_output_exit_1_no_partial_file(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["scene.usda"]
 
 
-def test_no_camera_exit_1(tmp_path):
+def test_no_camera_renders_a_default_view(tmp_path):
+    # as usdrecord: a default camera framing the stage (test_default_view.py checks its view)
     path = str(tmp_path / "nocam.usda")
     s = Usd.Stage.CreateNew(path)
     UsdGeom.Sphere.Define(s, "/Ball")
     s.GetRootLayer().Save()
-    out = run(["render", path], tmp_path)
-    assert out.returncode == 1 and "camera" in out.stderr
-    assert os.listdir(tmp_path) == ["nocam.usda"]
+    out = run(["render", path, "--width", "16", "--spp", "1"], tmp_path)
+    assert out.returncode == 0, out.stderr
+    assert out.stderr.count("problem: /Render/__TideSettings: camera: the stage has no camera;") == 1
+    assert sorted(os.listdir(tmp_path)) == ["nocam.exr", "nocam.png", "nocam.usda"]
 
 
 def test_missing_module_exit_1(tmp_path):

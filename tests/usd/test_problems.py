@@ -6,6 +6,7 @@ import pytest
 from pxr import Sdf, UsdGeom, UsdLux, UsdShade
 
 from conftest import bind, camera, lambert_material, load, preview_material, render, settings
+from tide import usd_reader
 
 
 def _good(stage):
@@ -351,12 +352,12 @@ def test_unknown_gprim_type_is_reported(stage, delegate, monkeypatch):
 
 
 def test_no_camera(stage, delegate):
+    # reported, and seen through a default camera (test_default_view.py)
     UsdGeom.Sphere.Define(stage, "/S")
     reader, problems = load(stage, delegate)
-    assert reader.camera_path is None
-    assert any(p.attribute == "camera" for p in problems)
-    with pytest.raises(RuntimeError):
-        reader.render_pass()
+    assert reader.camera_path == usd_reader.DEFAULT_CAMERA_PATH
+    assert [p.attribute for p in problems] == ["camera"]
+    reader.render_pass()
 
 
 def test_bad_camera_override(stage, delegate):

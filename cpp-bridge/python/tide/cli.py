@@ -265,8 +265,6 @@ def cmd_render(args):
                                     adaptive_threshold=args.adaptive_threshold,
                                     single_image=bool(args.output), files_only=True)
     _print_problems(problems)
-    if reader.camera_path is None:
-        raise RuntimeError("nothing to render: the stage has no camera")
     for prod in reader.products:
         name = args.output or prod.name
         parent = os.path.dirname(os.path.abspath(name)) if name else "."
@@ -282,8 +280,6 @@ def cmd_render(args):
         if index > 0:
             t0 = time.monotonic()
             _print_problems(reader.select_render(index))
-            if reader.camera_path is None:
-                raise RuntimeError("nothing to render: render %d has no camera" % (index + 1))
         if count > 1:
             _say("render %d of %d: %s (%dx%d from %s)" % (
                 index + 1, count, ", ".join(p.path for p in reader.renders[index]),

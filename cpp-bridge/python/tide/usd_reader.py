@@ -215,6 +215,8 @@ def _render_context(output):
 
 IDENTITY = tuple(float(x) for x in (1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1))
 SETTINGS_FALLBACK_PATH = "/Render/__TideSettings"
+# the camera a stage without one is seen through (Reader._default_camera)
+DEFAULT_CAMERA_PATH = "/Render/__TideDefaultCamera"
 BUFFER_ROOT = "/Render/__TideBuffers"
 
 # vars: [(sourceName, buffer path)]; types: {sourceName: the RenderVar's authored dataType}
@@ -769,8 +771,6 @@ class Reader:
 
     def render_pass(self):
         """Creates a render pass and starts it on the selected camera and buffers."""
-        if self.camera_path is None:
-            raise RuntimeError("the stage has no camera to render from")
         rp = self.delegate.create_render_pass()
         # the camera as the settings sprim names it (the reader sends the one it resolved):
         # an edit that retargets the settings' camera then reaches the running pass
@@ -939,7 +939,7 @@ class Reader:
             st = self._sent[path]
             if path in desired:
                 continue
-            if any(Sdf.Path(st.source).HasPrefix(r) for r in roots):
+            if path == DEFAULT_CAMERA_PATH or any(Sdf.Path(st.source).HasPrefix(r) for r in roots):
                 if st.type == "material" and not full and self._material_exists(path):
                     # still bound by prims outside the walked subtrees
                     continue
@@ -1445,11 +1445,13 @@ class Reader:
                 if prim.IsA(UsdGeom.Camera):
                     cam = prim
                     break
-        self.camera_path = str(cam.GetPath()) if cam else None
         if cam is None:
-            self.problem(spath, "camera", "the stage has no camera")
+            self.camera_path = DEFAULT_CAMERA_PATH
+            self._default_camera(spath)
         else:
-            st.set("camera", ("path", self.camera_path))
+            self.camera_path = str(cam.GetPath())
+            self._default_view = None
+        st.set("camera", ("path", self.camera_path))
         self._shutter = (0.0, 0.0)
         if cam is not None:
             c = UsdGeom.Camera(cam)
@@ -3120,6 +3122,62 @@ class Reader:
                 v = 1.0
             st.set(name, ("float", float(v)))
         self._desired[path] = st
+
+    def _default_camera(self, spath):
+        """A stage without a camera is seen as usdrecord sees it: through a default camera (a
+        50 mm lens, USD's default apertures, no depth of field or motion blur) looking down -Z
+        (down +Y on a Z-up stage) at the centre of the bounds of the stage's included
+        purposes, backed off until the bounds' cross-section fits the horizontal field of view
+        and their front face is in front of it; clipped so that all of it is seen. Framed on
+        a full sync (the first, a new frame or render); an edit keeps the view."""
+        if not self._partial or getattr(self, "_default_view", None) is None:
+            self._default_view = self._frame_stage()
+        xf, near, far, bounds = self._default_view
+        st = _PrimState("sprim", "camera", "/")
+        st.set("transform", _matrix(xf))
+        for name, fb in CAMERA_ATTRS.items():
+            if name in ALLOWED_TOKENS or name == "tide:camera:filter":
+                st.set(name, ("token", fb))
+            elif name == "clippingRange":
+                st.set(name, _floats([near, far], 2))
+            elif not isinstance(fb, tuple):
+                st.set(name, ("float", float(fb)))
+        self._desired[DEFAULT_CAMERA_PATH] = st
+        self.problem(spath, "camera", "the stage has no camera; rendering a default view (%s) "
+                     "that frames %s" % (DEFAULT_CAMERA_PATH, bounds))
+
+    def _frame_stage(self):
+        """(camera-to-world matrix, near, far, what it frames) of the default view (see
+        _default_camera)."""
+        purposes = [p for p in ("default", "render", "proxy", "guide") if p in self._purposes]
+        cache = UsdGeom.BBoxCache(self._time(0), purposes, useExtentsHint=True)
+        rng = cache.ComputeWorldBound(self.stage.GetPseudoRoot()).ComputeAlignedRange()
+        lo, hi = rng.GetMin(), rng.GetMax()
+        bounds = "the stage's bounds"
+        if rng.IsEmpty() or not all(math.isfinite(v) for v in list(lo) + list(hi)):
+            bounds = "a cube of 2 units about the origin (the stage's bounds are %s)" \
+                % ("empty" if rng.IsEmpty() else "not finite")
+            lo, hi = Gf.Vec3d(-1, -1, -1), Gf.Vec3d(1, 1, 1)
+        centre, size = (lo + hi) / 2.0, hi - lo
+        z_up = UsdGeom.GetStageUpAxis(self.stage) == UsdGeom.Tokens.z
+        # across the view (the focal plane) and along it
+        across, along = (Gf.Vec2d(size[0], size[2]), size[1]) if z_up \
+            else (Gf.Vec2d(size[0], size[1]), size[2])
+        half_fov = math.atan(0.5 * CAMERA_ATTRS["horizontalAperture"] / CAMERA_ATTRS["focalLength"])
+        front = 0.5 * across.GetLength() / math.tan(half_fov)
+        if not front > 0.0:
+            # bounds without breadth across the view (a point, a segment along it)
+            front = max(along, 1.0)
+        distance = front + 0.5 * along
+        xf = Gf.Matrix4d(1.0)
+        if z_up:
+            xf.SetRotate(Gf.Rotation(Gf.Vec3d(1, 0, 0), 90.0))
+            xf.SetTranslateOnly(centre + Gf.Vec3d(0, -distance, 0))
+        else:
+            xf.SetTranslate(centre + Gf.Vec3d(0, 0, distance))
+        near = min(CAMERA_ATTRS["clippingRange"][0], 0.5 * front)
+        far = max(CAMERA_ATTRS["clippingRange"][1], 2.0 * (distance + along))
+        return xf, near, far, bounds
 
     def _eval_camera(self, prim):
         path = str(prim.GetPath())
