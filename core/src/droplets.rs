@@ -16,7 +16,8 @@
 //! k internal reflections, weighted by Fresnel's terms — the forward lobe of refraction, the
 //! primary and secondary rainbows and the glory side of backscatter.
 //!
-//! Scene units are metres, as everywhere in Tide (voxel size and shell are given in metres).
+//! Voxel size and shell are lengths of the points' own space (the delegate turns the metres
+//! they are authored in into those, with the stage's units and the prim's scale).
 
 use crate::bsdf::fresnel_dielectric;
 use crate::scene::{GridDesc, PhaseDesc, SpheresDesc};
@@ -56,11 +57,11 @@ pub struct DropletSplit {
 }
 
 /// Splits `points` (droplet centres and radii; velocities and shape are kept for the spheres
-/// that stay) on a grid of `voxel` metres: droplets farther than `shell` metres inside the
+/// that stay) on a grid of voxels `voxel` wide: droplets farther than `shell` inside the
 /// cloud's boundary (the boundary of the voxels holding droplets) become medium.
 pub fn split(points: &SpheresDesc, voxel: f32, shell: f32) -> Result<DropletSplit, String> {
     if !(voxel > 0.0 && voxel.is_finite()) {
-        return Err(format!("voxel size {voxel} is not positive"));
+        return Err(format!("a voxel size of {voxel} in the points' space is not positive and finite"));
     }
     let shell = if shell.is_finite() { shell.max(0.0) } else { 0.0 };
     let n = points.centers.len();
@@ -75,7 +76,7 @@ pub fn split(points: &SpheresDesc, voxel: f32, shell: f32) -> Result<DropletSpli
     let cells = ((hi - lo) / voxel).floor();
     let span = cells.as_dvec3() + glam::DVec3::splat(3.0);
     if !(span.x * span.y * span.z <= MAX_VOXELS as f64) {
-        return Err(format!("a {}×{}×{} grid of {voxel} m voxels is too large (at most {MAX_VOXELS} voxels)", span.x, span.y, span.z));
+        return Err(format!("a {}×{}×{} grid is too large (at most {MAX_VOXELS} voxels)", span.x, span.y, span.z));
     }
     let inner = cells.as_uvec3() + glam::UVec3::ONE;
     let dims = [inner.x as usize + 2, inner.y as usize + 2, inner.z as usize + 2];

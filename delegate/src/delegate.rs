@@ -1123,8 +1123,16 @@ impl Delegate {
                     parts.push((GeometryRef::Spheres(scene.spheres.len() - 1), None));
                 }
                 Geometry::Points(pd) if !pd.spheres.centers.is_empty() => {
-                    // made once per shutter and shared by later assemblies
-                    let made = pd.made(t0, t1, motion, tcps, mpu);
+                    // made once per shutter and shared by later assemblies; the droplets' grid
+                    // lies in the points' space, its voxels sized in the world's metres at the
+                    // prim's scale (its first instance's, at the frame), and its coefficients
+                    // per unit of that space are per 1/scale world units
+                    let xf0 = r.instance_transforms.first().unwrap_or(DMat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
+                    let mut scale = implicit::object_scale(&xf0) as f32;
+                    if !(scale.is_finite() && scale > 0.0 && (mpu * scale).is_finite() && mpu * scale > 0.0) {
+                        scale = 1.0;
+                    }
+                    let made = pd.made(t0, t1, motion, tcps, mpu * scale);
                     match &made.droplets {
                         // droplets inside the cloud become a scattering medium; the shell stays spheres
                         Some(Ok(Some(grid))) => {
@@ -1132,7 +1140,7 @@ impl Delegate {
                                 name: format!("{path} (droplets)"),
                                 sigma_a: tide_core::scene::SpectrumDesc::Rgb([0.0; 3]),
                                 sigma_s: tide_core::scene::SpectrumDesc::Rgb([1.0; 3]),
-                                scale: 1.0,
+                                scale: 1.0 / scale,
                                 phase: tide_core::droplets::droplet_phase(),
                                 water: None,
                                 method: tide_core::scene::MediumMethod::Volumetric,
@@ -3126,6 +3134,45 @@ mod tests {
         assert_eq!(d.map_buffer("/buf").unwrap().samples, 2);
         assert!(d.write_exr(std::path::Path::new("/nonexistent/x.exr"), &[("beauty".into(), "color".into(), "color3f".into())], &[]).is_ok());
         drop(d);
+    }
+
+    /// A droplet cloud as a medium, its points scaled by `unit` and placed by a transform that
+    /// scales by 1/`unit`: the same cloud in the world, authored in other units.
+    fn droplet_volume(unit: f32) -> tide_core::scene::VolumeDesc {
+        let mut d = Delegate::new();
+        d.create_prim("points", "/Spray");
+        // 27 touching droplets of 6 mm radius 1 cm apart: the middle one becomes medium
+        let pts: Vec<f32> = (0..27).flat_map(|i| [(i % 3) as f32, (i / 3 % 3) as f32, (i / 9) as f32]).map(|x| x * 0.01 * unit).collect();
+        d.set_attribute("/Spray", "points", floats(&pts, 3), None);
+        d.set_primvar("/Spray", "widths", "constant", vec![0.012 * unit], 1, None);
+        d.set_attribute("/Spray", "tide:droplets:asVolume", Value::Bool(true), None);
+        d.set_attribute("/Spray", "tide:droplets:voxelSize", Value::Float(0.005), None);
+        let s = 1.0 / unit as f64;
+        d.set_attribute("/Spray", "transform", Value::Matrix([s, 0., 0., 0., 0., s, 0., 0., 0., 0., s, 0., 0.3, 0., 0., 1.]), None);
+        let problems = d.commit_resources();
+        assert!(problems.is_empty(), "{problems:?}");
+        assert_eq!(d.scene().volumes.len(), 1, "the droplets became a medium");
+        let mut v = d.scene().volumes[0].clone();
+        // σs per world unit: the grid's values times the medium's scale
+        let k = d.scene().media[v.medium].scale;
+        let dense: Vec<f32> = v.density.values.to_dense().iter().map(|x| x * k).collect();
+        v.density = tide_core::scene::GridDesc::dense(v.density.name.clone(), v.density.values.dims().map(|n| n as u32), &dense, v.density.local_to_world).unwrap();
+        v
+    }
+
+    #[test]
+    fn a_droplet_grids_voxels_are_metres_of_the_world_whatever_the_prims_scale() {
+        // the voxel size (and shell) are world lengths: authored in centimetres under a scale
+        // of 0.01, or in kilometres under 1000, the cloud makes the grid it makes in metres
+        let metres = droplet_volume(1.0);
+        for unit in [100.0, 0.001] {
+            let other = droplet_volume(unit);
+            assert_eq!(other.density.values.dims(), metres.density.values.dims(), "unit {unit}");
+            let (a, b) = (other.density.values.to_dense(), metres.density.values.to_dense());
+            assert!(b.iter().any(|&x| x > 0.0) && a.iter().zip(&b).all(|(x, y)| (x - y).abs() <= 1e-5 * y), "unit {unit}: {a:?} against {b:?}");
+            let (a, b) = (other.density.local_to_world, metres.density.local_to_world);
+            assert!(a.abs_diff_eq(b, 1e-6), "unit {unit}: {a} against {b}");
+        }
     }
 }
 

@@ -320,9 +320,10 @@ pub struct PointsMade {
 impl PointsData {
     /// The points over the shutter [t0, t1] (seconds), moving if `motion`: accelerations
     /// folded into the velocities, then the droplets split off (their voxel size and shell
-    /// in metres, of which a unit is `meters_per_unit`). Made once per shutter and shared
-    /// after; points that neither accelerate nor lose their motion nor split are the
-    /// converted ones, shared.
+    /// in metres of the world, of which a unit of the points' own space is `meters_per_unit`:
+    /// the stage's metersPerUnit times the scale of the prim's transform, see
+    /// [`object_scale`]). Made once per shutter and shared after; points that neither
+    /// accelerate nor lose their motion nor split are the converted ones, shared.
     pub fn made(&self, t0: f32, t1: f32, motion: bool, time_codes_per_second: f64, meters_per_unit: f32) -> PointsMade {
         let tcps = time_codes_per_second;
         self.made.get_or_make((t0.to_bits(), t1.to_bits(), motion, tcps.to_bits(), meters_per_unit.to_bits()), || {
@@ -363,8 +364,21 @@ impl PointsData {
         };
         match tide_core::droplets::split(&s, voxel / meters_per_unit, shell / meters_per_unit) {
             Ok(split) => PointsMade { spheres: Arc::new(split.spheres), droplets: Some(Ok(split.grid)) },
-            Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(e)) },
+            Err(e) => PointsMade { spheres: Arc::new(s), droplets: Some(Err(format!("{voxel} m voxels: {e}"))) },
         }
+    }
+}
+
+/// How much a transform enlarges lengths: the cube root of its linear part's determinant (a
+/// uniform scale's factor; for an uneven one, the factor that keeps volumes); 1 where that is
+/// not a positive finite number. What turns a world length (a droplet grid's voxel size) into
+/// one of the points' own space.
+pub fn object_scale(m: &glam::DMat4) -> f64 {
+    let s = glam::DMat3::from_mat4(*m).determinant().abs().cbrt();
+    if s.is_finite() && s > 0.0 {
+        s
+    } else {
+        1.0
     }
 }
 
