@@ -352,7 +352,7 @@ fn first_surface_aov(world: &World, cr: &crate::camera::CameraRay, lambda: &Samp
     let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: cr.time };
     let mut passed = 0.0f32;
     for _ in 0..MAX_NULL_EVENTS {
-        let hit = world.accel.intersect(&ray);
+        let hit = world.intersect_path(&ray);
         let t_hit = hit.map_or(ray.t_max, |h| h.t);
         if let Some((_, t, _, _)) = nearest_light_hit(world, &ray, t_hit, true) {
             if first {
@@ -540,7 +540,7 @@ pub fn trace_camera_sample(world: &World, sampler: &mut PixelSampler, raster: Ve
     loop {
         sampler.start_vertex(vertex);
         vertex += 1;
-        let hit = world.accel.intersect(&ray);
+        let hit = world.intersect_path(&ray);
         let t_hit = hit.map_or(ray.t_max, |h| h.t);
         // analytic area lights along the ray
         let light_hit = nearest_light_hit(world, &ray, t_hit, depth == 0);

@@ -86,13 +86,19 @@ def test_explicit_tags_replace_the_one_click_default(renderer, stage):
     assert _caustic_energy(render(renderer, stage)) > 0.0
 
 
-def _sunlit_pool(stage, cloud):
+def _sunlit_pool(stage, cloud, face_to_face=False, unit=1.0):
     """Sand (albedo 0.6) 0.1 m under flat, clear water 20 m wide (shallow: the light the
     surface's underside reflects back comes down again within the pool, not out of its sides),
     the sun straight above (3 lux on a perpendicular surface), seen from straight above; with
     `cloud`, a thin cloud of spray (TideDropletsAPI as a medium, optical depth about 0.02)
-    between the sun and the water."""
-    camera(stage, pos=(0, 6, 0), focal=50.0, aperture=(20.0, 20.0))
+    between the sun and the water. The water reaches into the sand, or with `face_to_face`
+    its bottom lies on the sand's top face. Lengths are in units of `unit` metres (the
+    stage's metersPerUnit 1/`unit`, every length times `unit`)."""
+    u = unit
+    if u != 1.0:
+        UsdGeom.SetStageMetersPerUnit(stage, 1.0 / u)
+    camera(stage, pos=(0, 6 * u, 0), focal=50.0, aperture=(20.0, 20.0))
+    UsdGeom.Camera(stage.GetPrimAtPath("/Cam")).GetClippingRangeAttr().Set(Gf.Vec2f(0.01 * u, 1e4 * u))
     UsdGeom.Xformable(stage.GetPrimAtPath("/Cam")).AddRotateXOp().Set(-90.0)
     settings(stage, res=(24, 24), samples=64, integrator="caustics", maxDepth=8)
     sun = UsdLux.DistantLight.Define(stage, "/Sun")
@@ -102,8 +108,8 @@ def _sunlit_pool(stage, cloud):
     sun.AddRotateXOp().Set(-90.0)
     floor = UsdGeom.Cube.Define(stage, "/Floor")
     floor.CreateSizeAttr(1.0)
-    floor.AddTranslateOp().Set(Gf.Vec3d(0, -0.15, 0))
-    floor.AddScaleOp().Set(Gf.Vec3f(20, 0.1, 20))
+    floor.AddTranslateOp().Set(Gf.Vec3d(0, -0.15 * u, 0))
+    floor.AddScaleOp().Set(Gf.Vec3f(20 * u, 0.1 * u, 20 * u))
     bind(floor.GetPrim(), lambert_material(stage, "/Looks/Sand", (0.6, 0.6, 0.6)))
     mat = UsdShade.Material.Define(stage, "/Looks/Water")
     sh = UsdShade.Shader.Define(stage, "/Looks/Water/S")
@@ -111,8 +117,12 @@ def _sunlit_pool(stage, cloud):
     mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), "surface")
     water = UsdGeom.Cube.Define(stage, "/Water")
     water.CreateSizeAttr(1.0)
-    water.AddTranslateOp().Set(Gf.Vec3d(0, -0.1, 0))
-    water.AddScaleOp().Set(Gf.Vec3f(20, 0.2, 20))
+    if face_to_face:
+        water.AddTranslateOp().Set(Gf.Vec3d(0, -0.05 * u, 0))
+        water.AddScaleOp().Set(Gf.Vec3f(20 * u, 0.1 * u, 20 * u))
+    else:
+        water.AddTranslateOp().Set(Gf.Vec3d(0, -0.1 * u, 0))
+        water.AddScaleOp().Set(Gf.Vec3f(20 * u, 0.2 * u, 20 * u))
     bind(water.GetPrim(), mat)
     if cloud:
         rng = np.random.default_rng(3)
@@ -182,3 +192,25 @@ def test_sun_through_flat_water_and_through_a_volume_box(renderer, stage):
     assert clear == pytest.approx(expect, rel=0.05), (clear, expect)
     # optical depth ~0.02 on the way in and out (mostly forward-scattered), plus its glow
     assert cloudy == pytest.approx(clear, rel=0.06), (cloudy, clear)
+
+
+@pytest.mark.parametrize("unit", [1.0, 0.3, 0.001, 1000.0])
+def test_sun_through_water_lying_face_to_face_on_the_sand(renderer, unit):
+    """The water's bottom face on the sand's top face, as a pool's water is modelled to fill
+    it: the sand is seen and lit through the water (the formula above), whichever of the two
+    faces single precision finds first: the same at any scale (the stage in other units, every
+    length scaled with them)."""
+    from pxr import Usd
+    import math
+
+    n, rho, e = 1.333, 0.6, 3.0
+    _, r_i = diffuse_reflectances(n)
+    t = 1 - fresnel(1.0, n)
+    expect = rho * e * t * t / (math.pi * n * n * (1 - rho * r_i))
+    s = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(s, UsdGeom.Tokens.y)
+    _sunlit_pool(s, False, face_to_face=True, unit=unit)
+    img = render(renderer, s)["color"][6:18, 6:18, :3].mean(axis=2).ravel()
+    kept = img[img < 3 * np.median(img)]
+    assert kept.size >= img.size - 3, img.max()
+    assert float(kept.mean()) == pytest.approx(expect, rel=0.05), (float(kept.mean()), expect)

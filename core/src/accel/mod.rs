@@ -512,8 +512,17 @@ impl Accel {
 
     /// Closest hit in (0, ray.t_max).
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_where(ray, |_| true)
+    }
+
+    /// Closest hit in (0, ray.t_max) on the instances `keep` accepts.
+    #[inline]
+    pub fn intersect_where(&self, ray: &Ray, keep: impl Fn(u32) -> bool) -> Option<Hit> {
         let tlas = self.tlas.as_ref()?;
         if self.instances.len() == 1 {
+            if !keep(0) {
+                return None;
+            }
             // A lone instance needs no TLAS (whose padded build would visit it twice).
             let inst = &self.instances[0];
             let (o, d) = if inst.identity { (ray.o, ray.d) } else { inst.xf.ray_to_local(ray.o, ray.d, ray.time) };
@@ -522,6 +531,9 @@ impl Accel {
         }
         let mut best = None;
         tlas.traverse(ray.o.into(), ray.d.into(), ray.t_max, |i, t_max| {
+            if !keep(i) {
+                return None;
+            }
             let inst = &self.instances[i as usize];
             let (o, d) = inst.xf.ray_to_local(ray.o, ray.d, ray.time);
             let (t, prim, u, v) = self.intersect_blas(inst.blas, o.into(), d.into(), t_max, ray.time)?;

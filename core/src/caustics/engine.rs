@@ -703,7 +703,7 @@ impl Caustics {
         let mut travelled = 0.0f32;
         let (keep_beam, beam_scale) = keep_beam;
         loop {
-            let Some(hit) = world.accel.intersect(&ray) else { return };
+            let Some(hit) = world.intersect_path(&ray) else { return };
             let s_hit = world.surface(&ray, &hit);
             if let Some(m) = stack.medium() {
                 // the light's links decide whether it lights the gprim this medium fills
