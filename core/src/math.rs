@@ -88,6 +88,14 @@ pub fn safe_acos(x: f32) -> f32 {
     x.clamp(-1.0, 1.0).acos()
 }
 
+/// The angle between unit vectors `a` and `b`, accurate for small angles too: 2·atan2(|a − b|,
+/// |a + b|). (acos of the dot product, as glam's `angle_between`, loses them: the cosine of a
+/// pixel's angle is within a few single-precision steps of 1.)
+#[inline]
+pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
+    2.0 * (a - b).length().atan2((a + b).length())
+}
+
 #[inline]
 pub fn safe_sqrt(x: f32) -> f32 {
     x.max(0.0).sqrt()
@@ -228,6 +236,20 @@ pub fn offset_towards(p: Vec3, err: Vec3, ng: Vec3, w: Vec3) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn angle_between_unit_vectors_holds_small_angles() {
+        // a pixel's angle at 1920 pixels over 90° and smaller, about a turned axis: within
+        // 2·10⁻⁵ of the exact angle (acos of the dot product is 12 % off at 7.8·10⁻⁴)
+        let axis = glam::Quat::from_euler(glam::EulerRot::XYZ, -0.28, 0.4, 0.1);
+        for step in [1.0f64, 1e-1, 1e-2, 7.8e-4, 1e-4, 1e-5] {
+            let (a, b) = (axis * Vec3::new(0.0, 0.0, -1.0), axis * Vec3::new(step.tan() as f32, 0.0, -1.0).normalize());
+            let got = angle_between(a, b) as f64;
+            assert!((got - step).abs() <= 2e-5 * step + 1e-7, "{step}: {got}");
+        }
+        assert_eq!(angle_between(Vec3::X, Vec3::X), 0.0);
+        assert!((angle_between(Vec3::X, -Vec3::X) - std::f32::consts::PI).abs() < 1e-6);
+    }
 
     #[test]
     fn frame_is_orthonormal_for_every_octant() {

@@ -1060,7 +1060,7 @@ fn pixel_footprint(world: &World, width: u32, height: u32) -> (f32, f32) {
     let c = Vec2::new(width as f32 * 0.5, height as f32 * 0.5);
     let a = world.camera.generate_ray(c, Vec2::splat(0.5), 0.0);
     let b = world.camera.generate_ray(c + Vec2::X, Vec2::splat(0.5), 0.0);
-    let spread = a.d.angle_between(b.d);
+    let spread = crate::math::angle_between(a.d, b.d);
     let w0 = (a.o - b.o).length();
     (if w0.is_finite() { w0 } else { 0.0 }, if spread.is_finite() { spread } else { 0.0 })
 }
