@@ -39,7 +39,7 @@ fn main() {
                 if v.len() != 3 {
                     fail("--profile takes DEPTH,WIDTH,PEAK");
                 }
-                desc.chlorophyll_profile = Some(DepthProfileDesc { depth: v[0], width: v[1], peak: v[2] });
+                desc.profile = Some(DepthProfileDesc { depth: v[0], width: v[1], peak: v[2] });
             }
             other => fail(&format!("unknown argument {other}")),
         }

@@ -439,7 +439,8 @@ pub struct DepthProfileDesc {
     pub depth: f32,
     /// σ of the Gaussian, m (0 = no profile).
     pub width: f32,
-    /// Added concentration at `depth` (mg m⁻³ for chlorophyll).
+    /// Added concentration at `depth`, in the constituent's unit (mg m⁻³ for chlorophyll,
+    /// g m⁻³ for CDOM and SPM).
     pub peak: f32,
 }
 
@@ -448,7 +449,9 @@ pub struct DepthProfileDesc {
 ///
 /// The water's σa(λ, z), σs(λ, z) (m⁻¹) are a Jerlov type's IOPs when `jerlov` is set, pure
 /// seawater (Buiteveld absorption, Morel scattering at `salinity`) otherwise, plus the
-/// bio-optical constituents (see `water::bio`); the profile applies to chlorophyll. Both are
+/// bio-optical constituents (see `water::bio`); the profile applies to the constituents the
+/// water holds (a base concentration above 0), or to chlorophyll where it holds none (a deep
+/// chlorophyll maximum in clear water: see [`crate::water::profiled`]). Both are
 /// added to the medium's `sigma_a` / `sigma_s` and the sum is multiplied by `scale`.
 ///
 /// Depth z is measured downwards (−Y, the scene's up axis being +Y) from the world height
@@ -464,7 +467,8 @@ pub struct WaterIopDesc {
     pub cdom: f32,
     /// Suspended particulate matter, g m⁻³.
     pub spm: f32,
-    pub chlorophyll_profile: Option<DepthProfileDesc>,
+    /// The Gaussian depth profile of the constituents (`profileDepth/Width/Peak`).
+    pub profile: Option<DepthProfileDesc>,
     /// PSU, for pure-seawater scattering (the enclosing `TideWater.salinity`).
     pub salinity: f32,
     /// World y of depth 0; None: from the bounds of the water bodies (see above).
@@ -473,7 +477,7 @@ pub struct WaterIopDesc {
 
 impl Default for WaterIopDesc {
     fn default() -> Self {
-        WaterIopDesc { jerlov: None, chlorophyll: 0.0, cdom: 0.0, spm: 0.0, chlorophyll_profile: None, salinity: 0.0, top: None }
+        WaterIopDesc { jerlov: None, chlorophyll: 0.0, cdom: 0.0, spm: 0.0, profile: None, salinity: 0.0, top: None }
     }
 }
 

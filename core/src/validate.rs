@@ -489,7 +489,7 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
                 let ok = v.is_finite() && *v >= 0.0;
                 fix(v, attr, ok, 0.0, "must be finite and ≥ 0");
             }
-            if let Some(pr) = &mut w.chlorophyll_profile {
+            if let Some(pr) = &mut w.profile {
                 let ok = pr.depth.is_finite();
                 fix(&mut pr.depth, "profileDepth", ok, 0.0, "must be finite");
                 let ok = pr.width.is_finite() && pr.width >= 0.0;
@@ -1101,7 +1101,7 @@ mod tests {
                 chlorophyll: -1.0,
                 cdom: f32::NAN,
                 spm: 2.0,
-                chlorophyll_profile: Some(DepthProfileDesc { depth: f32::INFINITY, width: -1.0, peak: 3.0 }),
+                profile: Some(DepthProfileDesc { depth: f32::INFINITY, width: -1.0, peak: 3.0 }),
                 salinity: 60.0,
                 top: Some(f32::NAN),
             }),
@@ -1117,7 +1117,7 @@ mod tests {
         assert_eq!(m.phase, PhaseDesc::Isotropic);
         let w = m.water.as_ref().unwrap();
         assert_eq!((w.chlorophyll, w.cdom, w.spm, w.salinity, w.top), (0.0, 0.0, 2.0, 0.0, Some(0.0)));
-        assert_eq!(w.chlorophyll_profile, Some(DepthProfileDesc { depth: 0.0, width: 0.0, peak: 3.0 }));
+        assert_eq!(w.profile, Some(DepthProfileDesc { depth: 0.0, width: 0.0, peak: 3.0 }));
         assert_eq!(w.jerlov.unwrap().source, JerlovSource::Solonenko2015);
         // what is left builds
         crate::medium::Medium::from_desc(m, ColorSpace::LinearRec709).unwrap();

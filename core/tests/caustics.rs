@@ -357,7 +357,7 @@ fn god_rays_in_depth_varying_water_agree_with_path_tracing() {
         water: Some(WaterIopDesc {
             jerlov: Some(JerlovDesc { water_type: JerlovType::II, source: JerlovSource::Williamson2022 }),
             chlorophyll: 0.2,
-            chlorophyll_profile: Some(DepthProfileDesc { depth: 1.5, width: 0.5, peak: 6.0 }),
+            profile: Some(DepthProfileDesc { depth: 1.5, width: 0.5, peak: 6.0 }),
             top: Some(0.0),
             ..WaterIopDesc::default()
         }),

@@ -2727,7 +2727,7 @@ mod tests {
             assert_eq!(mesh_of(&d, "/Sea").positions, want, "on the camera: {on_camera}");
             let m = &d.scene().media[0];
             assert_eq!(m.scale, 0.01);
-            let profile = m.water.as_ref().and_then(|w| w.chlorophyll_profile).unwrap();
+            let profile = m.water.as_ref().and_then(|w| w.profile).unwrap();
             assert_eq!((profile.depth, profile.width, profile.peak), (1000.0, 200.0, 3.0));
         }
     }

@@ -39,7 +39,7 @@ pub fn medium_in_units(med: &MediumDesc, meters_per_unit: f32) -> MediumDesc {
     let mut m = med.clone();
     if meters_per_unit != 1.0 {
         m.scale *= meters_per_unit;
-        if let Some(profile) = m.water.as_mut().and_then(|w| w.chlorophyll_profile.as_mut()) {
+        if let Some(profile) = m.water.as_mut().and_then(|w| w.profile.as_mut()) {
             profile.depth /= meters_per_unit;
             profile.width /= meters_per_unit;
         }
@@ -744,7 +744,7 @@ impl Ctx<'_> {
         let spm = self.checked_f32(n, "spm", 0.0, nonneg, "[0, ∞) g/m³");
         let depth = self.input_f32(n, "profileDepth", 0.0);
         let width = self.checked_f32(n, "profileWidth", 0.0, nonneg, "[0, ∞) m");
-        let peak = self.checked_f32(n, "profilePeak", 0.0, nonneg, "[0, ∞) mg/m³");
+        let peak = self.checked_f32(n, "profilePeak", 0.0, nonneg, "[0, ∞) (each constituent's unit)");
         let profile = if peak > 0.0 && width > 0.0 {
             Some(DepthProfileDesc { depth, width, peak })
         } else {
@@ -758,7 +758,7 @@ impl Ctx<'_> {
             chlorophyll,
             cdom,
             spm,
-            chlorophyll_profile: profile,
+            profile,
             salinity,
             top: None,
         });
@@ -2094,7 +2094,7 @@ mod tests {
         assert_eq!(med.scale, 0.5);
         let w = med.water.unwrap();
         assert_eq!((w.jerlov, w.chlorophyll, w.cdom, w.spm, w.salinity, w.top), (None, 0.3, 0.5, 1.0, 35.0, None));
-        assert_eq!(w.chlorophyll_profile, Some(DepthProfileDesc { depth: 20.0, width: 4.0, peak: 2.0 }));
+        assert_eq!(w.profile, Some(DepthProfileDesc { depth: 20.0, width: 4.0, peak: 2.0 }));
     }
 
     #[test]

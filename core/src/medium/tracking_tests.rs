@@ -286,7 +286,7 @@ fn water_desc(profile: Option<DepthProfileDesc>, top: f32) -> MediumDesc {
         water: Some(WaterIopDesc {
             jerlov: Some(JerlovDesc { water_type: JerlovType::IB, source: JerlovSource::Williamson2022 }),
             chlorophyll: 0.1,
-            chlorophyll_profile: profile,
+            profile: profile,
             salinity: 35.0,
             top: Some(top),
             ..WaterIopDesc::default()

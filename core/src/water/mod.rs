@@ -36,10 +36,12 @@
 //!   given salinity) is the base. (`absorption`/`scattering` RGB inputs are uplifted by the
 //!   caller, not here.)
 //! * `chlorophyll` (mg m⁻³), `cdom` (g m⁻³), `spm` (g m⁻³) add on top. The single
-//!   `profileDepth/Width/Peak` of the contract is the profile of **chlorophyll** (a deep
-//!   chlorophyll maximum, as in the thesis' Eq. 4.16): `profilePeak` is added chlorophyll in
-//!   mg m⁻³ at `profileDepth` m, σ = `profileWidth` m; width or peak 0 means uniform. CDOM and
-//!   SPM are uniform under this mapping; [`BioOpticalParams`] allows a profile for each.
+//!   `profileDepth/Width/Peak` of the contract is the Gaussian depth profile of the
+//!   constituents (the thesis' Eq. 4.16, which it uses for chlorophyll and CDOM alike):
+//!   `profilePeak` is added, in each constituent's own unit, at `profileDepth` m, σ =
+//!   `profileWidth` m, to every constituent the water holds (base concentration above 0), or to
+//!   chlorophyll where it holds none (a deep chlorophyll maximum in clear water); width or
+//!   peak 0 means uniform. See [`profiled`].
 //! * `phase`: `hg` (g), `dualHG` (g, g2, lobeMix), `fournierForand` (backscatter fraction
 //!   0.0183 with n = 1.10, i.e. μ ≈ 3.58), `petzold` (average-particle); `molecularWeight` w
 //!   mixes in the molecular function: p = w·p_mol + (1 − w)·p_particle.
@@ -175,6 +177,19 @@ pub struct WaterMedium {
     pub phase: PhaseFunction,
 }
 
+/// Chlorophyll, CDOM and SPM of base concentrations `base` with the contract's one depth
+/// profile: on every constituent whose base is above 0, each taking `peak` in its own unit; on
+/// chlorophyll alone where none is (a deep chlorophyll maximum in otherwise clear water).
+pub fn profiled(base: [f32; 3], profile: Option<DepthProfile>) -> [Constituent; 3] {
+    let any = base.iter().any(|&b| b > 0.0);
+    let mut k = 0;
+    base.map(|b| {
+        let on = if any { b > 0.0 } else { k == 0 };
+        k += 1;
+        Constituent { base: b, profile: profile.filter(|_| on) }
+    })
+}
+
 /// Builds the medium the contract inputs describe (see the module docs for the mapping).
 pub fn build_medium(p: &MediumParams) -> Result<WaterMedium, WaterError> {
     let background = if p.jerlov_type.is_empty() {
@@ -185,14 +200,11 @@ pub fn build_medium(p: &MediumParams) -> Result<WaterMedium, WaterError> {
         let iop = jerlov_iop(t, s)?;
         Some((iop.a, iop.b))
     };
-    let chlorophyll = Constituent {
-        base: p.chlorophyll,
-        profile: Some(DepthProfile { depth: p.profile_depth, width: p.profile_width, peak: p.profile_peak }),
-    };
+    let [chlorophyll, cdom, spm] = profiled([p.chlorophyll, p.cdom, p.spm], Some(DepthProfile { depth: p.profile_depth, width: p.profile_width, peak: p.profile_peak }));
     let params = BioOpticalParams {
         chlorophyll,
-        cdom: Constituent::uniform(p.cdom),
-        spm: Constituent::uniform(p.spm),
+        cdom,
+        spm,
         pure_water: p.pure_water.unwrap_or(background.is_none()),
         salinity: p.salinity,
         background,
@@ -206,7 +218,7 @@ pub fn build_medium(p: &MediumParams) -> Result<WaterMedium, WaterError> {
 
 /// The bio-optical model a scene's [`crate::scene::WaterIopDesc`] describes (the mapping is
 /// documented there): Jerlov IOPs or pure seawater as the base, constituents on top, the
-/// profile on chlorophyll.
+/// profile on them ([`profiled`]).
 pub fn bio_optical_from_desc(d: &crate::scene::WaterIopDesc) -> Result<BioOptical, WaterError> {
     let background = match d.jerlov {
         Some(j) => {
@@ -215,14 +227,11 @@ pub fn bio_optical_from_desc(d: &crate::scene::WaterIopDesc) -> Result<BioOptica
         }
         None => None,
     };
-    let chlorophyll = Constituent {
-        base: d.chlorophyll,
-        profile: d.chlorophyll_profile.map(|p| DepthProfile { depth: p.depth, width: p.width, peak: p.peak }),
-    };
+    let [chlorophyll, cdom, spm] = profiled([d.chlorophyll, d.cdom, d.spm], d.profile.map(|p| DepthProfile { depth: p.depth, width: p.width, peak: p.peak }));
     BioOptical::new(BioOpticalParams {
         chlorophyll,
-        cdom: Constituent::uniform(d.cdom),
-        spm: Constituent::uniform(d.spm),
+        cdom,
+        spm,
         pure_water: background.is_none(),
         salinity: d.salinity,
         background,

@@ -381,6 +381,36 @@ fn contract_mapping() {
     }
 }
 
+#[test]
+fn the_depth_profile_shapes_the_constituents_the_water_holds() {
+    // CDOM alone with the profile: at the peak's depth the water is uniform CDOM of base +
+    // peak, far from it uniform CDOM of its base, and no chlorophyll appears; likewise SPM;
+    // with none held, the profile is chlorophyll's (a deep chlorophyll maximum)
+    let profile = |p: MediumParams| MediumParams { profile_depth: 6.0, profile_width: 1.5, profile_peak: 2.0, ..p };
+    let uniform = |p: MediumParams, at: f32, lambda: f32| build_medium(&p).unwrap().coefficients.coefficients_at(at, lambda);
+    for (held, with_peak) in [
+        (MediumParams { cdom: 0.5, ..Default::default() }, MediumParams { cdom: 2.5, ..Default::default() }),
+        (MediumParams { spm: 0.5, ..Default::default() }, MediumParams { spm: 2.5, ..Default::default() }),
+        (MediumParams::default(), MediumParams { chlorophyll: 2.0, ..Default::default() }),
+    ] {
+        let m = build_medium(&profile(held.clone())).unwrap();
+        for lambda in [420.0, 550.0, 680.0] {
+            let (a, b) = m.coefficients.coefficients_at(6.0, lambda);
+            let (wa, wb) = uniform(with_peak.clone(), 6.0, lambda);
+            assert!((a - wa).abs() <= 1e-5 * wa && (b - wb).abs() <= 1e-5 * wb, "{held:?} at the peak, {lambda} nm: {a} {b} against {wa} {wb}");
+            let (a, b) = m.coefficients.coefficients_at(60.0, lambda);
+            let (wa, wb) = uniform(held.clone(), 60.0, lambda);
+            assert!((a - wa).abs() <= 1e-5 * wa && (b - wb).abs() <= 1e-5 * wb, "{held:?} far below, {lambda} nm");
+        }
+    }
+    // two constituents held: each takes the peak in its own unit
+    let m = build_medium(&profile(MediumParams { chlorophyll: 1.0, cdom: 0.5, ..Default::default() })).unwrap();
+    let want = uniform(MediumParams { chlorophyll: 3.0, cdom: 2.5, ..Default::default() }, 6.0, 500.0);
+    let got = m.coefficients.coefficients_at(6.0, 500.0);
+    assert!((got.0 - want.0).abs() <= 1e-5 * want.0 && (got.1 - want.1).abs() <= 1e-5 * want.1, "{got:?} {want:?}");
+    assert_eq!(super::profiled([0.0, 0.3, 0.0], None)[1].profile, None);
+}
+
 // ---------------------------------------------------------------- phase functions
 
 fn all_tables() -> Vec<(&'static str, PhaseTable)> {
