@@ -454,10 +454,10 @@ pub struct DepthProfileDesc {
 /// chlorophyll maximum in clear water: see [`crate::water::profiled`]). Both are
 /// added to the medium's `sigma_a` / `sigma_s` and the sum is multiplied by `scale`.
 ///
-/// Depth z is measured downwards (−Y, the scene's up axis being +Y) from the world height
-/// `top`: z = top − y. With `top` unset the world builder uses the top (largest y) of the
-/// world bounds, at shutter open, of every object whose material is filled with this medium
-/// (y = 0 when no object is).
+/// Depth z is measured down the scene's up direction `up` (+Y, or +Z on a Z-up stage) from
+/// the height `top`: z = top − p·up. With `top` unset the world builder uses the highest
+/// point (largest p·up), at shutter open, of every object whose material is filled with this
+/// medium (0 when no object is).
 #[derive(Clone, Debug, PartialEq)]
 pub struct WaterIopDesc {
     pub jerlov: Option<JerlovDesc>,
@@ -471,13 +471,16 @@ pub struct WaterIopDesc {
     pub profile: Option<DepthProfileDesc>,
     /// PSU, for pure-seawater scattering (the enclosing `TideWater.salinity`).
     pub salinity: f32,
-    /// World y of depth 0; None: from the bounds of the water bodies (see above).
+    /// Height (along `up`) of depth 0; None: from the bounds of the water bodies (see above).
     pub top: Option<f32>,
+    /// The scene's up direction, a unit vector: depth is measured down it (+Y; +Z on a Z-up
+    /// stage).
+    pub up: Vec3,
 }
 
 impl Default for WaterIopDesc {
     fn default() -> Self {
-        WaterIopDesc { jerlov: None, chlorophyll: 0.0, cdom: 0.0, spm: 0.0, profile: None, salinity: 0.0, top: None }
+        WaterIopDesc { jerlov: None, chlorophyll: 0.0, cdom: 0.0, spm: 0.0, profile: None, salinity: 0.0, top: None, up: Vec3::Y }
     }
 }
 

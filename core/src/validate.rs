@@ -503,6 +503,10 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
                 let ok = t.is_finite();
                 fix(t, "top", ok, 0.0, "must be finite");
             }
+            if !(w.up.is_finite() && (w.up.length() - 1.0).abs() < 1e-3) {
+                problem(&mut p, &m.name, "up", format!("{} is not a unit vector; using +Y", w.up));
+                w.up = glam::Vec3::Y;
+            }
             if let Some(j) = w.jerlov {
                 if !j.source.has_type(j.water_type) {
                     problem(&mut p, &m.name, "jerlovSource", format!("Jerlov type {} is not tabulated by {}; using solonenko2015", j.water_type.name(), j.source.name()));
@@ -1104,6 +1108,7 @@ mod tests {
                 profile: Some(DepthProfileDesc { depth: f32::INFINITY, width: -1.0, peak: 3.0 }),
                 salinity: 60.0,
                 top: Some(f32::NAN),
+                up: glam::Vec3::Y,
             }),
             method: Default::default(),
         });

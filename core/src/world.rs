@@ -429,27 +429,27 @@ fn float_param(c: &FloatInput) -> FloatParam {
 
 /// The largest world y, at time 0, of every object whose material is filled with medium
 /// `medium` (the depth origin of a depth-varying water medium); None when no object is.
-fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize) -> Option<f32> {
+fn water_top(scene: &SceneDesc, accel: &Accel, medium: usize, up: Vec3) -> Option<f32> {
     let mut top: Option<f32> = None;
     for (ii, inst) in scene.instances.iter().enumerate() {
         if scene.materials.get(inst.material).and_then(|m| m.interior_medium) != Some(medium) {
             continue;
         }
         let xf = accel.instance_transform(ii as u32, 0.0);
-        let mut up = |y: f32| {
-            if y.is_finite() {
-                top = Some(top.map_or(y, |t| t.max(y)));
+        let mut rise = |h: f32| {
+            if h.is_finite() {
+                top = Some(top.map_or(h, |t| t.max(h)));
             }
         };
         match inst.geometry {
-            GeometryRef::Mesh(i) => scene.meshes[i].positions.iter().for_each(|p| up(xf.transform_point3(*p).y)),
+            GeometryRef::Mesh(i) => scene.meshes[i].positions.iter().for_each(|p| rise(xf.transform_point3(*p).dot(up))),
             GeometryRef::Spheres(i) => {
                 let s = &scene.spheres[i];
+                // the top of a transformed sphere: its centre plus the radius times the length
+                // of the transform's transpose applied to `up`
+                let reach = Mat3::from_mat4(xf).transpose().mul_vec3(up).length();
                 for (c, r) in s.centers.iter().zip(&s.radii) {
-                    // the top of the transformed sphere: centre plus the radius along the
-                    // row of the transform that produces y
-                    let row = glam::Vec3::new(xf.x_axis.y, xf.y_axis.y, xf.z_axis.y);
-                    up(xf.transform_point3(*c).y + r * row.length());
+                    rise(xf.transform_point3(*c).dot(up) + r * reach);
                 }
             }
         }
@@ -755,7 +755,7 @@ impl World {
             .map(|(mi, m)| {
                 let mut m = m.clone();
                 if let Some(w) = m.water.as_mut().filter(|w| w.top.is_none()) {
-                    w.top = Some(water_top(scene, &accel, mi).unwrap_or(0.0));
+                    w.top = Some(water_top(scene, &accel, mi, w.up).unwrap_or(0.0));
                 }
                 (mi, m)
             })
@@ -1504,9 +1504,13 @@ mod tests {
         s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::IDENTITY, 1));
         s.instances_mut().push(inst(GeometryRef::Mesh(0), Mat4::from_translation(Vec3::Y * 50.0), 2));
         let accel = Accel::build(&s.meshes, &s.spheres, &s.instances, (0.0, 0.0));
-        assert_eq!(water_top(&s, &accel, 0), Some(3.5));
-        assert_eq!(water_top(&s, &accel, 1), Some(1.0));
-        assert_eq!(water_top(&s, &accel, 2), None);
+        assert_eq!(water_top(&s, &accel, 0, Vec3::Y), Some(3.5));
+        assert_eq!(water_top(&s, &accel, 1, Vec3::Y), Some(1.0));
+        assert_eq!(water_top(&s, &accel, 2, Vec3::Y), None);
+        // on a Z-up stage: the mesh reaches z = 1 (lifting it along y changes nothing), the
+        // sphere scaled by 2.5 about (0, 1, 0) z = 2.5
+        assert_eq!(water_top(&s, &accel, 0, Vec3::Z), Some(2.5));
+        assert_eq!(water_top(&s, &accel, 1, Vec3::Z), Some(1.0));
     }
 
     /// A sea surface's facets take the share of the Cox–Munk slopes the mesh carries at the hit

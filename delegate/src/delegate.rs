@@ -1050,7 +1050,7 @@ impl Delegate {
                 None => default_material(path),
             };
             if let Some(med) = &m.medium {
-                scene.media.push(material::medium_in_units(med, mpu));
+                scene.media.push(material::medium_in_stage(med, mpu, sp.z_up));
                 desc.interior_medium = Some(scene.media.len() - 1);
                 medium_of.insert(path, scene.media.len() - 1);
             }
@@ -2729,6 +2729,30 @@ mod tests {
             assert_eq!(m.scale, 0.01);
             let profile = m.water.as_ref().and_then(|w| w.profile).unwrap();
             assert_eq!((profile.depth, profile.width, profile.peak), (1000.0, 200.0, 3.0));
+        }
+    }
+
+    /// The settings' `upAxis` (the stage's, as the reader sends it) sets the direction water
+    /// depth is measured down: Z on a Z-up stage, Y otherwise; an unknown axis is named.
+    #[test]
+    fn water_depth_follows_the_stages_up_axis() {
+        for (axis, up) in [(None, Vec3::Y), (Some("Y"), Vec3::Y), (Some("Z"), Vec3::Z), (Some("X"), Vec3::Y)] {
+            let mut d = Delegate::new();
+            d.create_prim("renderSettings", "/S");
+            if let Some(a) = axis {
+                d.set_attribute("/S", "upAxis", tok(a), None);
+            }
+            d.create_prim("material", "/M");
+            d.set_attribute("/M", "volume", Value::Path("/M/V.outputs:volume".into()), None);
+            d.set_attribute("/M", "/M/V.info:id", tok("TideMedium"), None);
+            for (k, v) in [("chlorophyll", 1.0), ("profileDepth", 10.0), ("profileWidth", 2.0), ("profilePeak", 3.0)] {
+                d.set_attribute("/M", &format!("/M/V.inputs:{k}"), Value::Float(v), None);
+            }
+            quad(&mut d, "/Q");
+            d.set_attribute("/Q", "material", Value::Path("/M".into()), None);
+            let p = d.commit_resources();
+            assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), if axis == Some("X") { vec![("/S", "upAxis")] } else { vec![] }, "{p:?}");
+            assert_eq!(d.scene().media[0].water.as_ref().unwrap().up, up, "{axis:?}");
         }
     }
 

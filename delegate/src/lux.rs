@@ -582,6 +582,19 @@ fn stage_positive(store: &AttrStore, name: &str, then: &str, p: &mut Problems) -
     })
 }
 
+/// Whether a stage's `upAxis` (token `Y` or `Z`, where given) is Z; another value is named
+/// and Y used.
+fn up_axis_is_z(store: &AttrStore, p: &mut Problems) -> bool {
+    match store.str_opt("upAxis") {
+        None | Some("Y") => false,
+        Some("Z") => true,
+        Some(other) => {
+            p.add("upAxis", format!("unknown up axis '{other}'; using Y"));
+            false
+        }
+    }
+}
+
 /// A stage's `metersPerUnit` where given.
 fn meters_per_unit(store: &AttrStore, p: &mut Problems) -> Option<f64> {
     stage_positive(store, "metersPerUnit", "one unit is one metre", p)
@@ -710,6 +723,9 @@ pub struct SettingsPiece {
     /// The stage's `metersPerUnit` where authored (the reader gives it so): lengths and
     /// coefficients the contract gives in metres are converted to scene units with it.
     pub meters_per_unit: Option<f64>,
+    /// The stage's up axis is Z (`upAxis`, as the reader gives it): water depth is measured
+    /// down +Z instead of +Y.
+    pub z_up: bool,
     pub adaptive_threshold: f32,
     pub products: Vec<RenderProductDesc>,
 }
@@ -725,6 +741,7 @@ impl Default for SettingsPiece {
             time_codes_per_second: 24.0,
             time_codes_authored: false,
             meters_per_unit: None,
+            z_up: false,
             adaptive_threshold: 0.0,
             products: Vec::new(),
         }
@@ -887,6 +904,7 @@ pub fn convert_settings(store: &AttrStore, p: &mut Problems) -> SettingsPiece {
         time_codes_per_second,
         time_codes_authored: store.has("timeCodesPerSecond"),
         meters_per_unit: meters_per_unit(store, p),
+        z_up: up_axis_is_z(store, p),
         adaptive_threshold,
         products,
     }

@@ -33,10 +33,14 @@ pub fn default_material(name: &str) -> MaterialDesc {
     MaterialDesc { name: name.into(), surface: SurfaceDesc::Diffuse { color: ColorInput::Const([0.18; 3]) }, interior_medium: None }
 }
 
-/// `med` in a stage of `meters_per_unit` metres per unit: its coefficients (per metre, by the
-/// contract) per unit, its depth profile's depth and width in units.
-pub fn medium_in_units(med: &MediumDesc, meters_per_unit: f32) -> MediumDesc {
+/// `med` in a stage of `meters_per_unit` metres per unit, Z-up or not: its coefficients (per
+/// metre, by the contract) per unit, its depth profile's depth and width in units, its depth
+/// measured down the stage's up axis.
+pub fn medium_in_stage(med: &MediumDesc, meters_per_unit: f32, z_up: bool) -> MediumDesc {
     let mut m = med.clone();
+    if let Some(w) = m.water.as_mut() {
+        w.up = if z_up { glam::Vec3::Z } else { glam::Vec3::Y };
+    }
     if meters_per_unit != 1.0 {
         m.scale *= meters_per_unit;
         if let Some(profile) = m.water.as_mut().and_then(|w| w.profile.as_mut()) {
@@ -761,6 +765,7 @@ impl Ctx<'_> {
             profile,
             salinity,
             top: None,
+            up: glam::Vec3::Y,
         });
         let method = match self.input_token(n, "method", &["volumetric", "diffusion"], "volumetric") {
             "diffusion" => tide_core::scene::MediumMethod::Diffusion,

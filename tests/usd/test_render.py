@@ -593,6 +593,59 @@ def test_coefficients_per_metre_follow_the_stages_meters_per_unit(renderer, stag
     assert np.all(np.abs(mean - want) < 4 * se + 2e-3), (mean, se, want)
 
 
+def _layered_tank(stage, z_up):
+    """A 2 m TideWater tank (ior 1: straight rays) of clear water with a chlorophyll layer 1 m
+    below its top (σ 0.1 m, 300 mg/m³ at its peak), seen from the side against a white dome: the layer is a dark
+    band across the middle rows. With `z_up`, the same scene on a Z-up stage: every root turned
+    +90° about X, so that what was up (+Y) is +Z."""
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if z_up else UsdGeom.Tokens.y)
+    camera(stage, pos=(0, 0, 6), focal=50.0, aperture=(16.0, 16.0))
+    settings(stage, res=(16, 16), samples=16, integrator="path")
+    _white_dome(stage)
+    mat = UsdShade.Material.Define(stage, "/Looks/Water")
+    w = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
+    w.CreateIdAttr("TideWater")
+    w.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
+    mat.CreateSurfaceOutput().ConnectToSource(w.ConnectableAPI(), "surface")
+    med = UsdShade.Shader.Define(stage, "/Looks/Water/Medium")
+    med.CreateIdAttr("TideMedium")
+    for name, value in (("profileDepth", 1.0), ("profileWidth", 0.1), ("profilePeak", 300.0)):
+        med.CreateInput(name, Sdf.ValueTypeNames.Float).Set(value)
+    med.CreateOutput("volume", Sdf.ValueTypeNames.Token)
+    mat.CreateVolumeOutput().ConnectToSource(med.ConnectableAPI(), "volume")
+    tank = UsdGeom.Cube.Define(stage, "/Tank")
+    tank.CreateSizeAttr(2.0)
+    bind(tank.GetPrim(), mat)
+    if z_up:
+        for path in ("/Cam", "/Dome", "/Tank"):
+            x = UsdGeom.Xformable(stage.GetPrimAtPath(path))
+            ops = x.GetOrderedXformOps()
+            turn = x.AddRotateXOp(opSuffix="up")
+            turn.Set(90.0)
+            x.SetXformOpOrder([turn] + list(ops))
+
+
+def test_water_depth_is_measured_down_the_stages_up_axis(renderer):
+    """The depth profile's depth runs down the stage's up axis: the layered tank on a Z-up
+    stage renders the Y-up image (it used to measure depth down Y there, along the view, and
+    the band was gone)."""
+    from pxr import Usd
+    rows = []
+    for z_up, seed in ((False, 0), (False, 1), (True, 0)):
+        s = Usd.Stage.CreateInMemory()
+        _layered_tank(s, z_up)
+        problems = []
+        img = render(renderer, s, problems, seed=seed)["color"][..., :3].astype(np.float64)
+        assert problems == [], problems
+        rows.append(img.mean(axis=(1, 2)))
+    y_rows, other_seed, z_rows = rows
+    # the band: the middle rows (the layer's depth) clearly darker than the top and bottom
+    assert y_rows[7:9].mean() < 0.8 * min(y_rows[1:3].mean(), y_rows[-3:-1].mean()), y_rows
+    # the same seed follows the same paths where rounding lets it (the layer scatters, so some
+    # part ways): no row further off than another seed's rows are
+    assert np.abs(z_rows - y_rows).max() <= np.abs(other_seed - y_rows).max(), (z_rows, y_rows, other_seed)
+
+
 # linear Rec.709 → the rendering space, as published (ACES' Bradford-adapted AP1 matrix; ITU-R
 # BT.2087 for Rec.2020), 4 decimals
 _FROM_REC709 = {"ACEScg": [[0.6131, 0.3395, 0.0474], [0.0702, 0.9164, 0.0134], [0.0206, 0.1096, 0.8698]],

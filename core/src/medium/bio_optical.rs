@@ -35,8 +35,10 @@ pub struct BioOpticalMedium {
     pub extra_s: Spectrum,
     pub scale: f32,
     pub phase: PhaseFunction,
-    /// World y of depth 0.
+    /// Height (along `up`) of depth 0.
     pub top: f32,
+    /// The scene's up direction (unit): depth is measured down it.
+    pub up: Vec3,
     /// Cumulative optical depth over depth (None: not built; transmittance is then tracked).
     pub optical_depth: Option<Box<OpticalDepthTable>>,
 }
@@ -350,13 +352,18 @@ impl BioOpticalMedium {
             })
             .map(Box::new)
         });
-        BioOpticalMedium { water, extra_a, extra_s, scale, phase, top, optical_depth }
+        BioOpticalMedium { water, extra_a, extra_s, scale, phase, top, up: Vec3::Y, optical_depth }
+    }
+
+    /// The medium with depth measured down `up` (a unit vector; +Y unless the stage is Z-up).
+    pub fn facing_up(self, up: Vec3) -> BioOpticalMedium {
+        BioOpticalMedium { up, ..self }
     }
 
     /// Depth below the water's top of a world point.
     #[inline]
     pub fn depth(&self, p: Vec3) -> f32 {
-        self.top - p.y
+        self.top - p.dot(self.up)
     }
 
     #[inline]
@@ -399,8 +406,9 @@ impl BioOpticalMedium {
 
     /// Depths at the ends of `origin + t·dir`, t ∈ [0, t_max].
     fn depth_span(&self, origin: Vec3, dir: Vec3, t_max: f32) -> (f32, f32) {
-        let z0 = self.top - origin.y;
-        let dz = if dir.y == 0.0 { 0.0 } else { -dir.y * t_max };
+        let z0 = self.depth(origin);
+        let dy = dir.dot(self.up);
+        let dz = if dy == 0.0 { 0.0 } else { -dy * t_max };
         (z0, z0 + dz)
     }
 
@@ -411,11 +419,12 @@ impl BioOpticalMedium {
     pub fn sample_distance(&self, origin: Vec3, dir: Vec3, t_max: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> DistanceSample {
         let (z0, z1) = self.depth_span(origin, dir, t_max);
         if let Some(od) = &self.optical_depth {
-            return Self::sample_distance_table(od, z0, -dir.y, t_max, rng(), lambda);
+            return Self::sample_distance_table(od, z0, -dir.dot(self.up), t_max, rng(), lambda);
         }
         let (_, maj) = self.sigma_t_bounds(z0, z1, lambda);
         let extra = self.extra(lambda);
-        sample_distance_tracking(maj, t_max, rng, lambda, |t| self.with_concentrations(self.water.concentrations(z0 - dir.y * t), extra, lambda))
+        let dy = dir.dot(self.up);
+        sample_distance_tracking(maj, t_max, rng, lambda, |t| self.with_concentrations(self.water.concentrations(z0 - dy * t), extra, lambda))
     }
 
     /// The one-sample spectral-MIS free-flight estimator of a homogeneous medium
@@ -475,8 +484,9 @@ impl BioOpticalMedium {
         let (lo, hi) = self.sigma_t_bounds(z0, z1, lambda);
         let rate = (0..lo.0.len()).filter(|&j| lambda.pdf[j] > 0.0).map(|j| hi[j] - lo[j]).fold(0.0f32, f32::max);
         let extra = self.extra(lambda);
+        let dy = dir.dot(self.up);
         transmittance_ratio_tracking(lo, rate, t, rng, lambda, |s| {
-            let (a, b) = self.with_concentrations(self.water.concentrations(z0 - dir.y * s), extra, lambda);
+            let (a, b) = self.with_concentrations(self.water.concentrations(z0 - dy * s), extra, lambda);
             a + b
         })
     }

@@ -102,7 +102,7 @@ impl Medium {
                 phase: h.phase,
             }));
         }
-        Ok(Medium::BioOptical(Box::new(BioOpticalMedium::new(water, rgb.sigma_a, rgb.sigma_s, desc.scale, h.phase, w.top.unwrap_or(0.0)))))
+        Ok(Medium::BioOptical(Box::new(BioOpticalMedium::new(water, rgb.sigma_a, rgb.sigma_s, desc.scale, h.phase, w.top.unwrap_or(0.0)).facing_up(w.up))))
     }
 
     /// The medium of a volume: `grid` times the coefficients of `desc` (RGB or tabulated,

@@ -298,6 +298,41 @@ fn water_desc(profile: Option<DepthProfileDesc>, top: f32) -> MediumDesc {
 const DCM: DepthProfileDesc = DepthProfileDesc { depth: 6.0, width: 1.5, peak: 8.0 };
 
 #[test]
+fn on_a_z_up_stage_depth_is_measured_down_z() {
+    // the same water with its depth down +Z: at every point and along every ray it is the
+    // +Y water at the point with y and z swapped (depth reads only the up component, and
+    // lengths are kept), for transmittance and free flights alike, bit for bit; without a
+    // table (tracking) too
+    let y_up = Medium::from_desc(&water_desc(Some(DCM), 1.0), ColorSpace::LinearRec709).unwrap();
+    let mut z_desc = water_desc(Some(DCM), 1.0);
+    z_desc.water.as_mut().unwrap().up = Vec3::Z;
+    let z_up = Medium::from_desc(&z_desc, ColorSpace::LinearRec709).unwrap();
+    let swap = |v: Vec3| Vec3::new(v.x, v.z, v.y);
+    let (Medium::BioOptical(a), Medium::BioOptical(b)) = (&y_up, &z_up) else { panic!("not depth-varying") };
+    let (a_tracked, b_tracked) = (BioOpticalMedium { optical_depth: None, ..(**a).clone() }, BioOpticalMedium { optical_depth: None, ..(**b).clone() });
+    let mut rng = TestRng::new(17);
+    for _ in 0..64 {
+        let o = Vec3::new(rng.next_f32() * 4.0 - 2.0, rng.next_f32() * 4.0 - 2.0, -rng.next_f32() * 12.0);
+        let d = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5).normalize();
+        let lambda = SampledWavelengths::sample_uniform(rng.next_f32());
+        assert_eq!(b.depth(o), a.depth(swap(o)));
+        assert_eq!(b.depth(o), 1.0 - o.z);
+        let t = 1.0 + rng.next_f32() * 10.0;
+        let mut u = || 0.5f32;
+        assert_eq!(z_up.transmittance(o, d, t, &mut u, &lambda), y_up.transmittance(swap(o), swap(d), t, &mut u, &lambda));
+        let (s1, s2) = (rng.next_f32(), rng.next_f32());
+        let (mut u1, mut u2) = (TestRng::new((s1 * 1e6) as u64), TestRng::new((s1 * 1e6) as u64));
+        let fz = b_tracked.transmittance(o, d, t, &mut || u1.next_f32(), &lambda);
+        let fy = a_tracked.transmittance(swap(o), swap(d), t, &mut || u2.next_f32(), &lambda);
+        assert_eq!(fz, fy);
+        let (mut u1, mut u2) = (TestRng::new((s2 * 1e6) as u64), TestRng::new((s2 * 1e6) as u64));
+        let dz = z_up.sample_distance(o, d, t, &mut || u1.next_f32(), &lambda);
+        let dy = y_up.sample_distance(swap(o), swap(d), t, &mut || u2.next_f32(), &lambda);
+        assert_eq!(format!("{dz:?}"), format!("{dy:?}"));
+    }
+}
+
+#[test]
 fn water_medium_tracks_a_deep_chlorophyll_maximum_without_bias() {
     let med = Medium::from_desc(&water_desc(Some(DCM), 2.0), ColorSpace::LinearRec709).unwrap();
     let Medium::BioOptical(bm) = &med else { panic!("expected a depth-varying medium") };

@@ -1424,6 +1424,8 @@ class Reader:
         # stage's metres a hundredfold
         if UsdGeom.StageHasAuthoredMetersPerUnit(stage):
             st.set("metersPerUnit", ("float", float(UsdGeom.GetStageMetersPerUnit(stage))))
+        # water depth is measured down the up axis
+        st.set("upAxis", ("token", str(UsdGeom.GetStageUpAxis(stage))))
 
         # Camera selection: --camera, the settings' camera, else the first camera.
         cam = None
