@@ -533,6 +533,20 @@ def test_bad_prim_dropped_rest_renders(renderer, stage):
     assert d.sum() == pytest.approx(math.pi * r_px ** 2, rel=0.15)
 
 
+def _unrefracting_water(stage):
+    """A TideWater material of ior 1 (no refraction, no reflection) and its TideMedium shader,
+    not yet connected: (material, water shader, medium shader)."""
+    mat = UsdShade.Material.Define(stage, "/Looks/Water")
+    w = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
+    w.CreateIdAttr("TideWater")
+    w.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
+    mat.CreateSurfaceOutput().ConnectToSource(w.ConnectableAPI(), "surface")
+    med = UsdShade.Shader.Define(stage, "/Looks/Water/Medium")
+    med.CreateIdAttr("TideMedium")
+    med.CreateOutput("volume", Sdf.ValueTypeNames.Token)
+    return mat, w, med
+
+
 def _water_tank(stage, link):
     """A 1-unit TideWater cube (ior 1: no refraction, no reflection) holding a grey absorber
     σa = 1/m, seen against a white dome through a narrow field (path lengths within 2e-4).
@@ -541,15 +555,8 @@ def _water_tank(stage, link):
     camera(stage, pos=(0, 0, 5), focal=50.0, aperture=(2.0, 2.0))
     settings(stage, res=(16, 16), samples=64)
     _white_dome(stage)
-    mat = UsdShade.Material.Define(stage, "/Looks/Water")
-    w = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
-    w.CreateIdAttr("TideWater")
-    w.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
-    mat.CreateSurfaceOutput().ConnectToSource(w.ConnectableAPI(), "surface")
-    med = UsdShade.Shader.Define(stage, "/Looks/Water/Medium")
-    med.CreateIdAttr("TideMedium")
+    mat, w, med = _unrefracting_water(stage)
     med.CreateInput("absorption", Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(1, 1, 1))
-    med.CreateOutput("volume", Sdf.ValueTypeNames.Token)
     if link in ("volume", "both"):
         mat.CreateVolumeOutput().ConnectToSource(med.ConnectableAPI(), "volume")
     if link in ("medium", "both"):
@@ -595,23 +602,16 @@ def test_coefficients_per_metre_follow_the_stages_meters_per_unit(renderer, stag
 
 def _layered_tank(stage, z_up):
     """A 2 m TideWater tank (ior 1: straight rays) of clear water with a chlorophyll layer 1 m
-    below its top (σ 0.1 m, 300 mg/m³ at its peak), seen from the side against a white dome: the layer is a dark
-    band across the middle rows. With `z_up`, the same scene on a Z-up stage: every root turned
+    below its top (σ 0.1 m, 300 mg/m³ at its peak), seen from the side against a white dome:
+    the layer is a dark band across the middle rows. With `z_up`, the same scene on a Z-up stage: every root turned
     +90° about X, so that what was up (+Y) is +Z."""
     UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.z if z_up else UsdGeom.Tokens.y)
     camera(stage, pos=(0, 0, 6), focal=50.0, aperture=(16.0, 16.0))
     settings(stage, res=(16, 16), samples=16, integrator="path")
     _white_dome(stage)
-    mat = UsdShade.Material.Define(stage, "/Looks/Water")
-    w = UsdShade.Shader.Define(stage, "/Looks/Water/Surface")
-    w.CreateIdAttr("TideWater")
-    w.CreateInput("ior", Sdf.ValueTypeNames.Float).Set(1.0)
-    mat.CreateSurfaceOutput().ConnectToSource(w.ConnectableAPI(), "surface")
-    med = UsdShade.Shader.Define(stage, "/Looks/Water/Medium")
-    med.CreateIdAttr("TideMedium")
+    mat, _, med = _unrefracting_water(stage)
     for name, value in (("profileDepth", 1.0), ("profileWidth", 0.1), ("profilePeak", 300.0)):
         med.CreateInput(name, Sdf.ValueTypeNames.Float).Set(value)
-    med.CreateOutput("volume", Sdf.ValueTypeNames.Token)
     mat.CreateVolumeOutput().ConnectToSource(med.ConnectableAPI(), "volume")
     tank = UsdGeom.Cube.Define(stage, "/Tank")
     tank.CreateSizeAttr(2.0)
