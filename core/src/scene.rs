@@ -439,8 +439,8 @@ pub struct DepthProfileDesc {
     pub depth: f32,
     /// σ of the Gaussian, m (0 = no profile).
     pub width: f32,
-    /// Added concentration at `depth`, in the constituent's unit (mg m⁻³ for chlorophyll,
-    /// g m⁻³ for CDOM and SPM).
+    /// Added concentration at `depth`, in the unit of the constituent it shapes (mg m⁻³ for
+    /// chlorophyll, g m⁻³ for CDOM and SPM).
     pub peak: f32,
 }
 
@@ -449,9 +449,9 @@ pub struct DepthProfileDesc {
 ///
 /// The water's σa(λ, z), σs(λ, z) (m⁻¹) are a Jerlov type's IOPs when `jerlov` is set, pure
 /// seawater (Buiteveld absorption, Morel scattering at `salinity`) otherwise, plus the
-/// bio-optical constituents (see `water::bio`); the profile applies to the constituents the
-/// water holds (a base concentration above 0), or to chlorophyll where it holds none (a deep
-/// chlorophyll maximum in clear water: see [`crate::water::profiled`]). Both are
+/// bio-optical constituents (see `water::bio`); the profile applies to chlorophyll where the
+/// water holds chlorophyll or nothing, else to the CDOM and SPM it holds (see
+/// [`crate::water::profiled`]). Both are
 /// added to the medium's `sigma_a` / `sigma_s` and the sum is multiplied by `scale`.
 ///
 /// Depth z is measured down the scene's up direction `up` (+Y, or +Z on a Z-up stage) from

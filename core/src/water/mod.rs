@@ -39,9 +39,10 @@
 //!   `profileDepth/Width/Peak` of the contract is the Gaussian depth profile of the
 //!   constituents (the thesis' Eq. 4.16, which it uses for chlorophyll and CDOM alike):
 //!   `profilePeak` is added, in each constituent's own unit, at `profileDepth` m, σ =
-//!   `profileWidth` m, to every constituent the water holds (base concentration above 0), or to
-//!   chlorophyll where it holds none (a deep chlorophyll maximum in clear water); width or
-//!   peak 0 means uniform. See [`profiled`].
+//!   `profileWidth` m: to chlorophyll where the water holds chlorophyll or nothing (a deep
+//!   chlorophyll maximum, over whatever CDOM and SPM there are), else to the CDOM and SPM it
+//!   holds (a layer of those in water without algae); width or peak 0 means uniform. See
+//!   [`profiled`].
 //! * `phase`: `hg` (g), `dualHG` (g, g2, lobeMix), `fournierForand` (backscatter fraction
 //!   0.0183 with n = 1.10, i.e. μ ≈ 3.58), `petzold` (average-particle); `molecularWeight` w
 //!   mixes in the molecular function: p = w·p_mol + (1 − w)·p_particle.
@@ -178,16 +179,13 @@ pub struct WaterMedium {
 }
 
 /// Chlorophyll, CDOM and SPM of base concentrations `base` with the contract's one depth
-/// profile: on every constituent whose base is above 0, each taking `peak` in its own unit; on
-/// chlorophyll alone where none is (a deep chlorophyll maximum in otherwise clear water).
+/// profile: on chlorophyll where the water holds chlorophyll, or nothing (the deep chlorophyll
+/// maximum of natural water, over uniform CDOM and SPM); otherwise on the CDOM and SPM it
+/// holds, each taking `peak` in its own unit (g m⁻³): a layer of what the water carries.
 pub fn profiled(base: [f32; 3], profile: Option<DepthProfile>) -> [Constituent; 3] {
-    let any = base.iter().any(|&b| b > 0.0);
-    let mut k = 0;
-    base.map(|b| {
-        let on = if any { b > 0.0 } else { k == 0 };
-        k += 1;
-        Constituent { base: b, profile: profile.filter(|_| on) }
-    })
+    let algae = base[0] > 0.0 || base.iter().all(|&b| !(b > 0.0));
+    let on = [algae, !algae && base[1] > 0.0, !algae && base[2] > 0.0];
+    [0, 1, 2].map(|k| Constituent { base: base[k], profile: profile.filter(|_| on[k]) })
 }
 
 /// Builds the medium the contract inputs describe (see the module docs for the mapping).

@@ -385,7 +385,8 @@ fn contract_mapping() {
 fn the_depth_profile_shapes_the_constituents_the_water_holds() {
     // CDOM alone with the profile: at the peak's depth the water is uniform CDOM of base +
     // peak, far from it uniform CDOM of its base, and no chlorophyll appears; likewise SPM;
-    // with none held, the profile is chlorophyll's (a deep chlorophyll maximum)
+    // with none held, the profile is chlorophyll's (a deep chlorophyll maximum); with
+    // chlorophyll and CDOM, chlorophyll's alone over uniform CDOM
     let profile = |p: MediumParams| MediumParams { profile_depth: 6.0, profile_width: 1.5, profile_peak: 2.0, ..p };
     let uniform = |p: MediumParams, at: f32, lambda: f32| build_medium(&p).unwrap().coefficients.coefficients_at(at, lambda);
     for (held, with_peak) in [
@@ -403,11 +404,16 @@ fn the_depth_profile_shapes_the_constituents_the_water_holds() {
             assert!((a - wa).abs() <= 1e-5 * wa && (b - wb).abs() <= 1e-5 * wb, "{held:?} far below, {lambda} nm");
         }
     }
-    // two constituents held: each takes the peak in its own unit
-    let m = build_medium(&profile(MediumParams { chlorophyll: 1.0, cdom: 0.5, ..Default::default() })).unwrap();
-    let want = uniform(MediumParams { chlorophyll: 3.0, cdom: 2.5, ..Default::default() }, 6.0, 500.0);
-    let got = m.coefficients.coefficients_at(6.0, 500.0);
-    assert!((got.0 - want.0).abs() <= 1e-5 * want.0 && (got.1 - want.1).abs() <= 1e-5 * want.1, "{got:?} {want:?}");
+    // chlorophyll with some CDOM: the layer is chlorophyll; CDOM and SPM without algae: each
+    // takes the peak in its own unit
+    for (held, with_peak) in [
+        (MediumParams { chlorophyll: 1.0, cdom: 0.5, ..Default::default() }, MediumParams { chlorophyll: 3.0, cdom: 0.5, ..Default::default() }),
+        (MediumParams { cdom: 0.5, spm: 0.25, ..Default::default() }, MediumParams { cdom: 2.5, spm: 2.25, ..Default::default() }),
+    ] {
+        let got = build_medium(&profile(held.clone())).unwrap().coefficients.coefficients_at(6.0, 500.0);
+        let want = uniform(with_peak, 6.0, 500.0);
+        assert!((got.0 - want.0).abs() <= 1e-5 * want.0 && (got.1 - want.1).abs() <= 1e-5 * want.1, "{held:?}: {got:?} {want:?}");
+    }
     assert_eq!(super::profiled([0.0, 0.3, 0.0], None)[1].profile, None);
 }
 
