@@ -220,6 +220,19 @@ def test_an_absurdly_dense_fog_renders(renderer, tmp_path):
     check_run(rc, text, out, "dense fog")
 
 
+def test_an_xform_op_order_naming_no_op_is_named_on_it(renderer, tmp_path):
+    # an op in xformOpOrder that the prim does not have: the prim (and what it holds) cannot
+    # be placed and is dropped, named on xformOpOrder; the rest renders
+    stage = open_base(os.path.join(DATA, "every_prim.usda"))
+    stage.GetAttributeAtPath("/World/Box.xformOpOrder").Set(["xformOp:translate", "bogus"])
+    linked_assets(str(tmp_path))
+    where, out = str(tmp_path / "mutated.usda"), str(tmp_path / "out.exr")
+    stage.GetRootLayer().Export(where)
+    rc, text = render(where, out, str(tmp_path))
+    check_run(rc, text, out, "xformOpOrder naming no op")
+    assert "tide: problem: /World/Box: xformOpOrder: names 'bogus', which is not an xform op" in text
+
+
 def restructure(stage, rng, count):
     """Removes, deactivates, retypes or hides `count` prims of `stage`; returns what it did."""
     done = []

@@ -488,6 +488,16 @@ def _mistyped(prim, attr):
     return None
 
 
+def _is_xform_op(attr):
+    """Whether `attr` is an attribute that names an xform op (of a known op type)."""
+    if not attr:
+        return False
+    try:
+        return bool(UsdGeom.XformOp(attr))
+    except Tf.ErrorException:
+        return False
+
+
 def _rigidly_between(ma, mb, mm):
     """Whether matrix `mm` is (to 1e-4 of the motion and 0.25 degrees) what a rigid
     interpolation halfway from `ma` to `mb` gives: translations and scales averaged, rotations
@@ -1730,10 +1740,21 @@ class Reader:
 
     def _culprit(self, prim):
         """(path, attribute, why) of the first value on `prim` or an ancestor whose authored
-        type is not its schema's, or of an xformOp whose value does not fit its op; None if
-        none: what a failed read of `prim` is blamed on."""
+        type is not its schema's, of an `xformOpOrder` naming no xform op of its prim, or of an
+        xformOp whose value does not fit its op; None if none: what a failed read of `prim` is
+        blamed on."""
         p = prim
         while p and not p.IsPseudoRoot():
+            order = p.GetAttribute("xformOpOrder")
+            for op in (order.Get() or []) if order and order.HasAuthoredValue() and \
+                    not _mistyped(p, order) else []:
+                name = str(op)
+                if name == "!resetXformStack!":
+                    continue
+                a = p.GetAttribute(name[len("!invert!"):] if name.startswith("!invert!") else name)
+                if not _is_xform_op(a):
+                    return p.GetPath(), "xformOpOrder", "names '%s', which is not an xform op " \
+                        "of the prim" % name
             for a in p.GetAuthoredAttributes():
                 name = a.GetName()
                 why = _mistyped(p, a)
