@@ -404,12 +404,13 @@ impl BioOpticalMedium {
         (t(lo), t(hi))
     }
 
-    /// Depths at the ends of `origin + t·dir`, t ∈ [0, t_max].
-    fn depth_span(&self, origin: Vec3, dir: Vec3, t_max: f32) -> (f32, f32) {
+    /// Depths at the ends of `origin + t·dir`, t ∈ [0, t_max], and the rise of `dir` (its
+    /// component up: depth changes by −rise per unit of t).
+    fn depth_span(&self, origin: Vec3, dir: Vec3, t_max: f32) -> (f32, f32, f32) {
         let z0 = self.depth(origin);
-        let dy = dir.dot(self.up);
-        let dz = if dy == 0.0 { 0.0 } else { -dy * t_max };
-        (z0, z0 + dz)
+        let rise = dir.dot(self.up);
+        let dz = if rise == 0.0 { 0.0 } else { -rise * t_max };
+        (z0, z0 + dz, rise)
     }
 
     /// Free-flight sampling with spectral MIS: with the optical-depth table, by inverting the
@@ -417,14 +418,13 @@ impl BioOpticalMedium {
     /// medium; see [`Self::sample_distance_table`]); without it, delta tracking against the
     /// segment's majorant.
     pub fn sample_distance(&self, origin: Vec3, dir: Vec3, t_max: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> DistanceSample {
-        let (z0, z1) = self.depth_span(origin, dir, t_max);
+        let (z0, z1, rise) = self.depth_span(origin, dir, t_max);
         if let Some(od) = &self.optical_depth {
-            return Self::sample_distance_table(od, z0, -dir.dot(self.up), t_max, rng(), lambda);
+            return Self::sample_distance_table(od, z0, -rise, t_max, rng(), lambda);
         }
         let (_, maj) = self.sigma_t_bounds(z0, z1, lambda);
         let extra = self.extra(lambda);
-        let dy = dir.dot(self.up);
-        sample_distance_tracking(maj, t_max, rng, lambda, |t| self.with_concentrations(self.water.concentrations(z0 - dy * t), extra, lambda))
+        sample_distance_tracking(maj, t_max, rng, lambda, |t| self.with_concentrations(self.water.concentrations(z0 - rise * t), extra, lambda))
     }
 
     /// The one-sample spectral-MIS free-flight estimator of a homogeneous medium
@@ -475,7 +475,7 @@ impl BioOpticalMedium {
     /// its interpolation, drawing nothing), else residual ratio tracking (exact and drawing
     /// nothing without a profile).
     pub fn transmittance(&self, origin: Vec3, dir: Vec3, t: f32, rng: &mut impl FnMut() -> f32, lambda: &SampledWavelengths) -> SampledSpectrum {
-        let (z0, z1) = self.depth_span(origin, dir, t);
+        let (z0, z1, rise) = self.depth_span(origin, dir, t);
         if let Some(od) = &self.optical_depth {
             if t.is_finite() {
                 return od.transmittance_all(lambda, z0, z1, t);
@@ -484,9 +484,8 @@ impl BioOpticalMedium {
         let (lo, hi) = self.sigma_t_bounds(z0, z1, lambda);
         let rate = (0..lo.0.len()).filter(|&j| lambda.pdf[j] > 0.0).map(|j| hi[j] - lo[j]).fold(0.0f32, f32::max);
         let extra = self.extra(lambda);
-        let dy = dir.dot(self.up);
         transmittance_ratio_tracking(lo, rate, t, rng, lambda, |s| {
-            let (a, b) = self.with_concentrations(self.water.concentrations(z0 - dy * s), extra, lambda);
+            let (a, b) = self.with_concentrations(self.water.concentrations(z0 - rise * s), extra, lambda);
             a + b
         })
     }
