@@ -488,6 +488,16 @@ def _mistyped(prim, attr):
     return None
 
 
+def _camera_value(name, v, fallback):
+    """A camera attribute's value as sent: a token, a float vector as long as `fallback`, or a
+    float."""
+    if name in ALLOWED_TOKENS:
+        return ("token", str(v))
+    if isinstance(fallback, tuple):
+        return _floats(list(v), len(fallback))
+    return ("float", float(v))
+
+
 def _is_xform_op(attr):
     """Whether `attr` is an attribute that names an xform op (of a known op type)."""
     if not attr:
@@ -3159,12 +3169,7 @@ class Reader:
         st = _PrimState("sprim", "camera", "/")
         st.set("transform", _matrix(xf))
         for name, fb in CAMERA_ATTRS.items():
-            if name in ALLOWED_TOKENS or name == "tide:camera:filter":
-                st.set(name, ("token", fb))
-            elif name == "clippingRange":
-                st.set(name, _floats([near, far], 2))
-            elif not isinstance(fb, tuple):
-                st.set(name, ("float", float(fb)))
+            st.set(name, _camera_value(name, (near, far) if name == "clippingRange" else fb, fb))
         self._desired[DEFAULT_CAMERA_PATH] = st
         self.problem(spath, "camera", "the stage has no camera; rendering a default view (%s) "
                      "that frames %s" % (DEFAULT_CAMERA_PATH, bounds))
@@ -3219,16 +3224,10 @@ class Reader:
                 if not (math.isfinite(v) and v > 0):
                     self.problem(path, name, "%s = %r must be positive; using %r" % (name, v, fb))
                     v = fb
-            if name in ALLOWED_TOKENS or name == "tide:camera:filter":
-                if str(v) not in ALLOWED_TOKENS[name]:
-                    self.problem(path, name, "unknown token '%s'; using '%s'" % (v, fb))
-                    v = fb
-                st.set(name, ("token", str(v)))
-                continue
-            if isinstance(fb, tuple):
-                st.set(name, _floats(list(v), len(fb)))
-            else:
-                st.set(name, ("float", float(v)))
+            if name in ALLOWED_TOKENS and str(v) not in ALLOWED_TOKENS[name]:
+                self.problem(path, name, "unknown token '%s'; using '%s'" % (v, fb))
+                v = fb
+            st.set(name, _camera_value(name, v, fb))
         planes = UsdGeom.Camera(prim).GetClippingPlanesAttr().Get(self._time(0))
         if planes:
             st.set("clippingPlanes", _floats([float(x) for p in planes for x in p], 4))
