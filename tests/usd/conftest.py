@@ -195,6 +195,15 @@ def converged_images(reader, delegate, rp, seconds):
     return out
 
 
+def linked_assets(where):
+    """Links the example stages and the test data (and their assets) into `where`, where a
+    rewritten copy of a stage then finds its relative asset paths."""
+    for d in (os.path.join(os.path.dirname(__file__), "data"), os.path.join(ROOT, "docs", "stages")):
+        for f in os.listdir(d):
+            if not os.path.exists(os.path.join(where, f)):
+                os.symlink(os.path.join(d, f), os.path.join(where, f))
+
+
 def fresnel(mu, eta):
     """Unpolarised Fresnel reflectance for light arriving at cosine mu from the side of index 1
     onto index eta (eta < 1: from the denser side; 1 beyond the critical angle)."""

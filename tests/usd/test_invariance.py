@@ -15,7 +15,7 @@ import OpenEXR
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom
 
-from conftest import ROOT
+from conftest import ROOT, linked_assets
 
 TIDE = os.path.join(ROOT, "tide")
 DATA = os.path.join(os.path.dirname(__file__), "data")
@@ -35,10 +35,7 @@ def _render(path, out, *extra):
 def _base(tmp_path):
     """every_prim.usda and the files it reads (its VDB is the example stages'), in
     `tmp_path`."""
-    for d in (DATA, os.path.join(ROOT, "docs", "stages")):
-        for f in os.listdir(d):
-            if not os.path.exists(str(tmp_path / f)):
-                os.symlink(os.path.join(d, f), str(tmp_path / f))
+    linked_assets(str(tmp_path))
     src = str(tmp_path / "base.usda")
     Sdf.Layer.FindOrOpen(EVERY).Export(src)
     return src

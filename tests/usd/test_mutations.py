@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd
 
-from conftest import ROOT, converged_images
+from conftest import ROOT, converged_images, linked_assets
 
 TIDE = os.path.join(ROOT, "tide")
 DATA = os.path.join(os.path.dirname(__file__), "data")
@@ -163,15 +163,6 @@ def check_run(rc, text, out, what):
     for line in text.splitlines():
         if line.startswith("tide: problem:"):
             assert PROBLEM.match(line), "%s: a problem without its prim and attribute: %s" % (what, line)
-
-
-def linked_assets(where):
-    """Links the example stages and the test data (and their assets) into `where`, where a
-    mutated copy of a stage then finds its relative asset paths."""
-    for d in (DATA, STAGES):
-        for f in os.listdir(d):
-            if not os.path.exists(os.path.join(where, f)):
-                os.symlink(os.path.join(d, f), os.path.join(where, f))
 
 
 def open_base(base):
