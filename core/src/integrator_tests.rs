@@ -8,7 +8,7 @@ use glam::Vec3;
 /// A unit cube about the origin of dispersive water (Quan–Fry).
 fn dispersive_cube() -> World {
     let mut s = SceneDesc::default();
-    s.meshes.push(crate::volume::box_mesh("/cube", -Vec3::ONE, Vec3::ONE, false).into());
+    s.meshes.push(crate::volume::box_mesh("/cube", -Vec3::ONE, Vec3::ONE).into());
     s.materials.push(MaterialDesc { name: "/water".into(), surface: SurfaceDesc::Water(WaterDesc { dispersion: true, ..Default::default() }), interior_medium: None });
     s.instances_mut().push(InstanceDesc { name: "/cube".into(), geometry: GeometryRef::Mesh(0), transforms: vec![glam::Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
     crate::testing::world_of(&s)

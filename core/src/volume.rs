@@ -22,20 +22,16 @@ pub struct Expanded {
     pub boundary_materials: Vec<usize>,
 }
 
-/// The 12 triangles of the box [lo, hi], wound counter-clockwise seen from outside (or
-/// clockwise when `mirror`, for a transform that flips handedness).
-pub fn box_mesh(name: &str, lo: Vec3, hi: Vec3, mirror: bool) -> MeshDesc {
+/// The 12 triangles of the box [lo, hi], wound counter-clockwise seen from outside (whatever
+/// transform places it: a mirroring one keeps a mesh's front, see `World::surface`).
+pub fn box_mesh(name: &str, lo: Vec3, hi: Vec3) -> MeshDesc {
     let positions: Vec<Vec3> = (0..8).map(|i| Vec3::new(if i & 1 == 0 { lo.x } else { hi.x }, if i & 2 == 0 { lo.y } else { hi.y }, if i & 4 == 0 { lo.z } else { hi.z })).collect();
     // each face as a quad a, b, c, d counter-clockwise seen from outside
     let faces = [[0, 4, 6, 2], [1, 3, 7, 5], [0, 1, 5, 4], [2, 6, 7, 3], [0, 2, 3, 1], [4, 5, 7, 6]];
     let mut indices = Vec::with_capacity(36);
     for [a, b, c, d] in faces {
         for t in [[a, b, c], [a, c, d]] {
-            if mirror {
-                indices.extend([t[0], t[2], t[1]]);
-            } else {
-                indices.extend(t);
-            }
+            indices.extend(t);
         }
     }
     MeshDesc { name: name.into(), faces: Vec::new(), positions, indices, normals: None, uvs: None, uv_name: None, double_sided: false, motion: None, primvars: Vec::new(), origin: Default::default() }
@@ -84,7 +80,7 @@ pub fn expand(scene: &SceneDesc, problems: &mut Vec<Problem>) -> Expanded {
         let d = g.values.dims();
         let (lo, hi) = (Vec3::splat(-1.0), Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32));
         let mesh = s.meshes.len();
-        s.meshes.push(box_mesh(&v.name, lo, hi, mats[0].determinant() < 0.0).into());
+        s.meshes.push(box_mesh(&v.name, lo, hi).into());
         // the box moves with the grid (the same keys, interpolated the same way)
         s.instances_mut().push(InstanceDesc {
             name: v.name.clone(),

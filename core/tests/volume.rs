@@ -93,6 +93,36 @@ fn a_camera_inside_a_volume_sees_through_the_rest_of_it() {
     check_rgb(&r, w, expect, "camera inside the volume");
 }
 
+// A grid placed by a mirroring transform (x scaled by −1) is the same volume: its box keeps
+// its outside out (the box's winding must not be turned over on top of the normal transform,
+// which already keeps a mirrored mesh's front), so light crossing it from outside and a
+// camera inside it see Beer–Lambert as for the unmirrored grid.
+#[test]
+fn a_mirrored_grid_is_the_same_volume() {
+    let sigma = [1.0f32, 1.0, 1.0];
+    let sig = uplift::unbounded(sigma, ColorSpace::LinearRec709);
+    let white = color::white_illuminant(ColorSpace::LinearRec709);
+    let (w, h) = (8, 8);
+    let mirror = |v: &mut VolumeDesc| {
+        // grid x 0 to 39 runs from +2.375 down to −2.5 (x ↦ −0.125 − x): the same box
+        v.density.local_to_world = Mat4::from_translation(Vec3::new(-0.125, 0.0, 0.0)) * Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)) * v.density.local_to_world;
+    };
+    // the camera outside, looking through 3 voxels of z
+    let (mut s, d) = through_volume(sigma, 1.0, 1.0);
+    mirror(&mut s.volumes[0]);
+    let expect = rgb_of(|l| (-sig.eval(l) * d).exp() * white.eval(l));
+    check_rgb(&render(&s, settings(w, h, 64)), w, expect, "through the mirrored volume");
+    // the camera inside, looking down −Z through 4.5 voxels
+    let mut s = SceneDesc::default();
+    s.media.push(absorbing("/fog", sigma, 1.0));
+    s.volumes.push(volume("/Fog", [40, 40, 9], 1.0, 0.125, Vec3::new(-2.5, -2.5, 0.0), 0));
+    mirror(&mut s.volumes[0]);
+    s.lights.push(dome(1.0));
+    s.camera = camera(Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.0, 0.0, -1.0), 2.0);
+    let expect = rgb_of(|l| (-sig.eval(l) * 4.5 * 0.125).exp() * white.eval(l));
+    check_rgb(&render(&s, settings(w, h, 64)), w, expect, "camera inside the mirrored volume");
+}
+
 #[test]
 fn inside_its_box_a_volume_replaces_the_water_medium() {
     // an index-matched absorbing slab 1 thick with an empty volume box 0.5 thick inside it:

@@ -341,7 +341,7 @@ fn single_scattering_matches_the_closed_form_for_a_flat_body_under_a_distant_lig
 fn diffusion_box(lo: Vec3, hi: Vec3, sigma_s: f32) -> crate::scene::SceneDesc {
     use crate::scene::*;
     let mut s = SceneDesc::default();
-    s.meshes.push(crate::volume::box_mesh("/b", lo, hi, false).into());
+    s.meshes.push(crate::volume::box_mesh("/b", lo, hi).into());
     s.media.push(MediumDesc { name: "/m".into(), sigma_a: SpectrumDesc::Rgb([0.5; 3]), sigma_s: SpectrumDesc::Rgb([sigma_s; 3]), scale: 1.0, phase: PhaseDesc::Isotropic, water: None, method: MediumMethod::Diffusion });
     s.materials.push(MaterialDesc { name: "/w".into(), surface: SurfaceDesc::Water(WaterDesc { ior: 1.333, ..Default::default() }), interior_medium: Some(0) });
     s.instances_mut().push(InstanceDesc { name: "/b".into(), geometry: GeometryRef::Mesh(0), transforms: vec![glam::Mat4::IDENTITY], times: vec![0.0], material: 0, id: 0, visible_to_camera: true, casts_shadows: true, primvar_row: None, index: None });
