@@ -5,8 +5,9 @@ opinions split over two layers, an identity transform op) render bit for bit the
 stage renders. And a stage whose every root prim is scaled by s with its `metersPerUnit`
 divided by s is the same physical scene (its ocean's own lengths are of its space, so the
 scale is undone there; a normalized light keeps its power while its size changes, so it is
-left out): it renders the same image, to within the noise of another seed. Stage: every kind
-of prim of the contract (data/every_prim.usda), rendered small through `tide render`."""
+left out): it renders the same image, to within the noise of another seed; so does a stage
+mirrored with its camera. Stage: every kind of prim of the contract (data/every_prim.usda),
+rendered small through `tide render`, and the fog bank example."""
 import os
 import subprocess
 
@@ -171,23 +172,29 @@ def test_rewritings_that_compose_alike_render_alike(renderer, tmp_path):
         assert problems == want_problems, (name, set(problems) ^ set(want_problems))
 
 
+def _prepend_scale(stage, scale, suffix):
+    """Puts every top transformable prim (a root prim, or the first below a root that is not)
+    under `scale`, its outermost op."""
+    tops, todo = [], list(stage.GetPseudoRoot().GetChildren())
+    while todo:
+        p = todo.pop()
+        if UsdGeom.Xformable(p):
+            tops.append(p)
+        else:
+            todo.extend(p.GetChildren())
+    for p in tops:
+        x = UsdGeom.Xformable(p)
+        ops = x.GetOrderedXformOps()
+        op = x.AddScaleOp(UsdGeom.XformOp.PrecisionDouble, opSuffix=suffix)
+        op.Set(Gf.Vec3d(*scale))
+        x.SetXformOpOrder([op] + list(ops), x.GetResetXformStack())
+
+
 def _scaled(src, dst, s):
     stage = Usd.Stage.Open(src)
     stage.GetPrimAtPath("/Lights/Disk").SetActive(False)
     if s != 1.0:
-        tops, todo = [], list(stage.GetPseudoRoot().GetChildren())
-        while todo:
-            p = todo.pop()
-            if UsdGeom.Xformable(p):
-                tops.append(p)
-            else:
-                todo.extend(p.GetChildren())
-        for p in tops:
-            x = UsdGeom.Xformable(p)
-            ops = x.GetOrderedXformOps()
-            op = x.AddScaleOp(UsdGeom.XformOp.PrecisionDouble, opSuffix="units")
-            op.Set(Gf.Vec3d(s, s, s))
-            x.SetXformOpOrder([op] + list(ops), x.GetResetXformStack())
+        _prepend_scale(stage, (s, s, s), "units")
         for p in stage.Traverse():
             if p.GetTypeName() == "TideOcean":
                 x = UsdGeom.Xformable(p)
@@ -220,5 +227,28 @@ def test_a_stage_in_other_units_renders_the_same_scene(renderer, tmp_path, s):
     noise, off = rel(ba, bb).max(), rel(ba, bc).max()
     # the same seed follows the same paths where rounding allows: most blocks agree closely,
     # and none differs by more than two seeds' blocks do
+    assert np.median(rel(ba, bc)) < 0.01, np.median(rel(ba, bc))
+    assert off <= 1.5 * noise, (off, noise, np.unravel_index(np.argmax(rel(ba, bc)), ba.shape))
+
+
+@pytest.mark.parametrize("name", ["every_prim.usda", "fog_bank.usda"])
+def test_a_stage_mirrored_camera_and_all_renders_the_same_image(renderer, tmp_path, name):
+    """Every root prim, the camera with them, mirrored through x = 0: each point is seen from
+    the mirrored camera where it was seen before, so the image is the same (a volume's box
+    turned inside out let the fog bank's light through unattenuated)."""
+    linked_assets(str(tmp_path))
+    src = str(tmp_path / "base.usda")
+    Sdf.Layer.FindOrOpen(EVERY if name == "every_prim.usda" else os.path.join(ROOT, "docs", "stages", name)).Export(src)
+    stage = Usd.Stage.Open(src)
+    _prepend_scale(stage, (-1.0, 1.0, 1.0), "mirror")
+    mirrored = str(tmp_path / "mirrored.usda")
+    stage.GetRootLayer().Export(mirrored)
+    a, problems = _render(src, str(tmp_path / "a.exr"), "--spp", "64")
+    b, _ = _render(src, str(tmp_path / "b.exr"), "--spp", "64", "--seed", "1")
+    c, mirrored_problems = _render(mirrored, str(tmp_path / "c.exr"), "--spp", "64")
+    assert mirrored_problems == problems
+    ba, bb, bc = _blocks(a), _blocks(b), _blocks(c)
+    rel = lambda x, y: np.abs(x - y) / (np.abs(x) + np.abs(y) + 1e-3)  # noqa: E731
+    noise, off = rel(ba, bb).max(), rel(ba, bc).max()
     assert np.median(rel(ba, bc)) < 0.01, np.median(rel(ba, bc))
     assert off <= 1.5 * noise, (off, noise, np.unravel_index(np.argmax(rel(ba, bc)), ba.shape))
