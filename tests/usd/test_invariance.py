@@ -217,11 +217,17 @@ def _blocks(px, size=8):
 def test_a_stage_in_other_units_renders_the_same_scene(renderer, tmp_path, s):
     src = _base(tmp_path)
     plain = _scaled(src, str(tmp_path / "plain.usda"), 1.0)
-    a, problems = _render(plain, str(tmp_path / "a.exr"), "--spp", "64")
-    b, _ = _render(plain, str(tmp_path / "b.exr"), "--spp", "64", "--seed", "1")
-    c, scaled_problems = _render(_scaled(src, str(tmp_path / "scaled.usda"), s), str(tmp_path / "c.exr"), "--spp", "64")
     # nothing is refused at one size and not the other (the droplets' grid, say)
-    assert scaled_problems == problems
+    _same_scene(plain, _scaled(src, str(tmp_path / "scaled.usda"), s), tmp_path)
+
+
+def _same_scene(src, other, tmp_path):
+    """Renders `src` at two seeds and `other` at the first: the same problems, and the same
+    image to within the noise between the seeds."""
+    a, problems = _render(src, str(tmp_path / "a.exr"), "--spp", "64")
+    b, _ = _render(src, str(tmp_path / "b.exr"), "--spp", "64", "--seed", "1")
+    c, other_problems = _render(other, str(tmp_path / "c.exr"), "--spp", "64")
+    assert other_problems == problems
     ba, bb, bc = _blocks(a), _blocks(b), _blocks(c)
     rel = lambda x, y: np.abs(x - y) / (np.abs(x) + np.abs(y) + 1e-3)  # noqa: E731
     noise, off = rel(ba, bb).max(), rel(ba, bc).max()
@@ -243,12 +249,4 @@ def test_a_stage_mirrored_camera_and_all_renders_the_same_image(renderer, tmp_pa
     _prepend_scale(stage, (-1.0, 1.0, 1.0), "mirror")
     mirrored = str(tmp_path / "mirrored.usda")
     stage.GetRootLayer().Export(mirrored)
-    a, problems = _render(src, str(tmp_path / "a.exr"), "--spp", "64")
-    b, _ = _render(src, str(tmp_path / "b.exr"), "--spp", "64", "--seed", "1")
-    c, mirrored_problems = _render(mirrored, str(tmp_path / "c.exr"), "--spp", "64")
-    assert mirrored_problems == problems
-    ba, bb, bc = _blocks(a), _blocks(b), _blocks(c)
-    rel = lambda x, y: np.abs(x - y) / (np.abs(x) + np.abs(y) + 1e-3)  # noqa: E731
-    noise, off = rel(ba, bb).max(), rel(ba, bc).max()
-    assert np.median(rel(ba, bc)) < 0.01, np.median(rel(ba, bc))
-    assert off <= 1.5 * noise, (off, noise, np.unravel_index(np.argmax(rel(ba, bc)), ba.shape))
+    _same_scene(src, mirrored, tmp_path)
