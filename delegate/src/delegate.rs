@@ -987,6 +987,8 @@ impl Delegate {
         let (t0, t1) = if motion { ((open / tcps) as f32, (close / tcps) as f32) } else { (0.0, 0.0) };
         // metres per scene unit: the settings' (the reader's), else the camera's (a Hydra plugin's)
         let mpu = sp.meters_per_unit.or(cam.as_ref().and_then(|c| c.meters_per_unit)).unwrap_or(1.0) as f32;
+        // and the up axis the same way (Y where neither gives it)
+        let z_up = sp.z_up.or(cam.as_ref().and_then(|c| c.z_up)).unwrap_or(false);
         // The scene is placed about a point near the camera (see [`scene_origin`]): every world
         // matrix is taken relative to it in double precision before it becomes single precision.
         let cam_world = cam.as_ref().map(|c| matrix_at(&c.transforms, 0.0).transform_point3(DVec3::ZERO));
@@ -1050,7 +1052,7 @@ impl Delegate {
                 None => default_material(path),
             };
             if let Some(med) = &m.medium {
-                scene.media.push(material::medium_in_stage(med, mpu, sp.z_up));
+                scene.media.push(material::medium_in_stage(med, mpu, z_up));
                 desc.interior_medium = Some(scene.media.len() - 1);
                 medium_of.insert(path, scene.media.len() - 1);
             }
@@ -2732,15 +2734,23 @@ mod tests {
         }
     }
 
-    /// The settings' `upAxis` (the stage's, as the reader sends it) sets the direction water
-    /// depth is measured down: Z on a Z-up stage, Y otherwise; an unknown axis is named.
+    /// The stage's `upAxis` sets the direction water depth is measured down: Z on a Z-up stage,
+    /// Y otherwise; an unknown axis is named. The reader sends it on the settings, a Hydra
+    /// plugin with the camera (as `metersPerUnit`); the settings' wins where both give one.
     #[test]
     fn water_depth_follows_the_stages_up_axis() {
-        for (axis, up) in [(None, Vec3::Y), (Some("Y"), Vec3::Y), (Some("Z"), Vec3::Z), (Some("X"), Vec3::Y)] {
+        let cases = [(None, None, Vec3::Y), (Some("Y"), None, Vec3::Y), (Some("Z"), None, Vec3::Z), (Some("X"), None, Vec3::Y), (None, Some("Z"), Vec3::Z), (None, Some("Y"), Vec3::Y), (Some("Y"), Some("Z"), Vec3::Y), (Some("Z"), Some("Y"), Vec3::Z)];
+        for (axis, on_camera, up) in cases {
             let mut d = Delegate::new();
             d.create_prim("renderSettings", "/S");
             if let Some(a) = axis {
                 d.set_attribute("/S", "upAxis", tok(a), None);
+            }
+            if let Some(a) = on_camera {
+                d.create_prim("camera", "/cam");
+                d.set_attribute("/cam", "transform", translate(0., 1., 5.), None);
+                d.set_attribute("/S", "camera", Value::Path("/cam".into()), None);
+                d.set_attribute("/cam", "upAxis", tok(a), None);
             }
             d.create_prim("material", "/M");
             d.set_attribute("/M", "volume", Value::Path("/M/V.outputs:volume".into()), None);
@@ -2752,7 +2762,7 @@ mod tests {
             d.set_attribute("/Q", "material", Value::Path("/M".into()), None);
             let p = d.commit_resources();
             assert_eq!(p.iter().map(|q| (q.item.as_str(), q.attribute.as_str())).collect::<Vec<_>>(), if axis == Some("X") { vec![("/S", "upAxis")] } else { vec![] }, "{p:?}");
-            assert_eq!(d.scene().media[0].water.as_ref().unwrap().up, up, "{axis:?}");
+            assert_eq!(d.scene().media[0].water.as_ref().unwrap().up, up, "{axis:?} on the settings, {on_camera:?} on the camera");
         }
     }
 

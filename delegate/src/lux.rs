@@ -568,6 +568,8 @@ pub struct CameraPiece {
     pub time_codes_per_second: Option<f64>,
     /// The stage's authored `metersPerUnit`, handed on the same way.
     pub meters_per_unit: Option<f64>,
+    /// Whether the stage's up axis is Z, where handed on the same way (`upAxis`).
+    pub z_up: Option<bool>,
 }
 
 /// A stage-wide rate or scale (`timeCodesPerSecond`, `metersPerUnit`) where given: positive
@@ -582,15 +584,15 @@ fn stage_positive(store: &AttrStore, name: &str, then: &str, p: &mut Problems) -
     })
 }
 
-/// Whether a stage's `upAxis` (token `Y` or `Z`, where given) is Z; another value is named
+/// Whether a stage's `upAxis` (token `Y` or `Z`) is Z, where given; another value is named
 /// and Y used.
-fn up_axis_is_z(store: &AttrStore, p: &mut Problems) -> bool {
-    match store.str_opt("upAxis") {
-        None | Some("Y") => false,
-        Some("Z") => true,
-        Some(other) => {
+fn up_axis_is_z(store: &AttrStore, p: &mut Problems) -> Option<bool> {
+    match store.str_opt("upAxis")? {
+        "Y" => Some(false),
+        "Z" => Some(true),
+        other => {
             p.add("upAxis", format!("unknown up axis '{other}'; using Y"));
-            false
+            Some(false)
         }
     }
 }
@@ -681,6 +683,7 @@ pub fn convert_camera(path: &str, store: &AttrStore, p: &mut Problems) -> Camera
         medium: store.str_opt("tide:medium").filter(|s| !s.is_empty()).map(String::from),
         time_codes_per_second,
         meters_per_unit: meters_per_unit(store, p),
+        z_up: up_axis_is_z(store, p),
     }
 }
 
@@ -723,9 +726,9 @@ pub struct SettingsPiece {
     /// The stage's `metersPerUnit` where authored (the reader gives it so): lengths and
     /// coefficients the contract gives in metres are converted to scene units with it.
     pub meters_per_unit: Option<f64>,
-    /// The stage's up axis is Z (`upAxis`, as the reader gives it): water depth is measured
-    /// down +Z instead of +Y.
-    pub z_up: bool,
+    /// Whether the stage's up axis is Z (`upAxis`, as the reader gives it; None: not given):
+    /// water depth is then measured down +Z instead of +Y.
+    pub z_up: Option<bool>,
     pub adaptive_threshold: f32,
     pub products: Vec<RenderProductDesc>,
 }
@@ -741,7 +744,7 @@ impl Default for SettingsPiece {
             time_codes_per_second: 24.0,
             time_codes_authored: false,
             meters_per_unit: None,
-            z_up: false,
+            z_up: None,
             adaptive_threshold: 0.0,
             products: Vec::new(),
         }

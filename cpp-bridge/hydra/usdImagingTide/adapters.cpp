@@ -219,7 +219,8 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
     // a camera also carries the stage's frame rate: Hydra's shutter is in frames, and nothing
     // else tells a render delegate how long a frame is
     // and the stage's metres per unit where authored (what the contract gives in metres is
-    // converted with it; USD's fallback, centimetres, is not taken for an unauthored stage)
+    // converted with it; USD's fallback, centimetres, is not taken for an unauthored stage),
+    // and its up axis (water depth is measured down it)
     if (prim.IsA<UsdGeomCamera>()) {
         names.push_back(TfToken("timeCodesPerSecond"));
         values.push_back(HdRetainedTypedSampledDataSource<double>::New(prim.GetStage()->GetTimeCodesPerSecond()));
@@ -227,6 +228,8 @@ HdContainerDataSourceHandle UsdImagingTideAttributesAdapter::GetImagingSubprimDa
             names.push_back(TfToken("metersPerUnit"));
             values.push_back(HdRetainedTypedSampledDataSource<double>::New(UsdGeomGetStageMetersPerUnit(prim.GetStage())));
         }
+        names.push_back(TfToken("upAxis"));
+        values.push_back(HdRetainedTypedSampledDataSource<TfToken>::New(UsdGeomGetStageUpAxis(prim.GetStage())));
     }
     if (names.empty()) return nullptr;
     return HdRetainedContainerDataSource::New(
