@@ -2,10 +2,11 @@
 once, and the offending prim or input is dropped or replaced while the rest is read."""
 import math
 
+import numpy as np
 import pytest
 from pxr import Sdf, UsdGeom, UsdLux, UsdShade
 
-from conftest import bind, camera, lambert_material, load, preview_material, render, settings
+from conftest import bind, camera, lambert_material, load, matrix, preview_material, render, settings
 from tide import usd_reader
 
 
@@ -177,7 +178,8 @@ def _mistyped_xform_op(stage):
         ["xformOp:translate"])
     _mistyped(stage, "/Moved", "xformOp:translate", Sdf.ValueTypeNames.String, "left")
     UsdGeom.Sphere.Define(stage, "/Moved/Ball")
-    return "/Moved", "xformOp:translate", "Moved/Ball"
+    # the op is skipped, as USD skips it (see test_an_op_usd_skips_is_skipped_and_named)
+    return "/Moved", "xformOp:translate", None
 
 
 def _mistyped_light(stage):
@@ -239,6 +241,55 @@ def test_problem_named_once_rest_renders(stage, delegate, case):
     target.SetCustomDataByKey("touched", 1)
     assert [p for p in reader.update() if (p.prim, p.attribute) == (prim, attribute)] == []
     assert len(reader.problems) == len({(p.prim, p.attribute) for p in reader.problems})
+
+
+@pytest.mark.parametrize("bad", ["bogus", "xformOp:bogus", "xformOp:translate:none", "size",
+                                 "xformOp:translate:text"])
+def test_an_op_usd_skips_is_skipped_and_named(stage, delegate, bad):
+    """An `xformOpOrder` entry naming no xform op of its prim (no attribute, an unknown op type,
+    an attribute that is no op), or an op whose value does not fit it: USD's transform
+    computation skips it with a warning (its Python binding raises), and so does the reader,
+    naming it. The prim, its moving sibling op and its child are placed as a prim holding the
+    other ops alone is (by USD), over the shutter (the child: Xform prims are not sent)."""
+    from pxr import Gf
+    camera(stage, **{"shutter__open": 0.0, "shutter__close": 1.0})
+    settings(stage)
+    UsdGeom.Sphere.Define(stage, "/Good")
+
+    def placed(path, order):
+        x = UsdGeom.Xform.Define(stage, path)
+        t = x.AddTranslateOp()
+        t.Set(Gf.Vec3d(1, 2, 3), 0)
+        t.Set(Gf.Vec3d(3, 2, 3), 1)
+        x.AddRotateYOp().Set(30.0)
+        x.AddScaleOp().Set(Gf.Vec3f(2, 1, 1))
+        x.GetPrim().CreateAttribute("size", Sdf.ValueTypeNames.Double).Set(2.0)
+        x.GetPrim().CreateAttribute("xformOp:translate:text", Sdf.ValueTypeNames.String).Set("left")
+        x.GetPrim().GetAttribute("xformOpOrder").Set(order)
+        UsdGeom.Sphere.Define(stage, path + "/Ball").AddTranslateOp().Set(Gf.Vec3d(0, 0, -1))
+        return x
+
+    good = ["xformOp:translate", "xformOp:rotateY", "xformOp:scale"]
+    placed("/Bad", good[:1] + [bad] + good[1:])
+    twin = placed("/Twin", good)
+    reader, problems = load(stage, delegate, frame=0)
+    where = (("/Bad", "xformOp:translate:text") if bad == "xformOp:translate:text" else ("/Bad", "xformOpOrder"))
+    named = [p for p in problems if (p.prim, p.attribute) == where]
+    if bad == "xformOp:translate:none":
+        # an op of a known type without its attribute: usd-core skips it itself (with a
+        # warning on stderr), so the reader never sees it
+        assert named == [], problems
+    else:
+        assert len(named) == 1 and named[0].message.endswith("; the op is skipped, as USD skips it"), problems
+        assert "'%s'" % bad in named[0].message or bad == "xformOp:translate:text", named[0].message
+    assert not [p for p in problems if p.prim.startswith("/Twin")], problems
+    sent = delegate.samples("/Bad/Ball", "transform")
+    want = delegate.samples("/Twin/Ball", "transform")
+    assert sorted(sent) == sorted(want) and len(sent) >= 2, (sent, want)
+    for t in sent:
+        usd = UsdGeom.Xformable(twin.GetPrim().GetChild("Ball")).ComputeLocalToWorldTransform(t)
+        assert np.allclose(matrix(sent[t]), matrix(want[t])) and \
+            np.allclose(matrix(sent[t]), np.asarray(usd), atol=1e-6), t
 
 
 def test_replaced_by_default(stage, delegate):

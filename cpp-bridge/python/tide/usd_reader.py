@@ -508,6 +508,78 @@ def _is_xform_op(attr):
         return False
 
 
+def _placement(prim, time):
+    """(local matrix, whether it resets the transform stack, [(attribute, why) of each op
+    skipped]) of `prim` at `time`, composed op by op as USD's transform computation does (C++),
+    which skips an `xformOpOrder` entry naming no xform op of the prim, or an op whose value
+    does not fit it, with a warning: its Python binding raises instead, so this is what the
+    reader falls back on then."""
+    order = prim.GetAttribute("xformOpOrder")
+    try:
+        names = [str(n) for n in order.Get()] if order and order.HasValue() and \
+            not _mistyped(prim, order) else []
+    except (Tf.ErrorException, TypeError):
+        names = []
+    m, reset, skipped = Gf.Matrix4d(1), False, []
+    for k, name in enumerate(names):
+        if name == "!resetXformStack!":
+            reset = reset or k == 0
+            continue
+        inverse = name.startswith("!invert!")
+        attr = prim.GetAttribute(name[len("!invert!"):] if inverse else name)
+        if not _is_xform_op(attr):
+            skipped.append(("xformOpOrder", "names '%s', which is not an xform op of the prim" % name))
+            continue
+        try:
+            m = UsdGeom.XformOp(attr, inverse).GetOpTransform(time) * m
+        except Tf.ErrorException:
+            stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+            skipped.append((attr.GetName(), "a %s value does not fit its op"
+                            % getattr(stack[0], "typeName", "") if stack else "its value does not fit its op"))
+    return m, reset, skipped
+
+
+def _op_times(prim, interval):
+    """The time samples within `interval` of `prim`'s xform ops (what
+    Xformable.GetTimeSamplesInInterval gives, for a prim whose `xformOpOrder` it refuses)."""
+    x = UsdGeom.Xformable(prim)
+    try:
+        return x.GetTimeSamplesInInterval(interval)
+    except Tf.ErrorException:
+        order = prim.GetAttribute("xformOpOrder")
+        times = set()
+        for name in ([str(n) for n in order.Get() or []] if order and order.HasValue() else []):
+            attr = prim.GetAttribute(name[len("!invert!"):] if name.startswith("!invert!") else name)
+            if _is_xform_op(attr):
+                times.update(attr.GetTimeSamplesInInterval(interval))
+        return sorted(times)
+
+
+class _Placements:
+    """World transforms at one time: UsdGeom.XformCache's, or, where it refuses a prim's
+    transform (see _placement), composed op by op, each op skipped reported through
+    `report(prim, attribute, why)`."""
+
+    def __init__(self, time, report):
+        self._cache, self._time, self._report = UsdGeom.XformCache(time), time, report
+
+    def GetLocalToWorldTransform(self, prim):
+        try:
+            return self._cache.GetLocalToWorldTransform(prim)
+        except Tf.ErrorException:
+            m, p = Gf.Matrix4d(1), prim
+            while p and not p.IsPseudoRoot():
+                if UsdGeom.Xformable(p):
+                    local, reset, skipped = _placement(p, self._time)
+                    for attr, why in skipped:
+                        self._report(p.GetPath(), attr, why)
+                    m = m * local
+                    if reset:
+                        break
+                p = p.GetParent()
+            return m
+
+
 def _rigidly_between(ma, mb, mm):
     """Whether matrix `mm` is (to 1e-4 of the motion and 0.25 degrees) what a rigid
     interpolation halfway from `ma` to `mb` gives: translations and scales averaged, rotations
@@ -1232,7 +1304,7 @@ class Reader:
         for p in prims:
             x = UsdGeom.Xformable(p)
             while x:
-                times.update(x.GetTimeSamplesInInterval(interval))
+                times.update(_op_times(x.GetPrim(), interval))
                 parent = x.GetPrim().GetParent()
                 x = UsdGeom.Xformable(parent) if parent else None
         return times
@@ -1270,8 +1342,21 @@ class Reader:
                 self._between(fn, m, mm, b, mb, depth - 1))
 
     def _world(self, prim):
-        x = UsdGeom.Xformable(prim)
-        return lambda t: x.ComputeLocalToWorldTransform(t)
+        return lambda t: self._world_at(prim, t)
+
+    def _world_at(self, prim, t):
+        """`prim`'s world matrix at time `t` (see _placement for a prim whose transform USD's
+        Python binding refuses)."""
+        try:
+            return UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(t)
+        except Tf.ErrorException:
+            return self._placements(t).GetLocalToWorldTransform(prim)
+
+    def _placements(self, t):
+        """World transforms at time `t` (a transform cache that skips, and reports, ops as USD
+        does; see _Placements)."""
+        return _Placements(t, lambda path, attr, why: self.problem(
+            path, attr, "%s; the op is skipped, as USD skips it" % why))
 
     # -- render settings, products, camera selection --------------------------------------
     def _eval_settings(self):
@@ -1750,33 +1835,17 @@ class Reader:
 
     def _culprit(self, prim):
         """(path, attribute, why) of the first value on `prim` or an ancestor whose authored
-        type is not its schema's, of an `xformOpOrder` naming no xform op of its prim, or of an
-        xformOp whose value does not fit its op; None if none: what a failed read of `prim` is
-        blamed on."""
+        type is not its schema's, or of an xform op USD skips (see _placement); None if none:
+        what a failed read of `prim` is blamed on."""
         p = prim
         while p and not p.IsPseudoRoot():
-            order = p.GetAttribute("xformOpOrder")
-            for op in (order.Get() or []) if order and order.HasAuthoredValue() and \
-                    not _mistyped(p, order) else []:
-                name = str(op)
-                if name == "!resetXformStack!":
-                    continue
-                a = p.GetAttribute(name[len("!invert!"):] if name.startswith("!invert!") else name)
-                if not _is_xform_op(a):
-                    return p.GetPath(), "xformOpOrder", "names '%s', which is not an xform op " \
-                        "of the prim" % name
+            skipped = _placement(p, self._time(0))[2] if UsdGeom.Xformable(p) else []
+            if skipped:
+                return (p.GetPath(),) + skipped[0]
             for a in p.GetAuthoredAttributes():
-                name = a.GetName()
                 why = _mistyped(p, a)
                 if why:
-                    return p.GetPath(), name, why
-                if name.startswith("xformOp:"):
-                    stack = a.GetPropertyStack(Usd.TimeCode.Default())
-                    authored = getattr(stack[0], "typeName", None) if stack else None
-                    try:
-                        UsdGeom.XformOp(a).GetOpTransform(self._time(0))
-                    except Tf.ErrorException:
-                        return p.GetPath(), name, "a %s value does not fit its op" % authored
+                    return p.GetPath(), a.GetName(), why
             p = p.GetParent()
         return None
 
@@ -2379,7 +2448,7 @@ class Reader:
             st.set("field:%s:fieldIndex" % name, ("int", index))
             # the field prim's own placement relative to the volume (identity when the field
             # sits under the volume with no transform of its own)
-            cache = UsdGeom.XformCache(self._time(0))
+            cache = self._placements(self._time(0))
             rel = cache.GetLocalToWorldTransform(fprim) * cache.GetLocalToWorldTransform(prim).GetInverse()
             st.set("field:%s:transform" % name, _matrix(rel))
             if name == "density":
@@ -2530,7 +2599,7 @@ class Reader:
         """The world matrix (4 x 4, row vectors) of a prim that holds still over the shutter,
         from one transform cache for the sync."""
         if self._xforms is None:
-            self._xforms = UsdGeom.XformCache(self._time(0))
+            self._xforms = self._placements(self._time(0))
         return np.asarray(_mat_key(self._xforms.GetLocalToWorldTransform(prim))).reshape(4, 4)
 
     def _instance_key(self, prim):
@@ -2584,7 +2653,7 @@ class Reader:
         interval = self._window()
         x = UsdGeom.Xformable(prim)
         while x:
-            if x.GetTimeSamplesInInterval(interval):
+            if _op_times(x.GetPrim(), interval):
                 return False
             parent = x.GetPrim().GetParent()
             x = UsdGeom.Xformable(parent) if parent else None
@@ -2609,7 +2678,7 @@ class Reader:
         still), which inherit the constant primvars `names` from outside the prototype."""
         roots = [m for m in members if not isinstance(m, tuple)]
         def rel(t):
-            cache = UsdGeom.XformCache(t)
+            cache = self._placements(t)
             return cache.GetLocalToWorldTransform(prim) * \
                 cache.GetLocalToWorldTransform(root).GetInverse()
 
@@ -2633,7 +2702,7 @@ class Reader:
         offsets = sorted({o for r in roots for o in self._motion_offsets([r])}) or [0.0]
         worlds = []
         for o in offsets:
-            cache = UsdGeom.XformCache(self._time(o))
+            cache = self._placements(self._time(o))
             parts = [m[1].reshape(-1, 16) if isinstance(m, tuple) else
                      np.asarray([_mat_key(cache.GetLocalToWorldTransform(m))], np.float64)
                      for m in members]
@@ -2751,7 +2820,7 @@ class Reader:
                 dpath = str(base if str(relp) == "." else base.AppendPath(relp))
 
                 def rel(tc, g=g, parent=parent):
-                    cache = UsdGeom.XformCache(tc)
+                    cache = self._placements(tc)
                     m = cache.GetLocalToWorldTransform(g)
                     if parent:
                         m = m * cache.GetLocalToWorldTransform(parent).GetInverse()
@@ -2830,7 +2899,7 @@ class Reader:
         tcps = self.stage.GetTimeCodesPerSecond() or 24.0
         # the functions below may be called for a nested instancer, under another's scale
         blur, time = self._blur, self._time_fn()
-        world_at = lambda o: UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time(o))
+        world_at = lambda o: self._world_at(prim, time(o))
         rates = {}
         pos_attr = inst.GetPositionsAttr()
         if pos_attr.GetNumTimeSamples() == 0:
@@ -2927,7 +2996,7 @@ class Reader:
             inner = place(o)
             if inner is None:
                 return None
-            cache = UsdGeom.XformCache(time(o))
+            cache = self._placements(time(o))
             q = np.asarray(cache.GetLocalToWorldTransform(o_parent), dtype=np.float64)
             rel = inner @ np.linalg.inv(q)
             return np.einsum("jab,ibc->ijac", rel, o_place(o)).reshape(-1, 4, 4)
@@ -3179,12 +3248,16 @@ class Reader:
         _default_camera)."""
         purposes = [p for p in ("default", "render", "proxy", "guide") if p in self._purposes]
         cache = UsdGeom.BBoxCache(self._time(0), purposes, useExtentsHint=True)
-        rng = cache.ComputeWorldBound(self.stage.GetPseudoRoot()).ComputeAlignedRange()
-        lo, hi = rng.GetMin(), rng.GetMax()
+        try:
+            rng = cache.ComputeWorldBound(self.stage.GetPseudoRoot()).ComputeAlignedRange()
+            lo, hi = rng.GetMin(), rng.GetMax()
+            why = "empty" if rng.IsEmpty() else None if all(
+                math.isfinite(v) for v in list(lo) + list(hi)) else "not finite"
+        except Tf.ErrorException:  # a transform USD's Python binding refuses (see _placement)
+            why = "unknown: USD cannot compute a prim's transform"
         bounds = "the stage's bounds"
-        if rng.IsEmpty() or not all(math.isfinite(v) for v in list(lo) + list(hi)):
-            bounds = "a cube of 2 units about the origin (the stage's bounds are %s)" \
-                % ("empty" if rng.IsEmpty() else "not finite")
+        if why:
+            bounds = "a cube of 2 units about the origin (the stage's bounds are %s)" % why
             lo, hi = Gf.Vec3d(-1, -1, -1), Gf.Vec3d(1, 1, 1)
         centre, size = (lo + hi) / 2.0, hi - lo
         z_up = UsdGeom.GetStageUpAxis(self.stage) == UsdGeom.Tokens.z
