@@ -200,8 +200,10 @@ pub struct PreviewSurfaceDesc {
     /// > 0: cut-out (opacity below it is fully transparent, above fully opaque).
     pub opacity_threshold: f32,
     pub ior: f32,
-    /// Tangent-space normal map (values in [0,1] remapped to [-1,1] by scale/bias upstream).
-    pub normal: Option<TexLookup>,
+    /// Tangent-space normal (UsdPreviewSurface `normal`, in [−1, 1]: a texture's values
+    /// remapped by its scale and bias upstream), from a texture, a primvar, a node graph or a
+    /// constant; None: the surface's own normal.
+    pub normal: Option<ColorInput>,
     /// A thin water film over the surface (the material's `TideWetAPI`).
     pub wet: Option<WetDesc>,
     /// The inputs of a MaterialX PBR surface beyond UsdPreviewSurface's (None: all neutral).

@@ -582,10 +582,12 @@ pub fn validate_cached(scene: &SceneDesc, cache: Option<&CheckCache>) -> (SceneD
                 problem(p, &m.name, "inputs:ior", "must be > 0; using 1.5");
                 ps.ior = 1.5;
             }
-            if let Some(l) = &ps.normal {
-                if !tex_ok(l) {
-                    problem(p, &m.name, "inputs:normal", "texture missing; normal map ignored");
+            if let Some(n) = &mut ps.normal {
+                if matches!(n, ColorInput::Texture(l) if !tex_ok(l)) {
+                    problem(p, &m.name, "inputs:normal", "texture missing; the surface's own normal is used");
                     ps.normal = None;
+                } else {
+                    fix_color(n, "inputs:normal", p, [0.0, 0.0, 1.0]);
                 }
             }
         };

@@ -23,6 +23,13 @@ use std::sync::Arc;
 /// well below what a modeller means as a gap (0.1 mm at 10 m).
 pub const COINCIDENT: f32 = 1e-5;
 
+/// A tangent-space normal at a hit: a constant, or a lookup (texture, primvar, node graph).
+#[derive(Clone, Debug)]
+pub enum NormalParam {
+    Const([f32; 3]),
+    Lookup(ColorParam),
+}
+
 /// A colour input with its constant spectrum uplifted once.
 #[derive(Clone, Debug)]
 pub enum ColorParam {
@@ -171,10 +178,10 @@ pub enum SurfaceKind {
         ior: f32,
         wet: Option<WetParam>,
         extras: Option<Box<ExtrasParam>>,
-        /// A tangent-space normal map (UsdPreviewSurface `normal`, already scaled and biased
-        /// to [−1, 1] by its texture node): x along the surface's dp/du, y along dp/dv, z the
-        /// shading normal.
-        normal: Option<TexLookup>,
+        /// A tangent-space normal (UsdPreviewSurface `normal`, already scaled and biased to
+        /// [−1, 1] by its texture node where it comes from one): x along the surface's dp/du,
+        /// y along dp/dv, z the shading normal.
+        normal: Option<NormalParam>,
     },
     Dielectric(DielectricMat),
     Conductor { eta: Spectrum, k: Spectrum, roughness: f32 },
@@ -384,7 +391,10 @@ fn preview_kind(p: &PreviewSurfaceDesc, cs: ColorSpace) -> SurfaceKind {
         opacity: float_param(&p.opacity),
         opacity_threshold: p.opacity_threshold,
         ior: p.ior,
-        normal: p.normal.clone(),
+        normal: p.normal.as_ref().map(|c| match c {
+            ColorInput::Const(v) => NormalParam::Const(*v),
+            other => NormalParam::Lookup(color_param(other, cs)),
+        }),
         wet: p.wet.as_ref().map(|w| WetParam { amount: float_param(&w.amount), ior: w.ior, water_compliant: w.water_compliant }),
         extras: p.extras.as_ref().map(|x| {
             Box::new(ExtrasParam {
@@ -1284,8 +1294,11 @@ impl World {
     /// the frame's tangent (dp/du), y along dp/dv's side of n × x (the other side where the
     /// texture coordinates are mirrored), z along n. A normal that is not finite, or that
     /// points below the tangent plane, leaves the frame as it is.
-    fn normal_mapped(&self, map: &TexLookup, s: &SurfaceHit, frame: &Frame) -> Frame {
-        let [x, y, z] = texture::lookup_rgb(&self.textures, map, AtHit { w: self, s }.st(map));
+    fn normal_mapped(&self, map: &NormalParam, s: &SurfaceHit, frame: &Frame) -> Frame {
+        let [x, y, z] = match map {
+            NormalParam::Const(v) => *v,
+            NormalParam::Lookup(c) => self.rgb(c, s).unwrap_or([0.0, 0.0, 1.0]),
+        };
         let y = if self.uv_mirrored(s) { -y } else { y };
         let n = (frame.s * x + frame.t * y + frame.n * z).normalize_or_zero();
         if n.dot(frame.n) > 0.0 && n.is_finite() {

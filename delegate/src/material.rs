@@ -596,23 +596,15 @@ impl Ctx<'_> {
 
     fn preview(&mut self, n: &str) -> PreviewSurfaceDesc {
         let d = PreviewSurfaceDesc::default();
+        // a tangent-space normal from a texture, a primvar, a node graph or a constant; straight
+        // up (the fallback) turns nothing
         let normal = match self.source(n, "normal") {
             Some(Source::Texture(mut t)) => {
                 t.channel = Channel::Rgb;
-                Some(t)
+                Some(ColorInput::Texture(t))
             }
-            Some(Source::Primvar(_) | Source::Graph(_)) => {
-                self.p.add(&format!("{}.inputs:normal", n), "a normal from a primvar or a node graph is not supported; the surface's own normal is used");
-                None
-            }
-            _ => {
-                // a constant tangent-space normal other than straight up is not applied: said
-                let v = self.input_vec(n, "normal", [0.0, 0.0, 1.0]);
-                if v != [0.0, 0.0, 1.0] {
-                    self.p.add(&format!("{}.inputs:normal", n), "a constant normal is not supported (only one from a texture); the surface's own normal is used");
-                }
-                None
-            }
+            Some(s @ (Source::Primvar(_) | Source::Graph(_))) => Some(s.into_color()),
+            _ => Some(ColorInput::Const(self.input_vec(n, "normal", [0.0, 0.0, 1.0]))).filter(|c| *c != ColorInput::Const([0.0, 0.0, 1.0])),
         };
         PreviewSurfaceDesc {
             diffuse_color: self.color(n, "diffuseColor", [0.18; 3]),
@@ -950,7 +942,7 @@ pub fn remap_textures(desc: &mut MaterialDesc, map: &[usize]) {
                 flt(f);
             }
             if let Some(n) = &mut p.normal {
-                fix(n);
+                col(n);
             }
             if let Some(w) = &mut p.wet {
                 flt(&mut w.amount);
@@ -1049,10 +1041,11 @@ mod tests {
         assert_eq!(ps.diffuse_color, ColorInput::Const([0.1, 0.2, 0.3]));
     }
 
-    /// A constant `normal` other than straight up is named (only a texture's turns the frame).
+    /// A constant `normal` turns the shading frame as a texture's does; straight up (the
+    /// fallback) is no normal at all.
     #[test]
-    fn a_constant_tilted_normal_is_named() {
-        for (n, said) in [([0.8, 0.0, 0.6], true), ([0.0, 0.0, 1.0], false)] {
+    fn a_constant_tilted_normal_is_kept() {
+        for (n, kept) in [([0.8, 0.0, 0.6], true), ([0.0, 0.0, 1.0], false)] {
             let s = mat(&[
                 ("surface", Value::Path("/M/PBR.outputs:surface".into())),
                 ("/M/PBR.info:id", tok("UsdPreviewSurface")),
@@ -1061,8 +1054,8 @@ mod tests {
             let mut p = Problems::new("/M");
             let m = convert_material("/M", &s, &loaded(false), &mut p);
             let SurfaceDesc::Preview(ps) = &m.desc.surface else { panic!() };
-            assert!(ps.normal.is_none());
-            assert_eq!(p.list.iter().any(|q| q.attribute == "/M/PBR.inputs:normal"), said, "{:?}", p.list);
+            assert_eq!(ps.normal, kept.then_some(ColorInput::Const(n)));
+            assert!(p.list.is_empty(), "{:?}", p.list);
         }
     }
 

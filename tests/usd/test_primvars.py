@@ -277,14 +277,16 @@ def test_a_uv_textures_file_colour_space_decides_where_its_source_colour_space_i
     assert ok, (kind, source, space, why)
 
 
+@pytest.mark.parametrize("source", ["texture", "constant", "primvar"])
 @pytest.mark.parametrize("tilt,n_dot_l", [((1, 0), 0.25), ((0, 1), 1.0), ((0, -1), 0.0)])
-def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_path, tilt, n_dot_l):
+def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_path, tilt, n_dot_l, source):
     """A white UsdPreviewSurface panel facing +Y (u along +x, v along +z), seen from above under
-    a sun from (0, cos 60, sin 60), with a tangent-space normal map tilting its normal 60 degrees
-    towards +u, +v or -v, shades as the same panel turned by 60 degrees that way without a map:
-    same normal, light and view, so the same radiance (the texture holds (n + 1) / 2, turned back
-    by UsdUVTexture's scale and bias as UsdPreviewSurface's `normal` expects). Towards -v the
-    normal faces away from the sun: black."""
+    a sun from (0, cos 60, sin 60), with a tangent-space normal tilting its normal 60 degrees
+    towards +u, +v or -v, shades as the same panel turned by 60 degrees that way without one:
+    same normal, light and view, so the same radiance. The normal comes from a texture (holding
+    (n + 1) / 2, turned back by UsdUVTexture's scale and bias as UsdPreviewSurface's `normal`
+    expects), is authored as a constant, or is read from a constant primvar by a
+    UsdPrimvarReader. Towards -v the normal faces away from the sun: black."""
     import math
     from pxr import Usd, UsdLux
 
@@ -295,8 +297,18 @@ def test_a_normal_map_shades_as_the_surface_turned_to_its_normal(renderer, tmp_p
         m = panel(stage, "/Panel", columns=1, st=True)
         mat, sh = _white_specless(stage)
         s60, c60 = math.sin(math.radians(60)), math.cos(math.radians(60))
-        if mapped:
-            n = (tilt[0] * s60, tilt[1] * s60, c60)
+        n = (tilt[0] * s60, tilt[1] * s60, c60)
+        if mapped and source == "constant":
+            sh.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).Set(Gf.Vec3f(*n))
+        elif mapped and source == "primvar":
+            pv = UsdGeom.PrimvarsAPI(m.GetPrim()).CreatePrimvar("tilted", Sdf.ValueTypeNames.Normal3f, UsdGeom.Tokens.constant)
+            pv.Set(Gf.Vec3f(*n))
+            reader = UsdShade.Shader.Define(stage, "/Looks/W/Tilt")
+            reader.CreateIdAttr("UsdPrimvarReader_normal")
+            reader.CreateInput("varname", Sdf.ValueTypeNames.String).Set("tilted")
+            out = reader.CreateOutput("result", Sdf.ValueTypeNames.Normal3f)
+            sh.CreateInput("normal", Sdf.ValueTypeNames.Normal3f).ConnectToSource(out)
+        elif mapped:
             f = tmp_path / "normal.exr"
             write_exr(f, [[tuple((c + 1) / 2 for c in n)]])
             tex = UsdShade.Shader.Define(stage, "/Looks/W/N")

@@ -1046,7 +1046,7 @@ impl Ctx<'_> {
                 ColorInput::Graph(e) => FloatInput::Graph(channel_mean(e)),
             },
         };
-        let normal = self.mtlx_normal(n, m.normal);
+        let normal = self.mtlx_normal(n, m.normal).map(ColorInput::Texture);
         let (gamma, roughness) = self.coat_affected(n, m);
         PreviewSurfaceDesc {
             diffuse_color: self.weighted_color(n, m.base.2, m.base.3, m.base.0, m.base.1, gamma),
