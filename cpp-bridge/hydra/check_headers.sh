@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
-# check_headers.sh: syntax and type check of the Hydra plugin (hdTide.cpp, instancer.cpp, rendererPlugin.cpp)
-# against the headers of an OpenUSD source checkout, without an OpenUSD build. Not part of CI
-# (CI has no OpenUSD sources); run it by hand after changing the plugin:
+# check_headers.sh: syntax and type check of the Hydra plugin (its six C++ sources, listed below)
+# against the headers of an OpenUSD source checkout, without an OpenUSD build. scripts/test.sh
+# runs it against OpenUSD v24.08's headers (scripts/fetch_openusd_headers.py); by hand:
 #
 #   cpp-bridge/hydra/check_headers.sh OPENUSD_SRC_DIR
 #
