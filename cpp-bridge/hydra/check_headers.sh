@@ -45,8 +45,10 @@ fi
 # cxx's generated lib.rs.h includes "tide-bridge/include/tide/...": the crate under its name.
 ln -s "$bridge" "$gen/crate/tide-bridge"
 
+# the checkout's commit, where $usd is the top of a git work tree of its own (not a folder
+# inside another repository, such as this one's target/)
 commit=""
-if git -C "$usd" rev-parse HEAD >/dev/null 2>&1; then commit=" ($(git -C "$usd" rev-parse HEAD))"; fi
+if [ "$(git -C "$usd" rev-parse --show-toplevel 2>/dev/null)" = "$usd" ]; then commit=" ($(git -C "$usd" rev-parse HEAD))"; fi
 echo "OpenUSD $major.$minor.$patch from $usd$commit; compiler: $($cxx --version | head -n 1)"
 rc=0
 for src in hdTide.cpp instancer.cpp rendererPlugin.cpp shaderDiscovery.cpp sceneIndexPlugin.cpp usdImagingTide/adapters.cpp; do
