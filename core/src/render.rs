@@ -593,6 +593,7 @@ impl Renderer {
         }
         let base = self.film.spp;
         let seed = self.settings.seed;
+        let pixels = ((x1 - x0) as u64) * ((y1 - y0) as u64);
         // camera samples this pass (fewer than spp × pixels once adaptive sampling stops some)
         let camera_samples = spp as u64 * self.active_pixels() as u64;
         let past = |d: std::time::Instant| match gate {
@@ -608,7 +609,7 @@ impl Renderer {
             // following the crop's pixels left a quarter of the image with a quarter of them
             // and 3–4× the variance in its caustics)
             let image_pixels = self.film.width as u64 * self.film.height as u64;
-            self.pool.install(|| c.begin_pass(world, seed, spp, image_pixels));
+            self.pool.install(|| c.begin_pass_over(world, seed, spp, image_pixels, pixels));
             if c.wants_probe() {
                 c.begin_probe();
                 let complete = self.pool.install(|| probe_beams(world, c, &self.camera_stack, seed, self.film.window, &cancelled));

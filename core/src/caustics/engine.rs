@@ -482,6 +482,15 @@ impl Caustics {
     /// Traces this pass's photons (`spp` samples per pixel over `pixels` pixels are about to be
     /// rendered) and builds the photon map. Runs on the current rayon pool.
     pub fn begin_pass(&mut self, world: &World, seed: u64, spp: u32, pixels: u64) {
+        self.begin_pass_over(world, seed, spp, pixels, pixels)
+    }
+
+    /// [`Self::begin_pass`] for a pass that renders `rendered` of the image's `pixels` (a
+    /// `dataWindowNDC` crop): the photons follow the whole image, so that the crop meets the
+    /// whole image's photon density, while the second pass's make-up weight for the training
+    /// pass ([`Atlas::photon_weight`]) counts the camera samples taken, as the training pass's
+    /// count does.
+    pub fn begin_pass_over(&mut self, world: &World, seed: u64, spp: u32, pixels: u64, rendered: u64) {
         let wanted = (self.config.photons_per_sample as f64 * spp as f64 * pixels as f64).round().max(1.0) as u64;
         let cap = PhotonMap::max_photons_for_memory(self.config.memory_limit_bytes) as u64;
         let n = wanted.min(cap).max(1);
@@ -542,7 +551,7 @@ impl Caustics {
         let energy: f64 = photons.iter().map(|p| p.energy() as f64).sum();
         self.mean_energy = if stored > 0 && energy > 0.0 { (energy / stored as f64) as f32 } else { 1.0 };
         self.map = PhotonMap::build(photons, self.cell_size).unwrap_or_else(|_| PhotonMap::build(Vec::new(), self.cell_size).expect("empty map"));
-        self.weight = self.atlas.photon_weight(spp as u64 * pixels);
+        self.weight = self.atlas.photon_weight(spp as u64 * rendered);
         self.stats.photons_emitted += n;
         self.stats.photons_stored += stored;
         self.stats.photons_last_pass = stored;
