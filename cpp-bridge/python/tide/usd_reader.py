@@ -508,26 +508,36 @@ def _is_xform_op(attr):
         return False
 
 
-def _placement(prim, time):
-    """(local matrix, whether it resets the transform stack, [(attribute, why) of each op
-    skipped]) of `prim` at `time`, composed op by op as USD's transform computation does (C++),
-    which skips an `xformOpOrder` entry naming no xform op of the prim, or an op whose value
-    does not fit it, with a warning: its Python binding raises instead, so this is what the
-    reader falls back on then."""
+def _order_ops(prim):
+    """[(entry, attribute or None, inverse)] of `prim`'s `xformOpOrder` (empty where it is
+    unauthored or unreadable): each entry's attribute where it is an xform op, else None;
+    `!resetXformStack!` as (entry, None, False)."""
     order = prim.GetAttribute("xformOpOrder")
     try:
         names = [str(n) for n in order.Get()] if order and order.HasValue() and \
             not _mistyped(prim, order) else []
     except (Tf.ErrorException, TypeError):
         names = []
+    out = []
+    for name in names:
+        inverse = name.startswith("!invert!")
+        attr = prim.GetAttribute(name[len("!invert!"):] if inverse else name)
+        out.append((name, attr if name != "!resetXformStack!" and _is_xform_op(attr) else None, inverse))
+    return out
+
+
+def _placement(prim, time):
+    """(local matrix, whether it resets the transform stack, [(attribute, why) of each op
+    skipped]) of `prim` at `time`, composed op by op as USD's transform computation does (C++),
+    which skips an `xformOpOrder` entry naming no xform op of the prim, or an op whose value
+    does not fit it, with a warning: its Python binding raises instead, so this is what the
+    reader falls back on then."""
     m, reset, skipped = Gf.Matrix4d(1), False, []
-    for k, name in enumerate(names):
+    for k, (name, attr, inverse) in enumerate(_order_ops(prim)):
         if name == "!resetXformStack!":
             reset = reset or k == 0
             continue
-        inverse = name.startswith("!invert!")
-        attr = prim.GetAttribute(name[len("!invert!"):] if inverse else name)
-        if not _is_xform_op(attr):
+        if attr is None:
             skipped.append(("xformOpOrder", "names '%s', which is not an xform op of the prim" % name))
             continue
         try:
@@ -539,18 +549,15 @@ def _placement(prim, time):
     return m, reset, skipped
 
 
-def _op_times(prim, interval):
-    """The time samples within `interval` of `prim`'s xform ops (what
-    Xformable.GetTimeSamplesInInterval gives, for a prim whose `xformOpOrder` it refuses)."""
-    x = UsdGeom.Xformable(prim)
+def _op_times(x, interval):
+    """The time samples within `interval` of Xformable `x`'s ops (what its
+    GetTimeSamplesInInterval gives, also for a prim whose `xformOpOrder` that refuses)."""
     try:
         return x.GetTimeSamplesInInterval(interval)
     except Tf.ErrorException:
-        order = prim.GetAttribute("xformOpOrder")
         times = set()
-        for name in ([str(n) for n in order.Get() or []] if order and order.HasValue() else []):
-            attr = prim.GetAttribute(name[len("!invert!"):] if name.startswith("!invert!") else name)
-            if _is_xform_op(attr):
+        for _, attr, _ in _order_ops(x.GetPrim()):
+            if attr is not None:
                 times.update(attr.GetTimeSamplesInInterval(interval))
         return sorted(times)
 
@@ -1304,7 +1311,7 @@ class Reader:
         for p in prims:
             x = UsdGeom.Xformable(p)
             while x:
-                times.update(_op_times(x.GetPrim(), interval))
+                times.update(_op_times(x, interval))
                 parent = x.GetPrim().GetParent()
                 x = UsdGeom.Xformable(parent) if parent else None
         return times
@@ -2653,7 +2660,7 @@ class Reader:
         interval = self._window()
         x = UsdGeom.Xformable(prim)
         while x:
-            if _op_times(x.GetPrim(), interval):
+            if _op_times(x, interval):
                 return False
             parent = x.GetPrim().GetParent()
             x = UsdGeom.Xformable(parent) if parent else None
