@@ -1130,10 +1130,8 @@ impl Delegate {
                     // prim's scale (its first instance's, at the frame), and its coefficients
                     // per unit of that space are per 1/scale world units
                     let xf0 = r.instance_transforms.first().unwrap_or(DMat4::IDENTITY) * matrix_at(&r.transforms, 0.0);
-                    let mut scale = implicit::object_scale(&xf0) as f32;
-                    if !(scale.is_finite() && scale > 0.0 && (mpu * scale).is_finite() && mpu * scale > 0.0) {
-                        scale = 1.0;
-                    }
+                    // (positive and finite, unless single precision cannot hold it with mpu)
+                    let scale = Some(implicit::object_scale(&xf0) as f32).filter(|s| (mpu * s).is_finite() && mpu * s > 0.0).unwrap_or(1.0);
                     let made = pd.made(t0, t1, motion, tcps, mpu * scale);
                     match &made.droplets {
                         // droplets inside the cloud become a scattering medium; the shell stays spheres
