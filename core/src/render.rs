@@ -601,6 +601,7 @@ impl Renderer {
             None => std::time::Instant::now() >= d,
         };
         let cancelled = || cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || deadline.is_some_and(past);
+        let mut photons_traced = true;
         if let Some(c) = self.caustics.as_mut() {
             let t = std::time::Instant::now();
             let world = &self.world;
@@ -609,13 +610,23 @@ impl Renderer {
             // following the crop's pixels left a quarter of the image with a quarter of them
             // and 3–4× the variance in its caustics)
             let image_pixels = self.film.width as u64 * self.film.height as u64;
-            self.pool.install(|| c.begin_pass_over(world, seed, spp, image_pixels, pixels));
-            if c.wants_probe() {
+            photons_traced = self.pool.install(|| c.begin_pass_until(world, seed, spp, image_pixels, pixels, &cancelled));
+            if photons_traced && c.wants_probe() {
                 c.begin_probe();
                 let complete = self.pool.install(|| probe_beams(world, c, &self.camera_stack, seed, self.film.window, &cancelled));
                 c.end_probe(complete);
             }
             self.stats.photon_seconds += t.elapsed().as_secs_f64();
+        }
+        if !photons_traced {
+            // given up while its photons were traced (a Stop, a new camera or the budget's
+            // end): no pixel was rendered, and the next pass traces the same photons
+            let paused = gate.map_or(std::time::Duration::ZERO, |g| g.paused_time().saturating_sub(paused_before));
+            self.stats.render_seconds += start.elapsed().saturating_sub(paused).as_secs_f64();
+            self.stats.unsampled_pixels = self.film.unsampled_pixels();
+            let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
+            self.stats.samples_per_second = px * self.stats.mean_samples_per_pixel / self.stats.render_seconds.max(1e-9);
+            return false;
         }
         let caustics = self.caustics.as_ref();
         let world = &self.world;

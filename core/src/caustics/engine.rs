@@ -491,14 +491,20 @@ impl Caustics {
     /// pass ([`Atlas::photon_weight`]) counts the camera samples taken, as the training pass's
     /// count does.
     pub fn begin_pass_over(&mut self, world: &World, seed: u64, spp: u32, pixels: u64, rendered: u64) {
+        let traced = self.begin_pass_until(world, seed, spp, pixels, rendered, &|| false);
+        debug_assert!(traced);
+    }
+
+    /// [`Self::begin_pass_over`] that gives the pass up (false) once `cancelled` says so: it is
+    /// asked before each chunk of [`CHUNK`] photons and before the maps are built, so a Stop, a
+    /// new camera or a time budget's end during the photon tracing is met within a chunk's
+    /// photons instead of after the whole pass's. A pass given up changes nothing the next one
+    /// sees: that pass traces the same photons, as if this one had never begun.
+    pub fn begin_pass_until(&mut self, world: &World, seed: u64, spp: u32, pixels: u64, rendered: u64, cancelled: &(dyn Fn() -> bool + Sync)) -> bool {
         let wanted = (self.config.photons_per_sample as f64 * spp as f64 * pixels as f64).round().max(1.0) as u64;
         let cap = PhotonMap::max_photons_for_memory(self.config.memory_limit_bytes) as u64;
         let n = wanted.min(cap).max(1);
-        if n < wanted {
-            self.stats.capped_passes += 1;
-        }
         let pass = self.stats.passes;
-        self.stats.beam_share = self.beam_share.unwrap_or(1.0);
         let chunks = (n as usize).div_ceil(CHUNK);
         let this = &*self;
         // the share of stretches kept as beams, and the scale of their widths (set by the
@@ -506,18 +512,28 @@ impl Caustics {
         let width_share = if self.beam_media.iter().any(|b| *b) { (self.config.beams_per_pixel as f64 * pixels as f64 / n as f64).min(1.0) as f32 } else { 0.0 };
         let share = beam_thinning(self.config.beam_thinning_pixels, pixels) * self.beam_share.unwrap_or(1.0);
         let keep_beam = (width_share * share, if width_share > 0.0 { 1.0 / width_share.sqrt() } else { 0.0 });
-        let parts: Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)> = (0..chunks)
+        let parts: Option<Vec<(Vec<Photon>, Vec<Beam>, Vec<Splat>)>> = (0..chunks)
             .into_par_iter()
             .map(|c| {
+                if cancelled() {
+                    return None;
+                }
                 let mut out = (Vec::new(), Vec::new(), Vec::new());
                 let start = c * CHUNK;
                 let end = (start + CHUNK).min(n as usize);
                 for i in start..end {
                     this.trace_photon(world, seed, pass, i as u32, n, keep_beam, &mut out);
                 }
-                out
+                Some(out)
             })
             .collect();
+        let Some(parts) = parts.filter(|_| !cancelled()) else {
+            return false;
+        };
+        if n < wanted {
+            self.stats.capped_passes += 1;
+        }
+        self.stats.beam_share = self.beam_share.unwrap_or(1.0);
         let mut photons = Vec::new();
         let mut beams = Vec::new();
         // splats are summed in chunk order: the image is the same for any thread count
@@ -563,6 +579,7 @@ impl Caustics {
         for (cell, energy) in splats {
             self.vis.record(cell, VisibilityKind::Volume, energy * inv_mean);
         }
+        true
     }
 
     /// The light-traced image of the pass just traced (RGB per pixel over the whole image,
