@@ -621,11 +621,7 @@ impl Renderer {
         if !photons_traced {
             // given up while its photons were traced (a Stop, a new camera or the budget's
             // end): no pixel was rendered, and the next pass traces the same photons
-            let paused = gate.map_or(std::time::Duration::ZERO, |g| g.paused_time().saturating_sub(paused_before));
-            self.stats.render_seconds += start.elapsed().saturating_sub(paused).as_secs_f64();
-            self.stats.unsampled_pixels = self.film.unsampled_pixels();
-            let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
-            self.stats.samples_per_second = px * self.stats.mean_samples_per_pixel / self.stats.render_seconds.max(1e-9);
+            self.end_pass_stats(start, paused_before, gate);
             return false;
         }
         let caustics = self.caustics.as_ref();
@@ -729,16 +725,22 @@ impl Renderer {
         if let Some(a) = self.adaptive.as_mut() {
             a.update(&self.film);
         }
-        // the time rendered, not paused
+        self.end_pass_stats(start, paused_before, gate);
+        complete
+    }
+
+    /// Counts a pass that began at `start` (the pause gate's paused time then
+    /// `paused_before`) into the render's statistics: the time rendered, not paused, and the
+    /// film's samples as they now stand.
+    fn end_pass_stats(&mut self, start: std::time::Instant, paused_before: std::time::Duration, gate: Option<&crate::pause::PauseGate>) {
         let paused = gate.map_or(std::time::Duration::ZERO, |g| g.paused_time().saturating_sub(paused_before));
-        let secs = start.elapsed().saturating_sub(paused).as_secs_f64();
-        self.stats.render_seconds += secs;
+        self.stats.render_seconds += start.elapsed().saturating_sub(paused).as_secs_f64();
         self.stats.samples_per_pixel = self.film.spp;
+        let [x0, y0, x1, y1] = self.film.window;
         let px = ((x1 - x0) as f64) * ((y1 - y0) as f64);
         self.stats.mean_samples_per_pixel = self.film.mean_samples();
         self.stats.samples_per_second = px * self.stats.mean_samples_per_pixel / self.stats.render_seconds.max(1e-9);
         self.stats.unsampled_pixels = self.film.unsampled_pixels();
-        complete
     }
 
     /// Pixels of the data window without a sample: those a first pass given up part way (at a

@@ -643,7 +643,8 @@ fn a_crop_meets_the_whole_images_photon_density() {
 
 // A Stop, a new camera or a time budget's end while a pass traces its photons is met there
 // (1.2 s of photon tracing for the first pass of the default stage at 1280 × 720 on two
-// threads, during which a viewport's camera move waited): the tracing asks before each chunk
+// threads, `./tide render -o OUT.exr --width 1280 --spp 1`, during which a viewport's camera
+// move waited): the tracing asks before each chunk
 // of photons and gives the pass up, and a pass given up there changes nothing the next pass
 // sees.
 #[test]
@@ -699,8 +700,9 @@ fn a_pass_stopped_while_its_photons_are_traced_stops_there() {
 // by cos θi / cos θt). The image's mean ratio to it (each pixel's over a 4 × 4 grid within the
 // pixel) is one within 4σ of six seeds' scatter (a beam crosses many pixels: the pixels of one
 // render are not independent) and 1% (the kernel's blur where the beams begin at the surface).
-// Measured 1.021 ± 0.010; a kernel of 1/(1.9 w sin θ) instead of 1/(2w sin θ) reads 1.075 and
-// fails.
+// Measured 1.021 ± 0.010 (this test with a print of the mean added, `cargo test --release -p
+// tide-core --test caustics the_suns_aureole -- --nocapture`); a kernel of 1/(1.9 w sin θ)
+// instead of 1/(2w sin θ) reads 1.075 and fails.
 #[test]
 fn the_suns_aureole_under_a_flat_surface_is_its_single_scattering() {
     let (w, h) = (32u32, 32u32);
@@ -768,8 +770,7 @@ fn the_suns_aureole_under_a_flat_surface_is_its_single_scattering() {
             s.caustics.beams_per_pixel = 100.0;
             let r = render_progressive(&scene, s);
             let img = r.aov_pixels(Aov::Caustics);
-            let ratio = (0..want.len()).map(|k| (img[3 * k] + img[3 * k + 1] + img[3 * k + 2]) as f64 / 3.0 / want[k]).sum::<f64>() / want.len() as f64;
-            ratio
+            (0..want.len()).map(|k| (img[3 * k] + img[3 * k + 1] + img[3 * k + 2]) as f64 / 3.0 / want[k]).sum::<f64>() / want.len() as f64
         })
         .collect();
     let n = ratios.len() as f64;
