@@ -240,8 +240,14 @@ impl Caustics {
         let (lo, hi) = world.accel.bounds();
         let scene_center = (lo + hi) * 0.5;
         let scene_radius = ((hi - lo).length() * 0.5).max(1e-3);
-        // receivers' bounds: casters are clipped to them (expanded), since photons matter only
-        // where they can land
+        // beams in scattering water, depth-varying water included (its beams and camera rays
+        // then track their transmittance); not in volume grids, whose boxes photons do not enter
+        let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && !matches!(m, crate::medium::Medium::Grid(_))).collect();
+        let cam_pos = world.camera.position(world.camera.shutter.0);
+        // where photons matter: around the receivers (their bounds, expanded by half their size,
+        // since a photon may meet a caster beside a receiver and turn onto it), and in the beam
+        // media the camera sees, within a photon's reach of the camera rays' stretches through
+        // them (an underwater camera in open water has no receiver at all)
         let mut rlo = Vec3::splat(f32::INFINITY);
         let mut rhi = Vec3::splat(f32::NEG_INFINITY);
         let mut bounds = Vec::with_capacity(n_inst);
@@ -256,11 +262,15 @@ impl Caustics {
             }
             bounds.push(b);
         }
-        if !(rlo.x <= rhi.x) {
+        let probes = camera_probes(world, width, height, &beam_media, 2.0 * scene_radius);
+        let (mut clo, mut chi) = (probes.media_lo, probes.media_hi);
+        if rlo.x <= rhi.x {
+            let pad = (rhi - rlo) * 0.5 + Vec3::splat(1e-3 * scene_radius);
+            (clo, chi) = (clo.min(rlo - pad), chi.max(rhi + pad));
+        }
+        if !(clo.x <= chi.x) {
             return None;
         }
-        let pad = (rhi - rlo) * 0.5 + Vec3::splat(1e-3 * scene_radius);
-        let (clo, chi) = (rlo - pad, rhi + pad);
         let mut groups: Vec<(Vec3, Vec3, Vec<u32>)> = Vec::new();
         for &i in &caster_inst {
             let Some((a, b)) = bounds[i as usize] else { continue };
@@ -328,7 +338,6 @@ impl Caustics {
         // kilometres
         let region = casters.iter().map(|c| c.radius).fold(0.0f32, f32::max);
         let beam_width_floor = 1e-5 * region;
-        let cam_pos = world.camera.position(world.camera.shutter.0);
         let (pixel_w0, pixel_spread) = pixel_footprint(world, width, height);
         let fov = (pixel_spread * width as f32) * (pixel_spread * height as f32);
         let mut acfg = AtlasConfig::for_image(width, height, config.photons_per_sample.sqrt());
@@ -372,28 +381,8 @@ impl Caustics {
             })
             .collect();
         // grid cells of about two lookup radii at the median distance of the receivers the
-        // camera sees (16 × 16 probe rays through the image; the casters' distance when none)
-        let mut seen: Vec<f32> = Vec::new();
-        for j in 0..16 {
-            for i in 0..16 {
-                let raster = Vec2::new((i as f32 + 0.5) / 16.0 * width as f32, (j as f32 + 0.5) / 16.0 * height as f32);
-                let cr = world.camera.generate_ray(raster, Vec2::splat(0.5), 0.0);
-                let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time: world.camera.shutter.0 };
-                let mut travelled = 0.0;
-                // through casters and other non-receivers, as camera paths see receivers
-                for _ in 0..8 {
-                    let Some(hit) = world.accel.intersect(&ray) else { break };
-                    travelled += hit.t;
-                    let roles = world.caustic_instances[hit.instance as usize];
-                    if roles.receiver && !roles.caster {
-                        seen.push(travelled);
-                        break;
-                    }
-                    let s = world.surface(&ray, &hit);
-                    ray = Ray { o: s.origin_towards(ray.d), d: ray.d, t_max: f32::INFINITY, time: ray.time };
-                }
-            }
-        }
+        // camera sees (the casters' distance when none)
+        let mut seen = probes.receivers;
         seen.sort_by(|a, b| a.total_cmp(b));
         let dist = match seen.get(seen.len() / 2) {
             Some(&d) => d,
@@ -403,12 +392,6 @@ impl Caustics {
         let cell_size = ((pixel_w0 + pixel_spread * dist) * config.radius_pixels * 2.0).max(1e-5 * region);
         let disk = EmissionDisk::new(scene_center, scene_radius).ok()?;
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
-        // beams in media whose coefficients are the same everywhere: along a depth-varying or
-        // gridded medium every beam would need two tracked transmittances per camera ray, and
-        // those god rays stay with the path tracer
-        // beams in scattering water, depth-varying water included (its beams and camera rays
-        // then track their transmittance); not in volume grids, whose boxes photons do not enter
-        let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && !matches!(m, crate::medium::Medium::Grid(_))).collect();
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), disk_area_ratio: atlas.disk_area_ratio(), ..Default::default() };
         let light_tracer = if config.light_tracing {
             let t = world.camera.shutter.0;
@@ -1089,6 +1072,72 @@ fn pixel_footprint(world: &World, width: u32, height: u32) -> (f32, f32) {
     let spread = crate::math::angle_between(a.d, b.d);
     let w0 = (a.o - b.o).length();
     (if w0.is_finite() { w0 } else { 0.0 }, if spread.is_finite() { spread } else { 0.0 })
+}
+
+/// What 16 × 16 camera rays through the image meet: the distances to the receivers they see
+/// (through casters and other non-receivers, as camera paths see receivers) and the box of the
+/// points within a photon's reach of their stretches through beam media.
+struct CameraProbes {
+    receivers: Vec<f32>,
+    media_lo: Vec3,
+    media_hi: Vec3,
+}
+
+/// The distance over which light in `medium` falls to 10⁻³ (its extinction averaged over the
+/// visible wavelengths; a depth-varying medium's largest), at most `cap`: beams farther than this
+/// from a camera ray's stretch through the medium, or photons that travel farther in it, bring
+/// the camera little.
+fn medium_reach(medium: &crate::medium::Medium, cap: f32) -> f32 {
+    let n = 8;
+    let mean = (0..n)
+        .map(|k| {
+            let lambda = SampledWavelengths::sample_uniform((k as f32 + 0.5) / n as f32);
+            let m = medium.majorant(&lambda);
+            (0..crate::spectrum::N_SPECTRUM).map(|i| m[i]).sum::<f32>() / crate::spectrum::N_SPECTRUM as f32
+        })
+        .sum::<f32>()
+        / n as f32;
+    let r = 1000f32.ln() / mean;
+    if r.is_finite() && r > 0.0 { r.min(cap) } else { cap }
+}
+
+fn camera_probes(world: &World, width: u32, height: u32, beam_media: &[bool], cap: f32) -> CameraProbes {
+    let time = world.camera.shutter.0;
+    let lambda = SampledWavelengths::sample_uniform(0.5);
+    let reach: Vec<f32> = world.media.iter().zip(beam_media).map(|(m, &b)| if b { medium_reach(m, cap) } else { 0.0 }).collect();
+    let start = crate::integrator::initial_stack(world, world.camera.position(time), time);
+    let mut out = CameraProbes { receivers: Vec::new(), media_lo: Vec3::splat(f32::INFINITY), media_hi: Vec3::splat(f32::NEG_INFINITY) };
+    for j in 0..16 {
+        for i in 0..16 {
+            let raster = Vec2::new((i as f32 + 0.5) / 16.0 * width as f32, (j as f32 + 0.5) / 16.0 * height as f32);
+            let cr = world.camera.generate_ray(raster, Vec2::splat(0.5), 0.0);
+            let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time };
+            let mut stack = start.clone();
+            let mut travelled = 0.0;
+            for _ in 0..8 {
+                let hit = world.accel.intersect(&ray);
+                if let Some(m) = stack.medium().filter(|&m| beam_media.get(m).copied().unwrap_or(false)) {
+                    let r = reach[m];
+                    let t = hit.as_ref().map_or(r, |h| h.t.min(r));
+                    for p in [ray.o, ray.o + ray.d * t] {
+                        out.media_lo = out.media_lo.min(p - Vec3::splat(r));
+                        out.media_hi = out.media_hi.max(p + Vec3::splat(r));
+                    }
+                }
+                let Some(hit) = hit else { break };
+                travelled += hit.t;
+                let roles = world.caustic_instances[hit.instance as usize];
+                if roles.receiver && !roles.caster {
+                    out.receivers.push(travelled);
+                    break;
+                }
+                let s = world.surface(&ray, &hit);
+                stack.cross(world, &s, ray.d.dot(s.ng) < 0.0, &lambda);
+                ray = Ray { o: s.origin_towards(ray.d), d: ray.d, t_max: f32::INFINITY, time: ray.time };
+            }
+        }
+    }
+    out
 }
 
 /// World bounds of an instance at the shutter's open.
