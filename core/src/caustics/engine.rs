@@ -710,6 +710,8 @@ impl Caustics {
         let mut stream = StreamRng::new(u_stream, index);
         let mut null_events = 0u32;
         let mut travelled = 0.0f32;
+        // the normal of the surface the current stretch left (zero before the first)
+        let mut from_ng = Vec3::ZERO;
         let (keep_beam, beam_scale) = keep_beam;
         loop {
             let Some(hit) = world.intersect_path(&ray) else { return };
@@ -727,7 +729,7 @@ impl Caustics {
                     if draw < keep_beam {
                         let width = ((width0 + spread * (travelled + 0.5 * hit.t)) * beam_scale).max(self.beam_width_floor);
                         if let Ok(photon) = Photon::new(ray.o, -ray.d, ray.d, beta / keep_beam, &lambda, s.cell) {
-                            out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, medium: m as u32, rank: (draw / keep_beam).min(ONE_MINUS_EPSILON) });
+                            out.1.push(Beam { photon, dir: ray.d, len: hit.t, width, caps: [super::beams::cap(ray.d, from_ng), super::beams::cap(ray.d, s_hit.ng)], medium: m as u32, rank: (draw / keep_beam).min(ONE_MINUS_EPSILON) });
                         }
                     }
                 }
@@ -738,6 +740,8 @@ impl Caustics {
                     return;
                 }
             }
+            // the next stretch starts on this surface
+            from_ng = s_hit.ng;
             travelled += hit.t;
             let inst = hit.instance as usize;
             let roles = world.caustic_instances[inst];
@@ -992,17 +996,27 @@ impl Caustics {
         // the probability e^{−σc t} of reaching them (the camera transmittance e^{−σt t} keeps the
         // weight below one, so culling adds no fireflies)
         let (sigma_c, t_cull) = cull_distance(med, lambda, &mut rng_state);
-        self.beams.for_each_near(a, c, t_max.min(t_cull), |near, ap| {
+        let width = |wb: f32, t: f32| {
+            let wp = fp.width_at(t).min(wb);
+            wp + (wb - wp) * sq
+        };
+        // Each beam's point on its chord, drawn from the beam's index in proportion to what
+        // changes along it in homogeneous water: the two transmittances and the culling weight,
+        // e^{−σt (1 + c·k₀) t} · e^{σc t}, the light's depth into the beam growing by c·k₀ per
+        // unit along the ray (a long chord, nearly parallel to the beam or through a wide short
+        // one, then adds no noise of its own).
+        let u_chord = rng_state.next_f32();
+        let rate = 2.0 * sigma_c;
+        let point = |beam: u32, t0: f32, t1: f32, ck: f32| super::beams::sample_exponential(t0, t1, rate * (1.0 + ck) - sigma_c, StreamRng::new(u_chord, beam).next_f32());
+        self.beams.for_each_near(a, c, t_max.min(t_cull), width, point, |near, is_met, chord| {
             // the tests the piece answers come before the beam's record is read
             if near.medium as usize != m {
                 return;
             }
-            met += 1;
-            let wp = fp.width_at(ap.t).min(near.width);
-            let w = wp + (near.width - wp) * sq;
-            if !(ap.h < w) {
-                return;
+            if is_met {
+                met += 1;
             }
+            let Some(ch) = chord else { return };
             let b = near.beam();
             if record {
                 self.vis.record(b.photon.cell, VisibilityKind::Volume, throughput * b.photon.energy() * inv_mean);
@@ -1010,7 +1024,7 @@ impl Caustics {
             if self.weight <= 0.0 {
                 return;
             }
-            let x = a + c * ap.t;
+            let x = a + c * ch.t;
             let (wo, wi) = (-c, -b.dir);
             let phase = med.phase(x);
             let fp = phase.eval(wo, wi);
@@ -1023,9 +1037,11 @@ impl Caustics {
                 return;
             }
             let mut rng = || rng_state.next_f32();
-            // along the beam to the closest point, and from there back along the camera ray
-            let tr = at.transmittance_of_two((b.photon.position, b.dir, ap.s), (a, c, ap.t), &mut rng);
-            let k = (sigma_c * ap.t).exp() / (2.0 * w * ap.sin_theta);
+            // along the beam from where the point's light entered it, and from the point back
+            // along the camera ray
+            let tr = at.transmittance_of_two((x - b.dir * ch.s, b.dir, ch.s), (a, c, ch.t), &mut rng);
+            let w = near.width;
+            let k = (sigma_c * ch.t).exp() * ch.inv_pdf / (std::f32::consts::PI * w * w);
             sum += b.photon.spectral_flux(&lookup) * at.sigma_s_at(x) * tr * (fp * k * mis);
         });
         if self.probing {
