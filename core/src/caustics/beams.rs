@@ -173,6 +173,15 @@ pub fn chord(a: Vec3, c: Vec3, t_max: f32, o: Vec3, d: Vec3, len: f32, w: f32, k
     (t1 > t0).then_some((t0, t1))
 }
 
+/// Whether lines at closest approach `ap` are certainly farther apart than `w`, `reach` bounding
+/// the distances from the camera ray's origin involved: `h`, computed from the lines' cross
+/// product, loses accuracy as the lines turn parallel (an error of about 10⁻⁷ · reach / sin θ in
+/// single precision), so the test allows for ten times that.
+#[inline]
+fn apart(ap: &Approach, w: f32, reach: f32) -> bool {
+    ap.h > w * 1.0001 + 1e-6 * reach / ap.sin_theta
+}
+
 /// A beam's closest approach to a camera ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Approach {
@@ -363,12 +372,19 @@ impl BeamMap {
             |k, _| {
                 let p = &self.pieces[k];
                 let ap = closest_approach(a, c, p.o, p.d);
+                // lines farther apart than the beam's width (most pieces whose boxes the ray
+                // crosses): neither a meeting nor a chord at any drawn width (the margin covers
+                // the chord's own rounding)
+                if ap.is_some_and(|ap| apart(&ap, p.width, (p.o - a).length() + p.len)) {
+                    return None;
+                }
                 // the piece that holds the closest point counts the meeting
                 let met = ap.is_some_and(|ap| p.holds(ap.s) && ap.t >= 0.0 && ap.t <= t_max && ap.h < p.width);
                 let at = ap.map_or((p.o - a).dot(c), |ap| ap.t).clamp(0.0, t_max);
                 let w = width(p.width, at).min(p.width);
                 // the piece that holds the chord's point answers for the beam's contribution
-                let chord = chord(a, c, t_max, p.o, p.d, p.len, w, p.caps[0], p.caps[1]).and_then(|(t0, t1)| {
+                let crosses = ap.is_none_or(|ap| !apart(&ap, w, (p.o - a).length() + p.len));
+                let chord = crosses.then(|| chord(a, c, t_max, p.o, p.d, p.len, w, p.caps[0], p.caps[1])).flatten().and_then(|(t0, t1)| {
                     // the light at a point of the chord entered the beam where the line along
                     // the beam through the point meets the start's plane: its depth into the
                     // beam is (x − o)·k0, which the point's draw follows
@@ -649,6 +665,41 @@ mod tests {
                 assert!(dimmed_ratio.iter().all(|r| (r - 1.0).abs() < 0.02), "dimmed light along the surface: {dimmed_ratio:?}");
             }
         }
+    }
+
+    /// Rays nearly parallel to a beam (sin θ 10⁻⁴ to 10⁻², 20 m from its start), where the lines'
+    /// distance from their cross product is off by more than the width: the walk's quick
+    /// rejection of lines farther apart than the width must not drop a chord that runs inside
+    /// the beam (its middle within the width of the axis, measured in double precision).
+    #[test]
+    fn nearly_parallel_rays_keep_their_chords() {
+        let mut rng = crate::testing::chi2::TestRng::new(17);
+        let mut v = || Vec3::new(rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0, rng.next_f32() * 2.0 - 1.0);
+        let (w, mut inside) = (0.02f32, 0);
+        for k in 0..20000 {
+            let d = v().normalize();
+            let o = v() * 20.0;
+            let tilt = [1e-4f32, 1e-3, 1e-2][k % 3];
+            let c = (d + v() * tilt).normalize();
+            // the ray starts 20 m before the beam, within 1.5 widths of its axis
+            let a = o - c * 20.0 + v() * (1.5 * w);
+            let b = beam(o, d, 10.0, w);
+            let map = BeamMap::build(vec![b]);
+            let mut found = None;
+            map.for_each_near(a, c, 50.0, |wb, _| wb, |_, t0, t1, _| (0.5 * (t0 + t1), t1 - t0), |_, _, ch| {
+                if let Some(ch) = ch {
+                    assert!(found.replace((ch.t0, ch.t1)).is_none(), "a beam counted twice");
+                }
+            });
+            let Some((t0, t1)) = chord(a, c, 50.0, o, d, 10.0, w, d, d) else { continue };
+            let (a6, c6, o6, d6) = (a.as_dvec3(), c.as_dvec3(), o.as_dvec3(), d.as_dvec3());
+            let x = a6 + c6 * (0.5 * (t0 + t1) as f64) - o6;
+            if (x - d6 * x.dot(d6)).length() < 0.999 * w as f64 {
+                inside += 1;
+                assert_eq!(found, Some((t0, t1)), "ray {k}: a chord of {} widths dropped", (t1 - t0) / w);
+            }
+        }
+        assert!(inside > 1000, "{inside} chords inside");
     }
 
     #[test]
