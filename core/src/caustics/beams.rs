@@ -372,10 +372,11 @@ impl BeamMap {
             |k, _| {
                 let p = &self.pieces[k];
                 let ap = closest_approach(a, c, p.o, p.d);
+                let reach = (p.o - a).length() + p.len;
                 // lines farther apart than the beam's width (most pieces whose boxes the ray
                 // crosses): neither a meeting nor a chord at any drawn width (the margin covers
                 // the chord's own rounding)
-                if ap.is_some_and(|ap| apart(&ap, p.width, (p.o - a).length() + p.len)) {
+                if ap.is_some_and(|ap| apart(&ap, p.width, reach)) {
                     return None;
                 }
                 // the piece that holds the closest point counts the meeting
@@ -383,7 +384,7 @@ impl BeamMap {
                 let at = ap.map_or((p.o - a).dot(c), |ap| ap.t).clamp(0.0, t_max);
                 let w = width(p.width, at).min(p.width);
                 // the piece that holds the chord's point answers for the beam's contribution
-                let crosses = ap.is_none_or(|ap| !apart(&ap, w, (p.o - a).length() + p.len));
+                let crosses = ap.is_none_or(|ap| !apart(&ap, w, reach));
                 let chord = crosses.then(|| chord(a, c, t_max, p.o, p.d, p.len, w, p.caps[0], p.caps[1])).flatten().and_then(|(t0, t1)| {
                     // the light at a point of the chord entered the beam where the line along
                     // the beam through the point meets the start's plane: its depth into the
@@ -565,10 +566,6 @@ mod tests {
         }
     }
 
-    // Every beam within reach is found exactly once through the BVH, against a scan of all
-    // beams, for random rays (pieces split long beams: a beam must not be reported twice):
-    // once as met (its closest approach within its width) and once with its chord at the
-    // kernel width, whose point is the one the scan draws.
     /// Parallel beams on a fine square lattice across their direction, each running from a
     /// sloping surface where it enters the water to a floor sloping the other way, as sunlight
     /// refracted through a flat surface. Their cylinders, cut by those surfaces ([`cap`]),
@@ -702,6 +699,10 @@ mod tests {
         assert!(inside > 1000, "{inside} chords inside");
     }
 
+    // Every beam within reach is found exactly once through the BVH, against a scan of all
+    // beams, for random rays (pieces split long beams: a beam must not be reported twice):
+    // once as met (its closest approach within its width) and once with its chord at the
+    // kernel width, whose point is the one the scan draws.
     #[test]
     fn queries_find_each_beam_once() {
         let mut rng = crate::testing::chi2::TestRng::new(3);

@@ -244,6 +244,8 @@ impl Caustics {
         // then track their transmittance); not in volume grids, whose boxes photons do not enter
         let beam_media: Vec<bool> = world.media.iter().map(|m| m.scatters() && !matches!(m, crate::medium::Medium::Grid(_))).collect();
         let cam_pos = world.camera.position(world.camera.shutter.0);
+        // the dielectrics and media around the camera (the probes below and light tracing)
+        let camera_stack = crate::integrator::initial_stack(world, cam_pos, world.camera.shutter.0);
         // where photons matter: around the receivers (their bounds, expanded by half their size,
         // since a photon may meet a caster beside a receiver and turn onto it), and in the beam
         // media the camera sees, within a photon's reach of the camera rays' stretches through
@@ -262,7 +264,7 @@ impl Caustics {
             }
             bounds.push(b);
         }
-        let probes = camera_probes(world, width, height, &beam_media, 2.0 * scene_radius);
+        let probes = camera_probes(world, width, height, &camera_stack, &beam_media, 2.0 * scene_radius);
         let (mut clo, mut chi) = (probes.media_lo, probes.media_hi);
         if rlo.x <= rhi.x {
             let pad = (rhi - rlo) * 0.5 + Vec3::splat(1e-3 * scene_radius);
@@ -394,9 +396,7 @@ impl Caustics {
         let vis = VisibilityBuffer::new(&atlas, 1.0).ok()?;
         let stats = CausticsStats { pairs: atlas.pairs().len(), atlas_utilization: atlas.utilization(), disk_area_ratio: atlas.disk_area_ratio(), ..Default::default() };
         let light_tracer = if config.light_tracing {
-            let t = world.camera.shutter.0;
-            let camera_medium = crate::integrator::initial_stack(world, world.camera.position(t), t).medium();
-            LightTracer::new(world, &beam_media, camera_medium)
+            LightTracer::new(world, &beam_media, camera_stack.medium())
         } else {
             None
         };
@@ -1105,30 +1105,23 @@ struct CameraProbes {
 /// the camera little.
 fn medium_reach(medium: &crate::medium::Medium, cap: f32) -> f32 {
     let n = 8;
-    let mean = (0..n)
-        .map(|k| {
-            let lambda = SampledWavelengths::sample_uniform((k as f32 + 0.5) / n as f32);
-            let m = medium.majorant(&lambda);
-            (0..crate::spectrum::N_SPECTRUM).map(|i| m[i]).sum::<f32>() / crate::spectrum::N_SPECTRUM as f32
-        })
-        .sum::<f32>()
-        / n as f32;
+    let mean = (0..n).map(|k| medium.majorant(&SampledWavelengths::sample_uniform((k as f32 + 0.5) / n as f32)).average()).sum::<f32>() / n as f32;
     let r = 1000f32.ln() / mean;
     if r.is_finite() && r > 0.0 { r.min(cap) } else { cap }
 }
 
-fn camera_probes(world: &World, width: u32, height: u32, beam_media: &[bool], cap: f32) -> CameraProbes {
+/// `start`: the interior stack at the camera.
+fn camera_probes(world: &World, width: u32, height: u32, start: &InteriorStack, beam_media: &[bool], cap: f32) -> CameraProbes {
     let time = world.camera.shutter.0;
     let lambda = SampledWavelengths::sample_uniform(0.5);
     let reach: Vec<f32> = world.media.iter().zip(beam_media).map(|(m, &b)| if b { medium_reach(m, cap) } else { 0.0 }).collect();
-    let start = crate::integrator::initial_stack(world, world.camera.position(time), time);
     let mut out = CameraProbes { receivers: Vec::new(), media_lo: Vec3::splat(f32::INFINITY), media_hi: Vec3::splat(f32::NEG_INFINITY) };
     for j in 0..16 {
         for i in 0..16 {
             let raster = Vec2::new((i as f32 + 0.5) / 16.0 * width as f32, (j as f32 + 0.5) / 16.0 * height as f32);
             let cr = world.camera.generate_ray(raster, Vec2::splat(0.5), 0.0);
             let mut ray = Ray { o: cr.o, d: cr.d, t_max: cr.t_max, time };
-            let mut stack = start.clone();
+            let mut stack = *start;
             let mut travelled = 0.0;
             for _ in 0..8 {
                 let hit = world.accel.intersect(&ray);
